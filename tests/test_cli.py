@@ -1,0 +1,81 @@
+"""The command line as a user runs it: python -m tracer render | raytree | validate."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+from PIL import Image
+
+from conftest import ROOT, SCENES, scene_dict, small
+from tracer.film import read_exr
+
+
+def run(*args, check=True):
+    p = subprocess.run([sys.executable, "-m", "tracer", *map(str, args)], cwd=ROOT, capture_output=True,
+                       text=True, timeout=300)
+    if check and p.returncode != 0:
+        raise AssertionError(f"exit {p.returncode}\nstdout: {p.stdout}\nstderr: {p.stderr}")
+    return p
+
+
+def test_cli_render_png_exr_and_statistics(tmp_path):
+    out, exr = tmp_path / "w.png", tmp_path / "w.exr"
+    p = run("render", SCENES / "whitted.json", "-o", out, "--exr", exr, "--width", 40, "--height", 30,
+            "--spp", 4, "--threads", 2)
+    line = p.stdout.strip().splitlines()[-1]
+    assert "Mrays/s" in line and "eye=4800" in line and "shadow=" in line
+    png = np.asarray(Image.open(out))
+    assert png.shape == (30, 40, 3) and png.std() > 5
+    lin = read_exr(exr)
+    assert lin.shape == (30, 40, 3) and lin.dtype == np.float32
+    # the PNG is the sRGB encoding of the EXR (exposure 0)
+    from tracer.film import to_srgb8
+
+    assert np.array_equal(to_srgb8(lin), png)
+
+
+def test_cli_render_same_image_for_any_thread_count(tmp_path):
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    for out, threads in ((a, 1), (b, 2)):
+        run("render", SCENES / "cornell.json", "-o", tmp_path / "x.png", "--exr", out, "--width", 24,
+            "--height", 24, "--spp", 4, "--threads", threads)
+    assert np.array_equal(read_exr(a), read_exr(b))
+
+
+def test_cli_raytree_prints_the_tree(tmp_path):
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(small(scene_dict("whitted"), 32, 24)))
+    tree = json.loads(run("raytree", f, 22, 14).stdout)
+    assert tree["pixel"] == [22, 14] and tree["nodes"][0]["kind"] == "eye"
+    assert len(tree["color"]) == 3
+
+
+def test_cli_validate_good_and_bad(tmp_path):
+    assert "valid" in run("validate", SCENES / "whitted.json").stdout
+    bad = scene_dict("whitted")
+    bad["objects"][1]["radus"] = 2
+    bad["objects"][2]["radius"] = -1
+    bad["objects"][3]["material"] = "gls"
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps(bad))
+    p = run("validate", f, check=False)
+    assert p.returncode == 1
+    assert "objects[1].radus" in p.stderr and "radius" in p.stderr
+    assert "objects[2].radius" in p.stderr
+    assert "objects[3].material" in p.stderr
+    # rendering an invalid scene fails the same way, without a traceback
+    p = run("render", f, "-o", tmp_path / "x.png", check=False)
+    assert p.returncode == 1 and "objects[2].radius" in p.stderr and "Traceback" not in p.stderr
+    f.write_text('{"camera": {"lookfrom": [0, 0, 1],}')
+    p = run("validate", f, check=False)
+    assert p.returncode == 1 and "line 1" in p.stderr
+
+
+def test_cli_refuses_features_not_implemented_yet(tmp_path):
+    data = small(scene_dict("whitted"), 8, 6)
+    data["camera"]["lens_radius"] = 0.1
+    f = tmp_path / "dof.json"
+    f.write_text(json.dumps(data))
+    p = run("render", f, "-o", tmp_path / "x.png", check=False)
+    assert p.returncode == 1 and "camera.lens_radius" in p.stderr and "not implemented yet" in p.stderr

@@ -1,0 +1,117 @@
+"""Renders of every example scene, determinism, and the ray tree against the image."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from conftest import EXAMPLES, scene_dict, small
+from tracer.compile import compile_scene
+from tracer.raytree import ray_tree
+from tracer.render import Renderer, pass_schedule, render
+from tracer.scene import load_scene
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_render_every_example_scene(path):
+    scene, _ = load_scene(small(scene_dict(path.stem), 40, 30, sampler={"type": "jittered", "spp": 4}))
+    r = render(scene, threads=2)
+    img = r.image
+    assert img.shape == (30, 40, 3) and img.dtype == np.float32
+    assert np.isfinite(img).all() and (img >= 0).all()
+    assert img.mean() > 0.02, "the example renders (almost) black"
+    assert img.std() > 0.01, "the example renders a flat colour"
+    assert r.rays["eye"] == 40 * 30 * 4
+    assert r.rays["total"] == sum(r.rays[k] for k in ("eye", "shadow", "reflection", "transmission"))
+
+
+def test_render_bit_identical_for_any_thread_count_and_pass_split():
+    scene, _ = load_scene(small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9}))
+    cs = compile_scene(scene)
+    one = render(cs, threads=1)
+    two = render(cs, threads=2)
+    three = render(cs, threads=3)
+    assert np.array_equal(one.image, two.image) and np.array_equal(one.image, three.image)
+    assert one.rays == two.rays
+    # the same samples added in other passes: (0..2), (2..9)
+    r = Renderer(cs, threads=2)
+    r.add_samples(0, 2)
+    r.add_samples(2, 9)
+    assert np.array_equal(r.image(), one.image)
+    # a different seed gives a different image
+    other, _ = load_scene(small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9},
+                                render={"seed": 7}))
+    assert not np.array_equal(render(other, threads=2).image, one.image)
+
+
+def test_render_pass_schedule_covers_samples_once():
+    for spp in (1, 2, 16, 17, 100):
+        passes = pass_schedule(spp)
+        assert passes[0] == (0, 1) and passes[-1][1] == spp
+        assert all(a[1] == b[0] for a, b in zip(passes, passes[1:], strict=False))
+
+
+@pytest.mark.parametrize("name", ["whitted", "cornell", "fog", "bump", "texture", "meshes"])
+def test_raytree_color_equals_rendered_sample(name):
+    """spp = 1: each pixel is exactly its one sample; the tree's colour must be that sample."""
+    scene, _ = load_scene(small(scene_dict(name), 24, 18, sampler={"type": "random", "spp": 1}))
+    cs = compile_scene(scene)
+    img = render(cs, threads=2).image
+    rng = np.random.default_rng(1)
+    for x, y in zip(rng.integers(0, 24, 6), rng.integers(0, 18, 6), strict=True):
+        tree = ray_tree(cs, int(x), int(y), 0)
+        assert_allclose(tree["color"], img[y, x], rtol=1e-5, atol=1e-7)
+        # the radiance assembled bottom-up from the nodes is the same value
+        assert_allclose(tree["nodes"][0]["radiance"], tree["color"], rtol=1e-4, atol=1e-6)
+
+
+def test_raytree_samples_average_to_the_pixel():
+    scene, _ = load_scene(small(scene_dict("whitted"), 24, 18, sampler={"type": "jittered", "spp": 4}))
+    cs = compile_scene(scene)
+    img = render(cs, threads=2).image
+    for x, y in [(14, 10), (6, 9), (20, 5)]:
+        colors = [ray_tree(cs, x, y, k)["color"] for k in range(4)]
+        assert_allclose(np.mean(colors, axis=0), img[y, x], rtol=1e-5, atol=1e-7)
+
+
+def test_raytree_nodes_follow_the_format():
+    scene, _ = load_scene(small(scene_dict("whitted"), 64, 48, sampler={"type": "center", "spp": 1}))
+    tree = ray_tree(scene, 44, 28)  # the glass ball
+    nodes = tree["nodes"]
+    assert tree["pixel"] == [44, 28] and tree["sample"] == 0 and not tree["truncated"]
+    ids = {n["id"] for n in nodes}
+    kinds = {n["kind"] for n in nodes}
+    assert {"eye", "shadow", "reflection", "transmission"} <= kinds
+    assert nodes[0]["kind"] == "eye" and nodes[0]["parent"] is None and nodes[0]["depth"] == 1
+    assert nodes[0]["hit"]["object_name"] == "glass ball" and nodes[0]["hit"]["material"] == "glass"
+    for n in nodes:
+        assert set(n) >= {"id", "parent", "kind", "depth", "origin", "direction", "t", "hit", "weight",
+                          "radiance", "terms", "light", "occluded", "end"}
+        if n["parent"] is None:
+            continue
+        assert n["parent"] in ids and n["parent"] < n["id"]
+        parent = nodes[n["parent"]]
+        if n["kind"] == "shadow":
+            assert n["weight"] == parent["weight"] and n["light"] == 0
+            assert n["end"] == ("absorbed" if n["occluded"] else "light")
+            assert (n["hit"] is None) == (not n["occluded"])
+        else:
+            # weight = product of K's from the eye; depth one more than the parent's
+            assert_allclose(n["weight"], np.multiply(parent["weight"], n["k"]), rtol=1e-6)
+            assert n["depth"] == parent["depth"] + 1 <= 5
+        if n["t"] is None:
+            assert n["hit"] is None
+        else:
+            assert_allclose(n["hit"]["point"], np.add(n["origin"], np.multiply(n["t"], n["direction"])), atol=1e-4)
+            # the shading normal faces the incoming ray
+            assert np.dot(n["hit"]["normal"], n["direction"]) <= 1e-6 or n["kind"] == "shadow"
+
+
+def test_raytree_rejects_pixels_outside_the_film():
+    from tracer.scene import SceneError
+
+    scene, _ = load_scene(small(scene_dict("phong"), 8, 6))
+    with pytest.raises(SceneError) as e:
+        ray_tree(scene, 8, 0, 0)
+    assert e.value.errors[0]["path"] == "x"
+    with pytest.raises(SceneError):
+        ray_tree(scene, 0, 0, 99)

@@ -1,0 +1,579 @@
+"""Tests of tracer.scene: the scene format's models, validation errors and warnings, JSON Schema.
+
+The corpus tests/bad_scenes/*.json holds one small invalid scene per kind of error;
+tests/bad_scenes/expected.json lists, per file, the exact error paths and a substring of each message.
+"""
+
+import copy
+import json
+import math
+import random
+import re
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from tracer.scene import (
+    ASSET_DIR,
+    Box,
+    DirectionalLight,
+    Disk,
+    DiskLight,
+    ImageBump,
+    ImageTexture,
+    Limits,
+    Material,
+    Mesh,
+    NoiseBump,
+    Plane,
+    PointLight,
+    Quad,
+    QuadLight,
+    Scene,
+    SceneError,
+    Sphere,
+    SphereLight,
+    SpotLight,
+    Triangle,
+    load_scene,
+    resolve_asset,
+    scene_json_schema,
+    validate_scene,
+)
+
+BAD_DIR = Path(__file__).parent / "bad_scenes"
+SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
+EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())
+
+# SCENE_FORMAT.md's example with every documented field, plus one of each light and object type.
+EXAMPLE = {
+    "version": 1,
+    "name": "Cornell box",
+    "description": "An addition to SCENE_FORMAT.md: longer free text.",
+    "camera": {
+        "lookfrom": [0, 0, 3.9],
+        "lookat": [0, 0, 0],
+        "vup": [0, 1, 0],
+        "vfov": 39.3,
+        "lens_radius": 0.0,
+        "focus_distance": None,
+        "shutter": [0.0, 1.0],
+    },
+    "film": {"width": 256, "height": 256, "filter": {"type": "box"}, "exposure": 0.0},
+    "sampler": {"type": "jittered", "spp": 16, "threshold": 0.05, "max_level": 3, "jitter": False},
+    "render": {"integrator": "whitted", "max_depth": 5, "min_weight": 0.001, "light_samples": 1, "seed": 0},
+    "background": [0.0, 0.0, 0.0],
+    "ambient": [0.05, 0.05, 0.05],
+    "fog": {"density": 0.0, "color": [0.5, 0.5, 0.5]},
+    "materials": {
+        "white": {"kd": 0.73},
+        "glass": {"kd": 0, "kr": 1, "kt": 1, "ior": 1.5, "fresnel": True},
+        "brushed": {"kd": 0.1, "ks": 0.6, "shininess": 200, "kr": 0.8, "gloss": 200},
+        "floor": {
+            "ka": 0.1,
+            "emission": 0,
+            "texture": {"type": "checker", "size": 1, "color1": 0.8, "color2": 0.2},
+            "bump": {"type": "noise", "scale": 0.5, "strength": 0.2},
+        },
+        "poster": {
+            "texture": {"type": "image", "file": "poster.png", "scale": [2, 1]},
+            "bump": {"type": "image", "file": "textures/height.png", "strength": 0.5, "scale": [1, 1]},
+        },
+    },
+    "lights": [
+        {"type": "point", "position": [0, 1.9, 0], "intensity": 10, "attenuation": [0, 0, 1]},
+        {"type": "directional", "direction": [0, -1, 0], "irradiance": [1, 1, 0.9]},
+        {
+            "type": "spot",
+            "position": [0, 1.9, 0],
+            "direction": [0, -1, 0],
+            "intensity": 5,
+            "cutoff": 30,
+            "falloff": 4,
+            "attenuation": [1, 0, 0],
+        },
+        {
+            "type": "quad",
+            "corner": [-0.2, 1.99, -0.2],
+            "edge1": [0.4, 0, 0],
+            "edge2": [0, 0, 0.4],
+            "radiance": 15,
+        },
+        {"type": "disk", "center": [0, 1.99, 0], "normal": [0, -1, 0], "radius": 0.2, "radiance": 15},
+        {"type": "sphere", "center": [0.5, 1.5, 0], "radius": 0.1, "radiance": [20, 18, 15]},
+    ],
+    "objects": [
+        {
+            "type": "sphere",
+            "center": [0.4, -0.6, 0],
+            "radius": 0.4,
+            "material": "glass",
+            "name": "glass ball",
+        },
+        {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "floor"},
+        {"type": "quad", "corner": [-1, -1, -1], "edge1": [2, 0, 0], "edge2": [0, 2, 0], "material": "white"},
+        {"type": "disk", "center": [0, 0.99, 0], "normal": [0, -1, 0], "radius": 0.3, "material": "white"},
+        {
+            "type": "box",
+            "min": [-0.3, -1, -0.3],
+            "max": [0.3, 0.2, 0.3],
+            "transform": {"translate": [-0.4, 0, 0], "rotate": [0, 20, 0], "scale": 1},
+            "material": {"kd": [0.6, 0.2, 0.2]},
+            "velocity": [0, 0.1, 0],
+        },
+        {"type": "triangle", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "material": "brushed"},
+        {
+            "type": "mesh",
+            "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]],
+            "faces": [[0, 1, 2], [1, 3, 2]],
+            "transform": {"scale": [1, 2, 1]},
+            "smooth": True,
+            "material": "poster",
+        },
+        {"type": "mesh", "file": "models/bunny.obj", "material": "white"},
+    ],
+}
+MINIMAL = {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 0]}}
+
+
+def _scene(**changes) -> dict:
+    data = copy.deepcopy(MINIMAL)
+    data.update(copy.deepcopy(changes))
+    return data
+
+
+# ---------------------------------------------------------------------------------------------
+# Errors: the corpus of bad scenes.
+
+
+def test_bad_scenes_every_file_has_expectations():
+    files = {p.name for p in BAD_DIR.glob("*.json")} - {"expected.json"}
+    assert files == set(EXPECTED)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_bad_scenes_exact_paths_and_messages(name):
+    with pytest.raises(SceneError) as info:
+        load_scene(BAD_DIR / name)
+    got = info.value.errors
+    assert [e["path"] for e in got] == [e["path"] for e in EXPECTED[name]], got
+    for want, error in zip(EXPECTED[name], got, strict=True):
+        assert want["message"] in error["message"], error
+    report = validate_scene((BAD_DIR / name).read_text())  # the same through JSON text
+    assert not report["valid"] and report["errors"] == got
+
+
+def test_error_str_lists_one_error_per_line():
+    with pytest.raises(SceneError) as info:
+        load_scene(BAD_DIR / "several_errors.json")
+    lines = str(info.value).splitlines()
+    assert lines == [f"{e['path']}: {e['message']}" for e in info.value.errors]
+    assert lines[0] == "film.width: must be >= 1"
+
+
+def test_error_unknown_key_suggests_field_of_its_own_model():
+    """'radus' on a box has no close field (a box has no radius): list what is allowed instead."""
+    data = _scene(
+        materials={"m": {}},
+        objects=[{"type": "box", "material": "m", "min": [0, 0, 0], "max": [1, 1, 1], "radus": 1}],
+    )
+    (error,) = validate_scene(data)["errors"]
+    assert error["path"] == "objects[0].radus"
+    assert "did you mean" not in error["message"] and "allowed: type, material, name" in error["message"]
+
+
+def test_error_nan_and_infinity_from_python_values():
+    data = _scene(fog={"density": math.inf}, ambient=[0, math.nan, 0])
+    paths = [e["path"] for e in validate_scene(data)["errors"]]
+    assert paths == ["ambient[1]", "fog.density"]
+
+
+def test_error_inputs_that_are_not_scenes_never_raise():
+    huge = '{"background": 1%s}' % ("0" * 5000)  # Python's json refuses integers of over 4300 digits
+    deep = "[" * 100_000 + "]" * 100_000
+    sources = [None, 5, "", "[1, 2]", b"\xff\xfe", b'{"camera": 1}', huge, deep, Path("/nonexistent.json")]
+    for src in sources:
+        report = validate_scene(src)
+        assert report["valid"] is False and report["errors"], src
+        assert all(set(e) == {"path", "message"} for e in report["errors"])
+
+
+def test_error_numbers_too_large_for_a_float():
+    data = _scene(background=10**400, camera={**MINIMAL["camera"], "vfov": 10**400})
+    errors = {e["path"]: e["message"] for e in validate_scene(data)["errors"]}
+    assert errors["background"].startswith("must be a finite number") and "camera.vfov" in errors
+
+
+def test_error_type_tag_that_is_not_a_string():
+    data = _scene(objects=[{"type": None}, {"type": "Sphere"}])
+    messages = [e["message"] for e in validate_scene(data)["errors"]]
+    assert messages[0].startswith("unknown object type null; expected one of: sphere, plane")
+    assert messages[1].endswith("did you mean 'sphere'?")
+
+
+def test_error_cross_field_check_raised_by_the_model_itself():
+    """Scene.model_validate without load_scene's context still checks names, at their own paths."""
+    data = _scene(objects=[{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "nope"}])
+    with pytest.raises(ValidationError) as info:
+        Scene.model_validate(data)
+    assert [e["loc"] for e in info.value.errors()] == [("objects", 0, "material")]
+
+
+def _parse_path(path: str) -> list:
+    tokens = re.findall(r'\.?([A-Za-z_][A-Za-z0-9_-]*)|\[(\d+)\]|\[("(?:[^"\\]|\\.)*")\]', path)
+    return [name or (int(index) if index else json.loads(quoted)) for name, index, quoted in tokens]
+
+
+def _exists(data, parts) -> bool:
+    for part in parts:
+        if isinstance(part, int) and isinstance(data, list) and part < len(data):
+            data = data[part]
+        elif isinstance(part, str) and isinstance(data, dict) and part in data:
+            data = data[part]
+        else:
+            return False
+    return True
+
+
+def _mutations(data, rng, at=()):
+    """Every (location, container) in a scene, to pick one to break."""
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for key, value in items:
+        yield (*at, key), data
+        yield from _mutations(value, rng, (*at, key))
+
+
+# fmt: off
+JUNK = [None, "x", -1, 0, 1e308, math.nan, True, [], {}, [1, 2], [0, 0, 0], {"type": "cone"}, "../../x",
+        10**400]
+# fmt: on
+
+
+def test_error_paths_point_into_the_input_under_random_damage():
+    """Fuzz: damaged scenes give only SceneError, and every error's parent path exists in the input
+    (so no union tag such as 'sphere' leaks into a path, and no error lands on a made-up key)."""
+    rng = random.Random(1)
+    for _ in range(400):
+        data = copy.deepcopy(EXAMPLE)
+        for _ in range(rng.randint(1, 3)):
+            location, container = rng.choice(list(_mutations(data, rng)))
+            container[location[-1]] = copy.deepcopy(rng.choice(JUNK))
+        report = validate_scene(data)
+        for error in report["errors"]:
+            parts = _parse_path(error["path"])
+            assert error["path"] and _exists(data, parts[:-1]), error
+
+
+# ---------------------------------------------------------------------------------------------
+# Good scenes.
+
+
+def test_example_every_documented_field_accepted():
+    scene, _ = load_scene(EXAMPLE)
+    assert scene.version == 1 and scene.name == "Cornell box"
+    assert scene.camera.lookfrom == (0.0, 0.0, 3.9) and scene.camera.vfov == 39.3
+    assert scene.camera.focus_distance is None and scene.camera.shutter == (0.0, 1.0)
+    assert scene.film.filter.type == "box" and scene.film.filter.radius == 0.5
+    assert (scene.sampler.type, scene.sampler.spp, scene.sampler.max_level) == ("jittered", 16, 3)
+    assert scene.render.integrator == "whitted" and scene.render.min_weight == 0.001
+    assert scene.ambient == (0.05, 0.05, 0.05) and scene.fog.color == (0.5, 0.5, 0.5)
+    glass = scene.materials["glass"]
+    assert glass.kd == (0.0, 0.0, 0.0) and glass.kt == (1.0, 1.0, 1.0) and glass.fresnel is True
+    assert scene.materials["brushed"].gloss == 200.0
+    floor = scene.materials["floor"]
+    assert floor.ka == (0.1, 0.1, 0.1) and floor.texture.color1 == (0.8, 0.8, 0.8)
+    assert isinstance(floor.bump, NoiseBump) and floor.bump.strength == 0.2
+    poster = scene.materials["poster"]
+    assert isinstance(poster.texture, ImageTexture) and poster.texture.scale == (2.0, 1.0)
+    assert isinstance(poster.bump, ImageBump) and poster.bump.file == "textures/height.png"
+    light_types = [PointLight, DirectionalLight, SpotLight, QuadLight, DiskLight, SphereLight]
+    assert [type(light) for light in scene.lights] == light_types
+    assert scene.lights[0].intensity == (10.0, 10.0, 10.0) and scene.lights[2].cutoff == 30.0
+    assert [type(o) for o in scene.objects] == [Sphere, Plane, Quad, Disk, Box, Triangle, Mesh, Mesh]
+    box, mesh = scene.objects[4], scene.objects[6]
+    assert isinstance(box.material, Material) and box.velocity == (0.0, 0.1, 0.0)
+    assert box.transform.scale == (1.0, 1.0, 1.0) and box.transform.rotate == (0.0, 20.0, 0.0)
+    assert mesh.faces == [(0, 1, 2), (1, 3, 2)] and mesh.smooth and mesh.transform.scale == (1.0, 2.0, 1.0)
+    assert scene.objects[7].file == "models/bunny.obj" and scene.objects[7].vertices is None
+    assert scene.objects[0].name == "glass ball"
+    assert scene.material_for(scene.objects[0]) is glass and scene.material_for(box) is box.material
+
+
+def test_example_values_are_float_tuples():
+    scene, _ = load_scene(EXAMPLE)
+    for value in (
+        scene.camera.lookat,
+        scene.materials["white"].kd,
+        scene.objects[0].center,
+        scene.background,
+    ):
+        assert isinstance(value, tuple) and len(value) == 3 and all(type(c) is float for c in value)
+    assert type(scene.objects[0].radius) is float and type(scene.film.width) is int
+
+
+def test_example_round_trip_through_json():
+    scene, _ = load_scene(json.dumps(EXAMPLE))
+    again, _ = load_scene(scene.model_dump_json(exclude_unset=True))
+    assert again == scene
+
+
+def test_defaults_of_a_minimal_scene():
+    scene, warnings = load_scene(MINIMAL)
+    assert warnings == []
+    assert scene.camera.vup == (0.0, 1.0, 0.0) and scene.camera.vfov == 40.0 and scene.camera.lens_radius == 0
+    assert scene.camera.shutter == (0.0, 1.0)
+    assert (scene.film.width, scene.film.height, scene.film.exposure) == (256, 256, 0.0)
+    assert (scene.film.filter.type, scene.film.filter.radius) == ("box", 0.5)
+    assert (scene.sampler.type, scene.sampler.spp, scene.sampler.threshold) == ("jittered", 16, 0.05)
+    assert (scene.sampler.max_level, scene.sampler.jitter) == (3, False)
+    r = scene.render
+    assert (r.integrator, r.max_depth, r.min_weight, r.light_samples, r.seed) == ("whitted", 5, 0.001, 1, 0)
+    assert scene.background == (0.0, 0.0, 0.0) and scene.ambient == (0.0, 0.0, 0.0)
+    assert scene.fog.density == 0.0 and scene.fog.color == (0.5, 0.5, 0.5)
+    assert scene.materials == {} and scene.lights == [] and scene.objects == []
+    m = Material()
+    assert m.kd == (0.5, 0.5, 0.5) and m.ka is None and m.shininess == 32 and m.ior == 1.5 and m.gloss is None
+
+
+@pytest.mark.parametrize(
+    ("kind", "radius"), [("box", 0.5), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)]
+)
+def test_defaults_filter_radius_by_type(kind, radius):
+    scene, _ = load_scene(_scene(film={"filter": {"type": kind}}))
+    assert scene.film.filter.radius == radius
+    assert "radius" not in scene.film.filter.model_fields_set  # filled in, not set by the user
+    scene, _ = load_scene(_scene(film={"filter": {"type": kind, "radius": 3}}))
+    assert scene.film.filter.radius == 3.0
+
+
+@pytest.mark.parametrize(("kind", "spp"), [("center", 1), ("grid", 16), ("random", 16), ("adaptive", 16)])
+def test_defaults_spp_by_sampler_type(kind, spp):
+    scene, _ = load_scene(_scene(sampler={"type": kind}))
+    assert scene.sampler.spp == spp
+
+
+def test_accepts_single_number_for_rgb_and_scale_and_data_uri_files():
+    data = _scene(
+        background=0.25,
+        materials={"m": {"kd": 1, "texture": {"type": "image", "file": "data:image/png;base64,AAAA"}}},
+        objects=[{"type": "mesh", "file": "data:model/obj;base64,AAAA", "material": "m"}],
+    )
+    scene, _ = load_scene(data)
+    assert scene.background == (0.25, 0.25, 0.25) and scene.materials["m"].kd == (1.0, 1.0, 1.0)
+
+
+def test_accepts_dict_text_bytes_and_path(tmp_path):
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(EXAMPLE))
+    scenes = [
+        load_scene(src)[0] for src in (EXAMPLE, json.dumps(EXAMPLE), json.dumps(EXAMPLE).encode(), path)
+    ]
+    assert all(s == scenes[0] for s in scenes)
+
+
+@pytest.mark.parametrize("path", sorted(SCENES_DIR.glob("*.json")), ids=lambda p: p.name)
+def test_example_scenes_of_the_repository_are_valid(path):
+    report = validate_scene(path)
+    assert report["valid"], report["errors"]
+
+
+def test_validate_scene_report_of_a_good_scene():
+    report = validate_scene(EXAMPLE)
+    assert report["valid"] is True and report["errors"] == []
+    assert all(set(w) == {"path", "message"} for w in report["warnings"])
+
+
+# ---------------------------------------------------------------------------------------------
+# Limits.
+
+
+def test_limits_primitive_count_at_objects():
+    """A box counts 12 triangles, an inline mesh its faces, everything else 1."""
+    mesh = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "faces": [[0, 1, 2]] * 5}
+    box = {"type": "box", "min": [0, 0, 0], "max": [1, 1, 1]}
+    sphere = {"type": "sphere", "center": [0, 0, 0], "radius": 1}
+    objects = [{**o, "material": "m"} for o in (mesh, box, sphere)]
+    data = _scene(materials={"m": {}}, objects=objects)
+    load_scene(data, Limits(max_primitives=18))
+    with pytest.raises(SceneError) as info:
+        load_scene(data, Limits(max_primitives=17))
+    assert info.value.errors == [
+        {"path": "objects", "message": "18 primitives; must be at most 17 (service limit)"}
+    ]
+
+
+def test_limits_configurable_each_at_its_field():
+    data = _scene(
+        film={"width": 64, "height": 64},
+        sampler={"type": "grid", "spp": 64},
+        render={"max_depth": 9, "light_samples": 5},
+    )
+    load_scene(data)
+    limits = Limits(max_width=32, max_height=32, max_spp=16, max_depth=8, max_light_samples=4)
+    with pytest.raises(SceneError) as info:
+        load_scene(data, limits)
+    assert {e["path"]: e["message"] for e in info.value.errors} == {
+        "film.width": "must be at most 32 (service limit)",
+        "film.height": "must be at most 32 (service limit)",
+        "sampler.spp": "must be at most 16 (service limit)",
+        "render.max_depth": "must be at most 8 (service limit)",
+        "render.light_samples": "must be at most 4 (service limit)",
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Warnings: settings that have no effect.
+
+POINT = {"type": "point", "position": [0, 2, 0]}
+SPHERE = {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}
+WARNINGS = [
+    (
+        {"camera": {**MINIMAL["camera"], "shutter": [0, 0.5]}, "objects": [SPHERE]},
+        "camera.shutter",
+        "nothing moves",
+    ),
+    ({"camera": {**MINIMAL["camera"], "focus_distance": 3}}, "camera.focus_distance", "pinhole"),
+    ({"sampler": {"threshold": 0.1}}, "sampler.threshold", "only the adaptive sampler"),
+    ({"sampler": {"type": "random", "max_level": 2}}, "sampler.max_level", "only the adaptive sampler"),
+    ({"sampler": {"jitter": True}}, "sampler.jitter", "only the adaptive sampler"),
+    ({"render": {"light_samples": 4}, "lights": [POINT]}, "render.light_samples", "no area light"),
+    ({"fog": {"color": 0.2}}, "fog.color", "density is 0"),
+    ({"materials": {"m": {"ior": 1.3}}}, "materials.m.ior", "opaque"),
+    ({"materials": {"m": {"fresnel": True}}}, "materials.m.fresnel", "neither reflects nor transmits"),
+    ({"materials": {"m": {"gloss": 50}}}, "materials.m.gloss", "neither reflects nor transmits"),
+    ({"materials": {"m": {"kd": [1.2, 0.5, 0.5]}}}, "materials.m.kd", "not energy conserving"),
+    ({"objects": [{**SPHERE, "material": {"ior": 2}}]}, "objects[0].material.ior", "opaque"),
+    ({"lights": [{**POINT, "intensity": 0}]}, "lights[0].intensity", "contributes nothing"),
+    (
+        {"lights": [{"type": "directional", "direction": [0, -1, 0], "irradiance": 0}]},
+        "lights[0].irradiance",
+        "zero",
+    ),
+    (
+        {"lights": [{"type": "sphere", "center": [0, 2, 0], "radius": 1, "radiance": 0}]},
+        "lights[0].radiance",
+        "zero",
+    ),
+]
+
+
+@pytest.mark.parametrize(("changes", "path", "message"), WARNINGS, ids=[w[1] for w in WARNINGS])
+def test_warning_setting_without_effect(changes, path, message):
+    _, warnings = load_scene(_scene(**{"materials": {"m": {}}, **changes}))
+    assert [w["path"] for w in warnings] == [path]
+    assert message in warnings[0]["message"]
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"camera": {**MINIMAL["camera"], "shutter": [0, 1]}, "objects": [{**SPHERE, "velocity": [1, 0, 0]}]},
+        {"camera": {**MINIMAL["camera"], "lens_radius": 0.1, "focus_distance": 3}},
+        {"sampler": {"type": "adaptive", "threshold": 0.1, "max_level": 4, "jitter": True}},
+        {
+            "render": {"light_samples": 4},
+            "lights": [{"type": "disk", "center": [0, 2, 0], "normal": [0, -1, 0], "radius": 1}],
+        },
+        {"fog": {"density": 0.1, "color": 0.2}},
+        {"materials": {"m": {"kt": [0, 0, 0.5], "ior": 1.3, "fresnel": True, "gloss": 50}}},
+        {"materials": {"m": {"kr": 0.5, "fresnel": True, "gloss": 50, "kd": 1}}},
+        {"camera": {**MINIMAL["camera"], "focus_distance": None}},
+    ],
+)
+def test_warning_not_given_when_the_setting_has_an_effect(changes):
+    _, warnings = load_scene(_scene(**{"materials": {"m": {}}, **changes}))
+    assert warnings == []
+
+
+def test_warnings_of_the_format_example():
+    """The example in SCENE_FORMAT.md sets a shutter with nothing moving and adaptive-only settings."""
+    data = copy.deepcopy(EXAMPLE)
+    data["objects"][4]["velocity"] = [0, 0, 0]
+    _, warnings = load_scene(data)
+    paths = [w["path"] for w in warnings]
+    assert paths == [
+        "camera.shutter",
+        "sampler.threshold",
+        "sampler.max_level",
+        "sampler.jitter",
+        "fog.color",
+    ]
+
+
+# ---------------------------------------------------------------------------------------------
+# JSON Schema.
+
+
+def _nodes(node):
+    if isinstance(node, dict):
+        yield node
+        for value in node.values():
+            yield from _nodes(value)
+    elif isinstance(node, list):
+        for value in node:
+            yield from _nodes(value)
+
+
+def test_schema_is_json_and_names_every_type():
+    schema = json.loads(json.dumps(scene_json_schema(), allow_nan=False))
+    assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    assert schema["type"] == "object" and schema["additionalProperties"] is False
+    objects = schema["properties"]["objects"]["items"]["discriminator"]["mapping"]
+    lights = schema["properties"]["lights"]["items"]["discriminator"]["mapping"]
+    assert set(objects) == {"sphere", "plane", "quad", "disk", "box", "triangle", "mesh"}
+    assert set(lights) == {"point", "directional", "spot", "quad", "disk", "sphere"}
+    text = json.dumps(schema)
+    for tag in ("checker", "image", "noise", "box", "tent", "gaussian", "mitchell", "adaptive", "radiosity"):
+        assert f'"{tag}"' in text
+
+
+def test_schema_every_property_described_and_refs_resolve():
+    schema = scene_json_schema()
+    for node in _nodes(schema):
+        for name, prop in node.get("properties", {}).items():
+            assert prop.get("description"), name
+        if "$ref" in node:
+            assert node["$ref"].removeprefix("#/$defs/") in schema["$defs"]
+        # constraints must be JSON Schema keywords (minimum, exclusiveMinimum...), not pydantic's names
+        assert not {"ge", "gt", "le", "lt"} & set(node) or "properties" in node, node
+
+
+def test_schema_rgb_accepts_a_single_number():
+    kd = scene_json_schema()["$defs"]["Material"]["properties"]["kd"]
+    assert [branch["type"] for branch in kd["anyOf"]] == ["number", "array"]
+    assert kd["default"] == [0.5, 0.5, 0.5]
+
+
+# ---------------------------------------------------------------------------------------------
+# Assets.
+
+
+def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
+    assets = tmp_path / "assets"
+    (assets / "models").mkdir(parents=True)
+    (assets / "models" / "bunny.obj").write_text("v 0 0 0\n")
+    (tmp_path / "secret.obj").write_text("v 0 0 0\n")
+    (assets / "link.obj").symlink_to(tmp_path / "secret.obj")
+    assert (
+        resolve_asset("models/bunny.obj", "objects[0].file", assets)
+        == (assets / "models/bunny.obj").resolve()
+    )
+    assert resolve_asset("models/../models/bunny.obj", "x", assets) == (assets / "models/bunny.obj").resolve()
+    assert resolve_asset("data:model/obj;base64,AAAA", "x", assets) is None
+    cases = {
+        "missing.obj": "not found",
+        "/etc/passwd": "absolute",
+        "../secret.obj": "outside the asset folder",
+        "link.obj": "outside the asset folder",
+        "bad\x00name.obj": "cannot resolve",
+    }
+    for file, message in cases.items():
+        with pytest.raises(SceneError) as info:
+            resolve_asset(file, "objects[2].file", assets)
+        (error,) = info.value.errors
+        assert error["path"] == "objects[2].file" and message in error["message"], file
+
+
+def test_resolve_asset_default_folder_is_scenes_assets():
+    assert ASSET_DIR == Path(__file__).resolve().parent.parent / "scenes" / "assets"

@@ -1,0 +1,177 @@
+"""Command line: render, raytree, validate, bench (DESIGN.md, "Contracts").
+
+    python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
+                            [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
+    python -m tracer raytree SCENE.json X Y [--sample K]
+    python -m tracer validate SCENE.json
+    python -m tracer bench [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene
+
+
+def _read_json(path: str) -> dict:
+    """The scene file as a dict; JSON syntax errors become SceneError with line and column."""
+    try:
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise SceneError([{"path": "", "message": f"cannot read {path}: {exc.strerror}"}]) from exc
+    return parse_json(text)
+
+
+def parse_json(text: str):
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise SceneError([{"path": "", "message": f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"}]) from exc
+
+
+def _overrides(data: dict, args) -> dict:
+    """Apply command-line settings to the raw scene, so validation and limits see them."""
+    if not isinstance(data, dict):
+        return data
+
+    def put(section, key, value):
+        if value is not None:
+            if not isinstance(data.get(section), dict):
+                data[section] = {}
+            data[section][key] = value
+
+    put("sampler", "spp", getattr(args, "spp", None))
+    put("film", "width", getattr(args, "width", None))
+    put("film", "height", getattr(args, "height", None))
+    put("render", "seed", getattr(args, "seed", None))
+    put("render", "integrator", getattr(args, "integrator", None))
+    put("render", "max_depth", getattr(args, "max_depth", None))
+    return data
+
+
+def _print_errors(exc: SceneError, file=sys.stderr) -> None:
+    for e in exc.errors:
+        where = e["path"] or "(scene)"
+        print(f"error: {where}: {e['message']}", file=file)
+
+
+def _print_warnings(warnings, file=sys.stderr) -> None:
+    for w in warnings:
+        print(f"warning: {w['path'] or '(scene)'}: {w['message']}", file=file)
+
+
+def cmd_render(args) -> int:
+    from tracer.compile import compile_scene
+    from tracer.film import write_exr, write_png
+    from tracer.render import render
+
+    scene, warnings = load_scene(_overrides(_read_json(args.scene), args))
+    _print_warnings(warnings)
+    cs = compile_scene(scene, asset_dir=Path(args.assets))
+    bar = None
+    if sys.stderr.isatty() and not args.quiet:
+        from tqdm import tqdm
+
+        total = scene.film.width * scene.film.height * scene.sampler.spp
+        bar = tqdm(total=total, unit="spl", unit_scale=True, desc=Path(args.scene).name, file=sys.stderr)
+    last = 0
+
+    def progress(p) -> None:
+        nonlocal last
+        if bar is not None:
+            bar.update(p.samples_done - last)
+            last = p.samples_done
+
+    result = render(cs, threads=args.threads, progress=progress)
+    if bar is not None:
+        bar.close()
+    write_png(args.output, result.image, scene.film.exposure)
+    if args.exr:
+        write_exr(args.exr, result.image)
+    print(f"{args.output}: {scene.film.width}x{scene.film.height}, {result.spp} spp, {result.stats_line()}")
+    return 0
+
+
+def cmd_raytree(args) -> int:
+    from tracer.raytree import ray_tree
+
+    scene, warnings = load_scene(_read_json(args.scene))
+    from tracer.compile import compile_scene
+
+    tree = ray_tree(compile_scene(scene, asset_dir=Path(args.assets)), args.x, args.y, args.sample)
+    json.dump(tree, sys.stdout, indent=1 if args.pretty else None)
+    print()
+    return 0
+
+
+def cmd_validate(args) -> int:
+    report = validate_scene(_read_json(args.scene))
+    _print_warnings(report["warnings"])
+    if not report["valid"]:
+        _print_errors(SceneError(report["errors"]))
+        return 1
+    print(f"{args.scene}: valid")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from tracer.bench import main as bench_main
+
+    return bench_main(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="tracer", description="Educational ray tracer on NVIDIA Warp.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("render", help="render a scene to PNG (and EXR)")
+    r.add_argument("scene")
+    r.add_argument("-o", "--output", required=True, help="PNG file to write")
+    r.add_argument("--spp", type=int, help="samples per pixel (grid/jittered: a perfect square)")
+    r.add_argument("--width", type=int)
+    r.add_argument("--height", type=int)
+    r.add_argument("--seed", type=int)
+    r.add_argument("--integrator")
+    r.add_argument("--max-depth", type=int, dest="max_depth")
+    r.add_argument("--threads", type=int, help="render threads (default: one per core)")
+    r.add_argument("--exr", help="also write the linear float image as OpenEXR")
+    r.add_argument("--assets", default=str(ASSET_DIR), help="folder that mesh and texture files are read from")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=cmd_render)
+
+    t = sub.add_parser("raytree", help="print the ray tree of one pixel sample as JSON")
+    t.add_argument("scene")
+    t.add_argument("x", type=int, help="column from the left")
+    t.add_argument("y", type=int, help="row from the top")
+    t.add_argument("--sample", type=int, default=0)
+    t.add_argument("--pretty", action="store_true", help="indent the JSON")
+    t.add_argument("--assets", default=str(ASSET_DIR))
+    t.set_defaults(func=cmd_raytree)
+
+    v = sub.add_parser("validate", help="check a scene; errors with JSON paths, exit status 1 when invalid")
+    v.add_argument("scene")
+    v.set_defaults(func=cmd_validate)
+
+    b = sub.add_parser("bench", help="measure Msamples/s and Mrays/s per ray kind on the example scenes")
+    b.add_argument("--quick", action="store_true", help="small sizes (a smoke run)")
+    b.add_argument("--threads", type=int, default=None)
+    b.add_argument("--out", help="also write the results as JSON to this file")
+    b.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except SceneError as exc:
+        _print_errors(exc)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,501 @@
+"""Scene models -> flat Warp arrays, in this one place.
+
+Everything a kernel reads about a scene is in one ``@wp.struct SceneData`` of arrays and scalars:
+analytic shapes (spheres, planes, parallelograms, disks; a box becomes six parallelograms),
+all triangles in one ``wp.Mesh`` with its BVH, materials, lights and texture images. Scene
+content is data only: no kernel source is ever generated from a scene.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from tracer.kinds import Bump, LightKind, SamplerKind, Shape, Texture
+from tracer.scene import ASSET_DIR, Scene, SceneError, resolve_asset
+
+
+@wp.struct
+class CameraData:
+    origin: wp.vec3  # lookfrom
+    forward: wp.vec3  # unit vector towards lookat
+    right: wp.vec3  # unit, forward x vup
+    up: wp.vec3  # unit, right x forward
+    h: float  # tan(vfov / 2)
+    aspect: float  # width / height
+    lens_radius: float  # thin-lens aperture radius, world units (0 = pinhole)
+    focus_distance: float  # distance to the focal plane along forward
+    t0: float  # shutter open time
+    t1: float  # shutter close time
+
+
+@wp.struct
+class ShapeData:
+    kind: int  # SHAPE_*
+    obj: int  # index into scene.objects (the ray tree reports it)
+    mat: int  # index into SceneData.materials
+    p0: wp.vec3  # sphere/disk centre, plane point, quad corner
+    p1: wp.vec3  # plane/disk normal (unit), quad edge1
+    p2: wp.vec3  # quad edge2
+    radius: float  # sphere/disk radius
+    velocity: wp.vec3  # world units per unit time (motion blur)
+
+
+@wp.struct
+class MaterialData:
+    kd: wp.vec3  # diffuse reflectance
+    ka: wp.vec3  # ambient coefficient (used when ka_is_kd == 0)
+    ka_is_kd: int  # 1: ka = kd after texturing
+    ks: wp.vec3  # Phong specular coefficient
+    shininess: float  # Phong exponent n
+    kr: wp.vec3  # reflection-ray weight
+    kt: wp.vec3  # transmission-ray weight
+    ior: float  # index of refraction inside
+    fresnel: int  # 1: scale kr, kt by exact dielectric Fresnel R, 1 - R
+    gloss: float  # cos^m lobe exponent; 0 = perfect mirror
+    emission: wp.vec3  # emitted radiance (front face)
+    tex: int  # TEX_*
+    tex_size: float  # checker cell size, world units
+    tex_c1: wp.vec3  # checker colour where the cell parity is even
+    tex_c2: wp.vec3  # checker colour where it is odd
+    tex_image: int  # index into tex_info
+    tex_scale: wp.vec2  # uv scale of an image texture
+    bump: int  # BUMP_*
+    bump_scale: float  # noise frequency (cells per world unit)
+    bump_strength: float  # height scale h
+    bump_image: int  # index into tex_info
+    bump_uvscale: wp.vec2  # uv scale of an image bump map
+
+
+@wp.struct
+class LightData:
+    kind: int  # LIGHT_*
+    position: wp.vec3  # point/spot position
+    direction: wp.vec3  # directional: the way light travels; spot: the axis (unit)
+    intensity: wp.vec3  # W/sr (point, spot) or W/m^2 irradiance (directional)
+    attenuation: wp.vec3  # c1, c2, c3 of f_att = 1 / (c1 + c2 d + c3 d^2)
+    cos_cutoff: float  # spot: cosine of the cone half-angle
+    falloff: float  # spot: exponent of cos(psi)
+
+
+@wp.struct
+class SceneData:
+    camera: CameraData
+    shapes: wp.array(dtype=ShapeData)
+    num_shapes: int
+    mesh: wp.uint64  # id of the wp.Mesh of all triangles (0 when has_mesh == 0)
+    has_mesh: int
+    mesh_points: wp.array(dtype=wp.vec3)
+    mesh_indices: wp.array(dtype=wp.int32)  # 3 per face
+    mesh_normals: wp.array(dtype=wp.vec3)  # per vertex, for smooth shading
+    mesh_uvs: wp.array(dtype=wp.vec2)  # per vertex
+    face_obj: wp.array(dtype=wp.int32)  # object index of each face
+    face_mat: wp.array(dtype=wp.int32)  # material index of each face
+    face_flags: wp.array(dtype=wp.int32)  # bit 0: smooth normals, bit 1: vertex uvs
+    materials: wp.array(dtype=MaterialData)
+    lights: wp.array(dtype=LightData)
+    num_lights: int
+    tex_pixels: wp.array(dtype=wp.vec3)  # all texture images, linear RGB, row-major, top row first
+    tex_info: wp.array(dtype=wp.vec3i)  # offset, width, height of each image
+    background: wp.vec3  # radiance of rays that leave the scene
+    ambient: wp.vec3  # I_a
+    fog_density: float  # per world unit; 0 = no fog
+    fog_color: wp.vec3
+    max_depth: int  # bounces; 1 = ray casting
+    min_weight: float
+    light_samples: int
+    width: int
+    height: int
+    spp: int
+    sampler: int  # SAMPLER_*
+    filter_radius: float  # box filter half-width in pixels
+    seed: int
+
+
+FACE_SMOOTH = 1
+FACE_UV = 2
+
+
+class NotImplementedFeature(SceneError):
+    """A valid scene uses a feature this renderer does not implement yet."""
+
+
+@dataclass
+class CompiledScene:
+    """The Warp-side scene plus what Python needs to explain it (names for the ray tree)."""
+
+    scene: Scene
+    data: SceneData
+    object_names: list[str | None]
+    material_names: list[str]
+    num_triangles: int
+    num_shapes: int
+    keep: list = field(default_factory=list)  # Warp objects that must outlive `data` (the mesh)
+
+
+def _v(x) -> wp.vec3:
+    return wp.vec3(float(x[0]), float(x[1]), float(x[2]))
+
+
+def _unit(x) -> np.ndarray:
+    a = np.asarray(x, dtype=np.float64)
+    return a / np.linalg.norm(a)
+
+
+def not_implemented(scene: Scene) -> list[dict]:
+    """Features the schema accepts that a later issue implements: refused, never ignored."""
+    errs = []
+
+    def no(path, what):
+        errs.append({"path": path, "message": f"{what} is not implemented yet"})
+
+    if scene.render.integrator != "whitted":
+        no("render.integrator", f"the '{scene.render.integrator}' integrator")
+    if scene.camera.lens_radius > 0:
+        no("camera.lens_radius", "depth of field (a thin lens)")
+    if scene.sampler.type == "adaptive":
+        no("sampler.type", "the adaptive sampler")
+    if scene.film.filter.type != "box":
+        no("film.filter.type", f"the '{scene.film.filter.type}' reconstruction filter")
+    for i, light in enumerate(scene.lights):
+        if light.type in ("quad", "disk", "sphere"):
+            no(f"lights[{i}].type", f"the area light '{light.type}' (soft shadows)")
+    for i, obj in enumerate(scene.objects):
+        if any(v != 0 for v in obj.velocity):
+            no(f"objects[{i}].velocity", "motion blur")
+    for path, mat in _all_materials(scene):
+        if mat.gloss is not None:
+            no(f"{path}.gloss", "glossy reflection")
+    return errs
+
+
+def _all_materials(scene: Scene):
+    for name, m in scene.materials.items():
+        yield f"materials.{name}", m
+    for i, obj in enumerate(scene.objects):
+        if not isinstance(obj.material, str):
+            yield f"objects[{i}].material", obj.material
+
+
+# ----------------------------------------------------------------------------- transforms
+
+
+def transform_matrix(t) -> np.ndarray:
+    """4x4 matrix of a Transform: scale, then rotate about X, Y, Z (degrees), then translate."""
+    m = np.eye(4)
+    if t is None:
+        return m
+    s = np.diag([*t.scale, 1.0])
+    rx, ry, rz = (math.radians(a) for a in t.rotate)
+    cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+    mx = np.array([[1, 0, 0, 0], [0, cx, -sx, 0], [0, sx, cx, 0], [0, 0, 0, 1]])
+    my = np.array([[cy, 0, sy, 0], [0, 1, 0, 0], [-sy, 0, cy, 0], [0, 0, 0, 1]])
+    mz = np.array([[cz, -sz, 0, 0], [sz, cz, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    tr = np.eye(4)
+    tr[:3, 3] = t.translate
+    return tr @ mz @ my @ mx @ s
+
+
+def _apply(m: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    return pts @ m[:3, :3].T + m[:3, 3]
+
+
+def box_faces(bmin, bmax, transform) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The six faces of a (transformed) box as (corner, edge1, edge2), edge1 x edge2 outwards."""
+    m = transform_matrix(transform)
+    lo, hi = np.asarray(bmin, float), np.asarray(bmax, float)
+    centre = _apply(m, ((lo + hi) / 2)[None])[0]
+    faces = []
+    for axis in range(3):
+        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
+        for side in (lo, hi):
+            c = lo.copy()
+            c[axis] = side[axis]
+            e1 = np.zeros(3)
+            e1[a1] = hi[a1] - lo[a1]
+            e2 = np.zeros(3)
+            e2[a2] = hi[a2] - lo[a2]
+            wc = _apply(m, c[None])[0]
+            we1 = m[:3, :3] @ e1
+            we2 = m[:3, :3] @ e2
+            if np.dot(np.cross(we1, we2), wc + 0.5 * (we1 + we2) - centre) < 0:
+                we1, we2 = we2, we1
+            faces.append((wc, we1, we2))
+    return faces
+
+
+# ----------------------------------------------------------------------------- meshes
+
+
+def load_mesh_file(file: str, path: str, asset_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Vertices, faces and (optional) per-vertex uvs of an OBJ/PLY/glTF asset or a data: URI."""
+    import trimesh
+
+    try:
+        if file.startswith("data:"):
+            header, _, payload = file.partition(",")
+            kind = header[5:].split(";")[0]
+            ext = {"model/obj": "obj", "text/plain": "obj", "model/gltf-binary": "glb",
+                   "model/gltf+json": "gltf", "application/ply": "ply", "model/ply": "ply"}.get(kind)
+            if ext is None:
+                raise SceneError([{"path": path, "message": f"unsupported data: URI type '{kind}' "
+                                   "(expected model/obj, model/ply or model/gltf-binary)"}])
+            raw = base64.b64decode(payload) if ";base64" in header else payload.encode()
+            tm = trimesh.load(io.BytesIO(raw), file_type=ext, force="mesh", process=False)
+        else:
+            real = resolve_asset(file, path, asset_dir)
+            tm = trimesh.load(str(real), force="mesh", process=False)
+    except SceneError:
+        raise
+    except Exception as exc:  # a broken asset is the user's error, not a crash
+        raise SceneError([{"path": path, "message": f"could not read mesh '{file[:80]}': {exc}"}]) from exc
+    verts = np.asarray(tm.vertices, dtype=np.float64)
+    faces = np.asarray(tm.faces, dtype=np.int64)
+    if len(faces) == 0:
+        raise SceneError([{"path": path, "message": f"mesh '{file[:80]}' has no triangles"}])
+    uv = getattr(getattr(tm, "visual", None), "uv", None)
+    uv = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(verts) else None
+    return verts, faces, uv
+
+
+def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals (faces oriented by their vertex order)."""
+    fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
+    vn = np.zeros_like(verts)
+    for k in range(3):
+        np.add.at(vn, faces[:, k], fn)
+    n = np.linalg.norm(vn, axis=1, keepdims=True)
+    return vn / np.where(n > 0, n, 1.0)
+
+
+# ----------------------------------------------------------------------------- textures
+
+
+class _Images:
+    """Texture images, loaded once each, packed into one linear-RGB array."""
+
+    def __init__(self, asset_dir: Path):
+        self.asset_dir = asset_dir
+        self.index: dict[str, int] = {}
+        self.pixels: list[np.ndarray] = []
+        self.info: list[tuple[int, int, int]] = []
+        self.offset = 0
+
+    def add(self, file: str, path: str) -> int:
+        if file in self.index:
+            return self.index[file]
+        from PIL import Image
+
+        try:
+            if file.startswith("data:"):
+                header, _, payload = file.partition(",")
+                img = Image.open(io.BytesIO(base64.b64decode(payload)))
+            else:
+                img = Image.open(resolve_asset(file, path, self.asset_dir))
+            rgb = np.asarray(img.convert("RGB"), dtype=np.float32) / 255.0
+        except SceneError:
+            raise
+        except Exception as exc:
+            raise SceneError([{"path": path, "message": f"could not read image '{file[:80]}': {exc}"}]) from exc
+        lin = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+        h, w = lin.shape[:2]
+        self.index[file] = len(self.info)
+        self.info.append((self.offset, w, h))
+        self.pixels.append(lin.reshape(-1, 3))
+        self.offset += w * h
+        return self.index[file]
+
+
+def _material(m, path: str, images: _Images) -> MaterialData:
+    d = MaterialData()
+    d.kd = _v(m.kd)
+    d.ka_is_kd = 1 if m.ka is None else 0
+    d.ka = _v(m.ka if m.ka is not None else m.kd)
+    d.ks = _v(m.ks)
+    d.shininess = float(m.shininess)
+    d.kr = _v(m.kr)
+    d.kt = _v(m.kt)
+    d.ior = float(m.ior)
+    d.fresnel = 1 if m.fresnel else 0
+    d.gloss = float(m.gloss) if m.gloss is not None else 0.0
+    d.emission = _v(m.emission)
+    d.tex, d.tex_size, d.tex_image = int(Texture.NONE), 1.0, 0
+    d.tex_c1, d.tex_c2, d.tex_scale = wp.vec3(0.0), wp.vec3(0.0), wp.vec2(1.0, 1.0)
+    if m.texture is not None and m.texture.type == "checker":
+        d.tex, d.tex_size = int(Texture.CHECKER), float(m.texture.size)
+        d.tex_c1, d.tex_c2 = _v(m.texture.color1), _v(m.texture.color2)
+    elif m.texture is not None:
+        d.tex = int(Texture.IMAGE)
+        d.tex_image = images.add(m.texture.file, f"{path}.texture.file")
+        d.tex_scale = wp.vec2(*(float(s) for s in m.texture.scale))
+    d.bump, d.bump_scale, d.bump_strength, d.bump_image = int(Bump.NONE), 1.0, 0.0, 0
+    d.bump_uvscale = wp.vec2(1.0, 1.0)
+    if m.bump is not None and m.bump.type == "noise":
+        d.bump, d.bump_scale, d.bump_strength = int(Bump.NOISE), float(m.bump.scale), float(m.bump.strength)
+    elif m.bump is not None:
+        d.bump, d.bump_strength = int(Bump.IMAGE), float(m.bump.strength)
+        d.bump_image = images.add(m.bump.file, f"{path}.bump.file")
+        d.bump_uvscale = wp.vec2(*(float(s) for s in m.bump.scale))
+    return d
+
+
+def _light(light) -> LightData:
+    d = LightData()
+    d.kind = int(LightKind[light.type.upper()])
+    d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)
+    d.intensity, d.attenuation = wp.vec3(0.0), wp.vec3(0.0, 0.0, 1.0)
+    d.cos_cutoff, d.falloff = -1.0, 0.0
+    if light.type == "point":
+        d.position, d.intensity, d.attenuation = _v(light.position), _v(light.intensity), _v(light.attenuation)
+    elif light.type == "directional":
+        d.direction, d.intensity = _v(_unit(light.direction)), _v(light.irradiance)
+    elif light.type == "spot":
+        d.position, d.direction = _v(light.position), _v(_unit(light.direction))
+        d.intensity, d.attenuation = _v(light.intensity), _v(light.attenuation)
+        d.cos_cutoff, d.falloff = math.cos(math.radians(light.cutoff)), float(light.falloff)
+    return d
+
+
+def _camera(scene: Scene) -> CameraData:
+    c = scene.camera
+    cam = CameraData()
+    lookfrom, lookat = np.asarray(c.lookfrom, float), np.asarray(c.lookat, float)
+    forward = _unit(lookat - lookfrom)
+    right = _unit(np.cross(forward, c.vup))
+    up = np.cross(right, forward)
+    cam.origin, cam.forward, cam.right, cam.up = _v(lookfrom), _v(forward), _v(right), _v(up)
+    cam.h = math.tan(math.radians(c.vfov) / 2)
+    cam.aspect = scene.film.width / scene.film.height
+    cam.lens_radius = float(c.lens_radius)
+    cam.focus_distance = float(c.focus_distance) if c.focus_distance else float(np.linalg.norm(lookat - lookfrom))
+    cam.t0, cam.t1 = float(c.shutter[0]), float(c.shutter[1])
+    return cam
+
+
+def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu") -> CompiledScene:
+    """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets."""
+    errs = not_implemented(scene)
+    if errs:
+        raise NotImplementedFeature(errs)
+    images = _Images(Path(asset_dir))
+    mat_names = list(scene.materials)
+    mat_index = {n: i for i, n in enumerate(mat_names)}
+    mats = [_material(m, f"materials.{n}", images) for n, m in scene.materials.items()]
+
+    def material_of(i, obj) -> int:
+        if isinstance(obj.material, str):
+            return mat_index[obj.material]
+        mats.append(_material(obj.material, f"objects[{i}].material", images))
+        mat_names.append(f"objects[{i}].material")
+        return len(mats) - 1
+
+    shapes: list[ShapeData] = []
+    pts, idx, nrm, uvs, fobj, fmat, fflag = [], [], [], [], [], [], []
+    nverts = 0
+
+    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0)):
+        s = ShapeData()
+        s.kind, s.obj, s.mat = int(kind), i, m
+        s.p0, s.p1, s.p2, s.radius, s.velocity = _v(p0), _v(p1), _v(p2), float(radius), _v(velocity)
+        shapes.append(s)
+
+    def triangles(i, m, v, f, uv=None, smooth=False):
+        nonlocal nverts
+        v = np.asarray(v, np.float64)
+        f = np.asarray(f, np.int64)
+        pts.append(v)
+        idx.append(f + nverts)
+        nrm.append(vertex_normals(v, f))
+        uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
+        fobj.append(np.full(len(f), i))
+        fmat.append(np.full(len(f), m))
+        fflag.append(np.full(len(f), (FACE_SMOOTH if smooth else 0) | (FACE_UV if uv is not None else 0)))
+        nverts += len(v)
+
+    for i, obj in enumerate(scene.objects):
+        m = material_of(i, obj)
+        t = obj.type
+        if t == "sphere":
+            shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=obj.velocity)
+        elif t == "plane":
+            shape(Shape.PLANE, i, m, p0=obj.point, p1=_unit(obj.normal), velocity=obj.velocity)
+        elif t == "quad":
+            shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=obj.velocity)
+        elif t == "disk":
+            shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=obj.velocity)
+        elif t == "box":
+            for c, e1, e2 in box_faces(obj.min, obj.max, obj.transform):
+                shape(Shape.QUAD, i, m, p0=c, p1=e1, p2=e2, velocity=obj.velocity)
+        elif t == "triangle":
+            triangles(i, m, obj.vertices, [[0, 1, 2]])
+        elif t == "mesh":
+            if obj.file is not None:
+                v, f, uv = load_mesh_file(obj.file, f"objects[{i}].file", Path(asset_dir))
+            else:
+                v, f, uv = np.asarray(obj.vertices, float), np.asarray(obj.faces, np.int64), None
+            triangles(i, m, _apply(transform_matrix(obj.transform), v), f, uv, obj.smooth)
+
+    data = SceneData()
+    data.camera = _camera(scene)
+    if not shapes:  # kernels index nothing when num_shapes == 0, but arrays must exist
+        shape(Shape.SPHERE, -1, 0, radius=1.0)
+        data.num_shapes = 0
+    else:
+        data.num_shapes = len(shapes)
+    data.shapes = wp.array(shapes, dtype=ShapeData, device=device)
+    keep = []
+    if pts:
+        p = np.concatenate(pts).astype(np.float32)
+        data.mesh_points = wp.array(p, dtype=wp.vec3, device=device)
+        data.mesh_indices = wp.array(np.concatenate(idx).reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
+        mesh = wp.Mesh(points=data.mesh_points, indices=data.mesh_indices, bvh_constructor="sah")
+        keep.append(mesh)
+        data.mesh, data.has_mesh = mesh.id, 1
+        data.mesh_normals = wp.array(np.concatenate(nrm).astype(np.float32), dtype=wp.vec3, device=device)
+        data.mesh_uvs = wp.array(np.concatenate(uvs).astype(np.float32), dtype=wp.vec2, device=device)
+        data.face_obj = wp.array(np.concatenate(fobj).astype(np.int32), dtype=wp.int32, device=device)
+        data.face_mat = wp.array(np.concatenate(fmat).astype(np.int32), dtype=wp.int32, device=device)
+        data.face_flags = wp.array(np.concatenate(fflag).astype(np.int32), dtype=wp.int32, device=device)
+        ntri = int(sum(len(f) for f in fobj))
+    else:
+        data.mesh, data.has_mesh, ntri = wp.uint64(0), 0, 0
+        for name, dt in (("mesh_points", wp.vec3), ("mesh_normals", wp.vec3), ("mesh_uvs", wp.vec2),
+                         ("mesh_indices", wp.int32), ("face_obj", wp.int32), ("face_mat", wp.int32),
+                         ("face_flags", wp.int32)):
+            setattr(data, name, wp.zeros(3, dtype=dt, device=device))
+    if not mats:
+        mats.append(MaterialData())
+    data.materials = wp.array(mats, dtype=MaterialData, device=device)
+    lights = [_light(lt) for lt in scene.lights]
+    data.num_lights = len(lights)
+    data.lights = wp.array(lights or [LightData()], dtype=LightData, device=device)
+    if images.pixels:
+        data.tex_pixels = wp.array(np.concatenate(images.pixels), dtype=wp.vec3, device=device)
+        data.tex_info = wp.array(np.array(images.info, dtype=np.int32), dtype=wp.vec3i, device=device)
+    else:
+        data.tex_pixels = wp.zeros(1, dtype=wp.vec3, device=device)
+        data.tex_info = wp.zeros(1, dtype=wp.vec3i, device=device)
+    data.background, data.ambient = _v(scene.background), _v(scene.ambient)
+    data.fog_density, data.fog_color = float(scene.fog.density), _v(scene.fog.color)
+    r = scene.render
+    data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)
+    data.width, data.height = int(scene.film.width), int(scene.film.height)
+    data.spp = int(scene.sampler.spp)
+    data.sampler = int(SamplerKind[scene.sampler.type.upper()])
+    data.filter_radius = float(scene.film.filter.radius)
+    data.seed = int(r.seed)
+    return CompiledScene(
+        scene=scene,
+        data=data,
+        object_names=[o.name for o in scene.objects],
+        material_names=mat_names,
+        num_triangles=ntri,
+        num_shapes=len(shapes) if data.num_shapes else 0,
+        keep=keep,
+    )

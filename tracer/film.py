@@ -1,0 +1,61 @@
+"""Film output: exposure, sRGB encoding, PNG and EXR files.
+
+PNG = sRGB OETF of clamp(2^exposure L, 0, 1) (SCENE_FORMAT.md); the EXR keeps the linear
+radiance without exposure, as 32-bit floats.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """The sRGB OETF (IEC 61966-2-1) of values in [0, 1]."""
+    x = np.clip(linear, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+
+
+def to_srgb8(image: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+    """(H, W, 3) linear radiance -> (H, W, 3) uint8 sRGB."""
+    scaled = np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0) * (2.0**exposure)
+    return np.round(srgb_encode(scaled) * 255.0).astype(np.uint8)
+
+
+def write_png(path: str | Path, image: np.ndarray, exposure: float = 0.0) -> None:
+    from PIL import Image
+
+    Image.fromarray(to_srgb8(image, exposure), "RGB").save(str(path))
+
+
+def png_bytes(image: np.ndarray, exposure: float = 0.0) -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(to_srgb8(image, exposure), "RGB").save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def write_exr(path: str | Path, image: np.ndarray, layers: dict[str, np.ndarray] | None = None) -> None:
+    """Linear float32 RGB (and optional extra single- or 3-channel layers) as OpenEXR."""
+    import OpenEXR
+
+    channels = {"RGB": np.ascontiguousarray(image, dtype=np.float32)}
+    for name, arr in (layers or {}).items():
+        channels[name] = np.ascontiguousarray(arr, dtype=np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, channels) as f:
+        f.write(str(path))
+
+
+def read_exr(path: str | Path) -> np.ndarray:
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        if "RGB" in ch:
+            return np.asarray(ch["RGB"].pixels, dtype=np.float32)
+        return np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)

@@ -1,0 +1,221 @@
+"""Ray-shape intersections and the closest hit (Warp @wp.func helpers).
+
+Analytic shapes are tested exactly, one after another; all triangles sit in one ``wp.Mesh``
+whose BVH answers ``wp.mesh_query_ray``. Warp's barycentrics: p = u v0 + v v1 + (1 - u - v) v2.
+A ray hits a surface at distance t only for 0 < t < t_max; spawned rays are offset along the
+normal by the caller (SCENE_FORMAT.md, "Spawned rays"), so no epsilon on t is needed here.
+"""
+
+import warp as wp
+
+from tracer.compile import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
+from tracer.kinds import SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
+
+PI = wp.constant(3.14159265358979323846)
+
+
+@wp.struct
+class Hit:
+    hit: int  # 1 when the ray hit something before t_max
+    t: float  # distance along the (unit) ray direction
+    p: wp.vec3  # hit point
+    ng: wp.vec3  # geometric normal as the shape defines it (not turned towards the ray)
+    ns: wp.vec3  # interpolated normal (smooth meshes), same side as ng; = ng otherwise
+    obj: int  # object index in the scene
+    mat: int  # material index
+    uv: wp.vec2  # surface coordinates for image textures and bump maps
+    dpdu: wp.vec3  # surface tangents along u and v (for bump maps)
+    dpdv: wp.vec3
+
+
+@wp.func
+def intersect_sphere(o: wp.vec3, d: wp.vec3, center: wp.vec3, radius: float, t_max: float) -> float:
+    """Nearest t in (0, t_max) of |o + t d - center| = radius for unit d, or -1."""
+    oc = o - center
+    b = wp.dot(oc, d)
+    c = wp.dot(oc, oc) - radius * radius
+    disc = b * b - c
+    if disc < 0.0:
+        return -1.0
+    s = wp.sqrt(disc)
+    t = -b - s
+    if t <= 0.0:
+        t = -b + s
+    if t <= 0.0 or t >= t_max:
+        return -1.0
+    return t
+
+
+@wp.func
+def intersect_plane(o: wp.vec3, d: wp.vec3, point: wp.vec3, normal: wp.vec3, t_max: float) -> float:
+    denom = wp.dot(d, normal)
+    if wp.abs(denom) < 1.0e-12:
+        return -1.0
+    t = wp.dot(point - o, normal) / denom
+    if t <= 0.0 or t >= t_max:
+        return -1.0
+    return t
+
+
+@wp.func
+def quad_coords(p: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3) -> wp.vec2:
+    """(a, b) with p = corner + a e1 + b e2, for p in the quad's plane."""
+    n = wp.cross(e1, e2)
+    w = n / wp.dot(n, n)
+    q = p - corner
+    return wp.vec2(wp.dot(w, wp.cross(q, e2)), wp.dot(w, wp.cross(e1, q)))
+
+
+@wp.func
+def intersect_quad(o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, t_max: float) -> float:
+    n = wp.cross(e1, e2)
+    t = intersect_plane(o, d, corner, n, t_max)
+    if t < 0.0:
+        return -1.0
+    ab = quad_coords(o + t * d, corner, e1, e2)
+    if ab[0] < 0.0 or ab[0] > 1.0 or ab[1] < 0.0 or ab[1] > 1.0:
+        return -1.0
+    return t
+
+
+@wp.func
+def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, radius: float, t_max: float) -> float:
+    t = intersect_plane(o, d, center, normal, t_max)
+    if t < 0.0:
+        return -1.0
+    q = o + t * d - center
+    if wp.dot(q, q) > radius * radius:
+        return -1.0
+    return t
+
+
+@wp.func
+def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float:
+    """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1."""
+    if s.kind == SHAPE_SPHERE:
+        return intersect_sphere(o, d, s.p0, s.radius, t_max)
+    if s.kind == SHAPE_PLANE:
+        return intersect_plane(o, d, s.p0, s.p1, t_max)
+    if s.kind == SHAPE_QUAD:
+        return intersect_quad(o, d, s.p0, s.p1, s.p2, t_max)
+    if s.kind == SHAPE_DISK:
+        return intersect_disk(o, d, s.p0, s.p1, s.radius, t_max)
+    return -1.0
+
+
+@wp.func
+def basis(n: wp.vec3):
+    """Two unit tangents (t, b) with (t, b, n) right-handed (Duff et al. 2017)."""
+    sign = wp.where(n[2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return wp.vec3(1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]), wp.vec3(b, sign + n[1] * n[1] * a, -n[1])
+
+
+@wp.func
+def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
+    """Fill the normal, uv and tangents of a hit point p on analytic shape s."""
+    r = h
+    if s.kind == SHAPE_SPHERE:
+        n = (p - s.p0) / s.radius
+        r.ng = n
+        phi = wp.atan2(-n[2], n[0]) + PI
+        theta = wp.acos(wp.clamp(-n[1], -1.0, 1.0))
+        r.uv = wp.vec2(phi / (2.0 * PI), theta / PI)
+        r.dpdu = wp.vec3(n[2], 0.0, -n[0]) * (2.0 * PI * s.radius)
+        if wp.length(r.dpdu) < 1.0e-6:
+            tu, tv = basis(n)
+            r.dpdu = tu
+        r.dpdv = wp.normalize(wp.cross(n, r.dpdu)) * (PI * s.radius)
+    elif s.kind == SHAPE_QUAD:
+        r.ng = wp.normalize(wp.cross(s.p1, s.p2))
+        r.uv = quad_coords(p, s.p0, s.p1, s.p2)
+        r.dpdu = s.p1
+        r.dpdv = s.p2
+    else:  # plane and disk: planar coordinates in world units (disk: 0..1 across its diameter)
+        r.ng = s.p1
+        t, b = basis(s.p1)
+        q = p - s.p0
+        if s.kind == SHAPE_DISK:
+            r.uv = wp.vec2(0.5 + wp.dot(q, t) / (2.0 * s.radius), 0.5 + wp.dot(q, b) / (2.0 * s.radius))
+            r.dpdu = t * (2.0 * s.radius)
+            r.dpdv = b * (2.0 * s.radius)
+        else:
+            r.uv = wp.vec2(wp.dot(q, t), wp.dot(q, b))
+            r.dpdu = t
+            r.dpdv = b
+    r.ns = r.ng
+    return r
+
+
+@wp.func
+def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float) -> Hit:
+    """The nearest surface along o + t d, 0 < t < t_max (unit d)."""
+    h = Hit()
+    h.hit = 0
+    h.t = t_max
+    best = int(-1)
+    for i in range(scene.num_shapes):
+        t = intersect_shape(scene.shapes[i], o, d, h.t)
+        if t > 0.0:
+            h.t = t
+            best = i
+    face = int(-1)
+    bu = float(0.0)
+    bv = float(0.0)
+    if scene.has_mesh != 0:
+        q = wp.mesh_query_ray(scene.mesh, o, d, h.t)
+        if q.result and q.t > 0.0 and q.t < h.t:
+            h.t = q.t
+            face = q.face
+            bu = q.u
+            bv = q.v
+    if face >= 0:
+        h.hit = 1
+        h.p = o + h.t * d
+        i0 = scene.mesh_indices[3 * face + 0]
+        i1 = scene.mesh_indices[3 * face + 1]
+        i2 = scene.mesh_indices[3 * face + 2]
+        v0 = scene.mesh_points[i0]
+        v1 = scene.mesh_points[i1]
+        v2 = scene.mesh_points[i2]
+        h.ng = wp.normalize(wp.cross(v1 - v0, v2 - v0))
+        h.obj = scene.face_obj[face]
+        h.mat = scene.face_mat[face]
+        bw = 1.0 - bu - bv
+        flags = scene.face_flags[face]
+        h.ns = h.ng
+        if (flags & FACE_SMOOTH) != 0:
+            ns = bu * scene.mesh_normals[i0] + bv * scene.mesh_normals[i1] + bw * scene.mesh_normals[i2]
+            if wp.length(ns) > 1.0e-8:
+                ns = wp.normalize(ns)
+                h.ns = wp.where(wp.dot(ns, h.ng) < 0.0, -ns, ns)
+        uv0 = wp.vec2(0.0, 0.0)
+        uv1 = wp.vec2(1.0, 0.0)
+        uv2 = wp.vec2(0.0, 1.0)
+        if (flags & FACE_UV) != 0:
+            uv0 = scene.mesh_uvs[i0]
+            uv1 = scene.mesh_uvs[i1]
+            uv2 = scene.mesh_uvs[i2]
+        h.uv = bu * uv0 + bv * uv1 + bw * uv2
+        # tangents from the uv parameterisation: dp = dpdu du + dpdv dv over the triangle's edges
+        du1 = uv1 - uv0
+        du2 = uv2 - uv0
+        dp1 = v1 - v0
+        dp2 = v2 - v0
+        det = du1[0] * du2[1] - du1[1] * du2[0]
+        if wp.abs(det) > 1.0e-12:
+            h.dpdu = (du2[1] * dp1 - du1[1] * dp2) / det
+            h.dpdv = (du1[0] * dp2 - du2[0] * dp1) / det
+        else:
+            tu, tv = basis(h.ng)
+            h.dpdu = tu
+            h.dpdv = tv
+    elif best >= 0:
+        h.hit = 1
+        s = scene.shapes[best]
+        h.p = o + h.t * d
+        h.obj = s.obj
+        h.mat = s.mat
+        h = shape_surface(s, h.p, h)
+    return h

@@ -1,0 +1,109 @@
+"""Named kinds shared by Python and the Warp kernels.
+
+Each kind is a Python ``IntEnum`` (for the compiler, the ray-tree JSON and tests) mirrored by
+``wp.constant`` values (for kernels), so no kernel ever compares against a magic number.
+"""
+
+from enum import IntEnum
+
+import warp as wp
+
+from tracer import wpinit  # noqa: F401  (initialise Warp once)
+
+
+class Shape(IntEnum):
+    """Analytic primitives kept in the shape list (triangles live in one wp.Mesh)."""
+
+    SPHERE = 0
+    PLANE = 1
+    QUAD = 2
+    DISK = 3
+
+
+class LightKind(IntEnum):
+    POINT = 0
+    DIRECTIONAL = 1
+    SPOT = 2
+    QUAD = 3
+    DISK = 4
+    SPHERE = 5
+
+
+class Texture(IntEnum):
+    NONE = 0
+    CHECKER = 1
+    IMAGE = 2
+
+
+class Bump(IntEnum):
+    NONE = 0
+    NOISE = 1
+    IMAGE = 2
+
+
+class RayKind(IntEnum):
+    EYE = 0
+    SHADOW = 1
+    REFLECTION = 2
+    TRANSMISSION = 3
+
+
+class End(IntEnum):
+    """Why a ray of the tree has fewer children than a reflection and a transmission ray."""
+
+    NONE = 0
+    MISS = 1
+    MAX_DEPTH = 2
+    MIN_WEIGHT = 3
+    TIR = 4
+    LIGHT = 5
+    ABSORBED = 6
+
+
+class SamplerKind(IntEnum):
+    CENTER = 0
+    GRID = 1
+    RANDOM = 2
+    JITTERED = 3
+    ADAPTIVE = 4
+
+
+SHAPE_SPHERE = wp.constant(int(Shape.SPHERE))
+SHAPE_PLANE = wp.constant(int(Shape.PLANE))
+SHAPE_QUAD = wp.constant(int(Shape.QUAD))
+SHAPE_DISK = wp.constant(int(Shape.DISK))
+
+LIGHT_POINT = wp.constant(int(LightKind.POINT))
+LIGHT_DIRECTIONAL = wp.constant(int(LightKind.DIRECTIONAL))
+LIGHT_SPOT = wp.constant(int(LightKind.SPOT))
+
+TEX_NONE = wp.constant(int(Texture.NONE))
+TEX_CHECKER = wp.constant(int(Texture.CHECKER))
+TEX_IMAGE = wp.constant(int(Texture.IMAGE))
+
+BUMP_NONE = wp.constant(int(Bump.NONE))
+BUMP_NOISE = wp.constant(int(Bump.NOISE))
+BUMP_IMAGE = wp.constant(int(Bump.IMAGE))
+
+RAY_EYE = wp.constant(int(RayKind.EYE))
+RAY_SHADOW = wp.constant(int(RayKind.SHADOW))
+RAY_REFLECTION = wp.constant(int(RayKind.REFLECTION))
+RAY_TRANSMISSION = wp.constant(int(RayKind.TRANSMISSION))
+
+END_NONE = wp.constant(int(End.NONE))
+END_MISS = wp.constant(int(End.MISS))
+END_MAX_DEPTH = wp.constant(int(End.MAX_DEPTH))
+END_MIN_WEIGHT = wp.constant(int(End.MIN_WEIGHT))
+END_TIR = wp.constant(int(End.TIR))
+END_LIGHT = wp.constant(int(End.LIGHT))
+END_ABSORBED = wp.constant(int(End.ABSORBED))
+
+SAMPLER_CENTER = wp.constant(int(SamplerKind.CENTER))
+SAMPLER_GRID = wp.constant(int(SamplerKind.GRID))
+SAMPLER_RANDOM = wp.constant(int(SamplerKind.RANDOM))
+SAMPLER_JITTERED = wp.constant(int(SamplerKind.JITTERED))
+
+# Spawned rays start at hit + RAY_OFFSET * N (SCENE_FORMAT.md, "Spawned rays"): part of the contract.
+RAY_OFFSET = wp.constant(1.0e-4)
+# Nothing in a scene is farther than this (world units); a ray that reaches it left the scene.
+T_FAR = wp.constant(1.0e30)

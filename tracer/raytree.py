@@ -1,0 +1,116 @@
+"""One pixel sample's ray tree, traced by the same kernel code as the image.
+
+``trace_one`` runs the integrator's ``trace_sample`` with recording on; this module decodes the
+node records into the JSON of SCENE_FORMAT.md ("Ray tree") and fills in what each ray carries
+back, bottom-up: a ray returns T (local + sum of K_child L_child) + (1 - T) fog colour, with T
+its fog transmittance (1 without fog); a shadow ray returns the light's f_att I cos(theta) f,
+or 0 when occluded. The root's radiance is the pixel sample's colour.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from tracer.compile import CompiledScene, compile_scene
+from tracer.integrators import whitted as W
+from tracer.kinds import End, RayKind
+from tracer.render import make_record, make_stack
+from tracer.scene import Scene, SceneError
+
+DEFAULT_CAP = 8192  # nodes recorded at most; a larger tree is reported as truncated
+
+
+def _vec(v) -> list[float]:
+    return [float(c) for c in v]
+
+
+def ray_tree(scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap: int = DEFAULT_CAP,
+             device: str = "cpu") -> dict:
+    """The ray tree of sample `sample` of pixel (x, y) (x from the left, y from the top)."""
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
+    d = cs.data
+    errs = []
+    if not 0 <= x < d.width:
+        errs.append({"path": "x", "message": f"must be a column in 0..{d.width - 1}"})
+    if not 0 <= y < d.height:
+        errs.append({"path": "y", "message": f"must be a row in 0..{d.height - 1}"})
+    if not 0 <= sample < d.spp:
+        errs.append({"path": "sample", "message": f"must be a sample index in 0..{d.spp - 1}"})
+    if errs:
+        raise SceneError(errs)
+    wp.load_module(W, device=device)
+    rec = make_record(cap, device)
+    st = make_stack(1, d.max_depth, device)
+    out = wp.zeros(1, dtype=wp.vec3, device=device)
+    wp.launch(W.trace_one, dim=1, inputs=[d, x, y, sample, st, rec, out], device=device)
+    count = int(rec.count.numpy()[0])
+    n = min(count, cap)
+    ints, vecs, floats = rec.ints.numpy()[:n], rec.vecs.numpy()[:n], rec.floats.numpy()[:n]
+    fog_on = cs.scene.fog.density > 0
+    fog_color = np.asarray(cs.scene.fog.color, dtype=np.float64)
+
+    radiance = np.zeros((n, 3))
+    for i in range(n - 1, -1, -1):  # children are recorded after their parent
+        if ints[i, W.I_KIND] == RayKind.SHADOW:
+            radiance[i] = vecs[i, W.V_CARRIED]
+            continue
+        children = [j for j in range(i + 1, n)
+                    if ints[j, W.I_PARENT] == i and ints[j, W.I_KIND] != RayKind.SHADOW]
+        if ints[i, W.I_HIT] == 0:
+            radiance[i] = fog_color if fog_on else np.asarray(cs.scene.background, dtype=np.float64)
+            continue
+        local = (vecs[i, W.V_EMISSION] + vecs[i, W.V_AMBIENT] + vecs[i, W.V_DIFFUSE]
+                 + vecs[i, W.V_SPECULAR]).astype(np.float64)
+        carried = local + sum((vecs[j, W.V_K] * radiance[j] for j in children), np.zeros(3))
+        t_fog = float(floats[i, W.F_FOG])
+        radiance[i] = t_fog * carried + (1.0 - t_fog) * fog_color if fog_on else carried
+
+    nodes = []
+    for i in range(n):
+        kind = RayKind(int(ints[i, W.I_KIND]))
+        hit = None
+        if ints[i, W.I_HIT]:
+            obj = int(ints[i, W.I_OBJ])
+            hit = {
+                "point": _vec(vecs[i, W.V_POINT]),
+                "normal": _vec(vecs[i, W.V_NORMAL]),
+                "object": obj,
+                "object_name": cs.object_names[obj],
+                "material": cs.material_names[int(ints[i, W.I_MAT])],
+                "front_face": bool(ints[i, W.I_FRONT]),
+            }
+        shadow = kind == RayKind.SHADOW
+        end = End(int(ints[i, W.I_END]))
+        parent = int(ints[i, W.I_PARENT])
+        nodes.append({
+            "id": i,
+            "parent": parent if parent >= 0 else None,
+            "kind": kind.name.lower(),
+            "depth": int(ints[i, W.I_DEPTH]),
+            "origin": _vec(vecs[i, W.V_ORIGIN]),
+            "direction": _vec(vecs[i, W.V_DIR]),
+            "t": float(floats[i, W.F_T]) if hit else None,
+            "hit": hit,
+            "weight": _vec(vecs[i, W.V_WEIGHT]),
+            "k": _vec(vecs[i, W.V_K]),
+            "radiance": _vec(radiance[i]),
+            "terms": None if shadow or not hit else {
+                "ambient": _vec(vecs[i, W.V_AMBIENT]),
+                "diffuse": _vec(vecs[i, W.V_DIFFUSE]),
+                "specular": _vec(vecs[i, W.V_SPECULAR]),
+                "emission": _vec(vecs[i, W.V_EMISSION]),
+            },
+            "fog_transmittance": float(floats[i, W.F_FOG]) if fog_on and not shadow else None,
+            "light": int(ints[i, W.I_LIGHT]) if shadow else None,
+            "occluded": bool(ints[i, W.I_OCCLUDED]) if shadow else None,
+            "end": None if end == End.NONE else end.name.lower(),
+        })
+    color = out.numpy()[0]
+    return {
+        "pixel": [x, y],
+        "sample": sample,
+        "color": _vec(color),
+        "nodes": nodes,
+        "truncated": count > cap,
+    }

@@ -1,0 +1,1036 @@
+"""Scene format version 1: pydantic models, loading, validation and the JSON Schema.
+
+The contract is SCENE_FORMAT.md; the models below are its executable form, and every field's
+description (meaning and unit) is published in the JSON Schema the web editor uses.
+Validation works in three steps, each reporting at the offending field's own JSON path:
+
+1. the models: types, ranges, unknown keys (`extra="forbid"`), and checks between fields of one
+   model (degenerate quads, lookfrom == lookat, ...), raised with explicit locations;
+2. `_translate`: pydantic's error location -> JSON path (`objects[3].radius`, union tags dropped)
+   and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
+3. `_warnings`: settings that have no effect, found from `model_fields_set`.
+
+Service limits (`Limits`) and the set of material names reach the validators through pydantic's
+validation context, so an undefined material is reported even when other parts are invalid.
+"""
+
+import dataclasses
+import difflib
+import json
+import math
+import posixpath
+import re
+from pathlib import Path
+from types import UnionType
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
+
+from annotated_types import Ge
+from pydantic import (
+    AfterValidator,
+    AllowInfNan,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Strict,
+    Tag,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Service limits; a value past one is an error at its JSON path."""
+
+    max_width: int = 8192
+    max_height: int = 8192
+    max_pixels: int = 16_777_216
+    max_spp: int = 65536
+    max_depth: int = 64
+    max_light_samples: int = 1024
+    max_primitives: int = 5_000_000
+
+
+class SceneError(Exception):
+    """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...}."""
+
+    def __init__(self, errors: list[dict[str, str]]):
+        self.errors = list(errors)
+        super().__init__(
+            "\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors)
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# Value types. Numbers are strict (no "1.5" strings, no booleans) and finite.
+
+
+def _show(value: Any) -> str:
+    """A short JSON rendering of a bad input for an error message."""
+    try:
+        text = json.dumps(value, allow_nan=True)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _error(message: str) -> PydanticCustomError:
+    return PydanticCustomError("scene", "{message}", {"message": message})
+
+
+def _raise_at(errors: list[tuple[tuple, str]]) -> None:
+    """Raise errors at explicit locations relative to the model being validated."""
+    if errors:
+        details = [InitErrorDetails(type=_error(msg), loc=loc, input=None) for loc, msg in errors]
+        raise ValidationError.from_exception_data("Scene", details)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _finite(v: float) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an int too large for a float
+        return False
+
+
+FINITE = "must be a finite number (not NaN or Infinity)"
+
+
+def _triple(expected: str, scalar=None):
+    """Before-validator: accept a list of three (and, with `scalar`, one number -> scalar(v))."""
+
+    def check(v: Any) -> Any:
+        if isinstance(v, list | tuple) and len(v) == 3:
+            return v
+        if scalar is not None and _is_number(v):
+            if not _finite(v):
+                raise _error(FINITE)
+            return scalar(v)
+        raise _error(f"expected {expected}, got {_show(v)}")
+
+    return check
+
+
+def _grey(v: float) -> tuple[float, float, float]:
+    if v < 0:
+        raise _error("must be >= 0")
+    return (float(v),) * 3
+
+
+def _uniform_scale(v: float) -> tuple[float, float, float]:
+    if v == 0:
+        raise _error("must not be zero")
+    return (float(v),) * 3
+
+
+def _nonzero(v: float) -> float:
+    if v == 0:
+        raise _error("must not be zero")
+    return v
+
+
+def _nonzero_length(v: tuple[float, float, float]) -> tuple[float, float, float]:
+    if _length(v) == 0:
+        raise _error("must not be a zero-length vector")
+    return v
+
+
+def _not_all_zero(v: tuple[float, float, float]) -> tuple[float, float, float]:
+    if not any(v):
+        raise _error("must not be all zero: f_att = 1 / (c1 + c2 d + c3 d^2)")
+    return v
+
+
+def _pair(v: Any) -> Any:
+    if isinstance(v, list | tuple) and len(v) == 2:
+        return v
+    raise _error(f"expected a pair [a, b], got {_show(v)}")
+
+
+def _asset_file(v: str) -> str:
+    """A file never reaches outside the asset folder (existence is checked by `resolve_asset`)."""
+    if v.startswith("data:"):
+        return v
+    posix = v.replace("\\", "/")
+    if not posix:
+        raise _error("must not be empty")
+    if posix.startswith("/") or re.match(r"[A-Za-z]:", posix):
+        raise _error("must be a path relative to the asset folder, not an absolute path")
+    if posixpath.normpath(posix).split("/")[0] == "..":
+        raise _error("must not reach outside the asset folder ('..')")
+    return v
+
+
+Num = Annotated[float, Strict(), AllowInfNan(False)]
+Int = Annotated[int, Strict()]
+Bool = Annotated[bool, Strict()]
+Str = Annotated[str, Strict()]
+NonNeg = Annotated[Num, Ge(0)]
+Vec3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a point [x, y, z]"))]
+Dir3 = Annotated[
+    tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)
+]
+RGB = Annotated[
+    tuple[NonNeg, NonNeg, NonNeg],
+    BeforeValidator(
+        _triple("an RGB triple [r, g, b] or a single number", _grey),
+        json_schema_input_type=Union[NonNeg, tuple[NonNeg, NonNeg, NonNeg]],  # noqa: UP007
+    ),
+]
+Attenuation = Annotated[
+    tuple[NonNeg, NonNeg, NonNeg], BeforeValidator(_triple("[c1, c2, c3]")), AfterValidator(_not_all_zero)
+]
+NonZero = Annotated[Num, AfterValidator(_nonzero)]
+Scale3 = Annotated[
+    tuple[NonZero, NonZero, NonZero],
+    BeforeValidator(
+        _triple("a scale factor or [sx, sy, sz]", _uniform_scale),
+        json_schema_input_type=Union[Num, tuple[Num, Num, Num]],  # noqa: UP007
+    ),
+]
+Pair = Annotated[tuple[Num, Num], BeforeValidator(_pair)]
+Face = Annotated[tuple[Int, Int, Int], BeforeValidator(_triple("a face [i, j, k] of three vertex indices"))]
+AssetFile = Annotated[Str, AfterValidator(_asset_file)]
+
+
+def _length(v) -> float:
+    return math.sqrt(sum(c * c for c in v))
+
+
+def _sub(a, b) -> tuple[float, float, float]:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _parallel(a, b, eps: float = 1e-9) -> bool:
+    """True when a and b are parallel (|a x b| tiny relative to |a| |b|)."""
+    cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    return _length(cross) <= eps * _length(a) * _length(b)
+
+
+def _limits(info: ValidationInfo) -> Limits:
+    return (info.context or {}).get("limits") or Limits()
+
+
+def _limit(n: int) -> str:
+    return f"must be at most {n} (service limit)"
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# ---------------------------------------------------------------------------------------------
+# Camera, film, sampler, render settings, fog.
+
+
+class Camera(_Model):
+    """Pinhole or thin-lens camera; the lens and shutter make depth of field and motion blur."""
+
+    lookfrom: Vec3 = Field(description="Eye position (world units).")
+    lookat: Vec3 = Field(description="Point the camera looks at (world units).")
+    vup: Dir3 = Field((0.0, 1.0, 0.0), description="World 'up' direction; fixes the roll of the camera.")
+    vfov: Num = Field(40.0, gt=0, lt=180, description="FULL vertical field of view (degrees).")
+    lens_radius: Num = Field(0.0, ge=0, description="Thin-lens aperture radius (world units); 0 = pinhole.")
+    focus_distance: Num | None = Field(
+        None, gt=0, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
+    )
+    shutter: Pair = Field(
+        (0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0)."
+    )
+
+    @model_validator(mode="after")
+    def _check_view(self) -> "Camera":
+        errors = []
+        forward = _sub(self.lookat, self.lookfrom)
+        if _length(forward) == 0:
+            errors.append((("lookat",), "must differ from lookfrom (no view direction)"))
+        elif _parallel(forward, self.vup):
+            errors.append((("vup",), "must not be parallel to the view direction (lookat - lookfrom)"))
+        if self.shutter[1] < self.shutter[0]:
+            errors.append((("shutter",), "close time must be >= open time"))
+        _raise_at(errors)
+        return self
+
+
+FILTER_RADIUS = {"box": 0.5, "tent": 1.0, "gaussian": 1.5, "mitchell": 2.0}
+
+
+class Filter(_Model):
+    """Pixel reconstruction filter."""
+
+    type: Literal["box", "tent", "gaussian", "mitchell"] = Field("box", description="Filter shape.")
+    radius: Num | None = Field(
+        None,
+        gt=0,
+        description="Filter radius (pixels); null = the type's default: "
+        "box 0.5, tent 1, gaussian 1.5, mitchell 2.",
+    )
+
+    @model_validator(mode="after")
+    def _default_radius(self) -> "Filter":
+        if self.radius is None:  # filled in without marking the field as set by the user
+            object.__setattr__(self, "radius", FILTER_RADIUS[self.type])
+        return self
+
+
+class Film(_Model):
+    """The image: resolution, reconstruction filter, exposure."""
+
+    width: Int = Field(256, ge=1, description="Image width (pixels).")
+    height: Int = Field(256, ge=1, description="Image height (pixels).")
+    filter: Filter = Field(default_factory=Filter, description="Reconstruction filter.")
+    exposure: Num = Field(0.0, description="Exposure (stops); the PNG stores sRGB(clamp(2^exposure L)).")
+
+    @model_validator(mode="after")
+    def _check_limits(self, info: ValidationInfo) -> "Film":
+        limits, errors = _limits(info), []
+        if self.width > limits.max_width:
+            errors.append((("width",), _limit(limits.max_width)))
+        if self.height > limits.max_height:
+            errors.append((("height",), _limit(limits.max_height)))
+        if not errors and self.width * self.height > limits.max_pixels:
+            pixels = self.width * self.height
+            errors.append((("height",), f"width x height = {pixels} pixels; {_limit(limits.max_pixels)}"))
+        _raise_at(errors)
+        return self
+
+
+class Sampler(_Model):
+    """Where in each pixel the samples go (and, for adaptive, how many)."""
+
+    type: Literal["center", "grid", "random", "jittered", "adaptive"] = Field(
+        "jittered", description="Sample pattern in the pixel."
+    )
+    spp: Int | None = Field(
+        None,
+        ge=1,
+        description="Samples per pixel; null = 1 for center, 16 otherwise. "
+        "center: exactly 1; grid, jittered: a perfect square.",
+    )
+    threshold: Num = Field(
+        0.05, ge=0, description="adaptive: largest colour difference of a cell still called uniform."
+    )
+    max_level: Int = Field(3, ge=0, le=8, description="adaptive: subdivision limit (levels).")
+    jitter: Bool = Field(False, description="adaptive: random sample positions inside the cells.")
+
+    @model_validator(mode="after")
+    def _check_spp(self, info: ValidationInfo) -> "Sampler":
+        if self.spp is None:
+            object.__setattr__(self, "spp", 1 if self.type == "center" else 16)
+        spp, limits, errors = self.spp, _limits(info), []
+        root = math.isqrt(spp)
+        if self.type == "center" and spp != 1:
+            errors.append((("spp",), "must be 1 for the center sampler"))
+        elif self.type in ("grid", "jittered") and root * root != spp:
+            nearest = f"{root * root} or {(root + 1) ** 2}"
+            errors.append(
+                (("spp",), f"must be a perfect square for the {self.type} sampler (e.g. {nearest})")
+            )
+        elif spp > limits.max_spp:
+            errors.append((("spp",), _limit(limits.max_spp)))
+        _raise_at(errors)
+        return self
+
+
+class RenderSettings(_Model):
+    """Which integrator, and where the ray tree stops."""
+
+    integrator: Literal["whitted", "path", "radiosity"] = Field(
+        "whitted", description="Light transport method."
+    )
+    max_depth: Int = Field(
+        5, ge=1, le=64, description="Bounces of light on the way to the eye; 1 = ray casting with shadows."
+    )
+    min_weight: Num = Field(
+        0.001, ge=0, description="Stop a branch once its weight (product of K's) falls below this."
+    )
+    light_samples: Int = Field(1, ge=1, description="Shadow rays per area light per shading point.")
+    seed: Int = Field(0, ge=0, lt=2**31, description="Random seed; same scene and seed give the same image.")
+
+    @model_validator(mode="after")
+    def _check_limits(self, info: ValidationInfo) -> "RenderSettings":
+        limits, errors = _limits(info), []
+        if self.max_depth > limits.max_depth:
+            errors.append((("max_depth",), _limit(limits.max_depth)))
+        if self.light_samples > limits.max_light_samples:
+            errors.append((("light_samples",), _limit(limits.max_light_samples)))
+        _raise_at(errors)
+        return self
+
+
+class Fog(_Model):
+    """Fog on eye, reflection and transmission rays: e^(-density t) L + (1 - e^(-density t)) color."""
+
+    density: Num = Field(0.0, ge=0, description="Extinction coefficient (1 / world unit); 0 = no fog.")
+    color: RGB = Field((0.5, 0.5, 0.5), description="Fog radiance (linear RGB).")
+
+
+# ---------------------------------------------------------------------------------------------
+# Materials (Phong, as in the lecture).
+
+
+class CheckerTexture(_Model):
+    """Solid 3D checker: color1 where floor(x/size) + floor(y/size) + floor(z/size) is even."""
+
+    type: Literal["checker"] = Field(description="Texture type.")
+    size: Num = Field(1.0, gt=0, description="Cell size (world units).")
+    color1: RGB = Field((0.8, 0.8, 0.8), description="Colour of the even cells (linear RGB).")
+    color2: RGB = Field((0.2, 0.2, 0.2), description="Colour of the odd cells (linear RGB).")
+
+
+class ImageTexture(_Model):
+    """An image looked up at the surface's (u, v)."""
+
+    type: Literal["image"] = Field(description="Texture type.")
+    file: AssetFile = Field(description="Image file in the asset folder, or a data: URI.")
+    scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
+
+
+class NoiseBump(_Model):
+    """Bump mapping by a solid noise function."""
+
+    type: Literal["noise"] = Field(description="Bump type.")
+    scale: Num = Field(1.0, gt=0, description="Feature size of the noise (world units).")
+    strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
+
+
+class ImageBump(_Model):
+    """Bump mapping by a height image looked up at the surface's (u, v)."""
+
+    type: Literal["image"] = Field(description="Bump type.")
+    file: AssetFile = Field(description="Height image in the asset folder, or a data: URI.")
+    strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
+    scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
+
+
+Texture = Annotated[CheckerTexture | ImageTexture, Field(discriminator="type")]
+Bump = Annotated[NoiseBump | ImageBump, Field(discriminator="type")]
+
+
+class Material(_Model):
+    """Phong material with reflection and transmission rays; coefficients are linear RGB."""
+
+    kd: RGB = Field((0.5, 0.5, 0.5), description="Diffuse reflectance (albedo).")
+    ka: RGB | None = Field(
+        None,
+        description="Ambient coefficient, times the scene's ambient (whitted); null = kd after texturing.",
+    )
+    ks: RGB = Field((0.0, 0.0, 0.0), description="Specular coefficient of the Phong highlight.")
+    shininess: Num = Field(32.0, ge=0, description="Phong exponent n of the highlight.")
+    kr: RGB = Field((0.0, 0.0, 0.0), description="Weight of the reflection ray.")
+    kt: RGB = Field((0.0, 0.0, 0.0), description="Weight of the transmission (refraction) ray.")
+    ior: Num = Field(1.5, gt=0, description="Index of refraction inside the surface (outside is 1).")
+    fresnel: Bool = Field(
+        False,
+        description="Scale reflection and transmission weights by the dielectric Fresnel terms R, 1 - R.",
+    )
+    gloss: Num | None = Field(
+        None,
+        gt=0,
+        description="null: perfect mirror/refraction rays; "
+        "m: directions spread in a cos^m lobe (glossy reflection, frosted glass).",
+    )
+    emission: RGB = Field((0.0, 0.0, 0.0), description="Emitted radiance (W / (m^2 sr)).")
+    texture: Texture | None = Field(None, description="Replaces kd: a checker or an image texture.")
+    bump: Bump | None = Field(None, description="Perturbs the shading normal: noise or a height image.")
+
+
+def _material_kind(v: Any) -> str | None:
+    return "name" if isinstance(v, str) else "inline" if isinstance(v, dict | Material) else None
+
+
+MaterialRef = Annotated[
+    Annotated[str, Tag("name")] | Annotated[Material, Tag("inline")],
+    Discriminator(
+        _material_kind,
+        custom_error_type="scene",
+        custom_error_message="expected a material name (a key of 'materials') or an inline material object",
+    ),
+]
+
+
+# ---------------------------------------------------------------------------------------------
+# Lights.
+
+
+class PointLight(_Model):
+    """Point light, invisible to rays."""
+
+    type: Literal["point"] = Field(description="Light type.")
+    position: Vec3 = Field(description="Position (world units).")
+    intensity: RGB = Field((1.0, 1.0, 1.0), description="Radiant intensity (W/sr).")
+    attenuation: Attenuation = Field(
+        (0.0, 0.0, 1.0),
+        description="[c1, c2, c3] of f_att = 1 / (c1 + c2 d + c3 d^2); default inverse square.",
+    )
+
+
+class DirectionalLight(_Model):
+    """Distant light from one direction, invisible to rays."""
+
+    type: Literal["directional"] = Field(description="Light type.")
+    direction: Dir3 = Field(description="The way the light travels (need not be normalised).")
+    irradiance: RGB = Field((1.0, 1.0, 1.0), description="Irradiance at normal incidence (W/m^2).")
+
+
+class SpotLight(_Model):
+    """Point light restricted to a cone, invisible to rays."""
+
+    type: Literal["spot"] = Field(description="Light type.")
+    position: Vec3 = Field(description="Position (world units).")
+    direction: Dir3 = Field(description="Axis of the cone, the way the light travels.")
+    intensity: RGB = Field((1.0, 1.0, 1.0), description="Radiant intensity on the axis (W/sr).")
+    cutoff: Num = Field(gt=0, le=180, description="Half-angle of the cone (degrees).")
+    falloff: Num = Field(0.0, ge=0, description="Exponent of (cos psi)^falloff inside the cone.")
+    attenuation: Attenuation = Field(
+        (0.0, 0.0, 1.0),
+        description="[c1, c2, c3] of f_att = 1 / (c1 + c2 d + c3 d^2); default inverse square.",
+    )
+
+
+class QuadLight(_Model):
+    """Parallelogram area light; emits on the side of normalize(edge1 x edge2)."""
+
+    type: Literal["quad"] = Field(description="Light type.")
+    corner: Vec3 = Field(description="One corner (world units).")
+    edge1: Dir3 = Field(description="First edge from the corner (world units).")
+    edge2: Dir3 = Field(description="Second edge from the corner (world units).")
+    radiance: RGB = Field((1.0, 1.0, 1.0), description="Emitted radiance (W / (m^2 sr)).")
+
+    @model_validator(mode="after")
+    def _check_edges(self) -> "QuadLight":
+        if _parallel(self.edge1, self.edge2):
+            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
+        return self
+
+
+class DiskLight(_Model):
+    """Disk area light; emits on the side of `normal`."""
+
+    type: Literal["disk"] = Field(description="Light type.")
+    center: Vec3 = Field(description="Centre (world units).")
+    normal: Dir3 = Field(description="Normal; the disk emits on this side.")
+    radius: Num = Field(gt=0, description="Radius (world units).")
+    radiance: RGB = Field((1.0, 1.0, 1.0), description="Emitted radiance (W / (m^2 sr)).")
+
+
+class SphereLight(_Model):
+    """Spherical area light; emits outwards."""
+
+    type: Literal["sphere"] = Field(description="Light type.")
+    center: Vec3 = Field(description="Centre (world units).")
+    radius: Num = Field(gt=0, description="Radius (world units).")
+    radiance: RGB = Field((1.0, 1.0, 1.0), description="Emitted radiance (W / (m^2 sr)).")
+
+
+Light = Annotated[
+    PointLight | DirectionalLight | SpotLight | QuadLight | DiskLight | SphereLight,
+    Field(discriminator="type"),
+]
+AREA_LIGHTS = (QuadLight, DiskLight, SphereLight)
+
+
+# ---------------------------------------------------------------------------------------------
+# Objects.
+
+
+class Transform(_Model):
+    """Applied scale, then rotate (about X, then Y, then Z), then translate."""
+
+    translate: Vec3 = Field((0.0, 0.0, 0.0), description="Translation (world units).")
+    rotate: Vec3 = Field((0.0, 0.0, 0.0), description="Rotations about X, Y, Z (degrees).")
+    scale: Scale3 = Field((1.0, 1.0, 1.0), description="Scale factor, or [sx, sy, sz]; non-zero.")
+
+
+class _Object(_Model):
+    type: str = Field(description="Object type.")
+    material: MaterialRef = Field(description="A material name from 'materials', or an inline material.")
+    name: Str | None = Field(None, description="Name shown in the ray tree.")
+    velocity: Vec3 = Field(
+        (0.0, 0.0, 0.0),
+        description="World units per unit time; at ray time T the object is at p + velocity T.",
+    )
+
+    @field_validator("material")
+    @classmethod
+    def _known_material(cls, v: Any, info: ValidationInfo) -> Any:
+        names = (info.context or {}).get("material_names")
+        if isinstance(v, str) and names is not None and v not in names:
+            raise _error(_unknown_material(v, names))
+        return v
+
+
+def _unknown_material(name: str, names) -> str:
+    close = difflib.get_close_matches(name, sorted(names), n=1)
+    hint = f"; did you mean '{close[0]}'?" if close else f" (defined: {', '.join(sorted(names)) or 'none'})"
+    return f"material '{name}' is not defined in 'materials'{hint}"
+
+
+class Sphere(_Object):
+    """Sphere; geometric normal outwards."""
+
+    type: Literal["sphere"] = Field(description="Object type.")
+    center: Vec3 = Field(description="Centre (world units).")
+    radius: Num = Field(gt=0, description="Radius (world units).")
+
+
+class Plane(_Object):
+    """Infinite two-sided plane."""
+
+    type: Literal["plane"] = Field(description="Object type.")
+    point: Vec3 = Field(description="A point on the plane (world units).")
+    normal: Dir3 = Field(description="Geometric normal.")
+
+
+class Quad(_Object):
+    """Parallelogram corner + s edge1 + t edge2, s, t in [0, 1]; normal normalize(edge1 x edge2)."""
+
+    type: Literal["quad"] = Field(description="Object type.")
+    corner: Vec3 = Field(description="One corner (world units).")
+    edge1: Dir3 = Field(description="First edge from the corner (world units).")
+    edge2: Dir3 = Field(description="Second edge from the corner (world units).")
+
+    @model_validator(mode="after")
+    def _check_edges(self) -> "Quad":
+        if _parallel(self.edge1, self.edge2):
+            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
+        return self
+
+
+class Disk(_Object):
+    """Flat disk, two-sided."""
+
+    type: Literal["disk"] = Field(description="Object type.")
+    center: Vec3 = Field(description="Centre (world units).")
+    normal: Dir3 = Field(description="Geometric normal.")
+    radius: Num = Field(gt=0, description="Radius (world units).")
+
+
+class Box(_Object):
+    """Axis-aligned box [min, max], optionally transformed; normals outwards."""
+
+    type: Literal["box"] = Field(description="Object type.")
+    min: Vec3 = Field(description="Minimum corner (world units, before the transform).")
+    max: Vec3 = Field(description="Maximum corner (world units, before the transform).")
+    transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the box.")
+
+    @model_validator(mode="after")
+    def _check_extent(self) -> "Box":
+        _raise_at(
+            [
+                (("max", axis), f"must be greater than min[{axis}] = {self.min[axis]:g}")
+                for axis in range(3)
+                if self.max[axis] <= self.min[axis]
+            ]
+        )
+        return self
+
+
+class Triangle(_Object):
+    """One triangle; geometric normal normalize((v1 - v0) x (v2 - v0))."""
+
+    type: Literal["triangle"] = Field(description="Object type.")
+    vertices: Annotated[
+        tuple[Vec3, Vec3, Vec3], BeforeValidator(_triple("three vertices [[x, y, z], [x, y, z], [x, y, z]]"))
+    ] = Field(description="The three vertices v0, v1, v2 (world units).")
+
+    @model_validator(mode="after")
+    def _check_area(self) -> "Triangle":
+        v0, v1, v2 = self.vertices
+        if _parallel(_sub(v1, v0), _sub(v2, v0)):
+            _raise_at([(("vertices",), "the three vertices are collinear (degenerate triangle)")])
+        return self
+
+
+class Mesh(_Object):
+    """Triangle mesh: inline vertices + faces, or a file (OBJ/PLY/glTF) from the asset folder."""
+
+    type: Literal["mesh"] = Field(description="Object type.")
+    vertices: list[Vec3] | None = Field(
+        None, min_length=1, description="Inline vertex positions (world units)."
+    )
+    faces: list[Face] | None = Field(
+        None,
+        min_length=1,
+        description="Inline triangles as vertex indices [i, j, k] (0-based, counter-clockwise).",
+    )
+    file: AssetFile | None = Field(None, description="Mesh file in the asset folder, or a data: URI.")
+    transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the mesh.")
+    smooth: Bool = Field(False, description="Interpolate vertex normals (smooth shading).")
+
+    @model_validator(mode="after")
+    def _check_source(self) -> "Mesh":
+        errors = []
+        if self.file is not None:
+            if self.vertices is not None or self.faces is not None:
+                errors.append((("file",), "give either 'file' or inline 'vertices' + 'faces', not both"))
+        else:
+            for field in ("vertices", "faces"):
+                if getattr(self, field) is None:
+                    errors.append(((field,), f"required field '{field}' is missing (or give a 'file')"))
+        if self.vertices is not None and self.faces is not None:
+            n, bad = len(self.vertices), []
+            for k, face in enumerate(self.faces):
+                bad += [(k, j, i) for j, i in enumerate(face) if not 0 <= i < n]
+            for k, j, i in bad[:10]:
+                errors.append(
+                    (("faces", k, j), f"vertex index {i} is out of range (the mesh has {n} vertices)")
+                )
+            if len(bad) > 10:
+                errors.append((("faces",), f"{len(bad) - 10} more vertex indices are out of range"))
+        _raise_at(errors)
+        return self
+
+
+Object = Annotated[Sphere | Plane | Quad | Disk | Box | Triangle | Mesh, Field(discriminator="type")]
+
+
+def primitive_count(objects: list) -> int:
+    """Primitives the renderer will build: a box is 12 triangles, an inline mesh its faces.
+
+    Meshes from files are not counted here (their size is known when the file is read)."""
+    return sum(
+        len(o.faces or ()) if isinstance(o, Mesh) else 12 if isinstance(o, Box) else 1 for o in objects
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# The scene.
+
+
+def _version(v: Any) -> Any:
+    if _is_number(v) and v == 1:
+        return 1
+    raise _error(f"unsupported scene version {_show(v)}; this tracer reads version 1")
+
+
+class Scene(_Model):
+    """A scene, format version 1 (see SCENE_FORMAT.md)."""
+
+    version: Annotated[Literal[1], BeforeValidator(_version)] = Field(1, description="Scene format version.")
+    name: Str | None = Field(None, description="Free text: the scene's title.")
+    description: Str | None = Field(None, description="Free text: what the scene shows (an addition to v1).")
+    camera: Camera = Field(description="The camera.")
+    film: Film = Field(default_factory=Film, description="Image size, filter, exposure.")
+    sampler: Sampler = Field(default_factory=Sampler, description="Pixel sampling.")
+    render: RenderSettings = Field(
+        default_factory=RenderSettings, description="Integrator and ray-tree limits."
+    )
+    background: RGB = Field((0.0, 0.0, 0.0), description="Radiance of rays that leave the scene.")
+    ambient: RGB = Field((0.0, 0.0, 0.0), description="Ambient light I_a of the ka term (whitted only).")
+    fog: Fog = Field(default_factory=Fog, description="Homogeneous fog.")
+    materials: dict[str, Material] = Field(default_factory=dict, description="Named materials.")
+    lights: list[Light] = Field(default_factory=list, description="Light sources.")
+    objects: list[Object] = Field(default_factory=list, description="Surfaces.")
+
+    @model_validator(mode="after")
+    def _check_scene(self, info: ValidationInfo) -> "Scene":
+        errors = [
+            (("objects", i, "material"), _unknown_material(o.material, self.materials))
+            for i, o in enumerate(self.objects)
+            if isinstance(o.material, str) and o.material not in self.materials
+        ]
+        limits = _limits(info)
+        if primitive_count(self.objects) > limits.max_primitives:
+            count = primitive_count(self.objects)
+            errors.append((("objects",), f"{count} primitives; {_limit(limits.max_primitives)}"))
+        _raise_at(errors)
+        return self
+
+    def material_for(self, obj: _Object) -> Material:
+        """The object's material: its inline one, or the named one from `materials`."""
+        return obj.material if isinstance(obj.material, Material) else self.materials[obj.material]
+
+
+# ---------------------------------------------------------------------------------------------
+# Pydantic errors -> {path, message}.
+
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
+_UNION_NOUN = {"objects": "object", "lights": "light", "texture": "texture", "bump": "bump"}
+
+
+def json_path(parts) -> str:
+    """('objects', 3, 'radius') -> 'objects[3].radius'; keys that are not names are quoted."""
+    out = ""
+    for part in parts:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        elif _IDENT.match(part):
+            out += f".{part}" if out else part
+        else:
+            out += f"[{json.dumps(part)}]"
+    return out
+
+
+def _unwrap(tp: Any) -> Any:
+    """Strip Annotated[...] and Optional[...] from a type."""
+    while True:
+        if get_origin(tp) is Annotated:
+            tp = get_args(tp)[0]
+        elif get_origin(tp) in (Union, UnionType) and type(None) in get_args(tp):
+            rest = [a for a in get_args(tp) if a is not type(None)]
+            if len(rest) != 1:
+                return tp
+            tp = rest[0]
+        else:
+            return tp
+
+
+def _union_tags(tp: Any) -> dict[str, Any]:
+    """tag -> member type of a tagged union (by Tag(...) or by the member's `type` literal)."""
+    if get_origin(tp) not in (Union, UnionType):
+        return {}
+    tags = {}
+    for member in get_args(tp):
+        meta = get_args(member)[1:] if get_origin(member) is Annotated else ()
+        tag = next((m.tag for m in meta if isinstance(m, Tag)), None)
+        inner = _unwrap(member)
+        if (
+            tag is None
+            and isinstance(inner, type)
+            and issubclass(inner, BaseModel)
+            and "type" in inner.model_fields
+        ):
+            tag = get_args(inner.model_fields["type"].annotation)[0]
+        if tag is not None:
+            tags[tag] = inner
+    return tags
+
+
+def _walk(loc: tuple) -> tuple[list, Any]:
+    """Follow a pydantic loc through the model types: (JSON path parts without union tags, type there)."""
+    tp, parts = Scene, []
+    for item in loc:
+        tp = _unwrap(tp)
+        tags = _union_tags(tp)
+        if tags and item in tags:
+            tp = tags[item]
+            continue
+        parts.append(item)
+        origin, args = get_origin(tp), get_args(tp)
+        if isinstance(tp, type) and issubclass(tp, BaseModel) and item in tp.model_fields:
+            tp = tp.model_fields[item].annotation
+        elif origin is dict and args:
+            tp = args[1]
+        elif origin is list and args:
+            tp = args[0]
+        elif origin is tuple and args and isinstance(item, int):
+            tp = args[min(item, len(args) - 1)]
+        else:
+            tp = None
+    return parts, _unwrap(tp)
+
+
+def _num(x: Any) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def _suggest(word: Any, choices: list[str]) -> str:
+    close = difflib.get_close_matches(str(word), choices, n=1)
+    return f"; did you mean '{close[0]}'?" if close else ""
+
+
+_MESSAGES = {
+    "float_type": "expected a number, got {input}",
+    "int_type": "expected an integer, got {input}",
+    "bool_type": "expected true or false, got {input}",
+    "string_type": "expected a string, got {input}",
+    "finite_number": FINITE,
+    "list_type": "expected a list [...], got {input}",
+    "tuple_type": "expected a list [...], got {input}",
+    "dict_type": "expected a JSON object {{...}}, got {input}",
+    "model_type": "expected a JSON object {{...}}, got {input}",
+    "model_attributes_type": "expected a JSON object {{...}}, got {input}",
+    "greater_than": "must be > {gt}",
+    "greater_than_equal": "must be >= {ge}",
+    "less_than": "must be < {lt}",
+    "less_than_equal": "must be <= {le}",
+    "too_short": "must have at least {min_length} item(s)",
+    "too_long": "must have at most {max_length} item(s)",
+}
+
+
+def _translate(err: dict) -> dict[str, str]:
+    """One pydantic error -> {"path", "message"} at the offending field's own path."""
+    kind, loc, ctx = err["type"], tuple(err["loc"]), err.get("ctx") or {}
+    parts, tp = _walk(loc)
+    if kind == "scene":
+        message = ctx.get("message", err["msg"])
+    elif kind == "missing":
+        message = f"required field '{loc[-1]}' is missing"
+    elif kind == "extra_forbidden":
+        _, owner = _walk(loc[:-1])
+        fields = list(owner.model_fields) if isinstance(owner, type) and issubclass(owner, BaseModel) else []
+        hint = _suggest(loc[-1], fields) or (f" (allowed: {', '.join(fields)})" if fields else "")
+        message = f"unknown field '{loc[-1]}'{hint}"
+    elif kind in ("union_tag_invalid", "union_tag_not_found"):
+        tags = list(_union_tags(tp))
+        noun = next((_UNION_NOUN[p] for p in reversed(parts) if p in _UNION_NOUN), "")
+        allowed = f"one of: {', '.join(tags)}"
+        if kind == "union_tag_invalid":
+            tag = err["input"].get("type") if isinstance(err.get("input"), dict) else ctx.get("tag")
+            shown = f"'{tag}'" if isinstance(tag, str) else _show(tag)
+            message = f"unknown {noun} type {shown}; expected {allowed}{_suggest(tag, tags)}"
+        else:
+            message = f"required field 'type' is missing ({allowed})"
+        parts = [*parts, "type"]
+    elif kind == "literal_error":
+        choices = [str(c) for c in get_args(tp)] if get_origin(tp) is Literal else []
+        given = err.get("input")
+        message = f"expected one of: {', '.join(choices)}; got {_show(given)}{_suggest(given, choices)}"
+    elif kind in _MESSAGES:
+        values = {k: _num(v) for k, v in ctx.items()}
+        message = _MESSAGES[kind].format(input=_show(err.get("input")), **values)
+    else:
+        message = err["msg"]
+    return {"path": json_path(parts), "message": message}
+
+
+# ---------------------------------------------------------------------------------------------
+# Warnings: settings that have no effect.
+
+
+def _material_warnings(m: Material, at: list, warn) -> None:
+    opaque = not any(m.kt)
+    if "ior" in m.model_fields_set and opaque:
+        warn([*at, "ior"], "has no effect: the material is opaque (kt = 0)")
+    if m.fresnel and opaque and not any(m.kr):
+        warn([*at, "fresnel"], "has no effect: the material neither reflects nor transmits (kr = kt = 0)")
+    if m.gloss is not None and opaque and not any(m.kr):
+        warn([*at, "gloss"], "has no effect: the material neither reflects nor transmits (kr = kt = 0)")
+    if max(m.kd) > 1:
+        warn([*at, "kd"], "a component > 1 reflects more light than arrives (not energy conserving)")
+
+
+def _warnings(scene: Scene) -> list[dict[str, str]]:
+    out: list[dict[str, str]] = []
+
+    def warn(parts: list, message: str) -> None:
+        out.append({"path": json_path(parts), "message": message})
+
+    camera, sampler, render = scene.camera, scene.sampler, scene.render
+    if "shutter" in camera.model_fields_set and not any(any(o.velocity) for o in scene.objects):
+        warn(["camera", "shutter"], "has no effect: nothing moves (no object has a non-zero velocity)")
+    if camera.focus_distance is not None and camera.lens_radius == 0:
+        warn(["camera", "focus_distance"], "has no effect with a pinhole camera (lens_radius = 0)")
+    if sampler.type != "adaptive":
+        for field in ("threshold", "max_level", "jitter"):
+            if field in sampler.model_fields_set:
+                warn(
+                    ["sampler", field],
+                    f"has no effect: only the adaptive sampler uses it (type is {sampler.type})",
+                )
+    if render.light_samples > 1 and not any(isinstance(light, AREA_LIGHTS) for light in scene.lights):
+        warn(["render", "light_samples"], "has no effect: the scene has no area light (quad, disk, sphere)")
+    if "color" in scene.fog.model_fields_set and scene.fog.density == 0:
+        warn(["fog", "color"], "has no effect: fog density is 0")
+    for name, material in scene.materials.items():
+        _material_warnings(material, ["materials", name], warn)
+    for i, obj in enumerate(scene.objects):
+        if isinstance(obj.material, Material):
+            _material_warnings(obj.material, ["objects", i, "material"], warn)
+    for i, light in enumerate(scene.lights):
+        power = "intensity" if isinstance(light, PointLight | SpotLight) else None
+        power = power or ("irradiance" if isinstance(light, DirectionalLight) else "radiance")
+        if not any(getattr(light, power)):
+            warn(["lights", i, power], "is zero: this light contributes nothing")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Public entry points.
+
+
+def _parse(src: Any) -> dict:
+    """dict, JSON text (str or bytes) or a Path to a .json file -> the scene dict."""
+    if isinstance(src, Path):
+        try:
+            src = src.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise SceneError([{"path": "", "message": f"cannot read scene file {src}: {e}"}]) from None
+    if isinstance(src, bytes | bytearray):
+        try:
+            src = src.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise SceneError([{"path": "", "message": f"scene is not UTF-8 text: {e}"}]) from None
+    if isinstance(src, str):
+        try:
+            src = json.loads(src)
+        except json.JSONDecodeError as e:
+            where = f"line {e.lineno}, column {e.colno}"
+            raise SceneError([{"path": "", "message": f"invalid JSON at {where}: {e.msg}"}]) from None
+        except (ValueError, RecursionError) as e:  # e.g. an integer of more than 4300 digits
+            raise SceneError([{"path": "", "message": f"invalid JSON: {e}"}]) from None
+    if not isinstance(src, dict):
+        raise SceneError(
+            [{"path": "", "message": f"a scene must be a JSON object {{...}}, got {_show(src)}"}]
+        )
+    return src
+
+
+def load_scene(src: Any, limits: Limits | None = None) -> tuple[Scene, list[dict[str, str]]]:
+    """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error."""
+    data = _parse(src)
+    materials = data.get("materials")
+    context = {
+        "limits": limits or Limits(),
+        "material_names": set(materials) if isinstance(materials, dict) else None,
+    }
+    try:
+        scene = Scene.model_validate(data, context=context)
+    except ValidationError as e:
+        errors: list[dict[str, str]] = []
+        for err in e.errors():
+            item = _translate(err)
+            if item not in errors:
+                errors.append(item)
+        raise SceneError(errors) from None
+    return scene, _warnings(scene)
+
+
+def validate_scene(src: Any, limits: Limits | None = None) -> dict:
+    """{"valid": bool, "errors": [...], "warnings": [...]}; never raises for a bad scene."""
+    try:
+        _, warnings = load_scene(src, limits)
+    except SceneError as e:
+        return {"valid": False, "errors": e.errors, "warnings": []}
+    return {"valid": True, "errors": [], "warnings": warnings}
+
+
+def scene_json_schema() -> dict:
+    """The JSON Schema (draft 2020-12) of a scene, generated from the models, with descriptions."""
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **Scene.model_json_schema()}
+
+
+def resolve_asset(file: str, path: str, asset_dir: Path = ASSET_DIR) -> Path | None:
+    """The real path of an asset `file` inside `asset_dir`; None for a data: URI.
+
+    Raises SceneError at JSON path `path` when `file` is absolute, reaches outside the asset folder
+    (after resolving '..' and symbolic links) or does not exist."""
+    if file.startswith("data:"):
+        return None
+    try:
+        _asset_file(file)
+    except PydanticCustomError as e:
+        raise SceneError([{"path": path, "message": e.message()}]) from None
+    try:
+        root = Path(asset_dir).resolve()
+        target = (root / file).resolve()
+        inside, exists = target.is_relative_to(root), target.is_file()
+    except (OSError, ValueError, RuntimeError) as e:  # a NUL byte, a symbolic link loop, a long name
+        raise SceneError([{"path": path, "message": f"cannot resolve asset file '{file}': {e}"}]) from None
+    if not inside:
+        raise SceneError([{"path": path, "message": "must not reach outside the asset folder"}])
+    if not exists:
+        raise SceneError([{"path": path, "message": f"asset file '{file}' not found in the asset folder"}])
+    return target
