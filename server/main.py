@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import FastAPI, Request
@@ -17,10 +18,26 @@ WEB = Path(__file__).resolve().parent.parent / "web"
 log = logging.getLogger("server")
 
 
+@asynccontextmanager
+async def lifespan(app: FastAPI):
+    """Compile (or load from Warp's cache) the kernels at start-up, never in a user's request."""
+    import warp as wp
+
+    from tracer.integrators import whitted
+
+    wp.load_module(whitted, device="cpu")
+    log.info("render kernels ready")
+    yield
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
-    app = FastAPI(title="Ray tracing for teaching", version="0.1.0",
-                  description="Submit scenes, render them with Warp, inspect the ray tree of any pixel.")
+    app = FastAPI(
+        title="Ray tracing for teaching",
+        version="0.1.0",
+        lifespan=lifespan,
+        description="Submit scenes, render them with Warp, inspect the ray tree of any pixel.",
+    )
     app.state.settings = settings
 
     @app.exception_handler(RequestValidationError)

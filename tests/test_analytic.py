@@ -61,8 +61,15 @@ def test_analytic_point_light_over_lambertian_plane():
 
 def test_analytic_directional_light_and_ambient():
     s = base(
-        [{"type": "quad", "corner": [-5, -5, 0], "edge1": [10, 0, 0], "edge2": [0, 10, 0],
-          "material": {"kd": [0.5, 0.25, 1.0], "ka": 0.2}}],
+        [
+            {
+                "type": "quad",
+                "corner": [-5, -5, 0],
+                "edge1": [10, 0, 0],
+                "edge2": [0, 10, 0],
+                "material": {"kd": [0.5, 0.25, 1.0], "ka": 0.2},
+            }
+        ],
         [{"type": "directional", "direction": [0, -1, -1], "irradiance": 2.0}],
         ambient=0.5,
     )
@@ -72,8 +79,15 @@ def test_analytic_directional_light_and_ambient():
 
 
 def test_analytic_mirror_reflects_background_with_weight_kr():
-    objects = [{"type": "quad", "corner": [-5, -5, 0], "edge1": [10, 0, 0], "edge2": [0, 10, 0],
-                "material": {"kd": 0, "kr": 0.8}}]
+    objects = [
+        {
+            "type": "quad",
+            "corner": [-5, -5, 0],
+            "edge1": [10, 0, 0],
+            "edge2": [0, 10, 0],
+            "material": {"kd": 0, "kr": 0.8},
+        }
+    ]
     s = base(objects, background=[0.5, 0.25, 1.0])
     img = render(s, threads=1).image
     assert_allclose(img, np.broadcast_to([0.4, 0.2, 0.8], img.shape), rtol=1e-6)
@@ -127,7 +141,14 @@ def test_analytic_fresnel_weights_at_normal_incidence():
 def test_analytic_total_internal_reflection_in_a_glass_cube():
     """Looking into a cube at 45 degrees, refracted rays meet a side face past the critical angle."""
     s = base(
-        [{"type": "box", "min": [-1, -1, -1], "max": [1, 1, 1], "material": {"kd": 0, "kr": 0.5, "kt": 0.5, "ior": 1.5}}],
+        [
+            {
+                "type": "box",
+                "min": [-1, -1, -1],
+                "max": [1, 1, 1],
+                "material": {"kd": 0, "kr": 0.5, "kt": 0.5, "ior": 1.5},
+            }
+        ],
         camera={"lookfrom": [-4, 0, 4], "lookat": [0, 0, 0], "vfov": 30},
         film={"width": 24, "height": 8},
         render={"max_depth": 4, "min_weight": 0},
@@ -148,8 +169,15 @@ def test_analytic_total_internal_reflection_in_a_glass_cube():
 
 def test_analytic_fog_mixes_with_distance():
     s = base(
-        [{"type": "quad", "corner": [-50, -50, -3], "edge1": [100, 0, 0], "edge2": [0, 100, 0],
-          "material": {"kd": 0, "emission": 1.0}}],
+        [
+            {
+                "type": "quad",
+                "corner": [-50, -50, -3],
+                "edge1": [100, 0, 0],
+                "edge2": [0, 100, 0],
+                "material": {"kd": 0, "emission": 1.0},
+            }
+        ],
         fog={"density": 0.2, "color": [0.2, 0.4, 0.6]},
     )
     img = render(s, threads=1).image
@@ -165,8 +193,12 @@ def test_analytic_fog_mixes_with_distance():
 def test_analytic_shadow_and_spot_cone():
     plane = {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": {"kd": 0.5}}
     cam = {"lookfrom": [0, 6, 0.01], "lookat": [0, 0, 0], "vup": [0, 0, -1], "vfov": 40}
-    plane_only = base([plane, {"type": "sphere", "center": [0, -0.5, 0], "radius": 0.3, "material": {"kd": 0.5}}],
-                      [{"type": "point", "position": [0, 3, 3], "intensity": 5}], ambient=0.1, camera=cam)
+    plane_only = base(
+        [plane, {"type": "sphere", "center": [0, -0.5, 0], "radius": 0.3, "material": {"kd": 0.5}}],
+        [{"type": "point", "position": [0, 3, 3], "intensity": 5}],
+        ambient=0.1,
+        camera=cam,
+    )
     # the shadow of the small sphere falls towards -z (up in the image)
     shadows = [ray_tree(plane_only, 8, y) for y in range(0, 6)]
     occluded = [t for t in shadows if t["nodes"][0]["hit"]["object"] == 0 and t["nodes"][1]["occluded"]]
@@ -175,11 +207,17 @@ def test_analytic_shadow_and_spot_cone():
     assert_allclose(t["color"], [0.05] * 3, rtol=1e-5)  # ka = kd = 0.5 times ambient 0.1
     assert t["nodes"][1]["end"] == "absorbed" and t["nodes"][1]["hit"]["object"] == 1
     # a spot light pointing away casts no shadow ray at all
-    spot = base([plane], [{"type": "spot", "position": [0, 3, 0], "direction": [0, 1, 0], "intensity": 5, "cutoff": 30}],
-                camera=cam)
+    spot = base(
+        [plane],
+        [{"type": "spot", "position": [0, 3, 0], "direction": [0, 1, 0], "intensity": 5, "cutoff": 30}],
+        camera=cam,
+    )
     assert [n["kind"] for n in ray_tree(spot, 8, 6)["nodes"]] == ["eye"]
     # inside the cone: L = f_att I cos(psi)^falloff cos(theta) kd / pi straight below the light
-    spot2 = base([plane], [{"type": "spot", "position": [0, 3, 0], "direction": [0, -1, 0], "intensity": 5,
-                            "cutoff": 30, "falloff": 2}], camera={**cam, "lookfrom": [0, 6, 0.0001]},
-                 film={"width": 1, "height": 1})
+    spot2 = base(
+        [plane],
+        [{"type": "spot", "position": [0, 3, 0], "direction": [0, -1, 0], "intensity": 5, "cutoff": 30, "falloff": 2}],
+        camera={**cam, "lookfrom": [0, 6, 0.0001]},
+        film={"width": 1, "height": 1},
+    )
     assert_allclose(render(spot2, threads=1).image[0, 0], 5 / 16 * 0.5 / math.pi, rtol=1e-4)

@@ -5,15 +5,16 @@ import subprocess
 import sys
 
 import numpy as np
+from conftest import ROOT, SCENES, scene_dict, small
 from PIL import Image
 
-from conftest import ROOT, SCENES, scene_dict, small
 from tracer.film import read_exr
 
 
 def run(*args, check=True):
-    p = subprocess.run([sys.executable, "-m", "tracer", *map(str, args)], cwd=ROOT, capture_output=True,
-                       text=True, timeout=300)
+    p = subprocess.run(
+        [sys.executable, "-m", "tracer", *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
     if check and p.returncode != 0:
         raise AssertionError(f"exit {p.returncode}\nstdout: {p.stdout}\nstderr: {p.stderr}")
     return p
@@ -21,8 +22,22 @@ def run(*args, check=True):
 
 def test_cli_render_png_exr_and_statistics(tmp_path):
     out, exr = tmp_path / "w.png", tmp_path / "w.exr"
-    p = run("render", SCENES / "whitted.json", "-o", out, "--exr", exr, "--width", 40, "--height", 30,
-            "--spp", 4, "--threads", 2)
+    p = run(
+        "render",
+        SCENES / "whitted.json",
+        "-o",
+        out,
+        "--exr",
+        exr,
+        "--width",
+        40,
+        "--height",
+        30,
+        "--spp",
+        4,
+        "--threads",
+        2,
+    )
     line = p.stdout.strip().splitlines()[-1]
     assert "Mrays/s" in line and "eye=4800" in line and "shadow=" in line
     png = np.asarray(Image.open(out))
@@ -38,8 +53,22 @@ def test_cli_render_png_exr_and_statistics(tmp_path):
 def test_cli_render_same_image_for_any_thread_count(tmp_path):
     a, b = tmp_path / "a.exr", tmp_path / "b.exr"
     for out, threads in ((a, 1), (b, 2)):
-        run("render", SCENES / "cornell.json", "-o", tmp_path / "x.png", "--exr", out, "--width", 24,
-            "--height", 24, "--spp", 4, "--threads", threads)
+        run(
+            "render",
+            SCENES / "cornell.json",
+            "-o",
+            tmp_path / "x.png",
+            "--exr",
+            out,
+            "--width",
+            24,
+            "--height",
+            24,
+            "--spp",
+            4,
+            "--threads",
+            threads,
+        )
     assert np.array_equal(read_exr(a), read_exr(b))
 
 

@@ -16,7 +16,9 @@ def k_intersect(o: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), out: wp.
     i = wp.tid()
     out[i, 0] = intersect_sphere(o[i], d[i], wp.vec3(0.0, 0.0, 0.0), 1.0, 1.0e30)
     out[i, 1] = intersect_plane(o[i], d[i], wp.vec3(0.0, -1.0, 0.0), wp.vec3(0.0, 1.0, 0.0), 1.0e30)
-    out[i, 2] = intersect_quad(o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), wp.vec3(2.0, 0.0, 0.0), wp.vec3(0.0, 2.0, 0.0), 1.0e30)
+    out[i, 2] = intersect_quad(
+        o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), wp.vec3(2.0, 0.0, 0.0), wp.vec3(0.0, 2.0, 0.0), 1.0e30
+    )
     out[i, 3] = intersect_disk(o[i], d[i], wp.vec3(0.0, 0.0, -3.0), wp.vec3(0.0, 0.0, 1.0), 0.5, 1.0e30)
 
 

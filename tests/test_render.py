@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from conftest import EXAMPLES, scene_dict, small
 from numpy.testing import assert_allclose
 
-from conftest import EXAMPLES, scene_dict, small
 from tracer.compile import compile_scene
 from tracer.raytree import ray_tree
 from tracer.render import Renderer, pass_schedule, render
@@ -38,8 +38,9 @@ def test_render_bit_identical_for_any_thread_count_and_pass_split():
     r.add_samples(2, 9)
     assert np.array_equal(r.image(), one.image)
     # a different seed gives a different image
-    other, _ = load_scene(small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9},
-                                render={"seed": 7}))
+    other, _ = load_scene(
+        small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9}, render={"seed": 7})
+    )
     assert not np.array_equal(render(other, threads=2).image, one.image)
 
 
@@ -84,8 +85,22 @@ def test_raytree_nodes_follow_the_format():
     assert nodes[0]["kind"] == "eye" and nodes[0]["parent"] is None and nodes[0]["depth"] == 1
     assert nodes[0]["hit"]["object_name"] == "glass ball" and nodes[0]["hit"]["material"] == "glass"
     for n in nodes:
-        assert set(n) >= {"id", "parent", "kind", "depth", "origin", "direction", "t", "hit", "weight",
-                          "radiance", "terms", "light", "occluded", "end"}
+        assert set(n) >= {
+            "id",
+            "parent",
+            "kind",
+            "depth",
+            "origin",
+            "direction",
+            "t",
+            "hit",
+            "weight",
+            "radiance",
+            "terms",
+            "light",
+            "occluded",
+            "end",
+        }
         if n["parent"] is None:
             continue
         assert n["parent"] in ids and n["parent"] < n["id"]

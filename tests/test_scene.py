@@ -336,9 +336,7 @@ def test_defaults_of_a_minimal_scene():
     assert m.kd == (0.5, 0.5, 0.5) and m.ka is None and m.shininess == 32 and m.ior == 1.5 and m.gloss is None
 
 
-@pytest.mark.parametrize(
-    ("kind", "radius"), [("box", 0.5), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)]
-)
+@pytest.mark.parametrize(("kind", "radius"), [("box", 0.5), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)])
 def test_defaults_filter_radius_by_type(kind, radius):
     scene, _ = load_scene(_scene(film={"filter": {"type": kind}}))
     assert scene.film.filter.radius == radius
@@ -366,9 +364,7 @@ def test_accepts_single_number_for_rgb_and_scale_and_data_uri_files():
 def test_accepts_dict_text_bytes_and_path(tmp_path):
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(EXAMPLE))
-    scenes = [
-        load_scene(src)[0] for src in (EXAMPLE, json.dumps(EXAMPLE), json.dumps(EXAMPLE).encode(), path)
-    ]
+    scenes = [load_scene(src)[0] for src in (EXAMPLE, json.dumps(EXAMPLE), json.dumps(EXAMPLE).encode(), path)]
     assert all(s == scenes[0] for s in scenes)
 
 
@@ -398,9 +394,7 @@ def test_limits_primitive_count_at_objects():
     load_scene(data, Limits(max_primitives=18))
     with pytest.raises(SceneError) as info:
         load_scene(data, Limits(max_primitives=17))
-    assert info.value.errors == [
-        {"path": "objects", "message": "18 primitives; must be at most 17 (service limit)"}
-    ]
+    assert info.value.errors == [{"path": "objects", "message": "18 primitives; must be at most 17 (service limit)"}]
 
 
 def test_limits_configurable_each_at_its_field():
@@ -555,10 +549,7 @@ def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
     (assets / "models" / "bunny.obj").write_text("v 0 0 0\n")
     (tmp_path / "secret.obj").write_text("v 0 0 0\n")
     (assets / "link.obj").symlink_to(tmp_path / "secret.obj")
-    assert (
-        resolve_asset("models/bunny.obj", "objects[0].file", assets)
-        == (assets / "models/bunny.obj").resolve()
-    )
+    assert resolve_asset("models/bunny.obj", "objects[0].file", assets) == (assets / "models/bunny.obj").resolve()
     assert resolve_asset("models/../models/bunny.obj", "x", assets) == (assets / "models/bunny.obj").resolve()
     assert resolve_asset("data:model/obj;base64,AAAA", "x", assets) is None
     cases = {

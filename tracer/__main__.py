@@ -1,10 +1,10 @@
 """Command line: render, raytree, validate, bench (DESIGN.md, "Contracts").
 
-    python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
-                            [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
-    python -m tracer raytree SCENE.json X Y [--sample K]
-    python -m tracer validate SCENE.json
-    python -m tracer bench [--quick]
+python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
+                        [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
+python -m tracer raytree SCENE.json X Y [--sample K]
+python -m tracer validate SCENE.json
+python -m tracer bench [--quick]
 """
 
 from __future__ import annotations
@@ -30,7 +30,9 @@ def parse_json(text: str):
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise SceneError([{"path": "", "message": f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"}]) from exc
+        raise SceneError(
+            [{"path": "", "message": f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"}]
+        ) from exc
 
 
 def _overrides(data: dict, args) -> dict:

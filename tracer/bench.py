@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import platform
-
 from pathlib import Path
 
 from tracer.compile import compile_scene
@@ -41,7 +40,10 @@ def measure(cs, threads: int, repeat: int = 1) -> dict:
             best = r
     samples = cs.data.width * cs.data.height * best.spp
     row = {
-        "width": cs.data.width, "height": cs.data.height, "spp": best.spp, "threads": threads,
+        "width": cs.data.width,
+        "height": cs.data.height,
+        "spp": best.spp,
+        "threads": threads,
         "seconds": round(best.seconds, 3),
         "msamples_s": round(samples / best.seconds / 1e6, 3),
         "mrays_s": round(best.rays["total"] / best.seconds / 1e6, 3),
@@ -55,28 +57,43 @@ def measure(cs, threads: int, repeat: int = 1) -> dict:
 def main(args) -> int:
     threads = args.threads or default_threads()
     size = 64 if args.quick else 256
-    results = {"machine": {"cpus": os.cpu_count(), "processor": platform.processor() or platform.machine(),
-                           "python": platform.python_version()},
-               "threads": threads, "scenes": {}, "targets": {}}
+    results = {
+        "machine": {
+            "cpus": os.cpu_count(),
+            "processor": platform.processor() or platform.machine(),
+            "python": platform.python_version(),
+        },
+        "threads": threads,
+        "scenes": {},
+        "targets": {},
+    }
     # compile before timing anything
     render(_scene(SCENES / "whitted.json", 8, 8, sampler={"spp": 1}), threads=1)
-    print(f"{'scene':24} {'size':>9} {'spp':>4} {'s':>7} {'Msmp/s':>7} {'Mray/s':>7} "
-          + " ".join(f"{k[:6]:>7}" for k in KINDS))
+    print(
+        f"{'scene':24} {'size':>9} {'spp':>4} {'s':>7} {'Msmp/s':>7} {'Mray/s':>7} "
+        + " ".join(f"{k[:6]:>7}" for k in KINDS)
+    )
     for path in sorted(SCENES.glob("*.json")):
         row = measure(_scene(path, size, size), threads)
         results["scenes"][path.stem] = row
-        print(f"{path.stem:24} {size:>4}x{size:<4} {row['spp']:>4} {row['seconds']:>7.2f} {row['msamples_s']:>7.2f} "
-              f"{row['mrays_s']:>7.2f} " + " ".join(f"{row['mrays_s_' + k]:>7.2f}" for k in KINDS))
+        print(
+            f"{path.stem:24} {size:>4}x{size:<4} {row['spp']:>4} {row['seconds']:>7.2f} {row['msamples_s']:>7.2f} "
+            f"{row['mrays_s']:>7.2f} " + " ".join(f"{row['mrays_s_' + k]:>7.2f}" for k in KINDS)
+        )
     # the target: Whitted scene 512x512, 16 jittered spp, max_depth 5, and 2 threads vs 1
     tsize = 128 if args.quick else 512
-    cs = _scene(SCENES / "whitted.json", tsize, tsize, sampler={"type": "jittered", "spp": 16},
-                render={"max_depth": 5})
+    cs = _scene(SCENES / "whitted.json", tsize, tsize, sampler={"type": "jittered", "spp": 16}, render={"max_depth": 5})
     one = measure(cs, 1)
     many = measure(cs, threads)
-    results["targets"] = {"whitted_512_16spp": many, "whitted_512_16spp_1thread": one,
-                          "speedup": round(one["seconds"] / many["seconds"], 2)}
-    print(f"\nwhitted {tsize}x{tsize} 16 spp depth 5: {many['seconds']:.2f} s on {threads} threads, "
-          f"{one['seconds']:.2f} s on 1 thread, speed-up {results['targets']['speedup']:.2f}x")
+    results["targets"] = {
+        "whitted_512_16spp": many,
+        "whitted_512_16spp_1thread": one,
+        "speedup": round(one["seconds"] / many["seconds"], 2),
+    }
+    print(
+        f"\nwhitted {tsize}x{tsize} 16 spp depth 5: {many['seconds']:.2f} s on {threads} threads, "
+        f"{one['seconds']:.2f} s on 1 thread, speed-up {results['targets']['speedup']:.2f}x"
+    )
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0

@@ -241,11 +241,24 @@ def load_mesh_file(file: str, path: str, asset_dir: Path) -> tuple[np.ndarray, n
         if file.startswith("data:"):
             header, _, payload = file.partition(",")
             kind = header[5:].split(";")[0]
-            ext = {"model/obj": "obj", "text/plain": "obj", "model/gltf-binary": "glb",
-                   "model/gltf+json": "gltf", "application/ply": "ply", "model/ply": "ply"}.get(kind)
+            ext = {
+                "model/obj": "obj",
+                "text/plain": "obj",
+                "model/gltf-binary": "glb",
+                "model/gltf+json": "gltf",
+                "application/ply": "ply",
+                "model/ply": "ply",
+            }.get(kind)
             if ext is None:
-                raise SceneError([{"path": path, "message": f"unsupported data: URI type '{kind}' "
-                                   "(expected model/obj, model/ply or model/gltf-binary)"}])
+                raise SceneError(
+                    [
+                        {
+                            "path": path,
+                            "message": f"unsupported data: URI type '{kind}' "
+                            "(expected model/obj, model/ply or model/gltf-binary)",
+                        }
+                    ]
+                )
             raw = base64.b64decode(payload) if ";base64" in header else payload.encode()
             tm = trimesh.load(io.BytesIO(raw), file_type=ext, force="mesh", process=False)
         else:
@@ -465,9 +478,15 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         ntri = int(sum(len(f) for f in fobj))
     else:
         data.mesh, data.has_mesh, ntri = wp.uint64(0), 0, 0
-        for name, dt in (("mesh_points", wp.vec3), ("mesh_normals", wp.vec3), ("mesh_uvs", wp.vec2),
-                         ("mesh_indices", wp.int32), ("face_obj", wp.int32), ("face_mat", wp.int32),
-                         ("face_flags", wp.int32)):
+        for name, dt in (
+            ("mesh_points", wp.vec3),
+            ("mesh_normals", wp.vec3),
+            ("mesh_uvs", wp.vec2),
+            ("mesh_indices", wp.int32),
+            ("face_obj", wp.int32),
+            ("face_mat", wp.int32),
+            ("face_flags", wp.int32),
+        ):
             setattr(data, name, wp.zeros(3, dtype=dt, device=device))
     if not mats:
         mats.append(MaterialData())

@@ -110,8 +110,9 @@ def luminance(c: wp.vec3) -> float:
 
 
 @wp.func
-def bump_normal(scene: SceneData, m: MaterialData, p: wp.vec3, n: wp.vec3, uv: wp.vec2,
-                dpdu: wp.vec3, dpdv: wp.vec3) -> wp.vec3:
+def bump_normal(
+    scene: SceneData, m: MaterialData, p: wp.vec3, n: wp.vec3, uv: wp.vec2, dpdu: wp.vec3, dpdv: wp.vec3
+) -> wp.vec3:
     """The normal n perturbed by the material's bump map (Blinn 1978); n unchanged without one.
 
     noise: height h(p) = strength * perlin(scale p), N' = normalize(N - surface gradient of h).

@@ -25,8 +25,9 @@ def _vec(v) -> list[float]:
     return [float(c) for c in v]
 
 
-def ray_tree(scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap: int = DEFAULT_CAP,
-             device: str = "cpu") -> dict:
+def ray_tree(
+    scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap: int = DEFAULT_CAP, device: str = "cpu"
+) -> dict:
     """The ray tree of sample `sample` of pixel (x, y) (x from the left, y from the top)."""
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     d = cs.data
@@ -55,13 +56,13 @@ def ray_tree(scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap:
         if ints[i, W.I_KIND] == RayKind.SHADOW:
             radiance[i] = vecs[i, W.V_CARRIED]
             continue
-        children = [j for j in range(i + 1, n)
-                    if ints[j, W.I_PARENT] == i and ints[j, W.I_KIND] != RayKind.SHADOW]
+        children = [j for j in range(i + 1, n) if ints[j, W.I_PARENT] == i and ints[j, W.I_KIND] != RayKind.SHADOW]
         if ints[i, W.I_HIT] == 0:
             radiance[i] = fog_color if fog_on else np.asarray(cs.scene.background, dtype=np.float64)
             continue
-        local = (vecs[i, W.V_EMISSION] + vecs[i, W.V_AMBIENT] + vecs[i, W.V_DIFFUSE]
-                 + vecs[i, W.V_SPECULAR]).astype(np.float64)
+        local = (vecs[i, W.V_EMISSION] + vecs[i, W.V_AMBIENT] + vecs[i, W.V_DIFFUSE] + vecs[i, W.V_SPECULAR]).astype(
+            np.float64
+        )
         carried = local + sum((vecs[j, W.V_K] * radiance[j] for j in children), np.zeros(3))
         t_fog = float(floats[i, W.F_FOG])
         radiance[i] = t_fog * carried + (1.0 - t_fog) * fog_color if fog_on else carried
@@ -83,29 +84,33 @@ def ray_tree(scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap:
         shadow = kind == RayKind.SHADOW
         end = End(int(ints[i, W.I_END]))
         parent = int(ints[i, W.I_PARENT])
-        nodes.append({
-            "id": i,
-            "parent": parent if parent >= 0 else None,
-            "kind": kind.name.lower(),
-            "depth": int(ints[i, W.I_DEPTH]),
-            "origin": _vec(vecs[i, W.V_ORIGIN]),
-            "direction": _vec(vecs[i, W.V_DIR]),
-            "t": float(floats[i, W.F_T]) if hit else None,
-            "hit": hit,
-            "weight": _vec(vecs[i, W.V_WEIGHT]),
-            "k": _vec(vecs[i, W.V_K]),
-            "radiance": _vec(radiance[i]),
-            "terms": None if shadow or not hit else {
-                "ambient": _vec(vecs[i, W.V_AMBIENT]),
-                "diffuse": _vec(vecs[i, W.V_DIFFUSE]),
-                "specular": _vec(vecs[i, W.V_SPECULAR]),
-                "emission": _vec(vecs[i, W.V_EMISSION]),
-            },
-            "fog_transmittance": float(floats[i, W.F_FOG]) if fog_on and not shadow else None,
-            "light": int(ints[i, W.I_LIGHT]) if shadow else None,
-            "occluded": bool(ints[i, W.I_OCCLUDED]) if shadow else None,
-            "end": None if end == End.NONE else end.name.lower(),
-        })
+        nodes.append(
+            {
+                "id": i,
+                "parent": parent if parent >= 0 else None,
+                "kind": kind.name.lower(),
+                "depth": int(ints[i, W.I_DEPTH]),
+                "origin": _vec(vecs[i, W.V_ORIGIN]),
+                "direction": _vec(vecs[i, W.V_DIR]),
+                "t": float(floats[i, W.F_T]) if hit else None,
+                "hit": hit,
+                "weight": _vec(vecs[i, W.V_WEIGHT]),
+                "k": _vec(vecs[i, W.V_K]),
+                "radiance": _vec(radiance[i]),
+                "terms": None
+                if shadow or not hit
+                else {
+                    "ambient": _vec(vecs[i, W.V_AMBIENT]),
+                    "diffuse": _vec(vecs[i, W.V_DIFFUSE]),
+                    "specular": _vec(vecs[i, W.V_SPECULAR]),
+                    "emission": _vec(vecs[i, W.V_EMISSION]),
+                },
+                "fog_transmittance": float(floats[i, W.F_FOG]) if fog_on and not shadow else None,
+                "light": int(ints[i, W.I_LIGHT]) if shadow else None,
+                "occluded": bool(ints[i, W.I_OCCLUDED]) if shadow else None,
+                "end": None if end == End.NONE else end.name.lower(),
+            }
+        )
     color = out.numpy()[0]
     return {
         "pixel": [x, y],

@@ -109,8 +109,12 @@ class Renderer:
 
     def _band(self, worker: int, y0: int, s0: int, s1: int) -> None:
         n = min(self.rows_per_band, self.height - y0) * self.width
-        wp.launch(whitted.render_rows, dim=n, device=self.device,
-                  inputs=[self.cs.data, y0, s0, s1, self.stacks[worker], self.dummy, self.accum, self.counts])
+        wp.launch(
+            whitted.render_rows,
+            dim=n,
+            device=self.device,
+            inputs=[self.cs.data, y0, s0, s1, self.stacks[worker], self.dummy, self.accum, self.counts],
+        )
 
     def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:
         """Trace samples s0..s1-1 of every pixel (bands spread over the thread pool)."""

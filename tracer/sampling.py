@@ -11,7 +11,6 @@ import warp as wp
 
 from tracer.kinds import SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
 
-
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))
 PCG_OUT = wp.constant(wp.uint32(277803737))

@@ -63,9 +63,7 @@ class SceneError(Exception):
 
     def __init__(self, errors: list[dict[str, str]]):
         self.errors = list(errors)
-        super().__init__(
-            "\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors)
-        )
+        super().__init__("\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -177,9 +175,7 @@ Bool = Annotated[bool, Strict()]
 Str = Annotated[str, Strict()]
 NonNeg = Annotated[Num, Ge(0)]
 Vec3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a point [x, y, z]"))]
-Dir3 = Annotated[
-    tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)
-]
+Dir3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
 RGB = Annotated[
     tuple[NonNeg, NonNeg, NonNeg],
     BeforeValidator(
@@ -244,9 +240,7 @@ class Camera(_Model):
     focus_distance: Num | None = Field(
         None, gt=0, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
     )
-    shutter: Pair = Field(
-        (0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0)."
-    )
+    shutter: Pair = Field((0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0).")
 
     @model_validator(mode="after")
     def _check_view(self) -> "Camera":
@@ -272,8 +266,7 @@ class Filter(_Model):
     radius: Num | None = Field(
         None,
         gt=0,
-        description="Filter radius (pixels); null = the type's default: "
-        "box 0.5, tent 1, gaussian 1.5, mitchell 2.",
+        description="Filter radius (pixels); null = the type's default: box 0.5, tent 1, gaussian 1.5, mitchell 2.",
     )
 
     @model_validator(mode="after")
@@ -333,9 +326,7 @@ class Sampler(_Model):
             errors.append((("spp",), "must be 1 for the center sampler"))
         elif self.type in ("grid", "jittered") and root * root != spp:
             nearest = f"{root * root} or {(root + 1) ** 2}"
-            errors.append(
-                (("spp",), f"must be a perfect square for the {self.type} sampler (e.g. {nearest})")
-            )
+            errors.append((("spp",), f"must be a perfect square for the {self.type} sampler (e.g. {nearest})"))
         elif spp > limits.max_spp:
             errors.append((("spp",), _limit(limits.max_spp)))
         _raise_at(errors)
@@ -345,15 +336,11 @@ class Sampler(_Model):
 class RenderSettings(_Model):
     """Which integrator, and where the ray tree stops."""
 
-    integrator: Literal["whitted", "path", "radiosity"] = Field(
-        "whitted", description="Light transport method."
-    )
+    integrator: Literal["whitted", "path", "radiosity"] = Field("whitted", description="Light transport method.")
     max_depth: Int = Field(
         5, ge=1, le=64, description="Bounces of light on the way to the eye; 1 = ray casting with shadows."
     )
-    min_weight: Num = Field(
-        0.001, ge=0, description="Stop a branch once its weight (product of K's) falls below this."
-    )
+    min_weight: Num = Field(0.001, ge=0, description="Stop a branch once its weight (product of K's) falls below this.")
     light_samples: Int = Field(1, ge=1, description="Shadow rays per area light per shading point.")
     seed: Int = Field(0, ge=0, lt=2**31, description="Random seed; same scene and seed give the same image.")
 
@@ -656,9 +643,7 @@ class Mesh(_Object):
     """Triangle mesh: inline vertices + faces, or a file (OBJ/PLY/glTF) from the asset folder."""
 
     type: Literal["mesh"] = Field(description="Object type.")
-    vertices: list[Vec3] | None = Field(
-        None, min_length=1, description="Inline vertex positions (world units)."
-    )
+    vertices: list[Vec3] | None = Field(None, min_length=1, description="Inline vertex positions (world units).")
     faces: list[Face] | None = Field(
         None,
         min_length=1,
@@ -683,9 +668,7 @@ class Mesh(_Object):
             for k, face in enumerate(self.faces):
                 bad += [(k, j, i) for j, i in enumerate(face) if not 0 <= i < n]
             for k, j, i in bad[:10]:
-                errors.append(
-                    (("faces", k, j), f"vertex index {i} is out of range (the mesh has {n} vertices)")
-                )
+                errors.append((("faces", k, j), f"vertex index {i} is out of range (the mesh has {n} vertices)"))
             if len(bad) > 10:
                 errors.append((("faces",), f"{len(bad) - 10} more vertex indices are out of range"))
         _raise_at(errors)
@@ -699,9 +682,7 @@ def primitive_count(objects: list) -> int:
     """Primitives the renderer will build: a box is 12 triangles, an inline mesh its faces.
 
     Meshes from files are not counted here (their size is known when the file is read)."""
-    return sum(
-        len(o.faces or ()) if isinstance(o, Mesh) else 12 if isinstance(o, Box) else 1 for o in objects
-    )
+    return sum(len(o.faces or ()) if isinstance(o, Mesh) else 12 if isinstance(o, Box) else 1 for o in objects)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -723,9 +704,7 @@ class Scene(_Model):
     camera: Camera = Field(description="The camera.")
     film: Film = Field(default_factory=Film, description="Image size, filter, exposure.")
     sampler: Sampler = Field(default_factory=Sampler, description="Pixel sampling.")
-    render: RenderSettings = Field(
-        default_factory=RenderSettings, description="Integrator and ray-tree limits."
-    )
+    render: RenderSettings = Field(default_factory=RenderSettings, description="Integrator and ray-tree limits.")
     background: RGB = Field((0.0, 0.0, 0.0), description="Radiance of rays that leave the scene.")
     ambient: RGB = Field((0.0, 0.0, 0.0), description="Ambient light I_a of the ka term (whitted only).")
     fog: Fog = Field(default_factory=Fog, description="Homogeneous fog.")
@@ -795,12 +774,7 @@ def _union_tags(tp: Any) -> dict[str, Any]:
         meta = get_args(member)[1:] if get_origin(member) is Annotated else ()
         tag = next((m.tag for m in meta if isinstance(m, Tag)), None)
         inner = _unwrap(member)
-        if (
-            tag is None
-            and isinstance(inner, type)
-            and issubclass(inner, BaseModel)
-            and "type" in inner.model_fields
-        ):
+        if tag is None and isinstance(inner, type) and issubclass(inner, BaseModel) and "type" in inner.model_fields:
             tag = get_args(inner.model_fields["type"].annotation)[0]
         if tag is not None:
             tags[tag] = inner
@@ -972,9 +946,7 @@ def _parse(src: Any) -> dict:
         except (ValueError, RecursionError) as e:  # e.g. an integer of more than 4300 digits
             raise SceneError([{"path": "", "message": f"invalid JSON: {e}"}]) from None
     if not isinstance(src, dict):
-        raise SceneError(
-            [{"path": "", "message": f"a scene must be a JSON object {{...}}, got {_show(src)}"}]
-        )
+        raise SceneError([{"path": "", "message": f"a scene must be a JSON object {{...}}, got {_show(src)}"}])
     return src
 
 

@@ -1,6 +1,6 @@
 """Regenerate the example assets (run once; the outputs are committed).
 
-    python scenes/assets/make_assets.py
+python scenes/assets/make_assets.py
 """
 
 from pathlib import Path

@@ -40,8 +40,12 @@ def get_scene(name: str) -> dict:
     return json.loads(_path(name).read_text())
 
 
-@router.get("/{name}/preview.png", summary="A small render of an example scene (cached on disk)",
-            response_class=Response, responses={200: {"content": {"image/png": {}}}})
+@router.get(
+    "/{name}/preview.png",
+    summary="A small render of an example scene (cached on disk)",
+    response_class=Response,
+    responses={200: {"content": {"image/png": {}}}},
+)
 def preview(name: str, request: Request) -> Response:
     settings = request.app.state.settings
     src = _path(name)

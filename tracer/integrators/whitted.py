@@ -26,10 +26,10 @@ from tracer.kinds import (
     END_NONE,
     END_TIR,
     RAY_EYE,
+    RAY_OFFSET,
     RAY_REFLECTION,
     RAY_SHADOW,
     RAY_TRANSMISSION,
-    RAY_OFFSET,
     T_FAR,
 )
 from tracer.lights import light_at
@@ -67,8 +67,9 @@ class TreeRecord:
 
 
 @wp.func
-def begin_node(rec: TreeRecord, kind: int, depth: int, parent: int, o: wp.vec3, d: wp.vec3,
-               w: wp.vec3, k: wp.vec3) -> int:
+def begin_node(
+    rec: TreeRecord, kind: int, depth: int, parent: int, o: wp.vec3, d: wp.vec3, w: wp.vec3, k: wp.vec3
+) -> int:
     node = wp.atomic_add(rec.count, 0, 1)
     if node >= rec.cap:
         return -1
@@ -106,8 +107,19 @@ def record_hit(rec: TreeRecord, node: int, t: float, p: wp.vec3, n: wp.vec3, obj
 
 
 @wp.func
-def push(st: Stack, row: int, sp: int, o: wp.vec3, d: wp.vec3, k: wp.vec3, w: wp.vec3, tau: wp.vec3,
-         depth: int, kind: int, parent: int) -> int:
+def push(
+    st: Stack,
+    row: int,
+    sp: int,
+    o: wp.vec3,
+    d: wp.vec3,
+    k: wp.vec3,
+    w: wp.vec3,
+    tau: wp.vec3,
+    depth: int,
+    kind: int,
+    parent: int,
+) -> int:
     st.o[row, sp] = o
     st.d[row, sp] = d
     st.k[row, sp] = k
@@ -245,12 +257,34 @@ def trace(scene: SceneData, o: wp.vec3, d: wp.vec3, st: Stack, row: int, record:
             go_t = max3(wt) > 0.0 and max3(wt) >= scene.min_weight
             child_tau = tau * fog_t
             if go_t:
-                sp = push(st, row, sp, offset_origin(h.p, nf, tdir), tdir, kt, wt, wp.cw_mul(child_tau, kt),
-                          depth + 1, RAY_TRANSMISSION, node)
+                sp = push(
+                    st,
+                    row,
+                    sp,
+                    offset_origin(h.p, nf, tdir),
+                    tdir,
+                    kt,
+                    wt,
+                    wp.cw_mul(child_tau, kt),
+                    depth + 1,
+                    RAY_TRANSMISSION,
+                    node,
+                )
             if go_r:
                 rdir = wp.normalize(reflect(rd, n))
-                sp = push(st, row, sp, offset_origin(h.p, nf, rdir), rdir, kr, wr, wp.cw_mul(child_tau, kr),
-                          depth + 1, RAY_REFLECTION, node)
+                sp = push(
+                    st,
+                    row,
+                    sp,
+                    offset_origin(h.p, nf, rdir),
+                    rdir,
+                    kr,
+                    wr,
+                    wp.cw_mul(child_tau, kr),
+                    depth + 1,
+                    RAY_REFLECTION,
+                    node,
+                )
             if (max3(wr) > 0.0 or max3(wt) > 0.0) and not go_r and not go_t:
                 end = END_MIN_WEIGHT
             elif tir != 0:
@@ -272,8 +306,16 @@ def trace_sample(scene: SceneData, x: int, y: int, s: int, st: Stack, row: int, 
 
 
 @wp.kernel
-def render_rows(scene: SceneData, y0: int, s0: int, s1: int, st: Stack, rec: TreeRecord,
-                accum: wp.array2d(dtype=wp.vec3), counts: wp.array2d(dtype=wp.vec4i)):
+def render_rows(
+    scene: SceneData,
+    y0: int,
+    s0: int,
+    s1: int,
+    st: Stack,
+    rec: TreeRecord,
+    accum: wp.array2d(dtype=wp.vec3),
+    counts: wp.array2d(dtype=wp.vec4i),
+):
     """Add samples s0..s1-1 of each pixel of rows y0.. to the running sums (one thread per pixel)."""
     row = wp.tid()
     x = row % scene.width
@@ -291,8 +333,7 @@ def render_rows(scene: SceneData, y0: int, s0: int, s1: int, st: Stack, rec: Tre
 
 
 @wp.kernel
-def trace_one(scene: SceneData, x: int, y: int, s: int, st: Stack, rec: TreeRecord,
-              out: wp.array(dtype=wp.vec3)):
+def trace_one(scene: SceneData, x: int, y: int, s: int, st: Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)):
     """One pixel sample with its ray tree recorded."""
     c, n = trace_sample(scene, x, y, s, st, 0, 1, rec)
     out[0] = c
