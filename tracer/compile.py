@@ -18,7 +18,7 @@ import numpy as np
 import warp as wp
 
 from tracer.kinds import Bump, LightKind, SamplerKind, Shape, Texture
-from tracer.scene import ASSET_DIR, Scene, SceneError, resolve_asset
+from tracer.scene import ASSET_DIR, Scene, SceneError, json_path, resolve_asset
 
 
 @wp.struct
@@ -177,7 +177,7 @@ def not_implemented(scene: Scene) -> list[dict]:
 
 def _all_materials(scene: Scene):
     for name, m in scene.materials.items():
-        yield f"materials.{name}", m
+        yield json_path(("materials", name)), m
     for i, obj in enumerate(scene.objects):
         if not isinstance(obj.material, str):
             yield f"objects[{i}].material", obj.material
@@ -399,7 +399,7 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
     images = _Images(Path(asset_dir))
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}
-    mats = [_material(m, f"materials.{n}", images) for n, m in scene.materials.items()]
+    mats = [_material(m, json_path(("materials", n)), images) for n, m in scene.materials.items()]
 
     def material_of(i, obj) -> int:
         if isinstance(obj.material, str):
