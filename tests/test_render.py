@@ -130,3 +130,17 @@ def test_raytree_rejects_pixels_outside_the_film():
     assert e.value.errors[0]["path"] == "x"
     with pytest.raises(SceneError):
         ray_tree(scene, 0, 0, 99)
+
+
+def test_render_passes_refine_and_cancel_keeps_finished_samples():
+    scene, _ = load_scene(small(scene_dict("whitted"), 24, 18, sampler={"type": "jittered", "spp": 16}))
+    cs = compile_scene(scene)
+    seen = []
+    full = render(cs, threads=2, on_pass=lambda p: seen.append((p.spp_done, p.image.copy())))
+    assert [s for s, _ in seen] == [s1 for _, s1 in pass_schedule(16)]
+    assert np.array_equal(seen[-1][1], full.image) and not full.cancelled
+    # cancel after the second pass: the image is exactly the 2-sample image
+    passes = []
+    part = render(cs, threads=2, on_pass=passes.append, cancel=lambda: len(passes) >= 2)
+    assert part.cancelled and part.spp == 2
+    assert np.array_equal(part.image, seen[1][1])

@@ -157,14 +157,32 @@ class Renderer:
         return out
 
 
+@dataclass
+class PassResult:
+    """What an `on_pass` callback sees after each progressive pass: the running image."""
+
+    image: np.ndarray  # (H, W, 3) float32, the mean of the samples so far
+    spp_done: int  # samples per pixel in `image`
+    spp_total: int
+    passes_done: int
+    elapsed: float  # seconds since the render started
+    rays: dict  # rays traced so far, by kind name, and "total"
+
+
 def render(
     scene: Scene | CompiledScene,
     threads: int | None = None,
     progress: Callable[[Progress], None] | None = None,
     cancel: Callable[[], bool] | None = None,
+    on_pass: Callable[[PassResult], None] | None = None,
     device: str = "cpu",
 ) -> RenderResult:
-    """Render a scene progressively; `progress` is called after each band, `cancel` between passes."""
+    """Render a scene progressively.
+
+    `progress` is called after each band of rows, `on_pass` after each pass with the running
+    image, `cancel` before each pass: when it returns True the render stops and the result
+    holds the samples finished so far (`cancelled` = True).
+    """
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     r = Renderer(cs, threads, device)
     total = r.width * r.height * r.spp
@@ -185,5 +203,7 @@ def render(
             break
         r.add_samples(s0, s1, on_band)
         passes += 1
+        if on_pass is not None:
+            on_pass(PassResult(r.image(), s1, r.spp, passes, time.perf_counter() - start, r.rays()))
     seconds = time.perf_counter() - start
     return RenderResult(image=r.image(), spp=r.samples_done, seconds=seconds, rays=r.rays(), cancelled=cancelled)
