@@ -103,8 +103,8 @@ def test_cli_validate_good_and_bad(tmp_path):
 
 def test_cli_refuses_features_not_implemented_yet(tmp_path):
     data = small(scene_dict("whitted"), 8, 6)
-    data["camera"]["lens_radius"] = 0.1
-    f = tmp_path / "dof.json"
+    data["render"]["integrator"] = "radiosity"
+    f = tmp_path / "radiosity.json"
     f.write_text(json.dumps(data))
     p = run("render", f, "-o", tmp_path / "x.png", check=False)
-    assert p.returncode == 1 and "camera.lens_radius" in p.stderr and "not implemented yet" in p.stderr
+    assert p.returncode == 1 and "render.integrator" in p.stderr and "not implemented yet" in p.stderr

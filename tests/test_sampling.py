@@ -3,9 +3,10 @@
 import numpy as np
 import warp as wp
 
-import tracer.kinds  # noqa: F401  (initialise Warp)
+from tracer.compile import SceneData, compile_scene
 from tracer.kinds import SamplerKind
-from tracer.sampling import box_filter_offset, film_offset, rng_start
+from tracer.sampling import film_offset, filter_offset, rng_start
+from tracer.scene import load_scene
 
 
 @wp.kernel
@@ -17,15 +18,22 @@ def k_draws(seed: int, n_dims: int, out: wp.array2d(dtype=float)):
 
 
 @wp.kernel
-def k_film(sampler: int, spp: int, radius: float, out: wp.array2d(dtype=float)):
+def k_film(scene: SceneData, sampler: int, spp: int, out: wp.array2d(dtype=float)):
     i = wp.tid()  # i = pixel * spp + sample
     sample = i % spp
     s = rng_start(0, i / spp, sample)
     u1 = wp.randf(s)
     u2 = wp.randf(s)
-    uv = box_filter_offset(film_offset(sampler, sample, spp, u1, u2), radius)
+    uv, weight = filter_offset(scene, film_offset(sampler, sample, spp, u1, u2))
     out[i, 0] = uv[0]
     out[i, 1] = uv[1]
+    out[i, 2] = weight
+
+
+def film_scene(filter_type: str = "box", radius: float | None = None):
+    flt = {"type": filter_type} if radius is None else {"type": filter_type, "radius": radius}
+    scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 1], "lookat": [0, 0, 0]}, "film": {"filter": flt}})
+    return compile_scene(scene)
 
 
 def chi_square_uniform(x: np.ndarray, bins: int) -> float:
@@ -56,10 +64,12 @@ def test_sampling_rng_uniform_and_independent():
     assert np.abs(other.numpy() - x).mean() > 0.1
 
 
-def film(sampler: SamplerKind, spp: int, pixels: int, radius: float = 0.5) -> np.ndarray:
-    out = wp.zeros((pixels * spp, 2), dtype=float)
-    wp.launch(k_film, dim=pixels * spp, inputs=[int(sampler), spp, radius, out])
-    return out.numpy().reshape(pixels, spp, 2)
+def film(sampler: SamplerKind, spp: int, pixels: int, filter_type: str = "box", radius=None, weights=False):
+    cs = film_scene(filter_type, radius)
+    out = wp.zeros((pixels * spp, 3), dtype=float)
+    wp.launch(k_film, dim=pixels * spp, inputs=[cs.data, int(sampler), spp, out])
+    r = out.numpy().reshape(pixels, spp, 3)
+    return r if weights else r[..., :2]
 
 
 def test_sampling_center_and_grid_positions():
@@ -92,3 +102,26 @@ def test_sampling_random_uniform_over_the_pixel():
 def test_sampling_box_filter_radius_spreads_samples():
     r = film(SamplerKind.RANDOM, 1, 20000, radius=1.0)
     assert r.min() < -0.45 and r.max() > 1.45 and r.min() >= -0.5 and r.max() <= 1.5
+
+
+def test_sampling_filters_importance_sampled():
+    """Offsets follow |f| (chi-square against the filter's own histogram); Mitchell's negative lobes
+    come back as negative weights, and the weights average to 1 (the filter integrates to 1)."""
+    from tracer.compile import filter_1d
+
+    for kind, radius in (("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)):
+        r = film(SamplerKind.RANDOM, 1, 100_000, kind, weights=True)[:, 0]
+        x = r[:, 0] - 0.5
+        assert np.abs(x).max() <= radius + 1e-5
+        edges = np.linspace(-radius, radius, 33)
+        fine = np.linspace(-radius, radius, 3201)
+        dens = np.abs(filter_1d(kind, radius, fine))
+        cdf = np.concatenate([[0], np.cumsum((dens[1:] + dens[:-1]) / 2)])
+        expected = np.diff(np.interp(edges, fine, cdf / cdf[-1])) * len(x)
+        counts, _ = np.histogram(x, bins=edges)
+        keep = expected > 5
+        chi2 = (((counts - expected) ** 2 / expected)[keep]).sum()
+        assert chi2 < 70, (kind, chi2)  # ~31 dof: the 99.9% quantile is ~61.1 (a little slack for the table)
+        w = r[:, 2]
+        assert abs(w.mean() - 1) < 0.02, (kind, w.mean())
+        assert (w < 0).any() == (kind == "mitchell")

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from tracer.kinds import Bump, LightKind, SamplerKind, Shape, Texture
+from tracer.kinds import Bump, FilterKind, Integrator, LightKind, SamplerKind, Shape, Texture
 from tracer.scene import ASSET_DIR, Scene, SceneError, json_path, resolve_asset
 
 
@@ -38,13 +38,14 @@ class CameraData:
 @wp.struct
 class ShapeData:
     kind: int  # SHAPE_*
-    obj: int  # index into scene.objects (the ray tree reports it)
+    obj: int  # index into scene.objects (the ray tree reports it); -1 - k for area light k
     mat: int  # index into SceneData.materials
     p0: wp.vec3  # sphere/disk centre, plane point, quad corner
     p1: wp.vec3  # plane/disk normal (unit), quad edge1
     p2: wp.vec3  # quad edge2
     radius: float  # sphere/disk radius
     velocity: wp.vec3  # world units per unit time (motion blur)
+    light: int  # index of the area light this shape is, or -1
 
 
 @wp.struct
@@ -82,6 +83,10 @@ class LightData:
     attenuation: wp.vec3  # c1, c2, c3 of f_att = 1 / (c1 + c2 d + c3 d^2)
     cos_cutoff: float  # spot: cosine of the cone half-angle
     falloff: float  # spot: exponent of cos(psi)
+    edge1: wp.vec3  # quad light: corner = position, edges edge1 and edge2; disk: normal = direction
+    edge2: wp.vec3
+    radius: float  # disk and sphere lights
+    area: float  # emitting area, world units^2
 
 
 @wp.struct
@@ -89,8 +94,10 @@ class SceneData:
     camera: CameraData
     shapes: wp.array(dtype=ShapeData)
     num_shapes: int
-    mesh: wp.uint64  # id of the wp.Mesh of all triangles (0 when has_mesh == 0)
-    has_mesh: int
+    meshes: wp.array(dtype=wp.uint64)  # wp.Mesh ids: group 0 the static triangles, then one per moving object
+    mesh_vel: wp.array(dtype=wp.vec3)  # velocity of each group
+    mesh_face0: wp.array(dtype=wp.int32)  # global index of each group's first face
+    num_meshes: int
     mesh_points: wp.array(dtype=wp.vec3)
     mesh_indices: wp.array(dtype=wp.int32)  # 3 per face
     mesh_normals: wp.array(dtype=wp.vec3)  # per vertex, for smooth shading
@@ -107,6 +114,7 @@ class SceneData:
     ambient: wp.vec3  # I_a
     fog_density: float  # per world unit; 0 = no fog
     fog_color: wp.vec3
+    integrator: int  # INTEGRATOR_*
     max_depth: int  # bounces; 1 = ray casting
     min_weight: float
     light_samples: int
@@ -114,7 +122,14 @@ class SceneData:
     height: int
     spp: int
     sampler: int  # SAMPLER_*
-    filter_radius: float  # box filter half-width in pixels
+    threshold: float  # adaptive: max colour difference of a uniform cell
+    max_level: int  # adaptive: subdivision limit
+    jitter: int  # adaptive: 1 = stochastic positions inside the cells
+    filter: int  # FILTER_*
+    filter_radius: float  # half-width in pixels
+    filter_icdf: wp.array(dtype=float)  # inverse CDF of |f| in 1D: u in [0,1] -> offset in [-radius, radius]
+    filter_sign: wp.array(dtype=float)  # sign of f at those offsets (Mitchell's negative lobes)
+    filter_norm: float  # (integral |f| / integral f)^2: the weight of a positive sample
     seed: int
 
 
@@ -151,27 +166,10 @@ def _unit(x) -> np.ndarray:
 def not_implemented(scene: Scene) -> list[dict]:
     """Features the schema accepts that a later issue implements: refused, never ignored."""
     errs = []
-
-    def no(path, what):
-        errs.append({"path": path, "message": f"{what} is not implemented yet"})
-
-    if scene.render.integrator != "whitted":
-        no("render.integrator", f"the '{scene.render.integrator}' integrator")
-    if scene.camera.lens_radius > 0:
-        no("camera.lens_radius", "depth of field (a thin lens)")
+    if scene.render.integrator == "radiosity":
+        errs.append({"path": "render.integrator", "message": "the 'radiosity' integrator is not implemented yet"})
     if scene.sampler.type == "adaptive":
-        no("sampler.type", "the adaptive sampler")
-    if scene.film.filter.type != "box":
-        no("film.filter.type", f"the '{scene.film.filter.type}' reconstruction filter")
-    for i, light in enumerate(scene.lights):
-        if light.type in ("quad", "disk", "sphere"):
-            no(f"lights[{i}].type", f"the area light '{light.type}' (soft shadows)")
-    for i, obj in enumerate(scene.objects):
-        if any(v != 0 for v in obj.velocity):
-            no(f"objects[{i}].velocity", "motion blur")
-    for path, mat in _all_materials(scene):
-        if mat.gloss is not None:
-            no(f"{path}.gloss", "glossy reflection")
+        errs.append({"path": "sampler.type", "message": "the adaptive sampler is not implemented yet"})
     return errs
 
 
@@ -181,6 +179,43 @@ def _all_materials(scene: Scene):
     for i, obj in enumerate(scene.objects):
         if not isinstance(obj.material, str):
             yield f"objects[{i}].material", obj.material
+
+
+# ----------------------------------------------------------------------------- filters
+
+FILTER_TABLE = 4096  # entries of the inverse-CDF table
+
+
+def filter_1d(kind: str, radius: float, x: np.ndarray) -> np.ndarray:
+    """The separable reconstruction filters in 1D, x in pixels from the pixel centre."""
+    ax = np.abs(x)
+    if kind == "tent":
+        return np.maximum(0.0, radius - ax)
+    if kind == "gaussian":  # sigma = radius / 3, shifted to reach 0 at the radius (as pbrt)
+        sigma = radius / 3
+        return np.maximum(0.0, np.exp(-(x**2) / (2 * sigma**2)) - math.exp(-(radius**2) / (2 * sigma**2)))
+    if kind == "mitchell":  # Mitchell & Netravali 1988, B = C = 1/3, stretched over the radius
+        b = c = 1 / 3
+        t = np.abs(2 * x / radius)
+        near = (12 - 9 * b - 6 * c) * t**3 + (-18 + 12 * b + 6 * c) * t**2 + (6 - 2 * b)
+        far = (-b - 6 * c) * t**3 + (6 * b + 30 * c) * t**2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)
+        return np.where(t < 1, near, np.where(t < 2, far, 0.0)) / 6
+    return np.where(ax <= radius, 1.0, 0.0)  # box
+
+
+def filter_tables(kind: str, radius: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Filter importance sampling (Ernst et al. 2006): offsets drawn from |f| by inverse CDF, each
+    sample weighted by sign(f) * (integral |f| / integral f) per dimension, so tiles stay independent."""
+    x = np.linspace(-radius, radius, 8 * FILTER_TABLE + 1)
+    f = filter_1d(kind, radius, x)
+    a = np.abs(f)
+    cdf = np.concatenate([[0.0], np.cumsum((a[1:] + a[:-1]) / 2)])
+    cdf /= cdf[-1]
+    u = np.linspace(0.0, 1.0, FILTER_TABLE)
+    icdf = np.interp(u, cdf, x)
+    sign = np.where(filter_1d(kind, radius, icdf) < 0, -1.0, 1.0)
+    norm = (np.trapezoid(a, x) / np.trapezoid(f, x)) ** 2
+    return icdf.astype(np.float32), sign.astype(np.float32), float(norm)
 
 
 # ----------------------------------------------------------------------------- transforms
@@ -325,7 +360,7 @@ class _Images:
         return self.index[file]
 
 
-def _material(m, path: str, images: _Images) -> MaterialData:
+def _material(m, path: str, images: _Images | None) -> MaterialData:
     d = MaterialData()
     d.kd = _v(m.kd)
     d.ka_is_kd = 1 if m.ka is None else 0
@@ -364,6 +399,7 @@ def _light(light) -> LightData:
     d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)
     d.intensity, d.attenuation = wp.vec3(0.0), wp.vec3(0.0, 0.0, 1.0)
     d.cos_cutoff, d.falloff = -1.0, 0.0
+    d.edge1, d.edge2, d.radius, d.area = wp.vec3(0.0), wp.vec3(0.0), 0.0, 0.0
     if light.type == "point":
         d.position, d.intensity, d.attenuation = _v(light.position), _v(light.intensity), _v(light.attenuation)
     elif light.type == "directional":
@@ -372,7 +408,24 @@ def _light(light) -> LightData:
         d.position, d.direction = _v(light.position), _v(_unit(light.direction))
         d.intensity, d.attenuation = _v(light.intensity), _v(light.attenuation)
         d.cos_cutoff, d.falloff = math.cos(math.radians(light.cutoff)), float(light.falloff)
+    elif light.type == "quad":
+        n = np.cross(light.edge1, light.edge2)
+        d.position, d.edge1, d.edge2 = _v(light.corner), _v(light.edge1), _v(light.edge2)
+        d.direction, d.area, d.intensity = _v(_unit(n)), float(np.linalg.norm(n)), _v(light.radiance)
+    elif light.type == "disk":
+        d.position, d.direction, d.radius = _v(light.center), _v(_unit(light.normal)), float(light.radius)
+        d.area, d.intensity = math.pi * light.radius**2, _v(light.radiance)
+    elif light.type == "sphere":
+        d.position, d.radius = _v(light.center), float(light.radius)
+        d.area, d.intensity = 4 * math.pi * light.radius**2, _v(light.radiance)
     return d
+
+
+def _light_material(light) -> MaterialData:
+    """Area lights are visible: radiance on the emitting side, black on the back, nothing else."""
+    from tracer.scene import Material
+
+    return _material(Material(kd=0.0, ka=0.0, emission=light.radiance), "", None)
 
 
 def _camera(scene: Scene) -> CameraData:
@@ -409,89 +462,69 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         return len(mats) - 1
 
     shapes: list[ShapeData] = []
-    pts, idx, nrm, uvs, fobj, fmat, fflag = [], [], [], [], [], [], []
-    nverts = 0
+    # triangle groups: 0 = every static triangle; then one group per moving object (own BVH, own velocity)
+    groups: list[dict] = [{"velocity": (0.0, 0.0, 0.0), "parts": []}]
 
-    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0)):
+    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0), light=-1):
         s = ShapeData()
-        s.kind, s.obj, s.mat = int(kind), i, m
+        s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
         s.p0, s.p1, s.p2, s.radius, s.velocity = _v(p0), _v(p1), _v(p2), float(radius), _v(velocity)
         shapes.append(s)
 
-    def triangles(i, m, v, f, uv=None, smooth=False):
-        nonlocal nverts
-        v = np.asarray(v, np.float64)
-        f = np.asarray(f, np.int64)
-        pts.append(v)
-        idx.append(f + nverts)
-        nrm.append(vertex_normals(v, f))
-        uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
-        fobj.append(np.full(len(f), i))
-        fmat.append(np.full(len(f), m))
-        fflag.append(np.full(len(f), (FACE_SMOOTH if smooth else 0) | (FACE_UV if uv is not None else 0)))
-        nverts += len(v)
+    def triangles(i, m, v, f, velocity, uv=None, smooth=False):
+        part = (i, m, np.asarray(v, np.float64), np.asarray(f, np.int64), uv, smooth)
+        if any(c != 0 for c in velocity):
+            groups.append({"velocity": tuple(velocity), "parts": [part]})
+        else:
+            groups[0]["parts"].append(part)
 
     for i, obj in enumerate(scene.objects):
         m = material_of(i, obj)
-        t = obj.type
+        t, vel = obj.type, obj.velocity
         if t == "sphere":
-            shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=obj.velocity)
+            shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
         elif t == "plane":
-            shape(Shape.PLANE, i, m, p0=obj.point, p1=_unit(obj.normal), velocity=obj.velocity)
+            shape(Shape.PLANE, i, m, p0=obj.point, p1=_unit(obj.normal), velocity=vel)
         elif t == "quad":
-            shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=obj.velocity)
+            shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
         elif t == "disk":
-            shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=obj.velocity)
+            shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=vel)
         elif t == "box":
             for c, e1, e2 in box_faces(obj.min, obj.max, obj.transform):
-                shape(Shape.QUAD, i, m, p0=c, p1=e1, p2=e2, velocity=obj.velocity)
+                shape(Shape.QUAD, i, m, p0=c, p1=e1, p2=e2, velocity=vel)
         elif t == "triangle":
-            triangles(i, m, obj.vertices, [[0, 1, 2]])
+            triangles(i, m, obj.vertices, [[0, 1, 2]], vel)
         elif t == "mesh":
             if obj.file is not None:
                 v, f, uv = load_mesh_file(obj.file, f"objects[{i}].file", Path(asset_dir))
             else:
                 v, f, uv = np.asarray(obj.vertices, float), np.asarray(obj.faces, np.int64), None
-            triangles(i, m, _apply(transform_matrix(obj.transform), v), f, uv, obj.smooth)
+            triangles(i, m, _apply(transform_matrix(obj.transform), v), f, vel, uv, obj.smooth)
+
+    lights = []
+    for k, light in enumerate(scene.lights):
+        lights.append(_light(light))
+        if light.type in ("quad", "disk", "sphere"):
+            mats.append(_light_material(light))
+            mat_names.append(f"lights[{k}]")
+            lm = len(mats) - 1
+            if light.type == "quad":
+                shape(Shape.QUAD, -1 - k, lm, p0=light.corner, p1=light.edge1, p2=light.edge2, light=k)
+            elif light.type == "disk":
+                shape(Shape.DISK, -1 - k, lm, p0=light.center, p1=_unit(light.normal), radius=light.radius, light=k)
+            else:
+                shape(Shape.SPHERE, -1 - k, lm, p0=light.center, radius=light.radius, light=k)
 
     data = SceneData()
     data.camera = _camera(scene)
-    if not shapes:  # kernels index nothing when num_shapes == 0, but arrays must exist
+    data.num_shapes = len(shapes)
+    if not shapes:  # kernels index nothing when num_shapes == 0, but the array must exist
         shape(Shape.SPHERE, -1, 0, radius=1.0)
-        data.num_shapes = 0
-    else:
-        data.num_shapes = len(shapes)
     data.shapes = wp.array(shapes, dtype=ShapeData, device=device)
-    keep = []
-    if pts:
-        p = np.concatenate(pts).astype(np.float32)
-        data.mesh_points = wp.array(p, dtype=wp.vec3, device=device)
-        data.mesh_indices = wp.array(np.concatenate(idx).reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
-        mesh = wp.Mesh(points=data.mesh_points, indices=data.mesh_indices, bvh_constructor="sah")
-        keep.append(mesh)
-        data.mesh, data.has_mesh = mesh.id, 1
-        data.mesh_normals = wp.array(np.concatenate(nrm).astype(np.float32), dtype=wp.vec3, device=device)
-        data.mesh_uvs = wp.array(np.concatenate(uvs).astype(np.float32), dtype=wp.vec2, device=device)
-        data.face_obj = wp.array(np.concatenate(fobj).astype(np.int32), dtype=wp.int32, device=device)
-        data.face_mat = wp.array(np.concatenate(fmat).astype(np.int32), dtype=wp.int32, device=device)
-        data.face_flags = wp.array(np.concatenate(fflag).astype(np.int32), dtype=wp.int32, device=device)
-        ntri = int(sum(len(f) for f in fobj))
-    else:
-        data.mesh, data.has_mesh, ntri = wp.uint64(0), 0, 0
-        for name, dt in (
-            ("mesh_points", wp.vec3),
-            ("mesh_normals", wp.vec3),
-            ("mesh_uvs", wp.vec2),
-            ("mesh_indices", wp.int32),
-            ("face_obj", wp.int32),
-            ("face_mat", wp.int32),
-            ("face_flags", wp.int32),
-        ):
-            setattr(data, name, wp.zeros(3, dtype=dt, device=device))
+    keep, ntri = _compile_triangles(data, groups, device)
     if not mats:
         mats.append(MaterialData())
     data.materials = wp.array(mats, dtype=MaterialData, device=device)
-    lights = [_light(lt) for lt in scene.lights]
     data.num_lights = len(lights)
     data.lights = wp.array(lights or [LightData()], dtype=LightData, device=device)
     if images.pixels:
@@ -503,11 +536,18 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
     data.background, data.ambient = _v(scene.background), _v(scene.ambient)
     data.fog_density, data.fog_color = float(scene.fog.density), _v(scene.fog.color)
     r = scene.render
+    data.integrator = int(Integrator[r.integrator.upper()])
     data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)
     data.width, data.height = int(scene.film.width), int(scene.film.height)
-    data.spp = int(scene.sampler.spp)
-    data.sampler = int(SamplerKind[scene.sampler.type.upper()])
-    data.filter_radius = float(scene.film.filter.radius)
+    sm = scene.sampler
+    data.spp, data.sampler = int(sm.spp), int(SamplerKind[sm.type.upper()])
+    data.threshold, data.max_level, data.jitter = float(sm.threshold), int(sm.max_level), int(sm.jitter)
+    flt = scene.film.filter
+    data.filter, data.filter_radius = int(FilterKind[flt.type.upper()]), float(flt.radius)
+    icdf, sign, norm = filter_tables(flt.type, float(flt.radius))
+    data.filter_icdf = wp.array(icdf, dtype=float, device=device)
+    data.filter_sign = wp.array(sign, dtype=float, device=device)
+    data.filter_norm = norm
     data.seed = int(r.seed)
     return CompiledScene(
         scene=scene,
@@ -515,6 +555,65 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         object_names=[o.name for o in scene.objects],
         material_names=mat_names,
         num_triangles=ntri,
-        num_shapes=len(shapes) if data.num_shapes else 0,
+        num_shapes=data.num_shapes,
         keep=keep,
     )
+
+
+def _compile_triangles(data: SceneData, groups: list[dict], device: str) -> tuple[list, int]:
+    """Every triangle into global shading arrays, and one wp.Mesh (BVH) per group."""
+    pts, idx, nrm, uvs, fobj, fmat, fflag = [], [], [], [], [], [], []
+    meshes, vels, face0, keep = [], [], [], []
+    nverts = nfaces = 0
+    for g in groups:
+        if not g["parts"]:
+            continue
+        gpts, gidx = [], []
+        gverts = 0
+        for i, m, v, f, uv, smooth in g["parts"]:
+            gpts.append(v)
+            gidx.append(f + gverts)
+            gverts += len(v)
+            pts.append(v)
+            idx.append(f + nverts)
+            nverts += len(v)
+            nrm.append(vertex_normals(v, f))
+            uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
+            fobj.append(np.full(len(f), i))
+            fmat.append(np.full(len(f), m))
+            fflag.append(np.full(len(f), (FACE_SMOOTH if smooth else 0) | (FACE_UV if uv is not None else 0)))
+        gp = wp.array(np.concatenate(gpts).astype(np.float32), dtype=wp.vec3, device=device)
+        gi = wp.array(np.concatenate(gidx).reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
+        mesh = wp.Mesh(points=gp, indices=gi, bvh_constructor="sah")
+        keep += [mesh, gp, gi]
+        meshes.append(mesh.id)
+        vels.append(g["velocity"])
+        face0.append(nfaces)
+        nfaces += sum(len(f) for _, _, _, f, _, _ in g["parts"])
+    data.num_meshes = len(meshes)
+    if meshes:
+        data.mesh_points = wp.array(np.concatenate(pts).astype(np.float32), dtype=wp.vec3, device=device)
+        data.mesh_indices = wp.array(np.concatenate(idx).reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
+        data.mesh_normals = wp.array(np.concatenate(nrm).astype(np.float32), dtype=wp.vec3, device=device)
+        data.mesh_uvs = wp.array(np.concatenate(uvs).astype(np.float32), dtype=wp.vec2, device=device)
+        data.face_obj = wp.array(np.concatenate(fobj).astype(np.int32), dtype=wp.int32, device=device)
+        data.face_mat = wp.array(np.concatenate(fmat).astype(np.int32), dtype=wp.int32, device=device)
+        data.face_flags = wp.array(np.concatenate(fflag).astype(np.int32), dtype=wp.int32, device=device)
+        data.meshes = wp.array(np.array(meshes, dtype=np.uint64), dtype=wp.uint64, device=device)
+        data.mesh_vel = wp.array(np.array(vels, dtype=np.float32), dtype=wp.vec3, device=device)
+        data.mesh_face0 = wp.array(np.array(face0, dtype=np.int32), dtype=wp.int32, device=device)
+    else:
+        for name, dt in (
+            ("mesh_points", wp.vec3),
+            ("mesh_normals", wp.vec3),
+            ("mesh_uvs", wp.vec2),
+            ("mesh_indices", wp.int32),
+            ("face_obj", wp.int32),
+            ("face_mat", wp.int32),
+            ("face_flags", wp.int32),
+            ("meshes", wp.uint64),
+            ("mesh_vel", wp.vec3),
+            ("mesh_face0", wp.int32),
+        ):
+            setattr(data, name, wp.zeros(3, dtype=dt, device=device))
+    return keep, nfaces

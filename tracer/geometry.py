@@ -21,8 +21,10 @@ class Hit:
     p: wp.vec3  # hit point
     ng: wp.vec3  # geometric normal as the shape defines it (not turned towards the ray)
     ns: wp.vec3  # interpolated normal (smooth meshes), same side as ng; = ng otherwise
-    obj: int  # object index in the scene
+    obj: int  # object index in the scene (-1 - k for area light k)
     mat: int  # material index
+    light: int  # area light index, or -1
+    po: wp.vec3  # the hit point where the object is at time 0 (textures move with the object)
     uv: wp.vec2  # surface coordinates for image textures and bump maps
     dpdu: wp.vec3  # surface tangents along u and v (for bump maps)
     dpdv: wp.vec3
@@ -91,7 +93,7 @@ def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, rad
 
 @wp.func
 def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float:
-    """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1."""
+    """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1 (shape at time 0)."""
     if s.kind == SHAPE_SPHERE:
         return intersect_sphere(o, d, s.p0, s.radius, t_max)
     if s.kind == SHAPE_PLANE:
@@ -149,73 +151,91 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
 
 
 @wp.func
-def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float) -> Hit:
-    """The nearest surface along o + t d, 0 < t < t_max (unit d)."""
+def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> Hit:
+    """The nearest surface along o + t d, 0 < t < t_max (unit d), with objects where they are at `time`.
+
+    A moving object is at p + velocity time, so it is tested against the ray moved the other way.
+    """
     h = Hit()
     h.hit = 0
     h.t = t_max
+    h.light = -1
     best = int(-1)
     for i in range(scene.num_shapes):
-        t = intersect_shape(scene.shapes[i], o, d, h.t)
+        s = scene.shapes[i]
+        t = intersect_shape(s, o - s.velocity * time, d, h.t)
         if t > 0.0:
             h.t = t
             best = i
     face = int(-1)
     bu = float(0.0)
     bv = float(0.0)
-    if scene.has_mesh != 0:
-        q = wp.mesh_query_ray(scene.mesh, o, d, h.t)
+    group = int(0)
+    for g in range(scene.num_meshes):
+        q = wp.mesh_query_ray(scene.meshes[g], o - scene.mesh_vel[g] * time, d, h.t)
         if q.result and q.t > 0.0 and q.t < h.t:
             h.t = q.t
-            face = q.face
+            face = scene.mesh_face0[g] + q.face
             bu = q.u
             bv = q.v
+            group = g
+            best = -1
     if face >= 0:
         h.hit = 1
         h.p = o + h.t * d
-        i0 = scene.mesh_indices[3 * face + 0]
-        i1 = scene.mesh_indices[3 * face + 1]
-        i2 = scene.mesh_indices[3 * face + 2]
-        v0 = scene.mesh_points[i0]
-        v1 = scene.mesh_points[i1]
-        v2 = scene.mesh_points[i2]
-        h.ng = wp.normalize(wp.cross(v1 - v0, v2 - v0))
         h.obj = scene.face_obj[face]
         h.mat = scene.face_mat[face]
-        bw = 1.0 - bu - bv
-        flags = scene.face_flags[face]
-        h.ns = h.ng
-        if (flags & FACE_SMOOTH) != 0:
-            ns = bu * scene.mesh_normals[i0] + bv * scene.mesh_normals[i1] + bw * scene.mesh_normals[i2]
-            if wp.length(ns) > 1.0e-8:
-                ns = wp.normalize(ns)
-                h.ns = wp.where(wp.dot(ns, h.ng) < 0.0, -ns, ns)
-        uv0 = wp.vec2(0.0, 0.0)
-        uv1 = wp.vec2(1.0, 0.0)
-        uv2 = wp.vec2(0.0, 1.0)
-        if (flags & FACE_UV) != 0:
-            uv0 = scene.mesh_uvs[i0]
-            uv1 = scene.mesh_uvs[i1]
-            uv2 = scene.mesh_uvs[i2]
-        h.uv = bu * uv0 + bv * uv1 + bw * uv2
-        # tangents from the uv parameterisation: dp = dpdu du + dpdv dv over the triangle's edges
-        du1 = uv1 - uv0
-        du2 = uv2 - uv0
-        dp1 = v1 - v0
-        dp2 = v2 - v0
-        det = du1[0] * du2[1] - du1[1] * du2[0]
-        if wp.abs(det) > 1.0e-12:
-            h.dpdu = (du2[1] * dp1 - du1[1] * dp2) / det
-            h.dpdv = (du1[0] * dp2 - du2[0] * dp1) / det
-        else:
-            tu, tv = basis(h.ng)
-            h.dpdu = tu
-            h.dpdv = tv
+        h = triangle_surface(scene, face, bu, bv, h)
+        h.po = h.p - scene.mesh_vel[group] * time
     elif best >= 0:
         h.hit = 1
         s = scene.shapes[best]
         h.p = o + h.t * d
+        h.po = h.p - s.velocity * time
         h.obj = s.obj
         h.mat = s.mat
-        h = shape_surface(s, h.p, h)
+        h.light = s.light
+        h = shape_surface(s, h.po, h)
+    return h
+
+
+@wp.func
+def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) -> Hit:
+    """Normals, uv and tangents of a hit on mesh face `face` at Warp barycentrics (bu, bv)."""
+    i0 = scene.mesh_indices[3 * face + 0]
+    i1 = scene.mesh_indices[3 * face + 1]
+    i2 = scene.mesh_indices[3 * face + 2]
+    v0 = scene.mesh_points[i0]
+    v1 = scene.mesh_points[i1]
+    v2 = scene.mesh_points[i2]
+    h.ng = wp.normalize(wp.cross(v1 - v0, v2 - v0))
+    bw = 1.0 - bu - bv
+    flags = scene.face_flags[face]
+    h.ns = h.ng
+    if (flags & FACE_SMOOTH) != 0:
+        ns = bu * scene.mesh_normals[i0] + bv * scene.mesh_normals[i1] + bw * scene.mesh_normals[i2]
+        if wp.length(ns) > 1.0e-8:
+            ns = wp.normalize(ns)
+            h.ns = wp.where(wp.dot(ns, h.ng) < 0.0, -ns, ns)
+    uv0 = wp.vec2(0.0, 0.0)
+    uv1 = wp.vec2(1.0, 0.0)
+    uv2 = wp.vec2(0.0, 1.0)
+    if (flags & FACE_UV) != 0:
+        uv0 = scene.mesh_uvs[i0]
+        uv1 = scene.mesh_uvs[i1]
+        uv2 = scene.mesh_uvs[i2]
+    h.uv = bu * uv0 + bv * uv1 + bw * uv2
+    # tangents from the uv parameterisation: dp = dpdu du + dpdv dv over the triangle's edges
+    du1 = uv1 - uv0
+    du2 = uv2 - uv0
+    dp1 = v1 - v0
+    dp2 = v2 - v0
+    det = du1[0] * du2[1] - du1[1] * du2[0]
+    if wp.abs(det) > 1.0e-12:
+        h.dpdu = (du2[1] * dp1 - du1[1] * dp2) / det
+        h.dpdv = (du1[0] * dp2 - du2[0] * dp1) / det
+    else:
+        tu, tv = basis(h.ng)
+        h.dpdu = tu
+        h.dpdv = tv
     return h

@@ -60,6 +60,19 @@ class End(IntEnum):
     ABSORBED = 6
 
 
+class Integrator(IntEnum):
+    WHITTED = 0
+    PATH = 1
+    RADIOSITY = 2
+
+
+class FilterKind(IntEnum):
+    BOX = 0
+    TENT = 1
+    GAUSSIAN = 2
+    MITCHELL = 3
+
+
 class SamplerKind(IntEnum):
     CENTER = 0
     GRID = 1
@@ -76,6 +89,14 @@ SHAPE_DISK = wp.constant(int(Shape.DISK))
 LIGHT_POINT = wp.constant(int(LightKind.POINT))
 LIGHT_DIRECTIONAL = wp.constant(int(LightKind.DIRECTIONAL))
 LIGHT_SPOT = wp.constant(int(LightKind.SPOT))
+LIGHT_QUAD = wp.constant(int(LightKind.QUAD))
+LIGHT_DISK = wp.constant(int(LightKind.DISK))
+LIGHT_SPHERE = wp.constant(int(LightKind.SPHERE))
+
+INTEGRATOR_WHITTED = wp.constant(int(Integrator.WHITTED))
+INTEGRATOR_PATH = wp.constant(int(Integrator.PATH))
+
+FILTER_BOX = wp.constant(int(FilterKind.BOX))
 
 TEX_NONE = wp.constant(int(Texture.NONE))
 TEX_CHECKER = wp.constant(int(Texture.CHECKER))
@@ -102,6 +123,7 @@ SAMPLER_CENTER = wp.constant(int(SamplerKind.CENTER))
 SAMPLER_GRID = wp.constant(int(SamplerKind.GRID))
 SAMPLER_RANDOM = wp.constant(int(SamplerKind.RANDOM))
 SAMPLER_JITTERED = wp.constant(int(SamplerKind.JITTERED))
+SAMPLER_ADAPTIVE = wp.constant(int(SamplerKind.ADAPTIVE))
 
 # Spawned rays start at hit + RAY_OFFSET * N (SCENE_FORMAT.md, "Spawned rays"): part of the contract.
 RAY_OFFSET = wp.constant(1.0e-4)

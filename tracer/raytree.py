@@ -13,9 +13,10 @@ import numpy as np
 import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
-from tracer.integrators import whitted as W
+from tracer.integrators import dispatch
+from tracer.integrators import record as W
 from tracer.kinds import End, RayKind
-from tracer.render import make_record, make_stack
+from tracer.render import load_kernels, make_record, make_stack
 from tracer.scene import Scene, SceneError
 
 DEFAULT_CAP = 8192  # nodes recorded at most; a larger tree is reported as truncated
@@ -40,11 +41,11 @@ def ray_tree(
         errs.append({"path": "sample", "message": f"must be a sample index in 0..{d.spp - 1}"})
     if errs:
         raise SceneError(errs)
-    wp.load_module(W, device=device)
+    load_kernels(device)
     rec = make_record(cap, device)
     st = make_stack(1, d.max_depth, device)
-    out = wp.zeros(1, dtype=wp.vec3, device=device)
-    wp.launch(W.trace_one, dim=1, inputs=[d, x, y, sample, st, rec, out], device=device)
+    out = wp.zeros(2, dtype=wp.vec3, device=device)
+    wp.launch(dispatch.trace_one, dim=1, inputs=[d, x, y, sample, st, rec, out], device=device)
     count = int(rec.count.numpy()[0])
     n = min(count, cap)
     ints, vecs, floats = rec.ints.numpy()[:n], rec.vecs.numpy()[:n], rec.floats.numpy()[:n]
@@ -73,11 +74,13 @@ def ray_tree(
         hit = None
         if ints[i, W.I_HIT]:
             obj = int(ints[i, W.I_OBJ])
+            light = -1 - obj if obj < 0 else None  # an area light is geometry too
             hit = {
                 "point": _vec(vecs[i, W.V_POINT]),
                 "normal": _vec(vecs[i, W.V_NORMAL]),
-                "object": obj,
-                "object_name": cs.object_names[obj],
+                "object": obj if obj >= 0 else None,
+                "object_name": cs.object_names[obj] if obj >= 0 else f"light {light} ({cs.scene.lights[light].type})",
+                "light": light,
                 "material": cs.material_names[int(ints[i, W.I_MAT])],
                 "front_face": bool(ints[i, W.I_FRONT]),
             }
@@ -111,11 +114,13 @@ def ray_tree(
                 "end": None if end == End.NONE else end.name.lower(),
             }
         )
-    color = out.numpy()[0]
+    color, weight = out.numpy()
     return {
         "pixel": [x, y],
         "sample": sample,
         "color": _vec(color),
+        "filter_weight": float(weight[0]),
+        "time": float(floats[0, W.F_TIME]) if n else None,
         "nodes": nodes,
         "truncated": count > cap,
     }

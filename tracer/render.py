@@ -19,7 +19,7 @@ import numpy as np
 import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
-from tracer.integrators import whitted
+from tracer.integrators import dispatch, record, whitted
 from tracer.kinds import RayKind
 from tracer.scene import Scene
 
@@ -38,14 +38,31 @@ def make_stack(rows: int, depth: int, device: str = "cpu") -> whitted.Stack:
     return st
 
 
-def make_record(cap: int, device: str = "cpu") -> whitted.TreeRecord:
-    rec = whitted.TreeRecord()
+def make_record(cap: int, device: str = "cpu") -> record.TreeRecord:
+    rec = record.TreeRecord()
     rec.cap = cap
     rec.count = wp.zeros(1, dtype=wp.int32, device=device)
-    rec.ints = wp.zeros((max(cap, 1), whitted.NUM_I), dtype=wp.int32, device=device)
-    rec.vecs = wp.zeros((max(cap, 1), whitted.NUM_V), dtype=wp.vec3, device=device)
-    rec.floats = wp.zeros((max(cap, 1), whitted.NUM_F), dtype=wp.float32, device=device)
+    rec.ints = wp.zeros((max(cap, 1), record.NUM_I), dtype=wp.int32, device=device)
+    rec.vecs = wp.zeros((max(cap, 1), record.NUM_V), dtype=wp.vec3, device=device)
+    rec.floats = wp.zeros((max(cap, 1), record.NUM_F), dtype=wp.float32, device=device)
     return rec
+
+
+def make_film(height: int, width: int, device: str = "cpu") -> dispatch.FilmBuffers:
+    f = dispatch.FilmBuffers()
+    shape = (height, width)
+    f.accum = wp.zeros(shape, dtype=wp.vec3, device=device)
+    f.sumsq = wp.zeros(shape, dtype=wp.vec3, device=device)
+    f.counts = wp.zeros(shape, dtype=wp.vec4i, device=device)
+    f.depth = wp.zeros(shape, dtype=float, device=device)
+    f.normal = wp.zeros(shape, dtype=wp.vec3, device=device)
+    f.albedo = wp.zeros(shape, dtype=wp.vec3, device=device)
+    return f
+
+
+def load_kernels(device: str = "cpu") -> None:
+    """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
+    wp.load_module(dispatch, device=device)
 
 
 def default_threads() -> int:
@@ -69,6 +86,7 @@ class RenderResult:
     seconds: float
     rays: dict = field(default_factory=dict)  # rays by kind name, and "total"
     cancelled: bool = False
+    aovs: dict = field(default_factory=dict)  # name -> (H, W) or (H, W, 3) float32, see Renderer.aovs
 
     def stats_line(self) -> str:
         total = self.rays.get("total", 0)
@@ -95,13 +113,12 @@ class Renderer:
     def __init__(self, compiled: CompiledScene, threads: int | None = None, device: str = "cpu"):
         self.cs = compiled
         self.device = device
-        wp.load_module(whitted, device=device)  # compile (or load from the cache) before threads start
+        load_kernels(device)
         data = compiled.data
         self.width, self.height, self.spp = data.width, data.height, data.spp
         self.threads = threads or default_threads()
         self.rows_per_band = max(1, BAND_PIXELS // self.width)
-        self.accum = wp.zeros((self.height, self.width), dtype=wp.vec3, device=device)
-        self.counts = wp.zeros((self.height, self.width), dtype=wp.vec4i, device=device)
+        self.film = make_film(self.height, self.width, device)
         band = self.rows_per_band * self.width
         self.stacks = [make_stack(band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
@@ -110,10 +127,10 @@ class Renderer:
     def _band(self, worker: int, y0: int, s0: int, s1: int) -> None:
         n = min(self.rows_per_band, self.height - y0) * self.width
         wp.launch(
-            whitted.render_rows,
+            dispatch.render_rows,
             dim=n,
             device=self.device,
-            inputs=[self.cs.data, y0, s0, s1, self.stacks[worker], self.dummy, self.accum, self.counts],
+            inputs=[self.cs.data, y0, s0, s1, self.stacks[worker], self.dummy, self.film],
         )
 
     def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:
@@ -147,11 +164,27 @@ class Renderer:
 
     def image(self) -> np.ndarray:
         """The mean of the samples so far, (H, W, 3) float32."""
-        acc = self.accum.numpy()
+        acc = self.film.accum.numpy()
         return (acc / max(self.samples_done, 1)).astype(np.float32)
 
+    def aovs(self) -> dict[str, np.ndarray]:
+        """Arbitrary output variables, averaged over the samples so far (float32):
+        depth (H, W): distance to the eye ray's hit, 0 where it left the scene; normal (H, W, 3): the
+        shading normal there; albedo (H, W, 3): kd there; rays (H, W): rays traced for the pixel,
+        all kinds; variance (H, W, 3): the samples' variance (unbiased, per channel)."""
+        n = max(self.samples_done, 1)
+        mean = self.film.accum.numpy() / n
+        var = (self.film.sumsq.numpy() / n - mean * mean) * (n / max(n - 1, 1))
+        return {
+            "depth": (self.film.depth.numpy() / n).astype(np.float32),
+            "normal": (self.film.normal.numpy() / n).astype(np.float32),
+            "albedo": (self.film.albedo.numpy() / n).astype(np.float32),
+            "rays": self.film.counts.numpy().sum(axis=-1).astype(np.float32),
+            "variance": np.maximum(var, 0.0).astype(np.float32),
+        }
+
     def rays(self) -> dict:
-        c = self.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
+        c = self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
         out = {k.name.lower(): int(c[k]) for k in RayKind}
         out["total"] = int(c.sum())
         return out
@@ -206,4 +239,6 @@ def render(
         if on_pass is not None:
             on_pass(PassResult(r.image(), s1, r.spp, passes, time.perf_counter() - start, r.rays()))
     seconds = time.perf_counter() - start
-    return RenderResult(image=r.image(), spp=r.samples_done, seconds=seconds, rays=r.rays(), cancelled=cancelled)
+    return RenderResult(
+        image=r.image(), spp=r.samples_done, seconds=seconds, rays=r.rays(), cancelled=cancelled, aovs=r.aovs()
+    )

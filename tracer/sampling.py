@@ -9,7 +9,9 @@ with chosen values.
 
 import warp as wp
 
-from tracer.kinds import SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
+from tracer.compile import SceneData
+from tracer.geometry import PI, basis
+from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
 
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))
@@ -53,6 +55,93 @@ def film_offset(sampler: int, sample: int, spp: int, u1: float, u2: float) -> wp
 
 
 @wp.func
-def box_filter_offset(uv: wp.vec2, radius: float) -> wp.vec2:
-    """Filter importance sampling of a box of half-width `radius` pixels around the pixel centre."""
-    return wp.vec2(0.5 + (uv[0] - 0.5) * 2.0 * radius, 0.5 + (uv[1] - 0.5) * 2.0 * radius)
+def filter_offset(scene: SceneData, uv: wp.vec2):
+    """Film offset inside the pixel, and the sample's weight, by filter importance sampling.
+
+    The offsets follow |f| (one inverse-CDF table per axis, f separable), so each sample stays
+    in its own pixel's sum; a sample where f < 0 (Mitchell's lobes) gets a negative weight.
+    """
+    if scene.filter == FILTER_BOX:
+        r = scene.filter_radius
+        return wp.vec2(0.5 + (uv[0] - 0.5) * 2.0 * r, 0.5 + (uv[1] - 0.5) * 2.0 * r), 1.0
+    n = scene.filter_icdf.shape[0]
+    w = scene.filter_norm
+    off = wp.vec2(0.0)
+    for k in range(2):
+        x = uv[k] * float(n - 1)
+        i = wp.min(int(x), n - 2)
+        f = x - float(i)
+        off[k] = 0.5 + (1.0 - f) * scene.filter_icdf[i] + f * scene.filter_icdf[i + 1]
+        w = w * scene.filter_sign[wp.min(int(x + 0.5), n - 1)]
+    return off, w
+
+
+@wp.func
+def stratum(k: int, n: int, u1: float, u2: float) -> wp.vec2:
+    """Sample k of n in [0,1)^2, stratified: a jittered grid when n is a square, else strips in u."""
+    m = int(wp.floor(wp.sqrt(float(n)) + 0.5))
+    if m * m == n:
+        return wp.vec2((float(k % m) + u1) / float(m), (float(k / m) + u2) / float(m))
+    return wp.vec2((float(k) + u1) / float(n), u2)
+
+
+@wp.func
+def concentric_disk(u1: float, u2: float) -> wp.vec2:
+    """Uniform point of the unit disk, area-preserving (Shirley & Chiu 1997)."""
+    a = 2.0 * u1 - 1.0
+    b = 2.0 * u2 - 1.0
+    if a == 0.0 and b == 0.0:
+        return wp.vec2(0.0, 0.0)
+    r = float(0.0)
+    phi = float(0.0)
+    if wp.abs(a) > wp.abs(b):
+        r = a
+        phi = (PI / 4.0) * (b / a)
+    else:
+        r = b
+        phi = PI / 2.0 - (PI / 4.0) * (a / b)
+    return wp.vec2(r * wp.cos(phi), r * wp.sin(phi))
+
+
+@wp.func
+def to_world(local: wp.vec3, n: wp.vec3) -> wp.vec3:
+    """A direction given about the z axis, turned so that z becomes the unit vector n."""
+    t, b = basis(n)
+    return local[0] * t + local[1] * b + local[2] * n
+
+
+@wp.func
+def sample_cosine_hemisphere(u1: float, u2: float) -> wp.vec3:
+    """Cosine-weighted direction about +z (Malley's method): pdf = cos(theta) / pi."""
+    d = concentric_disk(u1, u2)
+    return wp.vec3(d[0], d[1], wp.sqrt(wp.max(0.0, 1.0 - d[0] * d[0] - d[1] * d[1])))
+
+
+@wp.func
+def cosine_hemisphere_pdf(cos_theta: float) -> float:
+    return wp.max(cos_theta, 0.0) / PI
+
+
+@wp.func
+def sample_cos_lobe(u1: float, u2: float, m: float) -> wp.vec3:
+    """Direction about +z with density proportional to cos^m(alpha): pdf = (m+1)/(2 pi) cos^m."""
+    cos_a = wp.pow(u1, 1.0 / (m + 1.0))
+    sin_a = wp.sqrt(wp.max(0.0, 1.0 - cos_a * cos_a))
+    phi = 2.0 * PI * u2
+    return wp.vec3(sin_a * wp.cos(phi), sin_a * wp.sin(phi), cos_a)
+
+
+@wp.func
+def cos_lobe_pdf(cos_a: float, m: float) -> float:
+    if cos_a <= 0.0:
+        return 0.0
+    return (m + 1.0) / (2.0 * PI) * wp.pow(cos_a, m)
+
+
+@wp.func
+def sample_cone(u1: float, u2: float, cos_max: float) -> wp.vec3:
+    """Uniform direction about +z within angle acos(cos_max): pdf = 1 / (2 pi (1 - cos_max))."""
+    cos_a = 1.0 - u1 * (1.0 - cos_max)
+    sin_a = wp.sqrt(wp.max(0.0, 1.0 - cos_a * cos_a))
+    phi = 2.0 * PI * u2
+    return wp.vec3(sin_a * wp.cos(phi), sin_a * wp.sin(phi), cos_a)

@@ -1,5 +1,2 @@
-"""Integrators by registry name: each module gives a render kernel and a ray-tree kernel."""
-
-from tracer.integrators import whitted
-
-INTEGRATORS = {"whitted": whitted}
+"""Integrators: `whitted` (the ray tree) and `path` (path tracing), one `trace` @wp.func each,
+dispatched by SceneData.integrator in dispatch.py."""
