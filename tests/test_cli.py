@@ -108,3 +108,17 @@ def test_cli_refuses_features_not_implemented_yet(tmp_path):
     f.write_text(json.dumps(data))
     p = run("render", f, "-o", tmp_path / "x.png", check=False)
     assert p.returncode == 1 and "render.integrator" in p.stderr and "not implemented yet" in p.stderr
+
+
+def test_cli_render_aovs_into_the_exr(tmp_path):
+    import OpenEXR
+
+    out = tmp_path / "a.exr"
+    p = run("render", SCENES / "antialias_adaptive.json", "-o", tmp_path / "a.png", "--exr", out, "--aovs",
+            "--width", 40, "--height", 30)
+    assert "adaptive to level 3" in p.stdout
+    with OpenEXR.File(str(out), separate_channels=True) as f:
+        ch = f.channels()
+    assert {"R", "G", "B", "depth.Z", "rays.Y", "normal.R", "albedo.G", "variance.B"} <= set(ch)
+    rays = np.asarray(ch["rays.Y"].pixels)
+    assert rays.min() >= 10 and rays.max() > rays.min()  # 5 corner/centre rays + shadow rays, more at edges

@@ -68,7 +68,7 @@ def _print_warnings(warnings, file=sys.stderr) -> None:
 
 def cmd_render(args) -> int:
     from tracer.compile import compile_scene
-    from tracer.film import write_exr, write_png
+    from tracer.film import aov_layers, write_exr, write_png
     from tracer.render import render
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args))
@@ -93,8 +93,13 @@ def cmd_render(args) -> int:
         bar.close()
     write_png(args.output, result.image, scene.film.exposure)
     if args.exr:
-        write_exr(args.exr, result.image)
-    print(f"{args.output}: {scene.film.width}x{scene.film.height}, {result.spp} spp, {result.stats_line()}")
+        write_exr(args.exr, result.image, aov_layers(result.aovs) if args.aovs else None)
+    if scene.sampler.type == "adaptive":
+        per_pixel = result.aovs["rays"].mean()
+        sampling = f"adaptive to level {scene.sampler.max_level} ({per_pixel:.1f} rays/pixel in the last pass)"
+    else:
+        sampling = f"{result.spp} spp"
+    print(f"{args.output}: {scene.film.width}x{scene.film.height}, {sampling}, {result.stats_line()}")
     return 0
 
 
@@ -141,6 +146,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--max-depth", type=int, dest="max_depth")
     r.add_argument("--threads", type=int, help="render threads (default: one per core)")
     r.add_argument("--exr", help="also write the linear float image as OpenEXR")
+    r.add_argument(
+        "--aovs",
+        action="store_true",
+        help="with --exr: add layers depth.Z, normal, albedo, rays.Y (rays per pixel) and variance",
+    )
     r.add_argument("--assets", default=str(ASSET_DIR), help="folder that mesh and texture files are read from")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_render)

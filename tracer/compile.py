@@ -168,8 +168,6 @@ def not_implemented(scene: Scene) -> list[dict]:
     errs = []
     if scene.render.integrator == "radiosity":
         errs.append({"path": "render.integrator", "message": "the 'radiosity' integrator is not implemented yet"})
-    if scene.sampler.type == "adaptive":
-        errs.append({"path": "sampler.type", "message": "the adaptive sampler is not implemented yet"})
     return errs
 
 

@@ -59,3 +59,19 @@ def read_exr(path: str | Path) -> np.ndarray:
         if "RGB" in ch:
             return np.asarray(ch["RGB"].pixels, dtype=np.float32)
         return np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
+
+
+def aov_layers(aovs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """AOVs as EXR layers: depth.Z and rays.Y (one channel); normal, albedo, variance (.R .G .B)."""
+    names = {"depth": "depth.Z", "rays": "rays.Y"}
+    return {names.get(k, k): v for k, v in aovs.items()}
+
+
+def heat_map(values: np.ndarray) -> np.ndarray:
+    """A (H, W) map of non-negative values as a linear-RGB image from black through red to yellow
+    to white (for the rays-per-pixel AOV): 0 is black, the maximum white."""
+    v = values / max(float(values.max()), 1e-12)
+    r = np.clip(3 * v, 0, 1)
+    g = np.clip(3 * v - 1, 0, 1)
+    b = np.clip(3 * v - 2, 0, 1)
+    return (np.stack([r, g, b], axis=-1) ** 2.2).astype(np.float32)

@@ -37,8 +37,11 @@ def ray_tree(
         errs.append({"path": "x", "message": f"must be a column in 0..{d.width - 1}"})
     if not 0 <= y < d.height:
         errs.append({"path": "y", "message": f"must be a row in 0..{d.height - 1}"})
-    if not 0 <= sample < d.spp:
-        errs.append({"path": "sample", "message": f"must be a sample index in 0..{d.spp - 1}"})
+    n_samples = d.spp
+    if cs.scene.sampler.type == "adaptive":  # a sample is a point of the fine grid, (G+1)^2 of them
+        n_samples = ((1 << (d.max_level + 1)) + 1) ** 2
+    if not 0 <= sample < n_samples:
+        errs.append({"path": "sample", "message": f"must be a sample index in 0..{n_samples - 1}"})
     if errs:
         raise SceneError(errs)
     load_kernels(device)

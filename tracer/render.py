@@ -20,10 +20,11 @@ import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record, whitted
-from tracer.kinds import RayKind
+from tracer.kinds import RayKind, SamplerKind
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
+ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
 
 
 def make_stack(rows: int, depth: int, device: str = "cpu") -> whitted.Stack:
@@ -95,6 +96,12 @@ class RenderResult:
         return f"{self.seconds:.2f} s, {total} rays ({kinds}), {mrays:.2f} Mrays/s"
 
 
+def adaptive_schedule(cs: CompiledScene) -> list[tuple[int, int]]:
+    """Adaptive passes: level 0 (5 rays a pixel), then one more level of subdivision each pass.
+    Each pair is (level, level + 1) so progress counts one unit per pixel per pass."""
+    return [(level, level + 1) for level in range(cs.data.max_level + 1)]
+
+
 def pass_schedule(spp: int) -> list[tuple[int, int]]:
     """Sample ranges of the progressive passes: 1, 1, 2, 4, ... samples per pixel."""
     passes, s0, n = [], 0, 1
@@ -108,7 +115,12 @@ def pass_schedule(spp: int) -> list[tuple[int, int]]:
 
 
 class Renderer:
-    """A compiled scene with its accumulation buffers; `run` adds passes until spp is reached."""
+    """A compiled scene with its film buffers.
+
+    Uniform samplers: `add_samples(s0, s1)` adds samples to the running sums. Adaptive sampler:
+    `adaptive_pass(level)` recomputes the film with subdivision down to `level`.
+    Work is cut into bands of consecutive pixels launched from one thread per core.
+    """
 
     def __init__(self, compiled: CompiledScene, threads: int | None = None, device: str = "cpu"):
         self.cs = compiled
@@ -116,51 +128,79 @@ class Renderer:
         load_kernels(device)
         data = compiled.data
         self.width, self.height, self.spp = data.width, data.height, data.spp
+        self.adaptive = data.sampler == SamplerKind.ADAPTIVE
         self.threads = threads or default_threads()
-        self.rows_per_band = max(1, BAND_PIXELS // self.width)
+        self.band = BAND_PIXELS
+        if self.adaptive:
+            points = ((1 << (data.max_level + 1)) + 1) ** 2
+            self.band = int(max(1, min(BAND_PIXELS, ADAPTIVE_CACHE_BYTES // (points * 16))))
+            self.caches = []
+            for _ in range(self.threads):
+                c = dispatch.AdaptiveCache()
+                c.color = wp.empty((self.band, points), dtype=wp.vec3, device=device)
+                c.stamp = wp.zeros((self.band, points), dtype=wp.int32, device=device)
+                self.caches.append(c)
         self.film = make_film(self.height, self.width, device)
-        band = self.rows_per_band * self.width
-        self.stacks = [make_stack(band, data.max_depth, device) for _ in range(self.threads)]
+        self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
-        self.samples_done = 0  # per pixel
+        self.samples_done = 0  # per pixel (adaptive: 1 once a pass has run)
+        self.passes_rays = np.zeros(4, dtype=np.int64)  # adaptive: rays of the passes before the last
 
-    def _band(self, worker: int, y0: int, s0: int, s1: int) -> None:
-        n = min(self.rows_per_band, self.height - y0) * self.width
-        wp.launch(
-            dispatch.render_rows,
-            dim=n,
-            device=self.device,
-            inputs=[self.cs.data, y0, s0, s1, self.stacks[worker], self.dummy, self.film],
-        )
+    def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
+        """launch(worker, first pixel, pixel count) over every band, one worker thread per core."""
+        total = self.width * self.height
+        bands = [(p0, min(self.band, total - p0)) for p0 in range(0, total, self.band)]
+        queue = iter(bands)
+        lock = threading.Lock()
 
-    def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:
-        """Trace samples s0..s1-1 of every pixel (bands spread over the thread pool)."""
-        bands = list(range(0, self.height, self.rows_per_band))
-        if self.threads == 1:
-            for y0 in bands:
-                self._band(0, y0, s0, s1)
+        def worker(k: int) -> None:
+            while True:
+                with lock:
+                    item = next(queue, None)
+                if item is None:
+                    return
+                launch(k, *item)
                 if on_band:
-                    on_band(min(self.rows_per_band, self.height - y0) * self.width)
-        else:
-            queue = iter(bands)
-            lock = threading.Lock()
-
-            def worker(k: int) -> None:
-                while True:
                     with lock:
-                        y0 = next(queue, None)
-                    if y0 is None:
-                        return
-                    self._band(k, y0, s0, s1)
-                    if on_band:
-                        with lock:
-                            on_band(min(self.rows_per_band, self.height - y0) * self.width)
+                        on_band(item[1])
 
+        if self.threads == 1:
+            worker(0)
+        else:
             with ThreadPoolExecutor(self.threads) as pool:
                 for f in [pool.submit(worker, k) for k in range(self.threads)]:
                     f.result()
         wp.synchronize_device(self.device)
+
+    def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:
+        """Trace samples s0..s1-1 of every pixel."""
+
+        def launch(k: int, p0: int, n: int) -> None:
+            wp.launch(
+                dispatch.render_pixels,
+                dim=n,
+                device=self.device,
+                inputs=[self.cs.data, p0, s0, s1, self.stacks[k], self.dummy, self.film],
+            )
+
+        self._run(launch, on_band)
         self.samples_done = s1
+
+    def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
+        """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level)."""
+        if self.samples_done:
+            self.passes_rays += self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
+
+        def launch(k: int, p0: int, n: int) -> None:
+            wp.launch(
+                dispatch.render_adaptive,
+                dim=n,
+                device=self.device,
+                inputs=[self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k]],
+            )
+
+        self._run(launch, on_band)
+        self.samples_done = 1
 
     def image(self) -> np.ndarray:
         """The mean of the samples so far, (H, W, 3) float32."""
@@ -170,8 +210,9 @@ class Renderer:
     def aovs(self) -> dict[str, np.ndarray]:
         """Arbitrary output variables, averaged over the samples so far (float32):
         depth (H, W): distance to the eye ray's hit, 0 where it left the scene; normal (H, W, 3): the
-        shading normal there; albedo (H, W, 3): kd there; rays (H, W): rays traced for the pixel,
-        all kinds; variance (H, W, 3): the samples' variance (unbiased, per channel)."""
+        shading normal there; albedo (H, W, 3): kd there; rays (H, W): rays traced for the pixel, all
+        kinds (adaptive: by the last pass); variance (H, W, 3): the samples' variance (unbiased, per
+        channel; adaptive: the area-weighted spread of the colours it averaged)."""
         n = max(self.samples_done, 1)
         mean = self.film.accum.numpy() / n
         var = (self.film.sumsq.numpy() / n - mean * mean) * (n / max(n - 1, 1))
@@ -184,7 +225,8 @@ class Renderer:
         }
 
     def rays(self) -> dict:
-        c = self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
+        """Rays traced so far by kind (every pass), and "total"."""
+        c = self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0) + self.passes_rays
         out = {k.name.lower(): int(c[k]) for k in RayKind}
         out["total"] = int(c.sum())
         return out
@@ -218,7 +260,7 @@ def render(
     """
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     r = Renderer(cs, threads, device)
-    total = r.width * r.height * r.spp
+    total = r.width * r.height * (cs.data.max_level + 1 if r.adaptive else r.spp)
     start = time.perf_counter()
     done = 0
     passes = 0
@@ -230,14 +272,18 @@ def render(
         if progress:
             progress(Progress(done, total, passes, time.perf_counter() - start))
 
-    for s0, s1 in pass_schedule(r.spp):
+    schedule = adaptive_schedule(cs) if r.adaptive else pass_schedule(r.spp)
+    for s0, s1 in schedule:
         if cancel is not None and cancel():
             cancelled = True
             break
-        r.add_samples(s0, s1, on_band)
+        if r.adaptive:
+            r.adaptive_pass(s0, on_band)  # s0 = the subdivision level of this pass
+        else:
+            r.add_samples(s0, s1, on_band)
         passes += 1
         if on_pass is not None:
-            on_pass(PassResult(r.image(), s1, r.spp, passes, time.perf_counter() - start, r.rays()))
+            on_pass(PassResult(r.image(), r.samples_done, r.spp, passes, time.perf_counter() - start, r.rays()))
     seconds = time.perf_counter() - start
     return RenderResult(
         image=r.image(), spp=r.samples_done, seconds=seconds, rays=r.rays(), cancelled=cancelled, aovs=r.aovs()

@@ -1,6 +1,6 @@
 """The render kernels: thread -> pixel -> sample -> RNG -> camera ray -> the scene's integrator.
 
-`render_rows` adds samples s0..s1-1 of every pixel of a band of rows to the film's running sums
+`render_pixels` adds samples s0..s1-1 of every pixel of a band to the film's running sums
 (one thread per pixel, samples in order, so any split into passes gives the same sums);
 `trace_one` traces one pixel sample with its ray tree recorded.
 """
@@ -12,7 +12,7 @@ from tracer.compile import SceneData
 from tracer.integrators import path, whitted
 from tracer.integrators.common import SampleOut
 from tracer.integrators.record import TreeRecord
-from tracer.kinds import INTEGRATOR_PATH
+from tracer.kinds import INTEGRATOR_PATH, SAMPLER_ADAPTIVE
 from tracer.sampling import film_offset, filter_offset, rng_start
 
 
@@ -29,6 +29,24 @@ class FilmBuffers:
 
 
 @wp.func
+def trace_at(
+    scene: SceneData, fx: float, fy: float, rng: wp.uint32, st: whitted.Stack, row: int, record: int, rec: TreeRecord
+) -> SampleOut:
+    """The integrator's estimate through film position (fx, fy), with a lens point and a time from rng."""
+    state = wp.uint32(rng)
+    lens1 = wp.randf(state)
+    lens2 = wp.randf(state)
+    time = shutter_time(scene.camera, wp.randf(state))
+    o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
+    out = SampleOut()
+    if scene.integrator == INTEGRATOR_PATH:
+        out = path.trace(scene, o, d, time, state, record, rec)
+    else:
+        out = whitted.trace(scene, o, d, time, state, st, row, record, rec)
+    return out
+
+
+@wp.func
 def trace_sample(scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord):
     """Sample s of pixel (x, y): film position (filter importance sampled), lens point, time, and the
     integrator's estimate. Returns the sample (its radiance already times the filter weight) and the weight."""
@@ -36,27 +54,20 @@ def trace_sample(scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, ro
     u1 = wp.randf(rng)
     u2 = wp.randf(rng)
     off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
-    lens1 = wp.randf(rng)
-    lens2 = wp.randf(rng)
-    time = shutter_time(scene.camera, wp.randf(rng))
-    o, d = camera_ray(scene.camera, float(x) + off[0], float(y) + off[1], scene.width, scene.height, lens1, lens2)
-    out = SampleOut()
-    if scene.integrator == INTEGRATOR_PATH:
-        out = path.trace(scene, o, d, time, rng, record, rec)
-    else:
-        out = whitted.trace(scene, o, d, time, rng, st, row, record, rec)
+    out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, st, row, record, rec)
     out.color = out.color * weight
     return out, weight
 
 
 @wp.kernel
-def render_rows(scene: SceneData, y0: int, s0: int, s1: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers):
-    """Add samples s0..s1-1 of each pixel of rows y0.. to the film's sums (one thread per pixel)."""
+def render_pixels(scene: SceneData, p0: int, s0: int, s1: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers):
+    """Add samples s0..s1-1 of pixels p0.. (row-major) to the film's sums (one thread per pixel)."""
     row = wp.tid()
-    x = row % scene.width
-    y = y0 + row / scene.width
-    if y >= scene.height:
+    pix = p0 + row
+    if pix >= scene.width * scene.height:
         return
+    x = pix % scene.width
+    y = pix / scene.width
     acc = film.accum[y, x]
     sq = film.sumsq[y, x]
     cnt = film.counts[y, x]
@@ -79,11 +90,133 @@ def render_rows(scene: SceneData, y0: int, s0: int, s1: int, st: whitted.Stack, 
     film.albedo[y, x] = alb
 
 
+# ------------------------------------------------------------------------------------------------
+# Adaptive supersampling (Whitted 1980): rays at the 4 corners and the centre of the pixel; if the
+# 5 colours are within `threshold` their average is the pixel, otherwise the pixel is cut into 4
+# cells, each treated the same way (its corners are shared with its neighbours), down to
+# `max_level`. All points lie on one fine grid of (G+1)^2 points, G = 2^(max_level+1); a point's
+# colour is traced once and kept in a per-thread cache, and its random numbers are keyed by its
+# index on that grid, so pass L (subdivision stopped at level L) re-traces nothing differently.
+
+vec32i = wp.types.vector(length=32, dtype=wp.int32)
+
+
+@wp.struct
+class AdaptiveCache:
+    color: wp.array2d(dtype=wp.vec3)  # (threads of a band, (G+1)^2) colours of traced grid points
+    stamp: wp.array2d(dtype=wp.int32)  # which pixel and pass filled each entry
+
+
+@wp.func
+def grid_point(
+    scene: SceneData, x: int, y: int, i: int, j: int, g: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord
+) -> SampleOut:
+    """The sample at fine-grid point (i, j) of pixel (x, y): exactly there, or jittered by up to half
+    the grid spacing when sampler.jitter is set (stochastic positions, then adaptive subdivision)."""
+    rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
+    fx = float(i) / float(g)
+    fy = float(j) / float(g)
+    if scene.jitter != 0:
+        fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+        fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+    return trace_at(scene, float(x) + fx, float(y) + fy, rng, st, row, record, rec)
+
+
+@wp.func
+def cached_point(
+    scene: SceneData,
+    x: int,
+    y: int,
+    i: int,
+    j: int,
+    g: int,
+    stamp: int,
+    cache: AdaptiveCache,
+    st: whitted.Stack,
+    row: int,
+    rec: TreeRecord,
+):
+    """(colour, rays traced now): the cached colour of grid point (i, j), or a newly traced one."""
+    k = j * (g + 1) + i
+    if cache.stamp[row, k] == stamp:
+        return cache.color[row, k], wp.vec4i(0)
+    out = grid_point(scene, x, y, i, j, g, st, row, 0, rec)
+    cache.color[row, k] = out.color
+    cache.stamp[row, k] = stamp
+    return out.color, out.counts
+
+
+@wp.kernel
+def render_adaptive(
+    scene: SceneData, p0: int, level: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers, cache: AdaptiveCache
+):
+    """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result."""
+    row = wp.tid()
+    pix = p0 + row
+    if pix >= scene.width * scene.height:
+        return
+    x = pix % scene.width
+    y = pix / scene.width
+    g = 1 << (scene.max_level + 1)
+    stamp = pix * 16 + level + 1
+    # the centre ray first: it gives the AOVs
+    mid = g / 2
+    centre = grid_point(scene, x, y, mid, mid, g, st, row, 0, rec)
+    cache.color[row, mid * (g + 1) + mid] = centre.color
+    cache.stamp[row, mid * (g + 1) + mid] = stamp
+    counts = centre.counts
+    total = wp.vec3(0.0)
+    total_sq = wp.vec3(0.0)
+    ci = vec32i()
+    cj = vec32i()
+    cl = vec32i()
+    sp = int(1)
+    while sp > 0:
+        sp -= 1
+        i0 = ci[sp]
+        j0 = cj[sp]
+        lv = cl[sp]
+        size = g >> lv
+        c0, n0 = cached_point(scene, x, y, i0, j0, g, stamp, cache, st, row, rec)
+        c1, n1 = cached_point(scene, x, y, i0 + size, j0, g, stamp, cache, st, row, rec)
+        c2, n2 = cached_point(scene, x, y, i0, j0 + size, g, stamp, cache, st, row, rec)
+        c3, n3 = cached_point(scene, x, y, i0 + size, j0 + size, g, stamp, cache, st, row, rec)
+        c4, n4 = cached_point(scene, x, y, i0 + size / 2, j0 + size / 2, g, stamp, cache, st, row, rec)
+        counts = counts + n0 + n1 + n2 + n3 + n4
+        lo = wp.min(wp.min(wp.min(c0, c1), wp.min(c2, c3)), c4)
+        hi = wp.max(wp.max(wp.max(c0, c1), wp.max(c2, c3)), c4)
+        spread = hi - lo
+        if lv >= level or wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold:
+            area = 1.0 / float(1 << (2 * lv))
+            total += area * (c0 + c1 + c2 + c3 + c4) / 5.0
+            sq = wp.cw_mul(c0, c0) + wp.cw_mul(c1, c1) + wp.cw_mul(c2, c2) + wp.cw_mul(c3, c3) + wp.cw_mul(c4, c4)
+            total_sq += area * sq / 5.0
+        else:
+            half = size / 2
+            for q in range(4):
+                ci[sp] = i0 + (q % 2) * half
+                cj[sp] = j0 + (q / 2) * half
+                cl[sp] = lv + 1
+                sp += 1
+    film.accum[y, x] = total
+    film.sumsq[y, x] = total_sq
+    film.counts[y, x] = counts
+    film.depth[y, x] = centre.depth
+    film.normal[y, x] = centre.normal
+    film.albedo[y, x] = centre.albedo
+
+
 @wp.kernel
 def trace_one(
     scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)
 ):
-    """One pixel sample with its ray tree recorded."""
-    r, weight = trace_sample(scene, x, y, s, st, 0, 1, rec)
-    out[0] = r.color
-    out[1] = wp.vec3(weight, 0.0, 0.0)
+    """One pixel sample with its ray tree recorded (adaptive: s is the index of a fine-grid point)."""
+    if scene.sampler == SAMPLER_ADAPTIVE:
+        g = 1 << (scene.max_level + 1)
+        r = grid_point(scene, x, y, s % (g + 1), s / (g + 1), g, st, 0, 1, rec)
+        out[0] = r.color
+        out[1] = wp.vec3(1.0, 0.0, 0.0)
+    else:
+        r, weight = trace_sample(scene, x, y, s, st, 0, 1, rec)
+        out[0] = r.color
+        out[1] = wp.vec3(weight, 0.0, 0.0)
