@@ -119,6 +119,7 @@ def test_cli_render_aovs_into_the_exr(tmp_path):
     assert "adaptive to level 3" in p.stdout
     with OpenEXR.File(str(out), separate_channels=True) as f:
         ch = f.channels()
-    assert {"R", "G", "B", "depth.Z", "rays.Y", "normal.R", "albedo.G", "variance.B"} <= set(ch)
-    rays = np.asarray(ch["rays.Y"].pixels)
+        names = set(ch)
+        rays = np.array(ch["rays.Y"].pixels)
+    assert {"R", "G", "B", "depth.Z", "rays.Y", "normal.R", "albedo.G", "variance.B"} <= names
     assert rays.min() >= 10 and rays.max() > rays.min()  # 5 corner/centre rays + shadow rays, more at edges
