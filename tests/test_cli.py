@@ -122,4 +122,4 @@ def test_cli_render_aovs_into_the_exr(tmp_path):
         names = set(ch)
         rays = np.array(ch["rays.Y"].pixels)
     assert {"R", "G", "B", "depth.Z", "rays.Y", "normal.R", "albedo.G", "variance.B"} <= names
-    assert rays.min() >= 10 and rays.max() > rays.min()  # 5 corner/centre rays + shadow rays, more at edges
+    assert rays.min() == 5 and rays.max() > 50  # the sky: the 5 corner and centre rays; edges: many more
