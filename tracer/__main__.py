@@ -172,6 +172,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quick", action="store_true", help="small sizes (a smoke run)")
     b.add_argument("--threads", type=int, default=None)
     b.add_argument("--out", help="also write the results as JSON to this file")
+    b.add_argument(
+        "--mitsuba",
+        action="store_true",
+        help="also render the path-traced Cornell box with Mitsuba 3 (pip install mitsuba; "
+        "llvm_ad_rgb needs Debian's libllvm19)",
+    )
     b.set_defaults(func=cmd_bench)
     return p
 

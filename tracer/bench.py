@@ -2,6 +2,7 @@
 
     python -m tracer bench            # every scene in scenes/ at 256x256, plus the targets
     python -m tracer bench --quick    # a smoke run at 64x64
+    python -m tracer bench --mitsuba  # also render the path-traced Cornell box with Mitsuba 3 (if installed)
 
 Kernels are compiled (or loaded from Warp's cache) before any timing; each render is timed
 whole, from the first band to the last, on `--threads` threads (default one per core).
@@ -13,6 +14,8 @@ import json
 import os
 import platform
 from pathlib import Path
+
+import numpy as np
 
 from tracer.compile import compile_scene
 from tracer.render import default_threads, render
@@ -80,7 +83,7 @@ def main(args) -> int:
             f"{path.stem:24} {size:>4}x{size:<4} {row['spp']:>4} {row['seconds']:>7.2f} {row['msamples_s']:>7.2f} "
             f"{row['mrays_s']:>7.2f} " + " ".join(f"{row['mrays_s_' + k]:>7.2f}" for k in KINDS)
         )
-    # the issue's target: Whitted scene 512x512, 16 jittered spp, max_depth 5, and 2 threads vs 1
+    # the core issue's target: Whitted scene 512x512, 16 jittered spp, max_depth 5, and 2 threads vs 1
     tsize = 128 if args.quick else 512
     cs = _scene(SCENES / "whitted.json", tsize, tsize, sampler={"type": "jittered", "spp": 16}, render={"max_depth": 5})
     one = measure(cs, 1)
@@ -94,9 +97,99 @@ def main(args) -> int:
         f"\nwhitted {tsize}x{tsize} 16 spp depth 5: {many['seconds']:.2f} s on {threads} threads, "
         f"{one['seconds']:.2f} s on 1 thread, speed-up {results['targets']['speedup']:.2f}x"
     )
+    results["cornell"] = cornell(args, threads)
+    results["scaling"] = scaling(args, threads)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
     return 0
+
+
+def cornell(args, threads: int) -> dict:
+    """The path-traced Cornell box at 256x256 and 512x512, 64 spp; beside it Mitsuba 3 when installed."""
+    from tracer import bench_mitsuba
+
+    out = {}
+    spp = 4 if args.quick else 64
+    sizes = (64,) if args.quick else (256, 512)
+    print(f"\npath-traced Cornell box (scenes/cornell_path.json), {spp} spp")
+    for size in sizes:
+        row = measure(_scene(SCENES / "cornell_path.json", size, size, sampler={"spp": spp}), threads)
+        out[f"ours_{size}"] = row
+        print(f"  ours      {size}x{size}: {row['seconds']:7.2f} s  {row['mrays_s']:.2f} Mrays/s")
+    variants = bench_mitsuba.available() if args.mitsuba else []
+    if args.mitsuba and not variants:
+        print("  Mitsuba 3 is not installed (pip install mitsuba): no comparison")
+    if variants:
+        size = sizes[0]
+        data = json.loads((SCENES / "cornell_path.json").read_text())
+        data["film"].update(width=size, height=size)
+        data["sampler"]["spp"] = spp
+        scene, _ = load_scene(data)
+        ours = render(compile_scene(scene), threads=threads).image
+        # image quality: RMSE against a converged reference (16x the samples)
+        ref_variant = "llvm_ad_rgb" if "llvm_ad_rgb" in variants else "scalar_rgb"
+        ref, _ = bench_mitsuba.render(scene, spp * 16, ref_variant)
+
+        def rmse(img):
+            return float(np.sqrt(np.mean((img - ref) ** 2)))
+
+        out["reference"] = f"Mitsuba {ref_variant}, {spp * 16} spp"
+        out[f"ours_{size}"]["rmse"] = rmse(ours)
+        out[f"ours_{size}"]["mean"] = [float(v) for v in ours.mean(axis=(0, 1))]
+        print(f"  ours      {size}x{size}: RMSE {rmse(ours):.4f} against the reference, mean {ours.mean():.4f}")
+        for v in variants:
+            img, seconds = bench_mitsuba.render(scene, spp, v)
+            out[f"mitsuba_{v}_{size}"] = {
+                "seconds": round(seconds, 3),
+                "rmse": rmse(img),
+                "mean": [float(c) for c in img.mean(axis=(0, 1))],
+            }
+            print(f"  Mitsuba {v:12} {size}x{size}: {seconds:7.2f} s  RMSE {rmse(img):.4f}, mean {img.mean():.4f}")
+    return out
+
+
+def scaling(args, threads: int) -> dict:
+    """How the cost grows with pixels, spp, depth and triangle count (Whitted scene; a mesh sphere)."""
+    out = {"pixels": {}, "spp": {}, "depth": {}, "triangles": {}}
+    q = args.quick
+    print("\nscaling (whitted.json unless said)")
+    for size in (64, 128) if q else (128, 256, 512):
+        out["pixels"][size] = measure(_scene(SCENES / "whitted.json", size, size, sampler={"spp": 4}), threads)
+    for spp in (1, 4) if q else (1, 4, 16, 64):
+        out["spp"][spp] = measure(_scene(SCENES / "whitted.json", 128, 128, sampler={"spp": spp}), threads)
+    for depth in (1, 3) if q else (1, 2, 3, 5, 8):
+        out["depth"][depth] = measure(
+            _scene(SCENES / "whitted.json", 128, 128, sampler={"spp": 4}, render={"max_depth": depth}), threads
+        )
+    for sub in (1, 3) if q else (1, 3, 5, 7):
+        out["triangles"][sub] = measure(_mesh_scene(sub, 128), threads)
+    for key, unit in (("pixels", "px"), ("spp", "spp"), ("depth", "depth"), ("triangles", "subdiv")):
+        cells = ", ".join(f"{k} {unit}: {r['seconds']:.2f} s ({r['mrays_s']:.1f} Mrays/s)" for k, r in out[key].items())
+        print(f"  {key:9} {cells}")
+    for sub, r in out["triangles"].items():
+        r["triangle_count"] = 20 * 4**sub
+    return out
+
+
+def _mesh_scene(subdivisions: int, size: int):
+    """An icosphere of 20 * 4^subdivisions triangles in front of a light (the triangle-count sweep)."""
+    import trimesh
+
+    ico = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    data = {
+        "camera": {"lookfrom": [0, 0, 4], "lookat": [0, 0, 0], "vfov": 40},
+        "film": {"width": size, "height": size},
+        "sampler": {"type": "jittered", "spp": 4},
+        "render": {"max_depth": 2},
+        "materials": {"m": {"kd": 0.6, "kr": 0.3}},
+        "lights": [{"type": "point", "position": [3, 3, 3], "intensity": 20}],
+        "objects": [
+            {"type": "mesh", "vertices": ico.vertices.tolist(), "faces": ico.faces.tolist(), "material": "m"},
+            {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "m"},
+        ],
+    }
+    scene, _ = load_scene(data)
+    return compile_scene(scene)
 
 
 if __name__ == "__main__":  # pragma: no cover
@@ -106,4 +199,5 @@ if __name__ == "__main__":  # pragma: no cover
     p.add_argument("--quick", action="store_true")
     p.add_argument("--threads", type=int)
     p.add_argument("--out")
+    p.add_argument("--mitsuba", action="store_true")
     main(p.parse_args())

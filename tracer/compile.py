@@ -43,6 +43,9 @@ class ShapeData:
     p0: wp.vec3  # sphere/disk centre, plane point, quad corner
     p1: wp.vec3  # plane/disk normal (unit), quad edge1
     p2: wp.vec3  # quad edge2
+    n: wp.vec3  # quad: edge1 x edge2 (not normalised)
+    w: wp.vec3  # quad: n / |n|^2, for the edge coordinates of a hit
+    xf: wp.mat33  # box: world -> box coordinates, local = xf world + p2 (p0, p1 = the box's min and max)
     radius: float  # sphere/disk radius
     velocity: wp.vec3  # world units per unit time (motion blur)
     light: int  # index of the area light this shape is, or -1
@@ -87,6 +90,7 @@ class LightData:
     edge2: wp.vec3
     radius: float  # disk and sphere lights
     area: float  # emitting area, world units^2
+    shape: int  # index of an area light's own shape in SceneData.shapes, else -1
 
 
 @wp.struct
@@ -397,7 +401,7 @@ def _light(light) -> LightData:
     d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)
     d.intensity, d.attenuation = wp.vec3(0.0), wp.vec3(0.0, 0.0, 1.0)
     d.cos_cutoff, d.falloff = -1.0, 0.0
-    d.edge1, d.edge2, d.radius, d.area = wp.vec3(0.0), wp.vec3(0.0), 0.0, 0.0
+    d.edge1, d.edge2, d.radius, d.area, d.shape = wp.vec3(0.0), wp.vec3(0.0), 0.0, 0.0, -1
     if light.type == "point":
         d.position, d.intensity, d.attenuation = _v(light.position), _v(light.intensity), _v(light.attenuation)
     elif light.type == "directional":
@@ -463,10 +467,13 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
     # triangle groups: 0 = every static triangle; then one group per moving object (own BVH, own velocity)
     groups: list[dict] = [{"velocity": (0.0, 0.0, 0.0), "parts": []}]
 
-    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0), light=-1):
+    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0), light=-1, xf=None):
         s = ShapeData()
+        s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
         s.p0, s.p1, s.p2, s.radius, s.velocity = _v(p0), _v(p1), _v(p2), float(radius), _v(velocity)
+        n = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
+        s.n, s.w = _v(n), _v(n / max(float(np.dot(n, n)), 1e-300))
         shapes.append(s)
 
     def triangles(i, m, v, f, velocity, uv=None, smooth=False):
@@ -487,9 +494,10 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
             shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
         elif t == "disk":
             shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=vel)
-        elif t == "box":
-            for c, e1, e2 in box_faces(obj.min, obj.max, obj.transform):
-                shape(Shape.QUAD, i, m, p0=c, p1=e1, p2=e2, velocity=vel)
+        elif t == "box":  # one slab test in the box's own coordinates
+            fwd = transform_matrix(obj.transform)
+            inv = np.linalg.inv(fwd[:3, :3])
+            shape(Shape.BOX, i, m, p0=obj.min, p1=obj.max, p2=-inv @ fwd[:3, 3], velocity=vel, xf=inv)
         elif t == "triangle":
             triangles(i, m, obj.vertices, [[0, 1, 2]], vel)
         elif t == "mesh":
@@ -512,6 +520,7 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
                 shape(Shape.DISK, -1 - k, lm, p0=light.center, p1=_unit(light.normal), radius=light.radius, light=k)
             else:
                 shape(Shape.SPHERE, -1 - k, lm, p0=light.center, radius=light.radius, light=k)
+            lights[-1].shape = len(shapes) - 1
 
     data = SceneData()
     data.camera = _camera(scene)

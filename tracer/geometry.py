@@ -9,7 +9,7 @@ normal by the caller (SCENE_FORMAT.md, "Spawned rays"), so no epsilon on t is ne
 import warp as wp
 
 from tracer.compile import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
-from tracer.kinds import SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
+from tracer.kinds import SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
 
 PI = wp.constant(3.14159265358979323846)
 
@@ -69,15 +69,27 @@ def quad_coords(p: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3) -> wp.vec
 
 
 @wp.func
-def intersect_quad(o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, t_max: float) -> float:
-    n = wp.cross(e1, e2)
-    t = intersect_plane(o, d, corner, n, t_max)
-    if t < 0.0:
+def intersect_parallelogram(
+    o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, n: wp.vec3, w: wp.vec3, t_max: float
+) -> float:
+    """corner + a e1 + b e2, a, b in [0, 1]; n = e1 x e2 and w = n / |n|^2 precomputed."""
+    t = wp.dot(corner - o, n) / wp.dot(d, n)
+    if not (t > 0.0 and t < t_max):  # also false for the NaN/inf of a ray parallel to the plane
         return -1.0
-    ab = quad_coords(o + t * d, corner, e1, e2)
-    if ab[0] < 0.0 or ab[0] > 1.0 or ab[1] < 0.0 or ab[1] > 1.0:
+    q = o + t * d - corner
+    a = wp.dot(w, wp.cross(q, e2))
+    if a < 0.0 or a > 1.0:
+        return -1.0
+    b = wp.dot(w, wp.cross(e1, q))
+    if b < 0.0 or b > 1.0:
         return -1.0
     return t
+
+
+@wp.func
+def intersect_quad(o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, t_max: float) -> float:
+    n = wp.cross(e1, e2)
+    return intersect_parallelogram(o, d, corner, e1, e2, n, n / wp.dot(n, n), t_max)
 
 
 @wp.func
@@ -92,6 +104,30 @@ def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, rad
 
 
 @wp.func
+def intersect_box(
+    o: wp.vec3, d: wp.vec3, xf: wp.mat33, offset: wp.vec3, lo: wp.vec3, hi: wp.vec3, t_max: float
+) -> float:
+    """Slab test in the box's coordinates (local = xf world + offset, an affine map, so t is the
+    world t): the entry distance, or the exit distance from inside, or -1."""
+    lo_o = xf * o + offset
+    lo_d = xf * d
+    t_near = float(-1.0e30)
+    t_far = float(1.0e30)
+    for k in range(3):
+        inv = 1.0 / lo_d[k]
+        ta = (lo[k] - lo_o[k]) * inv
+        tb = (hi[k] - lo_o[k]) * inv
+        t_near = wp.max(t_near, wp.min(ta, tb))
+        t_far = wp.min(t_far, wp.max(ta, tb))
+    if not (t_near <= t_far):
+        return -1.0
+    t = wp.where(t_near > 0.0, t_near, t_far)
+    if not (t > 0.0 and t < t_max):
+        return -1.0
+    return t
+
+
+@wp.func
 def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float:
     """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1 (shape at time 0)."""
     if s.kind == SHAPE_SPHERE:
@@ -99,9 +135,11 @@ def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float
     if s.kind == SHAPE_PLANE:
         return intersect_plane(o, d, s.p0, s.p1, t_max)
     if s.kind == SHAPE_QUAD:
-        return intersect_quad(o, d, s.p0, s.p1, s.p2, t_max)
+        return intersect_parallelogram(o, d, s.p0, s.p1, s.p2, s.n, s.w, t_max)
     if s.kind == SHAPE_DISK:
         return intersect_disk(o, d, s.p0, s.p1, s.radius, t_max)
+    if s.kind == SHAPE_BOX:
+        return intersect_box(o, d, s.xf, s.p2, s.p0, s.p1, t_max)
     return -1.0
 
 
@@ -129,6 +167,37 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
             tu, tv = basis(n)
             r.dpdu = tu
         r.dpdv = wp.normalize(wp.cross(n, r.dpdu)) * (PI * s.radius)
+    elif s.kind == SHAPE_BOX:
+        # the face the point lies on: the nearest of the six, relative to the box's size
+        q = s.xf * p + s.p2
+        size = s.p1 - s.p0
+        best = float(1.0e30)
+        axis = int(0)
+        side = float(1.0)
+        for k in range(3):
+            dl = wp.abs(q[k] - s.p0[k]) / size[k]
+            dh = wp.abs(s.p1[k] - q[k]) / size[k]
+            if dl < best:
+                best = dl
+                axis = k
+                side = -1.0
+            if dh < best:
+                best = dh
+                axis = k
+                side = 1.0
+        nl = wp.vec3(0.0)
+        nl[axis] = side
+        r.ng = wp.normalize(wp.transpose(s.xf) * nl)  # normals transform by the inverse transpose
+        a1 = (axis + 1) % 3
+        a2 = (axis + 2) % 3
+        r.uv = wp.vec2((q[a1] - s.p0[a1]) / size[a1], (q[a2] - s.p0[a2]) / size[a2])
+        fwd = wp.inverse(s.xf)
+        e1 = wp.vec3(0.0)
+        e1[a1] = size[a1]
+        e2 = wp.vec3(0.0)
+        e2[a2] = size[a2]
+        r.dpdu = fwd * e1
+        r.dpdv = fwd * e2
     elif s.kind == SHAPE_QUAD:
         r.ng = wp.normalize(wp.cross(s.p1, s.p2))
         r.uv = quad_coords(p, s.p0, s.p1, s.p2)
@@ -197,6 +266,20 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
         h.light = s.light
         h = shape_surface(s, h.po, h)
     return h
+
+
+@wp.func
+def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> int:
+    """1 if any surface lies along o + t d with 0 < t < t_max (shadow rays: the first one found will do).
+    The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
+    for i in range(scene.num_shapes):
+        s = scene.shapes[i]
+        if intersect_shape(s, o - s.velocity * time, d, t_max) > 0.0:
+            return 1
+    for g in range(scene.num_meshes):
+        if wp.mesh_query_ray_anyhit(scene.meshes[g], o - scene.mesh_vel[g] * time, d, t_max):
+            return 1
+    return 0
 
 
 @wp.func

@@ -18,6 +18,7 @@ class Shape(IntEnum):
     PLANE = 1
     QUAD = 2
     DISK = 3
+    BOX = 4
 
 
 class LightKind(IntEnum):
@@ -85,6 +86,7 @@ SHAPE_SPHERE = wp.constant(int(Shape.SPHERE))
 SHAPE_PLANE = wp.constant(int(Shape.PLANE))
 SHAPE_QUAD = wp.constant(int(Shape.QUAD))
 SHAPE_DISK = wp.constant(int(Shape.DISK))
+SHAPE_BOX = wp.constant(int(Shape.BOX))
 
 LIGHT_POINT = wp.constant(int(LightKind.POINT))
 LIGHT_DIRECTIONAL = wp.constant(int(LightKind.DIRECTIONAL))

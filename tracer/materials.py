@@ -55,7 +55,7 @@ def phong_terms(kd: wp.vec3, ks: wp.vec3, shininess: float, n: wp.vec3, l: wp.ve
     r_l = 2.0 * wp.dot(n, l) * n - l
     cos_alpha = wp.max(wp.dot(r_l, v), 0.0)
     spec = float(0.0)
-    if cos_alpha > 0.0:
+    if cos_alpha > 0.0 and (ks[0] > 0.0 or ks[1] > 0.0 or ks[2] > 0.0):
         spec = (shininess + 2.0) / (2.0 * PI) * wp.pow(cos_alpha, shininess) * cos_theta
     return kd * (cos_theta / PI), ks * spec
 

@@ -2,9 +2,9 @@
 
 import warp as wp
 
-from tracer.compile import MaterialData, SceneData
-from tracer.geometry import Hit
-from tracer.kinds import RAY_OFFSET
+from tracer.compile import LightData, MaterialData, SceneData
+from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
+from tracer.kinds import BUMP_NONE, RAY_OFFSET, T_FAR, TEX_NONE
 from tracer.materials import bump_normal, diffuse_color
 from tracer.sampling import sample_cos_lobe, to_world
 
@@ -40,8 +40,12 @@ def surface_at(scene: SceneData, h: Hit, rd: wp.vec3) -> Surface:
     front = wp.dot(rd, h.ng) < 0.0
     s.front = wp.where(front, 1, 0)
     s.nf = wp.where(front, h.ng, -h.ng)
-    s.n = bump_normal(scene, s.m, h.po, wp.where(front, h.ns, -h.ns), h.uv, h.dpdu, h.dpdv)
-    s.kd = diffuse_color(scene, s.m, h.po, h.ng, h.uv)
+    s.n = wp.where(front, h.ns, -h.ns)
+    if s.m.bump != BUMP_NONE:
+        s.n = bump_normal(scene, s.m, h.po, s.n, h.uv, h.dpdu, h.dpdv)
+    s.kd = s.m.kd
+    if s.m.tex != TEX_NONE:
+        s.kd = diffuse_color(scene, s.m, h.po, h.ng, h.uv)
     s.ka = wp.where(s.m.ka_is_kd != 0, s.kd, s.m.ka)
     s.emission = wp.where(front, s.m.emission, wp.vec3(0.0))
     return s
@@ -67,3 +71,25 @@ def glossy_direction(ideal: wp.vec3, gloss: float, u1: float, u2: float) -> wp.v
     if gloss <= 0.0:
         return ideal
     return wp.normalize(to_world(sample_cos_lobe(u1, u2, gloss), ideal))
+
+
+@wp.func
+def shadow_reach(scene: SceneData, light: LightData, so: wp.vec3, l: wp.vec3, dist: float) -> float:
+    """How far a shadow ray from so along l may go: to the light at distance `dist`, or for an area
+    light to where the ray meets the light's own surface (which does not shadow itself)."""
+    if light.shape >= 0:
+        t = intersect_shape(scene.shapes[light.shape], so, l, T_FAR)
+        if t > 0.0:
+            return t
+    return dist
+
+
+@wp.func
+def shadow_test(scene: SceneData, so: wp.vec3, l: wp.vec3, t_max: float, time: float, record: int) -> Hit:
+    """The shadow ray's occluder (hit = 1) or none. Rendering asks only whether there is one; the
+    ray tree (record = 1) also wants the nearest one, which the same test finds."""
+    if record != 0:
+        return closest_hit(scene, so, l, t_max, time)
+    h = Hit()
+    h.hit = occluded(scene, so, l, t_max, time)
+    return h

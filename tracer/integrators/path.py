@@ -18,7 +18,15 @@ import warp as wp
 
 from tracer.compile import SceneData
 from tracer.geometry import closest_hit
-from tracer.integrators.common import SampleOut, glossy_direction, max3, offset_origin, surface_at
+from tracer.integrators.common import (
+    SampleOut,
+    glossy_direction,
+    max3,
+    offset_origin,
+    shadow_reach,
+    shadow_test,
+    surface_at,
+)
 from tracer.integrators.record import F_FOG, I_END, TreeRecord, begin_node, record_hit, record_terms
 from tracer.integrators.whitted import shadow_node
 from tracer.kinds import (
@@ -26,7 +34,6 @@ from tracer.kinds import (
     END_MAX_DEPTH,
     END_MISS,
     RAY_EYE,
-    RAY_OFFSET,
     RAY_REFLECTION,
     RAY_SHADOW,
     RAY_TRANSMISSION,
@@ -58,7 +65,10 @@ def power_heuristic(nf: float, pf: float, ng: float, pg: float) -> float:
 @wp.func
 def continuous_pdf(pd: float, ps: float, shininess: float, n: wp.vec3, r: wp.vec3, wi: wp.vec3) -> float:
     """Density of direction wi under the diffuse + Phong mixture (lobe choice included)."""
-    return pd * cosine_hemisphere_pdf(wp.dot(n, wi)) + ps * cos_lobe_pdf(wp.dot(r, wi), shininess)
+    pdf = pd * cosine_hemisphere_pdf(wp.dot(n, wi))
+    if ps > 0.0:
+        pdf += ps * cos_lobe_pdf(wp.dot(r, wi), shininess)
+    return pdf
 
 
 @wp.func
@@ -172,41 +182,42 @@ def trace(
                         u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
                         l, dist, e, pl, reaches = sample_area_light(light, h.p, u[0], u[1])
                         e = e / float(n_rays)
-                        dist = dist * 1.001 + RAY_OFFSET  # meeting the light's own surface is no shadow
                         mis = power_heuristic(float(n_rays), pl, 1.0, continuous_pdf(pd, ps, m.shininess, n, rdir, l))
                     else:
                         l, dist, e, reaches = light_at(light, h.p)
                     if reaches != 0 and wp.dot(n, l) > 0.0:
                         so = offset_origin(h.p, s.nf, l)
                         out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1
-                        sh = closest_hit(scene, so, l, dist, time)
-                        blocked = wp.where(sh.hit != 0 and sh.light != li, 1, 0)
+                        sh = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record)
+                        blocked = sh.hit
                         dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, n, l, v)
                         dterm = wp.cw_mul(e, dterm) * mis
                         sterm = wp.cw_mul(e, sterm) * mis
                         if blocked == 0:
                             diffuse += dterm
                             specular += sterm
-                        shadow_node(
-                            rec,
-                            node,
-                            depth,
-                            so,
-                            l,
-                            tb,
-                            time,
-                            li,
-                            blocked,
-                            sh.t,
-                            sh.p,
-                            sh.ng,
-                            sh.obj,
-                            sh.mat,
-                            dterm + sterm,
-                        )
+                        if node >= 0:
+                            shadow_node(
+                                rec,
+                                node,
+                                depth,
+                                so,
+                                l,
+                                tb,
+                                time,
+                                li,
+                                blocked,
+                                sh.t,
+                                sh.p,
+                                sh.ng,
+                                sh.obj,
+                                sh.mat,
+                                dterm + sterm,
+                            )
         local = emission + diffuse + specular
         out.color += wp.cw_mul(tb, local)
-        record_terms(rec, node, emission, wp.vec3(0.0), diffuse, specular)
+        if node >= 0:
+            record_terms(rec, node, emission, wp.vec3(0.0), diffuse, specular)
 
         # the extension ray
         end = int(-1)

@@ -20,7 +20,15 @@ import warp as wp
 
 from tracer.compile import SceneData
 from tracer.geometry import closest_hit
-from tracer.integrators.common import SampleOut, glossy_direction, max3, offset_origin, surface_at
+from tracer.integrators.common import (
+    SampleOut,
+    glossy_direction,
+    max3,
+    offset_origin,
+    shadow_reach,
+    shadow_test,
+    surface_at,
+)
 from tracer.integrators.record import (
     F_FOG,
     I_END,
@@ -41,7 +49,6 @@ from tracer.kinds import (
     END_NONE,
     END_TIR,
     RAY_EYE,
-    RAY_OFFSET,
     RAY_REFLECTION,
     RAY_SHADOW,
     RAY_TRANSMISSION,
@@ -198,26 +205,41 @@ def trace(
                     u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
                     l, dist, e, pdf, reaches = sample_area_light(light, h.p, u[0], u[1])
                     e = e / float(n_rays)
-                    dist = dist * 1.001 + RAY_OFFSET  # reach the light's surface: meeting it there is no shadow
                 else:
                     l, dist, e, reaches = light_at(light, h.p)
                 if reaches != 0 and wp.dot(n, l) > 0.0:
                     so = offset_origin(h.p, s.nf, l)
                     out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1
-                    sh = closest_hit(scene, so, l, dist, time)
-                    blocked = wp.where(sh.hit != 0 and sh.light != li, 1, 0)
+                    sh = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record)
+                    blocked = sh.hit
                     dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, n, l, v)
                     dterm = wp.cw_mul(e, dterm)
                     sterm = wp.cw_mul(e, sterm)
                     if blocked == 0:
                         diffuse += dterm
                         specular += sterm
-                    shadow_node(
-                        rec, node, depth, so, l, w, time, li, blocked, sh.t, sh.p, sh.ng, sh.obj, sh.mat, dterm + sterm
-                    )
+                    if node >= 0:
+                        shadow_node(
+                            rec,
+                            node,
+                            depth,
+                            so,
+                            l,
+                            w,
+                            time,
+                            li,
+                            blocked,
+                            sh.t,
+                            sh.p,
+                            sh.ng,
+                            sh.obj,
+                            sh.mat,
+                            dterm + sterm,
+                        )
         local = s.emission + ambient + diffuse + specular
         out.color += wp.cw_mul(tau, fog_t * local + (1.0 - fog_t) * scene.fog_color)
-        record_terms(rec, node, s.emission, ambient, diffuse, specular)
+        if node >= 0:
+            record_terms(rec, node, s.emission, ambient, diffuse, specular)
 
         # secondary rays: reflection (kr) and transmission (kt), Fresnel-weighted on request
         end = END_NONE
