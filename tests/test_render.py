@@ -144,3 +144,19 @@ def test_render_passes_refine_and_cancel_keeps_finished_samples():
     part = render(cs, threads=2, on_pass=passes.append, cancel=lambda: len(passes) >= 2)
     assert part.cancelled and part.spp == 2
     assert np.array_equal(part.image, seen[1][1])
+
+
+def test_render_stop_and_resume_from_a_snapshot():
+    """Stopping early and resuming (in a new Renderer, as another process would) gives the same image
+    as one long render: the RNG depends only on (seed, pixel, sample)."""
+    scene, _ = load_scene(small(scene_dict("cornell_path"), 24, 24, sampler={"type": "jittered", "spp": 16}))
+    cs = compile_scene(scene)
+    whole = render(cs, threads=2)
+    first = Renderer(cs, threads=1)
+    first.add_samples(0, 3)
+    snap = first.snapshot()
+    later = Renderer(cs, threads=2)
+    later.restore(snap)
+    later.add_samples(3, 16)
+    assert np.array_equal(later.image(), whole.image)
+    assert later.rays() == whole.rays

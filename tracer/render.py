@@ -202,6 +202,28 @@ class Renderer:
         self._run(launch, on_band)
         self.samples_done = 1
 
+    FIELDS = ("accum", "sumsq", "counts", "depth", "normal", "albedo")
+
+    def snapshot(self) -> dict:
+        """The film's running sums as numpy arrays: enough to resume the render later, elsewhere."""
+        snap = {name: getattr(self.film, name).numpy().copy() for name in self.FIELDS}
+        snap["samples_done"] = self.samples_done
+        snap["passes_rays"] = self.passes_rays.copy()
+        return snap
+
+    def restore(self, snap: dict) -> None:
+        """Continue from a snapshot of a render of the same scene: add_samples(snap samples, spp) then
+        gives exactly the image of one uninterrupted render."""
+        for name in self.FIELDS:
+            target = getattr(self.film, name)
+            if tuple(snap[name].shape[:2]) != tuple(target.shape):
+                raise ValueError(
+                    f"snapshot of a {snap[name].shape[1]}x{snap[name].shape[0]} film, not {self.width}x{self.height}"
+                )
+            target.assign(wp.array(snap[name], dtype=target.dtype, device=self.device))
+        self.samples_done = int(snap["samples_done"])
+        self.passes_rays = np.asarray(snap["passes_rays"], dtype=np.int64).copy()
+
     def image(self) -> np.ndarray:
         """The mean of the samples so far, (H, W, 3) float32."""
         acc = self.film.accum.numpy()
