@@ -5,7 +5,8 @@ import warp as wp
 from tracer.compile import LightData, MaterialData, SceneData
 from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
 from tracer.kinds import BUMP_NONE, RAY_OFFSET, T_FAR, TEX_NONE
-from tracer.materials import bump_normal, diffuse_color
+from tracer.lights import is_area_light, light_at, sample_area_light
+from tracer.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
 from tracer.sampling import sample_cos_lobe, to_world
 
 
@@ -93,3 +94,58 @@ def shadow_test(scene: SceneData, so: wp.vec3, l: wp.vec3, t_max: float, time: f
     h = Hit()
     h.hit = occluded(scene, so, l, t_max, time)
     return h
+
+
+@wp.func
+def light_sample(light: LightData, p: wp.vec3, u: wp.vec2, n_rays: int):
+    """One shadow-ray sample of a light seen from p, u picking the point of an area light: (unit
+    direction, distance, E of this ray (an area light's share: 1 / n_rays of it), solid-angle pdf of
+    the direction (area lights; 0 otherwise), 1 if the light reaches p)."""
+    if is_area_light(light):
+        l, dist, e, pdf, reaches = sample_area_light(light, p, u[0], u[1])
+        return l, dist, e / float(n_rays), pdf, reaches
+    l, dist, e, reaches = light_at(light, p)
+    return l, dist, e, 0.0, reaches
+
+
+@wp.func
+def scatter_weights(m: MaterialData, rd: wp.vec3, n: wp.vec3, front: int):
+    """The weights of the reflection and transmission rays at a hit, and the refracted direction:
+    (kr, kt, transmitted direction, 1 under total internal reflection). With `fresnel` the weights
+    are scaled by R and 1 - R; under TIR the transmission ray's weight goes to the reflection ray
+    (kt without Fresnel, 0 with it since R = 1). SCENE_FORMAT.md, "Secondary rays"."""
+    kr = m.kr
+    kt = m.kt
+    tdir = wp.vec3(0.0)
+    tir = int(0)
+    eta = wp.where(front != 0, 1.0 / m.ior, m.ior)  # n_incident / n_transmitted
+    if kt[0] > 0.0 or kt[1] > 0.0 or kt[2] > 0.0:
+        tdir, refracted = refract(rd, n, eta)
+        tir = 1 - refracted
+    if m.fresnel != 0:
+        r = fresnel_dielectric(-wp.dot(rd, n), eta)
+        if tir != 0:
+            r = 1.0
+        kr = kr * r
+        kt = kt * (1.0 - r)
+    if tir != 0:
+        if m.fresnel == 0:
+            kr = kr + kt
+        kt = wp.vec3(0.0)
+    return kr, kt, tdir, tir
+
+
+@wp.func
+def miss_radiance(scene: SceneData) -> wp.vec3:
+    """What a ray that leaves the scene returns: the background, or in fog the fog colour."""
+    if scene.fog_density > 0.0:
+        return scene.fog_color
+    return scene.background
+
+
+@wp.func
+def fog_transmittance(scene: SceneData, t: float) -> float:
+    """e^(-density t) over a ray's distance t to its hit (1 without fog)."""
+    if scene.fog_density > 0.0:
+        return wp.exp(-scene.fog_density * t)
+    return 1.0

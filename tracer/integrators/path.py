@@ -20,27 +20,30 @@ from tracer.compile import SceneData
 from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
+    fog_transmittance,
     glossy_direction,
+    light_sample,
     max3,
+    miss_radiance,
     offset_origin,
+    scatter_weights,
     shadow_reach,
     shadow_test,
     surface_at,
 )
-from tracer.integrators.record import F_FOG, I_END, TreeRecord, begin_node, record_hit, record_terms
+from tracer.integrators.record import F_FOG, I_END, TreeRecord, begin_node, record_hit, record_miss, record_terms
 from tracer.integrators.whitted import shadow_node
 from tracer.kinds import (
     END_ABSORBED,
     END_MAX_DEPTH,
-    END_MISS,
     RAY_EYE,
     RAY_REFLECTION,
     RAY_SHADOW,
     RAY_TRANSMISSION,
     T_FAR,
 )
-from tracer.lights import area_light_pdf, is_area_light, light_at, sample_area_light
-from tracer.materials import fresnel_dielectric, phong_terms, reflect, refract
+from tracer.lights import area_light_pdf, is_area_light
+from tracer.materials import phong_terms, reflect
 from tracer.sampling import (
     cos_lobe_pdf,
     cosine_hemisphere_pdf,
@@ -99,18 +102,12 @@ def trace(
         if record != 0:
             node = begin_node(rec, kind, depth, parent, ro, rd, beta, k_ray, time)
         h = closest_hit(scene, ro, rd, T_FAR, time)
-        if h.hit == 0:
-            leave = scene.background  # a uniform environment light
-            if scene.fog_density > 0.0:
-                leave = scene.fog_color
-            out.color += wp.cw_mul(beta, leave)
-            if node >= 0:
-                rec.ints[node, I_END] = END_MISS
-                rec.floats[node, F_FOG] = wp.where(scene.fog_density > 0.0, 0.0, 1.0)
+        if h.hit == 0:  # the ray leaves the scene
+            out.color += wp.cw_mul(beta, miss_radiance(scene))
+            record_miss(rec, node, wp.where(scene.fog_density > 0.0, 1, 0))
             break
-        fog_t = float(1.0)
+        fog_t = fog_transmittance(scene, h.t)
         if scene.fog_density > 0.0:
-            fog_t = wp.exp(-scene.fog_density * h.t)
             out.color += wp.cw_mul(beta, (1.0 - fog_t) * scene.fog_color)
         s = surface_at(scene, h, rd)
         m = s.m
@@ -139,24 +136,7 @@ def trace(
         specular = wp.vec3(0.0)
 
         # Fresnel and total internal reflection give the discrete lobes' weights (as in `whitted`)
-        eta = wp.where(s.front != 0, 1.0 / m.ior, m.ior)
-        kr = m.kr
-        kt = m.kt
-        tdir = wp.vec3(0.0)
-        tir = int(0)
-        if max3(kt) > 0.0:
-            tdir, refracted = refract(rd, n, eta)
-            tir = 1 - refracted
-        if m.fresnel != 0:
-            fr = fresnel_dielectric(-wp.dot(rd, n), eta)
-            if tir != 0:
-                fr = 1.0
-            kr = kr * fr
-            kt = kt * (1.0 - fr)
-        if tir != 0:
-            if m.fresnel == 0:
-                kr = kr + kt
-            kt = wp.vec3(0.0)
+        kr, kt, tdir, tir = scatter_weights(m, rd, n, s.front)
         wr = max3(kr)
         wt = max3(kt)
         total = wd + ws + wr + wt
@@ -173,18 +153,13 @@ def trace(
                 area = is_area_light(light)
                 n_rays = wp.where(area, scene.light_samples, 1)
                 for k in range(n_rays):
-                    l = wp.vec3(0.0)
-                    dist = float(0.0)
-                    e = wp.vec3(0.0)
-                    reaches = int(0)
-                    mis = float(1.0)
+                    u = wp.vec2(0.0)
                     if area:
                         u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
-                        l, dist, e, pl, reaches = sample_area_light(light, h.p, u[0], u[1])
-                        e = e / float(n_rays)
+                    l, dist, e, pl, reaches = light_sample(light, h.p, u, n_rays)
+                    mis = float(1.0)
+                    if area:
                         mis = power_heuristic(float(n_rays), pl, 1.0, continuous_pdf(pd, ps, m.shininess, n, rdir, l))
-                    else:
-                        l, dist, e, reaches = light_at(light, h.p)
                     if reaches != 0 and wp.dot(n, l) > 0.0:
                         so = offset_origin(h.p, s.nf, l)
                         out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1

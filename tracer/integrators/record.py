@@ -6,7 +6,7 @@ image and the tree; tracer/raytree.py decodes the arrays into SCENE_FORMAT.md's 
 
 import warp as wp
 
-from tracer.kinds import END_NONE
+from tracer.kinds import END_MISS, END_NONE
 
 # Node record layout: integers, vectors and floats per node.
 I_KIND, I_DEPTH, I_PARENT, I_HIT, I_OBJ, I_MAT, I_FRONT, I_LIGHT, I_OCCLUDED, I_END = range(10)
@@ -74,3 +74,11 @@ def record_terms(rec: TreeRecord, node: int, emission: wp.vec3, ambient: wp.vec3
         rec.vecs[node, V_AMBIENT] = ambient
         rec.vecs[node, V_DIFFUSE] = diffuse
         rec.vecs[node, V_SPECULAR] = specular
+
+
+@wp.func
+def record_miss(rec: TreeRecord, node: int, fog: int):
+    """The ray left the scene (in fog its transmittance is 0: it returns the fog colour)."""
+    if node >= 0:
+        rec.ints[node, I_END] = END_MISS
+        rec.floats[node, F_FOG] = wp.where(fog != 0, 0.0, 1.0)

@@ -22,9 +22,13 @@ from tracer.compile import SceneData
 from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
+    fog_transmittance,
     glossy_direction,
+    light_sample,
     max3,
+    miss_radiance,
     offset_origin,
+    scatter_weights,
     shadow_reach,
     shadow_test,
     surface_at,
@@ -38,6 +42,7 @@ from tracer.integrators.record import (
     TreeRecord,
     begin_node,
     record_hit,
+    record_miss,
     record_terms,
 )
 from tracer.kinds import (
@@ -45,7 +50,6 @@ from tracer.kinds import (
     END_LIGHT,
     END_MAX_DEPTH,
     END_MIN_WEIGHT,
-    END_MISS,
     END_NONE,
     END_TIR,
     RAY_EYE,
@@ -54,8 +58,8 @@ from tracer.kinds import (
     RAY_TRANSMISSION,
     T_FAR,
 )
-from tracer.lights import is_area_light, light_at, sample_area_light
-from tracer.materials import fresnel_dielectric, phong_terms, reflect, refract
+from tracer.lights import is_area_light
+from tracer.materials import phong_terms, reflect
 from tracer.sampling import stratum
 
 
@@ -163,19 +167,11 @@ def trace(
         if record != 0:
             node = begin_node(rec, kind, depth, info[2], ro, rd, w, st.k[row, sp], time)
         h = closest_hit(scene, ro, rd, T_FAR, time)
-        if h.hit == 0:
-            # a ray that leaves the scene returns the background, or the fog colour in fog
-            leave = scene.background
-            if scene.fog_density > 0.0:
-                leave = scene.fog_color
-            out.color += wp.cw_mul(tau, leave)
-            if node >= 0:
-                rec.ints[node, I_END] = END_MISS
-                rec.floats[node, F_FOG] = wp.where(scene.fog_density > 0.0, 0.0, 1.0)
+        if h.hit == 0:  # the ray leaves the scene
+            out.color += wp.cw_mul(tau, miss_radiance(scene))
+            record_miss(rec, node, wp.where(scene.fog_density > 0.0, 1, 0))
             continue
-        fog_t = float(1.0)
-        if scene.fog_density > 0.0:
-            fog_t = wp.exp(-scene.fog_density * h.t)
+        fog_t = fog_transmittance(scene, h.t)
         s = surface_at(scene, h, rd)
         m = s.m
         n = s.n
@@ -197,16 +193,10 @@ def trace(
             area = is_area_light(light)
             n_rays = wp.where(area, scene.light_samples, 1)
             for k in range(n_rays):
-                l = wp.vec3(0.0)
-                dist = float(0.0)
-                e = wp.vec3(0.0)
-                reaches = int(0)
+                u = wp.vec2(0.0)
                 if area:
                     u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
-                    l, dist, e, pdf, reaches = sample_area_light(light, h.p, u[0], u[1])
-                    e = e / float(n_rays)
-                else:
-                    l, dist, e, reaches = light_at(light, h.p)
+                l, dist, e, pdf, reaches = light_sample(light, h.p, u, n_rays)
                 if reaches != 0 and wp.dot(n, l) > 0.0:
                     so = offset_origin(h.p, s.nf, l)
                     out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1
@@ -250,24 +240,7 @@ def trace(
         elif depth + 1 > scene.max_depth:
             end = END_MAX_DEPTH
         else:
-            eta = wp.where(s.front != 0, 1.0 / m.ior, m.ior)  # n_incident / n_transmitted
-            kr = m.kr
-            kt = m.kt
-            tdir = wp.vec3(0.0)
-            tir = int(0)
-            if want_t:
-                tdir, refracted = refract(rd, n, eta)
-                tir = 1 - refracted
-            if m.fresnel != 0:
-                r = fresnel_dielectric(-wp.dot(rd, n), eta)
-                if tir != 0:
-                    r = 1.0
-                kr = kr * r
-                kt = kt * (1.0 - r)
-            if tir != 0:
-                if m.fresnel == 0:
-                    kr = kr + kt  # the transmission ray's weight goes to the reflection ray
-                kt = wp.vec3(0.0)
+            kr, kt, tdir, tir = scatter_weights(m, rd, n, s.front)
             wr = wp.cw_mul(w, kr)
             wt = wp.cw_mul(w, kt)
             go_r = max3(wr) > 0.0 and max3(wr) >= scene.min_weight
