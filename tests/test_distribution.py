@@ -340,3 +340,36 @@ def test_adaptive_uniform_pixel_is_the_average_of_its_five_rays():
     colors = [ray_tree(s, 3, 5, j * (g + 1) + i)["color"] for i, j in corners]
     assert_allclose(img[5, 3], np.mean(colors, axis=0), rtol=1e-5)
     assert_allclose(render(s).aovs["rays"][5, 3], 10)  # 5 eye rays + 5 shadow rays
+
+
+@wp.kernel
+def k_light_points(light: LightData, p: wp.vec3, out: wp.array(dtype=wp.vec3)):
+    i = wp.tid()
+    s = rng_start(9, i, 0)
+    l, dist, e, pdf, ok = sample_area_light(light, p, wp.randf(s), wp.randf(s))
+    out[i] = p + dist * l
+
+
+def test_lights_sample_points_chi_square():
+    """Quad and disk lights are sampled uniformly by area; sphere lights uniformly in their cone."""
+    from tracer.compile import _light
+
+    def points(light_json, p):
+        scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "lights": [light_json]})
+        out = wp.zeros(N, dtype=wp.vec3)
+        wp.launch(k_light_points, dim=N, inputs=[_light(scene.lights[0]), wp.vec3(*p), out])
+        return out.numpy().astype(np.float64)
+
+    q = points({"type": "quad", "corner": [-1, 2, -0.5], "edge1": [2, 0, 0], "edge2": [0, 0, 1]}, (0, 0, 0))
+    a, b = (q[:, 0] + 1) / 2, q[:, 2] + 0.5
+    h, _, _ = np.histogram2d(a, b, bins=8, range=[[0, 1], [0, 1]])
+    assert ((h - N / 64) ** 2 / (N / 64)).sum() < CHI2_63
+    d = points({"type": "disk", "center": [0, 2, 0], "normal": [0, -1, 0], "radius": 0.5}, (0, 0, 0))
+    r2 = (d[:, 0] ** 2 + d[:, 2] ** 2) / 0.25
+    assert chi2_uniform(r2) < CHI2_63 and chi2_uniform((np.arctan2(d[:, 2], d[:, 0]) + np.pi) / (2 * np.pi)) < CHI2_63
+    c, rad, p = np.array([0.0, 3.0, 0.0]), 1.0, np.zeros(3)
+    s = points({"type": "sphere", "center": c.tolist(), "radius": rad}, p)
+    assert_allclose(np.linalg.norm(s - c, axis=1), rad, atol=1e-4)  # on the sphere, on the side facing p
+    cos_max = math.sqrt(1 - (rad / 3.0) ** 2)
+    cos_a = ((s - p) / np.linalg.norm(s - p, axis=1)[:, None]) @ (c / 3.0)
+    assert chi2_uniform((1 - cos_a) / (1 - cos_max)) < CHI2_63
