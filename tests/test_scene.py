@@ -568,3 +568,17 @@ def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
 
 def test_resolve_asset_default_folder_is_scenes_assets():
     assert ASSET_DIR == Path(__file__).resolve().parent.parent / "scenes" / "assets"
+
+
+def test_scene_adaptive_sampler_warns_about_spp_and_filter():
+    from tracer.scene import validate_scene
+
+    report = validate_scene(
+        {
+            "camera": {"lookfrom": [0, 0, 1], "lookat": [0, 0, 0]},
+            "film": {"filter": {"type": "tent"}},
+            "sampler": {"type": "adaptive", "spp": 4},
+        }
+    )
+    assert report["valid"]
+    assert {w["path"] for w in report["warnings"]} >= {"sampler.spp", "film.filter"}

@@ -904,6 +904,11 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
                     ["sampler", field],
                     f"has no effect: only the adaptive sampler uses it (type is {sampler.type})",
                 )
+    if sampler.type == "adaptive":
+        if "spp" in sampler.model_fields_set:
+            warn(["sampler", "spp"], "has no effect: the adaptive sampler decides how many rays each pixel gets")
+        if "filter" in scene.film.model_fields_set:
+            warn(["film", "filter"], "has no effect: the adaptive sampler averages its cells (a box filter)")
     if render.light_samples > 1 and not any(isinstance(light, AREA_LIGHTS) for light in scene.lights):
         warn(["render", "light_samples"], "has no effect: the scene has no area light (quad, disk, sphere)")
     if "color" in scene.fog.model_fields_set and scene.fog.density == 0:
