@@ -1,30 +1,39 @@
-"""python -m server [--host H] [--port P] [--data-dir DIR]"""
+"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--settings FILE]"""
 
 from __future__ import annotations
 
 import argparse
 import logging
-from pathlib import Path
 
 import uvicorn
 
 from server.main import create_app
-from server.settings import Settings
+from server.settings import load_settings
 
 
 def main(argv: list[str] | None = None) -> None:
-    s = Settings()
-    p = argparse.ArgumentParser(prog="server", description="Serve the ray tracing app and its API.")
-    p.add_argument("--host", default=s.host)
-    p.add_argument("--port", type=int, default=s.port)
-    p.add_argument("--data-dir", default=str(s.data_dir))
-    p.add_argument("--workers", type=int, default=1, help="render workers (jobs arrive with the job queue)")
+    p = argparse.ArgumentParser(prog="server", description="Serve the ray tracing app, its API and render workers.")
+    p.add_argument("--settings", help="a settings file of TRACER_*=value lines (default: $TRACER_SETTINGS_FILE)")
+    p.add_argument("--host", help="address to listen on (default 127.0.0.1, or TRACER_HOST)")
+    p.add_argument("--port", type=int, help="TCP port (default 8000, or TRACER_PORT)")
+    p.add_argument("--data-dir", help="job database and images (default ./data, or TRACER_DATA_DIR)")
+    p.add_argument("--workers", type=int, help="render worker processes (default 1, or TRACER_WORKERS)")
     args = p.parse_args(argv)
-    s.host, s.port, s.data_dir = args.host, args.port, Path(args.data_dir)
-    s.data_dir.mkdir(parents=True, exist_ok=True)
+    given = {k: v for k, v in vars(args).items() if k != "settings" and v is not None}
+    try:
+        settings = load_settings(args.settings, **given)
+    except (FileNotFoundError, ValueError) as exc:  # pydantic's ValidationError is a ValueError
+        p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    logging.getLogger("server").info("serving on http://%s:%d (data in %s)", s.host, s.port, s.data_dir)
-    uvicorn.run(create_app(s), host=s.host, port=s.port, log_level="info")
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    logging.getLogger("server").info(
+        "serving on http://%s:%d (data in %s, %d worker(s))",
+        settings.host,
+        settings.port,
+        settings.data_dir,
+        settings.workers,
+    )
+    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="info")
 
 
 if __name__ == "__main__":

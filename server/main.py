@@ -1,18 +1,26 @@
-"""The FastAPI application: API routers under /api, the static page from web/ at /."""
+"""The FastAPI application: API routers under /api, the static page from web/ at /.
+
+At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
+opens the job store, puts back in the queue the jobs a dead server left running, and starts the
+render workers; at shutdown the workers give their running jobs back to the queue.
+"""
 
 from __future__ import annotations
 
+import fcntl
 import logging
 from contextlib import asynccontextmanager
 from pathlib import Path
 
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
-from server.routes import scenes, tools
-from server.settings import Settings
+from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
+from server.pool import WorkerPool
+from server.routes import jobs, scenes, tools
+from server.settings import Settings, load_settings
+from server.store import JobStore
+from server.worker import load_kernels
 
 WEB = Path(__file__).resolve().parent.parent / "web"
 log = logging.getLogger("server")
@@ -20,31 +28,56 @@ log = logging.getLogger("server")
 
 @asynccontextmanager
 async def lifespan(app: FastAPI):
-    """Compile (or load from Warp's cache) the kernels at start-up, never in a user's request."""
-    import warp as wp
-
-    from tracer.integrators import whitted
-
-    wp.load_module(whitted, device="cpu")
+    settings: Settings = app.state.settings
+    load_kernels()  # before the workers start, so that they only read the cache
     log.info("render kernels ready")
-    yield
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    lock = lock_data_dir(settings.data_dir)
+    store = JobStore(settings.data_dir)
+    requeued, cancelled = store.recover()
+    if requeued or cancelled:
+        log.info("jobs left running by the last server: %d back in the queue, %d cancelled", requeued, cancelled)
+    pool = WorkerPool(settings, store) if settings.workers > 0 else None
+    app.state.store, app.state.pool = store, pool
+    if pool is not None:
+        pool.start()
+    else:
+        log.warning("no render workers (workers = 0): jobs wait in the queue")
+    try:
+        yield
+    finally:
+        if pool is not None:
+            pool.shutdown()
+            log.info("render workers stopped")
+        lock.close()
+
+
+def lock_data_dir(data_dir: Path):
+    """One server per data directory: a second would take the first one's running jobs back."""
+    lock = open(data_dir / "server.lock", "a")  # noqa: SIM115 (held open while the server runs)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise RuntimeError(f"another server is using the data directory {data_dir}") from None
+    return lock
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    settings = settings or Settings()
+    settings = settings or load_settings()
     app = FastAPI(
         title="Ray tracing for teaching",
         version="0.1.0",
         lifespan=lifespan,
-        description="Submit scenes, render them with Warp, inspect the ray tree of any pixel.",
+        default_response_class=SafeJSONResponse,
+        description="Submit scenes, watch them render progressively, inspect the ray tree of any pixel. "
+        'Every error answer is `{"errors": [{"path", "message"}]}` with the JSON path of the offending field.',
     )
     app.state.settings = settings
-
-    @app.exception_handler(RequestValidationError)
-    async def request_errors(request: Request, exc: RequestValidationError):
-        errs = [{"path": ".".join(str(p) for p in e["loc"] if p != "body"), "message": e["msg"]} for e in exc.errors()]
-        return JSONResponse({"errors": errs}, status_code=422)
-
+    app.state.store = app.state.pool = None
+    install_error_handlers(app)
+    app.add_middleware(RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth)
+    app.include_router(jobs.router)
     app.include_router(tools.router)
     app.include_router(scenes.router)
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")

@@ -1,34 +1,79 @@
-"""Settings in one place: command line, then environment (TRACER_*), then defaults."""
+"""Settings in one place: command line, then environment (TRACER_*), then a settings file, then defaults.
+
+Every field below can be set as an environment variable named TRACER_ + the field name in capitals
+(`TRACER_MAX_SPP=1024`), or in a settings file of such lines (`--settings FILE`, or the file named
+by TRACER_SETTINGS_FILE). docs/service.md lists them.
+"""
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
 from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.scene import Limits
 
 
-def _env(name: str, default, cast=str):
-    v = os.environ.get(f"TRACER_{name.upper()}")
-    return default if v is None else cast(v)
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="TRACER_", extra="ignore", validate_assignment=True)
 
+    # Where and how the service runs.
+    host: str = Field("127.0.0.1", description="address to listen on")
+    port: int = Field(8000, ge=0, le=65535, description="TCP port")
+    data_dir: Path = Field(Path("data"), description="job database (jobs.sqlite3) and images (jobs/<id>/)")
+    workers: int = Field(1, ge=0, le=64, description="render worker processes; 0 = none (jobs wait in the queue)")
+    render_threads: int = Field(0, ge=0, description="threads per worker render; 0 = cores / workers")
+    worker_nice: int = Field(10, ge=0, le=19, description="niceness of worker processes, so the API stays responsive")
+    preview_size: int = Field(160, ge=8, le=1024, description="example scene thumbnails (pixels)")
+    preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
+    poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
+    job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
 
-@dataclass
-class Settings:
-    host: str = field(default_factory=lambda: _env("host", "127.0.0.1"))
-    port: int = field(default_factory=lambda: _env("port", 8000, int))
-    data_dir: Path = field(default_factory=lambda: Path(_env("data_dir", "data")))
-    preview_size: int = field(default_factory=lambda: _env("preview_size", 160, int))  # example thumbnails, pixels
-    max_body_bytes: int = field(default_factory=lambda: _env("max_body_bytes", 2_000_000, int))
-    limits: Limits = field(
-        default_factory=lambda: Limits(
-            max_width=_env("max_width", 2048, int),
-            max_height=_env("max_height", 2048, int),
-            max_pixels=_env("max_pixels", 2048 * 2048, int),
-            max_spp=_env("max_spp", 4096, int),
-            max_depth=_env("max_depth", 64, int),
-            max_light_samples=_env("max_light_samples", 256, int),
-            max_primitives=_env("max_primitives", 2_000_000, int),
+    # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
+    max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")
+    max_json_depth: int = Field(64, ge=4, description="nesting of JSON arrays and objects in a request body")
+    max_queued_jobs: int = Field(100, ge=1, description="jobs waiting in the queue: 429 past it")
+    max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
+    max_width: int = Field(2048, ge=1, description="image width (pixels)")
+    max_height: int = Field(2048, ge=1, description="image height (pixels)")
+    max_pixels: int = Field(2048 * 2048, ge=1, description="width x height")
+    max_spp: int = Field(4096, ge=1, description="samples per pixel")
+    max_depth: int = Field(64, ge=1, description="render.max_depth")
+    max_light_samples: int = Field(256, ge=1, description="render.light_samples")
+    max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles")
+
+    @property
+    def limits(self) -> Limits:
+        """The scene limits, as the tracer's validators take them."""
+        return Limits(
+            max_width=self.max_width,
+            max_height=self.max_height,
+            max_pixels=self.max_pixels,
+            max_spp=self.max_spp,
+            max_depth=self.max_depth,
+            max_light_samples=self.max_light_samples,
+            max_primitives=self.max_primitives,
         )
-    )
+
+    @property
+    def db_path(self) -> Path:
+        return self.data_dir / "jobs.sqlite3"
+
+    @property
+    def jobs_dir(self) -> Path:
+        return self.data_dir / "jobs"
+
+    def threads_per_worker(self) -> int:
+        if self.render_threads:
+            return self.render_threads
+        return max(1, (os.cpu_count() or 1) // max(1, self.workers))
+
+
+def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -> Settings:
+    """Settings from `overrides`, the environment and a settings file (argument or TRACER_SETTINGS_FILE)."""
+    settings_file = settings_file or os.environ.get("TRACER_SETTINGS_FILE") or None
+    if settings_file is not None and not Path(settings_file).is_file():
+        raise FileNotFoundError(f"settings file not found: {settings_file}")
+    return Settings(_env_file=settings_file, **overrides)

@@ -114,8 +114,19 @@ def test_cli_render_aovs_into_the_exr(tmp_path):
     import OpenEXR
 
     out = tmp_path / "a.exr"
-    p = run("render", SCENES / "antialias_adaptive.json", "-o", tmp_path / "a.png", "--exr", out, "--aovs",
-            "--width", 40, "--height", 30)
+    p = run(
+        "render",
+        SCENES / "antialias_adaptive.json",
+        "-o",
+        tmp_path / "a.png",
+        "--exr",
+        out,
+        "--aovs",
+        "--width",
+        40,
+        "--height",
+        30,
+    )
     assert "adaptive to level 3" in p.stdout
     with OpenEXR.File(str(out), separate_channels=True) as f:
         ch = f.channels()

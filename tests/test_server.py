@@ -1,15 +1,9 @@
-"""The first HTTP routes, through the TestClient and through a real uvicorn on loopback."""
+"""The tool and example routes through the TestClient (the jobs: test_api_*.py)."""
 
 import json
-import socket
-import subprocess
-import sys
-import time
-import urllib.error
-import urllib.request
 
 import pytest
-from conftest import ROOT, scene_dict, small
+from conftest import scene_dict, small
 from fastapi.testclient import TestClient
 
 from server.main import create_app
@@ -18,14 +12,14 @@ from server.settings import Settings
 
 @pytest.fixture(scope="module")
 def client(tmp_path_factory):
-    settings = Settings()
-    settings.data_dir = tmp_path_factory.mktemp("data")
+    settings = Settings(data_dir=tmp_path_factory.mktemp("data"), workers=0)
     with TestClient(create_app(settings)) as c:
         yield c
 
 
 def test_server_health_schema_and_scenes(client):
-    assert client.get("/api/health").json() == {"status": "ok"}
+    health = client.get("/api/health").json()
+    assert health["status"] == "ok" and health["workers"] == [] and health["jobs"]["queued"] == 0
     schema = client.get("/api/schema").json()
     assert "properties" in schema and "camera" in schema["properties"]
     names = [s["name"] for s in client.get("/api/scenes").json()]
@@ -63,42 +57,15 @@ def test_server_raytree_matches_the_library(client):
     assert missing.status_code == 422 and {e["path"] for e in missing.json()["errors"]} == {"x", "y"}
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def test_server_settings_from_the_environment_and_a_file(tmp_path, monkeypatch):
+    from server.settings import load_settings
 
-
-def test_server_real_uvicorn_on_loopback(tmp_path):
-    port = free_port()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(tmp_path)],
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-    )
-    try:
-        deadline = time.time() + 120
-        while True:
-            try:
-                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=2) as r:
-                    assert json.load(r) == {"status": "ok"}
-                    break
-            except (urllib.error.URLError, ConnectionError):
-                assert proc.poll() is None, proc.stdout.read().decode()
-                assert time.time() < deadline, "server did not start"
-                time.sleep(0.3)
-        req = urllib.request.Request(
-            f"http://127.0.0.1:{port}/api/validate",
-            method="POST",
-            data=b'{"scene": {"camera": {"lookfrom": [0, 0, NaN]}}}',
-            headers={"content-type": "application/json"},
-        )
-        with urllib.request.urlopen(req, timeout=10) as r:
-            body = json.load(r)
-        # the literal NaN reaches the validator, which names its field (no 500 serialising it)
-        assert body["valid"] is False
-        assert "camera.lookfrom[2]" in [e["path"] for e in body["errors"]]
-    finally:
-        proc.terminate()
-        proc.wait(timeout=20)
+    conf = tmp_path / "service.env"
+    conf.write_text("TRACER_MAX_SPP=256\nTRACER_MAX_JOB_SECONDS=30\nTRACER_WORKERS=3\n")
+    monkeypatch.setenv("TRACER_MAX_SPP", "64")  # the environment wins over the file
+    monkeypatch.setenv("TRACER_SETTINGS_FILE", str(conf))
+    s = load_settings(workers=2)  # and arguments (the command line) over both
+    assert (s.max_spp, s.max_job_seconds, s.workers) == (64, 30.0, 2)
+    assert s.limits.max_spp == 64
+    with pytest.raises(FileNotFoundError):
+        load_settings(tmp_path / "missing.env")

@@ -2,37 +2,22 @@
 
 from __future__ import annotations
 
-from typing import Any
+from fastapi import APIRouter
 
-from fastapi import APIRouter, Request
-from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field
-
+from server.deps import PoolDep, SettingsDep, StoreDep
+from server.errors import ApiError
+from server.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
+from server.routes.jobs import check_scene
 from tracer.compile import compile_scene
 from tracer.raytree import ray_tree
-from tracer.scene import SceneError, load_scene, scene_json_schema, validate_scene
+from tracer.scene import SceneError, scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
 
 
-class ValidateRequest(BaseModel):
-    scene: Any = Field(description="a scene object (SCENE_FORMAT.md)")
-
-
-class RayTreeRequest(BaseModel):
-    scene: Any = Field(description="a scene object (SCENE_FORMAT.md)")
-    x: int = Field(description="pixel column from the left")
-    y: int = Field(description="pixel row from the top")
-    sample: int = Field(0, description="sample index within the pixel")
-
-
-def errors_response(errors: list[dict], status: int = 422) -> JSONResponse:
-    return JSONResponse({"errors": errors}, status_code=status)
-
-
-@router.get("/health", summary="Liveness")
-def health() -> dict:
-    return {"status": "ok"}
+@router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
+def health(store: StoreDep, pool: PoolDep) -> Health:
+    return Health(status="ok", workers=pool.info() if pool else [], jobs=store.counts())
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")
@@ -41,14 +26,24 @@ def schema() -> dict:
 
 
 @router.post("/validate", summary="Check a scene: errors with JSON paths, and warnings")
-def validate(body: ValidateRequest, request: Request) -> dict:
-    return validate_scene(body.scene, request.app.state.settings.limits)
-
-
-@router.post("/raytree", summary="The ray tree of one pixel sample (SCENE_FORMAT.md, 'Ray tree')")
-def raytree(body: RayTreeRequest, request: Request):
+def validate(body: ValidateRequest, settings: SettingsDep) -> dict:
+    """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
+    features not implemented yet and asset files are all checked."""
     try:
-        scene, _ = load_scene(body.scene, request.app.state.settings.limits)
+        _, warnings = check_scene(body.scene, settings)
+    except ApiError as exc:
+        return {"valid": False, "errors": exc.errors, "warnings": []}
+    return {"valid": True, "errors": [], "warnings": warnings}
+
+
+@router.post(
+    "/raytree",
+    summary="The ray tree of one pixel sample (SCENE_FORMAT.md, 'Ray tree')",
+    responses={422: {"model": ErrorResponse, "description": "invalid scene, or x, y, sample out of range"}},
+)
+def raytree(body: RayTreeRequest, settings: SettingsDep) -> dict:
+    scene, _ = check_scene(body.scene, settings)
+    try:
         return ray_tree(compile_scene(scene), body.x, body.y, body.sample)
     except SceneError as exc:
-        return errors_response(exc.errors)
+        raise ApiError(422, exc.errors) from None

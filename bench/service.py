@@ -1,0 +1,263 @@
+"""Benchmark of the rendering service (docs/service.md): first-preview latency and API latency under load.
+
+    python -m bench.service [--runs 5] [--requests 2000] [--workers 1]
+
+It starts `python -m server` on 127.0.0.1 with a fresh data directory, warms it up (kernels loaded,
+one job rendered), then measures
+1. submit -> first preview of the 256 x 256 example scene `cornell`: the time from sending
+   POST /api/jobs to the first `preview` event on the job's event stream, and to having that PNG
+   in hand; also by polling GET /api/jobs/{id} every 5 ms;
+2. the latency of GET /api/jobs/{id} while long renders keep the worker's threads busy on every
+   core: a bounded loop of sequential requests on one keep-alive connection, then the same from
+   8 concurrent clients; percentiles, next to the same loop on an idle server.
+"""
+
+from __future__ import annotations
+
+import argparse
+import http.client
+import json
+import os
+import platform
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = ROOT / "scenes"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Api:
+    """A keep-alive HTTP/1.1 connection to the server, JSON in and out."""
+
+    def __init__(self, port: int):
+        self.port = port
+        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+
+    def call(self, method: str, path: str, body: dict | None = None) -> tuple[int, bytes]:
+        data = json.dumps(body).encode() if body is not None else None
+        headers = {"content-type": "application/json"} if data is not None else {}
+        try:
+            self.conn.request(method, path, body=data, headers=headers)
+            r = self.conn.getresponse()
+        except (http.client.HTTPException, OSError):
+            self.conn.close()  # a dropped keep-alive connection: once more, on a new one
+            self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=60)
+            self.conn.request(method, path, body=data, headers=headers)
+            r = self.conn.getresponse()
+        return r.status, r.read()
+
+    def json(self, method: str, path: str, body: dict | None = None) -> dict:
+        status, data = self.call(method, path, body)
+        if status >= 400:
+            raise RuntimeError(f"{method} {path}: {status} {data[:300]!r}")
+        return json.loads(data)
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+def start_server(data_dir: Path, workers: int) -> tuple[subprocess.Popen, int]:
+    port = free_port()
+    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir), "--workers", str(workers)]
+    log = open(data_dir.parent / "server.log", "wb")  # noqa: SIM115 (lives as long as the server)
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 180
+    while True:
+        if proc.poll() is not None:
+            raise RuntimeError(f"the server exited; see {data_dir.parent / 'server.log'}")
+        try:
+            health = Api(port).json("GET", "/api/health")
+            if len(health["workers"]) == workers and all(w["ready"] for w in health["workers"]):
+                return proc, port
+        except (OSError, http.client.HTTPException):
+            pass
+        if time.monotonic() > deadline:
+            raise RuntimeError("the server did not start in time")
+        time.sleep(0.2)
+
+
+def wait_done(api: Api, job_id: str, timeout: float = 300) -> dict:
+    deadline = time.monotonic() + timeout
+    while True:
+        job = api.json("GET", f"/api/jobs/{job_id}")
+        if job["status"] in ("done", "failed", "cancelled"):
+            return job
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"job {job_id} did not finish")
+        time.sleep(0.05)
+
+
+def first_preview_by_events(port: int, scene: dict) -> tuple[float, float, str]:
+    """Seconds from POST to the first `preview` event, and to that PNG downloaded."""
+    api = Api(port)
+    t0 = time.perf_counter()
+    job = api.json("POST", "/api/jobs", {"scene": scene})
+    stream = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    stream.request("GET", job["events_url"])
+    r = stream.getresponse()
+    event, url = None, None
+    while url is None:
+        raw = r.readline()
+        if not raw:
+            raise RuntimeError("event stream closed early")
+        line = raw.decode().rstrip("\r\n")
+        if line.startswith("event:"):
+            event = line.split(":", 1)[1].strip()
+        elif line.startswith("data:") and event == "preview":
+            url = json.loads(line.split(":", 1)[1])["url"]
+        elif line.startswith("data:") and event == "end":
+            raise RuntimeError("the job ended without a preview")
+    t_event = time.perf_counter() - t0
+    status, png = api.call("GET", url)
+    t_png = time.perf_counter() - t0
+    assert status == 200 and png[:4] == b"\x89PNG"
+    stream.close()
+    wait_done(api, job["id"])
+    api.close()
+    return t_event, t_png, job["id"]
+
+
+def first_preview_by_polling(port: int, scene: dict) -> float:
+    api = Api(port)
+    t0 = time.perf_counter()
+    job = api.json("POST", "/api/jobs", {"scene": scene})
+    while api.json("GET", f"/api/jobs/{job['id']}")["preview"] < 1:
+        time.sleep(0.005)
+    t = time.perf_counter() - t0
+    wait_done(api, job["id"])
+    api.close()
+    return t
+
+
+def percentiles(ms: list[float]) -> dict:
+    ms = sorted(ms)
+
+    def q(p: float) -> float:
+        return ms[min(len(ms) - 1, int(round(p / 100 * (len(ms) - 1))))]
+
+    return {"n": len(ms), "p50": q(50), "p90": q(90), "p99": q(99), "max": ms[-1], "mean": statistics.fmean(ms)}
+
+
+def get_loop(port: int, job_id: str, n: int) -> list[float]:
+    api = Api(port)
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        status, _ = api.call("GET", f"/api/jobs/{job_id}")
+        out.append((time.perf_counter() - t0) * 1000)
+        assert status == 200
+    api.close()
+    return out
+
+
+def concurrent_get_loops(port: int, job_id: str, clients: int, n_each: int) -> list[float]:
+    results: list[list[float]] = [[] for _ in range(clients)]
+
+    def run(k: int) -> None:
+        results[k] = get_loop(port, job_id, n_each)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(clients)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return [x for r in results for x in r]
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = argparse.ArgumentParser(prog="bench.service", description=__doc__.split("\n\n")[0])
+    p.add_argument("--runs", type=int, default=5, help="submissions per first-preview measurement")
+    p.add_argument("--requests", type=int, default=2000, help="GET requests per latency loop")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    args = p.parse_args(argv)
+
+    cornell = json.loads((SCENES / "cornell.json").read_text())
+    assert (cornell["film"]["width"], cornell["film"]["height"]) == (256, 256)
+    long = json.loads((SCENES / "whitted.json").read_text())
+    long["film"].update(width=256, height=256)
+    long["sampler"] = {"type": "jittered", "spp": 4096}
+
+    results: dict = {
+        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+        f"{platform.python_version()}",
+    }
+    with tempfile.TemporaryDirectory(prefix="bench-service-") as tmp:
+        data = Path(tmp) / "data"
+        t_start = time.perf_counter()
+        proc, port = start_server(data, args.workers)
+        results["server_start_s"] = time.perf_counter() - t_start
+        try:
+            api = Api(port)
+            wait_done(api, api.json("POST", "/api/jobs", {"scene": cornell})["id"])  # warm: one job rendered
+
+            events = [first_preview_by_events(port, cornell) for _ in range(args.runs)]
+            polled = [first_preview_by_polling(port, cornell) for _ in range(args.runs)]
+            results["first_preview_event_s"] = sorted(e[0] for e in events)
+            results["first_preview_png_s"] = sorted(e[1] for e in events)
+            results["first_preview_polled_s"] = sorted(polled)
+            job = api.json("GET", f"/api/jobs/{events[0][2]}")
+            results["cornell_render_s"] = job["elapsed"]
+
+            probe = api.json("POST", "/api/jobs", {"scene": cornell})["id"]
+            wait_done(api, probe)
+            results["get_idle_ms"] = percentiles(get_loop(port, probe, args.requests))
+
+            busy = [api.json("POST", "/api/jobs", {"scene": long})["id"] for _ in range(args.workers + 1)]
+            while api.json("GET", "/api/health")["jobs"]["running"] < args.workers:
+                time.sleep(0.05)
+            time.sleep(1.0)  # well into the render
+            results["get_busy_ms"] = percentiles(get_loop(port, probe, args.requests))
+            results["get_busy_8_clients_ms"] = percentiles(concurrent_get_loops(port, probe, 8, args.requests // 8))
+            health = api.json("GET", "/api/health")
+            results["still_rendering"] = health["jobs"]["running"] == args.workers
+            for job_id in busy:
+                api.call("DELETE", f"/api/jobs/{job_id}")
+            api.close()
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+
+    if args.json:
+        print(json.dumps(results, indent=2))
+    else:
+        report(results)
+    return results
+
+
+def report(r: dict) -> None:
+    def s(xs: list[float]) -> str:
+        return f"median {statistics.median(xs) * 1000:.0f} ms (min {min(xs) * 1000:.0f}, max {max(xs) * 1000:.0f})"
+
+    def lat(d: dict) -> str:
+        return (
+            f"p50 {d['p50']:.2f} ms, p90 {d['p90']:.2f} ms, p99 {d['p99']:.2f} ms, max {d['max']:.2f} ms "
+            f"({d['n']} requests)"
+        )
+
+    print(f"machine: {r['machine']}")
+    print(f"server start (kernels cached) until workers ready: {r['server_start_s']:.2f} s")
+    print(f"cornell 256x256, 16 spp, whole render in the worker: {r['cornell_render_s']:.2f} s")
+    print(f"submit -> first preview event (SSE):   {s(r['first_preview_event_s'])}")
+    print(f"submit -> first preview PNG in hand:   {s(r['first_preview_png_s'])}")
+    print(f"submit -> first preview (polling 5 ms): {s(r['first_preview_polled_s'])}")
+    print(f"GET /api/jobs/{{id}}, idle server:          {lat(r['get_idle_ms'])}")
+    print(f"GET /api/jobs/{{id}}, rendering on all cores: {lat(r['get_busy_ms'])}")
+    print(f"  the same from 8 concurrent clients:      {lat(r['get_busy_8_clients_ms'])}")
+    print(f"renders still running at the end of the loop: {r['still_rendering']}")
+
+
+if __name__ == "__main__":
+    main()

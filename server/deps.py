@@ -1,0 +1,40 @@
+"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the pool, a job."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import Depends, Path, Request
+
+from server.errors import ApiError
+from server.pool import WorkerPool
+from server.settings import Settings
+from server.store import JobStore, looks_like_job_id
+
+
+def get_settings(request: Request) -> Settings:
+    return request.app.state.settings
+
+
+def get_store(request: Request) -> JobStore:
+    return request.app.state.store
+
+
+def get_pool(request: Request) -> WorkerPool | None:
+    return request.app.state.pool
+
+
+SettingsDep = Annotated[Settings, Depends(get_settings)]
+StoreDep = Annotated[JobStore, Depends(get_store)]
+PoolDep = Annotated[WorkerPool | None, Depends(get_pool)]
+
+
+def get_job(job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")], store: StoreDep):
+    """The job's row, or 404 (ids that cannot be ours are refused before the database sees them)."""
+    row = store.get(job_id) if looks_like_job_id(job_id) else None
+    if row is None:
+        raise ApiError(404, [{"path": "id", "message": f"no job with id '{job_id[:64]}'"}])
+    return row
+
+
+JobDep = Annotated[dict, Depends(get_job)]

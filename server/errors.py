@@ -1,0 +1,224 @@
+"""Every error answer has one shape, `{"errors": [{"path", "message"}]}`, and no error is ever a 500 by accident.
+
+- `ApiError` is raised by routes with a status and error items;
+- request validation errors (pydantic) are translated to JSON paths of the request body;
+- `SafeJSONResponse` is the app's response class: NaN and Infinity become null, so echoing a bad
+  value can never crash the serialisation of its own error message;
+- `RequestGate` (ASGI middleware) answers 413 past the body size limit (by Content-Length and by
+  the bytes actually streamed) and 400 for JSON nested deeper than the depth limit, before any
+  parser or validator sees the body.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import re
+from typing import Any
+
+import numpy as np
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from tracer.scene import json_path
+
+log = logging.getLogger("server")
+
+
+def sanitise(value: Any) -> Any:
+    """A copy of `value` that JSON can carry: non-finite floats -> None, tuples -> lists, bytes -> text."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): sanitise(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [sanitise(v) for v in value]
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return value
+
+
+class SafeJSONResponse(JSONResponse):
+    """JSON that never fails on NaN or Infinity (they become null)."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(sanitise(content), ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode()
+
+
+class ApiError(Exception):
+    """An answer with a 4xx status and error items."""
+
+    def __init__(self, status: int, errors: list[dict[str, str]] | str, headers: dict[str, str] | None = None):
+        self.status = status
+        self.errors = [{"path": "", "message": errors}] if isinstance(errors, str) else list(errors)
+        self.headers = headers
+        super().__init__(f"{status}: {self.errors}")
+
+
+def errors_response(status: int, errors: list[dict[str, str]], headers: dict[str, str] | None = None):
+    items = [{"path": str(e.get("path", "")), "message": str(e.get("message", ""))} for e in errors]
+    return SafeJSONResponse({"errors": items}, status_code=status, headers=headers)
+
+
+def _line_col(doc: Any, pos: int) -> str:
+    if isinstance(doc, bytes | bytearray):
+        doc = doc.decode("utf-8", errors="replace")
+    if not isinstance(doc, str) or not 0 <= pos <= len(doc):
+        return f"character {pos}"
+    line = doc.count("\n", 0, pos) + 1
+    col = pos - (doc.rfind("\n", 0, pos) + 1) + 1
+    return f"line {line}, column {col}"
+
+
+_EXPECTED = {
+    "int_type": "expected an integer",
+    "int_parsing": "expected an integer",
+    "int_from_float": "expected an integer",
+    "string_type": "expected a string",
+    "bool_type": "expected true or false",
+    "float_type": "expected a number",
+    "dict_type": "expected a JSON object {...}",
+    "model_type": "expected a JSON object {...}",
+    "list_type": "expected a list [...]",
+}
+
+
+def _show(value: Any) -> str:
+    """A short JSON rendering of a bad input for a message (NaN shows as NaN, inside the text)."""
+    try:
+        text = json.dumps(value, allow_nan=True)
+    except (TypeError, ValueError, RecursionError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]]:
+    """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body."""
+    out = []
+    for err in exc.errors():
+        loc = list(err.get("loc") or ())
+        where = loc.pop(0) if loc and loc[0] in ("body", "query", "path", "header") else "body"
+        kind, ctx = err.get("type", ""), err.get("ctx") or {}
+        if kind == "json_invalid":
+            pos = loc[0] if loc and isinstance(loc[0], int) else 0
+            message = (
+                f"invalid JSON at {_line_col(getattr(exc, 'body', None), pos)}: {ctx.get('error', 'decode error')}"
+            )
+            loc = []
+        elif kind == "missing":
+            message = f"required field '{loc[-1]}' is missing" if loc else "a JSON object body is required"
+        elif kind in ("model_attributes_type", "dict_type", "model_type") and not loc and where == "body":
+            message = "the body must be a JSON object (Content-Type: application/json)"
+        elif kind == "extra_forbidden" and loc:
+            message = f"unknown field '{loc[-1]}'"
+        elif kind in _EXPECTED:
+            message = f"{_EXPECTED[kind]}, got {_show(err.get('input'))}"
+        elif kind == "finite_number":
+            message = "must be a finite number (not NaN or Infinity)"
+        else:
+            message = str(err.get("msg", "invalid value"))
+        path = json_path([p for p in loc if isinstance(p, int | str)])
+        if where in ("query", "path", "header") and path:
+            message = f"{message} (in the {where} parameter '{path}')"
+        out.append({"path": path, "message": message})
+    return out or [{"path": "", "message": "invalid request"}]
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(ApiError)
+    async def api_error(request: Request, exc: ApiError):
+        return errors_response(exc.status, exc.errors, exc.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def request_errors(request: Request, exc: RequestValidationError):
+        return errors_response(422, translate_request_errors(exc))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_errors(request: Request, exc: StarletteHTTPException):
+        detail = exc.detail if isinstance(exc.detail, str) else json.dumps(sanitise(exc.detail))
+        if exc.status_code == 400 and detail == "There was an error parsing the body":
+            detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
+        return errors_response(exc.status_code, [{"path": "", "message": detail}], getattr(exc, "headers", None))
+
+    @app.exception_handler(Exception)
+    async def crashed(request: Request, exc: Exception):
+        log.exception("unhandled error in %s %s", request.method, request.url.path)
+        return errors_response(500, [{"path": "", "message": "internal error (logged on the server)"}])
+
+
+# ---------------------------------------------------------------------------------------------
+# The request gate: body size and JSON depth, checked before anything parses the body.
+
+_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"')
+_NOT_BRACKETS = bytes(c for c in range(256) if c not in b"[]{}")
+
+
+def json_depth(body: bytes) -> int:
+    """The deepest nesting of arrays and objects in JSON text (brackets inside strings ignored)."""
+    brackets = _STRING.sub(b"", body).translate(None, _NOT_BRACKETS)
+    if not brackets:
+        return 0
+    b = np.frombuffer(brackets, dtype=np.uint8)
+    steps = np.where((b == ord("[")) | (b == ord("{")), 1, -1)
+    return int(np.cumsum(steps).max())
+
+
+class RequestGate:
+    """ASGI middleware: 413 past `max_bytes`, 400 past `max_depth` levels of JSON nesting."""
+
+    def __init__(self, app: ASGIApp, max_bytes: int, max_depth: int):
+        self.app, self.max_bytes, self.max_depth = app, max_bytes, max_depth
+
+    def _too_large(self) -> JSONResponse:
+        msg = f"request body larger than {self.max_bytes} bytes (TRACER_MAX_BODY_BYTES)"
+        return errors_response(413, [{"path": "", "message": msg}])
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers") or [])
+        length = headers.get(b"content-length")
+        if length is not None:
+            try:
+                declared = int(length)
+            except ValueError:
+                await errors_response(400, [{"path": "", "message": "invalid Content-Length"}])(scope, receive, send)
+                return
+            if declared > self.max_bytes:
+                await self._too_large()(scope, receive, send)
+                return
+        # Read the whole body (it is bounded), then check and replay it to the app.
+        chunks, size = [], 0
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.max_bytes:
+                await self._too_large()(scope, receive, send)
+                return
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                break
+        body = b"".join(chunks)
+        depth = json_depth(body)
+        if depth > self.max_depth:
+            msg = f"JSON nested {depth} levels deep; at most {self.max_depth} (TRACER_MAX_JSON_DEPTH)"
+            await errors_response(400, [{"path": "", "message": msg}])(scope, receive, send)
+            return
+        replayed = False
+
+        async def replay() -> Message:
+            nonlocal replayed
+            if not replayed:
+                replayed = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)

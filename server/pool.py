@@ -1,0 +1,173 @@
+"""The worker pool: render processes started by the server, watched by a supervisor thread.
+
+The supervisor wakes when a worker process ends (or every half second) and
+- gives the jobs of a dead worker (a crash, a kill, out of memory) back to the queue while they
+  have tries left (`job_attempts`, 2 by default: one retry), else fails them with the reason;
+- starts a new worker in its slot (after a growing pause if workers keep dying at start-up);
+- kills a worker whose job is past its time limit by `HARD_GRACE` seconds, failing the job (the
+  worker itself stops a job at its limit within one band of rows; this is for a render stuck in a
+  single long launch).
+The API never depends on a worker being alive: it only reads and writes the job store.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+import signal
+import threading
+import time
+from dataclasses import dataclass
+from multiprocessing.connection import wait
+
+from server.settings import Settings
+from server.store import JobStore
+from server.worker import worker_main
+
+log = logging.getLogger("server.pool")
+
+HARD_GRACE = 10.0  # seconds past a job's time limit before its worker is killed
+
+
+@dataclass
+class Slot:
+    index: int
+    process: mp.process.BaseProcess | None = None
+    ready: object = None  # multiprocessing Event: kernels loaded
+    started: float = 0.0
+    restarts: int = 0
+    failures_in_a_row: int = 0  # deaths soon after start, for the restart pause
+    not_before: float = 0.0  # no restart before this time
+
+
+class WorkerPool:
+    def __init__(self, settings: Settings, store: JobStore):
+        self.settings, self.store = settings, store
+        self.ctx = mp.get_context("spawn")
+        self.stop_event = self.ctx.Event()
+        self.wake_event = self.ctx.Event()  # set on each submission: an idle worker looks at the queue
+        self.slots = [Slot(i) for i in range(settings.workers)]
+        self._lock = threading.Lock()
+        self._closing = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- life ---------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        for slot in self.slots:
+            self._spawn(slot)
+        self._thread = threading.Thread(target=self._supervise, name="worker-supervisor", daemon=True)
+        self._thread.start()
+
+    def shutdown(self, timeout: float = 10.0) -> None:
+        """Ask the workers to give their jobs back and exit; kill those that do not in `timeout` s."""
+        self._closing.set()
+        self.stop_event.set()
+        self.wake_event.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        deadline = time.monotonic() + timeout
+        for slot in self.slots:
+            p = slot.process
+            if p is None:
+                continue
+            p.join(timeout=max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                log.warning("worker %d did not stop in time; killing it", p.pid)
+                p.kill()
+                p.join(timeout=5)
+            self._handle_death(slot, p)
+            slot.process = None
+
+    def _spawn(self, slot: Slot) -> None:
+        slot.ready = self.ctx.Event()
+        p = self.ctx.Process(
+            target=worker_main,
+            args=(self.settings.model_dump(mode="json"), self.stop_event, self.wake_event, slot.ready),
+            name=f"render-worker-{slot.index}",
+            daemon=True,
+        )
+        p.start()
+        slot.process, slot.started = p, time.monotonic()
+        log.info("started render worker %d (pid %d)", slot.index, p.pid)
+
+    def notify(self) -> None:
+        """A job was queued: wake an idle worker now rather than at its next look at the queue."""
+        self.wake_event.set()
+
+    # -- supervision --------------------------------------------------------------------------
+
+    def _supervise(self) -> None:
+        while not self._closing.is_set():
+            sentinels = [s.process.sentinel for s in self.slots if s.process is not None and s.process.is_alive()]
+            if sentinels:
+                wait(sentinels, timeout=0.5)
+            else:
+                self._closing.wait(0.5)
+            if self._closing.is_set():
+                return
+            try:
+                self._check()
+            except Exception:  # the supervisor must outlive any surprise (a locked database, ...)
+                log.exception("worker supervisor")
+
+    def _check(self) -> None:
+        now = time.monotonic()
+        with self._lock:
+            for slot in self.slots:
+                p = slot.process
+                if p is not None and not p.is_alive():
+                    self._handle_death(slot, p)
+                    quick = now - slot.started < 10
+                    slot.failures_in_a_row = slot.failures_in_a_row + 1 if quick else 0
+                    slot.not_before = now + (min(30.0, 2.0 ** (slot.failures_in_a_row - 1)) if quick else 0.0)
+                    slot.process = None
+                if slot.process is None and now >= slot.not_before and not self._closing.is_set():
+                    slot.restarts += 1
+                    self._spawn(slot)
+        self._kill_overdue()
+
+    def _handle_death(self, slot: Slot, p) -> None:
+        code = p.exitcode
+        if code is not None and code < 0:
+            try:
+                how = f"killed by signal {signal.Signals(-code).name}"
+            except ValueError:
+                how = f"killed by signal {-code}"
+        else:
+            how = f"exited with status {code}"
+        for job_id, status in self.store.worker_died(p.pid, self.settings.job_attempts, f"render worker {how}"):
+            log.warning("worker %d %s while rendering job %s: job %s", p.pid, how, job_id, status)
+            self.notify()
+        if not self._closing.is_set():
+            log.warning("render worker %d (pid %d) %s", slot.index, p.pid, how)
+
+    def _kill_overdue(self) -> None:
+        ours = {s.process.pid: s.process for s in self.slots if s.process is not None}
+        for job in self.store.overdue(HARD_GRACE):
+            p = ours.get(job["worker"])
+            limit = job["max_seconds"]
+            error = f"stopped: over the time limit of {limit:g} s per job (TRACER_MAX_JOB_SECONDS); worker killed"
+            if self.store.fail(job["id"], job["worker"], error) and p is not None and p.is_alive():
+                log.warning("job %s over its time limit: killing worker %d", job["id"], p.pid)
+                os.kill(p.pid, signal.SIGKILL)
+
+    # -- information --------------------------------------------------------------------------
+
+    def info(self) -> list[dict]:
+        out = []
+        for slot in self.slots:
+            p = slot.process
+            alive = p is not None and p.is_alive()
+            out.append(
+                {
+                    "slot": slot.index,
+                    "pid": p.pid if p is not None else None,
+                    "alive": alive,
+                    "ready": bool(alive and slot.ready is not None and slot.ready.is_set()),
+                    "restarts": slot.restarts,
+                    "job": self.store.running_on(p.pid) if alive else None,
+                }
+            )
+        return out

@@ -1,0 +1,222 @@
+"""Render jobs: submit, list, inspect, fetch the latest image, follow the events, cancel."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import AsyncIterator
+from typing import Annotated, Any, Literal
+
+import anyio
+from fastapi import APIRouter, Query, Request, Response
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel
+
+from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
+from server.errors import ApiError
+from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatus
+from server.settings import Settings
+from server.store import JobStore, QueueFull
+from tracer.compile import not_implemented
+from tracer.scene import Scene, SceneError, json_path, load_scene, resolve_asset
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+
+EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
+KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
+ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
+NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
+
+
+def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
+    """Validate a scene for rendering: the format and limits, features not implemented yet, asset files."""
+    try:
+        scene, warnings = load_scene(data, settings.limits)
+    except SceneError as exc:
+        raise ApiError(422, exc.errors) from None
+    errors = not_implemented(scene) + asset_errors(scene)
+    if errors:
+        raise ApiError(422, errors)
+    return scene, warnings
+
+
+def asset_errors(model: BaseModel, at: tuple = ()) -> list[dict]:
+    """Every asset `file` in the scene must exist inside the asset folder (no path leaves it)."""
+    out: list[dict] = []
+
+    def walk(value: Any, where: tuple) -> None:
+        if isinstance(value, BaseModel):
+            for name in type(value).model_fields:
+                item = getattr(value, name)
+                if name == "file" and isinstance(item, str):
+                    try:
+                        resolve_asset(item, json_path((*where, name)))
+                    except SceneError as exc:
+                        out.extend(exc.errors)
+                else:
+                    walk(item, (*where, name))
+        elif isinstance(value, dict):
+            for key, item in value.items():
+                walk(item, (*where, key))
+        elif isinstance(value, list | tuple):
+            for i, item in enumerate(value):
+                walk(item, (*where, i))
+
+    walk(model, at)
+    return out
+
+
+@router.post(
+    "",
+    status_code=202,
+    summary="Submit a scene for rendering",
+    responses={
+        **ERRORS,
+        413: {"model": ErrorResponse, "description": "request body too large"},
+        429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
+    },
+)
+def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, pool: PoolDep, response: Response) -> JobPublic:
+    """Validate the scene (422 with `errors: [{path, message}]`), queue it by priority then age (202).
+
+    The job comes back with the scene's `warnings`; follow it at `events_url`, fetch `image_url`."""
+    scene, warnings = check_scene(body.scene, settings)
+    try:
+        row = store.create(
+            json.dumps(body.scene),
+            name=scene.name,
+            width=scene.film.width,
+            height=scene.film.height,
+            spp=scene.sampler.spp,
+            priority=body.priority,
+            warnings=warnings,
+            max_seconds=settings.max_job_seconds,
+            max_queued=settings.max_queued_jobs,
+        )
+    except QueueFull as full:
+        message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
+        raise ApiError(429, message, headers={"Retry-After": "5"}) from None
+    if pool is not None:
+        pool.notify()
+    response.headers["Location"] = f"/api/jobs/{row['id']}"
+    return JobPublic.from_row(row)
+
+
+@router.get("", summary="Jobs, newest first")
+def list_jobs(
+    store: StoreDep,
+    status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
+    limit: Annotated[int, Query(ge=1, le=1000)] = 100,
+    offset: Annotated[int, Query(ge=0)] = 0,
+) -> JobList:
+    rows, count = store.list_jobs(status.value if status else None, limit, offset)
+    now = time.time()
+    return JobList(jobs=[JobPublic.from_row(r, now) for r in rows], count=count)
+
+
+@router.get("/{job_id}", summary="One job: status, progress, elapsed and ETA, rays, error", responses=NOT_FOUND)
+def get_job(job: JobDep) -> JobPublic:
+    return JobPublic.from_row(job)
+
+
+@router.get(
+    "/{job_id}/image",
+    summary="The latest image: progressive while running, final when done",
+    response_class=Response,
+    responses={
+        200: {"content": {"image/png": {}, "image/x-exr": {}}, "description": "PNG (sRGB), or EXR (linear float)"},
+        **NOT_FOUND,
+    },
+)
+def image(
+    job: JobDep,
+    store: StoreDep,
+    format: Annotated[
+        Literal["png", "exr"], Query(description="png: sRGB with the film's exposure; exr: linear")
+    ] = "png",
+    pass_: Annotated[int | None, Query(alias="pass", ge=0, description="ignored; makes each pass's URL new")] = None,
+) -> Response:
+    if not job["preview"]:
+        raise ApiError(404, f"no image yet: the job is {job['status']}")
+    try:
+        data = store.image_path(job["id"], format).read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, "the job's image is missing from the data directory") from None
+    media = "image/png" if format == "png" else "image/x-exr"
+    headers = {
+        "Cache-Control": "no-store",
+        "Content-Disposition": f'inline; filename="job-{job["id"]}.{format}"',
+    }
+    return Response(data, media_type=media, headers=headers)
+
+
+@router.get(
+    "/{job_id}/events",
+    summary="Server-Sent Events: progress, preview (a new image), end",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+)
+def events(job: JobDep, store: StoreDep, request: Request) -> StreamingResponse:
+    """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, elapsed, eta};
+    `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes."""
+    headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    return StreamingResponse(_event_stream(store, job["id"], request), media_type="text/event-stream", headers=headers)
+
+
+def sse(event: str, data: dict) -> str:
+    return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
+
+
+async def _event_stream(store: JobStore, job_id: str, request: Request) -> AsyncIterator[str]:
+    yield "retry: 1000\n\n"
+    last_progress, last_preview, quiet_since = None, 0, time.monotonic()
+    while True:
+        row = await anyio.to_thread.run_sync(store.get, job_id)
+        if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
+            return
+        job = JobPublic.from_row(row)
+        p = job.progress
+        sent = False
+        if (job.status, p.samples_done, p.passes_done) != last_progress:
+            last_progress = (job.status, p.samples_done, p.passes_done)
+            data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta)
+            yield sse("progress", data)
+            sent = True
+        if job.preview and job.preview != last_preview:
+            last_preview = job.preview
+            base = f"/api/jobs/{job_id}/image"
+            data = {"pass": job.preview, "spp": p.spp_done, "url": f"{base}?pass={job.preview}"}
+            data["exr_url"] = f"{base}?format=exr&pass={job.preview}"
+            yield sse("preview", data)
+            sent = True
+        if job.status.finished:
+            yield sse("end", job.model_dump(mode="json"))
+            return
+        now = time.monotonic()
+        if sent:
+            quiet_since = now
+        elif now - quiet_since > KEEPALIVE:
+            quiet_since = now
+            yield ": keep-alive\n\n"
+        if await request.is_disconnected():
+            return
+        await anyio.sleep(EVENT_POLL)
+
+
+@router.delete(
+    "/{job_id}",
+    summary="Cancel a queued or running job",
+    responses={
+        202: {"model": JobPublic, "description": "running: it stops within one band of rows, keeping its last image"},
+        409: {"model": ErrorResponse, "description": "the job has already ended"},
+        **NOT_FOUND,
+    },
+)
+def cancel(job: JobDep, store: StoreDep, response: Response) -> JobPublic:
+    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`."""
+    if JobStatus(job["status"]).finished:
+        raise ApiError(409, f"the job has already ended ({job['status']})")
+    row = store.cancel(job["id"])
+    if JobStatus(row["status"]) is JobStatus.running:
+        response.status_code = 202
+    return JobPublic.from_row(row)

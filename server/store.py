@@ -1,0 +1,296 @@
+"""The job store: one SQLite table under the data directory, and each job's images beside it.
+
+Every process and thread opens its own connection (WAL mode, so readers never wait for the
+worker's writes; a busy timeout for the rare writer-writer overlap), and every statement is short.
+A worker writes to a job only while the row still names it (`worker = pid AND status = 'running'`),
+so a worker that lost its job (killed and retried elsewhere, or a stale one after a restart) can
+never overwrite the job's new life.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import sqlite3
+import threading
+import time
+from pathlib import Path
+
+from server.models import JobStatus
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS jobs (
+    id TEXT PRIMARY KEY,                    -- secrets.token_urlsafe: unguessable
+    status TEXT NOT NULL,                   -- JobStatus
+    priority INTEGER NOT NULL DEFAULT 0,    -- higher first
+    created_at REAL NOT NULL,               -- Unix time (s)
+    started_at REAL,                        -- when a worker took it (latest attempt)
+    finished_at REAL,
+    name TEXT,                              -- the scene's name
+    scene TEXT NOT NULL,                    -- the scene JSON, as submitted
+    warnings TEXT NOT NULL DEFAULT '[]',    -- [{path, message}] from validation
+    width INTEGER NOT NULL,
+    height INTEGER NOT NULL,
+    spp INTEGER NOT NULL,
+    max_seconds REAL NOT NULL,              -- render time limit of this job
+    samples_done INTEGER NOT NULL DEFAULT 0, -- the renderer's progress units (pixel samples; adaptive: pixel passes)
+    samples_total INTEGER NOT NULL,
+    passes_done INTEGER NOT NULL DEFAULT 0,
+    spp_done INTEGER NOT NULL DEFAULT 0,
+    rays TEXT NOT NULL DEFAULT '{}',        -- rays by kind, as of the latest pass
+    preview INTEGER NOT NULL DEFAULT 0,     -- pass number of the image on disk (0 = none)
+    error TEXT,                             -- why it failed or stopped
+    errors TEXT NOT NULL DEFAULT '[]',      -- scene errors found by the worker
+    cancel_requested INTEGER NOT NULL DEFAULT 0,
+    attempts INTEGER NOT NULL DEFAULT 0,    -- times a worker took it
+    worker INTEGER                          -- pid of the worker rendering it
+);
+CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at);
+"""
+
+ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
+RUNNING, QUEUED = JobStatus.running.value, JobStatus.queued.value
+FINISHED = tuple(s.value for s in JobStatus if s.finished)
+
+
+class QueueFull(Exception):
+    pass
+
+
+def new_job_id() -> str:
+    return secrets.token_urlsafe(16)  # 128 random bits
+
+
+def looks_like_job_id(text: str) -> bool:
+    return 16 <= len(text) <= 64 and set(text) <= ID_ALPHABET
+
+
+class JobStore:
+    def __init__(self, data_dir: Path):
+        self.data_dir = Path(data_dir)
+        self.jobs_dir = self.data_dir / "jobs"
+        self.db_path = self.data_dir / "jobs.sqlite3"
+        self._local = threading.local()
+        self.jobs_dir.mkdir(parents=True, exist_ok=True)
+        self.db.executescript(SCHEMA)
+
+    # -- connections --------------------------------------------------------------------------
+
+    @property
+    def db(self) -> sqlite3.Connection:
+        conn = getattr(self._local, "conn", None)
+        if conn is None or getattr(self._local, "pid", None) != os.getpid():
+            conn = sqlite3.connect(self.db_path, timeout=30, isolation_level=None, check_same_thread=True)
+            conn.row_factory = sqlite3.Row
+            conn.execute("PRAGMA journal_mode=WAL")
+            conn.execute("PRAGMA synchronous=NORMAL")
+            conn.execute("PRAGMA busy_timeout=30000")
+            self._local.conn, self._local.pid = conn, os.getpid()
+        return conn
+
+    def _tx(self):
+        return _Transaction(self.db)
+
+    def _one(self, sql: str, args=()) -> dict | None:
+        row = self.db.execute(sql, args).fetchone()
+        return dict(row) if row is not None else None
+
+    # -- files --------------------------------------------------------------------------------
+
+    def image_path(self, job_id: str, fmt: str) -> Path:
+        return self.jobs_dir / job_id / f"image.{fmt}"
+
+    # -- the API side -------------------------------------------------------------------------
+
+    def create(
+        self,
+        scene_json: str,
+        *,
+        name: str | None,
+        width: int,
+        height: int,
+        spp: int,
+        priority: int,
+        warnings: list,
+        max_seconds: float,
+        max_queued: int,
+    ) -> dict:
+        """Queue a job; raises QueueFull when `max_queued` jobs already wait."""
+        job_id = new_job_id()
+        with self._tx() as db:
+            queued = db.execute("SELECT COUNT(*) FROM jobs WHERE status = ?", (QUEUED,)).fetchone()[0]
+            if queued >= max_queued:
+                raise QueueFull(queued)
+            db.execute(
+                "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
+                " samples_total, max_seconds) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (job_id, QUEUED, priority, time.time(), name, scene_json, json.dumps(warnings), width, height, spp,
+                 width * height * spp, max_seconds),
+            )  # fmt: skip
+        return self.get(job_id)
+
+    def get(self, job_id: str) -> dict | None:
+        return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
+
+    def list_jobs(self, status: str | None = None, limit: int = 100, offset: int = 0) -> tuple[list[dict], int]:
+        where, args = ("WHERE status = ?", (status,)) if status else ("", ())
+        rows = self.db.execute(
+            f"SELECT * FROM jobs {where} ORDER BY created_at DESC, rowid DESC LIMIT ? OFFSET ?",
+            (*args, limit, offset),
+        ).fetchall()
+        count = self.db.execute(f"SELECT COUNT(*) FROM jobs {where}", args).fetchone()[0]
+        return [dict(r) for r in rows], count
+
+    def counts(self) -> dict[str, int]:
+        out = {s.value: 0 for s in JobStatus}
+        for status, n in self.db.execute("SELECT status, COUNT(*) FROM jobs GROUP BY status"):
+            out[status] = n
+        return out
+
+    def cancel(self, job_id: str) -> dict | None:
+        """Cancel a queued job now; ask the worker of a running one to stop. The job's row after."""
+        with self._tx() as db:
+            db.execute(
+                "UPDATE jobs SET status = 'cancelled', finished_at = ?, error = 'cancelled before it started'"
+                " WHERE id = ? AND status = 'queued'",
+                (time.time(), job_id),
+            )
+            db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = 'running'", (job_id,))
+        return self.get(job_id)
+
+    def recover(self) -> tuple[int, int]:
+        """At start-up: jobs left running by a dead server go back to the queue (or end, if cancelled)."""
+        with self._tx() as db:
+            cancelled = db.execute(
+                "UPDATE jobs SET status = 'cancelled', finished_at = ?, worker = NULL,"
+                " error = 'cancelled (the server stopped while it rendered)'"
+                " WHERE status = 'running' AND cancel_requested = 1",
+                (time.time(),),
+            ).rowcount
+            requeued = db.execute(
+                "UPDATE jobs SET status = 'queued', worker = NULL WHERE status = 'running'",
+            ).rowcount
+        return requeued, cancelled
+
+    # -- the supervisor -----------------------------------------------------------------------
+
+    def running_on(self, pid: int) -> str | None:
+        row = self._one("SELECT id FROM jobs WHERE status = 'running' AND worker = ?", (pid,))
+        return row["id"] if row else None
+
+    def worker_died(self, pid: int, attempts: int, reason: str) -> list[tuple[str, str]]:
+        """The jobs of a dead worker: re-queued while they have tries left, else failed. [(id, status)]."""
+        out = []
+        with self._tx() as db:
+            rows = db.execute(
+                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = 'running' AND worker = ?", (pid,)
+            ).fetchall()
+            for r in rows:
+                if r["cancel_requested"]:
+                    status, error = "cancelled", f"cancelled ({reason})"
+                elif r["attempts"] < attempts:
+                    status, error = "queued", None
+                else:
+                    status, error = "failed", f"{reason}; tried {r['attempts']} time(s)"
+                finished = time.time() if status != "queued" else None
+                db.execute(
+                    "UPDATE jobs SET status = ?, error = ?, finished_at = ?, worker = NULL WHERE id = ?",
+                    (status, error, finished, r["id"]),
+                )
+                out.append((r["id"], status))
+        return out
+
+    def overdue(self, grace: float) -> list[dict]:
+        """Running jobs past their time limit plus `grace` seconds (their worker did not stop them)."""
+        rows = self.db.execute(
+            "SELECT id, worker, max_seconds FROM jobs WHERE status = 'running' AND started_at + max_seconds + ? < ?",
+            (grace, time.time()),
+        ).fetchall()
+        return [dict(r) for r in rows]
+
+    def fail(self, job_id: str, pid: int | None, error: str) -> bool:
+        return self._finish(job_id, pid, JobStatus.failed, error=error)
+
+    # -- the worker side ----------------------------------------------------------------------
+
+    def claim(self, pid: int) -> dict | None:
+        """Take the next queued job (highest priority, then oldest) for worker `pid`, atomically."""
+        if self.db.execute("SELECT 1 FROM jobs WHERE status = 'queued' LIMIT 1").fetchone() is None:
+            return None  # an idle worker's look at the queue takes no write lock
+        with self._tx() as db:
+            row = db.execute(
+                "UPDATE jobs SET status = 'running', worker = ?, started_at = ?, finished_at = NULL,"
+                " attempts = attempts + 1, samples_done = 0, passes_done = 0, spp_done = 0, preview = 0,"
+                " rays = '{}', error = NULL"
+                " WHERE id = (SELECT id FROM jobs WHERE status = 'queued'"
+                "             ORDER BY priority DESC, created_at, rowid LIMIT 1)"
+                " RETURNING *",
+                (pid, time.time()),
+            ).fetchone()
+        return dict(row) if row is not None else None
+
+    def control(self, job_id: str, pid: int) -> dict | None:
+        """What a worker checks between bands: is the job still its own, and is a stop requested."""
+        return self._one(
+            "SELECT cancel_requested FROM jobs WHERE id = ? AND worker = ? AND status = 'running'", (job_id, pid)
+        )
+
+    def progress(self, job_id: str, pid: int, **fields) -> bool:
+        """Update progress fields (samples_done, samples_total, passes_done, spp_done, rays, preview) of its job."""
+        if "rays" in fields:
+            fields["rays"] = json.dumps(fields["rays"])
+        sets = ", ".join(f"{k} = ?" for k in fields)
+        cur = self.db.execute(
+            f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = 'running'",
+            (*fields.values(), job_id, pid),
+        )
+        return cur.rowcount > 0
+
+    def requeue(self, job_id: str, pid: int) -> bool:
+        """Give a job back to the queue (the worker is shutting down); its try does not count."""
+        cur = self.db.execute(
+            "UPDATE jobs SET status = 'queued', worker = NULL, attempts = MAX(attempts - 1, 0)"
+            " WHERE id = ? AND worker = ? AND status = 'running'",
+            (job_id, pid),
+        )
+        return cur.rowcount > 0
+
+    def finish(self, job_id: str, pid: int, status: JobStatus, **fields) -> bool:
+        return self._finish(job_id, pid, status, **fields)
+
+    def _finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
+        for key in ("rays", "errors"):
+            if key in fields:
+                fields[key] = json.dumps(fields[key])
+        fields.update(status=status.value, finished_at=time.time())
+        sets = ", ".join(f"{k} = ?" for k in fields)
+        owner = "AND worker = ?" if pid is not None else ""
+        args = (*fields.values(), job_id) + ((pid,) if pid is not None else ())
+        cur = self.db.execute(f"UPDATE jobs SET {sets} WHERE id = ? AND status = 'running' {owner}", args)
+        return cur.rowcount > 0
+
+
+class _Transaction:
+    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection."""
+
+    def __init__(self, conn: sqlite3.Connection):
+        self.conn = conn
+
+    def __enter__(self) -> sqlite3.Connection:
+        self.conn.execute("BEGIN IMMEDIATE")
+        return self.conn
+
+    def __exit__(self, kind, value, tb) -> None:
+        self.conn.execute("ROLLBACK" if kind else "COMMIT")
+
+
+def write_atomic(path: Path, write) -> None:
+    """`write(tmp_path)`, then rename onto `path`: readers see the old file or the new one, never half of one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{os.getpid()}.{threading.get_ident()}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)

@@ -1,0 +1,253 @@
+"""A corpus of bad requests: every one gets a 4xx with `{"errors": [{path, message}]}`, never a 500.
+
+The app here has no render worker (workers = 0): nothing is rendered, jobs that are accepted wait.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import scene_dict
+from fastapi.testclient import TestClient
+from test_api_support import tiny_scene
+
+from server.main import create_app
+from server.settings import Settings
+
+BAD_DIR = Path(__file__).parent / "bad_scenes"
+EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())
+LIMITS = dict(max_width=512, max_height=512, max_pixels=512 * 400, max_spp=64, max_depth=8, max_light_samples=4)
+LIMITS.update(max_primitives=20, max_body_bytes=100_000, max_json_depth=32)
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    settings = Settings(data_dir=tmp_path_factory.mktemp("errors-data"), workers=0, **LIMITS)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def library_limits(tmp_path_factory):
+    """An app with the library's default limits, which the bad-scene corpus's messages quote."""
+    import dataclasses
+
+    from tracer.scene import Limits
+
+    limits = dataclasses.asdict(Limits())
+    settings = Settings(data_dir=tmp_path_factory.mktemp("corpus-data"), workers=0, **limits)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        yield c
+
+
+def check_error(r, status: int | None = None) -> list[dict]:
+    """A 4xx with a list of {path, message}, in plain JSON (no NaN), nothing else."""
+    assert 400 <= r.status_code < 500, (r.status_code, r.text)
+    if status is not None:
+        assert r.status_code == status, r.text
+    body = json.loads(r.text, parse_constant=lambda token: pytest.fail(f"{token} in an error answer"))
+    assert set(body) == {"errors"} and body["errors"], body
+    for e in body["errors"]:
+        assert set(e) == {"path", "message"} and isinstance(e["path"], str) and e["message"], e
+    return body["errors"]
+
+
+def paths(r) -> list[str]:
+    return [e["path"] for e in check_error(r)]
+
+
+def post_raw(client, url: str, body: bytes, content_type: str = "application/json"):
+    return client.post(url, content=body, headers={"content-type": content_type})
+
+
+def with_scene(text: str, **extra) -> bytes:
+    """A request body whose scene is the JSON text `text` (kept as written: NaN stays the literal NaN)."""
+    rest = "".join(f', "{k}": {json.dumps(v)}' for k, v in extra.items())
+    return f'{{"scene": {text}{rest}}}'.encode()
+
+
+SCENE = json.dumps(tiny_scene())
+
+
+def scene_with(path: list, literal: str) -> bytes:
+    """The tiny scene with the value at `path` replaced by a JSON literal (NaN, Infinity, 1e999...)."""
+    data = tiny_scene()
+    node = data
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = "@@VALUE@@"
+    return with_scene(json.dumps(data).replace('"@@VALUE@@"', literal))
+
+
+JSON = "application/json"
+ID = "AAAAAAAAAAAAAAAAAAAAAA"  # the shape of a job id, but no job's
+
+
+def case(name: str, body: bytes | None, status: int | None, want: list[str] | None, url: str = "/api/jobs", **kw):
+    """One bad request: its body, the status it must get (None: any 4xx) and the error paths (None: any)."""
+    method = kw.get("method", "POST" if body is not None else "GET")
+    return pytest.param(method, url, body, kw.get("ctype", JSON if body is not None else None), status, want, id=name)
+
+
+def with_fields(extra: str) -> bytes:
+    """The tiny scene's request with more body fields written as raw JSON text."""
+    return with_scene(SCENE)[:-1] + b", " + extra.encode() + b"}"
+
+
+MESH_AT = '{{"type": "mesh", "file": "{}", "material": "red"}}'
+
+CORPUS = [
+    # malformed bodies
+    case("truncated JSON", b'{"scene": {"camera": ', 422, [""]),
+    case("trailing comma", b'{"scene": {},}', 422, [""]),
+    case("not UTF-8", b'{"scene": "\xff\xfe"}', None, None),
+    case("empty body", b"", 422, [""]),
+    case("text body", SCENE.encode(), 422, [""], ctype="text/plain"),
+    case("array body", b"[1, 2]", 422, [""]),
+    # wrong types and unknown fields of the request
+    case("scene missing", b'{"priority": 1}', 422, ["scene"]),
+    case("scene a string", b'{"scene": "whitted"}', 422, ["scene"]),
+    case("scene null", b'{"scene": null}', 422, ["scene"]),
+    case("unknown body key", with_scene(SCENE, colour=1), 422, ["colour"]),
+    case("priority a string", with_scene(SCENE, priority="high"), 422, ["priority"]),
+    case("priority a float", with_scene(SCENE, priority=1.5), 422, ["priority"]),
+    case("priority a bool", with_scene(SCENE, priority=True), 422, ["priority"]),
+    case("priority too high", with_scene(SCENE, priority=10**6), 422, ["priority"]),
+    case("raytree x a string", with_fields('"x": "1", "y": 0'), 422, ["x"], url="/api/raytree"),
+    case("raytree out of range", with_fields('"x": 16, "y": -1'), 422, ["x", "y"], url="/api/raytree"),
+    # the literal tokens NaN and Infinity: an error at their field, never a 500 serialising it
+    case("priority NaN", with_fields('"priority": NaN'), 422, ["priority"]),
+    case("NaN in a vector", scene_with(["camera", "lookfrom", 2], "NaN"), 422, ["camera.lookfrom[2]"]),
+    case("Infinity radius", scene_with(["objects", 2, "radius"], "Infinity"), 422, ["objects[2].radius"]),
+    case("-Infinity exposure", scene_with(["film", "exposure"], "-Infinity"), 422, ["film.exposure"]),
+    case("1e999 is Infinity", scene_with(["camera", "vfov"], "1e999"), 422, ["camera.vfov"]),
+    case("NaN raytree x", with_fields('"x": NaN, "y": 0'), 422, ["x"], url="/api/raytree"),
+    case("NaN validate", with_fields('"other": NaN'), 422, ["other"], url="/api/validate"),
+    # huge sizes: limits, numbers, nesting, bodies
+    case("huge width", scene_with(["film", "width"], "1000000000"), 422, ["film.width"]),
+    case("huge pixels", scene_with(["film"], '{"width": 512, "height": 450}'), 422, ["film.height"]),
+    case("huge spp", scene_with(["sampler", "spp"], "1048576"), 422, ["sampler.spp"]),
+    case("spp not a square", scene_with(["sampler", "spp"], "8"), 422, ["sampler.spp"]),
+    case("huge depth", scene_with(["render", "max_depth"], "60"), 422, ["render.max_depth"]),
+    case("huge light samples", scene_with(["render", "light_samples"], "100"), 422, ["render.light_samples"]),
+    case("a 5000-digit integer", scene_with(["film", "width"], "9" * 5000), 400, [""]),
+    case("deep nesting", b'{"scene": ' + b"[" * 40 + b"]" * 40 + b"}", 400, [""]),
+    case("very deep nesting", b"[" * 50_000 + b"]" * 50_000, 400, [""]),
+    case("too large", b'{"scene": {"name": "' + b"x" * 200_000 + b'"}}', 413, [""]),
+    # paths that try to leave their folder
+    case(
+        "asset outside the folder",
+        scene_with(["objects", 0], MESH_AT.format("../../etc/passwd")),
+        422,
+        ["objects[0].file"],
+    ),  # fmt: skip
+    case("absolute asset path", scene_with(["objects", 0], MESH_AT.format("/etc/passwd")), 422, ["objects[0].file"]),
+    case("id traversal", None, 404, None, url="/api/jobs/..%2F..%2Fjobs.sqlite3"),
+    case("id traversal image", None, 404, None, url="/api/jobs/..%2Fjobs.sqlite3/image"),
+    case("id a quote", None, 404, ["id"], url="/api/jobs/x'%20OR%20'1'='1"),
+    case("scene traversal", None, 404, None, url="/api/scenes/..%2F..%2Fpyproject"),
+    case("scene traversal preview", None, 404, None, url="/api/scenes/..%2Fserver%2Fmain/preview.png"),
+    case("static traversal", None, 404, None, url="/..%2Fpyproject.toml"),
+    # unknown ids and routes, bad parameters
+    case("unknown job", None, 404, ["id"], url=f"/api/jobs/{ID}"),
+    case("unknown job image", None, 404, ["id"], url=f"/api/jobs/{ID}/image"),
+    case("unknown job events", None, 404, ["id"], url=f"/api/jobs/{ID}/events"),
+    case("cancel unknown job", None, 404, ["id"], url=f"/api/jobs/{ID}", method="DELETE"),
+    case("list bad status", None, 422, ["status"], url="/api/jobs?status=finished"),
+    case("list limit 0", None, 422, ["limit"], url="/api/jobs?limit=0"),
+    case("wrong method", b"{}", 405, [""], method="PUT"),
+    case("no such route", None, 404, [""], url="/api/nothing"),
+]
+
+
+@pytest.mark.parametrize("method,url,body,ctype,status,want", CORPUS)
+def test_api_errors_corpus_gets_4xx_with_a_message(client, method, url, body, ctype, status, want):
+    headers = {"content-type": ctype} if ctype else {}
+    got = check_error(client.request(method, url, content=body, headers=headers), status)
+    if want is not None:
+        assert [e["path"] for e in got] == want, got
+
+
+def test_api_errors_brackets_inside_strings_do_not_count_as_nesting(client):
+    r = post_raw(client, "/api/validate", with_scene(json.dumps({**tiny_scene(), "name": "[" * 99})))
+    assert r.status_code == 200 and r.json()["valid"] is True
+
+
+def test_api_errors_invalid_json_names_line_and_column(client):
+    r = post_raw(client, "/api/jobs", b'{\n  "scene": {\n    "camera": }\n}')
+    assert r.status_code == 422
+    assert check_error(r)[0]["message"].startswith("invalid JSON at line 3, column 15")
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_api_errors_bad_scene_corpus_points_at_the_field(library_limits, name):
+    """Errors raised inside the scene's model validators keep the offending field's own path."""
+    client = library_limits
+    text = (BAD_DIR / name).read_text()
+    r = post_raw(client, "/api/jobs", with_scene(text))
+    if name == "json_syntax.json":  # the whole request body is then invalid JSON
+        assert paths(r) == [""] and "invalid JSON" in check_error(r)[0]["message"]
+        return
+    if name == "top_level_array.json":  # the body model wants an object
+        assert paths(r) == ["scene"]
+        return
+    got = check_error(r, 422)
+    assert [e["path"] for e in got] == [e["path"] for e in EXPECTED[name]], got
+    for want, error in zip(EXPECTED[name], got, strict=True):
+        assert want["message"] in error["message"]
+    # the same errors from /api/validate, as a 200 report
+    report = post_raw(client, "/api/validate", with_scene(text)).json()
+    assert report["valid"] is False and report["errors"] == got
+
+
+def test_api_errors_too_many_primitives_points_at_objects(client):
+    scene = tiny_scene()
+    scene["objects"] += [{"type": "sphere", "center": [i, 0, -5], "radius": 0.1, "material": "red"} for i in range(30)]
+    r = client.post("/api/jobs", json={"scene": scene})
+    assert paths(r) == ["objects"] and "service limit" in r.json()["errors"][0]["message"]
+
+
+def test_api_errors_streamed_body_over_the_limit_is_413(client):
+    def chunks():
+        yield b'{"scene": {"name": "'
+        for _ in range(50):
+            yield b"x" * 4096
+        yield b'"}}'
+
+    r = client.post("/api/jobs", content=chunks(), headers={"content-type": "application/json"})
+    assert check_error(r, 413)[0]["message"].startswith("request body larger than 100000 bytes")
+
+
+def test_api_errors_accepted_jobs_wait_without_a_worker(client):
+    r = client.post("/api/jobs", json={"scene": tiny_scene()})
+    assert r.status_code == 202 and r.json()["status"] == "queued"
+    image = f"/api/jobs/{r.json()['id']}/image"
+    assert paths(client.get(image, params={"format": "gif"})) == ["format"]
+    assert paths(client.get(image, params={"pass": -1})) == ["pass"]
+    assert check_error(client.get(image), 404)[0]["message"] == "no image yet: the job is queued"
+    assert client.get("/api/health").json()["workers"] == []
+
+
+def test_api_errors_openapi_documents_every_route(client):
+    schema = client.get("/openapi.json").json()
+    ops = {(path, method) for path, item in schema["paths"].items() for method in item}
+    want = {
+        ("/api/jobs", "post"),
+        ("/api/jobs", "get"),
+        ("/api/jobs/{job_id}", "get"),
+        ("/api/jobs/{job_id}", "delete"),
+        ("/api/jobs/{job_id}/image", "get"),
+        ("/api/jobs/{job_id}/events", "get"),
+        ("/api/raytree", "post"),
+        ("/api/validate", "post"),
+        ("/api/schema", "get"),
+        ("/api/scenes", "get"),
+        ("/api/scenes/{name}", "get"),
+        ("/api/scenes/{name}/preview.png", "get"),
+        ("/api/health", "get"),
+    }
+    assert want <= ops
+    assert client.get("/docs").status_code == 200
+    assert scene_dict("whitted")["camera"]  # the corpus builds on the example scenes

@@ -1,0 +1,218 @@
+"""Jobs through the TestClient, rendered by a real worker process: life, images, cancel, limits."""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from PIL import Image
+from test_api_support import long_scene, parse_sse, tiny_scene, wait_for
+
+from server.main import create_app
+from server.settings import Settings
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    settings = Settings(data_dir=tmp_path_factory.mktemp("jobs-data"), workers=1)
+    with TestClient(create_app(settings)) as c:
+        wait_for(lambda: all(w["ready"] for w in c.get("/api/health").json()["workers"]), 60, "the worker")
+        yield c
+
+
+@pytest.fixture
+def settings(client):
+    """The app's settings, restored after the test (limits read at submit time can be changed live)."""
+    s = client.app.state.settings
+    saved = s.model_dump()
+    yield s
+    for key, value in saved.items():
+        setattr(s, key, value)
+
+
+def submit(client, scene: dict, priority: int = 0) -> dict:
+    r = client.post("/api/jobs", json={"scene": scene, "priority": priority})
+    assert r.status_code == 202, r.text
+    assert r.headers["location"] == f"/api/jobs/{r.json()['id']}"
+    return r.json()
+
+
+def job(client, job_id: str) -> dict:
+    r = client.get(f"/api/jobs/{job_id}")
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
+    return wait_for(lambda: (j := job(client, job_id))["status"] in statuses and j, timeout, f"job in {statuses}")
+
+
+def exr_of(client, job_id: str) -> np.ndarray:
+    from tracer.film import read_exr
+
+    r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+    path = client.app.state.settings.data_dir / f"check-{job_id}.exr"
+    path.write_bytes(r.content)
+    return read_exr(path)
+
+
+@pytest.fixture
+def busy(client):
+    """A long job holding the only worker (cancelled afterwards); yields its id once it renders."""
+    long = submit(client, long_scene(), priority=100)
+    wait_status(client, long["id"], {"running"})
+    yield long["id"]
+    client.delete(f"/api/jobs/{long['id']}")
+    wait_status(client, long["id"], {"cancelled", "done", "failed"})
+
+
+def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
+    from tracer.compile import compile_scene
+    from tracer.film import png_bytes
+    from tracer.render import render
+    from tracer.scene import load_scene
+
+    scene = tiny_scene(32, spp=16, seed=7)
+    created = submit(client, scene)
+    assert created["status"] in ("queued", "running") and created["progress"]["samples_total"] == 32 * 32 * 16
+    with client.stream("GET", created["events_url"]) as r:
+        assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
+        events = list(parse_sse(r.iter_lines()))
+    kinds = [e for e, _ in events]
+    assert kinds[-1] == "end" and kinds.count("end") == 1, kinds
+    assert "progress" in kinds and "preview" in kinds
+    end = events[-1][1]
+    assert end["status"] == "done" and end["progress"]["fraction"] == 1.0 and end["eta"] is None
+    assert end["rays"]["eye"] == 32 * 32 * 16 and end["rays"]["total"] >= end["rays"]["eye"]
+    assert end["elapsed"] > 0 and end["attempts"] == 1 and end["error"] is None
+    previews = [d for e, d in events if e == "preview"]
+    assert previews[-1]["pass"] == end["preview"] and f"pass={end['preview']}" in previews[-1]["url"]
+    fractions = [d["fraction"] for e, d in events if e == "progress"]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+
+    # the final image: the same floats as the library's render of the same scene and seed
+    expected = render(compile_scene(load_scene(scene)[0]))
+    np.testing.assert_array_equal(exr_of(client, created["id"]), expected.image)  # bit for bit
+    png = client.get(previews[-1]["url"])
+    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    assert png.headers["cache-control"] == "no-store"
+    np.testing.assert_array_equal(
+        np.asarray(Image.open(io.BytesIO(png.content))), np.asarray(Image.open(io.BytesIO(png_bytes(expected.image))))
+    )
+    listed = client.get("/api/jobs").json()
+    assert created["id"] in [j["id"] for j in listed["jobs"]] and listed["count"] >= 1
+    done = client.get("/api/jobs", params={"status": "done"}).json()["jobs"]
+    assert all(j["status"] == "done" for j in done)
+
+
+def test_api_jobs_warnings_come_back_with_the_job(client):
+    scene = tiny_scene()
+    scene["fog"] = {"density": 0, "color": [1, 1, 1]}
+    created = submit(client, scene)
+    assert {"path": "fog.color", "message": "has no effect: fog density is 0"} in created["warnings"]
+    wait_status(client, created["id"], {"done"})
+
+
+def test_api_jobs_previews_arrive_while_a_long_job_runs_and_cancel_keeps_the_last(client):
+    created = submit(client, long_scene())
+    first = wait_for(lambda: job(client, created["id"])["preview"] >= 1, 60, "a first preview")
+    assert first
+    running = job(client, created["id"])
+    assert running["status"] == "running" and 0 < running["progress"]["fraction"] < 1
+    assert running["eta"] is not None and running["eta"] > 0 and running["elapsed"] > 0
+    png = client.get(running["image_url"])
+    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert Image.open(io.BytesIO(png.content)).size == (192, 144)
+
+    asked = time.monotonic()
+    r = client.delete(f"/api/jobs/{created['id']}")
+    assert r.status_code == 202 and r.json()["cancel_requested"] is True
+    ended = wait_status(client, created["id"], {"cancelled"}, timeout=10)
+    assert time.monotonic() - asked < 3  # the worker looks at the job between bands of rows, not only passes
+    assert ended["preview"] >= 1 and ended["progress"]["spp_done"] < 1024
+    image = exr_of(client, created["id"])
+    assert image.shape == (144, 192, 3) and np.isfinite(image).all() and image.max() > 0
+    again = client.delete(f"/api/jobs/{created['id']}")
+    assert again.status_code == 409 and "already ended" in again.json()["errors"][0]["message"]
+
+
+def test_api_jobs_cancel_a_queued_job(client, busy):
+    waiting = submit(client, tiny_scene())
+    assert job(client, waiting["id"])["status"] == "queued"
+    r = client.delete(f"/api/jobs/{waiting['id']}")
+    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    nothing = client.get(f"/api/jobs/{waiting['id']}/image")
+    assert nothing.status_code == 404 and "no image yet" in nothing.json()["errors"][0]["message"]
+    assert job(client, waiting["id"])["started_at"] is None
+
+
+def test_api_jobs_run_by_priority_then_age(client, busy):
+    low = submit(client, tiny_scene(), priority=-5)
+    first = submit(client, tiny_scene(), priority=5)
+    second = submit(client, tiny_scene(), priority=5)
+    client.delete(f"/api/jobs/{busy}")
+    ends = [wait_status(client, j["id"], {"done"}) for j in (first, second, low)]
+    starts = [e["started_at"] for e in ends]
+    assert starts == sorted(starts), starts
+
+
+def test_api_jobs_queue_limit_answers_429(client, settings, busy):
+    settings.max_queued_jobs = 2
+    queued = [submit(client, tiny_scene()) for _ in range(2)]
+    r = client.post("/api/jobs", json={"scene": tiny_scene()})
+    assert r.status_code == 429 and r.headers["retry-after"]
+    assert "queue is full" in r.json()["errors"][0]["message"]
+    for j in queued:
+        client.delete(f"/api/jobs/{j['id']}")
+
+
+def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings):
+    settings.max_job_seconds = 1.0
+    created = submit(client, long_scene())
+    ended = wait_status(client, created["id"], {"failed"}, timeout=20)
+    assert "time limit of 1 s" in ended["error"] and "TRACER_MAX_JOB_SECONDS" in ended["error"]
+    assert ended["elapsed"] < 5
+    assert ended["preview"] >= 1  # the last pass's image is kept
+    assert client.get(f"/api/jobs/{created['id']}/image").status_code == 200
+
+
+def test_api_jobs_missing_asset_is_refused_at_submit(client):
+    scene = tiny_scene()
+    scene["objects"].append({"type": "mesh", "file": "no_such_mesh.obj", "material": {"kd": 0.5}})
+    r = client.post("/api/jobs", json={"scene": scene})
+    assert r.status_code == 422
+    path = f"objects[{len(scene['objects']) - 1}].file"
+    assert [e["path"] for e in r.json()["errors"]] == [path] and "not found" in r.json()["errors"][0]["message"]
+
+
+def test_api_jobs_events_of_a_finished_job_end_at_once(client):
+    created = submit(client, tiny_scene())
+    wait_status(client, created["id"], {"done"})
+    with client.stream("GET", f"/api/jobs/{created['id']}/events") as r:
+        events = list(parse_sse(r.iter_lines()))
+    assert [e for e, _ in events] == ["progress", "preview", "end"]
+    assert json.dumps(events[-1][1])  # plain JSON
+
+
+def test_api_jobs_every_example_scene_renders_as_the_library_does(client, compiled_kernels):
+    """Each example (every integrator and sampler), small, through the worker: the library's floats."""
+    from conftest import EXAMPLES, small
+
+    from tracer.compile import compile_scene
+    from tracer.render import render
+    from tracer.scene import load_scene
+
+    scenes = {p.stem: small(json.loads(p.read_text()), 24, 18) for p in EXAMPLES}
+    jobs = {name: submit(client, scene)["id"] for name, scene in scenes.items()}
+    for name, job_id in jobs.items():
+        ended = wait_status(client, job_id, {"done", "failed", "cancelled"}, timeout=120)
+        assert ended["status"] == "done", (name, ended["error"])
+        p = ended["progress"]
+        assert p["samples_done"] == p["samples_total"] > 0 and p["fraction"] == 1.0, (name, p)
+        expected = render(compile_scene(load_scene(scenes[name])[0])).image
+        np.testing.assert_array_equal(exr_of(client, job_id), expected, err_msg=name)

@@ -1,0 +1,144 @@
+"""Helpers of the API tests (scenes, a real server on loopback, Server-Sent Events), and their own tests."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+
+import httpx
+from conftest import ROOT, scene_dict, small
+
+SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
+
+
+def tiny_scene(size: int = 16, spp: int = 4, seed: int = 0) -> dict:
+    """Whitted's scene at a few pixels: renders in milliseconds."""
+    return small(scene_dict("whitted"), size, size, sampler={"type": "jittered", "spp": spp}, render={"seed": seed})
+
+
+def long_scene(spp: int = 1024) -> dict:
+    """Whitted's scene at 192 x 144 with many samples: several seconds per pass late in the render."""
+    return small(scene_dict("whitted"), 192, 144, sampler={"type": "jittered", "spp": spp})
+
+
+def wait_for(condition: Callable[[], object], timeout: float, what: str, interval: float = 0.05):
+    """Poll `condition` until it returns something true; fail with `what` after `timeout` seconds."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"timed out after {timeout} s waiting for {what}"
+        time.sleep(interval)
+
+
+def parse_sse(lines: Iterable[str]) -> Iterator[tuple[str, dict]]:
+    """(event, data) pairs from the lines of a text/event-stream (comments and retry skipped)."""
+    event, data = "message", []
+    for line in lines:
+        if line == "":
+            if data:
+                yield event, json.loads("\n".join(data))
+            event, data = "message", []
+        elif line.startswith(":"):
+            continue
+        else:
+            field, _, value = line.partition(":")
+            value = value[1:] if value.startswith(" ") else value
+            if field == "event":
+                event = value
+            elif field == "data":
+                data.append(value)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Server:
+    """`python -m server` on 127.0.0.1 in a subprocess, with its log in a file."""
+
+    def __init__(self, data_dir: Path, workers: int = 1, env: dict | None = None, port: int | None = None):
+        self.data_dir, self.workers = Path(data_dir), workers
+        self.port = port or free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.env = {**os.environ, **(env or {})}
+        self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
+        self.proc: subprocess.Popen | None = None
+        self.client = httpx.Client(base_url=self.url, timeout=30)
+
+    def start(self) -> Server:
+        self.data_dir.mkdir(parents=True, exist_ok=True)
+        self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
+        cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
+        cmd += ["--workers", str(self.workers)]
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=self.log, stderr=subprocess.STDOUT)
+        wait_for(self._ready, SERVER_START_TIMEOUT, f"the server to start (log: {self.log_path})", interval=0.2)
+        return self
+
+    def _ready(self) -> bool:
+        assert self.proc.poll() is None, f"server exited: {self.log_text()}"
+        try:
+            health = self.client.get("/api/health").json()
+        except httpx.TransportError:
+            return False
+        return all(w["ready"] for w in health["workers"]) and len(health["workers"]) == self.workers
+
+    def log_text(self) -> str:
+        return self.log_path.read_text(errors="replace")[-5000:]
+
+    def worker_pids(self) -> list[int]:
+        return [w["pid"] for w in self.client.get("/api/health").json()["workers"] if w["alive"]]
+
+    def stop(self, sig: int = signal.SIGTERM) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=10)
+        if self.proc is not None:
+            self.log.close()
+        self.proc = None
+
+    def __enter__(self) -> Server:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+        self.client.close()
+
+
+def pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie still answers signal 0: look at its state
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def test_api_support_parse_sse_events():
+    lines = ["retry: 1000", "", ": keep-alive", "", "event: progress", 'data: {"a": 1}', "", 'data: {"b": 2}', ""]
+    assert list(parse_sse(lines)) == [("progress", {"a": 1}), ("message", {"b": 2})]
+
+
+def test_api_support_scenes_are_valid():
+    from tracer.scene import load_scene
+
+    assert load_scene(tiny_scene())[0].film.width == 16
+    assert load_scene(long_scene())[0].sampler.spp == 1024
