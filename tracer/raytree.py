@@ -15,7 +15,7 @@ import warp as wp
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch
 from tracer.integrators import record as W
-from tracer.kinds import End, RayKind
+from tracer.kinds import End, Integrator, RayKind
 from tracer.render import load_kernels, make_record, make_stack
 from tracer.scene import Scene, SceneError
 
@@ -48,7 +48,8 @@ def ray_tree(
     rec = make_record(cap, device)
     st = make_stack(1, d.max_depth, device)
     out = wp.zeros(2, dtype=wp.vec3, device=device)
-    wp.launch(dispatch.trace_one, dim=1, inputs=[d, x, y, sample, st, rec, out], device=device)
+    trace_one = dispatch.KERNELS[Integrator(d.integrator)][2]
+    wp.launch(trace_one, dim=1, inputs=[d, x, y, sample, st, rec, out], device=device)
     count = int(rec.count.numpy()[0])
     n = min(count, cap)
     ints, vecs, floats = rec.ints.numpy()[:n], rec.vecs.numpy()[:n], rec.floats.numpy()[:n]

@@ -20,7 +20,7 @@ import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record, whitted
-from tracer.kinds import RayKind, SamplerKind
+from tracer.kinds import Integrator, RayKind, SamplerKind
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
@@ -63,7 +63,8 @@ def make_film(height: int, width: int, device: str = "cpu") -> dispatch.FilmBuff
 
 def load_kernels(device: str = "cpu") -> None:
     """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
-    wp.load_module(dispatch, device=device)
+    for module in dispatch.KERNEL_MODULES.values():
+        wp.load_module(module, device=device)
 
 
 def default_threads() -> int:
@@ -129,6 +130,7 @@ class Renderer:
         data = compiled.data
         self.width, self.height, self.spp = data.width, data.height, data.spp
         self.adaptive = data.sampler == SamplerKind.ADAPTIVE
+        self.render_pixels, self.render_adaptive, _ = dispatch.KERNELS[Integrator(data.integrator)]
         self.threads = threads or default_threads()
         self.band = BAND_PIXELS
         if self.adaptive:
@@ -177,7 +179,7 @@ class Renderer:
 
         def launch(k: int, p0: int, n: int) -> None:
             wp.launch(
-                dispatch.render_pixels,
+                self.render_pixels,
                 dim=n,
                 device=self.device,
                 inputs=[self.cs.data, p0, s0, s1, self.stacks[k], self.dummy, self.film],
@@ -193,7 +195,7 @@ class Renderer:
 
         def launch(k: int, p0: int, n: int) -> None:
             wp.launch(
-                dispatch.render_adaptive,
+                self.render_adaptive,
                 dim=n,
                 device=self.device,
                 inputs=[self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k]],

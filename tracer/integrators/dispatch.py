@@ -2,7 +2,11 @@
 
 `render_pixels` adds samples s0..s1-1 of every pixel of a band to the film's running sums
 (one thread per pixel, samples in order, so any split into passes gives the same sums);
-`trace_one` traces one pixel sample with its ray tree recorded.
+`render_adaptive` runs the adaptive sampler; `trace_one` traces one pixel sample with its ray
+tree recorded. `make_kernels(trace, module)` builds the three for one integrator's `trace` (Warp
+kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
+code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
+inlines the shared helpers less when more code calls them).
 """
 
 import warp as wp
@@ -12,7 +16,7 @@ from tracer.compile import SceneData
 from tracer.integrators import path, whitted
 from tracer.integrators.common import SampleOut
 from tracer.integrators.record import TreeRecord
-from tracer.kinds import INTEGRATOR_PATH, SAMPLER_ADAPTIVE
+from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.sampling import film_offset, filter_offset, rng_start
 
 
@@ -26,68 +30,6 @@ class FilmBuffers:
     depth: wp.array2d(dtype=float)  # sum of the eye rays' hit distances (0 for a miss)
     normal: wp.array2d(dtype=wp.vec3)  # sum of the first hits' shading normals
     albedo: wp.array2d(dtype=wp.vec3)  # sum of the first hits' kd
-
-
-@wp.func
-def trace_at(
-    scene: SceneData, fx: float, fy: float, rng: wp.uint32, st: whitted.Stack, row: int, record: int, rec: TreeRecord
-) -> SampleOut:
-    """The integrator's estimate through film position (fx, fy), with a lens point and a time from rng."""
-    state = wp.uint32(rng)
-    lens1 = wp.randf(state)
-    lens2 = wp.randf(state)
-    time = shutter_time(scene.camera, wp.randf(state))
-    o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
-    out = SampleOut()
-    if scene.integrator == INTEGRATOR_PATH:
-        out = path.trace(scene, o, d, time, state, record, rec)
-    else:
-        out = whitted.trace(scene, o, d, time, state, st, row, record, rec)
-    return out
-
-
-@wp.func
-def trace_sample(scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord):
-    """Sample s of pixel (x, y): film position (filter importance sampled), lens point, time, and the
-    integrator's estimate. Returns the sample (its radiance already times the filter weight) and the weight."""
-    rng = rng_start(scene.seed, y * scene.width + x, s)
-    u1 = wp.randf(rng)
-    u2 = wp.randf(rng)
-    off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
-    out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, st, row, record, rec)
-    out.color = out.color * weight
-    return out, weight
-
-
-@wp.kernel
-def render_pixels(scene: SceneData, p0: int, s0: int, s1: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers):
-    """Add samples s0..s1-1 of pixels p0.. (row-major) to the film's sums (one thread per pixel)."""
-    row = wp.tid()
-    pix = p0 + row
-    if pix >= scene.width * scene.height:
-        return
-    x = pix % scene.width
-    y = pix / scene.width
-    acc = film.accum[y, x]
-    sq = film.sumsq[y, x]
-    cnt = film.counts[y, x]
-    dep = film.depth[y, x]
-    nrm = film.normal[y, x]
-    alb = film.albedo[y, x]
-    for s in range(s0, s1):
-        out, weight = trace_sample(scene, x, y, s, st, row, 0, rec)
-        acc = acc + out.color
-        sq = sq + wp.cw_mul(out.color, out.color)
-        cnt = cnt + out.counts
-        dep = dep + out.depth
-        nrm = nrm + out.normal
-        alb = alb + out.albedo
-    film.accum[y, x] = acc
-    film.sumsq[y, x] = sq
-    film.counts[y, x] = cnt
-    film.depth[y, x] = dep
-    film.normal[y, x] = nrm
-    film.albedo[y, x] = alb
 
 
 # ------------------------------------------------------------------------------------------------
@@ -108,115 +50,221 @@ class AdaptiveCache:
 
 
 @wp.func
-def grid_point(
-    scene: SceneData, x: int, y: int, i: int, j: int, g: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord
-) -> SampleOut:
-    """The sample at fine-grid point (i, j) of pixel (x, y): exactly there, or jittered by up to half
-    the grid spacing when sampler.jitter is set (stochastic positions, then adaptive subdivision)."""
-    rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
-    fx = float(i) / float(g)
-    fy = float(j) / float(g)
-    if scene.jitter != 0:
-        fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-        fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-    return trace_at(scene, float(x) + fx, float(y) + fy, rng, st, row, record, rec)
-
-
-@wp.func
-def cached_point(
+def path_trace(
     scene: SceneData,
-    x: int,
-    y: int,
-    i: int,
-    j: int,
-    g: int,
-    stamp: int,
-    cache: AdaptiveCache,
+    o: wp.vec3,
+    d: wp.vec3,
+    time: float,
+    rng: wp.uint32,
     st: whitted.Stack,
     row: int,
+    record: int,
     rec: TreeRecord,
-):
-    """(colour, rays traced now): the cached colour of grid point (i, j), or a newly traced one."""
-    k = j * (g + 1) + i
-    if cache.stamp[row, k] == stamp:
-        return cache.color[row, k], wp.vec4i(0)
-    out = grid_point(scene, x, y, i, j, g, st, row, 0, rec)
-    cache.color[row, k] = out.color
-    cache.stamp[row, k] = stamp
-    return out.color, out.counts
+) -> SampleOut:
+    """path.trace with the common signature (it keeps no stack)."""
+    return path.trace(scene, o, d, time, rng, record, rec)
 
 
-@wp.kernel
-def render_adaptive(
-    scene: SceneData, p0: int, level: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers, cache: AdaptiveCache
-):
-    """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result."""
-    row = wp.tid()
-    pix = p0 + row
-    if pix >= scene.width * scene.height:
-        return
-    x = pix % scene.width
-    y = pix / scene.width
-    g = 1 << (scene.max_level + 1)
-    stamp = pix * 16 + level + 1
-    # the centre ray first: it gives the AOVs
-    mid = g / 2
-    centre = grid_point(scene, x, y, mid, mid, g, st, row, 0, rec)
-    cache.color[row, mid * (g + 1) + mid] = centre.color
-    cache.stamp[row, mid * (g + 1) + mid] = stamp
-    counts = centre.counts
-    total = wp.vec3(0.0)
-    total_sq = wp.vec3(0.0)
-    ci = vec32i()
-    cj = vec32i()
-    cl = vec32i()
-    sp = int(1)
-    while sp > 0:
-        sp -= 1
-        i0 = ci[sp]
-        j0 = cj[sp]
-        lv = cl[sp]
-        size = g >> lv
-        c0, n0 = cached_point(scene, x, y, i0, j0, g, stamp, cache, st, row, rec)
-        c1, n1 = cached_point(scene, x, y, i0 + size, j0, g, stamp, cache, st, row, rec)
-        c2, n2 = cached_point(scene, x, y, i0, j0 + size, g, stamp, cache, st, row, rec)
-        c3, n3 = cached_point(scene, x, y, i0 + size, j0 + size, g, stamp, cache, st, row, rec)
-        c4, n4 = cached_point(scene, x, y, i0 + size / 2, j0 + size / 2, g, stamp, cache, st, row, rec)
-        counts = counts + n0 + n1 + n2 + n3 + n4
-        lo = wp.min(wp.min(wp.min(c0, c1), wp.min(c2, c3)), c4)
-        hi = wp.max(wp.max(wp.max(c0, c1), wp.max(c2, c3)), c4)
-        spread = hi - lo
-        if lv >= level or wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold:
-            area = 1.0 / float(1 << (2 * lv))
-            total += area * (c0 + c1 + c2 + c3 + c4) / 5.0
-            sq = wp.cw_mul(c0, c0) + wp.cw_mul(c1, c1) + wp.cw_mul(c2, c2) + wp.cw_mul(c3, c3) + wp.cw_mul(c4, c4)
-            total_sq += area * sq / 5.0
-        else:
-            half = size / 2
-            for q in range(4):
-                ci[sp] = i0 + (q % 2) * half
-                cj[sp] = j0 + (q / 2) * half
-                cl[sp] = lv + 1
-                sp += 1
-    film.accum[y, x] = total
-    film.sumsq[y, x] = total_sq
-    film.counts[y, x] = counts
-    film.depth[y, x] = centre.depth
-    film.normal[y, x] = centre.normal
-    film.albedo[y, x] = centre.albedo
+def make_kernels(trace, module: str):
+    """(render_pixels, render_adaptive, trace_one) for an integrator's trace(scene, o, d, time, rng,
+    stack, row, record, rec) -> SampleOut, compiled together as the Warp module `module`."""
 
+    @wp.func
+    def trace_at(
+        scene: SceneData,
+        fx: float,
+        fy: float,
+        rng: wp.uint32,
+        st: whitted.Stack,
+        row: int,
+        record: int,
+        rec: TreeRecord,
+    ) -> SampleOut:
+        """The integrator's estimate through film position (fx, fy), with a lens point and a time from rng."""
+        state = wp.uint32(rng)
+        lens1 = wp.randf(state)
+        lens2 = wp.randf(state)
+        time = shutter_time(scene.camera, wp.randf(state))
+        o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
+        return trace(scene, o, d, time, state, st, row, record, rec)
 
-@wp.kernel
-def trace_one(
-    scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)
-):
-    """One pixel sample with its ray tree recorded (adaptive: s is the index of a fine-grid point)."""
-    if scene.sampler == SAMPLER_ADAPTIVE:
+    @wp.func
+    def trace_sample(
+        scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord
+    ):
+        """Sample s of pixel (x, y): film position (filter importance sampled), lens point, time, and the
+        integrator's estimate. Returns the sample (its radiance already times the filter weight) and the weight."""
+        rng = rng_start(scene.seed, y * scene.width + x, s)
+        u1 = wp.randf(rng)
+        u2 = wp.randf(rng)
+        off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
+        out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, st, row, record, rec)
+        out.color = out.color * weight
+        return out, weight
+
+    @wp.kernel(module=module)
+    def render_pixels(
+        scene: SceneData, p0: int, s0: int, s1: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers
+    ):
+        """Add samples s0..s1-1 of pixels p0.. (row-major) to the film's sums (one thread per pixel)."""
+        row = wp.tid()
+        pix = p0 + row
+        if pix >= scene.width * scene.height:
+            return
+        x = pix % scene.width
+        y = pix / scene.width
+        acc = film.accum[y, x]
+        sq = film.sumsq[y, x]
+        cnt = film.counts[y, x]
+        dep = film.depth[y, x]
+        nrm = film.normal[y, x]
+        alb = film.albedo[y, x]
+        for s in range(s0, s1):
+            out, weight = trace_sample(scene, x, y, s, st, row, 0, rec)
+            acc = acc + out.color
+            sq = sq + wp.cw_mul(out.color, out.color)
+            cnt = cnt + out.counts
+            dep = dep + out.depth
+            nrm = nrm + out.normal
+            alb = alb + out.albedo
+        film.accum[y, x] = acc
+        film.sumsq[y, x] = sq
+        film.counts[y, x] = cnt
+        film.depth[y, x] = dep
+        film.normal[y, x] = nrm
+        film.albedo[y, x] = alb
+
+    @wp.func
+    def grid_point(
+        scene: SceneData,
+        x: int,
+        y: int,
+        i: int,
+        j: int,
+        g: int,
+        st: whitted.Stack,
+        row: int,
+        record: int,
+        rec: TreeRecord,
+    ) -> SampleOut:
+        """The sample at fine-grid point (i, j) of pixel (x, y): exactly there, or jittered by up to half
+        the grid spacing when sampler.jitter is set (stochastic positions, then adaptive subdivision)."""
+        rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
+        fx = float(i) / float(g)
+        fy = float(j) / float(g)
+        if scene.jitter != 0:
+            fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+            fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+        return trace_at(scene, float(x) + fx, float(y) + fy, rng, st, row, record, rec)
+
+    @wp.func
+    def cached_point(
+        scene: SceneData,
+        x: int,
+        y: int,
+        i: int,
+        j: int,
+        g: int,
+        stamp: int,
+        cache: AdaptiveCache,
+        st: whitted.Stack,
+        row: int,
+        rec: TreeRecord,
+    ):
+        """(colour, rays traced now): the cached colour of grid point (i, j), or a newly traced one."""
+        k = j * (g + 1) + i
+        if cache.stamp[row, k] == stamp:
+            return cache.color[row, k], wp.vec4i(0)
+        out = grid_point(scene, x, y, i, j, g, st, row, 0, rec)
+        cache.color[row, k] = out.color
+        cache.stamp[row, k] = stamp
+        return out.color, out.counts
+
+    @wp.kernel(module=module)
+    def render_adaptive(
+        scene: SceneData,
+        p0: int,
+        level: int,
+        st: whitted.Stack,
+        rec: TreeRecord,
+        film: FilmBuffers,
+        cache: AdaptiveCache,
+    ):
+        """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result."""
+        row = wp.tid()
+        pix = p0 + row
+        if pix >= scene.width * scene.height:
+            return
+        x = pix % scene.width
+        y = pix / scene.width
         g = 1 << (scene.max_level + 1)
-        r = grid_point(scene, x, y, s % (g + 1), s / (g + 1), g, st, 0, 1, rec)
-        out[0] = r.color
-        out[1] = wp.vec3(1.0, 0.0, 0.0)
-    else:
-        r, weight = trace_sample(scene, x, y, s, st, 0, 1, rec)
-        out[0] = r.color
-        out[1] = wp.vec3(weight, 0.0, 0.0)
+        stamp = pix * 16 + level + 1
+        # the centre ray first: it gives the AOVs
+        mid = g / 2
+        centre = grid_point(scene, x, y, mid, mid, g, st, row, 0, rec)
+        cache.color[row, mid * (g + 1) + mid] = centre.color
+        cache.stamp[row, mid * (g + 1) + mid] = stamp
+        counts = centre.counts
+        total = wp.vec3(0.0)
+        total_sq = wp.vec3(0.0)
+        ci = vec32i()
+        cj = vec32i()
+        cl = vec32i()
+        sp = int(1)
+        while sp > 0:
+            sp -= 1
+            i0 = ci[sp]
+            j0 = cj[sp]
+            lv = cl[sp]
+            size = g >> lv
+            c0, n0 = cached_point(scene, x, y, i0, j0, g, stamp, cache, st, row, rec)
+            c1, n1 = cached_point(scene, x, y, i0 + size, j0, g, stamp, cache, st, row, rec)
+            c2, n2 = cached_point(scene, x, y, i0, j0 + size, g, stamp, cache, st, row, rec)
+            c3, n3 = cached_point(scene, x, y, i0 + size, j0 + size, g, stamp, cache, st, row, rec)
+            c4, n4 = cached_point(scene, x, y, i0 + size / 2, j0 + size / 2, g, stamp, cache, st, row, rec)
+            counts = counts + n0 + n1 + n2 + n3 + n4
+            lo = wp.min(wp.min(wp.min(c0, c1), wp.min(c2, c3)), c4)
+            hi = wp.max(wp.max(wp.max(c0, c1), wp.max(c2, c3)), c4)
+            spread = hi - lo
+            if lv >= level or wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold:
+                area = 1.0 / float(1 << (2 * lv))
+                total += area * (c0 + c1 + c2 + c3 + c4) / 5.0
+                sq = wp.cw_mul(c0, c0) + wp.cw_mul(c1, c1) + wp.cw_mul(c2, c2) + wp.cw_mul(c3, c3) + wp.cw_mul(c4, c4)
+                total_sq += area * sq / 5.0
+            else:
+                half = size / 2
+                for q in range(4):
+                    ci[sp] = i0 + (q % 2) * half
+                    cj[sp] = j0 + (q / 2) * half
+                    cl[sp] = lv + 1
+                    sp += 1
+        film.accum[y, x] = total
+        film.sumsq[y, x] = total_sq
+        film.counts[y, x] = counts
+        film.depth[y, x] = centre.depth
+        film.normal[y, x] = centre.normal
+        film.albedo[y, x] = centre.albedo
+
+    @wp.kernel(module=module)
+    def trace_one(
+        scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)
+    ):
+        """One pixel sample with its ray tree recorded (adaptive: s is the index of a fine-grid point)."""
+        if scene.sampler == SAMPLER_ADAPTIVE:
+            g = 1 << (scene.max_level + 1)
+            r = grid_point(scene, x, y, s % (g + 1), s / (g + 1), g, st, 0, 1, rec)
+            out[0] = r.color
+            out[1] = wp.vec3(1.0, 0.0, 0.0)
+        else:
+            r, weight = trace_sample(scene, x, y, s, st, 0, 1, rec)
+            out[0] = r.color
+            out[1] = wp.vec3(weight, 0.0, 0.0)
+
+    return render_pixels, render_adaptive, trace_one
+
+
+KERNEL_MODULES = {Integrator.WHITTED: "tracer_kernels_whitted", Integrator.PATH: "tracer_kernels_path"}
+KERNELS = {
+    Integrator.WHITTED: make_kernels(whitted.trace, KERNEL_MODULES[Integrator.WHITTED]),
+    Integrator.PATH: make_kernels(path_trace, KERNEL_MODULES[Integrator.PATH]),
+}
