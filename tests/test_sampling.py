@@ -5,7 +5,7 @@ import warp as wp
 
 from tracer.compile import SceneData, compile_scene
 from tracer.kinds import SamplerKind
-from tracer.sampling import film_offset, filter_offset, rng_start
+from tracer.sampling import film_offset, filter_offset, rng_start, sample_2d
 from tracer.scene import load_scene
 
 
@@ -125,3 +125,25 @@ def test_sampling_filters_importance_sampled():
         w = r[:, 2]
         assert abs(w.mean() - 1) < 0.02, (kind, w.mean())
         assert (w < 0).any() == (kind == "mitchell")
+
+
+@wp.kernel
+def k_r2(key: wp.uint32, out: wp.array2d(dtype=float)):
+    i = wp.tid()
+    u = sample_2d(key, 7, i)
+    out[i, 0] = u[0]
+    out[i, 1] = u[1]
+
+
+def test_sampling_r2_low_discrepancy_points():
+    """Roberts' R2 points, shifted: uniform, and far more even than random ones (every one of 16x16
+    cells gets 4 of the first 1024 points, give or take 2)."""
+    out = wp.zeros((1024, 2), dtype=float)
+    wp.launch(k_r2, dim=1024, inputs=[wp.uint32(12345), out])
+    r = out.numpy()
+    assert r.min() >= 0 and r.max() < 1
+    h, _, _ = np.histogram2d(r[:, 0], r[:, 1], bins=16, range=[[0, 1], [0, 1]])
+    assert h.min() >= 2 and h.max() <= 6
+    other = wp.zeros((1024, 2), dtype=float)
+    wp.launch(k_r2, dim=1024, inputs=[wp.uint32(54321), other])
+    assert np.abs(other.numpy() - r).mean() > 0.1  # another pixel, another shift

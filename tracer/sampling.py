@@ -27,12 +27,37 @@ def pcg_hash(v: wp.uint32) -> wp.uint32:
 
 
 @wp.func
+def pixel_key(seed: int, pixel: int) -> wp.uint32:
+    """A hash of (seed, pixel) that keys the low-discrepancy dimensions of that pixel's samples."""
+    return pcg_hash(pcg_hash(wp.uint32(seed) ^ GOLDEN) ^ wp.uint32(pixel))
+
+
+@wp.func
 def rng_start(seed: int, pixel: int, sample: int) -> wp.uint32:
     """RNG state of one pixel sample; the n-th wp.randf of it is dimension n."""
     h = pcg_hash(wp.uint32(seed))
     h = pcg_hash(h ^ wp.uint32(pixel))
     h = pcg_hash(h ^ wp.uint32(sample))
     return h
+
+
+R2_A1 = wp.constant(wp.uint32(3242174889))  # 2^32 / plastic number: Roberts' R2 sequence, 1st axis
+R2_A2 = wp.constant(wp.uint32(2447445413))  # 2^32 / plastic number^2, 2nd axis
+U24 = wp.constant(1.0 / 16777216.0)
+GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # 2^32 / golden ratio: keeps pixel keys apart from rng states
+
+
+@wp.func
+def sample_2d(key: wp.uint32, dim: int, index: int) -> wp.vec2:
+    """Point `index` of Roberts' R2 low-discrepancy sequence, shifted (Cranley-Patterson rotation) by
+    a random offset keyed by (key, dim): successive samples of one pixel fill [0,1)^2 evenly for
+    each dimension pair, while pixels and dimensions stay independent. Fixed-point arithmetic keeps
+    it exact for any index."""
+    h = pcg_hash(key ^ pcg_hash(wp.uint32(dim)))
+    h2 = pcg_hash(h)
+    x = h + wp.uint32(index) * R2_A1
+    y = h2 + wp.uint32(index) * R2_A2
+    return wp.vec2(float(x >> wp.uint32(8)) * U24, float(y >> wp.uint32(8)) * U24)
 
 
 @wp.func

@@ -17,7 +17,7 @@ from tracer.integrators import path, whitted
 from tracer.integrators.common import SampleOut
 from tracer.integrators.record import TreeRecord
 from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
-from tracer.sampling import film_offset, filter_offset, rng_start
+from tracer.sampling import film_offset, filter_offset, pixel_key, rng_start
 
 
 @wp.struct
@@ -56,18 +56,40 @@ def path_trace(
     d: wp.vec3,
     time: float,
     rng: wp.uint32,
+    key: wp.uint32,
+    sample: int,
     st: whitted.Stack,
     row: int,
     record: int,
     rec: TreeRecord,
 ) -> SampleOut:
     """path.trace with the common signature (it keeps no stack)."""
-    return path.trace(scene, o, d, time, rng, record, rec)
+    return path.trace(scene, o, d, time, rng, key, sample, record, rec)
+
+
+@wp.func
+def whitted_trace(
+    scene: SceneData,
+    o: wp.vec3,
+    d: wp.vec3,
+    time: float,
+    rng: wp.uint32,
+    key: wp.uint32,
+    sample: int,
+    st: whitted.Stack,
+    row: int,
+    record: int,
+    rec: TreeRecord,
+) -> SampleOut:
+    """whitted.trace with the common signature (its random numbers come from rng alone)."""
+    return whitted.trace(scene, o, d, time, rng, st, row, record, rec)
 
 
 def make_kernels(trace, module: str):
-    """(render_pixels, render_adaptive, trace_one) for an integrator's trace(scene, o, d, time, rng,
-    stack, row, record, rec) -> SampleOut, compiled together as the Warp module `module`."""
+    """(render_pixels, render_adaptive, trace_one) for an integrator's trace(scene, o, d, time, rng, key,
+    sample, stack, row, record, rec) -> SampleOut, compiled together as the Warp module `module`.
+    rng: the sample's random state; key and sample: its pixel's key and its index, for the
+    low-discrepancy dimensions (sampling.sample_2d)."""
 
     @wp.func
     def trace_at(
@@ -75,6 +97,8 @@ def make_kernels(trace, module: str):
         fx: float,
         fy: float,
         rng: wp.uint32,
+        key: wp.uint32,
+        sample: int,
         st: whitted.Stack,
         row: int,
         record: int,
@@ -86,7 +110,7 @@ def make_kernels(trace, module: str):
         lens2 = wp.randf(state)
         time = shutter_time(scene.camera, wp.randf(state))
         o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
-        return trace(scene, o, d, time, state, st, row, record, rec)
+        return trace(scene, o, d, time, state, key, sample, st, row, record, rec)
 
     @wp.func
     def trace_sample(
@@ -98,7 +122,8 @@ def make_kernels(trace, module: str):
         u1 = wp.randf(rng)
         u2 = wp.randf(rng)
         off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
-        out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, st, row, record, rec)
+        key = pixel_key(scene.seed, y * scene.width + x)
+        out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, key, s, st, row, record, rec)
         out.color = out.color * weight
         return out, weight
 
@@ -155,7 +180,8 @@ def make_kernels(trace, module: str):
         if scene.jitter != 0:
             fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
             fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-        return trace_at(scene, float(x) + fx, float(y) + fy, rng, st, row, record, rec)
+        key = pixel_key(scene.seed, y * scene.width + x)
+        return trace_at(scene, float(x) + fx, float(y) + fy, rng, key, j * (g + 1) + i, st, row, record, rec)
 
     @wp.func
     def cached_point(
@@ -265,6 +291,6 @@ def make_kernels(trace, module: str):
 
 KERNEL_MODULES = {Integrator.WHITTED: "tracer_kernels_whitted", Integrator.PATH: "tracer_kernels_path"}
 KERNELS = {
-    Integrator.WHITTED: make_kernels(whitted.trace, KERNEL_MODULES[Integrator.WHITTED]),
+    Integrator.WHITTED: make_kernels(whitted_trace, KERNEL_MODULES[Integrator.WHITTED]),
     Integrator.PATH: make_kernels(path_trace, KERNEL_MODULES[Integrator.PATH]),
 }

@@ -7,7 +7,10 @@ BSDF sampling, Veach & Guibas 1995), then one extension ray drawn from the mater
 diffuse (cosine-weighted hemisphere) and the Phong highlight (a cos^n lobe about the mirror
 direction) as one continuous mixture, the mirror (kr) and refraction (kt, Fresnel, total internal
 reflection) as discrete lobes, or cos^m lobes about them when `gloss` is set. Russian roulette
-ends paths after three bounces with probability 1 - max(throughput). No ambient term: light that
+ends paths after five bounces with probability 1 - max(throughput) (as Mitsuba 3 does). The light and BSDF samples of
+a pixel's successive samples follow Roberts' R2 low-discrepancy sequence (randomly shifted per
+pixel and dimension), which spreads them more evenly than independent random numbers: the same
+image with less noise. No ambient term: light that
 bounces between diffuse surfaces is what this integrator adds to the ray tree's picture.
 
 max_depth = N bounces: the eye ray has depth 1, and a path has at most N + 1 segments (the last
@@ -47,13 +50,14 @@ from tracer.materials import phong_terms, reflect
 from tracer.sampling import (
     cos_lobe_pdf,
     cosine_hemisphere_pdf,
+    sample_2d,
     sample_cos_lobe,
     sample_cosine_hemisphere,
-    stratum,
     to_world,
 )
 
-RR_DEPTH = wp.constant(3)  # Russian roulette from this depth on
+RR_DEPTH = wp.constant(5)  # Russian roulette from this depth on
+DIMS_PER_BOUNCE = wp.constant(1024)  # low-discrepancy dimensions of a bounce: BSDF, lobe, then one per light
 
 
 @wp.func
@@ -76,7 +80,15 @@ def continuous_pdf(pd: float, ps: float, shininess: float, n: wp.vec3, r: wp.vec
 
 @wp.func
 def trace(
-    scene: SceneData, o: wp.vec3, d: wp.vec3, time: float, rng: wp.uint32, record: int, rec: TreeRecord
+    scene: SceneData,
+    o: wp.vec3,
+    d: wp.vec3,
+    time: float,
+    rng: wp.uint32,
+    key: wp.uint32,
+    sample: int,
+    record: int,
+    rec: TreeRecord,
 ) -> SampleOut:
     """One path from the eye ray (o, d): its radiance estimate, its rays by kind, its first hit."""
     out = SampleOut()
@@ -153,9 +165,8 @@ def trace(
                 area = is_area_light(light)
                 n_rays = wp.where(area, scene.light_samples, 1)
                 for k in range(n_rays):
-                    u = wp.vec2(0.0)
-                    if area:
-                        u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
+                    # the k-th of the pixel's (sample x light_samples) points on this light, evenly spread
+                    u = sample_2d(key, depth * DIMS_PER_BOUNCE + 2 + li, sample * n_rays + k)
                     l, dist, e, pl, reaches = light_sample(light, h.p, u, n_rays)
                     mis = float(1.0)
                     if area:
@@ -201,9 +212,10 @@ def trace(
         elif total <= 0.0:
             end = END_ABSORBED
         else:
-            u0 = wp.randf(state)
-            u1 = wp.randf(state)
-            u2 = wp.randf(state)
+            u0 = sample_2d(key, depth * DIMS_PER_BOUNCE + 1, sample)[0]  # which lobe
+            uv = sample_2d(key, depth * DIMS_PER_BOUNCE, sample)  # where in it
+            u1 = uv[0]
+            u2 = uv[1]
             factor = wp.vec3(0.0)
             wi = wp.vec3(0.0)
             next_kind = int(RAY_REFLECTION)
