@@ -98,6 +98,7 @@ def main(args) -> int:
         f"{one['seconds']:.2f} s on 1 thread, speed-up {results['targets']['speedup']:.2f}x"
     )
     results["cornell"] = cornell(args, threads)
+    results["radiosity"] = radiosity(args)
     results["scaling"] = scaling(args, threads)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
@@ -145,6 +146,38 @@ def cornell(args, threads: int) -> dict:
                 "mean": [float(c) for c in img.mean(axis=(0, 1))],
             }
             print(f"  Mitsuba {v:12} {size}x{size}: {seconds:7.2f} s  RMSE {rmse(img):.4f}, mean {img.mean():.4f}")
+    return out
+
+
+def radiosity(args) -> dict:
+    """The radiosity solver on the Cornell box: patches, form-factor rays per second, seconds to 99%
+    of the energy shot, at several patch sizes (how the cost grows with the patch count)."""
+    import time
+
+    from tracer.radiosity import solve
+
+    scene, _ = load_scene(json.loads((SCENES / "cornell_path.json").read_text()))
+    cs = compile_scene(scene)
+    solve(cs, patch_size=1.0, rays=256, threshold=0.5)  # compile the kernels first
+    out = {}
+    print("\nradiosity, Cornell box (scenes/cornell_path.json), 4096 rays per shot, to 99% of the energy shot")
+    for size in (0.5,) if args.quick else (0.5, 0.25, 0.125):
+        t0 = time.perf_counter()
+        sol = solve(cs, patch_size=size, rays=4096, threshold=0.01)
+        seconds = time.perf_counter() - t0
+        steps = len(sol.history)
+        row = {
+            "patch_size": size,
+            "patches": len(sol.patches),
+            "shots": steps,
+            "seconds": round(seconds, 3),
+            "mrays_s": round(steps * 4096 / seconds / 1e6, 3),
+        }
+        out[str(size)] = row
+        print(
+            f"  patch {size:5}: {row['patches']:5} patch sides, {steps:5} shots, {seconds:6.2f} s, "
+            f"{row['mrays_s']:.2f} M form-factor rays/s"
+        )
     return out
 
 
