@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from tracer.compile import NotImplementedFeature, box_faces, compile_scene, transform_matrix
+from tracer.compile import box_faces, compile_scene, transform_matrix
 from tracer.raytree import ray_tree
 from tracer.scene import ASSET_DIR, SceneError, Transform, load_scene
 
@@ -83,16 +83,14 @@ def test_compile_missing_or_escaping_asset_is_an_error_at_its_path():
     assert (ASSET_DIR / "uv_grid.png").is_file()
 
 
-def test_compile_refuses_features_of_later_issues():
+def test_compile_radiosity_needs_surfaces_to_mesh():
     s = scene_with(
-        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"},
-        render={"integrator": "radiosity"},
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}, render={"integrator": "radiosity"}
     )
-    with pytest.raises(NotImplementedFeature) as e:
+    with pytest.raises(SceneError) as e:
         compile_scene(s)
-    paths = {err["path"] for err in e.value.errors}
-    assert paths == {"render.integrator"}
-    assert all("not implemented yet" in err["message"] for err in e.value.errors)
+    assert e.value.errors[0]["path"] == "render.integrator"
+    assert "quads, boxes, planes or triangles" in e.value.errors[0]["message"]
 
 
 def test_compile_camera_basis():

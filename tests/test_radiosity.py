@@ -103,3 +103,27 @@ def test_radiosity_cornell_agrees_with_the_path_tracer_on_the_walls():
     assert len(rad) > 100
     # the walls' mean radiance agrees within 5% (patches are flat, the path tracer is noisy)
     np.testing.assert_allclose(rad.mean(axis=0), path.mean(axis=0), rtol=0.05)
+
+
+@pytest.mark.parametrize("display", ["two-pass", "flat", "smooth"])
+def test_radiosity_integrator_matches_the_path_tracer(display):
+    """The radiosity integrator's image (each display mode) has the path tracer's mean within 3%."""
+    base = small(scene_dict("cornell_path"), 48, 48, sampler={"type": "jittered", "spp": 16})
+    rad = dict(base, render={"integrator": "radiosity", "max_depth": 3, "light_samples": 4,
+                             "radiosity": {"display": display, "patch_size": 0.34, "rays": 2048}})
+    path = small(scene_dict("cornell_path"), 48, 48, sampler={"type": "jittered", "spp": 64})
+    a = render(load_scene(rad)[0]).image
+    b = render(load_scene(path)[0]).image
+    assert a.mean() == pytest.approx(b.mean(), rel=0.03)
+
+
+def test_radiosity_two_pass_ray_tree_takes_interreflection_from_the_solution():
+    data = small(scene_dict("cornell_path"), 32, 32, sampler={"type": "center", "spp": 1},
+                 render={"integrator": "radiosity", "max_depth": 2, "radiosity": {"patch_size": 0.5, "rays": 1024}})
+    cs = compile_scene(load_scene(data)[0])
+    img = render(cs).image
+    tree = ray_tree(cs, 16, 12)  # the back wall
+    eye = tree["nodes"][0]
+    assert eye["hit"]["object_name"] == "back wall"
+    assert min(eye["terms"]["ambient"]) > 0  # the solution's interreflection, in place of ka Ia
+    np.testing.assert_allclose(tree["color"], img[12, 16], rtol=1e-5)

@@ -94,6 +94,24 @@ class LightData:
 
 
 @wp.struct
+class RadiosityData:
+    """A radiosity solution for the `radiosity` integrator (tracer/radiosity.py); inactive otherwise."""
+
+    active: int  # 1 when the scene's integrator is radiosity
+    mode: int  # 0: two-pass (the ray tree + the solution's interreflection), 1: flat patches, 2: smooth
+    mesh: wp.uint64  # every patch as triangles (a point query finds the patch under a hit)
+    tri_patch: wp.array(dtype=wp.int32)  # triangle -> front patch index; its back side is + n
+    tri_obj: wp.array(dtype=wp.int32)  # triangle -> object index (a hit must be on the same object)
+    n: int  # patches per side
+    radiosity: wp.array(dtype=wp.vec3)  # (2n) B, exitance W/m^2 (radiance B / pi)
+    indirect: wp.array(dtype=wp.vec3)  # (2n) B less the emitted and the directly lit part
+    rho: wp.array(dtype=wp.vec3)  # (2n) the patch's reflectance
+    corners: wp.array(dtype=wp.vec3)  # (2 x 3 per triangle) B at the triangle's corners: front, then back
+    corners_ind: wp.array(dtype=wp.vec3)  # the same for the interreflected part (two-pass shading)
+    max_dist: float  # how far from a patch a hit may be to belong to it
+
+
+@wp.struct
 class SceneData:
     camera: CameraData
     shapes: wp.array(dtype=ShapeData)
@@ -135,6 +153,7 @@ class SceneData:
     filter_sign: wp.array(dtype=float)  # sign of f at those offsets (Mitchell's negative lobes)
     filter_norm: float  # (integral |f| / integral f)^2: the weight of a positive sample
     seed: int
+    rad: RadiosityData
 
 
 FACE_SMOOTH = 1
@@ -156,6 +175,7 @@ class CompiledScene:
     num_triangles: int
     num_shapes: int
     keep: list = field(default_factory=list)  # Warp objects that must outlive `data` (the mesh)
+    radiosity: object = None  # the radiosity.Solution when the integrator is radiosity
 
 
 def _v(x) -> wp.vec3:
@@ -168,11 +188,8 @@ def _unit(x) -> np.ndarray:
 
 
 def not_implemented(scene: Scene) -> list[dict]:
-    """Features the schema accepts that a later issue implements: refused, never ignored."""
-    errs = []
-    if scene.render.integrator == "radiosity":
-        errs.append({"path": "render.integrator", "message": "the 'radiosity' integrator is not implemented yet"})
-    return errs
+    """Features the schema accepts that a later issue implements: refused, never ignored (none now)."""
+    return []
 
 
 def _all_materials(scene: Scene):
@@ -556,7 +573,8 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
     data.filter_sign = wp.array(sign, dtype=float, device=device)
     data.filter_norm = norm
     data.seed = int(r.seed)
-    return CompiledScene(
+    data.rad = inactive_radiosity(device)
+    cs = CompiledScene(
         scene=scene,
         data=data,
         object_names=[o.name for o in scene.objects],
@@ -565,6 +583,21 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         num_shapes=data.num_shapes,
         keep=keep,
     )
+    if scene.render.integrator == "radiosity":
+        from tracer.radiosity import attach
+
+        attach(cs, device)
+    return cs
+
+
+def inactive_radiosity(device: str = "cpu") -> RadiosityData:
+    r = RadiosityData()
+    r.active, r.mode, r.mesh, r.n, r.max_dist = 0, 0, wp.uint64(0), 0, 0.0
+    r.tri_patch = wp.zeros(1, dtype=wp.int32, device=device)
+    r.tri_obj = wp.zeros(1, dtype=wp.int32, device=device)
+    for name in ("radiosity", "indirect", "rho", "corners", "corners_ind"):
+        setattr(r, name, wp.zeros(1, dtype=wp.vec3, device=device))
+    return r
 
 
 def _compile_triangles(data: SceneData, groups: list[dict], device: str) -> tuple[list, int]:

@@ -30,12 +30,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, SceneData, box_faces, compile_scene
+from tracer.compile import CompiledScene, RadiosityData, SceneData, box_faces, compile_scene
 from tracer.geometry import basis, closest_hit
 from tracer.kinds import LIGHT_DISK, LIGHT_QUAD, RAY_OFFSET, T_FAR
 from tracer.lights import light_at
 from tracer.sampling import concentric_disk, rng_start, sample_cosine_hemisphere, to_world
-from tracer.scene import Scene
+from tracer.scene import Scene, SceneError
+
+LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
 
 
 @dataclass
@@ -71,6 +73,7 @@ class Solution:
     absorbed: np.ndarray  # (3,) W
     escaped: np.ndarray  # (3,) W
     history: list[dict] = field(default_factory=list)  # per step: shooter, unshot total, rays
+    direct: np.ndarray | None = None  # (N, 3) B once the lights have shot: emitted + directly lit
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
@@ -161,7 +164,15 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         for f, (i0, i1, i2) in enumerate(idx):
             tri(pts[i0], pts[i1], pts[i2], int(cs.data.face_obj.numpy()[f]), int(cs.data.face_mat.numpy()[f]))
     if not rows:
-        raise ValueError("the scene has no quads, boxes, planes or triangles to mesh for radiosity")
+        raise SceneError(
+            [
+                {
+                    "path": "render.integrator",
+                    "message": "the radiosity integrator needs quads, boxes, "
+                    "planes or triangles to mesh into patches; this scene has none",
+                }
+            ]
+        )
     corner = np.array([r[0] for r in rows])
     e1 = np.array([r[1] for r in rows])
     e2 = np.array([r[2] for r in rows])
@@ -362,11 +373,14 @@ def solve(
             area = float(cs.data.lights.numpy()[li]["area"])
             power = np.asarray(light.radiance, float) * math.pi * area
             sol.emitted += power
-            _shoot(sol, cs, pm, received, 1, None, li, seed, step, rays, power, receive)
+            # the lights' shots make the directly lit part: enough rays for every patch to get its share
+            light_rays = max(rays, LIGHT_RAYS_PER_PATCH * n)
+            _shoot(sol, cs, pm, received, 1, None, li, seed, step, light_rays, power, receive)
             sol.history.append({"step": step, "shooter": f"lights[{li}]", "unshot": sol.unshot_total()})
             if on_step:
                 on_step(sol, step)
             step += 1
+    sol.direct = sol.radiosity.copy()
     # 3. progressive refinement: the patch with the most unshot power shoots it
     while step < max_steps and sol.unshot_total() > threshold * float(sol.emitted.sum()):
         k = int(np.argmax(sol.unshot.sum(axis=1)))
@@ -398,3 +412,84 @@ def _shoot(sol, cs, pm, received, kind, k, li, seed, step, rays, power, receive)
     power_in = received.numpy().astype(np.float64)
     sol.escaped += power - power_in.sum(axis=0)
     receive(power_in)
+
+
+# ----------------------------------------------------------------------------------------- display
+
+
+def corner_values(p: Patches, values: np.ndarray) -> np.ndarray:
+    """Per patch side, the values at its triangle corners (2 triangles for a parallelogram), each the
+    mean of the values of the same object's patches facing the same way that share that corner (smooth
+    shading of a piecewise-constant solution). Returns (sides, 6, 3): corners of up to 2 triangles."""
+    n2 = len(p)
+    quads = ~p.triangle
+    # corners of each patch's triangles, in the order _patch_mesh emits them
+    c, a, b = p.corner, p.e1, p.e2
+    tri_pts = np.where(
+        quads[:, None, None],
+        np.stack([c, c + a, c + a + b, c, c + a + b, c + b], axis=1),
+        np.stack([c, c + a, c + b, c, c, c], axis=1),
+    )
+    # corners are shared by patches of one object, one side and one orientation (no smoothing over creases)
+    side = [tuple(v) for v in np.round(p.normal * 1e3).astype(np.int64)]
+    key_pts = np.round(tri_pts / 1e-6).astype(np.int64)
+    sums: dict = {}
+    for k in range(n2):
+        for j in range(6 if quads[k] else 3):
+            key = (int(p.obj[k]), side[k], *key_pts[k, j])
+            acc = sums.setdefault(key, [np.zeros(3), 0])
+            acc[0] += values[k]
+            acc[1] += 1
+    out = np.zeros((n2, 6, 3))
+    for k in range(n2):
+        for j in range(6 if quads[k] else 3):
+            total, count = sums[(int(p.obj[k]), side[k], *key_pts[k, j])]
+            out[k, j] = total / count
+    return out
+
+
+def attach(cs: CompiledScene, device: str = "cpu") -> Solution:
+    """Solve the scene's radiosity (render.radiosity settings) and put it in cs.data.rad for the
+    kernels; the Solution stays in cs.radiosity (the patches, the convergence curve)."""
+    cfg = cs.scene.render.radiosity
+    sol = solve(
+        cs,
+        patch_size=cfg.patch_size,
+        rays=cfg.rays,
+        threshold=cfg.threshold,
+        max_steps=cfg.max_steps,
+        seed=cs.scene.render.seed,
+    )
+    p = sol.patches
+    pm, keep = _patch_mesh(p)
+    n = len(p) // 2
+    indirect = np.maximum(sol.radiosity - sol.direct, 0.0)
+    r = RadiosityData()
+    r.corners = _triangle_corners(pm, p, corner_values(p, sol.radiosity), device)
+    r.corners_ind = _triangle_corners(pm, p, corner_values(p, indirect), device)
+    r.active = 1
+    r.mode = {"two-pass": 0, "flat": 1, "smooth": 2}[cfg.display]
+    r.mesh, r.tri_patch, r.n = pm.mesh, pm.tri_front, n
+    r.tri_obj = wp.array(p.obj[pm.tri_front.numpy()].astype(np.int32), dtype=wp.int32, device=device)
+    r.radiosity = wp.array(sol.radiosity.astype(np.float32), dtype=wp.vec3, device=device)
+    r.indirect = wp.array(indirect.astype(np.float32), dtype=wp.vec3, device=device)
+    r.rho = wp.array(p.reflectance.astype(np.float32), dtype=wp.vec3, device=device)
+    r.max_dist = float(1e-3 * max(1.0, cfg.patch_size))
+    cs.data.rad = r
+    cs.keep += keep
+    cs.radiosity = sol
+    return sol
+
+
+def _triangle_corners(pm: PatchMesh, p: Patches, corners: np.ndarray, device: str):
+    """(2 x 3 per triangle of the patch mesh) corner values: every front triangle, then every back one."""
+    n = len(p) // 2
+    tri_patch = pm.tri_front.numpy()
+    out = []
+    for offset in (0, n):
+        seen: dict = {}
+        for k in tri_patch:
+            first = seen.get(int(k), 0)  # a parallelogram's first or second triangle
+            out.append(corners[k + offset, 3 * first : 3 * first + 3])
+            seen[int(k)] = first + 1
+    return wp.array(np.concatenate(out).astype(np.float32), dtype=wp.vec3, device=device)

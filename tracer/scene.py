@@ -333,6 +333,20 @@ class Sampler(_Model):
         return self
 
 
+class RadiositySettings(_Model):
+    """The radiosity integrator's solution and how it is shown (an addition to the format)."""
+
+    patch_size: Num = Field(0.25, gt=0, description="Patch edge length (world units) of the meshed surfaces.")
+    display: Literal["two-pass", "flat", "smooth"] = Field(
+        "two-pass",
+        description="two-pass: the ray tree with the radiosity solution as its diffuse interreflection; "
+        "flat: each patch's radiosity; smooth: radiosity interpolated from the patch corners.",
+    )
+    rays: Int = Field(4096, ge=16, le=1_000_000, description="Form-factor rays per shot.")
+    threshold: Num = Field(0.01, gt=0, le=1, description="Stop when the unshot power is below this share of all.")
+    max_steps: Int = Field(2000, ge=1, le=100_000, description="At most this many shots.")
+
+
 class RenderSettings(_Model):
     """Which integrator, and where the ray tree stops."""
 
@@ -343,6 +357,9 @@ class RenderSettings(_Model):
     min_weight: Num = Field(0.001, ge=0, description="Stop a branch once its weight (product of K's) falls below this.")
     light_samples: Int = Field(1, ge=1, description="Shadow rays per area light per shading point.")
     seed: Int = Field(0, ge=0, lt=2**31, description="Random seed; same scene and seed give the same image.")
+    radiosity: RadiositySettings = Field(
+        default_factory=RadiositySettings, description="Settings of the radiosity integrator."
+    )
 
     @model_validator(mode="after")
     def _check_limits(self, info: ValidationInfo) -> "RenderSettings":
@@ -909,6 +926,8 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
             warn(["sampler", "spp"], "has no effect: the adaptive sampler decides how many rays each pixel gets")
         if "filter" in scene.film.model_fields_set:
             warn(["film", "filter"], "has no effect: the adaptive sampler averages its cells (a box filter)")
+    if "radiosity" in render.model_fields_set and render.integrator != "radiosity":
+        warn(["render", "radiosity"], f"has no effect: the integrator is {render.integrator}")
     if render.light_samples > 1 and not any(isinstance(light, AREA_LIGHTS) for light in scene.lights):
         warn(["render", "light_samples"], "has no effect: the scene has no area light (quad, disk, sphere)")
     if "color" in scene.fog.model_fields_set and scene.fog.density == 0:

@@ -2,7 +2,7 @@
 
 import warp as wp
 
-from tracer.compile import LightData, MaterialData, SceneData
+from tracer.compile import LightData, MaterialData, RadiosityData, SceneData
 from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
 from tracer.kinds import BUMP_NONE, RAY_OFFSET, T_FAR, TEX_NONE
 from tracer.lights import is_area_light, light_at, sample_area_light
@@ -149,3 +149,42 @@ def fog_transmittance(scene: SceneData, t: float) -> float:
     if scene.fog_density > 0.0:
         return wp.exp(-scene.fog_density * t)
     return 1.0
+
+
+@wp.func
+def radiosity_at(rad: RadiosityData, p: wp.vec3, nf: wp.vec3, obj: int):
+    """The radiosity patch side under a hit at p on object obj, seen from the side nf points to:
+    (1, B, the interreflected part of B, rho), or (0, ...) off the meshed surfaces (spheres, disks,
+    lights). B and its interreflected part are the patch's own values in the flat display, else
+    interpolated from the patch's corners (smooth display, two-pass shading)."""
+    zero = wp.vec3(0.0)
+    if obj < 0:
+        return 0, zero, zero, zero
+    q = wp.mesh_query_point_no_sign(rad.mesh, p, rad.max_dist)
+    if not q.result:
+        return 0, zero, zero, zero
+    face = q.face
+    if rad.tri_obj[face] != obj:  # a different surface just as close (a light on a ceiling)
+        return 0, zero, zero, zero
+    k = rad.tri_patch[face]
+    base = int(0)
+    if wp.dot(wp.mesh_eval_face_normal(rad.mesh, face), nf) < 0.0:  # the back side
+        k = k + rad.n
+        base = 3 * rad.tri_patch.shape[0]
+    b = rad.radiosity[k]
+    ind = rad.indirect[k]
+    if rad.mode != 1:  # smooth display, and the two-pass interreflection: interpolated at the corners
+        c = base + 3 * face
+        w = 1.0 - q.u - q.v
+        b = q.u * rad.corners[c] + q.v * rad.corners[c + 1] + w * rad.corners[c + 2]
+        ind = q.u * rad.corners_ind[c] + q.v * rad.corners_ind[c + 1] + w * rad.corners_ind[c + 2]
+    return 1, b, ind, rad.rho[k]
+
+
+@wp.func
+def safe_div(a: wp.vec3, b: wp.vec3) -> wp.vec3:
+    return wp.vec3(
+        wp.where(b[0] > 0.0, a[0] / b[0], 0.0),
+        wp.where(b[1] > 0.0, a[1] / b[1], 0.0),
+        wp.where(b[2] > 0.0, a[2] / b[2], 0.0),
+    )

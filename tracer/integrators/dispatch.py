@@ -294,3 +294,5 @@ KERNELS = {
     Integrator.WHITTED: make_kernels(whitted_trace, KERNEL_MODULES[Integrator.WHITTED]),
     Integrator.PATH: make_kernels(path_trace, KERNEL_MODULES[Integrator.PATH]),
 }
+# radiosity is the ray tree with the solution in place of the ambient term (SceneData.rad)
+KERNELS[Integrator.RADIOSITY] = KERNELS[Integrator.WHITTED]

@@ -19,7 +19,7 @@ With `record` = 1 the same code writes each ray as a node of the ray tree (recor
 import warp as wp
 
 from tracer.compile import SceneData
-from tracer.geometry import closest_hit
+from tracer.geometry import PI, closest_hit
 from tracer.integrators.common import (
     SampleOut,
     fog_transmittance,
@@ -28,6 +28,8 @@ from tracer.integrators.common import (
     max3,
     miss_radiance,
     offset_origin,
+    radiosity_at,
+    safe_div,
     scatter_weights,
     shadow_reach,
     shadow_test,
@@ -183,12 +185,23 @@ def trace(
         ambient = wp.cw_mul(s.ka, scene.ambient)
         diffuse = wp.vec3(0.0)
         specular = wp.vec3(0.0)
+        shown = int(0)  # radiosity display modes: the patch's own radiance is the local term
+        if scene.rad.active != 0:
+            # radiosity: the solution's interreflection replaces the ambient term (two-pass method)
+            ambient = wp.vec3(0.0)
+            found, rb, rind, rrho = radiosity_at(scene.rad, h.po, s.nf, h.obj)
+            if found != 0:
+                if scene.rad.mode == 0:
+                    ambient = wp.cw_mul(s.kd, safe_div(rind, rrho)) / PI
+                else:
+                    ambient = rb / PI
+                    shown = 1
         if node >= 0:
             record_hit(rec, node, h.t, h.p, n, h.obj, h.mat, s.front)
             rec.floats[node, F_FOG] = fog_t
 
         # local term: shadow rays towards each light that can contribute here (N.L > 0, inside a spot's cone)
-        for li in range(scene.num_lights):
+        for li in range(scene.num_lights * (1 - shown)):
             light = scene.lights[li]
             area = is_area_light(light)
             n_rays = wp.where(area, scene.light_samples, 1)
@@ -226,7 +239,7 @@ def trace(
                             sh.mat,
                             dterm + sterm,
                         )
-        local = s.emission + ambient + diffuse + specular
+        local = s.emission * float(1 - shown) + ambient + diffuse + specular
         out.color += wp.cw_mul(tau, fog_t * local + (1.0 - fog_t) * scene.fog_color)
         if node >= 0:
             record_terms(rec, node, s.emission, ambient, diffuse, specular)
