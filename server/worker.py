@@ -21,6 +21,7 @@ import os
 import signal
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from server.models import JobStatus
 from server.settings import Settings
@@ -30,6 +31,7 @@ log = logging.getLogger("server.worker")
 
 CHECK_INTERVAL = 0.2  # seconds between two looks at the job's row during a pass
 PROGRESS_INTERVAL = 0.2  # seconds between two progress writes during a pass
+AOV_NAMES = ("rays", "depth", "normal", "albedo", "variance")  # the AOV pictures kept beside a finished job
 
 
 class Stop(Exception):
@@ -61,6 +63,63 @@ def worker_main(settings_data: dict, stop_event, wake_event, ready_event) -> Non
         wake_event.clear()
 
     Worker(settings, JobStore(settings.data_dir), stopping).loop(wait)
+
+
+def aov_path(store: JobStore, job_id: str, name: str) -> Path:
+    """Where a finished job's AOV picture is kept: `aov_<name>.png` beside its image (`aovs.json`: ranges)."""
+    return store.jobs_dir / job_id / (f"aov_{name}.png" if name != "ranges" else "aovs.json")
+
+
+def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
+    """The renderer's AOVs as PNGs for the page, and each one's [min, max] (the legend of its colours).
+
+    rays: rays traced per pixel as a heat map (black 0 ... red ... yellow ... white the maximum);
+    depth: distance to the eye ray's hit as grey, near white to far dark grey, black where nothing was hit;
+    normal: the shading normal as 0.5 + 0.5 n (no sRGB curve: the bytes are the vector);
+    albedo: kd after texturing (sRGB like the image); variance: the mean of the RGB variance as a heat map."""
+    import numpy as np
+
+    from tracer.film import heat_map, png_bytes
+
+    def raw_png(values: np.ndarray) -> bytes:  # [0, 1] data -> 8-bit PNG without the sRGB curve
+        import io
+
+        from PIL import Image
+
+        buf = io.BytesIO()
+        Image.fromarray(np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)).save(buf, format="PNG")
+        return buf.getvalue()
+
+    out: dict[str, bytes] = {}
+    ranges: dict[str, list[float]] = {}
+
+    def span(name: str, values: np.ndarray) -> None:
+        finite = values[np.isfinite(values)]
+        ranges[name] = [float(finite.min()), float(finite.max())] if finite.size else [0.0, 0.0]
+
+    if "rays" in aovs:
+        rays = np.nan_to_num(aovs["rays"])
+        span("rays", rays)
+        out["rays"] = png_bytes(heat_map(rays))
+    if "depth" in aovs:
+        depth = np.nan_to_num(aovs["depth"], posinf=0.0)
+        hit = depth > 0
+        far = float(depth.max()) if hit.any() else 1.0
+        span("depth", depth[hit] if hit.any() else depth)
+        out["depth"] = raw_png(np.where(hit, 1.0 - 0.85 * depth / far, 0.0))
+    if "normal" in aovs:
+        normal = np.nan_to_num(aovs["normal"])
+        span("normal", normal)
+        out["normal"] = raw_png(0.5 + 0.5 * normal)
+    if "albedo" in aovs:
+        albedo = np.nan_to_num(aovs["albedo"])
+        span("albedo", albedo)
+        out["albedo"] = png_bytes(albedo)
+    if "variance" in aovs:
+        variance = np.nan_to_num(aovs["variance"]).mean(axis=-1)
+        span("variance", variance)
+        out["variance"] = png_bytes(heat_map(variance))
+    return out, ranges
 
 
 def load_kernels() -> None:
@@ -182,6 +241,7 @@ class Worker:
             if not result.cancelled:
                 final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
                 publish(final)
+                self._save_aovs(job_id, result.aovs)
                 store.finish(
                     job_id, pid, JobStatus.done, samples_done=done["total"], samples_total=done["total"],
                     passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number,
@@ -191,6 +251,17 @@ class Worker:
         except Stop as stop:
             stop_reason = stop.reason
         self._stopped(job, stop_reason, last, published, publish)
+
+    def _save_aovs(self, job_id: str, aovs: dict) -> None:
+        """The AOV pictures of a finished render, beside its image (before the job is marked done)."""
+        try:
+            pictures, ranges = aov_pictures(aovs)
+            for name, png in pictures.items():
+                write_atomic(aov_path(self.store, job_id, name), lambda tmp, png=png: tmp.write_bytes(png))
+            text = json.dumps(ranges)
+            write_atomic(aov_path(self.store, job_id, "ranges"), lambda tmp: tmp.write_text(text))
+        except Exception:  # the image is what matters: a job never fails for its AOV pictures
+            log.exception("job %s: could not save the AOV pictures", job_id)
 
     def _stopped(self, job: dict, reason: str | None, last: _Pass | None, published: int, publish) -> None:
         """End a render that stopped early: keep the last pass's image, then record why."""

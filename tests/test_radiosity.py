@@ -109,8 +109,15 @@ def test_radiosity_cornell_agrees_with_the_path_tracer_on_the_walls():
 def test_radiosity_integrator_matches_the_path_tracer(display):
     """The radiosity integrator's image (each display mode) has the path tracer's mean within 3%."""
     base = small(scene_dict("cornell_path"), 48, 48, sampler={"type": "jittered", "spp": 16})
-    rad = dict(base, render={"integrator": "radiosity", "max_depth": 3, "light_samples": 4,
-                             "radiosity": {"display": display, "patch_size": 0.34, "rays": 2048}})
+    rad = dict(
+        base,
+        render={
+            "integrator": "radiosity",
+            "max_depth": 3,
+            "light_samples": 4,
+            "radiosity": {"display": display, "patch_size": 0.34, "rays": 2048},
+        },
+    )
     path = small(scene_dict("cornell_path"), 48, 48, sampler={"type": "jittered", "spp": 64})
     a = render(load_scene(rad)[0]).image
     b = render(load_scene(path)[0]).image
@@ -118,8 +125,13 @@ def test_radiosity_integrator_matches_the_path_tracer(display):
 
 
 def test_radiosity_two_pass_ray_tree_takes_interreflection_from_the_solution():
-    data = small(scene_dict("cornell_path"), 32, 32, sampler={"type": "center", "spp": 1},
-                 render={"integrator": "radiosity", "max_depth": 2, "radiosity": {"patch_size": 0.5, "rays": 1024}})
+    data = small(
+        scene_dict("cornell_path"),
+        32,
+        32,
+        sampler={"type": "center", "spp": 1},
+        render={"integrator": "radiosity", "max_depth": 2, "radiosity": {"patch_size": 0.5, "rays": 1024}},
+    )
     cs = compile_scene(load_scene(data)[0])
     img = render(cs).image
     tree = ray_tree(cs, 16, 12)  # the back wall

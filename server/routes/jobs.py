@@ -17,6 +17,7 @@ from server.errors import ApiError
 from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatus
 from server.settings import Settings
 from server.store import JobStore, QueueFull
+from server.worker import AOV_NAMES, aov_path
 from tracer.compile import not_implemented
 from tracer.scene import Scene, SceneError, json_path, load_scene, resolve_asset
 
@@ -150,6 +151,49 @@ def image(
     return Response(data, media_type=media, headers=headers)
 
 
+@router.get("/{job_id}/scene", summary="The scene the job renders, as it was submitted", responses=NOT_FOUND)
+def job_scene(job: JobDep) -> dict:
+    """For a client that shows an older job: its ray tree needs the very scene it rendered."""
+    return json.loads(job["scene"])
+
+
+def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
+    if job["status"] != JobStatus.done.value:
+        raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
+    try:
+        return json.loads(aov_path(store, job["id"], "ranges").read_text())
+    except FileNotFoundError:
+        raise ApiError(404, "the job's AOVs are missing from the data directory") from None
+
+
+@router.get("/{job_id}/aov", summary="The AOV pictures of a finished job and the range of each", responses=NOT_FOUND)
+def aov_list(job: JobDep, store: StoreDep) -> dict:
+    """`names`; `ranges` {name: [min, max]} of the values the pictures show (rays per pixel, depth, ...)."""
+    ranges = _aov_ready(job, store)
+    return {"names": [n for n in AOV_NAMES if n in ranges], "ranges": ranges}
+
+
+@router.get(
+    "/{job_id}/aov/{name}",
+    summary="One AOV of a finished job as a PNG",
+    response_class=Response,
+    responses={200: {"content": {"image/png": {}}}, **NOT_FOUND},
+)
+def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
+    """rays: rays per pixel as a heat map (black 0, white the maximum); depth: near white, far dark, black
+    where nothing was hit; normal: 0.5 + 0.5 n; albedo: kd (sRGB); variance: per-pixel variance as a heat map."""
+    if name not in AOV_NAMES:
+        message = f"no AOV named '{name[:64]}'; one of: {', '.join(AOV_NAMES)}"
+        raise ApiError(404, [{"path": "name", "message": message}])
+    _aov_ready(job, store)
+    try:
+        data = aov_path(store, job["id"], name).read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, [{"path": "name", "message": f"the job has no '{name}' AOV"}]) from None
+    headers = {"Cache-Control": "no-store", "Content-Disposition": f'inline; filename="job-{job["id"]}-{name}.png"'}
+    return Response(data, media_type="image/png", headers=headers)
+
+
 @router.get(
     "/{job_id}/events",
     summary="Server-Sent Events: progress, preview (a new image), end",
@@ -179,7 +223,7 @@ async def _event_stream(store: JobStore, job_id: str, request: Request) -> Async
         sent = False
         if (job.status, p.samples_done, p.passes_done) != last_progress:
             last_progress = (job.status, p.samples_done, p.passes_done)
-            data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta)
+            data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
             yield sse("progress", data)
             sent = True
         if job.preview and job.preview != last_preview:

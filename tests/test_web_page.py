@@ -1,0 +1,484 @@
+"""The web page in a real browser: Playwright driving Debian's Chromium (headless) against `python -m server`.
+
+Each test opens the page in a fresh browser context (empty localStorage) and fails on any console error
+or uncaught exception the page did not expect. Screenshots are written to $WEB_SHOTS (default
+/tmp/web_shots) for a person to look at. These tests never skip: without Playwright or Chromium they fail
+and say what is missing (`./dev test` installs both).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import time
+from pathlib import Path
+
+import httpx
+import pytest
+from conftest import scene_dict, small
+from test_api_support import Server
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+SHOTS = Path(os.environ.get("WEB_SHOTS", "/tmp/web_shots"))
+DESKTOP = {"width": 1280, "height": 800}
+PHONE = {"width": 390, "height": 844}
+DONE = ("done", "failed", "cancelled")
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    # previews every 0.1 s: a render of a second or two shows several passes
+    env = {"TRACER_PREVIEW_INTERVAL": "0.1"}
+    with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
+        yield s
+
+
+@pytest.fixture(scope="module")
+def browser():
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError as exc:
+        pytest.fail(f"Playwright is not installed ({exc}); `pip install -e .[test]` (or ./dev test) installs it")
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium package (./dev test does it)")
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
+        yield b
+        b.close()
+
+
+class Page:
+    """A page with its console watched: `allow` lists patterns of console errors a test expects."""
+
+    def __init__(self, browser, server, viewport):
+        self.context = browser.new_context(viewport=viewport)
+        self.page = self.context.new_page()
+        self.page.set_default_timeout(30_000)
+        self.server = server
+        self.errors: list[str] = []
+        self.allow: list[str] = []
+        self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
+        self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+
+    def open(self, hash_: str = "") -> Page:
+        self.page.goto(f"{self.server.url}/{hash_}")
+        self.page.wait_for_selector("body[data-ready=true]", state="attached")
+        return self
+
+    def shot(self, name: str, full_page: bool = False) -> None:
+        self.page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=full_page)
+
+    def unexpected_errors(self) -> list[str]:
+        return [e for e in self.errors if not any(re.search(a, e) for a in self.allow)]
+
+
+@pytest.fixture
+def desktop(browser, server):
+    p = Page(browser, server, DESKTOP)
+    yield p
+    p.context.close()
+    assert p.unexpected_errors() == []
+
+
+@pytest.fixture
+def phone(browser, server):
+    p = Page(browser, server, PHONE)
+    yield p
+    p.context.close()
+    assert p.unexpected_errors() == []
+
+
+def set_scene(page, scene: dict) -> None:
+    """Replace the editor's text with a scene and wait for the server's verdict."""
+    page.fill("#scene-text", json.dumps(scene, indent=2))
+    page.wait_for_function("() => document.querySelector('#validation-status').dataset.kind !== 'busy'")
+
+
+def editor_text(page) -> str:
+    return page.input_value("#scene-text")
+
+
+def render(page, timeout: float = 60_000) -> None:
+    page.click("#btn-render")
+    page.wait_for_function(
+        f"() => {list(DONE)}.includes(document.querySelector('#stage').dataset.status)", timeout=timeout
+    )
+
+
+def set_range(page, selector: str, value: int) -> None:
+    page.eval_on_selector(selector, "(el, v) => { el.value = String(v); el.dispatchEvent(new Event('input')); }", value)
+
+
+def line_of(text: str, needle: str) -> int:
+    return text[: text.index(needle)].count("\n") + 1
+
+
+def canvas_pixels(page, selector: str, colour: str | None = None) -> int:
+    """Pixels of a canvas that differ from its dark background (or, with `colour` '#rrggbb', are near it)."""
+    return page.evaluate(
+        """([sel, colour]) => {
+            const c = document.querySelector(sel);
+            const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+            const want = colour ? [1, 3, 5].map(i => parseInt(colour.slice(i, i + 2), 16)) : null;
+            let n = 0;
+            for (let i = 0; i < d.length; i += 4) {
+                const ref = want || [16, 21, 28];  // the canvases' background is #10151c
+                const diff = Math.abs(d[i] - ref[0]) + Math.abs(d[i+1] - ref[1]) + Math.abs(d[i+2] - ref[2]);
+                if (want ? diff < 40 : diff > 30) n++;
+            }
+            return n;
+        }""",
+        [selector, colour],
+    )
+
+
+def run_lesson(page, lesson: str, panels: int) -> list[str]:
+    """Click a lesson and wait for each of its panels to end; their statuses."""
+    page.click(f".lesson-button[data-lesson={lesson}]")
+    page.wait_for_function(
+        f"""() => document.querySelector('#lesson-stage').dataset.lesson === '{lesson}'
+            && document.querySelectorAll('.lesson-panel').length === {panels}
+            && [...document.querySelectorAll('.lesson-panel')]
+                .every(p => ['done', 'refused', 'failed'].includes(p.dataset.status))""",
+        timeout=90_000,
+    )
+    return [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
+
+
+def whitted(width=160, height=120, spp=4, **render_) -> dict:
+    return small(scene_dict("whitted"), width, height, sampler={"type": "jittered", "spp": spp}, render=render_ or {})
+
+
+# --------------------------------------------------------------------------------------------------
+
+
+def test_web_page_editor_marks_errors_at_their_line_and_keeps_unsaved_work(desktop):
+    page = desktop.open().page
+    page.select_option("#example-select", "whitted")
+    page.wait_for_selector("#validation-status[data-kind=ok]")
+    assert json.loads(editor_text(page)) == scene_dict("whitted")
+
+    # an invalid value and an undefined material: each reported at its own line, with its message
+    text = editor_text(page)
+    glass = text.index('"name": "glass ball"')
+    bad = text[:glass] + text[glass:].replace('"radius": 1,', '"radius": -1,', 1).replace('"glass"', '"glas"', 1)
+    page.fill("#scene-text", bad)
+    page.wait_for_selector("#validation-status[data-kind=error]")
+    radius_line = line_of(bad, '"radius": -1')
+    material_line = line_of(bad, '"material": "glas"')
+    page.wait_for_selector(f".backdrop .mark.error[data-line='{radius_line}']")
+    marks = {int(m.get_attribute("data-line")): m.inner_text() for m in page.locator(".backdrop .mark").all()}
+    assert "must be > 0" in marks[radius_line]
+    assert "did you mean 'glass'" in marks[material_line]
+    problems = page.locator("#problems li").all_inner_texts()
+    assert any(f"line {radius_line}" in p and "objects[2].radius" in p for p in problems), problems
+    assert page.locator(f".gutter-marks .gmark.error:text-is('{radius_line}')").count() == 1
+    page.click(f"#problems li:has-text('line {radius_line}') button")  # jumps to the value
+    selected = page.evaluate(
+        "() => { const t = document.querySelector('#scene-text'); "
+        "return t.value.slice(t.selectionStart, t.selectionEnd); }"
+    )
+    assert selected == "-1"
+    desktop.shot("editor-error")
+
+    # a JSON syntax error: its line and column, without asking the server
+    broken = text.replace('"vfov": 40', '"vfov": 40,,', 1)
+    page.fill("#scene-text", broken)
+    page.wait_for_selector(".backdrop .mark .squiggle")
+    line = line_of(broken, ",,")
+    col = broken.split("\n")[line - 1].index(",,") + 2
+    assert page.inner_text("#validation-status").startswith(f"JSON syntax error at line {line}, column {col}")
+    assert page.locator(".backdrop .mark.error").get_attribute("data-line") == str(line)
+    assert page.locator("#fs-camera input").first.is_disabled()
+    desktop.shot("editor-syntax-error")
+
+    # unsaved work survives a reload
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    assert editor_text(page) == broken
+    page.wait_for_selector(".backdrop .mark .squiggle")
+
+
+def test_web_page_form_controls_write_into_the_json(desktop):
+    page = desktop.open().page
+    set_scene(page, whitted())
+    page.fill("#fs-camera [data-path='camera.vfov'] input", "55")
+    page.wait_for_function("() => document.querySelector('#scene-text').value.includes('\"vfov\": 55')")
+    # a field the scene does not have is added to its section
+    page.fill("#fs-render [data-path='render.light_samples'] input", "4")
+    page.wait_for_function("() => document.querySelector('#scene-text').value.includes('\"light_samples\": 4')")
+    # the glass ball's material, and a light's position
+    page.select_option("#field-object", "2")
+    page.fill("#fs-material [data-path='materials.glass.kd'] input", "0.1, 0.2, 0.3")
+    page.fill("#fs-light [aria-label='position y']", "9")
+    page.wait_for_function("() => document.querySelector('#scene-text').value.includes('\"position\": [4, 9, 5]')")
+    page.select_option("#fs-sampler select", "adaptive")
+    page.wait_for_selector("#fs-sampler [data-path='sampler.max_level']")
+    page.wait_for_selector("#validation-status[data-kind=warn], #validation-status[data-kind=ok]")
+    scene = json.loads(editor_text(page))
+    assert scene["camera"]["vfov"] == 55 and scene["render"]["light_samples"] == 4
+    assert scene["materials"]["glass"]["kd"] == [0.1, 0.2, 0.3] and scene["lights"][0]["position"] == [4, 9, 5]
+    assert scene["sampler"]["type"] == "adaptive"
+    # the rest of the text kept its layout: only the edited values changed
+    original = json.dumps(whitted(), indent=2)
+    assert editor_text(page).split('"objects"')[1] == original.split('"objects"')[1]
+    desktop.shot("editor-form")
+
+
+def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
+    page = desktop.open().page
+    scene = whitted(160, 120, spp=64)
+    set_scene(page, scene)
+    page.click("#btn-render")
+    page.wait_for_selector("#stage[data-status=running]")
+    page.wait_for_function("() => Number(document.querySelector('#render-img').dataset.previews) >= 1")
+    desktop.shot("viewer-running")
+    page.wait_for_selector("#stage[data-status=done]", timeout=60_000)
+    # the image was replaced at least twice while the job ran, then once more at the end
+    assert int(page.get_attribute("#render-img", "data-running-previews")) >= 2
+    stats = page.inner_text("#job-stats")
+    assert "1,228,800 / 1,228,800 (100%)" in stats, stats
+    assert re.search(r"eye 1,228,800", page.inner_text("#job-rays"))
+    assert "Done: 160 × 120" in page.inner_text("#viewer-message")
+    desktop.shot("viewer-done")
+
+    # downloads and AOVs
+    for link, kind in (("#dl-png", "image/png"), ("#dl-exr", "image/x-exr")):
+        r = page.request.get(server.url + page.get_attribute(link, "href"))
+        assert r.ok and r.headers["content-type"] == kind
+    page.click("[data-aov=rays]")
+    page.wait_for_function("() => document.querySelector('#aov-legend').textContent.includes('Rays traced per pixel')")
+    page.wait_for_function(
+        "() => { const i = document.querySelector('#render-img'); return i.complete && i.naturalWidth > 0; }"
+    )
+    desktop.shot("viewer-aov-rays")
+    page.click("[data-aov=image]")
+
+    # a pixel of the glass ball: the tree in the diagram has as many rays as the API's tree
+    x, y = 112, 70
+    img = page.locator("#render-img").bounding_box()
+    page.mouse.click(img["x"] + (x + 0.5) * img["width"] / 160, img["y"] + (y + 0.5) * img["height"] / 120)
+    page.wait_for_selector("#rt-diagram .rt-node")
+    tree = httpx.post(
+        f"{server.url}/api/raytree", json={"scene": scene, "x": x, "y": y, "sample": 0}, timeout=30
+    ).json()
+    n = len(tree["nodes"])
+    assert n >= 5 and {"reflection", "transmission", "shadow"} <= {node["kind"] for node in tree["nodes"]}
+    assert page.locator("#rt-diagram .rt-node").count() == n
+    assert page.inner_text("#rt-pixel") == f"pixel ({x}, {y})"
+    # the overlay draws every ray over the image; the 3D view draws the scene and the rays
+    assert page.get_attribute("#rt-overlay", "data-rays") == str(n)
+    assert canvas_pixels(page, "#rt-overlay", "#44a8ff") > 20  # reflection rays, in their colour
+    assert canvas_pixels(page, "#rt-overlay", "#2ee6a6") > 20  # transmission rays
+    assert int(page.get_attribute("#rt-3d", "data-lines")) > 10 and page.get_attribute("#rt-3d", "data-rays") == str(n)
+    assert canvas_pixels(page, "#rt-3d") > 2000
+    page.locator("#raytree").scroll_into_view_if_needed()
+    desktop.shot("raytree", full_page=True)
+
+    # hovering a node highlights the same ray everywhere and shows its numbers
+    reflection = next(node for node in tree["nodes"] if node["kind"] == "reflection")
+    page.hover(f"#rt-diagram .rt-node[data-id='{reflection['id']}']")
+    page.wait_for_selector(f"#rt-diagram .rt-node.hl[data-id='{reflection['id']}']")
+    assert page.inner_text("#rt-details h3") == f"Ray #{reflection['id']}"
+    assert reflection["hit"]["object_name"] in page.inner_text("#rt-details")
+    desktop.shot("raytree-hover", full_page=True)
+
+    # the depth slider replays the tree one generation at a time
+    set_range(page, "#rt-depth", 1)
+    first = sum(1 for node in tree["nodes"] if node["depth"] <= 1)
+    assert page.get_attribute("#rt-overlay", "data-rays") == str(first)
+    assert page.locator("#rt-diagram .rt-node.future").count() == n - first
+    set_range(page, "#rt-depth", max(node["depth"] for node in tree["nodes"]))
+
+    # the 3D view orbits with the mouse and zooms with the wheel
+    before = page.locator("#rt-3d").screenshot()
+    box = page.locator("#rt-3d").bounding_box()
+    page.mouse.move(box["x"] + 100, box["y"] + 100)
+    page.mouse.down()
+    page.mouse.move(box["x"] + 220, box["y"] + 140, steps=5)
+    page.mouse.up()
+    page.mouse.wheel(0, 300)
+    time.sleep(0.2)
+    assert page.locator("#rt-3d").screenshot() != before
+    desktop.shot("raytree-3d-orbited", full_page=True)
+
+    # keyboard: the image takes the arrow keys and Enter to choose a pixel
+    page.focus("#render-img")
+    page.keyboard.press("ArrowLeft")
+    page.keyboard.press("Enter")
+    page.wait_for_function(f"() => document.querySelector('#rt-pixel').textContent === 'pixel ({x - 1}, {y})'")
+    page.wait_for_function("() => document.querySelectorAll('#rt-diagram .rt-node').length > 0")
+
+
+def test_web_page_cancel_and_my_jobs(desktop):
+    page = desktop.open().page
+    set_scene(page, whitted(32, 24, spp=4))
+    render(page)
+    set_scene(page, whitted(192, 144, spp=1024))
+    page.click("#btn-render")
+    page.wait_for_selector("#stage[data-status=running]")
+    page.wait_for_function("() => Number(document.querySelector('#render-img').dataset.previews) >= 1")
+    page.click("#btn-cancel")
+    page.wait_for_selector("#stage[data-status=cancelled]", timeout=30_000)
+    assert "Cancelled after" in page.inner_text("#viewer-message")
+    assert page.locator("#job-list li[data-status]").count() == 2
+    assert page.locator("#job-list li[data-status=done] img").count() == 1
+    desktop.shot("viewer-cancelled")
+    # my jobs survive a reload; opening the finished one shows it
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    page.wait_for_selector("#job-list li[data-status=cancelled]")
+    page.click("#job-list li[data-status=done] .job-open")
+    page.wait_for_selector("#stage[data-status=done]")
+    page.wait_for_function("() => document.querySelector('#render-img').naturalWidth === 32")
+
+
+def test_web_page_lessons(desktop, server):
+    page = desktop.open("#lessons").page
+
+    assert run_lesson(page, "bounces", 3) == ["done"] * 3
+    page.wait_for_function(
+        "() => [...document.querySelectorAll('.lesson-panel img')].every(i => i.complete && i.naturalWidth === 160)"
+    )
+    desktop.shot("lesson-bounces", full_page=True)
+
+    assert run_lesson(page, "sampling", 4) == ["done"] * 4
+    samples = [int(c.get_attribute("data-samples")) for c in page.locator(".lesson-panel canvas.samples").all()]
+    assert samples[:2] == [1, 16] and samples[2] > 5 and samples[3] == 16, samples
+    desktop.shot("lesson-sampling", full_page=True)
+
+    # radiosity: an image where the server has it, else the server's own message
+    cornell = scene_dict("cornell_path")
+    cornell["render"]["integrator"] = "radiosity"
+    verdict = httpx.post(f"{server.url}/api/validate", json={"scene": cornell}, timeout=30).json()
+    if not verdict["valid"]:
+        desktop.allow.append(r"status of 422")  # Chromium logs the refused submission
+    statuses = run_lesson(page, "integrators", 3)
+    assert statuses[:2] == ["done", "done"]
+    if verdict["valid"]:
+        assert statuses[2] == "done"
+    else:
+        assert statuses[2] == "refused"
+        assert verdict["errors"][0]["message"] in page.inner_text(".lesson-panel[data-status=refused]")
+    desktop.shot("lesson-integrators", full_page=True)
+
+    # a panel opens in the workspace with its scene and its job
+    page.locator(".lesson-panel").first.get_by_role("button", name="Open in workspace").click()
+    page.wait_for_selector("#page-work:not([hidden]) #stage[data-status=done]")
+    assert json.loads(editor_text(page))["render"]["integrator"] == "whitted"
+
+
+def test_web_page_phone_layout(phone):
+    page = phone.open().page
+    set_scene(page, whitted(80, 60, spp=4))
+    phone.shot("phone-editor")
+    render(page)
+    img = page.locator("#render-img").bounding_box()
+    page.mouse.click(img["x"] + img["width"] * 0.7, img["y"] + img["height"] * 0.6)
+    page.wait_for_selector("#rt-diagram .rt-node")
+    width = page.evaluate("() => document.documentElement.scrollWidth")
+    assert width <= PHONE["width"], f"the page is {width} px wide on a {PHONE['width']} px screen"
+    page.locator("#raytree").scroll_into_view_if_needed()
+    phone.shot("phone-raytree")
+    phone.shot("phone-full", full_page=True)
+    page.click("#tab-lessons")
+    assert run_lesson(page, "dof", 2) == ["done", "done"]
+    assert page.evaluate("() => document.documentElement.scrollWidth") <= PHONE["width"]
+    phone.shot("phone-lesson", full_page=True)
+
+
+def test_web_page_keyboard_reaches_the_controls(desktop):
+    page = desktop.open().page
+    reached = []
+    for _ in range(12):
+        page.keyboard.press("Tab")
+        reached.append(
+            page.evaluate("() => document.activeElement.id || document.activeElement.textContent.trim().slice(0, 20)")
+        )
+    for want in ("tab-work", "example-select", "btn-open-file", "scene-text"):
+        assert want in reached, reached
+    # focus is visible (an outline or a ring), and the tabs move with the arrow keys
+    page.focus("#tab-work")
+    page.keyboard.press("ArrowRight")
+    assert page.evaluate("() => document.activeElement.id") == "tab-lessons"
+    assert page.is_visible("#page-lessons")
+    outline = page.evaluate("() => getComputedStyle(document.activeElement).outlineStyle")
+    assert outline != "none"
+
+
+def test_web_page_broken_server_and_failed_job_show_messages(desktop):
+    page = desktop.page
+    desktop.allow = [r"net::ERR_FAILED", r"status of 422"]
+    # the server stops answering the API: the page says so (and the editor still works)
+    page.route("**/api/**", lambda route: route.abort())
+    desktop.open()
+    page.wait_for_selector("#banner:not([hidden])")
+    assert "Could not reach the server" in page.inner_text("#banner")
+    assert page.locator("#scene-text").is_visible()
+    page.fill("#scene-text", json.dumps(whitted()))
+    page.wait_for_function("() => document.querySelector('#fs-film input').value === '160'")  # the form follows
+    page.wait_for_selector("#validation-status[data-kind=warn]")
+    assert "not answering" in page.inner_text("#validation-status")
+    desktop.shot("broken-server")
+    page.unroute("**/api/**")
+
+    # a job that fails: its reason is shown, not a blank viewer
+    failed = {
+        "id": "F" * 22, "status": "failed", "priority": 0, "name": "broken", "width": 32, "height": 24,
+        "created_at": "2026-01-01T00:00:00Z", "started_at": None, "finished_at": None,
+        "progress": {
+            "samples_done": 0, "samples_total": 3072, "fraction": 0, "passes_done": 0, "spp_done": 0, "spp_total": 4,
+        },
+        "elapsed": 0.1, "eta": None, "rays": {}, "preview": 0, "image_url": None,
+        "events_url": f"/api/jobs/{'F' * 22}/events", "error": "render error: RuntimeError: out of memory",
+        "errors": [], "warnings": [], "attempts": 2, "cancel_requested": False,
+    }  # fmt: skip
+    queued = {**failed, "status": "queued", "error": None}
+    page.route(
+        "**/api/jobs",
+        lambda route: route.fulfill(status=202, json=queued) if route.request.method == "POST" else route.continue_(),
+    )
+    page.route(
+        "**/api/jobs/*/events",
+        lambda route: route.fulfill(
+            status=200,
+            headers={"content-type": "text/event-stream"},
+            body=f"event: end\ndata: {json.dumps(failed)}\n\n",
+        ),
+    )
+    page.click("#btn-render")
+    page.wait_for_selector("#viewer-message[data-kind=error]")
+    assert "The job failed: render error: RuntimeError: out of memory" in page.inner_text("#viewer-message")
+    assert page.get_attribute("#stage", "data-status") == "failed"
+    desktop.shot("failed-job")
+
+    # a lesson panel the server refuses shows the server's message, not an image
+    refusal = {
+        "errors": [{"path": "render.integrator", "message": "the 'radiosity' integrator is not implemented yet"}]
+    }
+
+    def jobs(route):
+        if route.request.method == "POST" and '"radiosity"' in (route.request.post_data or ""):
+            route.fulfill(status=422, json=refusal)
+        else:
+            route.continue_()
+
+    page.unroute("**/api/jobs")
+    page.route("**/api/jobs", jobs)
+    page.unroute("**/api/jobs/*/events")
+    page.click("#tab-lessons")
+    assert run_lesson(page, "integrators", 3) == ["done", "done", "refused"]
+    refused = page.inner_text(".lesson-panel[data-status=refused]")
+    assert "The server refused this scene" in refused and "integrator is not implemented yet" in refused
+    assert page.locator(".lesson-panel[data-status=refused] img").is_hidden()
+    desktop.shot("lesson-refused")

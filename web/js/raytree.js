@@ -1,0 +1,238 @@
+// The ray tree of one pixel sample, shown three ways and linked: the diagram, the rays over the image,
+// and the 3D view. Hovering (or focusing) a ray anywhere highlights it everywhere and shows its numbers;
+// a click keeps it. The depth slider replays the tree one generation of rays at a time.
+import { api } from "./api.js";
+import { renderDiagram } from "./diagram.js";
+import { Overlay } from "./overlay.js";
+import { RAY_STYLES, endWords, legend, styleKey } from "./rays.js";
+import { raySegments, sceneBounds } from "./shapes.js";
+import { $, cssColour, h, num, rgb } from "./util.js";
+import { cameraBasis } from "./vec.js";
+import { View3D } from "./view3d.js";
+
+/** Sample indices a pixel has: the adaptive sampler's grid points, else spp (center: 1). */
+export function sampleCount(scene) {
+  const sp = scene.sampler || {};
+  const type = sp.type || "jittered";
+  if (type === "adaptive") {
+    const g = 2 ** ((sp.max_level ?? 3) + 1);
+    return { count: (g + 1) * (g + 1), centre: (g / 2) * (g + 1) + g / 2, grid: g };
+  }
+  if (type === "center") return { count: 1, centre: 0 };
+  return { count: sp.spp ?? 16, centre: 0 };
+}
+
+export class RayTreePanel {
+  constructor({ onPick, onEditObject }) {
+    this.onPick = onPick; // (x, y): another pixel of the same image
+    this.onEditObject = onEditObject; // (objectIndex)
+    this.el = {
+      section: $("#raytree"),
+      pixel: $("#rt-pixel"),
+      sample: $("#rt-sample"),
+      sampleOf: $("#rt-sample-of"),
+      depth: $("#rt-depth"),
+      depthOut: $("#rt-depth-out"),
+      play: $("#rt-play"),
+      fit: $("#rt-fit"),
+      status: $("#rt-status"),
+      details: $("#rt-details"),
+      diagram: $("#rt-diagram"),
+      body: $("#rt-body"),
+      swatch: $("#rt-colour"),
+    };
+    $("#rt-legend").replaceWith(legend());
+    this.overlay = new Overlay($("#rt-overlay"), { onHover: (id) => this.hover(id), onSelect: (id) => this.select(id), onPick: (x, y) => this.onPick(x, y) });
+    this.view3d = new View3D($("#rt-3d"), { onHover: (id) => this.hover(id), onSelect: (id) => this.select(id) });
+    this.model = null;
+    this.hovered = null;
+    this.selected = null;
+    this.seq = 0;
+    this.el.depth.addEventListener("input", () => this.setDepth(Number(this.el.depth.value)));
+    this.el.play.addEventListener("click", () => this.replay());
+    this.el.sample.addEventListener("change", () => this.reload());
+    this.el.fit.addEventListener("click", () => {
+      const on = this.el.fit.getAttribute("aria-pressed") !== "true";
+      this.el.fit.setAttribute("aria-pressed", String(on));
+      this.diagram?.fit(on);
+    });
+  }
+
+  /** view: the viewer's {id, scene, sceneText, width, height}; imageUrl: what the overlay draws on. */
+  async show(view, imageUrl, x, y, sample = null) {
+    const { count, centre } = sampleCount(view.scene);
+    if (sample === null) sample = this.request && this.request.view.id === view.id ? Math.min(Number(this.el.sample.value) || 0, count - 1) : centre;
+    this.request = { view, imageUrl, x, y, sample };
+    this.el.section.hidden = false;
+    this.el.sample.max = String(count - 1);
+    this.el.sample.value = String(sample);
+    this.el.sampleOf.textContent = `of 0…${count - 1}${view.scene.sampler?.type === "adaptive" ? " (adaptive: a grid point; the centre is the default)" : ""}`;
+    this.el.pixel.textContent = `pixel (${x}, ${y})`;
+    this.status("busy", `Tracing the rays of pixel (${x}, ${y}), sample ${sample}…`);
+    const seq = ++this.seq;
+    let tree;
+    try {
+      tree = await api.raytree(view.sceneText, x, y, sample);
+    } catch (err) {
+      if (seq === this.seq) this.status("error", `Could not get the ray tree: ${err.message}.`);
+      return;
+    }
+    if (seq !== this.seq) return;
+    this.present(tree, view, imageUrl);
+  }
+
+  reload() {
+    if (!this.request) return;
+    const { view, imageUrl, x, y } = this.request;
+    const sample = Math.max(0, Math.floor(Number(this.el.sample.value) || 0));
+    this.show(view, imageUrl, x, y, sample);
+  }
+
+  present(tree, view, imageUrl) {
+    const nodes = tree.nodes;
+    const children = new Map();
+    for (const n of nodes) {
+      if (n.parent === null || n.parent === undefined) continue;
+      if (!children.has(n.parent)) children.set(n.parent, []);
+      children.get(n.parent).push(n);
+    }
+    const root = nodes.find((n) => n.parent === null || n.parent === undefined);
+    const maxDepth = Math.max(...nodes.map((n) => n.depth));
+    const model = { tree, nodes, children, root, maxDepth, byId: new Map(nodes.map((n) => [n.id, n])) };
+    this.model = model;
+    this.hovered = this.selected = null;
+    const { radius } = sceneBounds(view.scene);
+    const segments = raySegments(tree, view.scene, Math.max(1, radius * 0.6));
+    const kinds = {};
+    for (const n of nodes) kinds[styleKey(n)] = (kinds[styleKey(n)] || 0) + 1;
+    const counts = Object.entries(kinds)
+      .map(([k, c]) => `${c} ${RAY_STYLES[k].label.replace("shadow ray, ", "shadow: ")}`)
+      .join(", ");
+    this.el.swatch.style.background = cssColour(tree.color);
+    this.el.swatch.title = `pixel sample colour ${rgb(tree.color)}`;
+    this.status(
+      "ok",
+      `${nodes.length} rays (${counts}). Sample colour ${rgb(tree.color)}${tree.filter_weight !== undefined && tree.filter_weight !== 1 ? ` × filter weight ${num(tree.filter_weight)}` : ""}${tree.time !== undefined ? `, time ${num(tree.time)}` : ""}.${tree.truncated ? " The tree was cut at 8192 rays." : ""}`,
+    );
+    this.el.body.hidden = false;
+    this.diagram = renderDiagram(this.el.diagram, model, { onHover: (id) => this.hover(id, false), onSelect: (id) => this.select(id) });
+    this.diagram.fit(this.el.fit.getAttribute("aria-pressed") === "true");
+    this.overlay.set(imageUrl, { model, segments, basis: cameraBasis(view.scene.camera, view.width, view.height), pixel: [tree.pixel[0], tree.pixel[1]], width: view.width, height: view.height });
+    this.view3d.setScene(view.scene, { width: view.width, height: view.height });
+    this.view3d.setRays({ model, segments });
+    this.el.depth.min = "1";
+    this.el.depth.max = String(maxDepth);
+    this.el.depth.value = String(maxDepth);
+    this.el.depth.disabled = maxDepth <= 1;
+    this.el.play.disabled = maxDepth <= 1;
+    this.setDepth(maxDepth);
+    this.details(null);
+  }
+
+  status(kind, text) {
+    this.el.status.dataset.kind = kind;
+    this.el.status.textContent = text;
+  }
+
+  setDepth(d) {
+    if (!this.model) return;
+    this.depth = d;
+    const shown = this.model.nodes.filter((n) => n.depth <= d).length;
+    this.el.depthOut.textContent = `depth ≤ ${d} of ${this.model.maxDepth}: ${shown} of ${this.model.nodes.length} rays`;
+    this.diagram.setDepth(d);
+    this.overlay.setDepth(d);
+    this.view3d.setDepth(d);
+  }
+
+  replay() {
+    if (this.timer) {
+      clearInterval(this.timer);
+      this.timer = null;
+      this.el.play.textContent = "▶ Replay";
+      return;
+    }
+    let d = 1;
+    this.el.depth.value = "1";
+    this.setDepth(1);
+    this.el.play.textContent = "■ Stop";
+    this.timer = setInterval(() => {
+      d++;
+      if (!this.model || d > this.model.maxDepth) {
+        clearInterval(this.timer);
+        this.timer = null;
+        this.el.play.textContent = "▶ Replay";
+        return;
+      }
+      this.el.depth.value = String(d);
+      this.setDepth(d);
+    }, 900);
+  }
+
+  hover(id, scroll = true) {
+    if (id === this.hovered) return;
+    this.hovered = id;
+    this.link(scroll);
+  }
+
+  select(id) {
+    this.selected = this.selected === id ? null : id;
+    this.link(true);
+  }
+
+  link(scroll) {
+    const id = this.hovered ?? this.selected;
+    this.diagram.highlight(id, scroll && this.hovered !== null);
+    this.overlay.highlight(id);
+    this.view3d.highlight(id);
+    this.details(id);
+  }
+
+  /** The numbers of one ray (or, with none chosen, a hint and the root's). */
+  details(id) {
+    const box = this.el.details;
+    if (!this.model) return;
+    const n = this.model.byId.get(id ?? this.model.root.id);
+    const st = RAY_STYLES[styleKey(n)];
+    const rows = [];
+    const row = (k, v, swatch = null) => rows.push(h("dt", {}, k), h("dd", {}, swatch ? h("span", { class: "sw", style: `background:${cssColour(swatch)}` }) : null, v));
+    const v3 = (v) => (v ? v.map((x) => num(x, 3)).join(", ") : "–");
+    row("ray", `#${n.id} ${n.kind}, depth ${n.depth}${n.parent !== null && n.parent !== undefined ? `, child of #${n.parent}` : ""}`);
+    if (n.kind === "shadow") {
+      row("towards", `light ${n.light}${this.request?.view.scene.lights?.[n.light] ? ` (${this.request.view.scene.lights[n.light].type})` : ""}`);
+      row("result", n.occluded ? `blocked by ${n.hit?.object_name || "an object"} at t = ${num(n.t)}` : "reached the light");
+      row("radiance", `${rgb(n.radiance)} (f_att · I · cosθ · f at the parent's hit; 0 when blocked)`, n.radiance);
+    } else {
+      if (n.hit) {
+        row("hit", `${n.hit.object_name || (n.hit.light !== null && n.hit.light !== undefined ? `light ${n.hit.light}` : `object ${n.hit.object}`)} at t = ${num(n.t)}${n.hit.front_face === false ? " (back face)" : ""}`);
+        row("material", n.hit.material ?? "–");
+      } else row("hit", "nothing: the ray left the scene");
+      row("k", rgb(n.k ?? [1, 1, 1]), null);
+      row("weight", `${rgb(n.weight)} (product of the K's from the eye)`, n.weight);
+      if (n.terms) {
+        const t = n.terms;
+        row("ambient", `${rgb(t.ambient)} = ka · Ia`, t.ambient);
+        row("diffuse", `${rgb(t.diffuse)} = Σ f_att · I · kd/π · cosθ`, t.diffuse);
+        row("specular", `${rgb(t.specular)} = Σ f_att · I · ks (n+2)/2π cosⁿα · cosθ`, t.specular);
+        if (t.emission && t.emission.some((x) => x)) row("emission", rgb(t.emission), t.emission);
+      }
+      row("radiance", `${rgb(n.radiance)} carried back (local terms + weighted children)`, n.radiance);
+      if (n.fog_transmittance !== null && n.fog_transmittance !== undefined) row("fog", `transmittance e^(−density·t) = ${rgb(n.fog_transmittance)}`);
+    }
+    row("ended", endWords(n));
+    row("origin", v3(n.origin));
+    row("direction", v3(n.direction));
+    if (n.hit) {
+      row("hit point", v3(n.hit.point));
+      row("normal", v3(n.hit.normal));
+    }
+    const edit =
+      n.hit && Number.isInteger(n.hit.object) && this.onEditObject
+        ? h("button", { type: "button", class: "small", onclick: () => this.onEditObject(n.hit.object) }, `Edit the material of ${n.hit.object_name || `object ${n.hit.object}`}`)
+        : null;
+    box.replaceChildren(
+      h("h3", {}, h("span", { class: "kind-dot", style: `background:${st.colour}` }), id === null ? "The eye ray (hover a ray for its numbers)" : `Ray #${n.id}`),
+      h("dl", {}, rows),
+      edit,
+    );
+  }
+}

@@ -1,0 +1,519 @@
+// The progressive viewer: submit the editor's scene, follow the job's Server-Sent Events (each pass's
+// image replaces the last), show samples, elapsed, ETA and rays by kind; cancel; download PNG / EXR;
+// the AOVs one click away; "my jobs" (the ids this browser submitted, kept in localStorage).
+import { ApiError, api } from "./api.js";
+import { RAY_STYLES } from "./rays.js";
+import { $, h, integer, num, seconds, store } from "./util.js";
+
+const JOBS_KEY = "rt.jobs";
+const CURRENT_KEY = "rt.viewer.job";
+const MAX_JOBS = 40;
+
+const AOVS = [
+  ["image", "Image"],
+  ["rays", "Rays / pixel"],
+  ["depth", "Depth"],
+  ["normal", "Normals"],
+  ["albedo", "Albedo"],
+  ["variance", "Variance"],
+];
+
+function aovLegend(name, range) {
+  const [lo, hi] = range || [0, 0];
+  switch (name) {
+    case "rays":
+      return `Rays traced per pixel (all kinds): black 0 → red → yellow → white ${integer(hi)} (fewest here: ${integer(lo)}). The adaptive sampler spends rays on edges.`;
+    case "depth":
+      return `Distance to the eye ray's first hit: white = near (${num(lo)}) → dark grey = far (${num(hi)}); black = nothing hit.`;
+    case "normal":
+      return "Shading normal at the eye ray's hit, as colour 0.5 + 0.5 n: x → red, y → green, z → blue.";
+    case "albedo":
+      return "Albedo (kd after textures) at the eye ray's hit: the colour without any lighting.";
+    case "variance":
+      return `Variance of the pixel's samples (mean of R, G, B): black 0 → white ${num(hi)}. Noise lives where it is bright.`;
+    default:
+      return "";
+  }
+}
+
+export class Viewer {
+  constructor({ getScene, onPick, onLoadScene, notify }) {
+    this.getScene = getScene; // () -> {text, value} of the editor, or throws an Error to show
+    this.onPick = onPick; // (view, x, y) when a pixel is chosen
+    this.onLoadScene = onLoadScene; // (scene, name) "edit this job's scene"
+    this.notify = notify;
+    this.view = null; // {id, job, scene, sceneText, width, height}
+    this.es = null;
+    this.previews = 0;
+    this.blobUrl = null;
+    this.aov = "image";
+    this.cursor = null; // [x, y] of the keyboard cursor / last pick
+    this.jobs = new Map(); // id -> job (my jobs)
+    this.el = {
+      render: $("#btn-render"),
+      cancel: $("#btn-cancel"),
+      png: $("#dl-png"),
+      exr: $("#dl-exr"),
+      bar: $("#progress-bar"),
+      stats: $("#job-stats"),
+      rays: $("#job-rays"),
+      message: $("#viewer-message"),
+      stage: $("#stage"),
+      img: $("#render-img"),
+      marker: $("#stage-marker"),
+      empty: $("#stage-empty"),
+      aovs: $("#aov-buttons"),
+      legend: $("#aov-legend"),
+      list: $("#job-list"),
+      title: $("#viewer-title"),
+    };
+    this.el.render.addEventListener("click", () => this.submit());
+    this.el.cancel.addEventListener("click", () => this.cancel());
+    this.el.img.addEventListener("click", (e) => this.click(e));
+    this.el.img.addEventListener("keydown", (e) => this.key(e));
+    this.el.img.addEventListener("load", () => this.layout());
+    this.el.aovs.replaceChildren(
+      ...AOVS.map(([name, label]) => {
+        const b = h("button", { type: "button", dataset: { aov: name }, "aria-pressed": name === "image" ? "true" : "false", disabled: name !== "image" }, label);
+        b.addEventListener("click", () => this.showAov(name));
+        return b;
+      }),
+    );
+    new ResizeObserver(() => this.layout()).observe(this.el.stage);
+    this.setDownloads(null);
+  }
+
+  // -- submitting and following ---------------------------------------------------------------
+
+  async submit() {
+    let scene;
+    try {
+      scene = this.getScene();
+    } catch (err) {
+      this.message("error", err.message);
+      return;
+    }
+    this.el.render.disabled = true;
+    this.message("info", "Submitting…");
+    try {
+      const job = await api.submit(scene.text);
+      this.remember(job);
+      await this.show(job, scene.value, scene.text);
+    } catch (err) {
+      if (err instanceof ApiError && err.status === 422) {
+        this.message("error", "The server refused the scene; its errors are marked in the editor.", err.errors);
+        this.onRefused?.(err.errors);
+      } else this.message("error", `Could not submit the scene: ${err.message}.`);
+    } finally {
+      this.el.render.disabled = false;
+    }
+  }
+
+  /** Show a job (new, or from my list): its latest image, and its events while it runs. */
+  async show(job, scene = null, sceneText = null) {
+    this.closeEvents();
+    this.view = { id: job.id, job, scene, sceneText, width: job.width, height: job.height };
+    store.set(CURRENT_KEY, job.id);
+    this.previews = 0;
+    this.runningPreviews = 0;
+    this.cursor = null;
+    this.aov = "image";
+    this.latestImage = null;
+    this.el.img.dataset.previews = "0";
+    this.el.img.dataset.runningPreviews = "0";
+    this.el.stage.dataset.job = job.id;
+    this.el.title.textContent = job.name || "untitled scene";
+    this.update(job);
+    this.updateAovButtons(job);
+    this.drawMarker();
+    if (job.image_url) await this.loadImage(job.image_url);
+    else this.clearImage();
+    if (!job.status || !["done", "failed", "cancelled"].includes(job.status)) this.follow(job.id);
+    else this.ended(job, false);
+    this.renderList();
+  }
+
+  follow(id) {
+    this.closeEvents();
+    const es = new EventSource(api.eventsUrl(id));
+    this.es = es;
+    let failures = 0;
+    es.addEventListener("progress", (e) => {
+      failures = 0;
+      const p = JSON.parse(e.data);
+      const job = this.view && this.view.id === id ? this.view.job : null;
+      if (!job) return;
+      job.status = p.status;
+      Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total });
+      job.elapsed = p.elapsed;
+      job.eta = p.eta;
+      if (p.rays) job.rays = p.rays;
+      this.update(job);
+    });
+    es.addEventListener("preview", (e) => {
+      const p = JSON.parse(e.data);
+      if (this.view && this.view.id === id) this.loadImage(p.url);
+    });
+    es.addEventListener("end", (e) => {
+      es.close();
+      if (this.es === es) this.es = null;
+      const job = JSON.parse(e.data);
+      if (this.view && this.view.id === id) this.ended(job, true);
+      this.jobs.set(job.id, job);
+      this.renderList();
+    });
+    es.addEventListener("error", () => {
+      if (this.es !== es) return;
+      failures++;
+      if (failures >= 8) {
+        this.closeEvents();
+        this.message("error", "Lost the connection to the server. Is it still running?", null, () => this.reopen(id));
+      } else this.message("warn", "The connection to the server dropped; reconnecting…");
+    });
+  }
+
+  async reopen(id) {
+    try {
+      const job = await api.job(id);
+      await this.show(job, this.view?.scene, this.view?.sceneText);
+    } catch (err) {
+      this.message("error", `Still no answer from the server: ${err.message}.`, null, () => this.reopen(id));
+    }
+  }
+
+  closeEvents() {
+    if (this.es) this.es.close();
+    this.es = null;
+  }
+
+  async ended(job, live) {
+    this.view.job = job;
+    this.update(job);
+    if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
+    this.updateAovButtons(job);
+    if (job.image_url && live) await this.loadImage(job.image_url);
+    if (job.status === "failed") this.message("error", `The job failed: ${job.error || "no reason given"}.`, job.errors && job.errors.length ? job.errors : null);
+    else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
+    else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
+    if (job.status === "done") this.loadAovRanges(job.id);
+  }
+
+  async cancel() {
+    if (!this.view) return;
+    try {
+      const job = await api.cancel(this.view.id);
+      this.message("info", job.status === "cancelled" ? "Cancelled." : "Stopping the render…");
+    } catch (err) {
+      this.message("error", `Could not cancel: ${err.message}.`);
+    }
+  }
+
+  // -- the image --------------------------------------------------------------------------------
+
+  async loadImage(url) {
+    const id = this.view.id;
+    let blob;
+    try {
+      const res = await fetch(url, { cache: "no-store" });
+      if (!res.ok) throw new Error(`the server answered ${res.status}`);
+      blob = await res.blob();
+    } catch (err) {
+      if (this.view && this.view.id === id) this.message("warn", `Could not load the image: ${err.message}.`);
+      return false;
+    }
+    if (!this.view || this.view.id !== id) return false;
+    if (this.aov !== "image" && !url.includes("/aov/")) {
+      this.latestImage = blob; // keep the AOV on screen; the image comes back with the "Image" button
+      return true;
+    }
+    this.setImageBlob(blob, url.includes("/aov/") ? "aov" : "image");
+    return true;
+  }
+
+  setImageBlob(blob, what) {
+    const old = this.blobUrl;
+    this.blobUrl = URL.createObjectURL(blob);
+    if (what === "image") this.imageBlobUrl = this.blobUrl;
+    const img = this.el.img;
+    img.onload = () => {
+      if (old && old !== this.imageBlobUrl) URL.revokeObjectURL(old);
+      if (what === "image") {
+        this.previews++;
+        img.dataset.previews = String(this.previews);
+        if (!["done", "failed", "cancelled"].includes(this.view.job.status)) {
+          this.runningPreviews = (this.runningPreviews || 0) + 1; // images shown while the job still ran
+          img.dataset.runningPreviews = String(this.runningPreviews);
+        }
+      }
+      this.el.empty.hidden = true;
+      img.hidden = false;
+      this.layout();
+    };
+    img.src = this.blobUrl;
+    img.alt = `Render of ${this.view.job.name || "the scene"}${what === "aov" ? ` (${this.aov})` : ""}: click a pixel, or use the arrow keys and Enter, to see its ray tree`;
+  }
+
+  clearImage() {
+    this.el.img.hidden = true;
+    this.el.img.removeAttribute("src");
+    this.imageBlobUrl = null;
+    this.el.empty.hidden = false;
+    this.el.empty.textContent = "Waiting for the first pass…";
+    this.drawMarker();
+  }
+
+  /** The current image as an <img> (for the ray tree's overlay), or null. */
+  image() {
+    return this.el.img.hidden || !this.imageBlobUrl ? null : this.imageBlobUrl;
+  }
+
+  layout() {
+    const v = this.view;
+    const img = this.el.img;
+    if (!v || img.hidden) return;
+    const box = this.el.stage.getBoundingClientRect();
+    const maxH = Math.max(160, Math.min(window.innerHeight * 0.62, 720));
+    const scale = Math.min(box.width / v.width, maxH / v.height);
+    img.style.width = `${Math.max(1, Math.floor(v.width * scale))}px`;
+    img.style.height = `${Math.max(1, Math.floor(v.height * scale))}px`;
+    this.drawMarker();
+  }
+
+  pixelAt(e) {
+    const r = this.el.img.getBoundingClientRect();
+    const x = Math.floor(((e.clientX - r.left) / r.width) * this.view.width);
+    const y = Math.floor(((e.clientY - r.top) / r.height) * this.view.height);
+    return [Math.min(this.view.width - 1, Math.max(0, x)), Math.min(this.view.height - 1, Math.max(0, y))];
+  }
+
+  click(e) {
+    if (!this.view) return;
+    const [x, y] = this.pixelAt(e);
+    this.pick(x, y);
+  }
+
+  key(e) {
+    if (!this.view) return;
+    const step = e.shiftKey ? 10 : 1;
+    const c = this.cursor || [Math.floor(this.view.width / 2), Math.floor(this.view.height / 2)];
+    const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] };
+    if (moves[e.key]) {
+      e.preventDefault();
+      this.cursor = [Math.min(this.view.width - 1, Math.max(0, c[0] + moves[e.key][0])), Math.min(this.view.height - 1, Math.max(0, c[1] + moves[e.key][1]))];
+      this.drawMarker();
+    } else if (e.key === "Enter" || e.key === " ") {
+      e.preventDefault();
+      this.pick(...c);
+    }
+  }
+
+  pick(x, y) {
+    this.cursor = [x, y];
+    this.drawMarker();
+    this.onPick(this.view, x, y);
+  }
+
+  drawMarker() {
+    const m = this.el.marker;
+    const v = this.view;
+    if (!v || !this.cursor || this.el.img.hidden) {
+      m.hidden = true;
+      return;
+    }
+    const r = this.el.img.getBoundingClientRect();
+    const s = this.el.stage.getBoundingClientRect();
+    const px = r.width / v.width;
+    const size = Math.max(px, 7);
+    m.hidden = false;
+    m.style.left = `${r.left - s.left + (this.cursor[0] + 0.5) * px - size / 2}px`;
+    m.style.top = `${r.top - s.top + (this.cursor[1] + 0.5) * (r.height / v.height) - size / 2}px`;
+    m.style.width = m.style.height = `${size}px`;
+  }
+
+  // -- numbers ----------------------------------------------------------------------------------
+
+  update(job) {
+    const p = job.progress || {};
+    const st = this.el.stats;
+    this.el.bar.value = p.fraction || 0;
+    this.el.bar.textContent = `${Math.round((p.fraction || 0) * 100)}%`;
+    this.el.stage.dataset.status = job.status;
+    const running = job.status === "running" || job.status === "queued";
+    this.el.cancel.disabled = !running;
+    const row = (k, v) => [h("div", {}, h("dt", {}, k), h("dd", {}, v))];
+    st.replaceChildren(
+      ...row("status", job.status),
+      ...row("samples", `${integer(p.samples_done)} / ${integer(p.samples_total)} (${Math.round((p.fraction || 0) * 100)}%)`),
+      ...row("passes", `${p.passes_done ?? 0} · ${p.spp_done ?? 0} of ${p.spp_total ?? "?"} spp`),
+      ...row("elapsed", seconds(job.elapsed)),
+      ...row("ETA", running ? seconds(job.eta) : "–"),
+    );
+    const rays = job.rays || {};
+    const chip = (kind) => h("span", { class: "chip", style: `--c:${RAY_STYLES[kind].colour}` }, `${kind} ${integer(rays[kind] ?? 0)}`);
+    this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), h("span", {}, `total ${integer(rays.total ?? 0)}`));
+    this.setDownloads(job);
+    if (running) this.message("info", job.status === "queued" ? "Queued: waiting for the render worker…" : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
+    if (this.jobs.has(job.id)) {
+      this.jobs.set(job.id, job);
+    }
+  }
+
+  setDownloads(job) {
+    for (const [a, fmt] of [
+      [this.el.png, "png"],
+      [this.el.exr, "exr"],
+    ]) {
+      if (job && job.preview) {
+        a.href = api.imageUrl(job.id, fmt);
+        a.setAttribute("download", `${(job.name || "render").replace(/[^A-Za-z0-9_-]+/g, "_").slice(0, 40)}.${fmt}`);
+        a.removeAttribute("aria-disabled");
+        a.removeAttribute("tabindex");
+      } else {
+        a.removeAttribute("href");
+        a.setAttribute("aria-disabled", "true");
+      }
+    }
+  }
+
+  message(kind, text, errors = null, retry = null) {
+    const m = this.el.message;
+    m.dataset.kind = kind;
+    const parts = [h("span", {}, text)];
+    if (errors) parts.push(h("ul", {}, errors.map((e) => h("li", {}, e.path ? h("code", {}, e.path) : null, e.path ? " " : null, e.message))));
+    if (retry) parts.push(h("button", { type: "button", onclick: retry }, "Try again"));
+    m.replaceChildren(...parts);
+  }
+
+  // -- AOVs -------------------------------------------------------------------------------------
+
+  updateAovButtons(job) {
+    for (const b of this.el.aovs.querySelectorAll("button")) {
+      const name = b.dataset.aov;
+      b.disabled = name !== "image" && job.status !== "done";
+      b.setAttribute("aria-pressed", String(name === this.aov));
+      b.title = b.disabled ? "AOVs are saved when the job is done" : "";
+    }
+    if (this.aov === "image") this.el.legend.textContent = job.status === "done" ? "The AOVs (arbitrary output variables) show what the renderer saw at each pixel." : "";
+  }
+
+  async loadAovRanges(id) {
+    try {
+      const { ranges } = await api.aovs(id);
+      if (this.view && this.view.id === id) this.view.aovRanges = ranges;
+    } catch {
+      // the legend then shows no numbers
+    }
+  }
+
+  async showAov(name) {
+    if (!this.view) return;
+    this.aov = name;
+    this.updateAovButtons(this.view.job);
+    if (name === "image") {
+      if (this.latestImage) {
+        this.setImageBlob(this.latestImage, "image");
+        this.latestImage = null;
+      } else if (this.imageBlobUrl) {
+        this.el.img.src = this.imageBlobUrl;
+        this.blobUrl = this.imageBlobUrl;
+      }
+      this.el.legend.textContent = "";
+      return;
+    }
+    const ok = await this.loadImage(api.aovUrl(this.view.id, name));
+    if (ok) this.el.legend.textContent = aovLegend(name, this.view.aovRanges && this.view.aovRanges[name]);
+  }
+
+  // -- my jobs ----------------------------------------------------------------------------------
+
+  remember(job) {
+    const ids = [job.id, ...store.get(JOBS_KEY, []).filter((x) => x !== job.id)].slice(0, MAX_JOBS);
+    store.set(JOBS_KEY, ids);
+    this.jobs = new Map([[job.id, job], ...this.jobs]);
+    this.renderList();
+  }
+
+  /** Load my jobs from the server (and the one shown before the reload). */
+  async restore() {
+    const ids = store.get(JOBS_KEY, []);
+    const found = await Promise.all(
+      ids.map((id) =>
+        api.job(id).then(
+          (job) => job,
+          (err) => (err.status === 404 ? null : { id, missing: err.message }),
+        ),
+      ),
+    );
+    const jobs = found.filter(Boolean);
+    store.set(JOBS_KEY, jobs.map((j) => j.id));
+    this.jobs = new Map(jobs.filter((j) => !j.missing).map((j) => [j.id, j]));
+    this.renderList();
+    const current = store.get(CURRENT_KEY, null);
+    if (current && this.jobs.has(current)) await this.show(this.jobs.get(current));
+  }
+
+  async open(id) {
+    try {
+      const job = await api.job(id);
+      this.jobs.set(id, job);
+      await this.show(job);
+    } catch (err) {
+      this.message("error", `Could not open the job: ${err.message}.`);
+    }
+  }
+
+  forget(id) {
+    store.set(JOBS_KEY, store.get(JOBS_KEY, []).filter((x) => x !== id));
+    this.jobs.delete(id);
+    this.renderList();
+  }
+
+  /** The scene a job rendered (for its ray tree): kept from the submission, else asked of the server. */
+  async sceneOf(view) {
+    if (!view.scene) {
+      view.scene = await api.jobScene(view.id);
+      view.sceneText = JSON.stringify(view.scene);
+    }
+    return view;
+  }
+
+  renderList() {
+    const list = this.el.list;
+    const items = [...this.jobs.values()];
+    if (!items.length) {
+      list.replaceChildren(h("li", { class: "empty" }, "Jobs you submit from this browser appear here."));
+      return;
+    }
+    list.replaceChildren(
+      ...items.map((job) => {
+        const when = job.created_at ? new Date(job.created_at).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" }) : "";
+        const thumb = job.image_url ? h("img", { src: job.image_url, alt: "", loading: "lazy", width: 64, height: Math.round((64 * job.height) / job.width) }) : h("span", { class: "thumb-empty" }, "no image");
+        return h(
+          "li",
+          { class: this.view && this.view.id === job.id ? "current" : "", dataset: { status: job.status, id: job.id } },
+          h(
+            "button",
+            { type: "button", class: "job-open", onclick: () => this.open(job.id), "aria-label": `Show job ${job.name || ""} (${job.status})` },
+            thumb,
+            h("span", { class: "job-text" }, h("strong", {}, job.name || "untitled"), h("span", {}, `${job.status} · ${job.width}×${job.height} · ${job.progress?.spp_total ?? "?"} spp · ${when}`)),
+          ),
+          h(
+            "span",
+            { class: "job-actions" },
+            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", onclick: () => this.loadSceneOf(job) }, "Edit"),
+            h("button", { type: "button", class: "small", "aria-label": `Remove ${job.name || "job"} from my list`, title: "Remove from my list", onclick: () => this.forget(job.id) }, "×"),
+          ),
+        );
+      }),
+    );
+  }
+
+  async loadSceneOf(job) {
+    try {
+      const scene = await api.jobScene(job.id);
+      this.onLoadScene(scene, job.name || "job");
+    } catch (err) {
+      this.message("error", `Could not load the job's scene: ${err.message}.`);
+    }
+  }
+}
