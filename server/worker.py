@@ -242,6 +242,8 @@ class Worker:
                 final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
                 publish(final)
                 self._save_aovs(job_id, result.aovs)
+                if compiled.radiosity is not None:
+                    self._save_radiosity(job_id, compiled.radiosity)
                 store.finish(
                     job_id, pid, JobStatus.done, samples_done=done["total"], samples_total=done["total"],
                     passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number,
@@ -262,6 +264,14 @@ class Worker:
             write_atomic(aov_path(self.store, job_id, "ranges"), lambda tmp: tmp.write_text(text))
         except Exception:  # the image is what matters: a job never fails for its AOV pictures
             log.exception("job %s: could not save the AOV pictures", job_id)
+
+    def _save_radiosity(self, job_id: str, solution) -> None:
+        """A radiosity job's solution (patches, convergence, snapshots) for GET /api/jobs/{id}/radiosity."""
+        try:
+            text = json.dumps(solution.to_json())
+            write_atomic(self.store.jobs_dir / job_id / "radiosity.json", lambda tmp: tmp.write_text(text))
+        except Exception:  # the image is what matters
+            log.exception("job %s: could not save the radiosity solution", job_id)
 
     def _stopped(self, job: dict, reason: str | None, last: _Pass | None, published: int, publish) -> None:
         """End a render that stopped early: keep the last pass's image, then record why."""

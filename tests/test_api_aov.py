@@ -92,3 +92,29 @@ def test_api_aov_job_scene_and_rays_in_progress_events(client):
     progress = [d for e, d in events if e == "progress"]
     assert progress and progress[-1]["rays"]["eye"] == 16 * 16 * 4
     assert client.get("/api/jobs/AAAAAAAAAAAAAAAAAAAAAA/scene").status_code == 404
+
+
+def test_api_radiosity_solution_of_a_finished_job(client):
+    """A radiosity job keeps its solution: the patches, the energy balance, who shot when."""
+    import json
+    from pathlib import Path
+
+    scene = json.loads((Path(__file__).resolve().parent.parent / "scenes" / "cornell_radiosity.json").read_text())
+    scene["film"].update(width=16, height=16)
+    scene["sampler"] = {"type": "center"}
+    scene["render"]["radiosity"] = {"patch_size": 0.5, "rays": 256, "threshold": 0.05}
+    job_id = submit(client, scene)
+    wait_status(client, job_id, {"done"}, timeout=120)
+    sol = client.get(f"/api/jobs/{job_id}/radiosity").json()
+    n = len(sol["patches"]["area"])
+    assert n > 0 and len(sol["radiosity"]) == n and len(sol["patches"]["corner"]) == n
+    e = sol["energy"]
+    balance = np.array(e["emitted"]) - np.array(e["absorbed"]) - np.array(e["unshot"]) - np.array(e["escaped"])
+    np.testing.assert_allclose(balance, 0, atol=1e-4 * max(e["emitted"]))
+    assert sol["history"][0]["shooter"] == "lights[0]" and isinstance(sol["history"][1]["shooter"], int)
+    assert "1" in sol["snapshots"] and len(sol["snapshots"]["1"]) == n
+    # a job of another integrator has none
+    other = submit(client, tiny_scene(8, spp=1, seed=1))
+    wait_status(client, other, {"done"})
+    r = client.get(f"/api/jobs/{other}/radiosity")
+    assert r.status_code == 404 and "not radiosity" in r.json()["errors"][0]["message"]

@@ -75,8 +75,43 @@ class Solution:
     history: list[dict] = field(default_factory=list)  # per step: shooter, unshot total, rays
     direct: np.ndarray | None = None  # (N, 3) B once the lights have shot: emitted + directly lit
 
+    snapshots: dict = field(default_factory=dict)  # step -> (N, 3) B after that many shots (1, 2, 4, 8, ...)
+
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
+
+    def to_json(self) -> dict:
+        """The method made visible: the patch mesh (corner, e1, e2, triangle, normal, area, object;
+        sides N/2.. are the backs of 0..N/2), the final radiosity, the energy balance, the convergence
+        curve (per shot: who shot, how much, the unshot power left), and snapshots of the radiosity
+        after 1, 2, 4, 8, ... shots. Plain lists, ready for JSON."""
+        p = self.patches
+
+        def rows(a: np.ndarray, digits: int = 6) -> list:
+            return np.round(np.asarray(a, dtype=np.float64), digits).tolist()
+
+        return {
+            "patches": {
+                "corner": rows(p.corner),
+                "e1": rows(p.e1),
+                "e2": rows(p.e2),
+                "triangle": p.triangle.tolist(),
+                "normal": rows(p.normal),
+                "area": rows(p.area),
+                "object": p.obj.tolist(),
+                "reflectance": rows(p.reflectance),
+                "emission": rows(p.emission),
+            },
+            "radiosity": rows(self.radiosity),
+            "energy": {
+                "emitted": rows(self.emitted),
+                "absorbed": rows(self.absorbed),
+                "unshot": rows(self.unshot.sum(axis=0)),
+                "escaped": rows(self.escaped),
+            },
+            "history": self.history,
+            "snapshots": {str(k): rows(v) for k, v in sorted(self.snapshots.items())},
+        }
 
 
 # ----------------------------------------------------------------------------------------- meshing
@@ -382,15 +417,18 @@ def solve(
             step += 1
     sol.direct = sol.radiosity.copy()
     # 3. progressive refinement: the patch with the most unshot power shoots it
+    sol.snapshots[step] = sol.radiosity.copy()
     while step < max_steps and sol.unshot_total() > threshold * float(sol.emitted.sum()):
         k = int(np.argmax(sol.unshot.sum(axis=1)))
         power = sol.unshot[k].copy()
         sol.unshot[k] = 0.0
         _shoot(sol, cs, pm, received, 0, k, -1, seed, step, rays, power, receive)
-        sol.history.append({"step": step, "shooter": k, "unshot": sol.unshot_total()})
+        sol.history.append({"step": step, "shooter": k, "power": float(power.sum()), "unshot": sol.unshot_total()})
         if on_step:
             on_step(sol, step)
         step += 1
+        if step & (step - 1) == 0:  # after 1, 2, 4, 8, ... shots in all
+            sol.snapshots[step] = sol.radiosity.copy()
     del keep
     return sol
 

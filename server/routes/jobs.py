@@ -166,6 +166,23 @@ def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
         raise ApiError(404, "the job's AOVs are missing from the data directory") from None
 
 
+@router.get(
+    "/{job_id}/radiosity", summary="A finished radiosity job's solution: patches, convergence", responses=NOT_FOUND
+)
+def radiosity(job: JobDep, store: StoreDep) -> Response:
+    """`patches` (corner, e1, e2, triangle, normal, area, object, reflectance, emission; the second half
+    are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
+    unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after 1, 2, 4,
+    ... shots), for showing which patch shoots, step by step."""
+    if job["status"] != JobStatus.done.value:
+        raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
+    try:
+        data = (store.jobs_dir / job["id"] / "radiosity.json").read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, "this job has no radiosity solution (its integrator is not radiosity)") from None
+    return Response(data, media_type="application/json")
+
+
 @router.get("/{job_id}/aov", summary="The AOV pictures of a finished job and the range of each", responses=NOT_FOUND)
 def aov_list(job: JobDep, store: StoreDep) -> dict:
     """`names`; `ranges` {name: [min, max]} of the values the pictures show (rays per pixel, depth, ...)."""
