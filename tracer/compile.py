@@ -160,10 +160,6 @@ FACE_SMOOTH = 1
 FACE_UV = 2
 
 
-class NotImplementedFeature(SceneError):
-    """A valid scene uses a feature this renderer does not implement yet."""
-
-
 @dataclass
 class CompiledScene:
     """The Warp-side scene plus what Python needs to explain it (names for the ray tree)."""
@@ -185,11 +181,6 @@ def _v(x) -> wp.vec3:
 def _unit(x) -> np.ndarray:
     a = np.asarray(x, dtype=np.float64)
     return a / np.linalg.norm(a)
-
-
-def not_implemented(scene: Scene) -> list[dict]:
-    """Features the schema accepts that a later issue implements: refused, never ignored (none now)."""
-    return []
 
 
 def _all_materials(scene: Scene):
@@ -465,9 +456,6 @@ def _camera(scene: Scene) -> CameraData:
 
 def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu") -> CompiledScene:
     """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets."""
-    errs = not_implemented(scene)
-    if errs:
-        raise NotImplementedFeature(errs)
     images = _Images(Path(asset_dir))
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}

@@ -18,7 +18,6 @@ from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatu
 from server.settings import Settings
 from server.store import JobStore, QueueFull
 from server.worker import AOV_NAMES, aov_path
-from tracer.compile import not_implemented
 from tracer.scene import Scene, SceneError, json_path, load_scene, resolve_asset
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -30,12 +29,12 @@ NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
 
 
 def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
-    """Validate a scene for rendering: the format and limits, features not implemented yet, asset files."""
+    """Validate a scene for rendering: the format and limits, and its asset files."""
     try:
         scene, warnings = load_scene(data, settings.limits)
     except SceneError as exc:
         raise ApiError(422, exc.errors) from None
-    errors = not_implemented(scene) + asset_errors(scene)
+    errors = asset_errors(scene)
     if errors:
         raise ApiError(422, errors)
     return scene, warnings

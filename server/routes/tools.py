@@ -28,7 +28,7 @@ def schema() -> dict:
 @router.post("/validate", summary="Check a scene: errors with JSON paths, and warnings")
 def validate(body: ValidateRequest, settings: SettingsDep) -> dict:
     """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
-    features not implemented yet and asset files are all checked."""
+    and the asset files are all checked."""
     try:
         _, warnings = check_scene(body.scene, settings)
     except ApiError as exc:
