@@ -16,8 +16,9 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
+from server.grading import GradeRuns
 from server.pool import WorkerPool
-from server.routes import jobs, scenes, tools
+from server.routes import grade, jobs, scenes, tools
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
@@ -39,6 +40,7 @@ async def lifespan(app: FastAPI):
         log.info("jobs left running by the last server: %d back in the queue, %d cancelled", requeued, cancelled)
     pool = WorkerPool(settings, store) if settings.workers > 0 else None
     app.state.store, app.state.pool = store, pool
+    app.state.grade_runs = GradeRuns(settings.data_dir, store, pool.notify if pool else None)
     if pool is not None:
         pool.start()
     else:
@@ -74,11 +76,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         'Every error answer is `{"errors": [{"path", "message"}]}` with the JSON path of the offending field.',
     )
     app.state.settings = settings
-    app.state.store = app.state.pool = None
+    app.state.store = app.state.pool = app.state.grade_runs = None
     install_error_handlers(app)
     app.add_middleware(RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth)
     app.include_router(jobs.router)
     app.include_router(tools.router)
     app.include_router(scenes.router)
+    app.include_router(grade.router)
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

@@ -66,8 +66,10 @@ def worker_main(settings_data: dict, stop_event, wake_event, ready_event) -> Non
 
 
 def aov_path(store: JobStore, job_id: str, name: str) -> Path:
-    """Where a finished job's AOV picture is kept: `aov_<name>.png` beside its image (`aovs.json`: ranges)."""
-    return store.jobs_dir / job_id / (f"aov_{name}.png" if name != "ranges" else "aovs.json")
+    """Where a finished job's AOV picture is kept: `aov_<name>.png` beside its image (`aovs.json`: ranges;
+    `aovs.exr`: the float AOVs, the variance as RGB and the others as layers)."""
+    special = {"ranges": "aovs.json", "exr": "aovs.exr"}
+    return store.jobs_dir / job_id / special.get(name, f"aov_{name}.png")
 
 
 def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
@@ -256,12 +258,17 @@ class Worker:
 
     def _save_aovs(self, job_id: str, aovs: dict) -> None:
         """The AOV pictures of a finished render, beside its image (before the job is marked done)."""
+        from tracer.film import aov_layers, write_exr
+
         try:
             pictures, ranges = aov_pictures(aovs)
             for name, png in pictures.items():
                 write_atomic(aov_path(self.store, job_id, name), lambda tmp, png=png: tmp.write_bytes(png))
             text = json.dumps(ranges)
             write_atomic(aov_path(self.store, job_id, "ranges"), lambda tmp: tmp.write_text(text))
+            layers = aov_layers(aovs)  # the floats too (the grader's variance), as EXR layers
+            variance = layers.pop("variance")
+            write_atomic(aov_path(self.store, job_id, "exr"), lambda tmp: write_exr(tmp, variance, layers))
         except Exception:  # the image is what matters: a job never fails for its AOV pictures
             log.exception("job %s: could not save the AOV pictures", job_id)
 

@@ -5,6 +5,8 @@ python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H]
 python -m tracer raytree SCENE.json X Y [--sample K]
 python -m tracer validate SCENE.json
 python -m tracer bench [--quick]
+python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
+    SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
 """
 
 from __future__ import annotations
@@ -131,6 +133,77 @@ def cmd_bench(args) -> int:
     return bench_main(args)
 
 
+def cmd_grade(args) -> int:
+    from tracer.grading import (
+        AssignmentError,
+        Grader,
+        GradingError,
+        Submission,
+        collect,
+        load_assignment,
+        student_name,
+        write_all,
+    )
+
+    try:
+        assignment, base = load_assignment(Path(args.assignment))
+        grader = Grader(assignment, base, None)
+    except AssignmentError as exc:
+        for e in exc.errors:
+            print(f"error: assignment: {e['path'] or '(assignment)'}: {e['message']}", file=sys.stderr)
+        return 1
+    path = Path(args.submission)
+    out = Path(args.output)
+    batch = path.is_dir() or path.suffix.lower() == ".zip"
+    try:
+        if batch:
+            subs = collect(path)
+        else:
+            kind = {".png": "png", ".exr": "exr"}.get(path.suffix.lower(), "scene")
+            subs = [Submission(args.student or student_name(path.stem), path.read_bytes(), kind, path.name)]
+    except (GradingError, OSError) as exc:
+        print(f"error: {path}: {getattr(exc, 'strerror', None) or exc}", file=sys.stderr)
+        return 1
+    if not subs:
+        print(f"error: {path}: no submissions (.json, .png or .exr files)", file=sys.stderr)
+        return 1
+    if batch:  # through a job queue of our own: worker processes, a time limit per render
+        from server.grading import local_queue
+
+        shown = [-1]
+
+        def progress(done: int, total: int) -> None:
+            if done != shown[0]:
+                shown[0] = done
+                print(f"renders done: {done}/{total}", file=sys.stderr, flush=True)
+
+        with local_queue(out / ".queue", workers=args.workers, on_progress=progress) as queue:
+            grader.renderer = queue
+            reports = grader.grade(subs)
+    else:
+        from tracer.grading import InlineRenderer
+
+        grader.renderer = InlineRenderer(args.threads)
+        reports = grader.grade(subs)
+    table = write_all(out, reports)
+    if args.json:
+        json.dump(table if batch else reports[0].to_json(), sys.stdout, indent=1)
+        print()
+        return 0
+    for r in reports:
+        print(f"{r.student}: {r.score:g} / {r.max_score:g} ({r.status})")
+        if not batch:
+            for t in r.tests:
+                print(f"  {'PASS' if t.passed else 'FAIL'} {t.name} ({t.score:g}/{t.max_score:g}): "
+                      + t.output.replace("\n", "\n      "))  # fmt: skip
+    stats = table["statistics"]
+    if batch:
+        print(f"{stats['students']} students, mean {stats['mean']:g}; summary in {out / 'summary.csv'}")
+    else:
+        print(f"report and pictures in {out / reports[0].student}/")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tracer", description="Educational ray tracer on NVIDIA Warp.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -179,6 +252,16 @@ def build_parser() -> argparse.ArgumentParser:
         "llvm_ad_rgb needs Debian's libllvm19)",
     )
     b.set_defaults(func=cmd_bench)
+
+    g = sub.add_parser("grade", help="grade a scene, a student's image or a class against an assignment")
+    g.add_argument("assignment", help="the assignment spec (JSON; docs/grading.md)")
+    g.add_argument("submission", help="a scene (.json), an image (.png, .exr), or a class: a folder or a .zip")
+    g.add_argument("-o", "--output", default="grades", help="folder for the reports (default: grades)")
+    g.add_argument("--student", help="the student's name for one submission (default: the file name)")
+    g.add_argument("--workers", type=int, default=2, help="a class: render worker processes (default 2)")
+    g.add_argument("--threads", type=int, default=None, help="one submission: render threads")
+    g.add_argument("--json", action="store_true", help="print the report (a class: the summary) as JSON")
+    g.set_defaults(func=cmd_grade)
     return p
 
 

@@ -38,6 +38,7 @@ from tracer.sampling import concentric_disk, rng_start, sample_cosine_hemisphere
 from tracer.scene import Scene, SceneError
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
+SNAPSHOT_EVERY_STEP = 16  # snapshots of B after every shot up to this many, then after 32, 64, 128, ...
 
 
 @dataclass
@@ -75,7 +76,7 @@ class Solution:
     history: list[dict] = field(default_factory=list)  # per step: shooter, unshot total, rays
     direct: np.ndarray | None = None  # (N, 3) B once the lights have shot: emitted + directly lit
 
-    snapshots: dict = field(default_factory=dict)  # step -> (N, 3) B after that many shots (1, 2, 4, 8, ...)
+    snapshots: dict = field(default_factory=dict)  # step -> (N, 3) B after that many shots (see SNAPSHOT_EVERY_STEP)
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
@@ -84,7 +85,7 @@ class Solution:
         """The method made visible: the patch mesh (corner, e1, e2, triangle, normal, area, object;
         sides N/2.. are the backs of 0..N/2), the final radiosity, the energy balance, the convergence
         curve (per shot: who shot, how much, the unshot power left), and snapshots of the radiosity
-        after 1, 2, 4, 8, ... shots. Plain lists, ready for JSON."""
+        after every shot up to 16, then 32, 64, ... and the last. Plain lists, ready for JSON."""
         p = self.patches
 
         def rows(a: np.ndarray, digits: int = 6) -> list:
@@ -427,8 +428,9 @@ def solve(
         if on_step:
             on_step(sol, step)
         step += 1
-        if step & (step - 1) == 0:  # after 1, 2, 4, 8, ... shots in all
+        if step <= SNAPSHOT_EVERY_STEP or step & (step - 1) == 0:  # every early shot, then 32, 64, ...
             sol.snapshots[step] = sol.radiosity.copy()
+    sol.snapshots[step] = sol.radiosity.copy()  # and the final solution
     del keep
     return sol
 

@@ -171,8 +171,8 @@ def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
 def radiosity(job: JobDep, store: StoreDep) -> Response:
     """`patches` (corner, e1, e2, triangle, normal, area, object, reflectance, emission; the second half
     are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
-    unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after 1, 2, 4,
-    ... shots), for showing which patch shoots, step by step."""
+    unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after every
+    shot up to 16, then 32, 64, ..., and the last), for showing which patch shoots, step by step."""
     if job["status"] != JobStatus.done.value:
         raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
     try:

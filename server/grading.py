@@ -1,0 +1,196 @@
+"""Grading through the job queue: the grader's renders become jobs that the render workers take like
+any other, each with the assignment's time limit, so one slow or broken submission fails alone
+(its worker is stopped at the limit, or dies and is replaced) while the others go on.
+
+- `QueueRenderer`: a tracer.grading renderer that submits jobs to a JobStore and waits for them.
+- `local_queue()`: a job store and worker pool of its own in a folder (the CLI's batch grading).
+- `GradeRuns`: grading runs of the service (POST /api/grade): each runs in a thread of the API
+  process, keeps its files under <data_dir>/grades/<id>/ and its state in status.json.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from server.models import JobStatus
+from server.settings import Settings
+from server.store import JobStore, write_atomic
+from server.worker import aov_path
+from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
+from tracer.scene import SceneError, load_scene
+
+log = logging.getLogger("server.grading")
+
+POLL = 0.1  # seconds between two looks at the grading jobs' rows
+FINISHED = {JobStatus.done.value, JobStatus.failed.value, JobStatus.cancelled.value}
+STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
+    "render.png": "image/png", "reference.png": "image/png", "error_map.png": "image/png",
+    "rejected.png": "image/png", "results.json": "application/json", "report.json": "application/json",
+}  # fmt: skip
+
+
+class QueueRenderer:
+    """Renders a grader's jobs as queued render jobs, and waits for all of them.
+
+    `wake` tells idle workers there is work; `on_progress(done, total)` follows the renders;
+    `max_queued` is passed to the store (grading may queue a whole class at once)."""
+
+    def __init__(
+        self,
+        store: JobStore,
+        wake: Callable[[], None] | None = None,
+        on_progress: Callable[[int, int], None] | None = None,
+        max_queued: int = 1_000_000,
+    ):
+        self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
+        self.job_ids: list[str | None] = []
+
+    def __call__(self, jobs: list[RenderJob]) -> list[Rendered]:
+        out: list[Rendered | None] = [None] * len(jobs)
+        ids: dict[int, str] = {}
+        for i, job in enumerate(jobs):
+            try:
+                scene, warnings = load_scene(job.scene, job.limits)
+            except SceneError as e:
+                out[i] = Rendered(error="invalid scene: " + "; ".join(f"{x['path']}: {x['message']}" for x in e.errors))
+                continue
+            row = self.store.create(
+                json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=scene.film.width,
+                height=scene.film.height, spp=scene.sampler.spp, priority=job.priority, warnings=warnings,
+                max_seconds=job.max_seconds, max_queued=self.max_queued,
+            )  # fmt: skip
+            ids[i] = row["id"]
+        self.job_ids = [ids.get(i) for i in range(len(jobs))]
+        if self.wake:
+            self.wake()
+        pending = dict(ids)
+        total = len(jobs)
+        while pending:
+            for i, job_id in list(pending.items()):
+                row = self.store.get(job_id)
+                if row is not None and row["status"] in FINISHED:
+                    out[i] = self._result(row)
+                    del pending[i]
+            if self.on_progress:
+                self.on_progress(total - len(pending), total)
+            if pending:
+                time.sleep(POLL)
+        return out  # type: ignore[return-value]
+
+    def _result(self, row: dict) -> Rendered:
+        from tracer.film import read_exr
+
+        if row["status"] != JobStatus.done.value:
+            return Rendered(error=row["error"] or f"the render job {row['id']} was {row['status']}")
+        try:
+            image = read_exr(self.store.image_path(row["id"], "exr"))
+            variance = read_exr(aov_path(self.store, row["id"], "exr"))
+        except Exception as e:  # a file missing or broken: that job's result is an error, not the run's
+            return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
+        seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)
+        return Rendered(image, variance, int(row["spp_done"]), max(0.0, seconds))
+
+
+@contextmanager
+def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[QueueRenderer]:
+    """A job store and `workers` render processes of their own (for the CLI): yields a QueueRenderer."""
+    from server.pool import WorkerPool
+    from server.worker import load_kernels
+
+    settings = Settings(data_dir=data_dir, workers=max(1, workers), max_job_seconds=3600.0)
+    data_dir.mkdir(parents=True, exist_ok=True)
+    load_kernels()  # compile once here, so the workers only read Warp's cache
+    store = JobStore(data_dir)
+    store.recover()
+    pool = WorkerPool(settings, store)
+    pool.start()
+    try:
+        yield QueueRenderer(store, pool.notify, on_progress)
+    finally:
+        pool.shutdown()
+
+
+class GradeRuns:
+    """The service's grading runs: start one, read its state; runs left unfinished by a stopped
+    server are marked failed at start-up (their render jobs, if queued, still run)."""
+
+    def __init__(self, data_dir: Path, store: JobStore, wake: Callable[[], None] | None):
+        self.root = data_dir / "grades"
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.store, self.wake = store, wake
+        self._lock = threading.Lock()
+        for status in self.root.glob("*/status.json"):
+            try:
+                state = json.loads(status.read_text())
+            except (OSError, ValueError):
+                continue
+            if state.get("status") == "running":
+                state.update(status="failed", error="the server stopped while grading; submit it again")
+                self._write(status.parent, state)
+
+    def folder(self, run_id: str) -> Path | None:
+        if len(run_id) != 32 or not all(c in "0123456789abcdef" for c in run_id):
+            return None
+        path = self.root / run_id
+        return path if (path / "status.json").is_file() else None
+
+    def state(self, run_id: str) -> dict | None:
+        folder = self.folder(run_id)
+        if folder is None:
+            return None
+        return json.loads((folder / "status.json").read_text())
+
+    def _write(self, folder: Path, state: dict) -> None:
+        text = json.dumps(state)
+        write_atomic(folder / "status.json", lambda tmp: tmp.write_text(text))
+
+    def start(self, assignment: dict, submissions: list[Submission]) -> dict:
+        """Check the assignment (AssignmentError with paths), then grade in a thread; the run's state."""
+        spec, _ = load_assignment(assignment)
+        grader = Grader(spec, None)  # raises for a reference scene given as a file name
+        run_id = uuid.uuid4().hex
+        folder = self.root / run_id
+        folder.mkdir(parents=True)
+        (folder / "assignment.json").write_text(json.dumps(assignment))
+        state = {
+            "id": run_id, "status": "running", "assignment": spec.name, "created_at": time.time(),
+            "finished_at": None, "error": None, "students": [s.student for s in submissions],
+            "renders_done": 0, "renders_total": None, "max_score": spec.max_score(), "summary": None,
+        }  # fmt: skip
+        self._write(folder, state)
+        thread = threading.Thread(target=self._run, args=(grader, submissions, folder, state), daemon=True)
+        thread.start()
+        return state
+
+    def _run(self, grader: Grader, submissions: list[Submission], folder: Path, state: dict) -> None:
+        def progress(done: int, total: int) -> None:
+            if (done, total) != (state["renders_done"], state["renders_total"]):
+                state.update(renders_done=done, renders_total=total)
+                with self._lock:
+                    self._write(folder, state)
+
+        grader.renderer = QueueRenderer(self.store, self.wake, progress)
+        try:
+            reports = grader.grade(submissions)
+            state["summary"] = write_all(folder / "out", reports)
+            state["status"] = "done"
+        except Exception as e:  # a bug must end the run with a reason, never leave it "running"
+            log.exception("grading run %s failed", folder.name)
+            state.update(status="failed", error=f"{type(e).__name__}: {e}")
+        state["finished_at"] = time.time()
+        with self._lock:
+            self._write(folder, state)
+
+    def reports(self, run_id: str) -> list[dict]:
+        folder = self.folder(run_id)
+        out = []
+        for path in sorted((folder / "out").glob("*/report.json")) if folder else ():
+            out.append(json.loads(path.read_text()))
+        return out

@@ -1,0 +1,172 @@
+"""Grading: an instructor posts an assignment and submissions (a scene, an image, a list, or a zip);
+the renders go through the job queue; the run's state, reports and pictures are read back."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Depends, Request, Response
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from server.errors import ApiError
+from server.grading import STUDENT_FILES, GradeRuns
+from server.models import ErrorResponse
+from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_name
+from tracer.grading.batch import _group
+
+router = APIRouter(prefix="/api/grade", tags=["grading"])
+ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
+NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
+EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"
+
+
+class SubmissionIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    student: str = Field(min_length=1, max_length=80, description="the student's name or id")
+    scene: dict[str, Any] | str | None = Field(None, description="a scene object, or its JSON text (may be broken)")
+    image: str | None = Field(None, description="a PNG or EXR image, base64")
+    format: Literal["png", "exr"] = Field("png", description="the image's format")
+
+    @model_validator(mode="after")
+    def _one(self) -> SubmissionIn:
+        if (self.scene is None) == (self.image is None):
+            raise ValueError("give exactly one of 'scene' and 'image'")
+        return self
+
+
+class GradeCreate(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    assignment: dict[str, Any] = Field(description="the assignment spec (docs/grading.md); its reference inline")
+    scene: dict[str, Any] | str | None = Field(None, description="one scene to grade")
+    submissions: list[SubmissionIn] | None = Field(None, description="a class: one entry per student")
+    zip: str | None = Field(None, description="a class as a zip file, base64 (layout: docs/grading.md)")
+
+    @model_validator(mode="after")
+    def _one(self) -> GradeCreate:
+        if sum(x is not None for x in (self.scene, self.submissions, self.zip)) != 1:
+            raise ValueError("give exactly one of 'scene', 'submissions' and 'zip'")
+        return self
+
+
+def get_runs(request: Request) -> GradeRuns:
+    return request.app.state.grade_runs
+
+
+RunsDep = Annotated[GradeRuns, Depends(get_runs)]
+
+
+def _b64(text: str, where: str) -> bytes:
+    try:
+        return base64.b64decode(text, validate=True)
+    except (binascii.Error, ValueError):
+        raise ApiError(422, [{"path": where, "message": "expected base64 data"}]) from None
+
+
+def _submissions(body: GradeCreate) -> list[Submission]:
+    if body.scene is not None:
+        text = body.scene if isinstance(body.scene, str) else json.dumps(body.scene)
+        return [Submission("submission", text.encode(), "scene")]
+    if body.zip is not None:
+        try:
+            subs = _group(read_zip(_b64(body.zip, "zip")))
+        except GradingError as e:
+            raise ApiError(422, [{"path": "zip", "message": str(e)}]) from None
+        if not subs:
+            raise ApiError(422, [{"path": "zip", "message": "no submissions in it (.json, .png or .exr files)"}])
+        return subs
+    out, seen = [], set()
+    for i, s in enumerate(body.submissions or []):
+        name = student_name(s.student)
+        if name in seen:
+            raise ApiError(422, [{"path": f"submissions[{i}].student", "message": f"'{name}' appears twice"}])
+        seen.add(name)
+        if s.image is not None:
+            out.append(Submission(name, _b64(s.image, f"submissions[{i}].image"), s.format))
+        else:
+            text = s.scene if isinstance(s.scene, str) else json.dumps(s.scene)
+            out.append(Submission(name, text.encode(), "scene"))
+    if not out:
+        raise ApiError(422, [{"path": "submissions", "message": "no submissions"}])
+    return out
+
+
+def _public(state: dict, runs: GradeRuns) -> dict:
+    out = dict(state)
+    out["url"] = f"/api/grade/{state['id']}"
+    out["reports"] = runs.reports(state["id"]) if state["status"] == "done" else []
+    return out
+
+
+@router.post("", status_code=202, summary="Grade a scene, an image or a class", responses=ERRORS)
+def grade(body: GradeCreate, runs: RunsDep, response: Response) -> dict:
+    """Validate the assignment (422 with paths under `assignment`), start the run (202): its renders
+    are queued jobs with the assignment's time limit each. Follow it at `url` until `status` is done."""
+    subs = _submissions(body)
+    try:
+        state = runs.start(body.assignment, subs)
+    except AssignmentError as e:
+        raise ApiError(422, [{"path": "assignment" + ("." + x["path"] if x["path"] else ""),
+                              "message": x["message"]} for x in e.errors]) from None  # fmt: skip
+    response.headers["Location"] = f"/api/grade/{state['id']}"
+    return _public(state, runs)
+
+
+@router.get("/example", summary="The example assignment (reference inline) and class")
+def example() -> dict:
+    """What the page's "Load the example" fills in: scenes/grading/assignment.json with its reference
+    scene inline, and the example class (scenes as text, images as base64)."""
+    from pathlib import Path
+
+    from tracer.grading import collect
+
+    root = Path(__file__).resolve().parents[2] / EXAMPLE
+    assignment = json.loads((root / "assignment.json").read_text())
+    assignment["reference"]["scene"] = json.loads((root / assignment["reference"]["scene"]).read_text())
+    subs = []
+    for s in collect(root / "class"):
+        if s.kind == "scene":
+            subs.append({"student": s.student, "scene": s.data.decode("utf-8", errors="replace")})
+        else:
+            subs.append({"student": s.student, "image": base64.b64encode(s.data).decode(), "format": s.kind})
+    return {"assignment": assignment, "submissions": subs}
+
+
+def _run(run_id: str, runs: GradeRuns) -> dict:
+    state = runs.state(run_id)
+    if state is None:
+        raise ApiError(404, [{"path": "id", "message": f"no grading run with id '{run_id[:64]}'"}])
+    return state
+
+
+@router.get("/{run_id}", summary="A grading run: status, render progress, summary and reports", responses=NOT_FOUND)
+def run_state(run_id: str, runs: RunsDep) -> dict:
+    return _public(_run(run_id, runs), runs)
+
+
+@router.get("/{run_id}/summary.{fmt}", summary="The class summary as CSV or JSON", responses=NOT_FOUND)
+def run_summary(run_id: str, fmt: Literal["csv", "json"], runs: RunsDep) -> Response:
+    state = _run(run_id, runs)
+    if state["status"] != "done":
+        raise ApiError(404, f"no summary yet: the run is {state['status']}")
+    data = (runs.folder(run_id) / "out" / f"summary.{fmt}").read_bytes()
+    media = "text/csv" if fmt == "csv" else "application/json"
+    return Response(data, media_type=media, headers={"Content-Disposition": f'inline; filename="summary.{fmt}"'})
+
+
+@router.get("/{run_id}/students/{student}/{file}", summary="A student's report, results.json or picture",
+            responses=NOT_FOUND)  # fmt: skip
+def student_file(run_id: str, student: str, file: str, runs: RunsDep) -> Response:
+    """render.png (their scene, as we rendered it, or their image), reference.png, error_map.png (FLIP),
+    rejected.png (pixels the z test rejected), results.json (Gradescope), report.json."""
+    _run(run_id, runs)
+    if file not in STUDENT_FILES or student != student_name(student):
+        raise ApiError(404, [{"path": "file", "message": f"one of: {', '.join(STUDENT_FILES)}"}])
+    path = runs.folder(run_id) / "out" / student / file
+    if not path.is_file():
+        raise ApiError(404, [{"path": "file", "message": f"no {file} for '{student}' (yet)"}])
+    return Response(path.read_bytes(), media_type=STUDENT_FILES[file], headers={"Cache-Control": "no-store"})

@@ -1,0 +1,409 @@
+"""Grading (tracer/grading, server/grading.py, POST /api/grade, `python -m tracer grade`).
+
+The example class in scenes/grading/class (written by scenes/grading/make_class.py) has one student
+per case; their grades are asserted exactly, test by test:
+alice (correct), bob (no area light), carol (not JSON), dave (correct at 1 spp: noisy), erin (meets
+every requirement, wrong picture), frank (schema errors), grace (a correct PNG of her own),
+heidi (a wrong EXR), ivan (an image of the wrong size).
+"""
+
+from __future__ import annotations
+
+import base64
+import copy
+import io
+import json
+import subprocess
+import sys
+import zipfile
+
+import httpx
+import numpy as np
+import pytest
+from conftest import ROOT
+from test_api_support import Server, wait_for
+
+from tracer.grading import (
+    AssignmentError,
+    Grader,
+    GradingError,
+    InlineRenderer,
+    Submission,
+    collect,
+    load_assignment,
+    metrics,
+    read_zip,
+    write_all,
+)
+from tracer.grading.checks import run_check
+from tracer.grading.spec import Check
+from tracer.scene import load_scene
+
+EXAMPLE = ROOT / "scenes" / "grading"
+ASSIGNMENT = EXAMPLE / "assignment.json"
+CLASS = EXAMPLE / "class"
+REQUIREMENTS = ["valid scene", "a glass object", "an area light", "three bounces", "a small scene", "a render budget"]
+IMAGE_TESTS = ["FLIP against the reference", "SSIM against the reference", "PSNR against the reference",
+               "pixels match the reference"]  # fmt: skip
+# Per student: status, then the points of each test in order (scenes: REQUIREMENTS + IMAGE_TESTS;
+# images: "readable image" + IMAGE_TESTS).
+EXPECTED = {
+    "alice": ("graded", [1, 2, 1, 1, 1, 1, 2, 1, 1, 2]),
+    "bob": ("graded", [1, 2, 0, 1, 1, 1, 0, 0, 0, 0]),  # no area light: the requirement and the picture
+    "carol": ("invalid", [0] * 10),
+    "dave": ("graded", [1, 2, 1, 1, 1, 1, 2, 1, 1, 2]),  # 1 spp: as noisy as the baseline, so full marks
+    "erin": ("graded", [1, 2, 1, 1, 1, 1, 0, 0, 0, 0]),  # requirements met, picture wrong
+    "frank": ("invalid", [0] * 10),
+    "grace": ("graded", [1, 2, 1, 1, 2]),
+    "heidi": ("graded", [1, 0, 0, 0, 0]),
+    "ivan": ("invalid", [0, 0, 0, 0, 0]),
+}
+
+
+def assignment_dict() -> dict:
+    return json.loads(ASSIGNMENT.read_text())
+
+
+@pytest.fixture(scope="module")
+def graded():
+    assignment, base = load_assignment(ASSIGNMENT)
+    grader = Grader(assignment, base, InlineRenderer())
+    reports = grader.grade(collect(CLASS))
+    return {r.student: r for r in reports}
+
+
+def test_grading_the_example_class_gives_the_exact_grades(graded):
+    assert sorted(graded) == sorted(EXPECTED)
+    for student, (status, points) in EXPECTED.items():
+        r = graded[student]
+        names = REQUIREMENTS + IMAGE_TESTS if r.kind == "scene" else ["readable image"] + IMAGE_TESTS
+        assert [t.name for t in r.tests] == names, student
+        assert [t.score for t in r.tests] == points, (student, [(t.name, t.output) for t in r.tests])
+        assert r.status == status, student
+        assert r.score == sum(points)
+    assert graded["alice"].max_score == 13 and graded["grace"].max_score == 7
+
+
+def test_grading_messages_say_why(graded):
+    carol = graded["carol"]
+    assert "invalid JSON at line 1, column 70" in carol.tests[0].output
+    frank = graded["frank"]
+    paths = {e["path"] for e in frank.errors}
+    assert {"objects[1].radus", "objects[3].material"} <= paths
+    assert "did you mean 'radius'" in frank.tests[0].output
+    bob_light = graded["bob"].tests[2]
+    assert bob_light.output.startswith("failed: found 0 lights with type in [quad, disk, sphere]; wanted >= 1")
+    ivan = graded["ivan"]
+    assert ivan.errors[0]["message"] == "the image is 64x48 pixels; the assignment renders 96x72"
+    erin = graded["erin"]
+    assert "the noise baseline's" in erin.tests[6].output
+    assert erin.metrics["flip"] > erin.metrics["baseline"]["flip"] + 0.02
+
+
+def test_grading_is_fair_to_noise(graded):
+    """dave's 1-spp render is far from the reference by absolute measures, yet as close as a correct
+    1-spp render (the baseline); erin's 16-spp render is closer in PSNR than dave's but fails."""
+    dave, erin = graded["dave"].metrics, graded["erin"].metrics
+    assert dave["psnr"] < erin["psnr"] and dave["ssim"] < erin["ssim"]
+    assert dave["spp"] == 1 and erin["spp"] == 16
+    assert abs(dave["psnr"] - dave["baseline"]["psnr"]) < 2.0
+    assert dave["rejected"] <= dave["baseline"]["rejected"] + 0.01
+
+
+def test_grading_is_deterministic(graded):
+    assignment, base = load_assignment(ASSIGNMENT)
+    again = Grader(assignment, base, InlineRenderer(threads=1)).grade(
+        [s for s in collect(CLASS) if s.student in ("alice", "dave", "grace")]
+    )
+    for r in again:
+        first = graded[r.student]
+        assert r.to_json() | {"render_seconds": 0} == first.to_json() | {"render_seconds": 0}
+        for name, pixels in r.images.items():
+            np.testing.assert_array_equal(pixels, first.images[name])
+
+
+def test_grading_writes_reports_gradescope_and_the_summary(graded, tmp_path):
+    table = write_all(tmp_path, list(graded.values()))
+    results = json.loads((tmp_path / "erin" / "results.json").read_text())
+    assert results["score"] == 7.0
+    assert [t["name"] for t in results["tests"]] == REQUIREMENTS + IMAGE_TESTS
+    assert all({"name", "score", "max_score", "output"} <= set(t) for t in results["tests"])
+    assert sum(t["max_score"] for t in results["tests"]) == 13.0
+    for name in ("render", "reference", "error_map", "rejected"):
+        assert (tmp_path / "erin" / f"{name}.png").stat().st_size > 0
+    assert not (tmp_path / "carol" / "render.png").exists()
+    csv = (tmp_path / "summary.csv").read_text().splitlines()
+    assert csv[0].startswith("student,kind,status,score,max_score")
+    assert [line.split(",")[:4] for line in csv[1:3]] == [["alice", "scene", "graded", "13.0"],
+                                                         ["bob", "scene", "graded", "6.0"]]  # fmt: skip
+    assert table["statistics"]["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
+    assert json.loads((tmp_path / "summary.json").read_text()) == table
+
+
+def test_grading_error_map_shows_where_the_picture_is_wrong(graded):
+    """erin's cube and ball are wrong: the FLIP error there is far above the floor's."""
+    erin = graded["erin"]
+    err = erin.images["error_map"].astype(float).sum(axis=-1)
+    rejected = np.all(erin.images["rejected"] == (255, 40, 40), axis=-1)
+    assert rejected.mean() == pytest.approx(erin.metrics["rejected"], abs=1e-6)  # rounded to 6 digits
+    assert err[rejected].mean() > 3 * err[~rejected].mean()
+
+
+# ------------------------------------------------------------------------------------ the spec
+
+
+@pytest.mark.parametrize(
+    "change, path, words",
+    [
+        (lambda a: a["requirements"][0].update(check="glas"), "requirements[0].check", "unknown preset 'glas'"),
+        (lambda a: a["requirements"][1].update(points=-1), "requirements[1].points", "greater than or equal to 0"),
+        (lambda a: a["requirements"][2]["check"].update(at_lest=3), "requirements[2].check.at_lest", "unknown field"),
+        (lambda a: a["requirements"][2]["check"].pop("at_least"), "requirements[2].check", "at least one comparison"),
+        (lambda a: a["requirements"][3]["check"].update(where={"kt": {"bigger": 0}}), "requirements[3].check",
+         "unknown comparison 'bigger'"),
+        (lambda a: a.pop("name"), "name", "required"),
+        (lambda a: a["reference"].update(spp=0), "reference.spp", "greater than or equal to 1"),
+        (lambda a: a.update(colour=1), "colour", "unknown field"),
+    ],
+)  # fmt: skip
+def test_assignment_errors_name_the_field(change, path, words):
+    a = assignment_dict()
+    change(a)
+    with pytest.raises(AssignmentError) as e:
+        load_assignment(a)
+    assert any(x["path"] == path and words in x["message"] for x in e.value.errors), e.value.errors
+
+
+def test_assignment_reference_must_be_a_valid_scene():
+    a = assignment_dict()
+    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    a["reference"]["scene"]["objects"][1]["radius"] = -1
+    spec, _ = load_assignment(a)
+    with pytest.raises(AssignmentError) as e:
+        Grader(spec, None)
+    assert e.value.errors[0]["path"] == "reference.scene.objects[1].radius"
+    a["reference"]["scene"] = "reference.json"
+    spec, _ = load_assignment(a)
+    with pytest.raises(AssignmentError, match="give the scene inline"):
+        Grader(spec, None)
+
+
+def test_checks_count_compare_and_presets():
+    scene, _ = load_scene(json.loads((EXAMPLE / "reference.json").read_text()))
+
+    def check(**kw):
+        return run_check(scene, Check(**kw))[0]
+
+    assert check(count="materials", where={"kt": {"greater_than": 0}, "ior": {"greater_than": 1}}, at_least=1)
+    assert not check(count="materials", where={"kt": {"greater_than": 0}, "ior": {"greater_than": 1.6}}, at_least=1)
+    assert check(count="materials", where={"kd": {"greater_than": 0.7}}, equals=2)  # floor 0.8, red's max 0.75
+    assert check(count="primitives", equals=1 + 1 + 12 + 1)  # a plane, two spheres, a box of 12 triangles
+    assert check(count="lights", where={"type": "quad"}, equals=1)
+    assert check(count="objects", where={"velocity": {"present": True}}, equals=0)
+    assert check(value="render.max_depth", at_least=3, at_most=4)
+    assert not check(value="camera.lens_radius", greater_than=0)
+    assert check(value="materials.glass.ior", one_of=[1.5, 1.33])
+    found = run_check(scene, Check(value="render.no_such_thing", equals=1))
+    assert found == (False, "render.no_such_thing: no such field in the scene")
+
+
+# ----------------------------------------------------------------------------------- metrics
+
+
+def test_metrics_flip_never_exits_the_process():
+    a = np.full((8, 8, 3), 0.5, np.float32)
+    assert metrics.flip(a, a)[0] == 0.0
+    with pytest.raises(GradingError, match="pixels per degree must be positive"):
+        metrics.flip(a, a, ppd=-1.0)  # flip_evaluator calls sys.exit(1) here
+    with pytest.raises(GradingError, match="the image is 4x8 pixels; the reference is 8x8"):
+        metrics.flip(a, a[:, :4])
+
+
+def test_metrics_pixel_test_rejects_about_alpha_for_pure_noise():
+    rng = np.random.default_rng(5)
+    truth = rng.uniform(0.1, 0.9, (200, 200, 3))
+    var = np.full_like(truth, 0.04)
+    ref = truth + rng.normal(0, np.sqrt(0.04 / 256), truth.shape)
+    noisy = truth + rng.normal(0, np.sqrt(0.04 / 4), truth.shape)
+    rejected, _ = metrics.pixel_test(noisy, ref, var, 256, 4, alpha=1e-3)
+    assert rejected < 3e-3  # expected 1e-3 of 40 000 pixels; 3e-3 is 6 sigma of a binomial away
+    wrong = noisy.copy()
+    wrong[:50] += 0.5  # a quarter of the picture 5 standard deviations too bright
+    rejected, z = metrics.pixel_test(wrong, ref, var, 256, 4, alpha=1e-3)
+    assert rejected > 0.24 and z[:50].mean() > 3 * z[50:].mean()
+
+
+def test_metrics_ssim_psnr_bounds():
+    a = np.random.default_rng(1).uniform(0, 1, (16, 16, 3)).astype(np.float32)
+    assert metrics.ssim(a, a) == pytest.approx(1.0)
+    assert metrics.psnr(a, a) == metrics.PSNR_CAP
+    assert metrics.psnr(a, np.clip(a + 0.1, 0, 1)) < 21
+    with pytest.raises(GradingError, match="too small"):
+        metrics.ssim(a[:2, :2], a[:2, :2])
+
+
+# ------------------------------------------------------------------------------ submissions
+
+
+def test_batch_collects_folders_and_zips(tmp_path):
+    subs = {s.student: s for s in collect(CLASS)}
+    assert subs["frank"].kind == "scene" and subs["frank"].filename == "frank/scene.json"
+    assert subs["heidi"].kind == "exr" and subs["grace"].kind == "png"
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("hw4/zed.json", "{}")
+        z.writestr("hw4/yan/picture.png", b"not really")
+        z.writestr("hw4/yan/scene.json", "{}")  # a folder with a scene and an image: the scene
+        z.writestr("hw4/.hidden.json", "{}")
+        z.writestr("hw4/../escape.json", "{}")
+        z.writestr("hw4/notes.txt", "ignored")
+    (tmp_path / "class.zip").write_bytes(buf.getvalue())
+    subs = collect(tmp_path / "class.zip")
+    assert [(s.student, s.kind, s.filename) for s in subs] == [("yan", "scene", "yan/scene.json"),
+                                                               ("zed", "scene", "zed.json")]  # fmt: skip
+    with pytest.raises(GradingError, match="not a zip file"):
+        read_zip(b"PK nonsense")
+
+
+# ---------------------------------------------------------------------------------------- CLI
+
+
+def run_cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "tracer", "grade", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=600)  # fmt: skip
+
+
+def test_cli_grades_one_scene(tmp_path):
+    p = run_cli(ASSIGNMENT, CLASS / "bob.json", "-o", tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[0] == "bob: 6 / 13 (graded)"
+    assert "FAIL an area light (0/1): failed: found 0 lights" in p.stdout
+    assert json.loads((tmp_path / "bob" / "results.json").read_text())["score"] == 6.0
+
+
+def test_cli_grades_a_class_through_the_job_queue(tmp_path):
+    """A zip of three students, rendered by worker processes of a queue of the CLI's own."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for name in ("alice.json", "carol.json", "grace.png"):
+            z.write(CLASS / name, f"hw4/{name}")
+    (tmp_path / "hw4.zip").write_bytes(buf.getvalue())
+    p = run_cli(ASSIGNMENT, tmp_path / "hw4.zip", "-o", tmp_path / "out", "--workers", "1")
+    assert p.returncode == 0, p.stderr
+    assert "alice: 13 / 13 (graded)\ncarol: 0 / 13 (invalid)\ngrace: 7 / 7 (graded)" in p.stdout
+    assert "renders done: 3/3" in p.stderr  # the reference, one baseline and alice's scene
+    rows = (tmp_path / "out" / "summary.csv").read_text().splitlines()
+    assert len(rows) == 4
+
+
+def test_cli_reports_a_bad_assignment(tmp_path):
+    a = assignment_dict()
+    a["requirements"][0]["check"] = "glas"
+    (tmp_path / "a.json").write_text(json.dumps(a))
+    p = run_cli(tmp_path / "a.json", CLASS / "alice.json", "-o", tmp_path)
+    assert p.returncode == 1
+    assert "error: assignment: requirements[0].check: unknown preset 'glas'" in p.stderr
+
+
+# ---------------------------------------------------------------------------------------- API
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    with Server(tmp_path_factory.mktemp("grade-data"), workers=2) as s:
+        yield s
+
+
+def inline_assignment(**limits) -> dict:
+    a = assignment_dict()
+    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    a["limits"].update(limits)
+    return a
+
+
+def test_api_grades_a_class_with_a_time_limit_per_student(server):
+    """A slow submission is stopped at the assignment's limit and fails alone; the others are graded."""
+    slow = json.loads((CLASS / "alice.json").read_text())
+    slow["sampler"] = {"type": "jittered", "spp": 64}
+    slow["render"].update(light_samples=16, max_depth=16, min_weight=0)
+    slow["lights"] = slow["lights"] * 4  # ~10 s of rendering, against a limit of 2 s
+    body = {
+        "assignment": inline_assignment(max_seconds=2),
+        "submissions": [
+            {"student": "alice", "scene": json.loads((CLASS / "alice.json").read_text())},
+            {"student": "carol", "scene": (CLASS / "carol.json").read_text()},
+            {"student": "grace", "image": base64.b64encode((CLASS / "grace.png").read_bytes()).decode()},
+            {"student": "sam", "scene": slow},
+        ],
+    }
+    r = httpx.post(f"{server.url}/api/grade", json=body, timeout=30)
+    assert r.status_code == 202, r.text
+    run = r.json()
+    assert r.headers["location"] == run["url"] and run["status"] == "running"
+    state = wait_for(lambda: (s := httpx.get(server.url + run["url"]).json())["status"] != "running" and s,
+                     timeout=300, what="the grading run", interval=0.5)  # fmt: skip
+    assert state["status"] == "done", state
+    scores = {x["student"]: (x["score"], x["status"]) for x in state["reports"]}
+    assert scores["alice"] == (13.0, "graded") and scores["carol"] == (0.0, "invalid")
+    assert scores["grace"] == (7.0, "graded")
+    sam = next(x for x in state["reports"] if x["student"] == "sam")
+    assert scores["sam"] == (7.0, "failed")  # its requirements pass, its picture was never finished
+    assert "over the time limit of 2 s" in sam["tests"][6]["output"]
+    csv = httpx.get(f"{server.url}{run['url']}/summary.csv").text
+    assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
+    png = httpx.get(f"{server.url}{run['url']}/students/alice/error_map.png")
+    assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
+    results = httpx.get(f"{server.url}{run['url']}/students/grace/results.json").json()
+    assert results["score"] == 7.0
+    assert httpx.get(f"{server.url}{run['url']}/students/alice/secret.txt").status_code == 404
+    assert httpx.get(f"{server.url}{run['url']}/students/..%2Fx/report.json").status_code == 404
+
+
+def test_api_grade_rejects_bad_requests(server):
+    a = inline_assignment()
+    a["requirements"][0]["check"] = "glas"
+    r = httpx.post(f"{server.url}/api/grade", json={"assignment": a, "scene": {}})
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "assignment.requirements[0].check"
+    a = assignment_dict()  # the reference as a file name: only the CLI can read it
+    r = httpx.post(f"{server.url}/api/grade", json={"assignment": a, "scene": {}})
+    assert r.status_code == 422 and "give the scene inline" in r.json()["errors"][0]["message"]
+    r = httpx.post(f"{server.url}/api/grade", json={"assignment": inline_assignment()})
+    assert r.status_code == 422 and "exactly one of" in r.text
+    r = httpx.post(f"{server.url}/api/grade", json={"assignment": inline_assignment(), "zip": "***"})
+    assert r.status_code == 422 and r.json()["errors"][0] == {"path": "zip", "message": "expected base64 data"}
+    assert httpx.get(f"{server.url}/api/grade/{'0' * 32}").status_code == 404
+
+
+def test_api_grade_example_is_the_example_class(server):
+    ex = httpx.get(f"{server.url}/api/grade/example").json()
+    assert [s["student"] for s in ex["submissions"]] == sorted(EXPECTED)
+    assert isinstance(ex["assignment"]["reference"]["scene"], dict)
+    grace = next(s for s in ex["submissions"] if s["student"] == "grace")
+    assert base64.b64decode(grace["image"]) == (CLASS / "grace.png").read_bytes()
+
+
+def test_queue_and_inline_give_the_same_grade(server, graded):
+    """The same submission through the service's job queue and in process: the same report."""
+    body = {"assignment": inline_assignment(), "scene": (CLASS / "erin.json").read_text()}
+    run = httpx.post(f"{server.url}/api/grade", json=body).json()
+    state = wait_for(lambda: (s := httpx.get(server.url + run["url"]).json())["status"] != "running" and s,
+                     timeout=300, what="the grading run", interval=0.5)  # fmt: skip
+    report = state["reports"][0]
+    mine = graded["erin"].to_json()
+    for key in ("score", "status", "tests", "metrics"):
+        assert report[key] == json.loads(json.dumps(mine[key])), key
+
+
+def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
+    """The assignment fixes a grid sampler; a student's 5 spp is no perfect square: told, not crashed."""
+    a = copy.deepcopy(inline_assignment())
+    a["render"]["sampler"] = "grid"
+    spec, _ = load_assignment(a)
+    scene = json.loads((CLASS / "alice.json").read_text())
+    scene["sampler"] = {"type": "random", "spp": 5}
+    report = Grader(spec, None).grade_one(Submission("x", json.dumps(scene).encode()))
+    assert report.status == "failed"
+    assert "must be a perfect square" in report.tests[-1].output
+    assert report.score == 7.0
+

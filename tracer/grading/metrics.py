@@ -1,0 +1,137 @@
+"""Image comparison that is fair to Monte Carlo noise.
+
+- FLIP (Andersson et al. 2020, `flip-evaluator`), SSIM (Wang et al. 2004) and PSNR (`scikit-image`)
+  on the displayed images (exposure, clamp, sRGB), and
+- a per-pixel z test of the submission's linear radiance against the reference mean, with the
+  variance of both estimates: z = (x - mu) / sqrt(var_x / n_x + var_ref / n_ref + q^2), per channel;
+  a pixel is rejected when its largest |z| passes the two-sided critical value for `alpha` (split
+  over the three channels). A correct render rejects about `alpha` of its pixels whatever its spp;
+  a wrong one rejects whole regions. q covers 8-bit quantisation of PNG submissions.
+
+FLIP calls sys.exit() on bad input (and prints): `flip()` turns that into a GradingError.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from statistics import NormalDist
+
+import numpy as np
+
+from tracer.film import srgb_encode
+
+PSNR_CAP = 100.0  # dB reported for identical images (PSNR is infinite there)
+FLOOR = 1e-4  # smallest standard deviation of a pixel difference (float noise of linear radiance)
+
+
+class GradingError(Exception):
+    """A comparison that cannot be made (sizes differ, a broken image, FLIP refused the input)."""
+
+
+def display(linear: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+    """Linear radiance -> what the PNG shows, as floats in [0, 1]: sRGB(clamp(2^exposure L))."""
+    return srgb_encode(np.nan_to_num(linear, nan=0.0, posinf=1.0, neginf=0.0) * 2.0**exposure).astype(np.float32)
+
+
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    """The inverse of the sRGB OETF, values in [0, 1]."""
+    c = np.clip(encoded, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def same_size(reference: np.ndarray, test: np.ndarray) -> None:
+    if reference.shape != test.shape:
+        rh, rw = reference.shape[:2]
+        th, tw = test.shape[:2]
+        raise GradingError(f"the image is {tw}x{th} pixels; the reference is {rw}x{rh}")
+
+
+def flip(reference: np.ndarray, test: np.ndarray, ppd: float = 67.0) -> tuple[float, np.ndarray]:
+    """Mean LDR-FLIP error of two displayed images (floats in [0, 1]) and its (H, W) error map;
+    `ppd`: pixels per degree of visual angle (FLIP's default, a 0.7 m view of a 4K 27" screen)."""
+    import flip_evaluator
+
+    same_size(reference, test)
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said):
+            err, mean, _ = flip_evaluator.evaluate(
+                np.ascontiguousarray(reference, dtype=np.float32),
+                np.ascontiguousarray(test, dtype=np.float32),
+                "LDR", inputsRGB=True, applyMagma=False, computeMeanError=True, parameters={"ppd": ppd},
+            )  # fmt: skip
+    except SystemExit:
+        reason = said.getvalue().replace("Exiting.", "").strip() or "no reason given"
+        raise GradingError(f"FLIP refused the images: {reason}") from None
+    except (RuntimeError, ValueError) as e:
+        raise GradingError(f"FLIP failed: {e}") from None
+    return float(mean), np.asarray(err, dtype=np.float32).reshape(reference.shape[:2])
+
+
+def ssim(reference: np.ndarray, test: np.ndarray) -> float:
+    """Structural similarity of two displayed images (1 = the same)."""
+    from skimage.metrics import structural_similarity
+
+    same_size(reference, test)
+    side = min(reference.shape[:2])
+    win = min(7, side if side % 2 else side - 1)
+    if win < 3:
+        raise GradingError(f"the images are too small for SSIM ({side} pixels; at least 3)")
+    return float(structural_similarity(reference, test, channel_axis=2, data_range=1.0, win_size=win))
+
+
+def psnr(reference: np.ndarray, test: np.ndarray) -> float:
+    """Peak signal-to-noise ratio in dB of two displayed images (capped at PSNR_CAP)."""
+    same_size(reference, test)
+    mse = float(np.mean((reference.astype(np.float64) - test.astype(np.float64)) ** 2))
+    if mse <= 0.0:
+        return PSNR_CAP
+    return float(min(PSNR_CAP, 10.0 * np.log10(1.0 / mse)))
+
+
+def quantisation(linear: np.ndarray) -> np.ndarray:
+    """Half an 8-bit sRGB step, in linear units, at each value: the error a PNG adds."""
+    code = srgb_encode(linear)
+    return (srgb_decode(code + 0.5 / 255) - srgb_decode(code - 0.5 / 255)) / 2
+
+
+def pixel_test(
+    test: np.ndarray,
+    ref_mean: np.ndarray,
+    ref_var: np.ndarray,
+    n_ref: int,
+    n_test: int,
+    test_var: np.ndarray | None = None,
+    alpha: float = 1e-3,
+    quantised: bool = False,
+) -> tuple[float, np.ndarray]:
+    """The share of pixels whose difference from the reference mean is too large for the noise of
+    the two estimates, and the (H, W) map of each pixel's largest |z|.
+
+    `test_var`: the submission's own sample variance (when we rendered it); None: assume the
+    reference's (the null hypothesis: both come from the same distribution). `quantised`: the
+    submission went through a PNG (values clamped to [0, 1], 8 bits)."""
+    same_size(ref_mean, test)
+    mean = ref_mean.astype(np.float64)
+    var_t = (ref_var if test_var is None else test_var).astype(np.float64)
+    sigma2 = var_t / max(n_test, 1) + ref_var.astype(np.float64) / max(n_ref, 1) + FLOOR**2
+    if quantised:
+        mean = np.clip(mean, 0.0, 1.0)
+        sigma2 = sigma2 + quantisation(mean) ** 2
+    z = np.abs(test.astype(np.float64) - mean) / np.sqrt(sigma2)
+    zmax = np.nan_to_num(z, nan=np.inf).max(axis=-1)
+    critical = NormalDist().inv_cdf(1.0 - alpha / 6.0)  # two-sided, alpha split over R, G, B
+    return float(np.mean(zmax > critical)), zmax.astype(np.float32)
+
+
+def magma(values: np.ndarray) -> np.ndarray:
+    """(H, W) values in [0, 1] -> (H, W, 3) uint8 through FLIP's magma colour map (black, purple, orange, white)."""
+    stops = np.array(
+        [[0, 0, 4], [28, 16, 68], [79, 18, 123], [129, 37, 129], [181, 54, 122],
+         [229, 80, 100], [251, 135, 97], [254, 194, 135], [252, 253, 191]], dtype=np.float64,
+    )  # fmt: skip
+    x = np.clip(np.nan_to_num(values), 0.0, 1.0) * (len(stops) - 1)
+    i = np.minimum(x.astype(int), len(stops) - 2)
+    f = (x - i)[..., None]
+    return np.round(stops[i] * (1 - f) + stops[i + 1] * f).astype(np.uint8)

@@ -1,0 +1,257 @@
+"""The assignment spec: what an instructor asks of a submitted scene, and how many points each is worth.
+
+An assignment is one JSON object, validated like a scene (unknown keys are errors at their JSON
+path). docs/grading.md has the full table and a worked example (scenes/grading/assignment.json):
+
+    {"version": 1, "name": "HW 4: glass and soft shadows",
+     "render": {"width": 96, "height": 72, "seed": 7},          # the settings every render uses
+     "limits": {"max_seconds": 60, "max_spp": 64},               # per student
+     "validity": {"points": 1},                                  # a scene that validates
+     "requirements": [{"name": "glass", "points": 2, "check": "transmissive_material"},
+                      {"name": "three bounces", "points": 1,
+                       "check": {"value": "render.max_depth", "at_least": 3}}],
+     "reference": {"scene": "reference.json", "spp": 256,
+                   "flip": {"points": 2}, "ssim": {"points": 1}, "psnr": {"points": 1},
+                   "pixels": {"points": 2}}}
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from tracer.scene import Limits, SceneError, json_path
+
+AREA_LIGHTS = ["quad", "disk", "sphere"]
+COLLECTIONS = ("materials", "lights", "objects", "primitives")  # what a `count` check counts
+COMPARISONS = {  # word -> (symbol for messages, test)
+    "equals": ("=", lambda a, b: a == b),
+    "at_least": (">=", lambda a, b: a >= b),
+    "at_most": ("<=", lambda a, b: a <= b),
+    "greater_than": (">", lambda a, b: a > b),
+    "less_than": ("<", lambda a, b: a < b),
+    "one_of": ("in", lambda a, b: a in b),
+}
+# Common requirements by name, so an assignment can say {"check": "area_light"}.
+PRESETS: dict[str, dict] = {
+    "transmissive_material": {
+        "count": "materials", "where": {"kt": {"greater_than": 0}, "ior": {"greater_than": 1}}, "at_least": 1,
+    },
+    "reflective_material": {"count": "materials", "where": {"kr": {"greater_than": 0}}, "at_least": 1},
+    "glossy_material": {"count": "materials", "where": {"gloss": {"present": True}}, "at_least": 1},
+    "textured_material": {"count": "materials", "where": {"texture": {"present": True}}, "at_least": 1},
+    "bump_map": {"count": "materials", "where": {"bump": {"present": True}}, "at_least": 1},
+    "area_light": {"count": "lights", "where": {"type": {"one_of": AREA_LIGHTS}}, "at_least": 1},
+    "depth_of_field": {"value": "camera.lens_radius", "greater_than": 0},
+    "motion": {"count": "objects", "where": {"velocity": {"present": True}}, "at_least": 1},
+    "fog": {"value": "fog.density", "greater_than": 0},
+}  # fmt: skip
+
+
+class AssignmentError(SceneError):
+    """An invalid assignment; `errors` is a list of {"path", "message"} like a scene's."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Check(_Model):
+    """One test on the submitted scene (after validation, so defaults are filled in).
+
+    Either `count` (how many materials, lights, objects or primitives match `where`) or `value`
+    (a field of the scene by its path, e.g. "render.max_depth"), compared with the given words."""
+
+    count: Literal["materials", "lights", "objects", "primitives"] | None = Field(
+        None, description="Count these (materials: those the objects use, named or inline; primitives: "
+        "shapes plus triangles, a box being 12)."
+    )  # fmt: skip
+    where: dict[str, Any] = Field(
+        default_factory=dict,
+        description='Only count items whose fields pass: {"kt": {"greater_than": 0}, "type": "quad"} '
+        '(a bare value means equals; {"present": true}: set and not zero/empty).',
+    )
+    value: str | None = Field(None, description="A field of the scene by path, e.g. 'camera.lens_radius'.")
+    equals: Any = None
+    at_least: float | None = None
+    at_most: float | None = None
+    greater_than: float | None = None
+    less_than: float | None = None
+    one_of: list | None = None
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Check:
+        if (self.count is None) == (self.value is None):
+            raise ValueError("give exactly one of 'count' (a number of things) or 'value' (a field of the scene)")
+        if self.value is not None and self.where:
+            raise ValueError("'where' goes with 'count', not with 'value'")
+        if not self.comparisons():
+            raise ValueError(f"give at least one comparison: {', '.join(COMPARISONS)}")
+        for key, test in self.where.items():
+            for word in test if isinstance(test, dict) else ():
+                if word not in COMPARISONS and word != "present":
+                    words = ", ".join([*COMPARISONS, "present"])
+                    raise ValueError(f"where.{key}: unknown comparison '{word}' (use {words})")
+        return self
+
+    def comparisons(self) -> dict[str, Any]:
+        return {w: getattr(self, w) for w in COMPARISONS if getattr(self, w) is not None}
+
+
+class Requirement(_Model):
+    name: str = Field(min_length=1, description="Shown to the student, e.g. 'a glass object'.")
+    points: float = Field(ge=0, description="Earned when the check passes.")
+    description: str | None = Field(None, description="Longer text for the student.")
+    check: Check = Field(description="A check object, or the name of a preset: " + ", ".join(PRESETS))
+
+    @field_validator("check", mode="before")
+    @classmethod
+    def _preset(cls, v: Any) -> Any:
+        if isinstance(v, str):
+            if v not in PRESETS:
+                raise ValueError(f"unknown preset '{v}'; the presets are {', '.join(PRESETS)}")
+            return dict(PRESETS[v])
+        return v
+
+
+class RenderOverrides(_Model):
+    """Settings every render of the assignment uses (the submission's own are replaced)."""
+
+    width: int | None = Field(None, ge=1, le=4096, description="Film width; default: the reference scene's.")
+    height: int | None = Field(None, ge=1, le=4096, description="Film height; default: the reference scene's.")
+    spp: int | None = Field(None, ge=1, description="Samples per pixel; default: the submission's own (limited).")
+    seed: int = Field(7, ge=0, lt=2**31, description="The seed of every submission's render.")
+    sampler: Literal["center", "grid", "random", "jittered", "adaptive"] | None = None
+    integrator: Literal["whitted", "path", "radiosity"] | None = None
+    max_depth: int | None = Field(None, ge=1, le=64)
+
+
+class GradingLimits(_Model):
+    """Per student: a submission past one of these is invalid (with the field named), and a render
+    that runs longer than `max_seconds` is stopped (its image tests score 0)."""
+
+    max_seconds: float = Field(60.0, gt=0, le=3600, description="Seconds one render may take.")
+    max_width: int = Field(1024, ge=1)
+    max_height: int = Field(1024, ge=1)
+    max_pixels: int = Field(1024 * 1024, ge=1)
+    max_spp: int = Field(256, ge=1)
+    max_depth: int = Field(16, ge=1, le=64)
+    max_light_samples: int = Field(16, ge=1)
+    max_primitives: int = Field(100_000, ge=1)
+
+    def scene_limits(self) -> Limits:
+        return Limits(
+            max_width=self.max_width, max_height=self.max_height, max_pixels=self.max_pixels,
+            max_spp=self.max_spp, max_depth=self.max_depth, max_light_samples=self.max_light_samples,
+            max_primitives=self.max_primitives,
+        )  # fmt: skip
+
+
+class Validity(_Model):
+    points: float = Field(1.0, ge=0, description="Earned by a scene that validates.")
+    per_error: float | None = Field(
+        None, ge=0, description="Points lost per error (default: all of them for any error)."
+    )
+
+
+class FlipTest(_Model):
+    points: float = Field(ge=0)
+    margin: float = Field(0.02, ge=0, description="Pass: mean FLIP <= noise baseline + margin.")
+    limit: float | None = Field(None, ge=0, le=1, description="Pass: mean FLIP <= limit (instead of the margin).")
+
+
+class SsimTest(_Model):
+    points: float = Field(ge=0)
+    margin: float = Field(0.03, ge=0, description="Pass: SSIM >= noise baseline - margin.")
+    limit: float | None = Field(None, ge=-1, le=1, description="Pass: SSIM >= limit (instead of the margin).")
+
+
+class PsnrTest(_Model):
+    points: float = Field(ge=0)
+    margin: float = Field(2.0, ge=0, description="Pass: PSNR >= noise baseline - margin (dB).")
+    limit: float | None = Field(None, ge=0, description="Pass: PSNR >= limit dB (instead of the margin).")
+
+
+class PixelTest(_Model):
+    points: float = Field(ge=0)
+    alpha: float = Field(1e-3, gt=0, lt=0.5, description="Per-pixel false-alarm rate of the z test.")
+    max_fraction: float = Field(0.01, ge=0, le=1, description="Pass: at most this share of pixels rejected.")
+
+
+class Reference(_Model):
+    """The picture the submissions should match: a scene, rendered by us."""
+
+    scene: str | dict = Field(description="The reference scene, inline or a file beside the assignment.")
+    spp: int = Field(256, ge=1, le=65536, description="Samples per pixel of the reference mean (and variance).")
+    seed: int = Field(1_000_003, ge=0, lt=2**31 - 2, description="Seed of the reference mean; +1: the noise baseline.")
+    flip: FlipTest | None = None
+    ssim: SsimTest | None = None
+    psnr: PsnrTest | None = None
+    pixels: PixelTest | None = None
+
+
+class ImageSettings(_Model):
+    """Grading a student's own image of the reference scene."""
+
+    spp: int | None = Field(None, ge=1, description="Samples per pixel the students were told to use "
+                            "(default: the assignment's render.spp, else the reference scene's).")  # fmt: skip
+
+
+class Assignment(_Model):
+    version: Literal[1] = 1
+    name: str = Field(min_length=1, description="Shown in reports, e.g. 'HW 4: glass and soft shadows'.")
+    description: str | None = None
+    render: RenderOverrides = Field(default_factory=RenderOverrides)
+    limits: GradingLimits = Field(default_factory=GradingLimits)
+    validity: Validity = Field(default_factory=Validity)
+    requirements: list[Requirement] = Field(default_factory=list)
+    reference: Reference | None = None
+    image: ImageSettings = Field(default_factory=ImageSettings)
+
+    def max_score(self) -> float:
+        total = self.validity.points + sum(r.points for r in self.requirements)
+        if self.reference is not None:
+            total += sum(t.points for t in self.image_tests().values())
+        return total
+
+    def image_tests(self) -> dict[str, BaseModel]:
+        ref = self.reference
+        if ref is None:
+            return {}
+        return {k: t for k in ("flip", "ssim", "psnr", "pixels") if (t := getattr(ref, k)) is not None}
+
+
+def load_assignment(src: Any) -> tuple[Assignment, Path | None]:
+    """A Path to a JSON file, JSON text or a dict -> (Assignment, the folder its files are relative to).
+    Raises AssignmentError with every error at its JSON path."""
+    base = None
+    if isinstance(src, Path):
+        base = src.resolve().parent
+        try:
+            src = src.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise AssignmentError([{"path": "", "message": f"cannot read assignment file: {e}"}]) from None
+    if isinstance(src, bytes | str):
+        try:
+            src = json.loads(src)
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            where = f" at line {e.lineno}, column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
+            raise AssignmentError([{"path": "", "message": f"invalid JSON{where}: {e}"}]) from None
+    if not isinstance(src, dict):
+        raise AssignmentError([{"path": "", "message": "an assignment must be a JSON object {...}"}])
+    try:
+        return Assignment.model_validate(src), base
+    except ValidationError as e:
+        errors = []
+        for err in e.errors():
+            loc = [p for p in err["loc"] if not (isinstance(p, str) and p.startswith(("function-", "str", "dict")))]
+            message = err["msg"].removeprefix("Value error, ")
+            if err["type"] == "extra_forbidden":
+                message = "unknown field"
+            item = {"path": json_path(loc), "message": message}
+            if item not in errors:
+                errors.append(item)
+        raise AssignmentError(errors) from None
