@@ -17,6 +17,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import fields
 from pathlib import Path
 
 from server.models import JobStatus
@@ -24,7 +25,7 @@ from server.settings import Settings
 from server.store import JobStore, write_atomic
 from server.worker import aov_path
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
-from tracer.scene import SceneError, load_scene
+from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger("server.grading")
 
@@ -48,23 +49,33 @@ class QueueRenderer:
         wake: Callable[[], None] | None = None,
         on_progress: Callable[[int, int], None] | None = None,
         max_queued: int = 1_000_000,
+        settings: Settings | None = None,
     ):
         self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
+        self.settings = settings  # the service's own limits also apply (the smaller of the two)
         self.job_ids: list[str | None] = []
+
+    def _capped(self, job: RenderJob) -> tuple[Limits, float]:
+        if self.settings is None:
+            return job.limits, job.max_seconds
+        mine = self.settings.limits
+        limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
+        return limits, min(job.max_seconds, self.settings.max_job_seconds)
 
     def __call__(self, jobs: list[RenderJob]) -> list[Rendered]:
         out: list[Rendered | None] = [None] * len(jobs)
         ids: dict[int, str] = {}
         for i, job in enumerate(jobs):
+            limits, seconds = self._capped(job)
             try:
-                scene, warnings = load_scene(job.scene, job.limits)
+                scene, warnings = load_scene(job.scene, limits)
             except SceneError as e:
                 out[i] = Rendered(error="invalid scene: " + "; ".join(f"{x['path']}: {x['message']}" for x in e.errors))
                 continue
             row = self.store.create(
                 json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=scene.film.width,
                 height=scene.film.height, spp=scene.sampler.spp, priority=job.priority, warnings=warnings,
-                max_seconds=job.max_seconds, max_queued=self.max_queued,
+                max_seconds=seconds, max_queued=self.max_queued,
             )  # fmt: skip
             ids[i] = row["id"]
         self.job_ids = [ids.get(i) for i in range(len(jobs))]
@@ -121,8 +132,9 @@ class GradeRuns:
     """The service's grading runs: start one, read its state; runs left unfinished by a stopped
     server are marked failed at start-up (their render jobs, if queued, still run)."""
 
-    def __init__(self, data_dir: Path, store: JobStore, wake: Callable[[], None] | None):
-        self.root = data_dir / "grades"
+    def __init__(self, settings: Settings, store: JobStore, wake: Callable[[], None] | None):
+        self.settings = settings
+        self.root = settings.data_dir / "grades"
         self.root.mkdir(parents=True, exist_ok=True)
         self.store, self.wake = store, wake
         self._lock = threading.Lock()
@@ -176,7 +188,7 @@ class GradeRuns:
                 with self._lock:
                     self._write(folder, state)
 
-        grader.renderer = QueueRenderer(self.store, self.wake, progress)
+        grader.renderer = QueueRenderer(self.store, self.wake, progress, settings=self.settings)
         try:
             reports = grader.grade(submissions)
             state["summary"] = write_all(folder / "out", reports)

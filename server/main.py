@@ -40,7 +40,7 @@ async def lifespan(app: FastAPI):
         log.info("jobs left running by the last server: %d back in the queue, %d cancelled", requeued, cancelled)
     pool = WorkerPool(settings, store) if settings.workers > 0 else None
     app.state.store, app.state.pool = store, pool
-    app.state.grade_runs = GradeRuns(settings.data_dir, store, pool.notify if pool else None)
+    app.state.grade_runs = GradeRuns(settings, store, pool.notify if pool else None)
     if pool is not None:
         pool.start()
     else:
