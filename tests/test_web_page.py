@@ -159,6 +159,39 @@ def whitted(width=160, height=120, spp=4, **render_) -> dict:
     return small(scene_dict("whitted"), width, height, sampler={"type": "jittered", "spp": spp}, render=render_ or {})
 
 
+def radiosity_scene(size: int = 64) -> dict:
+    """The two-pass Cornell box at a few pixels, with big patches and few form-factor rays: it solves
+    (a few hundred shots) and renders in about a second."""
+    radiosity = {"patch_size": 0.5, "rays": 1024, "display": "two-pass"}
+    sampler = {"type": "jittered", "spp": 1}
+    return small(scene_dict("cornell_radiosity"), size, size, sampler=sampler, render={"radiosity": radiosity})
+
+
+def canvas_grid(page, selector: str, cells: int = 16) -> list[float]:
+    """A canvas as cells x cells mean brightness values (0..255): enough to tell two pictures apart."""
+    return page.evaluate(
+        """([sel, cells]) => {
+            const c = document.querySelector(sel);
+            const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+            const out = new Array(cells * cells).fill(0);
+            const n = new Array(cells * cells).fill(0);
+            for (let y = 0; y < c.height; y++) for (let x = 0; x < c.width; x++) {
+                const i = 4 * (y * c.width + x);
+                const k = Math.floor(y * cells / c.height) * cells + Math.floor(x * cells / c.width);
+                out[k] += (d[i] + d[i + 1] + d[i + 2]) / 3;
+                n[k]++;
+            }
+            return out.map((v, k) => v / Math.max(1, n[k]));
+        }""",
+        [selector, cells],
+    )
+
+
+def rad_step(page, step: int) -> None:
+    set_range(page, "#rad-step", step)
+    page.wait_for_function(f"() => document.querySelector('#rad-mesh').dataset.step === '{step}'")
+
+
 # --------------------------------------------------------------------------------------------------
 
 
@@ -482,3 +515,150 @@ def test_web_page_broken_server_and_failed_job_show_messages(desktop):
     assert "The server refused this scene" in refused and "integrator is not implemented yet" in refused
     assert page.locator(".lesson-panel[data-status=refused] img").is_hidden()
     desktop.shot("lesson-refused")
+
+
+def test_web_page_radiosity_panel_steps_through_the_solution(desktop, server):
+    page = desktop.open().page
+    scene = radiosity_scene()
+    set_scene(page, scene)
+    render(page)
+    assert page.get_attribute("#stage", "data-status") == "done"
+    page.wait_for_selector("#radiosity:not([hidden]) #rad-body:not([hidden])")
+    job_id = page.get_attribute("#stage", "data-job")
+    sol = httpx.get(f"{server.url}/api/jobs/{job_id}/radiosity", timeout=30).json()
+    history, sides = sol["history"], len(sol["radiosity"])
+    steps, n = len(history), sides // 2
+    assert steps > 20 and isinstance(history[0]["shooter"], str) and isinstance(history[1]["shooter"], int)
+    assert page.get_attribute("#radiosity", "data-steps") == str(steps)
+    assert f"{n} patches ({sides} sides) · {steps} shots" in page.inner_text("#rad-summary")
+
+    def object_name(side: int) -> str:
+        obj = scene["objects"][sol["patches"]["object"][side % n]]
+        return obj["name"]
+
+    # it opens on the final solution: the whole mesh drawn, lit, with the last shooter outlined
+    mesh = page.locator("#rad-mesh")
+    assert mesh.get_attribute("data-step") == str(steps) and mesh.get_attribute("data-snapshot") == str(steps)
+    assert int(mesh.get_attribute("data-patches")) > n // 3
+    assert canvas_pixels(page, "#rad-mesh") > 20_000
+    last = history[-1]["shooter"]
+    assert page.inner_text("#rad-step-out") == f"B after {steps} of {steps} shots"
+    assert f"Shot {steps} of {steps}: patch {last} (" in page.inner_text("#rad-shot")
+    assert f"object '{object_name(last)}'" in page.inner_text("#rad-shot")
+    desktop.shot("radiosity-final", full_page=True)
+    final = canvas_grid(page, "#rad-mesh")
+
+    # step 1: the light has shot, nothing else: darker (no interreflection, a black ceiling), and it says so
+    rad_step(page, 1)
+    assert page.inner_text("#rad-shot").startswith(f"Shot 1 of {steps}: lights[0] (quad) shoots its power")
+    assert mesh.get_attribute("data-shooter") == "lights[0]"
+    assert page.inner_text("#rad-step-out") == f"B after 1 of {steps} shots"
+    first = canvas_grid(page, "#rad-mesh")
+    changed = sum(1 for a, b in zip(first, final, strict=True) if abs(a - b) > 6)
+    assert changed > 40, f"only {changed} of 256 cells changed between step 1 and step {steps}"
+    assert sum(final) > sum(first) * 1.1  # the indirect light adds up
+    page.locator("#radiosity").screenshot(path=str(SHOTS / "radiosity-step1.png"))
+
+    # step 2: the first patch shoots; it is outlined in orange, its number and object named
+    rad_step(page, 2)
+    shooter = history[1]["shooter"]
+    label = page.inner_text("#rad-shot")
+    assert f"Shot 2 of {steps}: patch {shooter} (" in label and f"object '{object_name(shooter)}'" in label, label
+    assert f"shoots {history[1]['power']:.3g} W; " in label, label
+    assert mesh.get_attribute("data-shooter") == str(shooter)
+    assert canvas_pixels(page, "#rad-mesh", "#ff9f1c") > 30
+    # between two snapshots the last one before the step is shown, and said so
+    keys = sorted(int(k) for k in sol["snapshots"])
+    between = next(k for k in range(17, steps) if k not in keys)
+    rad_step(page, between)
+    before = max(k for k in keys if k <= between)
+    assert mesh.get_attribute("data-snapshot") == str(before)
+    shown = page.inner_text("#rad-step-out")
+    assert shown == f"B after {before} of {steps} shots (the last snapshot before step {between})", shown
+    assert page.input_value("#rad-step-num") == str(between)
+
+    # the keyboard drives the slider
+    page.focus("#rad-step")
+    page.keyboard.press("Home")
+    page.wait_for_function("() => document.querySelector('#rad-mesh').dataset.step === '0'")
+    assert page.inner_text("#rad-step-out") == "B before any shot: the emitters only"
+    assert canvas_pixels(page, "#rad-mesh", "#ff9f1c") < 10  # nobody has shot
+    page.keyboard.press("ArrowRight")
+    page.wait_for_function("() => document.querySelector('#rad-mesh').dataset.step === '1'")
+    page.keyboard.press("End")
+    page.wait_for_function(f"() => document.querySelector('#rad-mesh').dataset.step === '{steps}'")
+
+    # clicking the curve goes to that step (the plot spans x = 50 .. width - 14 px)
+    curve = page.locator("#rad-curve").bounding_box()
+    page.locator("#rad-curve").click(position={"x": 50 + 0.5 * (curve["width"] - 64), "y": curve["height"] / 2})
+    clicked = int(page.input_value("#rad-step"))
+    assert abs(clicked - steps / 2) <= 1, (clicked, steps)
+    assert page.get_attribute("#rad-curve", "data-step") == str(clicked)
+    assert page.inner_text("#rad-shot").startswith(f"Shot {clicked} of {steps}: ")
+
+    # the energy balance of the final solution: emitted = absorbed + unshot + escaped
+    energy = sol["energy"]
+    total = sum(energy["emitted"])
+    assert abs(total - sum(sum(energy[k]) for k in ("absorbed", "unshot", "escaped"))) < 1e-3 * total
+    assert page.locator(".rad-energy tbody tr").count() == 4
+    assert page.inner_text(".rad-energy tr[data-row=emitted] td:nth-child(5)") == f"{total:.3g}"
+    assert page.inner_text(".rad-balance").startswith(f"emitted {total:.4g} W = absorbed ")
+
+    # mesh lines off: the same colours without the outlines
+    with_lines = canvas_grid(page, "#rad-mesh", 32)
+    page.uncheck("#rad-lines")
+    without = canvas_grid(page, "#rad-mesh", 32)
+    assert sum(1 for a, b in zip(with_lines, without, strict=True) if abs(a - b) > 1) > 50
+
+    # play steps on by itself; pause stops it
+    page.click("#rad-prev")
+    start = int(page.input_value("#rad-step"))
+    page.click("#rad-play")
+    page.wait_for_function(f"() => Number(document.querySelector('#rad-step').value) >= {start + 3}")
+    page.click("#rad-play")
+    assert page.inner_text("#rad-play") == "▶ Play"
+    stopped = page.input_value("#rad-step")
+    time.sleep(0.3)
+    assert page.input_value("#rad-step") == stopped
+
+    # a job of another integrator: no panel; the radiosity job from "my jobs" brings it back
+    set_scene(page, whitted(32, 24, spp=4))
+    render(page)
+    time.sleep(0.3)
+    assert page.is_hidden("#radiosity")
+    page.click(f"#job-list li[data-id='{job_id}'] .job-open")
+    page.wait_for_selector("#radiosity:not([hidden]) #rad-body:not([hidden])")
+    assert page.get_attribute("#rad-mesh", "data-step") == str(steps)
+    page.click("#job-list li:not(.current) .job-open")
+    page.wait_for_function("() => document.querySelector('#stage').dataset.job !== " + json.dumps(job_id))
+    time.sleep(0.3)
+    assert page.is_hidden("#radiosity")
+
+
+def test_web_page_radiosity_panel_on_a_phone(phone):
+    page = phone.open().page
+    set_scene(page, radiosity_scene())
+    render(page)
+    page.wait_for_selector("#radiosity:not([hidden]) #rad-body:not([hidden])")
+    panel = page.locator("#radiosity").bounding_box()
+    for canvas in ("#rad-mesh", "#rad-curve"):
+        box = page.locator(canvas).bounding_box()
+        assert box["width"] > 0.7 * panel["width"] and box["x"] + box["width"] <= panel["x"] + panel["width"], canvas
+    assert canvas_pixels(page, "#rad-mesh") > 5_000
+    # nothing in the panel sticks out of the screen
+    wide = page.evaluate(
+        """(w) => [document.querySelector('#radiosity'), ...document.querySelectorAll('#radiosity *')]
+            .filter(e => e.getBoundingClientRect().right > w + 0.5).map(e => e.id || e.tagName)""",
+        PHONE["width"],
+    )
+    assert wide == [], f"wider than the {PHONE['width']} px screen: {wide}"
+    # a tap on the curve sets the step (the plot spans x = 50 .. width - 14 px)
+    steps = int(page.get_attribute("#radiosity", "data-steps"))
+    curve = page.locator("#rad-curve").bounding_box()
+    page.locator("#rad-curve").click(position={"x": 50 + 0.25 * (curve["width"] - 64), "y": 60})
+    page.wait_for_function(f"() => document.querySelector('#rad-mesh').dataset.step !== '{steps}'")
+    assert abs(int(page.input_value("#rad-step")) - steps / 4) <= 2
+    assert page.inner_text("#rad-shot").startswith(f"Shot {page.input_value('#rad-step')} of {steps}: patch ")
+    page.locator("#radiosity").scroll_into_view_if_needed()
+    phone.shot("phone-radiosity")
+    page.locator("#radiosity").screenshot(path=str(SHOTS / "phone-radiosity-panel.png"))

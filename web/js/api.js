@@ -9,7 +9,8 @@ export class ApiError extends Error {
   }
 }
 
-async function request(method, url, body, { raw = false, signal } = {}) {
+/** One request: the parsed JSON answer, or an ApiError (the grading view uses it too). */
+export async function request(method, url, body, { raw = false, signal } = {}) {
   const init = { method, signal, headers: {} };
   if (body !== undefined) {
     init.headers["content-type"] = "application/json";

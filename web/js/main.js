@@ -1,10 +1,12 @@
-// The page: three tabs (workspace, lessons, examples) and the wiring between the editor, the form, the
+// The page: four tabs (workspace, lessons, examples, grading) and the wiring between the editor, the form, the
 // viewer and the ray tree. Any unexpected error shows a message in the banner, never a blank page.
 import { api } from "./api.js";
 import { SceneEditor } from "./editor.js";
 import { SceneFields } from "./fields.js";
 import { formatJSON } from "./jsonpos.js";
+import { GradingPanel } from "./grading.js";
 import { Lessons } from "./lessons.js";
+import { RadiosityPanel } from "./radiosity.js";
 import { RayTreePanel } from "./raytree.js";
 import { $, $$, download, h } from "./util.js";
 import { Viewer } from "./viewer.js";
@@ -35,6 +37,7 @@ function selectTab(id, focus = false) {
   const page = id.replace("tab-", "");
   if (location.hash !== `#${page}`) history.replaceState(null, "", page === "work" ? location.pathname : `#${page}`);
   if (page === "examples") gallery();
+  if (page === "grading") grading.open();
 }
 tabs.forEach((t, i) => {
   t.addEventListener("click", () => selectTab(t.id));
@@ -76,6 +79,8 @@ const viewer = new Viewer({
   notify,
 });
 viewer.onRefused = (errors) => editor.showProblems(errors);
+const radiosity = new RadiosityPanel({ sceneOf: (view) => viewer.sceneOf(view) });
+viewer.onJob = (view) => radiosity.update(view);
 
 const raytree = new RayTreePanel({
   onPick: (x, y) => viewer.view && viewer.pick(x, y),
@@ -146,6 +151,10 @@ $("#btn-format").addEventListener("click", () => {
   editor.setText(formatJSON(st.value));
 });
 
+// -- grading (the instructor's view: web/js/grading.js) --------------------------------------------
+
+const grading = new GradingPanel($("#page-grading"));
+
 // -- examples (the scene picker and the gallery) --------------------------------------------------
 
 let examples = [];
@@ -188,7 +197,7 @@ async function start() {
     else editor.setText('{\n  "version": 1\n}\n');
     $("#load-note").replaceChildren();
   }
-  selectTab(["lessons", "examples"].includes(page) ? `tab-${page}` : "tab-work");
+  selectTab(["lessons", "examples", "grading"].includes(page) ? `tab-${page}` : "tab-work");
   viewer.renderList();
   await viewer.restore().catch((err) => notify(`Could not load your jobs: ${err.message}.`));
   document.body.dataset.ready = "true";

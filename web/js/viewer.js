@@ -49,6 +49,7 @@ export class Viewer {
     this.aov = "image";
     this.cursor = null; // [x, y] of the keyboard cursor / last pick
     this.jobs = new Map(); // id -> job (my jobs)
+    this.onJob = null; // (view) when the job shown changes, or ends: the radiosity panel follows it
     this.el = {
       render: $("#btn-render"),
       cancel: $("#btn-cancel"),
@@ -123,6 +124,7 @@ export class Viewer {
     this.el.img.dataset.runningPreviews = "0";
     this.el.stage.dataset.job = job.id;
     this.el.title.textContent = job.name || "untitled scene";
+    this.onJob?.(this.view);
     this.update(job);
     this.updateAovButtons(job);
     this.drawMarker();
@@ -196,6 +198,7 @@ export class Viewer {
     else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
     else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
     if (job.status === "done") this.loadAovRanges(job.id);
+    this.onJob?.(this.view);
   }
 
   async cancel() {
