@@ -407,3 +407,18 @@ def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
     assert "must be a perfect square" in report.tests[-1].output
     assert report.score == 7.0
 
+
+
+def test_unreadable_images_are_said_so():
+    from tracer.grading import read_image
+
+    with pytest.raises(GradingError, match="cannot read the EXR image: it is not an OpenEXR file"):
+        read_image(b"hello", "exr")
+    with pytest.raises(GradingError, match="cannot read the PNG image"):
+        read_image(b"hello", "png")
+    grey16 = io.BytesIO()
+    from PIL import Image
+
+    Image.fromarray(np.full((4, 6), 65535, np.uint16)).save(grey16, format="PNG")
+    image = read_image(grey16.getvalue(), "png")
+    assert image.shape == (4, 6, 3) and np.all(image == 1.0)

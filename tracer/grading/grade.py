@@ -215,8 +215,8 @@ def read_image(data: bytes, kind: str) -> np.ndarray:
             f.flush()
             try:
                 image = read_exr(f.name)
-            except Exception as e:  # OpenEXR raises plain exceptions for broken files
-                raise metrics.GradingError(f"cannot read the EXR image: {e}") from None
+            except Exception:  # OpenEXR raises plain exceptions for broken files
+                raise metrics.GradingError("cannot read the EXR image: it is not an OpenEXR file") from None
         return np.nan_to_num(image.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     from PIL import Image, UnidentifiedImageError
 
