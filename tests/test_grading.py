@@ -373,6 +373,9 @@ def test_api_grade_rejects_bad_requests(server):
     r = httpx.post(f"{server.url}/api/grade", json={"assignment": inline_assignment(), "zip": "***"})
     assert r.status_code == 422 and r.json()["errors"][0] == {"path": "zip", "message": "expected base64 data"}
     assert httpx.get(f"{server.url}/api/grade/{'0' * 32}").status_code == 404
+    schema = httpx.get(f"{server.url}/api/grade/schema").json()
+    assert {"name", "requirements", "reference", "limits"} <= set(schema["properties"])
+    assert "Check" in schema["$defs"] and "at_least" in schema["$defs"]["Check"]["properties"]
 
 
 def test_api_grade_example_is_the_example_class(server):

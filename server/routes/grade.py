@@ -116,6 +116,14 @@ def grade(body: GradeCreate, runs: RunsDep, response: Response) -> dict:
     return _public(state, runs)
 
 
+@router.get("/schema", summary="The JSON Schema of an assignment")
+def schema() -> dict:
+    """Generated from the same models that validate assignments (tracer/grading/spec.py)."""
+    from tracer.grading import Assignment
+
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **Assignment.model_json_schema()}
+
+
 @router.get("/example", summary="The example assignment (reference inline) and class")
 def example() -> dict:
     """What the page's "Load the example" fills in: scenes/grading/assignment.json with its reference
