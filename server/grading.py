@@ -53,7 +53,6 @@ class QueueRenderer:
     ):
         self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
         self.settings = settings  # the service's own limits also apply (the smaller of the two)
-        self.job_ids: list[str | None] = []
 
     def _capped(self, job: RenderJob) -> tuple[Limits, float]:
         if self.settings is None:
@@ -78,7 +77,6 @@ class QueueRenderer:
                 max_seconds=seconds, max_queued=self.max_queued,
             )  # fmt: skip
             ids[i] = row["id"]
-        self.job_ids = [ids.get(i) for i in range(len(jobs))]
         if self.wake:
             self.wake()
         pending = dict(ids)

@@ -225,11 +225,12 @@ def test_metrics_pixel_test_rejects_about_alpha_for_pure_noise():
     var = np.full_like(truth, 0.04)
     ref = truth + rng.normal(0, np.sqrt(0.04 / 256), truth.shape)
     noisy = truth + rng.normal(0, np.sqrt(0.04 / 4), truth.shape)
-    rejected, _ = metrics.pixel_test(noisy, ref, var, 256, 4, alpha=1e-3)
+    rejected, _, critical = metrics.pixel_test(noisy, ref, var, 256, 4, alpha=1e-3)
+    assert critical == pytest.approx(3.588, abs=1e-3)  # 1e-3 split over two tails and three channels
     assert rejected < 3e-3  # expected 1e-3 of 40 000 pixels; 3e-3 is 6 sigma of a binomial away
     wrong = noisy.copy()
     wrong[:50] += 0.5  # a quarter of the picture 5 standard deviations too bright
-    rejected, z = metrics.pixel_test(wrong, ref, var, 256, 4, alpha=1e-3)
+    rejected, z, _ = metrics.pixel_test(wrong, ref, var, 256, 4, alpha=1e-3)
     assert rejected > 0.24 and z[:50].mean() > 3 * z[50:].mean()
 
 

@@ -15,7 +15,7 @@ from server.errors import ApiError
 from server.grading import STUDENT_FILES, GradeRuns
 from server.models import ErrorResponse
 from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_name
-from tracer.grading.batch import _group
+from tracer.grading.batch import group_files
 
 router = APIRouter(prefix="/api/grade", tags=["grading"])
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
@@ -73,7 +73,7 @@ def _submissions(body: GradeCreate) -> list[Submission]:
         return [Submission("submission", text.encode(), "scene")]
     if body.zip is not None:
         try:
-            subs = _group(read_zip(_b64(body.zip, "zip")))
+            subs = group_files(read_zip(_b64(body.zip, "zip")))
         except GradingError as e:
             raise ApiError(422, [{"path": "zip", "message": str(e)}]) from None
         if not subs:

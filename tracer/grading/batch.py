@@ -18,7 +18,7 @@ import json
 import zipfile
 from pathlib import Path, PurePosixPath
 
-from tracer.grading.grade import IMAGE_KINDS, Report, Submission, student_name
+from tracer.grading.grade import Report, Submission, student_name
 from tracer.grading.metrics import GradingError
 
 MAX_FILE_BYTES = 20_000_000  # one submitted file
@@ -41,7 +41,7 @@ def _pick(files: dict[str, bytes], student: str) -> Submission | None:
     return None
 
 
-def _group(entries: dict[str, bytes]) -> list[Submission]:
+def group_files(entries: dict[str, bytes]) -> list[Submission]:
     """Relative POSIX paths -> submissions, by the layout above."""
     parts = {p: PurePosixPath(p).parts for p in entries}
     tops = {ps[0] for ps in parts.values() if len(ps) > 1}
@@ -84,7 +84,7 @@ def collect(path: Path) -> list[Submission]:
         entries = read_zip(data)
     if len(entries) > MAX_FILES:
         raise GradingError(f"{len(entries)} files; at most {MAX_FILES}")
-    return _group(entries)
+    return group_files(entries)
 
 
 def read_zip(data: bytes) -> dict[str, bytes]:
@@ -168,5 +168,3 @@ def write_all(out: Path, reports: list[Report]) -> dict:
     (out / "summary.csv").write_text(summary_csv(table))
     return table
 
-
-__all__ = ["IMAGE_KINDS", "collect", "read_zip", "summary", "summary_csv", "write_all", "write_report"]

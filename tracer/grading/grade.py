@@ -144,7 +144,7 @@ class Report:
         """graded; invalid (the submission could not be read or validated); failed (no render)."""
         if self.errors:
             return "invalid"
-        if any(t.kind == "image" and t.output.startswith("not compared") for t in self.tests):
+        if "problem" in self.metrics:  # the image tests could not be made (no render, no reference)
             return "failed"
         return "graded"
 
@@ -403,7 +403,7 @@ class Grader:
                 p.key = (final.sampler.type, final.sampler.spp, final.render.light_samples)
             except SceneError as e:  # the assignment's settings made it invalid (e.g. spp for a grid)
                 p.job = None
-                report.metrics["error"] = "with the assignment's settings: " + "; ".join(map(_error_text, e.errors))
+                report.metrics["problem"] = "with the assignment's settings: " + "; ".join(map(_error_text, e.errors))
         return p
 
     def _prepare_image(self, p: _Prepared) -> _Prepared:
@@ -446,11 +446,11 @@ class Grader:
             mean, var, lin = ref.mean * scale, ref.variance * scale * scale, lin * scale
         flip_mean, flip_map = metrics.flip(shown_ref, shown)
         alpha = spec.pixels.alpha if spec.pixels else 1e-3
-        rejected, z = metrics.pixel_test(lin, mean, var, ref.spp, n, alpha=alpha, quantised=quantised)
+        rejected, z, critical = metrics.pixel_test(lin, mean, var, ref.spp, n, alpha=alpha, quantised=quantised)
         return {
             "flip": round(flip_mean, 6), "ssim": round(metrics.ssim(shown_ref, shown), 6),
             "psnr": round(metrics.psnr(shown_ref, shown), 4), "rejected": round(rejected, 6),
-            "_flip_map": flip_map, "_z": z, "_shown": shown,
+            "_flip_map": flip_map, "_rejected": z > critical, "_shown": shown,
         }  # fmt: skip
 
     def _finish(self, p: _Prepared, r: Rendered | None) -> Report:
@@ -459,7 +459,7 @@ class Grader:
             return report
         ref = self.reference
         base = ref.baselines.get(p.key, {})
-        problem = report.metrics.pop("error", None) or ref.error or base.get("error")
+        problem = report.metrics.get("problem") or ref.error or base.get("error")
         if problem is None and p.sub.kind == "scene" and (r is None or r.error):
             problem = r.error if r else "not rendered"
         if problem is None:
@@ -506,17 +506,11 @@ class Grader:
         ref = self.reference
         report.images["render"] = np.round(m["_shown"] * 255).astype(np.uint8)
         report.images["reference"] = np.round(metrics.display(ref.mean, ref.exposure) * 255).astype(np.uint8)
-        report.images["error_map"] = metrics.magma(m["_flip_map"])
-        critical = metrics.NormalDist().inv_cdf(1.0 - (self.assignment.reference.pixels or _Alpha()).alpha / 6.0)
+        report.images["error_map"] = np.round(m["_flip_map"] * 255).astype(np.uint8)
         grey = report.images["render"].mean(axis=-1, keepdims=True) * 0.5
         out = np.repeat(grey, 3, axis=-1)
-        out[m["_z"] > critical] = (255, 40, 40)
+        out[m["_rejected"]] = (255, 40, 40)
         report.images["rejected"] = out.astype(np.uint8)
-
-
-@dataclass
-class _Alpha:
-    alpha: float = 1e-3
 
 
 def _mesh_triangles(scene) -> dict[int, int]:

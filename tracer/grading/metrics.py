@@ -48,7 +48,8 @@ def same_size(reference: np.ndarray, test: np.ndarray) -> None:
 
 
 def flip(reference: np.ndarray, test: np.ndarray, ppd: float = 67.0) -> tuple[float, np.ndarray]:
-    """Mean LDR-FLIP error of two displayed images (floats in [0, 1]) and its (H, W) error map;
+    """Mean LDR-FLIP error of two displayed images (floats in [0, 1]) and its error map in FLIP's magma
+    colours ((H, W, 3) floats in [0, 1]: black no error, through purple and orange, to white);
     `ppd`: pixels per degree of visual angle (FLIP's default, a 0.7 m view of a 4K 27" screen)."""
     import flip_evaluator
 
@@ -59,14 +60,14 @@ def flip(reference: np.ndarray, test: np.ndarray, ppd: float = 67.0) -> tuple[fl
             err, mean, _ = flip_evaluator.evaluate(
                 np.ascontiguousarray(reference, dtype=np.float32),
                 np.ascontiguousarray(test, dtype=np.float32),
-                "LDR", inputsRGB=True, applyMagma=False, computeMeanError=True, parameters={"ppd": ppd},
+                "LDR", inputsRGB=True, applyMagma=True, computeMeanError=True, parameters={"ppd": ppd},
             )  # fmt: skip
     except SystemExit:
         reason = said.getvalue().replace("Exiting.", "").strip() or "no reason given"
         raise GradingError(f"FLIP refused the images: {reason}") from None
     except (RuntimeError, ValueError) as e:
         raise GradingError(f"FLIP failed: {e}") from None
-    return float(mean), np.asarray(err, dtype=np.float32).reshape(reference.shape[:2])
+    return float(mean), np.asarray(err, dtype=np.float32).reshape(reference.shape)
 
 
 def ssim(reference: np.ndarray, test: np.ndarray) -> float:
@@ -105,9 +106,9 @@ def pixel_test(
     test_var: np.ndarray | None = None,
     alpha: float = 1e-3,
     quantised: bool = False,
-) -> tuple[float, np.ndarray]:
+) -> tuple[float, np.ndarray, float]:
     """The share of pixels whose difference from the reference mean is too large for the noise of
-    the two estimates, and the (H, W) map of each pixel's largest |z|.
+    the two estimates, the (H, W) map of each pixel's largest |z|, and the critical value it passed.
 
     `test_var`: the submission's own sample variance (when we rendered it); None: assume the
     reference's (the null hypothesis: both come from the same distribution). `quantised`: the
@@ -122,16 +123,4 @@ def pixel_test(
     z = np.abs(test.astype(np.float64) - mean) / np.sqrt(sigma2)
     zmax = np.nan_to_num(z, nan=np.inf).max(axis=-1)
     critical = NormalDist().inv_cdf(1.0 - alpha / 6.0)  # two-sided, alpha split over R, G, B
-    return float(np.mean(zmax > critical)), zmax.astype(np.float32)
-
-
-def magma(values: np.ndarray) -> np.ndarray:
-    """(H, W) values in [0, 1] -> (H, W, 3) uint8 through FLIP's magma colour map (black, purple, orange, white)."""
-    stops = np.array(
-        [[0, 0, 4], [28, 16, 68], [79, 18, 123], [129, 37, 129], [181, 54, 122],
-         [229, 80, 100], [251, 135, 97], [254, 194, 135], [252, 253, 191]], dtype=np.float64,
-    )  # fmt: skip
-    x = np.clip(np.nan_to_num(values), 0.0, 1.0) * (len(stops) - 1)
-    i = np.minimum(x.astype(int), len(stops) - 2)
-    f = (x - i)[..., None]
-    return np.round(stops[i] * (1 - f) + stops[i + 1] * f).astype(np.uint8)
+    return float(np.mean(zmax > critical)), zmax.astype(np.float32), critical

@@ -2,6 +2,7 @@
 // scene's own camera (vec.js projectToFilm, the inverse of the eye ray's formula), the picked pixel
 // outlined. The eye ray runs along the line of sight, so it shows as a ring around its pixel.
 import { strokeRay, styleKey } from "./rays.js";
+import { fitCanvas } from "./util.js";
 import { clipNear, projectToFilm } from "./vec.js";
 
 function distToSegment(px, py, a, b) {
@@ -74,17 +75,7 @@ export class Overlay {
       return;
     }
     const { cssW, cssH, scale } = this.size();
-    const dpr = window.devicePixelRatio || 1;
-    if (c.width !== Math.round(cssW * dpr) || c.height !== Math.round(cssH * dpr)) {
-      c.width = Math.round(cssW * dpr);
-      c.height = Math.round(cssH * dpr);
-      c.style.width = `${cssW}px`;
-      c.style.height = `${cssH}px`;
-    }
-    const ctx = c.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.fillStyle = "#10151c";
-    ctx.fillRect(0, 0, cssW, cssH);
+    const ctx = fitCanvas(c, cssW, cssH);
     if (this.img) {
       ctx.imageSmoothingEnabled = false;
       ctx.globalAlpha = 0.85;

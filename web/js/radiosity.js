@@ -3,7 +3,7 @@
 // progressive refinement, the patch that shoots at that step outlined; the convergence curve (the unshot
 // power after each shot, on a log scale) and the energy balance of the final solution.
 import { ApiError } from "./api.js";
-import { $, h, num } from "./util.js";
+import { $, fitCanvas, h, num } from "./util.js";
 import { add, cameraBasis, clipNear, cross, dot, length, mul, normalize, projectToFilm, sub, tangents, triple } from "./vec.js";
 
 const SHOOTER = "#ff9f1c"; // the patch that shoots: the eye rays' orange, the page's focus colour
@@ -336,17 +336,7 @@ export class RadiosityPanel {
     const c = this.el.mesh;
     if (!d || this.el.section.hidden) return;
     const { cssW, cssH, scale } = this.size();
-    const dpr = window.devicePixelRatio || 1;
-    if (c.width !== Math.round(cssW * dpr) || c.height !== Math.round(cssH * dpr)) {
-      c.width = Math.round(cssW * dpr);
-      c.height = Math.round(cssH * dpr);
-      c.style.width = `${cssW}px`;
-      c.style.height = `${cssH}px`;
-    }
-    const ctx = c.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.fillStyle = "#10151c";
-    ctx.fillRect(0, 0, cssW, cssH);
+    const ctx = fitCanvas(c, cssW, cssH);
     const b = d.basis;
     const near = 1e-3;
     const toCanvas = (p) => {
@@ -482,17 +472,7 @@ export class RadiosityPanel {
     const c = this.el.curve;
     if (!d || this.el.section.hidden) return;
     const { cssW, cssH, l, r, t, b } = this.curveLayout();
-    const dpr = window.devicePixelRatio || 1;
-    if (c.width !== Math.round(cssW * dpr) || c.height !== Math.round(cssH * dpr)) {
-      c.width = Math.round(cssW * dpr);
-      c.height = Math.round(cssH * dpr);
-      c.style.width = `${cssW}px`;
-      c.style.height = `${cssH}px`;
-    }
-    const ctx = c.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.fillStyle = "#10151c";
-    ctx.fillRect(0, 0, cssW, cssH);
+    const ctx = fitCanvas(c, cssW, cssH);
     const u = d.unshot;
     const positive = u.filter((v) => v > 0);
     if (d.threshold > 0) positive.push(d.threshold);

@@ -2,6 +2,8 @@
 // per jittered cell, uniform random points, and the adaptive sampler's corners and centres, subdivided
 // where a cell straddles an edge (here a slanted edge crossing the pixel, shaded on one side).
 
+import { fitCanvas } from "./util.js";
+
 /** A small deterministic random generator (mulberry32), so a drawing does not change on every redraw. */
 function rng(seed) {
   let a = seed >>> 0;
@@ -72,16 +74,9 @@ export function samplePositions(sampler, seed = 7) {
 
 /** Draw the zoomed pixel with its samples on a canvas (CSS size `size` px). */
 export function drawSamples(canvas, sampler, size = 132) {
-  const dpr = window.devicePixelRatio || 1;
-  canvas.width = Math.round(size * dpr);
-  canvas.height = Math.round(size * dpr);
-  canvas.style.width = canvas.style.height = `${size}px`;
-  const ctx = canvas.getContext("2d");
-  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  const ctx = fitCanvas(canvas, size, size, "#f3f0e6");
   const m = 8;
   const s = size - 2 * m;
-  ctx.fillStyle = "#f3f0e6";
-  ctx.fillRect(0, 0, size, size);
   const adaptive = sampler.type === "adaptive";
   if (adaptive) {
     // the edge the adaptive sampler finds: dark on one side

@@ -109,6 +109,23 @@ export const store = {
   },
 };
 
+/** Size a canvas to cssW x cssH CSS pixels (sharp on high-DPI screens), clear it to `background`;
+ * its 2D context, drawing in CSS pixels. */
+export function fitCanvas(canvas, cssW, cssH, background = "#10151c") {
+  const dpr = window.devicePixelRatio || 1;
+  if (canvas.width !== Math.round(cssW * dpr) || canvas.height !== Math.round(cssH * dpr)) {
+    canvas.width = Math.round(cssW * dpr);
+    canvas.height = Math.round(cssH * dpr);
+    canvas.style.width = `${cssW}px`;
+    canvas.style.height = `${cssH}px`;
+  }
+  const ctx = canvas.getContext("2d");
+  ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+  ctx.fillStyle = background;
+  ctx.fillRect(0, 0, cssW, cssH);
+  return ctx;
+}
+
 export const clone = (x) => (x === undefined ? undefined : JSON.parse(JSON.stringify(x)));
 
 /** Offer a Blob as a file download. */

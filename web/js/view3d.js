@@ -3,6 +3,7 @@
 // keyboard (arrows orbit, + and - zoom, 0 resets). Hovering a ray highlights it in the other views.
 import { sceneBounds, sceneLines } from "./shapes.js";
 import { strokeRay, styleKey } from "./rays.js";
+import { fitCanvas } from "./util.js";
 import { add, clipNear, cross, dot, length, mul, normalize, sub } from "./vec.js";
 
 const FOV = 50; // degrees, vertical, of the orbit camera
@@ -101,17 +102,7 @@ export class View3D {
     const box = c.parentElement.getBoundingClientRect();
     const w = Math.max(200, Math.floor(box.width));
     const hgt = Math.max(220, Math.min(Math.floor(w * 0.75), Math.floor(window.innerHeight * 0.55)));
-    const dpr = window.devicePixelRatio || 1;
-    if (c.width !== Math.round(w * dpr) || c.height !== Math.round(hgt * dpr)) {
-      c.width = Math.round(w * dpr);
-      c.height = Math.round(hgt * dpr);
-      c.style.width = `${w}px`;
-      c.style.height = `${hgt}px`;
-    }
-    const ctx = c.getContext("2d");
-    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    ctx.fillStyle = "#10151c";
-    ctx.fillRect(0, 0, w, hgt);
+    const ctx = fitCanvas(c, w, hgt);
     const cam = this.camera(w, hgt);
     const near = Math.max(1e-3, this.radius * 1e-3);
     const seg = (p, q) => {
