@@ -57,6 +57,17 @@ class RayTreeRequest(BaseModel):
     sample: StrictInt = Field(0, description="sample index within the pixel")
 
 
+class SolveProgress(BaseModel):
+    fraction: float = Field(
+        description="how far the solve is, 0..1 (shots against max_steps, or the unshot power's fall)"
+    )
+    shots: int = Field(description="shots so far (a light or a patch shooting its unshot power)")
+    rays: int = Field(description="rays cast by the solve so far")
+    seconds: float = Field(description="seconds spent solving")
+    unshot: float = Field(description="share of the emitted power not shot yet, 0..1")
+    patches: int = Field(description="patch sides of the solution (two per piece of surface)")
+
+
 class JobProgress(BaseModel):
     samples_done: int = Field(description="pixel samples rendered (adaptive sampler: pixels x passes)")
     samples_total: int = Field(description="width x height x spp (adaptive sampler: pixels x levels)")
@@ -64,6 +75,11 @@ class JobProgress(BaseModel):
     passes_done: int = Field(description="progressive passes finished (1, 1, 2, 4, ... samples per pixel each)")
     spp_done: int = Field(description="samples per pixel in the latest image")
     spp_total: int = Field(description="samples per pixel asked for")
+    phase: str = Field(
+        description="what the job is doing: 'queued', 'radiosity' (solving the radiosity solution, before any "
+        "pass), 'render' (the passes), or 'finished'"
+    )
+    solve: SolveProgress | None = Field(description="the radiosity solve, for the radiosity integrator; else null")
 
 
 class JobPublic(BaseModel):
@@ -79,7 +95,9 @@ class JobPublic(BaseModel):
     progress: JobProgress
     elapsed: float | None = Field(description="seconds since a worker took the job (until it ended)")
     eta: float | None = Field(description="seconds left, estimated from the samples done so far")
-    rays: dict[str, int] = Field(description="rays traced by kind (eye, shadow, reflection, transmission) and total")
+    rays: dict[str, int] = Field(
+        description="rays traced by kind (eye, shadow, reflection, transmission; radiosity: the solve's) and total"
+    )
     preview: int = Field(description="number of the pass in the latest image; 0 = no image yet")
     image_url: str | None = Field(description="the latest PNG (add ?format=exr for linear float EXR)")
     events_url: str = Field(description="Server-Sent Events: progress, preview, end")
@@ -96,12 +114,19 @@ class JobPublic(BaseModel):
         total = row["samples_total"]
         done = row["samples_done"]
         fraction = done / total if total else 0.0
+        solve = json.loads(row["solve"]) if row.get("solve") else None
+        solving = status is JobStatus.running and solve is not None and solve.get("fraction", 1.0) < 1.0 and done == 0
+        phase = "finished" if status.finished else "queued" if status is JobStatus.queued else "render"
+        phase = "radiosity" if solving else phase
         elapsed = eta = None
         if row["started_at"] is not None:
             end = row["finished_at"] if row["finished_at"] is not None else now
             elapsed = max(0.0, end - row["started_at"])
+            rendering = max(0.0, elapsed - (solve or {}).get("seconds", 0.0))  # the passes' own time
             if status is JobStatus.running and done > 0:
-                eta = elapsed * (1.0 - fraction) / fraction
+                eta = rendering * (1.0 - fraction) / fraction
+            elif solving and solve["fraction"] > 0:
+                eta = elapsed * (1.0 - solve["fraction"]) / solve["fraction"]  # of the solve
         preview = row["preview"]
         return cls(
             id=row["id"],
@@ -120,6 +145,8 @@ class JobPublic(BaseModel):
                 passes_done=row["passes_done"],
                 spp_done=row["spp_done"],
                 spp_total=row["spp"],
+                phase=phase,
+                solve=solve,
             ),
             elapsed=elapsed,
             eta=eta,

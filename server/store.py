@@ -44,7 +44,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     errors TEXT NOT NULL DEFAULT '[]',      -- scene errors found by the worker
     cancel_requested INTEGER NOT NULL DEFAULT 0,
     attempts INTEGER NOT NULL DEFAULT 0,    -- times a worker took it
-    worker INTEGER                          -- pid of the worker rendering it
+    worker INTEGER,                         -- pid of the worker rendering it
+    solve TEXT                              -- the radiosity solve so far (JSON: fraction, shots, rays, ...)
 );
 CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at);
 """
@@ -74,6 +75,14 @@ class JobStore:
         self._local = threading.local()
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
         self.db.executescript(SCHEMA)
+        self._add_columns()
+
+    def _add_columns(self) -> None:
+        """Columns added since a data dir was made: an older database gets them (empty)."""
+        have = {row["name"] for row in self.db.execute("PRAGMA table_info(jobs)")}
+        for name, decl in (("solve", "TEXT"),):
+            if name not in have:
+                self.db.execute(f"ALTER TABLE jobs ADD COLUMN {name} {decl}")
 
     # -- connections --------------------------------------------------------------------------
 
@@ -237,9 +246,11 @@ class JobStore:
         )
 
     def progress(self, job_id: str, pid: int, **fields) -> bool:
-        """Update progress fields (samples_done, samples_total, passes_done, spp_done, rays, preview) of its job."""
-        if "rays" in fields:
-            fields["rays"] = json.dumps(fields["rays"])
+        """Update progress fields (samples_done, samples_total, passes_done, spp_done, rays, preview, solve) of
+        its job."""
+        for key in ("rays", "solve"):
+            if key in fields:
+                fields[key] = json.dumps(fields[key])
         sets = ", ".join(f"{k} = ?" for k in fields)
         cur = self.db.execute(
             f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = 'running'",
@@ -260,7 +271,7 @@ class JobStore:
         return self._finish(job_id, pid, status, **fields)
 
     def _finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
-        for key in ("rays", "errors"):
+        for key in ("rays", "errors", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
         fields.update(status=status.value, finished_at=time.time())

@@ -176,7 +176,7 @@ class Worker:
         deadline = job["started_at"] + job["max_seconds"]
         try:
             scene, _ = load_scene(json.loads(job["scene"]), self.settings.limits)
-            compiled = compile_scene(scene)
+            compiled = compile_scene(scene, solve_radiosity=False)  # render() solves radiosity, with progress
         except SceneError as exc:
             message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
             store.finish(job_id, pid, JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
@@ -207,10 +207,13 @@ class Worker:
             published = p.number
             clock["preview"] = time.monotonic()
 
-        def on_band(pr) -> None:
+        def on_band(pr) -> None:  # after each band of a pass, and after each shot of a radiosity solve
             done.update(samples=pr.samples_done, total=pr.samples_total)
             now = time.monotonic()
-            if now - clock["progress"] >= PROGRESS_INTERVAL:
+            if pr.phase == "radiosity" and (now - clock["progress"] >= PROGRESS_INTERVAL or pr.solve["fraction"] >= 1):
+                clock["progress"] = now
+                store.progress(job_id, pid, solve=pr.solve)
+            elif pr.phase != "radiosity" and now - clock["progress"] >= PROGRESS_INTERVAL:
                 clock["progress"] = now
                 store.progress(job_id, pid, samples_done=pr.samples_done, samples_total=pr.samples_total)
             if now - clock["check"] >= CHECK_INTERVAL:
@@ -230,8 +233,11 @@ class Worker:
 
         stop_reason = None
 
-        def cancel() -> bool:
+        def cancel() -> bool:  # before each pass, and before each shot of a radiosity solve
             nonlocal stop_reason
+            solving = scene.render.integrator == "radiosity" and compiled.radiosity is None
+            if solving and time.monotonic() - clock["check"] < CHECK_INTERVAL:
+                return False  # a solve's shots come every few ms: look at the row every CHECK_INTERVAL
             clock["check"] = time.monotonic()
             stop_reason = reason_to_stop()
             return stop_reason is not None
@@ -246,9 +252,10 @@ class Worker:
                 self._save_aovs(job_id, result.aovs)
                 if compiled.radiosity is not None:
                     self._save_radiosity(job_id, compiled.radiosity)
+                solved = {"solve": {**result.solve, "fraction": 1.0}} if result.solve else {}
                 store.finish(
                     job_id, pid, JobStatus.done, samples_done=done["total"], samples_total=done["total"],
-                    passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number,
+                    passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number, **solved,
                 )  # fmt: skip
                 log.info("job %s: done, %s", job_id, result.stats_line())
                 return

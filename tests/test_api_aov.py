@@ -118,3 +118,42 @@ def test_api_radiosity_solution_of_a_finished_job(client):
     wait_status(client, other, {"done"})
     r = client.get(f"/api/jobs/{other}/radiosity")
     assert r.status_code == 404 and "not radiosity" in r.json()["errors"][0]["message"]
+
+
+def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
+    """The solve reports its own progress (phase 'radiosity', the solve's fraction and shots) before the
+    first pass, ends in the job's stats (shots, patches, the solve's rays), and a cancel stops it mid-solve."""
+    import json
+    from pathlib import Path
+
+    scene = json.loads(
+        (Path(__file__).resolve().parent.parent / "scenes" / "cornell_spheres_radiosity.json").read_text()
+    )
+    scene["film"].update(width=16, height=16)
+    scene["sampler"] = {"type": "center"}
+    scene["render"]["radiosity"] = {"patch_size": 0.25, "rays": 1024, "threshold": 0.002, "max_steps": 20000}
+    job_id = submit(client, scene)
+    events = []
+    with client.stream("GET", f"/api/jobs/{job_id}/events") as r:
+        for event, data in parse_sse(r.iter_lines()):
+            events.append((event, data))
+            if event == "end":
+                break
+    progress = [d for e, d in events if e == "progress"]
+    solving = [d for d in progress if d["phase"] == "radiosity"]
+    assert len(solving) >= 2, "the solve reported no progress of its own"
+    assert all(d["solve"]["shots"] > 0 and 0 <= d["solve"]["fraction"] < 1 and d["samples_done"] == 0 for d in solving)
+    assert [d["solve"]["shots"] for d in solving] == sorted(d["solve"]["shots"] for d in solving)
+    done = events[-1][1]
+    assert done["status"] == "done" and done["progress"]["phase"] == "finished"
+    solve = done["progress"]["solve"]
+    assert solve["fraction"] == 1 and solve["shots"] > len(solving) and solve["patches"] > 0
+    assert done["rays"]["radiosity"] == solve["rays"] > 0
+    assert done["rays"]["total"] == sum(v for k, v in done["rays"].items() if k != "total")
+    # cancelled while it solves (a solve of minutes): the job ends long before the solve would, with no pass
+    scene["render"]["radiosity"].update(patch_size=0.1, rays=4096, threshold=1e-6)
+    job_id = submit(client, scene)
+    wait_for(lambda: client.get(f"/api/jobs/{job_id}").json()["progress"]["phase"] == "radiosity", 60, "the solve")
+    assert client.delete(f"/api/jobs/{job_id}").status_code in (200, 202)
+    ended = wait_status(client, job_id, {"cancelled"}, timeout=10)
+    assert ended["progress"]["passes_done"] == 0 and ended["preview"] == 0

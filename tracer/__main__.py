@@ -75,23 +75,36 @@ def cmd_render(args) -> int:
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args))
     _print_warnings(warnings)
-    cs = compile_scene(scene, asset_dir=Path(args.assets))
-    bar = None
-    if sys.stderr.isatty() and not args.quiet:
-        from tqdm import tqdm
-
-        total = scene.film.width * scene.film.height * scene.sampler.spp
-        bar = tqdm(total=total, unit="spl", unit_scale=True, desc=Path(args.scene).name, file=sys.stderr)
+    cs = compile_scene(scene, asset_dir=Path(args.assets), solve_radiosity=False)  # render() solves, with progress
+    bars: dict = {}
+    show = sys.stderr.isatty() and not args.quiet
     last = 0
 
     def progress(p) -> None:
         nonlocal last
-        if bar is not None:
-            bar.update(p.samples_done - last)
-            last = p.samples_done
+        if not show:
+            return
+        from tqdm import tqdm
+
+        if p.phase == "radiosity":  # the radiosity solve comes first: its own bar, in percent
+            bar = bars.get("radiosity")
+            if bar is None:
+                bar = bars["radiosity"] = tqdm(total=100, unit="%", desc="radiosity solve", file=sys.stderr)
+            bar.set_postfix_str(f"{p.solve['shots']} shots, {100 * p.solve['unshot']:.2f}% unshot", refresh=False)
+            bar.update(int(100 * p.solve["fraction"]) - bar.n)
+            return
+        bar = bars.get("render")
+        if bar is None:
+            if "radiosity" in bars:
+                bars["radiosity"].update(100 - bars["radiosity"].n)
+                bars["radiosity"].close()
+            desc = Path(args.scene).name
+            bar = bars["render"] = tqdm(total=p.samples_total, unit="spl", unit_scale=True, desc=desc, file=sys.stderr)
+        bar.update(p.samples_done - last)
+        last = p.samples_done
 
     result = render(cs, threads=args.threads, progress=progress)
-    if bar is not None:
+    for bar in bars.values():
         bar.close()
     write_png(args.output, result.image, scene.film.exposure)
     if args.exr:

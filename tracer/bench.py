@@ -151,32 +151,33 @@ def cornell(args, threads: int) -> dict:
 
 def radiosity(args) -> dict:
     """The radiosity solver on the Cornell box: patches, form-factor rays per second, seconds to 99%
-    of the energy shot, at several patch sizes (how the cost grows with the patch count)."""
+    of the energy shot, at several patch sizes (how the cost grows with the patch count), on one thread
+    and on every core (the shots' rays in bands; the same solution bit for bit)."""
     import time
 
     from tracer.radiosity import solve
+    from tracer.render import default_threads
 
     scene, _ = load_scene(json.loads((SCENES / "cornell_path.json").read_text()))
     cs = compile_scene(scene)
     solve(cs, patch_size=1.0, rays=256, threshold=0.5)  # compile the kernels first
     out = {}
+    cores = default_threads()
     print("\nradiosity, Cornell box (scenes/cornell_path.json), 4096 rays per shot, to 99% of the energy shot")
     for size in (0.5,) if args.quick else (0.5, 0.25, 0.125):
-        t0 = time.perf_counter()
-        sol = solve(cs, patch_size=size, rays=4096, threshold=0.01)
-        seconds = time.perf_counter() - t0
-        steps = len(sol.history)
-        row = {
-            "patch_size": size,
-            "patches": len(sol.patches),
-            "shots": steps,
-            "seconds": round(seconds, 3),
-            "mrays_s": round(steps * 4096 / seconds / 1e6, 3),
-        }
+        row = {"patch_size": size}
+        for threads in sorted({1, cores}):
+            t0 = time.perf_counter()
+            sol = solve(cs, patch_size=size, rays=4096, threshold=0.01, threads=threads)
+            seconds = time.perf_counter() - t0
+            row.update(patches=len(sol.patches), shots=len(sol.history), rays=sol.rays)
+            row[f"seconds_{threads}t"] = round(seconds, 3)
+            row[f"mrays_s_{threads}t"] = round(sol.rays / seconds / 1e6, 3)
         out[str(size)] = row
+        times = ", ".join(f"{t} thread(s) {row[f'seconds_{t}t']:6.2f} s" for t in sorted({1, cores}))
         print(
-            f"  patch {size:5}: {row['patches']:5} patch sides, {steps:5} shots, {seconds:6.2f} s, "
-            f"{row['mrays_s']:.2f} M form-factor rays/s"
+            f"  patch {size:5}: {row['patches']:5} patch sides, {row['shots']:5} shots, {times}, "
+            f"{row[f'mrays_s_{cores}t']:.2f} M form-factor rays/s on {cores}"
         )
     return out
 

@@ -94,21 +94,32 @@ class LightData:
 
 
 @wp.struct
+class PatchIndex:
+    """Which radiosity patch a point of a surface lies on (tracer/radiosity.py, `patch_at`): every patch
+    as triangles of one wp.Mesh, and how each object's points are brought onto its facets."""
+
+    mesh: wp.uint64  # every patch as triangles (a parallelogram is two)
+    tri_patch: wp.array(dtype=wp.int32)  # triangle -> front patch index; its back side is + n
+    tri_obj: wp.array(dtype=wp.int32)  # triangle -> object index (a point must be on the same object)
+    obj_kind: wp.array(dtype=wp.int32)  # per object, PATCHES_*: how its points find their facet
+    obj_center: wp.array(dtype=wp.vec3)  # per object: a sphere's or a disk's centre (at time 0)
+    obj_radius: wp.array(dtype=float)  # sphere: its radius; disk: the circle inside its facets' polygon
+    n: int  # patches per side
+    max_dist: float  # how far from a facet a point of a flat surface may be to belong to it
+
+
+@wp.struct
 class RadiosityData:
     """A radiosity solution for the `radiosity` integrator (tracer/radiosity.py); inactive otherwise."""
 
     active: int  # 1 when the scene's integrator is radiosity
-    mode: int  # 0: two-pass (the ray tree + the solution's interreflection), 1: flat patches, 2: smooth
-    mesh: wp.uint64  # every patch as triangles (a point query finds the patch under a hit)
-    tri_patch: wp.array(dtype=wp.int32)  # triangle -> front patch index; its back side is + n
-    tri_obj: wp.array(dtype=wp.int32)  # triangle -> object index (a hit must be on the same object)
-    n: int  # patches per side
+    mode: int  # RAD_TWO_PASS: the ray tree + the solution's interreflection; RAD_FLAT: patches; RAD_SMOOTH
+    index: PatchIndex  # the patch under a hit
     radiosity: wp.array(dtype=wp.vec3)  # (2n) B, exitance W/m^2 (radiance B / pi)
     indirect: wp.array(dtype=wp.vec3)  # (2n) B less the emitted and the directly lit part
     rho: wp.array(dtype=wp.vec3)  # (2n) the patch's reflectance
     corners: wp.array(dtype=wp.vec3)  # (2 x 3 per triangle) B at the triangle's corners: front, then back
     corners_ind: wp.array(dtype=wp.vec3)  # the same for the interreflected part (two-pass shading)
-    max_dist: float  # how far from a patch a hit may be to belong to it
 
 
 @wp.struct
@@ -454,8 +465,13 @@ def _camera(scene: Scene) -> CameraData:
     return cam
 
 
-def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu") -> CompiledScene:
-    """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets."""
+def compile_scene(
+    scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu", solve_radiosity: bool = True
+) -> CompiledScene:
+    """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets.
+
+    With the radiosity integrator the solution is solved and attached too, unless `solve_radiosity` is
+    False: then `tracer.radiosity.attach` does it later (render() runs it as a phase with progress)."""
     images = _Images(Path(asset_dir))
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}
@@ -571,18 +587,28 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         num_shapes=data.num_shapes,
         keep=keep,
     )
-    if scene.render.integrator == "radiosity":
+    if solve_radiosity and scene.render.integrator == "radiosity":
         from tracer.radiosity import attach
 
-        attach(cs, device)
+        attach(cs, device=device)
     return cs
+
+
+def empty_patch_index(device: str = "cpu") -> PatchIndex:
+    ix = PatchIndex()
+    ix.mesh, ix.n, ix.max_dist = wp.uint64(0), 0, 0.0
+    ix.tri_patch = wp.zeros(1, dtype=wp.int32, device=device)
+    ix.tri_obj = wp.zeros(1, dtype=wp.int32, device=device)
+    ix.obj_kind = wp.zeros(1, dtype=wp.int32, device=device)
+    ix.obj_center = wp.zeros(1, dtype=wp.vec3, device=device)
+    ix.obj_radius = wp.zeros(1, dtype=float, device=device)
+    return ix
 
 
 def inactive_radiosity(device: str = "cpu") -> RadiosityData:
     r = RadiosityData()
-    r.active, r.mode, r.mesh, r.n, r.max_dist = 0, 0, wp.uint64(0), 0, 0.0
-    r.tri_patch = wp.zeros(1, dtype=wp.int32, device=device)
-    r.tri_obj = wp.zeros(1, dtype=wp.int32, device=device)
+    r.active, r.mode = 0, 0
+    r.index = empty_patch_index(device)
     for name in ("radiosity", "indirect", "rho", "corners", "corners_ind"):
         setattr(r, name, wp.zeros(1, dtype=wp.vec3, device=device))
     return r

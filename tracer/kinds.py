@@ -82,6 +82,30 @@ class SamplerKind(IntEnum):
     ADAPTIVE = 4
 
 
+class PatchKind(IntEnum):
+    """How the radiosity patches of an object are found from a point on it (tracer/radiosity.py)."""
+
+    NONE = 0  # not meshed (an object the solve cannot see)
+    FLAT = 1  # flat facets: the nearest facet to the point
+    SPHERE = 2  # facets inscribed in a sphere: the facet the ray from the centre through the point crosses
+    DISK = 3  # facets inscribed in a disk: the nearest facet to the point pulled inside their polygon
+
+
+class RadDisplay(IntEnum):
+    """What the radiosity integrator shows (render.radiosity.display)."""
+
+    TWO_PASS = 0  # the ray tree, with the solution's interreflection in place of the ambient term
+    FLAT = 1  # each patch's own radiosity
+    SMOOTH = 2  # radiosity interpolated from the patch corners
+
+
+class Shooter(IntEnum):
+    """Who shoots power in a step of progressive refinement."""
+
+    PATCH = 0  # a patch side (a parallelogram or a triangle; on a sphere, projected onto it)
+    LIGHT = 1  # an area light, sampled over its surface
+
+
 SHAPE_SPHERE = wp.constant(int(Shape.SPHERE))
 SHAPE_PLANE = wp.constant(int(Shape.PLANE))
 SHAPE_QUAD = wp.constant(int(Shape.QUAD))
@@ -94,6 +118,18 @@ LIGHT_SPOT = wp.constant(int(LightKind.SPOT))
 LIGHT_QUAD = wp.constant(int(LightKind.QUAD))
 LIGHT_DISK = wp.constant(int(LightKind.DISK))
 LIGHT_SPHERE = wp.constant(int(LightKind.SPHERE))
+
+PATCHES_NONE = wp.constant(int(PatchKind.NONE))
+PATCHES_FLAT = wp.constant(int(PatchKind.FLAT))
+PATCHES_SPHERE = wp.constant(int(PatchKind.SPHERE))
+PATCHES_DISK = wp.constant(int(PatchKind.DISK))
+
+RAD_TWO_PASS = wp.constant(int(RadDisplay.TWO_PASS))
+RAD_FLAT = wp.constant(int(RadDisplay.FLAT))
+RAD_SMOOTH = wp.constant(int(RadDisplay.SMOOTH))
+
+SHOOT_PATCH = wp.constant(int(Shooter.PATCH))
+SHOOT_LIGHT = wp.constant(int(Shooter.LIGHT))
 
 INTEGRATOR_WHITTED = wp.constant(int(Integrator.WHITTED))
 INTEGRATOR_PATH = wp.constant(int(Integrator.PATH))

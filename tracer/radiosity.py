@@ -1,18 +1,26 @@
 """Radiosity by progressive refinement with ray-cast form factors (Goral et al. 1984; Cohen et al. 1988).
 
-The diffuse surfaces are cut into patches of about `patch_size` world units: quads, box faces,
-planes (clipped to the scene's bounds) and triangles (meshes too). Every surface is two-sided, so
-each piece of surface is two patches, one per side, each with its own radiosity. Spheres and disks
-are not meshed: they block light but keep none.
+Every surface the solve sees is cut into patches of about `patch_size` world units: quads, box
+faces, planes (clipped to the scene's bounds), triangles and meshes into parallelograms and
+triangles; spheres into a latitude-longitude net of triangles inscribed in them; disks into rings
+of triangles. Every surface is two-sided, so each piece of surface is two patches, one per side,
+each with its own radiosity. A patch of a sphere or a disk stands for the piece of the curved
+surface it covers: its area is that piece's area (a spherical triangle's area is r^2 times its
+solid angle), and it shoots from points of the true surface, so nothing is lost to the facets.
 
 Progressive refinement: the patch (or light) with the most unshot power shoots it. The form factors
 from the shooter to everything else are estimated by casting rays (Malley's method): `rays` points
 uniformly on the shooter, cosine-weighted directions about its normal, each carrying an equal share
-of the power to the first surface it meets. A patch that receives power P keeps rho P in its
-radiosity and unshot power, and absorbs (1 - rho) P; rays that leave the scene or end on an
-unmeshed surface take their power out of the solution ("escaped"). So, exactly at every step:
+of the power to the first surface it meets, found with the scene's own geometry (`closest_hit`) and
+mapped to the patch there (`patch_at`). A patch that receives power P keeps rho P in its radiosity
+and unshot power, and absorbs (1 - rho) P; area lights are black and absorb what reaches them; rays
+that leave the scene (or the meshed part of a plane) take their power out of the solution
+("escaped"). So, exactly at every step:
 
     emitted = absorbed + unshot + escaped                                  (per RGB channel)
+
+Each shot's rays run in parallel (one band of rays per thread); every ray writes the patch it
+reached, and the patches count their rays, so the sums never depend on the threads.
 
 Sources: area lights (power = pi radiance area, shot from points on the light), emissive
 materials (a patch's own exitance, pi emission), and point, spot and directional lights, whose
@@ -25,44 +33,75 @@ Units: radiosity B is exitance, W/m^2; the radiance a diffuse patch sends out is
 from __future__ import annotations
 
 import math
+import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, RadiosityData, SceneData, box_faces, compile_scene
+from tracer.compile import CompiledScene, PatchIndex, RadiosityData, SceneData, box_faces, compile_scene
 from tracer.geometry import basis, closest_hit
-from tracer.kinds import LIGHT_DISK, LIGHT_QUAD, RAY_OFFSET, T_FAR
+from tracer.integrators.common import patch_at
+from tracer.kinds import LIGHT_DISK, LIGHT_QUAD, RAY_OFFSET, SHOOT_PATCH, T_FAR, PatchKind, RadDisplay, Shooter
 from tracer.lights import light_at
 from tracer.sampling import concentric_disk, rng_start, sample_cosine_hemisphere, to_world
 from tracer.scene import Scene, SceneError
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
 SNAPSHOT_EVERY_STEP = 16  # snapshots of B after every shot up to this many, then after 32, 64, 128, ...
+SPHERE_MIN_SEGMENTS = (12, 6)  # a sphere's net has at least this many triangles around, and rows from pole to pole
+DISK_MIN_SECTORS = 16  # a disk's rings have at least this many sectors
+RAYS_PER_BAND = 1024  # a shot's rays are split into bands of at least this many, one band per thread
+TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
+TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)
+
+
+class Cancelled(Exception):
+    """The solve was asked to stop (`cancel()` returned True between two shots)."""
 
 
 @dataclass
 class Patches:
     """Patch sides as flat arrays (N patches); a parallelogram corner + a e1 + b e2, or a triangle
-    corner, corner + e1, corner + e2."""
+    corner, corner + e1, corner + e2. The first N/2 are the fronts (the side of e1 x e2), the rest
+    their backs. Per scene object, how its points find their patches (`patch_at`)."""
 
     corner: np.ndarray  # (N, 3)
     e1: np.ndarray  # (N, 3)
     e2: np.ndarray  # (N, 3)
     triangle: np.ndarray  # (N,) bool
-    normal: np.ndarray  # (N, 3) unit normal of the side
-    area: np.ndarray  # (N,) world units^2
+    normal: np.ndarray  # (N, 3) unit normal of the side (of the flat facet)
+    area: np.ndarray  # (N,) world units^2 of the surface the patch stands for
     reflectance: np.ndarray  # (N, 3) rho: the material's diffuse colour (textures averaged)
     emission: np.ndarray  # (N, 3) emitted exitance, W/m^2 (pi x the material's emission, front side)
     obj: np.ndarray  # (N,) object index
     twin: np.ndarray  # (N,) index of the other side of the same piece of surface
+    sphere_center: np.ndarray  # (N, 3) a sphere patch's sphere centre (time 0)
+    sphere_radius: np.ndarray  # (N,) its radius; 0 for a flat patch
+    object_kind: np.ndarray  # (objects,) PatchKind
+    object_center: np.ndarray  # (objects, 3) a sphere's or a disk's centre
+    object_radius: np.ndarray  # (objects,) a sphere's radius; a disk's inscribed radius of its facets
 
     def __len__(self) -> int:
         return len(self.area)
 
     def centres(self) -> np.ndarray:
+        """The centre of each flat facet."""
         w = np.where(self.triangle, 1 / 3, 0.5)[:, None]
         return self.corner + w * (self.e1 + self.e2)
+
+    def surface_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each patch side's centre on the true surface (a sphere's facet centre projected onto the
+        sphere) and the unit normal of the side there."""
+        c, n = self.centres(), self.normal.copy()
+        on_sphere = self.sphere_radius > 0
+        if on_sphere.any():
+            radial = c[on_sphere] - self.sphere_center[on_sphere]
+            radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+            c[on_sphere] = self.sphere_center[on_sphere] + self.sphere_radius[on_sphere, None] * radial
+            n[on_sphere] = radial * np.sign(np.sum(radial * self.normal[on_sphere], axis=1))[:, None]
+        return c, n
 
 
 @dataclass
@@ -75,11 +114,35 @@ class Solution:
     escaped: np.ndarray  # (3,) W
     history: list[dict] = field(default_factory=list)  # per step: shooter, unshot total, rays
     direct: np.ndarray | None = None  # (N, 3) B once the lights have shot: emitted + directly lit
-
     snapshots: dict = field(default_factory=dict)  # step -> (N, 3) B after that many shots (see SNAPSHOT_EVERY_STEP)
+    threshold: float = 0.01  # the solve stops when unshot < threshold x emitted ...
+    max_steps: int = 2000  # ... or after this many shots
+    rays: int = 0  # rays cast so far (form factors and the point lights' shadow rays)
+    seconds: float = 0.0  # time spent solving so far
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
+
+    def fraction(self) -> float:
+        """How far the solve has come, 0..1: the shots against max_steps, or the unshot power's fall
+        towards the threshold on a log scale (it falls about geometrically), whichever is further."""
+        steps = len(self.history) / max(self.max_steps, 1)
+        emitted = float(self.emitted.sum())
+        if emitted <= 0 or self.direct is None:
+            return min(1.0, steps)
+        left = max(self.unshot_total() / emitted, 1e-300)
+        return float(min(1.0, max(steps, math.log(left) / math.log(self.threshold) if left < 1 else 0.0)))
+
+    def stats(self) -> dict:
+        """What the solve cost: shots, rays, seconds, and the share of the power still unshot."""
+        emitted = float(self.emitted.sum())
+        return {
+            "patches": len(self.patches),
+            "shots": len(self.history),
+            "rays": int(self.rays),
+            "seconds": round(self.seconds, 4),
+            "unshot": self.unshot_total() / emitted if emitted > 0 else 0.0,
+        }
 
     def to_json(self) -> dict:
         """The method made visible: the patch mesh (corner, e1, e2, triangle, normal, area, object;
@@ -112,6 +175,7 @@ class Solution:
             },
             "history": self.history,
             "snapshots": {str(k): rows(v) for k, v in sorted(self.snapshots.items())},
+            "stats": self.stats(),
         }
 
 
@@ -139,6 +203,8 @@ def _scene_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
         for key in ("center", "corner", "min", "max"):
             if hasattr(obj, key):
                 pts.append(np.asarray(getattr(obj, key), float))
+        if obj.type in ("sphere", "disk"):
+            pts += [np.asarray(obj.center, float) - obj.radius, np.asarray(obj.center, float) + obj.radius]
         if obj.type == "quad":
             pts.append(np.add(obj.corner, np.add(obj.edge1, obj.edge2)))
     for light in cs.scene.lights:
@@ -153,11 +219,79 @@ def _scene_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     return lo - pad, hi + pad
 
 
+def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Solid angle of spherical triangles with unit corner directions a, b, c (rows): Van Oosterom and
+    Strackee 1983, tan(E/2) = |a . (b x c)| / (1 + a.b + b.c + c.a)."""
+    num = np.abs(np.einsum("ij,ij->i", a, np.cross(b, c)))
+    den = 1 + np.einsum("ij,ij->i", a, b) + np.einsum("ij,ij->i", b, c) + np.einsum("ij,ij->i", c, a)
+    return 2 * np.arctan2(num, den)
+
+
+def sphere_net(center, radius: float, patch_size: float) -> np.ndarray:
+    """A latitude-longitude net of triangles inscribed in a sphere, wound outwards: (T, 3 corners, 3)."""
+    n_lon = max(SPHERE_MIN_SEGMENTS[0], math.ceil(2 * math.pi * radius / patch_size))
+    n_lat = max(SPHERE_MIN_SEGMENTS[1], math.ceil(math.pi * radius / patch_size))
+    theta = np.linspace(0.0, math.pi, n_lat + 1)
+    phi = np.linspace(0.0, 2 * math.pi, n_lon + 1)
+
+    def at(i: int, j: int) -> np.ndarray:
+        t, f = theta[i], phi[j % n_lon]
+        return np.asarray(center, float) + radius * np.array(
+            [math.sin(t) * math.cos(f), math.cos(t), math.sin(t) * math.sin(f)]
+        )
+
+    tris = []
+    for i in range(n_lat):
+        for j in range(n_lon):
+            a, b, c, d = at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)
+            if i > 0:  # below the north pole's fan
+                tris.append((a, b, c))
+            if i < n_lat - 1:  # above the south pole's fan
+                tris.append((a, c, d))
+    tris = np.array(tris)
+    outward = np.einsum(
+        "ij,ij->i", np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), tris.mean(axis=1) - center
+    )
+    tris[outward < 0] = tris[outward < 0][:, [0, 2, 1]]
+    return tris
+
+
+def disk_net(center, normal, radius: float, patch_size: float) -> tuple[np.ndarray, float]:
+    """Rings of triangles inscribed in a disk, wound along its normal: (T, 3 corners, 3), and the radius
+    of the circle inside their polygon."""
+    n_s = max(DISK_MIN_SECTORS, math.ceil(2 * math.pi * radius / patch_size))
+    n_r = max(1, math.ceil(radius / patch_size))
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    t, b = _tangents(n)
+    c = np.asarray(center, float)
+
+    def at(i: int, j: int) -> np.ndarray:
+        f = 2 * math.pi * (j % n_s) / n_s
+        return c + radius * i / n_r * (math.cos(f) * t + math.sin(f) * b)
+
+    tris = []
+    for i in range(n_r):
+        for j in range(n_s):
+            if i == 0:
+                tris.append((c, at(1, j), at(1, j + 1)))
+            else:
+                tris.append((at(i, j), at(i + 1, j), at(i + 1, j + 1)))
+                tris.append((at(i, j), at(i + 1, j + 1), at(i, j + 1)))
+    tris = np.array(tris)
+    along = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]) @ n
+    tris[along < 0] = tris[along < 0][:, [0, 2, 1]]
+    return tris, radius * math.cos(math.pi / n_s)
+
+
 def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
-    """Mesh the scene's quads, boxes, planes and triangles into patches of about patch_size."""
+    """Mesh every object of the scene into patches of about patch_size (both sides of each)."""
     rho_m, emit_m = _material_rho(cs)
     mat_of = {name: i for i, name in enumerate(cs.material_names)}
-    rows: list[tuple] = []  # (corner, e1, e2, triangle, obj, mat)
+    rows: list[tuple] = []  # (corner, e1, e2, triangle, obj, mat, area or None, sphere centre, sphere radius)
+    n_obj = len(cs.scene.objects)
+    object_kind = np.full(n_obj, int(PatchKind.FLAT), dtype=np.int32)
+    object_center = np.zeros((n_obj, 3))
+    object_radius = np.zeros(n_obj)
 
     def grid(c, e1, e2, obj, mat):
         c, e1, e2 = (np.asarray(v, float) for v in (c, e1, e2))
@@ -165,7 +299,7 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         nv = max(1, math.ceil(np.linalg.norm(e2) / patch_size))
         for j in range(nv):
             for i in range(nu):
-                rows.append((c + e1 * i / nu + e2 * j / nv, e1 / nu, e2 / nv, False, obj, mat))
+                rows.append((c + e1 * i / nu + e2 * j / nv, e1 / nu, e2 / nv, False, obj, mat, None, None, 0.0))
 
     def tri(v0, v1, v2, obj, mat):
         v0, v1, v2 = (np.asarray(v, float) for v in (v0, v1, v2))
@@ -174,9 +308,9 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         a, b = (v1 - v0) / n, (v2 - v0) / n
         for j in range(n):
             for i in range(n - j):
-                rows.append((v0 + i * a + j * b, a, b, True, obj, mat))
-                if i + j < n - 1:  # the upside-down triangle of the cell
-                    rows.append((v0 + (i + 1) * a + (j + 1) * b, -b, -a, True, obj, mat))
+                rows.append((v0 + i * a + j * b, a, b, True, obj, mat, None, None, 0.0))
+                if i + j < n - 1:  # the upside-down triangle of the cell, wound the same way
+                    rows.append((v0 + (i + 1) * a + (j + 1) * b, -a, -b, True, obj, mat, None, None, 0.0))
 
     lo, hi = _scene_bounds(cs)
     for i, obj in enumerate(cs.scene.objects):
@@ -194,18 +328,33 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
             u, v = rel @ t, rel @ b
             origin = np.asarray(obj.point, float) + u.min() * t + v.min() * b
             grid(origin, (u.max() - u.min()) * t, (v.max() - v.min()) * b, i, mat)
+        elif obj.type == "sphere":
+            centre = np.asarray(obj.center, float)
+            net = sphere_net(centre, obj.radius, patch_size)
+            dirs = (net - centre) / obj.radius
+            areas = obj.radius**2 * solid_angle(dirs[:, 0], dirs[:, 1], dirs[:, 2])
+            for (v0, v1, v2), area in zip(net, areas, strict=True):
+                rows.append((v0, v1 - v0, v2 - v0, True, i, mat, area, centre, float(obj.radius)))
+            object_kind[i], object_center[i], object_radius[i] = int(PatchKind.SPHERE), centre, obj.radius
+        elif obj.type == "disk":
+            net, inner = disk_net(obj.center, obj.normal, obj.radius, patch_size)
+            flat = 0.5 * np.linalg.norm(np.cross(net[:, 1] - net[:, 0], net[:, 2] - net[:, 0]), axis=1)
+            areas = flat * (math.pi * obj.radius**2 / flat.sum())  # the rim's slivers shared out
+            for (v0, v1, v2), area in zip(net, areas, strict=True):
+                rows.append((v0, v1 - v0, v2 - v0, True, i, mat, area, None, 0.0))
+            object_kind[i], object_center[i], object_radius[i] = int(PatchKind.DISK), obj.center, inner * (1 - 1e-6)
     if cs.num_triangles:
         pts = cs.data.mesh_points.numpy().astype(float)
         idx = cs.data.mesh_indices.numpy().reshape(-1, 3)
+        face_obj, face_mat = cs.data.face_obj.numpy(), cs.data.face_mat.numpy()
         for f, (i0, i1, i2) in enumerate(idx):
-            tri(pts[i0], pts[i1], pts[i2], int(cs.data.face_obj.numpy()[f]), int(cs.data.face_mat.numpy()[f]))
+            tri(pts[i0], pts[i1], pts[i2], int(face_obj[f]), int(face_mat[f]))
     if not rows:
         raise SceneError(
             [
                 {
-                    "path": "render.integrator",
-                    "message": "the radiosity integrator needs quads, boxes, "
-                    "planes or triangles to mesh into patches; this scene has none",
+                    "path": "objects",
+                    "message": "the radiosity integrator needs objects to mesh into patches; this scene has none",
                 }
             ]
         )
@@ -216,22 +365,35 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
     cross = np.cross(e1, e2)
     length = np.linalg.norm(cross, axis=1)
     normal = cross / length[:, None]
-    area = np.where(triangle, 0.5, 1.0) * length
+    area = np.array(
+        [r[6] if r[6] is not None else (0.5 if r[3] else 1.0) * ln for r, ln in zip(rows, length, strict=True)]
+    )
     obj = np.array([r[4] for r in rows])
     mat = np.array([r[5] for r in rows])
+    s_center = np.array([r[7] if r[7] is not None else np.zeros(3) for r in rows])
+    s_radius = np.array([r[8] for r in rows])
     n = len(rows)
+
+    def both(a: np.ndarray) -> np.ndarray:
+        return np.concatenate([a, a])
+
     # both sides: patch k (front, the normal) and n + k (back); emission on the front side only
     return Patches(
-        corner=np.concatenate([corner, corner]),
-        e1=np.concatenate([e1, e1]),
-        e2=np.concatenate([e2, e2]),
-        triangle=np.concatenate([triangle, triangle]),
+        corner=both(corner),
+        e1=both(e1),
+        e2=both(e2),
+        triangle=both(triangle),
         normal=np.concatenate([normal, -normal]),
-        area=np.concatenate([area, area]),
-        reflectance=np.concatenate([rho_m[mat], rho_m[mat]]),
+        area=both(area),
+        reflectance=both(rho_m[mat]),
         emission=np.concatenate([emit_m[mat], np.zeros_like(emit_m[mat])]),
-        obj=np.concatenate([obj, obj]),
+        obj=both(obj),
         twin=np.concatenate([np.arange(n) + n, np.arange(n)]),
+        sphere_center=both(s_center),
+        sphere_radius=both(s_radius),
+        object_kind=object_kind,
+        object_center=object_center,
+        object_radius=object_radius,
     )
 
 
@@ -245,89 +407,90 @@ def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # ----------------------------------------------------------------------------------------- kernels
 
 
-@wp.struct
-class PatchMesh:
-    mesh: wp.uint64  # every patch side's geometry as triangles (a parallelogram is two)
-    tri_front: wp.array(dtype=wp.int32)  # triangle -> front patch index (its back is patch + n)
-    n: int  # patches per side
-
-
 @wp.kernel
 def shoot(
     scene: SceneData,
-    pm: PatchMesh,
-    origin_kind: int,  # 0: a patch (corner, e1, e2, triangle flag), 1: an area light (sampled)
+    ix: PatchIndex,
+    shooter: int,  # SHOOT_PATCH: a patch side (corner, e1, e2, triangle flag; on a sphere); SHOOT_LIGHT
     corner: wp.vec3,
     e1: wp.vec3,
     e2: wp.vec3,
     tri: int,
+    sphere_center: wp.vec3,
+    sphere_radius: float,  # > 0: the patch stands for the piece of this sphere above it
     light_index: int,
     seed: int,
     step: int,
+    first: int,  # this launch casts rays first, first + 1, ... of the shot's n_rays
     n_rays: int,
-    power: wp.vec3,
-    received: wp.array(dtype=wp.vec3),
+    target: wp.array(dtype=wp.int32),
 ):
-    """Cast n_rays from the shooter with cosine-weighted directions; add each ray's share of the
-    power to the patch side it reaches first (one thread does all rays: the sums are deterministic)."""
-    share = power / float(n_rays)
-    for r in range(n_rays):
-        rng = rng_start(seed, step, r)
-        m = int(wp.floor(wp.sqrt(float(n_rays))))
-        u1 = wp.randf(rng)
-        u2 = wp.randf(rng)
-        if r < m * m:  # stratified positions on the shooter
-            u1 = (float(r % m) + u1) / float(m)
-            u2 = (float(r / m) + u2) / float(m)
-        p = wp.vec3(0.0)
-        n = wp.vec3(0.0, 1.0, 0.0)
-        if origin_kind == 0:
-            a = u1
-            b = u2
-            if tri != 0 and a + b > 1.0:
-                a = 1.0 - a
-                b = 1.0 - b
-            p = corner + a * e1 + b * e2
-            n = wp.normalize(wp.cross(e1, e2))
+    """One ray of a shot per thread: from a point of the shooter, in a cosine-weighted direction about
+    its normal, to the first surface; writes the patch side it reached (or TARGET_*) at its index."""
+    r = first + wp.tid()
+    rng = rng_start(seed, step, r)
+    m = int(wp.floor(wp.sqrt(float(n_rays))))
+    u1 = wp.randf(rng)
+    u2 = wp.randf(rng)
+    if r < m * m:  # stratified positions on the shooter
+        u1 = (float(r % m) + u1) / float(m)
+        u2 = (float(r / m) + u2) / float(m)
+    p = wp.vec3(0.0)
+    n = wp.vec3(0.0, 1.0, 0.0)
+    if shooter == SHOOT_PATCH:
+        a = u1
+        b = u2
+        if tri != 0 and a + b > 1.0:
+            a = 1.0 - a
+            b = 1.0 - b
+        p = corner + a * e1 + b * e2
+        n = wp.normalize(wp.cross(e1, e2))
+        if sphere_radius > 0.0:  # the point of the sphere above the facet's point, and the sphere's normal
+            radial = wp.normalize(p - sphere_center)
+            p = sphere_center + sphere_radius * radial
+            n = wp.where(wp.dot(radial, n) < 0.0, -radial, radial)
+    else:
+        light = scene.lights[light_index]
+        if light.kind == LIGHT_QUAD:
+            p = light.position + u1 * light.edge1 + u2 * light.edge2
+            n = light.direction
+        elif light.kind == LIGHT_DISK:
+            dsk = concentric_disk(u1, u2)
+            tu, tv = basis(light.direction)
+            p = light.position + light.radius * (dsk[0] * tu + dsk[1] * tv)
+            n = light.direction
+        else:  # sphere: a uniform point of its surface, shooting outwards
+            z = 1.0 - 2.0 * u1
+            rr = wp.sqrt(wp.max(0.0, 1.0 - z * z))
+            phi = 6.283185307179586 * u2
+            n = wp.vec3(rr * wp.cos(phi), rr * wp.sin(phi), z)
+            p = light.position + light.radius * n
+    d = to_world(sample_cosine_hemisphere(wp.randf(rng), wp.randf(rng)), n)
+    h = closest_hit(scene, p + RAY_OFFSET * n, d, T_FAR, 0.0)
+    out = int(TARGET_ESCAPED)
+    if h.hit != 0:
+        if h.obj < 0:
+            out = TARGET_LIGHT
         else:
-            light = scene.lights[light_index]
-            if light.kind == LIGHT_QUAD:
-                p = light.position + u1 * light.edge1 + u2 * light.edge2
-                n = light.direction
-            elif light.kind == LIGHT_DISK:
-                dsk = concentric_disk(u1, u2)
-                tu, tv = basis(light.direction)
-                p = light.position + light.radius * (dsk[0] * tu + dsk[1] * tv)
-                n = light.direction
-            else:  # sphere: a uniform point of its surface, shooting outwards
-                z = 1.0 - 2.0 * u1
-                rr = wp.sqrt(wp.max(0.0, 1.0 - z * z))
-                phi = 6.283185307179586 * u2
-                n = wp.vec3(rr * wp.cos(phi), rr * wp.sin(phi), z)
-                p = light.position + light.radius * n
-        d = to_world(sample_cosine_hemisphere(wp.randf(rng), wp.randf(rng)), n)
-        o = p + RAY_OFFSET * n
-        h = closest_hit(scene, o, d, T_FAR, 0.0)
-        q = wp.mesh_query_ray(pm.mesh, o, d, T_FAR)
-        if q.result and (h.hit == 0 or q.t <= h.t * (1.0 + 1.0e-4) + 1.0e-5):
-            k = pm.tri_front[q.face]
-            if wp.dot(d, q.normal) > 0.0:  # the ray meets the back side
-                k = k + pm.n
-            received[k] = received[k] + share
+            nf = wp.where(wp.dot(d, h.ng) < 0.0, h.ng, -h.ng)  # the true surface's side the ray arrives on
+            k, face, bu, bv = patch_at(ix, h.po, nf, h.obj)
+            out = k
+    target[r] = out
 
 
 @wp.kernel
 def direct(
     scene: SceneData,
-    centres: wp.array(dtype=wp.vec3),
+    points: wp.array(dtype=wp.vec3),
     normals: wp.array(dtype=wp.vec3),
     light_index: int,
+    first: int,
     received: wp.array(dtype=wp.vec3),
 ):
-    """Irradiance of a point, spot or directional light at each patch centre (one shadow ray)."""
-    i = wp.tid()
+    """Irradiance of a point, spot or directional light at each patch side's centre (one shadow ray)."""
+    i = first + wp.tid()
     light = scene.lights[light_index]
-    p = centres[i]
+    p = points[i]
     n = normals[i]
     l, dist, e, reaches = light_at(light, p)
     cos = wp.dot(n, l)
@@ -341,7 +504,8 @@ def direct(
 # ----------------------------------------------------------------------------------------- solver
 
 
-def _patch_mesh(p: Patches) -> tuple[PatchMesh, list]:
+def patch_index(p: Patches, device: str = "cpu") -> tuple[PatchIndex, list]:
+    """The patches as triangles of one wp.Mesh, for `patch_at`; and the Warp objects to keep alive."""
     n = len(p) // 2
     pts, tri_front = [], []
     for k in range(n):
@@ -352,13 +516,46 @@ def _patch_mesh(p: Patches) -> tuple[PatchMesh, list]:
         else:
             pts += [c, c + a, c + a + b, c, c + a + b, c + b]
             tri_front += [k, k]
-    points = wp.array(np.array(pts, dtype=np.float32), dtype=wp.vec3)
-    indices = wp.array(np.arange(len(pts), dtype=np.int32), dtype=wp.int32)
+    points = wp.array(np.array(pts, dtype=np.float32), dtype=wp.vec3, device=device)
+    indices = wp.array(np.arange(len(pts), dtype=np.int32), dtype=wp.int32, device=device)
     mesh = wp.Mesh(points=points, indices=indices)
-    pm = PatchMesh()
-    pm.mesh, pm.n = mesh.id, n
-    pm.tri_front = wp.array(np.array(tri_front, dtype=np.int32), dtype=wp.int32)
-    return pm, [mesh, points, indices]
+    tri_front = np.array(tri_front, dtype=np.int32)
+    ix = PatchIndex()
+    ix.mesh, ix.n = mesh.id, n
+    ix.tri_patch = wp.array(tri_front, dtype=wp.int32, device=device)
+    ix.tri_obj = wp.array(p.obj[tri_front].astype(np.int32), dtype=wp.int32, device=device)
+    ix.obj_kind = wp.array(p.object_kind.astype(np.int32), dtype=wp.int32, device=device)
+    ix.obj_center = wp.array(p.object_center.astype(np.float32), dtype=wp.vec3, device=device)
+    ix.obj_radius = wp.array(p.object_radius.astype(np.float32), dtype=float, device=device)
+    ix.max_dist = float(1e-3 * max(1.0, float(np.sqrt(p.area.max()))))
+    return ix, [mesh, points, indices]
+
+
+class _Launcher:
+    """Launches a kernel over n items in bands, one band per thread (a Warp CPU launch runs on one
+    thread); each item writes only its own slot, so results never depend on the threads."""
+
+    def __init__(self, threads: int, device: str):
+        self.threads, self.device = max(1, threads), device
+        self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 and device == "cpu" else None
+
+    def __call__(self, kernel, n: int, inputs) -> None:
+        """inputs(first) -> the kernel's inputs for the band starting at item `first`."""
+        bands = self.threads if self.pool and n >= 2 * RAYS_PER_BAND else 1
+        edges = [n * b // bands for b in range(bands + 1)]
+
+        def run(b: int) -> None:
+            wp.launch(kernel, dim=edges[b + 1] - edges[b], inputs=inputs(edges[b]), device=self.device)
+
+        if bands == 1:
+            run(0)
+        else:
+            list(self.pool.map(run, range(bands)))
+        wp.synchronize_device(self.device)
+
+    def close(self) -> None:
+        if self.pool:
+            self.pool.shutdown()
 
 
 def solve(
@@ -369,20 +566,24 @@ def solve(
     max_steps: int = 2000,
     seed: int = 0,
     on_step=None,
+    cancel=None,
+    threads: int | None = None,
+    device: str = "cpu",
 ) -> Solution:
     """Progressive refinement until the unshot power is below `threshold` of the emitted power (or
-    `max_steps` shots). `on_step(solution, step)` is called after each shot."""
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene)
+    `max_steps` shots). `on_step(solution, step)` is called after each shot; `cancel()` before each
+    one (True raises `Cancelled`). The shots' rays run on `threads` threads (default: every core)."""
+    start = time.perf_counter()
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, solve_radiosity=False)
     p = build_patches(cs, patch_size)
-    pm, keep = _patch_mesh(p)
+    ix, keep = patch_index(p, device)
     n = len(p)
-    B = p.emission.copy()  # exitance: emitted, then + reflected
     unshot = p.emission * p.area[:, None]
-    emitted = unshot.sum(axis=0)
-    absorbed = np.zeros(3)
-    escaped = np.zeros(3)
-    sol = Solution(p, B, unshot, emitted, absorbed, escaped)
-    received = wp.zeros(n, dtype=wp.vec3)
+    sol = Solution(p, p.emission.copy(), unshot, unshot.sum(axis=0), np.zeros(3), np.zeros(3))
+    sol.threshold, sol.max_steps = threshold, max_steps
+    from tracer.render import default_threads
+
+    launch = _Launcher(threads or default_threads(), device)
 
     def receive(power_in: np.ndarray) -> None:
         kept = p.reflectance * power_in
@@ -390,67 +591,99 @@ def solve(
         sol.unshot += kept
         sol.absorbed += (power_in - kept).sum(axis=0)
 
-    step = 0
-    # 1. point, spot and directional lights: their power reaching each patch, directly
-    centres = wp.array(p.centres().astype(np.float32), dtype=wp.vec3)
-    normals = wp.array(p.normal.astype(np.float32), dtype=wp.vec3)
-    for li, light in enumerate(cs.scene.lights):
-        if light.type in ("point", "spot", "directional"):
-            received.zero_()
-            wp.launch(direct, dim=n, inputs=[cs.data, centres, normals, li, received])
-            power_in = received.numpy().astype(np.float64) * p.area[:, None]
-            sol.emitted += power_in.sum(axis=0)
-            receive(power_in)
-            sol.history.append({"step": step, "shooter": f"lights[{li}]", "unshot": sol.unshot_total()})
-            step += 1
-    # 2. area lights: shoot their whole power (pi L A)
-    for li, light in enumerate(cs.scene.lights):
-        if light.type in ("quad", "disk", "sphere"):
-            area = float(cs.data.lights.numpy()[li]["area"])
-            power = np.asarray(light.radiance, float) * math.pi * area
-            sol.emitted += power
-            # the lights' shots make the directly lit part: enough rays for every patch to get its share
-            light_rays = max(rays, LIGHT_RAYS_PER_PATCH * n)
-            _shoot(sol, cs, pm, received, 1, None, li, seed, step, light_rays, power, receive)
-            sol.history.append({"step": step, "shooter": f"lights[{li}]", "unshot": sol.unshot_total()})
-            if on_step:
-                on_step(sol, step)
-            step += 1
-    sol.direct = sol.radiosity.copy()
-    # 3. progressive refinement: the patch with the most unshot power shoots it
-    sol.snapshots[step] = sol.radiosity.copy()
-    while step < max_steps and sol.unshot_total() > threshold * float(sol.emitted.sum()):
-        k = int(np.argmax(sol.unshot.sum(axis=1)))
-        power = sol.unshot[k].copy()
-        sol.unshot[k] = 0.0
-        _shoot(sol, cs, pm, received, 0, k, -1, seed, step, rays, power, receive)
-        sol.history.append({"step": step, "shooter": k, "power": float(power.sum()), "unshot": sol.unshot_total()})
+    def shot_done(step: int, entry: dict) -> None:
+        sol.history.append({"step": step, **entry, "unshot": sol.unshot_total()})
+        sol.seconds = time.perf_counter() - start
         if on_step:
             on_step(sol, step)
-        step += 1
-        if step <= SNAPSHOT_EVERY_STEP or step & (step - 1) == 0:  # every early shot, then 32, 64, ...
-            sol.snapshots[step] = sol.radiosity.copy()
-    sol.snapshots[step] = sol.radiosity.copy()  # and the final solution
+
+    def check_cancel() -> None:
+        if cancel is not None and cancel():
+            raise Cancelled()
+
+    try:
+        step = 0
+        # 1. point, spot and directional lights: their power reaching each patch, directly
+        points, normals = p.surface_points()
+        points = wp.array(points.astype(np.float32), dtype=wp.vec3, device=device)
+        normals = wp.array(normals.astype(np.float32), dtype=wp.vec3, device=device)
+        received = wp.zeros(n, dtype=wp.vec3, device=device)
+        for li, light in enumerate(cs.scene.lights):
+            if light.type in ("point", "spot", "directional"):
+                check_cancel()
+                received.zero_()
+                launch(direct, n, lambda first, li=li: [cs.data, points, normals, li, first, received])
+                power_in = received.numpy().astype(np.float64) * p.area[:, None]
+                sol.emitted += power_in.sum(axis=0)
+                sol.rays += n
+                receive(power_in)
+                shot_done(step, {"shooter": f"lights[{li}]"})
+                step += 1
+        # 2. area lights: shoot their whole power (pi L A)
+        for li, light in enumerate(cs.scene.lights):
+            if light.type in ("quad", "disk", "sphere"):
+                check_cancel()
+                area = float(cs.data.lights.numpy()[li]["area"])
+                power = np.asarray(light.radiance, float) * math.pi * area
+                sol.emitted += power
+                # the lights' shots make the directly lit part: enough rays for every patch to get its share
+                _shoot(
+                    sol,
+                    cs,
+                    ix,
+                    launch,
+                    Shooter.LIGHT,
+                    None,
+                    li,
+                    seed,
+                    step,
+                    max(rays, LIGHT_RAYS_PER_PATCH * n),
+                    power,
+                    receive,
+                )
+                shot_done(step, {"shooter": f"lights[{li}]"})
+                step += 1
+        sol.direct = sol.radiosity.copy()
+        # 3. progressive refinement: the patch with the most unshot power shoots it
+        sol.snapshots[step] = sol.radiosity.copy()
+        while step < max_steps and sol.unshot_total() > threshold * float(sol.emitted.sum()):
+            check_cancel()
+            k = int(np.argmax(sol.unshot.sum(axis=1)))
+            power = sol.unshot[k].copy()
+            sol.unshot[k] = 0.0
+            _shoot(sol, cs, ix, launch, Shooter.PATCH, k, -1, seed, step, rays, power, receive)
+            shot_done(step, {"shooter": k, "power": float(power.sum())})
+            step += 1
+            if step <= SNAPSHOT_EVERY_STEP or step & (step - 1) == 0:  # every early shot, then 32, 64, ...
+                sol.snapshots[step] = sol.radiosity.copy()
+        sol.snapshots[step] = sol.radiosity.copy()  # and the final solution
+    finally:
+        launch.close()
+    sol.seconds = time.perf_counter() - start
     del keep
     return sol
 
 
-def _shoot(sol, cs, pm, received, kind, k, li, seed, step, rays, power, receive) -> None:
+def _shoot(sol, cs, ix, launch, shooter, k, li, seed, step, rays, power, receive) -> None:
+    """One shot of `power` (W, RGB) in `rays` rays from patch side k or area light li."""
     p = sol.patches
-    received.zero_()
-    if kind == 0:
-        args = [wp.vec3(*p.corner[k]), wp.vec3(*p.e1[k]), wp.vec3(*p.e2[k]), int(p.triangle[k])]
-        if k >= len(p) // 2:  # a back side shoots from the other face: flip its edges
-            args = [wp.vec3(*p.corner[k]), wp.vec3(*p.e2[k]), wp.vec3(*p.e1[k]), int(p.triangle[k])]
-    else:
-        args = [wp.vec3(0.0), wp.vec3(0.0), wp.vec3(0.0), 0]
-    wp.launch(
-        shoot,
-        dim=1,
-        inputs=[cs.data, pm, kind, *args, li, seed, step, rays, wp.vec3(*power), received],
-    )
-    power_in = received.numpy().astype(np.float64)
-    sol.escaped += power - power_in.sum(axis=0)
+    zero = wp.vec3(0.0)
+    args = [zero, zero, zero, 0, zero, 0.0]
+    if shooter == Shooter.PATCH:
+        e1, e2 = (p.e1[k], p.e2[k]) if k < len(p) // 2 else (p.e2[k], p.e1[k])  # a back side: flip its edges
+        args = [wp.vec3(*p.corner[k]), wp.vec3(*e1), wp.vec3(*e2), int(p.triangle[k])]
+        args += [wp.vec3(*p.sphere_center[k]), float(p.sphere_radius[k])]
+    target = wp.empty(rays, dtype=wp.int32, device=launch.device)
+    launch(shoot, rays, lambda first: [cs.data, ix, int(shooter), *args, li, seed, step, first, rays, target])
+    hits = target.numpy()
+    counts = np.bincount(hits[hits >= 0], minlength=len(p))
+    share = power / rays
+    power_in = counts[:, None] * share[None, :]
+    light = int(np.count_nonzero(hits == TARGET_LIGHT))
+    escaped = rays - int(counts.sum()) - light
+    sol.escaped += escaped * share
+    sol.absorbed += light * share
+    sol.rays += rays
     receive(power_in)
 
 
@@ -459,38 +692,41 @@ def _shoot(sol, cs, pm, received, kind, k, li, seed, step, rays, power, receive)
 
 def corner_values(p: Patches, values: np.ndarray) -> np.ndarray:
     """Per patch side, the values at its triangle corners (2 triangles for a parallelogram), each the
-    mean of the values of the same object's patches facing the same way that share that corner (smooth
-    shading of a piecewise-constant solution). Returns (sides, 6, 3): corners of up to 2 triangles."""
+    mean of the values of the same object's patches on the same side that share that corner (smooth
+    shading of a piecewise-constant solution). Flat pieces share corners only with pieces facing the
+    same way (no smoothing over a box's edges); a sphere's facets all share theirs.
+    Returns (sides, 6, 3): corners of up to 2 triangles, in the order `patch_index` emits them."""
     n2 = len(p)
     quads = ~p.triangle
-    # corners of each patch's triangles, in the order _patch_mesh emits them
     c, a, b = p.corner, p.e1, p.e2
     tri_pts = np.where(
         quads[:, None, None],
         np.stack([c, c + a, c + a + b, c, c + a + b, c + b], axis=1),
         np.stack([c, c + a, c + b, c, c, c], axis=1),
     )
-    # corners are shared by patches of one object, one side and one orientation (no smoothing over creases)
-    side = [tuple(v) for v in np.round(p.normal * 1e3).astype(np.int64)]
+    facing = np.round(p.normal * 1e3).astype(np.int64)
+    back = (np.arange(n2) >= n2 // 2).astype(np.int64)
+    facing[p.sphere_radius > 0] = back[p.sphere_radius > 0, None]  # a sphere: front or back only
+    group = [(int(o), *f) for o, f in zip(p.obj, facing, strict=True)]
     key_pts = np.round(tri_pts / 1e-6).astype(np.int64)
     sums: dict = {}
     for k in range(n2):
         for j in range(6 if quads[k] else 3):
-            key = (int(p.obj[k]), side[k], *key_pts[k, j])
-            acc = sums.setdefault(key, [np.zeros(3), 0])
-            acc[0] += values[k]
-            acc[1] += 1
+            acc = sums.setdefault((group[k], *key_pts[k, j]), [np.zeros(3), 0.0])
+            acc[0] += p.area[k] * values[k]
+            acc[1] += p.area[k]
     out = np.zeros((n2, 6, 3))
     for k in range(n2):
         for j in range(6 if quads[k] else 3):
-            total, count = sums[(int(p.obj[k]), side[k], *key_pts[k, j])]
+            total, count = sums[(group[k], *key_pts[k, j])]
             out[k, j] = total / count
     return out
 
 
-def attach(cs: CompiledScene, device: str = "cpu") -> Solution:
+def attach(cs: CompiledScene, device: str = "cpu", threads: int | None = None, on_step=None, cancel=None) -> Solution:
     """Solve the scene's radiosity (render.radiosity settings) and put it in cs.data.rad for the
-    kernels; the Solution stays in cs.radiosity (the patches, the convergence curve)."""
+    kernels; the Solution stays in cs.radiosity (the patches, the convergence curve). `on_step` and
+    `cancel` as in `solve`."""
     cfg = cs.scene.render.radiosity
     sol = solve(
         cs,
@@ -499,32 +735,33 @@ def attach(cs: CompiledScene, device: str = "cpu") -> Solution:
         threshold=cfg.threshold,
         max_steps=cfg.max_steps,
         seed=cs.scene.render.seed,
+        on_step=on_step,
+        cancel=cancel,
+        threads=threads,
+        device=device,
     )
     p = sol.patches
-    pm, keep = _patch_mesh(p)
-    n = len(p) // 2
+    ix, keep = patch_index(p, device)
     indirect = np.maximum(sol.radiosity - sol.direct, 0.0)
     r = RadiosityData()
-    r.corners = _triangle_corners(pm, p, corner_values(p, sol.radiosity), device)
-    r.corners_ind = _triangle_corners(pm, p, corner_values(p, indirect), device)
     r.active = 1
-    r.mode = {"two-pass": 0, "flat": 1, "smooth": 2}[cfg.display]
-    r.mesh, r.tri_patch, r.n = pm.mesh, pm.tri_front, n
-    r.tri_obj = wp.array(p.obj[pm.tri_front.numpy()].astype(np.int32), dtype=wp.int32, device=device)
+    r.mode = int(RadDisplay[cfg.display.replace("-", "_").upper()])
+    r.index = ix
+    r.corners = _triangle_corners(ix, p, corner_values(p, sol.radiosity), device)
+    r.corners_ind = _triangle_corners(ix, p, corner_values(p, indirect), device)
     r.radiosity = wp.array(sol.radiosity.astype(np.float32), dtype=wp.vec3, device=device)
     r.indirect = wp.array(indirect.astype(np.float32), dtype=wp.vec3, device=device)
     r.rho = wp.array(p.reflectance.astype(np.float32), dtype=wp.vec3, device=device)
-    r.max_dist = float(1e-3 * max(1.0, cfg.patch_size))
     cs.data.rad = r
     cs.keep += keep
     cs.radiosity = sol
     return sol
 
 
-def _triangle_corners(pm: PatchMesh, p: Patches, corners: np.ndarray, device: str):
+def _triangle_corners(ix: PatchIndex, p: Patches, corners: np.ndarray, device: str):
     """(2 x 3 per triangle of the patch mesh) corner values: every front triangle, then every back one."""
     n = len(p) // 2
-    tri_patch = pm.tri_front.numpy()
+    tri_patch = ix.tri_patch.numpy()
     out = []
     for offset in (0, n):
         seen: dict = {}

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
+from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record, whitted
 from tracer.kinds import Integrator, RayKind, SamplerKind
@@ -73,12 +74,15 @@ def default_threads() -> int:
 
 @dataclass
 class Progress:
-    """What a progress callback sees after each band of each pass."""
+    """What a progress callback sees after each band of each pass (and after each shot of a
+    radiosity solve, which comes first: `phase` "radiosity", with `solve` telling how far it is)."""
 
     samples_done: int  # pixel samples finished so far
     samples_total: int
     passes_done: int
     elapsed: float  # seconds
+    phase: str = "render"  # "radiosity" while the radiosity solution is being solved, then "render"
+    solve: dict | None = None  # the solve so far: fraction (0..1), shots, rays, seconds, unshot (share)
 
 
 @dataclass
@@ -89,12 +93,19 @@ class RenderResult:
     rays: dict = field(default_factory=dict)  # rays by kind name, and "total"
     cancelled: bool = False
     aovs: dict = field(default_factory=dict)  # name -> (H, W) or (H, W, 3) float32, see Renderer.aovs
+    solve: dict | None = None  # the radiosity solve's cost (shots, rays, seconds, unshot), if one ran
 
     def stats_line(self) -> str:
+        """Seconds, rays by kind and Mrays/s; with a radiosity solve, its share of the time and rays
+        (the solve's rays are the `radiosity` kind)."""
         total = self.rays.get("total", 0)
         kinds = " ".join(f"{k}={v}" for k, v in self.rays.items() if k != "total")
         mrays = total / self.seconds / 1e6 if self.seconds > 0 else 0.0
-        return f"{self.seconds:.2f} s, {total} rays ({kinds}), {mrays:.2f} Mrays/s"
+        line = f"{self.seconds:.2f} s, {total} rays ({kinds}), {mrays:.2f} Mrays/s"
+        if self.solve:
+            s = self.solve
+            line += f"; radiosity solve: {s['seconds']:.2f} s, {s['shots']} shots, {s['patches']} patch sides"
+        return line
 
 
 def adaptive_schedule(cs: CompiledScene) -> list[tuple[int, int]]:
@@ -276,19 +287,34 @@ def render(
     on_pass: Callable[[PassResult], None] | None = None,
     device: str = "cpu",
 ) -> RenderResult:
-    """Render a scene progressively.
+    """Render a scene progressively; with the radiosity integrator, solve its radiosity first.
 
-    `progress` is called after each band of rows, `on_pass` after each pass with the running
-    image, `cancel` before each pass: when it returns True the render stops and the result
-    holds the samples finished so far (`cancelled` = True).
+    `progress` is called after each shot of the solve (phase "radiosity") and after each band of
+    rows, `on_pass` after each pass with the running image, `cancel` before each shot and each pass:
+    when it returns True the render stops and the result holds the samples finished so far
+    (`cancelled` = True; none if the solve was not finished).
     """
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
-    r = Renderer(cs, threads, device)
-    total = r.width * r.height * (cs.data.max_level + 1 if r.adaptive else r.spp)
     start = time.perf_counter()
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device, solve_radiosity=False)
+    adaptive = cs.data.sampler == SamplerKind.ADAPTIVE
+    total = cs.data.width * cs.data.height * (cs.data.max_level + 1 if adaptive else cs.data.spp)
+    try:
+        solve = solve_radiosity(cs, threads, progress, cancel, device, start, total)
+    except radiosity.Cancelled:
+        shape = (cs.data.height, cs.data.width, 3)
+        return RenderResult(np.zeros(shape, np.float32), 0, time.perf_counter() - start, cancelled=True)
+    solve_rays = solve["rays"] if solve else 0
+    r = Renderer(cs, threads, device)
     done = 0
     passes = 0
     cancelled = False
+
+    def all_rays() -> dict:
+        rays = r.rays()
+        if solve:
+            rays = {**{k: v for k, v in rays.items() if k != "total"}, "radiosity": solve_rays}
+            rays["total"] = sum(rays.values())
+        return rays
 
     def on_band(n_pixels: int) -> None:
         nonlocal done
@@ -307,8 +333,31 @@ def render(
             r.add_samples(s0, s1, on_band)
         passes += 1
         if on_pass is not None:
-            on_pass(PassResult(r.image(), r.samples_done, r.spp, passes, time.perf_counter() - start, r.rays()))
+            on_pass(PassResult(r.image(), r.samples_done, r.spp, passes, time.perf_counter() - start, all_rays()))
     seconds = time.perf_counter() - start
     return RenderResult(
-        image=r.image(), spp=r.samples_done, seconds=seconds, rays=r.rays(), cancelled=cancelled, aovs=r.aovs()
+        image=r.image(),
+        spp=r.samples_done,
+        seconds=seconds,
+        rays=all_rays(),
+        cancelled=cancelled,
+        aovs=r.aovs(),
+        solve=solve,
     )
+
+
+def solve_radiosity(cs: CompiledScene, threads, progress, cancel, device: str, start: float, total: int) -> dict | None:
+    """The radiosity phase of a render: solve and attach the scene's radiosity solution when its
+    integrator needs one that is not there yet, reporting each shot to `progress` (phase "radiosity")
+    and asking `cancel` before each (True raises radiosity.Cancelled). Returns the solve's stats."""
+    if cs.data.integrator != Integrator.RADIOSITY:
+        return None
+    if cs.radiosity is None:
+
+        def on_step(sol, step: int) -> None:
+            if progress:
+                info = {**sol.stats(), "fraction": sol.fraction()}
+                progress(Progress(0, total, 0, time.perf_counter() - start, phase="radiosity", solve=info))
+
+        radiosity.attach(cs, device=device, threads=threads, on_step=on_step, cancel=cancel)
+    return cs.radiosity.stats()

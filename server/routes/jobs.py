@@ -217,7 +217,8 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
     responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
 )
 def events(job: JobDep, store: StoreDep, request: Request) -> StreamingResponse:
-    """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, elapsed, eta};
+    """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
+    eta, rays};
     `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes."""
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
     return StreamingResponse(_event_stream(store, job["id"], request), media_type="text/event-stream", headers=headers)
@@ -237,8 +238,9 @@ async def _event_stream(store: JobStore, job_id: str, request: Request) -> Async
         job = JobPublic.from_row(row)
         p = job.progress
         sent = False
-        if (job.status, p.samples_done, p.passes_done) != last_progress:
-            last_progress = (job.status, p.samples_done, p.passes_done)
+        now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0)
+        if now_at != last_progress:
+            last_progress = now_at
             data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
             yield sse("progress", data)
             sent = True

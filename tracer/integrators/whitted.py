@@ -54,6 +54,7 @@ from tracer.kinds import (
     END_MIN_WEIGHT,
     END_NONE,
     END_TIR,
+    RAD_TWO_PASS,
     RAY_EYE,
     RAY_REFLECTION,
     RAY_SHADOW,
@@ -191,7 +192,7 @@ def trace(
             ambient = wp.vec3(0.0)
             found, rb, rind, rrho = radiosity_at(scene.rad, h.po, s.nf, h.obj)
             if found != 0:
-                if scene.rad.mode == 0:
+                if scene.rad.mode == RAD_TWO_PASS:
                     ambient = wp.cw_mul(s.kd, safe_div(rind, rrho)) / PI
                 else:
                     ambient = rb / PI

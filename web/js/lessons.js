@@ -205,7 +205,8 @@ export class Lessons {
       el.bar.hidden = true;
       return;
     }
-    el.bar.value = job?.progress?.fraction ?? 0;
+    const solving = job?.progress?.phase === "radiosity" && job.progress.solve; // the radiosity solve comes first
+    el.bar.value = solving ? job.progress.solve.fraction : job?.progress?.fraction ?? 0;
     if (job && job.image_url && !el.rays.getAttribute("aria-pressed").includes("true")) {
       if (el.img.getAttribute("src") !== job.image_url) el.img.src = job.image_url;
       el.img.alt = panel.label;
@@ -218,7 +219,7 @@ export class Lessons {
       el.bar.hidden = true;
     } else if (panel.status === "failed" || panel.status === "cancelled") {
       el.state.replaceChildren(h("div", { class: "refused" }, `The job ${panel.status}: ${job?.error || ""}`));
-    } else el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? "queued…" : "rendering…"));
+    } else el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? "queued…" : solving ? "solving radiosity…" : "rendering…"));
   }
 
   /** Follow one panel's job by its event stream until it ends. */

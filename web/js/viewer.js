@@ -146,7 +146,7 @@ export class Viewer {
       const job = this.view && this.view.id === id ? this.view.job : null;
       if (!job) return;
       job.status = p.status;
-      Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total });
+      Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total, phase: p.phase, solve: p.solve });
       job.elapsed = p.elapsed;
       job.eta = p.eta;
       if (p.rays) job.rays = p.rays;
@@ -338,8 +338,10 @@ export class Viewer {
   update(job) {
     const p = job.progress || {};
     const st = this.el.stats;
-    this.el.bar.value = p.fraction || 0;
-    this.el.bar.textContent = `${Math.round((p.fraction || 0) * 100)}%`;
+    const solving = p.phase === "radiosity" && p.solve; // the radiosity solve runs before the first pass
+    const fraction = solving ? p.solve.fraction : p.fraction || 0;
+    this.el.bar.value = fraction;
+    this.el.bar.textContent = `${Math.round(fraction * 100)}%`;
     this.el.stage.dataset.status = job.status;
     const running = job.status === "running" || job.status === "queued";
     this.el.cancel.disabled = !running;
@@ -348,14 +350,17 @@ export class Viewer {
       ...row("status", job.status),
       ...row("samples", `${integer(p.samples_done)} / ${integer(p.samples_total)} (${Math.round((p.fraction || 0) * 100)}%)`),
       ...row("passes", `${p.passes_done ?? 0} · ${p.spp_done ?? 0} of ${p.spp_total ?? "?"} spp`),
+      ...(p.solve ? row("radiosity", `${integer(p.solve.shots)} shots · ${integer(p.solve.patches)} patch sides · ${seconds(p.solve.seconds)}`) : []),
       ...row("elapsed", seconds(job.elapsed)),
       ...row("ETA", running ? seconds(job.eta) : "–"),
     );
     const rays = job.rays || {};
     const chip = (kind) => h("span", { class: "chip", style: `--c:${RAY_STYLES[kind].colour}` }, `${kind} ${integer(rays[kind] ?? 0)}`);
-    this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), h("span", {}, `total ${integer(rays.total ?? 0)}`));
+    const solveChip = rays.radiosity ? [h("span", { class: "chip", style: "--c:#c792ea", title: "form-factor rays of the radiosity solve" }, `radiosity ${integer(rays.radiosity)}`)] : [];
+    this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), ...solveChip, h("span", {}, `total ${integer(rays.total ?? 0)}`));
     this.setDownloads(job);
-    if (running) this.message("info", job.status === "queued" ? "Queued: waiting for the render worker…" : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
+    if (running && solving) this.message("info", `Solving radiosity before the first pass: ${Math.round(fraction * 100)}% · ${integer(p.solve.shots)} shots · ${(100 * p.solve.unshot).toFixed(2)}% of the power still unshot…`);
+    else if (running) this.message("info", job.status === "queued" ? "Queued: waiting for the render worker…" : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
     if (this.jobs.has(job.id)) {
       this.jobs.set(job.id, job);
     }
