@@ -4,7 +4,9 @@ The example class in scenes/grading/class (written by scenes/grading/make_class.
 per case; their grades are asserted exactly, test by test:
 alice (correct), bob (no area light), carol (not JSON), dave (correct at 1 spp: noisy), erin (meets
 every requirement, wrong picture), frank (schema errors), grace (a correct PNG of her own),
-heidi (a wrong EXR), ivan (an image of the wrong size).
+heidi (a wrong EXR), ivan (an image of the wrong size). Students' own images in every format (an EXR
+of floats or half floats, an 8- or 16-bit PNG; right, wrong, and the noise baseline's own render) are
+made here from our renderer with other seeds (`own_images`).
 """
 
 from __future__ import annotations
@@ -147,6 +149,207 @@ def test_grading_error_map_shows_where_the_picture_is_wrong(graded):
     rejected = np.all(erin.images["rejected"] == (255, 40, 40), axis=-1)
     assert rejected.mean() == pytest.approx(erin.metrics["rejected"], abs=1e-6)  # rounded to 6 digits
     assert err[rejected].mean() > 3 * err[~rejected].mean()
+
+
+# ------------------------------------------------------------------ students' own images: EXR and PNG
+#
+# An independent ray tracer's image of the reference scene is stood in for by ours with other seeds.
+# An EXR holds linear radiance (compared with the reference mean as is), a PNG sRGB(clamp(2^e L)) in 8
+# or 16 bits (compared in those units, its rounding in the noise). Each is graded against a noise
+# baseline stored the same way, so a correct image scores like the baseline whatever its format.
+
+OWN_SEED = 777  # "the student's" seed: not the reference's (1000003), the baseline's (1000004) or grace's
+
+
+def render_linear(scene: dict) -> np.ndarray:
+    from tracer.compile import compile_scene
+    from tracer.render import render
+
+    return render(compile_scene(load_scene(scene)[0])).image
+
+
+def exr_bytes(image: np.ndarray, half: bool = False) -> bytes:
+    import OpenEXR
+
+    pixels = np.ascontiguousarray(image, dtype=np.float16 if half else np.float32)
+    path = f"/tmp/test-grading-{id(pixels)}.exr"
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, {"RGB": pixels}) as f:
+        f.write(path)
+    try:
+        return open(path, "rb").read()
+    finally:
+        import os
+
+        os.remove(path)
+
+
+def png16_bytes(codes: np.ndarray) -> bytes:
+    """(H, W, 3) or (H, W) 16-bit codes as a PNG written without pypng (zlib and the PNG chunks, each row
+    with the Paeth filter, as libpng often chooses), so the reader is checked against an independent writer."""
+    import struct
+    import zlib
+
+    grey = codes.ndim == 2
+    c = codes.reshape(codes.shape[0], codes.shape[1], -1)
+    h, w, planes = c.shape
+    raw = np.frombuffer(c.astype(">u2").tobytes(), np.uint8).reshape(h, w * planes * 2).astype(np.int32)
+    bpp, rows, up = planes * 2, [], np.zeros(w * planes * 2, np.int32)
+    for row in raw:
+        left = np.concatenate([np.zeros(bpp, np.int32), row[:-bpp]])
+        up_left = np.concatenate([np.zeros(bpp, np.int32), up[:-bpp]])
+        p = left + up - up_left
+        pa, pb, pc = np.abs(p - left), np.abs(p - up), np.abs(p - up_left)
+        pred = np.where((pa <= pb) & (pa <= pc), left, np.where(pb <= pc, up, up_left))
+        rows.append(b"\x04" + ((row - pred) % 256).astype(np.uint8).tobytes())
+        up = row
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", w, h, 16, 0 if grey else 2, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"".join(rows)))
+        + chunk(b"IEND", b"")
+    )
+
+
+def srgb16(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> 16-bit sRGB codes (exposure 0), the arithmetic of tracer.film.to_srgb8."""
+    from tracer.film import srgb_encode
+
+    return np.round(srgb_encode(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0)) * 65535.0).astype(np.uint16)
+
+
+@pytest.fixture(scope="module")
+def own_images():
+    """Students' own images of the reference scene: right (another seed, 16 spp as image.spp says) and
+    wrong (erin's changes: a grey cube, a blue ball), and the noise baseline's own render, each stored as
+    the format says. All graded at once, against one reference."""
+    from tracer.film import png_bytes
+
+    reference = json.loads((EXAMPLE / "reference.json").read_text())
+    right = copy.deepcopy(reference)
+    right["render"]["seed"] = OWN_SEED
+    wrong = copy.deepcopy(right)
+    wrong["materials"]["mirror"] = {"kd": 0.5}
+    wrong["materials"]["red"] = {"kd": [0.1, 0.2, 0.8]}
+    spec, base = load_assignment(ASSIGNMENT)
+    baseline = copy.deepcopy(reference)  # what the grader renders as the baseline of a 16-spp image
+    baseline["render"]["seed"] = spec.reference.seed + 1
+    assert (baseline["sampler"], spec.image.spp) == ({"type": "jittered", "spp": 16}, 16)
+    images = {"right": render_linear(right), "wrong": render_linear(wrong), "baseline": render_linear(baseline)}
+    files = {
+        "right_exr": (exr_bytes(images["right"]), "exr"),
+        "right_half_exr": (exr_bytes(images["right"], half=True), "exr"),
+        "right_png16": (png16_bytes(srgb16(images["right"])), "png"),
+        "wrong_png8": (png_bytes(images["wrong"]), "png"),
+        "wrong_png16": (png16_bytes(srgb16(images["wrong"])), "png"),
+        "wrong_exr": (exr_bytes(images["wrong"]), "exr"),
+        "baseline_exr": (exr_bytes(images["baseline"]), "exr"),
+        "baseline_half_exr": (exr_bytes(images["baseline"], half=True), "exr"),
+        "baseline_png8": (png_bytes(images["baseline"]), "png"),
+        "baseline_png16": (png16_bytes(srgb16(images["baseline"])), "png"),
+    }
+    reports = Grader(spec, base, InlineRenderer()).grade([Submission(k, d, kind) for k, (d, kind) in files.items()])
+    return {r.student: r for r in reports}, images, files
+
+
+@pytest.mark.parametrize(
+    "student, points, encoding",
+    [
+        ("right_exr", [1, 2, 1, 1, 2], "linear radiance, 32-bit float"),
+        ("right_half_exr", [1, 2, 1, 1, 2], "linear radiance, 16-bit half float"),
+        ("right_png16", [1, 2, 1, 1, 2], "sRGB, 16 bits per channel"),
+        ("wrong_png8", [1, 0, 0, 0, 0], "sRGB, 8 bits per channel"),
+        ("wrong_png16", [1, 0, 0, 0, 0], "sRGB, 16 bits per channel"),
+        ("wrong_exr", [1, 0, 0, 0, 0], "linear radiance, 32-bit float"),
+    ],
+)
+def test_own_images_are_graded_in_the_units_they_hold(own_images, student, points, encoding):
+    """A correct 16-spp image scores 7/7 whether it is an EXR (linear radiance: it scored 1/7 when it
+    was read as displayed values) or a PNG; a wrong one fails the four image tests in every format."""
+    report = own_images[0][student]
+    assert [t.score for t in report.tests] == points, [(t.name, t.output) for t in report.tests]
+    assert report.metrics["encoding"] == encoding
+    assert report.tests[0].output == f"a 96x72 {student.rsplit('_', 1)[1][:3].upper()} image ({encoding})"
+
+
+@pytest.mark.parametrize("fmt", ["exr", "half_exr", "png8", "png16"])
+def test_own_images_the_baselines_own_render_scores_exactly_the_baseline(own_images, fmt):
+    """Like with like: the noise baseline is stored as the submission was (a PNG's 8- or 16-bit steps,
+    a half float's rounding), so a file of the baseline's own render measures exactly as the baseline.
+    Tolerance: a relative 1e-6 (the same arithmetic on the same values; the file's round trip is exact)."""
+    m = own_images[0][f"baseline_{fmt}"].metrics
+    for key in ("flip", "ssim", "psnr", "rejected"):
+        assert m[key] == pytest.approx(m["baseline"][key], rel=1e-6, abs=1e-9), (key, m)
+
+
+def test_own_images_an_exr_is_compared_as_linear_radiance(own_images):
+    """The correct EXR is as close to the reference as the float baseline, and its z test has no 8-bit
+    term: radiance 0.001 too bright (less than half an 8-bit step at these values) is rejected where
+    the reference has no noise (the sky: a quarter of the picture), while as a PNG the steps hide it."""
+    from tracer.film import png_bytes
+
+    reports, images, _ = own_images
+    exr = reports["right_exr"].metrics
+    assert exr["psnr"] == pytest.approx(exr["baseline"]["psnr"], abs=1.0)  # 40.5 dB against 40.4
+    assert exr["rejected"] <= exr["baseline"]["rejected"] + 0.002  # 0 of 6912 pixels against 1
+    spec, base = load_assignment(ASSIGNMENT)
+    brighter = images["right"] + 0.001
+    shifted = [Submission("exr", exr_bytes(brighter), "exr"), Submission("png", png_bytes(brighter), "png")]
+    exr, png = Grader(spec, base, InlineRenderer()).grade(shifted)
+    assert exr.metrics["rejected"] > 0.2 and exr.tests[-1].score == 0, exr.metrics  # 25.7%
+    assert png.metrics["rejected"] < 0.005 and png.tests[-1].score == 2, png.metrics  # 0.06%
+
+
+def test_own_images_16_bit_pngs_keep_their_16_bits():
+    """Pillow reads a 48-bit PNG as 24-bit: the grader decodes 16 bits (RGB and grey), and says the depth."""
+    from tracer.grading import read_image
+
+    codes = np.arange(4 * 6 * 3, dtype=np.uint16).reshape(4, 6, 3) * 911 + 3
+    np.testing.assert_allclose(read_image(png16_bytes(codes), "png"), codes / 65535.0, rtol=0, atol=1e-7)
+    grey = read_image(png16_bytes(codes[..., 0]), "png")
+    np.testing.assert_allclose(grey, np.repeat(codes[..., :1], 3, axis=-1) / 65535.0, rtol=0, atol=1e-7)
+    from tracer.grading.grade import decode_image
+
+    assert decode_image(png16_bytes(codes), "png")[1] == metrics.Encoding("png", 16)
+    assert decode_image(png16_bytes(codes[..., 0]), "png")[1] == metrics.Encoding("png", 16)
+    with pytest.raises(GradingError, match="cannot read the PNG image"):
+        decode_image(png16_bytes(codes)[:60], "png")  # cut short in its pixels
+
+
+def test_own_images_quantisation_steps_follow_the_bit_depth():
+    """Half a step of the PNG's code, in linear units: 1/255 for 8 bits, 1/65535 for 16; an EXR of 32-bit
+    floats adds none, one of half floats 2^-11 of the value."""
+    x = np.array([0.001, 0.2, 0.5, 0.9])
+    q8, q16 = metrics.quantisation(x, 8), metrics.quantisation(x, 16)
+    np.testing.assert_allclose(q16 / q8, 255 / 65535, rtol=2e-3)  # the sRGB curve is smooth at these steps
+    slope = 2.4 / 1.055 * 0.5 ** (1.4 / 2.4)  # d linear / d code of the sRGB curve at linear 0.5
+    assert q8[2] == pytest.approx(0.5 / 255 * slope, rel=1e-3)
+    assert metrics.Encoding("exr", 32).rounding(x) is None
+    np.testing.assert_allclose(metrics.Encoding("exr", 16).rounding(x), x * 2.0**-11, atol=1e-7)
+    stored = metrics.Encoding("png", 16).store(np.array([[[0.5, 0.5, 0.5]]]))
+    assert stored[0, 0, 0] * 65535 == pytest.approx(round(float(metrics.display(np.array([0.5]))[0]) * 65535))
+
+
+def test_own_images_exr_channels_are_said_so():
+    import OpenEXR
+
+    from tracer.grading.grade import decode_image
+
+    path = "/tmp/test-grading-depth.exr"
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"Z": np.ones((4, 4), np.float32)}) as f:
+        f.write(path)
+    with pytest.raises(GradingError, match="the EXR image has no colour: R, G and B .or Y. channels wanted; it has Z"):
+        decode_image(open(path, "rb").read(), "exr")
+    rgba = np.concatenate([np.full((4, 4, 3), 0.25, np.float16), np.ones((4, 4, 1), np.float16)], axis=-1)
+    with OpenEXR.File(header, {"RGBA": rgba}) as f:
+        f.write(path)
+    image, encoding = decode_image(open(path, "rb").read(), "exr")
+    assert image.shape == (4, 4, 3) and np.all(image == 0.25) and encoding == metrics.Encoding("exr", 16)
 
 
 # ------------------------------------------------------------------------------------ the spec
