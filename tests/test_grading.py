@@ -358,7 +358,10 @@ def test_own_images_exr_channels_are_said_so():
 @pytest.mark.parametrize(
     "change, path, words",
     [
-        (lambda a: a["requirements"][0].update(check="glas"), "requirements[0].check", "unknown preset 'glas'"),
+        (lambda a: a["requirements"][0].update(check="glas"), "requirements[0].check",
+         "unknown preset 'glas' (the presets: transmissive_material, reflective_material, glossy_material, "),
+        (lambda a: a["requirements"][1].update(check="area_ligth"), "requirements[1].check",
+         "unknown preset 'area_ligth'; did you mean 'area_light'? (the presets: transmissive_material, "),
         (lambda a: a["requirements"][1].update(points=-1), "requirements[1].points", "greater than or equal to 0"),
         (lambda a: a["requirements"][2]["check"].update(at_lest=3), "requirements[2].check.at_lest", "unknown field"),
         (lambda a: a["requirements"][2]["check"].pop("at_least"), "requirements[2].check", "at least one comparison"),
