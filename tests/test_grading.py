@@ -618,7 +618,6 @@ def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
     assert report.score == 7.0
 
 
-
 def test_unreadable_images_are_said_so():
     from tracer.grading import read_image
 

@@ -167,4 +167,3 @@ def write_all(out: Path, reports: list[Report]) -> dict:
     (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
     (out / "summary.csv").write_text(summary_csv(table))
     return table
-

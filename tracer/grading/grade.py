@@ -167,8 +167,15 @@ class Report:
             "visibility": "visible",
             "stdout_visibility": "hidden",
             "tests": [
-                {"name": t.name, "number": str(i + 1), "score": _round(t.score), "max_score": _round(t.max_score),
-                 "status": "passed" if t.passed else "failed", "output": t.output, "visibility": "visible"}
+                {
+                    "name": t.name,
+                    "number": str(i + 1),
+                    "score": _round(t.score),
+                    "max_score": _round(t.max_score),
+                    "status": "passed" if t.passed else "failed",
+                    "output": t.output,
+                    "visibility": "visible",
+                }
                 for i, t in enumerate(self.tests)
             ],  # fmt: skip
         }
