@@ -37,6 +37,7 @@ from tracer.grading import (
     read_zip,
     write_all,
 )
+from tracer.grading.batch import group_files
 from tracer.grading.checks import run_check
 from tracer.grading.spec import Check
 from tracer.scene import load_scene
@@ -472,6 +473,34 @@ def test_batch_collects_folders_and_zips(tmp_path):
         read_zip(b"PK nonsense")
 
 
+def test_student_names_keep_unicode_letters(tmp_path):
+    """A student is named after their file: letters of any script stay (NFC, as macOS's NFD names come
+    out the same), other characters become '_'; from a folder, a zip (UTF-8 names without the zip's
+    UTF-8 flag, as macOS and Linux write them) and the CLI alike."""
+    import unicodedata
+
+    from tracer.grading import student_for_file, student_name
+
+    assert student_name("Zoë O'Brien") == "Zoë_O_Brien"
+    assert student_name(unicodedata.normalize("NFD", "Zoë O'Brien")) == "Zoë_O_Brien"
+    assert student_name("प्रिया शर्मा") == "प्रिया_शर्मा"  # vowel signs are marks (M*), not letters
+    assert [student_name(x) for x in ("王小明", "Ελένη", "../etc/passwd", "..hidden", "😀", "")] == [
+        "王小明", "Ελένη", "etc_passwd", "hidden", "student", "student"]  # fmt: skip
+    assert len(student_name("𝐀" * 100).encode()) <= 240  # a folder name: at most 255 bytes
+    assert student_for_file("hw4/Zoë O'Brien.json") == "Zoë_O_Brien"
+    (tmp_path / "Zoë O'Brien.json").write_text("{}")
+    assert [s.student for s in collect(tmp_path)] == ["Zoë_O_Brien"]
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("hw4/Zoë O'Brien.json", "{}")  # Python sets the UTF-8 flag
+        z.writestr("hw4/JosXX/scene.json", "{}")  # ASCII: no flag; its bytes become UTF-8 "José" below
+    data = buf.getvalue().replace(b"hw4/JosXX/", "hw4/José/".encode())  # as macOS's and Linux's zip write it
+    assert zipfile.ZipFile(io.BytesIO(data)).namelist()[1] == "hw4/Jos├⌐/scene.json"  # read as code page 437
+    entries = read_zip(data)
+    assert sorted(entries) == ["hw4/José/scene.json", "hw4/Zoë O'Brien.json"]
+    assert [s.student for s in group_files(entries)] == ["José", "Zoë_O_Brien"]
+
+
 # ---------------------------------------------------------------------------------------- CLI
 
 
@@ -603,6 +632,13 @@ def test_queue_and_inline_give_the_same_grade(server, graded):
     mine = graded["erin"].to_json()
     for key in ("score", "status", "tests", "metrics"):
         assert report[key] == json.loads(json.dumps(mine[key])), key
+
+
+def test_api_names_students_as_the_grader_does(server):
+    """The page asks the server to name picked files (it keeps no copy of the rule)."""
+    r = httpx.post(f"{server.url}/api/grade/students", json={"files": ["Zoë O'Brien.json", "bob.png", "x y.exr"]})
+    assert r.status_code == 200 and r.json() == {"students": ["Zoë_O_Brien", "bob", "x_y"]}
+    assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
 
 
 def test_grading_copes_with_a_submission_made_invalid_by_the_settings():

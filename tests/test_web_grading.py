@@ -257,12 +257,15 @@ def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     page = phone.open("#grading").page
     assert page.get_attribute("#tab-grading", "aria-selected") == "true"
 
-    # files: students by file name, kinds by extension; a zip replaces them
+    # files: students by file name (named by the server: Unicode letters stay), kinds by extension;
+    # a zip replaces them
     (tmp_path / "notes.txt").write_text("not a submission")
-    page.set_input_files("#grade-files", [root / "alice.json", root / "heidi.exr", tmp_path / "notes.txt"])
+    zoe = tmp_path / "Zoë O'Brien.json"
+    zoe.write_text((root / "alice.json").read_text())
+    page.set_input_files("#grade-files", [root / "alice.json", root / "heidi.exr", tmp_path / "notes.txt", zoe])
     page.wait_for_selector("#grade-sub-rows tr[data-student=heidi]")
     kinds = page.eval_on_selector_all("#grade-sub-rows tr", "trs => trs.map(r => [r.dataset.student, r.dataset.kind])")
-    assert kinds == [["alice", "scene"], ["heidi", "exr"]]
+    assert kinds == [["alice", "scene"], ["heidi", "exr"], ["Zoë_O_Brien", "scene"]]
     assert "notes.txt" in page.text_content("#grade-sub-errors")
     with zipfile.ZipFile(tmp_path / "class.zip", "w") as z:
         z.write(root / "bob.json", "hw4/bob.json")

@@ -141,7 +141,7 @@ def cmd_grade(args) -> int:
         Submission,
         collect,
         load_assignment,
-        student_name,
+        student_for_file,
         write_all,
     )
 
@@ -160,7 +160,7 @@ def cmd_grade(args) -> int:
             subs = collect(path)
         else:
             kind = {".png": "png", ".exr": "exr"}.get(path.suffix.lower(), "scene")
-            subs = [Submission(args.student or student_name(path.stem), path.read_bytes(), kind, path.name)]
+            subs = [Submission(args.student or student_for_file(path.name), path.read_bytes(), kind, path.name)]
     except (GradingError, OSError) as exc:
         print(f"error: {path}: {getattr(exc, 'strerror', None) or exc}", file=sys.stderr)
         return 1

@@ -26,6 +26,13 @@ MAX_FILES = 2000
 SUFFIXES = {".json": "scene", ".png": "png", ".exr": "exr"}
 
 
+def student_for_file(name: str) -> str:
+    """A submitted file's name -> its student: the name without its folders and last suffix, made safe
+    by student_name ("hw4/Zoë O'Brien.json" -> "Zoë_O_Brien"). The CLI, a class folder or zip, and the
+    page (through POST /api/grade/students) all name students by this one rule."""
+    return student_name(PurePosixPath(name.replace("\\", "/")).stem)
+
+
 def _pick(files: dict[str, bytes], student: str) -> Submission | None:
     """A student's folder -> their submission: the one scene, else the one image."""
     by_kind: dict[str, list[str]] = {}
@@ -55,7 +62,7 @@ def group_files(entries: dict[str, bytes]) -> list[Submission]:
         if len(ps) == 1:
             kind = SUFFIXES.get(PurePosixPath(path).suffix.lower())
             if kind:
-                student = student_name(PurePosixPath(path).stem)
+                student = student_for_file(path)
                 subs.setdefault(student, Submission(student, data, kind, path))
         else:
             folders.setdefault(ps[0], {})[path] = data
@@ -97,7 +104,7 @@ def read_zip(data: bytes) -> dict[str, bytes]:
     out = {}
     with zf:
         for info in zf.infolist():
-            p = PurePosixPath(info.filename)
+            p = PurePosixPath(_zip_name(info))
             hidden = any(s.startswith((".", "__MACOSX")) for s in p.parts)
             if info.is_dir() or p.is_absolute() or ".." in p.parts or hidden:
                 continue
@@ -107,6 +114,17 @@ def read_zip(data: bytes) -> dict[str, bytes]:
         if len(out) > MAX_FILES:
             raise GradingError(f"{len(out)} files; at most {MAX_FILES}")
     return out
+
+
+def _zip_name(info: zipfile.ZipInfo) -> str:
+    """A member's name: zips without the UTF-8 flag are read as code page 437 (the zip standard), but
+    many tools (macOS, Linux) write UTF-8 without setting it, so "Zoë.json" would come out "Zo├½.json"."""
+    if info.flag_bits & 0x800:
+        return info.filename
+    try:
+        return info.filename.encode("cp437").decode("utf-8")
+    except UnicodeError:  # really code page 437 (or another one we cannot tell): as read
+        return info.filename
 
 
 # ----------------------------------------------------------------------------------------- output

@@ -26,6 +26,8 @@ const METRICS = [
 
 const grade = {
   example: () => request("GET", "/api/grade/example"),
+  // file names -> the student ids the grader will use: the server's rule (tracer.grading.student_for_file), not a copy
+  students: (files) => request("POST", "/api/grade/students", { files }),
   start: (body) => request("POST", "/api/grade", body),
   state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`),
   summaryUrl: (id, fmt) => `/api/grade/${encodeURIComponent(id)}/summary.${fmt}`,
@@ -39,13 +41,6 @@ function fixed(x, digits) {
 /** A score without trailing zeros: 13, 6.5. */
 function pts(x) {
   return typeof x === "number" ? num(Math.round(x * 1000) / 1000, 4) : "–";
-}
-
-/** A file or folder name -> the student id the server will use (tracer.grading.student_name). */
-export function studentName(fileName) {
-  const stem = fileName.replace(/\.[^.]*$/, "");
-  const name = stem.replace(/[^A-Za-z0-9._-]+/g, "_").replace(/^[._]+|[._]+$/g, "") || "student";
-  return name.slice(0, 80);
 }
 
 function sizeText(bytes) {
@@ -199,6 +194,7 @@ export class GradingPanel {
       else subs = [{ student: zips[0].name, kind: "zip", data: await base64(zips[0]), bytes: zips[0].size, from: "file" }];
     }
     if (!zips.length) {
+      let picked = [];
       for (const f of files) {
         const ext = (/\.([^.]+)$/.exec(f.name)?.[1] || "").toLowerCase();
         const kind = KINDS[ext];
@@ -206,7 +202,19 @@ export class GradingPanel {
           problems.push({ path: f.name, message: "not a submission: choose .json scenes, .png or .exr images, or one .zip" });
           continue;
         }
-        const student = studentName(f.name);
+        picked.push({ f, kind });
+      }
+      let ids = [];
+      if (picked.length) {
+        try {
+          ids = (await grade.students(picked.map((p) => p.f.name))).students;
+        } catch (err) {
+          problems.push({ path: "", message: `Could not add the files: the server did not name their students (${err.message}).` });
+          picked = [];
+        }
+      }
+      for (const [i, { f, kind }] of picked.entries()) {
+        const student = ids[i];
         const data = kind === "scene" ? await f.text() : await base64(f);
         subs = subs.filter((s) => s.student !== student);
         subs.push({ student, kind, data, bytes: f.size, from: "file" });
