@@ -136,10 +136,19 @@ def test_grading_writes_reports_gradescope_and_the_summary(graded, tmp_path):
         assert (tmp_path / "erin" / f"{name}.png").stat().st_size > 0
     assert not (tmp_path / "carol" / "render.png").exists()
     csv = (tmp_path / "summary.csv").read_text().splitlines()
-    assert csv[0].startswith("student,kind,status,score,max_score")
-    assert [line.split(",")[:4] for line in csv[1:3]] == [["alice", "scene", "graded", "13.0"],
-                                                         ["bob", "scene", "graded", "6.0"]]  # fmt: skip
-    assert table["statistics"]["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
+    assert csv[0].startswith("student,kind,status,score,max_score,percent,")
+    assert [line.split(",")[:6] for line in csv[1:3]] == [
+        ["alice", "scene", "graded", "13.0", "13.0", "100.0"],
+        ["bob", "scene", "graded", "6.0", "13.0", "46.15"],
+    ]
+    stats = table["statistics"]
+    assert stats["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
+    # scenes are out of 13 points, images out of 7: the class is summed up in percent, never in points
+    shares = {row["student"]: row["percent"] for row in table["students"]}
+    assert shares["heidi"] == 14.29 and shares["grace"] == 100.0 and shares["erin"] == 53.85
+    assert stats["mean_percent"] == pytest.approx(sum(shares.values()) / 9, abs=0.01)  # 46.03, not 5.2 points
+    assert (stats["min_percent"], stats["max_percent"]) == (0.0, 100.0)
+    assert "mean" not in stats
     assert json.loads((tmp_path / "summary.json").read_text()) == table
 
 
@@ -512,7 +521,7 @@ def run_cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
 def test_cli_grades_one_scene(tmp_path):
     p = run_cli(ASSIGNMENT, CLASS / "bob.json", "-o", tmp_path)
     assert p.returncode == 0, p.stderr
-    assert p.stdout.splitlines()[0] == "bob: 6 / 13 (graded)"
+    assert p.stdout.splitlines()[0] == "bob: 6 / 13 = 46.2% (graded)"
     assert "FAIL an area light (0/1): failed: found 0 lights" in p.stdout
     assert json.loads((tmp_path / "bob" / "results.json").read_text())["score"] == 6.0
 
@@ -526,7 +535,8 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     (tmp_path / "hw4.zip").write_bytes(buf.getvalue())
     p = run_cli(ASSIGNMENT, tmp_path / "hw4.zip", "-o", tmp_path / "out", "--workers", "1")
     assert p.returncode == 0, p.stderr
-    assert "alice: 13 / 13 (graded)\ncarol: 0 / 13 (invalid)\ngrace: 7 / 7 (graded)" in p.stdout
+    assert "alice: 13 / 13 = 100% (graded)\ncarol: 0 / 13 = 0% (invalid)\ngrace: 7 / 7 = 100% (graded)" in p.stdout
+    assert "3 students, mean 66.7% of the points; summary in" in p.stdout
     assert "renders done: 3/3" in p.stderr  # the reference, one baseline and alice's scene
     rows = (tmp_path / "out" / "summary.csv").read_text().splitlines()
     assert len(rows) == 4

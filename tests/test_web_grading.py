@@ -19,16 +19,16 @@ from test_web_page import PHONE, Page, browser, desktop, phone, server  # noqa: 
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
 SHOT_DIR = Path("/tmp")
-EXPECTED = {  # the example class as the API grades it: score / max (status)
-    "alice": ("13 / 13", "graded"),
-    "bob": ("6 / 13", "graded"),
-    "carol": ("0 / 13", "invalid"),
-    "dave": ("13 / 13", "graded"),
-    "erin": ("7 / 13", "graded"),
-    "frank": ("0 / 13", "invalid"),
-    "grace": ("7 / 7", "graded"),
-    "heidi": ("1 / 7", "graded"),
-    "ivan": ("0 / 7", "invalid"),
+EXPECTED = {  # the example class as the API grades it: score / max (percent) (status)
+    "alice": ("13 / 13 (100 %)", "graded"),
+    "bob": ("6 / 13 (46.2 %)", "graded"),
+    "carol": ("0 / 13 (0 %)", "invalid"),
+    "dave": ("13 / 13 (100 %)", "graded"),
+    "erin": ("7 / 13 (53.8 %)", "graded"),
+    "frank": ("0 / 13 (0 %)", "invalid"),
+    "grace": ("7 / 7 (100 %)", "graded"),
+    "heidi": ("1 / 7 (14.3 %)", "graded"),
+    "ivan": ("0 / 7 (0 %)", "invalid"),
 }
 PICTURES = ("render", "reference", "error_map", "rejected")
 
@@ -126,11 +126,11 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
             "#grade-stats [data-stat]", "ds => ds.map(d => [d.dataset.stat, d.lastChild.textContent])"
         )
     )
-    assert stats == {
+    assert stats == {  # in percent: scenes are out of 13 points, images out of 7
         "students": "9",
-        "mean": "5.222",
-        "min": "0",
-        "max": "13",
+        "mean": "46 %",
+        "min": "0 %",
+        "max": "100 %",
         "graded": "6",
         "invalid": "3",
         "failed": "0",

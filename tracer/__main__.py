@@ -133,6 +133,11 @@ def cmd_bench(args) -> int:
     return bench_main(args)
 
 
+def _percent_text(p: float) -> str:
+    """46.15 -> "46.2%", 100.0 -> "100%"."""
+    return f"{p:.1f}".removesuffix(".0") + "%"
+
+
 def cmd_grade(args) -> int:
     from tracer.grading import (
         AssignmentError,
@@ -191,14 +196,17 @@ def cmd_grade(args) -> int:
         print()
         return 0
     for r in reports:
-        print(f"{r.student}: {r.score:g} / {r.max_score:g} ({r.status})")
+        share = f" = {_percent_text(100 * r.score / r.max_score)}" if r.max_score > 0 else ""
+        print(f"{r.student}: {r.score:g} / {r.max_score:g}{share} ({r.status})")
         if not batch:
             for t in r.tests:
                 print(f"  {'PASS' if t.passed else 'FAIL'} {t.name} ({t.score:g}/{t.max_score:g}): "
                       + t.output.replace("\n", "\n      "))  # fmt: skip
     stats = table["statistics"]
     if batch:
-        print(f"{stats['students']} students, mean {stats['mean']:g}; summary in {out / 'summary.csv'}")
+        shares = [100 * r.score / r.max_score for r in reports if r.max_score > 0]
+        mean = _percent_text(sum(shares) / len(shares)) if shares else "-"
+        print(f"{stats['students']} students, mean {mean} of the points; summary in {out / 'summary.csv'}")
     else:
         print(f"report and pictures in {out / reports[0].student}/")
     return 0

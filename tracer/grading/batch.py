@@ -130,23 +130,29 @@ def _zip_name(info: zipfile.ZipInfo) -> str:
 # ----------------------------------------------------------------------------------------- output
 
 
+def percent(score: float, max_score: float) -> float | None:
+    """A score as a percentage of its maximum (None when there is nothing to earn), to 2 decimals."""
+    return round(100.0 * score / max_score, 2) if max_score > 0 else None
+
+
 def summary(reports: list[Report]) -> dict:
-    """The class: a row per student (score, status, each test's score, the metrics) and statistics."""
+    """The class: a row per student (score, maximum, percent, status, each test's score, the metrics) and
+    statistics in percent (a scene is out of more points than an image, so points do not average)."""
     rows = []
     for r in reports:
         row = {"student": r.student, "kind": r.kind, "status": r.status, "score": round(r.score, 6),
-               "max_score": round(r.max_score, 6)}  # fmt: skip
+               "max_score": round(r.max_score, 6), "percent": percent(r.score, r.max_score)}  # fmt: skip
         for t in r.tests:
             row[t.name] = round(t.score, 6)
         for k in ("flip", "ssim", "psnr", "rejected"):
             row[k] = r.metrics.get(k)
         rows.append(row)
-    scores = [r.score for r in reports]
+    shares = [100.0 * r.score / r.max_score for r in reports if r.max_score > 0]
     stats = {
         "students": len(reports),
-        "mean": round(sum(scores) / len(scores), 6) if scores else None,
-        "min": round(min(scores), 6) if scores else None,
-        "max": round(max(scores), 6) if scores else None,
+        "mean_percent": round(sum(shares) / len(shares), 2) if shares else None,
+        "min_percent": round(min(shares), 2) if shares else None,
+        "max_percent": round(max(shares), 2) if shares else None,
         "by_status": {s: sum(r.status == s for r in reports) for s in ("graded", "invalid", "failed")},
     }
     return {"assignment": reports[0].assignment if reports else None, "statistics": stats, "students": rows}

@@ -43,6 +43,16 @@ function pts(x) {
   return typeof x === "number" ? num(Math.round(x * 1000) / 1000, 4) : "–";
 }
 
+/** A percentage to one decimal without a trailing zero: 46.2 %, 100 %. */
+function percentText(x) {
+  return typeof x === "number" && Number.isFinite(x) ? `${num(Math.round(x * 10) / 10, 4)} %` : "–";
+}
+
+/** A report's score as a percentage of its maximum (scenes and images are out of different totals). */
+function share(r) {
+  return r.max_score > 0 ? (100 * r.score) / r.max_score : null;
+}
+
 function sizeText(bytes) {
   if (bytes < 1024) return `${bytes} B`;
   if (bytes < 1024 * 1024) return `${(bytes / 1024).toFixed(1)} KB`;
@@ -450,9 +460,9 @@ export class GradingPanel {
         "dl",
         { class: "stats grade-stats", id: "grade-stats", "aria-label": "Class statistics" },
         stat("students", stats.students ?? st.reports.length, "students"),
-        stat("mean", pts(stats.mean), "mean"),
-        stat("min", pts(stats.min), "min"),
-        stat("max", pts(stats.max), "max"),
+        stat("mean", percentText(stats.mean_percent), "mean"),
+        stat("min", percentText(stats.min_percent), "min"),
+        stat("max", percentText(stats.max_percent), "max"),
         ...["graded", "invalid", "failed"].map((s) => stat(s, byStatus[s] ?? 0, s)),
       ),
       h("p", { class: "hint" }, "Click a student (or focus the row and press Enter) for their pictures and every test's output. A test's output is also its cell's tooltip."),
@@ -470,7 +480,7 @@ export class GradingPanel {
       { key: "student", label: "Student", sort: (r) => r.student.toLowerCase(), first: 1 },
       { key: "kind", label: "Kind", sort: (r) => r.kind, first: 1 },
       { key: "status", label: "Status", sort: (r) => r.status, first: 1 },
-      { key: "score", label: "Score", sort: (r) => (r.max_score ? r.score / r.max_score : 0) + r.score * 1e-6, first: -1 },
+      { key: "score", label: "Score", sort: (r) => (share(r) ?? 0) + r.score * 1e-6, first: -1 },
     ];
     for (const [key, label, , first] of METRICS) cols.push({ key, label, sort: (r) => r.metrics?.[key] ?? null, first, metric: true });
     return cols;
@@ -522,11 +532,11 @@ export class GradingPanel {
       const byName = new Map(r.tests.map((t) => [t.name, t]));
       const row = h(
         "tr",
-        { tabindex: 0, class: "student", dataset: { student: r.student, status: r.status }, "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)}, ${r.status}; Enter shows the details` },
+        { tabindex: 0, class: "student", dataset: { student: r.student, status: r.status }, "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)} (${percentText(share(r))}), ${r.status}; Enter shows the details` },
         h("th", { scope: "row" }, r.student),
         h("td", {}, r.kind),
         h("td", {}, h("span", { class: `badge ${r.status}` }, r.status)),
-        h("td", { class: "num score" }, h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`),
+        h("td", { class: "num score" }, h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)} `, h("span", { class: "pct" }, `(${percentText(share(r))})`)),
         ...this.tests.map((c) => {
           const t = byName.get(c.name);
           if (!t) return h("td", { class: "test na", title: "not a test for this kind of submission" }, h("span", { "aria-hidden": "true" }, "·"), h("span", { class: "sr-only" }, "not tested"));
@@ -627,7 +637,7 @@ export class GradingPanel {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-grade-detail", tabindex: -1 }, student),
-        h("span", {}, h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`), " · ", r.kind, " · ", h("span", { class: `badge ${r.status}` }, r.status)),
+        h("span", {}, h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`), ` (${percentText(share(r))}) · `, r.kind, " · ", h("span", { class: `badge ${r.status}` }, r.status)),
         h(
           "span",
           { class: "toolbar" },
