@@ -25,6 +25,7 @@ from server.settings import Settings
 from server.store import JobStore, write_atomic
 from server.worker import aov_path
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
+from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger("server.grading")
@@ -54,18 +55,24 @@ class QueueRenderer:
         self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
         self.settings = settings  # the service's own limits also apply (the smaller of the two)
 
-    def _capped(self, job: RenderJob) -> tuple[Limits, float]:
+    def _capped(self, job: RenderJob) -> tuple[Limits, float, str]:
+        """The job's limits and seconds, each the smaller of the assignment's and the service's, and
+        what set the seconds (for the message of a render stopped at its limit)."""
         if self.settings is None:
-            return job.limits, job.max_seconds
+            return job.limits, job.max_seconds, job.limit_source
         mine = self.settings.limits
         limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
-        return limits, min(job.max_seconds, self.settings.max_job_seconds)
+        if self.settings.max_job_seconds < job.max_seconds:
+            return limits, self.settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
+        return limits, job.max_seconds, job.limit_source
 
     def __call__(self, jobs: list[RenderJob]) -> list[Rendered]:
         out: list[Rendered | None] = [None] * len(jobs)
         ids: dict[int, str] = {}
+        limit: dict[int, tuple[float, str]] = {}  # seconds and what set them
         for i, job in enumerate(jobs):
-            limits, seconds = self._capped(job)
+            limits, seconds, source = self._capped(job)
+            limit[i] = (seconds, source)
             try:
                 scene, warnings = load_scene(job.scene, limits)
             except SceneError as e:
@@ -85,7 +92,7 @@ class QueueRenderer:
             for i, job_id in list(pending.items()):
                 row = self.store.get(job_id)
                 if row is not None and row["status"] in FINISHED:
-                    out[i] = self._result(row)
+                    out[i] = self._result(row, *limit[i])
                     del pending[i]
             if self.on_progress:
                 self.on_progress(total - len(pending), total)
@@ -93,11 +100,18 @@ class QueueRenderer:
                 time.sleep(POLL)
         return out  # type: ignore[return-value]
 
-    def _result(self, row: dict) -> Rendered:
+    def _result(self, row: dict, seconds: float, source: str) -> Rendered:
+        """A finished job's image and variance, or why there is none. A job stopped at its time limit
+        says what set the limit (`source`): the worker knows its row's seconds, not where they came
+        from, so its message is replaced."""
         from tracer.film import read_exr
 
         if row["status"] != JobStatus.done.value:
-            return Rendered(error=row["error"] or f"the render job {row['id']} was {row['status']}")
+            error = row["error"] or f"the render job {row['id']} was {row['status']}"
+            if row["status"] == JobStatus.failed.value and "over the time limit" in error:
+                killed = "; its worker was killed" if "killed" in error else ""
+                error = over_time(seconds, source) + killed
+            return Rendered(error=error)
         try:
             image = read_exr(self.store.image_path(row["id"], "exr"))
             variance = read_exr(aov_path(self.store, row["id"], "exr"))

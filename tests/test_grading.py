@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import copy
+import dataclasses
 import io
 import json
 import subprocess
@@ -594,7 +595,8 @@ def test_api_grades_a_class_with_a_time_limit_per_student(server):
     assert scores["grace"] == (7.0, "graded")
     sam = next(x for x in state["reports"] if x["student"] == "sam")
     assert scores["sam"] == (7.0, "failed")  # its requirements pass, its picture was never finished
-    assert "over the time limit of 2 s" in sam["tests"][6]["output"]
+    limit = "over the time limit of 2 s per render (set by the assignment's limits.max_seconds)"
+    assert limit in sam["tests"][6]["output"] and "TRACER_MAX_JOB_SECONDS" not in sam["tests"][6]["output"]
     csv = httpx.get(f"{server.url}{run['url']}/summary.csv").text
     assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
     png = httpx.get(f"{server.url}{run['url']}/students/alice/error_map.png")
@@ -649,6 +651,50 @@ def test_api_names_students_as_the_grader_does(server):
     r = httpx.post(f"{server.url}/api/grade/students", json={"files": ["Zoë O'Brien.json", "bob.png", "x y.exr"]})
     assert r.status_code == 200 and r.json() == {"students": ["Zoë_O_Brien", "bob", "x_y"]}
     assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
+
+
+class _FakeStore:
+    """Just enough of a JobStore for QueueRenderer: every job ends failed with the worker's message."""
+
+    def __init__(self, error: str):
+        self.error, self.rows = error, {}
+
+    def create(self, scene_json, **kw) -> dict:
+        row = {"id": str(len(self.rows)), "status": "failed", "error": self.error, "max_seconds": kw["max_seconds"]}
+        self.rows[row["id"]] = row
+        return row
+
+    def get(self, job_id: str) -> dict:
+        return self.rows[job_id]
+
+
+@pytest.mark.parametrize(
+    "service_seconds, priority, killed, expected",
+    [
+        (600, 0, False, "over the time limit of 2 s per render (set by the assignment's limits.max_seconds)"),
+        (1, 0, False, "over the time limit of 1 s per render (set by the server's max_job_seconds, "
+                      "TRACER_MAX_JOB_SECONDS)"),
+        (600, 10, True, "over the time limit of 20 s per render (set by 10 x the assignment's limits.max_seconds, "
+                        "for the reference renders); its worker was killed"),
+    ],
+)  # fmt: skip
+def test_time_limit_messages_cite_what_set_the_limit(service_seconds, priority, killed, expected):
+    """The worker only knows its job's seconds, and names TRACER_MAX_JOB_SECONDS; the grader knows
+    whether the assignment's limit, the service's, or the reference's (ten times the assignment's) set them."""
+    from server.grading import QueueRenderer
+    from server.settings import Settings
+
+    spec, _ = load_assignment(inline_assignment(max_seconds=2))
+    grader = Grader(spec, None)
+    scene = json.loads((CLASS / "alice.json").read_text())
+    job = grader._job("reference" if priority else "alice", scene, priority)
+    worker_said = "stopped: over the time limit of 9 s per job (TRACER_MAX_JOB_SECONDS)" + ("; worker killed" * killed)
+    renderer = QueueRenderer(_FakeStore(worker_said), settings=Settings(max_job_seconds=service_seconds))
+    [result] = renderer([job])
+    assert result.error == "stopped: " + expected
+    if service_seconds == 600 and not killed:  # rendered here: the same words
+        inline = InlineRenderer().one(dataclasses.replace(job, max_seconds=1e-9))
+        assert inline.error == "stopped: " + expected.replace(" 2 s ", " 1e-09 s ")
 
 
 def test_grading_copes_with_a_submission_made_invalid_by_the_settings():

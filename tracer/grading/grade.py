@@ -54,6 +54,12 @@ class RenderJob:
     max_seconds: float  # stopped (an error) past this
     limits: Limits = field(default_factory=Limits)
     priority: int = 0  # higher first (the reference renders go before the students')
+    limit_source: str = "the assignment's limits.max_seconds"  # what set max_seconds, for the message
+
+
+def over_time(seconds: float, source: str) -> str:
+    """Why a render has no image: it ran past its time limit, and what set that limit."""
+    return f"stopped: over the time limit of {seconds:g} s per render (set by {source})"
 
 
 @dataclass
@@ -92,7 +98,7 @@ class InlineRenderer:
         except SceneError as e:
             return Rendered(error="invalid scene: " + "; ".join(_error_text(x) for x in e.errors))
         if result.cancelled:
-            return Rendered(error=f"stopped: over the time limit of {job.max_seconds:g} s per render")
+            return Rendered(error=over_time(job.max_seconds, job.limit_source))
         return Rendered(result.image, result.aovs["variance"], result.spp, time.monotonic() - start)
 
 
@@ -380,9 +386,11 @@ class Grader:
 
     def _job(self, name: str, scene: dict, priority: int = 0) -> RenderJob:
         """A student's render has the assignment's limits; the instructor's (priority > 0) the defaults."""
-        limits = self.limits if priority == 0 else Limits()
-        seconds = self.assignment.limits.max_seconds * (1 if priority == 0 else REFERENCE_TIME_FACTOR)
-        return RenderJob(name, scene, seconds, limits, priority)
+        if priority == 0:
+            return RenderJob(name, scene, self.assignment.limits.max_seconds, self.limits, priority)
+        seconds = self.assignment.limits.max_seconds * REFERENCE_TIME_FACTOR
+        source = f"{REFERENCE_TIME_FACTOR} x the assignment's limits.max_seconds, for the reference renders"
+        return RenderJob(name, scene, seconds, Limits(), priority, source)
 
     def _reference_jobs(self, keys: set[tuple]) -> list[tuple[str, tuple | None, RenderJob]]:
         """The reference mean (once) and the noise baselines not made yet, for these (sampler, spp)."""
