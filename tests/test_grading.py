@@ -541,6 +541,11 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     assert "renders done: 3/3" in p.stderr  # the reference, one baseline and alice's scene
     rows = (tmp_path / "out" / "summary.csv").read_text().splitlines()
     assert len(rows) == 4
+    # the workers' log lines go to a file, which the CLI names; the terminal has the progress alone
+    log = tmp_path / "out" / ".queue" / "workers.log"
+    assert f"the render workers log to {log}" in p.stderr
+    assert [line for line in p.stderr.splitlines() if not line.startswith(("renders done", "the render workers"))] == []
+    assert "INFO server.worker" in log.read_text() and "render worker" in log.read_text()
 
 
 def test_cli_reports_a_bad_assignment(tmp_path):

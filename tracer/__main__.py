@@ -173,7 +173,7 @@ def cmd_grade(args) -> int:
         print(f"error: {path}: no submissions (.json, .png or .exr files)", file=sys.stderr)
         return 1
     if batch:  # through a job queue of our own: worker processes, a time limit per render
-        from server.grading import local_queue
+        from server.grading import WORKER_LOG, local_queue
 
         shown = [-1]
 
@@ -182,6 +182,7 @@ def cmd_grade(args) -> int:
                 shown[0] = done
                 print(f"renders done: {done}/{total}", file=sys.stderr, flush=True)
 
+        print(f"the render workers log to {out / '.queue' / WORKER_LOG}", file=sys.stderr, flush=True)
         with local_queue(out / ".queue", workers=args.workers, on_progress=progress) as queue:
             grader.renderer = queue
             reports = grader.grade(subs)
