@@ -18,7 +18,9 @@ import io
 import json
 import subprocess
 import sys
+import tempfile
 import zipfile
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -183,15 +185,12 @@ def exr_bytes(image: np.ndarray, half: bool = False) -> bytes:
     import OpenEXR
 
     pixels = np.ascontiguousarray(image, dtype=np.float16 if half else np.float32)
-    path = f"/tmp/test-grading-{id(pixels)}.exr"
-    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, {"RGB": pixels}) as f:
-        f.write(path)
-    try:
-        return open(path, "rb").read()
-    finally:
-        import os
-
-        os.remove(path)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "image.exr"
+        with OpenEXR.File(header, {"RGB": pixels}) as f:
+            f.write(str(path))
+        return path.read_bytes()
 
 
 def png16_bytes(codes: np.ndarray) -> bytes:
@@ -345,12 +344,12 @@ def test_own_images_quantisation_steps_follow_the_bit_depth():
     assert stored[0, 0, 0] * 65535 == pytest.approx(round(float(metrics.display(np.array([0.5]))[0]) * 65535))
 
 
-def test_own_images_exr_channels_are_said_so():
+def test_own_images_exr_channels_are_said_so(tmp_path):
     import OpenEXR
 
     from tracer.grading.grade import decode_image
 
-    path = "/tmp/test-grading-depth.exr"
+    path = str(tmp_path / "image.exr")
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     with OpenEXR.File(header, {"Z": np.ones((4, 4), np.float32)}) as f:
         f.write(path)
