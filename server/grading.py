@@ -3,7 +3,8 @@ any other, each with the assignment's time limit, so one slow or broken submissi
 (its worker is stopped at the limit, or dies and is replaced) while the others go on.
 
 - `QueueRenderer`: a tracer.grading renderer that submits jobs to a JobStore and waits for them.
-- `local_queue()`: a job store and worker pool of its own in a folder (the CLI's batch grading).
+- `local_queue()`: a job store and worker pool of its own in a folder (the CLI's batch grading); its
+  workers log to a file there (workers.log), so the terminal shows the CLI's progress alone.
 - `GradeRuns`: grading runs of the service (POST /api/grade): each runs in a thread of the API
   process, keeps its files under <data_dir>/grades/<id>/ and its state in status.json.
 """
@@ -12,6 +13,8 @@ from __future__ import annotations
 
 import json
 import logging
+import os
+import sys
 import threading
 import time
 import uuid
@@ -21,10 +24,12 @@ from dataclasses import fields
 from pathlib import Path
 
 from server.models import JobStatus
+from server.pool import WorkerPool
 from server.settings import Settings
 from server.store import JobStore, write_atomic
 from server.worker import aov_path
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
+from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger("server.grading")
@@ -50,22 +55,30 @@ class QueueRenderer:
         on_progress: Callable[[int, int], None] | None = None,
         max_queued: int = 1_000_000,
         settings: Settings | None = None,
+        log_path: Path | None = None,
     ):
         self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
         self.settings = settings  # the service's own limits also apply (the smaller of the two)
+        self.log_path = log_path  # where the workers log, when they have a file of their own (the CLI's)
 
-    def _capped(self, job: RenderJob) -> tuple[Limits, float]:
+    def _capped(self, job: RenderJob) -> tuple[Limits, float, str]:
+        """The job's limits and seconds, each the smaller of the assignment's and the service's, and
+        what set the seconds (for the message of a render stopped at its limit)."""
         if self.settings is None:
-            return job.limits, job.max_seconds
+            return job.limits, job.max_seconds, job.limit_source
         mine = self.settings.limits
         limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
-        return limits, min(job.max_seconds, self.settings.max_job_seconds)
+        if self.settings.max_job_seconds < job.max_seconds:
+            return limits, self.settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
+        return limits, job.max_seconds, job.limit_source
 
     def __call__(self, jobs: list[RenderJob]) -> list[Rendered]:
         out: list[Rendered | None] = [None] * len(jobs)
         ids: dict[int, str] = {}
+        limit: dict[int, tuple[float, str]] = {}  # seconds and what set them
         for i, job in enumerate(jobs):
-            limits, seconds = self._capped(job)
+            limits, seconds, source = self._capped(job)
+            limit[i] = (seconds, source)
             try:
                 scene, warnings = load_scene(job.scene, limits)
             except SceneError as e:
@@ -85,7 +98,7 @@ class QueueRenderer:
             for i, job_id in list(pending.items()):
                 row = self.store.get(job_id)
                 if row is not None and row["status"] in FINISHED:
-                    out[i] = self._result(row)
+                    out[i] = self._result(row, *limit[i])
                     del pending[i]
             if self.on_progress:
                 self.on_progress(total - len(pending), total)
@@ -93,11 +106,18 @@ class QueueRenderer:
                 time.sleep(POLL)
         return out  # type: ignore[return-value]
 
-    def _result(self, row: dict) -> Rendered:
+    def _result(self, row: dict, seconds: float, source: str) -> Rendered:
+        """A finished job's image and variance, or why there is none. A job stopped at its time limit
+        says what set the limit (`source`): the worker knows its row's seconds, not where they came
+        from, so its message is replaced."""
         from tracer.film import read_exr
 
         if row["status"] != JobStatus.done.value:
-            return Rendered(error=row["error"] or f"the render job {row['id']} was {row['status']}")
+            error = row["error"] or f"the render job {row['id']} was {row['status']}"
+            if row["status"] == JobStatus.failed.value and "over the time limit" in error:
+                killed = "; its worker was killed" if "killed" in error else ""
+                error = over_time(seconds, source) + killed
+            return Rendered(error=error)
         try:
             image = read_exr(self.store.image_path(row["id"], "exr"))
             variance = read_exr(aov_path(self.store, row["id"], "exr"))
@@ -107,10 +127,48 @@ class QueueRenderer:
         return Rendered(image, variance, int(row["spp_done"]), max(0.0, seconds))
 
 
+WORKER_LOG = "workers.log"  # the CLI's render workers log here, in the queue's folder
+
+
+@contextmanager
+def _output_to(path: Path) -> Iterator[None]:
+    """Standard output and error (the file descriptors, which a new process inherits) on `path` for a moment."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    try:
+        os.dup2(fd, 1)
+        os.dup2(fd, 2)
+        yield
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for x in (fd, *saved):
+            os.close(x)
+
+
+class _LoggedPool(WorkerPool):
+    """A worker pool whose processes start with their standard output and error on a log file: their
+    log lines (and a crash's traceback) go there, and the terminal keeps the CLI's own progress. The
+    parent's descriptors point at the file only while a worker starts, under `lock`, which the CLI's
+    progress output takes too (a worker restarted after a crash must not take a progress line with it)."""
+
+    def __init__(self, settings: Settings, store: JobStore, log_path: Path, lock: threading.Lock):
+        super().__init__(settings, store)
+        self.log_path, self.lock = log_path, lock
+
+    def _spawn(self, slot) -> None:
+        with self.lock, _output_to(self.log_path):
+            super()._spawn(slot)
+
+
 @contextmanager
 def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[QueueRenderer]:
-    """A job store and `workers` render processes of their own (for the CLI): yields a QueueRenderer."""
-    from server.pool import WorkerPool
+    """A job store and `workers` render processes of their own (for the CLI): yields a QueueRenderer.
+    The workers log to data_dir/workers.log (QueueRenderer.log_path), not to the terminal."""
     from server.worker import load_kernels
 
     settings = Settings(data_dir=data_dir, workers=max(1, workers), max_job_seconds=3600.0)
@@ -118,10 +176,17 @@ def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[
     load_kernels()  # compile once here, so the workers only read Warp's cache
     store = JobStore(data_dir)
     store.recover()
-    pool = WorkerPool(settings, store)
+    lock = threading.Lock()
+
+    def progress(done: int, total: int) -> None:
+        with lock:
+            on_progress(done, total)
+
+    log_path = data_dir / WORKER_LOG
+    pool = _LoggedPool(settings, store, log_path, lock)
     pool.start()
     try:
-        yield QueueRenderer(store, pool.notify, on_progress)
+        yield QueueRenderer(store, pool.notify, progress if on_progress else None, log_path=log_path)
     finally:
         pool.shutdown()
 

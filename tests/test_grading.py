@@ -4,18 +4,23 @@ The example class in scenes/grading/class (written by scenes/grading/make_class.
 per case; their grades are asserted exactly, test by test:
 alice (correct), bob (no area light), carol (not JSON), dave (correct at 1 spp: noisy), erin (meets
 every requirement, wrong picture), frank (schema errors), grace (a correct PNG of her own),
-heidi (a wrong EXR), ivan (an image of the wrong size).
+heidi (a wrong EXR), ivan (an image of the wrong size). Students' own images in every format (an EXR
+of floats or half floats, an 8- or 16-bit PNG; right, wrong, and the noise baseline's own render) are
+made here from our renderer with other seeds (`own_images`).
 """
 
 from __future__ import annotations
 
 import base64
 import copy
+import dataclasses
 import io
 import json
 import subprocess
 import sys
+import tempfile
 import zipfile
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -35,6 +40,7 @@ from tracer.grading import (
     read_zip,
     write_all,
 )
+from tracer.grading.batch import group_files
 from tracer.grading.checks import run_check
 from tracer.grading.spec import Check
 from tracer.scene import load_scene
@@ -133,10 +139,19 @@ def test_grading_writes_reports_gradescope_and_the_summary(graded, tmp_path):
         assert (tmp_path / "erin" / f"{name}.png").stat().st_size > 0
     assert not (tmp_path / "carol" / "render.png").exists()
     csv = (tmp_path / "summary.csv").read_text().splitlines()
-    assert csv[0].startswith("student,kind,status,score,max_score")
-    assert [line.split(",")[:4] for line in csv[1:3]] == [["alice", "scene", "graded", "13.0"],
-                                                         ["bob", "scene", "graded", "6.0"]]  # fmt: skip
-    assert table["statistics"]["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
+    assert csv[0].startswith("student,kind,status,score,max_score,percent,")
+    assert [line.split(",")[:6] for line in csv[1:3]] == [
+        ["alice", "scene", "graded", "13.0", "13.0", "100.0"],
+        ["bob", "scene", "graded", "6.0", "13.0", "46.15"],
+    ]
+    stats = table["statistics"]
+    assert stats["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
+    # scenes are out of 13 points, images out of 7: the class is summed up in percent, never in points
+    shares = {row["student"]: row["percent"] for row in table["students"]}
+    assert shares["heidi"] == 14.29 and shares["grace"] == 100.0 and shares["erin"] == 53.85
+    assert stats["mean_percent"] == pytest.approx(sum(shares.values()) / 9, abs=0.01)  # 46.03, not 5.2 points
+    assert (stats["min_percent"], stats["max_percent"]) == (0.0, 100.0)
+    assert "mean" not in stats
     assert json.loads((tmp_path / "summary.json").read_text()) == table
 
 
@@ -149,13 +164,214 @@ def test_grading_error_map_shows_where_the_picture_is_wrong(graded):
     assert err[rejected].mean() > 3 * err[~rejected].mean()
 
 
+# ------------------------------------------------------------------ students' own images: EXR and PNG
+#
+# An independent ray tracer's image of the reference scene is stood in for by ours with other seeds.
+# An EXR holds linear radiance (compared with the reference mean as is), a PNG sRGB(clamp(2^e L)) in 8
+# or 16 bits (compared in those units, its rounding in the noise). Each is graded against a noise
+# baseline stored the same way, so a correct image scores like the baseline whatever its format.
+
+OWN_SEED = 777  # "the student's" seed: not the reference's (1000003), the baseline's (1000004) or grace's
+
+
+def render_linear(scene: dict) -> np.ndarray:
+    from tracer.compile import compile_scene
+    from tracer.render import render
+
+    return render(compile_scene(load_scene(scene)[0])).image
+
+
+def exr_bytes(image: np.ndarray, half: bool = False) -> bytes:
+    import OpenEXR
+
+    pixels = np.ascontiguousarray(image, dtype=np.float16 if half else np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "image.exr"
+        with OpenEXR.File(header, {"RGB": pixels}) as f:
+            f.write(str(path))
+        return path.read_bytes()
+
+
+def png16_bytes(codes: np.ndarray) -> bytes:
+    """(H, W, 3) or (H, W) 16-bit codes as a PNG written without pypng (zlib and the PNG chunks, each row
+    with the Paeth filter, as libpng often chooses), so the reader is checked against an independent writer."""
+    import struct
+    import zlib
+
+    grey = codes.ndim == 2
+    c = codes.reshape(codes.shape[0], codes.shape[1], -1)
+    h, w, planes = c.shape
+    raw = np.frombuffer(c.astype(">u2").tobytes(), np.uint8).reshape(h, w * planes * 2).astype(np.int32)
+    bpp, rows, up = planes * 2, [], np.zeros(w * planes * 2, np.int32)
+    for row in raw:
+        left = np.concatenate([np.zeros(bpp, np.int32), row[:-bpp]])
+        up_left = np.concatenate([np.zeros(bpp, np.int32), up[:-bpp]])
+        p = left + up - up_left
+        pa, pb, pc = np.abs(p - left), np.abs(p - up), np.abs(p - up_left)
+        pred = np.where((pa <= pb) & (pa <= pc), left, np.where(pb <= pc, up, up_left))
+        rows.append(b"\x04" + ((row - pred) % 256).astype(np.uint8).tobytes())
+        up = row
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", w, h, 16, 0 if grey else 2, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"".join(rows)))
+        + chunk(b"IEND", b"")
+    )
+
+
+def srgb16(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> 16-bit sRGB codes (exposure 0), the arithmetic of tracer.film.to_srgb8."""
+    from tracer.film import srgb_encode
+
+    return np.round(srgb_encode(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0)) * 65535.0).astype(np.uint16)
+
+
+@pytest.fixture(scope="module")
+def own_images():
+    """Students' own images of the reference scene: right (another seed, 16 spp as image.spp says) and
+    wrong (erin's changes: a grey cube, a blue ball), and the noise baseline's own render, each stored as
+    the format says. All graded at once, against one reference."""
+    from tracer.film import png_bytes
+
+    reference = json.loads((EXAMPLE / "reference.json").read_text())
+    right = copy.deepcopy(reference)
+    right["render"]["seed"] = OWN_SEED
+    wrong = copy.deepcopy(right)
+    wrong["materials"]["mirror"] = {"kd": 0.5}
+    wrong["materials"]["red"] = {"kd": [0.1, 0.2, 0.8]}
+    spec, base = load_assignment(ASSIGNMENT)
+    baseline = copy.deepcopy(reference)  # what the grader renders as the baseline of a 16-spp image
+    baseline["render"]["seed"] = spec.reference.seed + 1
+    assert (baseline["sampler"], spec.image.spp) == ({"type": "jittered", "spp": 16}, 16)
+    images = {"right": render_linear(right), "wrong": render_linear(wrong), "baseline": render_linear(baseline)}
+    files = {
+        "right_exr": (exr_bytes(images["right"]), "exr"),
+        "right_half_exr": (exr_bytes(images["right"], half=True), "exr"),
+        "right_png16": (png16_bytes(srgb16(images["right"])), "png"),
+        "wrong_png8": (png_bytes(images["wrong"]), "png"),
+        "wrong_png16": (png16_bytes(srgb16(images["wrong"])), "png"),
+        "wrong_exr": (exr_bytes(images["wrong"]), "exr"),
+        "baseline_exr": (exr_bytes(images["baseline"]), "exr"),
+        "baseline_half_exr": (exr_bytes(images["baseline"], half=True), "exr"),
+        "baseline_png8": (png_bytes(images["baseline"]), "png"),
+        "baseline_png16": (png16_bytes(srgb16(images["baseline"])), "png"),
+    }
+    reports = Grader(spec, base, InlineRenderer()).grade([Submission(k, d, kind) for k, (d, kind) in files.items()])
+    return {r.student: r for r in reports}, images, files
+
+
+@pytest.mark.parametrize(
+    "student, points, encoding",
+    [
+        ("right_exr", [1, 2, 1, 1, 2], "linear radiance, 32-bit float"),
+        ("right_half_exr", [1, 2, 1, 1, 2], "linear radiance, 16-bit half float"),
+        ("right_png16", [1, 2, 1, 1, 2], "sRGB, 16 bits per channel"),
+        ("wrong_png8", [1, 0, 0, 0, 0], "sRGB, 8 bits per channel"),
+        ("wrong_png16", [1, 0, 0, 0, 0], "sRGB, 16 bits per channel"),
+        ("wrong_exr", [1, 0, 0, 0, 0], "linear radiance, 32-bit float"),
+    ],
+)
+def test_own_images_are_graded_in_the_units_they_hold(own_images, student, points, encoding):
+    """A correct 16-spp image scores 7/7 whether it is an EXR (linear radiance: it scored 1/7 when it
+    was read as displayed values) or a PNG; a wrong one fails the four image tests in every format."""
+    report = own_images[0][student]
+    assert [t.score for t in report.tests] == points, [(t.name, t.output) for t in report.tests]
+    assert report.metrics["encoding"] == encoding
+    assert report.tests[0].output == f"a 96x72 {student.rsplit('_', 1)[1][:3].upper()} image ({encoding})"
+
+
+@pytest.mark.parametrize("fmt", ["exr", "half_exr", "png8", "png16"])
+def test_own_images_the_baselines_own_render_scores_exactly_the_baseline(own_images, fmt):
+    """Like with like: the noise baseline is stored as the submission was (a PNG's 8- or 16-bit steps,
+    a half float's rounding), so a file of the baseline's own render measures exactly as the baseline.
+    Tolerance: a relative 1e-6 (the same arithmetic on the same values; the file's round trip is exact)."""
+    m = own_images[0][f"baseline_{fmt}"].metrics
+    for key in ("flip", "ssim", "psnr", "rejected"):
+        assert m[key] == pytest.approx(m["baseline"][key], rel=1e-6, abs=1e-9), (key, m)
+
+
+def test_own_images_an_exr_is_compared_as_linear_radiance(own_images):
+    """The correct EXR is as close to the reference as the float baseline, and its z test has no 8-bit
+    term: radiance 0.001 too bright (less than half an 8-bit step at these values) is rejected where
+    the reference has no noise (the sky: a quarter of the picture), while as a PNG the steps hide it."""
+    from tracer.film import png_bytes
+
+    reports, images, _ = own_images
+    exr = reports["right_exr"].metrics
+    assert exr["psnr"] == pytest.approx(exr["baseline"]["psnr"], abs=1.0)  # 40.5 dB against 40.4
+    assert exr["rejected"] <= exr["baseline"]["rejected"] + 0.002  # 0 of 6912 pixels against 1
+    spec, base = load_assignment(ASSIGNMENT)
+    brighter = images["right"] + 0.001
+    shifted = [Submission("exr", exr_bytes(brighter), "exr"), Submission("png", png_bytes(brighter), "png")]
+    exr, png = Grader(spec, base, InlineRenderer()).grade(shifted)
+    assert exr.metrics["rejected"] > 0.2 and exr.tests[-1].score == 0, exr.metrics  # 25.7%
+    assert png.metrics["rejected"] < 0.005 and png.tests[-1].score == 2, png.metrics  # 0.06%
+
+
+def test_own_images_16_bit_pngs_keep_their_16_bits():
+    """Pillow reads a 48-bit PNG as 24-bit: the grader decodes 16 bits (RGB and grey), and says the depth."""
+    from tracer.grading import read_image
+
+    codes = np.arange(4 * 6 * 3, dtype=np.uint16).reshape(4, 6, 3) * 911 + 3
+    np.testing.assert_allclose(read_image(png16_bytes(codes), "png"), codes / 65535.0, rtol=0, atol=1e-7)
+    grey = read_image(png16_bytes(codes[..., 0]), "png")
+    np.testing.assert_allclose(grey, np.repeat(codes[..., :1], 3, axis=-1) / 65535.0, rtol=0, atol=1e-7)
+    from tracer.grading.grade import decode_image
+
+    assert decode_image(png16_bytes(codes), "png")[1] == metrics.Encoding("png", 16)
+    assert decode_image(png16_bytes(codes[..., 0]), "png")[1] == metrics.Encoding("png", 16)
+    with pytest.raises(GradingError, match="cannot read the PNG image"):
+        decode_image(png16_bytes(codes)[:60], "png")  # cut short in its pixels
+
+
+def test_own_images_quantisation_steps_follow_the_bit_depth():
+    """Half a step of the PNG's code, in linear units: 1/255 for 8 bits, 1/65535 for 16; an EXR of 32-bit
+    floats adds none, one of half floats 2^-11 of the value."""
+    x = np.array([0.001, 0.2, 0.5, 0.9])
+    q8, q16 = metrics.quantisation(x, 8), metrics.quantisation(x, 16)
+    np.testing.assert_allclose(q16 / q8, 255 / 65535, rtol=2e-3)  # the sRGB curve is smooth at these steps
+    slope = 2.4 / 1.055 * 0.5 ** (1.4 / 2.4)  # d linear / d code of the sRGB curve at linear 0.5
+    assert q8[2] == pytest.approx(0.5 / 255 * slope, rel=1e-3)
+    assert metrics.Encoding("exr", 32).rounding(x) is None
+    np.testing.assert_allclose(metrics.Encoding("exr", 16).rounding(x), x * 2.0**-11, atol=1e-7)
+    stored = metrics.Encoding("png", 16).store(np.array([[[0.5, 0.5, 0.5]]]))
+    assert stored[0, 0, 0] * 65535 == pytest.approx(round(float(metrics.display(np.array([0.5]))[0]) * 65535))
+
+
+def test_own_images_exr_channels_are_said_so(tmp_path):
+    import OpenEXR
+
+    from tracer.grading.grade import decode_image
+
+    path = str(tmp_path / "image.exr")
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"Z": np.ones((4, 4), np.float32)}) as f:
+        f.write(path)
+    with pytest.raises(GradingError, match="the EXR image has no colour: R, G and B .or Y. channels wanted; it has Z"):
+        decode_image(open(path, "rb").read(), "exr")
+    rgba = np.concatenate([np.full((4, 4, 3), 0.25, np.float16), np.ones((4, 4, 1), np.float16)], axis=-1)
+    with OpenEXR.File(header, {"RGBA": rgba}) as f:
+        f.write(path)
+    image, encoding = decode_image(open(path, "rb").read(), "exr")
+    assert image.shape == (4, 4, 3) and np.all(image == 0.25) and encoding == metrics.Encoding("exr", 16)
+
+
 # ------------------------------------------------------------------------------------ the spec
 
 
 @pytest.mark.parametrize(
     "change, path, words",
     [
-        (lambda a: a["requirements"][0].update(check="glas"), "requirements[0].check", "unknown preset 'glas'"),
+        (lambda a: a["requirements"][0].update(check="glas"), "requirements[0].check",
+         "unknown preset 'glas' (the presets: transmissive_material, reflective_material, glossy_material, "),
+        (lambda a: a["requirements"][1].update(check="area_ligth"), "requirements[1].check",
+         "unknown preset 'area_ligth'; did you mean 'area_light'? (the presets: transmissive_material, "),
         (lambda a: a["requirements"][1].update(points=-1), "requirements[1].points", "greater than or equal to 0"),
         (lambda a: a["requirements"][2]["check"].update(at_lest=3), "requirements[2].check.at_lest", "unknown field"),
         (lambda a: a["requirements"][2]["check"].pop("at_least"), "requirements[2].check", "at least one comparison"),
@@ -266,6 +482,34 @@ def test_batch_collects_folders_and_zips(tmp_path):
         read_zip(b"PK nonsense")
 
 
+def test_student_names_keep_unicode_letters(tmp_path):
+    """A student is named after their file: letters of any script stay (NFC, as macOS's NFD names come
+    out the same), other characters become '_'; from a folder, a zip (UTF-8 names without the zip's
+    UTF-8 flag, as macOS and Linux write them) and the CLI alike."""
+    import unicodedata
+
+    from tracer.grading import student_for_file, student_name
+
+    assert student_name("Zoë O'Brien") == "Zoë_O_Brien"
+    assert student_name(unicodedata.normalize("NFD", "Zoë O'Brien")) == "Zoë_O_Brien"
+    assert student_name("प्रिया शर्मा") == "प्रिया_शर्मा"  # vowel signs are marks (M*), not letters
+    assert [student_name(x) for x in ("王小明", "Ελένη", "../etc/passwd", "..hidden", "😀", "")] == [
+        "王小明", "Ελένη", "etc_passwd", "hidden", "student", "student"]  # fmt: skip
+    assert len(student_name("𝐀" * 100).encode()) <= 240  # a folder name: at most 255 bytes
+    assert student_for_file("hw4/Zoë O'Brien.json") == "Zoë_O_Brien"
+    (tmp_path / "Zoë O'Brien.json").write_text("{}")
+    assert [s.student for s in collect(tmp_path)] == ["Zoë_O_Brien"]
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("hw4/Zoë O'Brien.json", "{}")  # Python sets the UTF-8 flag
+        z.writestr("hw4/JosXX/scene.json", "{}")  # ASCII: no flag; its bytes become UTF-8 "José" below
+    data = buf.getvalue().replace(b"hw4/JosXX/", "hw4/José/".encode())  # as macOS's and Linux's zip write it
+    assert zipfile.ZipFile(io.BytesIO(data)).namelist()[1] == "hw4/Jos├⌐/scene.json"  # read as code page 437
+    entries = read_zip(data)
+    assert sorted(entries) == ["hw4/José/scene.json", "hw4/Zoë O'Brien.json"]
+    assert [s.student for s in group_files(entries)] == ["José", "Zoë_O_Brien"]
+
+
 # ---------------------------------------------------------------------------------------- CLI
 
 
@@ -277,7 +521,7 @@ def run_cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
 def test_cli_grades_one_scene(tmp_path):
     p = run_cli(ASSIGNMENT, CLASS / "bob.json", "-o", tmp_path)
     assert p.returncode == 0, p.stderr
-    assert p.stdout.splitlines()[0] == "bob: 6 / 13 (graded)"
+    assert p.stdout.splitlines()[0] == "bob: 6 / 13 = 46.2% (graded)"
     assert "FAIL an area light (0/1): failed: found 0 lights" in p.stdout
     assert json.loads((tmp_path / "bob" / "results.json").read_text())["score"] == 6.0
 
@@ -291,10 +535,16 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     (tmp_path / "hw4.zip").write_bytes(buf.getvalue())
     p = run_cli(ASSIGNMENT, tmp_path / "hw4.zip", "-o", tmp_path / "out", "--workers", "1")
     assert p.returncode == 0, p.stderr
-    assert "alice: 13 / 13 (graded)\ncarol: 0 / 13 (invalid)\ngrace: 7 / 7 (graded)" in p.stdout
+    assert "alice: 13 / 13 = 100% (graded)\ncarol: 0 / 13 = 0% (invalid)\ngrace: 7 / 7 = 100% (graded)" in p.stdout
+    assert "3 students, mean 66.7% of the points; summary in" in p.stdout
     assert "renders done: 3/3" in p.stderr  # the reference, one baseline and alice's scene
     rows = (tmp_path / "out" / "summary.csv").read_text().splitlines()
     assert len(rows) == 4
+    # the workers' log lines go to a file, which the CLI names; the terminal has the progress alone
+    log = tmp_path / "out" / ".queue" / "workers.log"
+    assert f"the render workers log to {log}" in p.stderr
+    assert [line for line in p.stderr.splitlines() if not line.startswith(("renders done", "the render workers"))] == []
+    assert "INFO server.worker" in log.read_text() and "render worker" in log.read_text()
 
 
 def test_cli_reports_a_bad_assignment(tmp_path):
@@ -349,7 +599,8 @@ def test_api_grades_a_class_with_a_time_limit_per_student(server):
     assert scores["grace"] == (7.0, "graded")
     sam = next(x for x in state["reports"] if x["student"] == "sam")
     assert scores["sam"] == (7.0, "failed")  # its requirements pass, its picture was never finished
-    assert "over the time limit of 2 s" in sam["tests"][6]["output"]
+    limit = "over the time limit of 2 s per render (set by the assignment's limits.max_seconds)"
+    assert limit in sam["tests"][6]["output"] and "TRACER_MAX_JOB_SECONDS" not in sam["tests"][6]["output"]
     csv = httpx.get(f"{server.url}{run['url']}/summary.csv").text
     assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
     png = httpx.get(f"{server.url}{run['url']}/students/alice/error_map.png")
@@ -399,6 +650,57 @@ def test_queue_and_inline_give_the_same_grade(server, graded):
         assert report[key] == json.loads(json.dumps(mine[key])), key
 
 
+def test_api_names_students_as_the_grader_does(server):
+    """The page asks the server to name picked files (it keeps no copy of the rule)."""
+    r = httpx.post(f"{server.url}/api/grade/students", json={"files": ["Zoë O'Brien.json", "bob.png", "x y.exr"]})
+    assert r.status_code == 200 and r.json() == {"students": ["Zoë_O_Brien", "bob", "x_y"]}
+    assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
+
+
+class _FakeStore:
+    """Just enough of a JobStore for QueueRenderer: every job ends failed with the worker's message."""
+
+    def __init__(self, error: str):
+        self.error, self.rows = error, {}
+
+    def create(self, scene_json, **kw) -> dict:
+        row = {"id": str(len(self.rows)), "status": "failed", "error": self.error, "max_seconds": kw["max_seconds"]}
+        self.rows[row["id"]] = row
+        return row
+
+    def get(self, job_id: str) -> dict:
+        return self.rows[job_id]
+
+
+@pytest.mark.parametrize(
+    "service_seconds, priority, killed, expected",
+    [
+        (600, 0, False, "over the time limit of 2 s per render (set by the assignment's limits.max_seconds)"),
+        (1, 0, False, "over the time limit of 1 s per render (set by the server's max_job_seconds, "
+                      "TRACER_MAX_JOB_SECONDS)"),
+        (600, 10, True, "over the time limit of 20 s per render (set by 10 x the assignment's limits.max_seconds, "
+                        "for the reference renders); its worker was killed"),
+    ],
+)  # fmt: skip
+def test_time_limit_messages_cite_what_set_the_limit(service_seconds, priority, killed, expected):
+    """The worker only knows its job's seconds, and names TRACER_MAX_JOB_SECONDS; the grader knows
+    whether the assignment's limit, the service's, or the reference's (ten times the assignment's) set them."""
+    from server.grading import QueueRenderer
+    from server.settings import Settings
+
+    spec, _ = load_assignment(inline_assignment(max_seconds=2))
+    grader = Grader(spec, None)
+    scene = json.loads((CLASS / "alice.json").read_text())
+    job = grader._job("reference" if priority else "alice", scene, priority)
+    worker_said = "stopped: over the time limit of 9 s per job (TRACER_MAX_JOB_SECONDS)" + ("; worker killed" * killed)
+    renderer = QueueRenderer(_FakeStore(worker_said), settings=Settings(max_job_seconds=service_seconds))
+    [result] = renderer([job])
+    assert result.error == "stopped: " + expected
+    if service_seconds == 600 and not killed:  # rendered here: the same words
+        inline = InlineRenderer().one(dataclasses.replace(job, max_seconds=1e-9))
+        assert inline.error == "stopped: " + expected.replace(" 2 s ", " 1e-09 s ")
+
+
 def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
     """The assignment fixes a grid sampler; a student's 5 spp is no perfect square: told, not crashed."""
     a = copy.deepcopy(inline_assignment())
@@ -410,7 +712,6 @@ def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
     assert report.status == "failed"
     assert "must be a perfect square" in report.tests[-1].output
     assert report.score == 7.0
-
 
 
 def test_unreadable_images_are_said_so():

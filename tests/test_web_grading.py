@@ -19,16 +19,16 @@ from test_web_page import PHONE, Page, browser, desktop, phone, server  # noqa: 
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
 SHOT_DIR = Path("/tmp")
-EXPECTED = {  # the example class as the API grades it: score / max (status)
-    "alice": ("13 / 13", "graded"),
-    "bob": ("6 / 13", "graded"),
-    "carol": ("0 / 13", "invalid"),
-    "dave": ("13 / 13", "graded"),
-    "erin": ("7 / 13", "graded"),
-    "frank": ("0 / 13", "invalid"),
-    "grace": ("7 / 7", "graded"),
-    "heidi": ("1 / 7", "graded"),
-    "ivan": ("0 / 7", "invalid"),
+EXPECTED = {  # the example class as the API grades it: score / max (percent) (status)
+    "alice": ("13 / 13 (100 %)", "graded"),
+    "bob": ("6 / 13 (46.2 %)", "graded"),
+    "carol": ("0 / 13 (0 %)", "invalid"),
+    "dave": ("13 / 13 (100 %)", "graded"),
+    "erin": ("7 / 13 (53.8 %)", "graded"),
+    "frank": ("0 / 13 (0 %)", "invalid"),
+    "grace": ("7 / 7 (100 %)", "graded"),
+    "heidi": ("1 / 7 (14.3 %)", "graded"),
+    "ivan": ("0 / 7 (0 %)", "invalid"),
 }
 PICTURES = ("render", "reference", "error_map", "rejected")
 
@@ -126,11 +126,11 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
             "#grade-stats [data-stat]", "ds => ds.map(d => [d.dataset.stat, d.lastChild.textContent])"
         )
     )
-    assert stats == {
+    assert stats == {  # in percent: scenes are out of 13 points, images out of 7
         "students": "9",
-        "mean": "5.222",
-        "min": "0",
-        "max": "13",
+        "mean": "46 %",
+        "min": "0 %",
+        "max": "100 %",
         "graded": "6",
         "invalid": "3",
         "failed": "0",
@@ -257,12 +257,15 @@ def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     page = phone.open("#grading").page
     assert page.get_attribute("#tab-grading", "aria-selected") == "true"
 
-    # files: students by file name, kinds by extension; a zip replaces them
+    # files: students by file name (named by the server: Unicode letters stay), kinds by extension;
+    # a zip replaces them
     (tmp_path / "notes.txt").write_text("not a submission")
-    page.set_input_files("#grade-files", [root / "alice.json", root / "heidi.exr", tmp_path / "notes.txt"])
+    zoe = tmp_path / "Zoë O'Brien.json"
+    zoe.write_text((root / "alice.json").read_text())
+    page.set_input_files("#grade-files", [root / "alice.json", root / "heidi.exr", tmp_path / "notes.txt", zoe])
     page.wait_for_selector("#grade-sub-rows tr[data-student=heidi]")
     kinds = page.eval_on_selector_all("#grade-sub-rows tr", "trs => trs.map(r => [r.dataset.student, r.dataset.kind])")
-    assert kinds == [["alice", "scene"], ["heidi", "exr"]]
+    assert kinds == [["alice", "scene"], ["heidi", "exr"], ["Zoë_O_Brien", "scene"]]
     assert "notes.txt" in page.text_content("#grade-sub-errors")
     with zipfile.ZipFile(tmp_path / "class.zip", "w") as z:
         z.write(root / "bob.json", "hw4/bob.json")

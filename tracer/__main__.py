@@ -146,6 +146,11 @@ def cmd_bench(args) -> int:
     return bench_main(args)
 
 
+def _percent_text(p: float) -> str:
+    """46.15 -> "46.2%", 100.0 -> "100%"."""
+    return f"{p:.1f}".removesuffix(".0") + "%"
+
+
 def cmd_grade(args) -> int:
     from tracer.grading import (
         AssignmentError,
@@ -154,7 +159,7 @@ def cmd_grade(args) -> int:
         Submission,
         collect,
         load_assignment,
-        student_name,
+        student_for_file,
         write_all,
     )
 
@@ -173,7 +178,7 @@ def cmd_grade(args) -> int:
             subs = collect(path)
         else:
             kind = {".png": "png", ".exr": "exr"}.get(path.suffix.lower(), "scene")
-            subs = [Submission(args.student or student_name(path.stem), path.read_bytes(), kind, path.name)]
+            subs = [Submission(args.student or student_for_file(path.name), path.read_bytes(), kind, path.name)]
     except (GradingError, OSError) as exc:
         print(f"error: {path}: {getattr(exc, 'strerror', None) or exc}", file=sys.stderr)
         return 1
@@ -181,7 +186,7 @@ def cmd_grade(args) -> int:
         print(f"error: {path}: no submissions (.json, .png or .exr files)", file=sys.stderr)
         return 1
     if batch:  # through a job queue of our own: worker processes, a time limit per render
-        from server.grading import local_queue
+        from server.grading import WORKER_LOG, local_queue
 
         shown = [-1]
 
@@ -190,6 +195,7 @@ def cmd_grade(args) -> int:
                 shown[0] = done
                 print(f"renders done: {done}/{total}", file=sys.stderr, flush=True)
 
+        print(f"the render workers log to {out / '.queue' / WORKER_LOG}", file=sys.stderr, flush=True)
         with local_queue(out / ".queue", workers=args.workers, on_progress=progress) as queue:
             grader.renderer = queue
             reports = grader.grade(subs)
@@ -204,14 +210,17 @@ def cmd_grade(args) -> int:
         print()
         return 0
     for r in reports:
-        print(f"{r.student}: {r.score:g} / {r.max_score:g} ({r.status})")
+        share = f" = {_percent_text(100 * r.score / r.max_score)}" if r.max_score > 0 else ""
+        print(f"{r.student}: {r.score:g} / {r.max_score:g}{share} ({r.status})")
         if not batch:
             for t in r.tests:
                 print(f"  {'PASS' if t.passed else 'FAIL'} {t.name} ({t.score:g}/{t.max_score:g}): "
                       + t.output.replace("\n", "\n      "))  # fmt: skip
     stats = table["statistics"]
     if batch:
-        print(f"{stats['students']} students, mean {stats['mean']:g}; summary in {out / 'summary.csv'}")
+        shares = [100 * r.score / r.max_score for r in reports if r.max_score > 0]
+        mean = _percent_text(sum(shares) / len(shares)) if shares else "-"
+        print(f"{stats['students']} students, mean {mean} of the points; summary in {out / 'summary.csv'}")
     else:
         print(f"report and pictures in {out / reports[0].student}/")
     return 0

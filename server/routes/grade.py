@@ -14,8 +14,8 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from server.errors import ApiError
 from server.grading import STUDENT_FILES, GradeRuns
 from server.models import ErrorResponse
-from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_name
-from tracer.grading.batch import group_files
+from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_for_file, student_name
+from tracer.grading.batch import MAX_FILES, group_files
 
 router = APIRouter(prefix="/api/grade", tags=["grading"])
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
@@ -51,6 +51,14 @@ class GradeCreate(BaseModel):
         if sum(x is not None for x in (self.scene, self.submissions, self.zip)) != 1:
             raise ValueError("give exactly one of 'scene', 'submissions' and 'zip'")
         return self
+
+
+class StudentsIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    files: list[Annotated[str, Field(max_length=1000)]] = Field(
+        max_length=MAX_FILES, description='file names, as the instructor picked them ("Zoë O\'Brien.json")'
+    )
 
 
 def get_runs(request: Request) -> GradeRuns:
@@ -122,6 +130,14 @@ def schema() -> dict:
     from tracer.grading import Assignment
 
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", **Assignment.model_json_schema()}
+
+
+@router.post("/students", summary="The student each file name stands for")
+def students(body: StudentsIn) -> dict:
+    """{"files": ["Zoë O'Brien.json", "bob.png"]} -> {"students": ["Zoë_O_Brien", "bob"]}: the student ids
+    the grader will use (the name without its suffix; Unicode letters, marks and digits, '.', '_', '-';
+    other characters become '_'). The page names picked files by this, so it never keeps a copy of the rule."""
+    return {"students": [student_for_file(name) for name in body.files]}
 
 
 @router.get("/example", summary="The example assignment (reference inline) and class")

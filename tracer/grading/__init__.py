@@ -1,7 +1,15 @@
 """Automated grading of student scenes and images (issue 7): the assignment spec, requirement
 checks, noise-aware image metrics, per-student reports and the class summary. docs/grading.md."""
 
-from tracer.grading.batch import collect, read_zip, summary, summary_csv, write_all, write_report
+from tracer.grading.batch import (
+    collect,
+    read_zip,
+    student_for_file,
+    summary,
+    summary_csv,
+    write_all,
+    write_report,
+)
 from tracer.grading.grade import (
     Grader,
     InlineRenderer,
@@ -19,5 +27,5 @@ from tracer.grading.spec import PRESETS, Assignment, AssignmentError, load_assig
 __all__ = [
     "PRESETS", "Assignment", "AssignmentError", "Grader", "GradingError", "InlineRenderer", "RenderJob",
     "Rendered", "Report", "Submission", "TestResult", "collect", "load_assignment", "read_image", "read_zip",
-    "student_name", "summary", "summary_csv", "write_all", "write_report",
+    "student_for_file", "student_name", "summary", "summary_csv", "write_all", "write_report",
 ]  # fmt: skip

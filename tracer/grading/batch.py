@@ -26,6 +26,13 @@ MAX_FILES = 2000
 SUFFIXES = {".json": "scene", ".png": "png", ".exr": "exr"}
 
 
+def student_for_file(name: str) -> str:
+    """A submitted file's name -> its student: the name without its folders and last suffix, made safe
+    by student_name ("hw4/Zoë O'Brien.json" -> "Zoë_O_Brien"). The CLI, a class folder or zip, and the
+    page (through POST /api/grade/students) all name students by this one rule."""
+    return student_name(PurePosixPath(name.replace("\\", "/")).stem)
+
+
 def _pick(files: dict[str, bytes], student: str) -> Submission | None:
     """A student's folder -> their submission: the one scene, else the one image."""
     by_kind: dict[str, list[str]] = {}
@@ -55,7 +62,7 @@ def group_files(entries: dict[str, bytes]) -> list[Submission]:
         if len(ps) == 1:
             kind = SUFFIXES.get(PurePosixPath(path).suffix.lower())
             if kind:
-                student = student_name(PurePosixPath(path).stem)
+                student = student_for_file(path)
                 subs.setdefault(student, Submission(student, data, kind, path))
         else:
             folders.setdefault(ps[0], {})[path] = data
@@ -97,7 +104,7 @@ def read_zip(data: bytes) -> dict[str, bytes]:
     out = {}
     with zf:
         for info in zf.infolist():
-            p = PurePosixPath(info.filename)
+            p = PurePosixPath(_zip_name(info))
             hidden = any(s.startswith((".", "__MACOSX")) for s in p.parts)
             if info.is_dir() or p.is_absolute() or ".." in p.parts or hidden:
                 continue
@@ -109,26 +116,43 @@ def read_zip(data: bytes) -> dict[str, bytes]:
     return out
 
 
+def _zip_name(info: zipfile.ZipInfo) -> str:
+    """A member's name: zips without the UTF-8 flag are read as code page 437 (the zip standard), but
+    many tools (macOS, Linux) write UTF-8 without setting it, so "Zoë.json" would come out "Zo├½.json"."""
+    if info.flag_bits & 0x800:
+        return info.filename
+    try:
+        return info.filename.encode("cp437").decode("utf-8")
+    except UnicodeError:  # really code page 437 (or another one we cannot tell): as read
+        return info.filename
+
+
 # ----------------------------------------------------------------------------------------- output
 
 
+def percent(score: float, max_score: float) -> float | None:
+    """A score as a percentage of its maximum (None when there is nothing to earn), to 2 decimals."""
+    return round(100.0 * score / max_score, 2) if max_score > 0 else None
+
+
 def summary(reports: list[Report]) -> dict:
-    """The class: a row per student (score, status, each test's score, the metrics) and statistics."""
+    """The class: a row per student (score, maximum, percent, status, each test's score, the metrics) and
+    statistics in percent (a scene is out of more points than an image, so points do not average)."""
     rows = []
     for r in reports:
         row = {"student": r.student, "kind": r.kind, "status": r.status, "score": round(r.score, 6),
-               "max_score": round(r.max_score, 6)}  # fmt: skip
+               "max_score": round(r.max_score, 6), "percent": percent(r.score, r.max_score)}  # fmt: skip
         for t in r.tests:
             row[t.name] = round(t.score, 6)
         for k in ("flip", "ssim", "psnr", "rejected"):
             row[k] = r.metrics.get(k)
         rows.append(row)
-    scores = [r.score for r in reports]
+    shares = [100.0 * r.score / r.max_score for r in reports if r.max_score > 0]
     stats = {
         "students": len(reports),
-        "mean": round(sum(scores) / len(scores), 6) if scores else None,
-        "min": round(min(scores), 6) if scores else None,
-        "max": round(max(scores), 6) if scores else None,
+        "mean_percent": round(sum(shares) / len(shares), 2) if shares else None,
+        "min_percent": round(min(shares), 2) if shares else None,
+        "max_percent": round(max(shares), 2) if shares else None,
         "by_status": {s: sum(r.status == s for r in reports) for s in ("graded", "invalid", "failed")},
     }
     return {"assignment": reports[0].assignment if reports else None, "statistics": stats, "students": rows}
@@ -167,4 +191,3 @@ def write_all(out: Path, reports: list[Report]) -> dict:
     (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
     (out / "summary.csv").write_text(summary_csv(table))
     return table
-

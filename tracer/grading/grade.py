@@ -21,6 +21,7 @@ import json
 import math
 import re
 import time
+import unicodedata
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,6 +54,12 @@ class RenderJob:
     max_seconds: float  # stopped (an error) past this
     limits: Limits = field(default_factory=Limits)
     priority: int = 0  # higher first (the reference renders go before the students')
+    limit_source: str = "the assignment's limits.max_seconds"  # what set max_seconds, for the message
+
+
+def over_time(seconds: float, source: str) -> str:
+    """Why a render has no image: it ran past its time limit, and what set that limit."""
+    return f"stopped: over the time limit of {seconds:g} s per render (set by {source})"
 
 
 @dataclass
@@ -91,7 +98,7 @@ class InlineRenderer:
         except SceneError as e:
             return Rendered(error="invalid scene: " + "; ".join(_error_text(x) for x in e.errors))
         if result.cancelled:
-            return Rendered(error=f"stopped: over the time limit of {job.max_seconds:g} s per render")
+            return Rendered(error=over_time(job.max_seconds, job.limit_source))
         return Rendered(result.image, result.aovs["variance"], result.spp, time.monotonic() - start)
 
 
@@ -167,8 +174,15 @@ class Report:
             "visibility": "visible",
             "stdout_visibility": "hidden",
             "tests": [
-                {"name": t.name, "number": str(i + 1), "score": _round(t.score), "max_score": _round(t.max_score),
-                 "status": "passed" if t.passed else "failed", "output": t.output, "visibility": "visible"}
+                {
+                    "name": t.name,
+                    "number": str(i + 1),
+                    "score": _round(t.score),
+                    "max_score": _round(t.max_score),
+                    "status": "passed" if t.passed else "failed",
+                    "output": t.output,
+                    "visibility": "visible",
+                }
                 for i, t in enumerate(self.tests)
             ],  # fmt: skip
         }
@@ -195,29 +209,43 @@ class Submission:
     filename: str = ""
 
 
+STUDENT_NAME_CHARS = 80  # the longest student id, in characters
+STUDENT_NAME_BYTES = 240  # ... and in UTF-8 bytes (it names a folder: file systems allow 255)
+
+
 def student_name(text: str) -> str:
-    """A file or folder name -> a safe student id (letters, digits, . _ -)."""
-    name = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "student"
-    return name[:80]
+    """A file or folder name -> a safe student id: Unicode letters, marks and digits (NFC, so a name from
+    a macOS zip matches the same name typed elsewhere), '.', '_' and '-'; every other run of characters
+    becomes one '_', and leading or trailing '.' and '_' go ("Zoë O'Brien" -> "Zoë_O_Brien"). The page
+    asks the server for this (POST /api/grade/students) rather than keeping a copy of the rule."""
+    text = unicodedata.normalize("NFC", text)
+    kept = "".join(c if c in "._-" or unicodedata.category(c)[0] in "LMN" else "\0" for c in text)
+    name = re.sub("\0+", "_", kept).strip("._") or "student"
+    name = name[:STUDENT_NAME_CHARS]
+    while len(name.encode("utf-8")) > STUDENT_NAME_BYTES:
+        name = name[:-1]
+    return name.rstrip("._") or "student"
 
 
 def read_image(data: bytes, kind: str) -> np.ndarray:
     """A PNG (8 or 16 bit; grey, RGB or RGBA) as displayed floats in [0, 1], or an EXR as linear floats."""
+    return decode_image(data, kind)[0]
+
+
+def decode_image(data: bytes, kind: str) -> tuple[np.ndarray, metrics.Encoding]:
+    """A student's image file -> (H, W, 3) float32 pixels and how they are encoded:
+    - an EXR holds linear radiance without exposure (as `render --exr` writes it): R, G, B (or Y, grey)
+      channels, 32-bit float or 16-bit half float; NaN and infinities become 0;
+    - a PNG holds sRGB(clamp(2^exposure L)) in [0, 1], at its own bit depth (16-bit PNGs keep their
+      16 bits; Pillow would round them to 8), grey, grey with alpha, RGB, RGBA or a palette; alpha is dropped.
+    Raises GradingError for a file that is not what its kind says."""
+    if kind == "exr":
+        return _decode_exr(data)
+    bits = _png_bit_depth(data)
+    if bits == 16:
+        return _decode_png16(data)
     import io
 
-    if kind == "exr":
-        import tempfile
-
-        from tracer.film import read_exr
-
-        with tempfile.NamedTemporaryFile(suffix=".exr") as f:
-            f.write(data)
-            f.flush()
-            try:
-                image = read_exr(f.name)
-            except Exception:  # OpenEXR raises plain exceptions for broken files
-                raise metrics.GradingError("cannot read the EXR image: it is not an OpenEXR file") from None
-        return np.nan_to_num(image.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
     from PIL import Image, UnidentifiedImageError
 
     try:
@@ -225,13 +253,54 @@ def read_image(data: bytes, kind: str) -> np.ndarray:
         im.load()
     except (UnidentifiedImageError, OSError, ValueError) as e:
         raise metrics.GradingError(f"cannot read the PNG image: {e}") from None
-    if im.mode in ("I;16", "I;16B", "I"):
-        a = np.asarray(im, dtype=np.float64) / 65535.0
-    else:
-        a = np.asarray(im.convert("RGBA" if "A" in im.mode else "RGB"), dtype=np.float64) / 255.0
-    if a.ndim == 2:
-        a = np.stack([a, a, a], axis=-1)
-    return np.clip(a[..., :3], 0.0, 1.0).astype(np.float32)
+    a = np.asarray(im.convert("RGBA" if "A" in im.mode or "transparency" in im.info else "RGB"), dtype=np.float64)
+    return np.clip(a[..., :3] / 255.0, 0.0, 1.0).astype(np.float32), metrics.Encoding("png", bits or 8)
+
+
+def _png_bit_depth(data: bytes) -> int | None:
+    """The bits per sample of a PNG's pixel values, from its header (a palette's entries have 8); None: not a PNG."""
+    if len(data) < 26 or data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR":
+        return None
+    depth, colour = data[24], data[25]
+    return 8 if colour == 3 else depth  # 3: a palette of 8-bit RGB entries
+
+
+def _decode_png16(data: bytes) -> tuple[np.ndarray, metrics.Encoding]:
+    import png  # pypng: Pillow has no 16-bit colour modes (it reads a 48-bit PNG as 24-bit)
+
+    try:
+        width, height, rows, info = png.Reader(bytes=data).asDirect()
+        a = np.vstack([np.asarray(r, dtype=np.float64) for r in rows]).reshape(height, width, info["planes"])
+    except (png.Error, ValueError, EOFError) as e:
+        raise metrics.GradingError(f"cannot read the PNG image: {e}") from None
+    bits = info["bitdepth"]  # 16, or fewer where an sBIT chunk says so
+    a = a / float(2**bits - 1)
+    a = a[..., :1] if info["greyscale"] else a[..., :3]  # alpha dropped
+    return np.clip(np.broadcast_to(a, (height, width, 3)), 0.0, 1.0).astype(np.float32), metrics.Encoding("png", bits)
+
+
+def _decode_exr(data: bytes) -> tuple[np.ndarray, metrics.Encoding]:
+    import tempfile
+
+    import OpenEXR
+
+    with tempfile.NamedTemporaryFile(suffix=".exr") as f:
+        f.write(data)
+        f.flush()
+        try:
+            with OpenEXR.File(f.name, separate_channels=True) as exr:
+                channels = {name: np.asarray(c.pixels) for name, c in exr.channels().items()}
+        except Exception:  # OpenEXR raises plain exceptions for broken files
+            raise metrics.GradingError("cannot read the EXR image: it is not an OpenEXR file") from None
+    names = ["R", "G", "B"] if {"R", "G", "B"} <= set(channels) else ["Y"] * 3 if "Y" in channels else None
+    if names is None:
+        found = ", ".join(sorted(channels)) or "none"
+        raise metrics.GradingError(f"the EXR image has no colour: R, G and B (or Y) channels wanted; it has {found}")
+    if any(channels[n].dtype.kind != "f" for n in names):
+        raise metrics.GradingError("the EXR image holds integers; radiance is wanted as half or full floats")
+    bits = 16 if any(channels[n].dtype == np.float16 for n in names) else 32
+    image = np.stack([channels[n].astype(np.float32) for n in names], axis=-1)
+    return np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0), metrics.Encoding("exr", bits)
 
 
 # ---------------------------------------------------------------------------------------- grader
@@ -245,7 +314,8 @@ class _Reference:
     variance: np.ndarray | None = None
     spp: int = 0
     error: str | None = None
-    baselines: dict = field(default_factory=dict)  # (sampler, spp, light_samples) -> the baseline's metrics
+    baselines: dict = field(default_factory=dict)  # (sampler, spp, light_samples) -> the baseline's Rendered
+    measured: dict = field(default_factory=dict)  # (that key, Encoding) -> the baseline's metrics, stored that way
 
 
 @dataclass
@@ -253,7 +323,8 @@ class _Prepared:
     sub: Submission
     report: Report
     job: RenderJob | None = None  # the submission's render (scenes)
-    image: np.ndarray | None = None  # the submission's image (images): displayed or linear
+    image: np.ndarray | None = None  # the submission's image (images), in the units of its encoding
+    encoding: metrics.Encoding = metrics.Encoding("render")  # how the submission holds its values
     key: tuple | None = None  # (sampler, spp, light_samples) of its noise baseline
 
 
@@ -315,9 +386,11 @@ class Grader:
 
     def _job(self, name: str, scene: dict, priority: int = 0) -> RenderJob:
         """A student's render has the assignment's limits; the instructor's (priority > 0) the defaults."""
-        limits = self.limits if priority == 0 else Limits()
-        seconds = self.assignment.limits.max_seconds * (1 if priority == 0 else REFERENCE_TIME_FACTOR)
-        return RenderJob(name, scene, seconds, limits, priority)
+        if priority == 0:
+            return RenderJob(name, scene, self.assignment.limits.max_seconds, self.limits, priority)
+        seconds = self.assignment.limits.max_seconds * REFERENCE_TIME_FACTOR
+        source = f"{REFERENCE_TIME_FACTOR} x the assignment's limits.max_seconds, for the reference renders"
+        return RenderJob(name, scene, seconds, Limits(), priority, source)
 
     def _reference_jobs(self, keys: set[tuple]) -> list[tuple[str, tuple | None, RenderJob]]:
         """The reference mean (once) and the noise baselines not made yet, for these (sampler, spp)."""
@@ -361,11 +434,21 @@ class Grader:
         if what == "mean":
             ref.mean, ref.variance, ref.spp, ref.error = r.image, r.variance, r.spp, r.error
             return
-        if r.error or ref.mean is None:
-            ref.baselines[key] = {"error": r.error or ref.error}
-            return
-        m = self._compare(r.image, key[1], linear=True)
-        ref.baselines[key] = {k: v for k, v in m.items() if not k.startswith("_")}
+        ref.baselines[key] = r
+
+    def _baseline(self, key: tuple, encoding: metrics.Encoding) -> dict:
+        """The noise baseline's metrics for submissions rendered as `key` and stored as `encoding`: the
+        baseline render is stored the same way (a PNG's rounding, a half float's) and measured like them."""
+        ref = self.reference
+        if (key, encoding) not in ref.measured:
+            r = ref.baselines.get(key)
+            if r is None or r.error or ref.mean is None:
+                m = {"error": (r.error if r else None) or ref.error or "no noise baseline"}
+            else:
+                m = self._compare(encoding.store(r.image, ref.exposure), key[1], encoding)
+                m = {k: v for k, v in m.items() if not k.startswith("_")}
+            ref.measured[(key, encoding)] = m
+        return ref.measured[(key, encoding)]
 
     def _prepare(self, sub: Submission) -> _Prepared:
         a = self.assignment
@@ -412,7 +495,7 @@ class Grader:
         try:
             if self.reference is None:
                 raise metrics.GradingError("this assignment has no reference scene to compare images with")
-            p.image = read_image(p.sub.data, p.sub.kind)
+            p.image, p.encoding = decode_image(p.sub.data, p.sub.kind)
             w = self.reference.scene.get("film", {}).get("width", 256)
             h = self.reference.scene.get("film", {}).get("height", 256)
             if p.image.shape[:2] != (h, w):
@@ -426,27 +509,30 @@ class Grader:
             return p
         h, w = p.image.shape[:2]
         report.tests.append(TestResult("readable image", a.validity.points, a.validity.points,
-                                       f"a {w}x{h} {p.sub.kind.upper()} image", "validity"))  # fmt: skip
+                                       f"a {w}x{h} {p.sub.kind.upper()} image ({p.encoding.describe()})",
+                                       "validity"))  # fmt: skip
         ref_scene, _ = load_scene(self.reference.scene)
         spp = a.image.spp or a.render.spp or ref_scene.sampler.spp
         p.key = (ref_scene.sampler.type, spp, ref_scene.render.light_samples)
         return p
 
-    def _compare(self, image: np.ndarray, n: int, linear: bool) -> dict:
-        """Metrics of an image against the reference mean (image: linear radiance, or displayed PNG values)."""
+    def _compare(self, image: np.ndarray, n: int, encoding: metrics.Encoding) -> dict:
+        """Metrics of an image against the reference mean, in the units the image holds: FLIP, SSIM and
+        PSNR on the displayed images; the z test on linear radiance (a render, an EXR) or, for a PNG, on
+        clamp(2^exposure L) against the reference mean put through the same exposure and clamp."""
         ref, spec = self.reference, self.assignment.reference
         shown_ref = metrics.display(ref.mean, ref.exposure)
-        if linear:
-            shown, lin, quantised = metrics.display(image, ref.exposure), image, False
+        if encoding.linear:
+            shown, test, mean, var = metrics.display(image, ref.exposure), image, ref.mean, ref.variance
         else:
-            shown, lin, quantised = image, metrics.srgb_decode(image) / 2.0**ref.exposure, True
-        mean, var = ref.mean, ref.variance
-        if quantised:  # a PNG holds clamp(2^e L): compare in those units
             scale = 2.0**ref.exposure
-            mean, var, lin = ref.mean * scale, ref.variance * scale * scale, lin * scale
+            shown, test = image, metrics.srgb_decode(image)
+            mean, var = np.clip(ref.mean * scale, 0.0, 1.0), ref.variance * scale * scale
         flip_mean, flip_map = metrics.flip(shown_ref, shown)
         alpha = spec.pixels.alpha if spec.pixels else 1e-3
-        rejected, z, critical = metrics.pixel_test(lin, mean, var, ref.spp, n, alpha=alpha, quantised=quantised)
+        rejected, z, critical = metrics.pixel_test(
+            test, mean, var, ref.spp, n, alpha=alpha, rounding=encoding.rounding(mean)
+        )  # fmt: skip
         return {
             "flip": round(flip_mean, 6), "ssim": round(metrics.ssim(shown_ref, shown), 6),
             "psnr": round(metrics.psnr(shown_ref, shown), 4), "rejected": round(rejected, 6),
@@ -457,16 +543,20 @@ class Grader:
         report, tests = p.report, self.assignment.image_tests()
         if p.report.errors or not tests:
             return report
-        ref = self.reference
-        base = ref.baselines.get(p.key, {})
-        problem = report.metrics.get("problem") or ref.error or base.get("error")
+        ref, base = self.reference, {}
+        problem = report.metrics.get("problem") or ref.error
         if problem is None and p.sub.kind == "scene" and (r is None or r.error):
             problem = r.error if r else "not rendered"
         if problem is None:
             if r is not None:
                 report.render_seconds = r.seconds
             try:
-                m = self._compare(r.image, r.spp, True) if p.image is None else self._compare(p.image, p.key[1], False)
+                base = self._baseline(p.key, p.encoding)
+                problem = base.get("error")
+                if problem is None and p.image is None:
+                    m = self._compare(r.image, r.spp, p.encoding)
+                elif problem is None:
+                    m = self._compare(p.image, p.key[1], p.encoding)
             except metrics.GradingError as e:
                 problem = str(e)
         if problem is not None:
@@ -477,6 +567,7 @@ class Grader:
         report.metrics.update({k: v for k, v in m.items() if not k.startswith("_")})
         report.metrics["baseline"] = {k: v for k, v in base.items() if not k.startswith("_")}
         report.metrics["spp"] = p.key[1]
+        report.metrics["encoding"] = p.encoding.describe()
         for name, t in tests.items():
             report.tests.append(self._image_test(name, t, m, base))
         self._pictures(report, m)

@@ -6,7 +6,14 @@
   variance of both estimates: z = (x - mu) / sqrt(var_x / n_x + var_ref / n_ref + q^2), per channel;
   a pixel is rejected when its largest |z| passes the two-sided critical value for `alpha` (split
   over the three channels). A correct render rejects about `alpha` of its pixels whatever its spp;
-  a wrong one rejects whole regions. q covers 8-bit quantisation of PNG submissions.
+  a wrong one rejects whole regions. q is the rounding of the submission's storage (`Encoding`):
+  half a step of an 8- or 16-bit PNG, half a unit in the last place of a half-float EXR, else 0.
+
+Each kind of image is compared in the units it holds (`Encoding`): a render or an EXR as linear
+radiance against the reference's linear mean; a PNG as clamp(2^exposure L) (its sRGB values decoded)
+against the reference mean put through the same exposure and clamp. FLIP, SSIM and PSNR always see
+displayed images. The noise baseline is stored the way the submission was (`Encoding.store`), so
+both carry the same rounding.
 
 FLIP calls sys.exit() on bad input (and prints): `flip()` turns that into a GradingError.
 """
@@ -15,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from dataclasses import dataclass
 from statistics import NormalDist
 
 import numpy as np
@@ -91,10 +99,55 @@ def psnr(reference: np.ndarray, test: np.ndarray) -> float:
     return float(min(PSNR_CAP, 10.0 * np.log10(1.0 / mse)))
 
 
-def quantisation(linear: np.ndarray) -> np.ndarray:
-    """Half an 8-bit sRGB step, in linear units, at each value: the error a PNG adds."""
+def quantisation(linear: np.ndarray, bits: int = 8) -> np.ndarray:
+    """Half a step of a `bits`-bit sRGB code (1/255 for 8 bits, 1/65535 for 16), in linear units, at
+    each value in [0, 1]: the most a PNG's rounding moves it."""
     code = srgb_encode(linear)
-    return (srgb_decode(code + 0.5 / 255) - srgb_decode(code - 0.5 / 255)) / 2
+    half = 0.5 / (2**bits - 1)
+    return (srgb_decode(code + half) - srgb_decode(code - half)) / 2
+
+
+HALF_ROUNDING = 2.0**-11  # half a unit in the last place of a half float, relative to the value (10 mantissa bits)
+
+
+@dataclass(frozen=True)
+class Encoding:
+    """How an image holds its values, so it is compared in its own units (see the module's doc).
+
+    format: "render" (our render: linear float32 radiance), "exr" (linear radiance without exposure;
+    bits 32: float, 16: half float) or "png" (sRGB(clamp(2^exposure L)); bits 8 or 16 per channel)."""
+
+    format: str
+    bits: int = 32
+
+    @property
+    def linear(self) -> bool:
+        return self.format != "png"
+
+    def describe(self) -> str:
+        if self.format == "png":
+            return f"sRGB, {self.bits} bits per channel"
+        return "linear radiance, " + ("16-bit half float" if self.bits == 16 else "32-bit float")
+
+    def store(self, linear: np.ndarray, exposure: float = 0.0) -> np.ndarray:
+        """What a file of this kind holds for this radiance: for a PNG its displayed values rounded to
+        its steps, for a half-float EXR the radiance rounded to half floats, else the radiance."""
+        if self.format == "png":  # the arithmetic of tracer.film.to_srgb8, with 2^bits - 1 steps
+            top = 2**self.bits - 1
+            scaled = np.nan_to_num(linear, nan=0.0, posinf=1.0, neginf=0.0) * (2.0**exposure)
+            codes = np.round(srgb_encode(scaled) * float(top))
+            return (codes.astype(np.float64) / top).astype(np.float32)
+        stored = linear.astype(np.float16 if self.bits == 16 else np.float32).astype(np.float32)
+        return np.nan_to_num(stored, nan=0.0, posinf=0.0, neginf=0.0)  # as an EXR is read (past 65504: inf)
+
+    def rounding(self, values: np.ndarray) -> np.ndarray | None:
+        """How far storing may move these values (in the units the z test compares: linear radiance,
+        or clamp(2^exposure L) for a PNG); None: no rounding to speak of (32-bit floats)."""
+        if self.format == "png":
+            return quantisation(values, self.bits)
+        if self.bits == 16:
+            return np.abs(values) * HALF_ROUNDING + 2.0**-25  # + half the smallest half float
+        return None
 
 
 def pixel_test(
@@ -105,21 +158,21 @@ def pixel_test(
     n_test: int,
     test_var: np.ndarray | None = None,
     alpha: float = 1e-3,
-    quantised: bool = False,
+    rounding: np.ndarray | None = None,
 ) -> tuple[float, np.ndarray, float]:
     """The share of pixels whose difference from the reference mean is too large for the noise of
     the two estimates, the (H, W) map of each pixel's largest |z|, and the critical value it passed.
 
-    `test_var`: the submission's own sample variance (when we rendered it); None: assume the
-    reference's (the null hypothesis: both come from the same distribution). `quantised`: the
-    submission went through a PNG (values clamped to [0, 1], 8 bits)."""
+    All in one unit: linear radiance, or for a PNG clamp(2^exposure L) (the caller scales and clamps
+    the reference). `test_var`: the submission's own sample variance (when we rendered it); None:
+    assume the reference's (the null hypothesis: both come from the same distribution). `rounding`:
+    how far the submission's storage may have moved each value (`Encoding.rounding`), the q above."""
     same_size(ref_mean, test)
     mean = ref_mean.astype(np.float64)
     var_t = (ref_var if test_var is None else test_var).astype(np.float64)
     sigma2 = var_t / max(n_test, 1) + ref_var.astype(np.float64) / max(n_ref, 1) + FLOOR**2
-    if quantised:
-        mean = np.clip(mean, 0.0, 1.0)
-        sigma2 = sigma2 + quantisation(mean) ** 2
+    if rounding is not None:
+        sigma2 = sigma2 + np.asarray(rounding, dtype=np.float64) ** 2
     z = np.abs(test.astype(np.float64) - mean) / np.sqrt(sigma2)
     zmax = np.nan_to_num(z, nan=np.inf).max(axis=-1)
     critical = NormalDist().inv_cdf(1.0 - alpha / 6.0)  # two-sided, alpha split over R, G, B

@@ -17,6 +17,7 @@ path). docs/grading.md has the full table and a worked example (scenes/grading/a
 
 from __future__ import annotations
 
+import difflib
 import json
 from pathlib import Path
 from typing import Any, Literal
@@ -112,7 +113,9 @@ class Requirement(_Model):
     def _preset(cls, v: Any) -> Any:
         if isinstance(v, str):
             if v not in PRESETS:
-                raise ValueError(f"unknown preset '{v}'; the presets are {', '.join(PRESETS)}")
+                close = difflib.get_close_matches(v, list(PRESETS), n=1, cutoff=0.6)
+                hint = f"; did you mean '{close[0]}'?" if close else ""
+                raise ValueError(f"unknown preset '{v}'{hint} (the presets: {', '.join(PRESETS)})")
             return dict(PRESETS[v])
         return v
 

@@ -26,6 +26,8 @@ const METRICS = [
 
 const grade = {
   example: () => request("GET", "/api/grade/example"),
+  // file names -> the student ids the grader will use: the server's rule (tracer.grading.student_for_file), not a copy
+  students: (files) => request("POST", "/api/grade/students", { files }),
   start: (body) => request("POST", "/api/grade", body),
   state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`),
   summaryUrl: (id, fmt) => `/api/grade/${encodeURIComponent(id)}/summary.${fmt}`,
@@ -41,11 +43,14 @@ function pts(x) {
   return typeof x === "number" ? num(Math.round(x * 1000) / 1000, 4) : "–";
 }
 
-/** A file or folder name -> the student id the server will use (tracer.grading.student_name). */
-export function studentName(fileName) {
-  const stem = fileName.replace(/\.[^.]*$/, "");
-  const name = stem.replace(/[^A-Za-z0-9._-]+/g, "_").replace(/^[._]+|[._]+$/g, "") || "student";
-  return name.slice(0, 80);
+/** A percentage to one decimal without a trailing zero: 46.2 %, 100 %. */
+function percentText(x) {
+  return typeof x === "number" && Number.isFinite(x) ? `${num(Math.round(x * 10) / 10, 4)} %` : "–";
+}
+
+/** A report's score as a percentage of its maximum (scenes and images are out of different totals). */
+function share(r) {
+  return r.max_score > 0 ? (100 * r.score) / r.max_score : null;
 }
 
 function sizeText(bytes) {
@@ -199,6 +204,7 @@ export class GradingPanel {
       else subs = [{ student: zips[0].name, kind: "zip", data: await base64(zips[0]), bytes: zips[0].size, from: "file" }];
     }
     if (!zips.length) {
+      let picked = [];
       for (const f of files) {
         const ext = (/\.([^.]+)$/.exec(f.name)?.[1] || "").toLowerCase();
         const kind = KINDS[ext];
@@ -206,7 +212,19 @@ export class GradingPanel {
           problems.push({ path: f.name, message: "not a submission: choose .json scenes, .png or .exr images, or one .zip" });
           continue;
         }
-        const student = studentName(f.name);
+        picked.push({ f, kind });
+      }
+      let ids = [];
+      if (picked.length) {
+        try {
+          ids = (await grade.students(picked.map((p) => p.f.name))).students;
+        } catch (err) {
+          problems.push({ path: "", message: `Could not add the files: the server did not name their students (${err.message}).` });
+          picked = [];
+        }
+      }
+      for (const [i, { f, kind }] of picked.entries()) {
+        const student = ids[i];
         const data = kind === "scene" ? await f.text() : await base64(f);
         subs = subs.filter((s) => s.student !== student);
         subs.push({ student, kind, data, bytes: f.size, from: "file" });
@@ -442,9 +460,9 @@ export class GradingPanel {
         "dl",
         { class: "stats grade-stats", id: "grade-stats", "aria-label": "Class statistics" },
         stat("students", stats.students ?? st.reports.length, "students"),
-        stat("mean", pts(stats.mean), "mean"),
-        stat("min", pts(stats.min), "min"),
-        stat("max", pts(stats.max), "max"),
+        stat("mean", percentText(stats.mean_percent), "mean"),
+        stat("min", percentText(stats.min_percent), "min"),
+        stat("max", percentText(stats.max_percent), "max"),
         ...["graded", "invalid", "failed"].map((s) => stat(s, byStatus[s] ?? 0, s)),
       ),
       h("p", { class: "hint" }, "Click a student (or focus the row and press Enter) for their pictures and every test's output. A test's output is also its cell's tooltip."),
@@ -462,7 +480,7 @@ export class GradingPanel {
       { key: "student", label: "Student", sort: (r) => r.student.toLowerCase(), first: 1 },
       { key: "kind", label: "Kind", sort: (r) => r.kind, first: 1 },
       { key: "status", label: "Status", sort: (r) => r.status, first: 1 },
-      { key: "score", label: "Score", sort: (r) => (r.max_score ? r.score / r.max_score : 0) + r.score * 1e-6, first: -1 },
+      { key: "score", label: "Score", sort: (r) => (share(r) ?? 0) + r.score * 1e-6, first: -1 },
     ];
     for (const [key, label, , first] of METRICS) cols.push({ key, label, sort: (r) => r.metrics?.[key] ?? null, first, metric: true });
     return cols;
@@ -514,11 +532,11 @@ export class GradingPanel {
       const byName = new Map(r.tests.map((t) => [t.name, t]));
       const row = h(
         "tr",
-        { tabindex: 0, class: "student", dataset: { student: r.student, status: r.status }, "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)}, ${r.status}; Enter shows the details` },
+        { tabindex: 0, class: "student", dataset: { student: r.student, status: r.status }, "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)} (${percentText(share(r))}), ${r.status}; Enter shows the details` },
         h("th", { scope: "row" }, r.student),
         h("td", {}, r.kind),
         h("td", {}, h("span", { class: `badge ${r.status}` }, r.status)),
-        h("td", { class: "num score" }, h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`),
+        h("td", { class: "num score" }, h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)} `, h("span", { class: "pct" }, `(${percentText(share(r))})`)),
         ...this.tests.map((c) => {
           const t = byName.get(c.name);
           if (!t) return h("td", { class: "test na", title: "not a test for this kind of submission" }, h("span", { "aria-hidden": "true" }, "·"), h("span", { class: "sr-only" }, "not tested"));
@@ -619,7 +637,7 @@ export class GradingPanel {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-grade-detail", tabindex: -1 }, student),
-        h("span", {}, h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`), " · ", r.kind, " · ", h("span", { class: `badge ${r.status}` }, r.status)),
+        h("span", {}, h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`), ` (${percentText(share(r))}) · `, r.kind, " · ", h("span", { class: `badge ${r.status}` }, r.status)),
         h(
           "span",
           { class: "toolbar" },
