@@ -18,7 +18,6 @@ import dataclasses
 import difflib
 import json
 import math
-import posixpath
 import re
 from pathlib import Path
 from types import UnionType
@@ -42,7 +41,8 @@ from pydantic import (
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
-ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
+from tracer.assets import ASSET_DIR, path_problem, resolve_asset  # noqa: F401 (ASSET_DIR, resolve_asset: re-exported)
+from tracer.errors import SceneError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,14 +56,6 @@ class Limits:
     max_depth: int = 64
     max_light_samples: int = 1024
     max_primitives: int = 5_000_000
-
-
-class SceneError(Exception):
-    """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...}."""
-
-    def __init__(self, errors: list[dict[str, str]]):
-        self.errors = list(errors)
-        super().__init__("\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -157,15 +149,9 @@ def _pair(v: Any) -> Any:
 
 def _asset_file(v: str) -> str:
     """A file never reaches outside the asset folder (existence is checked by `resolve_asset`)."""
-    if v.startswith("data:"):
-        return v
-    posix = v.replace("\\", "/")
-    if not posix:
-        raise _error("must not be empty")
-    if posix.startswith("/") or re.match(r"[A-Za-z]:", posix):
-        raise _error("must be a path relative to the asset folder, not an absolute path")
-    if posixpath.normpath(posix).split("/")[0] == "..":
-        raise _error("must not reach outside the asset folder ('..')")
+    problem = path_problem(v)
+    if problem:
+        raise _error(problem)
     return v
 
 
@@ -1006,27 +992,3 @@ def validate_scene(src: Any, limits: Limits | None = None) -> dict:
 def scene_json_schema() -> dict:
     """The JSON Schema (draft 2020-12) of a scene, generated from the models, with descriptions."""
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", **Scene.model_json_schema()}
-
-
-def resolve_asset(file: str, path: str, asset_dir: Path = ASSET_DIR) -> Path | None:
-    """The real path of an asset `file` inside `asset_dir`; None for a data: URI.
-
-    Raises SceneError at JSON path `path` when `file` is absolute, reaches outside the asset folder
-    (after resolving '..' and symbolic links) or does not exist."""
-    if file.startswith("data:"):
-        return None
-    try:
-        _asset_file(file)
-    except PydanticCustomError as e:
-        raise SceneError([{"path": path, "message": e.message()}]) from None
-    try:
-        root = Path(asset_dir).resolve()
-        target = (root / file).resolve()
-        inside, exists = target.is_relative_to(root), target.is_file()
-    except (OSError, ValueError, RuntimeError) as e:  # a NUL byte, a symbolic link loop, a long name
-        raise SceneError([{"path": path, "message": f"cannot resolve asset file '{file}': {e}"}]) from None
-    if not inside:
-        raise SceneError([{"path": path, "message": "must not reach outside the asset folder"}])
-    if not exists:
-        raise SceneError([{"path": path, "message": f"asset file '{file}' not found in the asset folder"}])
-    return target
