@@ -266,6 +266,105 @@ def test_error_paths_point_into_the_input_under_random_damage():
 
 
 # ---------------------------------------------------------------------------------------------
+# Every independent error at once: checks between fields run beside the fields' own errors.
+
+# (changes to the minimal scene, the errors expected: the last one is the check between fields)
+INDEPENDENT = [
+    (
+        {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 3], "vfov": 180}, "film": {"width": 0}},
+        [
+            ("camera.vfov", "must be < 180"),
+            ("camera.lookat", "must differ from lookfrom (no view direction)"),
+            ("film.width", "must be >= 1"),
+        ],
+    ),
+    (
+        {"render": {"max_depth": 65, "light_samples": 2000}},
+        [("render.max_depth", "must be <= 64"), ("render.light_samples", "must be at most 1024 (service limit)")],
+    ),
+    (
+        {"sampler": {"type": "grid", "spp": 10, "max_level": 20}},
+        [("sampler.max_level", "must be <= 8"), ("sampler.spp", "must be a perfect square for the grid sampler")],
+    ),
+    (
+        {"sampler": {"type": "gird", "spp": 99999}},
+        [("sampler.type", "expected one of: center, grid"), ("sampler.spp", "must be at most 65536 (service limit)")],
+    ),
+    (
+        {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 0], "vup": [0, 0, 1], "shutter": [1, "x"]}},
+        [("camera.shutter[1]", "expected a number"), ("camera.vup", "must not be parallel to the view direction")],
+    ),
+    (
+        {"film": {"width": 9000, "height": 0}},
+        [("film.height", "must be >= 1"), ("film.width", "must be at most 8192 (service limit)")],
+    ),
+    (
+        {
+            "materials": {"m": {}},
+            "objects": [
+                {"type": "box", "min": [0, 0, 0], "max": [0, 1, 1], "material": "m", "name": 5},
+                {"type": "quad", "corner": [0, "x", 0], "edge1": [1, 0, 0], "edge2": [2, 0, 0], "material": "m"},
+                {"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]], "material": "m", "velocity": 1},
+                {"type": "mesh", "vertices": [[0, 0, 0], "x"], "material": "m"},
+            ],
+        },
+        [
+            ("objects[0].name", "expected a string"),
+            ("objects[0].max[0]", "must be greater than min[0] = 0"),
+            ("objects[1].corner[1]", "expected a number"),
+            ("objects[1].edge2", "must not be parallel to edge1"),
+            ("objects[2].velocity", "expected a point [x, y, z]"),
+            ("objects[2].vertices", "collinear"),
+            ("objects[3].vertices[1]", "expected a point [x, y, z]"),
+            ("objects[3].faces", "required field 'faces' is missing (or give a 'file')"),
+        ],
+    ),
+]
+
+
+@pytest.mark.parametrize(("changes", "want"), INDEPENDENT, ids=[w[-1][0] for _, w in INDEPENDENT])
+def test_error_every_independent_error_at_once(changes, want):
+    errors = validate_scene(_scene(**changes))["errors"]
+    assert [e["path"] for e in errors] == [path for path, _ in want], errors
+    for (_, message), error in zip(want, errors, strict=True):
+        assert message in error["message"], error
+
+
+def test_error_scene_checks_beside_errors_elsewhere():
+    """The primitive limit and (without load_scene's context) undefined materials, while the film is invalid."""
+    objects = [{"type": "sphere", "center": [i, 0, 0], "radius": 1, "material": "m"} for i in range(3)]
+    data = _scene(film={"width": 0}, materials={"n": {}}, objects=objects)
+    with pytest.raises(ValidationError) as info:
+        Scene.model_validate(data)
+    assert [e["loc"] for e in info.value.errors()] == [("film", "width")] + [
+        ("objects", i, "material") for i in range(3)
+    ]
+    errors = validate_scene(data, Limits(max_primitives=2))["errors"]
+    assert [e["path"] for e in errors] == ["film.width", *(f"objects[{i}].material" for i in range(3))]
+    data["materials"] = {"m": {"kd": "red"}}
+    errors = validate_scene(data, Limits(max_primitives=2))["errors"]
+    assert [e["path"] for e in errors] == ["film.width", "materials.m.kd", "objects"]
+    assert errors[-1]["message"] == "3 primitives; must be at most 2 (service limit)"
+
+
+def test_error_numbers_outside_float32_at_their_path():
+    """The renderer computes in float32: 1e300 would be infinity there. The largest float32 is accepted."""
+    too_big = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
+    sphere = {"type": "sphere", "center": [0, 0, -1e39], "radius": 1e300, "material": "m"}
+    data = _scene(background=1e39, ambient=[0, 0, 1e39], materials={"m": {"shininess": -1e39}}, objects=[sphere])
+    assert {e["path"]: e["message"] for e in validate_scene(data)["errors"]} == {
+        "background": too_big,
+        "ambient[2]": too_big,
+        "materials.m.shininess": too_big,
+        "objects[0].center[2]": too_big,
+        "objects[0].radius": too_big,
+    }
+    sphere.update(center=[0, 0, -3.4e38], radius=3.4e38)
+    scene, _ = load_scene(_scene(background=3.4e38, materials={"m": {}}, objects=[sphere]))
+    assert scene.objects[0].radius == 3.4e38
+
+
+# ---------------------------------------------------------------------------------------------
 # Good scenes.
 
 

@@ -16,6 +16,7 @@ validation context, so an undefined material is reported even when other parts a
 
 import dataclasses
 import difflib
+import functools
 import json
 import math
 import re
@@ -23,7 +24,7 @@ from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
-from annotated_types import Ge
+from annotated_types import Ge, Gt
 from pydantic import (
     AfterValidator,
     AllowInfNan,
@@ -34,14 +35,21 @@ from pydantic import (
     Field,
     Strict,
     Tag,
+    TypeAdapter,
     ValidationError,
     ValidationInfo,
     field_validator,
     model_validator,
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic_core.core_schema import ErrorType
 
-from tracer.assets import ASSET_DIR, path_problem, resolve_asset  # noqa: F401 (ASSET_DIR, resolve_asset: re-exported)
+from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-exported, tracer.scene's since v1)
+    ASSET_DIR,
+    FLOAT32_MAX,
+    path_problem,
+    resolve_asset,
+)
 from tracer.errors import SceneError
 
 
@@ -94,6 +102,14 @@ def _finite(v: float) -> bool:
 
 
 FINITE = "must be a finite number (not NaN or Infinity)"
+FLOAT32 = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
+
+
+def _float32(v: Any) -> Any:
+    """Before-validator: a finite number past float32's range is an error (NaN, Infinity: the type's)."""
+    if _is_number(v) and _finite(v) and abs(v) > FLOAT32_MAX:
+        raise _error(FLOAT32)
+    return v
 
 
 def _triple(expected: str, scalar=None):
@@ -105,7 +121,7 @@ def _triple(expected: str, scalar=None):
         if scalar is not None and _is_number(v):
             if not _finite(v):
                 raise _error(FINITE)
-            return scalar(v)
+            return scalar(_float32(v))
         raise _error(f"expected {expected}, got {_show(v)}")
 
     return check
@@ -155,11 +171,13 @@ def _asset_file(v: str) -> str:
     return v
 
 
-Num = Annotated[float, Strict(), AllowInfNan(False)]
+# Numbers are finite and inside float32's range (checked first: a field's own bounds come after it).
+Num = Annotated[float, Strict(), AllowInfNan(False), BeforeValidator(_float32)]
+Positive = Annotated[float, Strict(), AllowInfNan(False), Gt(0), BeforeValidator(_float32)]
 Int = Annotated[int, Strict()]
 Bool = Annotated[bool, Strict()]
 Str = Annotated[str, Strict()]
-NonNeg = Annotated[Num, Ge(0)]
+NonNeg = Annotated[float, Strict(), AllowInfNan(False), Ge(0), BeforeValidator(_float32)]
 Vec3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a point [x, y, z]"))]
 Dir3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
 RGB = Annotated[
@@ -207,8 +225,90 @@ def _limit(n: int) -> str:
     return f"must be at most {n} (service limit)"
 
 
+_KNOWN_ERRORS = frozenset(get_args(ErrorType))
+
+
+def _details(err: dict) -> InitErrorDetails:
+    """A pydantic error as raised (ValidationError.errors()) -> the same error, to raise again."""
+    ctx = err.get("ctx")
+    if err["type"] in _KNOWN_ERRORS:
+        detail = InitErrorDetails(type=err["type"], loc=err["loc"], input=err.get("input"))
+        if ctx is not None:
+            detail["ctx"] = ctx
+        return detail
+    custom = PydanticCustomError(err["type"], "{message}", {**(ctx or {}), "message": err["msg"]})
+    return InitErrorDetails(type=custom, loc=err["loc"], input=err.get("input"))
+
+
+@functools.cache
+def _field_adapter(model: type[BaseModel], name: str) -> TypeAdapter:
+    field = model.model_fields[name]
+    return TypeAdapter(Annotated[field.annotation, field])
+
+
+class _Partial:
+    """The valid fields of a model input whose validation failed: each field is validated alone on
+    first use; a field that failed (or is missing) is not there at all, so `_has` says False."""
+
+    def __init__(self, model: type[BaseModel], data: dict, failed: set, context: Any):
+        self._model, self._data, self._failed, self._context = model, data, failed, context
+        self.model_fields_set = {k for k in data if k in model.model_fields}
+
+    def __getattr__(self, name: str) -> Any:
+        field = self._model.model_fields.get(name)
+        if field is None or name in self._failed:
+            raise AttributeError(name)
+        if name in self._data:
+            try:
+                value = _field_adapter(self._model, name).validate_python(self._data[name], context=self._context)
+            except ValidationError:
+                raise AttributeError(name) from None
+        elif field.is_required():
+            raise AttributeError(name)
+        else:
+            value = field.get_default(call_default_factory=True)
+        setattr(self, name, value)
+        return value
+
+
+def _has(v: Any, *names: str) -> bool:
+    """True when the fields `names` of a model (or a _Partial) are valid, so a check may read them."""
+    return all(hasattr(v, n) for n in names)
+
+
 class _Model(BaseModel):
+    """Base of every scene model: unknown keys are errors, and every independent error is reported.
+
+    Checks between fields (`_checks`) run on the valid model, and also when some fields failed: then
+    on the fields that are valid (`_Partial`), so fixing one error never reveals another that was
+    there all along. A check reads only what `_has` says is valid."""
+
     model_config = ConfigDict(extra="forbid")
+
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        """(location relative to the model, message) of each failed check between fields."""
+        return []
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _every_error(cls, data: Any, handler, info: ValidationInfo) -> Any:
+        if cls._checks.__func__ is _Model._checks.__func__:
+            return handler(data)
+        try:
+            model = handler(data)
+        except ValidationError as exc:
+            if not isinstance(data, dict):
+                raise
+            errors = exc.errors()
+            failed = {e["loc"][0] for e in errors if e["loc"]}
+            found = cls._checks(_Partial(cls, data, failed, info.context), info)
+            if not found:
+                raise
+            extra = [InitErrorDetails(type=_error(msg), loc=loc, input=None) for loc, msg in found]
+            raise ValidationError.from_exception_data(cls.__name__, [*map(_details, errors), *extra]) from None
+        _raise_at(cls._checks(model, info))
+        return model
 
 
 # ---------------------------------------------------------------------------------------------
@@ -223,23 +323,23 @@ class Camera(_Model):
     vup: Dir3 = Field((0.0, 1.0, 0.0), description="World 'up' direction; fixes the roll of the camera.")
     vfov: Num = Field(40.0, gt=0, lt=180, description="FULL vertical field of view (degrees).")
     lens_radius: Num = Field(0.0, ge=0, description="Thin-lens aperture radius (world units); 0 = pinhole.")
-    focus_distance: Num | None = Field(
-        None, gt=0, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
+    focus_distance: Positive | None = Field(
+        None, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
     )
     shutter: Pair = Field((0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0).")
 
-    @model_validator(mode="after")
-    def _check_view(self) -> "Camera":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         errors = []
-        forward = _sub(self.lookat, self.lookfrom)
-        if _length(forward) == 0:
-            errors.append((("lookat",), "must differ from lookfrom (no view direction)"))
-        elif _parallel(forward, self.vup):
-            errors.append((("vup",), "must not be parallel to the view direction (lookat - lookfrom)"))
-        if self.shutter[1] < self.shutter[0]:
+        if _has(v, "lookat", "lookfrom"):
+            forward = _sub(v.lookat, v.lookfrom)
+            if _length(forward) == 0:
+                errors.append((("lookat",), "must differ from lookfrom (no view direction)"))
+            elif _has(v, "vup") and _parallel(forward, v.vup):
+                errors.append((("vup",), "must not be parallel to the view direction (lookat - lookfrom)"))
+        if _has(v, "shutter") and v.shutter[1] < v.shutter[0]:
             errors.append((("shutter",), "close time must be >= open time"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 FILTER_RADIUS = {"box": 0.5, "tent": 1.0, "gaussian": 1.5, "mitchell": 2.0}
@@ -249,9 +349,8 @@ class Filter(_Model):
     """Pixel reconstruction filter."""
 
     type: Literal["box", "tent", "gaussian", "mitchell"] = Field("box", description="Filter shape.")
-    radius: Num | None = Field(
+    radius: Positive | None = Field(
         None,
-        gt=0,
         description="Filter radius (pixels); null = the type's default: box 0.5, tent 1, gaussian 1.5, mitchell 2.",
     )
 
@@ -270,18 +369,17 @@ class Film(_Model):
     filter: Filter = Field(default_factory=Filter, description="Reconstruction filter.")
     exposure: Num = Field(0.0, description="Exposure (stops); the PNG stores sRGB(clamp(2^exposure L)).")
 
-    @model_validator(mode="after")
-    def _check_limits(self, info: ValidationInfo) -> "Film":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
-        if self.width > limits.max_width:
+        if _has(v, "width") and v.width > limits.max_width:
             errors.append((("width",), _limit(limits.max_width)))
-        if self.height > limits.max_height:
+        if _has(v, "height") and v.height > limits.max_height:
             errors.append((("height",), _limit(limits.max_height)))
-        if not errors and self.width * self.height > limits.max_pixels:
-            pixels = self.width * self.height
+        if not errors and _has(v, "width", "height") and v.width * v.height > limits.max_pixels:
+            pixels = v.width * v.height
             errors.append((("height",), f"width x height = {pixels} pixels; {_limit(limits.max_pixels)}"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class Sampler(_Model):
@@ -303,20 +401,29 @@ class Sampler(_Model):
     jitter: Bool = Field(False, description="adaptive: random sample positions inside the cells.")
 
     @model_validator(mode="after")
-    def _check_spp(self, info: ValidationInfo) -> "Sampler":
-        if self.spp is None:
+    def _default_spp(self) -> "Sampler":
+        if self.spp is None:  # filled in without marking the field as set by the user
             object.__setattr__(self, "spp", 1 if self.type == "center" else 16)
-        spp, limits, errors = self.spp, _limits(info), []
+        return self
+
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        kind = v.type if _has(v, "type") else None
+        spp = v.spp if _has(v, "spp") else None
+        if spp is None and kind is not None:
+            spp = 1 if kind == "center" else 16
+        if spp is None:
+            return []
+        limits, errors = _limits(info), []
         root = math.isqrt(spp)
-        if self.type == "center" and spp != 1:
+        if kind == "center" and spp != 1:
             errors.append((("spp",), "must be 1 for the center sampler"))
-        elif self.type in ("grid", "jittered") and root * root != spp:
+        elif kind in ("grid", "jittered") and root * root != spp:
             nearest = f"{root * root} or {(root + 1) ** 2}"
-            errors.append((("spp",), f"must be a perfect square for the {self.type} sampler (e.g. {nearest})"))
+            errors.append((("spp",), f"must be a perfect square for the {kind} sampler (e.g. {nearest})"))
         elif spp > limits.max_spp:
             errors.append((("spp",), _limit(limits.max_spp)))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class RadiositySettings(_Model):
@@ -347,15 +454,14 @@ class RenderSettings(_Model):
         default_factory=RadiositySettings, description="Settings of the radiosity integrator."
     )
 
-    @model_validator(mode="after")
-    def _check_limits(self, info: ValidationInfo) -> "RenderSettings":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
-        if self.max_depth > limits.max_depth:
+        if _has(v, "max_depth") and v.max_depth > limits.max_depth:
             errors.append((("max_depth",), _limit(limits.max_depth)))
-        if self.light_samples > limits.max_light_samples:
+        if _has(v, "light_samples") and v.light_samples > limits.max_light_samples:
             errors.append((("light_samples",), _limit(limits.max_light_samples)))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class Fog(_Model):
@@ -424,9 +530,8 @@ class Material(_Model):
         False,
         description="Scale reflection and transmission weights by the dielectric Fresnel terms R, 1 - R.",
     )
-    gloss: Num | None = Field(
+    gloss: Positive | None = Field(
         None,
-        gt=0,
         description="null: perfect mirror/refraction rays; "
         "m: directions spread in a cos^m lobe (glossy reflection, frosted glass).",
     )
@@ -497,11 +602,11 @@ class QuadLight(_Model):
     edge2: Dir3 = Field(description="Second edge from the corner (world units).")
     radiance: RGB = Field((1.0, 1.0, 1.0), description="Emitted radiance (W / (m^2 sr)).")
 
-    @model_validator(mode="after")
-    def _check_edges(self) -> "QuadLight":
-        if _parallel(self.edge1, self.edge2):
-            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "edge1", "edge2") and _parallel(v.edge1, v.edge2):
+            return [(("edge2",), "must not be parallel to edge1 (degenerate quad)")]
+        return []
 
 
 class DiskLight(_Model):
@@ -590,11 +695,11 @@ class Quad(_Object):
     edge1: Dir3 = Field(description="First edge from the corner (world units).")
     edge2: Dir3 = Field(description="Second edge from the corner (world units).")
 
-    @model_validator(mode="after")
-    def _check_edges(self) -> "Quad":
-        if _parallel(self.edge1, self.edge2):
-            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "edge1", "edge2") and _parallel(v.edge1, v.edge2):
+            return [(("edge2",), "must not be parallel to edge1 (degenerate quad)")]
+        return []
 
 
 class Disk(_Object):
@@ -614,16 +719,15 @@ class Box(_Object):
     max: Vec3 = Field(description="Maximum corner (world units, before the transform).")
     transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the box.")
 
-    @model_validator(mode="after")
-    def _check_extent(self) -> "Box":
-        _raise_at(
-            [
-                (("max", axis), f"must be greater than min[{axis}] = {self.min[axis]:g}")
-                for axis in range(3)
-                if self.max[axis] <= self.min[axis]
-            ]
-        )
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if not _has(v, "min", "max"):
+            return []
+        return [
+            (("max", axis), f"must be greater than min[{axis}] = {v.min[axis]:g}")
+            for axis in range(3)
+            if v.max[axis] <= v.min[axis]
+        ]
 
 
 class Triangle(_Object):
@@ -634,12 +738,13 @@ class Triangle(_Object):
         tuple[Vec3, Vec3, Vec3], BeforeValidator(_triple("three vertices [[x, y, z], [x, y, z], [x, y, z]]"))
     ] = Field(description="The three vertices v0, v1, v2 (world units).")
 
-    @model_validator(mode="after")
-    def _check_area(self) -> "Triangle":
-        v0, v1, v2 = self.vertices
-        if _parallel(_sub(v1, v0), _sub(v2, v0)):
-            _raise_at([(("vertices",), "the three vertices are collinear (degenerate triangle)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "vertices"):
+            v0, v1, v2 = v.vertices
+            if _parallel(_sub(v1, v0), _sub(v2, v0)):
+                return [(("vertices",), "the three vertices are collinear (degenerate triangle)")]
+        return []
 
 
 class Mesh(_Object):
@@ -656,26 +761,28 @@ class Mesh(_Object):
     transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the mesh.")
     smooth: Bool = Field(False, description="Interpolate vertex normals (smooth shading).")
 
-    @model_validator(mode="after")
-    def _check_source(self) -> "Mesh":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        def given(field: str) -> bool:  # set to something other than null (valid or not)
+            return field in v.model_fields_set and (not _has(v, field) or getattr(v, field) is not None)
+
         errors = []
-        if self.file is not None:
-            if self.vertices is not None or self.faces is not None:
+        if given("file"):
+            if given("vertices") or given("faces"):
                 errors.append((("file",), "give either 'file' or inline 'vertices' + 'faces', not both"))
         else:
             for field in ("vertices", "faces"):
-                if getattr(self, field) is None:
+                if not given(field):
                     errors.append(((field,), f"required field '{field}' is missing (or give a 'file')"))
-        if self.vertices is not None and self.faces is not None:
-            n, bad = len(self.vertices), []
-            for k, face in enumerate(self.faces):
+        if _has(v, "vertices", "faces") and v.vertices is not None and v.faces is not None:
+            n, bad = len(v.vertices), []
+            for k, face in enumerate(v.faces):
                 bad += [(k, j, i) for j, i in enumerate(face) if not 0 <= i < n]
             for k, j, i in bad[:10]:
                 errors.append((("faces", k, j), f"vertex index {i} is out of range (the mesh has {n} vertices)"))
             if len(bad) > 10:
                 errors.append((("faces",), f"{len(bad) - 10} more vertex indices are out of range"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 Object = Annotated[Sphere | Plane | Quad | Disk | Box | Triangle | Mesh, Field(discriminator="type")]
@@ -715,19 +822,22 @@ class Scene(_Model):
     lights: list[Light] = Field(default_factory=list, description="Light sources.")
     objects: list[Object] = Field(default_factory=list, description="Surfaces.")
 
-    @model_validator(mode="after")
-    def _check_scene(self, info: ValidationInfo) -> "Scene":
-        errors = [
-            (("objects", i, "material"), _unknown_material(o.material, self.materials))
-            for i, o in enumerate(self.objects)
-            if isinstance(o.material, str) and o.material not in self.materials
-        ]
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if not _has(v, "objects"):
+            return []
+        errors = []
+        if _has(v, "materials"):
+            errors += [
+                (("objects", i, "material"), _unknown_material(o.material, v.materials))
+                for i, o in enumerate(v.objects)
+                if isinstance(o.material, str) and o.material not in v.materials
+            ]
         limits = _limits(info)
-        if primitive_count(self.objects) > limits.max_primitives:
-            count = primitive_count(self.objects)
+        count = primitive_count(v.objects)
+        if count > limits.max_primitives:
             errors.append((("objects",), f"{count} primitives; {_limit(limits.max_primitives)}"))
-        _raise_at(errors)
-        return self
+        return errors
 
     def material_for(self, obj: _Object) -> Material:
         """The object's material: its inline one, or the named one from `materials`."""
