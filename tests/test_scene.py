@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from pydantic import ValidationError
+from test_assets import no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
 from tracer.scene import (
     ASSET_DIR,
@@ -469,7 +470,7 @@ def test_accepts_dict_text_bytes_and_path(tmp_path):
 
 @pytest.mark.parametrize("path", sorted(SCENES_DIR.glob("*.json")), ids=lambda p: p.name)
 def test_example_scenes_of_the_repository_are_valid(path):
-    report = validate_scene(path)
+    report = validate_scene(path, assets=ASSET_DIR)  # their asset files too
     assert report["valid"], report["errors"]
 
 
@@ -667,6 +668,93 @@ def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
 
 def test_resolve_asset_default_folder_is_scenes_assets():
     assert ASSET_DIR == Path(__file__).resolve().parent.parent / "scenes" / "assets"
+
+
+def _mesh(file: str) -> dict:
+    return {"type": "mesh", "file": file, "material": "m"}
+
+
+def test_assets_missing_mesh_file_is_an_error_when_assets_are_resolved(tmp_path):
+    data = _scene(materials={"m": {}}, objects=[_mesh("models/teapot.obj")])
+    assert validate_scene(data)["valid"]  # the format alone: the file is the renderer's business
+    report = validate_scene(data, assets=tmp_path)
+    (error,) = report["errors"]
+    assert error["path"] == "objects[0].file"
+    assert error["message"].startswith(f"asset file 'models/teapot.obj' not found in the asset folder {tmp_path};")
+    assert "--assets DIR" in error["message"] and "data: URI" in error["message"]
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "teapot.obj").write_text(obj_grid(2))
+    assert validate_scene(data, assets=tmp_path)["valid"]
+
+
+def test_assets_errors_come_with_every_other_error(tmp_path):
+    data = _scene(film={"width": 0}, materials={"m": {"kd": -1}}, objects=[_mesh("gone.obj")])
+    paths = [e["path"] for e in validate_scene(data, assets=tmp_path)["errors"]]
+    assert paths == ["film.width", "materials.m.kd", "objects[0].file"]
+
+
+def test_assets_data_textures_that_are_not_images(tmp_path):
+    """Five data: textures and bumps that are not images: each an error at its path, no Python repr."""
+    (tmp_path / "notes.png").write_text("not a picture")
+    files = {
+        "a": ("texture", "data:image/png;base64,AAAA"),
+        "b": ("texture", "data:text/plain,hello"),
+        "c": ("bump", uri("image/png", b"GIF87a but not really")),
+        "d": ("texture", obj_uri(1)),
+        "e": ("bump", "data:image/png;base64,not base64!"),
+        "f": ("texture", "notes.png"),
+        "ok": ("texture", png_uri()),
+    }
+    materials = {name: {kind: {"type": "image", "file": file}} for name, (kind, file) in files.items()}
+    data = _scene(materials=materials)
+    assert validate_scene(data)["valid"]  # the format alone
+    errors = validate_scene(data, assets=tmp_path)["errors"]
+    assert [e["path"] for e in errors] == [f"materials.{n}.{kind}.file" for n, (kind, _) in files.items() if n != "ok"]
+    not_image = "the data: URI is not a readable image (PNG, JPEG, ...)"
+    assert [e["message"] for e in errors[:4]] == [not_image] * 4
+    assert errors[4]["message"].startswith("the data: URI's data is not valid base64")
+    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert all(no_repr(e["message"]) for e in errors)
+
+
+def test_assets_texture_pixels_limit_read_from_the_header():
+    data = _scene(materials={"m": {"texture": {"type": "image", "file": uri("image/png", png_header_only(100, 30))}}})
+    assert validate_scene(data, Limits(max_texture_pixels=3000), assets=ASSET_DIR)["valid"]  # pixels never decoded
+    (error,) = validate_scene(data, Limits(max_texture_pixels=2999), assets=ASSET_DIR)["errors"]
+    assert error == {
+        "path": "materials.m.texture.file",
+        "message": "the image is 100x30 = 3000 pixels; must be at most 2999 (service limit)",
+    }
+
+
+def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
+    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`."""
+    (tmp_path / "grid.obj").write_text(obj_grid(10))  # 200 triangles
+    objects = [_mesh(obj_uri(30, 50)), _mesh("grid.obj"), {"type": "sphere", "center": [0, 0, 0], "radius": 1}]
+    data = _scene(materials={"m": {}}, objects=[{**o, "material": "m"} for o in objects])
+    assert validate_scene(data, Limits(max_primitives=200))["valid"]  # the format alone cannot count them
+    assert validate_scene(data, Limits(max_primitives=3201), assets=tmp_path)["valid"]
+    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    assert errors == [
+        {
+            "path": "objects",
+            "message": "3201 primitives (objects[0].file: 3000 triangles, objects[1].file: 200 triangles); "
+            "must be at most 200 (service limit)",
+        }
+    ]
+
+
+def test_assets_mesh_that_does_not_read_is_an_error_at_its_path():
+    data = _scene(materials={"m": {}}, objects=[_mesh("data:model/obj,hello"), _mesh("bricks.png")])
+    errors = validate_scene(data, assets=ASSET_DIR)["errors"]
+    assert errors == [
+        {"path": "objects[0].file", "message": "the data: URI holds no triangles"},
+        {
+            "path": "objects[1].file",
+            "message": "could not read asset file 'bricks.png' as a mesh (OBJ, PLY, glTF): "
+            "file_type 'png' not supported",
+        },
+    ]
 
 
 def test_scene_adaptive_sampler_warns_about_spp_and_filter():

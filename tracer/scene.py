@@ -47,7 +47,10 @@ from pydantic_core.core_schema import ErrorType
 from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-exported, tracer.scene's since v1)
     ASSET_DIR,
     FLOAT32_MAX,
+    AssetError,
+    image_size,
     path_problem,
+    read_mesh,
     resolve_asset,
 )
 from tracer.errors import SceneError
@@ -63,7 +66,8 @@ class Limits:
     max_spp: int = 65536
     max_depth: int = 64
     max_light_samples: int = 1024
-    max_primitives: int = 5_000_000
+    max_primitives: int = 5_000_000  # shapes plus triangles, those of mesh files included
+    max_texture_pixels: int = 67_108_864  # width x height of one texture or bump image (8192 x 8192)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -163,11 +167,41 @@ def _pair(v: Any) -> Any:
     raise _error(f"expected a pair [a, b], got {_show(v)}")
 
 
+def _asset_dir(info: ValidationInfo) -> Path | None:
+    """The asset folder to resolve files in, when validation is asked to (`load_scene(..., assets=DIR)`)."""
+    return (info.context or {}).get("assets")
+
+
 def _asset_file(v: str) -> str:
     """A file never reaches outside the asset folder (existence is checked by `resolve_asset`)."""
     problem = path_problem(v)
     if problem:
         raise _error(problem)
+    return v
+
+
+def _image_file(v: str, info: ValidationInfo) -> str:
+    """With an asset folder: the image exists (or is a data: URI) and its header is readable; no pixels decoded."""
+    folder = _asset_dir(info)
+    if folder is not None:
+        try:
+            width, height = image_size(v, folder)
+        except AssetError as e:
+            raise _error(e.message) from None
+        limit = _limits(info).max_texture_pixels
+        if width * height > limit:
+            raise _error(f"the image is {width}x{height} = {width * height} pixels; {_limit(limit)}")
+    return v
+
+
+def _mesh_file(v: str, info: ValidationInfo) -> str:
+    """With an asset folder: the mesh exists (or is a data: URI) and reads as triangles."""
+    folder = _asset_dir(info)
+    if folder is not None:
+        try:
+            read_mesh(v, folder)
+        except AssetError as e:
+            raise _error(e.message) from None
     return v
 
 
@@ -201,6 +235,8 @@ Scale3 = Annotated[
 Pair = Annotated[tuple[Num, Num], BeforeValidator(_pair)]
 Face = Annotated[tuple[Int, Int, Int], BeforeValidator(_triple("a face [i, j, k] of three vertex indices"))]
 AssetFile = Annotated[Str, AfterValidator(_asset_file)]
+ImageFile = Annotated[AssetFile, AfterValidator(_image_file)]
+MeshFile = Annotated[AssetFile, AfterValidator(_mesh_file)]
 
 
 def _length(v) -> float:
@@ -488,7 +524,7 @@ class ImageTexture(_Model):
     """An image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Texture type.")
-    file: AssetFile = Field(description="Image file in the asset folder, or a data: URI.")
+    file: ImageFile = Field(description="Image file in the asset folder, or a data: URI.")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
 
@@ -504,7 +540,7 @@ class ImageBump(_Model):
     """Bump mapping by a height image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Bump type.")
-    file: AssetFile = Field(description="Height image in the asset folder, or a data: URI.")
+    file: ImageFile = Field(description="Height image in the asset folder, or a data: URI.")
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
@@ -757,7 +793,7 @@ class Mesh(_Object):
         min_length=1,
         description="Inline triangles as vertex indices [i, j, k] (0-based, counter-clockwise).",
     )
-    file: AssetFile | None = Field(None, description="Mesh file in the asset folder, or a data: URI.")
+    file: MeshFile | None = Field(None, description="Mesh file in the asset folder, or a data: URI.")
     transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the mesh.")
     smooth: Bool = Field(False, description="Interpolate vertex normals (smooth shading).")
 
@@ -793,6 +829,20 @@ def primitive_count(objects: list) -> int:
 
     Meshes from files are not counted here (their size is known when the file is read)."""
     return sum(len(o.faces or ()) if isinstance(o, Mesh) else 12 if isinstance(o, Box) else 1 for o in objects)
+
+
+def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
+    """Object index -> triangles of its mesh file, when validation resolves assets (read once: cached)."""
+    folder, out = _asset_dir(info), {}
+    if folder is None:
+        return out
+    for i, o in enumerate(objects):
+        if isinstance(o, Mesh) and o.file is not None:
+            try:
+                out[i] = len(read_mesh(o.file, folder)[1])
+            except AssetError:  # reported at objects[i].file
+                pass
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -834,9 +884,13 @@ class Scene(_Model):
                 if isinstance(o.material, str) and o.material not in v.materials
             ]
         limits = _limits(info)
-        count = primitive_count(v.objects)
+        files = _file_triangles(v.objects, info)
+        count = primitive_count(v.objects) + sum(files.values())
         if count > limits.max_primitives:
-            errors.append((("objects",), f"{count} primitives; {_limit(limits.max_primitives)}"))
+            biggest = sorted(files.items(), key=lambda item: -item[1])[:3]
+            where = ", ".join(f"objects[{i}].file: {n} triangles" for i, n in biggest)
+            where = f" ({where})" if where else ""
+            errors.append((("objects",), f"{count} primitives{where}; {_limit(limits.max_primitives)}"))
         return errors
 
     def material_for(self, obj: _Object) -> Material:
@@ -1070,13 +1124,23 @@ def _parse(src: Any) -> dict:
     return src
 
 
-def load_scene(src: Any, limits: Limits | None = None) -> tuple[Scene, list[dict[str, str]]]:
-    """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error."""
+def load_scene(
+    src: Any, limits: Limits | None = None, assets: Path | str | None = None
+) -> tuple[Scene, list[dict[str, str]]]:
+    """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error.
+
+    `src`: a dict, JSON text (str or bytes), or the path of a scene file (a Path).
+    `assets`: the asset folder (ASSET_DIR is the default one) to resolve the scene's files in, so that
+    a missing or unreadable mesh or image, a data: URI that is not one, and the triangles of mesh files
+    past `limits.max_primitives` are errors here too, at their JSON paths. None checks the format
+    only (the renderer reads the files, and says what is wrong with them, when it compiles the scene).
+    """
     data = _parse(src)
     materials = data.get("materials")
     context = {
         "limits": limits or Limits(),
         "material_names": set(materials) if isinstance(materials, dict) else None,
+        "assets": None if assets is None else Path(assets),
     }
     try:
         scene = Scene.model_validate(data, context=context)
@@ -1090,10 +1154,12 @@ def load_scene(src: Any, limits: Limits | None = None) -> tuple[Scene, list[dict
     return scene, _warnings(scene)
 
 
-def validate_scene(src: Any, limits: Limits | None = None) -> dict:
-    """{"valid": bool, "errors": [...], "warnings": [...]}; never raises for a bad scene."""
+def validate_scene(src: Any, limits: Limits | None = None, assets: Path | str | None = None) -> dict:
+    """{"valid": bool, "errors": [...], "warnings": [...]}; never raises for a bad scene.
+
+    With `assets` (a folder, see `load_scene`) the scene's files are resolved and checked too."""
     try:
-        _, warnings = load_scene(src, limits)
+        _, warnings = load_scene(src, limits, assets)
     except SceneError as e:
         return {"valid": False, "errors": e.errors, "warnings": []}
     return {"valid": True, "errors": [], "warnings": warnings}
