@@ -474,6 +474,34 @@ def test_example_scenes_of_the_repository_are_valid(path):
     assert report["valid"], report["errors"]
 
 
+def test_load_scene_str_path_as_in_the_readme(monkeypatch):
+    """README: `load_scene("scenes/cornell_path.json")`; a str that is no JSON text is a path."""
+    monkeypatch.chdir(SCENES_DIR.parent)
+    scene, _ = load_scene("scenes/cornell_path.json")
+    assert scene == load_scene(SCENES_DIR / "cornell_path.json")[0]
+    assert load_scene(str(SCENES_DIR / "cornell_path.json"))[0] == scene
+    assert validate_scene("scenes/whitted.json")["valid"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("scenes/nope.json", "cannot read scene file scenes/nope.json: no such file (and the text is not JSON either)"),
+        ("cornell", "'cornell' is neither JSON (invalid JSON at line 1, column 1: Expecting value) nor the path of"),
+        ("  ", "the scene text is empty: expected JSON {...} or the path of a scene file"),
+        ('{"camera": }', "invalid JSON at line 1, column 12: Expecting value"),
+        ("bad.json", "invalid JSON at line 1, column 2"),  # a file that exists, with a syntax error
+    ],
+)
+def test_load_scene_text_neither_path_nor_json_says_so(tmp_path, monkeypatch, text, message):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.json").write_text("{camera: 1}")
+    with pytest.raises(SceneError) as info:
+        load_scene(text)
+    (error,) = info.value.errors
+    assert error["path"] == "" and error["message"].startswith(message), error
+
+
 def test_validate_scene_report_of_a_good_scene():
     report = validate_scene(EXAMPLE)
     assert report["valid"] is True and report["errors"] == []

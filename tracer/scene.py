@@ -1099,8 +1099,34 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
 # Public entry points.
 
 
+def _scene_file(text: str) -> Path | None:
+    """The text as the path of an existing file, or None (it is not one, or cannot be one)."""
+    if "\n" in text or len(text) > 4096:
+        return None
+    try:
+        path = Path(text)
+        return path if path.is_file() else None
+    except (OSError, ValueError):  # a NUL byte, a name too long
+        return None
+
+
+def _not_json(text: str, e: json.JSONDecodeError) -> str:
+    """Why a text that is not JSON is not a scene either (it is no file's path)."""
+    where = f"line {e.lineno}, column {e.colno}"
+    if not text.strip():
+        return "the scene text is empty: expected JSON {...} or the path of a scene file"
+    if text.lstrip()[:1] in ("{", "["):
+        return f"invalid JSON at {where}: {e.msg}"
+    if "\n" not in text and (text.strip().lower().endswith(".json") or "/" in text or "\\" in text):
+        return f"cannot read scene file {text}: no such file (and the text is not JSON either)"
+    shown = text.strip()[:40] + ("..." if len(text.strip()) > 40 else "")
+    return f"'{shown}' is neither JSON (invalid JSON at {where}: {e.msg}) nor the path of a scene file"
+
+
 def _parse(src: Any) -> dict:
-    """dict, JSON text (str or bytes) or a Path to a .json file -> the scene dict."""
+    """dict, JSON text (str or bytes), or a scene file's path (Path or str) -> the scene dict."""
+    if isinstance(src, str) and src.lstrip()[:1] not in ("{", "["):
+        src = _scene_file(src) or src  # "scenes/cornell.json" is a path; '{"camera": ...}' is JSON
     if isinstance(src, Path):
         try:
             src = src.read_text(encoding="utf-8")
@@ -1115,8 +1141,7 @@ def _parse(src: Any) -> dict:
         try:
             src = json.loads(src)
         except json.JSONDecodeError as e:
-            where = f"line {e.lineno}, column {e.colno}"
-            raise SceneError([{"path": "", "message": f"invalid JSON at {where}: {e.msg}"}]) from None
+            raise SceneError([{"path": "", "message": _not_json(src, e)}]) from None
         except (ValueError, RecursionError) as e:  # e.g. an integer of more than 4300 digits
             raise SceneError([{"path": "", "message": f"invalid JSON: {e}"}]) from None
     if not isinstance(src, dict):
@@ -1129,7 +1154,7 @@ def load_scene(
 ) -> tuple[Scene, list[dict[str, str]]]:
     """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error.
 
-    `src`: a dict, JSON text (str or bytes), or the path of a scene file (a Path).
+    `src`: a dict, JSON text (str or bytes), or the path of a scene file (Path or str).
     `assets`: the asset folder (ASSET_DIR is the default one) to resolve the scene's files in, so that
     a missing or unreadable mesh or image, a data: URI that is not one, and the triangles of mesh files
     past `limits.max_primitives` are errors here too, at their JSON paths. None checks the format
