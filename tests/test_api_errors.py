@@ -312,3 +312,23 @@ def test_api_errors_missing_mesh_names_the_asset_folder_and_data_uris(client):
     assert report["valid"] is False and error["path"] == f"objects[{len(scene['objects']) - 1}].file"
     assert error["message"].startswith("asset file 'teapot.obj' not found in the asset folder ")
     assert "scenes/assets;" in error["message"] and "as a data: URI" in error["message"]
+
+
+@pytest.mark.parametrize(
+    ("url", "extra", "example"),
+    [
+        ("/api/jobs", {}, '{"scene": {...}, "priority": 0}'),
+        ("/api/validate", {}, '{"scene": {...}}'),
+        ("/api/raytree", {"x": 1, "y": 2}, '{"scene": {...}, "x": 10, "y": 20}'),
+    ],
+)
+def test_api_errors_bare_scene_gets_one_hint(client, url, extra, example):
+    """A scene posted without {"scene": ...}: one error that says so, not one per key of the scene."""
+    (error,) = check_error(client.post(url, json={**tiny_scene(), **extra}), 422)
+    assert error == {
+        "path": "",
+        "message": f"the scene must be sent inside the request as {example}; this body has the scene's own "
+        "fields (camera, objects, lights, ...) at its top level",
+    }
+    errors = check_error(client.post(url, json={"sceen": {}}), 422)  # no scene's field: the usual errors
+    assert {"path": "scene", "message": "required field 'scene' is missing"} in errors
