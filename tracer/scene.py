@@ -4,14 +4,18 @@ The contract is SCENE_FORMAT.md; the models below are its executable form, and e
 description (meaning and unit) is published in the JSON Schema the web editor uses.
 Validation works in three steps, each reporting at the offending field's own JSON path:
 
-1. the models: types, ranges, unknown keys (`extra="forbid"`), and checks between fields of one
-   model (degenerate quads, lookfrom == lookat, ...), raised with explicit locations;
+1. the models: types, ranges (numbers finite and inside float32's), unknown keys
+   (`extra="forbid"`), and checks between fields of one model (`_checks`: degenerate quads,
+   lookfrom == lookat, ...) at explicit locations. Those checks run even when other fields of
+   the model failed, on the fields that are valid, so every independent error comes at once;
 2. `_translate`: pydantic's error location -> JSON path (`objects[3].radius`, union tags dropped)
    and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
 3. `_warnings`: settings that have no effect, found from `model_fields_set`.
 
-Service limits (`Limits`) and the set of material names reach the validators through pydantic's
-validation context, so an undefined material is reported even when other parts are invalid.
+Service limits (`Limits`), the set of material names and, when asked (`load_scene(...,
+assets=DIR)`), the asset folder reach the validators through pydantic's validation context: an
+undefined material is reported even when other parts are invalid, and the asset files (tracer/
+assets.py) are resolved and read as part of validation, their errors at their own paths too.
 """
 
 import dataclasses
@@ -24,7 +28,7 @@ from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
-from annotated_types import Ge, Gt
+from annotated_types import Ge, Gt, Le
 from pydantic import (
     AfterValidator,
     AllowInfNan,
@@ -205,15 +209,19 @@ def _mesh_file(v: str, info: ValidationInfo) -> str:
     return v
 
 
-# Numbers are finite and inside float32's range (checked first: a field's own bounds come after it).
+# Numbers are finite and inside float32's range, the renderer's. The components of vectors and colours
+# (F32, NonNeg) have that range as bounds of their own check (no Python call per vertex). A scalar field
+# may add bounds (Field(gt=0, le=180)), which an annotation's bounds would override: its number (Num,
+# Positive) checks the range in a before-validator instead.
+F32 = Annotated[float, Strict(), AllowInfNan(False), Ge(-FLOAT32_MAX), Le(FLOAT32_MAX)]
+NonNeg = Annotated[float, Strict(), AllowInfNan(False), Ge(0), Le(FLOAT32_MAX)]
 Num = Annotated[float, Strict(), AllowInfNan(False), BeforeValidator(_float32)]
 Positive = Annotated[float, Strict(), AllowInfNan(False), Gt(0), BeforeValidator(_float32)]
 Int = Annotated[int, Strict()]
 Bool = Annotated[bool, Strict()]
 Str = Annotated[str, Strict()]
-NonNeg = Annotated[float, Strict(), AllowInfNan(False), Ge(0), BeforeValidator(_float32)]
-Vec3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a point [x, y, z]"))]
-Dir3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
+Vec3 = Annotated[tuple[F32, F32, F32], BeforeValidator(_triple("a point [x, y, z]"))]
+Dir3 = Annotated[tuple[F32, F32, F32], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
 RGB = Annotated[
     tuple[NonNeg, NonNeg, NonNeg],
     BeforeValidator(
@@ -224,7 +232,7 @@ RGB = Annotated[
 Attenuation = Annotated[
     tuple[NonNeg, NonNeg, NonNeg], BeforeValidator(_triple("[c1, c2, c3]")), AfterValidator(_not_all_zero)
 ]
-NonZero = Annotated[Num, AfterValidator(_nonzero)]
+NonZero = Annotated[F32, AfterValidator(_nonzero)]
 Scale3 = Annotated[
     tuple[NonZero, NonZero, NonZero],
     BeforeValidator(
@@ -232,7 +240,7 @@ Scale3 = Annotated[
         json_schema_input_type=Union[Num, tuple[Num, Num, Num]],  # noqa: UP007
     ),
 ]
-Pair = Annotated[tuple[Num, Num], BeforeValidator(_pair)]
+Pair = Annotated[tuple[F32, F32], BeforeValidator(_pair)]
 Face = Annotated[tuple[Int, Int, Int], BeforeValidator(_triple("a face [i, j, k] of three vertex indices"))]
 AssetFile = Annotated[Str, AfterValidator(_asset_file)]
 ImageFile = Annotated[AssetFile, AfterValidator(_image_file)]
@@ -1029,6 +1037,8 @@ def _translate(err: dict) -> dict[str, str]:
         choices = [str(c) for c in get_args(tp)] if get_origin(tp) is Literal else []
         given = err.get("input")
         message = f"expected one of: {', '.join(choices)}; got {_show(given)}{_suggest(given, choices)}"
+    elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge"))) == FLOAT32_MAX:
+        message = FLOAT32  # the bounds of F32 and NonNeg
     elif kind in _MESSAGES:
         values = {k: _num(v) for k, v in ctx.items()}
         message = _MESSAGES[kind].format(input=_show(err.get("input")), **values)
