@@ -6,9 +6,12 @@ import json
 import time
 from datetime import UTC, datetime
 from enum import StrEnum
-from typing import Any
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
+from pydantic_core import PydanticCustomError
+
+from tracer.scene import Scene
 
 
 class JobStatus(StrEnum):
@@ -35,23 +38,45 @@ class ErrorResponse(BaseModel):
 SCENE_DESCRIPTION = "a scene object (SCENE_FORMAT.md); its JSON Schema is at GET /api/schema"
 
 
-class JobCreate(BaseModel):
+class _SceneRequest(BaseModel):
+    """A request that carries a scene under "scene"; a bare scene posted instead gets one hint, not an
+    "unknown field" error for each of its keys."""
+
     model_config = ConfigDict(extra="forbid")
+    EXAMPLE: ClassVar[str] = '{"scene": {...}}'
 
     scene: dict[str, Any] = Field(description=SCENE_DESCRIPTION)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_scene(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "scene" not in data:
+            telling = ["camera", "objects", "lights", "materials", *Scene.model_fields]  # the first ones named
+            keys = [k for k in dict.fromkeys(telling) if k in data]
+            if keys:
+                shown = ", ".join(keys[:3]) + (", ..." if len(keys) > 3 else "")
+                raise PydanticCustomError(
+                    "bare_scene",
+                    "the scene must be sent inside the request as {example}; this body has the scene's own "
+                    "fields ({shown}) at its top level",
+                    {"example": cls.EXAMPLE, "shown": shown},
+                )
+        return data
+
+
+class JobCreate(_SceneRequest):
+    EXAMPLE: ClassVar[str] = '{"scene": {...}, "priority": 0}'
+
     priority: StrictInt = Field(0, ge=-100, le=100, description="higher runs first; then first come, first served")
 
 
-class ValidateRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    scene: dict[str, Any] = Field(description=SCENE_DESCRIPTION)
+class ValidateRequest(_SceneRequest):
+    pass
 
 
-class RayTreeRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class RayTreeRequest(_SceneRequest):
+    EXAMPLE: ClassVar[str] = '{"scene": {...}, "x": 10, "y": 20}'
 
-    scene: dict[str, Any] = Field(description=SCENE_DESCRIPTION)
     x: StrictInt = Field(description="pixel column from the left")
     y: StrictInt = Field(description="pixel row from the top")
     sample: StrictInt = Field(0, description="sample index within the pixel")

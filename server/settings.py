@@ -42,7 +42,10 @@ class Settings(BaseSettings):
     max_spp: int = Field(4096, ge=1, description="samples per pixel")
     max_depth: int = Field(64, ge=1, description="render.max_depth")
     max_light_samples: int = Field(256, ge=1, description="render.light_samples")
-    max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles")
+    max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles (mesh files included)")
+    max_texture_pixels: int = Field(
+        8192 * 8192, ge=1, description="width x height of one texture or bump image (read from its header)"
+    )
 
     @property
     def limits(self) -> Limits:
@@ -55,6 +58,7 @@ class Settings(BaseSettings):
             max_depth=self.max_depth,
             max_light_samples=self.max_light_samples,
             max_primitives=self.max_primitives,
+            max_texture_pixels=self.max_texture_pixels,
         )
 
     @property

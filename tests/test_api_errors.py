@@ -12,6 +12,7 @@ import pytest
 from conftest import scene_dict
 from fastapi.testclient import TestClient
 from test_api_support import tiny_scene
+from test_assets import no_repr, obj_uri, png_uri, uri
 
 from server.main import create_app
 from server.settings import Settings
@@ -38,6 +39,14 @@ def library_limits(tmp_path_factory):
 
     limits = dataclasses.asdict(Limits())
     settings = Settings(data_dir=tmp_path_factory.mktemp("corpus-data"), workers=0, **limits)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def primitives_200(tmp_path_factory):
+    """An app whose scenes may have at most 200 primitives (and the default body size limit)."""
+    settings = Settings(data_dir=tmp_path_factory.mktemp("primitives-data"), workers=0, max_primitives=200)
     with TestClient(create_app(settings), raise_server_exceptions=False) as c:
         yield c
 
@@ -251,3 +260,75 @@ def test_api_errors_openapi_documents_every_route(client):
     assert want <= ops
     assert client.get("/docs").status_code == 200
     assert scene_dict("whitted")["camera"]  # the corpus builds on the example scenes
+
+
+def test_api_errors_data_textures_that_are_not_images_are_refused_at_submit(client):
+    """Five non-image data: textures: 422 at submit (not 202 and a failure in the worker), each at its path."""
+    scene = tiny_scene()
+    bad = [
+        "data:image/png;base64,AAAA",
+        "data:text/plain,hello",
+        uri("image/png", b"GIF87a but not really"),
+        uri("image/jpeg", b"\xff\xd8\xff"),
+        obj_uri(1),
+    ]
+    for k, file in enumerate(bad):
+        scene["materials"][f"bad{k}"] = {"texture": {"type": "image", "file": file}}
+    scene["materials"]["good"] = {
+        "texture": {"type": "image", "file": png_uri()},
+        "bump": {"type": "image", "file": png_uri()},
+    }
+    want = [
+        {"path": f"materials.bad{k}.texture.file", "message": "the data: URI is not a readable image (PNG, JPEG, ...)"}
+        for k in range(5)
+    ]
+    assert check_error(client.post("/api/jobs", json={"scene": scene}), 422) == want
+    report = client.post("/api/validate", json={"scene": scene}).json()
+    assert report == {"valid": False, "errors": want, "warnings": []}
+    assert all(no_repr(e["message"]) for e in want)
+    assert check_error(client.post("/api/raytree", json={"scene": scene, "x": 1, "y": 1}), 422) == want
+
+
+def test_api_errors_mesh_triangles_count_against_the_primitive_limit(primitives_200):
+    """A 3000-triangle data: OBJ against max_primitives 200: refused at submit, validate and raytree."""
+    client = primitives_200
+    scene = tiny_scene()
+    scene["objects"].append({"type": "mesh", "file": obj_uri(30, 50), "material": {"kd": 0.5}})
+    i = len(scene["objects"]) - 1
+    (error,) = check_error(client.post("/api/jobs", json={"scene": scene}), 422)
+    assert error["path"] == "objects"
+    assert f"(objects[{i}].file: 3000 triangles); must be at most 200 (service limit)" in error["message"]
+    assert client.post("/api/validate", json={"scene": scene}).json()["errors"] == [error]
+    assert check_error(client.post("/api/raytree", json={"scene": scene, "x": 1, "y": 1}), 422) == [error]
+    scene["objects"][-1]["file"] = obj_uri(5, 5)  # 50 triangles
+    assert client.post("/api/jobs", json={"scene": scene}).status_code == 202
+
+
+def test_api_errors_missing_mesh_names_the_asset_folder_and_data_uris(client):
+    scene = tiny_scene()
+    scene["objects"].append({"type": "mesh", "file": "teapot.obj", "material": {"kd": 0.5}})
+    report = client.post("/api/validate", json={"scene": scene}).json()
+    (error,) = report["errors"]
+    assert report["valid"] is False and error["path"] == f"objects[{len(scene['objects']) - 1}].file"
+    assert error["message"].startswith("asset file 'teapot.obj' not found in the asset folder ")
+    assert "scenes/assets;" in error["message"] and "as a data: URI" in error["message"]
+
+
+@pytest.mark.parametrize(
+    ("url", "extra", "example"),
+    [
+        ("/api/jobs", {}, '{"scene": {...}, "priority": 0}'),
+        ("/api/validate", {}, '{"scene": {...}}'),
+        ("/api/raytree", {"x": 1, "y": 2}, '{"scene": {...}, "x": 10, "y": 20}'),
+    ],
+)
+def test_api_errors_bare_scene_gets_one_hint(client, url, extra, example):
+    """A scene posted without {"scene": ...}: one error that says so, not one per key of the scene."""
+    (error,) = check_error(client.post(url, json={**tiny_scene(), **extra}), 422)
+    assert error == {
+        "path": "",
+        "message": f"the scene must be sent inside the request as {example}; this body has the scene's own "
+        "fields (camera, objects, lights, ...) at its top level",
+    }
+    errors = check_error(client.post(url, json={"sceen": {}}), 422)  # no scene's field: the usual errors
+    assert {"path": "scene", "message": "required field 'scene' is missing"} in errors

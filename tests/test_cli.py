@@ -7,6 +7,7 @@ import sys
 import numpy as np
 from conftest import ROOT, SCENES, scene_dict, small
 from PIL import Image
+from test_assets import obj_grid
 
 from tracer.film import read_exr
 
@@ -135,3 +136,23 @@ def test_cli_render_aovs_into_the_exr(tmp_path):
         rays = np.array(ch["rays.Y"].pixels)
     assert {"R", "G", "B", "depth.Z", "rays.Y", "normal.R", "albedo.G", "variance.B"} <= names
     assert rays.min() == 5 and rays.max() > 50  # the sky: the 5 corner and centre rays; edges: many more
+
+
+def test_cli_validate_resolves_asset_files_like_render(tmp_path):
+    """A missing mesh file: `validate` says so (as `render` does), naming the folder and --assets."""
+    scene = small(scene_dict("whitted"), 8, 8)
+    scene["objects"].append({"type": "mesh", "file": "teapot.obj", "material": {"kd": 0.5}})
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(scene))
+    error = (
+        f"error: objects[{len(scene['objects']) - 1}].file: asset file 'teapot.obj' not found in the asset folder "
+        "scenes/assets; copy it there, point the command line at the folder that holds it (--assets DIR), "
+        "or embed the file in the scene as a data: URI"
+    )
+    for command in (["validate", f], ["render", f, "-o", tmp_path / "x.png"], ["raytree", f, 1, 1]):
+        p = run(*command, check=False)
+        assert p.returncode == 1 and error in p.stderr.splitlines(), (command, p.stderr)
+    assets = tmp_path / "assets"
+    assets.mkdir()
+    (assets / "teapot.obj").write_text(obj_grid(2))
+    assert run("validate", f, "--assets", assets).stdout.strip() == f"{f}: valid"

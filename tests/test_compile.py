@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from test_assets import no_repr
 
 from tracer.compile import box_faces, compile_scene, transform_matrix
 from tracer.raytree import ray_tree
@@ -81,6 +82,18 @@ def test_compile_missing_or_escaping_asset_is_an_error_at_its_path():
         )
     assert e.value.errors[0]["path"] == "materials.t.texture.file"
     assert (ASSET_DIR / "uv_grid.png").is_file()
+
+
+def test_compile_data_texture_that_is_not_an_image_is_an_error_at_its_path():
+    """The renderer's own check (a scene validated for its format only): a message, not a Python repr."""
+    tex = {"kd": 0.5, "texture": {"type": "image", "file": "data:image/png;base64,AAAA"}}
+    s = scene_with({"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "t"}, materials={"t": tex})
+    with pytest.raises(SceneError) as e:
+        compile_scene(s)
+    assert e.value.errors == [
+        {"path": "materials.t.texture.file", "message": "the data: URI is not a readable image (PNG, JPEG, ...)"}
+    ]
+    assert no_repr(str(e.value))
 
 
 def test_compile_radiosity_needs_surfaces_to_mesh():

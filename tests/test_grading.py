@@ -33,6 +33,7 @@ from tracer.grading import (
     Grader,
     GradingError,
     InlineRenderer,
+    Rendered,
     Submission,
     collect,
     load_assignment,
@@ -712,6 +713,28 @@ def test_grading_copes_with_a_submission_made_invalid_by_the_settings():
     assert report.status == "failed"
     assert "must be a perfect square" in report.tests[-1].output
     assert report.score == 7.0
+
+
+def test_grading_validity_resolves_asset_files():
+    """A missing mesh file costs the validity points, with the asset's message; the scene is never
+    rendered (no more "valid scene" then "not compared: invalid scene")."""
+    spec, _ = load_assignment(inline_assignment())
+    scene = json.loads((CLASS / "alice.json").read_text())
+    scene["objects"].append({"type": "mesh", "file": "teapot.obj", "material": {"kd": 0.5}})
+    rendered = []
+
+    def renderer(jobs):
+        rendered.extend(job.name for job in jobs)
+        return [Rendered(error="not rendered in this test") for _ in jobs]
+
+    report = Grader(spec, None, renderer).grade_one(Submission("x", json.dumps(scene).encode()))
+    valid = report.tests[0]
+    assert (valid.name, valid.score, report.status) == ("valid scene", 0.0, "invalid")
+    path = f"objects[{len(scene['objects']) - 1}].file"
+    assert f"{path}: asset file 'teapot.obj' not found in the asset folder" in valid.output
+    assert report.errors[0]["path"] == path
+    assert {t.output for t in report.tests if t.kind == "image"} == {"not compared: the scene is invalid"}
+    assert "x" not in rendered
 
 
 def test_unreadable_images_are_said_so():

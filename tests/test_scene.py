@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from pydantic import ValidationError
+from test_assets import no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
 from tracer.scene import (
     ASSET_DIR,
@@ -266,6 +267,105 @@ def test_error_paths_point_into_the_input_under_random_damage():
 
 
 # ---------------------------------------------------------------------------------------------
+# Every independent error at once: checks between fields run beside the fields' own errors.
+
+# (changes to the minimal scene, the errors expected: the last one is the check between fields)
+INDEPENDENT = [
+    (
+        {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 3], "vfov": 180}, "film": {"width": 0}},
+        [
+            ("camera.vfov", "must be < 180"),
+            ("camera.lookat", "must differ from lookfrom (no view direction)"),
+            ("film.width", "must be >= 1"),
+        ],
+    ),
+    (
+        {"render": {"max_depth": 65, "light_samples": 2000}},
+        [("render.max_depth", "must be <= 64"), ("render.light_samples", "must be at most 1024 (service limit)")],
+    ),
+    (
+        {"sampler": {"type": "grid", "spp": 10, "max_level": 20}},
+        [("sampler.max_level", "must be <= 8"), ("sampler.spp", "must be a perfect square for the grid sampler")],
+    ),
+    (
+        {"sampler": {"type": "gird", "spp": 99999}},
+        [("sampler.type", "expected one of: center, grid"), ("sampler.spp", "must be at most 65536 (service limit)")],
+    ),
+    (
+        {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 0], "vup": [0, 0, 1], "shutter": [1, "x"]}},
+        [("camera.shutter[1]", "expected a number"), ("camera.vup", "must not be parallel to the view direction")],
+    ),
+    (
+        {"film": {"width": 9000, "height": 0}},
+        [("film.height", "must be >= 1"), ("film.width", "must be at most 8192 (service limit)")],
+    ),
+    (
+        {
+            "materials": {"m": {}},
+            "objects": [
+                {"type": "box", "min": [0, 0, 0], "max": [0, 1, 1], "material": "m", "name": 5},
+                {"type": "quad", "corner": [0, "x", 0], "edge1": [1, 0, 0], "edge2": [2, 0, 0], "material": "m"},
+                {"type": "triangle", "vertices": [[0, 0, 0], [1, 1, 1], [2, 2, 2]], "material": "m", "velocity": 1},
+                {"type": "mesh", "vertices": [[0, 0, 0], "x"], "material": "m"},
+            ],
+        },
+        [
+            ("objects[0].name", "expected a string"),
+            ("objects[0].max[0]", "must be greater than min[0] = 0"),
+            ("objects[1].corner[1]", "expected a number"),
+            ("objects[1].edge2", "must not be parallel to edge1"),
+            ("objects[2].velocity", "expected a point [x, y, z]"),
+            ("objects[2].vertices", "collinear"),
+            ("objects[3].vertices[1]", "expected a point [x, y, z]"),
+            ("objects[3].faces", "required field 'faces' is missing (or give a 'file')"),
+        ],
+    ),
+]
+
+
+@pytest.mark.parametrize(("changes", "want"), INDEPENDENT, ids=[w[-1][0] for _, w in INDEPENDENT])
+def test_error_every_independent_error_at_once(changes, want):
+    errors = validate_scene(_scene(**changes))["errors"]
+    assert [e["path"] for e in errors] == [path for path, _ in want], errors
+    for (_, message), error in zip(want, errors, strict=True):
+        assert message in error["message"], error
+
+
+def test_error_scene_checks_beside_errors_elsewhere():
+    """The primitive limit and (without load_scene's context) undefined materials, while the film is invalid."""
+    objects = [{"type": "sphere", "center": [i, 0, 0], "radius": 1, "material": "m"} for i in range(3)]
+    data = _scene(film={"width": 0}, materials={"n": {}}, objects=objects)
+    with pytest.raises(ValidationError) as info:
+        Scene.model_validate(data)
+    assert [e["loc"] for e in info.value.errors()] == [("film", "width")] + [
+        ("objects", i, "material") for i in range(3)
+    ]
+    errors = validate_scene(data, Limits(max_primitives=2))["errors"]
+    assert [e["path"] for e in errors] == ["film.width", *(f"objects[{i}].material" for i in range(3))]
+    data["materials"] = {"m": {"kd": "red"}}
+    errors = validate_scene(data, Limits(max_primitives=2))["errors"]
+    assert [e["path"] for e in errors] == ["film.width", "materials.m.kd", "objects"]
+    assert errors[-1]["message"] == "3 primitives; must be at most 2 (service limit)"
+
+
+def test_error_numbers_outside_float32_at_their_path():
+    """The renderer computes in float32: 1e300 would be infinity there. The largest float32 is accepted."""
+    too_big = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
+    sphere = {"type": "sphere", "center": [0, 0, -1e39], "radius": 1e300, "material": "m"}
+    data = _scene(background=1e39, ambient=[0, 0, 1e39], materials={"m": {"shininess": -1e39}}, objects=[sphere])
+    assert {e["path"]: e["message"] for e in validate_scene(data)["errors"]} == {
+        "background": too_big,
+        "ambient[2]": too_big,
+        "materials.m.shininess": too_big,
+        "objects[0].center[2]": too_big,
+        "objects[0].radius": too_big,
+    }
+    sphere.update(center=[0, 0, -3.4e38], radius=3.4e38)
+    scene, _ = load_scene(_scene(background=3.4e38, materials={"m": {}}, objects=[sphere]))
+    assert scene.objects[0].radius == 3.4e38
+
+
+# ---------------------------------------------------------------------------------------------
 # Good scenes.
 
 
@@ -370,8 +470,36 @@ def test_accepts_dict_text_bytes_and_path(tmp_path):
 
 @pytest.mark.parametrize("path", sorted(SCENES_DIR.glob("*.json")), ids=lambda p: p.name)
 def test_example_scenes_of_the_repository_are_valid(path):
-    report = validate_scene(path)
+    report = validate_scene(path, assets=ASSET_DIR)  # their asset files too
     assert report["valid"], report["errors"]
+
+
+def test_load_scene_str_path_as_in_the_readme(monkeypatch):
+    """README: `load_scene("scenes/cornell_path.json")`; a str that is no JSON text is a path."""
+    monkeypatch.chdir(SCENES_DIR.parent)
+    scene, _ = load_scene("scenes/cornell_path.json")
+    assert scene == load_scene(SCENES_DIR / "cornell_path.json")[0]
+    assert load_scene(str(SCENES_DIR / "cornell_path.json"))[0] == scene
+    assert validate_scene("scenes/whitted.json")["valid"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("scenes/nope.json", "cannot read scene file scenes/nope.json: no such file (and the text is not JSON either)"),
+        ("cornell", "'cornell' is neither JSON (invalid JSON at line 1, column 1: Expecting value) nor the path of"),
+        ("  ", "the scene text is empty: expected JSON {...} or the path of a scene file"),
+        ('{"camera": }', "invalid JSON at line 1, column 12: Expecting value"),
+        ("bad.json", "invalid JSON at line 1, column 2"),  # a file that exists, with a syntax error
+    ],
+)
+def test_load_scene_text_neither_path_nor_json_says_so(tmp_path, monkeypatch, text, message):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.json").write_text("{camera: 1}")
+    with pytest.raises(SceneError) as info:
+        load_scene(text)
+    (error,) = info.value.errors
+    assert error["path"] == "" and error["message"].startswith(message), error
 
 
 def test_validate_scene_report_of_a_good_scene():
@@ -568,6 +696,93 @@ def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
 
 def test_resolve_asset_default_folder_is_scenes_assets():
     assert ASSET_DIR == Path(__file__).resolve().parent.parent / "scenes" / "assets"
+
+
+def _mesh(file: str) -> dict:
+    return {"type": "mesh", "file": file, "material": "m"}
+
+
+def test_assets_missing_mesh_file_is_an_error_when_assets_are_resolved(tmp_path):
+    data = _scene(materials={"m": {}}, objects=[_mesh("models/teapot.obj")])
+    assert validate_scene(data)["valid"]  # the format alone: the file is the renderer's business
+    report = validate_scene(data, assets=tmp_path)
+    (error,) = report["errors"]
+    assert error["path"] == "objects[0].file"
+    assert error["message"].startswith(f"asset file 'models/teapot.obj' not found in the asset folder {tmp_path};")
+    assert "--assets DIR" in error["message"] and "data: URI" in error["message"]
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "teapot.obj").write_text(obj_grid(2))
+    assert validate_scene(data, assets=tmp_path)["valid"]
+
+
+def test_assets_errors_come_with_every_other_error(tmp_path):
+    data = _scene(film={"width": 0}, materials={"m": {"kd": -1}}, objects=[_mesh("gone.obj")])
+    paths = [e["path"] for e in validate_scene(data, assets=tmp_path)["errors"]]
+    assert paths == ["film.width", "materials.m.kd", "objects[0].file"]
+
+
+def test_assets_data_textures_that_are_not_images(tmp_path):
+    """Five data: textures and bumps that are not images: each an error at its path, no Python repr."""
+    (tmp_path / "notes.png").write_text("not a picture")
+    files = {
+        "a": ("texture", "data:image/png;base64,AAAA"),
+        "b": ("texture", "data:text/plain,hello"),
+        "c": ("bump", uri("image/png", b"GIF87a but not really")),
+        "d": ("texture", obj_uri(1)),
+        "e": ("bump", "data:image/png;base64,not base64!"),
+        "f": ("texture", "notes.png"),
+        "ok": ("texture", png_uri()),
+    }
+    materials = {name: {kind: {"type": "image", "file": file}} for name, (kind, file) in files.items()}
+    data = _scene(materials=materials)
+    assert validate_scene(data)["valid"]  # the format alone
+    errors = validate_scene(data, assets=tmp_path)["errors"]
+    assert [e["path"] for e in errors] == [f"materials.{n}.{kind}.file" for n, (kind, _) in files.items() if n != "ok"]
+    not_image = "the data: URI is not a readable image (PNG, JPEG, ...)"
+    assert [e["message"] for e in errors[:4]] == [not_image] * 4
+    assert errors[4]["message"].startswith("the data: URI's data is not valid base64")
+    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert all(no_repr(e["message"]) for e in errors)
+
+
+def test_assets_texture_pixels_limit_read_from_the_header():
+    data = _scene(materials={"m": {"texture": {"type": "image", "file": uri("image/png", png_header_only(100, 30))}}})
+    assert validate_scene(data, Limits(max_texture_pixels=3000), assets=ASSET_DIR)["valid"]  # pixels never decoded
+    (error,) = validate_scene(data, Limits(max_texture_pixels=2999), assets=ASSET_DIR)["errors"]
+    assert error == {
+        "path": "materials.m.texture.file",
+        "message": "the image is 100x30 = 3000 pixels; must be at most 2999 (service limit)",
+    }
+
+
+def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
+    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`."""
+    (tmp_path / "grid.obj").write_text(obj_grid(10))  # 200 triangles
+    objects = [_mesh(obj_uri(30, 50)), _mesh("grid.obj"), {"type": "sphere", "center": [0, 0, 0], "radius": 1}]
+    data = _scene(materials={"m": {}}, objects=[{**o, "material": "m"} for o in objects])
+    assert validate_scene(data, Limits(max_primitives=200))["valid"]  # the format alone cannot count them
+    assert validate_scene(data, Limits(max_primitives=3201), assets=tmp_path)["valid"]
+    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    assert errors == [
+        {
+            "path": "objects",
+            "message": "3201 primitives (objects[0].file: 3000 triangles, objects[1].file: 200 triangles); "
+            "must be at most 200 (service limit)",
+        }
+    ]
+
+
+def test_assets_mesh_that_does_not_read_is_an_error_at_its_path():
+    data = _scene(materials={"m": {}}, objects=[_mesh("data:model/obj,hello"), _mesh("bricks.png")])
+    errors = validate_scene(data, assets=ASSET_DIR)["errors"]
+    assert errors == [
+        {"path": "objects[0].file", "message": "the data: URI holds no triangles"},
+        {
+            "path": "objects[1].file",
+            "message": "could not read asset file 'bricks.png' as a mesh (OBJ, PLY, glTF): "
+            "file_type 'png' not supported",
+        },
+    ]
 
 
 def test_scene_adaptive_sampler_warns_about_spp_and_filter():

@@ -3,7 +3,7 @@
 python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
                         [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
 python -m tracer raytree SCENE.json X Y [--sample K]
-python -m tracer validate SCENE.json
+python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
     SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
@@ -73,7 +73,7 @@ def cmd_render(args) -> int:
     from tracer.film import aov_layers, write_exr, write_png
     from tracer.render import render
 
-    scene, warnings = load_scene(_overrides(_read_json(args.scene), args))
+    scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_warnings(warnings)
     cs = compile_scene(scene, asset_dir=Path(args.assets), solve_radiosity=False)  # render() solves, with progress
     bars: dict = {}
@@ -121,7 +121,7 @@ def cmd_render(args) -> int:
 def cmd_raytree(args) -> int:
     from tracer.raytree import ray_tree
 
-    scene, warnings = load_scene(_read_json(args.scene))
+    scene, warnings = load_scene(_read_json(args.scene), assets=args.assets)
     from tracer.compile import compile_scene
 
     tree = ray_tree(compile_scene(scene, asset_dir=Path(args.assets)), args.x, args.y, args.sample)
@@ -131,7 +131,7 @@ def cmd_raytree(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    report = validate_scene(_read_json(args.scene))
+    report = validate_scene(_read_json(args.scene), assets=args.assets)
     _print_warnings(report["warnings"])
     if not report["valid"]:
         _print_errors(SceneError(report["errors"]))
@@ -226,6 +226,9 @@ def cmd_grade(args) -> int:
     return 0
 
 
+ASSETS_HELP = "folder that mesh and image files are read from (default: scenes/assets)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tracer", description="Educational ray tracer on NVIDIA Warp.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -246,7 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="with --exr: add layers depth.Z, normal, albedo, rays.Y (rays per pixel) and variance",
     )
-    r.add_argument("--assets", default=str(ASSET_DIR), help="folder that mesh and texture files are read from")
+    r.add_argument("--assets", default=str(ASSET_DIR), help=ASSETS_HELP)
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_render)
 
@@ -256,11 +259,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("y", type=int, help="row from the top")
     t.add_argument("--sample", type=int, default=0)
     t.add_argument("--pretty", action="store_true", help="indent the JSON")
-    t.add_argument("--assets", default=str(ASSET_DIR))
+    t.add_argument("--assets", default=str(ASSET_DIR), help=ASSETS_HELP)
     t.set_defaults(func=cmd_raytree)
 
-    v = sub.add_parser("validate", help="check a scene; errors with JSON paths, exit status 1 when invalid")
+    v = sub.add_parser(
+        "validate", help="check a scene and its asset files; errors with JSON paths, exit status 1 when invalid"
+    )
     v.add_argument("scene")
+    v.add_argument("--assets", default=str(ASSET_DIR), help=ASSETS_HELP)
     v.set_defaults(func=cmd_validate)
 
     b = sub.add_parser("bench", help="measure Msamples/s and Mrays/s per ray kind on the example scenes")

@@ -8,8 +8,6 @@ content is data only: no kernel source is ever generated from a scene.
 
 from __future__ import annotations
 
-import base64
-import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,8 +15,9 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
+from tracer.assets import ASSET_DIR, load_image, load_mesh_file  # noqa: F401 (load_mesh_file: re-exported)
 from tracer.kinds import Bump, FilterKind, Integrator, LightKind, SamplerKind, Shape, Texture
-from tracer.scene import ASSET_DIR, Scene, SceneError, json_path, resolve_asset
+from tracer.scene import Scene, json_path
 
 
 @wp.struct
@@ -289,50 +288,6 @@ def box_faces(bmin, bmax, transform) -> list[tuple[np.ndarray, np.ndarray, np.nd
 # ----------------------------------------------------------------------------- meshes
 
 
-def load_mesh_file(file: str, path: str, asset_dir: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Vertices, faces and (optional) per-vertex uvs of an OBJ/PLY/glTF asset or a data: URI."""
-    import trimesh
-
-    try:
-        if file.startswith("data:"):
-            header, _, payload = file.partition(",")
-            kind = header[5:].split(";")[0]
-            ext = {
-                "model/obj": "obj",
-                "text/plain": "obj",
-                "model/gltf-binary": "glb",
-                "model/gltf+json": "gltf",
-                "application/ply": "ply",
-                "model/ply": "ply",
-            }.get(kind)
-            if ext is None:
-                raise SceneError(
-                    [
-                        {
-                            "path": path,
-                            "message": f"unsupported data: URI type '{kind}' "
-                            "(expected model/obj, model/ply or model/gltf-binary)",
-                        }
-                    ]
-                )
-            raw = base64.b64decode(payload) if ";base64" in header else payload.encode()
-            tm = trimesh.load(io.BytesIO(raw), file_type=ext, force="mesh", process=False)
-        else:
-            real = resolve_asset(file, path, asset_dir)
-            tm = trimesh.load(str(real), force="mesh", process=False)
-    except SceneError:
-        raise
-    except Exception as exc:  # a broken asset is the user's error, not a crash
-        raise SceneError([{"path": path, "message": f"could not read mesh '{file[:80]}': {exc}"}]) from exc
-    verts = np.asarray(tm.vertices, dtype=np.float64)
-    faces = np.asarray(tm.faces, dtype=np.int64)
-    if len(faces) == 0:
-        raise SceneError([{"path": path, "message": f"mesh '{file[:80]}' has no triangles"}])
-    uv = getattr(getattr(tm, "visual", None), "uv", None)
-    uv = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(verts) else None
-    return verts, faces, uv
-
-
 def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area-weighted vertex normals (faces oriented by their vertex order)."""
     fn = np.cross(verts[faces[:, 1]] - verts[faces[:, 0]], verts[faces[:, 2]] - verts[faces[:, 0]])
@@ -359,20 +314,7 @@ class _Images:
     def add(self, file: str, path: str) -> int:
         if file in self.index:
             return self.index[file]
-        from PIL import Image
-
-        try:
-            if file.startswith("data:"):
-                header, _, payload = file.partition(",")
-                img = Image.open(io.BytesIO(base64.b64decode(payload)))
-            else:
-                img = Image.open(resolve_asset(file, path, self.asset_dir))
-            rgb = np.asarray(img.convert("RGB"), dtype=np.float32) / 255.0
-        except SceneError:
-            raise
-        except Exception as exc:
-            raise SceneError([{"path": path, "message": f"could not read image '{file[:80]}': {exc}"}]) from exc
-        lin = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+        lin = load_image(file, path, self.asset_dir)
         h, w = lin.shape[:2]
         self.index[file] = len(self.info)
         self.info.append((self.offset, w, h))

@@ -4,27 +4,31 @@ The contract is SCENE_FORMAT.md; the models below are its executable form, and e
 description (meaning and unit) is published in the JSON Schema the web editor uses.
 Validation works in three steps, each reporting at the offending field's own JSON path:
 
-1. the models: types, ranges, unknown keys (`extra="forbid"`), and checks between fields of one
-   model (degenerate quads, lookfrom == lookat, ...), raised with explicit locations;
+1. the models: types, ranges (numbers finite and inside float32's), unknown keys
+   (`extra="forbid"`), and checks between fields of one model (`_checks`: degenerate quads,
+   lookfrom == lookat, ...) at explicit locations. Those checks run even when other fields of
+   the model failed, on the fields that are valid, so every independent error comes at once;
 2. `_translate`: pydantic's error location -> JSON path (`objects[3].radius`, union tags dropped)
    and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
 3. `_warnings`: settings that have no effect, found from `model_fields_set`.
 
-Service limits (`Limits`) and the set of material names reach the validators through pydantic's
-validation context, so an undefined material is reported even when other parts are invalid.
+Service limits (`Limits`), the set of material names and, when asked (`load_scene(...,
+assets=DIR)`), the asset folder reach the validators through pydantic's validation context: an
+undefined material is reported even when other parts are invalid, and the asset files (tracer/
+assets.py) are resolved and read as part of validation, their errors at their own paths too.
 """
 
 import dataclasses
 import difflib
+import functools
 import json
 import math
-import posixpath
 import re
 from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
-from annotated_types import Ge
+from annotated_types import Ge, Gt, Le
 from pydantic import (
     AfterValidator,
     AllowInfNan,
@@ -35,14 +39,25 @@ from pydantic import (
     Field,
     Strict,
     Tag,
+    TypeAdapter,
     ValidationError,
     ValidationInfo,
     field_validator,
     model_validator,
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
+from pydantic_core.core_schema import ErrorType
 
-ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
+from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-exported, tracer.scene's since v1)
+    ASSET_DIR,
+    FLOAT32_MAX,
+    AssetError,
+    image_size,
+    path_problem,
+    read_mesh,
+    resolve_asset,
+)
+from tracer.errors import SceneError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,15 +70,8 @@ class Limits:
     max_spp: int = 65536
     max_depth: int = 64
     max_light_samples: int = 1024
-    max_primitives: int = 5_000_000
-
-
-class SceneError(Exception):
-    """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...}."""
-
-    def __init__(self, errors: list[dict[str, str]]):
-        self.errors = list(errors)
-        super().__init__("\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors))
+    max_primitives: int = 5_000_000  # shapes plus triangles, those of mesh files included
+    max_texture_pixels: int = 67_108_864  # width x height of one texture or bump image (8192 x 8192)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -102,6 +110,14 @@ def _finite(v: float) -> bool:
 
 
 FINITE = "must be a finite number (not NaN or Infinity)"
+FLOAT32 = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
+
+
+def _float32(v: Any) -> Any:
+    """Before-validator: a finite number past float32's range is an error (NaN, Infinity: the type's)."""
+    if _is_number(v) and _finite(v) and abs(v) > FLOAT32_MAX:
+        raise _error(FLOAT32)
+    return v
 
 
 def _triple(expected: str, scalar=None):
@@ -113,7 +129,7 @@ def _triple(expected: str, scalar=None):
         if scalar is not None and _is_number(v):
             if not _finite(v):
                 raise _error(FINITE)
-            return scalar(v)
+            return scalar(_float32(v))
         raise _error(f"expected {expected}, got {_show(v)}")
 
     return check
@@ -155,27 +171,57 @@ def _pair(v: Any) -> Any:
     raise _error(f"expected a pair [a, b], got {_show(v)}")
 
 
+def _asset_dir(info: ValidationInfo) -> Path | None:
+    """The asset folder to resolve files in, when validation is asked to (`load_scene(..., assets=DIR)`)."""
+    return (info.context or {}).get("assets")
+
+
 def _asset_file(v: str) -> str:
     """A file never reaches outside the asset folder (existence is checked by `resolve_asset`)."""
-    if v.startswith("data:"):
-        return v
-    posix = v.replace("\\", "/")
-    if not posix:
-        raise _error("must not be empty")
-    if posix.startswith("/") or re.match(r"[A-Za-z]:", posix):
-        raise _error("must be a path relative to the asset folder, not an absolute path")
-    if posixpath.normpath(posix).split("/")[0] == "..":
-        raise _error("must not reach outside the asset folder ('..')")
+    problem = path_problem(v)
+    if problem:
+        raise _error(problem)
     return v
 
 
-Num = Annotated[float, Strict(), AllowInfNan(False)]
+def _image_file(v: str, info: ValidationInfo) -> str:
+    """With an asset folder: the image exists (or is a data: URI) and its header is readable; no pixels decoded."""
+    folder = _asset_dir(info)
+    if folder is not None:
+        try:
+            width, height = image_size(v, folder)
+        except AssetError as e:
+            raise _error(e.message) from None
+        limit = _limits(info).max_texture_pixels
+        if width * height > limit:
+            raise _error(f"the image is {width}x{height} = {width * height} pixels; {_limit(limit)}")
+    return v
+
+
+def _mesh_file(v: str, info: ValidationInfo) -> str:
+    """With an asset folder: the mesh exists (or is a data: URI) and reads as triangles."""
+    folder = _asset_dir(info)
+    if folder is not None:
+        try:
+            read_mesh(v, folder)
+        except AssetError as e:
+            raise _error(e.message) from None
+    return v
+
+
+# Numbers are finite and inside float32's range, the renderer's. The components of vectors and colours
+# (F32, NonNeg) have that range as bounds of their own check (no Python call per vertex). A scalar field
+# may add bounds (Field(gt=0, le=180)), which an annotation's bounds would override: its number (Num,
+# Positive) checks the range in a before-validator instead.
+F32 = Annotated[float, Strict(), AllowInfNan(False), Ge(-FLOAT32_MAX), Le(FLOAT32_MAX)]
+NonNeg = Annotated[float, Strict(), AllowInfNan(False), Ge(0), Le(FLOAT32_MAX)]
+Num = Annotated[float, Strict(), AllowInfNan(False), BeforeValidator(_float32)]
+Positive = Annotated[float, Strict(), AllowInfNan(False), Gt(0), BeforeValidator(_float32)]
 Int = Annotated[int, Strict()]
 Bool = Annotated[bool, Strict()]
 Str = Annotated[str, Strict()]
-NonNeg = Annotated[Num, Ge(0)]
-Vec3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a point [x, y, z]"))]
-Dir3 = Annotated[tuple[Num, Num, Num], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
+Vec3 = Annotated[tuple[F32, F32, F32], BeforeValidator(_triple("a point [x, y, z]"))]
+Dir3 = Annotated[tuple[F32, F32, F32], BeforeValidator(_triple("a vector [x, y, z]")), AfterValidator(_nonzero_length)]
 RGB = Annotated[
     tuple[NonNeg, NonNeg, NonNeg],
     BeforeValidator(
@@ -186,7 +232,7 @@ RGB = Annotated[
 Attenuation = Annotated[
     tuple[NonNeg, NonNeg, NonNeg], BeforeValidator(_triple("[c1, c2, c3]")), AfterValidator(_not_all_zero)
 ]
-NonZero = Annotated[Num, AfterValidator(_nonzero)]
+NonZero = Annotated[F32, AfterValidator(_nonzero)]
 Scale3 = Annotated[
     tuple[NonZero, NonZero, NonZero],
     BeforeValidator(
@@ -194,9 +240,11 @@ Scale3 = Annotated[
         json_schema_input_type=Union[Num, tuple[Num, Num, Num]],  # noqa: UP007
     ),
 ]
-Pair = Annotated[tuple[Num, Num], BeforeValidator(_pair)]
+Pair = Annotated[tuple[F32, F32], BeforeValidator(_pair)]
 Face = Annotated[tuple[Int, Int, Int], BeforeValidator(_triple("a face [i, j, k] of three vertex indices"))]
 AssetFile = Annotated[Str, AfterValidator(_asset_file)]
+ImageFile = Annotated[AssetFile, AfterValidator(_image_file)]
+MeshFile = Annotated[AssetFile, AfterValidator(_mesh_file)]
 
 
 def _length(v) -> float:
@@ -221,8 +269,90 @@ def _limit(n: int) -> str:
     return f"must be at most {n} (service limit)"
 
 
+_KNOWN_ERRORS = frozenset(get_args(ErrorType))
+
+
+def _details(err: dict) -> InitErrorDetails:
+    """A pydantic error as raised (ValidationError.errors()) -> the same error, to raise again."""
+    ctx = err.get("ctx")
+    if err["type"] in _KNOWN_ERRORS:
+        detail = InitErrorDetails(type=err["type"], loc=err["loc"], input=err.get("input"))
+        if ctx is not None:
+            detail["ctx"] = ctx
+        return detail
+    custom = PydanticCustomError(err["type"], "{message}", {**(ctx or {}), "message": err["msg"]})
+    return InitErrorDetails(type=custom, loc=err["loc"], input=err.get("input"))
+
+
+@functools.cache
+def _field_adapter(model: type[BaseModel], name: str) -> TypeAdapter:
+    field = model.model_fields[name]
+    return TypeAdapter(Annotated[field.annotation, field])
+
+
+class _Partial:
+    """The valid fields of a model input whose validation failed: each field is validated alone on
+    first use; a field that failed (or is missing) is not there at all, so `_has` says False."""
+
+    def __init__(self, model: type[BaseModel], data: dict, failed: set, context: Any):
+        self._model, self._data, self._failed, self._context = model, data, failed, context
+        self.model_fields_set = {k for k in data if k in model.model_fields}
+
+    def __getattr__(self, name: str) -> Any:
+        field = self._model.model_fields.get(name)
+        if field is None or name in self._failed:
+            raise AttributeError(name)
+        if name in self._data:
+            try:
+                value = _field_adapter(self._model, name).validate_python(self._data[name], context=self._context)
+            except ValidationError:
+                raise AttributeError(name) from None
+        elif field.is_required():
+            raise AttributeError(name)
+        else:
+            value = field.get_default(call_default_factory=True)
+        setattr(self, name, value)
+        return value
+
+
+def _has(v: Any, *names: str) -> bool:
+    """True when the fields `names` of a model (or a _Partial) are valid, so a check may read them."""
+    return all(hasattr(v, n) for n in names)
+
+
 class _Model(BaseModel):
+    """Base of every scene model: unknown keys are errors, and every independent error is reported.
+
+    Checks between fields (`_checks`) run on the valid model, and also when some fields failed: then
+    on the fields that are valid (`_Partial`), so fixing one error never reveals another that was
+    there all along. A check reads only what `_has` says is valid."""
+
     model_config = ConfigDict(extra="forbid")
+
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        """(location relative to the model, message) of each failed check between fields."""
+        return []
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _every_error(cls, data: Any, handler, info: ValidationInfo) -> Any:
+        if cls._checks.__func__ is _Model._checks.__func__:
+            return handler(data)
+        try:
+            model = handler(data)
+        except ValidationError as exc:
+            if not isinstance(data, dict):
+                raise
+            errors = exc.errors()
+            failed = {e["loc"][0] for e in errors if e["loc"]}
+            found = cls._checks(_Partial(cls, data, failed, info.context), info)
+            if not found:
+                raise
+            extra = [InitErrorDetails(type=_error(msg), loc=loc, input=None) for loc, msg in found]
+            raise ValidationError.from_exception_data(cls.__name__, [*map(_details, errors), *extra]) from None
+        _raise_at(cls._checks(model, info))
+        return model
 
 
 # ---------------------------------------------------------------------------------------------
@@ -237,23 +367,23 @@ class Camera(_Model):
     vup: Dir3 = Field((0.0, 1.0, 0.0), description="World 'up' direction; fixes the roll of the camera.")
     vfov: Num = Field(40.0, gt=0, lt=180, description="FULL vertical field of view (degrees).")
     lens_radius: Num = Field(0.0, ge=0, description="Thin-lens aperture radius (world units); 0 = pinhole.")
-    focus_distance: Num | None = Field(
-        None, gt=0, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
+    focus_distance: Positive | None = Field(
+        None, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
     )
     shutter: Pair = Field((0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0).")
 
-    @model_validator(mode="after")
-    def _check_view(self) -> "Camera":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         errors = []
-        forward = _sub(self.lookat, self.lookfrom)
-        if _length(forward) == 0:
-            errors.append((("lookat",), "must differ from lookfrom (no view direction)"))
-        elif _parallel(forward, self.vup):
-            errors.append((("vup",), "must not be parallel to the view direction (lookat - lookfrom)"))
-        if self.shutter[1] < self.shutter[0]:
+        if _has(v, "lookat", "lookfrom"):
+            forward = _sub(v.lookat, v.lookfrom)
+            if _length(forward) == 0:
+                errors.append((("lookat",), "must differ from lookfrom (no view direction)"))
+            elif _has(v, "vup") and _parallel(forward, v.vup):
+                errors.append((("vup",), "must not be parallel to the view direction (lookat - lookfrom)"))
+        if _has(v, "shutter") and v.shutter[1] < v.shutter[0]:
             errors.append((("shutter",), "close time must be >= open time"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 FILTER_RADIUS = {"box": 0.5, "tent": 1.0, "gaussian": 1.5, "mitchell": 2.0}
@@ -263,9 +393,8 @@ class Filter(_Model):
     """Pixel reconstruction filter."""
 
     type: Literal["box", "tent", "gaussian", "mitchell"] = Field("box", description="Filter shape.")
-    radius: Num | None = Field(
+    radius: Positive | None = Field(
         None,
-        gt=0,
         description="Filter radius (pixels); null = the type's default: box 0.5, tent 1, gaussian 1.5, mitchell 2.",
     )
 
@@ -284,18 +413,17 @@ class Film(_Model):
     filter: Filter = Field(default_factory=Filter, description="Reconstruction filter.")
     exposure: Num = Field(0.0, description="Exposure (stops); the PNG stores sRGB(clamp(2^exposure L)).")
 
-    @model_validator(mode="after")
-    def _check_limits(self, info: ValidationInfo) -> "Film":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
-        if self.width > limits.max_width:
+        if _has(v, "width") and v.width > limits.max_width:
             errors.append((("width",), _limit(limits.max_width)))
-        if self.height > limits.max_height:
+        if _has(v, "height") and v.height > limits.max_height:
             errors.append((("height",), _limit(limits.max_height)))
-        if not errors and self.width * self.height > limits.max_pixels:
-            pixels = self.width * self.height
+        if not errors and _has(v, "width", "height") and v.width * v.height > limits.max_pixels:
+            pixels = v.width * v.height
             errors.append((("height",), f"width x height = {pixels} pixels; {_limit(limits.max_pixels)}"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class Sampler(_Model):
@@ -317,20 +445,29 @@ class Sampler(_Model):
     jitter: Bool = Field(False, description="adaptive: random sample positions inside the cells.")
 
     @model_validator(mode="after")
-    def _check_spp(self, info: ValidationInfo) -> "Sampler":
-        if self.spp is None:
+    def _default_spp(self) -> "Sampler":
+        if self.spp is None:  # filled in without marking the field as set by the user
             object.__setattr__(self, "spp", 1 if self.type == "center" else 16)
-        spp, limits, errors = self.spp, _limits(info), []
+        return self
+
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        kind = v.type if _has(v, "type") else None
+        spp = v.spp if _has(v, "spp") else None
+        if spp is None and kind is not None:
+            spp = 1 if kind == "center" else 16
+        if spp is None:
+            return []
+        limits, errors = _limits(info), []
         root = math.isqrt(spp)
-        if self.type == "center" and spp != 1:
+        if kind == "center" and spp != 1:
             errors.append((("spp",), "must be 1 for the center sampler"))
-        elif self.type in ("grid", "jittered") and root * root != spp:
+        elif kind in ("grid", "jittered") and root * root != spp:
             nearest = f"{root * root} or {(root + 1) ** 2}"
-            errors.append((("spp",), f"must be a perfect square for the {self.type} sampler (e.g. {nearest})"))
+            errors.append((("spp",), f"must be a perfect square for the {kind} sampler (e.g. {nearest})"))
         elif spp > limits.max_spp:
             errors.append((("spp",), _limit(limits.max_spp)))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class RadiositySettings(_Model):
@@ -361,15 +498,14 @@ class RenderSettings(_Model):
         default_factory=RadiositySettings, description="Settings of the radiosity integrator."
     )
 
-    @model_validator(mode="after")
-    def _check_limits(self, info: ValidationInfo) -> "RenderSettings":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
-        if self.max_depth > limits.max_depth:
+        if _has(v, "max_depth") and v.max_depth > limits.max_depth:
             errors.append((("max_depth",), _limit(limits.max_depth)))
-        if self.light_samples > limits.max_light_samples:
+        if _has(v, "light_samples") and v.light_samples > limits.max_light_samples:
             errors.append((("light_samples",), _limit(limits.max_light_samples)))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 class Fog(_Model):
@@ -396,7 +532,7 @@ class ImageTexture(_Model):
     """An image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Texture type.")
-    file: AssetFile = Field(description="Image file in the asset folder, or a data: URI.")
+    file: ImageFile = Field(description="Image file in the asset folder, or a data: URI.")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
 
@@ -412,7 +548,7 @@ class ImageBump(_Model):
     """Bump mapping by a height image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Bump type.")
-    file: AssetFile = Field(description="Height image in the asset folder, or a data: URI.")
+    file: ImageFile = Field(description="Height image in the asset folder, or a data: URI.")
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
@@ -438,9 +574,8 @@ class Material(_Model):
         False,
         description="Scale reflection and transmission weights by the dielectric Fresnel terms R, 1 - R.",
     )
-    gloss: Num | None = Field(
+    gloss: Positive | None = Field(
         None,
-        gt=0,
         description="null: perfect mirror/refraction rays; "
         "m: directions spread in a cos^m lobe (glossy reflection, frosted glass).",
     )
@@ -511,11 +646,11 @@ class QuadLight(_Model):
     edge2: Dir3 = Field(description="Second edge from the corner (world units).")
     radiance: RGB = Field((1.0, 1.0, 1.0), description="Emitted radiance (W / (m^2 sr)).")
 
-    @model_validator(mode="after")
-    def _check_edges(self) -> "QuadLight":
-        if _parallel(self.edge1, self.edge2):
-            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "edge1", "edge2") and _parallel(v.edge1, v.edge2):
+            return [(("edge2",), "must not be parallel to edge1 (degenerate quad)")]
+        return []
 
 
 class DiskLight(_Model):
@@ -604,11 +739,11 @@ class Quad(_Object):
     edge1: Dir3 = Field(description="First edge from the corner (world units).")
     edge2: Dir3 = Field(description="Second edge from the corner (world units).")
 
-    @model_validator(mode="after")
-    def _check_edges(self) -> "Quad":
-        if _parallel(self.edge1, self.edge2):
-            _raise_at([(("edge2",), "must not be parallel to edge1 (degenerate quad)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "edge1", "edge2") and _parallel(v.edge1, v.edge2):
+            return [(("edge2",), "must not be parallel to edge1 (degenerate quad)")]
+        return []
 
 
 class Disk(_Object):
@@ -628,16 +763,15 @@ class Box(_Object):
     max: Vec3 = Field(description="Maximum corner (world units, before the transform).")
     transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the box.")
 
-    @model_validator(mode="after")
-    def _check_extent(self) -> "Box":
-        _raise_at(
-            [
-                (("max", axis), f"must be greater than min[{axis}] = {self.min[axis]:g}")
-                for axis in range(3)
-                if self.max[axis] <= self.min[axis]
-            ]
-        )
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if not _has(v, "min", "max"):
+            return []
+        return [
+            (("max", axis), f"must be greater than min[{axis}] = {v.min[axis]:g}")
+            for axis in range(3)
+            if v.max[axis] <= v.min[axis]
+        ]
 
 
 class Triangle(_Object):
@@ -648,12 +782,13 @@ class Triangle(_Object):
         tuple[Vec3, Vec3, Vec3], BeforeValidator(_triple("three vertices [[x, y, z], [x, y, z], [x, y, z]]"))
     ] = Field(description="The three vertices v0, v1, v2 (world units).")
 
-    @model_validator(mode="after")
-    def _check_area(self) -> "Triangle":
-        v0, v1, v2 = self.vertices
-        if _parallel(_sub(v1, v0), _sub(v2, v0)):
-            _raise_at([(("vertices",), "the three vertices are collinear (degenerate triangle)")])
-        return self
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if _has(v, "vertices"):
+            v0, v1, v2 = v.vertices
+            if _parallel(_sub(v1, v0), _sub(v2, v0)):
+                return [(("vertices",), "the three vertices are collinear (degenerate triangle)")]
+        return []
 
 
 class Mesh(_Object):
@@ -666,30 +801,32 @@ class Mesh(_Object):
         min_length=1,
         description="Inline triangles as vertex indices [i, j, k] (0-based, counter-clockwise).",
     )
-    file: AssetFile | None = Field(None, description="Mesh file in the asset folder, or a data: URI.")
+    file: MeshFile | None = Field(None, description="Mesh file in the asset folder, or a data: URI.")
     transform: Transform | None = Field(None, description="Scale, rotate, translate applied to the mesh.")
     smooth: Bool = Field(False, description="Interpolate vertex normals (smooth shading).")
 
-    @model_validator(mode="after")
-    def _check_source(self) -> "Mesh":
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        def given(field: str) -> bool:  # set to something other than null (valid or not)
+            return field in v.model_fields_set and (not _has(v, field) or getattr(v, field) is not None)
+
         errors = []
-        if self.file is not None:
-            if self.vertices is not None or self.faces is not None:
+        if given("file"):
+            if given("vertices") or given("faces"):
                 errors.append((("file",), "give either 'file' or inline 'vertices' + 'faces', not both"))
         else:
             for field in ("vertices", "faces"):
-                if getattr(self, field) is None:
+                if not given(field):
                     errors.append(((field,), f"required field '{field}' is missing (or give a 'file')"))
-        if self.vertices is not None and self.faces is not None:
-            n, bad = len(self.vertices), []
-            for k, face in enumerate(self.faces):
+        if _has(v, "vertices", "faces") and v.vertices is not None and v.faces is not None:
+            n, bad = len(v.vertices), []
+            for k, face in enumerate(v.faces):
                 bad += [(k, j, i) for j, i in enumerate(face) if not 0 <= i < n]
             for k, j, i in bad[:10]:
                 errors.append((("faces", k, j), f"vertex index {i} is out of range (the mesh has {n} vertices)"))
             if len(bad) > 10:
                 errors.append((("faces",), f"{len(bad) - 10} more vertex indices are out of range"))
-        _raise_at(errors)
-        return self
+        return errors
 
 
 Object = Annotated[Sphere | Plane | Quad | Disk | Box | Triangle | Mesh, Field(discriminator="type")]
@@ -700,6 +837,20 @@ def primitive_count(objects: list) -> int:
 
     Meshes from files are not counted here (their size is known when the file is read)."""
     return sum(len(o.faces or ()) if isinstance(o, Mesh) else 12 if isinstance(o, Box) else 1 for o in objects)
+
+
+def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
+    """Object index -> triangles of its mesh file, when validation resolves assets (read once: cached)."""
+    folder, out = _asset_dir(info), {}
+    if folder is None:
+        return out
+    for i, o in enumerate(objects):
+        if isinstance(o, Mesh) and o.file is not None:
+            try:
+                out[i] = len(read_mesh(o.file, folder)[1])
+            except AssetError:  # reported at objects[i].file
+                pass
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -729,19 +880,26 @@ class Scene(_Model):
     lights: list[Light] = Field(default_factory=list, description="Light sources.")
     objects: list[Object] = Field(default_factory=list, description="Surfaces.")
 
-    @model_validator(mode="after")
-    def _check_scene(self, info: ValidationInfo) -> "Scene":
-        errors = [
-            (("objects", i, "material"), _unknown_material(o.material, self.materials))
-            for i, o in enumerate(self.objects)
-            if isinstance(o.material, str) and o.material not in self.materials
-        ]
+    @classmethod
+    def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+        if not _has(v, "objects"):
+            return []
+        errors = []
+        if _has(v, "materials"):
+            errors += [
+                (("objects", i, "material"), _unknown_material(o.material, v.materials))
+                for i, o in enumerate(v.objects)
+                if isinstance(o.material, str) and o.material not in v.materials
+            ]
         limits = _limits(info)
-        if primitive_count(self.objects) > limits.max_primitives:
-            count = primitive_count(self.objects)
-            errors.append((("objects",), f"{count} primitives; {_limit(limits.max_primitives)}"))
-        _raise_at(errors)
-        return self
+        files = _file_triangles(v.objects, info)
+        count = primitive_count(v.objects) + sum(files.values())
+        if count > limits.max_primitives:
+            biggest = sorted(files.items(), key=lambda item: -item[1])[:3]
+            where = ", ".join(f"objects[{i}].file: {n} triangles" for i, n in biggest)
+            where = f" ({where})" if where else ""
+            errors.append((("objects",), f"{count} primitives{where}; {_limit(limits.max_primitives)}"))
+        return errors
 
     def material_for(self, obj: _Object) -> Material:
         """The object's material: its inline one, or the named one from `materials`."""
@@ -879,6 +1037,8 @@ def _translate(err: dict) -> dict[str, str]:
         choices = [str(c) for c in get_args(tp)] if get_origin(tp) is Literal else []
         given = err.get("input")
         message = f"expected one of: {', '.join(choices)}; got {_show(given)}{_suggest(given, choices)}"
+    elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge"))) == FLOAT32_MAX:
+        message = FLOAT32  # the bounds of F32 and NonNeg
     elif kind in _MESSAGES:
         values = {k: _num(v) for k, v in ctx.items()}
         message = _MESSAGES[kind].format(input=_show(err.get("input")), **values)
@@ -949,8 +1109,34 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
 # Public entry points.
 
 
+def _scene_file(text: str) -> Path | None:
+    """The text as the path of an existing file, or None (it is not one, or cannot be one)."""
+    if "\n" in text or len(text) > 4096:
+        return None
+    try:
+        path = Path(text)
+        return path if path.is_file() else None
+    except (OSError, ValueError):  # a NUL byte, a name too long
+        return None
+
+
+def _not_json(text: str, e: json.JSONDecodeError) -> str:
+    """Why a text that is not JSON is not a scene either (it is no file's path)."""
+    where = f"line {e.lineno}, column {e.colno}"
+    if not text.strip():
+        return "the scene text is empty: expected JSON {...} or the path of a scene file"
+    if text.lstrip()[:1] in ("{", "["):
+        return f"invalid JSON at {where}: {e.msg}"
+    if "\n" not in text and (text.strip().lower().endswith(".json") or "/" in text or "\\" in text):
+        return f"cannot read scene file {text}: no such file (and the text is not JSON either)"
+    shown = text.strip()[:40] + ("..." if len(text.strip()) > 40 else "")
+    return f"'{shown}' is neither JSON (invalid JSON at {where}: {e.msg}) nor the path of a scene file"
+
+
 def _parse(src: Any) -> dict:
-    """dict, JSON text (str or bytes) or a Path to a .json file -> the scene dict."""
+    """dict, JSON text (str or bytes), or a scene file's path (Path or str) -> the scene dict."""
+    if isinstance(src, str) and src.lstrip()[:1] not in ("{", "["):
+        src = _scene_file(src) or src  # "scenes/cornell.json" is a path; '{"camera": ...}' is JSON
     if isinstance(src, Path):
         try:
             src = src.read_text(encoding="utf-8")
@@ -965,8 +1151,7 @@ def _parse(src: Any) -> dict:
         try:
             src = json.loads(src)
         except json.JSONDecodeError as e:
-            where = f"line {e.lineno}, column {e.colno}"
-            raise SceneError([{"path": "", "message": f"invalid JSON at {where}: {e.msg}"}]) from None
+            raise SceneError([{"path": "", "message": _not_json(src, e)}]) from None
         except (ValueError, RecursionError) as e:  # e.g. an integer of more than 4300 digits
             raise SceneError([{"path": "", "message": f"invalid JSON: {e}"}]) from None
     if not isinstance(src, dict):
@@ -974,13 +1159,23 @@ def _parse(src: Any) -> dict:
     return src
 
 
-def load_scene(src: Any, limits: Limits | None = None) -> tuple[Scene, list[dict[str, str]]]:
-    """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error."""
+def load_scene(
+    src: Any, limits: Limits | None = None, assets: Path | str | None = None
+) -> tuple[Scene, list[dict[str, str]]]:
+    """Parse and validate a scene: (Scene, warnings). Raises SceneError listing every error.
+
+    `src`: a dict, JSON text (str or bytes), or the path of a scene file (Path or str).
+    `assets`: the asset folder (ASSET_DIR is the default one) to resolve the scene's files in, so that
+    a missing or unreadable mesh or image, a data: URI that is not one, and the triangles of mesh files
+    past `limits.max_primitives` are errors here too, at their JSON paths. None checks the format
+    only (the renderer reads the files, and says what is wrong with them, when it compiles the scene).
+    """
     data = _parse(src)
     materials = data.get("materials")
     context = {
         "limits": limits or Limits(),
         "material_names": set(materials) if isinstance(materials, dict) else None,
+        "assets": None if assets is None else Path(assets),
     }
     try:
         scene = Scene.model_validate(data, context=context)
@@ -994,10 +1189,12 @@ def load_scene(src: Any, limits: Limits | None = None) -> tuple[Scene, list[dict
     return scene, _warnings(scene)
 
 
-def validate_scene(src: Any, limits: Limits | None = None) -> dict:
-    """{"valid": bool, "errors": [...], "warnings": [...]}; never raises for a bad scene."""
+def validate_scene(src: Any, limits: Limits | None = None, assets: Path | str | None = None) -> dict:
+    """{"valid": bool, "errors": [...], "warnings": [...]}; never raises for a bad scene.
+
+    With `assets` (a folder, see `load_scene`) the scene's files are resolved and checked too."""
     try:
-        _, warnings = load_scene(src, limits)
+        _, warnings = load_scene(src, limits, assets)
     except SceneError as e:
         return {"valid": False, "errors": e.errors, "warnings": []}
     return {"valid": True, "errors": [], "warnings": warnings}
@@ -1006,27 +1203,3 @@ def validate_scene(src: Any, limits: Limits | None = None) -> dict:
 def scene_json_schema() -> dict:
     """The JSON Schema (draft 2020-12) of a scene, generated from the models, with descriptions."""
     return {"$schema": "https://json-schema.org/draft/2020-12/schema", **Scene.model_json_schema()}
-
-
-def resolve_asset(file: str, path: str, asset_dir: Path = ASSET_DIR) -> Path | None:
-    """The real path of an asset `file` inside `asset_dir`; None for a data: URI.
-
-    Raises SceneError at JSON path `path` when `file` is absolute, reaches outside the asset folder
-    (after resolving '..' and symbolic links) or does not exist."""
-    if file.startswith("data:"):
-        return None
-    try:
-        _asset_file(file)
-    except PydanticCustomError as e:
-        raise SceneError([{"path": path, "message": e.message()}]) from None
-    try:
-        root = Path(asset_dir).resolve()
-        target = (root / file).resolve()
-        inside, exists = target.is_relative_to(root), target.is_file()
-    except (OSError, ValueError, RuntimeError) as e:  # a NUL byte, a symbolic link loop, a long name
-        raise SceneError([{"path": path, "message": f"cannot resolve asset file '{file}': {e}"}]) from None
-    if not inside:
-        raise SceneError([{"path": path, "message": "must not reach outside the asset folder"}])
-    if not exists:
-        raise SceneError([{"path": path, "message": f"asset file '{file}' not found in the asset folder"}])
-    return target

@@ -5,12 +5,11 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import AsyncIterator
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
-from pydantic import BaseModel
 
 from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
 from server.errors import ApiError
@@ -18,7 +17,7 @@ from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatu
 from server.settings import Settings
 from server.store import JobStore, QueueFull
 from server.worker import AOV_NAMES, aov_path
-from tracer.scene import Scene, SceneError, json_path, load_scene, resolve_asset
+from tracer.scene import ASSET_DIR, Scene, SceneError, load_scene
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -29,41 +28,12 @@ NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
 
 
 def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
-    """Validate a scene for rendering: the format and limits, and its asset files."""
+    """Validate a scene for rendering: the format, the limits, and its asset files, resolved in the asset
+    folder as the worker will (a mesh read and its triangles counted, an image's header read)."""
     try:
-        scene, warnings = load_scene(data, settings.limits)
+        return load_scene(data, settings.limits, assets=ASSET_DIR)
     except SceneError as exc:
         raise ApiError(422, exc.errors) from None
-    errors = asset_errors(scene)
-    if errors:
-        raise ApiError(422, errors)
-    return scene, warnings
-
-
-def asset_errors(model: BaseModel, at: tuple = ()) -> list[dict]:
-    """Every asset `file` in the scene must exist inside the asset folder (no path leaves it)."""
-    out: list[dict] = []
-
-    def walk(value: Any, where: tuple) -> None:
-        if isinstance(value, BaseModel):
-            for name in type(value).model_fields:
-                item = getattr(value, name)
-                if name == "file" and isinstance(item, str):
-                    try:
-                        resolve_asset(item, json_path((*where, name)))
-                    except SceneError as exc:
-                        out.extend(exc.errors)
-                else:
-                    walk(item, (*where, name))
-        elif isinstance(value, dict):
-            for key, item in value.items():
-                walk(item, (*where, key))
-        elif isinstance(value, list | tuple):
-            for i, item in enumerate(value):
-                walk(item, (*where, i))
-
-    walk(model, at)
-    return out
 
 
 @router.post(

@@ -457,7 +457,7 @@ class Grader:
         if sub.kind in IMAGE_KINDS:
             return self._prepare_image(p)
         try:
-            scene, report.warnings = load_scene(sub.data, self.limits)
+            scene, report.warnings = load_scene(sub.data, self.limits, assets=ASSET_DIR)  # as the render will
         except SceneError as e:
             report.errors = e.errors
             cost = a.validity.points if a.validity.per_error is None else a.validity.per_error * len(e.errors)

@@ -1,0 +1,273 @@
+"""Asset files: meshes and images, from the asset folder or from data: URIs, read in this one place.
+
+A scene names an asset either by a path relative to the asset folder (scenes/assets unless the CLI is
+given `--assets DIR`) or by a data: URI (RFC 2397: `data:<media type>[;base64],<data>`) that holds
+the file itself. A path never reaches outside the folder, after '..' and symbolic links are resolved.
+
+Validation (tracer/scene.py) resolves every asset: an image's header is read (format and size, no
+pixels decoded) and a mesh is read and its triangles counted against the primitive limit. Compiling
+(tracer/compile.py) reads the same files through the same functions, so the two never disagree.
+
+Functions that take a JSON `path` raise SceneError at that path; the others raise AssetError, whose
+message the caller places at the field it checks.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import hashlib
+import io
+import os
+import posixpath
+import re
+import threading
+from collections import OrderedDict
+from pathlib import Path
+from urllib.parse import unquote_to_bytes
+
+import numpy as np
+
+from tracer.errors import SceneError
+
+ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
+FLOAT32_MAX = 3.4028234663852886e38  # the renderer computes in 32-bit floats
+IMAGE_KINDS = "PNG, JPEG, ..."  # what Pillow reads, as a student is told
+MESH_TYPES = {  # data: URI media type -> trimesh file type
+    "model/obj": "obj",
+    "text/plain": "obj",
+    "model/gltf-binary": "glb",
+    "model/gltf+json": "gltf",
+    "application/ply": "ply",
+    "model/ply": "ply",
+}
+MESH_CACHE_SIZE = 16  # meshes kept read (validation and compilation read each one once)
+
+MeshData = tuple[np.ndarray, np.ndarray, np.ndarray | None]  # vertices (n, 3), faces (m, 3), uvs (n, 2) or None
+
+
+class AssetError(ValueError):
+    """An asset that cannot be used; the message says why (the caller knows the JSON path)."""
+
+    def __init__(self, message: str):
+        self.message = message
+        super().__init__(message)
+
+
+def _at(path: str, exc: AssetError) -> SceneError:
+    return SceneError([{"path": path, "message": exc.message}])
+
+
+def _reason(exc: BaseException) -> str:
+    """A library's error message without the object reprs some put in it (<_io.BytesIO object at 0x...>)."""
+    text = re.sub(r"\s*<[^<>]* at 0x[0-9a-fA-F]+>", "", str(exc)).strip()
+    return text or type(exc).__name__
+
+
+def folder_name(asset_dir: Path) -> str:
+    """The asset folder as a user would type it: relative to the working directory when inside it."""
+    folder = Path(asset_dir).resolve()
+    try:
+        return str(folder.relative_to(Path.cwd().resolve())) or "."
+    except ValueError:
+        return str(folder)
+
+
+# ---------------------------------------------------------------------------------------------
+# Where an asset is.
+
+
+def path_problem(file: str) -> str | None:
+    """What is wrong with `file` as an asset path, judged from the text alone (None: nothing)."""
+    if file.startswith("data:"):
+        return None
+    posix = file.replace("\\", "/")
+    if not posix:
+        return "must not be empty"
+    if posix.startswith("/") or re.match(r"[A-Za-z]:", posix):
+        return "must be a path relative to the asset folder, not an absolute path"
+    if posixpath.normpath(posix).split("/")[0] == "..":
+        return "must not reach outside the asset folder ('..')"
+    return None
+
+
+def resolve(file: str, asset_dir: Path = ASSET_DIR) -> Path | None:
+    """The real path of asset `file` inside `asset_dir`; None for a data: URI. Raises AssetError."""
+    if file.startswith("data:"):
+        return None
+    problem = path_problem(file)
+    if problem:
+        raise AssetError(problem)
+    try:
+        root = Path(asset_dir).resolve()
+        target = (root / file).resolve()
+        inside, exists = target.is_relative_to(root), target.is_file()
+    except (OSError, ValueError, RuntimeError) as e:  # a NUL byte, a symbolic link loop, a long name
+        raise AssetError(f"cannot resolve asset file '{file}': {e}") from None
+    if not inside:
+        raise AssetError("must not reach outside the asset folder")
+    if not exists:
+        raise AssetError(
+            f"asset file '{file}' not found in the asset folder {folder_name(root)}; copy it there, "
+            "point the command line at the folder that holds it (--assets DIR), "
+            "or embed the file in the scene as a data: URI"
+        )
+    return target
+
+
+def resolve_asset(file: str, path: str, asset_dir: Path = ASSET_DIR) -> Path | None:
+    """`resolve`, raising SceneError at JSON path `path`."""
+    try:
+        return resolve(file, asset_dir)
+    except AssetError as e:
+        raise _at(path, e) from None
+
+
+def data_uri(uri: str) -> tuple[str, bytes]:
+    """(media type, bytes) of a data: URI. Raises AssetError when it is malformed or empty."""
+    header, comma, payload = uri[len("data:") :].partition(",")
+    if not comma:
+        raise AssetError("a data: URI must be data:<media type>;base64,<data> (there is no ',')")
+    params = [p.strip().lower() for p in header.split(";")]
+    media = params[0] or "text/plain"
+    if "base64" in params[1:]:
+        try:
+            raw = base64.b64decode("".join(payload.split()), validate=True)
+        except (binascii.Error, ValueError) as e:
+            reason = _reason(e)
+            raise AssetError(f"the data: URI's data is not valid base64: {reason[:1].lower()}{reason[1:]}") from None
+    else:
+        raw = unquote_to_bytes(payload)
+    if not raw:
+        raise AssetError("the data: URI holds no data")
+    return media, raw
+
+
+def _source(file: str, asset_dir: Path) -> tuple[str, Path | io.BytesIO, str]:
+    """(how to name it in a message, what to open, media type or '') of an asset."""
+    if file.startswith("data:"):
+        media, raw = data_uri(file)
+        return "the data: URI", io.BytesIO(raw), media
+    return f"asset file '{file}'", resolve(file, asset_dir), ""
+
+
+# ---------------------------------------------------------------------------------------------
+# Images.
+
+
+def _open_image(file: str, asset_dir: Path):
+    from PIL import Image, UnidentifiedImageError
+
+    what, src, _ = _source(file, asset_dir)
+    try:
+        return what, Image.open(src)  # reads the header only
+    except UnidentifiedImageError:  # no format Pillow knows (its message names a temporary object)
+        raise AssetError(f"{what} is not a readable image ({IMAGE_KINDS})") from None
+    except Exception as e:  # a decompression bomb, a truncated header, an unreadable file
+        raise AssetError(f"{what} is not a readable image ({IMAGE_KINDS}): {_reason(e)}") from None
+
+
+def image_size(file: str, asset_dir: Path = ASSET_DIR) -> tuple[int, int]:
+    """(width, height) of an image asset from its header, no pixels decoded. Raises AssetError."""
+    what, img = _open_image(file, asset_dir)
+    with img:
+        width, height = img.size
+    if width < 1 or height < 1:
+        raise AssetError(f"{what} is an empty image ({width}x{height} pixels)")
+    return width, height
+
+
+def read_image(file: str, asset_dir: Path = ASSET_DIR) -> np.ndarray:
+    """An image asset as linear RGB float32, shape (height, width, 3), top row first. Raises AssetError."""
+    what, img = _open_image(file, asset_dir)
+    try:
+        with img:
+            rgb = np.asarray(img.convert("RGB"), dtype=np.float32) / 255.0
+    except Exception as e:  # truncated or corrupt pixel data
+        raise AssetError(f"{what} could not be decoded as an image: {_reason(e)}") from None
+    return np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def load_image(file: str, path: str, asset_dir: Path = ASSET_DIR) -> np.ndarray:
+    """`read_image`, raising SceneError at JSON path `path`."""
+    try:
+        return read_image(file, asset_dir)
+    except AssetError as e:
+        raise _at(path, e) from None
+
+
+# ---------------------------------------------------------------------------------------------
+# Meshes.
+
+_meshes: OrderedDict[tuple, tuple] = OrderedDict()
+_meshes_lock = threading.Lock()
+
+
+def _mesh_key(file: str, asset_dir: Path) -> tuple:
+    if file.startswith("data:"):
+        return ("data", hashlib.sha256(file.encode()).hexdigest())
+    real = resolve(file, asset_dir)
+    st = os.stat(real)
+    return ("file", str(real), st.st_mtime_ns, st.st_size)
+
+
+def _parse_mesh(file: str, asset_dir: Path) -> MeshData:
+    import trimesh
+
+    what, src, media = _source(file, asset_dir)
+    try:
+        if isinstance(src, Path):
+            tm = trimesh.load(str(src), force="mesh", process=False)
+        else:
+            kind = MESH_TYPES.get(media)
+            if kind is None:
+                raise AssetError(
+                    f"unsupported data: URI type '{media}' (expected model/obj, model/ply or model/gltf-binary)"
+                )
+            tm = trimesh.load(src, file_type=kind, force="mesh", process=False)
+        verts = np.asarray(tm.vertices, dtype=np.float64)
+        faces = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
+    except AssetError:
+        raise
+    except Exception as e:  # a broken asset is the user's error, not a crash
+        raise AssetError(f"could not read {what} as a mesh (OBJ, PLY, glTF): {_reason(e)}") from None
+    if len(faces) == 0:
+        raise AssetError(f"{what} holds no triangles")
+    if faces.min() < 0 or faces.max() >= len(verts):
+        raise AssetError(f"{what} has faces whose vertex indices are out of range ({len(verts)} vertices)")
+    if not np.all(np.abs(verts) <= FLOAT32_MAX):
+        raise AssetError(f"{what} has vertex coordinates that are not finite 32-bit floats")
+    uv = getattr(getattr(tm, "visual", None), "uv", None)
+    uv = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(verts) else None
+    for a in (verts, faces, uv):  # shared by every caller through the cache
+        if a is not None:
+            a.setflags(write=False)
+    return verts, faces, uv
+
+
+def read_mesh(file: str, asset_dir: Path = ASSET_DIR) -> MeshData:
+    """Vertices (n, 3), faces (m, 3) and per-vertex uvs (or None) of an OBJ/PLY/glTF asset, read-only
+    arrays; the last few meshes read are kept, keyed by content (a data: URI) or path, time and size.
+    Raises AssetError."""
+    try:
+        key = _mesh_key(file, asset_dir)
+    except OSError as e:
+        raise AssetError(f"cannot read asset file '{file}': {e.strerror}") from None
+    with _meshes_lock:
+        if key in _meshes:
+            _meshes.move_to_end(key)
+            return _meshes[key]
+    mesh = _parse_mesh(file, asset_dir)
+    with _meshes_lock:
+        _meshes[key] = mesh
+        while len(_meshes) > MESH_CACHE_SIZE:
+            _meshes.popitem(last=False)
+    return mesh
+
+
+def load_mesh_file(file: str, path: str, asset_dir: Path = ASSET_DIR) -> MeshData:
+    """`read_mesh`, raising SceneError at JSON path `path`."""
+    try:
+        return read_mesh(file, asset_dir)
+    except AssetError as e:
+        raise _at(path, e) from None
