@@ -319,3 +319,10 @@ def test_radiosity_solve_is_a_phase_of_the_render_with_progress_cancel_and_stats
 
     stopped = render(load_scene(data)[0], cancel=cancel)
     assert stopped.cancelled and stopped.spp == 0 and len(calls) == 4
+
+
+def test_radiosity_warns_that_moving_objects_are_solved_at_time_zero():
+    data = small(scene_dict("cornell_spheres_radiosity"), 8, 8)
+    data["objects"][5]["velocity"] = [0.1, 0, 0]
+    _, warnings = load_scene(data)
+    assert [w["path"] for w in warnings] == ["objects[5].velocity"] and "time 0" in warnings[0]["message"]

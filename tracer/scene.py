@@ -1088,6 +1088,14 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
             warn(["film", "filter"], "has no effect: the adaptive sampler averages its cells (a box filter)")
     if "radiosity" in render.model_fields_set and render.integrator != "radiosity":
         warn(["render", "radiosity"], f"has no effect: the integrator is {render.integrator}")
+    if render.integrator == "radiosity":
+        for i, obj in enumerate(scene.objects):
+            if any(obj.velocity):
+                warn(
+                    ["objects", i, "velocity"],
+                    "the radiosity solution is solved with every object where it is at time 0: this object's "
+                    "light and shadows in it do not move with it (it still blurs in the image)",
+                )
     if render.light_samples > 1 and not any(isinstance(light, AREA_LIGHTS) for light in scene.lights):
         warn(["render", "light_samples"], "has no effect: the scene has no area light (quad, disk, sphere)")
     if "color" in scene.fog.model_fields_set and scene.fog.density == 0:
