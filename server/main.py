@@ -14,6 +14,7 @@ from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
@@ -67,13 +68,15 @@ def lock_data_dir(data_dir: Path):
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or load_settings()
-    app = FastAPI(
+    app = FastAPIOffline(  # /docs (Swagger UI) and /redoc with their scripts served by us: they work offline
         title="Ray tracing for teaching",
         version="0.1.0",
         lifespan=lifespan,
         default_response_class=SafeJSONResponse,
         description="Submit scenes, watch them render progressively, inspect the ray tree of any pixel. "
         'Every error answer is `{"errors": [{"path", "message"}]}` with the JSON path of the offending field.',
+        static_url="/api-docs-assets",
+        swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from the Swagger validator's site
     )
     app.state.settings = settings
     app.state.store = app.state.pool = app.state.grade_runs = None

@@ -98,3 +98,21 @@ def test_server_worker_line_wakes_readies_and_stops():
     worker.wait(5.0)  # a stopping worker does not sleep
     assert time.monotonic() - start < 1.0
     theirs.close()
+
+
+@pytest.mark.parametrize("page", ["/docs", "/redoc"])
+def test_server_api_docs_load_nothing_from_other_hosts(client, page):
+    """Swagger UI and ReDoc come from our own server, so the page's "API" link works offline."""
+    import re
+
+    html = client.get(page)
+    assert html.status_code == 200
+    assert not re.search(r"(https?:)?//[a-z0-9.-]+\.[a-z]{2,}", html.text, re.I), "an external host in " + page
+    assets = re.findall(r'(?:src|href)="([^"]+)"', html.text)
+    assert assets and all(a.startswith("/") for a in assets)
+    assert any(a.endswith(".js") for a in assets)
+    for url in assets:
+        assert client.get(url).status_code == 200, url
+    if page == "/docs":
+        assert any(a.endswith(".css") for a in assets)
+        assert "'/openapi.json'" in html.text and client.get("/openapi.json").status_code == 200
