@@ -2,7 +2,8 @@
 
 At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
 opens the job store, puts back in the queue the jobs a dead server left running, and starts the
-render workers; at shutdown the workers give their running jobs back to the queue.
+render workers and the janitor (which removes old finished jobs); at shutdown the workers give their
+running jobs back to the queue.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from fastapi_offline import FastAPIOffline
 
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
+from server.janitor import Janitor
 from server.pool import WorkerPool
 from server.routes import grade, jobs, scenes, tools
 from server.settings import Settings, load_settings
@@ -46,9 +48,12 @@ async def lifespan(app: FastAPI):
         pool.start()
     else:
         log.warning("no render workers (workers = 0): jobs wait in the queue")
+    janitor = Janitor(settings, store)
+    janitor.start()
     try:
         yield
     finally:
+        janitor.stop()
         if pool is not None:
             pool.shutdown()
             log.info("render workers stopped")
