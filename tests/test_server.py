@@ -100,11 +100,13 @@ def test_server_worker_line_wakes_readies_and_stops():
     theirs.close()
 
 
-@pytest.mark.parametrize("page", ["/docs", "/redoc"])
-def test_server_api_docs_load_nothing_from_other_hosts(client, page):
-    """Swagger UI and ReDoc come from our own server, so the page's "API" link works offline."""
+def test_server_api_docs_load_nothing_from_other_hosts(client):
+    """Swagger UI comes from our own server, so the page's "API" link works offline; /redoc is off (ReDoc's
+    bundle fetches its maker's logo from a CDN)."""
     import re
 
+    page = "/docs"
+    assert client.get("/redoc").status_code == 404
     html = client.get(page)
     assert html.status_code == 200
     assert not re.search(r"(https?:)?//[a-z0-9.-]+\.[a-z]{2,}", html.text, re.I), "an external host in " + page
@@ -113,6 +115,5 @@ def test_server_api_docs_load_nothing_from_other_hosts(client, page):
     assert any(a.endswith(".js") for a in assets)
     for url in assets:
         assert client.get(url).status_code == 200, url
-    if page == "/docs":
-        assert any(a.endswith(".css") for a in assets)
-        assert "'/openapi.json'" in html.text and client.get("/openapi.json").status_code == 200
+    assert any(a.endswith(".css") for a in assets)
+    assert "'/openapi.json'" in html.text and client.get("/openapi.json").status_code == 200
