@@ -21,7 +21,7 @@ from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
 from server.janitor import Janitor
 from server.pool import WorkerPool
-from server.routes import grade, jobs, scenes, tools
+from server.routes import grade, jobs, reference, scenes, tools
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
@@ -92,5 +92,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(tools.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
+    app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

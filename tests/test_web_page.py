@@ -387,6 +387,38 @@ def test_web_page_rays_legend_follows_the_job_s_sampler(desktop):
         page.click("[data-aov=image]")
 
 
+def test_web_page_reference_and_api_links_work_offline(desktop, server):
+    """The header's "Format reference" and "API" links open pages that need nothing from another host."""
+    from urllib.parse import urlparse
+
+    outside: list[str] = []
+
+    def only_loopback(route) -> None:
+        url = route.request.url
+        if urlparse(url).scheme in ("http", "https") and urlparse(url).hostname != "127.0.0.1":
+            outside.append(url)
+            route.abort()
+        else:
+            route.continue_()
+
+    desktop.context.route("**/*", only_loopback)
+    page = desktop.open().page
+    assert page.get_attribute("#editor-reference", "href") == "/reference/scene-format.md"
+    page.click("#link-reference")
+    page.wait_for_selector("h1:has-text('The scene format')")
+    assert page.locator("main.doc table").count() > 20
+    page.click("a[href='#camera-rays']")
+    page.wait_for_function("() => location.hash === '#camera-rays'")
+    desktop.shot("reference")
+    page.go_back()
+    page.go_back()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    page.click("header a[href='/docs']")
+    page.wait_for_selector("text=Submit a scene for rendering", timeout=30_000)  # Swagger UI read /openapi.json
+    desktop.shot("api-docs")
+    assert outside == []
+
+
 def test_web_page_cancel_and_my_jobs(desktop):
     page = desktop.open().page
     set_scene(page, whitted(32, 24, spp=4))
