@@ -1,1 +1,1 @@
-"""The HTTP service: FastAPI routes over the tracer library (DESIGN.md, "HTTP")."""
+"""The HTTP service: FastAPI routes over the tracer library (docs/service.md)."""

@@ -2,7 +2,8 @@
 
 At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
 opens the job store, puts back in the queue the jobs a dead server left running, and starts the
-render workers; at shutdown the workers give their running jobs back to the queue.
+render workers and the janitor (which removes old finished jobs); at shutdown the workers give their
+running jobs back to the queue.
 """
 
 from __future__ import annotations
@@ -14,11 +15,13 @@ from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
+from server.janitor import Janitor
 from server.pool import WorkerPool
-from server.routes import grade, jobs, scenes, tools
+from server.routes import grade, jobs, reference, scenes, tools
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
@@ -45,9 +48,12 @@ async def lifespan(app: FastAPI):
         pool.start()
     else:
         log.warning("no render workers (workers = 0): jobs wait in the queue")
+    janitor = Janitor(settings, store)
+    janitor.start()
     try:
         yield
     finally:
+        janitor.stop()
         if pool is not None:
             pool.shutdown()
             log.info("render workers stopped")
@@ -67,13 +73,16 @@ def lock_data_dir(data_dir: Path):
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or load_settings()
-    app = FastAPI(
+    app = FastAPIOffline(  # /docs: Swagger UI with its scripts served by us, so it works offline
         title="Ray tracing for teaching",
         version="0.1.0",
         lifespan=lifespan,
         default_response_class=SafeJSONResponse,
         description="Submit scenes, watch them render progressively, inspect the ray tree of any pixel. "
         'Every error answer is `{"errors": [{"path", "message"}]}` with the JSON path of the offending field.',
+        static_url="/api-docs-assets",
+        swagger_ui_parameters={"validatorUrl": None},  # no badge fetched from the Swagger validator's site
+        redoc_url=None,  # ReDoc's bundle still fetches its maker's logo from a CDN: /docs alone, fully offline
     )
     app.state.settings = settings
     app.state.store = app.state.pool = app.state.grade_runs = None
@@ -83,5 +92,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(tools.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
+    app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

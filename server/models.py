@@ -35,7 +35,7 @@ class ErrorResponse(BaseModel):
     errors: list[ErrorItem]
 
 
-SCENE_DESCRIPTION = "a scene object (SCENE_FORMAT.md); its JSON Schema is at GET /api/schema"
+SCENE_DESCRIPTION = "a scene object (the format: /reference/scene-format.md); its JSON Schema is at GET /api/schema"
 
 
 class _SceneRequest(BaseModel):

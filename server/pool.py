@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass
 from multiprocessing.connection import wait
 
+from server.channel import ServerEnd
 from server.settings import Settings
 from server.store import JobStore
 from server.worker import worker_main
@@ -34,7 +35,7 @@ HARD_GRACE = 10.0  # seconds past a job's time limit before its worker is killed
 class Slot:
     index: int
     process: mp.process.BaseProcess | None = None
-    ready: object = None  # multiprocessing Event: kernels loaded
+    line: ServerEnd | None = None  # wake it, hear it is ready, close to stop it (server/channel.py)
     started: float = 0.0
     restarts: int = 0
     failures_in_a_row: int = 0  # deaths soon after start, for the restart pause
@@ -45,8 +46,6 @@ class WorkerPool:
     def __init__(self, settings: Settings, store: JobStore):
         self.settings, self.store = settings, store
         self.ctx = mp.get_context("spawn")
-        self.stop_event = self.ctx.Event()
-        self.wake_event = self.ctx.Event()  # set on each submission: an idle worker looks at the queue
         self.slots = [Slot(i) for i in range(settings.workers)]
         self._lock = threading.Lock()
         self._closing = threading.Event()
@@ -63,10 +62,11 @@ class WorkerPool:
     def shutdown(self, timeout: float = 10.0) -> None:
         """Ask the workers to give their jobs back and exit; kill those that do not in `timeout` s."""
         self._closing.set()
-        self.stop_event.set()
-        self.wake_event.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
+        for slot in self.slots:
+            if slot.line is not None:
+                slot.line.close()  # the worker reads end-of-file: stop
         deadline = time.monotonic() + timeout
         for slot in self.slots:
             p = slot.process
@@ -81,20 +81,28 @@ class WorkerPool:
             slot.process = None
 
     def _spawn(self, slot: Slot) -> None:
-        slot.ready = self.ctx.Event()
+        if slot.line is not None:
+            slot.line.close()
+        ours, theirs = self.ctx.Pipe()  # a socket pair: no semaphore to leak (server/channel.py)
         p = self.ctx.Process(
             target=worker_main,
-            args=(self.settings.model_dump(mode="json"), self.stop_event, self.wake_event, slot.ready),
+            args=(self.settings.model_dump(mode="json"), theirs),
             name=f"render-worker-{slot.index}",
             daemon=True,
         )
-        p.start()
-        slot.process, slot.started = p, time.monotonic()
+        try:
+            p.start()
+        finally:
+            theirs.close()  # the worker has its own copy; ours would hide its end-of-file
+        slot.process, slot.line, slot.started = p, ServerEnd(ours), time.monotonic()
         log.info("started render worker %d (pid %d)", slot.index, p.pid)
 
     def notify(self) -> None:
-        """A job was queued: wake an idle worker now rather than at its next look at the queue."""
-        self.wake_event.set()
+        """A job was queued: wake the idle workers now rather than at their next look at the queue."""
+        for slot in self.slots:  # no pool lock: the supervisor calls this while holding it
+            line = slot.line
+            if line is not None:
+                line.wake()
 
     # -- supervision --------------------------------------------------------------------------
 
@@ -165,7 +173,7 @@ class WorkerPool:
                     "slot": slot.index,
                     "pid": p.pid if p is not None else None,
                     "alive": alive,
-                    "ready": bool(alive and slot.ready is not None and slot.ready.is_set()),
+                    "ready": bool(alive and slot.line is not None and slot.line.is_ready()),
                     "restarts": slot.restarts,
                     "job": self.store.running_on(p.pid) if alive else None,
                 }

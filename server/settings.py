@@ -8,12 +8,29 @@ by TRACER_SETTINGS_FILE). docs/service.md lists them.
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
+from typing import Annotated
 
-from pydantic import Field
+from pydantic import BeforeValidator, ByteSize, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.scene import Limits
+
+UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+
+
+def _seconds(v):
+    """A duration: a number of seconds, or text such as 90, 90s, 30m, 12h, 7d."""
+    if isinstance(v, str):
+        m = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([smhd]?)\s*", v.lower())
+        if m is None:
+            raise ValueError(f"expected seconds or a duration such as 90s, 30m, 12h, 7d; got {v!r}")
+        return float(m[1]) * UNITS[m[2] or "s"]
+    return v
+
+
+Duration = Annotated[float, BeforeValidator(_seconds)]
 
 
 class Settings(BaseSettings):
@@ -30,6 +47,18 @@ class Settings(BaseSettings):
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
+
+    # Housekeeping (server/janitor.py): finished jobs are removed, rows and folders together.
+    keep_finished: Duration = Field(
+        7 * 86400.0, ge=0, description="how long a finished job is kept after it ended (90s, 30m, 12h, 7d); 0 = forever"
+    )
+    max_data_bytes: ByteSize = Field(
+        ByteSize(10_000_000_000),
+        ge=0,
+        description="size cap of the data directory (bytes, or 500MB, 10GB, 2GiB): past it the finished jobs "
+        "that ended first are removed; 0 = no cap",
+    )
+    janitor_interval: Duration = Field(60.0, gt=0, description="time between two rounds of the janitor (seconds)")
 
     # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
     max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")

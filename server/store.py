@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import secrets
+import shutil
 import sqlite3
 import threading
 import time
@@ -181,6 +182,41 @@ class JobStore:
                 "UPDATE jobs SET status = 'queued', worker = NULL WHERE status = 'running'",
             ).rowcount
         return requeued, cancelled
+
+    # -- the janitor --------------------------------------------------------------------------
+
+    def finished_before(self, when: float) -> list[str]:
+        """Ids of the jobs that finished (done, failed, cancelled) before Unix time `when`, first ended first."""
+        marks = ", ".join("?" * len(FINISHED))
+        rows = self.db.execute(
+            f"SELECT id FROM jobs WHERE status IN ({marks}) AND COALESCE(finished_at, created_at) < ?"
+            " ORDER BY COALESCE(finished_at, created_at), rowid",
+            (*FINISHED, when),
+        ).fetchall()
+        return [r["id"] for r in rows]
+
+    def remove(self, job_id: str) -> bool:
+        """Remove a finished job: its row, then its folder. Never a queued or running one (False)."""
+        marks = ", ".join("?" * len(FINISHED))
+        cur = self.db.execute(f"DELETE FROM jobs WHERE id = ? AND status IN ({marks})", (job_id, *FINISHED))
+        if cur.rowcount == 0:
+            return False
+        self.remove_folder(job_id)
+        return True
+
+    def remove_folder(self, job_id: str) -> None:
+        if looks_like_job_id(job_id):  # never a path built from anything else
+            shutil.rmtree(self.jobs_dir / job_id, ignore_errors=True)
+
+    def ids(self) -> set[str]:
+        return {row["id"] for row in self.db.execute("SELECT id FROM jobs")}
+
+    def job_folders(self) -> list[str]:
+        """Names of the job folders on disk (the janitor removes those whose row is gone)."""
+        try:
+            return [e.name for e in os.scandir(self.jobs_dir) if e.is_dir(follow_symlinks=False)]
+        except FileNotFoundError:
+            return []
 
     # -- the supervisor -----------------------------------------------------------------------
 

@@ -23,6 +23,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from server.channel import WorkerEnd
 from server.models import JobStatus
 from server.settings import Settings
 from server.store import JobStore, write_atomic
@@ -42,9 +43,11 @@ class Stop(Exception):
         self.reason = reason
 
 
-def worker_main(settings_data: dict, stop_event, wake_event, ready_event) -> None:
-    """Entry point of a worker process (spawned: it imports everything itself)."""
+def worker_main(settings_data: dict, conn) -> None:
+    """Entry point of a worker process (spawned: it imports everything itself); `conn` is its end of
+    the server's line (server/channel.py): wakes come in, "ready" goes out, end-of-file means stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the server stops us
+    line = WorkerEnd(conn)
     settings = Settings(**settings_data)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
     try:
@@ -52,17 +55,8 @@ def worker_main(settings_data: dict, stop_event, wake_event, ready_event) -> Non
     except OSError:
         pass
     load_kernels()
-    ready_event.set()
-    parent = os.getppid()
-
-    def stopping() -> bool:
-        return stop_event.is_set() or os.getppid() != parent  # asked to stop, or the server died
-
-    def wait(timeout: float) -> None:  # until a job is submitted (or a stop asked), at most `timeout`
-        wake_event.wait(timeout)
-        wake_event.clear()
-
-    Worker(settings, JobStore(settings.data_dir), stopping).loop(wait)
+    line.ready()
+    Worker(settings, JobStore(settings.data_dir), line.stopping).loop(line.wait)
 
 
 def aov_path(store: JobStore, job_id: str, name: str) -> Path:

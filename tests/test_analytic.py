@@ -1,4 +1,4 @@
-"""Whitted renders of scenes whose answer is known in closed form (SCENE_FORMAT.md semantics).
+"""Whitted renders of scenes whose answer is known in closed form (docs/scene-format.md semantics).
 
 Tolerances: radiance is computed in float32 along the whole path, so agreement is to ~1e-5
 relative; positions of hits to ~1e-4 (the 1e-4 spawn offset is part of the contract).

@@ -11,13 +11,14 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import numpy as np
 import pytest
 from conftest import ROOT
-from test_api_support import Server, long_scene, parse_sse, pid_alive, tiny_scene, wait_for
+from test_api_support import Server, free_port, long_scene, parse_sse, pid_alive, tiny_scene, wait_for
 
 from tracer.film import read_exr
 
@@ -200,3 +201,40 @@ def test_api_loopback_a_stopped_server_s_worker_gives_its_job_back(tmp_path, sig
     with Server(data, workers=0) as second:
         back = job(second.client, running["id"])
         assert back["status"] == "queued" and back["attempts"] == 0  # a stop is not the job's fault
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
+    """The server, its worker and multiprocessing's resource tracker (which warns of leaked semaphores
+    as it exits) all write to one pipe (stderr, with stdout): reading it to its end waits for the last of them."""
+    port = free_port()
+    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(tmp_path / "data"), "--workers", "1"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    try:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30) as http:
+
+            def ready() -> bool:
+                assert proc.poll() is None, "".join(lines)
+                try:
+                    workers = http.get("/api/health").json()["workers"]
+                except httpx.TransportError:
+                    return False
+                return len(workers) == 1 and workers[0]["ready"]
+
+            wait_for(ready, 120, "the server to start", interval=0.2)
+            created = submit(http, tiny_scene())  # a job rendered and its worker woken, as in real use
+            assert wait_status(http, created["id"], FINISHED)["status"] == "done"
+        proc.send_signal(sig)
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    reader.join(timeout=60)
+    assert not reader.is_alive(), "a process of the server still holds its output pipe"
+    log = "".join(lines)
+    assert "Application shutdown complete" in log and "render workers stopped" in log
+    assert "leaked semaphore" not in log, log[-3000:]

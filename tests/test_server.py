@@ -69,3 +69,51 @@ def test_server_settings_from_the_environment_and_a_file(tmp_path, monkeypatch):
     assert s.limits.max_spp == 64
     with pytest.raises(FileNotFoundError):
         load_settings(tmp_path / "missing.env")
+
+
+def test_server_worker_line_wakes_readies_and_stops():
+    """The server's line to a worker (a socket pair, no semaphores): wake, ready, and close = stop."""
+    import multiprocessing as mp
+    import time
+
+    from server.channel import ServerEnd, WorkerEnd
+
+    ours, theirs = mp.get_context("spawn").Pipe()
+    server, worker = ServerEnd(ours), WorkerEnd(theirs)
+    assert not server.is_ready()
+    worker.ready()
+    assert server.is_ready() and server.is_ready()  # it stays ready
+    for _ in range(100_000):  # a busy worker's wakes pile up: never blocking the API
+        server.wake()
+    start = time.monotonic()
+    worker.wait(5.0)  # pending wakes: returns at once, and drains them
+    assert time.monotonic() - start < 1.0 and not worker.stopping()
+    start = time.monotonic()
+    worker.wait(0.2)  # none pending: the full timeout
+    assert time.monotonic() - start >= 0.19
+    server.close()
+    assert worker.stopping()
+    server.wake()  # after close: nothing happens (never a write to a reused descriptor)
+    start = time.monotonic()
+    worker.wait(5.0)  # a stopping worker does not sleep
+    assert time.monotonic() - start < 1.0
+    theirs.close()
+
+
+def test_server_api_docs_load_nothing_from_other_hosts(client):
+    """Swagger UI comes from our own server, so the page's "API" link works offline; /redoc is off (ReDoc's
+    bundle fetches its maker's logo from a CDN)."""
+    import re
+
+    page = "/docs"
+    assert client.get("/redoc").status_code == 404
+    html = client.get(page)
+    assert html.status_code == 200
+    assert not re.search(r"(https?:)?//[a-z0-9.-]+\.[a-z]{2,}", html.text, re.I), "an external host in " + page
+    assets = re.findall(r'(?:src|href)="([^"]+)"', html.text)
+    assert assets and all(a.startswith("/") for a in assets)
+    assert any(a.endswith(".js") for a in assets)
+    for url in assets:
+        assert client.get(url).status_code == 200, url
+    assert any(a.endswith(".css") for a in assets)
+    assert "'/openapi.json'" in html.text and client.get("/openapi.json").status_code == 200

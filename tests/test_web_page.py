@@ -12,6 +12,7 @@ import json
 import os
 import re
 import time
+from collections import Counter
 from pathlib import Path
 
 import httpx
@@ -294,6 +295,8 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     page.wait_for_function(
         "() => { const i = document.querySelector('#render-img'); return i.complete && i.naturalWidth > 0; }"
     )
+    legend = page.inner_text("#aov-legend")  # the job's own sampler, not another's
+    assert "The jittered sampler gives every pixel the same 64 eye rays" in legend and "adaptive" not in legend
     desktop.shot("viewer-aov-rays")
     page.click("[data-aov=image]")
 
@@ -309,6 +312,19 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     assert n >= 5 and {"reflection", "transmission", "shadow"} <= {node["kind"] for node in tree["nodes"]}
     assert page.locator("#rt-diagram .rt-node").count() == n
     assert page.inner_text("#rt-pixel") == f"pixel ({x}, {y})"
+    # the status counts the rays by kind, singular and plural as English has them
+    status = page.inner_text("#rt-status")
+    words = {
+        "eye": ("eye ray", "eye rays"),
+        "reflection": ("reflection ray", "reflection rays"),
+        "transmission": ("transmission ray", "transmission rays"),
+        "shadow": ("shadow ray reaching the light", "shadow rays reaching the light"),
+        "blocked": ("blocked shadow ray", "blocked shadow rays"),
+    }
+    kinds = Counter("blocked" if nd["kind"] == "shadow" and nd["occluded"] else nd["kind"] for nd in tree["nodes"])
+    assert any(c > 1 for c in kinds.values())
+    for kind, c in kinds.items():
+        assert f"{c} {words[kind][c != 1]}" in status, status
     # the overlay draws every ray over the image; the 3D view draws the scene and the rays
     assert page.get_attribute("#rt-overlay", "data-rays") == str(n)
     assert canvas_pixels(page, "#rt-overlay", "#44a8ff") > 20  # reflection rays, in their colour
@@ -351,6 +367,56 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     page.keyboard.press("Enter")
     page.wait_for_function(f"() => document.querySelector('#rt-pixel').textContent === 'pixel ({x - 1}, {y})'")
     page.wait_for_function("() => document.querySelectorAll('#rt-diagram .rt-node').length > 0")
+
+
+def test_web_page_rays_legend_follows_the_job_s_sampler(desktop):
+    """The rays-per-pixel AOV's legend explains the differences with the sampler the job used."""
+    page = desktop.open().page
+    center = small(scene_dict("whitted"), 48, 36, sampler={"type": "center", "spp": 1})
+    cases = [
+        (small(scene_dict("antialias_adaptive"), 48, 36), "The adaptive sampler spends more eye rays"),
+        (center, "The center sampler gives every pixel the same single eye ray"),
+    ]
+    for scene, says in cases:
+        set_scene(page, scene)
+        render(page)
+        page.click("[data-aov=rays]")
+        page.wait_for_function(
+            "(says) => document.querySelector('#aov-legend').textContent.includes(says)", arg=says, timeout=10_000
+        )
+        page.click("[data-aov=image]")
+
+
+def test_web_page_reference_and_api_links_work_offline(desktop, server):
+    """The header's "Format reference" and "API" links open pages that need nothing from another host."""
+    from urllib.parse import urlparse
+
+    outside: list[str] = []
+
+    def only_loopback(route) -> None:
+        url = route.request.url
+        if urlparse(url).scheme in ("http", "https") and urlparse(url).hostname != "127.0.0.1":
+            outside.append(url)
+            route.abort()
+        else:
+            route.continue_()
+
+    desktop.context.route("**/*", only_loopback)
+    page = desktop.open().page
+    assert page.get_attribute("#editor-reference", "href") == "/reference/scene-format.md"
+    page.click("#link-reference")
+    page.wait_for_selector("h1:has-text('The scene format')")
+    assert page.locator("main.doc table").count() > 20
+    page.click("a[href='#camera-rays']")
+    page.wait_for_function("() => location.hash === '#camera-rays'")
+    desktop.shot("reference")
+    page.go_back()
+    page.go_back()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    page.click("header a[href='/docs']")
+    page.wait_for_selector("text=Submit a scene for rendering", timeout=30_000)  # Swagger UI read /openapi.json
+    desktop.shot("api-docs")
+    assert outside == []
 
 
 def test_web_page_cancel_and_my_jobs(desktop):

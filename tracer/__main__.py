@@ -1,4 +1,4 @@
-"""Command line: render, raytree, validate, bench (DESIGN.md, "Contracts").
+"""Command line: render, raytree, validate, bench, grade, docs.
 
 python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
                         [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
@@ -7,6 +7,7 @@ python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
     SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
+python -m tracer docs [--check]     the field tables of docs/scene-format.md, from tracer/scene.py
 """
 
 from __future__ import annotations
@@ -151,6 +152,12 @@ def _percent_text(p: float) -> str:
     return f"{p:.1f}".removesuffix(".0") + "%"
 
 
+def cmd_docs(args) -> int:
+    from tracer.docs import main as docs_main
+
+    return docs_main(check=args.check, path=Path(args.file))
+
+
 def cmd_grade(args) -> int:
     from tracer.grading import (
         AssignmentError,
@@ -290,6 +297,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--threads", type=int, default=None, help="one submission: render threads")
     g.add_argument("--json", action="store_true", help="print the report (a class: the summary) as JSON")
     g.set_defaults(func=cmd_grade)
+
+    from tracer.docs import DOC
+
+    d = sub.add_parser("docs", help="write the field tables of the scene format reference from the models")
+    d.add_argument("--check", action="store_true", help="only say whether they are up to date (exit 1 if not)")
+    d.add_argument("--file", default=str(DOC), help="the reference (default: docs/scene-format.md)")
+    d.set_defaults(func=cmd_docs)
     return p
 
 

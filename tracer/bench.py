@@ -1,4 +1,4 @@
-"""Benchmark: Msamples/s and Mrays/s per ray kind on the example scenes (DESIGN.md, "Speed").
+"""Benchmark: Msamples/s and Mrays/s per ray kind on the example scenes (BENCHMARKS.md).
 
     python -m tracer bench            # every scene in scenes/ at 256x256, plus the targets
     python -m tracer bench --quick    # a smoke run at 64x64

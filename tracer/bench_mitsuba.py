@@ -3,7 +3,7 @@
 Our scene (quads, boxes, diffuse materials, one quad light, the `path` integrator) is written out as
 OBJ meshes and a Mitsuba scene dictionary: two-sided diffuse BSDFs with the same reflectances, an
 area emitter of the same radiance, the same camera, and Mitsuba's `path` integrator with
-max_depth = ours + 1 (Mitsuba counts path segments, we count bounces; SCENE_FORMAT.md).
+max_depth = ours + 1 (Mitsuba counts path segments, we count bounces; docs/scene-format.md).
 The llvm_ad_rgb variant needs Debian's libllvm19: DRJIT_LIBLLVM_PATH is pointed at it when present.
 """
 

@@ -1,4 +1,4 @@
-"""Primary rays: the pinhole camera and the thin lens of SCENE_FORMAT.md ("Camera ray").
+"""Primary rays: the pinhole camera and the thin lens of docs/scene-format.md ("Camera rays").
 
 direction = normalize(forward + (2(x+u)/width - 1) h aspect right + (1 - 2(y+v)/height) h up),
 with h = tan(vfov / 2); pixel (x, y) counts columns from the left and rows from the top.

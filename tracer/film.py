@@ -1,6 +1,6 @@
 """Film output: exposure, sRGB encoding, PNG and EXR files.
 
-PNG = sRGB OETF of clamp(2^exposure L, 0, 1) (SCENE_FORMAT.md); the EXR keeps the linear
+PNG = sRGB OETF of clamp(2^exposure L, 0, 1) (docs/scene-format.md, "Film"); the EXR keeps the linear
 radiance without exposure, as 32-bit floats.
 """
 

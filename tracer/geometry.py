@@ -3,7 +3,7 @@
 Analytic shapes are tested exactly, one after another; all triangles sit in one ``wp.Mesh``
 whose BVH answers ``wp.mesh_query_ray``. Warp's barycentrics: p = u v0 + v v1 + (1 - u - v) v2.
 A ray hits a surface at distance t only for 0 < t < t_max; spawned rays are offset along the
-normal by the caller (SCENE_FORMAT.md, "Spawned rays"), so no epsilon on t is needed here.
+normal by the caller (docs/scene-format.md, "Where spawned rays start"), so no epsilon on t is needed here.
 """
 
 import warp as wp

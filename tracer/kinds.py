@@ -163,7 +163,7 @@ SAMPLER_RANDOM = wp.constant(int(SamplerKind.RANDOM))
 SAMPLER_JITTERED = wp.constant(int(SamplerKind.JITTERED))
 SAMPLER_ADAPTIVE = wp.constant(int(SamplerKind.ADAPTIVE))
 
-# Spawned rays start at hit + RAY_OFFSET * N (SCENE_FORMAT.md, "Spawned rays"): part of the contract.
+# Spawned rays start at hit + RAY_OFFSET * N (docs/scene-format.md, "Where spawned rays start"): part of the contract.
 RAY_OFFSET = wp.constant(1.0e-4)
 # Nothing in a scene is farther than this (world units); a ray that reaches it left the scene.
 T_FAR = wp.constant(1.0e30)

@@ -6,7 +6,7 @@ multiplies by cos(psi)^falloff inside its cone (psi between its axis and the dir
 point) and gives nothing outside. Shadow rays are cast only where a light can contribute.
 
 An area light is sampled at points y (stratified by the caller): each sample acts as a point
-light of intensity radiance A cos(theta_y) with inverse-square fall-off (SCENE_FORMAT.md), that
+light of intensity radiance A cos(theta_y) with inverse-square fall-off (docs/scene-format.md, "Area lights"), that
 is E = radiance / pdf_omega with pdf_omega = d^2 / (A cos(theta_y)) the solid-angle density of y.
 A sphere light is sampled inside the cone it subtends (same expectation, far less noise).
 """

@@ -1,6 +1,6 @@
 """Phong BRDF, mirror and refraction directions, exact Fresnel, textures and bump maps.
 
-The Phong model of the lecture as an energy-conserving BRDF (SCENE_FORMAT.md):
+The Phong model of the lecture as an energy-conserving BRDF (docs/scene-format.md, "Materials"):
 f = kd / pi + ks (n + 2) / (2 pi) cos^n(alpha), alpha between the mirrored light direction and
 the view direction. A light of radiance scale E (f_att I, or a directional irradiance) gives
 E cos(theta) f; the two parts are returned separately so the ray tree can show them.

@@ -1,7 +1,7 @@
 """One pixel sample's ray tree, traced by the same kernel code as the image.
 
 ``trace_one`` runs the integrator's ``trace_sample`` with recording on; this module decodes the
-node records into the JSON of SCENE_FORMAT.md ("Ray tree") and fills in what each ray carries
+node records into the JSON of docs/scene-format.md ("The ray tree") and fills in what each ray carries
 back, bottom-up: a ray returns T (local + sum of K_child L_child) + (1 - T) fog colour, with T
 its fog transmittance (1 without fog); a shadow ray returns the light's f_att I cos(theta) f,
 or 0 when occluded. The root's radiance is the pixel sample's colour.

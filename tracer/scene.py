@@ -1,6 +1,6 @@
 """Scene format version 1: pydantic models, loading, validation and the JSON Schema.
 
-The contract is SCENE_FORMAT.md; the models below are its executable form, and every field's
+The format is described in docs/scene-format.md; the models below are its executable form, and every field's
 description (meaning and unit) is published in the JSON Schema the web editor uses.
 Validation works in three steps, each reporting at the offending field's own JSON path:
 
@@ -540,7 +540,7 @@ class NoiseBump(_Model):
     """Bump mapping by a solid noise function."""
 
     type: Literal["noise"] = Field(description="Bump type.")
-    scale: Num = Field(1.0, gt=0, description="Feature size of the noise (world units).")
+    scale: Num = Field(1.0, gt=0, description="Frequency of the noise (cells per world unit): larger is finer.")
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
 
 
@@ -864,7 +864,7 @@ def _version(v: Any) -> Any:
 
 
 class Scene(_Model):
-    """A scene, format version 1 (see SCENE_FORMAT.md)."""
+    """A scene, format version 1 (docs/scene-format.md)."""
 
     version: Annotated[Literal[1], BeforeValidator(_version)] = Field(1, description="Scene format version.")
     name: Str | None = Field(None, description="Free text: the scene's title.")

@@ -38,7 +38,7 @@ def validate(body: ValidateRequest, settings: SettingsDep) -> dict:
 
 @router.post(
     "/raytree",
-    summary="The ray tree of one pixel sample (SCENE_FORMAT.md, 'Ray tree')",
+    summary="The ray tree of one pixel sample (/reference/scene-format.md#the-ray-tree)",
     responses={422: {"model": ErrorResponse, "description": "invalid scene, or x, y, sample out of range"}},
 )
 def raytree(body: RayTreeRequest, settings: SettingsDep) -> dict:

@@ -122,7 +122,7 @@ def scatter_weights(m: MaterialData, rd: wp.vec3, n: wp.vec3, front: int):
     """The weights of the reflection and transmission rays at a hit, and the refracted direction:
     (kr, kt, transmitted direction, 1 under total internal reflection). With `fresnel` the weights
     are scaled by R and 1 - R; under TIR the transmission ray's weight goes to the reflection ray
-    (kt without Fresnel, 0 with it since R = 1). SCENE_FORMAT.md, "Secondary rays"."""
+    (kt without Fresnel, 0 with it since R = 1). docs/scene-format.md, "Reflection and transmission rays"."""
     kr = m.kr
     kt = m.kt
     tdir = wp.vec3(0.0)

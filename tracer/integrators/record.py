@@ -1,7 +1,7 @@
 """The ray-tree record: where an integrator's `trace` writes each ray as a node when asked.
 
 The image kernels pass a record with cap 0 and record = 0, so the same @wp.func code makes the
-image and the tree; tracer/raytree.py decodes the arrays into SCENE_FORMAT.md's JSON.
+image and the tree; tracer/raytree.py decodes the arrays into the JSON of docs/scene-format.md.
 """
 
 import warp as wp

@@ -67,7 +67,7 @@ export const LESSONS = [
     title: "Whitted vs path tracing vs radiosity",
     scene: "cornell_path",
     set: { "sampler.spp": 16 },
-    text: "The same Cornell box and ceiling light. Whitted's ray tree follows only mirror and refraction rays: soft shadows from the area light, but light does not bounce between walls. The path tracer samples diffuse bounces too: red and green bleed onto the white blocks and the ceiling is lit. Radiosity solves diffuse interreflection between the diffuse surfaces first (patches and form factors), then traces the ray tree for direct light and mirrors; where a server does not have it yet, its panel shows the server's answer.",
+    text: "The same Cornell box and ceiling light. Whitted's ray tree follows only mirror and refraction rays: soft shadows from the area light, but light does not bounce between walls. The path tracer samples diffuse bounces too: red and green bleed onto the white blocks and the ceiling is lit. Radiosity solves diffuse interreflection between the diffuse surfaces first (patches and form factors), then traces the ray tree for direct light and mirrors.",
     panels: [
       { label: "Whitted ray tracing", set: { "render.integrator": "whitted" } },
       { label: "path tracing", set: { "render.integrator": "path" } },

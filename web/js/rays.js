@@ -9,6 +9,13 @@ export const RAY_STYLES = {
   blocked: { label: "shadow ray, blocked", colour: "#ff4d6d", dash: [2, 3], width: 1.6 },
 };
 
+/** "1 eye ray", "3 reflection rays", "2 shadow rays reaching the light": a count of one style of ray. */
+export function countRays(key, n) {
+  const noun = { shadow: ["shadow ray reaching the light", "shadow rays reaching the light"], blocked: ["blocked shadow ray", "blocked shadow rays"] }[key];
+  const [one, many] = noun || [RAY_STYLES[key].label, `${RAY_STYLES[key].label}s`];
+  return `${n} ${n === 1 ? one : many}`;
+}
+
 /** The style key of a ray-tree node: its kind, and for shadow rays whether they were blocked. */
 export function styleKey(node) {
   if (node.kind === "shadow") return node.occluded ? "blocked" : "shadow";

@@ -4,7 +4,7 @@
 import { api } from "./api.js";
 import { renderDiagram } from "./diagram.js";
 import { Overlay } from "./overlay.js";
-import { RAY_STYLES, endWords, legend, styleKey } from "./rays.js";
+import { RAY_STYLES, countRays, endWords, legend, styleKey } from "./rays.js";
 import { raySegments, sceneBounds } from "./shapes.js";
 import { $, cssColour, h, num, rgb } from "./util.js";
 import { cameraBasis } from "./vec.js";
@@ -106,7 +106,7 @@ export class RayTreePanel {
     const kinds = {};
     for (const n of nodes) kinds[styleKey(n)] = (kinds[styleKey(n)] || 0) + 1;
     const counts = Object.entries(kinds)
-      .map(([k, c]) => `${c} ${RAY_STYLES[k].label.replace("shadow ray, ", "shadow: ")}`)
+      .map(([k, c]) => countRays(k, c))
       .join(", ");
     this.el.swatch.style.background = cssColour(tree.color);
     this.el.swatch.title = `pixel sample colour ${rgb(tree.color)}`;

@@ -1,4 +1,4 @@
-// 3-vectors as arrays, the scene's camera (SCENE_FORMAT.md "Camera ray"), and object transforms.
+// 3-vectors as arrays, the scene's camera (docs/scene-format.md, "Camera rays"), and object transforms.
 
 export const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
 export const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];

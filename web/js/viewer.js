@@ -18,11 +18,19 @@ const AOVS = [
   ["variance", "Variance"],
 ];
 
-function aovLegend(name, range) {
+/** Why pixels differ in the rays AOV, for the job's sampler ({type, spp}; null when unknown). */
+function raysNote(sampler) {
+  if (!sampler) return "Eye rays, and the shadow, reflection and transmission rays they spawned.";
+  if (sampler.type === "adaptive") return "The adaptive sampler spends more eye rays where a pixel's corners and centre disagree: on edges.";
+  const eye = sampler.spp === 1 ? "the same single eye ray" : `the same ${integer(sampler.spp)} eye rays`;
+  return `The ${sampler.type} sampler gives every pixel ${eye}; the differences are the shadow, reflection and transmission rays they spawned.`;
+}
+
+function aovLegend(name, range, sampler = null) {
   const [lo, hi] = range || [0, 0];
   switch (name) {
     case "rays":
-      return `Rays traced per pixel (all kinds): black 0 → red → yellow → white ${integer(hi)} (fewest here: ${integer(lo)}). The adaptive sampler spends rays on edges.`;
+      return `Rays traced per pixel (all kinds): black 0 → red → yellow → white ${integer(hi)} (fewest here: ${integer(lo)}). ${raysNote(sampler)}`;
     case "depth":
       return `Distance to the eye ray's first hit: white = near (${num(lo)}) → dark grey = far (${num(hi)}); black = nothing hit.`;
     case "normal":
@@ -428,8 +436,18 @@ export class Viewer {
       this.el.legend.textContent = "";
       return;
     }
-    const ok = await this.loadImage(api.aovUrl(this.view.id, name));
-    if (ok) this.el.legend.textContent = aovLegend(name, this.view.aovRanges && this.view.aovRanges[name]);
+    const view = this.view;
+    const ok = await this.loadImage(api.aovUrl(view.id, name));
+    let sampler = null; // the rays legend names the job's own sampler
+    if (ok && name === "rays") {
+      try {
+        const given = (await this.sceneOf(view)).scene.sampler || {};
+        sampler = { type: given.type || "jittered", spp: view.job.progress?.spp_total ?? given.spp ?? 16 };
+      } catch {
+        // the legend then names no sampler
+      }
+    }
+    if (ok && this.view === view && this.aov === name) this.el.legend.textContent = aovLegend(name, view.aovRanges && view.aovRanges[name], sampler);
   }
 
   // -- my jobs ----------------------------------------------------------------------------------
