@@ -22,6 +22,7 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from tracer import scene as S
+from tracer.assets import FLOAT32_MAX
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "scene-format.md"
 BLOCK = re.compile(r"(<!-- fields: (\w+) -->\n)(.*?)(<!-- end fields -->)", re.S)
@@ -79,6 +80,10 @@ def _default(field) -> str:
 def _bounds(p: dict, integer: bool) -> str:
     lo, lo_open = (p["exclusiveMinimum"], True) if "exclusiveMinimum" in p else (p.get("minimum"), False)
     hi, hi_open = (p["exclusiveMaximum"], True) if "exclusiveMaximum" in p else (p.get("maximum"), False)
+    if lo is not None and lo <= -FLOAT32_MAX:  # float32's range holds for every number: said once, in the prose
+        lo = None
+    if hi is not None and hi >= FLOAT32_MAX:
+        hi = None
     if integer:  # integers: closed ranges read best
         lo, lo_open = (lo + 1, False) if lo is not None and lo_open else (lo, lo_open)
         hi, hi_open = (hi - 1, False) if hi is not None and hi_open else (hi, hi_open)
