@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from server.channel import WorkerEnd
-from server.models import JobStatus
+from server.lifecycle import JobStatus
 from server.settings import Settings
 from server.store import JobStore, write_atomic
 

@@ -7,7 +7,7 @@ import threading
 
 import pytest
 
-from server.models import JobStatus
+from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, check_transition
 from server.store import JobStore, QueueFull, looks_like_job_id
 
 
@@ -77,6 +77,32 @@ def test_api_store_recover_requeues_running_jobs(tmp_path):
     again = JobStore(tmp_path)  # as a new server would open it
     assert [again.get(j)["status"] for j in (running, cancelling, waiting)] == ["queued", "cancelled", "queued"]
     assert again.claim(pid=3)["id"] == running  # it keeps its place in the queue
+
+
+def test_api_store_life_cycle_is_one_table():
+    """Every status has its moves; the finished ones none (a finished job never moves again)."""
+    assert set(TRANSITIONS) == set(JobStatus)
+    assert FINISHED == {s for s in JobStatus if s.finished} == {s for s, moves in TRANSITIONS.items() if not moves}
+    check_transition(JobStatus.queued, JobStatus.running)
+    check_transition(JobStatus.running, JobStatus.queued)  # a worker stopping or dying gives it back
+    for source, target in [("queued", "done"), ("done", "queued"), ("cancelled", "running"), ("failed", "failed")]:
+        with pytest.raises(BadTransition):
+            check_transition(JobStatus(source), JobStatus(target))
+
+
+def test_api_store_moves_follow_the_life_cycle(tmp_path):
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    with pytest.raises(BadTransition):
+        store.finish(job_id, None, JobStatus.queued)  # finish() only ends a job
+    assert not store.finish(job_id, None, JobStatus.done)  # a queued job has no render to finish
+    assert store.claim(pid=7)["status"] == "running"
+    assert store.cancel(job_id)["status"] == "running"  # a running job is asked to stop, not ended
+    assert store.fail(job_id, None, "over the time limit")  # the supervisor ends it first ...
+    assert not store.finish(job_id, 7, JobStatus.cancelled, error="cancelled while rendering")  # ... so this is late
+    row = store.get(job_id)
+    assert (row["status"], row["error"]) == ("failed", "over the time limit") and row["finished_at"] is not None
+    assert not store.requeue(job_id, 7) and store.get(job_id)["status"] == "failed"
 
 
 def test_api_store_one_server_per_data_directory(tmp_path):

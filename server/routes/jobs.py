@@ -13,7 +13,8 @@ from fastapi.responses import StreamingResponse
 
 from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
 from server.errors import ApiError
-from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatus
+from server.lifecycle import JobStatus
+from server.models import ErrorResponse, JobCreate, JobList, JobPublic
 from server.settings import Settings
 from server.store import JobStore, QueueFull
 from server.worker import AOV_NAMES, aov_path
@@ -127,7 +128,7 @@ def job_scene(job: JobDep) -> dict:
 
 
 def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
     try:
         return json.loads(aov_path(store, job["id"], "ranges").read_text())
@@ -143,7 +144,7 @@ def radiosity(job: JobDep, store: StoreDep) -> Response:
     are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
     unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after every
     shot up to 16, then 32, 64, ..., and the last), for showing which patch shoots, step by step."""
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
     try:
         data = (store.jobs_dir / job["id"] / "radiosity.json").read_bytes()
