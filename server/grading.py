@@ -26,8 +26,7 @@ from pathlib import Path
 from server.lifecycle import JobStatus
 from server.pool import WorkerPool
 from server.settings import Settings
-from server.store import JobStore, write_atomic
-from server.worker import aov_path
+from server.store import JobFile, JobStore, write_atomic
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
 from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
@@ -118,8 +117,8 @@ class QueueRenderer:
                 error = over_time(seconds, source) + killed
             return Rendered(error=error)
         try:
-            image = read_exr(self.store.image_path(row["id"], "exr"))
-            variance = read_exr(aov_path(self.store, row["id"], "exr"))
+            image = read_exr(self.store.job_file(row["id"], JobFile.image_exr))
+            variance = read_exr(self.store.job_file(row["id"], JobFile.aov_floats))
         except Exception as e:  # a file missing or broken: that job's result is an error, not the run's
             return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
         seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)

@@ -1,4 +1,4 @@
-"""The job store: one SQLite table under the data directory, and each job's images beside it.
+"""The job store: one SQLite table under the data directory, and each job's files beside it.
 
 Every process and thread opens its own connection (WAL mode, so readers never wait for the
 worker's writes; a busy timeout for the rare writer-writer overlap), and every statement is short.
@@ -9,6 +9,9 @@ a job that has just started, a finish of a job the supervisor has just failed). 
 job only while the row still names it (`worker = pid AND status = running`), so a worker that lost
 its job (killed and retried elsewhere, or a stale one after a restart) can never overwrite the
 job's new life.
+
+A job's files (its images, AOV pictures, radiosity solution) live in DATA/jobs/<id>/, named by
+`JobFile`; routes and workers both ask the store for them (`job_file`, `save_file`).
 """
 
 from __future__ import annotations
@@ -20,6 +23,8 @@ import shutil
 import sqlite3
 import threading
 import time
+from collections.abc import Callable
+from enum import StrEnum
 from pathlib import Path
 
 from server.lifecycle import FINISHED, BadTransition, JobStatus, check_transition
@@ -58,6 +63,35 @@ CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at
 ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
 QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
 FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
+
+
+class JobFile(StrEnum):
+    """A job's files, in its folder DATA/jobs/<id>/ (the value is the file's name). Each is written
+    whole (a temporary file renamed over the old one): a reader sees the old file or the new one."""
+
+    image_png = "image.png"  # the latest image, 8-bit sRGB with the film's exposure (previews, then the final)
+    image_exr = "image.exr"  # the same pass as linear float32 radiance
+    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/worker.py, aov_pictures)
+    aov_depth = "aov_depth.png"
+    aov_normal = "aov_normal.png"
+    aov_albedo = "aov_albedo.png"
+    aov_variance = "aov_variance.png"
+    aov_ranges = "aovs.json"  # {name: [min, max]} of the values each AOV picture shows
+    aov_floats = "aovs.exr"  # the float AOVs: the variance as RGB (what the grader reads), the others as layers
+    radiosity = "radiosity.json"  # a finished radiosity job's solution
+
+    @classmethod
+    def image(cls, fmt: str) -> JobFile:
+        """The latest image as "png" or "exr"."""
+        return cls(f"image.{fmt}")
+
+    @classmethod
+    def aov(cls, name: str) -> JobFile:
+        """The AOV picture `name` (one of AOV_NAMES; ValueError for any other)."""
+        return cls(f"aov_{name}.png")
+
+
+AOV_NAMES = tuple(f.removeprefix("aov_").removesuffix(".png") for f in JobFile if f.startswith("aov_"))
 
 
 class _Sql(str):
@@ -139,8 +173,22 @@ class JobStore:
 
     # -- files --------------------------------------------------------------------------------
 
-    def image_path(self, job_id: str, fmt: str) -> Path:
-        return self.jobs_dir / job_id / f"image.{fmt}"
+    def job_dir(self, job_id: str) -> Path:
+        """The job's folder of files (it may not exist yet: the first save makes it)."""
+        return self.jobs_dir / job_id
+
+    def job_file(self, job_id: str, kind: JobFile) -> Path:
+        """Where the job's file of that kind is kept (it may not exist)."""
+        return self.job_dir(job_id) / JobFile(kind).value
+
+    def save_file(self, job_id: str, kind: JobFile, data: bytes | str | Callable[[Path], None]) -> None:
+        """Write one of the job's files whole: bytes, text, or `data(path)` writing a temporary file."""
+        if isinstance(data, bytes):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_bytes(data))
+        elif isinstance(data, str):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_text(data))
+        else:
+            write_atomic(self.job_file(job_id, kind), data)
 
     # -- the API side -------------------------------------------------------------------------
 
@@ -225,7 +273,7 @@ class JobStore:
 
     def remove_folder(self, job_id: str) -> None:
         if looks_like_job_id(job_id):  # never a path built from anything else
-            shutil.rmtree(self.jobs_dir / job_id, ignore_errors=True)
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
     def ids(self) -> set[str]:
         return {row["id"] for row in self.db.execute("SELECT id FROM jobs")}

@@ -12,7 +12,7 @@ from test_api_support import long_scene, parse_sse, tiny_scene, wait_for
 
 from server.main import create_app
 from server.settings import Settings
-from server.worker import AOV_NAMES
+from server.store import AOV_NAMES
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import threading
 import pytest
 
 from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, check_transition
-from server.store import JobStore, QueueFull, looks_like_job_id
+from server.store import AOV_NAMES, JobFile, JobStore, QueueFull, looks_like_job_id
 
 
 def add(store: JobStore, priority: int = 0, max_queued: int = 100) -> str:
@@ -103,6 +103,24 @@ def test_api_store_moves_follow_the_life_cycle(tmp_path):
     row = store.get(job_id)
     assert (row["status"], row["error"]) == ("failed", "over the time limit") and row["finished_at"] is not None
     assert not store.requeue(job_id, 7) and store.get(job_id)["status"] == "failed"
+
+
+def test_api_store_names_a_job_s_files(tmp_path):
+    """The file layout of a job (DATA/jobs/<id>/) lives in the store: routes and workers ask it."""
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    assert store.job_file(job_id, JobFile.image("exr")) == tmp_path / "jobs" / job_id / "image.exr"
+    assert AOV_NAMES == ("rays", "depth", "normal", "albedo", "variance")
+    assert [store.job_file(job_id, JobFile.aov(n)).name for n in AOV_NAMES][:2] == ["aov_rays.png", "aov_depth.png"]
+    with pytest.raises(ValueError):
+        JobFile.aov("../image")  # only the names of the layout
+    store.save_file(job_id, JobFile.aov_ranges, '{"rays": [1, 4]}')
+    store.save_file(job_id, JobFile.image_png, b"\x89PNG")
+    store.save_file(job_id, JobFile.radiosity, lambda tmp: tmp.write_text("{}"))
+    assert sorted(p.name for p in store.job_dir(job_id).iterdir()) == ["aovs.json", "image.png", "radiosity.json"]
+    assert json.loads(store.job_file(job_id, JobFile.aov_ranges).read_text()) == {"rays": [1, 4]}
+    store.db.execute("UPDATE jobs SET status = 'done' WHERE id = ?", (job_id,))
+    assert store.remove(job_id) and not store.job_dir(job_id).exists()
 
 
 def test_api_store_one_server_per_data_directory(tmp_path):
