@@ -68,15 +68,6 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
 
     from tracer.film import heat_map, png_bytes
 
-    def raw_png(values: np.ndarray) -> bytes:  # [0, 1] data -> 8-bit PNG without the sRGB curve
-        import io
-
-        from PIL import Image
-
-        buf = io.BytesIO()
-        Image.fromarray(np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)).save(buf, format="PNG")
-        return buf.getvalue()
-
     out: dict[str, bytes] = {}
     ranges: dict[str, list[float]] = {}
 
@@ -93,11 +84,11 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
         hit = depth > 0
         far = float(depth.max()) if hit.any() else 1.0
         span("depth", depth[hit] if hit.any() else depth)
-        out["depth"] = raw_png(np.where(hit, 1.0 - 0.85 * depth / far, 0.0))
+        out["depth"] = png_bytes(np.where(hit, 1.0 - 0.85 * depth / far, 0.0), srgb=False)
     if "normal" in aovs:
         normal = np.nan_to_num(aovs["normal"])
         span("normal", normal)
-        out["normal"] = raw_png(0.5 + 0.5 * normal)
+        out["normal"] = png_bytes(0.5 + 0.5 * normal, srgb=False)
     if "albedo" in aovs:
         albedo = np.nan_to_num(aovs["albedo"])
         span("albedo", albedo)

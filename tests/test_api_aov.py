@@ -157,3 +157,19 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     assert client.delete(f"/api/jobs/{job_id}").status_code in (200, 202)
     ended = wait_status(client, job_id, {"cancelled"}, timeout=10)
     assert ended["progress"]["passes_done"] == 0 and ended["preview"] == 0
+
+
+def test_api_aov_data_pictures_keep_their_values():
+    """depth and normal are data, not radiance: written through png_bytes(srgb=False), each byte round(255 v)
+    (depth as grey); albedo goes through the sRGB curve like the image."""
+    from server.worker import aov_pictures
+    from tracer.film import to_srgb8
+
+    normal = np.array([[[1.0, 0.0, -1.0], [0.2, -0.6, 0.5]]], dtype=np.float32)  # (1, 2, 3)
+    depth = np.array([[2.0, 0.0]], dtype=np.float32)  # one hit, one miss
+    pictures, ranges = aov_pictures({"normal": normal, "depth": depth, "albedo": np.full((1, 2, 3), 0.5)})
+    read = {name: np.asarray(Image.open(io.BytesIO(png))) for name, png in pictures.items()}
+    np.testing.assert_array_equal(read["normal"], np.round((0.5 + 0.5 * normal) * 255).astype(np.uint8))
+    assert read["depth"].tolist() == [[round(0.15 * 255), 0]]  # near white to far grey; black: no hit
+    np.testing.assert_array_equal(read["albedo"], to_srgb8(np.full((1, 2, 3), 0.5)))
+    assert ranges["depth"] == [2.0, 2.0] and ranges["normal"] == [-1.0, 1.0]
