@@ -80,6 +80,7 @@ def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client
     scene = tiny_scene(32, spp=16, seed=7)
     created = submit(client, scene)
     assert created["status"] in ("queued", "running") and created["progress"]["samples_total"] == 32 * 32 * 16
+    assert created["finished"] is False
     with client.stream("GET", created["events_url"]) as r:
         assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
         events = list(parse_sse(r.iter_lines()))
@@ -87,7 +88,8 @@ def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client
     assert kinds[-1] == "end" and kinds.count("end") == 1, kinds
     assert "progress" in kinds and "preview" in kinds
     end = events[-1][1]
-    assert end["status"] == "done" and end["progress"]["fraction"] == 1.0 and end["eta"] is None
+    assert end["status"] == "done" and end["finished"] is True
+    assert end["progress"]["fraction"] == 1.0 and end["eta"] is None
     assert end["rays"]["eye"] == 32 * 32 * 16 and end["rays"]["total"] >= end["rays"]["eye"]
     assert end["elapsed"] > 0 and end["attempts"] == 1 and end["error"] is None
     previews = [d for e, d in events if e == "preview"]
@@ -131,7 +133,7 @@ def test_api_jobs_previews_arrive_while_a_long_job_runs_and_cancel_keeps_the_las
 
     asked = time.monotonic()
     r = client.delete(f"/api/jobs/{created['id']}")
-    assert r.status_code == 202 and r.json()["cancel_requested"] is True
+    assert r.status_code == 202 and r.json()["cancel_requested"] is True and r.json()["finished"] is False
     ended = wait_status(client, created["id"], {"cancelled"}, timeout=10)
     assert time.monotonic() - asked < 3  # the worker looks at the job between bands of rows, not only passes
     assert ended["preview"] >= 1 and ended["progress"]["spp_done"] < 1024
@@ -145,7 +147,7 @@ def test_api_jobs_cancel_a_queued_job(client, busy):
     waiting = submit(client, tiny_scene())
     assert job(client, waiting["id"])["status"] == "queued"
     r = client.delete(f"/api/jobs/{waiting['id']}")
-    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    assert r.status_code == 200 and r.json()["status"] == "cancelled" and r.json()["finished"] is True
     nothing = client.get(f"/api/jobs/{waiting['id']}/image")
     assert nothing.status_code == 404 and "no image yet" in nothing.json()["errors"][0]["message"]
     assert job(client, waiting["id"])["started_at"] is None
@@ -176,6 +178,7 @@ def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings):
     created = submit(client, long_scene())
     ended = wait_status(client, created["id"], {"failed"}, timeout=20)
     assert "time limit of 1 s" in ended["error"] and "TRACER_MAX_JOB_SECONDS" in ended["error"]
+    assert ended["finished"] is True
     assert ended["elapsed"] < 5
     assert ended["preview"] >= 1  # the last pass's image is kept
     assert client.get(f"/api/jobs/{created['id']}/image").status_code == 200
