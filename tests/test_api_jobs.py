@@ -1,4 +1,5 @@
-"""Jobs through the TestClient, rendered by a real worker process: life, images, cancel, limits."""
+"""Jobs through the TestClient, rendered by a real worker process (conftest.py's `client`): life, images,
+cancel, limits."""
 
 from __future__ import annotations
 
@@ -8,57 +9,18 @@ import time
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 from PIL import Image
-from test_api_support import long_scene, parse_sse, tiny_scene, wait_for
-
-from server.main import create_app
-from server.settings import Settings
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    settings = Settings(data_dir=tmp_path_factory.mktemp("jobs-data"), workers=1)
-    with TestClient(create_app(settings)) as c:
-        wait_for(lambda: all(w["ready"] for w in c.get("/api/health").json()["workers"]), 60, "the worker")
-        yield c
-
-
-@pytest.fixture
-def settings(client):
-    """The app's settings, restored after the test (limits read at submit time can be changed live)."""
-    s = client.app.state.settings
-    saved = s.model_dump()
-    yield s
-    for key, value in saved.items():
-        setattr(s, key, value)
-
-
-def submit(client, scene: dict, priority: int = 0) -> dict:
-    r = client.post("/api/jobs", json={"scene": scene, "priority": priority})
-    assert r.status_code == 202, r.text
-    assert r.headers["location"] == f"/api/jobs/{r.json()['id']}"
-    return r.json()
-
-
-def job(client, job_id: str) -> dict:
-    r = client.get(f"/api/jobs/{job_id}")
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
-    return wait_for(lambda: (j := job(client, job_id))["status"] in statuses and j, timeout, f"job in {statuses}")
-
-
-def exr_of(client, job_id: str) -> np.ndarray:
-    from tracer.film import read_exr
-
-    r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
-    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
-    path = client.app.state.settings.data_dir / f"check-{job_id}.exr"
-    path.write_bytes(r.content)
-    return read_exr(path)
+from test_api_support import (
+    exr_of,
+    job,
+    long_scene,
+    parse_sse,
+    submit,
+    tiny_scene,
+    wait_finished,
+    wait_for,
+    wait_status,
+)
 
 
 @pytest.fixture
@@ -68,7 +30,7 @@ def busy(client):
     wait_status(client, long["id"], {"running"})
     yield long["id"]
     client.delete(f"/api/jobs/{long['id']}")
-    wait_status(client, long["id"], {"cancelled", "done", "failed"})
+    wait_finished(client, long["id"])
 
 
 def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
@@ -213,7 +175,7 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, compil
     scenes = {p.stem: small(json.loads(p.read_text()), 24, 18) for p in EXAMPLES}
     jobs = {name: submit(client, scene)["id"] for name, scene in scenes.items()}
     for name, job_id in jobs.items():
-        ended = wait_status(client, job_id, {"done", "failed", "cancelled"}, timeout=120)
+        ended = wait_finished(client, job_id, timeout=120)
         assert ended["status"] == "done", (name, ended["error"])
         p = ended["progress"]
         assert p["samples_done"] == p["samples_total"] > 0 and p["fraction"] == 1.0, (name, p)
