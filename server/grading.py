@@ -23,11 +23,10 @@ from contextlib import contextmanager
 from dataclasses import fields
 from pathlib import Path
 
-from server.models import JobStatus
+from server.lifecycle import JobStatus
 from server.pool import WorkerPool
 from server.settings import Settings
-from server.store import JobStore, write_atomic
-from server.worker import aov_path
+from server.store import JobFile, JobStore, write_atomic
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
 from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
@@ -35,7 +34,6 @@ from tracer.scene import Limits, SceneError, load_scene
 log = logging.getLogger("server.grading")
 
 POLL = 0.1  # seconds between two looks at the grading jobs' rows
-FINISHED = {JobStatus.done.value, JobStatus.failed.value, JobStatus.cancelled.value}
 STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
     "render.png": "image/png", "reference.png": "image/png", "error_map.png": "image/png",
     "rejected.png": "image/png", "results.json": "application/json", "report.json": "application/json",
@@ -97,7 +95,7 @@ class QueueRenderer:
         while pending:
             for i, job_id in list(pending.items()):
                 row = self.store.get(job_id)
-                if row is not None and row["status"] in FINISHED:
+                if row is not None and JobStatus(row["status"]).finished:
                     out[i] = self._result(row, *limit[i])
                     del pending[i]
             if self.on_progress:
@@ -112,15 +110,15 @@ class QueueRenderer:
         from, so its message is replaced."""
         from tracer.film import read_exr
 
-        if row["status"] != JobStatus.done.value:
+        if row["status"] != JobStatus.done:
             error = row["error"] or f"the render job {row['id']} was {row['status']}"
-            if row["status"] == JobStatus.failed.value and "over the time limit" in error:
+            if row["status"] == JobStatus.failed and "over the time limit" in error:
                 killed = "; its worker was killed" if "killed" in error else ""
                 error = over_time(seconds, source) + killed
             return Rendered(error=error)
         try:
-            image = read_exr(self.store.image_path(row["id"], "exr"))
-            variance = read_exr(aov_path(self.store, row["id"], "exr"))
+            image = read_exr(self.store.job_file(row["id"], JobFile.image_exr))
+            variance = read_exr(self.store.job_file(row["id"], JobFile.aov_floats))
         except Exception as e:  # a file missing or broken: that job's result is an error, not the run's
             return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
         seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)
@@ -193,7 +191,8 @@ def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[
 
 class GradeRuns:
     """The service's grading runs: start one, read its state; runs left unfinished by a stopped
-    server are marked failed at start-up (their render jobs, if queued, still run)."""
+    server are marked failed at start-up (their render jobs, if queued, still run). A run's status
+    is a job's (server/lifecycle.py): running, then done or failed."""
 
     def __init__(self, settings: Settings, store: JobStore, wake: Callable[[], None] | None):
         self.settings = settings
@@ -206,8 +205,8 @@ class GradeRuns:
                 state = json.loads(status.read_text())
             except (OSError, ValueError):
                 continue
-            if state.get("status") == "running":
-                state.update(status="failed", error="the server stopped while grading; submit it again")
+            if state.get("status") == JobStatus.running:
+                state.update(status=JobStatus.failed, error="the server stopped while grading; submit it again")
                 self._write(status.parent, state)
 
     def folder(self, run_id: str) -> Path | None:
@@ -235,7 +234,7 @@ class GradeRuns:
         folder.mkdir(parents=True)
         (folder / "assignment.json").write_text(json.dumps(assignment))
         state = {
-            "id": run_id, "status": "running", "assignment": spec.name, "created_at": time.time(),
+            "id": run_id, "status": JobStatus.running, "assignment": spec.name, "created_at": time.time(),
             "finished_at": None, "error": None, "students": [s.student for s in submissions],
             "renders_done": 0, "renders_total": None, "max_score": spec.max_score(), "summary": None,
         }  # fmt: skip
@@ -255,10 +254,10 @@ class GradeRuns:
         try:
             reports = grader.grade(submissions)
             state["summary"] = write_all(folder / "out", reports)
-            state["status"] = "done"
+            state["status"] = JobStatus.done
         except Exception as e:  # a bug must end the run with a reason, never leave it "running"
             log.exception("grading run %s failed", folder.name)
-            state.update(status="failed", error=f"{type(e).__name__}: {e}")
+            state.update(status=JobStatus.failed, error=f"{type(e).__name__}: {e}")
         state["finished_at"] = time.time()
         with self._lock:
             self._write(folder, state)

@@ -1,29 +1,17 @@
-"""The API's data: job status, what a client sends (Create) and what it gets back (Public)."""
+"""The API's data: what a client sends (Create) and what it gets back (Public). Job statuses: server/lifecycle.py."""
 
 from __future__ import annotations
 
 import json
 import time
 from datetime import UTC, datetime
-from enum import StrEnum
 from typing import Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from pydantic_core import PydanticCustomError
 
+from server.lifecycle import JobStatus
 from tracer.scene import Scene
-
-
-class JobStatus(StrEnum):
-    queued = "queued"  # waiting for a worker, by priority then age
-    running = "running"  # a worker is rendering it
-    done = "done"  # all samples rendered; the final image is kept
-    failed = "failed"  # invalid at render time, over its time limit, or its worker died too often
-    cancelled = "cancelled"  # DELETE /api/jobs/{id}; a running job keeps its last image
-
-    @property
-    def finished(self) -> bool:
-        return self in (JobStatus.done, JobStatus.failed, JobStatus.cancelled)
 
 
 class ErrorItem(BaseModel):
@@ -110,6 +98,7 @@ class JobProgress(BaseModel):
 class JobPublic(BaseModel):
     id: str = Field(description="unguessable job id")
     status: JobStatus
+    finished: bool = Field(description="true once the job has ended (done, failed or cancelled): nothing changes after")
     priority: int
     name: str | None = Field(description="the scene's name, if it has one")
     width: int
@@ -156,6 +145,7 @@ class JobPublic(BaseModel):
         return cls(
             id=row["id"],
             status=status,
+            finished=status.finished,
             priority=row["priority"],
             name=row["name"],
             width=row["width"],

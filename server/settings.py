@@ -90,14 +90,6 @@ class Settings(BaseSettings):
             max_texture_pixels=self.max_texture_pixels,
         )
 
-    @property
-    def db_path(self) -> Path:
-        return self.data_dir / "jobs.sqlite3"
-
-    @property
-    def jobs_dir(self) -> Path:
-        return self.data_dir / "jobs"
-
     def threads_per_worker(self) -> int:
         if self.render_threads:
             return self.render_threads

@@ -1,10 +1,17 @@
-"""The job store: one SQLite table under the data directory, and each job's images beside it.
+"""The job store: one SQLite table under the data directory, and each job's files beside it.
 
 Every process and thread opens its own connection (WAL mode, so readers never wait for the
 worker's writes; a busy timeout for the rare writer-writer overlap), and every statement is short.
-A worker writes to a job only while the row still names it (`worker = pid AND status = 'running'`),
-so a worker that lost its job (killed and retried elsewhere, or a stale one after a restart) can
-never overwrite the job's new life.
+
+Statuses change only through `_move`, one UPDATE per move of the life cycle (server/lifecycle.py):
+its WHERE names the status the job leaves, so a move that lost a race changes nothing (a cancel of
+a job that has just started, a finish of a job the supervisor has just failed). A worker writes to a
+job only while the row still names it (`worker = pid AND status = running`), so a worker that lost
+its job (killed and retried elsewhere, or a stale one after a restart) can never overwrite the
+job's new life.
+
+A job's files (its images, AOV pictures, radiosity solution) live in DATA/jobs/<id>/, named by
+`JobFile`; routes and workers both ask the store for them (`job_file`, `save_file`).
 """
 
 from __future__ import annotations
@@ -16,9 +23,11 @@ import shutil
 import sqlite3
 import threading
 import time
+from collections.abc import Callable
+from enum import StrEnum
 from pathlib import Path
 
-from server.models import JobStatus
+from server.lifecycle import FINISHED, BadTransition, JobStatus, check_transition
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -52,8 +61,41 @@ CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at
 """
 
 ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
-RUNNING, QUEUED = JobStatus.running.value, JobStatus.queued.value
-FINISHED = tuple(s.value for s in JobStatus if s.finished)
+QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
+FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
+
+
+class JobFile(StrEnum):
+    """A job's files, in its folder DATA/jobs/<id>/ (the value is the file's name). Each is written
+    whole (a temporary file renamed over the old one): a reader sees the old file or the new one."""
+
+    image_png = "image.png"  # the latest image, 8-bit sRGB with the film's exposure (previews, then the final)
+    image_exr = "image.exr"  # the same pass as linear float32 radiance
+    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/worker.py, aov_pictures)
+    aov_depth = "aov_depth.png"
+    aov_normal = "aov_normal.png"
+    aov_albedo = "aov_albedo.png"
+    aov_variance = "aov_variance.png"
+    aov_ranges = "aovs.json"  # {name: [min, max]} of the values each AOV picture shows
+    aov_floats = "aovs.exr"  # the float AOVs: the variance as RGB (what the grader reads), the others as layers
+    radiosity = "radiosity.json"  # a finished radiosity job's solution
+
+    @classmethod
+    def image(cls, fmt: str) -> JobFile:
+        """The latest image as "png" or "exr"."""
+        return cls(f"image.{fmt}")
+
+    @classmethod
+    def aov(cls, name: str) -> JobFile:
+        """The AOV picture `name` (one of AOV_NAMES; ValueError for any other)."""
+        return cls(f"aov_{name}.png")
+
+
+AOV_NAMES = tuple(f.removeprefix("aov_").removesuffix(".png") for f in JobFile if f.startswith("aov_"))
+
+
+class _Sql(str):
+    """A field's new value given as an SQL expression (`attempts + 1`), written into the statement."""
 
 
 class QueueFull(Exception):
@@ -106,10 +148,47 @@ class JobStore:
         row = self.db.execute(sql, args).fetchone()
         return dict(row) if row is not None else None
 
+    # -- moves of the life cycle --------------------------------------------------------------
+
+    def _move(
+        self,
+        db: sqlite3.Connection,
+        source: JobStatus,
+        target: JobStatus,
+        where: str = "",
+        args: tuple = (),
+        **fields,
+    ) -> list[dict]:
+        """Move the jobs in status `source` that match `where` (SQL, with `args`) to `target`, setting
+        `fields` too (values bound, or _Sql expressions); a move into a finished status stamps
+        `finished_at`. Returns the rows moved, as they are after the move."""
+        check_transition(source, target)
+        if target.finished:
+            fields.setdefault("finished_at", time.time())
+        fields = {"status": target.value, **fields}
+        sets = ", ".join(f"{k} = {v}" if isinstance(v, _Sql) else f"{k} = ?" for k, v in fields.items())
+        values = [v for v in fields.values() if not isinstance(v, _Sql)]
+        sql = f"UPDATE jobs SET {sets} WHERE status = ?" + (f" AND ({where})" if where else "") + " RETURNING *"
+        return [dict(r) for r in db.execute(sql, (*values, source.value, *args)).fetchall()]
+
     # -- files --------------------------------------------------------------------------------
 
-    def image_path(self, job_id: str, fmt: str) -> Path:
-        return self.jobs_dir / job_id / f"image.{fmt}"
+    def job_dir(self, job_id: str) -> Path:
+        """The job's folder of files (it may not exist yet: the first save makes it)."""
+        return self.jobs_dir / job_id
+
+    def job_file(self, job_id: str, kind: JobFile) -> Path:
+        """Where the job's file of that kind is kept (it may not exist)."""
+        return self.job_dir(job_id) / JobFile(kind).value
+
+    def save_file(self, job_id: str, kind: JobFile, data: bytes | str | Callable[[Path], None]) -> None:
+        """Write one of the job's files whole: bytes, text, or `data(path)` writing a temporary file."""
+        if isinstance(data, bytes):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_bytes(data))
+        elif isinstance(data, str):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_text(data))
+        else:
+            write_atomic(self.job_file(job_id, kind), data)
 
     # -- the API side -------------------------------------------------------------------------
 
@@ -161,35 +240,24 @@ class JobStore:
     def cancel(self, job_id: str) -> dict | None:
         """Cancel a queued job now; ask the worker of a running one to stop. The job's row after."""
         with self._tx() as db:
-            db.execute(
-                "UPDATE jobs SET status = 'cancelled', finished_at = ?, error = 'cancelled before it started'"
-                " WHERE id = ? AND status = 'queued'",
-                (time.time(), job_id),
-            )
-            db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = 'running'", (job_id,))
+            self._move(db, QUEUED, CANCELLED, "id = ?", (job_id,), error="cancelled before it started")
+            db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = ?", (job_id, RUNNING))
         return self.get(job_id)
 
     def recover(self) -> tuple[int, int]:
         """At start-up: jobs left running by a dead server go back to the queue (or end, if cancelled)."""
         with self._tx() as db:
-            cancelled = db.execute(
-                "UPDATE jobs SET status = 'cancelled', finished_at = ?, worker = NULL,"
-                " error = 'cancelled (the server stopped while it rendered)'"
-                " WHERE status = 'running' AND cancel_requested = 1",
-                (time.time(),),
-            ).rowcount
-            requeued = db.execute(
-                "UPDATE jobs SET status = 'queued', worker = NULL WHERE status = 'running'",
-            ).rowcount
-        return requeued, cancelled
+            error = "cancelled (the server stopped while it rendered)"
+            cancelled = self._move(db, RUNNING, CANCELLED, "cancel_requested = 1", worker=None, error=error)
+            requeued = self._move(db, RUNNING, QUEUED, worker=None)
+        return len(requeued), len(cancelled)
 
     # -- the janitor --------------------------------------------------------------------------
 
     def finished_before(self, when: float) -> list[str]:
         """Ids of the jobs that finished (done, failed, cancelled) before Unix time `when`, first ended first."""
-        marks = ", ".join("?" * len(FINISHED))
         rows = self.db.execute(
-            f"SELECT id FROM jobs WHERE status IN ({marks}) AND COALESCE(finished_at, created_at) < ?"
+            f"SELECT id FROM jobs WHERE {FINISHED_IN} AND COALESCE(finished_at, created_at) < ?"
             " ORDER BY COALESCE(finished_at, created_at), rowid",
             (*FINISHED, when),
         ).fetchall()
@@ -197,8 +265,7 @@ class JobStore:
 
     def remove(self, job_id: str) -> bool:
         """Remove a finished job: its row, then its folder. Never a queued or running one (False)."""
-        marks = ", ".join("?" * len(FINISHED))
-        cur = self.db.execute(f"DELETE FROM jobs WHERE id = ? AND status IN ({marks})", (job_id, *FINISHED))
+        cur = self.db.execute(f"DELETE FROM jobs WHERE id = ? AND {FINISHED_IN}", (job_id, *FINISHED))
         if cur.rowcount == 0:
             return False
         self.remove_folder(job_id)
@@ -206,7 +273,7 @@ class JobStore:
 
     def remove_folder(self, job_id: str) -> None:
         if looks_like_job_id(job_id):  # never a path built from anything else
-            shutil.rmtree(self.jobs_dir / job_id, ignore_errors=True)
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
     def ids(self) -> set[str]:
         return {row["id"] for row in self.db.execute("SELECT id FROM jobs")}
@@ -221,7 +288,7 @@ class JobStore:
     # -- the supervisor -----------------------------------------------------------------------
 
     def running_on(self, pid: int) -> str | None:
-        row = self._one("SELECT id FROM jobs WHERE status = 'running' AND worker = ?", (pid,))
+        row = self._one("SELECT id FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid))
         return row["id"] if row else None
 
     def worker_died(self, pid: int, attempts: int, reason: str) -> list[tuple[str, str]]:
@@ -229,56 +296,49 @@ class JobStore:
         out = []
         with self._tx() as db:
             rows = db.execute(
-                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = 'running' AND worker = ?", (pid,)
+                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid)
             ).fetchall()
             for r in rows:
                 if r["cancel_requested"]:
-                    status, error = "cancelled", f"cancelled ({reason})"
+                    status, error = CANCELLED, f"cancelled ({reason})"
                 elif r["attempts"] < attempts:
-                    status, error = "queued", None
+                    status, error = QUEUED, None
                 else:
-                    status, error = "failed", f"{reason}; tried {r['attempts']} time(s)"
-                finished = time.time() if status != "queued" else None
-                db.execute(
-                    "UPDATE jobs SET status = ?, error = ?, finished_at = ?, worker = NULL WHERE id = ?",
-                    (status, error, finished, r["id"]),
-                )
-                out.append((r["id"], status))
+                    status, error = FAILED, f"{reason}; tried {r['attempts']} time(s)"
+                self._move(db, RUNNING, status, "id = ?", (r["id"],), error=error, worker=None)
+                out.append((r["id"], status.value))
         return out
 
     def overdue(self, grace: float) -> list[dict]:
         """Running jobs past their time limit plus `grace` seconds (their worker did not stop them)."""
         rows = self.db.execute(
-            "SELECT id, worker, max_seconds FROM jobs WHERE status = 'running' AND started_at + max_seconds + ? < ?",
-            (grace, time.time()),
+            "SELECT id, worker, max_seconds FROM jobs WHERE status = ? AND started_at + max_seconds + ? < ?",
+            (RUNNING, grace, time.time()),
         ).fetchall()
         return [dict(r) for r in rows]
 
     def fail(self, job_id: str, pid: int | None, error: str) -> bool:
-        return self._finish(job_id, pid, JobStatus.failed, error=error)
+        return self.finish(job_id, pid, FAILED, error=error)
 
     # -- the worker side ----------------------------------------------------------------------
 
     def claim(self, pid: int) -> dict | None:
         """Take the next queued job (highest priority, then oldest) for worker `pid`, atomically."""
-        if self.db.execute("SELECT 1 FROM jobs WHERE status = 'queued' LIMIT 1").fetchone() is None:
+        if self.db.execute("SELECT 1 FROM jobs WHERE status = ? LIMIT 1", (QUEUED,)).fetchone() is None:
             return None  # an idle worker's look at the queue takes no write lock
         with self._tx() as db:
-            row = db.execute(
-                "UPDATE jobs SET status = 'running', worker = ?, started_at = ?, finished_at = NULL,"
-                " attempts = attempts + 1, samples_done = 0, passes_done = 0, spp_done = 0, preview = 0,"
-                " rays = '{}', error = NULL"
-                " WHERE id = (SELECT id FROM jobs WHERE status = 'queued'"
-                "             ORDER BY priority DESC, created_at, rowid LIMIT 1)"
-                " RETURNING *",
-                (pid, time.time()),
-            ).fetchone()
-        return dict(row) if row is not None else None
+            rows = self._move(
+                db, QUEUED, RUNNING,
+                "id = (SELECT id FROM jobs WHERE status = ? ORDER BY priority DESC, created_at, rowid LIMIT 1)",
+                (QUEUED,), worker=pid, started_at=time.time(), finished_at=None, attempts=_Sql("attempts + 1"),
+                samples_done=0, passes_done=0, spp_done=0, preview=0, rays="{}", error=None,
+            )  # fmt: skip
+        return rows[0] if rows else None
 
     def control(self, job_id: str, pid: int) -> dict | None:
         """What a worker checks between bands: is the job still its own, and is a stop requested."""
         return self._one(
-            "SELECT cancel_requested FROM jobs WHERE id = ? AND worker = ? AND status = 'running'", (job_id, pid)
+            "SELECT cancel_requested FROM jobs WHERE id = ? AND worker = ? AND status = ?", (job_id, pid, RUNNING)
         )
 
     def progress(self, job_id: str, pid: int, **fields) -> bool:
@@ -289,33 +349,29 @@ class JobStore:
                 fields[key] = json.dumps(fields[key])
         sets = ", ".join(f"{k} = ?" for k in fields)
         cur = self.db.execute(
-            f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = 'running'",
-            (*fields.values(), job_id, pid),
+            f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = ?",
+            (*fields.values(), job_id, pid, RUNNING),
         )
         return cur.rowcount > 0
 
     def requeue(self, job_id: str, pid: int) -> bool:
         """Give a job back to the queue (the worker is shutting down); its try does not count."""
-        cur = self.db.execute(
-            "UPDATE jobs SET status = 'queued', worker = NULL, attempts = MAX(attempts - 1, 0)"
-            " WHERE id = ? AND worker = ? AND status = 'running'",
-            (job_id, pid),
-        )
-        return cur.rowcount > 0
+        moved = self._move(
+            self.db, RUNNING, QUEUED, "id = ? AND worker = ?", (job_id, pid),
+            worker=None, attempts=_Sql("MAX(attempts - 1, 0)"),
+        )  # fmt: skip
+        return bool(moved)
 
-    def finish(self, job_id: str, pid: int, status: JobStatus, **fields) -> bool:
-        return self._finish(job_id, pid, status, **fields)
-
-    def _finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
+    def finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
+        """End a running job as `status` (done, failed or cancelled), with its last progress `fields`;
+        only while worker `pid` still has it (any worker's when None: the supervisor). False if it had not."""
+        if not JobStatus(status).finished:
+            raise BadTransition(f"finish() ends a job; {status} is not an end")
         for key in ("rays", "errors", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
-        fields.update(status=status.value, finished_at=time.time())
-        sets = ", ".join(f"{k} = ?" for k in fields)
-        owner = "AND worker = ?" if pid is not None else ""
-        args = (*fields.values(), job_id) + ((pid,) if pid is not None else ())
-        cur = self.db.execute(f"UPDATE jobs SET {sets} WHERE id = ? AND status = 'running' {owner}", args)
-        return cur.rowcount > 0
+        where, args = ("id = ?", (job_id,)) if pid is None else ("id = ? AND worker = ?", (job_id, pid))
+        return bool(self._move(self.db, RUNNING, JobStatus(status), where, args, **fields))
 
 
 class _Transaction:

@@ -21,18 +21,16 @@ import os
 import signal
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 from server.channel import WorkerEnd
-from server.models import JobStatus
+from server.lifecycle import JobStatus
 from server.settings import Settings
-from server.store import JobStore, write_atomic
+from server.store import JobFile, JobStore
 
 log = logging.getLogger("server.worker")
 
 CHECK_INTERVAL = 0.2  # seconds between two looks at the job's row during a pass
 PROGRESS_INTERVAL = 0.2  # seconds between two progress writes during a pass
-AOV_NAMES = ("rays", "depth", "normal", "albedo", "variance")  # the AOV pictures kept beside a finished job
 
 
 class Stop(Exception):
@@ -59,13 +57,6 @@ def worker_main(settings_data: dict, conn) -> None:
     Worker(settings, JobStore(settings.data_dir), line.stopping).loop(line.wait)
 
 
-def aov_path(store: JobStore, job_id: str, name: str) -> Path:
-    """Where a finished job's AOV picture is kept: `aov_<name>.png` beside its image (`aovs.json`: ranges;
-    `aovs.exr`: the float AOVs, the variance as RGB and the others as layers)."""
-    special = {"ranges": "aovs.json", "exr": "aovs.exr"}
-    return store.jobs_dir / job_id / special.get(name, f"aov_{name}.png")
-
-
 def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
     """The renderer's AOVs as PNGs for the page, and each one's [min, max] (the legend of its colours).
 
@@ -76,15 +67,6 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
     import numpy as np
 
     from tracer.film import heat_map, png_bytes
-
-    def raw_png(values: np.ndarray) -> bytes:  # [0, 1] data -> 8-bit PNG without the sRGB curve
-        import io
-
-        from PIL import Image
-
-        buf = io.BytesIO()
-        Image.fromarray(np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)).save(buf, format="PNG")
-        return buf.getvalue()
 
     out: dict[str, bytes] = {}
     ranges: dict[str, list[float]] = {}
@@ -102,11 +84,11 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
         hit = depth > 0
         far = float(depth.max()) if hit.any() else 1.0
         span("depth", depth[hit] if hit.any() else depth)
-        out["depth"] = raw_png(np.where(hit, 1.0 - 0.85 * depth / far, 0.0))
+        out["depth"] = png_bytes(np.where(hit, 1.0 - 0.85 * depth / far, 0.0), srgb=False)
     if "normal" in aovs:
         normal = np.nan_to_num(aovs["normal"])
         span("normal", normal)
-        out["normal"] = raw_png(0.5 + 0.5 * normal)
+        out["normal"] = png_bytes(0.5 + 0.5 * normal, srgb=False)
     if "albedo" in aovs:
         albedo = np.nan_to_num(aovs["albedo"])
         span("albedo", albedo)
@@ -195,9 +177,8 @@ class Worker:
 
         def publish(p: _Pass) -> None:
             nonlocal published
-            png = png_bytes(p.image, exposure)
-            write_atomic(store.image_path(job_id, "png"), lambda tmp: tmp.write_bytes(png))
-            write_atomic(store.image_path(job_id, "exr"), lambda tmp: write_exr(tmp, p.image))
+            store.save_file(job_id, JobFile.image_png, png_bytes(p.image, exposure))
+            store.save_file(job_id, JobFile.image_exr, lambda tmp: write_exr(tmp, p.image))
             published = p.number
             clock["preview"] = time.monotonic()
 
@@ -264,20 +245,18 @@ class Worker:
         try:
             pictures, ranges = aov_pictures(aovs)
             for name, png in pictures.items():
-                write_atomic(aov_path(self.store, job_id, name), lambda tmp, png=png: tmp.write_bytes(png))
-            text = json.dumps(ranges)
-            write_atomic(aov_path(self.store, job_id, "ranges"), lambda tmp: tmp.write_text(text))
+                self.store.save_file(job_id, JobFile.aov(name), png)
+            self.store.save_file(job_id, JobFile.aov_ranges, json.dumps(ranges))
             layers = aov_layers(aovs)  # the floats too (the grader's variance), as EXR layers
             variance = layers.pop("variance")
-            write_atomic(aov_path(self.store, job_id, "exr"), lambda tmp: write_exr(tmp, variance, layers))
+            self.store.save_file(job_id, JobFile.aov_floats, lambda tmp: write_exr(tmp, variance, layers))
         except Exception:  # the image is what matters: a job never fails for its AOV pictures
             log.exception("job %s: could not save the AOV pictures", job_id)
 
     def _save_radiosity(self, job_id: str, solution) -> None:
         """A radiosity job's solution (patches, convergence, snapshots) for GET /api/jobs/{id}/radiosity."""
         try:
-            text = json.dumps(solution.to_json())
-            write_atomic(self.store.jobs_dir / job_id / "radiosity.json", lambda tmp: tmp.write_text(text))
+            self.store.save_file(job_id, JobFile.radiosity, json.dumps(solution.to_json()))
         except Exception:  # the image is what matters
             log.exception("job %s: could not save the radiosity solution", job_id)
 

@@ -13,10 +13,10 @@ from fastapi.responses import StreamingResponse
 
 from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
 from server.errors import ApiError
-from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatus
+from server.lifecycle import JobStatus
+from server.models import ErrorResponse, JobCreate, JobList, JobPublic
 from server.settings import Settings
-from server.store import JobStore, QueueFull
-from server.worker import AOV_NAMES, aov_path
+from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
 from tracer.scene import ASSET_DIR, Scene, SceneError, load_scene
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -109,7 +109,7 @@ def image(
     if not job["preview"]:
         raise ApiError(404, f"no image yet: the job is {job['status']}")
     try:
-        data = store.image_path(job["id"], format).read_bytes()
+        data = store.job_file(job["id"], JobFile.image(format)).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, "the job's image is missing from the data directory") from None
     media = "image/png" if format == "png" else "image/x-exr"
@@ -127,10 +127,10 @@ def job_scene(job: JobDep) -> dict:
 
 
 def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
     try:
-        return json.loads(aov_path(store, job["id"], "ranges").read_text())
+        return json.loads(store.job_file(job["id"], JobFile.aov_ranges).read_text())
     except FileNotFoundError:
         raise ApiError(404, "the job's AOVs are missing from the data directory") from None
 
@@ -143,10 +143,10 @@ def radiosity(job: JobDep, store: StoreDep) -> Response:
     are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
     unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after every
     shot up to 16, then 32, 64, ..., and the last), for showing which patch shoots, step by step."""
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
     try:
-        data = (store.jobs_dir / job["id"] / "radiosity.json").read_bytes()
+        data = store.job_file(job["id"], JobFile.radiosity).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, "this job has no radiosity solution (its integrator is not radiosity)") from None
     return Response(data, media_type="application/json")
@@ -173,7 +173,7 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
         raise ApiError(404, [{"path": "name", "message": message}])
     _aov_ready(job, store)
     try:
-        data = aov_path(store, job["id"], name).read_bytes()
+        data = store.job_file(job["id"], JobFile.aov(name)).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, [{"path": "name", "message": f"the job has no '{name}' AOV"}]) from None
     headers = {"Cache-Control": "no-store", "Content-Disposition": f'inline; filename="job-{job["id"]}-{name}.png"'}
