@@ -43,19 +43,20 @@ STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
 class QueueRenderer:
     """Renders a grader's jobs as queued render jobs, and waits for all of them.
 
-    `wake` tells idle workers there is work; `on_progress(done, total)` follows the renders;
-    `max_queued` is passed to the store (grading may queue a whole class at once)."""
+    `queued(row)` hands each job the store has queued to the job queue (wakes an idle worker, or puts
+    it in Redis); `on_progress(done, total)` follows the renders; `max_queued` is passed to the store
+    (grading may queue a whole class at once)."""
 
     def __init__(
         self,
         store: JobStore,
-        wake: Callable[[], None] | None = None,
+        queued: Callable[[dict], None] | None = None,
         on_progress: Callable[[int, int], None] | None = None,
         max_queued: int = 1_000_000,
         settings: Settings | None = None,
         log_path: Path | None = None,
     ):
-        self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
+        self.store, self.queued, self.on_progress, self.max_queued = store, queued, on_progress, max_queued
         self.settings = settings  # the service's own limits also apply (the smaller of the two)
         self.log_path = log_path  # where the workers log, when they have a file of their own (the CLI's)
 
@@ -88,8 +89,8 @@ class QueueRenderer:
                 max_seconds=seconds, max_queued=self.max_queued,
             )  # fmt: skip
             ids[i] = row["id"]
-        if self.wake:
-            self.wake()
+            if self.queued:
+                self.queued(row)
         pending = dict(ids)
         total = len(jobs)
         while pending:
@@ -184,7 +185,7 @@ def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[
     pool = _LoggedPool(settings, store, log_path, lock)
     pool.start()
     try:
-        yield QueueRenderer(store, pool.notify, progress if on_progress else None, log_path=log_path)
+        yield QueueRenderer(store, lambda row: pool.notify(), progress if on_progress else None, log_path=log_path)
     finally:
         pool.shutdown()
 
@@ -194,11 +195,11 @@ class GradeRuns:
     server are marked failed at start-up (their render jobs, if queued, still run). A run's status
     is a job's (server/lifecycle.py): running, then done or failed."""
 
-    def __init__(self, settings: Settings, store: JobStore, wake: Callable[[], None] | None):
+    def __init__(self, settings: Settings, store: JobStore, queued: Callable[[dict], None] | None):
         self.settings = settings
         self.root = settings.data_dir / "grades"
         self.root.mkdir(parents=True, exist_ok=True)
-        self.store, self.wake = store, wake
+        self.store, self.queued = store, queued
         self._lock = threading.Lock()
         for status in self.root.glob("*/status.json"):
             try:
@@ -250,7 +251,7 @@ class GradeRuns:
                 with self._lock:
                     self._write(folder, state)
 
-        grader.renderer = QueueRenderer(self.store, self.wake, progress, settings=self.settings)
+        grader.renderer = QueueRenderer(self.store, self.queued, progress, settings=self.settings)
         try:
             reports = grader.grade(submissions)
             state["summary"] = write_all(folder / "out", reports)

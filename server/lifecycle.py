@@ -3,7 +3,8 @@
     queued ──claim──> running ──finish──> done | failed | cancelled
        │                 │
        │                 └──requeue (worker stopping, worker died, server restarted)──> queued
-       └──cancel (before it started)──> cancelled
+       ├──cancel (before it started)──> cancelled
+       └──lost again and again (its tries' worker hosts died before they could start it)──> failed
 
 This is the one definition: the job store builds its SQL from it (a move is an UPDATE whose WHERE
 names the status it leaves, checked against TRANSITIONS), the API reports `finished` from it, and
@@ -31,7 +32,7 @@ class JobStatus(StrEnum):
 FINISHED = frozenset({JobStatus.done, JobStatus.failed, JobStatus.cancelled})
 
 TRANSITIONS: dict[JobStatus, frozenset[JobStatus]] = {  # status -> the statuses it may move to
-    JobStatus.queued: frozenset({JobStatus.running, JobStatus.cancelled}),
+    JobStatus.queued: frozenset({JobStatus.running, JobStatus.cancelled, JobStatus.failed}),
     JobStatus.running: frozenset({JobStatus.queued, JobStatus.done, JobStatus.failed, JobStatus.cancelled}),
     JobStatus.done: frozenset(),
     JobStatus.failed: frozenset(),

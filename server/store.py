@@ -20,6 +20,7 @@ import json
 import os
 import secrets
 import shutil
+import socket
 import sqlite3
 import threading
 import time
@@ -54,14 +55,19 @@ CREATE TABLE IF NOT EXISTS jobs (
     errors TEXT NOT NULL DEFAULT '[]',      -- scene errors found by the worker
     cancel_requested INTEGER NOT NULL DEFAULT 0,
     attempts INTEGER NOT NULL DEFAULT 0,    -- times a worker took it
-    worker INTEGER,                         -- pid of the worker rendering it
-    solve TEXT                              -- the radiosity solve so far (JSON: fraction, shots, rays, ...)
+    worker INTEGER,                         -- pid of the embedded worker rendering it
+    solve TEXT,                             -- the radiosity solve so far (JSON: fraction, shots, rays, ...)
+    host TEXT,                              -- the worker host (name) of the latest try
+    device TEXT,                            -- the device the latest try renders on (cpu, cuda:0)
+    lost INTEGER NOT NULL DEFAULT 0,        -- tries lost with their worker (a crash, a dead or cut-off host)
+    tries TEXT NOT NULL DEFAULT '[]'        -- each try: {attempt, host, device, worker, started_at, ended_at, outcome}
 );
 CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at);
 """
 
 ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
 QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
+HOST = socket.gethostname()  # the embedded workers' host: this one
 FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
 
 
@@ -71,7 +77,7 @@ class JobFile(StrEnum):
 
     image_png = "image.png"  # the latest image, 8-bit sRGB with the film's exposure (previews, then the final)
     image_exr = "image.exr"  # the same pass as linear float32 radiance
-    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/worker.py, aov_pictures)
+    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/rendering.py, aov_pictures)
     aov_depth = "aov_depth.png"
     aov_normal = "aov_normal.png"
     aov_albedo = "aov_albedo.png"
@@ -94,8 +100,46 @@ class JobFile(StrEnum):
 AOV_NAMES = tuple(f.removeprefix("aov_").removesuffix(".png") for f in JobFile if f.startswith("aov_"))
 
 
-class _Sql(str):
-    """A field's new value given as an SQL expression (`attempts + 1`), written into the statement."""
+class _Sql:
+    """A field's new value given as an SQL expression (`attempts + 1`), written into the statement,
+    with its own bound arguments."""
+
+    def __init__(self, sql: str, *args):
+        self.sql, self.args = sql, args
+
+
+class Attempt(int):
+    """A writer that owns a job by its try number (the Redis backend: events of try k apply only while
+    the job's `attempts` is still k). A plain int names an embedded worker by its pid."""
+
+
+def _fence(who: int | None) -> tuple[str, tuple]:
+    """SQL (and args) that a running job's row must match for `who` to write it: an embedded worker's
+    pid, a try's Attempt, or None (the supervisor: anyone)."""
+    if who is None:
+        return "", ()
+    if isinstance(who, Attempt):
+        return "attempts = ?", (int(who),)
+    return "worker = ?", (who,)
+
+
+def _and(*parts: str) -> str:
+    return " AND ".join(p for p in parts if p)
+
+
+def _begin_try(attempt: str, host: str | None, device: str | None, worker) -> _Sql:
+    """`tries` with a new try appended (its outcome null until it ends); `attempt` is SQL (the row's old
+    values: `attempts + 1` is the try a claim begins)."""
+    entry = (
+        f"json_object('attempt', {attempt}, 'host', ?, 'device', ?, 'worker', ?, 'started_at', ?,"
+        " 'ended_at', NULL, 'outcome', NULL)"
+    )
+    return _Sql(f"json_insert(tries, '$[#]', {entry})", host, device, worker, time.time())
+
+
+def _end_try(outcome: str) -> _Sql:
+    """`tries` with its last try ended: done, failed, cancelled, lost (with its worker), given back."""
+    return _Sql("json_set(tries, '$[#-1].ended_at', ?, '$[#-1].outcome', ?)", time.time(), outcome)
 
 
 class QueueFull(Exception):
@@ -123,7 +167,14 @@ class JobStore:
     def _add_columns(self) -> None:
         """Columns added since a data dir was made: an older database gets them (empty)."""
         have = {row["name"] for row in self.db.execute("PRAGMA table_info(jobs)")}
-        for name, decl in (("solve", "TEXT"),):
+        added = (
+            ("solve", "TEXT"),
+            ("host", "TEXT"),
+            ("device", "TEXT"),
+            ("lost", "INTEGER NOT NULL DEFAULT 0"),
+            ("tries", "TEXT NOT NULL DEFAULT '[]'"),
+        )
+        for name, decl in added:
             if name not in have:
                 self.db.execute(f"ALTER TABLE jobs ADD COLUMN {name} {decl}")
 
@@ -166,8 +217,8 @@ class JobStore:
         if target.finished:
             fields.setdefault("finished_at", time.time())
         fields = {"status": target.value, **fields}
-        sets = ", ".join(f"{k} = {v}" if isinstance(v, _Sql) else f"{k} = ?" for k, v in fields.items())
-        values = [v for v in fields.values() if not isinstance(v, _Sql)]
+        sets = ", ".join(f"{k} = {v.sql}" if isinstance(v, _Sql) else f"{k} = ?" for k, v in fields.items())
+        values = [a for v in fields.values() for a in (v.args if isinstance(v, _Sql) else (v,))]
         sql = f"UPDATE jobs SET {sets} WHERE status = ?" + (f" AND ({where})" if where else "") + " RETURNING *"
         return [dict(r) for r in db.execute(sql, (*values, source.value, *args)).fetchall()]
 
@@ -305,7 +356,8 @@ class JobStore:
                     status, error = QUEUED, None
                 else:
                     status, error = FAILED, f"{reason}; tried {r['attempts']} time(s)"
-                self._move(db, RUNNING, status, "id = ?", (r["id"],), error=error, worker=None)
+                self._move(db, RUNNING, status, "id = ?", (r["id"],), error=error, worker=None,
+                           lost=_Sql("lost + 1"), tries=_end_try("lost"))  # fmt: skip
                 out.append((r["id"], status.value))
         return out
 
@@ -331,47 +383,113 @@ class JobStore:
                 db, QUEUED, RUNNING,
                 "id = (SELECT id FROM jobs WHERE status = ? ORDER BY priority DESC, created_at, rowid LIMIT 1)",
                 (QUEUED,), worker=pid, started_at=time.time(), finished_at=None, attempts=_Sql("attempts + 1"),
-                samples_done=0, passes_done=0, spp_done=0, preview=0, rays="{}", error=None,
+                samples_done=0, passes_done=0, spp_done=0, preview=0, rays="{}", error=None, host=HOST, device="cpu",
+                tries=_begin_try("attempts + 1", HOST, "cpu", pid),
             )  # fmt: skip
         return rows[0] if rows else None
 
-    def control(self, job_id: str, pid: int) -> dict | None:
-        """What a worker checks between bands: is the job still its own, and is a stop requested."""
-        return self._one(
-            "SELECT cancel_requested FROM jobs WHERE id = ? AND worker = ? AND status = ?", (job_id, pid, RUNNING)
-        )
+    def control(self, job_id: str, who: int) -> dict | None:
+        """What a worker checks between bands: is the job still its own (None if not), and is a stop requested."""
+        where, args = _fence(who)
+        return self._one(f"SELECT cancel_requested FROM jobs WHERE {_and('id = ?', where, 'status = ?')}",
+                         (job_id, *args, RUNNING))  # fmt: skip
 
-    def progress(self, job_id: str, pid: int, **fields) -> bool:
+    def progress(self, job_id: str, who: int, **fields) -> bool:
         """Update progress fields (samples_done, samples_total, passes_done, spp_done, rays, preview, solve) of
-        its job."""
+        its job, while `who` (a worker's pid, or a try's Attempt) still has it."""
         for key in ("rays", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
         sets = ", ".join(f"{k} = ?" for k in fields)
+        where, args = _fence(who)
         cur = self.db.execute(
-            f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = ?",
-            (*fields.values(), job_id, pid, RUNNING),
+            f"UPDATE jobs SET {sets} WHERE {_and('id = ?', where, 'status = ?')}",
+            (*fields.values(), job_id, *args, RUNNING),
         )
         return cur.rowcount > 0
 
-    def requeue(self, job_id: str, pid: int) -> bool:
-        """Give a job back to the queue (the worker is shutting down); its try does not count."""
+    def requeue(self, job_id: str, who: int) -> bool:
+        """Give a job back to the queue (its worker is shutting down); an embedded worker's try does not
+        count (the next claim counts it again); a try of the Redis backend is given back as the next try
+        (tries are its fence), which counts nothing lost either."""
+        where, args = _fence(who)
+        again = _Sql("attempts + 1") if isinstance(who, Attempt) else _Sql("MAX(attempts - 1, 0)")
         moved = self._move(
-            self.db, RUNNING, QUEUED, "id = ? AND worker = ?", (job_id, pid),
-            worker=None, attempts=_Sql("MAX(attempts - 1, 0)"),
+            self.db, RUNNING, QUEUED, _and("id = ?", where), (job_id, *args),
+            worker=None, attempts=again, tries=_end_try("given back"),
         )  # fmt: skip
         return bool(moved)
 
-    def finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
+    def finish(self, job_id: str, who: int | None, status: JobStatus, **fields) -> bool:
         """End a running job as `status` (done, failed or cancelled), with its last progress `fields`;
-        only while worker `pid` still has it (any worker's when None: the supervisor). False if it had not."""
+        only while `who` (a worker's pid, a try's Attempt) still has it (anyone's when None: the
+        supervisor). False if it had not."""
         if not JobStatus(status).finished:
             raise BadTransition(f"finish() ends a job; {status} is not an end")
         for key in ("rays", "errors", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
-        where, args = ("id = ?", (job_id,)) if pid is None else ("id = ? AND worker = ?", (job_id, pid))
-        return bool(self._move(self.db, RUNNING, JobStatus(status), where, args, **fields))
+        where, args = _fence(who)
+        fields.setdefault("tries", _end_try(JobStatus(status).value))
+        return bool(self._move(self.db, RUNNING, JobStatus(status), _and("id = ?", where), (job_id, *args), **fields))
+
+    # -- the Redis backend: tries of jobs on worker hosts, applied by the API --------------------
+
+    def queue_try(self, job_id: str, attempt: int) -> bool:
+        """A queued job's try `attempt` has been put in Redis (its first, or again after Redis lost it)."""
+        return (
+            self.db.execute(
+                "UPDATE jobs SET attempts = ? WHERE id = ? AND status = ?", (attempt, job_id, QUEUED)
+            ).rowcount
+            > 0
+        )
+
+    def start_try(self, job_id: str, attempt: int, host: str, device: str, worker: str) -> dict | None:
+        """A worker host took try `attempt` of a queued job: it runs (None if the job moved on: cancelled,
+        or a later try)."""
+        rows = self._move(
+            self.db, QUEUED, RUNNING, "id = ? AND attempts = ?", (job_id, attempt),
+            worker=None, started_at=time.time(), finished_at=None, samples_done=0, passes_done=0, spp_done=0,
+            preview=0, rays="{}", error=None, host=host, device=device,
+            tries=_begin_try("attempts", host, device, worker),
+        )  # fmt: skip
+        return rows[0] if rows else None
+
+    def lose_try(self, job_id: str, attempt: int, reason: str, max_lost: int) -> tuple[str, int] | None:
+        """Try `attempt` of a queued or running job was lost with its worker: the job goes back to the
+        queue as the next try while fewer than `max_lost` tries were lost, else it fails with `reason`.
+        Returns (new status, attempt to queue) or None if the job had moved on."""
+        with self._tx() as db:
+            row = db.execute(
+                "SELECT status, lost, cancel_requested FROM jobs WHERE id = ? AND attempts = ?", (job_id, attempt)
+            ).fetchone()
+            if row is None or row["status"] not in (QUEUED, RUNNING):
+                return None
+            source = JobStatus(row["status"])
+            end = _end_try("lost") if source is RUNNING else _Sql("tries")
+            if row["cancel_requested"]:
+                self._move(db, source, CANCELLED, "id = ?", (job_id,), error=f"cancelled ({reason})", tries=end)
+                return CANCELLED.value, attempt
+            if row["lost"] + 1 >= max_lost:
+                error = f"{reason}; tried {attempt} time(s)"
+                self._move(db, source, FAILED, "id = ?", (job_id,), error=error, lost=_Sql("lost + 1"), tries=end)
+                return FAILED.value, attempt
+            if source is RUNNING:
+                self._move(db, RUNNING, QUEUED, "id = ?", (job_id,), attempts=_Sql("attempts + 1"),
+                           lost=_Sql("lost + 1"), tries=end)  # fmt: skip
+            else:
+                db.execute("UPDATE jobs SET attempts = attempts + 1, lost = lost + 1 WHERE id = ?", (job_id,))
+            return QUEUED.value, attempt + 1
+
+    def live_tries(self) -> list[dict]:
+        """The queued and running jobs: what the Redis backend watches (id, status, attempts, started_at,
+        max_seconds, cancel_requested)."""
+        rows = self.db.execute(
+            "SELECT id, status, attempts, started_at, max_seconds, cancel_requested, priority FROM jobs"
+            " WHERE status IN (?, ?) ORDER BY priority DESC, created_at, rowid",
+            (QUEUED, RUNNING),
+        ).fetchall()
+        return [dict(r) for r in rows]
 
 
 class _Transaction:

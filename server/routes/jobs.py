@@ -11,7 +11,7 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
+from server.deps import JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobStatus
 from server.models import ErrorResponse, JobCreate, JobList, JobPublic
@@ -46,7 +46,7 @@ def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
         429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
     },
 )
-def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, pool: PoolDep, response: Response) -> JobPublic:
+def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by priority then age (202).
 
     The job comes back with the scene's `warnings`; follow it at `events_url`, fetch `image_url`."""
@@ -66,8 +66,7 @@ def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, pool: PoolDe
     except QueueFull as full:
         message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
         raise ApiError(429, message, headers={"Retry-After": "5"}) from None
-    if pool is not None:
-        pool.notify()
+    queue.submitted(row)
     response.headers["Location"] = f"/api/jobs/{row['id']}"
     return JobPublic.from_row(row)
 
@@ -244,11 +243,12 @@ async def _event_stream(store: JobStore, job_id: str, request: Request) -> Async
         **NOT_FOUND,
     },
 )
-def cancel(job: JobDep, store: StoreDep, response: Response) -> JobPublic:
+def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
     """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`."""
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
     row = store.cancel(job["id"])
+    queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202
     return JobPublic.from_row(row)
