@@ -110,6 +110,7 @@ class JobProgress(BaseModel):
 class JobPublic(BaseModel):
     id: str = Field(description="unguessable job id")
     status: JobStatus
+    finished: bool = Field(description="true once the job has ended: done, failed or cancelled")
     priority: int
     name: str | None = Field(description="the scene's name, if it has one")
     width: int
@@ -156,6 +157,7 @@ class JobPublic(BaseModel):
         return cls(
             id=row["id"],
             status=status,
+            finished=status.finished,
             priority=row["priority"],
             name=row["name"],
             width=row["width"],
