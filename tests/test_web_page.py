@@ -269,6 +269,55 @@ def test_web_page_form_controls_write_into_the_json(desktop):
     desktop.shot("editor-form")
 
 
+def field_input(page, path: str) -> dict:
+    """The attributes of a form field's (first) input or select, and whether it shows a default."""
+    page.wait_for_selector(f"[data-path='{path}']")
+    return page.eval_on_selector(
+        f"[data-path='{path}']",
+        """el => { const i = el.querySelector('input, select');
+            return {tag: i.tagName.toLowerCase(), type: i.type, min: i.getAttribute('min'), max: i.getAttribute('max'),
+                    step: i.getAttribute('step'), value: i.value, isDefault: el.classList.contains('is-default'),
+                    options: [...el.querySelectorAll('option')].map(o => o.value), title: el.title}; }""",
+    )
+
+
+def test_web_page_form_rules_come_from_the_schema(desktop, server):
+    page = desktop.open().page
+    schema = httpx.get(f"{server.url}/api/schema", timeout=30).json()
+    sampler = schema["$defs"]["Sampler"]["properties"]
+    set_scene(page, small(whitted(), sampler={"type": "adaptive"}))
+    # bounds: max_level allows what the scene format allows (8), no copy of its own
+    level = field_input(page, "sampler.max_level")
+    assert (level["min"], level["max"], level["step"]) == ("0", str(sampler["max_level"]["maximum"]), "1")
+    assert level["value"] == str(sampler["max_level"]["default"]) and level["isDefault"]
+    assert level["title"] == sampler["max_level"]["description"]
+    # choices, exclusive bounds (0 < vfov < 180, a spinner step of 1), defaults, the kind of a field
+    assert field_input(page, "sampler.type")["options"] == sampler["type"]["enum"]
+    vfov = field_input(page, "camera.vfov")
+    assert (vfov["min"], vfov["max"]) == ("1", "179")
+    assert field_input(page, "render.integrator")["options"] == ["whitted", "path", "radiosity"]
+    point = field_input(page, "lights.0.intensity")  # a number or r, g, b: a text field
+    assert point["tag"] == "input" and point["type"] == "text"
+    # spp's default depends on the sampler type, as the schema says (x-default-by-type)
+    for kind, want in sampler["spp"]["x-default-by-type"].items():
+        set_scene(page, {**whitted(), "sampler": {"type": kind}})
+        page.wait_for_function(
+            """want => { const el = document.querySelector("[data-path='sampler.spp']");
+                return el.classList.contains('is-default') && el.querySelector('input').value === want; }""",
+            arg=str(want),
+        )
+    # another server's rules: the form follows them
+    schema["$defs"]["Sampler"]["properties"]["max_level"]["maximum"] = 5
+    schema["$defs"]["Sampler"]["properties"]["type"]["enum"].append("sobol")
+    page.route("**/api/schema", lambda route: route.fulfill(json=schema))
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    set_scene(page, {**whitted(), "sampler": {"type": "adaptive"}})
+    assert field_input(page, "sampler.max_level")["max"] == "5"
+    assert "sobol" in field_input(page, "sampler.type")["options"]
+    desktop.shot("editor-form-schema")
+
+
 def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     page = desktop.open().page
     scene = whitted(160, 120, spp=64)
