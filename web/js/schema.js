@@ -20,8 +20,6 @@ export function loadSchema() {
   return loading;
 }
 
-export const hasSchema = () => root !== null;
-
 /** Follow "$ref"s to the definition they name. */
 function deref(node) {
   while (node && node.$ref) node = root.$defs[node.$ref.split("/").pop()];
