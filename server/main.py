@@ -21,10 +21,11 @@ from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
 from server.janitor import Janitor
 from server.queue import make_queue
-from server.routes import grade, jobs, reference, scenes, tools
+from server.routes import grade, jobs, reference, samples, scenes, tools
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
+from tracer.samples import load_kernels as load_sample_kernels
 
 WEB = Path(__file__).resolve().parent.parent / "web"
 log = logging.getLogger("server")
@@ -34,6 +35,7 @@ log = logging.getLogger("server")
 async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
     load_kernels()  # before the workers start, so that they only read the cache
+    load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
     log.info("render kernels ready")
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_data_dir(settings.data_dir)
@@ -82,6 +84,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth)
     app.include_router(jobs.router)
     app.include_router(tools.router)
+    app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
