@@ -224,5 +224,10 @@ class WorkerInfo(BaseModel):
 class Health(BaseModel):
     status: str = Field(description="'ok'")
     backend: str = Field(description="the job queue: 'embedded' (workers on this host) or 'redis' (worker hosts)")
+    queue: dict[str, int] = Field(
+        default_factory=dict,
+        description="the Redis backend's counts since the API started: events applied, stale (reports of tries "
+        "that had lost their job, dropped), lost (tries lost with their host), bytes (files received)",
+    )
     workers: list[WorkerInfo]
     jobs: dict[str, int] = Field(description="jobs by status")

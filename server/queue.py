@@ -26,6 +26,7 @@ log = logging.getLogger("server.queue")
 
 class JobQueue(Protocol):
     backend: str  # "embedded" or "redis"
+    stats: dict[str, int]  # counts for GET /api/health (the Redis backend: events, stale, lost, bytes)
 
     def start(self) -> None:
         """At the API's start-up, after the store is open: recover, then start taking jobs."""
@@ -50,6 +51,7 @@ class EmbeddedQueue:
 
     def __init__(self, settings: Settings, store: JobStore):
         self.settings, self.store = settings, store
+        self.stats: dict[str, int] = {}
         self.pool = WorkerPool(settings, store) if settings.workers > 0 else None
 
     def start(self) -> None:

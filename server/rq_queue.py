@@ -142,7 +142,7 @@ class RedisQueue:
             beat = w.last_heartbeat
             if beat is not None and beat.tzinfo is None:
                 beat = beat.replace(tzinfo=UTC)
-            alive = beat is not None and (now - beat).total_seconds() <= self.settings.lost_after
+            alive = beat is not None and (now - beat).total_seconds() <= self.settings.lost_after + 1
             if not alive:
                 continue
             info = {k.decode(): v.decode() for k, v in self.r.hgetall(ev.host_key(w.name)).items()}

@@ -18,15 +18,17 @@ of rows), then the host exits; a second signal kills the try at once.
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import os
+import signal
 import socket
 import sys
 import threading
 import time
 
 import redis
-from rq import Queue, Worker
+from rq import Queue, Worker, worker_registration
 
 from server import events as ev
 from server.lifecycle import JobStatus
@@ -145,7 +147,9 @@ class HostWorker(Worker):
     def __init__(self, *args, lost_after: float = DEFAULT_LOST_AFTER, **kwargs):
         self.lost_after = float(lost_after)
         kwargs.setdefault("job_monitoring_interval", max(1, int(self.lost_after / 4)))
-        kwargs.setdefault("worker_ttl", max(20, int(self.lost_after) + 15))
+        # RQ waits for work in blocks of worker_ttl - 15 seconds and beats its heart after each: twice
+        # within lost_after, so an idle host never looks lost
+        kwargs.setdefault("worker_ttl", 15 + max(1, int(self.lost_after / 2)))
         super().__init__(*args, **kwargs)
 
     def get_heartbeat_ttl(self, job, working_time: float = 0.0) -> int:
@@ -154,6 +158,9 @@ class HostWorker(Worker):
     def heartbeat(self, timeout: int | None = None, pipeline=None):
         super().heartbeat(timeout, pipeline)
         connection = pipeline if pipeline is not None else self.connection
+        # RQ drops a worker from its registry when anyone lists the workers while its key is missing (a
+        # host cut off long enough): every heartbeat registers it again, so a host that comes back is seen
+        worker_registration.register(self, pipeline=connection)
         key = ev.host_key(self.name)
         connection.hset(key, mapping={"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]})
         connection.expire(key, max(2, int(self.lost_after)))
@@ -181,6 +188,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--name", help="this worker's name (default: host.pid)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
+    faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
     from tracer.render import default_threads, load_kernels
 
     HOST.update(url=args.redis, device=args.device, threads=args.threads or default_threads())

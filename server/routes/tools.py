@@ -17,7 +17,7 @@ router = APIRouter(prefix="/api", tags=["tools"])
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
 def health(store: StoreDep, queue: QueueDep) -> Health:
-    return Health(status="ok", backend=queue.backend, workers=queue.workers(), jobs=store.counts())
+    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=queue.workers(), jobs=store.counts())
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")
