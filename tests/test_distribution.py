@@ -12,7 +12,7 @@ import pytest
 import warp as wp
 from numpy.testing import assert_allclose
 
-from tracer.compile import LightData, compile_scene
+from tracer.compile import compile_scene
 from tracer.lights import sample_area_light
 from tracer.raytree import ray_tree
 from tracer.render import render
@@ -24,6 +24,7 @@ from tracer.sampling import (
     sample_cosine_hemisphere,
 )
 from tracer.scene import load_scene
+from tracer.structs import LightData
 
 N = 200_000
 CHI2_63 = 103.4  # 99.9% quantile of chi-square with 63 degrees of freedom

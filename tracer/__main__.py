@@ -76,7 +76,7 @@ def cmd_render(args) -> int:
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_warnings(warnings)
-    cs = compile_scene(scene, asset_dir=Path(args.assets), solve_radiosity=False)  # render() solves, with progress
+    cs = compile_scene(scene, asset_dir=Path(args.assets))  # render() solves a radiosity scene, with progress
     bars: dict = {}
     show = sys.stderr.isatty() and not args.quiet
     last = 0

@@ -13,10 +13,10 @@ A sphere light is sampled inside the cone it subtends (same expectation, far les
 
 import warp as wp
 
-from tracer.compile import LightData
 from tracer.geometry import PI, basis, intersect_sphere
 from tracer.kinds import LIGHT_DIRECTIONAL, LIGHT_DISK, LIGHT_QUAD, LIGHT_SPHERE, LIGHT_SPOT, T_FAR
 from tracer.sampling import concentric_disk, sample_cone, to_world
+from tracer.structs import LightData
 
 
 @wp.func

@@ -8,9 +8,9 @@ E cos(theta) f; the two parts are returned separately so the ray tree can show t
 
 import warp as wp
 
-from tracer.compile import MaterialData, SceneData
 from tracer.geometry import PI
 from tracer.kinds import BUMP_IMAGE, BUMP_NOISE, TEX_CHECKER, TEX_IMAGE
+from tracer.structs import MaterialData, SceneData
 
 NOISE_SEED = wp.constant(wp.uint32(1234567))
 

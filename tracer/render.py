@@ -8,7 +8,6 @@ band size or split of the samples into passes (the RNG is keyed by seed, pixel a
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Callable
@@ -22,6 +21,7 @@ from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record, whitted
 from tracer.kinds import Integrator, RayKind, SamplerKind
+from tracer.parallel import default_threads
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
@@ -66,10 +66,6 @@ def load_kernels(device: str = "cpu") -> None:
     """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
     for module in dispatch.KERNEL_MODULES.values():
         wp.load_module(module, device=device)
-
-
-def default_threads() -> int:
-    return max(1, os.cpu_count() or 1)
 
 
 @dataclass
@@ -295,7 +291,7 @@ def render(
     (`cancelled` = True; none if the solve was not finished).
     """
     start = time.perf_counter()
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device, solve_radiosity=False)
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     adaptive = cs.data.sampler == SamplerKind.ADAPTIVE
     total = cs.data.width * cs.data.height * (cs.data.max_level + 1 if adaptive else cs.data.spp)
     try:

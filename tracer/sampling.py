@@ -9,9 +9,9 @@ with chosen values.
 
 import warp as wp
 
-from tracer.compile import SceneData
 from tracer.geometry import PI, basis
 from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
+from tracer.structs import SceneData
 
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))

@@ -2,14 +2,9 @@
 
 import warp as wp
 
-from tracer.compile import LightData, MaterialData, PatchIndex, RadiosityData, SceneData
 from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
 from tracer.kinds import (
     BUMP_NONE,
-    PATCHES_DISK,
-    PATCHES_NONE,
-    PATCHES_SPHERE,
-    RAD_FLAT,
     RAY_OFFSET,
     T_FAR,
     TEX_NONE,
@@ -17,6 +12,7 @@ from tracer.kinds import (
 from tracer.lights import is_area_light, light_at, sample_area_light
 from tracer.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
 from tracer.sampling import sample_cos_lobe, to_world
+from tracer.structs import LightData, MaterialData, SceneData
 
 
 @wp.struct
@@ -158,78 +154,3 @@ def fog_transmittance(scene: SceneData, t: float) -> float:
     if scene.fog_density > 0.0:
         return wp.exp(-scene.fog_density * t)
     return 1.0
-
-
-@wp.func
-def patch_at(ix: PatchIndex, p: wp.vec3, nf: wp.vec3, obj: int):
-    """The radiosity patch side under the point p of object obj (at time 0), on the side nf points to:
-    (patch side k, its triangle in ix.mesh, barycentrics u, v there), or k = -1 off the patches (an area
-    light, a plane beyond the meshed part, an object the solve does not see).
-
-    Flat surfaces lie on their facets: the nearest facet. A sphere's facets are inscribed in it: the
-    facet that the ray from the centre through p crosses. A disk's rim bulges past its polygon of
-    facets: the point is first pulled radially inside the polygon."""
-    face = int(-1)
-    u = float(0.0)
-    v = float(0.0)
-    kind = PATCHES_NONE
-    if obj >= 0:
-        kind = ix.obj_kind[obj]
-    if kind == PATCHES_SPHERE:
-        c = ix.obj_center[obj]
-        qr = wp.mesh_query_ray(ix.mesh, c, wp.normalize(p - c), ix.obj_radius[obj] * 1.001)
-        if qr.result:
-            face = qr.face
-            u = qr.u
-            v = qr.v
-    elif kind != PATCHES_NONE:
-        x = p
-        if kind == PATCHES_DISK:
-            c = ix.obj_center[obj]
-            r = wp.length(p - c)
-            if r > ix.obj_radius[obj]:
-                x = c + (p - c) * (ix.obj_radius[obj] / r)
-        q = wp.mesh_query_point_no_sign(ix.mesh, x, ix.max_dist)
-        if q.result:
-            face = q.face
-            u = q.u
-            v = q.v
-    if face < 0:
-        return -1, -1, u, v
-    if ix.tri_obj[face] != obj:  # a different surface just as close (a light on a ceiling)
-        return -1, -1, u, v
-    k = ix.tri_patch[face]
-    if wp.dot(wp.mesh_eval_face_normal(ix.mesh, face), nf) < 0.0:  # the back side
-        k = k + ix.n
-    return k, face, u, v
-
-
-@wp.func
-def radiosity_at(rad: RadiosityData, p: wp.vec3, nf: wp.vec3, obj: int):
-    """The radiosity solution at a hit at p on object obj, seen from the side nf points to:
-    (1, B, the interreflected part of B, rho), or (0, ...) off the patches (see `patch_at`).
-    B and its interreflected part are the patch's own values in the flat display, else
-    interpolated from the patch's corners (smooth display, two-pass shading)."""
-    zero = wp.vec3(0.0)
-    k, face, u, v = patch_at(rad.index, p, nf, obj)
-    if k < 0:
-        return 0, zero, zero, zero
-    b = rad.radiosity[k]
-    ind = rad.indirect[k]
-    if rad.mode != RAD_FLAT:  # smooth display, and the two-pass interreflection: interpolated at the corners
-        c = 3 * face
-        if k >= rad.index.n:  # the back side's corners follow the front sides'
-            c = c + 3 * rad.index.tri_patch.shape[0]
-        w = 1.0 - u - v
-        b = u * rad.corners[c] + v * rad.corners[c + 1] + w * rad.corners[c + 2]
-        ind = u * rad.corners_ind[c] + v * rad.corners_ind[c + 1] + w * rad.corners_ind[c + 2]
-    return 1, b, ind, rad.rho[k]
-
-
-@wp.func
-def safe_div(a: wp.vec3, b: wp.vec3) -> wp.vec3:
-    return wp.vec3(
-        wp.where(b[0] > 0.0, a[0] / b[0], 0.0),
-        wp.where(b[1] > 0.0, a[1] / b[1], 0.0),
-        wp.where(b[2] > 0.0, a[2] / b[2], 0.0),
-    )

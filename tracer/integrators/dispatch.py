@@ -12,12 +12,12 @@ inlines the shared helpers less when more code calls them).
 import warp as wp
 
 from tracer.camera import camera_ray, shutter_time
-from tracer.compile import SceneData
 from tracer.integrators import path, whitted
 from tracer.integrators.common import SampleOut
 from tracer.integrators.record import TreeRecord
 from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.sampling import film_offset, filter_offset, pixel_key, rng_start
+from tracer.structs import SceneData
 
 
 @wp.struct

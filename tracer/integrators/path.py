@@ -19,7 +19,6 @@ one a shadow ray), so max_depth 1 is direct light only, exactly as in the `whitt
 
 import warp as wp
 
-from tracer.compile import SceneData
 from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
@@ -55,6 +54,7 @@ from tracer.sampling import (
     sample_cosine_hemisphere,
     to_world,
 )
+from tracer.structs import SceneData
 
 RR_DEPTH = wp.constant(5)  # Russian roulette from this depth on
 DIMS_PER_BOUNCE = wp.constant(1024)  # low-discrepancy dimensions of a bounce: BSDF, lobe, then one per light

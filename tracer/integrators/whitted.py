@@ -18,7 +18,6 @@ With `record` = 1 the same code writes each ray as a node of the ray tree (recor
 
 import warp as wp
 
-from tracer.compile import SceneData
 from tracer.geometry import PI, closest_hit
 from tracer.integrators.common import (
     SampleOut,
@@ -28,8 +27,6 @@ from tracer.integrators.common import (
     max3,
     miss_radiance,
     offset_origin,
-    radiosity_at,
-    safe_div,
     scatter_weights,
     shadow_reach,
     shadow_test,
@@ -63,7 +60,9 @@ from tracer.kinds import (
 )
 from tracer.lights import is_area_light
 from tracer.materials import phong_terms, reflect
+from tracer.radiosity import radiosity_at, safe_div
 from tracer.sampling import stratum
+from tracer.structs import SceneData
 
 
 @wp.struct
