@@ -99,3 +99,24 @@ def test_structs_every_module_imports_in_a_fresh_interpreter():
     )
     p = subprocess.run([sys.executable, "-c", code, *MODULES], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
+
+
+def test_structs_go_to_inlined_helpers_only():
+    """Warp passes a struct to a @wp.func by value, so every helper that takes one is inlined: a SceneData
+    is about 1.7 KB, and copying it at every call made the Whitted kernel 1.4x slower (BENCHMARKS.md)."""
+    import importlib
+
+    from tracer.integrators.common import max3
+    from tracer.structs import SceneData
+
+    function, struct = type(max3), type(SceneData)
+    copied = []
+    for name in MODULES:
+        if name == "tracer.__main__":
+            continue
+        for f in vars(importlib.import_module(name)).values():
+            if isinstance(f, function) and f.func.__module__ == name:
+                takes = [k for k, t in f.input_types.items() if isinstance(t, struct)]
+                if takes and f.inline_hint != "forceinline":
+                    copied.append(f"{name}.{f.func.__name__}({', '.join(takes)})")
+    assert copied == []

@@ -127,7 +127,7 @@ def intersect_box(
     return t
 
 
-@wp.func
+@wp.func(inline=True)
 def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float:
     """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1 (shape at time 0)."""
     if s.kind == SHAPE_SPHERE:
@@ -152,7 +152,7 @@ def basis(n: wp.vec3):
     return wp.vec3(1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]), wp.vec3(b, sign + n[1] * n[1] * a, -n[1])
 
 
-@wp.func
+@wp.func(inline=True)
 def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
     """Fill the normal, uv and tangents of a hit point p on analytic shape s."""
     r = h
@@ -219,7 +219,7 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
     return r
 
 
-@wp.func
+@wp.func(inline=True)
 def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> Hit:
     """The nearest surface along o + t d, 0 < t < t_max (unit d), with objects where they are at `time`.
 
@@ -268,7 +268,7 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
     return h
 
 
-@wp.func
+@wp.func(inline=True)
 def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> int:
     """1 if any surface lies along o + t d with 0 < t < t_max (shadow rays: the first one found will do).
     The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
@@ -282,7 +282,7 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
     return 0
 
 
-@wp.func
+@wp.func(inline=True)
 def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) -> Hit:
     """Normals, uv and tangents of a hit on mesh face `face` at Warp barycentrics (bu, bv)."""
     i0 = scene.mesh_indices[3 * face + 0]

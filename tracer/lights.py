@@ -19,12 +19,12 @@ from tracer.sampling import concentric_disk, sample_cone, to_world
 from tracer.structs import LightData
 
 
-@wp.func
+@wp.func(inline=True)
 def is_area_light(light: LightData) -> bool:
     return light.kind == LIGHT_QUAD or light.kind == LIGHT_DISK or light.kind == LIGHT_SPHERE
 
 
-@wp.func
+@wp.func(inline=True)
 def light_at(light: LightData, p: wp.vec3):
     """Point, directional, spot: (unit direction from p to the light, distance, E, 1 if it reaches p)."""
     if light.kind == LIGHT_DIRECTIONAL:
@@ -44,7 +44,7 @@ def light_at(light: LightData, p: wp.vec3):
     return l, dist, e, 1
 
 
-@wp.func
+@wp.func(inline=True)
 def sphere_cone_cos(light: LightData, p: wp.vec3) -> float:
     """cos of the half-angle of the cone the sphere light subtends from p (2 if p is inside)."""
     dc = wp.length(light.position - p)
@@ -54,7 +54,7 @@ def sphere_cone_cos(light: LightData, p: wp.vec3) -> float:
     return wp.sqrt(wp.max(0.0, 1.0 - sin2))
 
 
-@wp.func
+@wp.func(inline=True)
 def sample_area_light(light: LightData, p: wp.vec3, u1: float, u2: float):
     """A point y of an area light seen from p: (unit direction, distance to y, E = radiance / pdf,
     pdf in solid angle, 1 if y emits towards p else 0)."""
@@ -89,7 +89,7 @@ def sample_area_light(light: LightData, p: wp.vec3, u1: float, u2: float):
     return l, dist, light.intensity / pdf, pdf, 1
 
 
-@wp.func
+@wp.func(inline=True)
 def area_light_pdf(light: LightData, p: wp.vec3, l: wp.vec3, t: float) -> float:
     """Solid-angle density with which sample_area_light picks direction l from p (hit at distance t)."""
     if light.kind == LIGHT_SPHERE:

@@ -60,7 +60,7 @@ def phong_terms(kd: wp.vec3, ks: wp.vec3, shininess: float, n: wp.vec3, l: wp.ve
     return kd * (cos_theta / PI), ks * spec
 
 
-@wp.func
+@wp.func(inline=True)
 def image_texel(scene: SceneData, image: int, uv: wp.vec2) -> wp.vec3:
     """Bilinear lookup, repeating; uv (0, 0) is the image's lower-left corner."""
     info = scene.tex_info[image]
@@ -84,7 +84,7 @@ def image_texel(scene: SceneData, image: int, uv: wp.vec2) -> wp.vec3:
     return (1.0 - fy) * ((1.0 - fx) * c00 + fx * c10) + fy * ((1.0 - fx) * c01 + fx * c11)
 
 
-@wp.func
+@wp.func(inline=True)
 def checker(m: MaterialData, p: wp.vec3, ng: wp.vec3) -> wp.vec3:
     """Solid 3D checker; a point on a cell boundary takes the cell on its geometric normal's side."""
     q = (p + (1.0e-4 * m.tex_size) * ng) / m.tex_size
@@ -94,7 +94,7 @@ def checker(m: MaterialData, p: wp.vec3, ng: wp.vec3) -> wp.vec3:
     return m.tex_c2
 
 
-@wp.func
+@wp.func(inline=True)
 def diffuse_color(scene: SceneData, m: MaterialData, p: wp.vec3, ng: wp.vec3, uv: wp.vec2) -> wp.vec3:
     """kd after texturing."""
     if m.tex == TEX_CHECKER:
@@ -109,7 +109,7 @@ def luminance(c: wp.vec3) -> float:
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
-@wp.func
+@wp.func(inline=True)
 def bump_normal(
     scene: SceneData, m: MaterialData, p: wp.vec3, n: wp.vec3, uv: wp.vec2, dpdu: wp.vec3, dpdv: wp.vec3
 ) -> wp.vec3:

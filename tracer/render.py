@@ -19,7 +19,8 @@ import warp as wp
 
 from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
-from tracer.integrators import dispatch, record, whitted
+from tracer.integrators import dispatch, record
+from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
 from tracer.parallel import default_threads
 from tracer.scene import Scene
@@ -28,8 +29,8 @@ BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, la
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
 
 
-def make_stack(rows: int, depth: int, device: str = "cpu") -> whitted.Stack:
-    st = whitted.Stack()
+def make_stack(rows: int, depth: int, device: str = "cpu") -> Stack:
+    st = Stack()
     shape = (rows, depth + 1)
     st.o = wp.empty(shape, dtype=wp.vec3, device=device)
     st.d = wp.empty(shape, dtype=wp.vec3, device=device)

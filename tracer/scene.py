@@ -58,6 +58,11 @@ from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-expor
     resolve_asset,
 )
 from tracer.errors import SceneError
+from tracer.integrators import INTEGRATORS
+from tracer.integrators import NAMES as INTEGRATOR_NAMES
+
+IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
+SamplerType = Literal["center", "grid", "random", "jittered", "adaptive"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -429,9 +434,7 @@ class Film(_Model):
 class Sampler(_Model):
     """Where in each pixel the samples go (and, for adaptive, how many)."""
 
-    type: Literal["center", "grid", "random", "jittered", "adaptive"] = Field(
-        "jittered", description="Sample pattern in the pixel."
-    )
+    type: SamplerType = Field("jittered", description="Sample pattern in the pixel.")
     spp: Int | None = Field(
         None,
         ge=1,
@@ -487,7 +490,11 @@ class RadiositySettings(_Model):
 class RenderSettings(_Model):
     """Which integrator, and where the ray tree stops."""
 
-    integrator: Literal["whitted", "path", "radiosity"] = Field("whitted", description="Light transport method.")
+    integrator: IntegratorName = Field(
+        "whitted",
+        description="Light transport method.",
+        json_schema_extra={"x-integrators": [{"name": i.name, "description": i.description} for i in INTEGRATORS]},
+    )
     max_depth: Int = Field(
         5, ge=1, le=64, description="Bounces of light on the way to the eye; 1 = ray casting with shadows."
     )

@@ -141,7 +141,7 @@ class SceneData:
     ambient: wp.vec3  # I_a
     fog_density: float  # per world unit; 0 = no fog
     fog_color: wp.vec3
-    integrator: int  # INTEGRATOR_*
+    integrator: int  # Integrator (tracer/kinds.py)
     max_depth: int  # bounces; 1 = ray casting
     min_weight: float
     light_samples: int

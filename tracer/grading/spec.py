@@ -24,10 +24,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from tracer.scene import Limits, SceneError, json_path
+from tracer.scene import IntegratorName, Limits, SamplerType, SceneError, json_path
 
 AREA_LIGHTS = ["quad", "disk", "sphere"]
-COLLECTIONS = ("materials", "lights", "objects", "primitives")  # what a `count` check counts
 COMPARISONS = {  # word -> (symbol for messages, test)
     "equals": ("=", lambda a, b: a == b),
     "at_least": (">=", lambda a, b: a >= b),
@@ -127,8 +126,8 @@ class RenderOverrides(_Model):
     height: int | None = Field(None, ge=1, le=4096, description="Film height; default: the reference scene's.")
     spp: int | None = Field(None, ge=1, description="Samples per pixel; default: the submission's own (limited).")
     seed: int = Field(7, ge=0, lt=2**31, description="The seed of every submission's render.")
-    sampler: Literal["center", "grid", "random", "jittered", "adaptive"] | None = None
-    integrator: Literal["whitted", "path", "radiosity"] | None = None
+    sampler: SamplerType | None = None
+    integrator: IntegratorName | None = None
     max_depth: int | None = Field(None, ge=1, le=64)
 
 
