@@ -13,7 +13,7 @@ import warp as wp
 from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
-from tracer.lights import sample_area_light
+from tracer.lights import light_data, sample_area_light
 from tracer.raytree import ray_tree
 from tracer.render import render
 from tracer.sampling import (
@@ -86,10 +86,8 @@ def k_light(light: LightData, p: wp.vec3, n: wp.vec3, out: wp.array(dtype=wp.vec
 def irradiance_estimate(light_json: dict, p, n) -> float:
     scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "lights": [light_json]})
     light = compile_scene(scene).data.lights.numpy()  # structured array; rebuild the struct for the kernel
-    from tracer.compile import _light
-
     out = wp.zeros(N, dtype=wp.vec3)
-    wp.launch(k_light, dim=N, inputs=[_light(scene.lights[0]), wp.vec3(*p), wp.vec3(*n), out])
+    wp.launch(k_light, dim=N, inputs=[light_data(scene.lights[0]), wp.vec3(*p), wp.vec3(*n), out])
     assert light.shape == (1,)
     return float(out.numpy()[:, 0].mean())
 
@@ -351,12 +349,11 @@ def k_light_points(light: LightData, p: wp.vec3, out: wp.array(dtype=wp.vec3)):
 
 def test_lights_sample_points_chi_square():
     """Quad and disk lights are sampled uniformly by area; sphere lights uniformly in their cone."""
-    from tracer.compile import _light
 
     def points(light_json, p):
         scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "lights": [light_json]})
         out = wp.zeros(N, dtype=wp.vec3)
-        wp.launch(k_light_points, dim=N, inputs=[_light(scene.lights[0]), wp.vec3(*p), out])
+        wp.launch(k_light_points, dim=N, inputs=[light_data(scene.lights[0]), wp.vec3(*p), out])
         return out.numpy().astype(np.float64)
 
     q = points({"type": "quad", "corner": [-1, 2, -0.5], "edge1": [2, 0, 0], "edge2": [0, 0, 1]}, (0, 0, 0))

@@ -17,8 +17,9 @@ import warp as wp
 
 from tracer.assets import ASSET_DIR, load_image, load_mesh_file  # noqa: F401 (load_mesh_file: re-exported)
 from tracer.film import filter_tables
-from tracer.kinds import Bump, FilterKind, Integrator, LightKind, SamplerKind, Shape, Texture
-from tracer.scene import Material, Scene, json_path
+from tracer.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
+from tracer.lights import light_data, light_shape
+from tracer.scene import AREA_LIGHTS, Material, Scene, json_path
 from tracer.structs import (
     FACE_SMOOTH,
     FACE_UV,
@@ -28,6 +29,8 @@ from tracer.structs import (
     SceneData,
     ShapeData,
     inactive_radiosity,
+    unit,
+    vec3,
 )
 
 
@@ -43,15 +46,6 @@ class CompiledScene:
     num_shapes: int
     keep: list = field(default_factory=list)  # Warp objects that must outlive `data` (the mesh)
     radiosity: object = None  # the radiosity.Solution when the integrator is radiosity
-
-
-def _v(x) -> wp.vec3:
-    return wp.vec3(float(x[0]), float(x[1]), float(x[2]))
-
-
-def _unit(x) -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
-    return a / np.linalg.norm(a)
 
 
 # ----------------------------------------------------------------------------- transforms
@@ -141,22 +135,22 @@ class _Images:
 
 def _material(m, path: str, images: _Images | None) -> MaterialData:
     d = MaterialData()
-    d.kd = _v(m.kd)
+    d.kd = vec3(m.kd)
     d.ka_is_kd = 1 if m.ka is None else 0
-    d.ka = _v(m.ka if m.ka is not None else m.kd)
-    d.ks = _v(m.ks)
+    d.ka = vec3(m.ka if m.ka is not None else m.kd)
+    d.ks = vec3(m.ks)
     d.shininess = float(m.shininess)
-    d.kr = _v(m.kr)
-    d.kt = _v(m.kt)
+    d.kr = vec3(m.kr)
+    d.kt = vec3(m.kt)
     d.ior = float(m.ior)
     d.fresnel = 1 if m.fresnel else 0
     d.gloss = float(m.gloss) if m.gloss is not None else 0.0
-    d.emission = _v(m.emission)
+    d.emission = vec3(m.emission)
     d.tex, d.tex_size, d.tex_image = int(Texture.NONE), 1.0, 0
     d.tex_c1, d.tex_c2, d.tex_scale = wp.vec3(0.0), wp.vec3(0.0), wp.vec2(1.0, 1.0)
     if m.texture is not None and m.texture.type == "checker":
         d.tex, d.tex_size = int(Texture.CHECKER), float(m.texture.size)
-        d.tex_c1, d.tex_c2 = _v(m.texture.color1), _v(m.texture.color2)
+        d.tex_c1, d.tex_c2 = vec3(m.texture.color1), vec3(m.texture.color2)
     elif m.texture is not None:
         d.tex = int(Texture.IMAGE)
         d.tex_image = images.add(m.texture.file, f"{path}.texture.file")
@@ -172,34 +166,6 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
     return d
 
 
-def _light(light) -> LightData:
-    d = LightData()
-    d.kind = int(LightKind[light.type.upper()])
-    d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)
-    d.intensity, d.attenuation = wp.vec3(0.0), wp.vec3(0.0, 0.0, 1.0)
-    d.cos_cutoff, d.falloff = -1.0, 0.0
-    d.edge1, d.edge2, d.radius, d.area, d.shape = wp.vec3(0.0), wp.vec3(0.0), 0.0, 0.0, -1
-    if light.type == "point":
-        d.position, d.intensity, d.attenuation = _v(light.position), _v(light.intensity), _v(light.attenuation)
-    elif light.type == "directional":
-        d.direction, d.intensity = _v(_unit(light.direction)), _v(light.irradiance)
-    elif light.type == "spot":
-        d.position, d.direction = _v(light.position), _v(_unit(light.direction))
-        d.intensity, d.attenuation = _v(light.intensity), _v(light.attenuation)
-        d.cos_cutoff, d.falloff = math.cos(math.radians(light.cutoff)), float(light.falloff)
-    elif light.type == "quad":
-        n = np.cross(light.edge1, light.edge2)
-        d.position, d.edge1, d.edge2 = _v(light.corner), _v(light.edge1), _v(light.edge2)
-        d.direction, d.area, d.intensity = _v(_unit(n)), float(np.linalg.norm(n)), _v(light.radiance)
-    elif light.type == "disk":
-        d.position, d.direction, d.radius = _v(light.center), _v(_unit(light.normal)), float(light.radius)
-        d.area, d.intensity = math.pi * light.radius**2, _v(light.radiance)
-    elif light.type == "sphere":
-        d.position, d.radius = _v(light.center), float(light.radius)
-        d.area, d.intensity = 4 * math.pi * light.radius**2, _v(light.radiance)
-    return d
-
-
 def _light_material(light) -> MaterialData:
     """Area lights are visible: radiance on the emitting side, black on the back, nothing else."""
     return _material(Material(kd=0.0, ka=0.0, emission=light.radiance), "", None)
@@ -209,10 +175,10 @@ def _camera(scene: Scene) -> CameraData:
     c = scene.camera
     cam = CameraData()
     lookfrom, lookat = np.asarray(c.lookfrom, float), np.asarray(c.lookat, float)
-    forward = _unit(lookat - lookfrom)
-    right = _unit(np.cross(forward, c.vup))
+    forward = unit(lookat - lookfrom)
+    right = unit(np.cross(forward, c.vup))
     up = np.cross(right, forward)
-    cam.origin, cam.forward, cam.right, cam.up = _v(lookfrom), _v(forward), _v(right), _v(up)
+    cam.origin, cam.forward, cam.right, cam.up = vec3(lookfrom), vec3(forward), vec3(right), vec3(up)
     cam.h = math.tan(math.radians(c.vfov) / 2)
     cam.aspect = scene.film.width / scene.film.height
     cam.lens_radius = float(c.lens_radius)
@@ -249,9 +215,9 @@ def compile_scene(
         s = ShapeData()
         s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
-        s.p0, s.p1, s.p2, s.radius, s.velocity = _v(p0), _v(p1), _v(p2), float(radius), _v(velocity)
+        s.p0, s.p1, s.p2, s.radius, s.velocity = vec3(p0), vec3(p1), vec3(p2), float(radius), vec3(velocity)
         n = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
-        s.n, s.w = _v(n), _v(n / max(float(np.dot(n, n)), 1e-300))
+        s.n, s.w = vec3(n), vec3(n / max(float(np.dot(n, n)), 1e-300))
         shapes.append(s)
 
     def triangles(i, m, v, f, velocity, uv=None, smooth=False):
@@ -267,11 +233,11 @@ def compile_scene(
         if t == "sphere":
             shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
         elif t == "plane":
-            shape(Shape.PLANE, i, m, p0=obj.point, p1=_unit(obj.normal), velocity=vel)
+            shape(Shape.PLANE, i, m, p0=obj.point, p1=unit(obj.normal), velocity=vel)
         elif t == "quad":
             shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
         elif t == "disk":
-            shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=vel)
+            shape(Shape.DISK, i, m, p0=obj.center, p1=unit(obj.normal), radius=obj.radius, velocity=vel)
         elif t == "box":  # one slab test in the box's own coordinates
             fwd = transform_matrix(obj.transform)
             inv = np.linalg.inv(fwd[:3, :3])
@@ -287,17 +253,12 @@ def compile_scene(
 
     lights = []
     for k, light in enumerate(scene.lights):
-        lights.append(_light(light))
-        if light.type in ("quad", "disk", "sphere"):
+        lights.append(light_data(light))
+        if isinstance(light, AREA_LIGHTS):  # visible: a shape of its own, emitting its radiance
             mats.append(_light_material(light))
             mat_names.append(f"lights[{k}]")
-            lm = len(mats) - 1
-            if light.type == "quad":
-                shape(Shape.QUAD, -1 - k, lm, p0=light.corner, p1=light.edge1, p2=light.edge2, light=k)
-            elif light.type == "disk":
-                shape(Shape.DISK, -1 - k, lm, p0=light.center, p1=_unit(light.normal), radius=light.radius, light=k)
-            else:
-                shape(Shape.SPHERE, -1 - k, lm, p0=light.center, radius=light.radius, light=k)
+            kind, where = light_shape(light)
+            shape(kind, -1 - k, len(mats) - 1, light=k, **where)
             lights[-1].shape = len(shapes) - 1
 
     data = SceneData()
@@ -318,8 +279,8 @@ def compile_scene(
     else:
         data.tex_pixels = wp.zeros(1, dtype=wp.vec3, device=device)
         data.tex_info = wp.zeros(1, dtype=wp.vec3i, device=device)
-    data.background, data.ambient = _v(scene.background), _v(scene.ambient)
-    data.fog_density, data.fog_color = float(scene.fog.density), _v(scene.fog.color)
+    data.background, data.ambient = vec3(scene.background), vec3(scene.ambient)
+    data.fog_density, data.fog_color = float(scene.fog.density), vec3(scene.fog.color)
     r = scene.render
     data.integrator = int(Integrator[r.integrator.upper()])
     data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)

@@ -1,7 +1,9 @@
 """Named kinds shared by Python and the Warp kernels.
 
 Each kind is a Python ``IntEnum`` (for the compiler, the ray-tree JSON and tests) mirrored by
-``wp.constant`` values (for kernels), so no kernel ever compares against a magic number.
+``wp.constant`` values (for kernels), so no kernel ever compares against a magic number. Two kinds
+are derived from tables elsewhere: `Integrator` from tracer/integrators/__init__.py, and the light
+kinds (tracer/lights.py) from the scene format's light types.
 """
 
 from enum import IntEnum
@@ -20,15 +22,6 @@ class Shape(IntEnum):
     QUAD = 2
     DISK = 3
     BOX = 4
-
-
-class LightKind(IntEnum):
-    POINT = 0
-    DIRECTIONAL = 1
-    SPOT = 2
-    QUAD = 3
-    DISK = 4
-    SPHERE = 5
 
 
 class Texture(IntEnum):
@@ -110,12 +103,6 @@ SHAPE_PLANE = wp.constant(int(Shape.PLANE))
 SHAPE_QUAD = wp.constant(int(Shape.QUAD))
 SHAPE_DISK = wp.constant(int(Shape.DISK))
 SHAPE_BOX = wp.constant(int(Shape.BOX))
-
-LIGHT_DIRECTIONAL = wp.constant(int(LightKind.DIRECTIONAL))
-LIGHT_SPOT = wp.constant(int(LightKind.SPOT))
-LIGHT_QUAD = wp.constant(int(LightKind.QUAD))
-LIGHT_DISK = wp.constant(int(LightKind.DISK))
-LIGHT_SPHERE = wp.constant(int(LightKind.SPHERE))
 
 PATCHES_NONE = wp.constant(int(PatchKind.NONE))
 PATCHES_FLAT = wp.constant(int(PatchKind.FLAT))

@@ -40,10 +40,8 @@ import numpy as np
 import warp as wp
 
 from tracer.compile import CompiledScene, box_faces, compile_scene
-from tracer.geometry import PI, basis, closest_hit
+from tracer.geometry import PI, closest_hit
 from tracer.kinds import (
-    LIGHT_DISK,
-    LIGHT_QUAD,
     PATCHES_DISK,
     PATCHES_NONE,
     PATCHES_SPHERE,
@@ -56,10 +54,10 @@ from tracer.kinds import (
     RadDisplay,
     Shooter,
 )
-from tracer.lights import light_at
+from tracer.lights import light_at, surface_point
 from tracer.parallel import BandLauncher, default_threads
-from tracer.sampling import concentric_disk, rng_start, sample_cosine_hemisphere, to_world
-from tracer.scene import Scene, SceneError
+from tracer.sampling import rng_start, sample_cosine_hemisphere, to_world
+from tracer.scene import AREA_LIGHTS, Scene, SceneError
 from tracer.structs import PatchIndex, RadiosityData, SceneData
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
@@ -557,21 +555,7 @@ def shoot(
             p = sphere_center + sphere_radius * radial
             n = wp.where(wp.dot(radial, n) < 0.0, -radial, radial)
     else:
-        light = scene.lights[light_index]
-        if light.kind == LIGHT_QUAD:
-            p = light.position + u1 * light.edge1 + u2 * light.edge2
-            n = light.direction
-        elif light.kind == LIGHT_DISK:
-            dsk = concentric_disk(u1, u2)
-            tu, tv = basis(light.direction)
-            p = light.position + light.radius * (dsk[0] * tu + dsk[1] * tv)
-            n = light.direction
-        else:  # sphere: a uniform point of its surface, shooting outwards
-            z = 1.0 - 2.0 * u1
-            rr = wp.sqrt(wp.max(0.0, 1.0 - z * z))
-            phi = 6.283185307179586 * u2
-            n = wp.vec3(rr * wp.cos(phi), rr * wp.sin(phi), z)
-            p = light.position + light.radius * n
+        p, n = surface_point(scene.lights[light_index], u1, u2)
     d = to_world(sample_cosine_hemisphere(wp.randf(rng), wp.randf(rng)), n)
     h = closest_hit(scene, p + RAY_OFFSET * n, d, T_FAR, 0.0)
     out = int(TARGET_ESCAPED)
@@ -687,7 +671,7 @@ def solve(
         normals = wp.array(normals.astype(np.float32), dtype=wp.vec3, device=device)
         received = wp.zeros(n, dtype=wp.vec3, device=device)
         for li, light in enumerate(cs.scene.lights):
-            if light.type in ("point", "spot", "directional"):
+            if not isinstance(light, AREA_LIGHTS):
                 check_cancel()
                 received.zero_()
                 launch(direct, n, lambda first, li=li: [cs.data, points, normals, li, first, received])
@@ -699,7 +683,7 @@ def solve(
                 step += 1
         # 2. area lights: shoot their whole power (pi L A)
         for li, light in enumerate(cs.scene.lights):
-            if light.type in ("quad", "disk", "sphere"):
+            if isinstance(light, AREA_LIGHTS):
                 check_cancel()
                 area = float(cs.data.lights.numpy()[li]["area"])
                 power = np.asarray(light.radiance, float) * math.pi * area

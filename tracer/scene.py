@@ -683,7 +683,9 @@ Light = Annotated[
     PointLight | DirectionalLight | SpotLight | QuadLight | DiskLight | SphereLight,
     Field(discriminator="type"),
 ]
-AREA_LIGHTS = (QuadLight, DiskLight, SphereLight)
+AREA_LIGHTS = (QuadLight, DiskLight, SphereLight)  # lights with a surface: visible, sampled over their area
+LIGHT_TYPES = {get_args(m.model_fields["type"].annotation)[0]: m for m in get_args(get_args(Light)[0])}  # "point": ...
+AREA_LIGHT_TYPES = [t for t, m in LIGHT_TYPES.items() if m in AREA_LIGHTS]  # "quad", "disk", "sphere"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ Warp passes a struct to a @wp.func by value: a SceneData is about 1.7 KB, so the
 are inlined (``@wp.func(inline=True)``), or each call would copy it (BENCHMARKS.md, "Whitted kernel").
 """
 
+import numpy as np
 import warp as wp
 
 from tracer import wpinit  # noqa: F401  (initialise Warp once)
@@ -73,7 +74,7 @@ class MaterialData:
 
 @wp.struct
 class LightData:
-    kind: int  # LIGHT_*
+    kind: int  # LightKind (tracer/lights.py)
     position: wp.vec3  # point/spot position
     direction: wp.vec3  # directional: the way light travels; spot: the axis (unit)
     intensity: wp.vec3  # W/sr (point, spot) or W/m^2 irradiance (directional)
@@ -163,6 +164,17 @@ class SceneData:
 
 FACE_SMOOTH = 1
 FACE_UV = 2
+
+
+def vec3(x) -> wp.vec3:
+    """Three numbers (a model's tuple, a numpy row) as a wp.vec3."""
+    return wp.vec3(float(x[0]), float(x[1]), float(x[2]))
+
+
+def unit(x) -> np.ndarray:
+    """x / |x| in float64 (the models' direction fields need not be normalised)."""
+    a = np.asarray(x, dtype=np.float64)
+    return a / np.linalg.norm(a)
 
 
 def empty_patch_index(device: str = "cpu") -> PatchIndex:

@@ -24,9 +24,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from tracer.scene import IntegratorName, Limits, SamplerType, SceneError, json_path
+from tracer.scene import AREA_LIGHT_TYPES, IntegratorName, Limits, SamplerType, SceneError, json_path
 
-AREA_LIGHTS = ["quad", "disk", "sphere"]
 COMPARISONS = {  # word -> (symbol for messages, test)
     "equals": ("=", lambda a, b: a == b),
     "at_least": (">=", lambda a, b: a >= b),
@@ -44,7 +43,7 @@ PRESETS: dict[str, dict] = {
     "glossy_material": {"count": "materials", "where": {"gloss": {"present": True}}, "at_least": 1},
     "textured_material": {"count": "materials", "where": {"texture": {"present": True}}, "at_least": 1},
     "bump_map": {"count": "materials", "where": {"bump": {"present": True}}, "at_least": 1},
-    "area_light": {"count": "lights", "where": {"type": {"one_of": AREA_LIGHTS}}, "at_least": 1},
+    "area_light": {"count": "lights", "where": {"type": {"one_of": AREA_LIGHT_TYPES}}, "at_least": 1},
     "depth_of_field": {"value": "camera.lens_radius", "greater_than": 0},
     "motion": {"count": "objects", "where": {"velocity": {"present": True}}, "at_least": 1},
     "fog": {"value": "fog.density", "greater_than": 0},
