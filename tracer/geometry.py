@@ -87,12 +87,6 @@ def intersect_parallelogram(
 
 
 @wp.func
-def intersect_quad(o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, t_max: float) -> float:
-    n = wp.cross(e1, e2)
-    return intersect_parallelogram(o, d, corner, e1, e2, n, n / wp.dot(n, n), t_max)
-
-
-@wp.func
 def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, radius: float, t_max: float) -> float:
     t = intersect_plane(o, d, center, normal, t_max)
     if t < 0.0:

@@ -13,6 +13,8 @@ from tracer.kinds import BUMP_IMAGE, BUMP_NOISE, TEX_CHECKER, TEX_IMAGE
 from tracer.structs import MaterialData, SceneData
 
 NOISE_SEED = wp.constant(wp.uint32(1234567))
+NOISE_STEP = wp.constant(1.0e-3)  # central differences of the noise bump's height, in noise cells
+CHECKER_NUDGE = wp.constant(1.0e-4)  # a point on a checker cell's boundary is moved this share of a cell along N
 
 
 @wp.func
@@ -87,7 +89,7 @@ def image_texel(scene: SceneData, image: int, uv: wp.vec2) -> wp.vec3:
 @wp.func(inline=True)
 def checker(m: MaterialData, p: wp.vec3, ng: wp.vec3) -> wp.vec3:
     """Solid 3D checker; a point on a cell boundary takes the cell on its geometric normal's side."""
-    q = (p + (1.0e-4 * m.tex_size) * ng) / m.tex_size
+    q = (p + (CHECKER_NUDGE * m.tex_size) * ng) / m.tex_size
     c = int(wp.floor(q[0])) + int(wp.floor(q[1])) + int(wp.floor(q[2]))
     if (c % 2 + 2) % 2 == 0:
         return m.tex_c1
@@ -106,6 +108,7 @@ def diffuse_color(scene: SceneData, m: MaterialData, p: wp.vec3, ng: wp.vec3, uv
 
 @wp.func
 def luminance(c: wp.vec3) -> float:
+    """Relative luminance Y of linear RGB (Rec. 709 primaries)."""
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
@@ -120,7 +123,7 @@ def bump_normal(
     displaced surface P + h N (the image is read at its texel spacing for the derivatives).
     """
     if m.bump == BUMP_NOISE:
-        e = 1.0e-3
+        e = NOISE_STEP
         q = p * m.bump_scale
         gx = wp.noise(NOISE_SEED, q + wp.vec3(e, 0.0, 0.0)) - wp.noise(NOISE_SEED, q - wp.vec3(e, 0.0, 0.0))
         gy = wp.noise(NOISE_SEED, q + wp.vec3(0.0, e, 0.0)) - wp.noise(NOISE_SEED, q - wp.vec3(0.0, e, 0.0))

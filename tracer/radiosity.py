@@ -43,6 +43,7 @@ from tracer.compile import CompiledScene, box_faces, compile_scene
 from tracer.geometry import PI, closest_hit
 from tracer.kinds import (
     PATCHES_DISK,
+    PATCHES_FLAT,
     PATCHES_NONE,
     PATCHES_SPHERE,
     RAD_FLAT,
@@ -53,6 +54,7 @@ from tracer.kinds import (
     PatchKind,
     RadDisplay,
     Shooter,
+    Texture,
 )
 from tracer.lights import light_at, surface_point
 from tracer.parallel import BandLauncher, default_threads
@@ -64,6 +66,7 @@ LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per p
 SNAPSHOT_EVERY_STEP = 16  # snapshots of B after every shot up to this many, then after 32, 64, 128, ...
 SPHERE_MIN_SEGMENTS = (12, 6)  # a sphere's net has at least this many triangles around, and rows from pole to pole
 DISK_MIN_SECTORS = 16  # a disk's rings have at least this many sectors
+SPHERE_REACH = wp.constant(1.001)  # a ray from a sphere's centre to its facets (inscribed) goes this far, in radii
 TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
 TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)
 
@@ -198,9 +201,9 @@ def _material_rho(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     mats = cs.data.materials.numpy()
     rho = np.array([m["kd"] for m in mats], dtype=np.float64)
     for i, m in enumerate(mats):
-        if m["tex"] == 1:  # checker: half of each colour
+        if m["tex"] == Texture.CHECKER:  # half of each colour
             rho[i] = (np.asarray(m["tex_c1"]) + np.asarray(m["tex_c2"])) / 2
-        elif m["tex"] == 2:  # image: its mean colour
+        elif m["tex"] == Texture.IMAGE:  # its mean colour
             off, w, h = cs.data.tex_info.numpy()[m["tex_image"]]
             rho[i] = cs.data.tex_pixels.numpy()[off : off + w * h].mean(axis=0)
     emit = np.array([m["emission"] for m in mats], dtype=np.float64) * math.pi
@@ -435,12 +438,12 @@ def patch_at(ix: PatchIndex, p: wp.vec3, nf: wp.vec3, obj: int):
         kind = ix.obj_kind[obj]
     if kind == PATCHES_SPHERE:
         c = ix.obj_center[obj]
-        qr = wp.mesh_query_ray(ix.mesh, c, wp.normalize(p - c), ix.obj_radius[obj] * 1.001)
+        qr = wp.mesh_query_ray(ix.mesh, c, wp.normalize(p - c), ix.obj_radius[obj] * SPHERE_REACH)
         if qr.result:
             face = qr.face
             u = qr.u
             v = qr.v
-    elif kind != PATCHES_NONE:
+    elif kind == PATCHES_FLAT or kind == PATCHES_DISK:
         x = p
         if kind == PATCHES_DISK:
             c = ix.obj_center[obj]

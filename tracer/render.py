@@ -154,7 +154,7 @@ class Renderer:
         self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
         self.samples_done = 0  # per pixel (adaptive: 1 once a pass has run)
-        self.passes_rays = np.zeros(4, dtype=np.int64)  # adaptive: rays of the passes before the last
+        self.passes_rays = np.zeros(len(RayKind), dtype=np.int64)  # adaptive: rays of the passes before the last
 
     def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
         """launch(worker, first pixel, pixel count) over every band, one worker thread per core."""
@@ -199,7 +199,7 @@ class Renderer:
     def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
         """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level)."""
         if self.samples_done:
-            self.passes_rays += self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
+            self.passes_rays += self.film.counts.numpy().reshape(-1, len(RayKind)).astype(np.int64).sum(axis=0)
 
         def launch(k: int, p0: int, n: int) -> None:
             wp.launch(
@@ -258,7 +258,7 @@ class Renderer:
 
     def rays(self) -> dict:
         """Rays traced so far by kind (every pass), and "total"."""
-        c = self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0) + self.passes_rays
+        c = self.film.counts.numpy().reshape(-1, len(RayKind)).astype(np.int64).sum(axis=0) + self.passes_rays
         out = {k.name.lower(): int(c[k]) for k in RayKind}
         out["total"] = int(c.sum())
         return out
