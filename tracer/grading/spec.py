@@ -24,7 +24,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from tracer.scene import AREA_LIGHT_TYPES, IntegratorName, Limits, SamplerType, SceneError, json_path
+from tracer.errors import pydantic_errors
+from tracer.scene import AREA_LIGHT_TYPES, IntegratorName, Limits, SamplerType, SceneError
 
 COMPARISONS = {  # word -> (symbol for messages, test)
     "equals": ("=", lambda a, b: a == b),
@@ -246,13 +247,4 @@ def load_assignment(src: Any) -> tuple[Assignment, Path | None]:
     try:
         return Assignment.model_validate(src), base
     except ValidationError as e:
-        errors = []
-        for err in e.errors():
-            loc = [p for p in err["loc"] if not (isinstance(p, str) and p.startswith(("function-", "str", "dict")))]
-            message = err["msg"].removeprefix("Value error, ")
-            if err["type"] == "extra_forbidden":
-                message = "unknown field"
-            item = {"path": json_path(loc), "message": message}
-            if item not in errors:
-                errors.append(item)
-        raise AssignmentError(errors) from None
+        raise AssignmentError(pydantic_errors(e, Assignment)) from None
