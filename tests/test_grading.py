@@ -533,7 +533,7 @@ def test_cli_grades_one_scene(tmp_path):
 
 
 def test_cli_grades_a_class_through_the_job_queue(tmp_path):
-    """A zip of three students, rendered by worker processes of a queue of the CLI's own."""
+    """A zip of three students, rendered by worker processes of the CLI's own (tracer.grading.local)."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         for name in ("alice.json", "carol.json", "grace.png"):
@@ -550,7 +550,7 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     log = tmp_path / "out" / ".queue" / "workers.log"
     assert f"the render workers log to {log}" in p.stderr
     assert [line for line in p.stderr.splitlines() if not line.startswith(("renders done", "the render workers"))] == []
-    assert "INFO server.worker" in log.read_text() and "render worker" in log.read_text()
+    assert "INFO tracer.grading.local" in log.read_text() and "render worker" in log.read_text()
 
 
 def test_cli_reports_a_bad_assignment(tmp_path):

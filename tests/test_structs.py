@@ -84,6 +84,11 @@ def test_structs_the_cycle_finder_finds_one():
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
+def test_structs_the_library_never_imports_the_service():
+    offenders = {m: sorted(i for i in imports_of(m) if i == "server" or i.startswith("server.")) for m in MODULES}
+    assert {m: i for m, i in offenders.items() if i} == {}
+
+
 def test_structs_depend_on_nothing_of_the_renderer():
     """Everything else imports the kernels' data types; they import only Warp's initialisation."""
     assert graph()["tracer.structs"] == {"tracer.wpinit"}
