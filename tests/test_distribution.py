@@ -5,11 +5,13 @@ Monte Carlo tolerances are stated at each assert; every random quantity has a fi
 these tests are deterministic: they fail only if the code changes.
 """
 
+import json
 import math
 
 import numpy as np
 import pytest
 import warp as wp
+from conftest import SCENES
 from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
@@ -173,6 +175,17 @@ def test_path_mis_light_samples_do_not_change_the_mean():
     m1 = render(scene(objs, lights, render={"integrator": "path", "max_depth": 3, "light_samples": 1})).image.mean()
     m9 = render(scene(objs, lights, render={"integrator": "path", "max_depth": 3, "light_samples": 9})).image.mean()
     assert m1 == pytest.approx(m9, rel=0.03)
+
+
+def test_path_a_sphere_light_too_far_to_see_gives_no_nan():
+    """From 3000 units away a sphere light's cone is 1 - cos = 0 in float32: its density is infinite, the
+    light's share 0, and its MIS weight 1 rather than inf / inf (NaN pixels near the horizon, before)."""
+    data = json.loads((SCENES / "soft_shadows.json").read_text())
+    data["film"].update(width=64, height=48)
+    data["render"]["integrator"] = "path"
+    data["sampler"] = {"type": "jittered", "spp": 4}
+    image = render(load_scene(data)[0]).image
+    assert np.isfinite(image).all()
 
 
 def test_soft_shadow_penumbra_against_analytic_irradiance():

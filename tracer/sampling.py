@@ -176,11 +176,15 @@ def phong_lobes_pdf(pd: float, ps: float, shininess: float, n: wp.vec3, r: wp.ve
 @wp.func
 def power_heuristic(nf: float, pf: float, ng: float, pg: float) -> float:
     """Multiple importance sampling weight of a sample from strategy f (nf samples of density pf)
-    against strategy g (ng samples of density pg), power 2 (Veach & Guibas 1995)."""
+    against strategy g (ng samples of density pg), power 2 (Veach & Guibas 1995). An infinite density
+    (a sphere light too small to see from afar in float32: its cone has no width) weighs 1, as in pbrt-v4,
+    where inf / inf would be NaN."""
     a = nf * pf
     b = ng * pg
     if a <= 0.0:
         return 0.0
+    if wp.isinf(a * a):
+        return 1.0
     return (a * a) / (a * a + b * b)
 
 
