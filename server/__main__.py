@@ -1,4 +1,4 @@
-"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--settings FILE]"""
+"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL] [--settings FILE]"""
 
 from __future__ import annotations
 
@@ -17,7 +17,15 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--host", help="address to listen on (default 127.0.0.1, or TRACER_HOST)")
     p.add_argument("--port", type=int, help="TCP port (default 8000, or TRACER_PORT)")
     p.add_argument("--data-dir", help="job database and images (default ./data, or TRACER_DATA_DIR)")
-    p.add_argument("--workers", type=int, help="render worker processes (default 1, or TRACER_WORKERS)")
+    p.add_argument(
+        "--workers", type=int, help="render worker processes (default 1, or TRACER_WORKERS); 0: the API alone"
+    )
+    p.add_argument(
+        "--redis",
+        dest="redis_url",
+        help="Redis URL: jobs go to worker hosts (python -m server.worker --redis URL) through RQ "
+        "(or TRACER_REDIS_URL); without it the workers are processes of this host",
+    )
     args = p.parse_args(argv)
     given = {k: v for k, v in vars(args).items() if k != "settings" and v is not None}
     try:
@@ -26,12 +34,14 @@ def main(argv: list[str] | None = None) -> None:
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    queue = f"Redis at {settings.redis_url}" if settings.redis_url else "embedded"
     logging.getLogger("server").info(
-        "serving on http://%s:%d (data in %s, %d worker(s))",
+        "serving on http://%s:%d (data in %s, %d worker(s), queue: %s)",
         settings.host,
         settings.port,
         settings.data_dir,
         settings.workers,
+        queue,
     )
     uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="info")
 

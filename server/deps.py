@@ -1,4 +1,4 @@
-"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the pool, a job."""
+"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, a job."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import Depends, Path, Request
 
 from server.errors import ApiError
-from server.pool import WorkerPool
+from server.queue import JobQueue
 from server.settings import Settings
 from server.store import JobStore, looks_like_job_id
 
@@ -20,13 +20,13 @@ def get_store(request: Request) -> JobStore:
     return request.app.state.store
 
 
-def get_pool(request: Request) -> WorkerPool | None:
-    return request.app.state.pool
+def get_queue(request: Request) -> JobQueue:
+    return request.app.state.queue
 
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
-PoolDep = Annotated[WorkerPool | None, Depends(get_pool)]
+QueueDep = Annotated[JobQueue, Depends(get_queue)]
 
 
 def get_job(job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")], store: StoreDep):

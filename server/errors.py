@@ -74,6 +74,19 @@ def _line_col(doc: Any, pos: int) -> str:
     return f"line {line}, column {col}"
 
 
+# ---------------------------------------------------------------------------------------------
+# pydantic's errors about a request -> {path, message}.
+#
+# The request's own part is here: where an error is (the body, or a query, path or header parameter)
+# and errors of the body as a whole (not JSON, not an object). An error at a field is worded by
+# `field_error`, in the words of a scene's errors; the library is making its translators (the
+# scene's, tracer/scene.py, and the assignment's, tracer/grading/spec.py) one function in
+# tracer/errors.py, which `field_error` gives way to: it needs no model (a request's model is not in
+# the error), a location without "body", and pydantic's message for kinds it does not word itself.
+
+LOCATIONS = ("body", "query", "path", "header")  # where FastAPI says a request's error is
+BODY_TYPE_ERRORS = ("model_attributes_type", "dict_type", "model_type")  # a body that is not an object
+
 _EXPECTED = {
     "int_type": "expected an integer",
     "int_parsing": "expected an integer",
@@ -96,35 +109,44 @@ def _show(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+def field_error(err: dict) -> dict[str, str]:
+    """One pydantic error at a field -> {"path", "message"}, `err["loc"]` a path inside the body."""
+    loc = [p for p in err.get("loc") or () if isinstance(p, int | str)]
+    kind = err.get("type", "")
+    if kind == "missing" and loc:
+        message = f"required field '{loc[-1]}' is missing"
+    elif kind == "extra_forbidden" and loc:
+        message = f"unknown field '{loc[-1]}'"
+    elif kind in _EXPECTED:
+        message = f"{_EXPECTED[kind]}, got {_show(err.get('input'))}"
+    elif kind == "finite_number":
+        message = "must be a finite number (not NaN or Infinity)"
+    else:
+        message = str(err.get("msg", "invalid value"))
+    return {"path": json_path(loc), "message": message}
+
+
 def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]]:
     """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body."""
     out = []
     for err in exc.errors():
         loc = list(err.get("loc") or ())
-        where = loc.pop(0) if loc and loc[0] in ("body", "query", "path", "header") else "body"
-        kind, ctx = err.get("type", ""), err.get("ctx") or {}
+        where = loc.pop(0) if loc and loc[0] in LOCATIONS else "body"
+        kind = err.get("type", "")
         if kind == "json_invalid":
             pos = loc[0] if loc and isinstance(loc[0], int) else 0
-            message = (
-                f"invalid JSON at {_line_col(getattr(exc, 'body', None), pos)}: {ctx.get('error', 'decode error')}"
-            )
-            loc = []
-        elif kind == "missing":
-            message = f"required field '{loc[-1]}' is missing" if loc else "a JSON object body is required"
-        elif kind in ("model_attributes_type", "dict_type", "model_type") and not loc and where == "body":
-            message = "the body must be a JSON object (Content-Type: application/json)"
-        elif kind == "extra_forbidden" and loc:
-            message = f"unknown field '{loc[-1]}'"
-        elif kind in _EXPECTED:
-            message = f"{_EXPECTED[kind]}, got {_show(err.get('input'))}"
-        elif kind == "finite_number":
-            message = "must be a finite number (not NaN or Infinity)"
+            error = (err.get("ctx") or {}).get("error", "decode error")
+            message = f"invalid JSON at {_line_col(getattr(exc, 'body', None), pos)}: {error}"
+            out.append({"path": "", "message": message})
+        elif kind == "missing" and not loc:
+            out.append({"path": "", "message": "a JSON object body is required"})
+        elif kind in BODY_TYPE_ERRORS and not loc and where == "body":
+            out.append({"path": "", "message": "the body must be a JSON object (Content-Type: application/json)"})
         else:
-            message = str(err.get("msg", "invalid value"))
-        path = json_path([p for p in loc if isinstance(p, int | str)])
-        if where in ("query", "path", "header") and path:
-            message = f"{message} (in the {where} parameter '{path}')"
-        out.append({"path": path, "message": message})
+            item = field_error({**err, "loc": tuple(loc)})
+            if where != "body" and item["path"]:
+                item["message"] += f" (in the {where} parameter '{item['path']}')"
+            out.append(item)
     return out or [{"path": "", "message": "invalid request"}]
 
 

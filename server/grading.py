@@ -23,11 +23,10 @@ from contextlib import contextmanager
 from dataclasses import fields
 from pathlib import Path
 
-from server.models import JobStatus
+from server.lifecycle import JobStatus
 from server.pool import WorkerPool
 from server.settings import Settings
-from server.store import JobStore, write_atomic
-from server.worker import aov_path
+from server.store import JobFile, JobStore, write_atomic
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
 from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
@@ -35,7 +34,6 @@ from tracer.scene import Limits, SceneError, load_scene
 log = logging.getLogger("server.grading")
 
 POLL = 0.1  # seconds between two looks at the grading jobs' rows
-FINISHED = {JobStatus.done.value, JobStatus.failed.value, JobStatus.cancelled.value}
 STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
     "render.png": "image/png", "reference.png": "image/png", "error_map.png": "image/png",
     "rejected.png": "image/png", "results.json": "application/json", "report.json": "application/json",
@@ -45,19 +43,20 @@ STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
 class QueueRenderer:
     """Renders a grader's jobs as queued render jobs, and waits for all of them.
 
-    `wake` tells idle workers there is work; `on_progress(done, total)` follows the renders;
-    `max_queued` is passed to the store (grading may queue a whole class at once)."""
+    `queued(row)` hands each job the store has queued to the job queue (wakes an idle worker, or puts
+    it in Redis); `on_progress(done, total)` follows the renders; `max_queued` is passed to the store
+    (grading may queue a whole class at once)."""
 
     def __init__(
         self,
         store: JobStore,
-        wake: Callable[[], None] | None = None,
+        queued: Callable[[dict], None] | None = None,
         on_progress: Callable[[int, int], None] | None = None,
         max_queued: int = 1_000_000,
         settings: Settings | None = None,
         log_path: Path | None = None,
     ):
-        self.store, self.wake, self.on_progress, self.max_queued = store, wake, on_progress, max_queued
+        self.store, self.queued, self.on_progress, self.max_queued = store, queued, on_progress, max_queued
         self.settings = settings  # the service's own limits also apply (the smaller of the two)
         self.log_path = log_path  # where the workers log, when they have a file of their own (the CLI's)
 
@@ -90,14 +89,14 @@ class QueueRenderer:
                 max_seconds=seconds, max_queued=self.max_queued,
             )  # fmt: skip
             ids[i] = row["id"]
-        if self.wake:
-            self.wake()
+            if self.queued:
+                self.queued(row)
         pending = dict(ids)
         total = len(jobs)
         while pending:
             for i, job_id in list(pending.items()):
                 row = self.store.get(job_id)
-                if row is not None and row["status"] in FINISHED:
+                if row is not None and JobStatus(row["status"]).finished:
                     out[i] = self._result(row, *limit[i])
                     del pending[i]
             if self.on_progress:
@@ -112,15 +111,15 @@ class QueueRenderer:
         from, so its message is replaced."""
         from tracer.film import read_exr
 
-        if row["status"] != JobStatus.done.value:
+        if row["status"] != JobStatus.done:
             error = row["error"] or f"the render job {row['id']} was {row['status']}"
-            if row["status"] == JobStatus.failed.value and "over the time limit" in error:
+            if row["status"] == JobStatus.failed and "over the time limit" in error:
                 killed = "; its worker was killed" if "killed" in error else ""
                 error = over_time(seconds, source) + killed
             return Rendered(error=error)
         try:
-            image = read_exr(self.store.image_path(row["id"], "exr"))
-            variance = read_exr(aov_path(self.store, row["id"], "exr"))
+            image = read_exr(self.store.job_file(row["id"], JobFile.image_exr))
+            variance = read_exr(self.store.job_file(row["id"], JobFile.aov_floats))
         except Exception as e:  # a file missing or broken: that job's result is an error, not the run's
             return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
         seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)
@@ -186,28 +185,29 @@ def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[
     pool = _LoggedPool(settings, store, log_path, lock)
     pool.start()
     try:
-        yield QueueRenderer(store, pool.notify, progress if on_progress else None, log_path=log_path)
+        yield QueueRenderer(store, lambda row: pool.notify(), progress if on_progress else None, log_path=log_path)
     finally:
         pool.shutdown()
 
 
 class GradeRuns:
     """The service's grading runs: start one, read its state; runs left unfinished by a stopped
-    server are marked failed at start-up (their render jobs, if queued, still run)."""
+    server are marked failed at start-up (their render jobs, if queued, still run). A run's status
+    is a job's (server/lifecycle.py): running, then done or failed."""
 
-    def __init__(self, settings: Settings, store: JobStore, wake: Callable[[], None] | None):
+    def __init__(self, settings: Settings, store: JobStore, queued: Callable[[dict], None] | None):
         self.settings = settings
         self.root = settings.data_dir / "grades"
         self.root.mkdir(parents=True, exist_ok=True)
-        self.store, self.wake = store, wake
+        self.store, self.queued = store, queued
         self._lock = threading.Lock()
         for status in self.root.glob("*/status.json"):
             try:
                 state = json.loads(status.read_text())
             except (OSError, ValueError):
                 continue
-            if state.get("status") == "running":
-                state.update(status="failed", error="the server stopped while grading; submit it again")
+            if state.get("status") == JobStatus.running:
+                state.update(status=JobStatus.failed, error="the server stopped while grading; submit it again")
                 self._write(status.parent, state)
 
     def folder(self, run_id: str) -> Path | None:
@@ -235,7 +235,7 @@ class GradeRuns:
         folder.mkdir(parents=True)
         (folder / "assignment.json").write_text(json.dumps(assignment))
         state = {
-            "id": run_id, "status": "running", "assignment": spec.name, "created_at": time.time(),
+            "id": run_id, "status": JobStatus.running, "assignment": spec.name, "created_at": time.time(),
             "finished_at": None, "error": None, "students": [s.student for s in submissions],
             "renders_done": 0, "renders_total": None, "max_score": spec.max_score(), "summary": None,
         }  # fmt: skip
@@ -251,14 +251,14 @@ class GradeRuns:
                 with self._lock:
                     self._write(folder, state)
 
-        grader.renderer = QueueRenderer(self.store, self.wake, progress, settings=self.settings)
+        grader.renderer = QueueRenderer(self.store, self.queued, progress, settings=self.settings)
         try:
             reports = grader.grade(submissions)
             state["summary"] = write_all(folder / "out", reports)
-            state["status"] = "done"
+            state["status"] = JobStatus.done
         except Exception as e:  # a bug must end the run with a reason, never leave it "running"
             log.exception("grading run %s failed", folder.name)
-            state.update(status="failed", error=f"{type(e).__name__}: {e}")
+            state.update(status=JobStatus.failed, error=f"{type(e).__name__}: {e}")
         state["finished_at"] = time.time()
         with self._lock:
             self._write(folder, state)

@@ -92,7 +92,7 @@ class Janitor:
                 done.expired += store.remove(job_id)
         known = store.ids()
         for name in store.job_folders():
-            if looks_like_job_id(name) and name not in known and self._older(store.jobs_dir / name, now):
+            if looks_like_job_id(name) and name not in known and self._older(store.job_dir(name), now):
                 store.remove_folder(name)
                 done.orphans += 1
         done.size = tree_size(store.data_dir)
@@ -100,7 +100,7 @@ class Janitor:
             for job_id in store.finished_before(now - GRACE):
                 if done.size <= cap:
                     break
-                freed = tree_size(store.jobs_dir / job_id)
+                freed = tree_size(store.job_dir(job_id))
                 if store.remove(job_id):
                     done.for_size += 1
                     done.size -= freed

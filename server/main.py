@@ -20,11 +20,12 @@ from fastapi_offline import FastAPIOffline
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
 from server.janitor import Janitor
-from server.pool import WorkerPool
-from server.routes import grade, jobs, reference, scenes, tools
+from server.queue import make_queue
+from server.routes import grade, jobs, reference, samples, scenes, tools
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
+from tracer.samples import load_kernels as load_sample_kernels
 
 WEB = Path(__file__).resolve().parent.parent / "web"
 log = logging.getLogger("server")
@@ -34,29 +35,22 @@ log = logging.getLogger("server")
 async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
     load_kernels()  # before the workers start, so that they only read the cache
+    load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
     log.info("render kernels ready")
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_data_dir(settings.data_dir)
     store = JobStore(settings.data_dir)
-    requeued, cancelled = store.recover()
-    if requeued or cancelled:
-        log.info("jobs left running by the last server: %d back in the queue, %d cancelled", requeued, cancelled)
-    pool = WorkerPool(settings, store) if settings.workers > 0 else None
-    app.state.store, app.state.pool = store, pool
-    app.state.grade_runs = GradeRuns(settings, store, pool.notify if pool else None)
-    if pool is not None:
-        pool.start()
-    else:
-        log.warning("no render workers (workers = 0): jobs wait in the queue")
+    queue = make_queue(settings, store)
+    app.state.store, app.state.queue = store, queue
+    app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
+    queue.start()  # recovers the jobs a stopped server left, then takes jobs
     janitor = Janitor(settings, store)
     janitor.start()
     try:
         yield
     finally:
         janitor.stop()
-        if pool is not None:
-            pool.shutdown()
-            log.info("render workers stopped")
+        queue.shutdown()
         lock.close()
 
 
@@ -85,11 +79,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,  # ReDoc's bundle still fetches its maker's logo from a CDN: /docs alone, fully offline
     )
     app.state.settings = settings
-    app.state.store = app.state.pool = app.state.grade_runs = None
+    app.state.store = app.state.queue = app.state.grade_runs = None
     install_error_handlers(app)
     app.add_middleware(RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth)
     app.include_router(jobs.router)
     app.include_router(tools.router)
+    app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/

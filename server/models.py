@@ -1,29 +1,17 @@
-"""The API's data: job status, what a client sends (Create) and what it gets back (Public)."""
+"""The API's data: what a client sends (Create) and what it gets back (Public). Job statuses: server/lifecycle.py."""
 
 from __future__ import annotations
 
 import json
 import time
 from datetime import UTC, datetime
-from enum import StrEnum
 from typing import Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from pydantic_core import PydanticCustomError
 
+from server.lifecycle import JobStatus
 from tracer.scene import Scene
-
-
-class JobStatus(StrEnum):
-    queued = "queued"  # waiting for a worker, by priority then age
-    running = "running"  # a worker is rendering it
-    done = "done"  # all samples rendered; the final image is kept
-    failed = "failed"  # invalid at render time, over its time limit, or its worker died too often
-    cancelled = "cancelled"  # DELETE /api/jobs/{id}; a running job keeps its last image
-
-    @property
-    def finished(self) -> bool:
-        return self in (JobStatus.done, JobStatus.failed, JobStatus.cancelled)
 
 
 class ErrorItem(BaseModel):
@@ -93,6 +81,19 @@ class SolveProgress(BaseModel):
     patches: int = Field(description="patch sides of the solution (two per piece of surface)")
 
 
+class TryInfo(BaseModel):
+    attempt: int = Field(description="the try's number, from 1")
+    host: str | None = Field(description="the worker host that ran it")
+    device: str | None = Field(description="cpu, or a GPU such as cuda:0")
+    worker: int | str | None = Field(description="the worker: a process id here, or a worker host's name")
+    started_at: float = Field(description="Unix time the try started")
+    ended_at: float | None = Field(description="Unix time it ended; null while it runs")
+    outcome: str | None = Field(
+        description="done, failed, cancelled, 'lost' (its worker died or its host was cut off), "
+        "'given back' (its host shut down); null while it runs"
+    )
+
+
 class JobProgress(BaseModel):
     samples_done: int = Field(description="pixel samples rendered (adaptive sampler: pixels x passes)")
     samples_total: int = Field(description="width x height x spp (adaptive sampler: pixels x levels)")
@@ -110,6 +111,7 @@ class JobProgress(BaseModel):
 class JobPublic(BaseModel):
     id: str = Field(description="unguessable job id")
     status: JobStatus
+    finished: bool = Field(description="true once the job has ended (done, failed or cancelled): nothing changes after")
     priority: int
     name: str | None = Field(description="the scene's name, if it has one")
     width: int
@@ -129,7 +131,13 @@ class JobPublic(BaseModel):
     error: str | None = Field(description="why the job failed (or how it was stopped)")
     errors: list[ErrorItem] = Field(description="scene errors found at render time (a missing asset), with paths")
     warnings: list[ErrorItem] = Field(description="settings in the scene that have no effect")
-    attempts: int = Field(description="times a worker took the job (more than 1 after a worker died)")
+    attempts: int = Field(
+        description="the job's try: times a worker took it (more than 1 after its worker died, or its host was "
+        "lost or gave it back)"
+    )
+    tries: list[TryInfo] = Field(description="each try, oldest first: where it ran and how it ended")
+    host: str | None = Field(description="the worker host of the latest try")
+    device: str | None = Field(description="the device of the latest try: cpu, or a GPU such as cuda:0")
     cancel_requested: bool
 
     @classmethod
@@ -156,6 +164,7 @@ class JobPublic(BaseModel):
         return cls(
             id=row["id"],
             status=status,
+            finished=status.finished,
             priority=row["priority"],
             name=row["name"],
             width=row["width"],
@@ -183,6 +192,9 @@ class JobPublic(BaseModel):
             errors=json.loads(row["errors"]),
             warnings=json.loads(row["warnings"]),
             attempts=row["attempts"],
+            tries=json.loads(row.get("tries") or "[]"),
+            host=row.get("host"),
+            device=row.get("device"),
             cancel_requested=bool(row["cancel_requested"]),
         )
 
@@ -197,7 +209,11 @@ class JobList(BaseModel):
 
 
 class WorkerInfo(BaseModel):
-    slot: int
+    slot: int = Field(description="the worker's place in the list")
+    name: str | None = Field(None, description="a worker host's name (the Redis backend)")
+    host: str | None = Field(None, description="the machine it runs on")
+    device: str | None = Field(None, description="cpu, or a GPU such as cuda:0")
+    threads: int | None = Field(None, description="render threads of a worker host")
     pid: int | None = Field(description="process id of the worker (the crash test kills it)")
     alive: bool
     ready: bool = Field(description="kernels loaded, taking jobs")
@@ -207,5 +223,6 @@ class WorkerInfo(BaseModel):
 
 class Health(BaseModel):
     status: str = Field(description="'ok'")
+    backend: str = Field(description="the job queue: 'embedded' (workers on this host) or 'redis' (worker hosts)")
     workers: list[WorkerInfo]
     jobs: dict[str, int] = Field(description="jobs by status")

@@ -40,13 +40,32 @@ class Settings(BaseSettings):
     host: str = Field("127.0.0.1", description="address to listen on")
     port: int = Field(8000, ge=0, le=65535, description="TCP port")
     data_dir: Path = Field(Path("data"), description="job database (jobs.sqlite3) and images (jobs/<id>/)")
-    workers: int = Field(1, ge=0, le=64, description="render worker processes; 0 = none (jobs wait in the queue)")
+    workers: int = Field(
+        1,
+        ge=0,
+        le=64,
+        description="render worker processes on this host (with Redis: local worker hosts); 0 = none (the API alone)",
+    )
     render_threads: int = Field(0, ge=0, description="threads per worker render; 0 = cores / workers")
     worker_nice: int = Field(10, ge=0, le=19, description="niceness of worker processes, so the API stays responsive")
     preview_size: int = Field(160, ge=8, le=1024, description="example scene thumbnails (pixels)")
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
+
+    # The job queue (server/queue.py): embedded worker processes, or worker hosts through Redis with RQ.
+    redis_url: str | None = Field(
+        None,
+        description="Redis URL (redis://host:6379/0): jobs go to worker hosts (python -m server.worker) through "
+        "RQ; unset: the embedded worker processes of this host",
+    )
+    lost_after: Duration = Field(
+        15.0,
+        ge=2,
+        le=3600,
+        description="Redis backend: seconds without a heartbeat from a try's worker host after which the try is "
+        "lost and the job runs again on another host",
+    )
 
     # Housekeeping (server/janitor.py): finished jobs are removed, rows and folders together.
     keep_finished: Duration = Field(
@@ -89,14 +108,6 @@ class Settings(BaseSettings):
             max_primitives=self.max_primitives,
             max_texture_pixels=self.max_texture_pixels,
         )
-
-    @property
-    def db_path(self) -> Path:
-        return self.data_dir / "jobs.sqlite3"
-
-    @property
-    def jobs_dir(self) -> Path:
-        return self.data_dir / "jobs"
 
     def threads_per_worker(self) -> int:
         if self.render_threads:

@@ -1,10 +1,17 @@
-"""The job store: one SQLite table under the data directory, and each job's images beside it.
+"""The job store: one SQLite table under the data directory, and each job's files beside it.
 
 Every process and thread opens its own connection (WAL mode, so readers never wait for the
 worker's writes; a busy timeout for the rare writer-writer overlap), and every statement is short.
-A worker writes to a job only while the row still names it (`worker = pid AND status = 'running'`),
-so a worker that lost its job (killed and retried elsewhere, or a stale one after a restart) can
-never overwrite the job's new life.
+
+Statuses change only through `_move`, one UPDATE per move of the life cycle (server/lifecycle.py):
+its WHERE names the status the job leaves, so a move that lost a race changes nothing (a cancel of
+a job that has just started, a finish of a job the supervisor has just failed). A worker writes to a
+job only while the row still names it (`worker = pid AND status = running`), so a worker that lost
+its job (killed and retried elsewhere, or a stale one after a restart) can never overwrite the
+job's new life.
+
+A job's files (its images, AOV pictures, radiosity solution) live in DATA/jobs/<id>/, named by
+`JobFile`; routes and workers both ask the store for them (`job_file`, `save_file`).
 """
 
 from __future__ import annotations
@@ -13,12 +20,15 @@ import json
 import os
 import secrets
 import shutil
+import socket
 import sqlite3
 import threading
 import time
+from collections.abc import Callable
+from enum import StrEnum
 from pathlib import Path
 
-from server.models import JobStatus
+from server.lifecycle import FINISHED, BadTransition, JobStatus, check_transition
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -45,15 +55,91 @@ CREATE TABLE IF NOT EXISTS jobs (
     errors TEXT NOT NULL DEFAULT '[]',      -- scene errors found by the worker
     cancel_requested INTEGER NOT NULL DEFAULT 0,
     attempts INTEGER NOT NULL DEFAULT 0,    -- times a worker took it
-    worker INTEGER,                         -- pid of the worker rendering it
-    solve TEXT                              -- the radiosity solve so far (JSON: fraction, shots, rays, ...)
+    worker INTEGER,                         -- pid of the embedded worker rendering it
+    solve TEXT,                             -- the radiosity solve so far (JSON: fraction, shots, rays, ...)
+    host TEXT,                              -- the worker host (name) of the latest try
+    device TEXT,                            -- the device the latest try renders on (cpu, cuda:0)
+    lost INTEGER NOT NULL DEFAULT 0,        -- tries lost with their worker (a crash, a dead or cut-off host)
+    tries TEXT NOT NULL DEFAULT '[]'        -- each try: {attempt, host, device, worker, started_at, ended_at, outcome}
 );
 CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at);
 """
 
 ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
-RUNNING, QUEUED = JobStatus.running.value, JobStatus.queued.value
-FINISHED = tuple(s.value for s in JobStatus if s.finished)
+QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
+HOST = socket.gethostname()  # the embedded workers' host: this one
+FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
+
+
+class JobFile(StrEnum):
+    """A job's files, in its folder DATA/jobs/<id>/ (the value is the file's name). Each is written
+    whole (a temporary file renamed over the old one): a reader sees the old file or the new one."""
+
+    image_png = "image.png"  # the latest image, 8-bit sRGB with the film's exposure (previews, then the final)
+    image_exr = "image.exr"  # the same pass as linear float32 radiance
+    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/rendering.py, aov_pictures)
+    aov_depth = "aov_depth.png"
+    aov_normal = "aov_normal.png"
+    aov_albedo = "aov_albedo.png"
+    aov_variance = "aov_variance.png"
+    aov_ranges = "aovs.json"  # {name: [min, max]} of the values each AOV picture shows
+    aov_floats = "aovs.exr"  # the float AOVs: the variance as RGB (what the grader reads), the others as layers
+    radiosity = "radiosity.json"  # a finished radiosity job's solution
+
+    @classmethod
+    def image(cls, fmt: str) -> JobFile:
+        """The latest image as "png" or "exr"."""
+        return cls(f"image.{fmt}")
+
+    @classmethod
+    def aov(cls, name: str) -> JobFile:
+        """The AOV picture `name` (one of AOV_NAMES; ValueError for any other)."""
+        return cls(f"aov_{name}.png")
+
+
+AOV_NAMES = tuple(f.removeprefix("aov_").removesuffix(".png") for f in JobFile if f.startswith("aov_"))
+
+
+class _Sql:
+    """A field's new value given as an SQL expression (`attempts + 1`), written into the statement,
+    with its own bound arguments."""
+
+    def __init__(self, sql: str, *args):
+        self.sql, self.args = sql, args
+
+
+class Attempt(int):
+    """A writer that owns a job by its try number (the Redis backend: events of try k apply only while
+    the job's `attempts` is still k). A plain int names an embedded worker by its pid."""
+
+
+def _fence(who: int | None) -> tuple[str, tuple]:
+    """SQL (and args) that a running job's row must match for `who` to write it: an embedded worker's
+    pid, a try's Attempt, or None (the supervisor: anyone)."""
+    if who is None:
+        return "", ()
+    if isinstance(who, Attempt):
+        return "attempts = ?", (int(who),)
+    return "worker = ?", (who,)
+
+
+def _and(*parts: str) -> str:
+    return " AND ".join(p for p in parts if p)
+
+
+def _begin_try(attempt: str, host: str | None, device: str | None, worker) -> _Sql:
+    """`tries` with a new try appended (its outcome null until it ends); `attempt` is SQL (the row's old
+    values: `attempts + 1` is the try a claim begins)."""
+    entry = (
+        f"json_object('attempt', {attempt}, 'host', ?, 'device', ?, 'worker', ?, 'started_at', ?,"
+        " 'ended_at', NULL, 'outcome', NULL)"
+    )
+    return _Sql(f"json_insert(tries, '$[#]', {entry})", host, device, worker, time.time())
+
+
+def _end_try(outcome: str) -> _Sql:
+    """`tries` with its last try ended: done, failed, cancelled, lost (with its worker), given back."""
+    return _Sql("json_set(tries, '$[#-1].ended_at', ?, '$[#-1].outcome', ?)", time.time(), outcome)
 
 
 class QueueFull(Exception):
@@ -81,7 +167,14 @@ class JobStore:
     def _add_columns(self) -> None:
         """Columns added since a data dir was made: an older database gets them (empty)."""
         have = {row["name"] for row in self.db.execute("PRAGMA table_info(jobs)")}
-        for name, decl in (("solve", "TEXT"),):
+        added = (
+            ("solve", "TEXT"),
+            ("host", "TEXT"),
+            ("device", "TEXT"),
+            ("lost", "INTEGER NOT NULL DEFAULT 0"),
+            ("tries", "TEXT NOT NULL DEFAULT '[]'"),
+        )
+        for name, decl in added:
             if name not in have:
                 self.db.execute(f"ALTER TABLE jobs ADD COLUMN {name} {decl}")
 
@@ -106,10 +199,47 @@ class JobStore:
         row = self.db.execute(sql, args).fetchone()
         return dict(row) if row is not None else None
 
+    # -- moves of the life cycle --------------------------------------------------------------
+
+    def _move(
+        self,
+        db: sqlite3.Connection,
+        source: JobStatus,
+        target: JobStatus,
+        where: str = "",
+        args: tuple = (),
+        **fields,
+    ) -> list[dict]:
+        """Move the jobs in status `source` that match `where` (SQL, with `args`) to `target`, setting
+        `fields` too (values bound, or _Sql expressions); a move into a finished status stamps
+        `finished_at`. Returns the rows moved, as they are after the move."""
+        check_transition(source, target)
+        if target.finished:
+            fields.setdefault("finished_at", time.time())
+        fields = {"status": target.value, **fields}
+        sets = ", ".join(f"{k} = {v.sql}" if isinstance(v, _Sql) else f"{k} = ?" for k, v in fields.items())
+        values = [a for v in fields.values() for a in (v.args if isinstance(v, _Sql) else (v,))]
+        sql = f"UPDATE jobs SET {sets} WHERE status = ?" + (f" AND ({where})" if where else "") + " RETURNING *"
+        return [dict(r) for r in db.execute(sql, (*values, source.value, *args)).fetchall()]
+
     # -- files --------------------------------------------------------------------------------
 
-    def image_path(self, job_id: str, fmt: str) -> Path:
-        return self.jobs_dir / job_id / f"image.{fmt}"
+    def job_dir(self, job_id: str) -> Path:
+        """The job's folder of files (it may not exist yet: the first save makes it)."""
+        return self.jobs_dir / job_id
+
+    def job_file(self, job_id: str, kind: JobFile) -> Path:
+        """Where the job's file of that kind is kept (it may not exist)."""
+        return self.job_dir(job_id) / JobFile(kind).value
+
+    def save_file(self, job_id: str, kind: JobFile, data: bytes | str | Callable[[Path], None]) -> None:
+        """Write one of the job's files whole: bytes, text, or `data(path)` writing a temporary file."""
+        if isinstance(data, bytes):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_bytes(data))
+        elif isinstance(data, str):
+            write_atomic(self.job_file(job_id, kind), lambda tmp: tmp.write_text(data))
+        else:
+            write_atomic(self.job_file(job_id, kind), data)
 
     # -- the API side -------------------------------------------------------------------------
 
@@ -161,35 +291,24 @@ class JobStore:
     def cancel(self, job_id: str) -> dict | None:
         """Cancel a queued job now; ask the worker of a running one to stop. The job's row after."""
         with self._tx() as db:
-            db.execute(
-                "UPDATE jobs SET status = 'cancelled', finished_at = ?, error = 'cancelled before it started'"
-                " WHERE id = ? AND status = 'queued'",
-                (time.time(), job_id),
-            )
-            db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = 'running'", (job_id,))
+            self._move(db, QUEUED, CANCELLED, "id = ?", (job_id,), error="cancelled before it started")
+            db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = ?", (job_id, RUNNING))
         return self.get(job_id)
 
     def recover(self) -> tuple[int, int]:
         """At start-up: jobs left running by a dead server go back to the queue (or end, if cancelled)."""
         with self._tx() as db:
-            cancelled = db.execute(
-                "UPDATE jobs SET status = 'cancelled', finished_at = ?, worker = NULL,"
-                " error = 'cancelled (the server stopped while it rendered)'"
-                " WHERE status = 'running' AND cancel_requested = 1",
-                (time.time(),),
-            ).rowcount
-            requeued = db.execute(
-                "UPDATE jobs SET status = 'queued', worker = NULL WHERE status = 'running'",
-            ).rowcount
-        return requeued, cancelled
+            error = "cancelled (the server stopped while it rendered)"
+            cancelled = self._move(db, RUNNING, CANCELLED, "cancel_requested = 1", worker=None, error=error)
+            requeued = self._move(db, RUNNING, QUEUED, worker=None)
+        return len(requeued), len(cancelled)
 
     # -- the janitor --------------------------------------------------------------------------
 
     def finished_before(self, when: float) -> list[str]:
         """Ids of the jobs that finished (done, failed, cancelled) before Unix time `when`, first ended first."""
-        marks = ", ".join("?" * len(FINISHED))
         rows = self.db.execute(
-            f"SELECT id FROM jobs WHERE status IN ({marks}) AND COALESCE(finished_at, created_at) < ?"
+            f"SELECT id FROM jobs WHERE {FINISHED_IN} AND COALESCE(finished_at, created_at) < ?"
             " ORDER BY COALESCE(finished_at, created_at), rowid",
             (*FINISHED, when),
         ).fetchall()
@@ -197,8 +316,7 @@ class JobStore:
 
     def remove(self, job_id: str) -> bool:
         """Remove a finished job: its row, then its folder. Never a queued or running one (False)."""
-        marks = ", ".join("?" * len(FINISHED))
-        cur = self.db.execute(f"DELETE FROM jobs WHERE id = ? AND status IN ({marks})", (job_id, *FINISHED))
+        cur = self.db.execute(f"DELETE FROM jobs WHERE id = ? AND {FINISHED_IN}", (job_id, *FINISHED))
         if cur.rowcount == 0:
             return False
         self.remove_folder(job_id)
@@ -206,7 +324,7 @@ class JobStore:
 
     def remove_folder(self, job_id: str) -> None:
         if looks_like_job_id(job_id):  # never a path built from anything else
-            shutil.rmtree(self.jobs_dir / job_id, ignore_errors=True)
+            shutil.rmtree(self.job_dir(job_id), ignore_errors=True)
 
     def ids(self) -> set[str]:
         return {row["id"] for row in self.db.execute("SELECT id FROM jobs")}
@@ -221,7 +339,7 @@ class JobStore:
     # -- the supervisor -----------------------------------------------------------------------
 
     def running_on(self, pid: int) -> str | None:
-        row = self._one("SELECT id FROM jobs WHERE status = 'running' AND worker = ?", (pid,))
+        row = self._one("SELECT id FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid))
         return row["id"] if row else None
 
     def worker_died(self, pid: int, attempts: int, reason: str) -> list[tuple[str, str]]:
@@ -229,93 +347,149 @@ class JobStore:
         out = []
         with self._tx() as db:
             rows = db.execute(
-                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = 'running' AND worker = ?", (pid,)
+                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid)
             ).fetchall()
             for r in rows:
                 if r["cancel_requested"]:
-                    status, error = "cancelled", f"cancelled ({reason})"
+                    status, error = CANCELLED, f"cancelled ({reason})"
                 elif r["attempts"] < attempts:
-                    status, error = "queued", None
+                    status, error = QUEUED, None
                 else:
-                    status, error = "failed", f"{reason}; tried {r['attempts']} time(s)"
-                finished = time.time() if status != "queued" else None
-                db.execute(
-                    "UPDATE jobs SET status = ?, error = ?, finished_at = ?, worker = NULL WHERE id = ?",
-                    (status, error, finished, r["id"]),
-                )
-                out.append((r["id"], status))
+                    status, error = FAILED, f"{reason}; tried {r['attempts']} time(s)"
+                self._move(db, RUNNING, status, "id = ?", (r["id"],), error=error, worker=None,
+                           lost=_Sql("lost + 1"), tries=_end_try("lost"))  # fmt: skip
+                out.append((r["id"], status.value))
         return out
 
     def overdue(self, grace: float) -> list[dict]:
         """Running jobs past their time limit plus `grace` seconds (their worker did not stop them)."""
         rows = self.db.execute(
-            "SELECT id, worker, max_seconds FROM jobs WHERE status = 'running' AND started_at + max_seconds + ? < ?",
-            (grace, time.time()),
+            "SELECT id, worker, max_seconds FROM jobs WHERE status = ? AND started_at + max_seconds + ? < ?",
+            (RUNNING, grace, time.time()),
         ).fetchall()
         return [dict(r) for r in rows]
 
     def fail(self, job_id: str, pid: int | None, error: str) -> bool:
-        return self._finish(job_id, pid, JobStatus.failed, error=error)
+        return self.finish(job_id, pid, FAILED, error=error)
 
     # -- the worker side ----------------------------------------------------------------------
 
     def claim(self, pid: int) -> dict | None:
         """Take the next queued job (highest priority, then oldest) for worker `pid`, atomically."""
-        if self.db.execute("SELECT 1 FROM jobs WHERE status = 'queued' LIMIT 1").fetchone() is None:
+        if self.db.execute("SELECT 1 FROM jobs WHERE status = ? LIMIT 1", (QUEUED,)).fetchone() is None:
             return None  # an idle worker's look at the queue takes no write lock
         with self._tx() as db:
-            row = db.execute(
-                "UPDATE jobs SET status = 'running', worker = ?, started_at = ?, finished_at = NULL,"
-                " attempts = attempts + 1, samples_done = 0, passes_done = 0, spp_done = 0, preview = 0,"
-                " rays = '{}', error = NULL"
-                " WHERE id = (SELECT id FROM jobs WHERE status = 'queued'"
-                "             ORDER BY priority DESC, created_at, rowid LIMIT 1)"
-                " RETURNING *",
-                (pid, time.time()),
-            ).fetchone()
-        return dict(row) if row is not None else None
+            rows = self._move(
+                db, QUEUED, RUNNING,
+                "id = (SELECT id FROM jobs WHERE status = ? ORDER BY priority DESC, created_at, rowid LIMIT 1)",
+                (QUEUED,), worker=pid, started_at=time.time(), finished_at=None, attempts=_Sql("attempts + 1"),
+                samples_done=0, passes_done=0, spp_done=0, preview=0, rays="{}", error=None, host=HOST, device="cpu",
+                tries=_begin_try("attempts + 1", HOST, "cpu", pid),
+            )  # fmt: skip
+        return rows[0] if rows else None
 
-    def control(self, job_id: str, pid: int) -> dict | None:
-        """What a worker checks between bands: is the job still its own, and is a stop requested."""
-        return self._one(
-            "SELECT cancel_requested FROM jobs WHERE id = ? AND worker = ? AND status = 'running'", (job_id, pid)
-        )
+    def control(self, job_id: str, who: int) -> dict | None:
+        """What a worker checks between bands: is the job still its own (None if not), and is a stop requested."""
+        where, args = _fence(who)
+        return self._one(f"SELECT cancel_requested FROM jobs WHERE {_and('id = ?', where, 'status = ?')}",
+                         (job_id, *args, RUNNING))  # fmt: skip
 
-    def progress(self, job_id: str, pid: int, **fields) -> bool:
+    def progress(self, job_id: str, who: int, **fields) -> bool:
         """Update progress fields (samples_done, samples_total, passes_done, spp_done, rays, preview, solve) of
-        its job."""
+        its job, while `who` (a worker's pid, or a try's Attempt) still has it."""
         for key in ("rays", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
         sets = ", ".join(f"{k} = ?" for k in fields)
+        where, args = _fence(who)
         cur = self.db.execute(
-            f"UPDATE jobs SET {sets} WHERE id = ? AND worker = ? AND status = 'running'",
-            (*fields.values(), job_id, pid),
+            f"UPDATE jobs SET {sets} WHERE {_and('id = ?', where, 'status = ?')}",
+            (*fields.values(), job_id, *args, RUNNING),
         )
         return cur.rowcount > 0
 
-    def requeue(self, job_id: str, pid: int) -> bool:
-        """Give a job back to the queue (the worker is shutting down); its try does not count."""
-        cur = self.db.execute(
-            "UPDATE jobs SET status = 'queued', worker = NULL, attempts = MAX(attempts - 1, 0)"
-            " WHERE id = ? AND worker = ? AND status = 'running'",
-            (job_id, pid),
-        )
-        return cur.rowcount > 0
+    def requeue(self, job_id: str, who: int) -> bool:
+        """Give a job back to the queue (its worker is shutting down); an embedded worker's try does not
+        count (the next claim counts it again); a try of the Redis backend is given back as the next try
+        (tries are its fence), which counts nothing lost either."""
+        where, args = _fence(who)
+        again = _Sql("attempts + 1") if isinstance(who, Attempt) else _Sql("MAX(attempts - 1, 0)")
+        moved = self._move(
+            self.db, RUNNING, QUEUED, _and("id = ?", where), (job_id, *args),
+            worker=None, attempts=again, tries=_end_try("given back"),
+        )  # fmt: skip
+        return bool(moved)
 
-    def finish(self, job_id: str, pid: int, status: JobStatus, **fields) -> bool:
-        return self._finish(job_id, pid, status, **fields)
-
-    def _finish(self, job_id: str, pid: int | None, status: JobStatus, **fields) -> bool:
+    def finish(self, job_id: str, who: int | None, status: JobStatus, **fields) -> bool:
+        """End a running job as `status` (done, failed or cancelled), with its last progress `fields`;
+        only while `who` (a worker's pid, a try's Attempt) still has it (anyone's when None: the
+        supervisor). False if it had not."""
+        if not JobStatus(status).finished:
+            raise BadTransition(f"finish() ends a job; {status} is not an end")
         for key in ("rays", "errors", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
-        fields.update(status=status.value, finished_at=time.time())
-        sets = ", ".join(f"{k} = ?" for k in fields)
-        owner = "AND worker = ?" if pid is not None else ""
-        args = (*fields.values(), job_id) + ((pid,) if pid is not None else ())
-        cur = self.db.execute(f"UPDATE jobs SET {sets} WHERE id = ? AND status = 'running' {owner}", args)
-        return cur.rowcount > 0
+        where, args = _fence(who)
+        fields.setdefault("tries", _end_try(JobStatus(status).value))
+        return bool(self._move(self.db, RUNNING, JobStatus(status), _and("id = ?", where), (job_id, *args), **fields))
+
+    # -- the Redis backend: tries of jobs on worker hosts, applied by the API --------------------
+
+    def queue_try(self, job_id: str, attempt: int) -> bool:
+        """A queued job's try `attempt` has been put in Redis (its first, or again after Redis lost it)."""
+        return (
+            self.db.execute(
+                "UPDATE jobs SET attempts = ? WHERE id = ? AND status = ?", (attempt, job_id, QUEUED)
+            ).rowcount
+            > 0
+        )
+
+    def start_try(self, job_id: str, attempt: int, host: str, device: str, worker: str) -> dict | None:
+        """A worker host took try `attempt` of a queued job: it runs (None if the job moved on: cancelled,
+        or a later try)."""
+        rows = self._move(
+            self.db, QUEUED, RUNNING, "id = ? AND attempts = ?", (job_id, attempt),
+            worker=None, started_at=time.time(), finished_at=None, samples_done=0, passes_done=0, spp_done=0,
+            preview=0, rays="{}", error=None, host=host, device=device,
+            tries=_begin_try("attempts", host, device, worker),
+        )  # fmt: skip
+        return rows[0] if rows else None
+
+    def lose_try(self, job_id: str, attempt: int, reason: str, max_lost: int) -> tuple[str, int] | None:
+        """Try `attempt` of a queued or running job was lost with its worker: the job goes back to the
+        queue as the next try while fewer than `max_lost` tries were lost, else it fails with `reason`.
+        Returns (new status, attempt to queue) or None if the job had moved on."""
+        with self._tx() as db:
+            row = db.execute(
+                "SELECT status, lost, cancel_requested FROM jobs WHERE id = ? AND attempts = ?", (job_id, attempt)
+            ).fetchone()
+            if row is None or row["status"] not in (QUEUED, RUNNING):
+                return None
+            source = JobStatus(row["status"])
+            end = _end_try("lost") if source is RUNNING else _Sql("tries")
+            if row["cancel_requested"]:
+                self._move(db, source, CANCELLED, "id = ?", (job_id,), error=f"cancelled ({reason})", tries=end)
+                return CANCELLED.value, attempt
+            if row["lost"] + 1 >= max_lost:
+                error = f"{reason}; tried {attempt} time(s)"
+                self._move(db, source, FAILED, "id = ?", (job_id,), error=error, lost=_Sql("lost + 1"), tries=end)
+                return FAILED.value, attempt
+            if source is RUNNING:
+                self._move(db, RUNNING, QUEUED, "id = ?", (job_id,), attempts=_Sql("attempts + 1"),
+                           lost=_Sql("lost + 1"), tries=end)  # fmt: skip
+            else:
+                db.execute("UPDATE jobs SET attempts = attempts + 1, lost = lost + 1 WHERE id = ?", (job_id,))
+            return QUEUED.value, attempt + 1
+
+    def live_tries(self) -> list[dict]:
+        """The queued and running jobs: what the Redis backend watches (id, status, attempts, started_at,
+        max_seconds, cancel_requested)."""
+        rows = self.db.execute(
+            "SELECT id, status, attempts, started_at, max_seconds, cancel_requested, priority FROM jobs"
+            " WHERE status IN (?, ?) ORDER BY priority DESC, created_at, rowid",
+            (QUEUED, RUNNING),
+        ).fetchall()
+        return [dict(r) for r in rows]
 
 
 class _Transaction:

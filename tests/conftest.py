@@ -1,4 +1,5 @@
-"""Shared fixtures: example scenes as dicts, small renders, the repository's paths."""
+"""Shared fixtures: example scenes as dicts, small renders, the repository's paths, and the app in a
+TestClient for the API tests (built by test_api_support.api_client; its helpers live there too)."""
 
 from __future__ import annotations
 
@@ -36,3 +37,35 @@ def compiled_kernels():
 
     load_kernels("cpu")
     return True
+
+
+# -- the service ----------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="session")
+def client(tmp_path_factory):
+    """The app with one real render worker process, shared by the API tests: the worker starts once.
+    Each test leaves no job queued or running behind (it waits for its jobs or cancels them)."""
+    from test_api_support import api_client
+
+    with api_client(tmp_path_factory.mktemp("api-data"), workers=1) as c:
+        yield c
+
+
+@pytest.fixture
+def settings(client):
+    """The settings of `client`'s app, restored after the test (limits read at submit time can be changed live)."""
+    s = client.app.state.settings
+    saved = s.model_dump()
+    yield s
+    for key, value in saved.items():
+        setattr(s, key, value)
+
+
+@pytest.fixture(scope="session")
+def client_without_workers(tmp_path_factory):
+    """The app with no render worker (submitted jobs wait in the queue), for routes that render nothing."""
+    from test_api_support import api_client
+
+    with api_client(tmp_path_factory.mktemp("api-data-no-workers"), workers=0) as c:
+        yield c

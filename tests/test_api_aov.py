@@ -5,34 +5,10 @@ from __future__ import annotations
 import io
 
 import numpy as np
-import pytest
-from fastapi.testclient import TestClient
 from PIL import Image
-from test_api_support import long_scene, parse_sse, tiny_scene, wait_for
+from test_api_support import long_scene, parse_sse, submit, tiny_scene, wait_for, wait_status
 
-from server.main import create_app
-from server.settings import Settings
-from server.worker import AOV_NAMES
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    settings = Settings(data_dir=tmp_path_factory.mktemp("aov-data"), workers=1)
-    with TestClient(create_app(settings)) as c:
-        wait_for(lambda: all(w["ready"] for w in c.get("/api/health").json()["workers"]), 60, "the worker")
-        yield c
-
-
-def submit(client, scene: dict) -> str:
-    r = client.post("/api/jobs", json={"scene": scene})
-    assert r.status_code == 202, r.text
-    return r.json()["id"]
-
-
-def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
-    return wait_for(
-        lambda: (j := client.get(f"/api/jobs/{job_id}").json())["status"] in statuses and j, timeout, str(statuses)
-    )
+from server.store import AOV_NAMES
 
 
 def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
@@ -42,7 +18,7 @@ def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
 
     scene = tiny_scene(24, spp=4, seed=3)
     scene["film"]["height"] = 18
-    job_id = submit(client, scene)
+    job_id = submit(client, scene)["id"]
     wait_status(client, job_id, {"done"})
     listing = client.get(f"/api/jobs/{job_id}/aov").json()
     assert listing["names"] == list(AOV_NAMES)
@@ -66,7 +42,7 @@ def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
 
 
 def test_api_aov_unknown_names_and_unfinished_jobs_are_404(client):
-    job_id = submit(client, long_scene())
+    job_id = submit(client, long_scene())["id"]
     wait_status(client, job_id, {"running"})
     r = client.get(f"/api/jobs/{job_id}/aov/rays")
     assert r.status_code == 404 and "saved when the job is done" in r.json()["errors"][0]["message"]
@@ -74,7 +50,7 @@ def test_api_aov_unknown_names_and_unfinished_jobs_are_404(client):
     client.delete(f"/api/jobs/{job_id}")
     wait_status(client, job_id, {"cancelled"})
     assert client.get(f"/api/jobs/{job_id}/aov/depth").status_code == 404  # a cancelled job keeps no AOVs
-    done = submit(client, tiny_scene())
+    done = submit(client, tiny_scene())["id"]
     wait_status(client, done, {"done"})
     r = client.get(f"/api/jobs/{done}/aov/colour")
     assert r.status_code == 404 and r.json()["errors"][0]["path"] == "name"
@@ -84,7 +60,7 @@ def test_api_aov_unknown_names_and_unfinished_jobs_are_404(client):
 
 def test_api_aov_job_scene_and_rays_in_progress_events(client):
     scene = tiny_scene(16, spp=4, seed=11)
-    job_id = submit(client, scene)
+    job_id = submit(client, scene)["id"]
     assert client.get(f"/api/jobs/{job_id}/scene").json() == scene
     wait_status(client, job_id, {"done"})
     with client.stream("GET", f"/api/jobs/{job_id}/events") as r:
@@ -103,7 +79,7 @@ def test_api_radiosity_solution_of_a_finished_job(client):
     scene["film"].update(width=16, height=16)
     scene["sampler"] = {"type": "center"}
     scene["render"]["radiosity"] = {"patch_size": 0.5, "rays": 256, "threshold": 0.05}
-    job_id = submit(client, scene)
+    job_id = submit(client, scene)["id"]
     wait_status(client, job_id, {"done"}, timeout=120)
     sol = client.get(f"/api/jobs/{job_id}/radiosity").json()
     n = len(sol["patches"]["area"])
@@ -114,7 +90,7 @@ def test_api_radiosity_solution_of_a_finished_job(client):
     assert sol["history"][0]["shooter"] == "lights[0]" and isinstance(sol["history"][1]["shooter"], int)
     assert "1" in sol["snapshots"] and len(sol["snapshots"]["1"]) == n
     # a job of another integrator has none
-    other = submit(client, tiny_scene(8, spp=1, seed=1))
+    other = submit(client, tiny_scene(8, spp=1, seed=1))["id"]
     wait_status(client, other, {"done"})
     r = client.get(f"/api/jobs/{other}/radiosity")
     assert r.status_code == 404 and "not radiosity" in r.json()["errors"][0]["message"]
@@ -132,7 +108,7 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     scene["film"].update(width=16, height=16)
     scene["sampler"] = {"type": "center"}
     scene["render"]["radiosity"] = {"patch_size": 0.25, "rays": 1024, "threshold": 0.002, "max_steps": 20000}
-    job_id = submit(client, scene)
+    job_id = submit(client, scene)["id"]
     events = []
     with client.stream("GET", f"/api/jobs/{job_id}/events") as r:
         for event, data in parse_sse(r.iter_lines()):
@@ -152,8 +128,24 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     assert done["rays"]["total"] == sum(v for k, v in done["rays"].items() if k != "total")
     # cancelled while it solves (a solve of minutes): the job ends long before the solve would, with no pass
     scene["render"]["radiosity"].update(patch_size=0.1, rays=4096, threshold=1e-6)
-    job_id = submit(client, scene)
+    job_id = submit(client, scene)["id"]
     wait_for(lambda: client.get(f"/api/jobs/{job_id}").json()["progress"]["phase"] == "radiosity", 60, "the solve")
     assert client.delete(f"/api/jobs/{job_id}").status_code in (200, 202)
     ended = wait_status(client, job_id, {"cancelled"}, timeout=10)
     assert ended["progress"]["passes_done"] == 0 and ended["preview"] == 0
+
+
+def test_api_aov_data_pictures_keep_their_values():
+    """depth and normal are data, not radiance: written through png_bytes(srgb=False), each byte round(255 v)
+    (depth as grey); albedo goes through the sRGB curve like the image."""
+    from server.rendering import aov_pictures
+    from tracer.film import to_srgb8
+
+    normal = np.array([[[1.0, 0.0, -1.0], [0.2, -0.6, 0.5]]], dtype=np.float32)  # (1, 2, 3)
+    depth = np.array([[2.0, 0.0]], dtype=np.float32)  # one hit, one miss
+    pictures, ranges = aov_pictures({"normal": normal, "depth": depth, "albedo": np.full((1, 2, 3), 0.5)})
+    read = {name: np.asarray(Image.open(io.BytesIO(png))) for name, png in pictures.items()}
+    np.testing.assert_array_equal(read["normal"], np.round((0.5 + 0.5 * normal) * 255).astype(np.uint8))
+    assert read["depth"].tolist() == [[round(0.15 * 255), 0]]  # near white to far grey; black: no hit
+    np.testing.assert_array_equal(read["albedo"], to_srgb8(np.full((1, 2, 3), 0.5)))
+    assert ranges["depth"] == [2.0, 2.0] and ranges["normal"] == [-1.0, 1.0]

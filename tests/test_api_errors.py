@@ -10,12 +10,8 @@ from pathlib import Path
 
 import pytest
 from conftest import scene_dict
-from fastapi.testclient import TestClient
-from test_api_support import tiny_scene
+from test_api_support import api_client, tiny_scene
 from test_assets import no_repr, obj_uri, png_uri, uri
-
-from server.main import create_app
-from server.settings import Settings
 
 BAD_DIR = Path(__file__).parent / "bad_scenes"
 EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())
@@ -25,8 +21,8 @@ LIMITS.update(max_primitives=20, max_body_bytes=100_000, max_json_depth=32)
 
 @pytest.fixture(scope="module")
 def client(tmp_path_factory):
-    settings = Settings(data_dir=tmp_path_factory.mktemp("errors-data"), workers=0, **LIMITS)
-    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+    """An app with small limits (LIMITS) and no worker; a server error is an answer here, not an exception."""
+    with api_client(tmp_path_factory.mktemp("errors-data"), raise_server_exceptions=False, **LIMITS) as c:
         yield c
 
 
@@ -38,16 +34,14 @@ def library_limits(tmp_path_factory):
     from tracer.scene import Limits
 
     limits = dataclasses.asdict(Limits())
-    settings = Settings(data_dir=tmp_path_factory.mktemp("corpus-data"), workers=0, **limits)
-    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+    with api_client(tmp_path_factory.mktemp("corpus-data"), raise_server_exceptions=False, **limits) as c:
         yield c
 
 
 @pytest.fixture(scope="module")
 def primitives_200(tmp_path_factory):
     """An app whose scenes may have at most 200 primitives (and the default body size limit)."""
-    settings = Settings(data_dir=tmp_path_factory.mktemp("primitives-data"), workers=0, max_primitives=200)
-    with TestClient(create_app(settings), raise_server_exceptions=False) as c:
+    with api_client(tmp_path_factory.mktemp("primitives-data"), raise_server_exceptions=False, max_primitives=200) as c:
         yield c
 
 

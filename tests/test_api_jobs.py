@@ -1,4 +1,5 @@
-"""Jobs through the TestClient, rendered by a real worker process: life, images, cancel, limits."""
+"""Jobs through the TestClient, rendered by a real worker process (conftest.py's `client`): life, images,
+cancel, limits."""
 
 from __future__ import annotations
 
@@ -8,57 +9,18 @@ import time
 
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 from PIL import Image
-from test_api_support import long_scene, parse_sse, tiny_scene, wait_for
-
-from server.main import create_app
-from server.settings import Settings
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    settings = Settings(data_dir=tmp_path_factory.mktemp("jobs-data"), workers=1)
-    with TestClient(create_app(settings)) as c:
-        wait_for(lambda: all(w["ready"] for w in c.get("/api/health").json()["workers"]), 60, "the worker")
-        yield c
-
-
-@pytest.fixture
-def settings(client):
-    """The app's settings, restored after the test (limits read at submit time can be changed live)."""
-    s = client.app.state.settings
-    saved = s.model_dump()
-    yield s
-    for key, value in saved.items():
-        setattr(s, key, value)
-
-
-def submit(client, scene: dict, priority: int = 0) -> dict:
-    r = client.post("/api/jobs", json={"scene": scene, "priority": priority})
-    assert r.status_code == 202, r.text
-    assert r.headers["location"] == f"/api/jobs/{r.json()['id']}"
-    return r.json()
-
-
-def job(client, job_id: str) -> dict:
-    r = client.get(f"/api/jobs/{job_id}")
-    assert r.status_code == 200, r.text
-    return r.json()
-
-
-def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
-    return wait_for(lambda: (j := job(client, job_id))["status"] in statuses and j, timeout, f"job in {statuses}")
-
-
-def exr_of(client, job_id: str) -> np.ndarray:
-    from tracer.film import read_exr
-
-    r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
-    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
-    path = client.app.state.settings.data_dir / f"check-{job_id}.exr"
-    path.write_bytes(r.content)
-    return read_exr(path)
+from test_api_support import (
+    exr_of,
+    job,
+    long_scene,
+    parse_sse,
+    submit,
+    tiny_scene,
+    wait_finished,
+    wait_for,
+    wait_status,
+)
 
 
 @pytest.fixture
@@ -68,7 +30,7 @@ def busy(client):
     wait_status(client, long["id"], {"running"})
     yield long["id"]
     client.delete(f"/api/jobs/{long['id']}")
-    wait_status(client, long["id"], {"cancelled", "done", "failed"})
+    wait_finished(client, long["id"])
 
 
 def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
@@ -80,6 +42,7 @@ def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client
     scene = tiny_scene(32, spp=16, seed=7)
     created = submit(client, scene)
     assert created["status"] in ("queued", "running") and created["progress"]["samples_total"] == 32 * 32 * 16
+    assert created["finished"] is False
     with client.stream("GET", created["events_url"]) as r:
         assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
         events = list(parse_sse(r.iter_lines()))
@@ -87,7 +50,8 @@ def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client
     assert kinds[-1] == "end" and kinds.count("end") == 1, kinds
     assert "progress" in kinds and "preview" in kinds
     end = events[-1][1]
-    assert end["status"] == "done" and end["progress"]["fraction"] == 1.0 and end["eta"] is None
+    assert end["status"] == "done" and end["finished"] is True
+    assert end["progress"]["fraction"] == 1.0 and end["eta"] is None
     assert end["rays"]["eye"] == 32 * 32 * 16 and end["rays"]["total"] >= end["rays"]["eye"]
     assert end["elapsed"] > 0 and end["attempts"] == 1 and end["error"] is None
     previews = [d for e, d in events if e == "preview"]
@@ -131,7 +95,7 @@ def test_api_jobs_previews_arrive_while_a_long_job_runs_and_cancel_keeps_the_las
 
     asked = time.monotonic()
     r = client.delete(f"/api/jobs/{created['id']}")
-    assert r.status_code == 202 and r.json()["cancel_requested"] is True
+    assert r.status_code == 202 and r.json()["cancel_requested"] is True and r.json()["finished"] is False
     ended = wait_status(client, created["id"], {"cancelled"}, timeout=10)
     assert time.monotonic() - asked < 3  # the worker looks at the job between bands of rows, not only passes
     assert ended["preview"] >= 1 and ended["progress"]["spp_done"] < 1024
@@ -145,7 +109,7 @@ def test_api_jobs_cancel_a_queued_job(client, busy):
     waiting = submit(client, tiny_scene())
     assert job(client, waiting["id"])["status"] == "queued"
     r = client.delete(f"/api/jobs/{waiting['id']}")
-    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    assert r.status_code == 200 and r.json()["status"] == "cancelled" and r.json()["finished"] is True
     nothing = client.get(f"/api/jobs/{waiting['id']}/image")
     assert nothing.status_code == 404 and "no image yet" in nothing.json()["errors"][0]["message"]
     assert job(client, waiting["id"])["started_at"] is None
@@ -176,6 +140,7 @@ def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings):
     created = submit(client, long_scene())
     ended = wait_status(client, created["id"], {"failed"}, timeout=20)
     assert "time limit of 1 s" in ended["error"] and "TRACER_MAX_JOB_SECONDS" in ended["error"]
+    assert ended["finished"] is True
     assert ended["elapsed"] < 5
     assert ended["preview"] >= 1  # the last pass's image is kept
     assert client.get(f"/api/jobs/{created['id']}/image").status_code == 200
@@ -210,7 +175,7 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, compil
     scenes = {p.stem: small(json.loads(p.read_text()), 24, 18) for p in EXAMPLES}
     jobs = {name: submit(client, scene)["id"] for name, scene in scenes.items()}
     for name, job_id in jobs.items():
-        ended = wait_status(client, job_id, {"done", "failed", "cancelled"}, timeout=120)
+        ended = wait_finished(client, job_id, timeout=120)
         assert ended["status"] == "done", (name, ended["error"])
         p = ended["progress"]
         assert p["samples_done"] == p["samples_total"] > 0 and p["fraction"] == 1.0, (name, p)

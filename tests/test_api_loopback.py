@@ -18,11 +18,21 @@ import httpx
 import numpy as np
 import pytest
 from conftest import ROOT
-from test_api_support import Server, free_port, long_scene, parse_sse, pid_alive, tiny_scene, wait_for
+from test_api_support import (
+    Server,
+    free_port,
+    job,
+    long_scene,
+    parse_sse,
+    pid_alive,
+    submit,
+    tiny_scene,
+    wait_finished,
+    wait_for,
+    wait_status,
+)
 
 from tracer.film import read_exr
-
-FINISHED = {"done", "failed", "cancelled"}
 
 
 @pytest.fixture(scope="module")
@@ -37,25 +47,9 @@ def server(shared):
     yield shared
     jobs = shared.client.get("/api/jobs", params={"limit": 1000}).json()["jobs"]
     for j in jobs:
-        if j["status"] not in FINISHED:
+        if not j["finished"]:
             shared.client.delete(f"/api/jobs/{j['id']}")
     wait_for(lambda: shared.client.get("/api/health").json()["jobs"]["running"] == 0, 120, "the worker to be idle")
-
-
-def submit(http: httpx.Client, scene: dict, priority: int = 0) -> dict:
-    r = http.post("/api/jobs", json={"scene": scene, "priority": priority})
-    assert r.status_code == 202, r.text
-    return r.json()
-
-
-def job(http: httpx.Client, job_id: str) -> dict:
-    return http.get(f"/api/jobs/{job_id}").json()
-
-
-def wait_status(http, job_id: str, statuses: set[str], timeout: float = 120) -> dict:
-    return wait_for(
-        lambda: (j := job(http, job_id))["status"] in statuses and j, timeout, f"job {job_id} in {statuses}"
-    )
 
 
 def test_api_loopback_job_life_gives_the_cli_pixels(server, tmp_path):
@@ -117,13 +111,13 @@ def test_api_loopback_a_killed_worker_is_replaced_and_its_job_retried_then_faile
     (second,) = wait_for(lambda: [p for p in server.worker_pids() if p != pid], 120, "a new worker")
     wait_for(lambda: job(http, created["id"])["preview"] >= 1, 120, "the retry to render")
     os.kill(second, signal.SIGKILL)  # killed again: out of tries
-    failed = wait_status(http, created["id"], FINISHED, timeout=120)
+    failed = wait_finished(http, created["id"], timeout=120)
     assert failed["status"] == "failed" and "render worker killed by signal SIGKILL" in failed["error"]
     assert "tried 2 time(s)" in failed["error"]
     wait_for(lambda: [p for p in server.worker_pids() if p not in (pid, second)], 120, "a third worker")
     # and the service goes on
     after = submit(http, tiny_scene())
-    assert wait_status(http, after["id"], FINISHED)["status"] == "done"
+    assert wait_finished(http, after["id"], timeout=120)["status"] == "done"
 
 
 def test_api_loopback_cancel_running_then_queued(server):
@@ -152,7 +146,7 @@ def test_api_loopback_50_concurrent_submissions_all_complete(server):
 
     def all_done():
         jobs = {j["id"]: j for j in server.client.get("/api/jobs", params={"limit": 1000}).json()["jobs"]}
-        return all(jobs[i]["status"] in FINISHED for i in ids) and jobs
+        return all(jobs[i]["finished"] for i in ids) and jobs
 
     jobs = wait_for(all_done, 120, "50 jobs to finish", interval=0.2)
     assert {jobs[i]["status"] for i in ids} == {"done"}
@@ -163,7 +157,7 @@ def test_api_loopback_restart_loses_no_job(tmp_path):
     with Server(data, workers=1) as first:
         http = first.client
         done = submit(http, tiny_scene(seed=1))
-        wait_status(http, done["id"], {"done"})
+        wait_status(http, done["id"], {"done"}, timeout=120)
         png_before = http.get(f"/api/jobs/{done['id']}/image").content
         running = submit(http, long_scene(spp=256), priority=10)
         wait_for(lambda: job(http, running["id"])["preview"] >= 1, 120, "the long job to render")
@@ -181,7 +175,7 @@ def test_api_loopback_restart_loses_no_job(tmp_path):
     with Server(data, workers=1) as second:
         http = second.client
         for j in [running, *queued]:
-            assert wait_status(http, j["id"], FINISHED, timeout=120)["status"] == "done"
+            assert wait_finished(http, j["id"], timeout=120)["status"] == "done"
         assert job(http, running["id"])["attempts"] == 2  # it was running: re-queued, rendered again
         assert job(http, cancelled["id"])["status"] == "cancelled"
         assert http.get(f"/api/jobs/{done['id']}/image").content == png_before  # finished images stay
@@ -226,7 +220,7 @@ def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
 
             wait_for(ready, 120, "the server to start", interval=0.2)
             created = submit(http, tiny_scene())  # a job rendered and its worker woken, as in real use
-            assert wait_status(http, created["id"], FINISHED)["status"] == "done"
+            assert wait_finished(http, created["id"], timeout=120)["status"] == "done"
         proc.send_signal(sig)
         proc.wait(timeout=60)
     finally:

@@ -1,4 +1,6 @@
-"""Helpers of the API tests (scenes, a real server on loopback, Server-Sent Events), and their own tests."""
+"""Helpers of the API tests, and their own tests: scenes, the app in a TestClient (the fixtures `client`,
+`client_without_workers` and `settings` of conftest.py are built with `api_client`), jobs through it,
+Server-Sent Events, and a real server on loopback."""
 
 from __future__ import annotations
 
@@ -10,9 +12,11 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
+import numpy as np
 from conftest import ROOT, scene_dict, small
 
 SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
@@ -39,6 +43,68 @@ def wait_for(condition: Callable[[], object], timeout: float, what: str, interva
         time.sleep(interval)
 
 
+# -- the app in a TestClient, and jobs through it ------------------------------------------------
+
+WORKERS_READY_TIMEOUT = 60  # seconds: a worker loads the kernels from Warp's cache
+
+
+@contextmanager
+def api_client(data_dir: Path, workers: int = 0, raise_server_exceptions: bool = True, **settings) -> Iterator:
+    """A TestClient of the app on `data_dir` with `settings`, its lifespan run (kernels, job store,
+    `workers` render processes, janitor), once its workers are ready; stopped on leaving."""
+    from fastapi.testclient import TestClient
+
+    from server.main import create_app
+    from server.settings import Settings
+
+    app = create_app(Settings(data_dir=data_dir, workers=workers, **settings))
+    with TestClient(app, raise_server_exceptions=raise_server_exceptions) as client:
+
+        def ready() -> bool:
+            return [w["ready"] for w in client.get("/api/health").json()["workers"]] == [True] * workers
+
+        wait_for(ready, WORKERS_READY_TIMEOUT, "the render workers")
+        yield client
+
+
+def submit(client, scene: dict, priority: int = 0) -> dict:
+    """POST the scene as a job (202 expected); the job."""
+    r = client.post("/api/jobs", json={"scene": scene, "priority": priority})
+    assert r.status_code == 202, r.text
+    assert r.headers["location"] == f"/api/jobs/{r.json()['id']}"
+    return r.json()
+
+
+def job(client, job_id: str) -> dict:
+    r = client.get(f"/api/jobs/{job_id}")
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
+    """The job, once its status is one of `statuses`."""
+    return wait_for(lambda: (j := job(client, job_id))["status"] in statuses and j, timeout, f"job in {statuses}")
+
+
+def wait_finished(client, job_id: str, timeout: float = 60) -> dict:
+    """The job, once it has ended (done, failed or cancelled: its `finished` flag)."""
+    return wait_for(lambda: (j := job(client, job_id))["finished"] and j, timeout, f"job {job_id} to end")
+
+
+def exr_of(client, job_id: str) -> np.ndarray:
+    """The job's latest image as linear floats, through GET .../image?format=exr."""
+    from tracer.film import read_exr
+
+    r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+    path = client.app.state.settings.data_dir / f"check-{job_id}.exr"
+    path.write_bytes(r.content)
+    return read_exr(path)
+
+
+# -- Server-Sent Events ---------------------------------------------------------------------------
+
+
 def parse_sse(lines: Iterable[str]) -> Iterator[tuple[str, dict]]:
     """(event, data) pairs from the lines of a text/event-stream (comments and retry skipped)."""
     event, data = "message", []
@@ -56,6 +122,9 @@ def parse_sse(lines: Iterable[str]) -> Iterator[tuple[str, dict]]:
                 event = value
             elif field == "data":
                 data.append(value)
+
+
+# -- a real server on loopback --------------------------------------------------------------------
 
 
 def free_port() -> int:

@@ -6,7 +6,6 @@ import json
 import re
 from pathlib import Path
 
-import pytest
 from conftest import ROOT, scene_dict, small
 
 from tracer import docs
@@ -101,18 +100,8 @@ def test_docs_the_readme_links_the_reference():
     assert Path(ROOT / "docs" / "scene-format.md").is_file()
 
 
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    from fastapi.testclient import TestClient
-
-    from server.main import create_app
-    from server.settings import Settings
-
-    with TestClient(create_app(Settings(data_dir=tmp_path_factory.mktemp("data"), workers=0))) as c:
-        yield c
-
-
-def test_docs_the_service_serves_the_reference_as_a_page(client):
+def test_docs_the_service_serves_the_reference_as_a_page(client_without_workers):
+    client = client_without_workers
     page = client.get("/reference/scene-format.md")
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     html = page.text

@@ -269,6 +269,55 @@ def test_web_page_form_controls_write_into_the_json(desktop):
     desktop.shot("editor-form")
 
 
+def field_input(page, path: str) -> dict:
+    """The attributes of a form field's (first) input or select, and whether it shows a default."""
+    page.wait_for_selector(f"[data-path='{path}']")
+    return page.eval_on_selector(
+        f"[data-path='{path}']",
+        """el => { const i = el.querySelector('input, select');
+            return {tag: i.tagName.toLowerCase(), type: i.type, min: i.getAttribute('min'), max: i.getAttribute('max'),
+                    step: i.getAttribute('step'), value: i.value, isDefault: el.classList.contains('is-default'),
+                    options: [...el.querySelectorAll('option')].map(o => o.value), title: el.title}; }""",
+    )
+
+
+def test_web_page_form_rules_come_from_the_schema(desktop, server):
+    page = desktop.open().page
+    schema = httpx.get(f"{server.url}/api/schema", timeout=30).json()
+    sampler = schema["$defs"]["Sampler"]["properties"]
+    set_scene(page, small(whitted(), sampler={"type": "adaptive"}))
+    # bounds: max_level allows what the scene format allows (8), no copy of its own
+    level = field_input(page, "sampler.max_level")
+    assert (level["min"], level["max"], level["step"]) == ("0", str(sampler["max_level"]["maximum"]), "1")
+    assert level["value"] == str(sampler["max_level"]["default"]) and level["isDefault"]
+    assert level["title"] == sampler["max_level"]["description"]
+    # choices, exclusive bounds (0 < vfov < 180, a spinner step of 1), defaults, the kind of a field
+    assert field_input(page, "sampler.type")["options"] == sampler["type"]["enum"]
+    vfov = field_input(page, "camera.vfov")
+    assert (vfov["min"], vfov["max"]) == ("1", "179")
+    assert field_input(page, "render.integrator")["options"] == ["whitted", "path", "radiosity"]
+    point = field_input(page, "lights.0.intensity")  # a number or r, g, b: a text field
+    assert point["tag"] == "input" and point["type"] == "text"
+    # spp's default depends on the sampler type, as the schema says (x-default-by-type)
+    for kind, want in sampler["spp"]["x-default-by-type"].items():
+        set_scene(page, {**whitted(), "sampler": {"type": kind}})
+        page.wait_for_function(
+            """want => { const el = document.querySelector("[data-path='sampler.spp']");
+                return el.classList.contains('is-default') && el.querySelector('input').value === want; }""",
+            arg=str(want),
+        )
+    # another server's rules: the form follows them
+    schema["$defs"]["Sampler"]["properties"]["max_level"]["maximum"] = 5
+    schema["$defs"]["Sampler"]["properties"]["type"]["enum"].append("sobol")
+    page.route("**/api/schema", lambda route: route.fulfill(json=schema))
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    set_scene(page, {**whitted(), "sampler": {"type": "adaptive"}})
+    assert field_input(page, "sampler.max_level")["max"] == "5"
+    assert "sobol" in field_input(page, "sampler.type")["options"]
+    desktop.shot("editor-form-schema")
+
+
 def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     page = desktop.open().page
     scene = whitted(160, 120, spp=64)
@@ -451,9 +500,27 @@ def test_web_page_lessons(desktop, server):
     )
     desktop.shot("lesson-bounces", full_page=True)
 
+    answers = []  # the server's sample positions, as the page asked for them
+    page.on("response", lambda r: "/api/samples" in r.url and answers.append((r.request.post_data, r.json())))
     assert run_lesson(page, "sampling", 4) == ["done"] * 4
-    samples = [int(c.get_attribute("data-samples")) for c in page.locator(".lesson-panel canvas.samples").all()]
+    page.wait_for_function("() => [...document.querySelectorAll('canvas.samples')].every(c => c.dataset.positions)")
+    canvases = page.locator(".lesson-panel canvas.samples").all()
+    samples = [int(c.get_attribute("data-samples")) for c in canvases]
     assert samples[:2] == [1, 16] and samples[2] > 5 and samples[3] == 16, samples
+    # each drawing shows the positions the server gave for the panel's own scene (adaptive: the traced ones)
+    by_sampler = {}  # the answers come in any order
+    for body, listed in answers:
+        request = json.loads(body)
+        assert request["scene"]["sampler"]["type"] == listed["sampler"]
+        assert [request["x"], request["y"]] == listed["pixel"] == [44, 37]
+        by_sampler[listed["sampler"]] = listed
+    assert len(answers) == len(by_sampler) == 4
+    for canvas, kind in zip(canvases, ["center", "grid", "adaptive", "jittered"], strict=True):
+        listed = by_sampler[kind]
+        traced = [s["position"] for s in listed["samples"] if s.get("traced", True)]
+        assert json.loads(canvas.get_attribute("data-positions")) == traced
+        words = canvas.locator("xpath=..").inner_text()
+        assert words.startswith("pixel (44, 37): ") and (kind == "center" or f": {len(traced)} rays" in words)
     desktop.shot("lesson-sampling", full_page=True)
 
     # radiosity: an image where the server has it, else the server's own message
@@ -475,6 +542,83 @@ def test_web_page_lessons(desktop, server):
     page.locator(".lesson-panel").first.get_by_role("button", name="Open in workspace").click()
     page.wait_for_selector("#page-work:not([hidden]) #stage[data-status=done]")
     assert json.loads(editor_text(page))["render"]["integrator"] == "whitted"
+
+
+def canvas_colour(canvas, u: float, v: float) -> list[int]:
+    """The RGB of a sampler picture at pixel position (u, v) (the pixel spans it but for an 8 px margin)."""
+    return canvas.evaluate(
+        """(c, [u, v]) => {
+            const css = parseFloat(c.style.width), k = c.width / css, s = css - 16;
+            const at = (t) => Math.round((8 + t * s) * k);
+            return [...c.getContext('2d').getImageData(at(u), at(v), 1, 1).data].slice(0, 3);
+        }""",
+        [u, v],
+    )
+
+
+def test_web_page_sampler_pictures_draw_the_server_s_positions(desktop):
+    """The pictures draw what POST /api/samples answers, nothing of their own: answers made up here are drawn."""
+    page = desktop.page
+    made_up = {
+        "center": [[0.5, 0.5]],
+        "grid": [[0.1, 0.1], [0.9, 0.1]],
+        "adaptive": [[0.0, 0.0], [1.0, 1.0], [0.5, 0.5]],
+        "jittered": [[0.2, 0.8], [0.75, 0.3], [0.6, 0.6]],
+    }
+
+    def answer(route):
+        kind = json.loads(route.request.post_data)["scene"]["sampler"]["type"]
+        samples = [{"sample": k, "position": p, "weight": 1.0, "traced": True} for k, p in enumerate(made_up[kind])]
+        cell = {"corner": [0, 0], "size": 1, "level": 0, "split": False, "srgb": "#204060"}
+        listed = {"pixel": [1, 2], "sampler": kind, "strata": None, "max_level": 3, "samples": samples}
+        route.fulfill(json={**listed, "cells": [cell] if kind == "adaptive" else None})
+
+    page.route("**/api/samples", answer)
+    desktop.open("#lessons")
+    run_lesson(page, "sampling", 4)
+    page.wait_for_function("() => [...document.querySelectorAll('canvas.samples')].every(c => c.dataset.positions)")
+    for canvas, kind in zip(page.locator("canvas.samples").all(), made_up, strict=True):
+        assert json.loads(canvas.get_attribute("data-positions")) == made_up[kind]
+        for u, v in made_up[kind]:  # an orange dot at each position
+            assert canvas_colour(canvas, u, v) == [255, 122, 0], (kind, u, v)
+    # the adaptive sampler's cell, filled with the colour the server gave it
+    assert canvas_colour(page.locator("canvas.samples").nth(2), 0.25, 0.75) == [32, 64, 96]
+    assert "pixel (1, 2)" in page.inner_text(".lesson-panel >> nth=0")
+
+
+def test_web_page_viewer_and_lessons_follow_jobs_the_same_way(desktop):
+    """One followJob (web/js/jobs.js) follows jobs for the viewer and the lessons: a stream that keeps dropping
+    is retried MAX_FAILURES (8) times by both, then given up with a message."""
+    web = Path(__file__).resolve().parent.parent / "web" / "js"
+    makers = [p.name for p in web.glob("*.js") if "new EventSource" in p.read_text()]
+    assert makers == ["jobs.js"]
+    for user in ("viewer.js", "lessons.js"):
+        assert 'import { followJob } from "./jobs.js";' in (web / user).read_text(), user
+
+    page = desktop.page
+    desktop.allow = [r"net::ERR_FAILED"]
+    tries = Counter()
+
+    def drop(route):  # an empty stream that asks to be retried at once: each retry is one drop
+        tries[route.request.url.split("/")[-2]] += 1
+        route.fulfill(status=200, headers={"content-type": "text/event-stream"}, body="retry: 10\n\n")
+
+    page.route("**/api/jobs/*/events", drop)
+    desktop.open()
+    set_scene(page, whitted(32, 24))
+    page.click("#btn-render")
+    page.wait_for_selector("#viewer-message[data-kind=error] button")
+    assert "Lost the connection to the server" in page.inner_text("#viewer-message")
+    assert list(tries.values()) == [8]
+    page.click("#tab-lessons")
+    assert run_lesson(page, "dof", 2) == ["failed", "failed"]
+    assert all("lost the connection to the server" in t for t in page.locator(".lesson-panel").all_inner_texts())
+    assert list(tries.values()) == [8, 8, 8]
+    # the real stream again: the viewer's "Try again" shows the job, which has ended by now
+    page.unroute("**/api/jobs/*/events")
+    page.click("#tab-work")
+    page.click("#viewer-message button")
+    page.wait_for_selector("#stage[data-status=done]")
 
 
 def test_web_page_phone_layout(phone):
@@ -533,8 +677,8 @@ def test_web_page_broken_server_and_failed_job_show_messages(desktop):
 
     # a job that fails: its reason is shown, not a blank viewer
     failed = {
-        "id": "F" * 22, "status": "failed", "priority": 0, "name": "broken", "width": 32, "height": 24,
-        "created_at": "2026-01-01T00:00:00Z", "started_at": None, "finished_at": None,
+        "id": "F" * 22, "status": "failed", "finished": True, "priority": 0, "name": "broken",
+        "width": 32, "height": 24, "created_at": "2026-01-01T00:00:00Z", "started_at": None, "finished_at": None,
         "progress": {
             "samples_done": 0, "samples_total": 3072, "fraction": 0, "passes_done": 0, "spp_done": 0, "spp_total": 4,
         },
@@ -542,7 +686,7 @@ def test_web_page_broken_server_and_failed_job_show_messages(desktop):
         "events_url": f"/api/jobs/{'F' * 22}/events", "error": "render error: RuntimeError: out of memory",
         "errors": [], "warnings": [], "attempts": 2, "cancel_requested": False,
     }  # fmt: skip
-    queued = {**failed, "status": "queued", "error": None}
+    queued = {**failed, "status": "queued", "finished": False, "error": None}
     page.route(
         "**/api/jobs",
         lambda route: route.fulfill(status=202, json=queued) if route.request.method == "POST" else route.continue_(),

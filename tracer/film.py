@@ -69,13 +69,20 @@ def write_png(path: str | Path, image: np.ndarray, exposure: float = 0.0) -> Non
     Image.fromarray(to_srgb8(image, exposure), "RGB").save(str(path))
 
 
-def png_bytes(image: np.ndarray, exposure: float = 0.0) -> bytes:
+def png_bytes(image: np.ndarray, exposure: float = 0.0, *, srgb: bool = True) -> bytes:
+    """An 8-bit PNG: (H, W, 3) linear radiance through the sRGB curve; with `srgb=False`, values in
+    [0, 1] written as they are (data such as a normal map 0.5 + 0.5 n), (H, W) as grey."""
     import io
 
     from PIL import Image
 
+    if srgb:
+        picture = Image.fromarray(to_srgb8(image, exposure), "RGB")
+    else:
+        scaled = np.nan_to_num(image) * (2.0**exposure)
+        picture = Image.fromarray(np.round(np.clip(scaled, 0.0, 1.0) * 255.0).astype(np.uint8))
     buf = io.BytesIO()
-    Image.fromarray(to_srgb8(image, exposure), "RGB").save(buf, format="PNG")
+    picture.save(buf, format="PNG")
     return buf.getvalue()
 
 

@@ -133,19 +133,32 @@ class Solution:
     max_steps: int = 2000  # ... or after this many shots
     rays: int = 0  # rays cast so far (form factors and the point lights' shadow rays)
     seconds: float = 0.0  # time spent solving so far
+    reported: float = 0.0  # the largest fraction() said so far (progress never goes back)
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
 
     def fraction(self) -> float:
-        """How far the solve has come, 0..1: the shots against max_steps, or the unshot power's fall
-        towards the threshold on a log scale (it falls about geometrically), whichever is further."""
-        steps = len(self.history) / max(self.max_steps, 1)
+        """How far the solve has come, 0..1, never less than said before: the shots against max_steps,
+        or the shots so far against the shots to go, estimated from how fast the unshot power has been
+        falling over the last quarter of the shots (it falls ever more slowly as it spreads over the
+        patches), whichever is further."""
+        steps = len(self.history)
+        estimate = min(1.0, steps / max(self.max_steps, 1))
         emitted = float(self.emitted.sum())
-        if emitted <= 0 or self.direct is None:
-            return min(1.0, steps)
-        left = max(self.unshot_total() / emitted, 1e-300)
-        return float(min(1.0, max(steps, math.log(left) / math.log(self.threshold) if left < 1 else 0.0)))
+        left = self.unshot_total() / emitted if emitted > 0 else 1.0
+        first = sum(1 for h in self.history if isinstance(h["shooter"], str))  # the lights' shots
+        shots = steps - first
+        if self.direct is not None and left <= self.threshold:
+            estimate = 1.0
+        elif self.direct is not None and shots >= 2 and left > 0:
+            back = max(1, shots // 4)
+            before = self.history[steps - 1 - back]["unshot"] / emitted
+            rate = (math.log(max(before, 1e-300)) - math.log(left)) / back  # log of the unshot power, per shot
+            if rate > 0:
+                estimate = max(estimate, shots / (shots + math.log(left / self.threshold) / rate))
+        self.reported = float(min(1.0, max(self.reported, estimate)))
+        return self.reported
 
     def stats(self) -> dict:
         """What the solve cost: shots, rays, seconds, and the share of the power still unshot."""

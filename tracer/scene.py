@@ -432,6 +432,10 @@ class Sampler(_Model):
         ge=1,
         description="Samples per pixel; null = 1 for center, 16 otherwise. "
         "center: exactly 1; grid, jittered: a perfect square.",
+        # the default as data for editors (the page's form); tests/test_samples.py keeps it equal to _default_spp
+        json_schema_extra={
+            "x-default-by-type": {"center": 1, "grid": 16, "random": 16, "jittered": 16, "adaptive": 16}
+        },
     )
     threshold: Num = Field(
         0.05, ge=0, description="adaptive: largest colour difference of a cell still called uniform."

@@ -13,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from server.errors import ApiError
 from server.grading import STUDENT_FILES, GradeRuns
+from server.lifecycle import JobStatus
 from server.models import ErrorResponse
 from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_for_file, student_name
 from tracer.grading.batch import MAX_FILES, group_files
@@ -106,7 +107,7 @@ def _submissions(body: GradeCreate) -> list[Submission]:
 def _public(state: dict, runs: GradeRuns) -> dict:
     out = dict(state)
     out["url"] = f"/api/grade/{state['id']}"
-    out["reports"] = runs.reports(state["id"]) if state["status"] == "done" else []
+    out["reports"] = runs.reports(state["id"]) if state["status"] == JobStatus.done else []
     return out
 
 
@@ -175,7 +176,7 @@ def run_state(run_id: str, runs: RunsDep) -> dict:
 @router.get("/{run_id}/summary.{fmt}", summary="The class summary as CSV or JSON", responses=NOT_FOUND)
 def run_summary(run_id: str, fmt: Literal["csv", "json"], runs: RunsDep) -> Response:
     state = _run(run_id, runs)
-    if state["status"] != "done":
+    if state["status"] != JobStatus.done:
         raise ApiError(404, f"no summary yet: the run is {state['status']}")
     data = (runs.folder(run_id) / "out" / f"summary.{fmt}").read_bytes()
     media = "text/csv" if fmt == "csv" else "application/json"

@@ -11,12 +11,12 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.deps import JobDep, PoolDep, SettingsDep, StoreDep
+from server.deps import JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
-from server.models import ErrorResponse, JobCreate, JobList, JobPublic, JobStatus
+from server.lifecycle import JobStatus
+from server.models import ErrorResponse, JobCreate, JobList, JobPublic
 from server.settings import Settings
-from server.store import JobStore, QueueFull
-from server.worker import AOV_NAMES, aov_path
+from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
 from tracer.scene import ASSET_DIR, Scene, SceneError, load_scene
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -46,7 +46,7 @@ def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
         429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
     },
 )
-def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, pool: PoolDep, response: Response) -> JobPublic:
+def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by priority then age (202).
 
     The job comes back with the scene's `warnings`; follow it at `events_url`, fetch `image_url`."""
@@ -66,8 +66,7 @@ def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, pool: PoolDe
     except QueueFull as full:
         message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
         raise ApiError(429, message, headers={"Retry-After": "5"}) from None
-    if pool is not None:
-        pool.notify()
+    queue.submitted(row)
     response.headers["Location"] = f"/api/jobs/{row['id']}"
     return JobPublic.from_row(row)
 
@@ -109,7 +108,7 @@ def image(
     if not job["preview"]:
         raise ApiError(404, f"no image yet: the job is {job['status']}")
     try:
-        data = store.image_path(job["id"], format).read_bytes()
+        data = store.job_file(job["id"], JobFile.image(format)).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, "the job's image is missing from the data directory") from None
     media = "image/png" if format == "png" else "image/x-exr"
@@ -127,10 +126,10 @@ def job_scene(job: JobDep) -> dict:
 
 
 def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
     try:
-        return json.loads(aov_path(store, job["id"], "ranges").read_text())
+        return json.loads(store.job_file(job["id"], JobFile.aov_ranges).read_text())
     except FileNotFoundError:
         raise ApiError(404, "the job's AOVs are missing from the data directory") from None
 
@@ -143,10 +142,10 @@ def radiosity(job: JobDep, store: StoreDep) -> Response:
     are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
     unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after every
     shot up to 16, then 32, 64, ..., and the last), for showing which patch shoots, step by step."""
-    if job["status"] != JobStatus.done.value:
+    if job["status"] != JobStatus.done:
         raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
     try:
-        data = (store.jobs_dir / job["id"] / "radiosity.json").read_bytes()
+        data = store.job_file(job["id"], JobFile.radiosity).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, "this job has no radiosity solution (its integrator is not radiosity)") from None
     return Response(data, media_type="application/json")
@@ -173,7 +172,7 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
         raise ApiError(404, [{"path": "name", "message": message}])
     _aov_ready(job, store)
     try:
-        data = aov_path(store, job["id"], name).read_bytes()
+        data = store.job_file(job["id"], JobFile.aov(name)).read_bytes()
     except FileNotFoundError:
         raise ApiError(404, [{"path": "name", "message": f"the job has no '{name}' AOV"}]) from None
     headers = {"Cache-Control": "no-store", "Content-Disposition": f'inline; filename="job-{job["id"]}-{name}.png"'}
@@ -244,11 +243,12 @@ async def _event_stream(store: JobStore, job_id: str, request: Request) -> Async
         **NOT_FOUND,
     },
 )
-def cancel(job: JobDep, store: StoreDep, response: Response) -> JobPublic:
+def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
     """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`."""
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
     row = store.cancel(job["id"])
+    queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202
     return JobPublic.from_row(row)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from server.deps import PoolDep, SettingsDep, StoreDep
+from server.deps import QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
 from server.routes.jobs import check_scene
@@ -16,8 +16,8 @@ router = APIRouter(prefix="/api", tags=["tools"])
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
-def health(store: StoreDep, pool: PoolDep) -> Health:
-    return Health(status="ok", workers=pool.info() if pool else [], jobs=store.counts())
+def health(store: StoreDep, queue: QueueDep) -> Health:
+    return Health(status="ok", backend=queue.backend, workers=queue.workers(), jobs=store.counts())
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")

@@ -64,4 +64,6 @@ export const api = {
     `/api/jobs/${encodeURIComponent(id)}/image?format=${format}${pass ? `&pass=${pass}` : ""}`,
   eventsUrl: (id) => `/api/jobs/${encodeURIComponent(id)}/events`,
   raytree: (sceneText, x, y, sample, signal) => request("POST", "/api/raytree", withScene(sceneText, { x, y, sample }), { signal }),
+  schema: () => request("GET", "/api/schema"),
+  samples: (sceneText, x, y) => request("POST", "/api/samples", withScene(sceneText, { x, y })),
 };

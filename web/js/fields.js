@@ -1,52 +1,72 @@
 // Form controls for the fields students change most: the camera, the film size, the sampler, the
 // integrator and depth, a chosen object's material K's and a chosen light. Each control writes its value
 // back into the JSON text (SceneEditor.setField); the text stays the one source of truth.
+// Only labels, their order, the spinners' steps and short hints live here: each field's kind, bounds,
+// default and choices come from the server's schema (schema.js).
+import { defaultOf, part, rule, withDefaults } from "./schema.js";
 import { $, $$, debounce, h } from "./util.js";
 
-const num = (key, label, o = {}) => ({ key, label, type: "number", ...o });
-const vec = (key, label, o = {}) => ({ key, label, type: "vec3", ...o });
-const rgbf = (key, label, o = {}) => ({ key, label, type: "rgb", ...o });
-const pick = (key, label, options, o = {}) => ({ key, label, type: "select", options, ...o });
+/** A field of the form: its key in the scene, its label; `step`: the spinner's step for a number that is not
+ * an integer; `help`: a hint under it; `only`: shown for that sampler type alone. */
+const f = (key, label, o = {}) => ({ key, label, ...o });
 
 const CAMERA = [
-  vec("lookfrom", "lookfrom", { help: "where the eye is" }),
-  vec("lookat", "lookat", { help: "the point looked at" }),
-  vec("vup", "vup", { def: [0, 1, 0], help: "which way is up" }),
-  num("vfov", "vfov (°)", { min: 1, max: 179, step: 1, help: "full vertical field of view" }),
-  num("lens_radius", "lens radius", { min: 0, step: 0.01, def: 0, help: "0 = pinhole; more = shallower depth of field" }),
-  num("focus_distance", "focus distance", { min: 0, step: 0.1, nullable: true, help: "empty = |lookat − lookfrom|" }),
+  f("lookfrom", "lookfrom", { help: "where the eye is" }),
+  f("lookat", "lookat", { help: "the point looked at" }),
+  f("vup", "vup", { help: "which way is up" }),
+  f("vfov", "vfov (°)", { step: 1, help: "full vertical field of view" }),
+  f("lens_radius", "lens radius", { step: 0.01, help: "0 = pinhole; more = shallower depth of field" }),
+  f("focus_distance", "focus distance", { step: 0.1, help: "empty = |lookat − lookfrom|" }),
 ];
-const FILM = [num("width", "width (px)", { min: 1, step: 1 }), num("height", "height (px)", { min: 1, step: 1 })];
+const FILM = [f("width", "width (px)"), f("height", "height (px)")];
 const SAMPLER = [
-  pick("type", "sampler", ["center", "grid", "random", "jittered", "adaptive"], { def: "jittered" }),
-  num("spp", "samples / pixel", { min: 1, step: 1, def: 16, help: "grid, jittered: a perfect square" }),
-  num("threshold", "threshold", { min: 0, step: 0.01, def: 0.05, only: "adaptive" }),
-  num("max_level", "max level", { min: 0, max: 6, step: 1, def: 3, only: "adaptive" }),
+  f("type", "sampler"),
+  f("spp", "samples / pixel", { help: "grid, jittered: a perfect square" }),
+  f("threshold", "threshold", { step: 0.01, only: "adaptive" }),
+  f("max_level", "max level", { only: "adaptive" }),
 ];
 const RENDER = [
-  pick("integrator", "integrator", ["whitted", "path", "radiosity"], { def: "whitted" }),
-  num("max_depth", "max depth", { min: 1, max: 64, step: 1, def: 5, help: "1 = ray casting" }),
-  num("light_samples", "light samples", { min: 1, step: 1, def: 1, help: "shadow rays per area light" }),
-  num("min_weight", "min weight", { min: 0, step: 0.001, def: 0.001 }),
+  f("integrator", "integrator"),
+  f("max_depth", "max depth", { help: "1 = ray casting" }),
+  f("light_samples", "light samples", { help: "shadow rays per area light" }),
+  f("min_weight", "min weight", { step: 0.001 }),
 ];
 const MATERIAL = [
-  rgbf("kd", "kd (diffuse)", { def: 0.5 }),
-  rgbf("ks", "ks (specular)", { def: 0 }),
-  num("shininess", "shininess n", { min: 0, step: 1, def: 32 }),
-  rgbf("kr", "kr (reflection)", { def: 0 }),
-  rgbf("kt", "kt (transmission)", { def: 0 }),
-  num("ior", "ior", { min: 0.01, step: 0.01, def: 1.5 }),
-  { key: "fresnel", label: "Fresnel", type: "check", def: false },
-  num("gloss", "gloss m", { min: 0, step: 1, nullable: true, help: "empty = perfect mirror" }),
+  f("kd", "kd (diffuse)"),
+  f("ks", "ks (specular)"),
+  f("shininess", "shininess n", { step: 1 }),
+  f("kr", "kr (reflection)"),
+  f("kt", "kt (transmission)"),
+  f("ior", "ior", { step: 0.01 }),
+  f("fresnel", "Fresnel"),
+  f("gloss", "gloss m", { step: 1, help: "empty = perfect mirror" }),
 ];
 const LIGHT_FIELDS = {
-  point: [vec("position", "position"), num("intensity", "intensity (W/sr)", { min: 0, step: 1 })],
-  spot: [vec("position", "position"), vec("direction", "direction"), num("intensity", "intensity (W/sr)", { min: 0, step: 1 }), num("cutoff", "cutoff (°)", { min: 0, max: 90, step: 1 })],
-  directional: [vec("direction", "direction"), num("irradiance", "irradiance (W/m²)", { min: 0, step: 0.1 })],
-  quad: [vec("corner", "corner"), rgbf("radiance", "radiance")],
-  disk: [vec("center", "center"), num("radius", "radius", { min: 0, step: 0.05 }), rgbf("radiance", "radiance")],
-  sphere: [vec("center", "center"), num("radius", "radius", { min: 0, step: 0.05 }), rgbf("radiance", "radiance")],
+  point: [f("position", "position"), f("intensity", "intensity (W/sr)", { step: 1 })],
+  spot: [f("position", "position"), f("direction", "direction"), f("intensity", "intensity (W/sr)", { step: 1 }), f("cutoff", "cutoff (°)", { step: 1 })],
+  directional: [f("direction", "direction"), f("irradiance", "irradiance (W/m²)", { step: 0.1 })],
+  quad: [f("corner", "corner"), f("radiance", "radiance")],
+  disk: [f("center", "center"), f("radius", "radius", { step: 0.05 }), f("radiance", "radiance")],
+  sphere: [f("center", "center"), f("radius", "radius", { step: 0.05 }), f("radiance", "radiance")],
 };
+
+/** Without the schema (the server not answering): the kind the text's value shows. */
+function kindOfValue(v) {
+  if (Array.isArray(v)) return "vec3";
+  if (typeof v === "boolean") return "check";
+  if (typeof v === "string") return "select";
+  return "number";
+}
+
+/** The input's min and max: the schema's bounds; an exclusive bound moved in by one step, the nearest
+ * value the spinner reaches (vfov: 0 < v < 180 with step 1 gives 1..179; a step of "any": the bound). */
+function inputBounds(r, step) {
+  const by = typeof step === "number" ? step : 0;
+  return {
+    min: r?.min ?? (r?.exclusiveMin !== undefined ? r.exclusiveMin + by : undefined),
+    max: r?.max ?? (r?.exclusiveMax !== undefined ? r.exclusiveMax - by : undefined),
+  };
+}
 
 let uid = 0;
 
@@ -57,7 +77,11 @@ function parseRGB(text) {
   if (parts.length === 3 && parts.every(Number.isFinite)) return parts;
   return undefined;
 }
-const showRGB = (v) => (Array.isArray(v) ? v.join(", ") : v === undefined || v === null ? "" : String(v));
+/** An RGB value as text; a default of three equal numbers as the one number it means (kd 0.5). */
+function showRGB(v, isDefault = false) {
+  if (Array.isArray(v)) return isDefault && v.every((x) => x === v[0]) ? String(v[0]) : v.join(", ");
+  return v === undefined || v === null ? "" : String(v);
+}
 
 export class SceneFields {
   constructor(form, editor) {
@@ -101,6 +125,24 @@ export class SceneFields {
     this.form.addEventListener("submit", (e) => e.preventDefault());
   }
 
+  /** A field with its rule from the schema (`object`: the schema of the object holding it), or, without
+   * the schema, with the kind its value shows. */
+  resolve(spec, object, holder) {
+    const r = rule(object, spec.key);
+    const current = holder ? holder[spec.key] : undefined;
+    const step = r?.integer ? 1 : (spec.step ?? "any");
+    return {
+      ...spec,
+      type: r ? r.kind : kindOfValue(current),
+      step,
+      ...inputBounds(r, step),
+      def: r ? defaultOf(object, spec.key, holder) : undefined,
+      options: r?.options ?? (current === undefined ? [] : [current]),
+      nullable: !!r?.nullable,
+      description: r?.description ?? "",
+    };
+  }
+
   /** A control for one field; `base` is the JSON path of the object holding `spec.key`. */
   control(spec, base, holder) {
     const id = `f${++uid}`;
@@ -110,10 +152,15 @@ export class SceneFields {
     const isDefault = current === undefined;
     const write = (v) => this.editor.setField(path, v);
     const wrap = (...els) =>
-      h("div", { class: `field${spec.type === "vec3" ? " vec" : ""}${isDefault ? " is-default" : ""}`, dataset: { path: path.join(".") } }, ...els, spec.help ? h("small", { id: `${id}-help` }, spec.help) : null);
+      h(
+        "div",
+        { class: `field${spec.type === "vec3" ? " vec" : ""}${isDefault ? " is-default" : ""}`, dataset: { path: path.join(".") }, title: spec.description || null },
+        ...els,
+        spec.help ? h("small", { id: `${id}-help` }, spec.help) : null,
+      );
     const later = debounce(write, 350);
     if (spec.type === "number") {
-      const input = h("input", { id, type: "number", step: spec.step ?? "any", min: spec.min, max: spec.max, value: value ?? "", placeholder: spec.nullable ? "auto" : "", "aria-describedby": spec.help ? `${id}-help` : null });
+      const input = h("input", { id, type: "number", step: spec.step, min: spec.min, max: spec.max, value: value ?? "", placeholder: spec.nullable ? "auto" : "", "aria-describedby": spec.help ? `${id}-help` : null });
       input.addEventListener("input", () => {
         if (input.value === "" && spec.nullable) return later(null);
         const v = Number(input.value);
@@ -123,7 +170,7 @@ export class SceneFields {
     }
     if (spec.type === "vec3") {
       const v = Array.isArray(value) ? value : ["", "", ""];
-      const inputs = ["x", "y", "z"].map((axis, i) => h("input", { type: "number", step: "any", value: v[i] ?? "", "aria-label": `${spec.label} ${axis}`, id: i === 0 ? id : null }));
+      const inputs = ["x", "y", "z"].map((axis, i) => h("input", { type: "number", step: "any", min: spec.min, max: spec.max, value: v[i] ?? "", "aria-label": `${spec.label} ${axis}`, id: i === 0 ? id : null }));
       for (const input of inputs)
         input.addEventListener("input", () => {
           const xs = inputs.map((x) => Number(x.value));
@@ -132,7 +179,7 @@ export class SceneFields {
       return wrap(h("label", { for: id }, spec.label), h("span", { class: "vec3" }, ...inputs));
     }
     if (spec.type === "rgb") {
-      const input = h("input", { id, type: "text", inputmode: "decimal", value: showRGB(value), "aria-describedby": `${id}-help`, autocomplete: "off", spellcheck: "false" });
+      const input = h("input", { id, type: "text", inputmode: "decimal", value: showRGB(value, isDefault), "aria-describedby": `${id}-help`, autocomplete: "off", spellcheck: "false" });
       input.addEventListener("input", () => {
         const v = parseRGB(input.value);
         input.setAttribute("aria-invalid", v === undefined ? "true" : "false");
@@ -153,20 +200,23 @@ export class SceneFields {
     return null;
   }
 
-  fill(section, specs, base, holder, filter = () => true) {
+  /** The controls of one section: `specs` (labels and order), `object` the schema of the object at `base`. */
+  fill(section, specs, base, holder, object, filter = () => true) {
     const body = this.sections[section];
-    const shown = specs.filter(filter);
+    const shown = specs.filter(filter).map((spec) => this.resolve(spec, object, holder));
     const paths = shown.map((spec) => [...base, spec.key].join("."));
     const same = paths.join("\n") === $$(".field", body).map((el) => el.dataset.path).join("\n");
     if (same && body.contains(document.activeElement)) {
       // do not rebuild under the student's cursor: update the other controls' values only
       for (const el of $$(".field", body)) {
         const spec = shown[paths.indexOf(el.dataset.path)];
-        const v = holder ? holder[spec.key] : undefined;
+        const given = holder ? holder[spec.key] : undefined;
+        const v = given === undefined ? spec.def : given;
+        el.classList.toggle("is-default", given === undefined);
         for (const input of $$("input, select", el)) {
           if (input === document.activeElement) continue;
           if (spec.type === "vec3" && Array.isArray(v)) input.value = v[$$("input", el).indexOf(input)];
-          else if (spec.type === "rgb" && v !== undefined) input.value = showRGB(v);
+          else if (spec.type === "rgb" && v !== undefined) input.value = showRGB(v, given === undefined);
           else if (spec.type === "check") input.checked = !!v;
           else if (v !== undefined && v !== null) input.value = v;
         }
@@ -188,11 +238,12 @@ export class SceneFields {
     if (!force && this.value && JSON.stringify(this.value) === JSON.stringify(value)) return;
     this.value = value;
     const sec = (k) => (value[k] && typeof value[k] === "object" ? value[k] : {});
-    this.fill("camera", CAMERA, ["camera"], sec("camera"));
-    this.fill("film", FILM, ["film"], sec("film"));
+    this.fill("camera", CAMERA, ["camera"], sec("camera"), part("camera"));
+    this.fill("film", FILM, ["film"], sec("film"), part("film"));
     const sampler = sec("sampler");
-    this.fill("sampler", SAMPLER, ["sampler"], sampler, (s) => !s.only || s.only === (sampler.type || "jittered"));
-    this.fill("render", RENDER, ["render"], sec("render"));
+    const samplerType = withDefaults("sampler", sampler).type;
+    this.fill("sampler", SAMPLER, ["sampler"], sampler, part("sampler"), (s) => !s.only || s.only === samplerType);
+    this.fill("render", RENDER, ["render"], sec("render"), part("render"));
 
     const objects = Array.isArray(value.objects) ? value.objects : [];
     this.objectIndex = Math.min(this.objectIndex, Math.max(0, objects.length - 1));
@@ -206,10 +257,10 @@ export class SceneFields {
       const users = objects.filter((o) => o && o.material === obj.material).length;
       const mats = value.materials && typeof value.materials === "object" ? value.materials : {};
       this.materialNote.textContent = `material "${obj.material}"${users > 1 ? `, shared by ${users} objects` : ""}`;
-      this.fill("material", MATERIAL, ["materials", obj.material], mats[obj.material] || {});
+      this.fill("material", MATERIAL, ["materials", obj.material], mats[obj.material] || {}, part("material"));
     } else if (obj && obj.material && typeof obj.material === "object") {
       this.materialNote.textContent = "an inline material";
-      this.fill("material", MATERIAL, ["objects", this.objectIndex, "material"], obj.material);
+      this.fill("material", MATERIAL, ["objects", this.objectIndex, "material"], obj.material, part("material"));
     } else {
       this.materialNote.textContent = objects.length ? "this object has no material yet" : "no objects";
       this.sections.material.replaceChildren();
@@ -223,7 +274,13 @@ export class SceneFields {
     }
     this.lightSelect.value = String(this.lightIndex);
     const light = lights[this.lightIndex];
-    this.fill("light", (light && LIGHT_FIELDS[light.type]) || [], ["lights", this.lightIndex], light || {});
+    this.fill("light", (light && LIGHT_FIELDS[light.type]) || [], ["lights", this.lightIndex], light || {}, part("light", light?.type));
+  }
+
+  /** The schema came (or changed): rebuild every control with its rules. */
+  schemaLoaded() {
+    for (const body of Object.values(this.sections)) body.replaceChildren();
+    if (this.value) this.refresh(this.value, true);
   }
 
   /** Show the material of object `index` (the ray tree's "edit this material"). */

@@ -1,7 +1,8 @@
 // Lessons: the comparisons the lecture shows, side by side, one click each. Every panel is an example
 // scene with a few fields changed, rendered small through the job API; what changed is written under it.
 import { ApiError, api } from "./api.js";
-import { drawSamples } from "./samplers.js";
+import { followJob } from "./jobs.js";
+import { drawSamples, samplerWords } from "./samplers.js";
 import { $, clone, h, integer, seconds } from "./util.js";
 
 const SIZE = [160, 120]; // the largest lesson image; each keeps its scene's aspect
@@ -22,7 +23,7 @@ export const LESSONS = [
   {
     id: "sampling",
     title: "One ray per pixel vs supersampling vs adaptive vs jittered",
-    samples: true,
+    samples: [44, 37], // the pixel whose samples are drawn (at 160 x 120): the ball's edge against the sky crosses it
     text: "The same scene sampled four ways; under each, where the sampler puts its rays inside one pixel. One ray per pixel gives jaggies, broken thin poles and moiré near the horizon. A regular grid smooths edges but the moiré only moves. Adaptive supersampling starts from the corners and the centre and splits only cells whose colours differ (here across an edge). Jittered sampling (one random point per cell) turns the moiré into noise.",
     panels: [
       { label: "one ray per pixel (center)", scene: "antialias_center" },
@@ -179,8 +180,10 @@ export class Lessons {
     });
     let samples = null;
     if (lesson.samples) {
-      samples = h("canvas", { class: "samples", role: "img", "aria-label": `sample positions of the ${panel.scene.sampler?.type} sampler inside one pixel` });
-      drawSamples(samples, panel.scene.sampler || {});
+      const canvas = h("canvas", { class: "samples", role: "img", "aria-label": `where the ${panel.scene.sampler?.type} sampler puts the rays of one pixel` });
+      const words = h("small", {}, "asking the renderer where the samples go…");
+      samples = h("div", { class: "samples-box" }, canvas, words);
+      this.drawPixelSamples(panel, lesson.samples, canvas, words);
     }
     const root = h(
       "figure",
@@ -188,10 +191,23 @@ export class Lessons {
       h("div", { class: "lesson-image" }, img, state),
       bar,
       h("figcaption", {}, h("strong", {}, panel.label), panel.notes.length ? h("code", {}, panel.notes.join(", ")) : null, info),
-      samples ? h("div", { class: "samples-box" }, samples, h("small", {}, `inside one pixel: ${samplerWords(panel.scene.sampler || {})}`)) : null,
+      samples,
       h("div", { class: "panel-actions" }, open, rays),
     );
     return { root, img, state, bar, info, open, rays };
+  }
+
+  /** The renderer's own sample positions in pixel [x, y] of the panel's scene (POST /api/samples), drawn. */
+  async drawPixelSamples(panel, [x, y], canvas, words) {
+    drawSamples(canvas, null);
+    try {
+      panel.samples ??= await api.samples(JSON.stringify(panel.scene), x, y);
+    } catch (err) {
+      words.textContent = `Could not ask the server where the samples go: ${err.message}.`;
+      return;
+    }
+    drawSamples(canvas, panel.samples);
+    words.textContent = `pixel (${panel.samples.pixel.join(", ")}): ${samplerWords(panel.samples)}`;
   }
 
   paint(panel) {
@@ -217,59 +233,34 @@ export class Lessons {
       el.open.disabled = false;
       el.rays.disabled = false;
       el.bar.hidden = true;
-    } else if (panel.status === "failed" || panel.status === "cancelled") {
-      el.state.replaceChildren(h("div", { class: "refused" }, `The job ${panel.status}: ${job?.error || ""}`));
+    } else if (job?.finished) {
+      el.state.replaceChildren(h("div", { class: "refused" }, `The job ${panel.status}: ${job.error || ""}`));
     } else el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? "queued…" : solving ? "solving radiosity…" : "rendering…"));
   }
 
   /** Follow one panel's job by its event stream until it ends. */
   follow(panel) {
-    return new Promise((resolve) => {
-      const es = new EventSource(api.eventsUrl(panel.job.id));
-      let failures = 0;
-      es.addEventListener("progress", (e) => {
-        const p = JSON.parse(e.data);
+    return followJob(panel.job.id, {
+      onProgress: (p) => {
         panel.status = p.status;
+        panel.job.finished = p.phase === "finished"; // the last progress event says so just before `end`
         panel.job.progress = { ...panel.job.progress, ...p };
         this.paint(panel);
-      });
-      es.addEventListener("preview", (e) => {
-        panel.job.image_url = JSON.parse(e.data).url;
+      },
+      onPreview: (p) => {
+        panel.job.image_url = p.url;
         this.paint(panel);
-      });
-      es.addEventListener("end", (e) => {
-        es.close();
-        panel.job = JSON.parse(e.data);
-        panel.status = panel.job.status;
+      },
+      onEnd: (job) => {
+        panel.job = job;
+        panel.status = job.status;
         this.paint(panel);
-        resolve();
-      });
-      es.addEventListener("error", () => {
-        if (++failures >= 8) {
-          es.close();
-          panel.status = "failed";
-          panel.job.error = "lost the connection to the server";
-          this.paint(panel);
-          resolve();
-        }
-      });
-    });
-  }
-}
-
-function samplerWords(s) {
-  switch (s.type) {
-    case "center":
-      return "one ray through the centre";
-    case "grid":
-      return `${s.spp ?? 16} rays at the cell centres of a regular grid`;
-    case "jittered":
-      return `${s.spp ?? 16} rays, one at a random point of each cell`;
-    case "random":
-      return `${s.spp ?? 16} rays at uniform random points`;
-    case "adaptive":
-      return "corners and centre; cells whose colours differ (across the edge) are split, down to max_level";
-    default:
-      return "";
+      },
+      onLost: () => {
+        panel.status = "failed";
+        panel.job = { ...panel.job, finished: true, error: "lost the connection to the server" }; // given up here
+        this.paint(panel);
+      },
+    }).done;
   }
 }

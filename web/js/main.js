@@ -8,6 +8,7 @@ import { GradingPanel } from "./grading.js";
 import { Lessons } from "./lessons.js";
 import { RadiosityPanel } from "./radiosity.js";
 import { RayTreePanel } from "./raytree.js";
+import { loadSchema } from "./schema.js";
 import { $, $$, download, h } from "./util.js";
 import { Viewer } from "./viewer.js";
 
@@ -186,6 +187,11 @@ async function start() {
     },
   });
   void lessons;
+  // the form's rules (kinds, bounds, defaults) are the server's; without them it still shows the text's values
+  const schema = loadSchema().then(
+    () => fields.schemaLoaded(),
+    () => {},
+  );
   try {
     examples = await api.scenes();
     exampleSelect.replaceChildren(h("option", { value: "" }, "Open an example…"), ...examples.map((s) => h("option", { value: s.name }, s.title)));
@@ -197,6 +203,7 @@ async function start() {
     else editor.setText('{\n  "version": 1\n}\n');
     $("#load-note").replaceChildren();
   }
+  await schema;
   selectTab(["lessons", "examples", "grading"].includes(page) ? `tab-${page}` : "tab-work");
   viewer.renderList();
   await viewer.restore().catch((err) => notify(`Could not load your jobs: ${err.message}.`));

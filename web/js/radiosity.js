@@ -576,7 +576,7 @@ export class RadiosityPanel {
     const en = d.sol.energy || {};
     const names = [
       ["emitted", "emitted by the lights and emitting patches"],
-      ["absorbed", "absorbed by the patches"],
+      ["absorbed", "absorbed by the patches (and the lights' black faces)"],
       ["unshot", "received but not yet shot again"],
       ["escaped", "left the scene"],
     ];

@@ -5,21 +5,21 @@ import { api } from "./api.js";
 import { renderDiagram } from "./diagram.js";
 import { Overlay } from "./overlay.js";
 import { RAY_STYLES, countRays, endWords, legend, styleKey } from "./rays.js";
+import { withDefaults } from "./schema.js";
 import { raySegments, sceneBounds } from "./shapes.js";
 import { $, cssColour, h, num, rgb } from "./util.js";
 import { cameraBasis } from "./vec.js";
 import { View3D } from "./view3d.js";
 
-/** Sample indices a pixel has: the adaptive sampler's grid points, else spp (center: 1). */
+/** Sample indices a pixel has: the adaptive sampler's grid points, else spp (the schema's defaults fill in
+ * what the scene leaves out). */
 export function sampleCount(scene) {
-  const sp = scene.sampler || {};
-  const type = sp.type || "jittered";
-  if (type === "adaptive") {
-    const g = 2 ** ((sp.max_level ?? 3) + 1);
+  const sp = withDefaults("sampler", scene.sampler);
+  if (sp.type === "adaptive") {
+    const g = 2 ** (sp.max_level + 1);
     return { count: (g + 1) * (g + 1), centre: (g / 2) * (g + 1) + g / 2, grid: g };
   }
-  if (type === "center") return { count: 1, centre: 0 };
-  return { count: sp.spp ?? 16, centre: 0 };
+  return { count: sp.spp, centre: 0 };
 }
 
 export class RayTreePanel {

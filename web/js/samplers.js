@@ -1,106 +1,39 @@
-// Where a sampler puts its rays inside one pixel, drawn large: the grid's cell centres, one random point
-// per jittered cell, uniform random points, and the adaptive sampler's corners and centres, subdivided
-// where a cell straddles an edge (here a slanted edge crossing the pixel, shaded on one side).
+// One pixel's samples drawn large, where the renderer puts them. POST /api/samples (tracer/samples.py) gives
+// each sample's film position inside the pixel, computed by the renderer's own sampling code for the
+// scene, the pixel and the seed: the grid's cell centres, one random point per jittered cell, uniform random
+// points, and for the adaptive sampler the cells it visited (each filled with the mean colour of its
+// corners and centre, as the PNG shows it) and the grid points it traced.
 
 import { fitCanvas } from "./util.js";
 
-/** A small deterministic random generator (mulberry32), so a drawing does not change on every redraw. */
-function rng(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
-
-const inside = (u, v) => 0.78 * u + 0.42 * v > 0.66; // the dark side of the edge
-
-/** Sample positions [u, v] in [0, 1)^2 and cell outlines for a sampler. */
-export function samplePositions(sampler, seed = 7) {
-  const type = sampler.type || "jittered";
-  const spp = sampler.spp ?? 16;
-  const n = Math.max(1, Math.round(Math.sqrt(spp)));
-  const r = rng(seed);
-  const pts = [];
-  const cells = [];
-  if (type === "center") pts.push([0.5, 0.5]);
-  else if (type === "grid" || type === "jittered") {
-    for (let j = 0; j < n; j++)
-      for (let i = 0; i < n; i++) {
-        cells.push([i / n, j / n, 1 / n]);
-        pts.push(type === "grid" ? [(i + 0.5) / n, (j + 0.5) / n] : [(i + r()) / n, (j + r()) / n]);
-      }
-  } else if (type === "random") {
-    for (let k = 0; k < spp; k++) pts.push([r(), r()]);
-  } else if (type === "adaptive") {
-    const maxLevel = sampler.max_level ?? 3;
-    const seen = new Set();
-    const add = (u, v) => {
-      const key = `${u.toFixed(6)},${v.toFixed(6)}`;
-      if (!seen.has(key)) {
-        seen.add(key);
-        pts.push([u, v]);
-      }
-    };
-    const cell = (u, v, size, level) => {
-      const five = [
-        [u, v],
-        [u + size, v],
-        [u, v + size],
-        [u + size, v + size],
-        [u + size / 2, v + size / 2],
-      ];
-      for (const [a, b] of five) add(a, b);
-      cells.push([u, v, size]);
-      const values = five.map(([a, b]) => inside(a, b));
-      if (level < maxLevel && values.some((x) => x !== values[0])) {
-        const hs = size / 2;
-        for (const [du, dv] of [
-          [0, 0],
-          [hs, 0],
-          [0, hs],
-          [hs, hs],
-        ])
-          cell(u + du, v + dv, hs, level + 1);
-      }
-    };
-    cell(0, 0, 1, 0);
-  }
-  return { pts, cells };
-}
-
-/** Draw the zoomed pixel with its samples on a canvas (CSS size `size` px). */
-export function drawSamples(canvas, sampler, size = 132) {
+/** Draw the answer of POST /api/samples (`listed`; null: the empty pixel) on a canvas of CSS size `size` px.
+ * Returns the number of sample points drawn (also kept in the canvas's data-samples). */
+export function drawSamples(canvas, listed, size = 132) {
   const ctx = fitCanvas(canvas, size, size, "#f3f0e6");
+  const adaptive = listed?.sampler === "adaptive";
+  const pts = (listed?.samples || []).filter((s) => !adaptive || s.traced).map((s) => s.position);
+  // the drawing spans the pixel, and beyond it when a wide filter puts samples in the neighbours' area
+  const lo = Math.min(0, ...pts.flat());
+  const hi = Math.max(1, ...pts.flat());
   const m = 8;
-  const s = size - 2 * m;
-  const adaptive = sampler.type === "adaptive";
-  if (adaptive) {
-    // the edge the adaptive sampler finds: dark on one side
-    ctx.fillStyle = "#3b4656";
-    ctx.beginPath();
-    const u0 = 0.66 / 0.78;
-    const u1 = (0.66 - 0.42) / 0.78;
-    ctx.moveTo(m + u0 * s, m);
-    ctx.lineTo(m + s, m);
-    ctx.lineTo(m + s, m + s);
-    ctx.lineTo(m + u1 * s, m + s);
-    ctx.closePath();
-    ctx.fill();
+  const s = (size - 2 * m) / (hi - lo);
+  const X = (u) => m + (u - lo) * s;
+  for (const c of listed?.cells || []) {
+    if (c.split) continue;
+    ctx.fillStyle = c.srgb; // a cell that was not split: the mean of its five colours
+    ctx.fillRect(X(c.corner[0]), X(c.corner[1]), c.size * s, c.size * s);
   }
-  const { pts, cells } = samplePositions(sampler);
   ctx.strokeStyle = "#8c96a3";
   ctx.lineWidth = 1;
-  for (const [u, v, c] of cells) ctx.strokeRect(m + u * s, m + v * s, c * s, c * s);
+  for (const c of listed?.cells || []) ctx.strokeRect(X(c.corner[0]), X(c.corner[1]), c.size * s, c.size * s);
+  const n = listed?.strata;
+  if (n) for (let j = 0; j < n; j++) for (let i = 0; i < n; i++) ctx.strokeRect(X(i / n), X(j / n), s / n, s / n);
   ctx.strokeStyle = "#1d2733";
   ctx.lineWidth = 2;
-  ctx.strokeRect(m, m, s, s);
+  ctx.strokeRect(X(0), X(0), s, s);
   for (const [u, v] of pts) {
     ctx.beginPath();
-    ctx.arc(m + u * s, m + v * s, adaptive ? 2.4 : 3.2, 0, 2 * Math.PI);
+    ctx.arc(X(u), X(v), adaptive ? 2.4 : 3.2, 0, 2 * Math.PI);
     ctx.fillStyle = "#ff7a00";
     ctx.strokeStyle = "#fff";
     ctx.lineWidth = 1;
@@ -108,5 +41,27 @@ export function drawSamples(canvas, sampler, size = 132) {
     ctx.stroke();
   }
   canvas.dataset.samples = String(pts.length);
+  canvas.dataset.positions = JSON.stringify(pts);
   return pts.length;
+}
+
+/** The samples in words, under the drawing. */
+export function samplerWords(listed) {
+  const n = listed.samples.length;
+  switch (listed.sampler) {
+    case "center":
+      return "one ray through the centre";
+    case "grid":
+      return `${n} rays at the cell centres of a regular grid`;
+    case "jittered":
+      return `${n} rays, one at a random point of each cell`;
+    case "random":
+      return `${n} rays at uniform random points`;
+    case "adaptive": {
+      const traced = listed.samples.filter((s) => s.traced).length;
+      return `${traced} rays: a cell is split where its colours differ, down to level ${listed.max_level}`;
+    }
+    default:
+      return `${n} rays`;
+  }
 }

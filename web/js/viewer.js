@@ -2,7 +2,9 @@
 // image replaces the last), show samples, elapsed, ETA and rays by kind; cancel; download PNG / EXR;
 // the AOVs one click away; "my jobs" (the ids this browser submitted, kept in localStorage).
 import { ApiError, api } from "./api.js";
+import { followJob } from "./jobs.js";
 import { RAY_STYLES } from "./rays.js";
+import { withDefaults } from "./schema.js";
 import { $, h, integer, num, seconds, store } from "./util.js";
 
 const JOBS_KEY = "rt.jobs";
@@ -51,7 +53,7 @@ export class Viewer {
     this.onLoadScene = onLoadScene; // (scene, name) "edit this job's scene"
     this.notify = notify;
     this.view = null; // {id, job, scene, sceneText, width, height}
-    this.es = null;
+    this.following = null; // followJob's handle while the job shown runs
     this.previews = 0;
     this.blobUrl = null;
     this.aov = "image";
@@ -138,47 +140,40 @@ export class Viewer {
     this.drawMarker();
     if (job.image_url) await this.loadImage(job.image_url);
     else this.clearImage();
-    if (!job.status || !["done", "failed", "cancelled"].includes(job.status)) this.follow(job.id);
-    else this.ended(job, false);
+    if (job.finished) this.ended(job, false);
+    else this.follow(job.id);
     this.renderList();
   }
 
   follow(id) {
     this.closeEvents();
-    const es = new EventSource(api.eventsUrl(id));
-    this.es = es;
-    let failures = 0;
-    es.addEventListener("progress", (e) => {
-      failures = 0;
-      const p = JSON.parse(e.data);
-      const job = this.view && this.view.id === id ? this.view.job : null;
-      if (!job) return;
-      job.status = p.status;
-      Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total, phase: p.phase, solve: p.solve });
-      job.elapsed = p.elapsed;
-      job.eta = p.eta;
-      if (p.rays) job.rays = p.rays;
-      this.update(job);
-    });
-    es.addEventListener("preview", (e) => {
-      const p = JSON.parse(e.data);
-      if (this.view && this.view.id === id) this.loadImage(p.url);
-    });
-    es.addEventListener("end", (e) => {
-      es.close();
-      if (this.es === es) this.es = null;
-      const job = JSON.parse(e.data);
-      if (this.view && this.view.id === id) this.ended(job, true);
-      this.jobs.set(job.id, job);
-      this.renderList();
-    });
-    es.addEventListener("error", () => {
-      if (this.es !== es) return;
-      failures++;
-      if (failures >= 8) {
-        this.closeEvents();
+    const current = () => (this.view && this.view.id === id ? this.view : null);
+    this.following = followJob(id, {
+      onProgress: (p) => {
+        const job = current()?.job;
+        if (!job) return;
+        job.status = p.status;
+        job.finished = p.phase === "finished"; // the last progress event says so just before `end`
+        Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total, phase: p.phase, solve: p.solve });
+        job.elapsed = p.elapsed;
+        job.eta = p.eta;
+        if (p.rays) job.rays = p.rays;
+        this.update(job);
+      },
+      onPreview: (p) => {
+        if (current()) this.loadImage(p.url);
+      },
+      onEnd: (job) => {
+        this.following = null;
+        if (current()) this.ended(job, true);
+        this.jobs.set(job.id, job);
+        this.renderList();
+      },
+      onDrop: () => this.message("warn", "The connection to the server dropped; reconnecting…"),
+      onLost: () => {
+        this.following = null;
         this.message("error", "Lost the connection to the server. Is it still running?", null, () => this.reopen(id));
-      } else this.message("warn", "The connection to the server dropped; reconnecting…");
+      },
     });
   }
 
@@ -192,8 +187,8 @@ export class Viewer {
   }
 
   closeEvents() {
-    if (this.es) this.es.close();
-    this.es = null;
+    this.following?.close();
+    this.following = null;
   }
 
   async ended(job, live) {
@@ -251,7 +246,7 @@ export class Viewer {
       if (what === "image") {
         this.previews++;
         img.dataset.previews = String(this.previews);
-        if (!["done", "failed", "cancelled"].includes(this.view.job.status)) {
+        if (!this.view.job.finished) {
           this.runningPreviews = (this.runningPreviews || 0) + 1; // images shown while the job still ran
           img.dataset.runningPreviews = String(this.runningPreviews);
         }
@@ -351,7 +346,7 @@ export class Viewer {
     this.el.bar.value = fraction;
     this.el.bar.textContent = `${Math.round(fraction * 100)}%`;
     this.el.stage.dataset.status = job.status;
-    const running = job.status === "running" || job.status === "queued";
+    const running = !job.finished;
     this.el.cancel.disabled = !running;
     const row = (k, v) => [h("div", {}, h("dt", {}, k), h("dd", {}, v))];
     st.replaceChildren(
@@ -441,8 +436,8 @@ export class Viewer {
     let sampler = null; // the rays legend names the job's own sampler
     if (ok && name === "rays") {
       try {
-        const given = (await this.sceneOf(view)).scene.sampler || {};
-        sampler = { type: given.type || "jittered", spp: view.job.progress?.spp_total ?? given.spp ?? 16 };
+        const given = withDefaults("sampler", (await this.sceneOf(view)).scene.sampler);
+        sampler = { type: given.type, spp: view.job.progress?.spp_total ?? given.spp };
       } catch {
         // the legend then names no sampler
       }

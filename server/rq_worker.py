@@ -1,0 +1,216 @@
+"""A worker host of the Redis backend: `python -m server.worker --redis URL [--device cpu] [--threads N]
+[--queues render] [--name NAME]`, on any machine that has the project installed.
+
+It loads the render kernels once, at start-up, before RQ forks anything; then an RQ worker takes
+tries from the queues and runs each in a forked work horse, which inherits the loaded kernels. The
+work horse renders the try (server/rendering.py) and reports through `RedisChannel`: events on the
+stream, files as keys (server/events.py). The API applies them to its store.
+
+Heartbeats: the RQ worker refreshes its try's entry in RQ's started registry every
+`lost_after / 4` seconds with an expiry of `lost_after` (the API's setting, read from Redis), so a
+host that dies or is cut off loses its try after `lost_after` seconds: the API finds the expired
+entry and queues the job's next try for another host.
+
+Stopping (SIGTERM or Ctrl-C): the try in hand gives its job back at its next check (within a band
+of rows), then the host exits; a second signal kills the try at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import socket
+import sys
+import threading
+import time
+
+import redis
+from rq import Queue, Worker
+
+from server import events as ev
+from server.lifecycle import JobStatus
+from server.rendering import Try
+from server.store import JobFile
+
+log = logging.getLogger("server.rq_worker")
+
+HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname()}  # this host
+DEFAULT_LOST_AFTER = 15.0
+SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
+
+
+def _redis(url: str) -> redis.Redis:
+    return redis.Redis.from_url(url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
+
+
+class RedisChannel:
+    """A try's reports to the API through Redis (server/rendering.py's Channel)."""
+
+    def __init__(self, r: redis.Redis, job_id: str, attempt: int):
+        self.r, self.job_id, self.attempt = r, job_id, attempt
+        self.files: dict[str, str] = {}  # JobFile value -> key, sent with the next event
+        self.serial = 0
+        self.bytes_sent = 0
+        self.unreachable = 0  # reports that could not reach Redis (dropped, or retried for the final one)
+
+    def _send(self, kind: str, **data) -> None:
+        entry = ev.encode(kind, self.job_id, self.attempt, **data)
+        self.r.xadd(ev.STREAM, entry, maxlen=ev.STREAM_MAXLEN, approximate=True)
+        self.bytes_sent += sum(len(v) for v in entry.values())
+
+    def started(self, worker: str) -> None:
+        self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
+
+    def stop_reason(self) -> str | None:
+        try:
+            cancel, current, giveback = self.r.mget(
+                ev.cancel_key(self.job_id), ev.try_key(self.job_id), ev.giveback_key(self.job_id, self.attempt)
+            )
+        except redis.RedisError:
+            self.unreachable += 1
+            return None  # cut off: render on; what it sends later is fenced if the job moved on meanwhile
+        if cancel:
+            return "cancel"
+        if current is not None and int(current) != self.attempt:
+            return "lost"
+        if giveback:
+            return "shutdown"
+        return None
+
+    def save(self, kind: JobFile, data: bytes | str) -> None:
+        raw = data.encode() if isinstance(data, str) else data
+        self.serial += 1
+        key = ev.blob_key(self.job_id, self.attempt, self.serial)
+        try:
+            self.r.set(key, raw, ex=ev.BLOB_TTL)
+        except redis.RedisError:
+            self.unreachable += 1
+            return
+        self.bytes_sent += len(raw)
+        self.files[JobFile(kind).value] = key
+
+    def progress(self, **fields) -> None:
+        try:
+            self._send("progress", fields=fields, files=self.files)
+            self.files = {}
+        except redis.RedisError:
+            self.unreachable += 1  # a later report carries the state again
+
+    def finish(self, status: JobStatus, **fields) -> None:
+        self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
+
+    def give_back(self) -> None:
+        self._final("giveback")
+
+    def _final(self, kind: str, **data) -> None:
+        """The last word of a try: retried while Redis is unreachable (a cut cable may come back)."""
+        deadline = time.monotonic() + SEND_RETRY_SECONDS
+        while True:
+            try:
+                self._send(kind, **data)
+                return
+            except redis.RedisError:
+                self.unreachable += 1
+                if time.monotonic() > deadline:
+                    log.warning("job %s try %d: Redis unreachable; its %s is lost", self.job_id, self.attempt, kind)
+                    return
+                time.sleep(1.0)
+
+
+def run_try(payload: dict) -> dict:
+    """The RQ job: one try of one job, in the work horse (forked from the worker, kernels loaded).
+    `payload`: {job: {id, scene, max_seconds, samples_total, attempts}, limits: {...}, preview_interval}."""
+    from rq import get_current_job
+
+    from tracer.scene import Limits
+
+    job = payload["job"]
+    r = _redis(HOST["url"])
+    channel = RedisChannel(r, job["id"], int(job["attempts"]))
+    rq_job = get_current_job()
+    channel.started(HOST["name"] or (rq_job.worker_name if rq_job else None) or HOST["host"])
+    limits = Limits(**payload["limits"])
+    ended = Try(
+        job, channel, limits, HOST["threads"], payload["preview_interval"], lambda: False, device=HOST["device"]
+    ).run()
+    return {"ended": ended, "bytes_sent": channel.bytes_sent, "unreachable": channel.unreachable}
+
+
+class HostWorker(Worker):
+    """RQ's forking worker, with heartbeats every `lost_after / 4` s that expire after `lost_after` s (RQ's
+    own grace is a minute), this host's description in Redis, and a graceful stop that gives the try in
+    hand back to the queue."""
+
+    def __init__(self, *args, lost_after: float = DEFAULT_LOST_AFTER, **kwargs):
+        self.lost_after = float(lost_after)
+        kwargs.setdefault("job_monitoring_interval", max(1, int(self.lost_after / 4)))
+        kwargs.setdefault("worker_ttl", max(20, int(self.lost_after) + 15))
+        super().__init__(*args, **kwargs)
+
+    def get_heartbeat_ttl(self, job, working_time: float = 0.0) -> int:
+        return max(2, int(self.lost_after))
+
+    def heartbeat(self, timeout: int | None = None, pipeline=None):
+        super().heartbeat(timeout, pipeline)
+        connection = pipeline if pipeline is not None else self.connection
+        key = ev.host_key(self.name)
+        connection.hset(key, mapping={"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]})
+        connection.expire(key, max(2, int(self.lost_after)))
+
+    def request_stop(self, signum, frame):
+        current = self.get_current_job_id()
+        parsed = ev.parse_rq_job_id(current) if current else None
+        if parsed is not None:
+            try:
+                self.connection.set(ev.giveback_key(*parsed), 1, ex=ev.FLAG_TTL)
+            except redis.RedisError:
+                pass  # unreachable: a second signal stops the try the hard way
+        super().request_stop(signum, frame)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(
+        prog="server.worker",
+        description="A worker host: render jobs from the API's Redis queue (python -m server --redis URL).",
+    )
+    p.add_argument("--redis", required=True, metavar="URL", help="the Redis the API uses (redis://host:6379/0)")
+    p.add_argument("--device", default="cpu", help="Warp device to render on: cpu (default), cuda:0, ...")
+    p.add_argument("--threads", type=int, default=0, help="render threads (default: every core)")
+    p.add_argument("--queues", nargs="+", default=[ev.QUEUE], help=f"RQ queues to take tries from (default {ev.QUEUE})")
+    p.add_argument("--name", help="this worker's name (default: host.pid)")
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
+    from tracer.render import default_threads, load_kernels
+
+    HOST.update(url=args.redis, device=args.device, threads=args.threads or default_threads())
+    HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
+    load_kernels(args.device)  # once, before RQ forks: every work horse inherits them
+    log.info("worker host %s: kernels ready on %s, %d thread(s)", HOST["name"], args.device, HOST["threads"])
+    stop = threading.Event()
+    pause = 1.0
+    while not stop.is_set():
+        try:
+            r = _redis(args.redis)
+            lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
+            queues = [Queue(name, connection=r) for name in args.queues]
+            worker = HostWorker(queues, connection=r, name=HOST["name"], lost_after=lost_after)
+            worker.work(logging_level="INFO", with_scheduler=False)
+            if worker._stop_requested or worker._shutdown_requested_date is not None:
+                stop.set()
+            else:  # RQ quits its loop on a lost connection: wait, and take up work again
+                log.warning("worker host %s: lost Redis; retrying in %.0f s", HOST["name"], pause)
+                time.sleep(pause)
+                pause = min(10.0, pause * 2)
+        except redis.RedisError as exc:
+            log.warning("worker host %s: Redis unreachable (%s); retrying in %.0f s", HOST["name"], exc, pause)
+            time.sleep(pause)
+            pause = min(10.0, pause * 2)
+        except (KeyboardInterrupt, SystemExit):
+            stop.set()
+    log.info("worker host %s: stopped", HOST["name"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,147 @@
+"""The Redis backend on one host: a real redis-server on loopback, the API with `--redis`, worker hosts
+as `python -m server.worker` processes. The same job life as the embedded backend's: submit, previews,
+done with the CLI's pixels, cancel (running and queued), a restart of the API; and Redis losing its data."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import ROOT, scene_dict, small
+from queue_support import Api, Process, RedisServer, proc_env, worker_argv
+from test_api_support import long_scene, parse_sse, wait_for
+
+from tracer.film import read_exr
+
+
+@pytest.fixture(scope="module")
+def redis_server(tmp_path_factory):
+    with RedisServer(tmp_path_factory.mktemp("redis") / "redis.log") as r:
+        yield r
+
+
+@pytest.fixture(scope="module")
+def cluster(redis_server, tmp_path_factory):
+    """The API alone (workers 0) and one worker host of one thread, on loopback."""
+    root = tmp_path_factory.mktemp("rq")
+    api = Api(root / "data", redis_server.url).start()
+    host = Process(worker_argv(redis_server.url, "host-a"), root / "host-a.log").start()
+    try:
+        api.wait_hosts(1)
+        yield api, host, root
+    finally:
+        host.stop()
+        api.stop()
+
+
+def exr(api: Api, job_id: str, path) -> np.ndarray:
+    r = api.client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
+    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+    path.write_bytes(r.content)
+    return read_exr(path)
+
+
+def cli_exr(scene: dict, tmp_path) -> np.ndarray:
+    """The same scene rendered by the command line."""
+    import json
+
+    src, png, out = tmp_path / "scene.json", tmp_path / "cli.png", tmp_path / "cli.exr"
+    src.write_text(json.dumps(scene))
+    cmd = [sys.executable, "-m", "tracer", "render", str(src), "-o", str(png), "--exr", str(out), "--threads", "2"]
+    subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, timeout=300)
+    return read_exr(out)
+
+
+def test_queue_redis_job_life_previews_and_the_cli_s_pixels(cluster, tmp_path):
+    api, host, _ = cluster
+    health = api.health()
+    assert health["backend"] == "redis"
+    (worker,) = health["workers"]
+    assert worker["name"] == "host-a" and worker["device"] == "cpu" and worker["threads"] == 1 and worker["host"]
+    scene = small(scene_dict("whitted"), 96, 72, sampler={"type": "jittered", "spp": 64}, render={"seed": 3})
+    job = api.submit(scene)
+    events = []
+    with api.client.stream("GET", f"/api/jobs/{job['id']}/events", timeout=120) as r:
+        for event, data in parse_sse(r.iter_lines()):
+            events.append((event, data))
+            if event == "end":
+                break
+    kinds = [e for e, _ in events]
+    assert kinds.count("preview") >= 2 and "progress" in kinds, kinds
+    done = events[-1][1]
+    assert done["status"] == "done" and done["attempts"] == 1 and done["finished"]
+    assert done["host"] and done["device"] == "cpu"
+    (one,) = done["tries"]
+    assert (one["attempt"], one["worker"], one["outcome"]) == (1, "host-a", "done")
+    assert done["rays"]["eye"] == 96 * 72 * 64 and done["progress"]["spp_done"] == 64
+    # the same pixels as the command line, bit for bit, and the AOVs came along
+    assert np.array_equal(exr(api, job["id"], tmp_path / "api.exr"), cli_exr(scene, tmp_path))
+    assert api.client.get(f"/api/jobs/{job['id']}/aov/rays").status_code == 200
+    assert api.client.get(f"/api/jobs/{job['id']}/image").headers["content-type"] == "image/png"
+
+
+def test_queue_redis_cancel_a_running_and_a_queued_job(cluster):
+    api, _, _ = cluster
+    running = api.submit(long_scene())
+    api.wait(running["id"], lambda j: j["status"] == "running" and j["progress"]["passes_done"] >= 1, "a pass")
+    queued = api.submit(long_scene())  # the only host is busy: it waits in RQ
+    assert api.job(queued["id"])["status"] == "queued"
+    r = api.client.delete(f"/api/jobs/{queued['id']}")
+    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    r = api.client.delete(f"/api/jobs/{running['id']}")
+    assert r.status_code == 202
+    ended = api.wait(running["id"], lambda j: j["finished"], "the running job to stop", timeout=30)
+    assert ended["status"] == "cancelled" and ended["preview"] >= 1  # it keeps its last full pass
+    assert ended["tries"][-1]["outcome"] == "cancelled"
+    # the host is free again, and the cancelled queued job never ran
+    after = api.submit(small(scene_dict("whitted"), 16, 16, sampler={"type": "jittered", "spp": 4}))
+    assert api.wait(after["id"], lambda j: j["finished"], "a job after the cancels")["status"] == "done"
+    assert api.job(queued["id"])["tries"] == []
+
+
+def test_queue_redis_api_restart_loses_nothing(redis_server, tmp_path):
+    """The API stops while a worker host renders; the host finishes meanwhile; the API, started again on
+    the same data, applies what it missed: the job is done, its image there. (Database 1: one API per
+    Redis database, and the module's cluster has database 0.)"""
+    url = redis_server.url.replace("/0", "/1")
+    api = Api(tmp_path / "data", url).start()
+    host = Process(worker_argv(url, "host-r"), tmp_path / "host-r.log").start()
+    try:
+        api.wait_hosts(1)
+        scene = small(scene_dict("whitted"), 64, 48, sampler={"type": "jittered", "spp": 256})
+        job = api.submit(scene)
+        api.wait(job["id"], lambda j: j["status"] == "running", "the job to start")
+        api.stop()
+        redis = redis_server.client(1)
+        key = f"rq:job:{job['id']}-try1"
+        wait_for(lambda: redis.hget(key, "status") == b"finished", 120, "the host to finish while the API is down")
+        api = Api(tmp_path / "data", url, port=api.port).start()
+        done = api.wait(job["id"], lambda j: j["finished"], "the job to be done after the restart", timeout=30)
+        assert done["status"] == "done" and done["attempts"] == 1
+        assert np.array_equal(exr(api, job["id"], tmp_path / "after.exr"), cli_exr(scene, tmp_path))
+    finally:
+        host.stop()
+        api.stop()
+
+
+def test_queue_redis_losing_its_data_requeues_what_the_store_has(redis_server, tmp_path):
+    """Redis is flushed while jobs wait (no host yet): the API notices and queues them again (database 2)."""
+    url = redis_server.url.replace("/0", "/2")
+    api = Api(tmp_path / "data", url).start()
+    host = None
+    try:
+        scene = small(scene_dict("whitted"), 16, 16, sampler={"type": "jittered", "spp": 4})
+        jobs = [api.submit(scene) for _ in range(2)]
+        redis = redis_server.client(2)
+        assert redis.exists(f"rq:job:{jobs[0]['id']}-try1")
+        redis.flushdb()
+        wait_for(lambda: redis.exists(f"rq:job:{jobs[0]['id']}-try1"), 20, "the API to queue the jobs again")
+        host = Process(worker_argv(url, "host-f"), tmp_path / "host-f.log", proc_env()).start()
+        for j in jobs:
+            assert api.wait(j["id"], lambda x: x["finished"], "a job after the flush")["status"] == "done"
+    finally:
+        if host is not None:
+            host.stop()
+        api.stop()

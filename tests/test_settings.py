@@ -1,0 +1,33 @@
+"""Settings (server/settings.py): the command line, the environment and a settings file, durations and sizes."""
+
+from __future__ import annotations
+
+import pytest
+
+
+def test_settings_from_the_environment_and_a_file(tmp_path, monkeypatch):
+    from server.settings import load_settings
+
+    conf = tmp_path / "service.env"
+    conf.write_text("TRACER_MAX_SPP=256\nTRACER_MAX_JOB_SECONDS=30\nTRACER_WORKERS=3\n")
+    monkeypatch.setenv("TRACER_MAX_SPP", "64")  # the environment wins over the file
+    monkeypatch.setenv("TRACER_SETTINGS_FILE", str(conf))
+    s = load_settings(workers=2)  # and arguments (the command line) over both
+    assert (s.max_spp, s.max_job_seconds, s.workers) == (64, 30.0, 2)
+    assert s.limits.max_spp == 64
+    with pytest.raises(FileNotFoundError):
+        load_settings(tmp_path / "missing.env")
+
+
+def test_settings_read_durations_and_sizes(monkeypatch):
+    from server.settings import Settings
+
+    monkeypatch.setenv("TRACER_KEEP_FINISHED", "12h")
+    monkeypatch.setenv("TRACER_MAX_DATA_BYTES", "2GiB")
+    s = Settings()
+    assert (s.keep_finished, s.max_data_bytes) == (43200.0, 2 * 1024**3)
+    assert Settings(keep_finished="90", max_data_bytes="500MB").keep_finished == 90.0
+    assert Settings(max_data_bytes="500MB").max_data_bytes == 500_000_000
+    assert Settings(**s.model_dump(mode="json")).keep_finished == 43200.0  # as the workers receive them
+    with pytest.raises(ValueError, match="30m, 12h, 7d"):
+        Settings(keep_finished="a week")

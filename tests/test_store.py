@@ -1,0 +1,134 @@
+"""The job store alone (server/store.py, server/lifecycle.py): queue order, atomic claims, a dead worker's jobs,
+recovery after a restart, the moves of the life cycle, a job's files."""
+
+from __future__ import annotations
+
+import json
+import threading
+
+import pytest
+
+from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, check_transition
+from server.store import AOV_NAMES, JobFile, JobStore, QueueFull, looks_like_job_id
+
+
+def add(store: JobStore, priority: int = 0, max_queued: int = 100) -> str:
+    row = store.create(
+        json.dumps({"camera": {}}), name=None, width=4, height=4, spp=1, priority=priority, warnings=[],
+        max_seconds=60, max_queued=max_queued,
+    )  # fmt: skip
+    return row["id"]
+
+
+def test_store_claims_by_priority_then_age(tmp_path):
+    store = JobStore(tmp_path)
+    a, b, c, d = add(store, 0), add(store, 5), add(store, 0), add(store, 5)
+    order = [store.claim(pid=1)["id"] for _ in range(4)]
+    assert order == [b, d, a, c]
+    assert store.claim(pid=1) is None
+    assert looks_like_job_id(a) and len({a, b, c, d}) == 4
+
+
+def test_store_claims_are_atomic_across_threads(tmp_path):
+    store = JobStore(tmp_path)
+    ids = {add(store) for _ in range(40)}
+    got, lock = [], threading.Lock()
+
+    def claimer(pid: int) -> None:
+        while (row := store.claim(pid)) is not None:
+            with lock:
+                got.append(row["id"])
+
+    threads = [threading.Thread(target=claimer, args=(pid,)) for pid in range(1, 9)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(got) == sorted(ids)  # each job claimed exactly once
+
+
+def test_store_queue_limit(tmp_path):
+    store = JobStore(tmp_path)
+    add(store, max_queued=2)
+    add(store, max_queued=2)
+    with pytest.raises(QueueFull):
+        add(store, max_queued=2)
+    assert store.counts()["queued"] == 2
+
+
+def test_store_a_dead_worker_s_job_is_retried_then_failed(tmp_path):
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    assert store.claim(pid=11)["attempts"] == 1
+    assert store.worker_died(11, attempts=2, reason="render worker killed") == [(job_id, "queued")]
+    assert store.claim(pid=12)["attempts"] == 2
+    assert not store.progress(job_id, 11, samples_done=5)  # the old worker no longer owns it
+    assert store.worker_died(12, attempts=2, reason="render worker killed") == [(job_id, "failed")]
+    row = store.get(job_id)
+    assert row["status"] == JobStatus.failed and row["error"] == "render worker killed; tried 2 time(s)"
+
+
+def test_store_recover_requeues_running_jobs(tmp_path):
+    store = JobStore(tmp_path)
+    running, cancelling, waiting = add(store), add(store), add(store)
+    store.claim(pid=1)
+    store.claim(pid=2)
+    store.cancel(cancelling)
+    assert store.recover() == (1, 1)
+    again = JobStore(tmp_path)  # as a new server would open it
+    assert [again.get(j)["status"] for j in (running, cancelling, waiting)] == ["queued", "cancelled", "queued"]
+    assert again.claim(pid=3)["id"] == running  # it keeps its place in the queue
+
+
+def test_store_life_cycle_is_one_table():
+    """Every status has its moves; the finished ones none (a finished job never moves again)."""
+    assert set(TRANSITIONS) == set(JobStatus)
+    assert FINISHED == {s for s in JobStatus if s.finished} == {s for s, moves in TRANSITIONS.items() if not moves}
+    check_transition(JobStatus.queued, JobStatus.running)
+    check_transition(JobStatus.running, JobStatus.queued)  # a worker stopping or dying gives it back
+    for source, target in [("queued", "done"), ("done", "queued"), ("cancelled", "running"), ("failed", "failed")]:
+        with pytest.raises(BadTransition):
+            check_transition(JobStatus(source), JobStatus(target))
+
+
+def test_store_moves_follow_the_life_cycle(tmp_path):
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    with pytest.raises(BadTransition):
+        store.finish(job_id, None, JobStatus.queued)  # finish() only ends a job
+    assert not store.finish(job_id, None, JobStatus.done)  # a queued job has no render to finish
+    assert store.claim(pid=7)["status"] == "running"
+    assert store.cancel(job_id)["status"] == "running"  # a running job is asked to stop, not ended
+    assert store.fail(job_id, None, "over the time limit")  # the supervisor ends it first ...
+    assert not store.finish(job_id, 7, JobStatus.cancelled, error="cancelled while rendering")  # ... so this is late
+    row = store.get(job_id)
+    assert (row["status"], row["error"]) == ("failed", "over the time limit") and row["finished_at"] is not None
+    assert not store.requeue(job_id, 7) and store.get(job_id)["status"] == "failed"
+
+
+def test_store_names_a_job_s_files(tmp_path):
+    """The file layout of a job (DATA/jobs/<id>/) lives in the store: routes and workers ask it."""
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    assert store.job_file(job_id, JobFile.image("exr")) == tmp_path / "jobs" / job_id / "image.exr"
+    assert AOV_NAMES == ("rays", "depth", "normal", "albedo", "variance")
+    assert [store.job_file(job_id, JobFile.aov(n)).name for n in AOV_NAMES][:2] == ["aov_rays.png", "aov_depth.png"]
+    with pytest.raises(ValueError):
+        JobFile.aov("../image")  # only the names of the layout
+    store.save_file(job_id, JobFile.aov_ranges, '{"rays": [1, 4]}')
+    store.save_file(job_id, JobFile.image_png, b"\x89PNG")
+    store.save_file(job_id, JobFile.radiosity, lambda tmp: tmp.write_text("{}"))
+    assert sorted(p.name for p in store.job_dir(job_id).iterdir()) == ["aovs.json", "image.png", "radiosity.json"]
+    assert json.loads(store.job_file(job_id, JobFile.aov_ranges).read_text()) == {"rays": [1, 4]}
+    store.db.execute("UPDATE jobs SET status = 'done' WHERE id = ?", (job_id,))
+    assert store.remove(job_id) and not store.job_dir(job_id).exists()
+
+
+def test_store_one_server_per_data_directory(tmp_path):
+    from server.main import lock_data_dir
+
+    lock = lock_data_dir(tmp_path)
+    with pytest.raises(RuntimeError, match="another server"):
+        lock_data_dir(tmp_path)
+    lock.close()
+    lock_data_dir(tmp_path).close()
