@@ -33,11 +33,9 @@ def small(data: dict, width: int = 32, height: int = 24, **sections) -> dict:
 @pytest.fixture(scope="session")
 def compiled_kernels():
     """Compile (or load from cache) the renderer's kernels once per test session."""
-    import warp as wp
+    from tracer.render import load_kernels
 
-    from tracer.integrators import whitted
-
-    wp.load_module(whitted, device="cpu")
+    load_kernels("cpu")
     return True
 
 

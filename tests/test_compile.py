@@ -96,22 +96,6 @@ def test_compile_data_texture_that_is_not_an_image_is_an_error_at_its_path():
     assert no_repr(str(e.value))
 
 
-def test_compile_radiosity_needs_surfaces_to_mesh():
-    """Every shape is meshed now, a lone sphere too; a scene with nothing to mesh is refused at `objects`."""
-    s = scene_with(
-        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"},
-        render={"integrator": "radiosity", "radiosity": {"rays": 64, "threshold": 0.5}},
-    )
-    assert len(compile_scene(s).radiosity.patches) > 0
-    empty = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "render": {"integrator": "radiosity"}})[
-        0
-    ]
-    with pytest.raises(SceneError) as e:
-        compile_scene(empty)
-    assert e.value.errors[0]["path"] == "objects"
-    assert "needs objects to mesh into patches" in e.value.errors[0]["message"]
-
-
 def test_compile_camera_basis():
     s = scene_with(
         {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"},

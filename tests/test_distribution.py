@@ -5,15 +5,17 @@ Monte Carlo tolerances are stated at each assert; every random quantity has a fi
 these tests are deterministic: they fail only if the code changes.
 """
 
+import json
 import math
 
 import numpy as np
 import pytest
 import warp as wp
+from conftest import SCENES
 from numpy.testing import assert_allclose
 
-from tracer.compile import LightData, compile_scene
-from tracer.lights import sample_area_light
+from tracer.compile import compile_scene
+from tracer.lights import light_data, sample_area_light
 from tracer.raytree import ray_tree
 from tracer.render import render
 from tracer.sampling import (
@@ -24,6 +26,7 @@ from tracer.sampling import (
     sample_cosine_hemisphere,
 )
 from tracer.scene import load_scene
+from tracer.structs import LightData
 
 N = 200_000
 CHI2_63 = 103.4  # 99.9% quantile of chi-square with 63 degrees of freedom
@@ -85,10 +88,8 @@ def k_light(light: LightData, p: wp.vec3, n: wp.vec3, out: wp.array(dtype=wp.vec
 def irradiance_estimate(light_json: dict, p, n) -> float:
     scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "lights": [light_json]})
     light = compile_scene(scene).data.lights.numpy()  # structured array; rebuild the struct for the kernel
-    from tracer.compile import _light
-
     out = wp.zeros(N, dtype=wp.vec3)
-    wp.launch(k_light, dim=N, inputs=[_light(scene.lights[0]), wp.vec3(*p), wp.vec3(*n), out])
+    wp.launch(k_light, dim=N, inputs=[light_data(scene.lights[0]), wp.vec3(*p), wp.vec3(*n), out])
     assert light.shape == (1,)
     return float(out.numpy()[:, 0].mean())
 
@@ -174,6 +175,17 @@ def test_path_mis_light_samples_do_not_change_the_mean():
     m1 = render(scene(objs, lights, render={"integrator": "path", "max_depth": 3, "light_samples": 1})).image.mean()
     m9 = render(scene(objs, lights, render={"integrator": "path", "max_depth": 3, "light_samples": 9})).image.mean()
     assert m1 == pytest.approx(m9, rel=0.03)
+
+
+def test_path_a_sphere_light_too_far_to_see_gives_no_nan():
+    """From 3000 units away a sphere light's cone is 1 - cos = 0 in float32: its density is infinite, the
+    light's share 0, and its MIS weight 1 rather than inf / inf (NaN pixels near the horizon, before)."""
+    data = json.loads((SCENES / "soft_shadows.json").read_text())
+    data["film"].update(width=64, height=48)
+    data["render"]["integrator"] = "path"
+    data["sampler"] = {"type": "jittered", "spp": 4}
+    image = render(load_scene(data)[0]).image
+    assert np.isfinite(image).all()
 
 
 def test_soft_shadow_penumbra_against_analytic_irradiance():
@@ -350,12 +362,11 @@ def k_light_points(light: LightData, p: wp.vec3, out: wp.array(dtype=wp.vec3)):
 
 def test_lights_sample_points_chi_square():
     """Quad and disk lights are sampled uniformly by area; sphere lights uniformly in their cone."""
-    from tracer.compile import _light
 
     def points(light_json, p):
         scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}, "lights": [light_json]})
         out = wp.zeros(N, dtype=wp.vec3)
-        wp.launch(k_light_points, dim=N, inputs=[_light(scene.lights[0]), wp.vec3(*p), out])
+        wp.launch(k_light_points, dim=N, inputs=[light_data(scene.lights[0]), wp.vec3(*p), out])
         return out.numpy().astype(np.float64)
 
     q = points({"type": "quad", "corner": [-1, 2, -0.5], "edge1": [2, 0, 0], "edge2": [0, 0, 1]}, (0, 0, 0))

@@ -7,7 +7,7 @@ import warp as wp
 from numpy.testing import assert_allclose
 
 import tracer.kinds  # noqa: F401  (initialise Warp)
-from tracer.geometry import intersect_disk, intersect_plane, intersect_quad, intersect_sphere
+from tracer.geometry import intersect_disk, intersect_parallelogram, intersect_plane, intersect_sphere
 from tracer.materials import fresnel_dielectric, phong_terms, reflect, refract
 
 
@@ -16,9 +16,10 @@ def k_intersect(o: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), out: wp.
     i = wp.tid()
     out[i, 0] = intersect_sphere(o[i], d[i], wp.vec3(0.0, 0.0, 0.0), 1.0, 1.0e30)
     out[i, 1] = intersect_plane(o[i], d[i], wp.vec3(0.0, -1.0, 0.0), wp.vec3(0.0, 1.0, 0.0), 1.0e30)
-    out[i, 2] = intersect_quad(
-        o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), wp.vec3(2.0, 0.0, 0.0), wp.vec3(0.0, 2.0, 0.0), 1.0e30
-    )
+    e1 = wp.vec3(2.0, 0.0, 0.0)
+    e2 = wp.vec3(0.0, 2.0, 0.0)
+    n = wp.cross(e1, e2)  # compile.py precomputes n and n / |n|^2 for each quad
+    out[i, 2] = intersect_parallelogram(o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), e1, e2, n, n / wp.dot(n, n), 1.0e30)
     out[i, 3] = intersect_disk(o[i], d[i], wp.vec3(0.0, 0.0, -3.0), wp.vec3(0.0, 0.0, 1.0), 0.5, 1.0e30)
 
 

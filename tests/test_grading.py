@@ -373,13 +373,18 @@ def test_own_images_exr_channels_are_said_so(tmp_path):
          "unknown preset 'glas' (the presets: transmissive_material, reflective_material, glossy_material, "),
         (lambda a: a["requirements"][1].update(check="area_ligth"), "requirements[1].check",
          "unknown preset 'area_ligth'; did you mean 'area_light'? (the presets: transmissive_material, "),
-        (lambda a: a["requirements"][1].update(points=-1), "requirements[1].points", "greater than or equal to 0"),
-        (lambda a: a["requirements"][2]["check"].update(at_lest=3), "requirements[2].check.at_lest", "unknown field"),
+        (lambda a: a["requirements"][1].update(points=-1), "requirements[1].points", "must be >= 0"),
+        (lambda a: a["requirements"][2]["check"].update(at_lest=3), "requirements[2].check.at_lest",
+         "unknown field 'at_lest'; did you mean 'at_least'?"),
+        (lambda a: a["requirements"][2]["check"].update(count="materialz"), "requirements[2].check.count",
+         "expected one of: materials, lights, objects, primitives; got \"materialz\"; did you mean 'materials'?"),
         (lambda a: a["requirements"][2]["check"].pop("at_least"), "requirements[2].check", "at least one comparison"),
         (lambda a: a["requirements"][3]["check"].update(where={"kt": {"bigger": 0}}), "requirements[3].check",
          "unknown comparison 'bigger'"),
         (lambda a: a.pop("name"), "name", "required"),
-        (lambda a: a["reference"].update(spp=0), "reference.spp", "greater than or equal to 1"),
+        (lambda a: a["reference"].update(spp=0), "reference.spp", "must be >= 1"),
+        (lambda a: a["render"].update(integrator="pathh"), "render.integrator", "did you mean 'path'?"),
+        (lambda a: a["reference"].update(scene=5), "reference.scene", "expected a JSON object {...}, got 5"),
         (lambda a: a.update(colour=1), "colour", "unknown field"),
     ],
 )  # fmt: skip
@@ -528,7 +533,7 @@ def test_cli_grades_one_scene(tmp_path):
 
 
 def test_cli_grades_a_class_through_the_job_queue(tmp_path):
-    """A zip of three students, rendered by worker processes of a queue of the CLI's own."""
+    """A zip of three students, rendered by worker processes of the CLI's own (tracer.grading.local)."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         for name in ("alice.json", "carol.json", "grace.png"):
@@ -545,7 +550,7 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     log = tmp_path / "out" / ".queue" / "workers.log"
     assert f"the render workers log to {log}" in p.stderr
     assert [line for line in p.stderr.splitlines() if not line.startswith(("renders done", "the render workers"))] == []
-    assert "INFO server.worker" in log.read_text() and "render worker" in log.read_text()
+    assert "INFO tracer.grading.local" in log.read_text() and "render worker" in log.read_text()
 
 
 def test_cli_reports_a_bad_assignment(tmp_path):

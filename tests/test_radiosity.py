@@ -9,10 +9,10 @@ from conftest import scene_dict, small
 
 from tracer.compile import compile_scene
 from tracer.kinds import RadDisplay
-from tracer.radiosity import build_patches, solve
+from tracer.radiosity import attach, build_patches, solve
 from tracer.raytree import ray_tree
 from tracer.render import render
-from tracer.scene import load_scene
+from tracer.scene import SceneError, load_scene
 
 
 def closed_box(rho: float, le: float):
@@ -212,6 +212,7 @@ def shapes_comparison():
     )
     reference = render(load_scene(path)[0]).image
     cs = compile_scene(load_scene(small(data, width, width, sampler={"type": "jittered", "spp": 16}))[0])
+    attach(cs)  # solved once; each display below shows the same solution
     names = [o["name"] for o in data["objects"]]
     ratios = {}
     for display in RadDisplay:
@@ -249,7 +250,7 @@ def test_radiosity_curved_and_meshed_objects_agree_with_the_path_tracer(shapes_c
 
 def test_radiosity_meshes_every_shape_with_its_true_area():
     data = shapes_box(0.25)
-    cs = compile_scene(load_scene(data)[0], solve_radiosity=False)
+    cs = compile_scene(load_scene(data)[0])
     p = build_patches(cs, 0.25)
     n = len(p) // 2
     front = np.arange(len(p)) < n
@@ -326,3 +327,17 @@ def test_radiosity_warns_that_moving_objects_are_solved_at_time_zero():
     data["objects"][5]["velocity"] = [0.1, 0, 0]
     _, warnings = load_scene(data)
     assert [w["path"] for w in warnings] == ["objects[5].velocity"] and "time 0" in warnings[0]["message"]
+
+
+def test_radiosity_needs_surfaces_to_mesh():
+    """Every shape is meshed, a lone sphere too; a scene with nothing to mesh is refused at `objects`."""
+    sphere = {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"kd": 0.5}}
+    camera = {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0]}
+    render_settings = {"integrator": "radiosity", "radiosity": {"rays": 64, "threshold": 0.5}}
+    scene, _ = load_scene({"camera": camera, "objects": [sphere], "render": render_settings})
+    assert len(attach(compile_scene(scene)).patches) > 0
+    empty, _ = load_scene({"camera": camera, "render": {"integrator": "radiosity"}})
+    with pytest.raises(SceneError) as e:
+        attach(compile_scene(empty))
+    assert e.value.errors[0]["path"] == "objects"
+    assert "needs objects to mesh into patches" in e.value.errors[0]["message"]

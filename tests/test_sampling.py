@@ -3,10 +3,11 @@
 import numpy as np
 import warp as wp
 
-from tracer.compile import SceneData, compile_scene
+from tracer.compile import compile_scene
 from tracer.kinds import SamplerKind
 from tracer.sampling import film_offset, filter_offset, rng_start, sample_2d
 from tracer.scene import load_scene
+from tracer.structs import SceneData
 
 
 @wp.kernel
@@ -107,7 +108,7 @@ def test_sampling_box_filter_radius_spreads_samples():
 def test_sampling_filters_importance_sampled():
     """Offsets follow |f| (chi-square against the filter's own histogram); Mitchell's negative lobes
     come back as negative weights, and the weights average to 1 (the filter integrates to 1)."""
-    from tracer.compile import filter_1d
+    from tracer.film import filter_1d
 
     for kind, radius in (("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)):
         r = film(SamplerKind.RANDOM, 1, 100_000, kind, weights=True)[:, 0]

@@ -76,7 +76,7 @@ def cmd_render(args) -> int:
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_warnings(warnings)
-    cs = compile_scene(scene, asset_dir=Path(args.assets), solve_radiosity=False)  # render() solves, with progress
+    cs = compile_scene(scene, asset_dir=Path(args.assets))  # render() solves a radiosity scene, with progress
     bars: dict = {}
     show = sys.stderr.isatty() and not args.quiet
     last = 0
@@ -192,8 +192,8 @@ def cmd_grade(args) -> int:
     if not subs:
         print(f"error: {path}: no submissions (.json, .png or .exr files)", file=sys.stderr)
         return 1
-    if batch:  # through a job queue of our own: worker processes, a time limit per render
-        from server.grading import WORKER_LOG, local_queue
+    if batch:  # worker processes of our own, a time limit per render
+        from tracer.grading.local import LocalRenderer
 
         shown = [-1]
 
@@ -202,9 +202,10 @@ def cmd_grade(args) -> int:
                 shown[0] = done
                 print(f"renders done: {done}/{total}", file=sys.stderr, flush=True)
 
-        print(f"the render workers log to {out / '.queue' / WORKER_LOG}", file=sys.stderr, flush=True)
-        with local_queue(out / ".queue", workers=args.workers, on_progress=progress) as queue:
-            grader.renderer = queue
+        log_path = out / ".queue" / WORKER_LOG
+        print(f"the render workers log to {log_path}", file=sys.stderr, flush=True)
+        with LocalRenderer(args.workers, log_path=log_path, on_progress=progress) as renderer:
+            grader.renderer = renderer
             reports = grader.grade(subs)
     else:
         from tracer.grading import InlineRenderer
@@ -231,6 +232,9 @@ def cmd_grade(args) -> int:
     else:
         print(f"report and pictures in {out / reports[0].student}/")
     return 0
+
+
+WORKER_LOG = "workers.log"  # a class's render workers log here, under OUT/.queue/
 
 
 ASSETS_HELP = "folder that mesh and image files are read from (default: scenes/assets)"

@@ -28,10 +28,9 @@ from urllib.parse import unquote_to_bytes
 
 import numpy as np
 
-from tracer.errors import SceneError
+from tracer.errors import FLOAT32_MAX, SceneError
 
 ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
-FLOAT32_MAX = 3.4028234663852886e38  # the renderer computes in 32-bit floats
 IMAGE_KINDS = "PNG, JPEG, ..."  # what Pillow reads, as a student is told
 MESH_TYPES = {  # data: URI media type -> trimesh file type
     "model/obj": "obj",

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from tracer.compile import compile_scene
-from tracer.render import default_threads, render
+from tracer.parallel import default_threads
+from tracer.render import render
 from tracer.scene import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -156,7 +157,6 @@ def radiosity(args) -> dict:
     import time
 
     from tracer.radiosity import solve
-    from tracer.render import default_threads
 
     scene, _ = load_scene(json.loads((SCENES / "cornell_path.json").read_text()))
     cs = compile_scene(scene)

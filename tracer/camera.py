@@ -10,11 +10,11 @@ plane stay sharp, others blur in proportion to the aperture.
 
 import warp as wp
 
-from tracer.compile import CameraData
 from tracer.sampling import concentric_disk
+from tracer.structs import CameraData
 
 
-@wp.func
+@wp.func(inline=True)
 def camera_ray(cam: CameraData, fx: float, fy: float, width: int, height: int, u1: float, u2: float):
     """Origin and unit direction through film position (fx, fy) = (x + u, y + v); (u1, u2) picks the
     point of the lens."""
@@ -29,7 +29,7 @@ def camera_ray(cam: CameraData, fx: float, fy: float, width: int, height: int, u
     return o, wp.normalize(focus - o)
 
 
-@wp.func
+@wp.func(inline=True)
 def shutter_time(cam: CameraData, u: float) -> float:
     """The ray's time T = T0 + u (T1 - T0) (motion blur)."""
     return cam.t0 + u * (cam.t1 - cam.t0)

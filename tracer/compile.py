@@ -16,158 +16,22 @@ import numpy as np
 import warp as wp
 
 from tracer.assets import ASSET_DIR, load_image, load_mesh_file  # noqa: F401 (load_mesh_file: re-exported)
-from tracer.kinds import Bump, FilterKind, Integrator, LightKind, SamplerKind, Shape, Texture
-from tracer.scene import Scene, json_path
-
-
-@wp.struct
-class CameraData:
-    origin: wp.vec3  # lookfrom
-    forward: wp.vec3  # unit vector towards lookat
-    right: wp.vec3  # unit, forward x vup
-    up: wp.vec3  # unit, right x forward
-    h: float  # tan(vfov / 2)
-    aspect: float  # width / height
-    lens_radius: float  # thin-lens aperture radius, world units (0 = pinhole)
-    focus_distance: float  # distance to the focal plane along forward
-    t0: float  # shutter open time
-    t1: float  # shutter close time
-
-
-@wp.struct
-class ShapeData:
-    kind: int  # SHAPE_*
-    obj: int  # index into scene.objects (the ray tree reports it); -1 - k for area light k
-    mat: int  # index into SceneData.materials
-    p0: wp.vec3  # sphere/disk centre, plane point, quad corner
-    p1: wp.vec3  # plane/disk normal (unit), quad edge1
-    p2: wp.vec3  # quad edge2
-    n: wp.vec3  # quad: edge1 x edge2 (not normalised)
-    w: wp.vec3  # quad: n / |n|^2, for the edge coordinates of a hit
-    xf: wp.mat33  # box: world -> box coordinates, local = xf world + p2 (p0, p1 = the box's min and max)
-    radius: float  # sphere/disk radius
-    velocity: wp.vec3  # world units per unit time (motion blur)
-    light: int  # index of the area light this shape is, or -1
-
-
-@wp.struct
-class MaterialData:
-    kd: wp.vec3  # diffuse reflectance
-    ka: wp.vec3  # ambient coefficient (used when ka_is_kd == 0)
-    ka_is_kd: int  # 1: ka = kd after texturing
-    ks: wp.vec3  # Phong specular coefficient
-    shininess: float  # Phong exponent n
-    kr: wp.vec3  # reflection-ray weight
-    kt: wp.vec3  # transmission-ray weight
-    ior: float  # index of refraction inside
-    fresnel: int  # 1: scale kr, kt by exact dielectric Fresnel R, 1 - R
-    gloss: float  # cos^m lobe exponent; 0 = perfect mirror
-    emission: wp.vec3  # emitted radiance (front face)
-    tex: int  # TEX_*
-    tex_size: float  # checker cell size, world units
-    tex_c1: wp.vec3  # checker colour where the cell parity is even
-    tex_c2: wp.vec3  # checker colour where it is odd
-    tex_image: int  # index into tex_info
-    tex_scale: wp.vec2  # uv scale of an image texture
-    bump: int  # BUMP_*
-    bump_scale: float  # noise frequency (cells per world unit)
-    bump_strength: float  # height scale h
-    bump_image: int  # index into tex_info
-    bump_uvscale: wp.vec2  # uv scale of an image bump map
-
-
-@wp.struct
-class LightData:
-    kind: int  # LIGHT_*
-    position: wp.vec3  # point/spot position
-    direction: wp.vec3  # directional: the way light travels; spot: the axis (unit)
-    intensity: wp.vec3  # W/sr (point, spot) or W/m^2 irradiance (directional)
-    attenuation: wp.vec3  # c1, c2, c3 of f_att = 1 / (c1 + c2 d + c3 d^2)
-    cos_cutoff: float  # spot: cosine of the cone half-angle
-    falloff: float  # spot: exponent of cos(psi)
-    edge1: wp.vec3  # quad light: corner = position, edges edge1 and edge2; disk: normal = direction
-    edge2: wp.vec3
-    radius: float  # disk and sphere lights
-    area: float  # emitting area, world units^2
-    shape: int  # index of an area light's own shape in SceneData.shapes, else -1
-
-
-@wp.struct
-class PatchIndex:
-    """Which radiosity patch a point of a surface lies on (tracer/radiosity.py, `patch_at`): every patch
-    as triangles of one wp.Mesh, and how each object's points are brought onto its facets."""
-
-    mesh: wp.uint64  # every patch as triangles (a parallelogram is two)
-    tri_patch: wp.array(dtype=wp.int32)  # triangle -> front patch index; its back side is + n
-    tri_obj: wp.array(dtype=wp.int32)  # triangle -> object index (a point must be on the same object)
-    obj_kind: wp.array(dtype=wp.int32)  # per object, PATCHES_*: how its points find their facet
-    obj_center: wp.array(dtype=wp.vec3)  # per object: a sphere's or a disk's centre (at time 0)
-    obj_radius: wp.array(dtype=float)  # sphere: its radius; disk: the circle inside its facets' polygon
-    n: int  # patches per side
-    max_dist: float  # how far from a facet a point of a flat surface may be to belong to it
-
-
-@wp.struct
-class RadiosityData:
-    """A radiosity solution for the `radiosity` integrator (tracer/radiosity.py); inactive otherwise."""
-
-    active: int  # 1 when the scene's integrator is radiosity
-    mode: int  # RAD_TWO_PASS: the ray tree + the solution's interreflection; RAD_FLAT: patches; RAD_SMOOTH
-    index: PatchIndex  # the patch under a hit
-    radiosity: wp.array(dtype=wp.vec3)  # (2n) B, exitance W/m^2 (radiance B / pi)
-    indirect: wp.array(dtype=wp.vec3)  # (2n) B less the emitted and the directly lit part
-    rho: wp.array(dtype=wp.vec3)  # (2n) the patch's reflectance
-    corners: wp.array(dtype=wp.vec3)  # (2 x 3 per triangle) B at the triangle's corners: front, then back
-    corners_ind: wp.array(dtype=wp.vec3)  # the same for the interreflected part (two-pass shading)
-
-
-@wp.struct
-class SceneData:
-    camera: CameraData
-    shapes: wp.array(dtype=ShapeData)
-    num_shapes: int
-    meshes: wp.array(dtype=wp.uint64)  # wp.Mesh ids: group 0 the static triangles, then one per moving object
-    mesh_vel: wp.array(dtype=wp.vec3)  # velocity of each group
-    mesh_face0: wp.array(dtype=wp.int32)  # global index of each group's first face
-    num_meshes: int
-    mesh_points: wp.array(dtype=wp.vec3)
-    mesh_indices: wp.array(dtype=wp.int32)  # 3 per face
-    mesh_normals: wp.array(dtype=wp.vec3)  # per vertex, for smooth shading
-    mesh_uvs: wp.array(dtype=wp.vec2)  # per vertex
-    face_obj: wp.array(dtype=wp.int32)  # object index of each face
-    face_mat: wp.array(dtype=wp.int32)  # material index of each face
-    face_flags: wp.array(dtype=wp.int32)  # bit 0: smooth normals, bit 1: vertex uvs
-    materials: wp.array(dtype=MaterialData)
-    lights: wp.array(dtype=LightData)
-    num_lights: int
-    tex_pixels: wp.array(dtype=wp.vec3)  # all texture images, linear RGB, row-major, top row first
-    tex_info: wp.array(dtype=wp.vec3i)  # offset, width, height of each image
-    background: wp.vec3  # radiance of rays that leave the scene
-    ambient: wp.vec3  # I_a
-    fog_density: float  # per world unit; 0 = no fog
-    fog_color: wp.vec3
-    integrator: int  # INTEGRATOR_*
-    max_depth: int  # bounces; 1 = ray casting
-    min_weight: float
-    light_samples: int
-    width: int
-    height: int
-    spp: int
-    sampler: int  # SAMPLER_*
-    threshold: float  # adaptive: max colour difference of a uniform cell
-    max_level: int  # adaptive: subdivision limit
-    jitter: int  # adaptive: 1 = stochastic positions inside the cells
-    filter: int  # FILTER_*
-    filter_radius: float  # half-width in pixels
-    filter_icdf: wp.array(dtype=float)  # inverse CDF of |f| in 1D: u in [0,1] -> offset in [-radius, radius]
-    filter_sign: wp.array(dtype=float)  # sign of f at those offsets (Mitchell's negative lobes)
-    filter_norm: float  # (integral |f| / integral f)^2: the weight of a positive sample
-    seed: int
-    rad: RadiosityData
-
-
-FACE_SMOOTH = 1
-FACE_UV = 2
+from tracer.film import filter_tables
+from tracer.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
+from tracer.lights import light_data, light_shape
+from tracer.scene import AREA_LIGHTS, Material, Scene, json_path
+from tracer.structs import (
+    FACE_SMOOTH,
+    FACE_UV,
+    CameraData,
+    LightData,
+    MaterialData,
+    SceneData,
+    ShapeData,
+    inactive_radiosity,
+    unit,
+    vec3,
+)
 
 
 @dataclass
@@ -182,60 +46,6 @@ class CompiledScene:
     num_shapes: int
     keep: list = field(default_factory=list)  # Warp objects that must outlive `data` (the mesh)
     radiosity: object = None  # the radiosity.Solution when the integrator is radiosity
-
-
-def _v(x) -> wp.vec3:
-    return wp.vec3(float(x[0]), float(x[1]), float(x[2]))
-
-
-def _unit(x) -> np.ndarray:
-    a = np.asarray(x, dtype=np.float64)
-    return a / np.linalg.norm(a)
-
-
-def _all_materials(scene: Scene):
-    for name, m in scene.materials.items():
-        yield json_path(("materials", name)), m
-    for i, obj in enumerate(scene.objects):
-        if not isinstance(obj.material, str):
-            yield f"objects[{i}].material", obj.material
-
-
-# ----------------------------------------------------------------------------- filters
-
-FILTER_TABLE = 4096  # entries of the inverse-CDF table
-
-
-def filter_1d(kind: str, radius: float, x: np.ndarray) -> np.ndarray:
-    """The separable reconstruction filters in 1D, x in pixels from the pixel centre."""
-    ax = np.abs(x)
-    if kind == "tent":
-        return np.maximum(0.0, radius - ax)
-    if kind == "gaussian":  # sigma = radius / 3, shifted to reach 0 at the radius (as pbrt)
-        sigma = radius / 3
-        return np.maximum(0.0, np.exp(-(x**2) / (2 * sigma**2)) - math.exp(-(radius**2) / (2 * sigma**2)))
-    if kind == "mitchell":  # Mitchell & Netravali 1988, B = C = 1/3, stretched over the radius
-        b = c = 1 / 3
-        t = np.abs(2 * x / radius)
-        near = (12 - 9 * b - 6 * c) * t**3 + (-18 + 12 * b + 6 * c) * t**2 + (6 - 2 * b)
-        far = (-b - 6 * c) * t**3 + (6 * b + 30 * c) * t**2 + (-12 * b - 48 * c) * t + (8 * b + 24 * c)
-        return np.where(t < 1, near, np.where(t < 2, far, 0.0)) / 6
-    return np.where(ax <= radius, 1.0, 0.0)  # box
-
-
-def filter_tables(kind: str, radius: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Filter importance sampling (Ernst et al. 2006): offsets drawn from |f| by inverse CDF, each
-    sample weighted by sign(f) * (integral |f| / integral f) per dimension, so tiles stay independent."""
-    x = np.linspace(-radius, radius, 8 * FILTER_TABLE + 1)
-    f = filter_1d(kind, radius, x)
-    a = np.abs(f)
-    cdf = np.concatenate([[0.0], np.cumsum((a[1:] + a[:-1]) / 2)])
-    cdf /= cdf[-1]
-    u = np.linspace(0.0, 1.0, FILTER_TABLE)
-    icdf = np.interp(u, cdf, x)
-    sign = np.where(filter_1d(kind, radius, icdf) < 0, -1.0, 1.0)
-    norm = (np.trapezoid(a, x) / np.trapezoid(f, x)) ** 2
-    return icdf.astype(np.float32), sign.astype(np.float32), float(norm)
 
 
 # ----------------------------------------------------------------------------- transforms
@@ -325,22 +135,22 @@ class _Images:
 
 def _material(m, path: str, images: _Images | None) -> MaterialData:
     d = MaterialData()
-    d.kd = _v(m.kd)
+    d.kd = vec3(m.kd)
     d.ka_is_kd = 1 if m.ka is None else 0
-    d.ka = _v(m.ka if m.ka is not None else m.kd)
-    d.ks = _v(m.ks)
+    d.ka = vec3(m.ka if m.ka is not None else m.kd)
+    d.ks = vec3(m.ks)
     d.shininess = float(m.shininess)
-    d.kr = _v(m.kr)
-    d.kt = _v(m.kt)
+    d.kr = vec3(m.kr)
+    d.kt = vec3(m.kt)
     d.ior = float(m.ior)
     d.fresnel = 1 if m.fresnel else 0
     d.gloss = float(m.gloss) if m.gloss is not None else 0.0
-    d.emission = _v(m.emission)
+    d.emission = vec3(m.emission)
     d.tex, d.tex_size, d.tex_image = int(Texture.NONE), 1.0, 0
     d.tex_c1, d.tex_c2, d.tex_scale = wp.vec3(0.0), wp.vec3(0.0), wp.vec2(1.0, 1.0)
     if m.texture is not None and m.texture.type == "checker":
         d.tex, d.tex_size = int(Texture.CHECKER), float(m.texture.size)
-        d.tex_c1, d.tex_c2 = _v(m.texture.color1), _v(m.texture.color2)
+        d.tex_c1, d.tex_c2 = vec3(m.texture.color1), vec3(m.texture.color2)
     elif m.texture is not None:
         d.tex = int(Texture.IMAGE)
         d.tex_image = images.add(m.texture.file, f"{path}.texture.file")
@@ -356,38 +166,8 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
     return d
 
 
-def _light(light) -> LightData:
-    d = LightData()
-    d.kind = int(LightKind[light.type.upper()])
-    d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)
-    d.intensity, d.attenuation = wp.vec3(0.0), wp.vec3(0.0, 0.0, 1.0)
-    d.cos_cutoff, d.falloff = -1.0, 0.0
-    d.edge1, d.edge2, d.radius, d.area, d.shape = wp.vec3(0.0), wp.vec3(0.0), 0.0, 0.0, -1
-    if light.type == "point":
-        d.position, d.intensity, d.attenuation = _v(light.position), _v(light.intensity), _v(light.attenuation)
-    elif light.type == "directional":
-        d.direction, d.intensity = _v(_unit(light.direction)), _v(light.irradiance)
-    elif light.type == "spot":
-        d.position, d.direction = _v(light.position), _v(_unit(light.direction))
-        d.intensity, d.attenuation = _v(light.intensity), _v(light.attenuation)
-        d.cos_cutoff, d.falloff = math.cos(math.radians(light.cutoff)), float(light.falloff)
-    elif light.type == "quad":
-        n = np.cross(light.edge1, light.edge2)
-        d.position, d.edge1, d.edge2 = _v(light.corner), _v(light.edge1), _v(light.edge2)
-        d.direction, d.area, d.intensity = _v(_unit(n)), float(np.linalg.norm(n)), _v(light.radiance)
-    elif light.type == "disk":
-        d.position, d.direction, d.radius = _v(light.center), _v(_unit(light.normal)), float(light.radius)
-        d.area, d.intensity = math.pi * light.radius**2, _v(light.radiance)
-    elif light.type == "sphere":
-        d.position, d.radius = _v(light.center), float(light.radius)
-        d.area, d.intensity = 4 * math.pi * light.radius**2, _v(light.radiance)
-    return d
-
-
 def _light_material(light) -> MaterialData:
     """Area lights are visible: radiance on the emitting side, black on the back, nothing else."""
-    from tracer.scene import Material
-
     return _material(Material(kd=0.0, ka=0.0, emission=light.radiance), "", None)
 
 
@@ -395,10 +175,10 @@ def _camera(scene: Scene) -> CameraData:
     c = scene.camera
     cam = CameraData()
     lookfrom, lookat = np.asarray(c.lookfrom, float), np.asarray(c.lookat, float)
-    forward = _unit(lookat - lookfrom)
-    right = _unit(np.cross(forward, c.vup))
+    forward = unit(lookat - lookfrom)
+    right = unit(np.cross(forward, c.vup))
     up = np.cross(right, forward)
-    cam.origin, cam.forward, cam.right, cam.up = _v(lookfrom), _v(forward), _v(right), _v(up)
+    cam.origin, cam.forward, cam.right, cam.up = vec3(lookfrom), vec3(forward), vec3(right), vec3(up)
     cam.h = math.tan(math.radians(c.vfov) / 2)
     cam.aspect = scene.film.width / scene.film.height
     cam.lens_radius = float(c.lens_radius)
@@ -408,12 +188,13 @@ def _camera(scene: Scene) -> CameraData:
 
 
 def compile_scene(
-    scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu", solve_radiosity: bool = True
+    scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu", solve_radiosity: bool = False
 ) -> CompiledScene:
     """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets.
 
-    With the radiosity integrator the solution is solved and attached too, unless `solve_radiosity` is
-    False: then `tracer.radiosity.attach` does it later (render() runs it as a phase with progress)."""
+    Flattening only: a radiosity scene's solution is solved by `tracer.radiosity.attach`, which
+    render() runs as a phase with progress and ray_tree() runs when it needs it. `solve_radiosity`
+    is accepted and ignored (callers of the first version pass it)."""
     images = _Images(Path(asset_dir))
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}
@@ -434,9 +215,9 @@ def compile_scene(
         s = ShapeData()
         s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
-        s.p0, s.p1, s.p2, s.radius, s.velocity = _v(p0), _v(p1), _v(p2), float(radius), _v(velocity)
+        s.p0, s.p1, s.p2, s.radius, s.velocity = vec3(p0), vec3(p1), vec3(p2), float(radius), vec3(velocity)
         n = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
-        s.n, s.w = _v(n), _v(n / max(float(np.dot(n, n)), 1e-300))
+        s.n, s.w = vec3(n), vec3(n / max(float(np.dot(n, n)), 1e-300))
         shapes.append(s)
 
     def triangles(i, m, v, f, velocity, uv=None, smooth=False):
@@ -452,11 +233,11 @@ def compile_scene(
         if t == "sphere":
             shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
         elif t == "plane":
-            shape(Shape.PLANE, i, m, p0=obj.point, p1=_unit(obj.normal), velocity=vel)
+            shape(Shape.PLANE, i, m, p0=obj.point, p1=unit(obj.normal), velocity=vel)
         elif t == "quad":
             shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
         elif t == "disk":
-            shape(Shape.DISK, i, m, p0=obj.center, p1=_unit(obj.normal), radius=obj.radius, velocity=vel)
+            shape(Shape.DISK, i, m, p0=obj.center, p1=unit(obj.normal), radius=obj.radius, velocity=vel)
         elif t == "box":  # one slab test in the box's own coordinates
             fwd = transform_matrix(obj.transform)
             inv = np.linalg.inv(fwd[:3, :3])
@@ -472,17 +253,12 @@ def compile_scene(
 
     lights = []
     for k, light in enumerate(scene.lights):
-        lights.append(_light(light))
-        if light.type in ("quad", "disk", "sphere"):
+        lights.append(light_data(light))
+        if isinstance(light, AREA_LIGHTS):  # visible: a shape of its own, emitting its radiance
             mats.append(_light_material(light))
             mat_names.append(f"lights[{k}]")
-            lm = len(mats) - 1
-            if light.type == "quad":
-                shape(Shape.QUAD, -1 - k, lm, p0=light.corner, p1=light.edge1, p2=light.edge2, light=k)
-            elif light.type == "disk":
-                shape(Shape.DISK, -1 - k, lm, p0=light.center, p1=_unit(light.normal), radius=light.radius, light=k)
-            else:
-                shape(Shape.SPHERE, -1 - k, lm, p0=light.center, radius=light.radius, light=k)
+            kind, where = light_shape(light)
+            shape(kind, -1 - k, len(mats) - 1, light=k, **where)
             lights[-1].shape = len(shapes) - 1
 
     data = SceneData()
@@ -503,8 +279,8 @@ def compile_scene(
     else:
         data.tex_pixels = wp.zeros(1, dtype=wp.vec3, device=device)
         data.tex_info = wp.zeros(1, dtype=wp.vec3i, device=device)
-    data.background, data.ambient = _v(scene.background), _v(scene.ambient)
-    data.fog_density, data.fog_color = float(scene.fog.density), _v(scene.fog.color)
+    data.background, data.ambient = vec3(scene.background), vec3(scene.ambient)
+    data.fog_density, data.fog_color = float(scene.fog.density), vec3(scene.fog.color)
     r = scene.render
     data.integrator = int(Integrator[r.integrator.upper()])
     data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)
@@ -520,7 +296,7 @@ def compile_scene(
     data.filter_norm = norm
     data.seed = int(r.seed)
     data.rad = inactive_radiosity(device)
-    cs = CompiledScene(
+    return CompiledScene(
         scene=scene,
         data=data,
         object_names=[o.name for o in scene.objects],
@@ -529,31 +305,6 @@ def compile_scene(
         num_shapes=data.num_shapes,
         keep=keep,
     )
-    if solve_radiosity and scene.render.integrator == "radiosity":
-        from tracer.radiosity import attach
-
-        attach(cs, device=device)
-    return cs
-
-
-def empty_patch_index(device: str = "cpu") -> PatchIndex:
-    ix = PatchIndex()
-    ix.mesh, ix.n, ix.max_dist = wp.uint64(0), 0, 0.0
-    ix.tri_patch = wp.zeros(1, dtype=wp.int32, device=device)
-    ix.tri_obj = wp.zeros(1, dtype=wp.int32, device=device)
-    ix.obj_kind = wp.zeros(1, dtype=wp.int32, device=device)
-    ix.obj_center = wp.zeros(1, dtype=wp.vec3, device=device)
-    ix.obj_radius = wp.zeros(1, dtype=float, device=device)
-    return ix
-
-
-def inactive_radiosity(device: str = "cpu") -> RadiosityData:
-    r = RadiosityData()
-    r.active, r.mode = 0, 0
-    r.index = empty_patch_index(device)
-    for name in ("radiosity", "indirect", "rho", "corners", "corners_ind"):
-        setattr(r, name, wp.zeros(1, dtype=wp.vec3, device=device))
-    return r
 
 
 def _compile_triangles(data: SceneData, groups: list[dict], device: str) -> tuple[list, int]:

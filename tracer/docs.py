@@ -22,7 +22,7 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from tracer import scene as S
-from tracer.assets import FLOAT32_MAX
+from tracer.errors import FLOAT32_MAX
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "scene-format.md"
 BLOCK = re.compile(r"(<!-- fields: (\w+) -->\n)(.*?)(<!-- end fields -->)", re.S)

@@ -8,8 +8,8 @@ normal by the caller (docs/scene-format.md, "Where spawned rays start"), so no e
 
 import warp as wp
 
-from tracer.compile import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
 from tracer.kinds import SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
+from tracer.structs import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
 
 PI = wp.constant(3.14159265358979323846)
 
@@ -87,12 +87,6 @@ def intersect_parallelogram(
 
 
 @wp.func
-def intersect_quad(o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, t_max: float) -> float:
-    n = wp.cross(e1, e2)
-    return intersect_parallelogram(o, d, corner, e1, e2, n, n / wp.dot(n, n), t_max)
-
-
-@wp.func
 def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, radius: float, t_max: float) -> float:
     t = intersect_plane(o, d, center, normal, t_max)
     if t < 0.0:
@@ -127,7 +121,7 @@ def intersect_box(
     return t
 
 
-@wp.func
+@wp.func(inline=True)
 def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float:
     """One dispatch over SHAPE_* kinds: t of the hit in (0, t_max), or -1 (shape at time 0)."""
     if s.kind == SHAPE_SPHERE:
@@ -152,7 +146,7 @@ def basis(n: wp.vec3):
     return wp.vec3(1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]), wp.vec3(b, sign + n[1] * n[1] * a, -n[1])
 
 
-@wp.func
+@wp.func(inline=True)
 def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
     """Fill the normal, uv and tangents of a hit point p on analytic shape s."""
     r = h
@@ -219,7 +213,7 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
     return r
 
 
-@wp.func
+@wp.func(inline=True)
 def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> Hit:
     """The nearest surface along o + t d, 0 < t < t_max (unit d), with objects where they are at `time`.
 
@@ -268,7 +262,7 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
     return h
 
 
-@wp.func
+@wp.func(inline=True)
 def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> int:
     """1 if any surface lies along o + t d with 0 < t < t_max (shadow rays: the first one found will do).
     The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
@@ -282,7 +276,7 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
     return 0
 
 
-@wp.func
+@wp.func(inline=True)
 def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) -> Hit:
     """Normals, uv and tangents of a hit on mesh face `face` at Warp barycentrics (bu, bv)."""
     i0 = scene.mesh_indices[3 * face + 0]

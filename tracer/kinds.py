@@ -1,7 +1,9 @@
 """Named kinds shared by Python and the Warp kernels.
 
 Each kind is a Python ``IntEnum`` (for the compiler, the ray-tree JSON and tests) mirrored by
-``wp.constant`` values (for kernels), so no kernel ever compares against a magic number.
+``wp.constant`` values (for kernels), so no kernel ever compares against a magic number. Two kinds
+are derived from tables elsewhere: `Integrator` from tracer/integrators/__init__.py, and the light
+kinds (tracer/lights.py) from the scene format's light types.
 """
 
 from enum import IntEnum
@@ -9,6 +11,7 @@ from enum import IntEnum
 import warp as wp
 
 from tracer import wpinit  # noqa: F401  (initialise Warp once)
+from tracer.integrators import INTEGRATORS
 
 
 class Shape(IntEnum):
@@ -19,15 +22,6 @@ class Shape(IntEnum):
     QUAD = 2
     DISK = 3
     BOX = 4
-
-
-class LightKind(IntEnum):
-    POINT = 0
-    DIRECTIONAL = 1
-    SPOT = 2
-    QUAD = 3
-    DISK = 4
-    SPHERE = 5
 
 
 class Texture(IntEnum):
@@ -61,10 +55,8 @@ class End(IntEnum):
     ABSORBED = 6
 
 
-class Integrator(IntEnum):
-    WHITTED = 0
-    PATH = 1
-    RADIOSITY = 2
+# The integrators of the table in tracer/integrators/__init__.py, numbered in its order (SceneData.integrator).
+Integrator = IntEnum("Integrator", [(i.name.upper(), k) for k, i in enumerate(INTEGRATORS)], module=__name__)
 
 
 class FilterKind(IntEnum):
@@ -112,13 +104,6 @@ SHAPE_QUAD = wp.constant(int(Shape.QUAD))
 SHAPE_DISK = wp.constant(int(Shape.DISK))
 SHAPE_BOX = wp.constant(int(Shape.BOX))
 
-LIGHT_POINT = wp.constant(int(LightKind.POINT))
-LIGHT_DIRECTIONAL = wp.constant(int(LightKind.DIRECTIONAL))
-LIGHT_SPOT = wp.constant(int(LightKind.SPOT))
-LIGHT_QUAD = wp.constant(int(LightKind.QUAD))
-LIGHT_DISK = wp.constant(int(LightKind.DISK))
-LIGHT_SPHERE = wp.constant(int(LightKind.SPHERE))
-
 PATCHES_NONE = wp.constant(int(PatchKind.NONE))
 PATCHES_FLAT = wp.constant(int(PatchKind.FLAT))
 PATCHES_SPHERE = wp.constant(int(PatchKind.SPHERE))
@@ -130,9 +115,6 @@ RAD_SMOOTH = wp.constant(int(RadDisplay.SMOOTH))
 
 SHOOT_PATCH = wp.constant(int(Shooter.PATCH))
 SHOOT_LIGHT = wp.constant(int(Shooter.LIGHT))
-
-INTEGRATOR_WHITTED = wp.constant(int(Integrator.WHITTED))
-INTEGRATOR_PATH = wp.constant(int(Integrator.PATH))
 
 FILTER_BOX = wp.constant(int(FilterKind.BOX))
 
@@ -160,7 +142,6 @@ END_ABSORBED = wp.constant(int(End.ABSORBED))
 SAMPLER_CENTER = wp.constant(int(SamplerKind.CENTER))
 SAMPLER_GRID = wp.constant(int(SamplerKind.GRID))
 SAMPLER_RANDOM = wp.constant(int(SamplerKind.RANDOM))
-SAMPLER_JITTERED = wp.constant(int(SamplerKind.JITTERED))
 SAMPLER_ADAPTIVE = wp.constant(int(SamplerKind.ADAPTIVE))
 
 # Spawned rays start at hit + RAY_OFFSET * N (docs/scene-format.md, "Where spawned rays start"): part of the contract.

@@ -8,11 +8,13 @@ E cos(theta) f; the two parts are returned separately so the ray tree can show t
 
 import warp as wp
 
-from tracer.compile import MaterialData, SceneData
 from tracer.geometry import PI
 from tracer.kinds import BUMP_IMAGE, BUMP_NOISE, TEX_CHECKER, TEX_IMAGE
+from tracer.structs import MaterialData, SceneData
 
 NOISE_SEED = wp.constant(wp.uint32(1234567))
+NOISE_STEP = wp.constant(1.0e-3)  # central differences of the noise bump's height, in noise cells
+CHECKER_NUDGE = wp.constant(1.0e-4)  # a point on a checker cell's boundary is moved this share of a cell along N
 
 
 @wp.func
@@ -60,7 +62,7 @@ def phong_terms(kd: wp.vec3, ks: wp.vec3, shininess: float, n: wp.vec3, l: wp.ve
     return kd * (cos_theta / PI), ks * spec
 
 
-@wp.func
+@wp.func(inline=True)
 def image_texel(scene: SceneData, image: int, uv: wp.vec2) -> wp.vec3:
     """Bilinear lookup, repeating; uv (0, 0) is the image's lower-left corner."""
     info = scene.tex_info[image]
@@ -84,17 +86,17 @@ def image_texel(scene: SceneData, image: int, uv: wp.vec2) -> wp.vec3:
     return (1.0 - fy) * ((1.0 - fx) * c00 + fx * c10) + fy * ((1.0 - fx) * c01 + fx * c11)
 
 
-@wp.func
+@wp.func(inline=True)
 def checker(m: MaterialData, p: wp.vec3, ng: wp.vec3) -> wp.vec3:
     """Solid 3D checker; a point on a cell boundary takes the cell on its geometric normal's side."""
-    q = (p + (1.0e-4 * m.tex_size) * ng) / m.tex_size
+    q = (p + (CHECKER_NUDGE * m.tex_size) * ng) / m.tex_size
     c = int(wp.floor(q[0])) + int(wp.floor(q[1])) + int(wp.floor(q[2]))
     if (c % 2 + 2) % 2 == 0:
         return m.tex_c1
     return m.tex_c2
 
 
-@wp.func
+@wp.func(inline=True)
 def diffuse_color(scene: SceneData, m: MaterialData, p: wp.vec3, ng: wp.vec3, uv: wp.vec2) -> wp.vec3:
     """kd after texturing."""
     if m.tex == TEX_CHECKER:
@@ -106,10 +108,11 @@ def diffuse_color(scene: SceneData, m: MaterialData, p: wp.vec3, ng: wp.vec3, uv
 
 @wp.func
 def luminance(c: wp.vec3) -> float:
+    """Relative luminance Y of linear RGB (Rec. 709 primaries)."""
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
-@wp.func
+@wp.func(inline=True)
 def bump_normal(
     scene: SceneData, m: MaterialData, p: wp.vec3, n: wp.vec3, uv: wp.vec2, dpdu: wp.vec3, dpdv: wp.vec3
 ) -> wp.vec3:
@@ -120,7 +123,7 @@ def bump_normal(
     displaced surface P + h N (the image is read at its texel spacing for the derivatives).
     """
     if m.bump == BUMP_NOISE:
-        e = 1.0e-3
+        e = NOISE_STEP
         q = p * m.bump_scale
         gx = wp.noise(NOISE_SEED, q + wp.vec3(e, 0.0, 0.0)) - wp.noise(NOISE_SEED, q - wp.vec3(e, 0.0, 0.0))
         gy = wp.noise(NOISE_SEED, q + wp.vec3(0.0, e, 0.0)) - wp.noise(NOISE_SEED, q - wp.vec3(0.0, e, 0.0))

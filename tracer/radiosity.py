@@ -34,25 +34,39 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, PatchIndex, RadiosityData, SceneData, box_faces, compile_scene
-from tracer.geometry import basis, closest_hit
-from tracer.integrators.common import patch_at
-from tracer.kinds import LIGHT_DISK, LIGHT_QUAD, RAY_OFFSET, SHOOT_PATCH, T_FAR, PatchKind, RadDisplay, Shooter
-from tracer.lights import light_at
-from tracer.sampling import concentric_disk, rng_start, sample_cosine_hemisphere, to_world
-from tracer.scene import Scene, SceneError
+from tracer.compile import CompiledScene, box_faces, compile_scene
+from tracer.geometry import PI, closest_hit
+from tracer.kinds import (
+    PATCHES_DISK,
+    PATCHES_FLAT,
+    PATCHES_NONE,
+    PATCHES_SPHERE,
+    RAD_FLAT,
+    RAD_TWO_PASS,
+    RAY_OFFSET,
+    SHOOT_PATCH,
+    T_FAR,
+    PatchKind,
+    RadDisplay,
+    Shooter,
+    Texture,
+)
+from tracer.lights import light_at, surface_point
+from tracer.parallel import BandLauncher, default_threads
+from tracer.sampling import rng_start, sample_cosine_hemisphere, to_world
+from tracer.scene import AREA_LIGHTS, Scene, SceneError
+from tracer.structs import PatchIndex, RadiosityData, SceneData
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
 SNAPSHOT_EVERY_STEP = 16  # snapshots of B after every shot up to this many, then after 32, 64, 128, ...
 SPHERE_MIN_SEGMENTS = (12, 6)  # a sphere's net has at least this many triangles around, and rows from pole to pole
 DISK_MIN_SECTORS = 16  # a disk's rings have at least this many sectors
-RAYS_PER_BAND = 1024  # a shot's rays are split into bands of at least this many, one band per thread
+SPHERE_REACH = wp.constant(1.001)  # a ray from a sphere's centre to its facets (inscribed) goes this far, in radii
 TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
 TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)
 
@@ -200,9 +214,9 @@ def _material_rho(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     mats = cs.data.materials.numpy()
     rho = np.array([m["kd"] for m in mats], dtype=np.float64)
     for i, m in enumerate(mats):
-        if m["tex"] == 1:  # checker: half of each colour
+        if m["tex"] == Texture.CHECKER:  # half of each colour
             rho[i] = (np.asarray(m["tex_c1"]) + np.asarray(m["tex_c2"])) / 2
-        elif m["tex"] == 2:  # image: its mean colour
+        elif m["tex"] == Texture.IMAGE:  # its mean colour
             off, w, h = cs.data.tex_info.numpy()[m["tex_image"]]
             rho[i] = cs.data.tex_pixels.numpy()[off : off + w * h].mean(axis=0)
     emit = np.array([m["emission"] for m in mats], dtype=np.float64) * math.pi
@@ -417,6 +431,100 @@ def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, np.cross(n, t)
 
 
+# ------------------------------------------------------------------------------ lookup: the solution at a hit
+
+
+@wp.func(inline=True)
+def patch_at(ix: PatchIndex, p: wp.vec3, nf: wp.vec3, obj: int):
+    """The radiosity patch side under the point p of object obj (at time 0), on the side nf points to:
+    (patch side k, its triangle in ix.mesh, barycentrics u, v there), or k = -1 off the patches (an area
+    light, a plane beyond the meshed part, an object the solve does not see).
+
+    Flat surfaces lie on their facets: the nearest facet. A sphere's facets are inscribed in it: the
+    facet that the ray from the centre through p crosses. A disk's rim bulges past its polygon of
+    facets: the point is first pulled radially inside the polygon."""
+    face = int(-1)
+    u = float(0.0)
+    v = float(0.0)
+    kind = PATCHES_NONE
+    if obj >= 0:
+        kind = ix.obj_kind[obj]
+    if kind == PATCHES_SPHERE:
+        c = ix.obj_center[obj]
+        qr = wp.mesh_query_ray(ix.mesh, c, wp.normalize(p - c), ix.obj_radius[obj] * SPHERE_REACH)
+        if qr.result:
+            face = qr.face
+            u = qr.u
+            v = qr.v
+    elif kind == PATCHES_FLAT or kind == PATCHES_DISK:
+        x = p
+        if kind == PATCHES_DISK:
+            c = ix.obj_center[obj]
+            r = wp.length(p - c)
+            if r > ix.obj_radius[obj]:
+                x = c + (p - c) * (ix.obj_radius[obj] / r)
+        q = wp.mesh_query_point_no_sign(ix.mesh, x, ix.max_dist)
+        if q.result:
+            face = q.face
+            u = q.u
+            v = q.v
+    if face < 0:
+        return -1, -1, u, v
+    if ix.tri_obj[face] != obj:  # a different surface just as close (a light on a ceiling)
+        return -1, -1, u, v
+    k = ix.tri_patch[face]
+    if wp.dot(wp.mesh_eval_face_normal(ix.mesh, face), nf) < 0.0:  # the back side
+        k = k + ix.n
+    return k, face, u, v
+
+
+@wp.func(inline=True)
+def radiosity_at(rad: RadiosityData, p: wp.vec3, nf: wp.vec3, obj: int):
+    """The radiosity solution at a hit at p on object obj, seen from the side nf points to:
+    (1, B, the interreflected part of B, rho), or (0, ...) off the patches (see `patch_at`).
+    B and its interreflected part are the patch's own values in the flat display, else
+    interpolated from the patch's corners (smooth display, two-pass shading)."""
+    zero = wp.vec3(0.0)
+    k, face, u, v = patch_at(rad.index, p, nf, obj)
+    if k < 0:
+        return 0, zero, zero, zero
+    b = rad.radiosity[k]
+    ind = rad.indirect[k]
+    if rad.mode != RAD_FLAT:  # smooth display, and the two-pass interreflection: interpolated at the corners
+        c = 3 * face
+        if k >= rad.index.n:  # the back side's corners follow the front sides'
+            c = c + 3 * rad.index.tri_patch.shape[0]
+        w = 1.0 - u - v
+        b = u * rad.corners[c] + v * rad.corners[c + 1] + w * rad.corners[c + 2]
+        ind = u * rad.corners_ind[c] + v * rad.corners_ind[c + 1] + w * rad.corners_ind[c + 2]
+    return 1, b, ind, rad.rho[k]
+
+
+@wp.func
+def safe_div(a: wp.vec3, b: wp.vec3) -> wp.vec3:
+    return wp.vec3(
+        wp.where(b[0] > 0.0, a[0] / b[0], 0.0),
+        wp.where(b[1] > 0.0, a[1] / b[1], 0.0),
+        wp.where(b[2] > 0.0, a[2] / b[2], 0.0),
+    )
+
+
+@wp.func(inline=True)
+def radiosity_ambient(rad: RadiosityData, kd: wp.vec3, p: wp.vec3, nf: wp.vec3, obj: int):
+    """What the solution puts in place of the ambient term at a hit (kd the diffuse colour there):
+    (radiance, 1 if it is the patch's own radiance and replaces the whole local term).
+
+    Two-pass display: kd / pi times the interreflected irradiance (the interreflected B over the patch's
+    rho), so the ray tree adds the direct light and the mirrors. Flat and smooth displays: B / pi, the
+    radiance of the patch itself. Off the patches: no ambient term."""
+    found, b, ind, rho = radiosity_at(rad, p, nf, obj)
+    if found == 0:
+        return wp.vec3(0.0), 0
+    if rad.mode == RAD_TWO_PASS:
+        return wp.cw_mul(kd, safe_div(ind, rho)) / PI, 0
+    return b / PI, 1
+
+
 # ----------------------------------------------------------------------------------------- kernels
 
 
@@ -463,21 +571,7 @@ def shoot(
             p = sphere_center + sphere_radius * radial
             n = wp.where(wp.dot(radial, n) < 0.0, -radial, radial)
     else:
-        light = scene.lights[light_index]
-        if light.kind == LIGHT_QUAD:
-            p = light.position + u1 * light.edge1 + u2 * light.edge2
-            n = light.direction
-        elif light.kind == LIGHT_DISK:
-            dsk = concentric_disk(u1, u2)
-            tu, tv = basis(light.direction)
-            p = light.position + light.radius * (dsk[0] * tu + dsk[1] * tv)
-            n = light.direction
-        else:  # sphere: a uniform point of its surface, shooting outwards
-            z = 1.0 - 2.0 * u1
-            rr = wp.sqrt(wp.max(0.0, 1.0 - z * z))
-            phi = 6.283185307179586 * u2
-            n = wp.vec3(rr * wp.cos(phi), rr * wp.sin(phi), z)
-            p = light.position + light.radius * n
+        p, n = surface_point(scene.lights[light_index], u1, u2)
     d = to_world(sample_cosine_hemisphere(wp.randf(rng), wp.randf(rng)), n)
     h = closest_hit(scene, p + RAY_OFFSET * n, d, T_FAR, 0.0)
     out = int(TARGET_ESCAPED)
@@ -544,33 +638,6 @@ def patch_index(p: Patches, device: str = "cpu") -> tuple[PatchIndex, list]:
     return ix, [mesh, points, indices]
 
 
-class _Launcher:
-    """Launches a kernel over n items in bands, one band per thread (a Warp CPU launch runs on one
-    thread); each item writes only its own slot, so results never depend on the threads."""
-
-    def __init__(self, threads: int, device: str):
-        self.threads, self.device = max(1, threads), device
-        self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 and device == "cpu" else None
-
-    def __call__(self, kernel, n: int, inputs) -> None:
-        """inputs(first) -> the kernel's inputs for the band starting at item `first`."""
-        bands = self.threads if self.pool and n >= 2 * RAYS_PER_BAND else 1
-        edges = [n * b // bands for b in range(bands + 1)]
-
-        def run(b: int) -> None:
-            wp.launch(kernel, dim=edges[b + 1] - edges[b], inputs=inputs(edges[b]), device=self.device)
-
-        if bands == 1:
-            run(0)
-        else:
-            list(self.pool.map(run, range(bands)))
-        wp.synchronize_device(self.device)
-
-    def close(self) -> None:
-        if self.pool:
-            self.pool.shutdown()
-
-
 def solve(
     scene: Scene | CompiledScene,
     patch_size: float = 0.25,
@@ -587,16 +654,14 @@ def solve(
     `max_steps` shots). `on_step(solution, step)` is called after each shot; `cancel()` before each
     one (True raises `Cancelled`). The shots' rays run on `threads` threads (default: every core)."""
     start = time.perf_counter()
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, solve_radiosity=False)
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene)
     p = build_patches(cs, patch_size)
     ix, keep = patch_index(p, device)
     n = len(p)
     unshot = p.emission * p.area[:, None]
     sol = Solution(p, p.emission.copy(), unshot, unshot.sum(axis=0), np.zeros(3), np.zeros(3))
     sol.threshold, sol.max_steps = threshold, max_steps
-    from tracer.render import default_threads
-
-    launch = _Launcher(threads or default_threads(), device)
+    launch = BandLauncher(threads or default_threads(), device)
 
     def receive(power_in: np.ndarray) -> None:
         kept = p.reflectance * power_in
@@ -622,7 +687,7 @@ def solve(
         normals = wp.array(normals.astype(np.float32), dtype=wp.vec3, device=device)
         received = wp.zeros(n, dtype=wp.vec3, device=device)
         for li, light in enumerate(cs.scene.lights):
-            if light.type in ("point", "spot", "directional"):
+            if not isinstance(light, AREA_LIGHTS):
                 check_cancel()
                 received.zero_()
                 launch(direct, n, lambda first, li=li: [cs.data, points, normals, li, first, received])
@@ -634,7 +699,7 @@ def solve(
                 step += 1
         # 2. area lights: shoot their whole power (pi L A)
         for li, light in enumerate(cs.scene.lights):
-            if light.type in ("quad", "disk", "sphere"):
+            if isinstance(light, AREA_LIGHTS):
                 check_cancel()
                 area = float(cs.data.lights.numpy()[li]["area"])
                 power = np.asarray(light.radiance, float) * math.pi * area

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch
 from tracer.integrators import record as W
@@ -44,6 +45,8 @@ def ray_tree(
         errs.append({"path": "sample", "message": f"must be a sample index in 0..{n_samples - 1}"})
     if errs:
         raise SceneError(errs)
+    if d.integrator == Integrator.RADIOSITY and cs.radiosity is None:
+        radiosity.attach(cs, device=device)
     load_kernels(device)
     rec = make_record(cap, device)
     st = make_stack(1, d.max_depth, device)

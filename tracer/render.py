@@ -8,7 +8,6 @@ band size or split of the samples into passes (the RNG is keyed by seed, pixel a
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Callable
@@ -20,16 +19,18 @@ import warp as wp
 
 from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
-from tracer.integrators import dispatch, record, whitted
+from tracer.integrators import dispatch, record
+from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
+from tracer.parallel import default_threads
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
 
 
-def make_stack(rows: int, depth: int, device: str = "cpu") -> whitted.Stack:
-    st = whitted.Stack()
+def make_stack(rows: int, depth: int, device: str = "cpu") -> Stack:
+    st = Stack()
     shape = (rows, depth + 1)
     st.o = wp.empty(shape, dtype=wp.vec3, device=device)
     st.d = wp.empty(shape, dtype=wp.vec3, device=device)
@@ -66,10 +67,6 @@ def load_kernels(device: str = "cpu") -> None:
     """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
     for module in dispatch.KERNEL_MODULES.values():
         wp.load_module(module, device=device)
-
-
-def default_threads() -> int:
-    return max(1, os.cpu_count() or 1)
 
 
 @dataclass
@@ -157,7 +154,7 @@ class Renderer:
         self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
         self.samples_done = 0  # per pixel (adaptive: 1 once a pass has run)
-        self.passes_rays = np.zeros(4, dtype=np.int64)  # adaptive: rays of the passes before the last
+        self.passes_rays = np.zeros(len(RayKind), dtype=np.int64)  # adaptive: rays of the passes before the last
 
     def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
         """launch(worker, first pixel, pixel count) over every band, one worker thread per core."""
@@ -202,7 +199,7 @@ class Renderer:
     def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
         """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level)."""
         if self.samples_done:
-            self.passes_rays += self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0)
+            self.passes_rays += self.film.counts.numpy().reshape(-1, len(RayKind)).astype(np.int64).sum(axis=0)
 
         def launch(k: int, p0: int, n: int) -> None:
             wp.launch(
@@ -261,7 +258,7 @@ class Renderer:
 
     def rays(self) -> dict:
         """Rays traced so far by kind (every pass), and "total"."""
-        c = self.film.counts.numpy().reshape(-1, 4).astype(np.int64).sum(axis=0) + self.passes_rays
+        c = self.film.counts.numpy().reshape(-1, len(RayKind)).astype(np.int64).sum(axis=0) + self.passes_rays
         out = {k.name.lower(): int(c[k]) for k in RayKind}
         out["total"] = int(c.sum())
         return out
@@ -295,7 +292,7 @@ def render(
     (`cancelled` = True; none if the solve was not finished).
     """
     start = time.perf_counter()
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device, solve_radiosity=False)
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     adaptive = cs.data.sampler == SamplerKind.ADAPTIVE
     total = cs.data.width * cs.data.height * (cs.data.max_level + 1 if adaptive else cs.data.spp)
     try:

@@ -4,7 +4,7 @@
 sample's eye ray passes through, as an offset (u, v) from the pixel's corner: the ray of sample k goes
 through film point (x + u, y + v) (docs/scene-format.md, "Camera rays"). The offsets are computed by
 the renderer's own functions (`sampling.film_offset`, then `sampling.filter_offset`; for the adaptive
-sampler the fine grid of `integrators/dispatch.grid_point`) in a one-pixel kernel, keyed by the same
+sampler the fine grid of `integrators/dispatch.grid_sample`) in a one-pixel kernel, keyed by the same
 (seed, pixel, sample) random numbers, so they are the image's positions exactly.
 
 The adaptive sampler (Whitted 1980) decides from the colours which cells to split; `pixel_samples`
@@ -20,7 +20,7 @@ import math
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, SceneData
+from tracer.compile import CompiledScene
 from tracer.film import to_srgb8
 from tracer.integrators import dispatch
 from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
@@ -28,6 +28,7 @@ from tracer.render import load_kernels as load_render_kernels
 from tracer.render import make_record, make_stack
 from tracer.sampling import film_offset, filter_offset, rng_start
 from tracer.scene import SceneError
+from tracer.structs import SceneData
 
 MODULE = "tracer_samples"
 MAX_SAMPLES = 16384  # positions listed per pixel at most: spp <= 16384, adaptive max_level <= 6

@@ -9,9 +9,9 @@ with chosen values.
 
 import warp as wp
 
-from tracer.compile import SceneData
 from tracer.geometry import PI, basis
 from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
+from tracer.structs import SceneData
 
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))
@@ -79,7 +79,7 @@ def film_offset(sampler: int, sample: int, spp: int, u1: float, u2: float) -> wp
     return wp.vec2((float(i) + u1) / float(n), (float(j) + u2) / float(n))
 
 
-@wp.func
+@wp.func(inline=True)
 def filter_offset(scene: SceneData, uv: wp.vec2):
     """Film offset inside the pixel, and the sample's weight, by filter importance sampling.
 
@@ -161,6 +161,31 @@ def cos_lobe_pdf(cos_a: float, m: float) -> float:
     if cos_a <= 0.0:
         return 0.0
     return (m + 1.0) / (2.0 * PI) * wp.pow(cos_a, m)
+
+
+@wp.func
+def phong_lobes_pdf(pd: float, ps: float, shininess: float, n: wp.vec3, r: wp.vec3, wi: wp.vec3) -> float:
+    """Density of direction wi under the mixture of the diffuse lobe (cosine about n, chosen with
+    probability pd) and the Phong lobe (cos^shininess about the mirror direction r, probability ps)."""
+    pdf = pd * cosine_hemisphere_pdf(wp.dot(n, wi))
+    if ps > 0.0:
+        pdf += ps * cos_lobe_pdf(wp.dot(r, wi), shininess)
+    return pdf
+
+
+@wp.func
+def power_heuristic(nf: float, pf: float, ng: float, pg: float) -> float:
+    """Multiple importance sampling weight of a sample from strategy f (nf samples of density pf)
+    against strategy g (ng samples of density pg), power 2 (Veach & Guibas 1995). An infinite density
+    (a sphere light too small to see from afar in float32: its cone has no width) weighs 1, as in pbrt-v4,
+    where inf / inf would be NaN."""
+    a = nf * pf
+    b = ng * pg
+    if a <= 0.0:
+        return 0.0
+    if wp.isinf(a * a):
+        return 1.0
+    return (a * a) / (a * a + b * b)
 
 
 @wp.func

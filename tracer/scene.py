@@ -8,8 +8,8 @@ Validation works in three steps, each reporting at the offending field's own JSO
    (`extra="forbid"`), and checks between fields of one model (`_checks`: degenerate quads,
    lookfrom == lookat, ...) at explicit locations. Those checks run even when other fields of
    the model failed, on the fields that are valid, so every independent error comes at once;
-2. `_translate`: pydantic's error location -> JSON path (`objects[3].radius`, union tags dropped)
-   and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
+2. `tracer.errors.pydantic_errors`: pydantic's error location -> JSON path (`objects[3].radius`, union
+   tags dropped) and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
 3. `_warnings`: settings that have no effect, found from `model_fields_set`.
 
 Service limits (`Limits`), the set of material names and, when asked (`load_scene(...,
@@ -23,10 +23,8 @@ import difflib
 import functools
 import json
 import math
-import re
 from pathlib import Path
-from types import UnionType
-from typing import Annotated, Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, Literal, Union, get_args
 
 from annotated_types import Ge, Gt, Le
 from pydantic import (
@@ -50,14 +48,26 @@ from pydantic_core.core_schema import ErrorType
 
 from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-exported, tracer.scene's since v1)
     ASSET_DIR,
-    FLOAT32_MAX,
     AssetError,
     image_size,
     path_problem,
     read_mesh,
     resolve_asset,
 )
-from tracer.errors import SceneError
+from tracer.errors import (  # noqa: F401 (json_path: re-exported, tracer.scene's since v1)
+    FINITE,
+    FLOAT32,
+    FLOAT32_MAX,
+    SceneError,
+    json_path,
+    pydantic_errors,
+    show_value,
+)
+from tracer.integrators import INTEGRATORS
+from tracer.integrators import NAMES as INTEGRATOR_NAMES
+
+IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
+SamplerType = Literal["center", "grid", "random", "jittered", "adaptive"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,15 +86,6 @@ class Limits:
 
 # ---------------------------------------------------------------------------------------------
 # Value types. Numbers are strict (no "1.5" strings, no booleans) and finite.
-
-
-def _show(value: Any) -> str:
-    """A short JSON rendering of a bad input for an error message."""
-    try:
-        text = json.dumps(value, allow_nan=True)
-    except (TypeError, ValueError):
-        text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _error(message: str) -> PydanticCustomError:
@@ -109,10 +110,6 @@ def _finite(v: float) -> bool:
         return False
 
 
-FINITE = "must be a finite number (not NaN or Infinity)"
-FLOAT32 = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
-
-
 def _float32(v: Any) -> Any:
     """Before-validator: a finite number past float32's range is an error (NaN, Infinity: the type's)."""
     if _is_number(v) and _finite(v) and abs(v) > FLOAT32_MAX:
@@ -130,7 +127,7 @@ def _triple(expected: str, scalar=None):
             if not _finite(v):
                 raise _error(FINITE)
             return scalar(_float32(v))
-        raise _error(f"expected {expected}, got {_show(v)}")
+        raise _error(f"expected {expected}, got {show_value(v)}")
 
     return check
 
@@ -168,7 +165,7 @@ def _not_all_zero(v: tuple[float, float, float]) -> tuple[float, float, float]:
 def _pair(v: Any) -> Any:
     if isinstance(v, list | tuple) and len(v) == 2:
         return v
-    raise _error(f"expected a pair [a, b], got {_show(v)}")
+    raise _error(f"expected a pair [a, b], got {show_value(v)}")
 
 
 def _asset_dir(info: ValidationInfo) -> Path | None:
@@ -429,9 +426,7 @@ class Film(_Model):
 class Sampler(_Model):
     """Where in each pixel the samples go (and, for adaptive, how many)."""
 
-    type: Literal["center", "grid", "random", "jittered", "adaptive"] = Field(
-        "jittered", description="Sample pattern in the pixel."
-    )
+    type: SamplerType = Field("jittered", description="Sample pattern in the pixel.")
     spp: Int | None = Field(
         None,
         ge=1,
@@ -491,7 +486,11 @@ class RadiositySettings(_Model):
 class RenderSettings(_Model):
     """Which integrator, and where the ray tree stops."""
 
-    integrator: Literal["whitted", "path", "radiosity"] = Field("whitted", description="Light transport method.")
+    integrator: IntegratorName = Field(
+        "whitted",
+        description="Light transport method.",
+        json_schema_extra={"x-integrators": [{"name": i.name, "description": i.description} for i in INTEGRATORS]},
+    )
     max_depth: Int = Field(
         5, ge=1, le=64, description="Bounces of light on the way to the eye; 1 = ray casting with shadows."
     )
@@ -680,7 +679,9 @@ Light = Annotated[
     PointLight | DirectionalLight | SpotLight | QuadLight | DiskLight | SphereLight,
     Field(discriminator="type"),
 ]
-AREA_LIGHTS = (QuadLight, DiskLight, SphereLight)
+AREA_LIGHTS = (QuadLight, DiskLight, SphereLight)  # lights with a surface: visible, sampled over their area
+LIGHT_TYPES = {get_args(m.model_fields["type"].annotation)[0]: m for m in get_args(get_args(Light)[0])}  # "point": ...
+AREA_LIGHT_TYPES = [t for t, m in LIGHT_TYPES.items() if m in AREA_LIGHTS]  # "quad", "disk", "sphere"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -864,7 +865,7 @@ def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
 def _version(v: Any) -> Any:
     if _is_number(v) and v == 1:
         return 1
-    raise _error(f"unsupported scene version {_show(v)}; this tracer reads version 1")
+    raise _error(f"unsupported scene version {show_value(v)}; this tracer reads version 1")
 
 
 class Scene(_Model):
@@ -908,147 +909,6 @@ class Scene(_Model):
     def material_for(self, obj: _Object) -> Material:
         """The object's material: its inline one, or the named one from `materials`."""
         return obj.material if isinstance(obj.material, Material) else self.materials[obj.material]
-
-
-# ---------------------------------------------------------------------------------------------
-# Pydantic errors -> {path, message}.
-
-_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
-_UNION_NOUN = {"objects": "object", "lights": "light", "texture": "texture", "bump": "bump"}
-
-
-def json_path(parts) -> str:
-    """('objects', 3, 'radius') -> 'objects[3].radius'; keys that are not names are quoted."""
-    out = ""
-    for part in parts:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        elif _IDENT.match(part):
-            out += f".{part}" if out else part
-        else:
-            out += f"[{json.dumps(part)}]"
-    return out
-
-
-def _unwrap(tp: Any) -> Any:
-    """Strip Annotated[...] and Optional[...] from a type."""
-    while True:
-        if get_origin(tp) is Annotated:
-            tp = get_args(tp)[0]
-        elif get_origin(tp) in (Union, UnionType) and type(None) in get_args(tp):
-            rest = [a for a in get_args(tp) if a is not type(None)]
-            if len(rest) != 1:
-                return tp
-            tp = rest[0]
-        else:
-            return tp
-
-
-def _union_tags(tp: Any) -> dict[str, Any]:
-    """tag -> member type of a tagged union (by Tag(...) or by the member's `type` literal)."""
-    if get_origin(tp) not in (Union, UnionType):
-        return {}
-    tags = {}
-    for member in get_args(tp):
-        meta = get_args(member)[1:] if get_origin(member) is Annotated else ()
-        tag = next((m.tag for m in meta if isinstance(m, Tag)), None)
-        inner = _unwrap(member)
-        if tag is None and isinstance(inner, type) and issubclass(inner, BaseModel) and "type" in inner.model_fields:
-            tag = get_args(inner.model_fields["type"].annotation)[0]
-        if tag is not None:
-            tags[tag] = inner
-    return tags
-
-
-def _walk(loc: tuple) -> tuple[list, Any]:
-    """Follow a pydantic loc through the model types: (JSON path parts without union tags, type there)."""
-    tp, parts = Scene, []
-    for item in loc:
-        tp = _unwrap(tp)
-        tags = _union_tags(tp)
-        if tags and item in tags:
-            tp = tags[item]
-            continue
-        parts.append(item)
-        origin, args = get_origin(tp), get_args(tp)
-        if isinstance(tp, type) and issubclass(tp, BaseModel) and item in tp.model_fields:
-            tp = tp.model_fields[item].annotation
-        elif origin is dict and args:
-            tp = args[1]
-        elif origin is list and args:
-            tp = args[0]
-        elif origin is tuple and args and isinstance(item, int):
-            tp = args[min(item, len(args) - 1)]
-        else:
-            tp = None
-    return parts, _unwrap(tp)
-
-
-def _num(x: Any) -> str:
-    return f"{x:g}" if isinstance(x, float) else str(x)
-
-
-def _suggest(word: Any, choices: list[str]) -> str:
-    close = difflib.get_close_matches(str(word), choices, n=1)
-    return f"; did you mean '{close[0]}'?" if close else ""
-
-
-_MESSAGES = {
-    "float_type": "expected a number, got {input}",
-    "int_type": "expected an integer, got {input}",
-    "bool_type": "expected true or false, got {input}",
-    "string_type": "expected a string, got {input}",
-    "finite_number": FINITE,
-    "list_type": "expected a list [...], got {input}",
-    "tuple_type": "expected a list [...], got {input}",
-    "dict_type": "expected a JSON object {{...}}, got {input}",
-    "model_type": "expected a JSON object {{...}}, got {input}",
-    "model_attributes_type": "expected a JSON object {{...}}, got {input}",
-    "greater_than": "must be > {gt}",
-    "greater_than_equal": "must be >= {ge}",
-    "less_than": "must be < {lt}",
-    "less_than_equal": "must be <= {le}",
-    "too_short": "must have at least {min_length} item(s)",
-    "too_long": "must have at most {max_length} item(s)",
-}
-
-
-def _translate(err: dict) -> dict[str, str]:
-    """One pydantic error -> {"path", "message"} at the offending field's own path."""
-    kind, loc, ctx = err["type"], tuple(err["loc"]), err.get("ctx") or {}
-    parts, tp = _walk(loc)
-    if kind == "scene":
-        message = ctx.get("message", err["msg"])
-    elif kind == "missing":
-        message = f"required field '{loc[-1]}' is missing"
-    elif kind == "extra_forbidden":
-        _, owner = _walk(loc[:-1])
-        fields = list(owner.model_fields) if isinstance(owner, type) and issubclass(owner, BaseModel) else []
-        hint = _suggest(loc[-1], fields) or (f" (allowed: {', '.join(fields)})" if fields else "")
-        message = f"unknown field '{loc[-1]}'{hint}"
-    elif kind in ("union_tag_invalid", "union_tag_not_found"):
-        tags = list(_union_tags(tp))
-        noun = next((_UNION_NOUN[p] for p in reversed(parts) if p in _UNION_NOUN), "")
-        allowed = f"one of: {', '.join(tags)}"
-        if kind == "union_tag_invalid":
-            tag = err["input"].get("type") if isinstance(err.get("input"), dict) else ctx.get("tag")
-            shown = f"'{tag}'" if isinstance(tag, str) else _show(tag)
-            message = f"unknown {noun} type {shown}; expected {allowed}{_suggest(tag, tags)}"
-        else:
-            message = f"required field 'type' is missing ({allowed})"
-        parts = [*parts, "type"]
-    elif kind == "literal_error":
-        choices = [str(c) for c in get_args(tp)] if get_origin(tp) is Literal else []
-        given = err.get("input")
-        message = f"expected one of: {', '.join(choices)}; got {_show(given)}{_suggest(given, choices)}"
-    elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge"))) == FLOAT32_MAX:
-        message = FLOAT32  # the bounds of F32 and NonNeg
-    elif kind in _MESSAGES:
-        values = {k: _num(v) for k, v in ctx.items()}
-        message = _MESSAGES[kind].format(input=_show(err.get("input")), **values)
-    else:
-        message = err["msg"]
-    return {"path": json_path(parts), "message": message}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1167,7 +1027,7 @@ def _parse(src: Any) -> dict:
         except (ValueError, RecursionError) as e:  # e.g. an integer of more than 4300 digits
             raise SceneError([{"path": "", "message": f"invalid JSON: {e}"}]) from None
     if not isinstance(src, dict):
-        raise SceneError([{"path": "", "message": f"a scene must be a JSON object {{...}}, got {_show(src)}"}])
+        raise SceneError([{"path": "", "message": f"a scene must be a JSON object {{...}}, got {show_value(src)}"}])
     return src
 
 
@@ -1192,12 +1052,7 @@ def load_scene(
     try:
         scene = Scene.model_validate(data, context=context)
     except ValidationError as e:
-        errors: list[dict[str, str]] = []
-        for err in e.errors():
-            item = _translate(err)
-            if item not in errors:
-                errors.append(item)
-        raise SceneError(errors) from None
+        raise SceneError(pydantic_errors(e, Scene)) from None
     return scene, _warnings(scene)
 
 

@@ -24,10 +24,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from tracer.scene import Limits, SceneError, json_path
+from tracer.errors import pydantic_errors
+from tracer.scene import AREA_LIGHT_TYPES, IntegratorName, Limits, SamplerType, SceneError
 
-AREA_LIGHTS = ["quad", "disk", "sphere"]
-COLLECTIONS = ("materials", "lights", "objects", "primitives")  # what a `count` check counts
 COMPARISONS = {  # word -> (symbol for messages, test)
     "equals": ("=", lambda a, b: a == b),
     "at_least": (">=", lambda a, b: a >= b),
@@ -45,7 +44,7 @@ PRESETS: dict[str, dict] = {
     "glossy_material": {"count": "materials", "where": {"gloss": {"present": True}}, "at_least": 1},
     "textured_material": {"count": "materials", "where": {"texture": {"present": True}}, "at_least": 1},
     "bump_map": {"count": "materials", "where": {"bump": {"present": True}}, "at_least": 1},
-    "area_light": {"count": "lights", "where": {"type": {"one_of": AREA_LIGHTS}}, "at_least": 1},
+    "area_light": {"count": "lights", "where": {"type": {"one_of": AREA_LIGHT_TYPES}}, "at_least": 1},
     "depth_of_field": {"value": "camera.lens_radius", "greater_than": 0},
     "motion": {"count": "objects", "where": {"velocity": {"present": True}}, "at_least": 1},
     "fog": {"value": "fog.density", "greater_than": 0},
@@ -127,8 +126,8 @@ class RenderOverrides(_Model):
     height: int | None = Field(None, ge=1, le=4096, description="Film height; default: the reference scene's.")
     spp: int | None = Field(None, ge=1, description="Samples per pixel; default: the submission's own (limited).")
     seed: int = Field(7, ge=0, lt=2**31, description="The seed of every submission's render.")
-    sampler: Literal["center", "grid", "random", "jittered", "adaptive"] | None = None
-    integrator: Literal["whitted", "path", "radiosity"] | None = None
+    sampler: SamplerType | None = None
+    integrator: IntegratorName | None = None
     max_depth: int | None = Field(None, ge=1, le=64)
 
 
@@ -248,13 +247,4 @@ def load_assignment(src: Any) -> tuple[Assignment, Path | None]:
     try:
         return Assignment.model_validate(src), base
     except ValidationError as e:
-        errors = []
-        for err in e.errors():
-            loc = [p for p in err["loc"] if not (isinstance(p, str) and p.startswith(("function-", "str", "dict")))]
-            message = err["msg"].removeprefix("Value error, ")
-            if err["type"] == "extra_forbidden":
-                message = "unknown field"
-            item = {"path": json_path(loc), "message": message}
-            if item not in errors:
-                errors.append(item)
-        raise AssignmentError(errors) from None
+        raise AssignmentError(pydantic_errors(e, Assignment)) from None

@@ -1,22 +1,40 @@
-"""What every integrator does at a hit: the surface's normals and material, spawn offsets, lobes."""
+"""What every integrator shares: the interface's types (SampleOut, Stack), the surface at a hit made
+ready for shading, spawn offsets, the reflection and transmission weights, fog and the background.
+
+Every @wp.func here that takes a struct is inlined: Warp passes structs by value (tracer/structs.py).
+"""
 
 import warp as wp
 
-from tracer.compile import LightData, MaterialData, PatchIndex, RadiosityData, SceneData
-from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
-from tracer.kinds import (
-    BUMP_NONE,
-    PATCHES_DISK,
-    PATCHES_NONE,
-    PATCHES_SPHERE,
-    RAD_FLAT,
-    RAY_OFFSET,
-    T_FAR,
-    TEX_NONE,
-)
-from tracer.lights import is_area_light, light_at, sample_area_light
+from tracer.geometry import Hit
+from tracer.kinds import BUMP_NONE, RAY_OFFSET, TEX_NONE
 from tracer.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
 from tracer.sampling import sample_cos_lobe, to_world
+from tracer.structs import MaterialData, SceneData
+
+
+@wp.struct
+class SampleOut:
+    """One pixel sample: its radiance, its rays by RAY_* kind, and its first hit (for the AOVs)."""
+
+    color: wp.vec3  # radiance along the eye ray
+    counts: wp.vec4i  # rays traced, by RAY_* kind
+    depth: float  # distance to the eye ray's hit; 0 when it left the scene
+    normal: wp.vec3  # shading normal there (zero on a miss)
+    albedo: wp.vec3  # kd there (zero on a miss)
+
+
+@wp.struct
+class Stack:
+    """Per-thread scratch of the integrators that keep pending rays (whitted's ray tree): row = thread,
+    column = stack slot. Every integrator's `trace` receives it; the others leave it alone."""
+
+    o: wp.array2d(dtype=wp.vec3)  # origin
+    d: wp.array2d(dtype=wp.vec3)  # unit direction
+    k: wp.array2d(dtype=wp.vec3)  # the ray's own K (kr or kt, with Fresnel)
+    w: wp.array2d(dtype=wp.vec3)  # product of K's from the eye to this ray
+    tau: wp.array2d(dtype=wp.vec3)  # w times the fog transmittance of its ancestors
+    i: wp.array2d(dtype=wp.vec3i)  # depth, kind, parent node
 
 
 @wp.struct
@@ -24,6 +42,7 @@ class Surface:
     """A hit made ready for shading."""
 
     m: MaterialData
+    p: wp.vec3  # the hit point
     front: int  # 1 when the ray arrived on the side the geometric normal points to
     nf: wp.vec3  # geometric normal turned towards the incoming ray (spawn offsets)
     n: wp.vec3  # shading normal (smooth, bumped) turned towards the incoming ray
@@ -32,21 +51,24 @@ class Surface:
     emission: wp.vec3  # emitted radiance towards the ray (front face only)
 
 
-@wp.struct
-class SampleOut:
-    """One pixel sample: its radiance, its rays by RAY_* kind, and its first hit (for the AOVs)."""
-
-    color: wp.vec3
-    counts: wp.vec4i
-    depth: float  # distance to the eye ray's hit; 0 when it left the scene
-    normal: wp.vec3  # shading normal there (zero on a miss)
-    albedo: wp.vec3  # kd there (zero on a miss)
-
-
 @wp.func
+def no_sample() -> SampleOut:
+    """A sample that has seen nothing yet: black, no rays, no hit."""
+    out = SampleOut()
+    out.color = wp.vec3(0.0)
+    out.counts = wp.vec4i(0)
+    out.depth = 0.0
+    out.normal = wp.vec3(0.0)
+    out.albedo = wp.vec3(0.0)
+    return out
+
+
+@wp.func(inline=True)
 def surface_at(scene: SceneData, h: Hit, rd: wp.vec3) -> Surface:
+    """The material, normals and colours at hit h of a ray travelling along rd."""
     s = Surface()
     s.m = scene.materials[h.mat]
+    s.p = h.p
     front = wp.dot(rd, h.ng) < 0.0
     s.front = wp.where(front, 1, 0)
     s.nf = wp.where(front, h.ng, -h.ng)
@@ -83,41 +105,7 @@ def glossy_direction(ideal: wp.vec3, gloss: float, u1: float, u2: float) -> wp.v
     return wp.normalize(to_world(sample_cos_lobe(u1, u2, gloss), ideal))
 
 
-@wp.func
-def shadow_reach(scene: SceneData, light: LightData, so: wp.vec3, l: wp.vec3, dist: float) -> float:
-    """How far a shadow ray from so along l may go: to the light at distance `dist`, or for an area
-    light to where the ray meets the light's own surface (which does not shadow itself)."""
-    if light.shape >= 0:
-        t = intersect_shape(scene.shapes[light.shape], so, l, T_FAR)
-        if t > 0.0:
-            return t
-    return dist
-
-
-@wp.func
-def shadow_test(scene: SceneData, so: wp.vec3, l: wp.vec3, t_max: float, time: float, record: int) -> Hit:
-    """The shadow ray's occluder (hit = 1) or none. Rendering asks only whether there is one; the
-    ray tree (record = 1) also wants the nearest one, which the same test finds."""
-    if record != 0:
-        return closest_hit(scene, so, l, t_max, time)
-    h = Hit()
-    h.hit = occluded(scene, so, l, t_max, time)
-    return h
-
-
-@wp.func
-def light_sample(light: LightData, p: wp.vec3, u: wp.vec2, n_rays: int):
-    """One shadow-ray sample of a light seen from p, u picking the point of an area light: (unit
-    direction, distance, E of this ray (an area light's share: 1 / n_rays of it), solid-angle pdf of
-    the direction (area lights; 0 otherwise), 1 if the light reaches p)."""
-    if is_area_light(light):
-        l, dist, e, pdf, reaches = sample_area_light(light, p, u[0], u[1])
-        return l, dist, e / float(n_rays), pdf, reaches
-    l, dist, e, reaches = light_at(light, p)
-    return l, dist, e, 0.0, reaches
-
-
-@wp.func
+@wp.func(inline=True)
 def scatter_weights(m: MaterialData, rd: wp.vec3, n: wp.vec3, front: int):
     """The weights of the reflection and transmission rays at a hit, and the refracted direction:
     (kr, kt, transmitted direction, 1 under total internal reflection). With `fresnel` the weights
@@ -144,7 +132,7 @@ def scatter_weights(m: MaterialData, rd: wp.vec3, n: wp.vec3, front: int):
     return kr, kt, tdir, tir
 
 
-@wp.func
+@wp.func(inline=True)
 def miss_radiance(scene: SceneData) -> wp.vec3:
     """What a ray that leaves the scene returns: the background, or in fog the fog colour."""
     if scene.fog_density > 0.0:
@@ -152,84 +140,9 @@ def miss_radiance(scene: SceneData) -> wp.vec3:
     return scene.background
 
 
-@wp.func
+@wp.func(inline=True)
 def fog_transmittance(scene: SceneData, t: float) -> float:
     """e^(-density t) over a ray's distance t to its hit (1 without fog)."""
     if scene.fog_density > 0.0:
         return wp.exp(-scene.fog_density * t)
     return 1.0
-
-
-@wp.func
-def patch_at(ix: PatchIndex, p: wp.vec3, nf: wp.vec3, obj: int):
-    """The radiosity patch side under the point p of object obj (at time 0), on the side nf points to:
-    (patch side k, its triangle in ix.mesh, barycentrics u, v there), or k = -1 off the patches (an area
-    light, a plane beyond the meshed part, an object the solve does not see).
-
-    Flat surfaces lie on their facets: the nearest facet. A sphere's facets are inscribed in it: the
-    facet that the ray from the centre through p crosses. A disk's rim bulges past its polygon of
-    facets: the point is first pulled radially inside the polygon."""
-    face = int(-1)
-    u = float(0.0)
-    v = float(0.0)
-    kind = PATCHES_NONE
-    if obj >= 0:
-        kind = ix.obj_kind[obj]
-    if kind == PATCHES_SPHERE:
-        c = ix.obj_center[obj]
-        qr = wp.mesh_query_ray(ix.mesh, c, wp.normalize(p - c), ix.obj_radius[obj] * 1.001)
-        if qr.result:
-            face = qr.face
-            u = qr.u
-            v = qr.v
-    elif kind != PATCHES_NONE:
-        x = p
-        if kind == PATCHES_DISK:
-            c = ix.obj_center[obj]
-            r = wp.length(p - c)
-            if r > ix.obj_radius[obj]:
-                x = c + (p - c) * (ix.obj_radius[obj] / r)
-        q = wp.mesh_query_point_no_sign(ix.mesh, x, ix.max_dist)
-        if q.result:
-            face = q.face
-            u = q.u
-            v = q.v
-    if face < 0:
-        return -1, -1, u, v
-    if ix.tri_obj[face] != obj:  # a different surface just as close (a light on a ceiling)
-        return -1, -1, u, v
-    k = ix.tri_patch[face]
-    if wp.dot(wp.mesh_eval_face_normal(ix.mesh, face), nf) < 0.0:  # the back side
-        k = k + ix.n
-    return k, face, u, v
-
-
-@wp.func
-def radiosity_at(rad: RadiosityData, p: wp.vec3, nf: wp.vec3, obj: int):
-    """The radiosity solution at a hit at p on object obj, seen from the side nf points to:
-    (1, B, the interreflected part of B, rho), or (0, ...) off the patches (see `patch_at`).
-    B and its interreflected part are the patch's own values in the flat display, else
-    interpolated from the patch's corners (smooth display, two-pass shading)."""
-    zero = wp.vec3(0.0)
-    k, face, u, v = patch_at(rad.index, p, nf, obj)
-    if k < 0:
-        return 0, zero, zero, zero
-    b = rad.radiosity[k]
-    ind = rad.indirect[k]
-    if rad.mode != RAD_FLAT:  # smooth display, and the two-pass interreflection: interpolated at the corners
-        c = 3 * face
-        if k >= rad.index.n:  # the back side's corners follow the front sides'
-            c = c + 3 * rad.index.tri_patch.shape[0]
-        w = 1.0 - u - v
-        b = u * rad.corners[c] + v * rad.corners[c + 1] + w * rad.corners[c + 2]
-        ind = u * rad.corners_ind[c] + v * rad.corners_ind[c + 1] + w * rad.corners_ind[c + 2]
-    return 1, b, ind, rad.rho[k]
-
-
-@wp.func
-def safe_div(a: wp.vec3, b: wp.vec3) -> wp.vec3:
-    return wp.vec3(
-        wp.where(b[0] > 0.0, a[0] / b[0], 0.0),
-        wp.where(b[1] > 0.0, a[1] / b[1], 0.0),
-        wp.where(b[2] > 0.0, a[2] / b[2], 0.0),
-    )

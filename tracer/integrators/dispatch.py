@@ -6,18 +6,21 @@
 tree recorded. `make_kernels(trace, module)` builds the three for one integrator's `trace` (Warp
 kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
 code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
-inlines the shared helpers less when more code calls them).
+inlines the shared helpers less when more code calls them). `KERNELS` has them for every
+integrator of the table in tracer/integrators/__init__.py.
 """
+
+import importlib
 
 import warp as wp
 
 from tracer.camera import camera_ray, shutter_time
-from tracer.compile import SceneData
-from tracer.integrators import path, whitted
-from tracer.integrators.common import SampleOut
+from tracer.integrators import INTEGRATORS
+from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.record import TreeRecord
 from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.sampling import film_offset, filter_offset, pixel_key, rng_start
+from tracer.structs import SceneData
 
 
 @wp.struct
@@ -40,7 +43,9 @@ class FilmBuffers:
 # colour is traced once and kept in a per-thread cache, and its random numbers are keyed by its
 # index on that grid, so pass L (subdivision stopped at level L) re-traces nothing differently.
 
-vec32i = wp.types.vector(length=32, dtype=wp.int32)
+ADAPTIVE_STACK = 32  # cells pending at once: 3 more per level of subdivision (max_level <= 8 in the scene format)
+vec_cells = wp.types.vector(length=ADAPTIVE_STACK, dtype=wp.int32)
+PASSES_PER_PIXEL = wp.constant(16)  # cache stamps: pixel * this + pass level + 1 (levels 0..8)
 
 
 @wp.struct
@@ -49,88 +54,78 @@ class AdaptiveCache:
     stamp: wp.array2d(dtype=wp.int32)  # which pixel and pass filled each entry
 
 
-@wp.func
-def path_trace(
-    scene: SceneData,
-    o: wp.vec3,
-    d: wp.vec3,
-    time: float,
-    rng: wp.uint32,
-    key: wp.uint32,
-    sample: int,
-    st: whitted.Stack,
-    row: int,
-    record: int,
-    rec: TreeRecord,
-) -> SampleOut:
-    """path.trace with the common signature (it keeps no stack)."""
-    return path.trace(scene, o, d, time, rng, key, sample, record, rec)
+@wp.func(inline=True)
+def pixel_sample(scene: SceneData, x: int, y: int, s: int):
+    """Sample s of pixel (x, y): its film position (filter importance sampled) and weight, its random
+    state (after the two draws of the position) and its pixel's low-discrepancy key."""
+    rng = rng_start(scene.seed, y * scene.width + x, s)
+    u1 = wp.randf(rng)
+    u2 = wp.randf(rng)
+    off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
+    key = pixel_key(scene.seed, y * scene.width + x)
+    return float(x) + off[0], float(y) + off[1], weight, rng, key
 
 
-@wp.func
-def whitted_trace(
-    scene: SceneData,
-    o: wp.vec3,
-    d: wp.vec3,
-    time: float,
-    rng: wp.uint32,
-    key: wp.uint32,
-    sample: int,
-    st: whitted.Stack,
-    row: int,
-    record: int,
-    rec: TreeRecord,
-) -> SampleOut:
-    """whitted.trace with the common signature (its random numbers come from rng alone)."""
-    return whitted.trace(scene, o, d, time, rng, st, row, record, rec)
+@wp.func(inline=True)
+def grid_sample(scene: SceneData, x: int, y: int, i: int, j: int, g: int):
+    """Fine-grid point (i, j) of pixel (x, y) (adaptive sampler, g cells a side): its film position,
+    exactly there or jittered by up to half the grid spacing when sampler.jitter is set, its random
+    state and its pixel's key. Its sample index is j (g + 1) + i."""
+    rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
+    fx = float(i) / float(g)
+    fy = float(j) / float(g)
+    if scene.jitter != 0:
+        fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+        fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
+    return float(x) + fx, float(y) + fy, rng, pixel_key(scene.seed, y * scene.width + x)
+
+
+@wp.func(inline=True)
+def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32):
+    """The eye ray through film position (fx, fy), its lens point and shutter time drawn from rng:
+    (origin, unit direction, time, rng after its draws)."""
+    state = wp.uint32(rng)
+    lens1 = wp.randf(state)
+    lens2 = wp.randf(state)
+    time = shutter_time(scene.camera, wp.randf(state))
+    o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
+    return o, d, time, state
 
 
 def make_kernels(trace, module: str):
-    """(render_pixels, render_adaptive, trace_one) for an integrator's trace(scene, o, d, time, rng, key,
-    sample, stack, row, record, rec) -> SampleOut, compiled together as the Warp module `module`.
-    rng: the sample's random state; key and sample: its pixel's key and its index, for the
-    low-discrepancy dimensions (sampling.sample_2d)."""
+    """(render_pixels, render_adaptive, trace_one) for an integrator's `trace` (the signature in
+    tracer/integrators/__init__.py), compiled together as the Warp module `module`."""
 
-    @wp.func
-    def trace_at(
+    @wp.func(inline=False)
+    def trace_outlined(
         scene: SceneData,
-        fx: float,
-        fy: float,
+        o: wp.vec3,
+        d: wp.vec3,
+        time: float,
         rng: wp.uint32,
         key: wp.uint32,
         sample: int,
-        st: whitted.Stack,
+        st: Stack,
         row: int,
         record: int,
         rec: TreeRecord,
     ) -> SampleOut:
-        """The integrator's estimate through film position (fx, fy), with a lens point and a time from rng."""
-        state = wp.uint32(rng)
-        lens1 = wp.randf(state)
-        lens2 = wp.randf(state)
-        time = shutter_time(scene.camera, wp.randf(state))
-        o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
-        return trace(scene, o, d, time, state, key, sample, st, row, record, rec)
+        """`trace` compiled once, out of line, for the adaptive sampler and the ray tree. render_pixels
+        inlines it (with record = 0 the ray tree's code folds away: 1.4x faster), but an inlined copy at
+        each call site of the other kernels would take minutes to compile (BENCHMARKS.md)."""
+        return trace(scene, o, d, time, rng, key, sample, st, row, record, rec)
 
-    @wp.func
-    def trace_sample(
-        scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, row: int, record: int, rec: TreeRecord
-    ):
-        """Sample s of pixel (x, y): film position (filter importance sampled), lens point, time, and the
-        integrator's estimate. Returns the sample (its radiance already times the filter weight) and the weight."""
-        rng = rng_start(scene.seed, y * scene.width + x, s)
-        u1 = wp.randf(rng)
-        u2 = wp.randf(rng)
-        off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
-        key = pixel_key(scene.seed, y * scene.width + x)
-        out = trace_at(scene, float(x) + off[0], float(y) + off[1], rng, key, s, st, row, record, rec)
-        out.color = out.color * weight
-        return out, weight
+    @wp.func(inline=True)
+    def grid_trace(
+        scene: SceneData, x: int, y: int, i: int, j: int, g: int, st: Stack, row: int, record: int, rec: TreeRecord
+    ) -> SampleOut:
+        """The integrator's estimate at fine-grid point (i, j) of pixel (x, y) (see grid_sample)."""
+        fx, fy, rng, key = grid_sample(scene, x, y, i, j, g)
+        o, d, time, state = eye_ray(scene, fx, fy, rng)
+        return trace_outlined(scene, o, d, time, state, key, j * (g + 1) + i, st, row, record, rec)
 
     @wp.kernel(module=module)
-    def render_pixels(
-        scene: SceneData, p0: int, s0: int, s1: int, st: whitted.Stack, rec: TreeRecord, film: FilmBuffers
-    ):
+    def render_pixels(scene: SceneData, p0: int, s0: int, s1: int, st: Stack, rec: TreeRecord, film: FilmBuffers):
         """Add samples s0..s1-1 of pixels p0.. (row-major) to the film's sums (one thread per pixel)."""
         row = wp.tid()
         pix = p0 + row
@@ -145,9 +140,12 @@ def make_kernels(trace, module: str):
         nrm = film.normal[y, x]
         alb = film.albedo[y, x]
         for s in range(s0, s1):
-            out, weight = trace_sample(scene, x, y, s, st, row, 0, rec)
-            acc = acc + out.color
-            sq = sq + wp.cw_mul(out.color, out.color)
+            fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
+            o, d, time, state = eye_ray(scene, fx, fy, rng)
+            out = trace(scene, o, d, time, state, key, s, st, row, 0, rec)
+            c = out.color * weight  # the sample times its filter weight
+            acc = acc + c
+            sq = sq + wp.cw_mul(c, c)
             cnt = cnt + out.counts
             dep = dep + out.depth
             nrm = nrm + out.normal
@@ -159,31 +157,7 @@ def make_kernels(trace, module: str):
         film.normal[y, x] = nrm
         film.albedo[y, x] = alb
 
-    @wp.func
-    def grid_point(
-        scene: SceneData,
-        x: int,
-        y: int,
-        i: int,
-        j: int,
-        g: int,
-        st: whitted.Stack,
-        row: int,
-        record: int,
-        rec: TreeRecord,
-    ) -> SampleOut:
-        """The sample at fine-grid point (i, j) of pixel (x, y): exactly there, or jittered by up to half
-        the grid spacing when sampler.jitter is set (stochastic positions, then adaptive subdivision)."""
-        rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
-        fx = float(i) / float(g)
-        fy = float(j) / float(g)
-        if scene.jitter != 0:
-            fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-            fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-        key = pixel_key(scene.seed, y * scene.width + x)
-        return trace_at(scene, float(x) + fx, float(y) + fy, rng, key, j * (g + 1) + i, st, row, record, rec)
-
-    @wp.func
+    @wp.func(inline=True)
     def cached_point(
         scene: SceneData,
         x: int,
@@ -193,7 +167,7 @@ def make_kernels(trace, module: str):
         g: int,
         stamp: int,
         cache: AdaptiveCache,
-        st: whitted.Stack,
+        st: Stack,
         row: int,
         rec: TreeRecord,
     ):
@@ -201,7 +175,7 @@ def make_kernels(trace, module: str):
         k = j * (g + 1) + i
         if cache.stamp[row, k] == stamp:
             return cache.color[row, k], wp.vec4i(0)
-        out = grid_point(scene, x, y, i, j, g, st, row, 0, rec)
+        out = grid_trace(scene, x, y, i, j, g, st, row, 0, rec)
         cache.color[row, k] = out.color
         cache.stamp[row, k] = stamp
         return out.color, out.counts
@@ -211,7 +185,7 @@ def make_kernels(trace, module: str):
         scene: SceneData,
         p0: int,
         level: int,
-        st: whitted.Stack,
+        st: Stack,
         rec: TreeRecord,
         film: FilmBuffers,
         cache: AdaptiveCache,
@@ -224,18 +198,18 @@ def make_kernels(trace, module: str):
         x = pix % scene.width
         y = pix / scene.width
         g = 1 << (scene.max_level + 1)
-        stamp = pix * 16 + level + 1
+        stamp = pix * PASSES_PER_PIXEL + level + 1
         # the centre ray first: it gives the AOVs
         mid = g / 2
-        centre = grid_point(scene, x, y, mid, mid, g, st, row, 0, rec)
+        centre = grid_trace(scene, x, y, mid, mid, g, st, row, 0, rec)
         cache.color[row, mid * (g + 1) + mid] = centre.color
         cache.stamp[row, mid * (g + 1) + mid] = stamp
         counts = centre.counts
         total = wp.vec3(0.0)
         total_sq = wp.vec3(0.0)
-        ci = vec32i()
-        cj = vec32i()
-        cl = vec32i()
+        ci = vec_cells()
+        cj = vec_cells()
+        cl = vec_cells()
         sp = int(1)
         while sp > 0:
             sp -= 1
@@ -272,27 +246,32 @@ def make_kernels(trace, module: str):
         film.albedo[y, x] = centre.albedo
 
     @wp.kernel(module=module)
-    def trace_one(
-        scene: SceneData, x: int, y: int, s: int, st: whitted.Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)
-    ):
-        """One pixel sample with its ray tree recorded (adaptive: s is the index of a fine-grid point)."""
+    def trace_one(scene: SceneData, x: int, y: int, s: int, st: Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)):
+        """One pixel sample with its ray tree recorded: out[0] its radiance times its filter weight, out[1][0]
+        the weight (adaptive: s is the index of a fine-grid point, weight 1)."""
         if scene.sampler == SAMPLER_ADAPTIVE:
             g = 1 << (scene.max_level + 1)
-            r = grid_point(scene, x, y, s % (g + 1), s / (g + 1), g, st, 0, 1, rec)
+            r = grid_trace(scene, x, y, s % (g + 1), s / (g + 1), g, st, 0, 1, rec)
             out[0] = r.color
             out[1] = wp.vec3(1.0, 0.0, 0.0)
         else:
-            r, weight = trace_sample(scene, x, y, s, st, 0, 1, rec)
-            out[0] = r.color
+            fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
+            o, d, time, state = eye_ray(scene, fx, fy, rng)
+            r = trace_outlined(scene, o, d, time, state, key, s, st, 0, 1, rec)
+            out[0] = r.color * weight
             out[1] = wp.vec3(weight, 0.0, 0.0)
 
     return render_pixels, render_adaptive, trace_one
 
 
-KERNEL_MODULES = {Integrator.WHITTED: "tracer_kernels_whitted", Integrator.PATH: "tracer_kernels_path"}
-KERNELS = {
-    Integrator.WHITTED: make_kernels(whitted_trace, KERNEL_MODULES[Integrator.WHITTED]),
-    Integrator.PATH: make_kernels(path_trace, KERNEL_MODULES[Integrator.PATH]),
-}
-# radiosity is the ray tree with the solution in place of the ambient term (SceneData.rad)
-KERNELS[Integrator.RADIOSITY] = KERNELS[Integrator.WHITTED]
+def _kernels_of(module: str):
+    """The kernels of integrator module `module`, made once however many integrators share them."""
+    if module not in _BUILT:
+        trace = importlib.import_module(f"tracer.integrators.{module}").trace
+        _BUILT[module] = make_kernels(trace, KERNEL_MODULES[module])
+    return _BUILT[module]
+
+
+_BUILT: dict = {}
+KERNEL_MODULES = {i.kernels: f"tracer_kernels_{i.kernels}" for i in INTEGRATORS}  # Warp module of each
+KERNELS = {Integrator[i.name.upper()]: _kernels_of(i.kernels) for i in INTEGRATORS}

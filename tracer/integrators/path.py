@@ -19,66 +19,94 @@ one a shadow ray), so max_depth 1 is direct light only, exactly as in the `whitt
 
 import warp as wp
 
-from tracer.compile import SceneData
 from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
+    Stack,
+    Surface,
     fog_transmittance,
     glossy_direction,
-    light_sample,
     max3,
     miss_radiance,
+    no_sample,
     offset_origin,
     scatter_weights,
-    shadow_reach,
-    shadow_test,
     surface_at,
 )
-from tracer.integrators.record import F_FOG, I_END, TreeRecord, begin_node, record_hit, record_miss, record_terms
-from tracer.integrators.whitted import shadow_node
-from tracer.kinds import (
-    END_ABSORBED,
-    END_MAX_DEPTH,
-    RAY_EYE,
-    RAY_REFLECTION,
-    RAY_SHADOW,
-    RAY_TRANSMISSION,
-    T_FAR,
-)
-from tracer.lights import area_light_pdf, is_area_light
+from tracer.integrators.direct import direct_light
+from tracer.integrators.record import TreeRecord, begin_node, record_end, record_hit, record_miss, record_terms
+from tracer.kinds import END_ABSORBED, END_MAX_DEPTH, RAY_EYE, RAY_REFLECTION, RAY_SHADOW, RAY_TRANSMISSION, T_FAR
+from tracer.lights import area_light_pdf
 from tracer.materials import phong_terms, reflect
 from tracer.sampling import (
-    cos_lobe_pdf,
-    cosine_hemisphere_pdf,
+    phong_lobes_pdf,
+    power_heuristic,
     sample_2d,
     sample_cos_lobe,
     sample_cosine_hemisphere,
     to_world,
 )
+from tracer.structs import SceneData
 
 RR_DEPTH = wp.constant(5)  # Russian roulette from this depth on
-DIMS_PER_BOUNCE = wp.constant(1024)  # low-discrepancy dimensions of a bounce: BSDF, lobe, then one per light
+RR_MAX_SURVIVAL = wp.constant(0.95)  # a path survives the roulette with probability min(this, max(throughput))
+# Low-discrepancy dimensions (sampling.sample_2d) of the bounce at depth d: d * DIMS_PER_BOUNCE + one of these
+DIMS_PER_BOUNCE = wp.constant(1024)
+DIM_BSDF = wp.constant(0)  # where in the chosen lobe the extension ray goes
+DIM_LOBE = wp.constant(1)  # which lobe
+DIM_LIGHTS = wp.constant(2)  # light li's points: DIM_LIGHTS + li
 
 
-@wp.func
-def power_heuristic(nf: float, pf: float, ng: float, pg: float) -> float:
-    a = nf * pf
-    b = ng * pg
-    if a <= 0.0:
-        return 0.0
-    return (a * a) / (a * a + b * b)
+@wp.func(inline=True)
+def sample_lobes(
+    s: Surface,
+    rd: wp.vec3,
+    rdir: wp.vec3,
+    kr: wp.vec3,
+    kt: wp.vec3,
+    tdir: wp.vec3,
+    pd: float,
+    ps: float,
+    total: float,
+    u0: float,
+    u1: float,
+    u2: float,
+):
+    """The extension ray's direction from the material's lobes, u0 choosing the lobe (diffuse with
+    probability pd, the Phong lobe about the mirror direction rdir with ps, the mirror and the
+    refraction (tdir) in proportion to max(kr) and max(kt) of `total`) and (u1, u2) the direction in it:
+    (direction, factor f cos / pdf (zero for a direction on the wrong side), RAY_* kind, 1 for a discrete
+    or glossy lobe, the density of the direction under the continuous lobes)."""
+    m = s.m
+    factor = wp.vec3(0.0)
+    wi = wp.vec3(0.0)
+    kind = int(RAY_REFLECTION)
+    delta = int(1)
+    pdf = float(0.0)
+    if u0 < pd + ps:
+        # one sample of the continuous mixture: f cos / (pd pdf_d + ps pdf_s)
+        if u0 < pd:
+            wi = to_world(sample_cosine_hemisphere(u1, u2), s.n)
+        else:
+            wi = to_world(sample_cos_lobe(u1, u2, m.shininess), rdir)
+        pdf = phong_lobes_pdf(pd, ps, m.shininess, s.n, rdir, wi)
+        if wp.dot(wi, s.nf) > 0.0 and wp.dot(wi, s.n) > 0.0 and pdf > 0.0:
+            dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, s.n, wi, -rd)
+            factor = (dterm + sterm) / pdf
+        delta = 0
+    elif u0 < pd + ps + max3(kr) / total:
+        wi = glossy_direction(rdir, m.gloss, u1, u2)
+        if wp.dot(wi, s.nf) > 0.0 or m.gloss <= 0.0:
+            factor = kr * (total / max3(kr))
+    else:
+        wi = glossy_direction(tdir, m.gloss, u1, u2)
+        kind = RAY_TRANSMISSION
+        if wp.dot(wi, s.nf) < 0.0 or m.gloss <= 0.0:
+            factor = kt * (total / max3(kt))
+    return wi, factor, kind, delta, pdf
 
 
-@wp.func
-def continuous_pdf(pd: float, ps: float, shininess: float, n: wp.vec3, r: wp.vec3, wi: wp.vec3) -> float:
-    """Density of direction wi under the diffuse + Phong mixture (lobe choice included)."""
-    pdf = pd * cosine_hemisphere_pdf(wp.dot(n, wi))
-    if ps > 0.0:
-        pdf += ps * cos_lobe_pdf(wp.dot(r, wi), shininess)
-    return pdf
-
-
-@wp.func
+@wp.func(inline=True)
 def trace(
     scene: SceneData,
     o: wp.vec3,
@@ -87,16 +115,15 @@ def trace(
     rng: wp.uint32,
     key: wp.uint32,
     sample: int,
+    st: Stack,
+    row: int,
     record: int,
     rec: TreeRecord,
 ) -> SampleOut:
-    """One path from the eye ray (o, d): its radiance estimate, its rays by kind, its first hit."""
-    out = SampleOut()
-    out.color = wp.vec3(0.0)
-    out.counts = wp.vec4i(0)
-    out.depth = 0.0
-    out.normal = wp.vec3(0.0)
-    out.albedo = wp.vec3(0.0)
+    """One path from the eye ray (o, d): its radiance estimate, its rays by kind, its first hit.
+    key and sample: the pixel's low-discrepancy dimensions and this sample's index in them; rng: the
+    Russian roulette. It keeps no stack."""
+    out = no_sample()
     state = wp.uint32(rng)
     beta = wp.vec3(1.0)  # throughput: product of f cos / pdf along the path
     k_ray = wp.vec3(1.0)  # this ray's own factor of beta (the ray tree's k)
@@ -122,16 +149,11 @@ def trace(
         if scene.fog_density > 0.0:
             out.color += wp.cw_mul(beta, (1.0 - fog_t) * scene.fog_color)
         s = surface_at(scene, h, rd)
-        m = s.m
-        n = s.n
-        v = -rd
         if kind == RAY_EYE:
             out.depth = h.t
-            out.normal = n
+            out.normal = s.n
             out.albedo = s.kd
-        if node >= 0:
-            record_hit(rec, node, h.t, h.p, n, h.obj, h.mat, s.front)
-            rec.floats[node, F_FOG] = fog_t
+        record_hit(rec, node, h.t, h.p, s.n, h.obj, h.mat, s.front, fog_t)
         tb = beta * fog_t  # throughput at the surface
 
         # emission, MIS-weighted against light sampling when an area light is reached by a sampled direction
@@ -140,70 +162,44 @@ def trace(
             pl = area_light_pdf(scene.lights[h.light], p_before, rd, h.t)
             emission = emission * power_heuristic(1.0, pdf_before, float(scene.light_samples), pl)
 
-        # the continuous lobes: diffuse and the Phong highlight; their selection weights
-        rdir = wp.normalize(reflect(rd, n))
+        # the lobes, chosen in proportion to their largest weight: diffuse and the Phong highlight
+        # (continuous), the mirror and refraction (discrete, with Fresnel and total internal reflection)
+        rdir = wp.normalize(reflect(rd, s.n))
+        kr, kt, tdir, tir = scatter_weights(s.m, rd, s.n, s.front)
         wd = max3(s.kd)
-        ws = max3(m.ks)
-        diffuse = wp.vec3(0.0)
-        specular = wp.vec3(0.0)
-
-        # Fresnel and total internal reflection give the discrete lobes' weights (as in `whitted`)
-        kr, kt, tdir, tir = scatter_weights(m, rd, n, s.front)
-        wr = max3(kr)
-        wt = max3(kt)
-        total = wd + ws + wr + wt
+        ws = max3(s.m.ks)
+        total = wd + ws + max3(kr) + max3(kt)
         pd = float(0.0)
         ps = float(0.0)
         if total > 0.0:
             pd = wd / total
             ps = ws / total
 
-        # next-event estimation towards every light
-        if wd + ws > 0.0:
-            for li in range(scene.num_lights):
-                light = scene.lights[li]
-                area = is_area_light(light)
-                n_rays = wp.where(area, scene.light_samples, 1)
-                for k in range(n_rays):
-                    # the k-th of the pixel's (sample x light_samples) points on this light, evenly spread
-                    u = sample_2d(key, depth * DIMS_PER_BOUNCE + 2 + li, sample * n_rays + k)
-                    l, dist, e, pl, reaches = light_sample(light, h.p, u, n_rays)
-                    mis = float(1.0)
-                    if area:
-                        mis = power_heuristic(float(n_rays), pl, 1.0, continuous_pdf(pd, ps, m.shininess, n, rdir, l))
-                    if reaches != 0 and wp.dot(n, l) > 0.0:
-                        so = offset_origin(h.p, s.nf, l)
-                        out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1
-                        sh = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record)
-                        blocked = sh.hit
-                        dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, n, l, v)
-                        dterm = wp.cw_mul(e, dterm) * mis
-                        sterm = wp.cw_mul(e, sterm) * mis
-                        if blocked == 0:
-                            diffuse += dterm
-                            specular += sterm
-                        if node >= 0:
-                            shadow_node(
-                                rec,
-                                node,
-                                depth,
-                                so,
-                                l,
-                                tb,
-                                time,
-                                li,
-                                blocked,
-                                sh.t,
-                                sh.p,
-                                sh.ng,
-                                sh.obj,
-                                sh.mat,
-                                dterm + sterm,
-                            )
-        local = emission + diffuse + specular
-        out.color += wp.cw_mul(tb, local)
-        if node >= 0:
-            record_terms(rec, node, emission, wp.vec3(0.0), diffuse, specular)
+        # next-event estimation towards every light (when a continuous lobe can reflect it)
+        lights = wp.where(wd + ws > 0.0, scene.num_lights, 0)
+        dims = depth * DIMS_PER_BOUNCE
+        diffuse, specular, shadow_rays, state = direct_light(
+            scene,
+            s,
+            -rd,
+            time,
+            lights,
+            state,
+            key,
+            dims + DIM_LIGHTS,
+            sample,
+            pd,
+            ps,
+            rdir,
+            record,
+            rec,
+            node,
+            depth,
+            tb,
+        )
+        out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + shadow_rays
+        out.color += wp.cw_mul(tb, emission + diffuse + specular)
+        record_terms(rec, node, emission, wp.vec3(0.0), diffuse, specular)
 
         # the extension ray
         end = int(-1)
@@ -212,38 +208,11 @@ def trace(
         elif total <= 0.0:
             end = END_ABSORBED
         else:
-            u0 = sample_2d(key, depth * DIMS_PER_BOUNCE + 1, sample)[0]  # which lobe
-            uv = sample_2d(key, depth * DIMS_PER_BOUNCE, sample)  # where in it
-            u1 = uv[0]
-            u2 = uv[1]
-            factor = wp.vec3(0.0)
-            wi = wp.vec3(0.0)
-            next_kind = int(RAY_REFLECTION)
-            if u0 < pd + ps:
-                # one sample of the continuous mixture: f cos / (pd pdf_d + ps pdf_s)
-                if u0 < pd:
-                    wi = to_world(sample_cosine_hemisphere(u1, u2), n)
-                else:
-                    wi = to_world(sample_cos_lobe(u1, u2, m.shininess), rdir)
-                pdf = continuous_pdf(pd, ps, m.shininess, n, rdir, wi)
-                if wp.dot(wi, s.nf) > 0.0 and wp.dot(wi, n) > 0.0 and pdf > 0.0:
-                    dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, n, wi, v)
-                    factor = (dterm + sterm) / pdf
-                delta_before = 0
-                pdf_before = pdf
-            elif u0 < pd + ps + wr / total:
-                wi = glossy_direction(rdir, m.gloss, u1, u2)
-                if wp.dot(wi, s.nf) > 0.0 or m.gloss <= 0.0:
-                    factor = kr * (total / wr)
-                delta_before = 1
-            else:
-                wi = glossy_direction(tdir, m.gloss, u1, u2)
-                next_kind = RAY_TRANSMISSION
-                if wp.dot(wi, s.nf) < 0.0 or m.gloss <= 0.0:
-                    factor = kt * (total / wt)
-                delta_before = 1
+            u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
+            uv = sample_2d(key, dims + DIM_BSDF, sample)
+            wi, factor, next_kind, delta, pdf = sample_lobes(s, rd, rdir, kr, kt, tdir, pd, ps, total, u0, uv[0], uv[1])
             if depth >= RR_DEPTH:  # Russian roulette
-                q = wp.min(0.95, max3(wp.cw_mul(tb, factor)))
+                q = wp.min(RR_MAX_SURVIVAL, max3(wp.cw_mul(tb, factor)))
                 if wp.randf(state) >= q:
                     factor = wp.vec3(0.0)
                 else:
@@ -253,6 +222,8 @@ def trace(
             else:
                 k_ray = factor
                 beta = wp.cw_mul(tb, factor)
+                delta_before = delta
+                pdf_before = pdf
                 p_before = h.p
                 ro = offset_origin(h.p, s.nf, wi)
                 rd = wi
@@ -260,7 +231,6 @@ def trace(
                 parent = node
                 depth = depth + 1
         if end >= 0:
-            if node >= 0:
-                rec.ints[node, I_END] = end
+            record_end(rec, node, end)
             depth = 0
     return out

@@ -2,11 +2,14 @@
 
 The image kernels pass a record with cap 0 and record = 0, so the same @wp.func code makes the
 image and the tree; tracer/raytree.py decodes the arrays into the JSON of docs/scene-format.md.
+Every writer but `begin_node` does nothing for node -1 (not recorded, or past the cap), so an
+integrator calls them unconditionally and never touches the layout.
 """
 
 import warp as wp
 
-from tracer.kinds import END_MISS, END_NONE
+from tracer.geometry import Hit
+from tracer.kinds import END_ABSORBED, END_LIGHT, END_MISS, END_NONE, RAY_SHADOW
 
 # Node record layout: integers, vectors and floats per node.
 I_KIND, I_DEPTH, I_PARENT, I_HIT, I_OBJ, I_MAT, I_FRONT, I_LIGHT, I_OCCLUDED, I_END = range(10)
@@ -26,10 +29,12 @@ class TreeRecord:
     floats: wp.array2d(dtype=wp.float32)  # (cap, NUM_F)
 
 
-@wp.func
+@wp.func(inline=True)
 def begin_node(
     rec: TreeRecord, kind: int, depth: int, parent: int, o: wp.vec3, d: wp.vec3, w: wp.vec3, k: wp.vec3, time: float
 ) -> int:
+    """A new node for the ray (o, d) of RAY_* `kind`, child of `parent` (-1: the root), with weight w (the
+    product of K's from the eye) and its own factor k: its index, or -1 past the cap."""
     node = wp.atomic_add(rec.count, 0, 1)
     if node >= rec.cap:
         return -1
@@ -55,19 +60,23 @@ def begin_node(
     return node
 
 
-@wp.func
-def record_hit(rec: TreeRecord, node: int, t: float, p: wp.vec3, n: wp.vec3, obj: int, mat: int, front: int):
+@wp.func(inline=True)
+def record_hit(
+    rec: TreeRecord, node: int, t: float, p: wp.vec3, n: wp.vec3, obj: int, mat: int, front: int, fog: float
+):
+    """The ray's hit at distance t: point, shading normal n, object, material, side, fog transmittance."""
     if node >= 0:
         rec.ints[node, I_HIT] = 1
         rec.ints[node, I_OBJ] = obj
         rec.ints[node, I_MAT] = mat
         rec.ints[node, I_FRONT] = front
         rec.floats[node, F_T] = t
+        rec.floats[node, F_FOG] = fog
         rec.vecs[node, V_POINT] = p
         rec.vecs[node, V_NORMAL] = n
 
 
-@wp.func
+@wp.func(inline=True)
 def record_terms(rec: TreeRecord, node: int, emission: wp.vec3, ambient: wp.vec3, diffuse: wp.vec3, specular: wp.vec3):
     if node >= 0:
         rec.vecs[node, V_EMISSION] = emission
@@ -76,9 +85,46 @@ def record_terms(rec: TreeRecord, node: int, emission: wp.vec3, ambient: wp.vec3
         rec.vecs[node, V_SPECULAR] = specular
 
 
-@wp.func
+@wp.func(inline=True)
 def record_miss(rec: TreeRecord, node: int, fog: int):
     """The ray left the scene (in fog its transmittance is 0: it returns the fog colour)."""
     if node >= 0:
         rec.ints[node, I_END] = END_MISS
         rec.floats[node, F_FOG] = wp.where(fog != 0, 0.0, 1.0)
+
+
+@wp.func(inline=True)
+def record_end(rec: TreeRecord, node: int, end: int):
+    """Why the ray has no more children (END_*)."""
+    if node >= 0:
+        rec.ints[node, I_END] = end
+
+
+@wp.func(inline=True)
+def record_shadow(
+    rec: TreeRecord,
+    node: int,
+    depth: int,
+    so: wp.vec3,
+    l: wp.vec3,
+    w: wp.vec3,
+    time: float,
+    li: int,
+    occluder: Hit,
+    carried: wp.vec3,
+):
+    """A shadow ray from so towards light li, child of `node`: the occluder it met (its normal turned
+    towards the ray), or what it carried from the light (E f cos(theta))."""
+    if node >= 0:
+        sn = begin_node(rec, RAY_SHADOW, depth, node, so, l, w, wp.vec3(1.0), time)
+        if sn >= 0:
+            rec.ints[sn, I_LIGHT] = li
+            rec.ints[sn, I_OCCLUDED] = occluder.hit
+            if occluder.hit != 0:
+                front = wp.dot(l, occluder.ng) < 0.0
+                n = wp.where(front, occluder.ng, -occluder.ng)
+                record_hit(rec, sn, occluder.t, occluder.p, n, occluder.obj, occluder.mat, wp.where(front, 1, 0), 1.0)
+                rec.ints[sn, I_END] = END_ABSORBED
+            else:
+                rec.vecs[sn, V_CARRIED] = carried
+                rec.ints[sn, I_END] = END_LIGHT

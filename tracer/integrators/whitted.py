@@ -13,72 +13,53 @@ With a stochastic sampler, a lens, a shutter, area lights and `gloss`, the same 
 distribution ray tracing (Cook, Porter & Carpenter 1984): every ray carries a time, shadow
 rays sample the area of the lights (penumbrae), and glossy rays are drawn from a cos^m lobe.
 
+With the radiosity integrator the same tree shades with a radiosity solution (tracer/radiosity.py):
+its interreflection in place of the ambient term (the two-pass method), or the patches' own radiance.
 With `record` = 1 the same code writes each ray as a node of the ray tree (record.py).
 """
 
 import warp as wp
 
-from tracer.compile import SceneData
-from tracer.geometry import PI, closest_hit
+from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
+    Stack,
     fog_transmittance,
     glossy_direction,
-    light_sample,
     max3,
     miss_radiance,
+    no_sample,
     offset_origin,
-    radiosity_at,
-    safe_div,
     scatter_weights,
-    shadow_reach,
-    shadow_test,
     surface_at,
 )
+from tracer.integrators.direct import STRATIFIED, direct_light
 from tracer.integrators.record import (
-    F_FOG,
-    I_END,
-    I_LIGHT,
-    I_OCCLUDED,
-    V_CARRIED,
     TreeRecord,
     begin_node,
+    record_end,
     record_hit,
     record_miss,
     record_terms,
 )
 from tracer.kinds import (
     END_ABSORBED,
-    END_LIGHT,
     END_MAX_DEPTH,
     END_MIN_WEIGHT,
     END_NONE,
     END_TIR,
-    RAD_TWO_PASS,
     RAY_EYE,
     RAY_REFLECTION,
     RAY_SHADOW,
     RAY_TRANSMISSION,
     T_FAR,
 )
-from tracer.lights import is_area_light
-from tracer.materials import phong_terms, reflect
-from tracer.sampling import stratum
+from tracer.materials import reflect
+from tracer.radiosity import radiosity_ambient
+from tracer.structs import SceneData
 
 
-@wp.struct
-class Stack:
-    """Pending rays of each thread's ray tree: row = thread, column = stack slot."""
-
-    o: wp.array2d(dtype=wp.vec3)  # origin
-    d: wp.array2d(dtype=wp.vec3)  # unit direction
-    k: wp.array2d(dtype=wp.vec3)  # the ray's own K (kr or kt, with Fresnel)
-    w: wp.array2d(dtype=wp.vec3)  # product of K's from the eye to this ray
-    tau: wp.array2d(dtype=wp.vec3)  # w times the fog transmittance of its ancestors
-    i: wp.array2d(dtype=wp.vec3i)  # depth, kind, parent node
-
-
-@wp.func
+@wp.func(inline=True)
 def push(
     st: Stack,
     row: int,
@@ -92,6 +73,8 @@ def push(
     kind: int,
     parent: int,
 ) -> int:
+    """Put the ray (o, d) of RAY_* kind on the stack: its own K, the product of K's w, w times the fog
+    transmittance of its ancestors tau, its depth and parent node. Returns the new stack size."""
     st.o[row, sp] = o
     st.d[row, sp] = d
     st.k[row, sp] = k
@@ -101,58 +84,42 @@ def push(
     return sp + 1
 
 
-@wp.func
-def shadow_node(
-    rec: TreeRecord,
-    node: int,
-    depth: int,
-    so: wp.vec3,
-    l: wp.vec3,
+@wp.func(inline=True)
+def push_child(
+    st: Stack,
+    row: int,
+    sp: int,
+    p: wp.vec3,
+    nf: wp.vec3,
+    d: wp.vec3,
+    k: wp.vec3,
     w: wp.vec3,
-    time: float,
-    li: int,
-    blocked: int,
-    sh_t: float,
-    sh_p: wp.vec3,
-    sh_ng: wp.vec3,
-    sh_obj: int,
-    sh_mat: int,
-    carried: wp.vec3,
-):
-    """Record one shadow ray: the occluder it met, or what it carried from the light."""
-    if node >= 0:
-        sn = begin_node(rec, RAY_SHADOW, depth, node, so, l, w, wp.vec3(1.0), time)
-        if sn >= 0:
-            rec.ints[sn, I_LIGHT] = li
-            rec.ints[sn, I_OCCLUDED] = blocked
-            if blocked != 0:
-                front = wp.dot(l, sh_ng) < 0.0
-                record_hit(rec, sn, sh_t, sh_p, wp.where(front, sh_ng, -sh_ng), sh_obj, sh_mat, wp.where(front, 1, 0))
-                rec.ints[sn, I_END] = END_ABSORBED
-            else:
-                rec.vecs[sn, V_CARRIED] = carried
-                rec.ints[sn, I_END] = END_LIGHT
+    tau: wp.vec3,
+    depth: int,
+    kind: int,
+    parent: int,
+) -> int:
+    """A secondary ray from hit point p (normal nf) along d, of weight K = k, whose parent's weights are w, tau."""
+    return push(st, row, sp, offset_origin(p, nf, d), d, k, wp.cw_mul(w, k), wp.cw_mul(tau, k), depth, kind, parent)
 
 
-@wp.func
+@wp.func(inline=True)
 def trace(
     scene: SceneData,
     o: wp.vec3,
     d: wp.vec3,
     time: float,
     rng: wp.uint32,
+    key: wp.uint32,
+    sample: int,
     st: Stack,
     row: int,
     record: int,
     rec: TreeRecord,
 ) -> SampleOut:
-    """Radiance of the ray tree rooted at the eye ray (o, d) at `time`, its rays by kind, its first hit."""
-    out = SampleOut()
-    out.color = wp.vec3(0.0)
-    out.counts = wp.vec4i(0)
-    out.depth = 0.0
-    out.normal = wp.vec3(0.0)
-    out.albedo = wp.vec3(0.0)
+    """Radiance of the ray tree rooted at the eye ray (o, d) at `time`, its rays by kind, its first hit.
+    Its random numbers come from rng alone (key and sample are the path integrator's)."""
+    out = no_sample()
     state = wp.uint32(rng)
     one = wp.vec3(1.0)
     sp = push(st, row, 0, o, d, one, one, one, 1, RAY_EYE, -1)
@@ -177,84 +144,36 @@ def trace(
         fog_t = fog_transmittance(scene, h.t)
         s = surface_at(scene, h, rd)
         m = s.m
-        n = s.n
         if kind == RAY_EYE:
             out.depth = h.t
-            out.normal = n
+            out.normal = s.n
             out.albedo = s.kd
-        v = -rd
-        ambient = wp.cw_mul(s.ka, scene.ambient)
-        diffuse = wp.vec3(0.0)
-        specular = wp.vec3(0.0)
-        shown = int(0)  # radiosity display modes: the patch's own radiance is the local term
-        if scene.rad.active != 0:
-            # radiosity: the solution's interreflection replaces the ambient term (two-pass method)
-            ambient = wp.vec3(0.0)
-            found, rb, rind, rrho = radiosity_at(scene.rad, h.po, s.nf, h.obj)
-            if found != 0:
-                if scene.rad.mode == RAD_TWO_PASS:
-                    ambient = wp.cw_mul(s.kd, safe_div(rind, rrho)) / PI
-                else:
-                    ambient = rb / PI
-                    shown = 1
-        if node >= 0:
-            record_hit(rec, node, h.t, h.p, n, h.obj, h.mat, s.front)
-            rec.floats[node, F_FOG] = fog_t
+        record_hit(rec, node, h.t, h.p, s.n, h.obj, h.mat, s.front, fog_t)
 
-        # local term: shadow rays towards each light that can contribute here (N.L > 0, inside a spot's cone)
-        for li in range(scene.num_lights * (1 - shown)):
-            light = scene.lights[li]
-            area = is_area_light(light)
-            n_rays = wp.where(area, scene.light_samples, 1)
-            for k in range(n_rays):
-                u = wp.vec2(0.0)
-                if area:
-                    u = stratum(k, n_rays, wp.randf(state), wp.randf(state))
-                l, dist, e, pdf, reaches = light_sample(light, h.p, u, n_rays)
-                if reaches != 0 and wp.dot(n, l) > 0.0:
-                    so = offset_origin(h.p, s.nf, l)
-                    out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + 1
-                    sh = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record)
-                    blocked = sh.hit
-                    dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, n, l, v)
-                    dterm = wp.cw_mul(e, dterm)
-                    sterm = wp.cw_mul(e, sterm)
-                    if blocked == 0:
-                        diffuse += dterm
-                        specular += sterm
-                    if node >= 0:
-                        shadow_node(
-                            rec,
-                            node,
-                            depth,
-                            so,
-                            l,
-                            w,
-                            time,
-                            li,
-                            blocked,
-                            sh.t,
-                            sh.p,
-                            sh.ng,
-                            sh.obj,
-                            sh.mat,
-                            dterm + sterm,
-                        )
+        # local term: emission + ka Ia + the lights' direct light; with a radiosity solution its
+        # interreflection replaces ka Ia, or (its flat and smooth displays) the patch's own radiance is all
+        ambient = wp.cw_mul(s.ka, scene.ambient)
+        shown = int(0)
+        if scene.rad.active != 0:
+            ambient, shown = radiosity_ambient(scene.rad, s.kd, h.po, s.nf, h.obj)
+        lights = scene.num_lights * (1 - shown)
+        zero = wp.vec3(0.0)  # no BSDF sampling to weigh the light samples against
+        diffuse, specular, shadow_rays, state = direct_light(
+            scene, s, -rd, time, lights, state, key, STRATIFIED, sample, 0.0, 0.0, zero, record, rec, node, depth, w
+        )
+        out.counts[RAY_SHADOW] = out.counts[RAY_SHADOW] + shadow_rays
         local = s.emission * float(1 - shown) + ambient + diffuse + specular
         out.color += wp.cw_mul(tau, fog_t * local + (1.0 - fog_t) * scene.fog_color)
-        if node >= 0:
-            record_terms(rec, node, s.emission, ambient, diffuse, specular)
+        record_terms(rec, node, s.emission, ambient, diffuse, specular)
 
         # secondary rays: reflection (kr) and transmission (kt), Fresnel-weighted on request
         end = END_NONE
-        want_r = max3(m.kr) > 0.0
-        want_t = max3(m.kt) > 0.0
-        if not want_r and not want_t:
+        if not (max3(m.kr) > 0.0 or max3(m.kt) > 0.0):
             end = END_ABSORBED
         elif depth + 1 > scene.max_depth:
             end = END_MAX_DEPTH
         else:
-            kr, kt, tdir, tir = scatter_weights(m, rd, n, s.front)
+            kr, kt, tdir, tir = scatter_weights(m, rd, s.n, s.front)
             wr = wp.cw_mul(w, kr)
             wt = wp.cw_mul(w, kt)
             go_r = max3(wr) > 0.0 and max3(wr) >= scene.min_weight
@@ -264,40 +183,15 @@ def trace(
                 # frosted glass: a direction from the cos^m lobe about the refracted one, kept inside
                 gdir = glossy_direction(tdir, m.gloss, wp.randf(state), wp.randf(state))
                 if wp.dot(gdir, s.nf) < 0.0 or m.gloss <= 0.0:
-                    sp = push(
-                        st,
-                        row,
-                        sp,
-                        offset_origin(h.p, s.nf, gdir),
-                        gdir,
-                        kt,
-                        wt,
-                        wp.cw_mul(child_tau, kt),
-                        depth + 1,
-                        RAY_TRANSMISSION,
-                        node,
-                    )
+                    sp = push_child(st, row, sp, h.p, s.nf, gdir, kt, w, child_tau, depth + 1, RAY_TRANSMISSION, node)
             if go_r:
-                rdir = wp.normalize(reflect(rd, n))
+                rdir = wp.normalize(reflect(rd, s.n))
                 gdir = glossy_direction(rdir, m.gloss, wp.randf(state), wp.randf(state))
                 if wp.dot(gdir, s.nf) > 0.0 or m.gloss <= 0.0:
-                    sp = push(
-                        st,
-                        row,
-                        sp,
-                        offset_origin(h.p, s.nf, gdir),
-                        gdir,
-                        kr,
-                        wr,
-                        wp.cw_mul(child_tau, kr),
-                        depth + 1,
-                        RAY_REFLECTION,
-                        node,
-                    )
+                    sp = push_child(st, row, sp, h.p, s.nf, gdir, kr, w, child_tau, depth + 1, RAY_REFLECTION, node)
             if (max3(wr) > 0.0 or max3(wt) > 0.0) and not go_r and not go_t:
                 end = END_MIN_WEIGHT
             elif tir != 0:
                 end = END_TIR
-        if node >= 0:
-            rec.ints[node, I_END] = end
+        record_end(rec, node, end)
     return out
