@@ -24,7 +24,7 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from tracer.scene import json_path
+from tracer.errors import translate_error
 
 log = logging.getLogger("server")
 
@@ -78,52 +78,12 @@ def _line_col(doc: Any, pos: int) -> str:
 # pydantic's errors about a request -> {path, message}.
 #
 # The request's own part is here: where an error is (the body, or a query, path or header parameter)
-# and errors of the body as a whole (not JSON, not an object). An error at a field is worded by
-# `field_error`, in the words of a scene's errors; the library is making its translators (the
-# scene's, tracer/scene.py, and the assignment's, tracer/grading/spec.py) one function in
-# tracer/errors.py, which `field_error` gives way to: it needs no model (a request's model is not in
-# the error), a location without "body", and pydantic's message for kinds it does not word itself.
+# and errors of the body as a whole (not JSON, not an object). An error at a field is worded by the
+# library's one translator (tracer/errors.py), in the words of a scene's errors; a request's model is
+# not in FastAPI's error, so it translates without one.
 
 LOCATIONS = ("body", "query", "path", "header")  # where FastAPI says a request's error is
 BODY_TYPE_ERRORS = ("model_attributes_type", "dict_type", "model_type")  # a body that is not an object
-
-_EXPECTED = {
-    "int_type": "expected an integer",
-    "int_parsing": "expected an integer",
-    "int_from_float": "expected an integer",
-    "string_type": "expected a string",
-    "bool_type": "expected true or false",
-    "float_type": "expected a number",
-    "dict_type": "expected a JSON object {...}",
-    "model_type": "expected a JSON object {...}",
-    "list_type": "expected a list [...]",
-}
-
-
-def _show(value: Any) -> str:
-    """A short JSON rendering of a bad input for a message (NaN shows as NaN, inside the text)."""
-    try:
-        text = json.dumps(value, allow_nan=True)
-    except (TypeError, ValueError, RecursionError):
-        text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def field_error(err: dict) -> dict[str, str]:
-    """One pydantic error at a field -> {"path", "message"}, `err["loc"]` a path inside the body."""
-    loc = [p for p in err.get("loc") or () if isinstance(p, int | str)]
-    kind = err.get("type", "")
-    if kind == "missing" and loc:
-        message = f"required field '{loc[-1]}' is missing"
-    elif kind == "extra_forbidden" and loc:
-        message = f"unknown field '{loc[-1]}'"
-    elif kind in _EXPECTED:
-        message = f"{_EXPECTED[kind]}, got {_show(err.get('input'))}"
-    elif kind == "finite_number":
-        message = "must be a finite number (not NaN or Infinity)"
-    else:
-        message = str(err.get("msg", "invalid value"))
-    return {"path": json_path(loc), "message": message}
 
 
 def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]]:
@@ -143,7 +103,7 @@ def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]
         elif kind in BODY_TYPE_ERRORS and not loc and where == "body":
             out.append({"path": "", "message": "the body must be a JSON object (Content-Type: application/json)"})
         else:
-            item = field_error({**err, "loc": tuple(loc)})
+            item = translate_error({**err, "loc": tuple(loc)})
             if where != "body" and item["path"]:
                 item["message"] += f" (in the {where} parameter '{item['path']}')"
             out.append(item)

@@ -2,9 +2,8 @@
 any other, each with the assignment's time limit, so one slow or broken submission fails alone
 (its worker is stopped at the limit, or dies and is replaced) while the others go on.
 
-- `QueueRenderer`: a tracer.grading renderer that submits jobs to a JobStore and waits for them.
-- `local_queue()`: a job store and worker pool of its own in a folder (the CLI's batch grading); its
-  workers log to a file there (workers.log), so the terminal shows the CLI's progress alone.
+- `QueueRenderer`: a tracer.grading renderer that submits jobs to the service's queue and waits for them
+  (the CLI renders without the service: tracer/grading/local.py).
 - `GradeRuns`: grading runs of the service (POST /api/grade): each runs in a thread of the API
   process, keeps its files under <data_dir>/grades/<id>/ and its state in status.json.
 """
@@ -13,18 +12,14 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import sys
 import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import fields
 from pathlib import Path
 
 from server.lifecycle import JobStatus
-from server.pool import WorkerPool
 from server.settings import Settings
 from server.store import JobFile, JobStore, write_atomic
 from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
@@ -124,70 +119,6 @@ class QueueRenderer:
             return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
         seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)
         return Rendered(image, variance, int(row["spp_done"]), max(0.0, seconds))
-
-
-WORKER_LOG = "workers.log"  # the CLI's render workers log here, in the queue's folder
-
-
-@contextmanager
-def _output_to(path: Path) -> Iterator[None]:
-    """Standard output and error (the file descriptors, which a new process inherits) on `path` for a moment."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
-    try:
-        os.dup2(fd, 1)
-        os.dup2(fd, 2)
-        yield
-    finally:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for x in (fd, *saved):
-            os.close(x)
-
-
-class _LoggedPool(WorkerPool):
-    """A worker pool whose processes start with their standard output and error on a log file: their
-    log lines (and a crash's traceback) go there, and the terminal keeps the CLI's own progress. The
-    parent's descriptors point at the file only while a worker starts, under `lock`, which the CLI's
-    progress output takes too (a worker restarted after a crash must not take a progress line with it)."""
-
-    def __init__(self, settings: Settings, store: JobStore, log_path: Path, lock: threading.Lock):
-        super().__init__(settings, store)
-        self.log_path, self.lock = log_path, lock
-
-    def _spawn(self, slot) -> None:
-        with self.lock, _output_to(self.log_path):
-            super()._spawn(slot)
-
-
-@contextmanager
-def local_queue(data_dir: Path, workers: int = 1, on_progress=None) -> Iterator[QueueRenderer]:
-    """A job store and `workers` render processes of their own (for the CLI): yields a QueueRenderer.
-    The workers log to data_dir/workers.log (QueueRenderer.log_path), not to the terminal."""
-    from server.worker import load_kernels
-
-    settings = Settings(data_dir=data_dir, workers=max(1, workers), max_job_seconds=3600.0)
-    data_dir.mkdir(parents=True, exist_ok=True)
-    load_kernels()  # compile once here, so the workers only read Warp's cache
-    store = JobStore(data_dir)
-    store.recover()
-    lock = threading.Lock()
-
-    def progress(done: int, total: int) -> None:
-        with lock:
-            on_progress(done, total)
-
-    log_path = data_dir / WORKER_LOG
-    pool = _LoggedPool(settings, store, log_path, lock)
-    pool.start()
-    try:
-        yield QueueRenderer(store, lambda row: pool.notify(), progress if on_progress else None, log_path=log_path)
-    finally:
-        pool.shutdown()
 
 
 class GradeRuns:

@@ -183,7 +183,7 @@ class Try:
         deadline = time.time() + job["max_seconds"]
         try:
             scene, _ = load_scene(json.loads(job["scene"]), self.limits)
-            compiled = compile_scene(scene, device=self.device, solve_radiosity=False)  # render() solves, with progress
+            compiled = compile_scene(scene, device=self.device)  # render() solves radiosity, with progress
         except SceneError as exc:
             message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
             channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)

@@ -320,7 +320,7 @@ def test_web_page_form_rules_come_from_the_schema(desktop, server):
 
 def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     page = desktop.open().page
-    scene = whitted(160, 120, spp=64)
+    scene = whitted(160, 120, spp=256)  # long enough for several previews while it runs
     set_scene(page, scene)
     page.click("#btn-render")
     page.wait_for_selector("#stage[data-status=running]")
@@ -330,8 +330,8 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     # the image was replaced at least twice while the job ran, then once more at the end
     assert int(page.get_attribute("#render-img", "data-running-previews")) >= 2
     stats = page.inner_text("#job-stats")
-    assert "1,228,800 / 1,228,800 (100%)" in stats, stats
-    assert re.search(r"eye 1,228,800", page.inner_text("#job-rays"))
+    assert "4,915,200 / 4,915,200 (100%)" in stats, stats
+    assert re.search(r"eye 4,915,200", page.inner_text("#job-rays"))
     assert "Done: 160 × 120" in page.inner_text("#viewer-message")
     desktop.shot("viewer-done")
 
@@ -345,7 +345,7 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
         "() => { const i = document.querySelector('#render-img'); return i.complete && i.naturalWidth > 0; }"
     )
     legend = page.inner_text("#aov-legend")  # the job's own sampler, not another's
-    assert "The jittered sampler gives every pixel the same 64 eye rays" in legend and "adaptive" not in legend
+    assert "The jittered sampler gives every pixel the same 256 eye rays" in legend and "adaptive" not in legend
     desktop.shot("viewer-aov-rays")
     page.click("[data-aov=image]")
 

@@ -187,14 +187,11 @@ def _camera(scene: Scene) -> CameraData:
     return cam
 
 
-def compile_scene(
-    scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu", solve_radiosity: bool = False
-) -> CompiledScene:
+def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu") -> CompiledScene:
     """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets.
 
     Flattening only: a radiosity scene's solution is solved by `tracer.radiosity.attach`, which
-    render() runs as a phase with progress and ray_tree() runs when it needs it. `solve_radiosity`
-    is accepted and ignored (callers of the first version pass it)."""
+    render() runs as a phase with progress and ray_tree() runs when it needs it."""
     images = _Images(Path(asset_dir))
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}

@@ -148,6 +148,8 @@ def _num(x: Any) -> str:
 _MESSAGES = {
     "float_type": "expected a number, got {input}",
     "int_type": "expected an integer, got {input}",
+    "int_parsing": "expected an integer, got {input}",  # a query or path parameter
+    "int_from_float": "expected an integer, got {input}",
     "bool_type": "expected true or false, got {input}",
     "string_type": "expected a string, got {input}",
     "finite_number": FINITE,
