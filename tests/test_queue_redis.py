@@ -145,3 +145,55 @@ def test_queue_redis_losing_its_data_requeues_what_the_store_has(redis_server, t
         if host is not None:
             host.stop()
         api.stop()
+
+
+def test_queue_redis_grades_a_class_through_the_worker_hosts(cluster):
+    """Grading needs nothing new: its renders are jobs like any other, rendered on a worker host, their
+    images and variances back on the API host: the example's scores (the example class: tests/test_grading.py)."""
+    import base64
+    import json
+
+    from test_grading import CLASS, EXAMPLE, assignment_dict
+
+    api, _, _ = cluster
+    assignment = assignment_dict()
+    assignment["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    body = {
+        "assignment": assignment,
+        "submissions": [
+            {"student": "erin", "scene": (CLASS / "erin.json").read_text()},
+            {"student": "grace", "image": base64.b64encode((CLASS / "grace.png").read_bytes()).decode()},
+        ],
+    }
+    r = api.client.post("/api/grade", json=body)
+    assert r.status_code == 202, r.text
+    url = r.json()["url"]
+    state = wait_for(
+        lambda: (s := api.client.get(url).json())["status"] != "running" and s, 300, "the grading run", 0.5
+    )
+    assert state["status"] == "done", state
+    scores = {x["student"]: (x["score"], x["status"]) for x in state["reports"]}
+    assert scores == {"erin": (7.0, "graded"), "grace": (7.0, "graded")}
+
+
+def test_queue_redis_one_api_per_database(redis_server, cluster, tmp_path):
+    """A second API on the database the first one uses would split its events: it refuses to start."""
+    second = Process(
+        [
+            sys.executable,
+            "-m",
+            "server",
+            "--port",
+            "0",
+            "--data-dir",
+            str(tmp_path / "d2"),
+            "--redis",
+            redis_server.url,
+        ],
+        tmp_path / "second.log",
+    ).start()
+    try:
+        wait_for(lambda: not second.alive(), 60, "the second API to give up")
+        assert "another API uses this Redis database" in second.log()
+    finally:
+        second.stop()
