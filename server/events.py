@@ -1,6 +1,7 @@
 """What the API and the worker hosts of the Redis backend say to each other through Redis.
 
-Work goes out as RQ jobs (one per try: RQ job id `<job id>-try<n>`, queue `render`). Everything
+Work goes out as RQ jobs (one per try: RQ job id `<job id>-try<n>`, in the queue of the job's lane:
+`interactive` or `batch`). Everything
 comes back as events on one Redis stream, read by the API in a consumer group (so an API that was
 down finds what it missed):
 
@@ -33,7 +34,7 @@ EPOCH = PREFIX + "epoch"  # set by the API; gone after Redis lost its data
 CONFIG = PREFIX + "config"  # hash: lost_after (seconds), for the worker hosts' heartbeats
 API = PREFIX + "api"  # held by the one API that uses this Redis database (refreshed; expires if it dies)
 API_TTL = 10  # seconds
-QUEUE = "render"  # the RQ queue of render tries
+QUEUES = ("interactive", "batch")  # the RQ queues, one per lane (server/lifecycle.py), in the order hosts take them
 STREAM_MAXLEN = 100_000  # events kept (approximately); the API acknowledges as it applies them
 BLOB_TTL = 24 * 3600  # seconds a file sent by a worker host waits for the API
 FLAG_TTL = 7 * 24 * 3600  # seconds the try, cancel and give-back keys live

@@ -48,3 +48,19 @@ def check_transition(source: JobStatus, target: JobStatus) -> None:
     """Raise BadTransition unless a job may move from `source` to `target`."""
     if target not in TRANSITIONS[source]:
         raise BadTransition(f"a job cannot move from {source} to {target}")
+
+
+class JobKind(StrEnum):
+    render = "render"  # an image, pass by pass (POST /api/jobs, grading's renders)
+    raytree = "raytree"  # one pixel sample's ray tree (POST /api/raytree): a short job of its own
+
+
+class Lane(StrEnum):
+    """Which work goes first: a worker takes interactive jobs before batch ones, and a batch render
+    gives way at its next pass boundary when interactive work waits (it resumes where it stopped)."""
+
+    interactive = "interactive"  # the page's renders and lessons, ray trees: short, someone is watching
+    batch = "batch"  # long renders (estimated past TRACER_INTERACTIVE_SECONDS) and grading
+
+
+LANES = (Lane.interactive, Lane.batch)  # in the order workers take them

@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from pydantic_core import PydanticCustomError
 
-from server.lifecycle import JobStatus
+from server.lifecycle import JobKind, JobStatus, Lane
 from tracer.scene import Scene
 
 
@@ -56,6 +56,11 @@ class JobCreate(_SceneRequest):
     EXAMPLE: ClassVar[str] = '{"scene": {...}, "priority": 0}'
 
     priority: StrictInt = Field(0, ge=-100, le=100, description="higher runs first; then first come, first served")
+    lane: Lane | None = Field(
+        None,
+        description="interactive (taken first) or batch; null: interactive unless the render is estimated to take "
+        "longer than TRACER_INTERACTIVE_SECONDS",
+    )
 
 
 class ValidateRequest(_SceneRequest):
@@ -90,8 +95,9 @@ class TryInfo(BaseModel):
     ended_at: float | None = Field(description="Unix time it ended; null while it runs")
     outcome: str | None = Field(
         description="done, failed, cancelled, 'lost' (its worker died or its host was cut off), "
-        "'given back' (its host shut down); null while it runs"
+        "'given back' (its host shut down), 'gave way' (to interactive work); null while it runs"
     )
+    resumed_from: int | None = Field(None, description="the pass it continued from (0: from the start)")
 
 
 class JobProgress(BaseModel):
@@ -106,6 +112,17 @@ class JobProgress(BaseModel):
         "pass), 'render' (the passes), or 'finished'"
     )
     solve: SolveProgress | None = Field(description="the radiosity solve, for the radiosity integrator; else null")
+
+
+class QueuePlace(BaseModel):
+    lane: Lane = Field(description="interactive jobs are taken before batch ones")
+    position: int = Field(description="1: the next job a worker of its lane takes")
+    ahead: int = Field(description="queued jobs that will start before it")
+    running: int = Field(description="jobs running now")
+    workers: int = Field(description="workers that take jobs of its lane")
+    expected_wait: float | None = Field(
+        description="seconds until it starts, estimated from the renders ahead of it (null: no worker takes its lane)"
+    )
 
 
 class JobPublic(BaseModel):
@@ -136,6 +153,14 @@ class JobPublic(BaseModel):
         "lost or gave it back)"
     )
     tries: list[TryInfo] = Field(description="each try, oldest first: where it ran and how it ended")
+    kind: JobKind = Field(description="render, or raytree (the short job behind POST /api/raytree)")
+    lane: Lane = Field(description="interactive or batch")
+    estimate: float | None = Field(description="seconds the render was estimated to take, at submit")
+    queue: QueuePlace | None = Field(None, description="a queued job's place in the queue and its expected wait")
+    snapshot: int = Field(
+        description="the pass of the film last saved: a try that takes the job (after a lost worker, or a render "
+        "that gave way to interactive work) continues from it; 0: none"
+    )
     host: str | None = Field(description="the worker host of the latest try")
     device: str | None = Field(description="the device of the latest try: cpu, or a GPU such as cuda:0")
     cancel_requested: bool
@@ -193,6 +218,10 @@ class JobPublic(BaseModel):
             warnings=json.loads(row["warnings"]),
             attempts=row["attempts"],
             tries=json.loads(row.get("tries") or "[]"),
+            kind=row.get("kind") or JobKind.render,
+            lane=row.get("lane") or Lane.interactive,
+            estimate=row.get("estimate"),
+            snapshot=row.get("snapshot") or 0,
             host=row.get("host"),
             device=row.get("device"),
             cancel_requested=bool(row["cancel_requested"]),
@@ -219,6 +248,7 @@ class WorkerInfo(BaseModel):
     ready: bool = Field(description="kernels loaded, taking jobs")
     restarts: int
     job: str | None = Field(description="id of the job it renders")
+    lanes: list[str] = Field(["interactive", "batch"], description="the lanes it takes jobs from, in order")
 
 
 class Health(BaseModel):

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import wait
 
 from server.channel import ServerEnd
+from server.lifecycle import LANES, Lane
 from server.settings import Settings
 from server.store import JobStore
 from server.worker import worker_main
@@ -34,6 +35,7 @@ HARD_GRACE = 10.0  # seconds past a job's time limit before its worker is killed
 @dataclass
 class Slot:
     index: int
+    lanes: tuple = LANES  # the lanes its worker takes jobs from (an interactive slot: interactive only)
     process: mp.process.BaseProcess | None = None
     line: ServerEnd | None = None  # wake it, hear it is ready, close to stop it (server/channel.py)
     started: float = 0.0
@@ -46,7 +48,9 @@ class WorkerPool:
     def __init__(self, settings: Settings, store: JobStore):
         self.settings, self.store = settings, store
         self.ctx = mp.get_context("spawn")
-        self.slots = [Slot(i) for i in range(settings.workers)]
+        general = [Slot(i) for i in range(settings.workers)]
+        extra = [Slot(settings.workers + i, (Lane.interactive,)) for i in range(settings.interactive_workers)]
+        self.slots = general + extra if general else []  # no workers at all: no interactive one either
         self._lock = threading.Lock()
         self._closing = threading.Event()
         self._thread: threading.Thread | None = None
@@ -86,7 +90,7 @@ class WorkerPool:
         ours, theirs = self.ctx.Pipe()  # a socket pair: no semaphore to leak (server/channel.py)
         p = self.ctx.Process(
             target=worker_main,
-            args=(self.settings.model_dump(mode="json"), theirs),
+            args=(self.settings.model_dump(mode="json"), theirs, [str(x) for x in slot.lanes]),
             name=f"render-worker-{slot.index}",
             daemon=True,
         )
@@ -176,6 +180,7 @@ class WorkerPool:
                     "ready": bool(alive and slot.line is not None and slot.line.is_ready()),
                     "restarts": slot.restarts,
                     "job": self.store.running_on(p.pid) if alive else None,
+                    "lanes": [str(x) for x in slot.lanes],
                 }
             )
         return out

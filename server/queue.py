@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 from typing import Protocol
 
+from server.lifecycle import Lane
 from server.pool import WorkerPool
 from server.settings import Settings
 from server.store import HOST, JobStore
@@ -42,6 +43,9 @@ class JobQueue(Protocol):
 
     def workers(self) -> list[dict]:
         """The live workers (GET /api/health): slot, name, host, device, pid, alive, ready, job, ..."""
+
+    def capacity(self, lane: Lane) -> int:
+        """How many workers take jobs of `lane` (for a queued job's expected wait)."""
 
 
 class EmbeddedQueue:
@@ -74,6 +78,9 @@ class EmbeddedQueue:
 
     def cancelled(self, row: dict) -> None:
         pass  # a worker reads its job's row between bands
+
+    def capacity(self, lane: Lane) -> int:
+        return sum(1 for s in (self.pool.slots if self.pool else []) if lane in s.lanes)
 
     def workers(self) -> list[dict]:
         if self.pool is None:

@@ -36,7 +36,7 @@ from rq.job import Job
 from rq.registry import StartedJobRegistry
 
 from server import events as ev
-from server.lifecycle import JobStatus
+from server.lifecycle import JobStatus, Lane
 from server.settings import Settings
 from server.store import Attempt, JobFile, JobStore
 
@@ -55,7 +55,7 @@ class RedisQueue:
         self.settings, self.store = settings, store
         self.url = settings.redis_url
         self.r = redis.Redis.from_url(self.url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
-        self.queue = Queue(ev.QUEUE, connection=self.r)
+        self.queues = {name: Queue(name, connection=self.r) for name in ev.QUEUES}
         self.lock = threading.RLock()
         self.stop = threading.Event()
         self.threads: list[threading.Thread] = []
@@ -160,9 +160,13 @@ class RedisQueue:
                     "ready": True,
                     "restarts": 0,
                     "job": parsed[0] if parsed else None,
+                    "lanes": (info.get("lanes") or ",".join(ev.QUEUES)).split(","),
                 }
             )
         return out
+
+    def capacity(self, lane: Lane) -> int:
+        return sum(1 for w in self.workers() if str(lane) in w["lanes"])
 
     # -- out: tries into RQ -------------------------------------------------------------------
 
@@ -182,7 +186,7 @@ class RedisQueue:
             "limits": {k: getattr(self.settings.limits, k) for k in self.settings.limits.__dataclass_fields__},
             "preview_interval": self.settings.preview_interval,
         }
-        self.queue.enqueue_call(
+        self.queues[row["lane"]].enqueue_call(
             "server.rq_worker.run_try",
             kwargs={"payload": payload},
             job_id=ev.rq_job_id(job_id, attempt),
@@ -316,9 +320,9 @@ class RedisQueue:
     def _lost_tries(self) -> None:
         """Tries whose host stopped its heartbeats (an expired entry in RQ's started registry), or whose
         render process died (RQ marked it failed or stopped without a last word from the try)."""
-        registry = StartedJobRegistry(ev.QUEUE, connection=self.r)
+        registries = [StartedJobRegistry(name, connection=self.r) for name in ev.QUEUES]
         now = time.time()
-        expired = set(registry.get_expired_job_ids(now))
+        expired = {rq_id for registry in registries for rq_id in registry.get_expired_job_ids(now)}
         for row in self.store.live_tries():
             rq_id = ev.rq_job_id(row["id"], max(1, row["attempts"]))
             reason = None
@@ -334,7 +338,8 @@ class RedisQueue:
                 self._lose(row["id"], max(1, row["attempts"]), reason)
                 self.died_since.pop(rq_id, None)
         if expired:
-            registry.cleanup(now)  # RQ moves them to its failed registry: not seen again
+            for registry in registries:
+                registry.cleanup(now)  # RQ moves them to its failed registry: not seen again
 
     def _lose(self, job_id: str, attempt: int, reason: str) -> None:
         with self.lock:

@@ -1,5 +1,5 @@
 """A worker host of the Redis backend: `python -m server.worker --redis URL [--device cpu] [--threads N]
-[--queues render] [--name NAME]`, on any machine that has the project installed.
+[--queues interactive batch] [--name NAME]`, on any machine that has the project installed.
 
 It loads the render kernels once, at start-up, before RQ forks anything; then an RQ worker takes
 tries from the queues and runs each in a forked work horse, which inherits the loaded kernels. The
@@ -162,7 +162,8 @@ class HostWorker(Worker):
         # host cut off long enough): every heartbeat registers it again, so a host that comes back is seen
         worker_registration.register(self, pipeline=connection)
         key = ev.host_key(self.name)
-        connection.hset(key, mapping={"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]})
+        mapping = {"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]}
+        connection.hset(key, mapping={**mapping, "lanes": ",".join(self.queue_names())})
         connection.expire(key, max(2, int(self.lost_after)))
 
     def request_stop(self, signum, frame):
@@ -184,7 +185,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--redis", required=True, metavar="URL", help="the Redis the API uses (redis://host:6379/0)")
     p.add_argument("--device", default="cpu", help="Warp device to render on: cpu (default), cuda:0, ...")
     p.add_argument("--threads", type=int, default=0, help="render threads (default: every core)")
-    p.add_argument("--queues", nargs="+", default=[ev.QUEUE], help=f"RQ queues to take tries from (default {ev.QUEUE})")
+    p.add_argument(
+        "--queues",
+        nargs="+",
+        default=list(ev.QUEUES),
+        choices=ev.QUEUES,
+        help="the lanes to take jobs from, in order (default: interactive batch; a host for the page: interactive)",
+    )
     p.add_argument("--name", help="this worker's name (default: host.pid)")
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")

@@ -53,6 +53,24 @@ class Settings(BaseSettings):
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
 
+    # Lanes (server/lifecycle.py): interactive work first; long renders and grading in the batch lane.
+    interactive_seconds: float = Field(
+        20.0, ge=0, description="renders estimated to take longer than this (seconds) go to the batch lane"
+    )
+    interactive_workers: int = Field(
+        1, ge=0, le=16, description="extra embedded worker processes that take only interactive jobs"
+    )
+    max_raytree_seconds: float = Field(30.0, gt=0, description="seconds a ray tree may take (its own short job)")
+    snapshot_interval: Duration = Field(
+        10.0,
+        ge=0,
+        description="seconds of rendering between two snapshots of a render's film, which a retried "
+        "or resumed job continues from (0: after every pass)",
+    )
+    cache_dir: Path | None = Field(
+        None, description="where workers keep radiosity solutions by their scene's content (default DATA/cache)"
+    )
+
     # The job queue (server/queue.py): embedded worker processes, or worker hosts through Redis with RQ.
     redis_url: str | None = Field(
         None,

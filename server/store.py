@@ -28,7 +28,7 @@ from collections.abc import Callable
 from enum import StrEnum
 from pathlib import Path
 
-from server.lifecycle import FINISHED, BadTransition, JobStatus, check_transition
+from server.lifecycle import FINISHED, LANES, BadTransition, JobKind, JobStatus, Lane, check_transition
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -60,14 +60,19 @@ CREATE TABLE IF NOT EXISTS jobs (
     host TEXT,                              -- the worker host (name) of the latest try
     device TEXT,                            -- the device the latest try renders on (cpu, cuda:0)
     lost INTEGER NOT NULL DEFAULT 0,        -- tries lost with their worker (a crash, a dead or cut-off host)
-    tries TEXT NOT NULL DEFAULT '[]'        -- each try: {attempt, host, device, worker, started_at, ended_at, outcome}
+    tries TEXT NOT NULL DEFAULT '[]',       -- each try: {attempt, host, device, worker, started_at, ended_at, outcome}
+    kind TEXT NOT NULL DEFAULT 'render',    -- JobKind: render, raytree
+    lane TEXT NOT NULL DEFAULT 'interactive', -- Lane: interactive first, then batch
+    params TEXT NOT NULL DEFAULT '{}',      -- a ray tree's {x, y, sample}
+    estimate REAL,                          -- seconds the render was estimated to take on one worker
+    snapshot INTEGER NOT NULL DEFAULT 0     -- the pass of the film saved in the job's snapshot file (0: none)
 );
-CREATE INDEX IF NOT EXISTS jobs_queue ON jobs (status, priority DESC, created_at);
 """
 
 ID_ALPHABET = set("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_")
 QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
 HOST = socket.gethostname()  # the embedded workers' host: this one
+LANE_ORDER = "CASE lane WHEN 'interactive' THEN 0 ELSE 1 END"  # SQL: the lanes in the order workers take them
 FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
 
 
@@ -132,9 +137,15 @@ def _begin_try(attempt: str, host: str | None, device: str | None, worker) -> _S
     values: `attempts + 1` is the try a claim begins)."""
     entry = (
         f"json_object('attempt', {attempt}, 'host', ?, 'device', ?, 'worker', ?, 'started_at', ?,"
-        " 'ended_at', NULL, 'outcome', NULL)"
+        " 'ended_at', NULL, 'outcome', NULL, 'resumed_from', snapshot)"
     )
     return _Sql(f"json_insert(tries, '$[#]', {entry})", host, device, worker, time.time())
+
+
+def _fresh_unless_resumed() -> dict[str, _Sql]:
+    """The progress fields a new try starts from: zero, or, resuming from a snapshot, as they were."""
+    zero = {"samples_done": "0", "passes_done": "0", "spp_done": "0", "preview": "0", "rays": "'{}'"}
+    return {k: _Sql(f"CASE WHEN snapshot > 0 THEN {k} ELSE {v} END") for k, v in zero.items()}
 
 
 def _end_try(outcome: str) -> _Sql:
@@ -173,10 +184,17 @@ class JobStore:
             ("device", "TEXT"),
             ("lost", "INTEGER NOT NULL DEFAULT 0"),
             ("tries", "TEXT NOT NULL DEFAULT '[]'"),
+            ("kind", "TEXT NOT NULL DEFAULT 'render'"),
+            ("lane", "TEXT NOT NULL DEFAULT 'interactive'"),
+            ("params", "TEXT NOT NULL DEFAULT '{}'"),
+            ("estimate", "REAL"),
+            ("snapshot", "INTEGER NOT NULL DEFAULT 0"),
         )
         for name, decl in added:
             if name not in have:
                 self.db.execute(f"ALTER TABLE jobs ADD COLUMN {name} {decl}")
+        self.db.execute("DROP INDEX IF EXISTS jobs_queue")  # the claim order: lane, priority, age
+        self.db.execute("CREATE INDEX IF NOT EXISTS jobs_claim ON jobs (status, lane, priority DESC, created_at)")
 
     # -- connections --------------------------------------------------------------------------
 
@@ -255,32 +273,74 @@ class JobStore:
         warnings: list,
         max_seconds: float,
         max_queued: int,
+        kind: JobKind = JobKind.render,
+        lane: Lane = Lane.interactive,
+        params: dict | None = None,
+        estimate: float | None = None,
+        samples_total: int | None = None,
     ) -> dict:
         """Queue a job; raises QueueFull when `max_queued` jobs already wait."""
         job_id = new_job_id()
+        total = samples_total if samples_total is not None else width * height * spp
         with self._tx() as db:
             queued = db.execute("SELECT COUNT(*) FROM jobs WHERE status = ?", (QUEUED,)).fetchone()[0]
             if queued >= max_queued:
                 raise QueueFull(queued)
             db.execute(
                 "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
-                " samples_total, max_seconds) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                " samples_total, max_seconds, kind, lane, params, estimate)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (job_id, QUEUED, priority, time.time(), name, scene_json, json.dumps(warnings), width, height, spp,
-                 width * height * spp, max_seconds),
+                 total, max_seconds, JobKind(kind).value, Lane(lane).value, json.dumps(params or {}), estimate),
             )  # fmt: skip
         return self.get(job_id)
 
     def get(self, job_id: str) -> dict | None:
         return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
 
-    def list_jobs(self, status: str | None = None, limit: int = 100, offset: int = 0) -> tuple[list[dict], int]:
-        where, args = ("WHERE status = ?", (status,)) if status else ("", ())
+    def list_jobs(
+        self, status: str | None = None, limit: int = 100, offset: int = 0, kind: str | None = JobKind.render
+    ) -> tuple[list[dict], int]:
+        """Jobs newest first: of one status if given, of one kind (renders unless said; None: every kind)."""
+        conds = [(c, a) for c, a in (("status = ?", status), ("kind = ?", kind)) if a is not None]
+        where = ("WHERE " + " AND ".join(c for c, _ in conds)) if conds else ""
+        args = tuple(str(a) for _, a in conds)
         rows = self.db.execute(
             f"SELECT * FROM jobs {where} ORDER BY created_at DESC, rowid DESC LIMIT ? OFFSET ?",
             (*args, limit, offset),
         ).fetchall()
         count = self.db.execute(f"SELECT COUNT(*) FROM jobs {where}", args).fetchone()[0]
         return [dict(r) for r in rows], count
+
+    def place(self, row: dict) -> dict:
+        """A queued job's place: the queued jobs that a worker takes before it (its lane's order: lane,
+        priority, age) and their estimated seconds; the running jobs and their estimated seconds left."""
+        rank = 0 if row["lane"] == Lane.interactive else 1
+        ahead = self.db.execute(
+            f"SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0)), 0) FROM jobs WHERE status = ? AND"
+            f" ({LANE_ORDER} < ? OR ({LANE_ORDER} = ? AND (priority > ? OR (priority = ? AND"
+            " (created_at < ? OR (created_at = ? AND rowid < (SELECT rowid FROM jobs WHERE id = ?)))))))",
+            (QUEUED, rank, rank, row["priority"], row["priority"], row["created_at"], row["created_at"], row["id"]),
+        ).fetchone()
+        running = self.db.execute(
+            "SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0) * (1.0 - CASE WHEN samples_total > 0"
+            " THEN MIN(1.0, samples_done * 1.0 / samples_total) ELSE 0 END)), 0) FROM jobs WHERE status = ?",
+            (RUNNING,),
+        ).fetchone()
+        return {"ahead": ahead[0], "ahead_seconds": ahead[1], "running": running[0], "running_seconds": running[1]}
+
+    def pace(self, recent: int = 50) -> float:
+        """How long renders take against their estimates: the median of (render seconds / estimate) of the
+        last `recent` finished renders, clamped to [0.1, 10]; 1 with none yet."""
+        rows = self.db.execute(
+            "SELECT (finished_at - started_at) / estimate FROM jobs WHERE status = ? AND kind = ? AND estimate > 0"
+            " AND started_at IS NOT NULL AND finished_at IS NOT NULL ORDER BY finished_at DESC LIMIT ?",
+            (JobStatus.done.value, JobKind.render.value, recent),
+        ).fetchall()
+        ratios = sorted(r[0] for r in rows if r[0] is not None and r[0] > 0)
+        if not ratios:
+            return 1.0
+        return float(min(10.0, max(0.1, ratios[len(ratios) // 2])))
 
     def counts(self) -> dict[str, int]:
         out = {s.value: 0 for s in JobStatus}
@@ -374,17 +434,22 @@ class JobStore:
 
     # -- the worker side ----------------------------------------------------------------------
 
-    def claim(self, pid: int) -> dict | None:
-        """Take the next queued job (highest priority, then oldest) for worker `pid`, atomically."""
-        if self.db.execute("SELECT 1 FROM jobs WHERE status = ? LIMIT 1", (QUEUED,)).fetchone() is None:
+    def claim(self, pid: int, lanes: tuple = LANES) -> dict | None:
+        """Take the next queued job of `lanes` for worker `pid`, atomically: interactive before batch, then
+        by priority, then the oldest. A job resumed from a snapshot keeps its progress and image."""
+        marks = ", ".join("?" * len(lanes))
+        lanes = tuple(Lane(x).value for x in lanes)
+        waiting = f"status = ? AND lane IN ({marks})"
+        if self.db.execute(f"SELECT 1 FROM jobs WHERE {waiting} LIMIT 1", (QUEUED, *lanes)).fetchone() is None:
             return None  # an idle worker's look at the queue takes no write lock
         with self._tx() as db:
             rows = self._move(
                 db, QUEUED, RUNNING,
-                "id = (SELECT id FROM jobs WHERE status = ? ORDER BY priority DESC, created_at, rowid LIMIT 1)",
-                (QUEUED,), worker=pid, started_at=time.time(), finished_at=None, attempts=_Sql("attempts + 1"),
-                samples_done=0, passes_done=0, spp_done=0, preview=0, rays="{}", error=None, host=HOST, device="cpu",
-                tries=_begin_try("attempts + 1", HOST, "cpu", pid),
+                f"id = (SELECT id FROM jobs WHERE {waiting} ORDER BY {LANE_ORDER}, priority DESC, created_at, rowid"
+                " LIMIT 1)",
+                (QUEUED, *lanes), worker=pid, started_at=time.time(), finished_at=None,
+                attempts=_Sql("attempts + 1"), error=None, host=HOST, device="cpu",
+                **_fresh_unless_resumed(), tries=_begin_try("attempts + 1", HOST, "cpu", pid),
             )  # fmt: skip
         return rows[0] if rows else None
 
@@ -449,8 +514,8 @@ class JobStore:
         or a later try)."""
         rows = self._move(
             self.db, QUEUED, RUNNING, "id = ? AND attempts = ?", (job_id, attempt),
-            worker=None, started_at=time.time(), finished_at=None, samples_done=0, passes_done=0, spp_done=0,
-            preview=0, rays="{}", error=None, host=host, device=device,
+            worker=None, started_at=time.time(), finished_at=None, **_fresh_unless_resumed(), error=None,
+            host=host, device=device,
             tries=_begin_try("attempts", host, device, worker),
         )  # fmt: skip
         return rows[0] if rows else None

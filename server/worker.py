@@ -16,6 +16,7 @@ import os
 import signal
 
 from server.channel import WorkerEnd
+from server.lifecycle import LANES
 from server.rendering import StoreChannel, Try
 from server.settings import Settings
 from server.store import JobStore
@@ -23,7 +24,7 @@ from server.store import JobStore
 log = logging.getLogger("server.worker")
 
 
-def worker_main(settings_data: dict, conn) -> None:
+def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> None:
     """Entry point of a worker process (spawned: it imports everything itself); `conn` is its end of
     the server's line (server/channel.py): wakes come in, "ready" goes out, end-of-file means stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the server stops us
@@ -36,7 +37,7 @@ def worker_main(settings_data: dict, conn) -> None:
         pass
     load_kernels()
     line.ready()
-    Worker(settings, JobStore(settings.data_dir), line.stopping).loop(line.wait)
+    Worker(settings, JobStore(settings.data_dir), line.stopping, lanes=tuple(lanes or LANES)).loop(line.wait)
 
 
 def load_kernels() -> None:
@@ -49,14 +50,15 @@ def load_kernels() -> None:
 class Worker:
     """Claims and renders jobs; `stopping()` says the process should give its job back and exit."""
 
-    def __init__(self, settings: Settings, store: JobStore, stopping, pid: int | None = None):
+    def __init__(self, settings: Settings, store: JobStore, stopping, pid: int | None = None, lanes: tuple = LANES):
         self.settings, self.store, self.stopping = settings, store, stopping
         self.pid = pid or os.getpid()
+        self.lanes = lanes
 
     def loop(self, wait) -> None:
         log.info("render worker %d ready", self.pid)
         while not self.stopping():
-            job = self.store.claim(self.pid)
+            job = self.store.claim(self.pid, self.lanes)
             if job is None:
                 wait(self.settings.poll_interval)
                 continue

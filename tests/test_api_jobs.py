@@ -135,7 +135,37 @@ def test_api_jobs_queue_limit_answers_429(client, settings, busy):
         client.delete(f"/api/jobs/{j['id']}")
 
 
-def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings):
+@pytest.fixture
+def fast_machine(client):
+    """Finished renders that took a hundredth of their estimates: the service now expects renders to be
+    ten times quicker than its cost model says (its lower bound), and accepts longer ones. Removed after."""
+    store = client.app.state.store
+    ids = []
+    now = time.time()
+    for _ in range(50):  # the last 50 finished renders are what pace() reads
+        row = store.create("{}", name="past", width=1, height=1, spp=1, priority=-100, warnings=[],
+                           max_seconds=1, max_queued=10_000, estimate=100.0)  # fmt: skip
+        store.db.execute(
+            "UPDATE jobs SET status = 'done', started_at = ?, finished_at = ? WHERE id = ?", (now - 1, now, row["id"])
+        )
+        ids.append(row["id"])
+    assert store.pace() == 0.1
+    yield store
+    for job_id in ids:
+        store.remove(job_id)
+
+
+def test_api_jobs_refused_when_its_estimate_is_past_the_limit(client, settings):
+    settings.max_job_seconds = 1.0
+    r = client.post("/api/jobs", json={"scene": long_scene()})
+    assert r.status_code == 422
+    (error,) = r.json()["errors"]
+    assert error["path"] == "sampler.spp" and "192 x 144 pixels x 1024 samples" in error["message"]
+    assert "past the limit of 1 s per job (TRACER_MAX_JOB_SECONDS)" in error["message"]
+
+
+def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings, fast_machine):
+    """A render that takes longer than estimated is still stopped at the limit."""
     settings.max_job_seconds = 1.0
     created = submit(client, long_scene())
     ended = wait_status(client, created["id"], {"failed"}, timeout=20)

@@ -51,17 +51,20 @@ WORKERS_READY_TIMEOUT = 60  # seconds: a worker loads the kernels from Warp's ca
 @contextmanager
 def api_client(data_dir: Path, workers: int = 0, raise_server_exceptions: bool = True, **settings) -> Iterator:
     """A TestClient of the app on `data_dir` with `settings`, its lifespan run (kernels, job store,
-    `workers` render processes, janitor), once its workers are ready; stopped on leaving."""
+    `workers` render processes, janitor), once its workers are ready; stopped on leaving. No worker kept
+    for interactive work unless `interactive_workers` says so (the lanes' own tests do)."""
     from fastapi.testclient import TestClient
 
     from server.main import create_app
     from server.settings import Settings
 
+    settings.setdefault("interactive_workers", 0)
     app = create_app(Settings(data_dir=data_dir, workers=workers, **settings))
+    every = workers + settings["interactive_workers"] if workers else 0
     with TestClient(app, raise_server_exceptions=raise_server_exceptions) as client:
 
         def ready() -> bool:
-            return [w["ready"] for w in client.get("/api/health").json()["workers"]] == [True] * workers
+            return [w["ready"] for w in client.get("/api/health").json()["workers"]] == [True] * every
 
         wait_for(ready, WORKERS_READY_TIMEOUT, "the render workers")
         yield client
@@ -140,7 +143,7 @@ class Server:
         self.data_dir, self.workers = Path(data_dir), workers
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        self.env = {**os.environ, **(env or {})}
+        self.env = {**os.environ, "TRACER_INTERACTIVE_WORKERS": "0", **(env or {})}  # as api_client
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
         self.proc: subprocess.Popen | None = None
         self.client = httpx.Client(base_url=self.url, timeout=30)

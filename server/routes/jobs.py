@@ -13,10 +13,11 @@ from fastapi.responses import StreamingResponse
 
 from server.deps import JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
-from server.lifecycle import JobStatus
-from server.models import ErrorResponse, JobCreate, JobList, JobPublic
+from server.lifecycle import JobKind, JobStatus, Lane
+from server.models import ErrorResponse, JobCreate, JobList, JobPublic, QueuePlace
 from server.settings import Settings
 from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
+from tracer import estimate
 from tracer.scene import ASSET_DIR, Scene, SceneError, load_scene
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
@@ -47,45 +48,91 @@ def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
     },
 )
 def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
-    """Validate the scene (422 with `errors: [{path, message}]`), queue it by priority then age (202).
+    """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
-    The job comes back with the scene's `warnings`; follow it at `events_url`, fetch `image_url`."""
+    A render estimated to take longer than the per-job limit is refused (422); one estimated past
+    TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
+    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`."""
     scene, warnings = check_scene(body.scene, settings)
+    seconds = estimate_seconds(scene, settings, store)
+    lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
+    row = create_job(store, settings, scene, body.scene, priority=body.priority, warnings=warnings, lane=lane,
+                     estimate=seconds)  # fmt: skip
+    queue.submitted(row)
+    response.headers["Location"] = f"/api/jobs/{row['id']}"
+    return public(row, store, queue)
+
+
+def estimate_seconds(scene: Scene, settings: Settings, store: JobStore) -> float:
+    """The render's estimated seconds on one worker (tracer/estimate.py, scaled by how long finished renders
+    took against their estimates); 422 when past the per-job limit, so it is never accepted to fail later."""
+    seconds = estimate.seconds(scene, settings.threads_per_worker()) * store.pace()
+    limit = settings.max_job_seconds
+    if seconds > limit:
+        film, sampler = scene.film, scene.sampler
+        work = f"{film.width} x {film.height} pixels x {sampler.spp} samples"
+        message = (
+            f"this render would take about {seconds:.0f} s here ({work}, {scene.render.integrator}), past the limit "
+            f"of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
+        )
+        raise ApiError(422, [{"path": "sampler.spp", "message": message}])
+    return round(seconds, 3)
+
+
+def create_job(store: JobStore, settings: Settings, scene: Scene, data: dict, **fields) -> dict:
+    """Record a queued job of this scene (429 when the queue is full)."""
     try:
-        row = store.create(
-            json.dumps(body.scene),
-            name=scene.name,
+        return store.create(
+            json.dumps(data),
+            name=fields.pop("name", scene.name),
             width=scene.film.width,
             height=scene.film.height,
             spp=scene.sampler.spp,
-            priority=body.priority,
-            warnings=warnings,
-            max_seconds=settings.max_job_seconds,
+            max_seconds=fields.pop("max_seconds", settings.max_job_seconds),
             max_queued=settings.max_queued_jobs,
+            **fields,
         )
     except QueueFull as full:
         message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
         raise ApiError(429, message, headers={"Retry-After": "5"}) from None
-    queue.submitted(row)
-    response.headers["Location"] = f"/api/jobs/{row['id']}"
-    return JobPublic.from_row(row)
+
+
+def public(row: dict, store: JobStore, queue, now: float | None = None) -> JobPublic:
+    """The job as the API shows it; a queued one with its place in the queue and its expected wait."""
+    job = JobPublic.from_row(row, now)
+    if job.status is JobStatus.queued:
+        lane = Lane(row["lane"])
+        place = store.place(row)
+        workers = queue.capacity(lane)
+        wait = None
+        if workers > 0:
+            wait = round((place["ahead_seconds"] + place["running_seconds"]) / workers, 2)
+        job.queue = QueuePlace(
+            lane=lane, position=place["ahead"] + 1, ahead=place["ahead"], running=place["running"],
+            workers=workers, expected_wait=wait,
+        )  # fmt: skip
+    return job
 
 
 @router.get("", summary="Jobs, newest first")
 def list_jobs(
     store: StoreDep,
+    queue: QueueDep,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
+    kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
     offset: Annotated[int, Query(ge=0)] = 0,
 ) -> JobList:
-    rows, count = store.list_jobs(status.value if status else None, limit, offset)
+    rows, count = store.list_jobs(status.value if status else None, limit, offset, kind.value if kind else None)
     now = time.time()
-    return JobList(jobs=[JobPublic.from_row(r, now) for r in rows], count=count)
+    return JobList(jobs=[public(r, store, queue, now) for r in rows], count=count)
 
 
-@router.get("/{job_id}", summary="One job: status, progress, elapsed and ETA, rays, error", responses=NOT_FOUND)
-def get_job(job: JobDep) -> JobPublic:
-    return JobPublic.from_row(job)
+@router.get(
+    "/{job_id}", summary="One job: status, place in the queue, progress, elapsed and ETA, rays", responses=NOT_FOUND
+)
+def get_job(job: JobDep, store: StoreDep, queue: QueueDep) -> JobPublic:
+    return public(job, store, queue)
 
 
 @router.get(
@@ -185,32 +232,35 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
     response_class=StreamingResponse,
     responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
 )
-def events(job: JobDep, store: StoreDep, request: Request) -> StreamingResponse:
+def events(job: JobDep, store: StoreDep, queue: QueueDep, request: Request) -> StreamingResponse:
     """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
     eta, rays};
     `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes."""
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
-    return StreamingResponse(_event_stream(store, job["id"], request), media_type="text/event-stream", headers=headers)
+    stream = _event_stream(store, queue, job["id"], request)
+    return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
 
 
 def sse(event: str, data: dict) -> str:
     return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
 
 
-async def _event_stream(store: JobStore, job_id: str, request: Request) -> AsyncIterator[str]:
+async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -> AsyncIterator[str]:
     yield "retry: 1000\n\n"
     last_progress, last_preview, quiet_since = None, 0, time.monotonic()
     while True:
         row = await anyio.to_thread.run_sync(store.get, job_id)
         if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
             return
-        job = JobPublic.from_row(row)
+        job = await anyio.to_thread.run_sync(public, row, store, queue)
         p = job.progress
         sent = False
-        now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0)
+        place = job.queue.model_dump(mode="json") if job.queue else None
+        now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0, json.dumps(place))
         if now_at != last_progress:
             last_progress = now_at
             data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
+            data.update(queue=place, finished=job.finished)
             yield sse("progress", data)
             sent = True
         if job.preview and job.preview != last_preview:
@@ -251,4 +301,4 @@ def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) ->
     queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202
-    return JobPublic.from_row(row)
+    return public(row, store, queue)
