@@ -8,7 +8,8 @@ down finds what it missed):
     started   a worker host took the try            {host, device, worker}
     progress  the try's progress fields              {fields, files}
     finish    the try ended the job                  {status, fields, files}
-    giveback  the host is stopping: back to queue    {}
+    giveback  back to the queue: the host is stopping, or a batch render gives way to interactive
+              work                                   {outcome, fields, files}
 
 Each event names its job and try; the API applies it only while the job is still on that try
 (server/store.py fences by `Attempt`), so a lost worker that comes back late never writes into the
@@ -66,6 +67,11 @@ def giveback_key(job_id: str, attempt: int) -> str:
 
 def host_key(worker_name: str) -> str:
     return f"{PREFIX}host:{worker_name}"
+
+
+def snapshot_key(job_id: str, attempt: int) -> str:
+    """The film a try continues from (an earlier try's snapshot), put there by the API for it."""
+    return f"{PREFIX}snapshot:{rq_job_id(job_id, attempt)}"
 
 
 def blob_key(job_id: str, attempt: int, serial: int) -> str:

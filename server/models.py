@@ -84,6 +84,7 @@ class SolveProgress(BaseModel):
     seconds: float = Field(description="seconds spent solving")
     unshot: float = Field(description="share of the emitted power not shot yet, 0..1")
     patches: int = Field(description="patch sides of the solution (two per piece of surface)")
+    cached: bool = Field(False, description="read from the workers' cache of solutions (the same scene solved before)")
 
 
 class TryInfo(BaseModel):

@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass
 from typing import Protocol
 
-from server.lifecycle import JobStatus
+from server.lifecycle import JobKind, JobStatus, Lane
 from server.store import JobFile, JobStore
 
 log = logging.getLogger("server.rendering")
@@ -35,10 +35,18 @@ class Channel(Protocol):
     """Where a try reports (the job store here, or a worker host's Redis events)."""
 
     def stop_reason(self) -> str | None:
-        """'cancel' (the job was cancelled), 'lost' (it is no longer this try's), or None: go on."""
+        """'cancel' (the job was cancelled), 'lost' (it is no longer this try's), 'shutdown' (the host
+        asks for the job back), or None: go on."""
+
+    def should_yield(self) -> bool:
+        """Is interactive work waiting for this worker? (asked of a batch render at each pass)"""
+
+    def snapshot(self) -> bytes | None:
+        """The film this try continues from (a snapshot of an earlier try of the job), or None."""
 
     def progress(self, **fields) -> None:
-        """Progress fields: samples_done, samples_total, passes_done, spp_done, rays, preview, solve."""
+        """Progress fields: samples_done, samples_total, passes_done, spp_done, rays, preview, solve,
+        snapshot (the pass of the film just saved)."""
 
     def save(self, kind: JobFile, data: bytes | str) -> None:
         """One of the job's files, whole (it reaches the job's folder on the API host before the next
@@ -47,22 +55,34 @@ class Channel(Protocol):
     def finish(self, status: JobStatus, **fields) -> None:
         """The try ended the job: done, failed or cancelled, with its last progress fields."""
 
-    def give_back(self) -> None:
-        """The host is shutting down: the job goes back to the queue."""
+    def give_back(self, outcome: str = "given back", **fields) -> None:
+        """The job goes back to the queue: the host is shutting down ("given back"), or the render gives
+        way to interactive work ("gave way", its film saved just before)."""
 
 
 class StoreChannel:
     """The embedded backend: a worker process on the API's host writes into the job store, fenced by
     its pid (a worker that lost its job can never write into the job's next life)."""
 
-    def __init__(self, store: JobStore, job_id: str, pid: int):
-        self.store, self.job_id, self.pid = store, job_id, pid
+    def __init__(self, store: JobStore, job: dict, pid: int):
+        self.store, self.job, self.job_id, self.pid = store, job, job["id"], pid
 
     def stop_reason(self) -> str | None:
         row = self.store.control(self.job_id, self.pid)
         if row is None:
             return "lost"  # the job is no longer ours (the server gave it to another worker)
         return "cancel" if row["cancel_requested"] else None
+
+    def should_yield(self) -> bool:
+        return self.store.interactive_waiting()
+
+    def snapshot(self) -> bytes | None:
+        if not self.job.get("snapshot"):
+            return None
+        try:
+            return self.store.job_file(self.job_id, JobFile.snapshot).read_bytes()
+        except OSError:
+            return None
 
     def progress(self, **fields) -> None:
         self.store.progress(self.job_id, self.pid, **fields)
@@ -73,8 +93,10 @@ class StoreChannel:
     def finish(self, status: JobStatus, **fields) -> None:
         self.store.finish(self.job_id, self.pid, status, **fields)
 
-    def give_back(self) -> None:
-        self.store.requeue(self.job_id, self.pid)
+    def give_back(self, outcome: str = "given back", **fields) -> None:
+        if fields:
+            self.store.progress(self.job_id, self.pid, **fields)
+        self.store.requeue(self.job_id, self.pid, outcome)
 
 
 class Stop(Exception):
@@ -152,8 +174,10 @@ def exr_bytes(image, layers: dict | None = None) -> bytes:
 
 @dataclass
 class Try:
-    """One try of a job. `job`: id, scene (JSON text), max_seconds, samples_total and attempts, as the
-    store's row has them; `limits`: the scene limits; `stopping()`: the host is shutting down."""
+    """One try of a job. `job`: id, kind, lane, params, scene (JSON text), max_seconds, samples_total,
+    attempts and snapshot, as the store's row has them; `limits`: the scene limits; `stopping()`: the
+    host is shutting down; `cache`: radiosity solutions by content (a radiosity.SolutionCache);
+    `snapshot_interval`: seconds of rendering between two snapshots of the film."""
 
     job: dict
     channel: Channel
@@ -162,37 +186,116 @@ class Try:
     preview_interval: float
     stopping: object
     device: str = "cpu"
+    cache: object = None
+    snapshot_interval: float = 10.0
 
     def run(self) -> str:
-        """Render the try to its end; returns how it ended: done, failed, cancel, timeout, shutdown, lost."""
+        """Run the try to its end; returns how it ended: done, failed, cancel, timeout, shutdown, lost,
+        gave way."""
         job_id = self.job["id"]
         try:
+            if self.job.get("kind", JobKind.render) == JobKind.raytree:
+                return self._raytree()
             return self._render()
         except Exception as exc:  # a bug or a broken scene must fail the job, not the worker
             log.exception("job %s failed", job_id)
             self.channel.finish(JobStatus.failed, error=f"render error: {type(exc).__name__}: {exc}")
             return "failed"
 
-    def _render(self) -> str:
+    def _scene(self):
+        """The job's scene, validated and compiled; None (the job failed, with its errors) if it is not."""
         from tracer.compile import compile_scene
-        from tracer.film import png_bytes
-        from tracer.render import render
         from tracer.scene import SceneError, load_scene
+
+        try:
+            scene, _ = load_scene(json.loads(self.job["scene"]), self.limits)
+            return scene, compile_scene(scene, device=self.device)
+        except SceneError as exc:
+            message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
+            self.channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
+            return None
+
+    def _raytree(self) -> str:
+        """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
+        the cache after the first click)."""
+        from tracer import radiosity
+        from tracer.raytree import ray_tree
+        from tracer.scene import SceneError
+
+        compiled = self._scene()
+        if compiled is None:
+            return "failed"
+        scene, cs = compiled
+        params = self.job.get("params") or {}
+        params = json.loads(params) if isinstance(params, str) else params
+        if scene.render.integrator == "radiosity":  # the solve (once per scene: then from the cache) may stop
+            deadline, clock = time.time() + self.job["max_seconds"], {"check": 0.0}
+            stop: dict = {}
+
+            def cancel() -> bool:
+                if time.monotonic() - clock["check"] < CHECK_INTERVAL:
+                    return False
+                clock["check"] = time.monotonic()
+                stop["why"] = "timeout" if time.time() > deadline else self.channel.stop_reason()
+                return stop["why"] is not None
+
+            try:
+                radiosity.attach(cs, device=self.device, threads=self.threads, cancel=cancel, cache=self.cache)
+            except radiosity.Cancelled:
+                if stop["why"] == "timeout":
+                    limit = self.job["max_seconds"]
+                    error = f"stopped: the radiosity solve took longer than the ray tree's limit of {limit:g} s"
+                    self.channel.finish(JobStatus.failed, error=error)
+                elif stop["why"] == "cancel":
+                    self.channel.finish(JobStatus.cancelled, error="cancelled while solving")
+                elif stop["why"] == "shutdown":
+                    self.channel.give_back()
+                return stop["why"]
+        try:
+            tree = ray_tree(cs, int(params["x"]), int(params["y"]), int(params.get("sample", 0)), device=self.device)
+        except SceneError as exc:
+            self.channel.finish(JobStatus.failed, error="; ".join(e["message"] for e in exc.errors), errors=exc.errors)
+            return "failed"
+        self.channel.save(JobFile.raytree, json.dumps(tree))
+        solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if cs.radiosity is not None else {}
+        self.channel.finish(JobStatus.done, samples_done=1, samples_total=1, passes_done=1, spp_done=1, **solved)
+        return "done"
+
+    def _resume_from(self) -> dict | None:
+        """The film of an earlier try of this job, if it left one the row knows of (else from the start)."""
+        from tracer.render import snapshot_from
+
+        want = int(self.job.get("snapshot") or 0)
+        data = self.channel.snapshot() if want else None
+        if not data:
+            return None
+        try:
+            snap = snapshot_from(data)
+        except Exception:  # a broken file: render from the start
+            log.warning("job %s: its snapshot could not be read; rendering from the start", self.job["id"])
+            return None
+        return snap if snap["passes"] == want else None
+
+    def _render(self) -> str:
+        from tracer.film import png_bytes
+        from tracer.render import render, snapshot_bytes
 
         job, channel = self.job, self.channel
         deadline = time.time() + job["max_seconds"]
-        try:
-            scene, _ = load_scene(json.loads(job["scene"]), self.limits)
-            compiled = compile_scene(scene, device=self.device)  # render() solves radiosity, with progress
-        except SceneError as exc:
-            message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
-            channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
+        compiled = self._scene()
+        if compiled is None:
             return "failed"
+        scene, compiled = compiled
         exposure = scene.film.exposure
         last: _Pass | None = None  # the latest finished pass
         published = 0  # number of the pass whose image is on disk
-        clock = {"check": 0.0, "progress": 0.0, "preview": 0.0}
+        clock = {"check": 0.0, "progress": 0.0, "preview": 0.0, "snapshot": time.monotonic()}
         done = {"samples": 0, "total": job["samples_total"]}  # the renderer's latest progress
+        batch = job.get("lane") == Lane.batch
+        resume = self._resume_from()
+        if resume is not None:
+            published = int(job.get("preview") or 0)
+            log.info("job %s: continuing from pass %d", job["id"], resume["passes"])
 
         def reason_to_stop() -> str | None:
             if self.stopping():
@@ -227,10 +330,21 @@ class Try:
             nonlocal last
             last = _Pass(pr.image, pr.passes_done, pr.spp_done, pr.rays, done["samples"])
             due = pr.passes_done == 1 or time.monotonic() - clock["preview"] >= self.preview_interval
-            if due and done["samples"] < done["total"]:  # the final image is published below
+            final = done["samples"] >= done["total"]
+            if due and not final:  # the final image is published below
                 publish(last)
             fields = dict(samples_done=done["samples"], samples_total=done["total"], passes_done=pr.passes_done)
-            channel.progress(**fields, spp_done=pr.spp_done, rays=pr.rays, preview=published)
+            fields.update(spp_done=pr.spp_done, rays=pr.rays, preview=published)
+            if not final and time.monotonic() - clock["snapshot"] >= self.snapshot_interval:
+                channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))  # a later try continues from here
+                fields["snapshot"] = pr.passes_done
+                clock["snapshot"] = time.monotonic()
+            channel.progress(**fields)
+            if batch and not final and channel.should_yield():
+                if published != last.number:
+                    publish(last)
+                channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))
+                raise Stop("yield")
 
         stop_reason = None
 
@@ -244,7 +358,10 @@ class Try:
             return stop_reason is not None
 
         try:
-            result = render(compiled, threads=self.threads, progress=on_band, cancel=cancel, on_pass=on_pass)
+            result = render(
+                compiled, threads=self.threads, progress=on_band, cancel=cancel, on_pass=on_pass, device=self.device,
+                radiosity_cache=self.cache, resume=resume,
+            )  # fmt: skip
             if not result.cancelled:
                 final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
                 publish(final)
@@ -260,6 +377,10 @@ class Try:
                 return "done"
         except Stop as stop:
             stop_reason = stop.reason
+        if stop_reason == "yield":
+            channel.give_back("gave way", snapshot=last.number, preview=published)
+            log.info("job %s: gave way to interactive work after pass %d", job["id"], last.number)
+            return "gave way"
         return self._stopped(stop_reason, last, published, publish)
 
     def _save_aovs(self, aovs: dict) -> None:

@@ -175,17 +175,23 @@ class RedisQueue:
         job_id = row["id"]
         self.store.queue_try(job_id, attempt)
         self.r.set(ev.try_key(job_id), attempt, ex=ev.FLAG_TTL)
+        job = {k: row[k] for k in ("id", "kind", "lane", "params", "scene", "max_seconds", "samples_total")}
+        job.update(attempts=attempt, snapshot=row["snapshot"], preview=row["preview"])
         payload = {
-            "job": {
-                "id": job_id,
-                "scene": row["scene"],
-                "max_seconds": row["max_seconds"],
-                "samples_total": row["samples_total"],
-                "attempts": attempt,
-            },
+            "job": job,
             "limits": {k: getattr(self.settings.limits, k) for k in self.settings.limits.__dataclass_fields__},
             "preview_interval": self.settings.preview_interval,
+            "snapshot_interval": self.settings.snapshot_interval,
         }
+        if row["snapshot"]:  # the film to continue from travels with the try
+            try:
+                data = self.store.job_file(job_id, JobFile.snapshot).read_bytes()
+            except OSError:
+                job["snapshot"] = 0
+            else:
+                key = ev.snapshot_key(job_id, attempt)
+                self.r.set(key, data, ex=ev.BLOB_TTL)
+                payload["snapshot_key"] = key
         self.queues[row["lane"]].enqueue_call(
             "server.rq_worker.run_try",
             kwargs={"payload": payload},
@@ -275,9 +281,12 @@ class RedisQueue:
                 self.store.finish(job_id, fence, JobStatus(data["status"]), **data.get("fields", {}))
                 self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
             elif kind == "giveback":
-                if self.store.requeue(job_id, fence):
+                if data.get("fields"):
+                    self.store.progress(job_id, fence, **data["fields"])
+                outcome = data.get("outcome") or "given back"
+                if self.store.requeue(job_id, fence, outcome):
                     self._enqueue(self.store.get(job_id), attempt + 1)
-                    log.info("job %s: try %d given back by its host; queued as try %d", job_id, attempt, attempt + 1)
+                    log.info("job %s: try %d %s; queued as try %d", job_id, attempt, outcome, attempt + 1)
 
     def _copy_files(self, job_id: str, files: dict[str, str]) -> None:
         if not files:

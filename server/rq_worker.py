@@ -26,6 +26,8 @@ import socket
 import sys
 import threading
 import time
+from datetime import UTC, datetime
+from pathlib import Path
 
 import redis
 from rq import Queue, Worker, worker_registration
@@ -34,10 +36,11 @@ from server import events as ev
 from server.lifecycle import JobStatus
 from server.rendering import Try
 from server.store import JobFile
+from tracer.radiosity import SolutionCache
 
 log = logging.getLogger("server.rq_worker")
 
-HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname()}  # this host
+HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname(), "cache": None}
 DEFAULT_LOST_AFTER = 15.0
 SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
 
@@ -49,8 +52,8 @@ def _redis(url: str) -> redis.Redis:
 class RedisChannel:
     """A try's reports to the API through Redis (server/rendering.py's Channel)."""
 
-    def __init__(self, r: redis.Redis, job_id: str, attempt: int):
-        self.r, self.job_id, self.attempt = r, job_id, attempt
+    def __init__(self, r: redis.Redis, job_id: str, attempt: int, snapshot_key: str | None = None):
+        self.r, self.job_id, self.attempt, self.snapshot_key = r, job_id, attempt, snapshot_key
         self.files: dict[str, str] = {}  # JobFile value -> key, sent with the next event
         self.serial = 0
         self.bytes_sent = 0
@@ -80,6 +83,30 @@ class RedisChannel:
             return "shutdown"
         return None
 
+    def should_yield(self) -> bool:
+        """Interactive work waits in its queue for more than a second (a free host would have taken it)."""
+        try:
+            first = self.r.lindex(Queue(ev.QUEUES[0], connection=self.r).key, 0)
+            if first is None:
+                return False
+            enqueued = self.r.hget(f"rq:job:{first.decode()}", "enqueued_at")
+        except redis.RedisError:
+            return False
+        if enqueued is None:
+            return False
+        when = datetime.fromisoformat(enqueued.decode().replace("Z", "+00:00"))
+        if when.tzinfo is None:
+            when = when.replace(tzinfo=UTC)
+        return (datetime.now(UTC) - when).total_seconds() > 1.0
+
+    def snapshot(self) -> bytes | None:
+        if not self.snapshot_key:
+            return None
+        try:
+            return self.r.get(self.snapshot_key)
+        except redis.RedisError:
+            return None
+
     def save(self, kind: JobFile, data: bytes | str) -> None:
         raw = data.encode() if isinstance(data, str) else data
         self.serial += 1
@@ -102,8 +129,8 @@ class RedisChannel:
     def finish(self, status: JobStatus, **fields) -> None:
         self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
 
-    def give_back(self) -> None:
-        self._final("giveback")
+    def give_back(self, outcome: str = "given back", **fields) -> None:
+        self._final("giveback", outcome=outcome, fields=fields, files=self.files)
 
     def _final(self, kind: str, **data) -> None:
         """The last word of a try: retried while Redis is unreachable (a cut cable may come back)."""
@@ -129,13 +156,14 @@ def run_try(payload: dict) -> dict:
 
     job = payload["job"]
     r = _redis(HOST["url"])
-    channel = RedisChannel(r, job["id"], int(job["attempts"]))
+    channel = RedisChannel(r, job["id"], int(job["attempts"]), payload.get("snapshot_key"))
     rq_job = get_current_job()
     channel.started(HOST["name"] or (rq_job.worker_name if rq_job else None) or HOST["host"])
     limits = Limits(**payload["limits"])
     ended = Try(
-        job, channel, limits, HOST["threads"], payload["preview_interval"], lambda: False, device=HOST["device"]
-    ).run()
+        job, channel, limits, HOST["threads"], payload["preview_interval"], lambda: False, device=HOST["device"],
+        cache=SolutionCache(HOST["cache"]), snapshot_interval=payload.get("snapshot_interval", 10.0),
+    ).run()  # fmt: skip
     return {"ended": ended, "bytes_sent": channel.bytes_sent, "unreachable": channel.unreachable}
 
 
@@ -193,12 +221,17 @@ def main(argv: list[str] | None = None) -> int:
         help="the lanes to take jobs from, in order (default: interactive batch; a host for the page: interactive)",
     )
     p.add_argument("--name", help="this worker's name (default: host.pid)")
+    p.add_argument(
+        "--cache-dir",
+        default=str(Path.home() / ".cache" / "raytrace-edu" / "radiosity"),
+        help="where this host keeps radiosity solutions by their scene's content",
+    )
     args = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
     faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
     from tracer.render import default_threads, load_kernels
 
-    HOST.update(url=args.redis, device=args.device, threads=args.threads or default_threads())
+    HOST.update(url=args.redis, device=args.device, threads=args.threads or default_threads(), cache=args.cache_dir)
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
     load_kernels(args.device)  # once, before RQ forks: every work horse inherits them
     log.info("worker host %s: kernels ready on %s, %d thread(s)", HOST["name"], args.device, HOST["threads"])

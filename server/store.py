@@ -90,6 +90,8 @@ class JobFile(StrEnum):
     aov_ranges = "aovs.json"  # {name: [min, max]} of the values each AOV picture shows
     aov_floats = "aovs.exr"  # the float AOVs: the variance as RGB (what the grader reads), the others as layers
     radiosity = "radiosity.json"  # a finished radiosity job's solution
+    snapshot = "snapshot.npz"  # the film after pass `snapshot` (a try that takes the job continues from it)
+    raytree = "raytree.json"  # a ray-tree job's answer
 
     @classmethod
     def image(cls, fmt: str) -> JobFile:
@@ -473,17 +475,27 @@ class JobStore:
         )
         return cur.rowcount > 0
 
-    def requeue(self, job_id: str, who: int) -> bool:
-        """Give a job back to the queue (its worker is shutting down); an embedded worker's try does not
-        count (the next claim counts it again); a try of the Redis backend is given back as the next try
-        (tries are its fence), which counts nothing lost either."""
+    def requeue(self, job_id: str, who: int, outcome: str = "given back") -> bool:
+        """Give a job back to the queue: its worker is shutting down ("given back"), or its render gives
+        way to interactive work ("gave way"). An embedded worker's try does not count (the next claim
+        counts it again); a try of the Redis backend is given back as the next try (tries are its
+        fence), which counts nothing lost either."""
         where, args = _fence(who)
         again = _Sql("attempts + 1") if isinstance(who, Attempt) else _Sql("MAX(attempts - 1, 0)")
         moved = self._move(
             self.db, RUNNING, QUEUED, _and("id = ?", where), (job_id, *args),
-            worker=None, attempts=again, tries=_end_try("given back"),
+            worker=None, attempts=again, tries=_end_try(outcome),
         )  # fmt: skip
         return bool(moved)
+
+    def interactive_waiting(self, longer_than: float = 1.0) -> bool:
+        """Is interactive work waiting (queued for more than `longer_than` seconds: a free interactive
+        worker would have taken it)? Then a batch render gives way at its next pass."""
+        row = self.db.execute(
+            "SELECT 1 FROM jobs WHERE status = ? AND lane = ? AND created_at < ? LIMIT 1",
+            (QUEUED, Lane.interactive.value, time.time() - longer_than),
+        ).fetchone()
+        return row is not None
 
     def finish(self, job_id: str, who: int | None, status: JobStatus, **fields) -> bool:
         """End a running job as `status` (done, failed or cancelled), with its last progress `fields`;

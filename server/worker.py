@@ -54,6 +54,9 @@ class Worker:
         self.settings, self.store, self.stopping = settings, store, stopping
         self.pid = pid or os.getpid()
         self.lanes = lanes
+        from tracer.radiosity import SolutionCache
+
+        self.cache = SolutionCache(settings.cache_dir or settings.data_dir / "cache" / "radiosity")
 
     def loop(self, wait) -> None:
         log.info("render worker %d ready", self.pid)
@@ -68,11 +71,12 @@ class Worker:
     def run(self, job: dict) -> str:
         """One try of a claimed job, reported into the store; how it ended (see rendering.Try.run)."""
         log.info("job %s: rendering (try %d)", job["id"], job["attempts"])
-        channel = StoreChannel(self.store, job["id"], self.pid)
+        channel = StoreChannel(self.store, job, self.pid)
         settings = self.settings
         return Try(
-            job, channel, settings.limits, settings.threads_per_worker(), settings.preview_interval, self.stopping
-        ).run()
+            job, channel, settings.limits, settings.threads_per_worker(), settings.preview_interval, self.stopping,
+            cache=self.cache, snapshot_interval=settings.snapshot_interval,
+        ).run()  # fmt: skip
 
 
 if __name__ == "__main__":  # python -m server.worker --redis URL ...: a worker host of the Redis backend

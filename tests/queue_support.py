@@ -12,6 +12,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -77,13 +78,18 @@ def api_argv(data_dir: Path, port: int, redis_url: str, host: str = "127.0.0.1",
     ]  # fmt: skip
 
 
-def worker_argv(redis_url: str, name: str, threads: int = 1) -> list[str]:
-    return [sys.executable, "-m", "server.worker", "--redis", redis_url, "--threads", str(threads), "--name", name]
+def worker_argv(redis_url: str, name: str, threads: int = 1, cache_dir: str | None = None) -> list[str]:
+    """A worker host's command line; its radiosity cache in a fresh folder unless given (the tests must not
+    find solutions of an earlier run)."""
+    cache = cache_dir or tempfile.mkdtemp(prefix="radiosity-cache-")
+    argv = [sys.executable, "-m", "server.worker", "--redis", redis_url, "--threads", str(threads), "--name", name]
+    return [*argv, "--cache-dir", cache]
 
 
 def proc_env(**extra) -> dict:
-    """The environment of the test's processes: quick loss detection, frequent previews."""
+    """The environment of the test's processes: quick loss detection, frequent previews and snapshots."""
     env = {**os.environ, "TRACER_LOST_AFTER": str(LOST_AFTER), "TRACER_PREVIEW_INTERVAL": "0.2"}
+    env["TRACER_SNAPSHOT_INTERVAL"] = "0"  # a snapshot of the film after every pass: a retry continues from it
     env.update({k: str(v) for k, v in extra.items()})
     return env
 

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import scene_dict, small
 from PIL import Image
 from test_api_support import (
     exr_of,
@@ -211,3 +212,17 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, compil
         assert p["samples_done"] == p["samples_total"] > 0 and p["fraction"] == 1.0, (name, p)
         expected = render(compile_scene(load_scene(scenes[name])[0])).image
         np.testing.assert_array_equal(exr_of(client, job_id), expected, err_msg=name)
+
+
+def test_api_jobs_raytree_is_a_worker_job_that_matches_the_library(client):
+    from tracer.raytree import ray_tree
+    from tracer.scene import load_scene
+
+    scene = small(scene_dict("whitted"), 32, 24)
+    r = client.post("/api/raytree", json={"scene": scene, "x": 21, "y": 13, "sample": 2})
+    assert r.status_code == 200, r.text
+    assert r.json() == json.loads(json.dumps(ray_tree(load_scene(scene)[0], 21, 13, 2)))
+    bad = client.post("/api/raytree", json={"scene": scene, "x": 99, "y": 0})
+    assert bad.status_code == 422 and bad.json()["errors"][0]["path"] == "x"
+    missing = client.post("/api/raytree", json={"scene": scene})
+    assert missing.status_code == 422 and {e["path"] for e in missing.json()["errors"]} == {"x", "y"}

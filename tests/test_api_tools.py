@@ -1,8 +1,6 @@
 """The tool and example routes (server/routes/tools.py, scenes.py) and the API's own docs, through the
 TestClient of an app without workers (the jobs: test_api_jobs.py and the other test_api_*.py)."""
 
-import json
-
 import pytest
 from conftest import scene_dict, small
 
@@ -38,18 +36,13 @@ def test_api_tools_validate_reports_paths(client):
     assert client.post("/api/validate", json={"scene": scene_dict("whitted")}).json()["valid"] is True
 
 
-def test_api_tools_raytree_matches_the_library(client):
-    from tracer.raytree import ray_tree
-    from tracer.scene import load_scene
-
+def test_api_tools_raytree_needs_a_worker(client):
+    """Ray trees are traced by workers, never in the API process: without one, a clear 503 at once."""
     scene = small(scene_dict("whitted"), 32, 24)
-    r = client.post("/api/raytree", json={"scene": scene, "x": 21, "y": 13, "sample": 2})
-    assert r.status_code == 200
-    assert r.json() == json.loads(json.dumps(ray_tree(load_scene(scene)[0], 21, 13, 2)))
-    bad = client.post("/api/raytree", json={"scene": scene, "x": 99, "y": 0})
+    r = client.post("/api/raytree", json={"scene": scene, "x": 21, "y": 13})
+    assert r.status_code == 503 and "no render worker takes interactive work" in r.json()["errors"][0]["message"]
+    bad = client.post("/api/raytree", json={"scene": scene, "x": 99, "y": 0})  # checked before any worker
     assert bad.status_code == 422 and bad.json()["errors"][0]["path"] == "x"
-    missing = client.post("/api/raytree", json={"scene": scene})
-    assert missing.status_code == 422 and {e["path"] for e in missing.json()["errors"]} == {"x", "y"}
 
 
 def test_api_tools_api_docs_load_nothing_from_other_hosts(client):

@@ -3,8 +3,8 @@ namespace holds Redis and the API; two worker namespaces join it over veth pairs
 client (curl) runs inside a namespace; nothing is ever sent to a namespace's address from here.
 
 - A worker host dies whole (every process in its namespace, its work horse in a session of its own
-  included) in the middle of a job: the job runs again on the other host (attempts 2), with the CLI's
-  pixels.
+  included) in the middle of a job: the job runs again on the other host (attempts 2), continuing from
+  the last snapshot of its film that reached the API, with the CLI's pixels.
 - A host's cable is pulled mid-job and put back: the job runs again elsewhere, and what the cut-off
   try sends once it is back is dropped (counted, not applied): no stale or duplicate writes.
 - A cancel reaches a job on whichever host runs it.
@@ -112,7 +112,7 @@ def hosts(tmp_path_factory):
             raise
 
 
-def job_scene(spp: int = 144) -> dict:
+def job_scene(spp: int = 1024) -> dict:
     """Whitted's scene at 128 x 96: several seconds on one thread, many passes."""
     return small(scene_dict("whitted"), 128, 96, sampler={"type": "jittered", "spp": spp}, render={"seed": 5})
 
@@ -134,7 +134,7 @@ def test_queue_hosts_a_dead_host_s_job_finishes_on_the_other_with_the_cli_s_pixe
     h = hosts
     scene = job_scene()
     job = h.submit(scene)
-    first = running_on(h, job["id"])
+    first = h.wait(job["id"], lambda j: j["status"] == "running" and j["snapshot"] >= 2, "a snapshot of pass 2")
     victim = h.ns_of(first["tries"][-1]["worker"])
     killed = h.c.kill_host(victim)  # the whole host: worker, work horse (its own session), everything
     assert len(killed) >= 2, f"expected the worker and its work horse, killed {killed}"
@@ -144,6 +144,7 @@ def test_queue_hosts_a_dead_host_s_job_finishes_on_the_other_with_the_cli_s_pixe
     lost, again = done["tries"]
     assert (lost["attempt"], lost["worker"], lost["outcome"]) == (1, h.name(victim), "lost")
     assert again["attempt"] == 2 and again["worker"] != h.name(victim) and again["outcome"] == "done"
+    assert again["resumed_from"] >= first["snapshot"]  # it continued from the last pass that reached the API
     assert np.array_equal(h.exr(job["id"], tmp_path / "api.exr"), cli_exr(scene, tmp_path))
     h.start_host(victim)  # the host comes back for the next tests
     wait_for(lambda: len(h.health()["workers"]) == 2, 120, "the host to come back", interval=0.3)
@@ -176,7 +177,7 @@ def test_queue_hosts_a_cut_off_host_comes_back_and_writes_nothing(hosts, tmp_pat
 
 def test_queue_hosts_cancel_reaches_a_job_on_another_host(hosts):
     h = hosts
-    job = h.submit(job_scene(spp=1024))
+    job = h.submit(job_scene(spp=4096))
     first = running_on(h, job["id"])
     host = h.ns_of(first["tries"][-1]["worker"])
     status, _ = h.call(

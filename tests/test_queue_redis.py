@@ -197,3 +197,38 @@ def test_queue_redis_one_api_per_database(redis_server, cluster, tmp_path):
         assert "another API uses this Redis database" in second.log()
     finally:
         second.stop()
+
+
+def test_queue_redis_a_batch_render_gives_way_on_its_host_and_resumes(cluster, tmp_path):
+    """The only host renders a batch job; an interactive one waits: the batch render stops at its next
+    pass (its film sent to the API), the interactive job runs, and the batch render's next try continues
+    from that film, on a host that has never seen it, to the CLI's image bit for bit."""
+    api, _, _ = cluster
+    scene = small(scene_dict("whitted"), 128, 96, sampler={"type": "jittered", "spp": 2304}, render={"seed": 11})
+    r = api.client.post("/api/jobs", json={"scene": scene, "lane": "batch"})
+    assert r.status_code == 202 and r.json()["lane"] == "batch"
+    long = r.json()
+    api.wait(long["id"], lambda j: j["progress"]["passes_done"] >= 3, "three passes")
+    quick = api.submit(small(scene_dict("whitted"), 16, 12, sampler={"type": "jittered", "spp": 4}))
+    assert api.wait(quick["id"], lambda j: j["finished"], "the interactive job")["status"] == "done"
+    done = api.wait(long["id"], lambda j: j["finished"], "the batch job", timeout=180)
+    assert done["status"] == "done" and [t["outcome"] for t in done["tries"]] == ["gave way", "done"]
+    assert done["tries"][1]["resumed_from"] >= 3
+    assert np.array_equal(exr(api, long["id"], tmp_path / "api.exr"), cli_exr(scene, tmp_path))
+
+
+def test_queue_redis_ray_trees_run_on_hosts_and_a_radiosity_solution_is_solved_once(cluster):
+    api, _, _ = cluster
+    scene = small(scene_dict("cornell_radiosity"), 32, 32, sampler={"type": "center", "spp": 1})
+    scene["render"]["radiosity"].update(patch_size=0.5, rays=512, threshold=0.05)
+    trees = []
+    for x, y in ((10, 12), (20, 25)):
+        r = api.client.post("/api/raytree", json={"scene": scene, "x": x, "y": y})
+        assert r.status_code == 200, r.text
+        trees.append(r.json())
+    assert [t["pixel"] for t in trees] == [[10, 12], [20, 25]]
+    jobs = api.client.get("/api/jobs", params={"kind": "raytree", "limit": 2}).json()["jobs"]
+    second, first = jobs  # newest first
+    assert first["progress"]["solve"]["cached"] is False and second["progress"]["solve"]["cached"] is True
+    assert first["host"] and second["device"] == "cpu"
+    assert all(j["id"] not in {x["id"] for x in api.client.get("/api/jobs").json()["jobs"]} for j in jobs)

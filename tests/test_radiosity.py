@@ -341,3 +341,32 @@ def test_radiosity_needs_surfaces_to_mesh():
         attach(compile_scene(empty))
     assert e.value.errors[0]["path"] == "objects"
     assert "needs objects to mesh into patches" in e.value.errors[0]["message"]
+
+
+def test_radiosity_solutions_are_cached_by_what_they_solve(tmp_path):
+    """A second render or ray tree of the same scene reads the solution; another view of it does too; a
+    change to what is solved (a wall's colour, the patch size) solves again."""
+    from tracer.radiosity import SolutionCache, attach
+
+    cache = SolutionCache(tmp_path / "cache")
+    data = small(scene_dict("cornell_radiosity"), 16, 16)
+    data["render"]["radiosity"].update(patch_size=0.5, rays=256, threshold=0.05)
+    first = compile_scene(load_scene(data)[0])
+    solved = attach(first, cache=cache)
+    assert not solved.cached and len(list((tmp_path / "cache").glob("*.npz"))) == 1
+    moved = small(data, 40, 30, camera={"vfov": 30}, sampler={"type": "center", "spp": 1})  # another view
+    again = attach(compile_scene(load_scene(moved)[0]), cache=cache)
+    assert again.cached and again.history == solved.history and again.stats()["shots"] == solved.stats()["shots"]
+    for name in ("radiosity", "unshot", "direct", "emitted"):
+        assert np.array_equal(getattr(again, name), getattr(solved, name)), name
+    assert np.array_equal(again.patches.corner, solved.patches.corner)
+    assert again.snapshots.keys() == solved.snapshots.keys()
+    # the image through the cached solution is the image through the solved one
+    cs_a, cs_b = compile_scene(load_scene(data)[0]), compile_scene(load_scene(data)[0])
+    attach(cs_a, cache=cache)
+    attach(cs_b)
+    assert np.array_equal(render(cs_a).image, render(cs_b).image)
+    finer = {**data["render"], "radiosity": {**data["render"]["radiosity"], "patch_size": 0.4}}
+    for change in ({"materials": {**data["materials"], "red": {"kd": [0.5, 0.1, 0.1]}}}, {"render": finer}):
+        other = attach(compile_scene(load_scene({**data, **change})[0]), cache=cache)
+        assert not other.cached

@@ -32,9 +32,13 @@ Units: radiosity B is exitance, W/m^2; the radiance a diffuse patch sends out is
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from pathlib import Path
 
 import numpy as np
 import warp as wp
@@ -134,6 +138,7 @@ class Solution:
     rays: int = 0  # rays cast so far (form factors and the point lights' shadow rays)
     seconds: float = 0.0  # time spent solving so far
     reported: float = 0.0  # the largest fraction() said so far (progress never goes back)
+    cached: bool = False  # read from a SolutionCache rather than solved here
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
@@ -169,6 +174,7 @@ class Solution:
             "rays": int(self.rays),
             "seconds": round(self.seconds, 4),
             "unshot": self.unshot_total() / emitted if emitted > 0 else 0.0,
+            "cached": self.cached,
         }
 
     def to_json(self) -> dict:
@@ -801,23 +807,117 @@ def corner_values(p: Patches, values: np.ndarray) -> np.ndarray:
     return out
 
 
-def attach(cs: CompiledScene, device: str = "cpu", threads: int | None = None, on_step=None, cancel=None) -> Solution:
-    """Solve the scene's radiosity (render.radiosity settings) and put it in cs.data.rad for the
-    kernels; the Solution stays in cs.radiosity (the patches, the convergence curve). `on_step` and
-    `cancel` as in `solve`."""
-    cfg = cs.scene.render.radiosity
-    sol = solve(
-        cs,
-        patch_size=cfg.patch_size,
-        rays=cfg.rays,
-        threshold=cfg.threshold,
-        max_steps=cfg.max_steps,
-        seed=cs.scene.render.seed,
-        on_step=on_step,
-        cancel=cancel,
-        threads=threads,
-        device=device,
+class SolutionCache:
+    """Radiosity solutions on disk, by the content of what they solve: a second render or ray tree of the
+    same scene (whatever its camera's view, film or sampler) reads the solution in milliseconds
+    instead of solving it again. At most `keep` solutions; the least recently used go first."""
+
+    def __init__(self, folder: Path | str, keep: int = 64):
+        self.folder, self.keep = Path(folder), keep
+
+    @staticmethod
+    def key(cs: CompiledScene) -> str:
+        """A hash of everything the solve depends on: the flattened shapes, triangles, materials (their
+        textures' pixels too), lights, the solve's settings and seed, the camera's position (planes are
+        clipped to a box that holds it), and this module's code."""
+        h = hashlib.sha256()
+        d = cs.data
+        for arr in (d.shapes, d.materials, d.lights, d.mesh_points, d.mesh_indices, d.face_obj, d.face_mat):
+            h.update(arr.numpy().tobytes())
+        h.update(d.tex_pixels.numpy().tobytes())
+        sc = cs.scene
+        meta = {
+            "radiosity": sc.render.radiosity.model_dump(mode="json"),
+            "seed": sc.render.seed,
+            "camera": [sc.camera.lookfrom, sc.camera.lookat],
+            "objects": [o.type for o in sc.objects],
+            "names": cs.material_names,
+        }
+        h.update(json.dumps(meta, sort_keys=True).encode())
+        h.update(Path(__file__).read_bytes())
+        return h.hexdigest()[:32]
+
+    def get(self, key: str) -> Solution | None:
+        path = self.folder / f"{key}.npz"
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                sol = _solution_from(dict(z))
+        except (OSError, ValueError, KeyError):
+            return None
+        path.touch()  # recently used
+        return sol
+
+    def put(self, key: str, sol: Solution) -> None:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        tmp = self.folder / f".{key}.{os.getpid()}.npz"
+        with open(tmp, "wb") as f:
+            np.savez(f, **_solution_arrays(sol))
+        os.replace(tmp, self.folder / f"{key}.npz")
+        files = sorted(self.folder.glob("*.npz"), key=lambda p: p.stat().st_mtime)
+        for old in files[: max(0, len(files) - self.keep)]:
+            old.unlink(missing_ok=True)
+
+
+PATCH_FIELDS = [f.name for f in fields(Patches)]
+
+
+def _solution_arrays(sol: Solution) -> dict[str, np.ndarray]:
+    out = {f"patches.{name}": np.asarray(getattr(sol.patches, name)) for name in PATCH_FIELDS}
+    for name in ("radiosity", "unshot", "emitted", "absorbed", "escaped", "direct"):
+        out[name] = np.asarray(getattr(sol, name))
+    steps = sorted(sol.snapshots)
+    out["snapshot_steps"] = np.asarray(steps, dtype=np.int64)
+    out["snapshots"] = np.stack([sol.snapshots[k] for k in steps]) if steps else np.zeros((0, len(sol.patches), 3))
+    scalars = {"threshold": sol.threshold, "max_steps": sol.max_steps, "rays": sol.rays, "seconds": sol.seconds}
+    out["meta"] = np.asarray(json.dumps({"history": sol.history, **scalars}))
+    return out
+
+
+def _solution_from(z: dict) -> Solution:
+    patches = Patches(**{name: z[f"patches.{name}"] for name in PATCH_FIELDS})
+    meta = json.loads(str(z["meta"]))
+    sol = Solution(patches, z["radiosity"], z["unshot"], z["emitted"], z["absorbed"], z["escaped"], meta["history"])
+    sol.direct = z["direct"]
+    sol.snapshots = {int(k): v for k, v in zip(z["snapshot_steps"], z["snapshots"], strict=True)}
+    sol.threshold, sol.max_steps, sol.rays, sol.seconds = (
+        meta["threshold"],
+        meta["max_steps"],
+        meta["rays"],
+        meta["seconds"],
     )
+    sol.reported, sol.cached = 1.0, True
+    return sol
+
+
+def attach(
+    cs: CompiledScene,
+    device: str = "cpu",
+    threads: int | None = None,
+    on_step=None,
+    cancel=None,
+    cache: SolutionCache | None = None,
+) -> Solution:
+    """Solve the scene's radiosity (render.radiosity settings), or read it from `cache`, and put it in
+    cs.data.rad for the kernels; the Solution stays in cs.radiosity (the patches, the convergence
+    curve). `on_step` and `cancel` as in `solve`."""
+    cfg = cs.scene.render.radiosity
+    key = cache.key(cs) if cache is not None else None
+    sol = cache.get(key) if cache is not None else None
+    if sol is None:
+        sol = solve(
+            cs,
+            patch_size=cfg.patch_size,
+            rays=cfg.rays,
+            threshold=cfg.threshold,
+            max_steps=cfg.max_steps,
+            seed=cs.scene.render.seed,
+            on_step=on_step,
+            cancel=cancel,
+            threads=threads,
+            device=device,
+        )
+        if cache is not None:
+            cache.put(key, sol)
     p = sol.patches
     ix, keep = patch_index(p, device)
     indirect = np.maximum(sol.radiosity - sol.direct, 0.0)

@@ -8,6 +8,7 @@ band size or split of the samples into passes (the RNG is keyed by seed, pixel a
 
 from __future__ import annotations
 
+import io
 import threading
 import time
 from collections.abc import Callable
@@ -274,6 +275,23 @@ class PassResult:
     passes_done: int
     elapsed: float  # seconds since the render started
     rays: dict  # rays traced so far, by kind name, and "total"
+    snapshot: Callable[[], dict] | None = None  # the film now, to resume from (see `render`'s `resume`)
+
+
+def snapshot_bytes(snap: dict) -> bytes:
+    """A film snapshot (`PassResult.snapshot()`) as the bytes of an .npz file, to keep or send."""
+    buf = io.BytesIO()
+    np.savez(buf, **{k: np.asarray(v) for k, v in snap.items()})
+    return buf.getvalue()
+
+
+def snapshot_from(data: bytes) -> dict:
+    """The snapshot that `snapshot_bytes` wrote."""
+    with np.load(io.BytesIO(data), allow_pickle=False) as z:
+        snap = {k: z[k] for k in z.files}
+    for key in ("samples_done", "passes"):
+        snap[key] = int(snap[key])
+    return snap
 
 
 def render(
@@ -283,28 +301,40 @@ def render(
     cancel: Callable[[], bool] | None = None,
     on_pass: Callable[[PassResult], None] | None = None,
     device: str = "cpu",
+    radiosity_cache: radiosity.SolutionCache | None = None,
+    resume: dict | None = None,
 ) -> RenderResult:
-    """Render a scene progressively; with the radiosity integrator, solve its radiosity first.
+    """Render a scene progressively; with the radiosity integrator, solve its radiosity first (or read
+    it from `radiosity_cache`).
 
     `progress` is called after each shot of the solve (phase "radiosity") and after each band of
     rows, `on_pass` after each pass with the running image, `cancel` before each shot and each pass:
     when it returns True the render stops and the result holds the samples finished so far
-    (`cancelled` = True; none if the solve was not finished).
+    (`cancelled` = True; none if the solve was not finished). `resume`: a snapshot taken after a pass
+    of this scene's render (`PassResult.snapshot()`): the render goes on from there, and ends with
+    exactly the image of an uninterrupted one.
     """
     start = time.perf_counter()
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     adaptive = cs.data.sampler == SamplerKind.ADAPTIVE
-    total = cs.data.width * cs.data.height * (cs.data.max_level + 1 if adaptive else cs.data.spp)
+    pixels = cs.data.width * cs.data.height
+    total = pixels * (cs.data.max_level + 1 if adaptive else cs.data.spp)
     try:
-        solve = solve_radiosity(cs, threads, progress, cancel, device, start, total)
+        solve = solve_radiosity(cs, threads, progress, cancel, device, start, total, radiosity_cache)
     except radiosity.Cancelled:
         shape = (cs.data.height, cs.data.width, 3)
         return RenderResult(np.zeros(shape, np.float32), 0, time.perf_counter() - start, cancelled=True)
     solve_rays = solve["rays"] if solve else 0
     r = Renderer(cs, threads, device)
-    done = 0
     passes = 0
+    if resume is not None:
+        r.restore(resume)
+        passes = int(resume["passes"])
+    done = pixels * (passes if adaptive else r.samples_done)
     cancelled = False
+
+    def snapshot() -> dict:
+        return {**r.snapshot(), "passes": passes}
 
     def all_rays() -> dict:
         rays = r.rays()
@@ -319,7 +349,7 @@ def render(
         if progress:
             progress(Progress(done, total, passes, time.perf_counter() - start))
 
-    schedule = adaptive_schedule(cs) if r.adaptive else pass_schedule(r.spp)
+    schedule = (adaptive_schedule(cs) if r.adaptive else pass_schedule(r.spp))[passes:]
     for s0, s1 in schedule:
         if cancel is not None and cancel():
             cancelled = True
@@ -330,7 +360,8 @@ def render(
             r.add_samples(s0, s1, on_band)
         passes += 1
         if on_pass is not None:
-            on_pass(PassResult(r.image(), r.samples_done, r.spp, passes, time.perf_counter() - start, all_rays()))
+            elapsed = time.perf_counter() - start
+            on_pass(PassResult(r.image(), r.samples_done, r.spp, passes, elapsed, all_rays(), snapshot))
     seconds = time.perf_counter() - start
     return RenderResult(
         image=r.image(),
@@ -343,7 +374,9 @@ def render(
     )
 
 
-def solve_radiosity(cs: CompiledScene, threads, progress, cancel, device: str, start: float, total: int) -> dict | None:
+def solve_radiosity(
+    cs: CompiledScene, threads, progress, cancel, device: str, start: float, total: int, cache=None
+) -> dict | None:
     """The radiosity phase of a render: solve and attach the scene's radiosity solution when its
     integrator needs one that is not there yet, reporting each shot to `progress` (phase "radiosity")
     and asking `cancel` before each (True raises radiosity.Cancelled). Returns the solve's stats."""
@@ -356,5 +389,5 @@ def solve_radiosity(cs: CompiledScene, threads, progress, cancel, device: str, s
                 info = {**sol.stats(), "fraction": sol.fraction()}
                 progress(Progress(0, total, 0, time.perf_counter() - start, phase="radiosity", solve=info))
 
-        radiosity.attach(cs, device=device, threads=threads, on_step=on_step, cancel=cancel)
+        radiosity.attach(cs, device=device, threads=threads, on_step=on_step, cancel=cancel, cache=cache)
     return cs.radiosity.stats()
