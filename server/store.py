@@ -316,7 +316,8 @@ class JobStore:
 
     def place(self, row: dict) -> dict:
         """A queued job's place: the queued jobs that a worker takes before it (its lane's order: lane,
-        priority, age) and their estimated seconds; the running jobs and their estimated seconds left."""
+        priority, age) and their estimated seconds; the running jobs it waits for (an interactive job:
+        the interactive ones) and their estimated seconds left."""
         rank = 0 if row["lane"] == Lane.interactive else 1
         ahead = self.db.execute(
             f"SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0)), 0) FROM jobs WHERE status = ? AND"
@@ -324,10 +325,14 @@ class JobStore:
             " (created_at < ? OR (created_at = ? AND rowid < (SELECT rowid FROM jobs WHERE id = ?)))))))",
             (QUEUED, rank, rank, row["priority"], row["priority"], row["created_at"], row["created_at"], row["id"]),
         ).fetchone()
+        # an interactive job waits for the running interactive jobs only: a batch render gives way to it
+        # at its next pass
+        lanes = (Lane.interactive.value,) if rank == 0 else (Lane.interactive.value, Lane.batch.value)
         running = self.db.execute(
             "SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0) * (1.0 - CASE WHEN samples_total > 0"
-            " THEN MIN(1.0, samples_done * 1.0 / samples_total) ELSE 0 END)), 0) FROM jobs WHERE status = ?",
-            (RUNNING,),
+            " THEN MIN(1.0, samples_done * 1.0 / samples_total) ELSE 0 END)), 0) FROM jobs WHERE status = ?"
+            f" AND lane IN ({', '.join('?' * len(lanes))})",
+            (RUNNING, *lanes),
         ).fetchone()
         return {"ahead": ahead[0], "ahead_seconds": ahead[1], "running": running[0], "running_seconds": running[1]}
 

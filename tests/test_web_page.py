@@ -491,6 +491,28 @@ def test_web_page_cancel_and_my_jobs(desktop):
     page.wait_for_function("() => document.querySelector('#render-img').naturalWidth === 32")
 
 
+def test_web_page_shows_a_queued_job_s_place_and_wait(desktop, server):
+    """The only worker renders a long job (the batch lane, by its estimate): a job from the page says
+    where it is in line, and runs as soon as the long render gives way at its next pass."""
+    busy = httpx.post(f"{server.url}/api/jobs", json={"scene": whitted(256, 192, spp=4096)}, timeout=30).json()
+    try:
+        wait_for_status = lambda: httpx.get(f"{server.url}/api/jobs/{busy['id']}").json()["status"]  # noqa: E731
+        deadline = time.monotonic() + 30
+        while wait_for_status() != "running":
+            assert time.monotonic() < deadline, "the long job did not start"
+            time.sleep(0.05)
+        page = desktop.open().page
+        set_scene(page, whitted(32, 24, spp=4))
+        page.click("#btn-render")
+        page.wait_for_function("() => document.querySelector('#viewer-message').textContent.includes('in line')")
+        text = page.inner_text("#viewer-message")  # the long render is batch work: it gives way at its next pass
+        assert "Queued: next in line, starting in a moment" in text, text
+        desktop.shot("viewer-queued")
+    finally:
+        httpx.delete(f"{server.url}/api/jobs/{busy['id']}")
+    page.wait_for_selector("#stage[data-status=done]", timeout=60_000)
+
+
 def test_web_page_lessons(desktop, server):
     page = desktop.open("#lessons").page
 

@@ -235,7 +235,7 @@ export class Lessons {
       el.bar.hidden = true;
     } else if (job?.finished) {
       el.state.replaceChildren(h("div", { class: "refused" }, `The job ${panel.status}: ${job.error || ""}`));
-    } else el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? "queued…" : solving ? "solving radiosity…" : "rendering…"));
+    } else el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? queuedShort(job) : solving ? "solving radiosity…" : "rendering…"));
   }
 
   /** Follow one panel's job by its event stream until it ends. */
@@ -263,4 +263,12 @@ export class Lessons {
       },
     }).done;
   }
+}
+
+/** A lesson panel's queued job: its place in line (from the server). */
+function queuedShort(job) {
+  const q = job?.progress?.queue || job?.queue;
+  if (!q) return "queued…";
+  const wait = q.expected_wait != null && q.expected_wait >= 1 ? `, ~${Math.round(q.expected_wait)} s` : "";
+  return q.ahead === 0 ? `queued: next${wait}…` : `queued: #${q.position}${wait}…`;
 }

@@ -157,6 +157,7 @@ export class Viewer {
         Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total, phase: p.phase, solve: p.solve });
         job.elapsed = p.elapsed;
         job.eta = p.eta;
+        job.queue = p.queue;
         if (p.rays) job.rays = p.rays;
         this.update(job);
       },
@@ -363,7 +364,7 @@ export class Viewer {
     this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), ...solveChip, h("span", {}, `total ${integer(rays.total ?? 0)}`));
     this.setDownloads(job);
     if (running && solving) this.message("info", `Solving radiosity before the first pass: ${Math.round(fraction * 100)}% · ${integer(p.solve.shots)} shots · ${(100 * p.solve.unshot).toFixed(2)}% of the power still unshot…`);
-    else if (running) this.message("info", job.status === "queued" ? "Queued: waiting for the render worker…" : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
+    else if (running) this.message("info", job.status === "queued" ? queuedText(job) : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
     if (this.jobs.has(job.id)) {
       this.jobs.set(job.id, job);
     }
@@ -537,4 +538,20 @@ export class Viewer {
       this.message("error", `Could not load the job's scene: ${err.message}.`);
     }
   }
+}
+
+/** What a queued job waits for: its place in its lane and the expected wait (from the server). */
+export function queuedText(job) {
+  const q = job.queue;
+  if (!q) return "Queued: waiting for the render worker…";
+  if (!q.workers) return `Queued in the ${q.lane} lane, but no worker takes ${q.lane} jobs right now.`;
+  const place = q.ahead === 0 ? "next in line" : `${ordinal(q.position)} in line (${q.ahead} ahead)`;
+  const wait = q.expected_wait == null ? "" : q.expected_wait < 1 ? ", starting in a moment" : `, about ${seconds(q.expected_wait)} to wait`;
+  const lane = q.lane === "batch" ? " (batch lane: interactive work goes first)" : "";
+  return `Queued: ${place}${wait}${lane}…`;
+}
+
+function ordinal(n) {
+  const s = n % 100 >= 11 && n % 100 <= 13 ? "th" : { 1: "st", 2: "nd", 3: "rd" }[n % 10] || "th";
+  return `${n}${s}`;
 }
