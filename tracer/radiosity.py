@@ -139,6 +139,8 @@ class Solution:
     seconds: float = 0.0  # time spent solving so far
     reported: float = 0.0  # the largest fraction() said so far (progress never goes back)
     cached: bool = False  # read from a SolutionCache rather than solved here
+    corners: np.ndarray | None = None  # (2 x 3 per patch-mesh triangle, 3) B at the corners (`attach`)
+    corners_ind: np.ndarray | None = None  # the same for the interreflected part
 
     def unshot_total(self) -> float:
         return float(self.unshot.sum())
@@ -791,19 +793,22 @@ def corner_values(p: Patches, values: np.ndarray) -> np.ndarray:
     facing = np.round(p.normal * 1e3).astype(np.int64)
     back = (np.arange(n2) >= n2 // 2).astype(np.int64)
     facing[p.sphere_radius > 0] = back[p.sphere_radius > 0, None]  # a sphere: front or back only
-    group = [(int(o), *f) for o, f in zip(p.obj, facing, strict=True)]
     key_pts = np.round(tri_pts / 1e-6).astype(np.int64)
-    sums: dict = {}
-    for k in range(n2):
-        for j in range(6 if quads[k] else 3):
-            acc = sums.setdefault((group[k], *key_pts[k, j]), [np.zeros(3), 0.0])
-            acc[0] += p.area[k] * values[k]
-            acc[1] += p.area[k]
+    used = np.ones((n2, 6), dtype=bool)
+    used[~quads, 3:] = False  # a triangle has 3 corners
+    # one row per (patch, corner): the corner's group (object, facing) and its point; equal rows share
+    rows = np.concatenate(
+        [np.repeat(np.column_stack([p.obj.astype(np.int64), facing])[:, None, :], 6, axis=1), key_pts], axis=2
+    )
+    _, inverse = np.unique(rows[used], axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    weight = np.repeat(p.area[:, None], 6, axis=1)[used]
+    sums = np.zeros((inverse.max() + 1, 3))
+    np.add.at(sums, inverse, weight[:, None] * np.repeat(values[:, None, :], 6, axis=1)[used])
+    counts = np.zeros(inverse.max() + 1)
+    np.add.at(counts, inverse, weight)
     out = np.zeros((n2, 6, 3))
-    for k in range(n2):
-        for j in range(6 if quads[k] else 3):
-            total, count = sums[(group[k], *key_pts[k, j])]
-            out[k, j] = total / count
+    out[used] = sums[inverse] / counts[inverse, None]
     return out
 
 
@@ -865,6 +870,7 @@ def _solution_arrays(sol: Solution) -> dict[str, np.ndarray]:
     out = {f"patches.{name}": np.asarray(getattr(sol.patches, name)) for name in PATCH_FIELDS}
     for name in ("radiosity", "unshot", "emitted", "absorbed", "escaped", "direct"):
         out[name] = np.asarray(getattr(sol, name))
+    out["corners"], out["corners_ind"] = np.asarray(sol.corners), np.asarray(sol.corners_ind)
     steps = sorted(sol.snapshots)
     out["snapshot_steps"] = np.asarray(steps, dtype=np.int64)
     out["snapshots"] = np.stack([sol.snapshots[k] for k in steps]) if steps else np.zeros((0, len(sol.patches), 3))
@@ -886,6 +892,7 @@ def _solution_from(z: dict) -> Solution:
         meta["seconds"],
     )
     sol.reported, sol.cached = 1.0, True
+    sol.corners, sol.corners_ind = z["corners"], z["corners_ind"]
     return sol
 
 
@@ -916,17 +923,20 @@ def attach(
             threads=threads,
             device=device,
         )
-        if cache is not None:
-            cache.put(key, sol)
     p = sol.patches
     ix, keep = patch_index(p, device)
     indirect = np.maximum(sol.radiosity - sol.direct, 0.0)
+    if sol.corners is None:  # the smooth shading's corner values, kept with a cached solution
+        sol.corners = _triangle_corners(ix, p, corner_values(p, sol.radiosity))
+        sol.corners_ind = _triangle_corners(ix, p, corner_values(p, indirect))
+        if cache is not None:
+            cache.put(key, sol)
     r = RadiosityData()
     r.active = 1
     r.mode = int(RadDisplay[cfg.display.replace("-", "_").upper()])
     r.index = ix
-    r.corners = _triangle_corners(ix, p, corner_values(p, sol.radiosity), device)
-    r.corners_ind = _triangle_corners(ix, p, corner_values(p, indirect), device)
+    r.corners = wp.array(sol.corners, dtype=wp.vec3, device=device)
+    r.corners_ind = wp.array(sol.corners_ind, dtype=wp.vec3, device=device)
     r.radiosity = wp.array(sol.radiosity.astype(np.float32), dtype=wp.vec3, device=device)
     r.indirect = wp.array(indirect.astype(np.float32), dtype=wp.vec3, device=device)
     r.rho = wp.array(p.reflectance.astype(np.float32), dtype=wp.vec3, device=device)
@@ -936,7 +946,7 @@ def attach(
     return sol
 
 
-def _triangle_corners(ix: PatchIndex, p: Patches, corners: np.ndarray, device: str):
+def _triangle_corners(ix: PatchIndex, p: Patches, corners: np.ndarray) -> np.ndarray:
     """(2 x 3 per triangle of the patch mesh) corner values: every front triangle, then every back one."""
     n = len(p) // 2
     tri_patch = ix.tri_patch.numpy()
@@ -947,4 +957,4 @@ def _triangle_corners(ix: PatchIndex, p: Patches, corners: np.ndarray, device: s
             first = seen.get(int(k), 0)  # a parallelogram's first or second triangle
             out.append(corners[k + offset, 3 * first : 3 * first + 3])
             seen[int(k)] = first + 1
-    return wp.array(np.concatenate(out).astype(np.float32), dtype=wp.vec3, device=device)
+    return np.concatenate(out).astype(np.float32)
