@@ -216,7 +216,7 @@ def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
                     workers = http.get("/api/health").json()["workers"]
                 except httpx.TransportError:
                     return False
-                return len(workers) == 1 and workers[0]["ready"]
+                return len(workers) == 2 and all(w["ready"] for w in workers)  # one, and one kept for the page
 
             wait_for(ready, 120, "the server to start", interval=0.2)
             created = submit(http, tiny_scene())  # a job rendered and its worker woken, as in real use

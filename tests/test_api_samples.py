@@ -5,21 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import scene_dict, small
-from fastapi.testclient import TestClient
 from numpy.testing import assert_allclose
 from test_samples import FILM_TOL, film_point
 
-from server.main import create_app
-from server.settings import Settings
 from tracer.compile import compile_scene
 from tracer.scene import load_scene
 
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    settings = Settings(data_dir=tmp_path_factory.mktemp("samples-data"), workers=0)
-    with TestClient(create_app(settings)) as c:
-        yield c
+# `client` (tests/conftest.py): the app with a render worker, which traces the ray trees compared with.
 
 
 def lesson_scene(sampler: dict) -> dict:
