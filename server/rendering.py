@@ -244,7 +244,9 @@ class Try:
             return stop_reason is not None
 
         try:
-            result = render(compiled, threads=self.threads, progress=on_band, cancel=cancel, on_pass=on_pass)
+            result = render(
+                compiled, threads=self.threads, progress=on_band, cancel=cancel, on_pass=on_pass, device=self.device
+            )
             if not result.cancelled:
                 final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
                 publish(final)
