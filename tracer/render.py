@@ -175,8 +175,8 @@ class Renderer:
         self.adaptive = data.sampler == SamplerKind.ADAPTIVE
         self.render_pixels, self.render_adaptive, _ = dispatch.KERNELS[Integrator(data.integrator)]
         points = ((1 << (data.max_level + 1)) + 1) ** 2 if self.adaptive else 0
-        whole = band is None or (band == AUTO and self.cuda)
-        self.threads = 1 if whole else threads or default_threads()  # one launch at a time needs no pool
+        # launches on a CUDA device go one after the other into its stream: never from a pool
+        self.threads = 1 if self.cuda or band is None else threads or default_threads()
         self.band = band_size(device, self.width * self.height, data.max_depth, points, band)
         if self.adaptive:
             self.caches = []
@@ -193,7 +193,8 @@ class Renderer:
 
     def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
         """launch(worker, first pixel, pixel count) over every band, one worker thread per core (one
-        thread, this one, when the band is the whole image). `on_band(pixels)` follows a finished band."""
+        thread, this one, on a CUDA device or when the band is the whole image). `on_band(pixels)` follows a
+        finished band."""
         total = self.width * self.height
         bands = [(p0, min(self.band, total - p0)) for p0 in range(0, total, self.band)]
         queue = iter(bands)
