@@ -210,7 +210,7 @@ class InProcessWorker(HostWorker):
         limit = job.timeout + HORSE_GRACE if job.timeout and job.timeout > 0 else None
         while not done.wait(self.job_monitoring_interval):
             if limit is not None and time.monotonic() - started > limit:
-                log.error("worker host %s: try %s stuck %.0f s past its limit; exiting", self.name, job.id, limit)
+                log.error("worker host %s: try %s still running after %.0f s; exiting", self.name, job.id, limit)
                 logging.shutdown()
                 os._exit(EXIT_STUCK)
             try:
