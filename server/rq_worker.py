@@ -1,10 +1,16 @@
 """A worker host of the Redis backend: `python -m server.worker --redis URL [--device cpu] [--threads N]
-[--queues interactive batch] [--name NAME]`, on any machine that has the project installed.
+[--queues interactive batch] [--name NAME] [--no-fork]`, on any machine that has the project installed.
 
 It loads the render kernels once, at start-up, before RQ forks anything; then an RQ worker takes
 tries from the queues and runs each in a forked work horse, which inherits the loaded kernels. The
 work horse renders the try (server/rendering.py) and reports through `RedisChannel`: events on the
 stream, files as keys (server/events.py). The API applies them to its store.
+
+On a CUDA device (`--device cuda:0`) nothing forks: CUDA does not survive a fork (a child forked
+after CUDA was initialised cannot use it), and initialising CUDA afresh in every work horse would cost
+more than a GPU render. So a GPU host initialises CUDA and loads the kernels once, in its one process,
+and runs each try there (`InProcessWorker`, RQ's SimpleWorker with this host's heartbeats); the CUDA
+context stays warm from try to try. `--no-fork` picks that class on the CPU too (the tests use it).
 
 Heartbeats: the RQ worker refreshes its try's entry in RQ's started registry every
 `lost_after / 4` seconds with an expiry of `lost_after` (the API's setting, read from Redis), so a
@@ -31,6 +37,7 @@ from pathlib import Path
 
 import redis
 from rq import Queue, Worker, worker_registration
+from rq.worker import WorkerStatus
 
 from server import events as ev
 from server.lifecycle import JobStatus
@@ -42,6 +49,8 @@ log = logging.getLogger("server.rq_worker")
 
 HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname(), "cache": None}
 DEFAULT_LOST_AFTER = 15.0
+HORSE_GRACE = 60  # s past an RQ job's timeout before its host gives up on it (RQ kills a forked horse then)
+EXIT_STUCK = 70  # an in-process host's exit status when a try ran past that: a supervisor starts it afresh
 SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
 
 
@@ -205,14 +214,61 @@ class HostWorker(Worker):
         super().request_stop(signum, frame)
 
 
+class InProcessWorker(HostWorker):
+    """A host that runs each try in its own process, as RQ's SimpleWorker does: the class of a CUDA
+    device's host (see the module's notes) and of `--no-fork`. What a forking worker does while its work
+    horse renders, a thread does here: heartbeats every `lost_after / 4` s, so a long try is not lost; and
+    if the try runs past its hard limit (RQ's timeout + HORSE_GRACE, where a forking worker kills its
+    horse) the host exits with EXIT_STUCK: a render stuck in a GPU kernel cannot be interrupted any other
+    way. The API has failed that job by then; the host's supervisor (systemd, a loop) starts it afresh."""
+
+    def execute_job(self, job, queue) -> None:
+        execution = self.prepare_execution(job)
+        done = threading.Event()
+        beats = threading.Thread(target=self._beat, args=(job, execution, done), name="heartbeat", daemon=True)
+        beats.start()
+        try:
+            self.perform_job(job, queue, execution)
+        finally:
+            done.set()
+            beats.join()
+        self.set_state(WorkerStatus.IDLE)
+
+    def _beat(self, job, execution, done: threading.Event) -> None:
+        started = time.monotonic()
+        limit = job.timeout + HORSE_GRACE if job.timeout and job.timeout > 0 else None
+        while not done.wait(self.job_monitoring_interval):
+            if limit is not None and time.monotonic() - started > limit:
+                log.error("worker host %s: try %s still running after %.0f s; exiting", self.name, job.id, limit)
+                logging.shutdown()
+                os._exit(EXIT_STUCK)
+            try:
+                self.maintain_heartbeats(job, execution)
+            except redis.RedisError as exc:  # cut off: the next beat tries again (or the try is lost)
+                log.warning("worker host %s: heartbeat failed (%s)", self.name, exc)
+
+    def kill_horse(self, sig=None) -> None:
+        """No horse: the try runs in this process (RQ's Worker would signal the process group, its own)."""
+
+    def wait_for_horse(self):
+        return None, None, None
+
+
 def main(argv: list[str] | None = None) -> int:
+    from tracer.parallel import default_threads, device_arg, is_cuda
+    from tracer.render import load_kernels
+
     p = argparse.ArgumentParser(
         prog="server.worker",
         description="A worker host: render jobs from the API's Redis queue (python -m server --redis URL).",
     )
     p.add_argument("--redis", required=True, metavar="URL", help="the Redis the API uses (redis://host:6379/0)")
-    p.add_argument("--device", default="cpu", help="Warp device to render on: cpu (default), cuda:0, ...")
-    p.add_argument("--threads", type=int, default=0, help="render threads (default: every core)")
+    p.add_argument(
+        "--device", default="cpu", type=device_arg, help="Warp device to render on: cpu (default), cuda:0, ..."
+    )
+    p.add_argument(
+        "--threads", type=int, default=0, help="render threads (default: every core; a CUDA device: whole images)"
+    )
     p.add_argument(
         "--queues",
         nargs="+",
@@ -226,15 +282,23 @@ def main(argv: list[str] | None = None) -> int:
         default=str(Path.home() / ".cache" / "raytrace-edu" / "radiosity"),
         help="where this host keeps radiosity solutions by their scene's content",
     )
-    args = p.parse_args(argv)
+    p.add_argument(
+        "--no-fork",
+        action="store_true",
+        help="run each try in this process, not in a forked work horse (always so on a CUDA device)",
+    )
+    args = p.parse_args(argv)  # an unknown device: "warp has no device cuda:0 here; available: cpu", exit 2
+    device = args.device
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
     faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
-    from tracer.render import default_threads, load_kernels
-
-    HOST.update(url=args.redis, device=args.device, threads=args.threads or default_threads(), cache=args.cache_dir)
+    cuda = is_cuda(device)
+    worker_class = InProcessWorker if cuda or args.no_fork else HostWorker  # CUDA must not be forked
+    threads = 1 if cuda else args.threads or default_threads()
+    HOST.update(url=args.redis, device=device, threads=threads, cache=args.cache_dir)
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
-    load_kernels(args.device)  # once, before RQ forks: every work horse inherits them
-    log.info("worker host %s: kernels ready on %s, %d thread(s)", HOST["name"], args.device, HOST["threads"])
+    load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
+    how = "in this process" if worker_class is InProcessWorker else "in forked work horses"
+    log.info("worker host %s: kernels ready on %s, %d thread(s), tries %s", HOST["name"], device, HOST["threads"], how)
     stop = threading.Event()
     pause = 1.0
     while not stop.is_set():
@@ -242,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
             r = _redis(args.redis)
             lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
             queues = [Queue(name, connection=r) for name in args.queues]
-            worker = HostWorker(queues, connection=r, name=HOST["name"], lost_after=lost_after)
+            worker = worker_class(queues, connection=r, name=HOST["name"], lost_after=lost_after)
             worker.work(logging_level="INFO", with_scheduler=False)
             if worker._stop_requested or worker._shutdown_requested_date is not None:
                 stop.set()

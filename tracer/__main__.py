@@ -2,6 +2,7 @@
 
 python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
                         [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
+                        [--device cpu|cuda:0]
 python -m tracer raytree SCENE.json X Y [--sample K]
 python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick]
@@ -76,7 +77,8 @@ def cmd_render(args) -> int:
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_warnings(warnings)
-    cs = compile_scene(scene, asset_dir=Path(args.assets))  # render() solves a radiosity scene, with progress
+    # render() solves a radiosity scene, with progress
+    cs = compile_scene(scene, asset_dir=Path(args.assets), device=args.device)
     bars: dict = {}
     show = sys.stderr.isatty() and not args.quiet
     last = 0
@@ -104,7 +106,7 @@ def cmd_render(args) -> int:
         bar.update(p.samples_done - last)
         last = p.samples_done
 
-    result = render(cs, threads=args.threads, progress=progress)
+    result = render(cs, threads=args.threads, progress=progress, device=args.device)
     for bar in bars.values():
         bar.close()
     write_png(args.output, result.image, scene.film.exposure)
@@ -115,7 +117,8 @@ def cmd_render(args) -> int:
         sampling = f"adaptive to level {scene.sampler.max_level} ({per_pixel:.1f} rays/pixel in the last pass)"
     else:
         sampling = f"{result.spp} spp"
-    print(f"{args.output}: {scene.film.width}x{scene.film.height}, {sampling}, {result.stats_line()}")
+    on = "" if args.device == "cpu" else f" on {args.device}"
+    print(f"{args.output}: {scene.film.width}x{scene.film.height}, {sampling}{on}, {result.stats_line()}")
     return 0
 
 
@@ -237,6 +240,13 @@ def cmd_grade(args) -> int:
 WORKER_LOG = "workers.log"  # a class's render workers log here, under OUT/.queue/
 
 
+def _device(name: str) -> str:
+    """--device: Warp's name of the device, or a usage error naming the devices there are."""
+    from tracer.parallel import device_arg
+
+    return device_arg(name)
+
+
 ASSETS_HELP = "folder that mesh and image files are read from (default: scenes/assets)"
 
 
@@ -254,6 +264,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--integrator")
     r.add_argument("--max-depth", type=int, dest="max_depth")
     r.add_argument("--threads", type=int, help="render threads (default: one per core)")
+    r.add_argument(
+        "--device",
+        default="cpu",
+        type=_device,
+        help="Warp device: cpu (default) or a GPU such as cuda:0 (whole images per launch; see docs/scale.md)",
+    )
     r.add_argument("--exr", help="also write the linear float image as OpenEXR")
     r.add_argument(
         "--aovs",

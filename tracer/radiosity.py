@@ -660,9 +660,10 @@ def solve(
 ) -> Solution:
     """Progressive refinement until the unshot power is below `threshold` of the emitted power (or
     `max_steps` shots). `on_step(solution, step)` is called after each shot; `cancel()` before each
-    one (True raises `Cancelled`). The shots' rays run on `threads` threads (default: every core)."""
+    one (True raises `Cancelled`). The shots' rays run on `threads` threads (default: every core); on a
+    CUDA device each shot is one launch."""
     start = time.perf_counter()
-    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene)
+    cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     p = build_patches(cs, patch_size)
     ix, keep = patch_index(p, device)
     n = len(p)

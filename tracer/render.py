@@ -4,6 +4,12 @@ A Warp CPU launch runs on one thread and releases the GIL, so bands of rows are 
 from one Python thread per core. Each pixel's samples are added in sample order by a single
 thread into a float accumulation buffer, so the image is bit-identical for any thread count,
 band size or split of the samples into passes (the RNG is keyed by seed, pixel and sample).
+
+On a CUDA device the band is the whole image: one launch per pass, no thread pool (bands of
+4096 pixels would starve a GPU). `Renderer(..., band=None)` asks for the same on the CPU, and
+gives the same image there, bit for bit. The one bound: a launch's scratch memory (ray stacks,
+the adaptive sampler's cache) stays within WHOLE_IMAGE_SCRATCH_BYTES; a bigger image is launched
+in the fewest bands that fit, one after the other.
 """
 
 from __future__ import annotations
@@ -23,11 +29,33 @@ from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record
 from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
-from tracer.parallel import default_threads
+from tracer.parallel import default_threads, is_cuda
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
+WHOLE_IMAGE_SCRATCH_BYTES = 2 << 30  # whole-image launches: the most their stacks and cache may take
+STACK_BYTES_PER_LEVEL = 6 * 12  # a pixel's ray stack: o, d, k, w, tau (vec3) and i (vec3i) per depth
+CACHE_BYTES_PER_POINT = 12 + 4  # a pixel's adaptive cache: a colour (vec3) and a stamp (int32) per grid point
+AUTO = "auto"  # Renderer(band=AUTO): the whole image on a CUDA device, BAND_PIXELS on the CPU
+
+
+def band_size(device: str, pixels: int, max_depth: int, grid_points: int, band: int | str | None = AUTO) -> int:
+    """Pixels per launch. `band` AUTO: the whole image on a CUDA device, BAND_PIXELS on the CPU; None: the
+    whole image; a number: that many. The whole image is bounded by WHOLE_IMAGE_SCRATCH_BYTES of scratch
+    (ray stacks, and the adaptive sampler's cache of `grid_points` per pixel); bands on the CPU by
+    ADAPTIVE_CACHE_BYTES of cache per thread."""
+    if band == AUTO:
+        band = None if is_cuda(device) else BAND_PIXELS
+    cache = grid_points * CACHE_BYTES_PER_POINT
+    if band is None:
+        per_pixel = (max_depth + 1) * STACK_BYTES_PER_LEVEL + cache
+        fit = max(1, WHOLE_IMAGE_SCRATCH_BYTES // per_pixel)
+        bands = -(-pixels // fit)  # the fewest bands that fit, as equal as can be
+        return -(-pixels // bands)
+    if grid_points:
+        band = min(band, ADAPTIVE_CACHE_BYTES // cache)
+    return int(max(1, min(band, pixels)))
 
 
 def make_stack(rows: int, depth: int, device: str = "cpu") -> Stack:
@@ -129,22 +157,29 @@ class Renderer:
 
     Uniform samplers: `add_samples(s0, s1)` adds samples to the running sums. Adaptive sampler:
     `adaptive_pass(level)` recomputes the film with subdivision down to `level`.
-    Work is cut into bands of consecutive pixels launched from one thread per core.
+    Work is cut into bands of consecutive pixels launched from one thread per core; on a CUDA device
+    (or with `band=None`) the band is the whole image, launched from this thread (see `band_size`).
     """
 
-    def __init__(self, compiled: CompiledScene, threads: int | None = None, device: str = "cpu"):
+    def __init__(
+        self, compiled: CompiledScene, threads: int | None = None, device: str = "cpu", band: int | str | None = AUTO
+    ):
+        on = str(compiled.data.shapes.device)  # a wp.Device prints as its alias: cpu, cuda:0
+        if on != str(wp.get_device(device)):
+            raise ValueError(f"the scene was compiled for {on}, not {device}: compile_scene(scene, device={device!r})")
         self.cs = compiled
         self.device = device
+        self.cuda = is_cuda(device)
         load_kernels(device)
         data = compiled.data
         self.width, self.height, self.spp = data.width, data.height, data.spp
         self.adaptive = data.sampler == SamplerKind.ADAPTIVE
         self.render_pixels, self.render_adaptive, _ = dispatch.KERNELS[Integrator(data.integrator)]
-        self.threads = threads or default_threads()
-        self.band = BAND_PIXELS
+        points = ((1 << (data.max_level + 1)) + 1) ** 2 if self.adaptive else 0
+        # launches on a CUDA device go one after the other into its stream: never from a pool
+        self.threads = 1 if self.cuda or band is None else threads or default_threads()
+        self.band = band_size(device, self.width * self.height, data.max_depth, points, band)
         if self.adaptive:
-            points = ((1 << (data.max_level + 1)) + 1) ** 2
-            self.band = int(max(1, min(BAND_PIXELS, ADAPTIVE_CACHE_BYTES // (points * 16))))
             self.caches = []
             for _ in range(self.threads):
                 c = dispatch.AdaptiveCache()
@@ -158,7 +193,9 @@ class Renderer:
         self.passes_rays = np.zeros(len(RayKind), dtype=np.int64)  # adaptive: rays of the passes before the last
 
     def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
-        """launch(worker, first pixel, pixel count) over every band, one worker thread per core."""
+        """launch(worker, first pixel, pixel count) over every band, one worker thread per core (one
+        thread, this one, on a CUDA device or when the band is the whole image). `on_band(pixels)` follows a
+        finished band."""
         total = self.width * self.height
         bands = [(p0, min(self.band, total - p0)) for p0 in range(0, total, self.band)]
         queue = iter(bands)
@@ -172,6 +209,8 @@ class Renderer:
                     return
                 launch(k, *item)
                 if on_band:
+                    if self.cuda:  # a CUDA launch returns at once: progress counts finished work
+                        wp.synchronize_device(self.device)
                     with lock:
                         on_band(item[1])
 
@@ -303,6 +342,7 @@ def render(
     device: str = "cpu",
     radiosity_cache: radiosity.SolutionCache | None = None,
     resume: dict | None = None,
+    band: int | str | None = AUTO,
 ) -> RenderResult:
     """Render a scene progressively; with the radiosity integrator, solve its radiosity first (or read
     it from `radiosity_cache`).
@@ -312,7 +352,8 @@ def render(
     when it returns True the render stops and the result holds the samples finished so far
     (`cancelled` = True; none if the solve was not finished). `resume`: a snapshot taken after a pass
     of this scene's render (`PassResult.snapshot()`): the render goes on from there, and ends with
-    exactly the image of an uninterrupted one.
+    exactly the image of an uninterrupted one. `device`: Warp's device ("cpu", "cuda:0"; a compiled
+    scene must have been compiled for it); `band`: see `Renderer`.
     """
     start = time.perf_counter()
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
@@ -325,7 +366,7 @@ def render(
         shape = (cs.data.height, cs.data.width, 3)
         return RenderResult(np.zeros(shape, np.float32), 0, time.perf_counter() - start, cancelled=True)
     solve_rays = solve["rays"] if solve else 0
-    r = Renderer(cs, threads, device)
+    r = Renderer(cs, threads, device, band)
     passes = 0
     if resume is not None:
         r.restore(resume)
