@@ -146,13 +146,27 @@ def job_outcome(row: dict, seconds: float, source: str) -> tuple[str | None, int
 # ----------------------------------------------------------------------------------- the processes
 
 
+PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the server is still there
+
+
 def _pool_process(nice: int) -> None:
     """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C
-    (the server stops the pool), the grading modules loaded before the first task."""
+    (the server stops the pool), watching that the server lives, the grading modules loaded before the
+    first task."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if nice:
         os.nice(nice)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
     import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process once its server is gone (killed without a word: SIGKILL, out of memory). Python's
+    pool cannot tell: each process holds both ends of the pipe it waits on, so it would wait forever."""
+    while True:
+        time.sleep(PARENT_CHECK)
+        if os.getppid() != parent:
+            os._exit(0)
 
 
 class GradingPool:

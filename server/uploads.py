@@ -133,11 +133,11 @@ class _Parts:
             self.total += n
             name = self.upload.files[-1][0]
             if self.size > self.caps.file_bytes:
-                raise _refuse("files", f"{name}: larger than {self.caps.file_bytes} bytes", 413)
+                raise _refuse("files", f"{name}: larger than {self.caps.file_bytes} bytes")
             if self.total > self.caps.total_bytes:
                 raise _refuse("files", f"{name}: the files are more than {self.caps.total_bytes} bytes together "
-                                       "(TRACER_MAX_CLASS_BYTES)", 413)  # fmt: skip
-        self.out.write(data[start:end])
+                                       "(TRACER_MAX_CLASS_BYTES)")  # fmt: skip
+        self.out.write(memoryview(data)[start:end])  # no copy of the chunk
 
     def end(self) -> None:
         if self.out is not None:
