@@ -27,8 +27,10 @@ import json
 import logging
 import os
 import shutil
+from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from functools import partial
 from typing import TYPE_CHECKING
 
 from server.grading import capped, job_outcome
@@ -51,12 +53,19 @@ MAX_QUEUED = 1_000_000  # a class is queued whole: the queue's limit (TRACER_MAX
 MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
 
 
-def key_text(key) -> str:
-    return json.dumps(list(key))
+def _key(it: dict) -> str | None:
+    """A prepared student's baseline: its row's key ([sampler, spp, light_samples] as JSON), kept in the item."""
+    if "_key" not in it:
+        p = it["prepared"]
+        it["_key"] = json.dumps(list(p["key"])) if p is not None and p["key"] is not None else None
+        it["_enc"] = f"{p['encoding'][0]}/{p['encoding'][1]}" if p is not None else None
+    return it["_key"]
 
 
-def encoding_text(encoding: list) -> str:
-    return f"{encoding[0]}/{encoding[1]}"
+def _encoding(it: dict) -> str:
+    """How a prepared student's image is stored ("png/8", "render/32"): a baseline is measured once per one."""
+    _key(it)
+    return it["_enc"]
 
 
 class GradingRun:
@@ -233,62 +242,62 @@ class GradingRun:
 
     def _schedule(self) -> None:
         for it in self.items.values():  # what a server stopped between two writes left undone
-            p = it["prepared"]
-            if it["stage"] in (Stage.prepared, Stage.rendered) and p["key"] is not None:
-                self._queue_render(key_text(p["key"]))
+            if it["stage"] in (Stage.prepared, Stage.rendered) and _key(it) is not None:
+                self._queue_render(_key(it))
             if it["stage"] == Stage.prepared and not it["job_id"]:
                 self._queue_item(it)
         if self.renders_total is None and all(it["stage"] != Stage.submitted for it in self.items.values()):
             students = sum(it["prepared"]["job"] is not None for it in self.items.values())
             self.renders_total = len(self.renders) + students
             self.gs.update_run(self.id, renders_total=self.renders_total)
-        ready = self._ready()
         if self.suspects:  # after a process died: the tasks that were in flight, one at a time
             if not self.flight:
-                for task, fn, kwargs in ready:
+                for task, fn, kwargs in self._ready():
                     if task in self.suspects:
-                        self.flight[self.pool.submit(fn, **kwargs)] = (task, True)
+                        self.flight[self.pool.submit(fn, **kwargs())] = (task, True)
                         break
             return
         room = self.pool.processes * FLIGHT_PER_PROCESS - len(self.flight)
-        for task, fn, kwargs in ready[: max(0, room)]:
-            self.flight[self.pool.submit(fn, **kwargs)] = (task, False)
+        for task, fn, kwargs in self._ready():
+            if room <= 0:
+                break
+            self.flight[self.pool.submit(fn, **kwargs())] = (task, False)
+            room -= 1
 
-    def _ready(self) -> list[tuple[tuple, object, dict]]:
-        """The tasks whose inputs are all there and that are not in flight: (task, function, arguments)."""
+    def _ready(self) -> Iterator[tuple[tuple, Callable, Callable[[], dict]]]:
+        """The tasks whose inputs are all there and that are not in flight, baselines first (many students
+        wait for each): (task, function, its arguments when asked for)."""
         busy = {task for task, _ in self.flight.values()}
-        out = []
         mean = self.renders.get(MEAN)
         if mean is not None and mean["status"] == RenderStatus.done:
-            for key, r in self.renders.items():
+            wanted: dict[str, set[str]] = {}  # baseline -> the encodings of its students
+            for it in self.items.values():
+                if _key(it) is not None:
+                    wanted.setdefault(_key(it), set()).add(_encoding(it))
+            for key, r in list(self.renders.items()):
                 if key == MEAN or r["status"] == RenderStatus.waiting:
                     continue
-                for enc in sorted(self._encodings(key) - set(r["measured"])):
+                for enc in sorted(wanted.get(key, set()) - set(r["measured"])):
                     if r["status"] == RenderStatus.failed:  # nothing to measure: the students are told why
                         self._measured(key, enc, {"error": r["error"]})
                     elif ("baseline", key, enc) not in busy:
-                        baseline = {"image": str(self.folder / "renders" / f"{r['job_id']}.exr"), "spp": r["spp"]}
-                        kwargs = dict(assignment=self.text, reference=self._reference(), baseline=baseline,
-                                      key=json.loads(key), encoding=enc.split("/"))  # fmt: skip
-                        kwargs["encoding"][1] = int(kwargs["encoding"][1])
-                        out.append((("baseline", key, enc), tasks.measure_baseline, kwargs))
+                        yield ("baseline", key, enc), tasks.measure_baseline, partial(self._baseline_args, r, enc)
         for s, it in self.items.items():
             if it["stage"] == Stage.submitted and ("prepare", s) not in busy:
-                args = dict(student=s, kind=it["kind"], path=str(self.folder / it["file"]), filename=it["filename"])
-                out.append((("prepare", s), tasks.prepare_submission, {"assignment": self.text, **args}))
+                yield ("prepare", s), tasks.prepare_submission, partial(self._prepare_args, it)
         for s, it in self.items.items():
             if it["stage"] == Stage.rendered and ("metrics", s) not in busy and self._inputs_ready(it):
-                out.append((("metrics", s), tasks.grade_metrics, self._metrics_args(it)))
-        return out
+                yield ("metrics", s), tasks.grade_metrics, partial(self._metrics_args, it)
 
-    def _encodings(self, key: str) -> set[str]:
-        """The ways of storing images of the students measured against the baseline `key`."""
-        out = set()
-        for it in self.items.values():
-            p = it["prepared"]
-            if p is not None and p["key"] is not None and key_text(p["key"]) == key:
-                out.add(encoding_text(p["encoding"]))
-        return out
+    def _prepare_args(self, it: dict) -> dict:
+        return dict(assignment=self.text, student=it["student"], kind=it["kind"], path=str(self.folder / it["file"]),
+                    filename=it["filename"])  # fmt: skip
+
+    def _baseline_args(self, r: dict, enc: str) -> dict:
+        fmt, bits = enc.split("/")
+        baseline = {"image": str(self.folder / "renders" / f"{r['job_id']}.exr"), "spp": r["spp"]}
+        return dict(assignment=self.text, reference=self._reference(), baseline=baseline, key=json.loads(r["key"]),
+                    encoding=[fmt, int(bits)])  # fmt: skip
 
     def _inputs_ready(self, it: dict) -> bool:
         """Whether everything a student's image tests may need has ended (tracer.grading.finish_report's
@@ -301,8 +310,8 @@ class GradingRun:
             return False
         if mean["status"] == RenderStatus.failed or (it["render"] or {}).get("error"):
             return True
-        base = self.renders.get(key_text(p["key"]))
-        return base is not None and encoding_text(p["encoding"]) in base["measured"]
+        base = self.renders.get(_key(it))
+        return base is not None and _encoding(it) in base["measured"]
 
     def _reference(self) -> dict:
         mean = self.renders.get(MEAN)
@@ -317,11 +326,11 @@ class GradingRun:
         p, render = it["prepared"], it["render"]
         if render and render.get("image"):
             render = {**render, "image": str(self.folder / render["image"])}
-        base = self.renders.get(key_text(p["key"])) if p["key"] is not None else None
+        base = self.renders.get(_key(it)) if _key(it) is not None else None
         return dict(
             assignment=self.text, prepared=p, out=str(self.folder / "out" / it["student"]),
             submission=str(self.folder / it["file"]), render=render, reference=self._reference(),
-            baseline=base["measured"].get(encoding_text(p["encoding"])) if base else None,
+            baseline=base["measured"].get(_encoding(it)) if base else None,
         )  # fmt: skip
 
     def _collect(self, future: Future) -> None:
@@ -354,9 +363,10 @@ class GradingRun:
         it = self.items[student]
         stage = Stage.prepared if p["job"] is not None else Stage.rendered
         it.update(prepared=p, stage=stage)
+        it.pop("_key", None)
         self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
-        if p["key"] is not None:
-            self._queue_render(key_text(p["key"]))
+        if _key(it) is not None:
+            self._queue_render(_key(it))
         if p["job"] is not None:
             self._queue_item(it)
 
