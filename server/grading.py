@@ -299,6 +299,7 @@ class GradeRuns:
 
         run = GradingRun(self, run_id)
         thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
+        self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
         self.threads[run_id] = thread
         thread.start()
 
