@@ -158,7 +158,7 @@ def _pool_process(nice: int) -> None:
         os.nice(nice)
     # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
     # threads spinning on cores the renders use made a 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
-    os.environ.update(OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    os.environ["OMP_NUM_THREADS"] = "1"
     threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
     import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
 
