@@ -6,7 +6,7 @@
   value can never crash the serialisation of its own error message;
 - `RequestGate` (ASGI middleware) answers 413 past the body size limit (by Content-Length and by
   the bytes actually streamed) and 400 for JSON nested deeper than the depth limit, before any
-  parser or validator sees the body.
+  parser or validator sees the body; an upload (a class's files) streams through it with its own limit.
 """
 
 from __future__ import annotations
@@ -150,13 +150,20 @@ def json_depth(body: bytes) -> int:
 
 
 class RequestGate:
-    """ASGI middleware: 413 past `max_bytes`, 400 past `max_depth` levels of JSON nesting."""
+    """ASGI middleware: 413 past `max_bytes`, 400 past `max_depth` levels of JSON nesting.
 
-    def __init__(self, app: ASGIApp, max_bytes: int, max_depth: int):
+    `streamed` names routes whose bodies are not JSON and are read as a stream by the route itself
+    (a class's upload), each with its own limit (bytes, and the settings that make it): their bodies
+    pass through unbuffered, counted, and the request fails with 413 as soon as it is past the limit."""
+
+    def __init__(
+        self, app: ASGIApp, max_bytes: int, max_depth: int, streamed: dict[str, tuple[int, str]] | None = None
+    ):
         self.app, self.max_bytes, self.max_depth = app, max_bytes, max_depth
+        self.streamed = streamed or {}
 
-    def _too_large(self) -> JSONResponse:
-        msg = f"request body larger than {self.max_bytes} bytes (TRACER_MAX_BODY_BYTES)"
+    def _too_large(self, limit: int | None = None, name: str = "TRACER_MAX_BODY_BYTES") -> JSONResponse:
+        msg = f"request body larger than {limit or self.max_bytes} bytes ({name})"
         return errors_response(413, [{"path": "", "message": msg}])
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -165,15 +172,19 @@ class RequestGate:
             return
         headers = dict(scope.get("headers") or [])
         length = headers.get(b"content-length")
+        limit, name = self.streamed.get(scope["path"], (self.max_bytes, "TRACER_MAX_BODY_BYTES"))
         if length is not None:
             try:
                 declared = int(length)
             except ValueError:
                 await errors_response(400, [{"path": "", "message": "invalid Content-Length"}])(scope, receive, send)
                 return
-            if declared > self.max_bytes:
-                await self._too_large()(scope, receive, send)
+            if declared > limit:
+                await self._too_large(limit, name)(scope, receive, send)
                 return
+        if scope["path"] in self.streamed:
+            await self.app(scope, _counted(receive, limit, name), send)
+            return
         # Read the whole body (it is bounded), then check and replay it to the app.
         chunks, size = [], 0
         while True:
@@ -204,3 +215,19 @@ class RequestGate:
             return await receive()
 
         await self.app(scope, replay, send)
+
+
+def _counted(receive: Receive, limit: int, name: str) -> Receive:
+    """`receive`, counting the body's bytes: past `limit` it raises ApiError(413) into the route reading it."""
+    seen = 0
+
+    async def counted() -> Message:
+        nonlocal seen
+        message = await receive()
+        if message["type"] == "http.request":
+            seen += len(message.get("body", b""))
+            if seen > limit:
+                raise ApiError(413, [{"path": "", "message": f"request body larger than {limit} bytes ({name})"}])
+        return message
+
+    return counted

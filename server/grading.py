@@ -2,27 +2,37 @@
 any other, each with the assignment's time limit, so one slow or broken submission fails alone
 (its worker is stopped at the limit, or dies and is replaced) while the others go on.
 
-- `QueueRenderer`: a tracer.grading renderer that submits jobs to the service's queue and waits for them
-  (the CLI renders without the service: tracer/grading/local.py).
-- `GradeRuns`: grading runs of the service (POST /api/grade): each runs in a thread of the API
-  process, keeps its files under <data_dir>/grades/<id>/ and its state in status.json.
+- `GradeRuns`: the service's grading runs (POST /api/grade, POST /api/grade/upload). A run is rows in
+  SQLite (server/grading_store.py) and files under <data_dir>/grades/<id>/; a thread of the API
+  process drives it (server/grading_run.py) and a restarted server resumes it from its rows.
+- `GradingPool`: the worker processes where each student's work is done (tracer/grading/tasks.py:
+  reading and checking a submission, the image tests): never in the API process.
+- `QueueRenderer`: a tracer.grading renderer that submits jobs to the service's queue and waits for
+  them (the CLI renders without the service: tracer/grading/local.py).
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import multiprocessing as mp
+import os
+import shutil
+import signal
 import threading
 import time
 import uuid
 from collections.abc import Callable
-from dataclasses import fields
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, fields
 from pathlib import Path
 
+from server.grading_store import GradingStore, Stage
 from server.lifecycle import JobStatus
 from server.settings import Settings
-from server.store import JobFile, JobStore, write_atomic
-from tracer.grading import Grader, Rendered, RenderJob, Submission, load_assignment, write_all
+from server.store import JobFile, JobStore
+from tracer.grading import Grader, Rendered, RenderJob, load_assignment
 from tracer.grading.grade import over_time
 from tracer.scene import Limits, SceneError, load_scene
 
@@ -56,15 +66,7 @@ class QueueRenderer:
         self.log_path = log_path  # where the workers log, when they have a file of their own (the CLI's)
 
     def _capped(self, job: RenderJob) -> tuple[Limits, float, str]:
-        """The job's limits and seconds, each the smaller of the assignment's and the service's, and
-        what set the seconds (for the message of a render stopped at its limit)."""
-        if self.settings is None:
-            return job.limits, job.max_seconds, job.limit_source
-        mine = self.settings.limits
-        limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
-        if self.settings.max_job_seconds < job.max_seconds:
-            return limits, self.settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
-        return limits, job.max_seconds, job.limit_source
+        return capped(job, self.settings)
 
     def __call__(self, jobs: list[RenderJob]) -> list[Rendered]:
         out: list[Rendered | None] = [None] * len(jobs)
@@ -101,102 +103,269 @@ class QueueRenderer:
         return out  # type: ignore[return-value]
 
     def _result(self, row: dict, seconds: float, source: str) -> Rendered:
-        """A finished job's image and variance, or why there is none. A job stopped at its time limit
-        says what set the limit (`source`): the worker knows its row's seconds, not where they came
-        from, so its message is replaced."""
+        """A finished job's image and variance, or why there is none."""
         from tracer.film import read_exr
 
-        if row["status"] != JobStatus.done:
-            error = row["error"] or f"the render job {row['id']} was {row['status']}"
-            if row["status"] == JobStatus.failed and "over the time limit" in error:
-                killed = "; its worker was killed" if "killed" in error else ""
-                error = over_time(seconds, source) + killed
+        error, spp, took = job_outcome(row, seconds, source)
+        if error is not None:
             return Rendered(error=error)
         try:
             image = read_exr(self.store.job_file(row["id"], JobFile.image_exr))
             variance = read_exr(self.store.job_file(row["id"], JobFile.aov_floats))
         except Exception as e:  # a file missing or broken: that job's result is an error, not the run's
             return Rendered(error=f"the render job {row['id']} left no readable image: {e}")
-        seconds = (row["finished_at"] or 0) - (row["started_at"] or 0)
-        return Rendered(image, variance, int(row["spp_done"]), max(0.0, seconds))
+        return Rendered(image, variance, spp, took)
+
+
+def capped(job: RenderJob, settings: Settings | None) -> tuple[Limits, float, str]:
+    """The job's limits and seconds, each the smaller of the assignment's and the service's, and what
+    set the seconds (for the message of a render stopped at its limit)."""
+    if settings is None:
+        return job.limits, job.max_seconds, job.limit_source
+    mine = settings.limits
+    limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
+    if settings.max_job_seconds < job.max_seconds:
+        return limits, settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
+    return limits, job.max_seconds, job.limit_source
+
+
+def job_outcome(row: dict, seconds: float, source: str) -> tuple[str | None, int, float]:
+    """A finished job's row -> (why it has no image, or None; its spp; its render seconds). A job
+    stopped at its time limit says what set the limit (`source`): the worker knows its row's seconds,
+    not where they came from, so its message is replaced."""
+    if row["status"] != JobStatus.done:
+        error = row["error"] or f"the render job {row['id']} was {row['status']}"
+        if row["status"] == JobStatus.failed and "over the time limit" in error:
+            killed = "; its worker was killed" if "killed" in error else ""
+            error = over_time(seconds, source) + killed
+        return error, 0, 0.0
+    took = (row["finished_at"] or 0) - (row["started_at"] or 0)
+    return None, int(row["spp_done"]), max(0.0, took)
+
+
+# ----------------------------------------------------------------------------------- the processes
+
+
+PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the server is still there
+
+
+def _pool_process(nice: int) -> None:
+    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C
+    (the server stops the pool), watching that the server lives, the grading modules loaded before the
+    first task."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice:
+        os.nice(nice)
+    # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
+    # threads spinning on cores the renders use made a 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
+    os.environ["OMP_NUM_THREADS"] = "1"
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process once its server is gone (killed without a word: SIGKILL, out of memory). Python's
+    pool cannot tell: each process holds both ends of the pipe it waits on, so it would wait forever."""
+    while True:
+        time.sleep(PARENT_CHECK)
+        if os.getppid() != parent:
+            os._exit(0)
+
+
+class GradingPool:
+    """Worker processes for the runs' per-student work (tracer/grading/tasks.py): `processes` of them,
+    spawned (nothing of the API's state crosses: tasks are plain data), niced like the render workers,
+    started at the first task and kept. A process that dies breaks Python's pool: the next `submit`
+    starts a new one, and each run submits again what it had lost (server/grading_run.py)."""
+
+    def __init__(self, processes: int, nice: int = 0):
+        self.processes, self.nice = max(1, processes), nice
+        self._executor: ProcessPoolExecutor | None = None
+        self._lock = threading.Lock()
+        self.closed = False
+
+    def _new(self) -> ProcessPoolExecutor:
+        ctx = mp.get_context("spawn")
+        return ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_process, initargs=(self.nice,))
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        with self._lock:
+            if self.closed:
+                raise RuntimeError("the grading pool is shut down")
+            if self._executor is None:
+                self._executor = self._new()
+            try:
+                return self._executor.submit(fn, *args, **kwargs)
+            except BrokenProcessPool:
+                log.warning("a grading process died: starting new ones")
+                self._executor.shutdown(wait=False, cancel_futures=True)
+                self._executor = self._new()
+                return self._executor.submit(fn, *args, **kwargs)
+
+    def pids(self) -> list[int]:
+        executor = self._executor
+        return sorted((getattr(executor, "_processes", None) or {}).keys()) if executor else []
+
+    def shutdown(self) -> None:
+        with self._lock:
+            self.closed = True
+            if self._executor is not None:
+                self._executor.shutdown(wait=False, cancel_futures=True)
+                self._executor = None
+
+
+# ---------------------------------------------------------------------------------------- the runs
+
+
+@dataclass
+class Handed:
+    """A submission handed to a new run: its file's bytes (`data`), or a file (`path`, an upload's, on
+    the data directory's disk) that the run takes into its folder."""
+
+    student: str
+    kind: str  # scene, png or exr
+    filename: str  # as submitted
+    data: bytes | None = None
+    path: Path | None = None
+
+
+SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
 
 
 class GradeRuns:
-    """The service's grading runs: start one, read its state; runs left unfinished by a stopped
-    server are marked failed at start-up (their render jobs, if queued, still run). A run's status
-    is a job's (server/lifecycle.py): running, then done or failed."""
+    """The service's grading runs: start one, read its state, resume the unfinished ones at start-up.
+
+    A run's status is a job's (server/lifecycle.py): running, then done or failed. Its record is rows
+    in the job store's database (server/grading_store.py); its files are in <data_dir>/grades/<id>/:
+    submissions/ (the files handed in), renders/ (the images its render jobs made, linked there as soon
+    as each job ends, so the janitor may remove the jobs), out/ (each student's report and pictures,
+    the class summary). `resume()` takes up every run a stopped server left running."""
 
     def __init__(self, settings: Settings, store: JobStore, queued: Callable[[dict], None] | None):
-        self.settings = settings
+        self.settings, self.store, self.queued = settings, store, queued
         self.root = settings.data_dir / "grades"
         self.root.mkdir(parents=True, exist_ok=True)
-        self.store, self.queued = store, queued
-        self._lock = threading.Lock()
-        for status in self.root.glob("*/status.json"):
-            try:
-                state = json.loads(status.read_text())
-            except (OSError, ValueError):
-                continue
-            if state.get("status") == JobStatus.running:
-                state.update(status=JobStatus.failed, error="the server stopped while grading; submit it again")
-                self._write(status.parent, state)
+        self.uploads = self.root / ".uploads"  # uploads being unpacked (a crash leaves them: removed here)
+        shutil.rmtree(self.uploads, ignore_errors=True)
+        self.gs = GradingStore(settings.data_dir)
+        self.pool = GradingPool(settings.grading_processes or os.cpu_count() or 1, settings.worker_nice)
+        self.stopping = threading.Event()
+        self.threads: dict[str, threading.Thread] = {}
+        self._import_legacy()
+
+    # -- starting, resuming, stopping
+
+    def staging(self) -> Path:
+        """A fresh folder for an upload's files, on the data directory's disk (a run takes them by renaming)."""
+        path = self.uploads / uuid.uuid4().hex
+        path.mkdir(parents=True)
+        return path
+
+    def start(self, assignment: dict, handed: list[Handed]) -> dict:
+        """Check the assignment (AssignmentError with paths), keep the submissions and the run's rows,
+        then grade in a thread; the run's state."""
+        text = json.dumps(assignment)
+        spec, _ = load_assignment(text)
+        Grader(spec, None)  # raises for a reference scene given as a file name, or one that does not validate
+        run_id = uuid.uuid4().hex
+        folder = self.root / run_id
+        (folder / "submissions").mkdir(parents=True)
+        (folder / "assignment.json").write_text(text)
+        items = []
+        for i, h in enumerate(handed):
+            rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
+            if h.path is not None:
+                os.replace(h.path, folder / rel)
+            else:
+                (folder / rel).write_bytes(h.data or b"")
+            items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
+        self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)
+        log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
+        self._spawn(run_id)
+        return self.state(run_id)
+
+    def resume(self) -> list[str]:
+        """Take up the runs a stopped server left running (call it once the job queue has started: their
+        render jobs are back in the queue by then)."""
+        ids = self.gs.running()
+        for run_id in ids:
+            self.gs.resumed(run_id)
+            log.info("grading run %s: resumed", run_id)
+            self._spawn(run_id)
+        return ids
+
+    def _spawn(self, run_id: str) -> None:
+        from server.grading_run import GradingRun
+
+        run = GradingRun(self, run_id)
+        thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
+        self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
+        self.threads[run_id] = thread
+        thread.start()
+
+    def shutdown(self) -> None:
+        """At the server's shutdown: the runs stop where they are (their rows say where) and the grading
+        processes end; the next server resumes the runs."""
+        self.stopping.set()
+        for thread in self.threads.values():
+            thread.join(timeout=10)
+        self.pool.shutdown()
+
+    # -- reading
 
     def folder(self, run_id: str) -> Path | None:
         if len(run_id) != 32 or not all(c in "0123456789abcdef" for c in run_id):
             return None
-        path = self.root / run_id
-        return path if (path / "status.json").is_file() else None
+        return self.root / run_id if self.gs.run(run_id) is not None else None
 
     def state(self, run_id: str) -> dict | None:
-        folder = self.folder(run_id)
-        if folder is None:
+        row = self.gs.run(run_id) if self.folder(run_id) else None
+        if row is None:
             return None
-        return json.loads((folder / "status.json").read_text())
-
-    def _write(self, folder: Path, state: dict) -> None:
-        text = json.dumps(state)
-        write_atomic(folder / "status.json", lambda tmp: tmp.write_text(text))
-
-    def start(self, assignment: dict, submissions: list[Submission]) -> dict:
-        """Check the assignment (AssignmentError with paths), then grade in a thread; the run's state."""
-        spec, _ = load_assignment(assignment)
-        grader = Grader(spec, None)  # raises for a reference scene given as a file name
-        run_id = uuid.uuid4().hex
-        folder = self.root / run_id
-        folder.mkdir(parents=True)
-        (folder / "assignment.json").write_text(json.dumps(assignment))
-        state = {
-            "id": run_id, "status": JobStatus.running, "assignment": spec.name, "created_at": time.time(),
-            "finished_at": None, "error": None, "students": [s.student for s in submissions],
-            "renders_done": 0, "renders_total": None, "max_score": spec.max_score(), "summary": None,
+        progress = self.gs.progress(run_id)
+        return {
+            "id": run_id, "status": row["status"], "assignment": row["name"], "created_at": row["created_at"],
+            "finished_at": row["finished_at"], "error": row["error"], "students": self.gs.students(run_id),
+            "renders_done": progress["renders_done"], "renders_total": row["renders_total"],
+            "graded": progress["stages"]["graded"], "max_score": row["max_score"],
+            "summary": json.loads(row["summary"]) if row["summary"] else None, "resumed": row["starts"] - 1,
         }  # fmt: skip
-        self._write(folder, state)
-        thread = threading.Thread(target=self._run, args=(grader, submissions, folder, state), daemon=True)
-        thread.start()
-        return state
-
-    def _run(self, grader: Grader, submissions: list[Submission], folder: Path, state: dict) -> None:
-        def progress(done: int, total: int) -> None:
-            if (done, total) != (state["renders_done"], state["renders_total"]):
-                state.update(renders_done=done, renders_total=total)
-                with self._lock:
-                    self._write(folder, state)
-
-        grader.renderer = QueueRenderer(self.store, self.queued, progress, settings=self.settings)
-        try:
-            reports = grader.grade(submissions)
-            state["summary"] = write_all(folder / "out", reports)
-            state["status"] = JobStatus.done
-        except Exception as e:  # a bug must end the run with a reason, never leave it "running"
-            log.exception("grading run %s failed", folder.name)
-            state.update(status=JobStatus.failed, error=f"{type(e).__name__}: {e}")
-        state["finished_at"] = time.time()
-        with self._lock:
-            self._write(folder, state)
 
     def reports(self, run_id: str) -> list[dict]:
+        """Each graded student's report.json, in the class's order."""
         folder = self.folder(run_id)
         out = []
-        for path in sorted((folder / "out").glob("*/report.json")) if folder else ():
-            out.append(json.loads(path.read_text()))
+        for it in self.gs.items(run_id) if folder else ():
+            path = folder / "out" / it["student"] / "report.json"
+            if it["stage"] == Stage.graded and path.is_file():
+                out.append(json.loads(path.read_text()))
         return out
+
+    # -- runs of a server from before the database kept them (a status.json in their folder)
+
+    def _import_legacy(self) -> None:
+        for status in sorted(self.root.glob("*/status.json")):
+            run_id = status.parent.name
+            if self.folder(run_id) is not None or len(run_id) != 32:
+                continue
+            try:
+                state = json.loads(status.read_text())
+                text = (status.parent / "assignment.json").read_text()
+            except (OSError, ValueError):
+                continue
+            if state.get("status") == JobStatus.running:
+                state.update(status=JobStatus.failed, error="the server stopped while grading; submit it again")
+            rows = {r["student"]: r for r in (state.get("summary") or {}).get("students", [])}
+            items = [{"student": s, "kind": (rows.get(s) or {}).get("kind", "scene"), "filename": "", "file": ""}
+                     for s in state.get("students", [])]  # fmt: skip
+            self.gs.create_run(run_id, text, state.get("assignment") or "", state.get("max_score") or 0, items)
+            for s in state.get("students", []):
+                if s in rows:
+                    row = rows[s]
+                    self.gs.update_item(run_id, s, stage=Stage.graded, status=row["status"], score=row["score"],
+                                        max_score=row["max_score"], row=row)  # fmt: skip
+            self.gs.update_run(run_id, status=state["status"], error=state.get("error"),
+                               created_at=state.get("created_at") or 0, finished_at=state.get("finished_at"),
+                               renders_total=state.get("renders_total"),
+                               summary=json.dumps(state["summary"]) if state.get("summary") else None)  # fmt: skip
+            log.info("grading run %s: imported from its status.json", run_id)

@@ -1,9 +1,10 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
-opens the job store, puts back in the queue the jobs a dead server left running, and starts the
-render workers and the janitor (which removes old finished jobs); at shutdown the workers give their
-running jobs back to the queue.
+opens the job store, puts back in the queue the jobs a dead server left running, starts the render
+workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
+removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where)
+and the workers give their running jobs back to the queue.
 """
 
 from __future__ import annotations
@@ -42,14 +43,16 @@ async def lifespan(app: FastAPI):
     store = JobStore(settings.data_dir)
     queue = make_queue(settings, store)
     app.state.store, app.state.queue = store, queue
-    app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
+    grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
     queue.start()  # recovers the jobs a stopped server left, then takes jobs
+    grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
     janitor = Janitor(settings, store)
     janitor.start()
     try:
         yield
     finally:
         janitor.stop()
+        grade_runs.shutdown()
         queue.shutdown()
         lock.close()
 
@@ -81,7 +84,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.grade_runs = None
     install_error_handlers(app)
-    app.add_middleware(RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth)
+    upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
+    app.add_middleware(
+        RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
+        streamed={grade.UPLOAD: upload},
+    )  # fmt: skip
     app.include_router(jobs.router)
     app.include_router(tools.router)
     app.include_router(samples.router)

@@ -52,6 +52,13 @@ class Settings(BaseSettings):
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
+    grading_processes: int = Field(
+        0,
+        ge=0,
+        le=64,
+        description="worker processes for grading's per-student work (reading submissions, the image tests); "
+        "0 = one per core",
+    )
 
     # Lanes (server/lifecycle.py): interactive work first; long renders and grading in the batch lane.
     interactive_seconds: float = Field(
@@ -100,6 +107,15 @@ class Settings(BaseSettings):
     # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
     max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")
     max_json_depth: int = Field(64, ge=4, description="nesting of JSON arrays and objects in a request body")
+    max_class_entries: int = Field(
+        5000, ge=1, description="entries of a class's zip (files and folders), or files uploaded for a class"
+    )
+    max_class_bytes: ByteSize = Field(
+        ByteSize(1_000_000_000),
+        ge=1024,
+        description="a class's files unpacked, all together (bytes, or 500MB, 1GB); an upload may be this big "
+        "plus max_body_bytes (the assignment)",
+    )
     max_queued_jobs: int = Field(100, ge=1, description="jobs waiting in the queue: 429 past it")
     max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
     max_width: int = Field(2048, ge=1, description="image width (pixels)")

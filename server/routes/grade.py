@@ -6,22 +6,50 @@ from __future__ import annotations
 import base64
 import binascii
 import json
+import shutil
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Request, Response
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+from starlette.concurrency import run_in_threadpool
 
-from server.errors import ApiError
-from server.grading import STUDENT_FILES, GradeRuns
+from server.deps import SettingsDep
+from server.errors import ApiError, json_depth
+from server.grading import STUDENT_FILES, GradeRuns, Handed
 from server.lifecycle import JobStatus
 from server.models import ErrorResponse
-from tracer.grading import AssignmentError, GradingError, Submission, read_zip, student_for_file, student_name
+from server.settings import Settings
+from server.uploads import Upload, receive
+from tracer.grading import (
+    AssignmentError,
+    Caps,
+    GradingError,
+    group_names,
+    read_zip,
+    student_for_file,
+    student_name,
+    unpack_zip,
+)
+from tracer.grading.archive import kept
 from tracer.grading.batch import MAX_FILES, group_files
 
 router = APIRouter(prefix="/api/grade", tags=["grading"])
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
 EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"
+UPLOAD = "/api/grade/upload"  # streamed (server/uploads.py): the request gate does not buffer it
+UPLOAD_BODY = {  # the multipart body, for /docs (the route parses it as a stream, not through FastAPI's models)
+    "requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {
+        "type": "object", "required": ["assignment"],
+        "properties": {
+            "assignment": {"type": "string", "description": "the assignment's JSON (its reference scene inline)"},
+            "class": {"type": "string", "format": "binary", "description": "the class as one zip (docs/grading.md)"},
+            "files": {"type": "array", "items": {"type": "string", "format": "binary"},
+                      "description": "or one part per submission (.json, .png, .exr), named by its file name"},
+        },
+    }}}},
+}  # fmt: skip
 
 
 class SubmissionIn(BaseModel):
@@ -76,18 +104,26 @@ def _b64(text: str, where: str) -> bytes:
         raise ApiError(422, [{"path": where, "message": "expected base64 data"}]) from None
 
 
-def _submissions(body: GradeCreate) -> list[Submission]:
+def class_caps(settings: Settings) -> Caps:
+    """How much of a class the service reads (docs/grading.md): the settings' caps."""
+    return Caps(
+        entries=settings.max_class_entries, total_bytes=int(settings.max_class_bytes),
+        entries_name="TRACER_MAX_CLASS_ENTRIES", bytes_name="TRACER_MAX_CLASS_BYTES",
+    )  # fmt: skip
+
+
+def _submissions(body: GradeCreate, settings: Settings) -> list[Handed]:
     if body.scene is not None:
         text = body.scene if isinstance(body.scene, str) else json.dumps(body.scene)
-        return [Submission("submission", text.encode(), "scene")]
+        return [Handed("submission", "scene", "submission.json", text.encode())]
     if body.zip is not None:
         try:
-            subs = group_files(read_zip(_b64(body.zip, "zip")))
+            subs = group_files(read_zip(_b64(body.zip, "zip"), class_caps(settings)))
         except GradingError as e:
             raise ApiError(422, [{"path": "zip", "message": str(e)}]) from None
         if not subs:
             raise ApiError(422, [{"path": "zip", "message": "no submissions in it (.json, .png or .exr files)"}])
-        return subs
+        return [Handed(s.student, s.kind, s.filename, s.data) for s in subs]
     out, seen = [], set()
     for i, s in enumerate(body.submissions or []):
         name = student_name(s.student)
@@ -95,10 +131,11 @@ def _submissions(body: GradeCreate) -> list[Submission]:
             raise ApiError(422, [{"path": f"submissions[{i}].student", "message": f"'{name}' appears twice"}])
         seen.add(name)
         if s.image is not None:
-            out.append(Submission(name, _b64(s.image, f"submissions[{i}].image"), s.format))
+            data = _b64(s.image, f"submissions[{i}].image")
+            out.append(Handed(name, s.format, f"{name}.{s.format}", data))
         else:
             text = s.scene if isinstance(s.scene, str) else json.dumps(s.scene)
-            out.append(Submission(name, text.encode(), "scene"))
+            out.append(Handed(name, "scene", f"{name}.json", text.encode()))
     if not out:
         raise ApiError(422, [{"path": "submissions", "message": "no submissions"}])
     return out
@@ -112,17 +149,82 @@ def _public(state: dict, runs: GradeRuns) -> dict:
 
 
 @router.post("", status_code=202, summary="Grade a scene, an image or a class", responses=ERRORS)
-def grade(body: GradeCreate, runs: RunsDep, response: Response) -> dict:
+def grade(body: GradeCreate, runs: RunsDep, settings: SettingsDep, response: Response) -> dict:
     """Validate the assignment (422 with paths under `assignment`), start the run (202): its renders
-    are queued jobs with the assignment's time limit each. Follow it at `url` until `status` is done."""
-    subs = _submissions(body)
+    are queued jobs with the assignment's time limit each. Follow it at `url` until `status` is done.
+    A class of any size: POST /api/grade/upload (multipart, streamed); this JSON body has the request
+    size limit (TRACER_MAX_BODY_BYTES)."""
+    state = start_run(runs, body.assignment, _submissions(body, settings))
+    response.headers["Location"] = f"/api/grade/{state['id']}"
+    return _public(state, runs)
+
+
+def start_run(runs: GradeRuns, assignment: dict, handed: list[Handed]) -> dict:
     try:
-        state = runs.start(body.assignment, subs)
+        return runs.start(assignment, handed)
     except AssignmentError as e:
         raise ApiError(422, [{"path": "assignment" + ("." + x["path"] if x["path"] else ""),
                               "message": x["message"]} for x in e.errors]) from None  # fmt: skip
+
+
+@router.post(
+    "/upload", status_code=202, summary="Grade a class uploaded as a zip or as files (multipart, streamed)",
+    responses={**ERRORS, 413: {"model": ErrorResponse, "description": "past a cap on the class's size"},
+               415: {"model": ErrorResponse, "description": "not multipart/form-data"}},
+    openapi_extra=UPLOAD_BODY,
+)  # fmt: skip
+async def upload(request: Request, runs: RunsDep, settings: SettingsDep, response: Response) -> dict:
+    """multipart/form-data: an `assignment` part (its JSON, the reference scene inline) and the class as
+    one `class` part (a zip, laid out as docs/grading.md says) or as `files` parts (one per submission,
+    named by its file name). Read as a stream into files, never whole into memory; the class may have
+    at most TRACER_MAX_CLASS_ENTRIES entries and TRACER_MAX_CLASS_BYTES unpacked, each file 20 MB (422
+    naming the entry past a cap, or a broken one). Then as POST /api/grade: 202 with the run."""
+    caps = class_caps(settings)
+    staging = runs.staging()
+    try:
+        up = await receive(request, staging, caps, settings.max_body_bytes)
+        assignment = _assignment(up.assignment, settings)
+        handed = await run_in_threadpool(_unpacked, up, staging, caps)
+        state = await run_in_threadpool(start_run, runs, assignment, handed)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     response.headers["Location"] = f"/api/grade/{state['id']}"
     return _public(state, runs)
+
+
+def _assignment(data: bytes, settings: Settings) -> dict:
+    """The `assignment` part -> its JSON object (422 at `assignment` when it is not one)."""
+    depth = json_depth(bytes(data))
+    if depth > settings.max_json_depth:
+        message = f"JSON nested {depth} levels deep; at most {settings.max_json_depth} (TRACER_MAX_JSON_DEPTH)"
+        raise ApiError(422, [{"path": "assignment", "message": message}])
+    try:
+        value = json.loads(bytes(data).decode("utf-8"))
+    except UnicodeDecodeError:
+        raise ApiError(422, [{"path": "assignment", "message": "not UTF-8 text"}]) from None
+    except json.JSONDecodeError as e:
+        message = f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
+        raise ApiError(422, [{"path": "assignment", "message": message}]) from None
+    if not isinstance(value, dict):
+        raise ApiError(422, [{"path": "assignment", "message": "the assignment must be a JSON object {...}"}])
+    return value
+
+
+def _unpacked(up: Upload, staging: Path, caps: Caps) -> list[Handed]:
+    """The uploaded class -> one submission per student, its file on disk (a zip unpacked first)."""
+    where = "class" if up.zip is not None else "files"
+    if up.zip is not None:
+        try:
+            entries = unpack_zip(up.zip, staging / "class", caps)
+        except GradingError as e:
+            raise ApiError(422, [{"path": "class", "message": str(e)}]) from None
+        up.zip.unlink()
+    else:
+        entries = {name.replace("\\", "/"): path for name, path in up.files if kept(name)}
+    subs = group_names(list(entries))
+    if not subs:
+        raise ApiError(422, [{"path": where, "message": "no submissions in it (.json, .png or .exr files)"}])
+    return [Handed(student, kind, name, path=entries[name]) for student, name, kind in subs]
 
 
 @router.get("/schema", summary="The JSON Schema of an assignment")

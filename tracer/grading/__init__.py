@@ -1,9 +1,10 @@
 """Automated grading of student scenes and images (issue 7): the assignment spec, requirement
 checks, noise-aware image metrics, per-student reports and the class summary. docs/grading.md."""
 
+from tracer.grading.archive import Caps, read_zip, unpack_zip
 from tracer.grading.batch import (
     collect,
-    read_zip,
+    group_names,
     student_for_file,
     summary,
     summary_csv,
@@ -13,6 +14,8 @@ from tracer.grading.batch import (
 from tracer.grading.grade import (
     Grader,
     InlineRenderer,
+    Prepared,
+    ReferenceImages,
     Rendered,
     RenderJob,
     Report,
@@ -25,7 +28,8 @@ from tracer.grading.metrics import GradingError
 from tracer.grading.spec import PRESETS, Assignment, AssignmentError, load_assignment
 
 __all__ = [
-    "PRESETS", "Assignment", "AssignmentError", "Grader", "GradingError", "InlineRenderer", "RenderJob",
-    "Rendered", "Report", "Submission", "TestResult", "collect", "load_assignment", "read_image", "read_zip",
-    "student_for_file", "student_name", "summary", "summary_csv", "write_all", "write_report",
+    "PRESETS", "Assignment", "AssignmentError", "Caps", "Grader", "GradingError", "InlineRenderer", "Prepared",
+    "ReferenceImages", "RenderJob", "Rendered", "Report", "Submission", "TestResult", "collect", "group_names",
+    "load_assignment", "read_image", "read_zip", "student_for_file", "student_name", "summary", "summary_csv",
+    "unpack_zip", "write_all", "write_report",
 ]  # fmt: skip

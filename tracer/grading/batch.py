@@ -15,15 +15,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-import zipfile
 from pathlib import Path, PurePosixPath
 
+from tracer.grading.archive import MAX_FILE_BYTES, SUFFIXES, Caps, read_zip
 from tracer.grading.grade import Report, Submission, student_name
 from tracer.grading.metrics import GradingError
 
-MAX_FILE_BYTES = 20_000_000  # one submitted file
-MAX_FILES = 2000
-SUFFIXES = {".json": "scene", ".png": "png", ".exr": "exr"}
+MAX_FILES = 2000  # files of a class read from a folder (and kept from a zip) by the CLI
 
 
 def student_for_file(name: str) -> str:
@@ -33,44 +31,62 @@ def student_for_file(name: str) -> str:
     return student_name(PurePosixPath(name.replace("\\", "/")).stem)
 
 
-def _pick(files: dict[str, bytes], student: str) -> Submission | None:
-    """A student's folder -> their submission: the one scene, else the one image."""
+def _pick(names: list[str]) -> tuple[str, str] | None:
+    """A student's folder -> (their file, its kind): the one scene, else the one image."""
     by_kind: dict[str, list[str]] = {}
-    for name in sorted(files):
+    for name in sorted(names):
         kind = SUFFIXES.get(PurePosixPath(name).suffix.lower())
         if kind:
             by_kind.setdefault("scene" if kind == "scene" else "image", []).append(name)
     for group in ("scene", "image"):
-        names = by_kind.get(group, [])
-        if names:
-            name = names[0]
-            return Submission(student, files[name], SUFFIXES[PurePosixPath(name).suffix.lower()], name)
+        if by_kind.get(group):
+            name = by_kind[group][0]
+            return name, SUFFIXES[PurePosixPath(name).suffix.lower()]
     return None
 
 
-def group_files(entries: dict[str, bytes]) -> list[Submission]:
-    """Relative POSIX paths -> submissions, by the layout above."""
-    parts = {p: PurePosixPath(p).parts for p in entries}
+def group_names(names: list[str]) -> list[tuple[str, str, str]]:
+    """Relative POSIX paths of a class's files -> (student, path, kind), one per student, sorted by
+    student, by the layout above (the files themselves are not needed: they may be on disk or in memory)."""
+    parts = {p: PurePosixPath(p).parts for p in names}
+    short = {p: p for p in names}  # the name inside the one top folder, if there is one
     tops = {ps[0] for ps in parts.values() if len(ps) > 1}
     if len(tops) == 1 and all(len(ps) > 1 for ps in parts.values()):  # one top folder: look inside it
-        entries = {str(PurePosixPath(*parts[p][1:])): d for p, d in entries.items()}
-        parts = {p: PurePosixPath(p).parts for p in entries}
-    subs: dict[str, Submission] = {}
-    folders: dict[str, dict[str, bytes]] = {}
-    for path, data in sorted(entries.items()):
+        short = {p: str(PurePosixPath(*parts[p][1:])) for p in names}
+        parts = {p: PurePosixPath(short[p]).parts for p in names}
+    subs: dict[str, tuple[str, str, str]] = {}
+    folders: dict[str, dict[str, str]] = {}
+    for path in sorted(names, key=lambda p: short[p]):
         ps = parts[path]
         if len(ps) == 1:
             kind = SUFFIXES.get(PurePosixPath(path).suffix.lower())
             if kind:
                 student = student_for_file(path)
-                subs.setdefault(student, Submission(student, data, kind, path))
+                subs.setdefault(student, (student, path, kind))
         else:
-            folders.setdefault(ps[0], {})[path] = data
+            folders.setdefault(ps[0], {})[short[path]] = path
     for folder, files in sorted(folders.items()):
         student = student_name(folder)
-        if student not in subs and (sub := _pick(files, student)) is not None:
-            subs[student] = sub
+        if student not in subs and (picked := _pick(list(files))) is not None:
+            subs[student] = (student, files[picked[0]], picked[1])
     return [subs[k] for k in sorted(subs)]
+
+
+def group_files(entries: dict[str, bytes]) -> list[Submission]:
+    """Relative POSIX paths -> submissions, by the layout above."""
+    out = []
+    for student, path, kind in group_names(list(entries)):
+        out.append(Submission(student, entries[path], kind, _inside(path, entries)))
+    return out
+
+
+def _inside(path: str, entries: dict) -> str:
+    """A file's name inside the class's one top folder, if all its files are in one (as it was shown)."""
+    parts = {PurePosixPath(p).parts for p in entries}
+    tops = {ps[0] for ps in parts if len(ps) > 1}
+    if len(tops) == 1 and all(len(ps) > 1 for ps in parts):
+        return str(PurePosixPath(*PurePosixPath(path).parts[1:]))
+    return path
 
 
 def collect(path: Path) -> list[Submission]:
@@ -85,46 +101,13 @@ def collect(path: Path) -> list[Submission]:
                 entries[rel] = f.read_bytes()
     else:
         try:
-            data = path.read_bytes()
+            with open(path, "rb") as f:
+                entries = read_zip(f, Caps())
         except OSError as e:
             raise GradingError(f"cannot read {path}: {e.strerror}") from None
-        entries = read_zip(data)
     if len(entries) > MAX_FILES:
         raise GradingError(f"{len(entries)} files; at most {MAX_FILES}")
     return group_files(entries)
-
-
-def read_zip(data: bytes) -> dict[str, bytes]:
-    """The files of a zip, by relative path; absolute paths, '..' and hidden files are skipped, and a
-    file larger than MAX_FILE_BYTES (unpacked) is an error, so a zip bomb stops early."""
-    try:
-        zf = zipfile.ZipFile(io.BytesIO(data))
-    except zipfile.BadZipFile as e:
-        raise GradingError(f"not a zip file: {e}") from None
-    out = {}
-    with zf:
-        for info in zf.infolist():
-            p = PurePosixPath(_zip_name(info))
-            hidden = any(s.startswith((".", "__MACOSX")) for s in p.parts)
-            if info.is_dir() or p.is_absolute() or ".." in p.parts or hidden:
-                continue
-            if info.file_size > MAX_FILE_BYTES:
-                raise GradingError(f"{info.filename}: larger than {MAX_FILE_BYTES} bytes unpacked")
-            out[str(p)] = zf.read(info)
-        if len(out) > MAX_FILES:
-            raise GradingError(f"{len(out)} files; at most {MAX_FILES}")
-    return out
-
-
-def _zip_name(info: zipfile.ZipInfo) -> str:
-    """A member's name: zips without the UTF-8 flag are read as code page 437 (the zip standard), but
-    many tools (macOS, Linux) write UTF-8 without setting it, so "Zoë.json" would come out "Zo├½.json"."""
-    if info.flag_bits & 0x800:
-        return info.filename
-    try:
-        return info.filename.encode("cp437").decode("utf-8")
-    except UnicodeError:  # really code page 437 (or another one we cannot tell): as read
-        return info.filename
 
 
 # ----------------------------------------------------------------------------------------- output
@@ -135,27 +118,36 @@ def percent(score: float, max_score: float) -> float | None:
     return round(100.0 * score / max_score, 2) if max_score > 0 else None
 
 
+def summary_row(r: Report) -> dict:
+    """A student's row of the summary: score, maximum, percent, status, each test's score, the metrics."""
+    row = {"student": r.student, "kind": r.kind, "status": r.status, "score": round(r.score, 6),
+           "max_score": round(r.max_score, 6), "percent": percent(r.score, r.max_score)}  # fmt: skip
+    for t in r.tests:
+        row[t.name] = round(t.score, 6)
+    for k in ("flip", "ssim", "psnr", "rejected"):
+        row[k] = r.metrics.get(k)
+    return row
+
+
 def summary(reports: list[Report]) -> dict:
     """The class: a row per student (score, maximum, percent, status, each test's score, the metrics) and
     statistics in percent (a scene is out of more points than an image, so points do not average)."""
-    rows = []
-    for r in reports:
-        row = {"student": r.student, "kind": r.kind, "status": r.status, "score": round(r.score, 6),
-               "max_score": round(r.max_score, 6), "percent": percent(r.score, r.max_score)}  # fmt: skip
-        for t in r.tests:
-            row[t.name] = round(t.score, 6)
-        for k in ("flip", "ssim", "psnr", "rejected"):
-            row[k] = r.metrics.get(k)
-        rows.append(row)
-    shares = [100.0 * r.score / r.max_score for r in reports if r.max_score > 0]
+    assignment = reports[0].assignment if reports else None
+    return class_summary(assignment, [summary_row(r) for r in reports], [(r.score, r.max_score) for r in reports])
+
+
+def class_summary(assignment: str | None, rows: list[dict], scores: list[tuple[float, float]]) -> dict:
+    """The summary from each student's row (`summary_row`) and exact (score, max_score): what `summary`
+    gives, for a service that keeps the rows rather than the reports."""
+    shares = [100.0 * score / top for score, top in scores if top > 0]
     stats = {
-        "students": len(reports),
+        "students": len(rows),
         "mean_percent": round(sum(shares) / len(shares), 2) if shares else None,
         "min_percent": round(min(shares), 2) if shares else None,
         "max_percent": round(max(shares), 2) if shares else None,
-        "by_status": {s: sum(r.status == s for r in reports) for s in ("graded", "invalid", "failed")},
+        "by_status": {s: sum(row["status"] == s for row in rows) for s in ("graded", "invalid", "failed")},
     }
-    return {"assignment": reports[0].assignment if reports else None, "statistics": stats, "students": rows}
+    return {"assignment": assignment, "statistics": stats, "students": rows}
 
 
 def summary_csv(table: dict) -> str:
@@ -188,6 +180,11 @@ def write_all(out: Path, reports: list[Report]) -> dict:
     for r in reports:
         write_report(out / r.student, r)
     table = summary(reports)
+    write_summary(out, table)
+    return table
+
+
+def write_summary(out: Path, table: dict) -> None:
+    """The class's summary.json and summary.csv."""
     (out / "summary.json").write_text(json.dumps(table, indent=2) + "\n")
     (out / "summary.csv").write_text(summary_csv(table))
-    return table

@@ -17,6 +17,7 @@ queue (server/grading.py) renders them in worker processes with a time limit per
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 import re
@@ -307,25 +308,67 @@ def _decode_exr(data: bytes) -> tuple[np.ndarray, metrics.Encoding]:
 
 
 @dataclass
-class _Reference:
-    scene: dict  # the reference scene with the assignment's settings
-    exposure: float
-    mean: np.ndarray | None = None
-    variance: np.ndarray | None = None
-    spp: int = 0
-    error: str | None = None
+class ReferenceImages:
+    """What every comparison is made against: the reference scene's mean and per-sample variance."""
+
+    exposure: float  # the reference scene's film.exposure (the display of every image)
+    mean: np.ndarray | None = None  # (H, W, 3) linear radiance
+    variance: np.ndarray | None = None  # (H, W, 3) per-sample variance of the mean's samples
+    spp: int = 0  # samples of the mean
+    error: str | None = None  # why there is no mean (its render failed)
+
+
+@dataclass
+class _Reference(ReferenceImages):
+    scene: dict = field(default_factory=dict)  # the reference scene with the assignment's settings
     baselines: dict = field(default_factory=dict)  # (sampler, spp, light_samples) -> the baseline's Rendered
     measured: dict = field(default_factory=dict)  # (that key, Encoding) -> the baseline's metrics, stored that way
 
 
 @dataclass
-class _Prepared:
+class Prepared:
+    """A submission checked (validity, requirements) and the render it needs, before any image test:
+    the first half of a student's grade. As plain data (`to_json`) it crosses process boundaries and
+    is kept in the service's database between the two halves (server/grading.py)."""
+
     sub: Submission
     report: Report
     job: RenderJob | None = None  # the submission's render (scenes)
     image: np.ndarray | None = None  # the submission's image (images), in the units of its encoding
     encoding: metrics.Encoding = metrics.Encoding("render")  # how the submission holds its values
     key: tuple | None = None  # (sampler, spp, light_samples) of its noise baseline
+    size: tuple[int, int, int] | None = None  # (width, height, spp) of its render, with the assignment's settings
+    render_warnings: list = field(default_factory=list)  # validation warnings of that render's scene
+
+    def to_json(self) -> dict:
+        """Everything but the submission's bytes and decoded image (exact: tests keep their raw floats)."""
+        r = self.report
+        job = None
+        if self.job is not None:
+            job = {f.name: getattr(self.job, f.name) for f in dataclasses.fields(self.job)}
+            job["limits"] = dataclasses.asdict(self.job.limits)
+        return {
+            "student": self.sub.student, "kind": self.sub.kind, "filename": self.sub.filename,
+            "report": {"assignment": r.assignment, "kind": r.kind, "tests": [dataclasses.asdict(t) for t in r.tests],
+                       "errors": r.errors, "warnings": r.warnings, "metrics": r.metrics},
+            "job": job, "key": list(self.key) if self.key is not None else None,
+            "encoding": [self.encoding.format, self.encoding.bits],
+            "size": list(self.size) if self.size else None, "render_warnings": self.render_warnings,
+        }  # fmt: skip
+
+    @classmethod
+    def from_json(cls, d: dict, data: bytes = b"") -> Prepared:
+        r = d["report"]
+        report = Report(d["student"], r["assignment"], r["kind"], [TestResult(**t) for t in r["tests"]],
+                        r["errors"], r["warnings"], r["metrics"])  # fmt: skip
+        job = None
+        if d["job"] is not None:
+            job = RenderJob(**{**d["job"], "limits": Limits(**d["job"]["limits"])})
+        return cls(
+            Submission(d["student"], data, d["kind"], d["filename"]), report, job,
+            encoding=metrics.Encoding(*d["encoding"]), key=tuple(d["key"]) if d["key"] is not None else None,
+            size=tuple(d["size"]) if d["size"] else None, render_warnings=d["render_warnings"],
+        )  # fmt: skip
 
 
 class Grader:
@@ -338,7 +381,8 @@ class Grader:
         self.reference: _Reference | None = None
         if assignment.reference is not None:
             scene = self._reference_scene(assignment.reference.scene, base_dir)
-            self.reference = _Reference(self._settings(scene), float(scene.get("film", {}).get("exposure", 0.0)))
+            exposure = float(scene.get("film", {}).get("exposure", 0.0))
+            self.reference = _Reference(exposure=exposure, scene=self._settings(scene))
 
     # -- the settings every render uses
 
@@ -392,8 +436,9 @@ class Grader:
         source = f"{REFERENCE_TIME_FACTOR} x the assignment's limits.max_seconds, for the reference renders"
         return RenderJob(name, scene, seconds, Limits(), priority, source)
 
-    def _reference_jobs(self, keys: set[tuple]) -> list[tuple[str, tuple | None, RenderJob]]:
-        """The reference mean (once) and the noise baselines not made yet, for these (sampler, spp)."""
+    def reference_jobs(self, keys: set[tuple]) -> list[tuple[str, tuple | None, RenderJob]]:
+        """The reference mean (once) and the noise baselines not made yet, for these (sampler, spp,
+        light_samples): ("mean", None, job) and ("baseline", key, job)."""
         ref, spec = self.reference, self.assignment.reference
         jobs = []
         if ref.mean is None and ref.error is None:
@@ -416,15 +461,15 @@ class Grader:
     def grade(self, submissions: list[Submission]) -> list[Report]:
         """Grade every submission; all the renders go to the renderer in one list (so a job queue
         can run them side by side), the reference ones first."""
-        prepared = [self._prepare(s) for s in submissions]
+        prepared = [self.prepare(s) for s in submissions]
         keys = {p.key for p in prepared if p.key is not None}
-        ref_jobs = self._reference_jobs(keys) if self.reference is not None else []
+        ref_jobs = self.reference_jobs(keys) if self.reference is not None else []
         student_jobs = [p for p in prepared if p.job is not None]
         results = self.renderer([j for _, _, j in ref_jobs] + [p.job for p in student_jobs])
         for (what, key, _), r in zip(ref_jobs, results[: len(ref_jobs)], strict=True):
             self._keep_reference(what, key, r)
         rendered = dict(zip((id(p) for p in student_jobs), results[len(ref_jobs) :], strict=True))
-        return [self._finish(p, rendered.get(id(p))) for p in prepared]
+        return [self.finish(p, rendered.get(id(p))) for p in prepared]
 
     def grade_one(self, submission: Submission) -> Report:
         return self.grade([submission])[0]
@@ -437,40 +482,29 @@ class Grader:
         ref.baselines[key] = r
 
     def _baseline(self, key: tuple, encoding: metrics.Encoding) -> dict:
-        """The noise baseline's metrics for submissions rendered as `key` and stored as `encoding`: the
-        baseline render is stored the same way (a PNG's rounding, a half float's) and measured like them."""
+        """The noise baseline's metrics for `key` and `encoding` (baseline_metrics), measured once."""
         ref = self.reference
         if (key, encoding) not in ref.measured:
-            r = ref.baselines.get(key)
-            if r is None or r.error or ref.mean is None:
-                m = {"error": (r.error if r else None) or ref.error or "no noise baseline"}
-            else:
-                m = self._compare(encoding.store(r.image, ref.exposure), key[1], encoding)
-                m = {k: v for k, v in m.items() if not k.startswith("_")}
-            ref.measured[(key, encoding)] = m
+            ref.measured[(key, encoding)] = baseline_metrics(
+                self.assignment, ref, ref.baselines.get(key), key, encoding
+            )
         return ref.measured[(key, encoding)]
 
-    def _prepare(self, sub: Submission) -> _Prepared:
+    def finish(self, p: Prepared, r: Rendered | None) -> Report:
+        """The second half of a grade: the image tests of a prepared submission, given its render."""
+        return finish_report(self.assignment, p, r, self.reference, lambda: self._baseline(p.key, p.encoding))
+
+    def prepare(self, sub: Submission) -> Prepared:
+        """The first half of a grade: validity and requirements, and the render the image tests need."""
         a = self.assignment
         report = Report(sub.student, a.name, "scene" if sub.kind == "scene" else "image")
-        p = _Prepared(sub, report)
+        p = Prepared(sub, report)
         if sub.kind in IMAGE_KINDS:
             return self._prepare_image(p)
         try:
             scene, report.warnings = load_scene(sub.data, self.limits, assets=ASSET_DIR)  # as the render will
         except SceneError as e:
-            report.errors = e.errors
-            cost = a.validity.points if a.validity.per_error is None else a.validity.per_error * len(e.errors)
-            lines = [f"{len(e.errors)} error(s) in the scene:"] + [f"  {_error_text(x)}" for x in e.errors]
-            report.tests.append(TestResult("valid scene", max(0.0, a.validity.points - cost), a.validity.points,
-                                           "\n".join(lines), "validity"))  # fmt: skip
-            for r in a.requirements:
-                text = "not checked: the scene is invalid"
-                report.tests.append(TestResult(r.name, 0.0, r.points, text, "requirement"))
-            for name, t in a.image_tests().items():
-                report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, "not compared: the scene is invalid",
-                                               "image"))  # fmt: skip
-            return p
+            return self.refused(p, e.errors)
         report.tests.append(TestResult("valid scene", a.validity.points, a.validity.points, "the scene is valid",
                                        "validity"))  # fmt: skip
         triangles = _mesh_triangles(scene)
@@ -482,16 +516,44 @@ class Grader:
             data = self._settings(json.loads(sub.data))
             p.job = self._job(sub.student, data)
             try:
-                final, _ = load_scene(data, self.limits)
+                final, p.render_warnings = load_scene(data, self.limits)
                 p.key = (final.sampler.type, final.sampler.spp, final.render.light_samples)
+                p.size = (final.film.width, final.film.height, final.sampler.spp)
             except SceneError as e:  # the assignment's settings made it invalid (e.g. spp for a grid)
                 p.job = None
                 report.metrics["problem"] = "with the assignment's settings: " + "; ".join(map(_error_text, e.errors))
         return p
 
-    def _prepare_image(self, p: _Prepared) -> _Prepared:
+    def refused(self, p: Prepared, errors: list[dict]) -> Prepared:
+        """A scene that does not validate (its `errors`): it earns what validity.per_error leaves, and
+        nothing else is checked."""
         a, report = self.assignment, p.report
-        tests = a.image_tests()
+        report.errors = errors
+        cost = a.validity.points if a.validity.per_error is None else a.validity.per_error * len(errors)
+        lines = [f"{len(errors)} error(s) in the scene:"] + [f"  {_error_text(x)}" for x in errors]
+        report.tests.append(TestResult("valid scene", max(0.0, a.validity.points - cost), a.validity.points,
+                                       "\n".join(lines), "validity"))  # fmt: skip
+        for r in a.requirements:
+            report.tests.append(TestResult(r.name, 0.0, r.points, "not checked: the scene is invalid", "requirement"))
+        for name, t in a.image_tests().items():
+            report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, "not compared: the scene is invalid",
+                                           "image"))  # fmt: skip
+        return p
+
+    def unreadable(self, p: Prepared, message: str) -> Prepared:
+        """A submission that cannot be graded at all (`message` says why): an image that cannot be read,
+        or a file the grader's process died on. It earns nothing."""
+        if p.sub.kind == "scene":
+            return self.refused(p, [{"path": "", "message": message}])
+        a, report = self.assignment, p.report
+        report.errors = [{"path": "", "message": message}]
+        report.tests.append(TestResult("readable image", 0.0, a.validity.points, message, "validity"))
+        for name, t in a.image_tests().items():
+            report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, "not compared: no image", "image"))
+        return p
+
+    def _prepare_image(self, p: Prepared) -> Prepared:
+        a, report = self.assignment, p.report
         try:
             if self.reference is None:
                 raise metrics.GradingError("this assignment has no reference scene to compare images with")
@@ -502,11 +564,7 @@ class Grader:
                 raise metrics.GradingError(f"the image is {p.image.shape[1]}x{p.image.shape[0]} pixels; "
                                            f"the assignment renders {w}x{h}")  # fmt: skip
         except metrics.GradingError as e:
-            report.errors = [{"path": "", "message": str(e)}]
-            report.tests.append(TestResult("readable image", 0.0, a.validity.points, str(e), "validity"))
-            for name, t in tests.items():
-                report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, "not compared: no image", "image"))
-            return p
+            return self.unreadable(p, str(e))
         h, w = p.image.shape[:2]
         report.tests.append(TestResult("readable image", a.validity.points, a.validity.points,
                                        f"a {w}x{h} {p.sub.kind.upper()} image ({p.encoding.describe()})",
@@ -516,92 +574,122 @@ class Grader:
         p.key = (ref_scene.sampler.type, spp, ref_scene.render.light_samples)
         return p
 
-    def _compare(self, image: np.ndarray, n: int, encoding: metrics.Encoding) -> dict:
-        """Metrics of an image against the reference mean, in the units the image holds: FLIP, SSIM and
-        PSNR on the displayed images; the z test on linear radiance (a render, an EXR) or, for a PNG, on
-        clamp(2^exposure L) against the reference mean put through the same exposure and clamp."""
-        ref, spec = self.reference, self.assignment.reference
-        shown_ref = metrics.display(ref.mean, ref.exposure)
-        if encoding.linear:
-            shown, test, mean, var = metrics.display(image, ref.exposure), image, ref.mean, ref.variance
-        else:
-            scale = 2.0**ref.exposure
-            shown, test = image, metrics.srgb_decode(image)
-            mean, var = np.clip(ref.mean * scale, 0.0, 1.0), ref.variance * scale * scale
-        flip_mean, flip_map = metrics.flip(shown_ref, shown)
-        alpha = spec.pixels.alpha if spec.pixels else 1e-3
-        rejected, z, critical = metrics.pixel_test(
-            test, mean, var, ref.spp, n, alpha=alpha, rounding=encoding.rounding(mean)
-        )  # fmt: skip
-        return {
-            "flip": round(flip_mean, 6), "ssim": round(metrics.ssim(shown_ref, shown), 6),
-            "psnr": round(metrics.psnr(shown_ref, shown), 4), "rejected": round(rejected, 6),
-            "_flip_map": flip_map, "_rejected": z > critical, "_shown": shown,
-        }  # fmt: skip
 
-    def _finish(self, p: _Prepared, r: Rendered | None) -> Report:
-        report, tests = p.report, self.assignment.image_tests()
-        if p.report.errors or not tests:
-            return report
-        ref, base = self.reference, {}
-        problem = report.metrics.get("problem") or ref.error
-        if problem is None and p.sub.kind == "scene" and (r is None or r.error):
-            problem = r.error if r else "not rendered"
-        if problem is None:
-            if r is not None:
-                report.render_seconds = r.seconds
-            try:
-                base = self._baseline(p.key, p.encoding)
-                problem = base.get("error")
-                if problem is None and p.image is None:
-                    m = self._compare(r.image, r.spp, p.encoding)
-                elif problem is None:
-                    m = self._compare(p.image, p.key[1], p.encoding)
-            except metrics.GradingError as e:
-                problem = str(e)
-        if problem is not None:
-            for name, t in tests.items():
-                report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, f"not compared: {problem}", "image"))
-            report.metrics["problem"] = problem
-            return report
-        report.metrics.update({k: v for k, v in m.items() if not k.startswith("_")})
-        report.metrics["baseline"] = {k: v for k, v in base.items() if not k.startswith("_")}
-        report.metrics["spp"] = p.key[1]
-        report.metrics["encoding"] = p.encoding.describe()
-        for name, t in tests.items():
-            report.tests.append(self._image_test(name, t, m, base))
-        self._pictures(report, m)
+# ------------------------------------------------------------------ the image tests, as plain functions
+#
+# Grader.finish and the service's worker processes (tracer/grading/tasks.py) both grade through these:
+# they take the reference, the submission's image and the baseline's metrics as plain data.
+
+
+def measure(ref: ReferenceImages, image: np.ndarray, n: int, encoding: metrics.Encoding, alpha: float) -> dict:
+    """Metrics of an image against the reference mean, in the units the image holds: FLIP, SSIM and
+    PSNR on the displayed images; the z test on linear radiance (a render, an EXR) or, for a PNG, on
+    clamp(2^exposure L) against the reference mean put through the same exposure and clamp. The keys
+    starting with "_" are the pictures (FLIP's map, the rejected pixels, the image as shown)."""
+    shown_ref = metrics.display(ref.mean, ref.exposure)
+    if encoding.linear:
+        shown, test, mean, var = metrics.display(image, ref.exposure), image, ref.mean, ref.variance
+    else:
+        scale = 2.0**ref.exposure
+        shown, test = image, metrics.srgb_decode(image)
+        mean, var = np.clip(ref.mean * scale, 0.0, 1.0), ref.variance * scale * scale
+    flip_mean, flip_map = metrics.flip(shown_ref, shown)
+    rejected, z, critical = metrics.pixel_test(
+        test, mean, var, ref.spp, n, alpha=alpha, rounding=encoding.rounding(mean)
+    )
+    return {
+        "flip": round(flip_mean, 6), "ssim": round(metrics.ssim(shown_ref, shown), 6),
+        "psnr": round(metrics.psnr(shown_ref, shown), 4), "rejected": round(rejected, 6),
+        "_flip_map": flip_map, "_rejected": z > critical, "_shown": shown,
+    }  # fmt: skip
+
+
+def _alpha(assignment: Assignment) -> float:
+    spec = assignment.reference
+    return spec.pixels.alpha if spec is not None and spec.pixels else 1e-3
+
+
+def baseline_metrics(
+    assignment: Assignment, ref: ReferenceImages, r: Rendered | None, key: tuple, encoding: metrics.Encoding
+) -> dict:
+    """The noise baseline's metrics for submissions rendered as `key` and stored as `encoding`: the
+    baseline render `r` is stored the same way (a PNG's rounding, a half float's) and measured like
+    them; {"error": why} when there is no baseline or no reference mean."""
+    if r is None or r.error or ref.mean is None:
+        return {"error": (r.error if r else None) or ref.error or "no noise baseline"}
+    m = measure(ref, encoding.store(r.image, ref.exposure), key[1], encoding, _alpha(assignment))
+    return {k: v for k, v in m.items() if not k.startswith("_")}
+
+
+def finish_report(
+    assignment: Assignment, p: Prepared, r: Rendered | None, ref: ReferenceImages | None, baseline: Callable[[], dict]
+) -> Report:
+    """A prepared submission's image tests (p.report, completed and returned): against `ref`, with its
+    render `r` (scenes; None when it has none) or its own image (p.image), and the noise baseline's
+    metrics, asked for (`baseline()`) only when the comparison is made."""
+    report, tests = p.report, assignment.image_tests()
+    if report.errors or not tests:
         return report
+    base: dict = {}
+    problem = report.metrics.get("problem") or ref.error
+    if problem is None and p.sub.kind == "scene" and (r is None or r.error):
+        problem = r.error if r else "not rendered"
+    if problem is None:
+        if r is not None:
+            report.render_seconds = r.seconds
+        try:
+            base = baseline()
+            problem = base.get("error")
+            if problem is None and p.image is None:
+                m = measure(ref, r.image, r.spp, p.encoding, _alpha(assignment))
+            elif problem is None:
+                m = measure(ref, p.image, p.key[1], p.encoding, _alpha(assignment))
+        except metrics.GradingError as e:
+            problem = str(e)
+    if problem is not None:
+        for name, t in tests.items():
+            report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, f"not compared: {problem}", "image"))
+        report.metrics["problem"] = problem
+        return report
+    report.metrics.update({k: v for k, v in m.items() if not k.startswith("_")})
+    report.metrics["baseline"] = {k: v for k, v in base.items() if not k.startswith("_")}
+    report.metrics["spp"] = p.key[1]
+    report.metrics["encoding"] = p.encoding.describe()
+    for name, t in tests.items():
+        report.tests.append(_image_test(name, t, m, base))
+    _pictures(report, ref, m)
+    return report
 
-    def _image_test(self, name: str, t, m: dict, base: dict) -> TestResult:
-        if name == "pixels":
-            allowed = base["rejected"] + t.max_fraction
-            ok = m["rejected"] <= allowed
-            text = (f"{m['rejected']:.2%} of pixels differ from the reference by more than the noise explains "
-                    f"(z test, alpha {t.alpha:g}); allowed {allowed:.2%} = the noise baseline's {base['rejected']:.2%}"
-                    f" + {t.max_fraction:.2%}")  # fmt: skip
-            return TestResult(TEST_NAMES[name], t.points if ok else 0.0, t.points, text, "image")
-        lower_is_better = name == "flip"
-        if t.limit is not None:
-            bound, how = t.limit, "the assignment's limit"
-        else:
-            bound = base[name] + t.margin if lower_is_better else base[name] - t.margin
-            how = f"the noise baseline's {base[name]:.4g} {'+' if lower_is_better else '-'} {t.margin:g}"
-        ok = m[name] <= bound if lower_is_better else m[name] >= bound
-        label = {"flip": "FLIP", "ssim": "SSIM", "psnr": "PSNR"}[name]
-        unit = " dB" if name == "psnr" else ""
-        text = f"{label} {m[name]:.4g}{unit}; {'at most' if lower_is_better else 'at least'} {bound:.4g}{unit} ({how})"
+
+def _image_test(name: str, t, m: dict, base: dict) -> TestResult:
+    if name == "pixels":
+        allowed = base["rejected"] + t.max_fraction
+        ok = m["rejected"] <= allowed
+        text = (f"{m['rejected']:.2%} of pixels differ from the reference by more than the noise explains "
+                f"(z test, alpha {t.alpha:g}); allowed {allowed:.2%} = the noise baseline's {base['rejected']:.2%}"
+                f" + {t.max_fraction:.2%}")  # fmt: skip
         return TestResult(TEST_NAMES[name], t.points if ok else 0.0, t.points, text, "image")
+    lower_is_better = name == "flip"
+    if t.limit is not None:
+        bound, how = t.limit, "the assignment's limit"
+    else:
+        bound = base[name] + t.margin if lower_is_better else base[name] - t.margin
+        how = f"the noise baseline's {base[name]:.4g} {'+' if lower_is_better else '-'} {t.margin:g}"
+    ok = m[name] <= bound if lower_is_better else m[name] >= bound
+    label = {"flip": "FLIP", "ssim": "SSIM", "psnr": "PSNR"}[name]
+    unit = " dB" if name == "psnr" else ""
+    text = f"{label} {m[name]:.4g}{unit}; {'at most' if lower_is_better else 'at least'} {bound:.4g}{unit} ({how})"
+    return TestResult(TEST_NAMES[name], t.points if ok else 0.0, t.points, text, "image")
 
-    def _pictures(self, report: Report, m: dict) -> None:
-        ref = self.reference
-        report.images["render"] = np.round(m["_shown"] * 255).astype(np.uint8)
-        report.images["reference"] = np.round(metrics.display(ref.mean, ref.exposure) * 255).astype(np.uint8)
-        report.images["error_map"] = np.round(m["_flip_map"] * 255).astype(np.uint8)
-        grey = report.images["render"].mean(axis=-1, keepdims=True) * 0.5
-        out = np.repeat(grey, 3, axis=-1)
-        out[m["_rejected"]] = (255, 40, 40)
-        report.images["rejected"] = out.astype(np.uint8)
+
+def _pictures(report: Report, ref: ReferenceImages, m: dict) -> None:
+    report.images["render"] = np.round(m["_shown"] * 255).astype(np.uint8)
+    report.images["reference"] = np.round(metrics.display(ref.mean, ref.exposure) * 255).astype(np.uint8)
+    report.images["error_map"] = np.round(m["_flip_map"] * 255).astype(np.uint8)
+    grey = report.images["render"].mean(axis=-1, keepdims=True) * 0.5
+    out = np.repeat(grey, 3, axis=-1)
+    out[m["_rejected"]] = (255, 40, 40)
+    report.images["rejected"] = out.astype(np.uint8)
 
 
 def _mesh_triangles(scene) -> dict[int, int]:

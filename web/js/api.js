@@ -12,7 +12,9 @@ export class ApiError extends Error {
 /** One request: the parsed JSON answer, or an ApiError (the grading view uses it too). */
 export async function request(method, url, body, { raw = false, signal } = {}) {
   const init = { method, signal, headers: {} };
-  if (body !== undefined) {
+  if (body instanceof FormData) {
+    init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
+  } else if (body !== undefined) {
     init.headers["content-type"] = "application/json";
     init.body = typeof body === "string" ? body : JSON.stringify(body);
   }

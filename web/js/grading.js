@@ -1,5 +1,7 @@
 // The instructor's grading view (the "Grading" tab): an assignment (JSON) and the class's submissions
-// (scenes, images or one zip) go to POST /api/grade; the run is followed with GET /api/grade/{id} until
+// (scenes, images or one zip) are uploaded as multipart/form-data to POST /api/grade/upload (the browser
+// streams the files from disk: a class of any size within the server's caps); the run is followed with
+// GET /api/grade/{id} until
 // it is done, then the class is shown as a table (a column per test) and each student's detail as
 // their picture, the reference, the FLIP error map and the rejected pixels, with every test's output.
 import { ApiError, request } from "./api.js";
@@ -28,7 +30,7 @@ const grade = {
   example: () => request("GET", "/api/grade/example"),
   // file names -> the student ids the grader will use: the server's rule (tracer.grading.student_for_file), not a copy
   students: (files) => request("POST", "/api/grade/students", { files }),
-  start: (body) => request("POST", "/api/grade", body),
+  start: (form) => request("POST", "/api/grade/upload", form), // FormData: assignment, then class or files
   state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`),
   summaryUrl: (id, fmt) => `/api/grade/${encodeURIComponent(id)}/summary.${fmt}`,
   fileUrl: (id, student, file) => `/api/grade/${encodeURIComponent(id)}/students/${encodeURIComponent(student)}/${file}`,
@@ -59,11 +61,12 @@ function sizeText(bytes) {
   return `${(bytes / 1024 / 1024).toFixed(1)} MB`;
 }
 
-async function base64(file) {
-  const bytes = new Uint8Array(await file.arrayBuffer());
-  let s = "";
-  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
-  return btoa(s);
+/** The bytes of base64 text (the example's images) as a Blob, to upload like a picked file. */
+function blobOf(text, type) {
+  const raw = atob(text);
+  const bytes = new Uint8Array(raw.length);
+  for (let i = 0; i < raw.length; i++) bytes[i] = raw.charCodeAt(i);
+  return new Blob([bytes], { type });
 }
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -71,7 +74,7 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 export class GradingPanel {
   constructor(root) {
     this.root = root;
-    this.subs = []; // [{student, kind: scene|png|exr|zip, data (text or base64), bytes, from}]
+    this.subs = []; // [{student, kind: scene|png|exr|zip, file (a File or Blob), name (the file's name), bytes, from}]
     this.run = null; // the last state of the run shown
     this.token = 0; // bumps when a new run starts: an older poll stops
     this.sort = { key: "student", dir: 1 };
@@ -180,8 +183,8 @@ export class GradingPanel {
       this.setSubs(
         ex.submissions.map((s) =>
           s.image !== undefined
-            ? { student: s.student, kind: s.format || "png", data: s.image, bytes: Math.floor((s.image.length * 3) / 4), from: "example" }
-            : { student: s.student, kind: "scene", data: s.scene, bytes: s.scene.length, from: "example" },
+            ? { student: s.student, kind: s.format || "png", file: blobOf(s.image, `image/${s.format || "png"}`), name: `${s.student}.${s.format || "png"}`, bytes: Math.floor((s.image.length * 3) / 4), from: "example" }
+            : { student: s.student, kind: "scene", file: new Blob([s.scene], { type: "application/json" }), name: `${s.student}.json`, bytes: new Blob([s.scene]).size, from: "example" },
         ),
       );
       this.showErrors([]);
@@ -201,7 +204,7 @@ export class GradingPanel {
     const zips = files.filter((f) => /\.zip$/i.test(f.name));
     if (zips.length) {
       if (zips.length > 1 || files.length > 1) problems.push({ path: zips[0].name, message: "a zip is the whole class: choose it alone" });
-      else subs = [{ student: zips[0].name, kind: "zip", data: await base64(zips[0]), bytes: zips[0].size, from: "file" }];
+      else subs = [{ student: zips[0].name, kind: "zip", file: zips[0], name: zips[0].name, bytes: zips[0].size, from: "file" }];
     }
     if (!zips.length) {
       let picked = [];
@@ -225,9 +228,8 @@ export class GradingPanel {
       }
       for (const [i, { f, kind }] of picked.entries()) {
         const student = ids[i];
-        const data = kind === "scene" ? await f.text() : await base64(f);
         subs = subs.filter((s) => s.student !== student);
-        subs.push({ student, kind, data, bytes: f.size, from: "file" });
+        subs.push({ student, kind, file: f, name: f.name, bytes: f.size, from: "file" });
       }
       subs.sort((a, b) => a.student.localeCompare(b.student));
     }
@@ -285,9 +287,12 @@ export class GradingPanel {
       this.showSubErrors([{ path: "", message: "add the submissions first (files, or load the example)" }]);
       return null;
     }
-    if (this.subs[0].kind === "zip") return { assignment, zip: this.subs[0].data };
-    const submissions = this.subs.map((s) => (s.kind === "scene" ? { student: s.student, scene: s.data } : { student: s.student, image: s.data, format: s.kind }));
-    return { assignment, submissions };
+    // the files themselves, never read here: the browser streams them (the server names students by file name)
+    const form = new FormData();
+    form.append("assignment", JSON.stringify(assignment));
+    if (this.subs[0].kind === "zip") form.append("class", this.subs[0].file, this.subs[0].name);
+    else for (const s of this.subs) form.append("files", s.file, s.name);
+    return form;
   }
 
   /** A 422's items: those about the assignment next to the editor (with their line), the rest by the submissions. */

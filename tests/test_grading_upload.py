@@ -1,0 +1,327 @@
+"""A class uploaded as a stream (POST /api/grade/upload) and zips read with bounds (tracer/grading/archive.py).
+
+Zips are made here: with Python's zipfile for the ordinary ones, and byte by byte (`raw_zip`) for the
+hostile ones, whose headers lie: a zip bomb that declares 100 B and inflates to 1 GiB of zeros, an
+entry whose CRC is wrong, deflate data that is garbage, a compression method we do not read. Every one
+is refused with a 422 that names the entry, never a 500, never holding more than the caps in memory.
+The service's tests use the app in a TestClient with real render workers (test_api_support.api_client)."""
+
+from __future__ import annotations
+
+import io
+import json
+import struct
+import tracemalloc
+import zipfile
+import zlib
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+from test_api_support import api_client, wait_for
+
+from tracer.grading import Caps, GradingError, read_zip, unpack_zip
+from tracer.grading.archive import CHUNK
+
+EXAMPLE = ROOT / "scenes" / "grading"
+CLASS = EXAMPLE / "class"
+EXPECTED = {  # the example class's scores and statuses (every test: tests/test_grading.py)
+    "alice": (13.0, "graded"), "bob": (6.0, "graded"), "carol": (0.0, "invalid"), "dave": (13.0, "graded"),
+    "erin": (7.0, "graded"), "frank": (0.0, "invalid"), "grace": (7.0, "graded"), "heidi": (1.0, "graded"),
+    "ivan": (0.0, "invalid"),
+}  # fmt: skip
+GiB = 1 << 30
+
+
+def assignment_text() -> str:
+    a = json.loads((EXAMPLE / "assignment.json").read_text())
+    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    return json.dumps(a)
+
+
+def class_zip(top: str = "hw4/") -> bytes:
+    """The example class as a zip (deflated), in one top folder."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for f in sorted(CLASS.rglob("*")):
+            if f.is_file():
+                z.write(f, top + f.relative_to(CLASS).as_posix())
+    return buf.getvalue()
+
+
+def raw_zip(entries: list[dict]) -> bytes:
+    """A zip written byte by byte, each entry's header saying what it is told to (dicts: name, data: the
+    stored bytes, and optionally method 8 (deflate) or 0, crc, size: the declared uncompressed size,
+    flags), whatever the data holds."""
+    out, central = io.BytesIO(), io.BytesIO()
+    for e in entries:
+        name, data = e["name"].encode(), e["data"]
+        method, crc, size, flags = e.get("method", 8), e.get("crc", 0), e.get("size", 0), e.get("flags", 0x800)
+        offset = out.tell()
+        out.write(struct.pack("<IHHHHHIIIHH", 0x04034B50, 20, flags, method, 0, 0x21, crc, len(data), size,
+                              len(name), 0) + name + data)  # fmt: skip
+        central.write(struct.pack("<IHHHHHHIIIHHHHHII", 0x02014B50, 20, 20, flags, method, 0, 0x21, crc, len(data),
+                                  size, len(name), 0, 0, 0, 0, 0, offset) + name)  # fmt: skip
+    start, cd = out.tell(), central.getvalue()
+    out.write(cd + struct.pack("<IHHHHIIH", 0x06054B50, 0, 0, len(entries), len(entries), len(cd), start, 0))
+    return out.getvalue()
+
+
+def deflated(data: bytes) -> bytes:
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    return c.compress(data) + c.flush()
+
+
+@pytest.fixture(scope="module")
+def bomb() -> bytes:
+    """A zip bomb: 'bomb.json' declares 100 bytes (and the CRC of 100 zero bytes) and holds 1 GiB of zeros,
+    deflated to about 1 MB."""
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    zeros = bytes(1 << 24)
+    data = b"".join(c.compress(zeros) for _ in range(GiB // len(zeros))) + c.flush()
+    return raw_zip([{"name": "hw4/bomb.json", "data": data, "size": 100, "crc": zlib.crc32(bytes(100))}])
+
+
+# ------------------------------------------------------------------------------ the bounded zip reader
+
+
+def test_archive_a_zip_bomb_is_refused_by_name_holding_one_chunk(bomb, tmp_path):
+    """The header's 100 bytes are not trusted: the entry is inflated a chunk at a time and refused as soon
+    as it holds more, with at most a chunk or two in memory (tracemalloc: Python's allocations; zlib's own
+    window is a fixed 32 KB). The zip is read from a file, as an upload is."""
+    assert len(bomb) < 1_100_000
+    (tmp_path / "bomb.zip").write_bytes(bomb)
+    tracemalloc.start()
+    try:
+        with pytest.raises(GradingError) as e:
+            unpack_zip(tmp_path / "bomb.zip", tmp_path / "out", Caps())
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert str(e.value) == "hw4/bomb.json: holds more than the 100 bytes its header declares"
+    assert peak < 8 * CHUNK, peak  # 512 KB: never the gigabyte, nor the megabyte of the zip
+    assert sum(f.stat().st_size for f in (tmp_path / "out").iterdir()) <= 100
+
+
+def test_archive_caps_on_size_and_entries_are_checked_before_reading():
+    big = raw_zip([{"name": "big.exr", "data": deflated(bytes(1000)), "size": 30_000_000, "crc": 0}])
+    with pytest.raises(GradingError, match=r"^big.exr: unpacks to 30000000 bytes; at most 20000000 per file$"):
+        read_zip(big)  # told by its header: not even opened
+    many = io.BytesIO()
+    with zipfile.ZipFile(many, "w") as z:
+        for i in range(6):
+            z.writestr(f"s{i}.json", "{}")
+    caps = Caps(
+        entries=5, total_bytes=1000, entries_name="TRACER_MAX_CLASS_ENTRIES", bytes_name="TRACER_MAX_CLASS_BYTES"
+    )
+    with pytest.raises(GradingError, match=r"^6 entries; at most 5 \(TRACER_MAX_CLASS_ENTRIES\)$"):
+        read_zip(many.getvalue(), caps)
+    total = io.BytesIO()
+    with zipfile.ZipFile(total, "w", zipfile.ZIP_DEFLATED) as z:
+        for name in ("a.json", "b.json", "c.json"):
+            z.writestr(name, " " * 400)
+    with pytest.raises(GradingError, match=r"^c.json: the class unpacks to more than 1000 bytes \(TRACER_MAX_CLASS"):
+        read_zip(total.getvalue(), caps)
+
+
+@pytest.mark.parametrize(
+    "entry, words",
+    [
+        ({"data": deflated(b"{}"), "size": 2, "crc": 12345}, "a.json: bad CRC-32 (the entry is corrupt)"),
+        ({"data": b"\xff" * 40, "size": 10}, "a.json: cannot unpack it (error: Error -3 while decompressing data"),
+        ({"data": deflated(b"{}")[:1], "size": 2, "crc": zlib.crc32(b"{}")}, "a.json: holds 0 bytes; its header"),
+        ({"data": b"{}", "size": 2, "method": 12, "crc": zlib.crc32(b"{}")}, "a.json: compressed with method 12; only"),
+        ({"data": b"{}", "size": 2, "flags": 0x801}, "a.json: is encrypted"),
+    ],
+    ids=["bad-crc", "garbage-deflate", "cut-short", "bzip2", "encrypted"],
+)
+def test_archive_broken_entries_are_named(entry, words):
+    with pytest.raises(GradingError) as e:
+        read_zip(raw_zip([{"name": "a.json", **entry}]))
+    assert str(e.value).startswith(words), str(e.value)
+
+
+def test_archive_not_a_zip_and_what_is_skipped(tmp_path):
+    for garbage in (b"", b"hello", b"PK\x05\x06" + b"\0" * 10, class_zip()[:-30]):
+        with pytest.raises(GradingError, match="^not a zip file"):
+            read_zip(garbage)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for name in ("hw4/a.json", "hw4/.b.json", "__MACOSX/hw4/._a.json", "hw4/notes.txt", "/abs.json",
+                     "hw4/../up.json", "hw4/c/scene.json", "hw4/d.PNG"):  # fmt: skip
+            z.writestr(name, "{}")
+    files = unpack_zip(io.BytesIO(buf.getvalue()), tmp_path / "out")
+    assert sorted(files) == ["hw4/a.json", "hw4/c/scene.json", "hw4/d.PNG"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["00000.json", "00001.json", "00002.png"]
+    assert all(p.read_bytes() == b"{}" for p in files.values())
+
+
+# -------------------------------------------------------------------------------- the upload route
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    """The app with one real render worker; small caps for the upload's limits: at most 40 entries and
+    2 MB of files per class."""
+    with api_client(tmp_path_factory.mktemp("upload-data"), workers=1, max_class_entries=40,
+                    max_class_bytes=2_000_000) as client:  # fmt: skip
+        yield client
+
+
+def post(client, parts: dict | None = None, files: list | None = None, **kw):
+    data = {"assignment": assignment_text()} if parts is None else parts
+    return client.post("/api/grade/upload", data=data, files=files, **kw)
+
+
+def finished(client, url: str) -> dict:
+    return wait_for(lambda: (s := client.get(url).json())["status"] != "running" and s, 240, "the grading run", 0.2)
+
+
+def test_upload_a_zip_grades_the_example_class(app):
+    """The page's way: a multipart body with the assignment and the class as a zip, parsed as a stream;
+    the same grades as every other way (tests/test_grading.py)."""
+    r = post(app, files={"class": ("hw4.zip", class_zip(), "application/zip")})
+    assert r.status_code == 202, r.text
+    run = r.json()
+    assert r.headers["location"] == run["url"] and run["students"] == sorted(EXPECTED)
+    state = finished(app, run["url"])
+    assert state["status"] == "done", state
+    assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == EXPECTED
+    assert (state["graded"], state["renders_done"], state["renders_total"]) == (9, 7, 7)  # mean, 2 baselines, 4
+    assert state["summary"]["statistics"]["mean_percent"] == pytest.approx(46.03, abs=0.01)
+    csv = app.get(f"{run['url']}/summary.csv").text
+    assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
+    folder = app.app.state.settings.data_dir / "grades" / run["id"]
+    kept = sorted(p.name for p in (folder / "submissions").iterdir())
+    assert len(kept) == 9 and kept[0] == "00000.json"  # the students' files, as the run keeps them
+    assert not list((folder.parent / ".uploads").iterdir())  # the upload's staging folder is gone
+
+
+def test_upload_files_parts_name_their_students(app):
+    """One part per file, as the page sends picked files: students by file name (Unicode letters kept), a
+    folder in the name as in a zip, other files skipped."""
+    files = [
+        ("files", ("Zoë O'Brien.json", (CLASS / "alice.json").read_bytes(), "application/json")),
+        ("files", ("王小明.png", (CLASS / "grace.png").read_bytes(), "image/png")),
+        ("files", ("frank/scene.json", (CLASS / "frank" / "scene.json").read_bytes(), "application/json")),
+        ("files", ("notes.txt", b"not a submission", "text/plain")),
+    ]
+    r = post(app, files=files)
+    assert r.status_code == 202, r.text
+    state = finished(app, r.json()["url"])
+    scores = {x["student"]: (x["score"], x["status"]) for x in state["reports"]}
+    assert scores == {"Zoë_O_Brien": (13.0, "graded"), "王小明": (7.0, "graded"), "frank": (0.0, "invalid")}
+
+
+def test_upload_a_zip_bomb_is_refused_with_the_entry_named(app, bomb):
+    """1 MB on the wire, 1 GiB inside, 100 B declared: a 422 at `class` naming the entry."""
+    r = post(app, files={"class": ("bomb.zip", bomb, "application/zip")})
+    assert r.status_code == 422, r.text
+    assert r.json()["errors"] == [{"path": "class", "message": "hw4/bomb.json: holds more than the 100 bytes its "
+                                   "header declares"}]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "make, status, path, words",
+    [
+        (lambda: {"class": ("x.zip", b"garbage")}, 422, "class", "not a zip file"),
+        (lambda: {"class": ("x.zip", raw_zip([{"name": "hw4/a.json", "data": deflated(b"{}"), "size": 2, "crc": 1}]))},
+         422, "class", "hw4/a.json: bad CRC-32"),
+        (lambda: {"class": ("x.zip", raw_zip([{"name": f"s{i}.json", "data": b"{}", "method": 0, "size": 2,
+                                              "crc": zlib.crc32(b"{}")} for i in range(41)]))},
+         422, "class", "41 entries; at most 40 (TRACER_MAX_CLASS_ENTRIES)"),
+        (lambda: {"class": ("x.zip", _many_bytes())},
+         422, "class", "the class unpacks to more than 2000000 bytes (TRACER_MAX_CLASS_BYTES)"),
+        (lambda: {"class": ("x.zip", raw_zip([{"name": "notes.txt", "data": b"x", "method": 0, "size": 1,
+                                              "crc": zlib.crc32(b"x")}]))},
+         422, "class", "no submissions in it (.json, .png or .exr files)"),
+    ],
+    ids=["garbage", "bad-crc", "too-many-entries", "too-many-bytes", "no-submissions"],
+)  # fmt: skip
+def test_upload_refuses_a_bad_zip_with_a_422(app, make, status, path, words):
+    r = post(app, files=make())
+    assert r.status_code == status, r.text
+    [error] = r.json()["errors"]
+    assert error["path"] == path and words in error["message"], error
+
+
+def _many_bytes() -> bytes:
+    """Three honest 900 KB scenes: past the 2 MB cap on the class together (not on one file)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for name in ("a.json", "b.json", "c.json"):
+            z.writestr(name, " " * 900_000)
+    return buf.getvalue()
+
+
+def test_upload_refuses_bad_requests(app):
+    zip_part = {"class": ("hw4.zip", class_zip())}
+    r = post(app, parts={}, files=zip_part)
+    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment"
+    r = post(app, parts={"assignment": '{\n  "name": 1,,\n}'}, files=zip_part)
+    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith("invalid JSON at line 2, column")
+    a = json.loads(assignment_text())
+    a["requirements"][0]["check"] = "glas"
+    r = post(app, parts={"assignment": json.dumps(a)}, files=zip_part)
+    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment.requirements[0].check"
+    r = post(app, parts={"assignment": "[" * 100 + "]" * 100}, files=zip_part)
+    assert r.status_code == 422 and "nested 100 levels deep" in r.json()["errors"][0]["message"]
+    r = post(app, parts={}, files={"assignment": (None, assignment_text())})  # multipart, without a class
+    assert r.status_code == 422 and "the class is missing" in r.json()["errors"][0]["message"]
+    r = post(app, files=[*zip_part.items(), ("files", ("a.json", b"{}"))])
+    assert r.status_code == 422 and "not both" in r.json()["errors"][0]["message"]
+    r = post(app, files={"homework": ("a.json", b"{}")})
+    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith("unknown part 'homework'")
+    r = app.post("/api/grade/upload", json={"assignment": {}})
+    assert r.status_code == 415 and "multipart/form-data" in r.json()["errors"][0]["message"]
+    r = post(app, files=[("files", (f"s{i}.json", b"{}")) for i in range(41)])
+    assert r.status_code == 422 and "more than 40 files" in r.json()["errors"][0]["message"]
+    r = post(app, files=[("files", ("big.json", b" " * 2_100_000))])
+    assert r.status_code == 422
+    assert r.json()["errors"][0] == {"path": "files", "message": "big.json: the files are more than 2000000 bytes "
+                                     "together (TRACER_MAX_CLASS_BYTES)"}  # fmt: skip
+
+
+def test_upload_past_its_size_is_refused_by_content_length_and_by_bytes_streamed(app):
+    """The request gate does not buffer an upload: it counts it, against TRACER_MAX_CLASS_BYTES plus
+    TRACER_MAX_BODY_BYTES (2 MB + 2 MB here), by Content-Length and by the bytes that arrive."""
+    limit = 2_000_000 + 2_000_000
+    r = app.post("/api/grade/upload", content=b"x" * 10, headers={"content-type": "multipart/form-data; boundary=b",
+                                                                  "content-length": str(limit + 1)})  # fmt: skip
+    assert r.status_code == 413 and f"larger than {limit} bytes (TRACER_MAX_CLASS_BYTES" in r.text
+
+    def chunks():  # no Content-Length: chunked, counted as it comes
+        yield b'--b\r\nContent-Disposition: form-data; name="class"; filename="x.zip"\r\n\r\n'
+        for _ in range(70):
+            yield b"\0" * 65536
+
+    r = app.post("/api/grade/upload", content=chunks(), headers={"content-type": "multipart/form-data; boundary=b"})
+    assert r.status_code == 413 and f"larger than {limit} bytes" in r.text
+
+
+def test_upload_the_json_route_reads_its_zip_with_the_same_bounds(app, bomb):
+    """POST /api/grade with a base64 zip (small classes): the same bounded reader."""
+    import base64
+
+    body = {"assignment": json.loads(assignment_text()), "zip": base64.b64encode(bomb).decode()}
+    r = app.post("/api/grade", json=body)
+    assert r.status_code in (413, 422), r.text  # 1.4 MB of base64: under 2 MB
+    assert r.json()["errors"][0]["message"] == "hw4/bomb.json: holds more than the 100 bytes its header declares"
+
+
+def test_upload_openapi_documents_the_multipart_body(app):
+    op = app.get("/openapi.json").json()["paths"]["/api/grade/upload"]["post"]
+    schema = op["requestBody"]["content"]["multipart/form-data"]["schema"]
+    assert {"assignment", "class", "files"} <= set(schema["properties"]) and schema["required"] == ["assignment"]
+
+
+def test_upload_path_in_a_zip_stays_inside(tmp_path):
+    """Names never become paths: a zip's entries are written under our own numbers."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("../../etc/evil.json", "{}")
+        z.writestr("ok/../../evil2.json", "{}")
+        z.writestr("fine.json", "{}")
+    files = unpack_zip(io.BytesIO(buf.getvalue()), tmp_path / "out")
+    assert list(files) == ["fine.json"] and files["fine.json"].parent == tmp_path / "out"
+    assert not (tmp_path / "evil.json").exists() and not Path("/etc/evil.json").exists()
