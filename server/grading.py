@@ -29,7 +29,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from server.grading_store import GradingStore, Stage
-from server.lifecycle import JobStatus
+from server.lifecycle import JobStatus, Lane
 from server.settings import Settings
 from server.store import JobFile, JobStore
 from tracer.grading import Grader, Rendered, RenderJob, load_assignment
@@ -83,7 +83,7 @@ class QueueRenderer:
             row = self.store.create(
                 json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=scene.film.width,
                 height=scene.film.height, spp=scene.sampler.spp, priority=job.priority, warnings=warnings,
-                max_seconds=seconds, max_queued=self.max_queued,
+                max_seconds=seconds, max_queued=self.max_queued, lane=Lane.batch,
             )  # fmt: skip
             ids[i] = row["id"]
             if self.queued:

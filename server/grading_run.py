@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 from server.grading import capped, job_outcome
 from server.grading_store import RenderStatus, Stage
-from server.lifecycle import JobStatus
+from server.lifecycle import JobStatus, Lane
 from server.store import JobFile
 from tracer.grading import Grader, Prepared, RenderJob, Report, Submission, load_assignment, tasks
 from tracer.grading.batch import class_summary, summary_row, write_report, write_summary
@@ -132,8 +132,8 @@ class GradingRun:
         width, height, spp = size
         row = self.store.create(
             json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=width, height=height, spp=spp,
-            priority=job.priority, warnings=warnings, max_seconds=seconds, max_queued=MAX_QUEUED,
-        )  # fmt: skip
+            priority=job.priority, warnings=warnings, max_seconds=seconds, max_queued=MAX_QUEUED, lane=Lane.batch,
+        )  # fmt: skip (grading is batch work: the page's renders and ray trees go first)
         if self.runs.queued:
             self.runs.queued(row)
         return row["id"]
