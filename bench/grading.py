@@ -143,10 +143,18 @@ def tree_cpu(pid: int) -> dict[int, float]:
     return out
 
 
-def cpu_used(before: dict[int, float], after: dict[int, float], api: int) -> tuple[float, float]:
-    """(CPU seconds of the server's processes between two looks, of which the API process's own)."""
-    total = sum(t - before.get(p, 0.0) for p, t in after.items())
-    return total, after.get(api, 0.0) - before.get(api, 0.0)
+def cpu_used(before: dict[int, float], after: dict[int, float], api: int) -> dict[int, float]:
+    """CPU seconds of each of the server's processes between two looks, by pid."""
+    return {p: t - before.get(p, 0.0) for p, t in after.items()}
+
+
+def cpu_roles(used: dict[int, float], api: int, log: str) -> dict[str, float]:
+    """The CPU seconds split by role: the API process, its render workers (their pids from the server's
+    log: "started render worker k (pid P)"), and the rest (the grading processes, Python's resource tracker)."""
+    workers = {int(m) for m in re.findall(r"started render worker \d+ \(pid (\d+)\)", log)}
+    render = sum(t for p, t in used.items() if p in workers)
+    return {"total": sum(used.values()), "api": used.get(api, 0.0), "workers": render,
+            "grading": sum(used.values()) - used.get(api, 0.0) - render}  # fmt: skip
 
 
 def grade(api: Api, zip_bytes: bytes) -> tuple[dict, dict]:
@@ -238,6 +246,7 @@ def main(argv: list[str] | None = None) -> None:
             proc.wait(timeout=60)
         log = (root / "server.log").read_text(errors="replace")
         s = split(root / "data", log, state["id"], args.workers)
+        marks["cpu"] = cpu_roles(marks["cpu"], proc.pid, log)
         report(k + 1, state, marks, s, args.workers)
         if args.keep is None:
             shutil.rmtree(root, ignore_errors=True)
@@ -266,8 +275,13 @@ def report(run: int, state: dict, marks: dict, s: dict, workers: int) -> None:
     print(f"  grading processes: prepare {s['prepare']:.2f} s, metrics {s['metrics']:.2f} s of process time "
           f"({1000 * s['metrics'] / len(state['students']):.1f} ms a student); after the last render "
           f"{s['after_last_render']:.2f} s to the summary")  # fmt: skip
-    print(f"  CPU of the server's processes: {marks['cpu'][0]:.1f} s, of which the API process "
-          f"{marks['cpu'][1]:.2f} s (HTTP, the rows, polling the jobs)")  # fmt: skip
+    cpu = marks["cpu"]
+    print(f"  CPU of the server's processes: {cpu['total']:.1f} s: the render workers {cpu['workers']:.1f} s, "
+          f"the grading processes {cpu['grading']:.1f} s, the API process {cpu['api']:.2f} s (HTTP, the rows, "
+          "polling the jobs)")  # fmt: skip
+    print(f"  the renderer's share of the CPU, at most: {cpu['workers']:.1f} s / {cpu['total']:.1f} s = "
+          f"{100 * cpu['workers'] / cpu['total']:.0f} % (the render workers' CPU, the work around each render "
+          "included)")  # fmt: skip
     lower = s["render_inside"] / workers
     print(f"  the renderer's share of the wall time: {lower:.2f} s / {wall:.1f} s = {100 * lower / wall:.0f} %")
     sys.stdout.flush()

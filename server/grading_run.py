@@ -130,10 +130,12 @@ class GradingRun:
     def _create(self, job: RenderJob, size: tuple, warnings: list, seconds: float) -> str:
         """Queue a render job (like any other: the queue's backend gets it rendered); its id."""
         width, height, spp = size
+        # grading is batch work (the page's renders and ray trees go first), and it reads only the floats
         row = self.store.create(
             json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=width, height=height, spp=spp,
             priority=job.priority, warnings=warnings, max_seconds=seconds, max_queued=MAX_QUEUED, lane=Lane.batch,
-        )  # fmt: skip (grading is batch work: the page's renders and ray trees go first)
+            params={"outputs": "floats"},
+        )  # fmt: skip
         if self.runs.queued:
             self.runs.queued(row)
         return row["id"]

@@ -175,9 +175,10 @@ def exr_bytes(image, layers: dict | None = None) -> bytes:
 @dataclass
 class Try:
     """One try of a job. `job`: id, kind, lane, params, scene (JSON text), max_seconds, samples_total,
-    attempts and snapshot, as the store's row has them; `limits`: the scene limits; `stopping()`: the
-    host is shutting down; `cache`: radiosity solutions by content (a radiosity.SolutionCache);
-    `snapshot_interval`: seconds of rendering between two snapshots of the film."""
+    attempts and snapshot, as the store's row has them (params: a ray tree's pixel; a render's `outputs`,
+    "floats" for grading: no previews and no AOV pictures, only the final image and the AOVs' floats);
+    `limits`: the scene limits; `stopping()`: the host is shutting down; `cache`: radiosity solutions by
+    content (a radiosity.SolutionCache); `snapshot_interval`: seconds of rendering between two snapshots of the film."""
 
     job: dict
     channel: Channel
@@ -292,6 +293,9 @@ class Try:
         clock = {"check": 0.0, "progress": 0.0, "preview": 0.0, "snapshot": time.monotonic()}
         done = {"samples": 0, "total": job["samples_total"]}  # the renderer's latest progress
         batch = job.get("lane") == Lane.batch
+        params = job.get("params") or {}
+        params = json.loads(params) if isinstance(params, str) else params
+        lean = params.get("outputs") == "floats"  # grading: only the final image and its floats
         resume = self._resume_from()
         if resume is not None:
             published = int(job.get("preview") or 0)
@@ -331,7 +335,7 @@ class Try:
             last = _Pass(pr.image, pr.passes_done, pr.spp_done, pr.rays, done["samples"])
             due = pr.passes_done == 1 or time.monotonic() - clock["preview"] >= self.preview_interval
             final = done["samples"] >= done["total"]
-            if due and not final:  # the final image is published below
+            if due and not final and not lean:  # the final image is published below
                 publish(last)
             fields = dict(samples_done=done["samples"], samples_total=done["total"], passes_done=pr.passes_done)
             fields.update(spp_done=pr.spp_done, rays=pr.rays, preview=published)
@@ -365,7 +369,7 @@ class Try:
             if not result.cancelled:
                 final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
                 publish(final)
-                self._save_aovs(result.aovs)
+                self._save_aovs(result.aovs, pictures=not lean)
                 if compiled.radiosity is not None:
                     self._save_radiosity(compiled.radiosity)
                 solved = {"solve": {**result.solve, "fraction": 1.0}} if result.solve else {}
@@ -383,15 +387,17 @@ class Try:
             return "gave way"
         return self._stopped(stop_reason, last, published, publish)
 
-    def _save_aovs(self, aovs: dict) -> None:
-        """The AOV pictures of a finished render, beside its image (before the job is marked done)."""
+    def _save_aovs(self, aovs: dict, pictures: bool = True) -> None:
+        """The AOV pictures of a finished render (unless `pictures` is False: a grading render, whose
+        pictures nobody looks at), and their floats, beside its image (before the job is marked done)."""
         from tracer.film import aov_layers
 
         try:
-            pictures, ranges = aov_pictures(aovs)
-            for name, png in pictures.items():
-                self.channel.save(JobFile.aov(name), png)
-            self.channel.save(JobFile.aov_ranges, json.dumps(ranges))
+            if pictures:
+                pngs, ranges = aov_pictures(aovs)
+                for name, png in pngs.items():
+                    self.channel.save(JobFile.aov(name), png)
+                self.channel.save(JobFile.aov_ranges, json.dumps(ranges))
             layers = aov_layers(aovs)  # the floats too (the grader's variance), as EXR layers
             variance = layers.pop("variance")
             self.channel.save(JobFile.aov_floats, exr_bytes(variance, layers))

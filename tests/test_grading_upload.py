@@ -20,6 +20,7 @@ import pytest
 from conftest import ROOT
 from test_api_support import api_client, wait_for
 
+from server.store import JobFile
 from tracer.grading import Caps, GradingError, read_zip, unpack_zip
 from tracer.grading.archive import CHUNK
 
@@ -195,6 +196,16 @@ def test_upload_a_zip_grades_the_example_class(app):
     kept = sorted(p.name for p in (folder / "submissions").iterdir())
     assert len(kept) == 9 and kept[0] == "00000.json"  # the students' files, as the run keeps them
     assert not list((folder.parent / ".uploads").iterdir())  # the upload's staging folder is gone
+    # its renders wrote only what grading reads: the final image and the AOVs' floats, no previews or pictures
+    store = app.app.state.store
+    jobs = [j for j in store.list_jobs(limit=100)[0] if (j["name"] or "").startswith("grading: ")]
+    assert len(jobs) >= 7
+    for job in jobs:
+        files = sorted(p.name for p in store.job_file(job["id"], JobFile.image_exr).parent.iterdir())
+        assert files == sorted([JobFile.image_png, JobFile.image_exr, JobFile.aov_floats]), files
+        assert job["preview"] == job["passes_done"]  # published once, at the end
+        r = app.get(f"/api/jobs/{job['id']}/aov")
+        assert r.status_code == 404 and "rendered for grading" in r.json()["errors"][0]["message"], r.text
 
 
 def test_upload_files_parts_name_their_students(app):

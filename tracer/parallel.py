@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
@@ -55,13 +56,29 @@ def default_threads() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+_POOLS_LOCK = threading.Lock()
+
+
+def thread_pool(threads: int) -> ThreadPoolExecutor:
+    """A pool of `threads` threads shared by every render of this process that asks for that many:
+    starting threads for each pass of a small render cost more than its launches (2 ms a thread while
+    the others run). Renders that share a pool never wait on each other's tasks, so they cannot
+    deadlock; at worst they take turns."""
+    with _POOLS_LOCK:
+        pool = _POOLS.get(threads)
+        if pool is None:
+            pool = _POOLS[threads] = ThreadPoolExecutor(threads, thread_name_prefix=f"tracer-{threads}")
+        return pool
+
+
 class BandLauncher:
     """Launches a kernel over n items in bands, one band per thread (on a CUDA device: all n in one
     launch); each item writes only its own slot, so results never depend on the threads."""
 
     def __init__(self, threads: int, device: str):
         self.threads, self.device = max(1, threads), device
-        self.pool = ThreadPoolExecutor(self.threads) if self.threads > 1 and not is_cuda(device) else None
+        self.pool = thread_pool(self.threads) if self.threads > 1 and not is_cuda(device) else None
 
     def __call__(self, kernel, n: int, inputs) -> None:
         """inputs(first) -> the kernel's inputs for the band starting at item `first`."""
@@ -78,5 +95,5 @@ class BandLauncher:
         wp.synchronize_device(self.device)
 
     def close(self) -> None:
-        if self.pool:
-            self.pool.shutdown()
+        """Nothing to release: the pool is shared (kept for the callers that say they are done)."""
+        self.pool = None

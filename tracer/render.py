@@ -18,7 +18,6 @@ import io
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,7 +28,7 @@ from tracer.compile import CompiledScene, compile_scene
 from tracer.integrators import dispatch, record
 from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
-from tracer.parallel import default_threads, is_cuda
+from tracer.parallel import default_threads, is_cuda, thread_pool
 from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
@@ -217,9 +216,9 @@ class Renderer:
         if self.threads == 1:
             worker(0)
         else:
-            with ThreadPoolExecutor(self.threads) as pool:
-                for f in [pool.submit(worker, k) for k in range(self.threads)]:
-                    f.result()
+            pool = thread_pool(self.threads)
+            for f in [pool.submit(worker, k) for k in range(self.threads)]:
+                f.result()
         wp.synchronize_device(self.device)
 
     def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:

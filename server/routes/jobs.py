@@ -178,6 +178,9 @@ def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
     try:
         return json.loads(store.job_file(job["id"], JobFile.aov_ranges).read_text())
     except FileNotFoundError:
+        params = job.get("params") or {}
+        if (json.loads(params) if isinstance(params, str) else params).get("outputs") == "floats":
+            raise ApiError(404, "no AOV pictures: this job rendered for grading, which keeps only its image") from None
         raise ApiError(404, "the job's AOVs are missing from the data directory") from None
 
 
