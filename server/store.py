@@ -331,8 +331,8 @@ class JobStore:
         running = self.db.execute(
             "SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0) * (1.0 - CASE WHEN samples_total > 0"
             " THEN MIN(1.0, samples_done * 1.0 / samples_total) ELSE 0 END)), 0) FROM jobs WHERE status = ?"
-            f" AND lane IN ({', '.join('?' * len(lanes))})",
-            (RUNNING, *lanes),
+            f" AND lane IN ({', '.join('?' * len(lanes))}) AND id != ?",
+            (RUNNING, *lanes, row["id"]),  # never itself: a worker may have taken it since `row` was read
         ).fetchone()
         return {"ahead": ahead[0], "ahead_seconds": ahead[1], "running": running[0], "running_seconds": running[1]}
 

@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, check_transition
+from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
 from server.store import AOV_NAMES, JobFile, JobStore, QueueFull, looks_like_job_id
 
 
@@ -27,6 +27,27 @@ def test_store_claims_by_priority_then_age(tmp_path):
     assert order == [b, d, a, c]
     assert store.claim(pid=1) is None
     assert looks_like_job_id(a) and len({a, b, c, d}) == 4
+
+
+def test_store_place_counts_the_jobs_ahead_and_never_the_job_itself(tmp_path):
+    """A queued job's place: the queued jobs a worker takes first and the running ones it waits for, with
+    their estimates; a job that a worker took after its row was read is not waiting for itself."""
+    store = JobStore(tmp_path)
+
+    def job(lane: Lane, estimate: float, priority: int = 0) -> dict:
+        return store.create(json.dumps({"camera": {}}), name=None, width=4, height=4, spp=1, priority=priority,
+                            warnings=[], max_seconds=60, max_queued=100, lane=lane, estimate=estimate)  # fmt: skip
+
+    busy = job(Lane.batch, 100.0)
+    assert store.claim(pid=1)["id"] == busy["id"]
+    first, second, late = job(Lane.interactive, 2.0), job(Lane.interactive, 3.0), job(Lane.batch, 7.0)
+    assert store.place(first) == {"ahead": 0, "ahead_seconds": 0, "running": 0, "running_seconds": 0}
+    assert store.place(second) == {"ahead": 1, "ahead_seconds": 2.0, "running": 0, "running_seconds": 0}
+    # a batch job waits for every queued interactive job and for the running batch render
+    assert store.place(late) == {"ahead": 2, "ahead_seconds": 5.0, "running": 1, "running_seconds": 100.0}
+    assert store.claim(pid=2)["id"] == first["id"]  # taken after `first` was read as queued
+    assert store.place(first)["running"] == 0
+    assert store.place(second) == {"ahead": 0, "ahead_seconds": 0, "running": 1, "running_seconds": 2.0}
 
 
 def test_store_claims_are_atomic_across_threads(tmp_path):
