@@ -13,6 +13,7 @@ from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
 from server.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
 from server.routes.jobs import check_scene, create_job
+from server.security import CallerDep
 from server.store import JobFile
 from tracer.scene import scene_json_schema
 
@@ -52,11 +53,11 @@ def validate(body: ValidateRequest, settings: SettingsDep) -> dict:
     },
 )
 async def raytree(
-    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, request: Request
+    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, caller: CallerDep, request: Request
 ) -> dict:
     """Traced by a worker, as a short job of the interactive lane (never in the API process); a
     radiosity scene's solution is kept by its content, so only the first click on it solves it. A
-    client that gives up cancels it."""
+    client that gives up cancels it. The job belongs to the request's token (without one: the instructor)."""
     scene, _ = await anyio.to_thread.run_sync(check_scene, body.scene, settings)
     d = scene.film
     errors = [
@@ -71,7 +72,7 @@ async def raytree(
     params = {"x": body.x, "y": body.y, "sample": body.sample}
     row = create_job(
         store, settings, scene, body.scene, kind=JobKind.raytree, lane=Lane.interactive, priority=100,
-        params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[],
+        params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[], owner=caller.owner,
         name=f"ray tree ({body.x}, {body.y}) of {scene.name or 'a scene'}"[:200],
     )  # fmt: skip
     queue.submitted(row)
