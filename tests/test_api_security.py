@@ -131,6 +131,21 @@ def test_api_security_another_student_gets_the_404_of_an_unknown_id_on_every_rou
         assert a.get(f"/api/jobs/{done}").json() == not_found(done)
 
 
+def test_api_security_health_names_a_worker_s_job_to_its_owner_only(client):
+    running = submit(client, long_scene())["id"]
+    try:
+        wait_status(client, running, {"running"})
+
+        def jobs(headers=None):
+            return [w["job"] for w in client.get("/api/health", headers=headers).json()["workers"]]
+
+        assert jobs() == [running] and jobs(TEACHER) == [running]
+        assert jobs(bearer(student_token())) == [None]
+    finally:
+        client.delete(f"/api/jobs/{running}")
+        wait_finished(client, running)
+
+
 def test_api_security_the_instructor_sees_every_job_and_a_student_cannot_list_them(client):
     a_job = submit(client, tiny_scene())["id"]
     other = bearer(student_token())

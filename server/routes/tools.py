@@ -23,8 +23,14 @@ RAYTREE_POLL = 0.01  # seconds between two looks at a ray tree's job
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
-def health(store: StoreDep, queue: QueueDep) -> Health:
-    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=queue.workers(), jobs=store.counts())
+def health(store: StoreDep, queue: QueueDep, caller: CallerDep) -> Health:
+    """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
+    workers = queue.workers()
+    if not caller.instructor:
+        for w in workers:
+            if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
+                w["job"] = None
+    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers, jobs=store.counts())
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")
