@@ -25,7 +25,7 @@ from server.grading import GradeRuns
 from server.janitor import Janitor
 from server.queue import make_queue
 from server.routes import grade, jobs, reference, samples, scenes, tools
-from server.security import HostCheck, SecurityHeaders, served_hosts, warnings
+from server.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
@@ -38,7 +38,7 @@ log = logging.getLogger("server")
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
-    for warning in warnings(settings):
+    for warning in start_up_warnings(settings):
         log.warning(warning)
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process

@@ -154,7 +154,7 @@ InstructorDep = Annotated[Caller, Depends(require_instructor)]
 # -- start-up --------------------------------------------------------------------------------------
 
 
-def warnings(settings: Settings) -> list[str]:
+def start_up_warnings(settings: Settings) -> list[str]:
     """What an operator should know about how open this server is (logged at start-up)."""
     out = []
     if instructor_token(settings) is None and not loopback_only(settings.host):
