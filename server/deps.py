@@ -1,4 +1,5 @@
-"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, a job."""
+"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, a job
+(the caller's own: server/security.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from fastapi import Depends, Path, Request
 
 from server.errors import ApiError
 from server.queue import JobQueue
+from server.security import CallerDep
 from server.settings import Settings
 from server.store import JobStore, looks_like_job_id
 
@@ -29,10 +31,15 @@ StoreDep = Annotated[JobStore, Depends(get_store)]
 QueueDep = Annotated[JobQueue, Depends(get_queue)]
 
 
-def get_job(job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")], store: StoreDep):
-    """The job's row, or 404 (ids that cannot be ours are refused before the database sees them)."""
+def get_job(
+    job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")],
+    store: StoreDep,
+    caller: CallerDep,
+):
+    """The job's row, or 404 (ids that cannot be ours are refused before the database sees them). A job
+    of another token is the same 404 as an unknown id: ids are never confirmed."""
     row = store.get(job_id) if looks_like_job_id(job_id) else None
-    if row is None:
+    if row is None or not caller.owns(row):
         raise ApiError(404, [{"path": "id", "message": f"no job with id '{job_id[:64]}'"}])
     return row
 

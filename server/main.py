@@ -4,7 +4,9 @@ At start-up (the lifespan) the app compiles the render kernels (or loads them fr
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
 removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where)
-and the workers give their running jobs back to the queue.
+and the workers give their running jobs back to the queue. Every request passes the host check and
+gets the security headers (server/security.py); the start-up log warns of a server open to others
+without an instructor token or a list of host names.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from server.grading import GradeRuns
 from server.janitor import Janitor
 from server.queue import make_queue
 from server.routes import grade, jobs, reference, samples, scenes, tools
+from server.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.settings import Settings, load_settings
 from server.store import JobStore
 from server.worker import load_kernels
@@ -35,6 +38,8 @@ log = logging.getLogger("server")
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
+    for warning in start_up_warnings(settings):
+        log.warning(warning)
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
     log.info("render kernels ready")
@@ -89,6 +94,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
         streamed={grade.UPLOAD: upload},
     )  # fmt: skip
+    app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
+    app.add_middleware(SecurityHeaders)  # the outermost: every answer has its policy, nosniff, no framing
     app.include_router(jobs.router)
     app.include_router(tools.router)
     app.include_router(samples.router)

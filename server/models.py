@@ -233,6 +233,15 @@ def _dt(t: float | None) -> datetime | None:
     return None if t is None else datetime.fromtimestamp(t, UTC)
 
 
+class JobCreated(JobPublic):
+    token: str | None = Field(
+        None,
+        description="the token that owns the job, issued when the request sent none: send it as "
+        "'Authorization: Bearer <token>' to read, follow, cancel or download this job and to submit the next "
+        "ones (null when the request sent its own)",
+    )
+
+
 class JobList(BaseModel):
     jobs: list[JobPublic] = Field(description="newest first")
     count: int = Field(description="jobs that match, in all")

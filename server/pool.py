@@ -88,9 +88,10 @@ class WorkerPool:
         if slot.line is not None:
             slot.line.close()
         ours, theirs = self.ctx.Pipe()  # a socket pair: no semaphore to leak (server/channel.py)
+        plain = self.settings.model_dump(mode="json", exclude={"instructor_token"})  # a worker needs no secret
         p = self.ctx.Process(
             target=worker_main,
-            args=(self.settings.model_dump(mode="json"), theirs, [str(x) for x in slot.lanes]),
+            args=(plain, theirs, [str(x) for x in slot.lanes]),
             name=f"render-worker-{slot.index}",
             daemon=True,
         )

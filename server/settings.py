@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BeforeValidator, ByteSize, Field
+from pydantic import BeforeValidator, ByteSize, Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.scene import Limits
@@ -104,6 +104,18 @@ class Settings(BaseSettings):
     )
     janitor_interval: Duration = Field(60.0, gt=0, description="time between two rounds of the janitor (seconds)")
 
+    # Who may do what (server/security.py): each job belongs to the token that made it.
+    instructor_token: SecretStr | None = Field(
+        None,
+        description="the instructor's bearer token (16 to 512 letters, digits or -._~+/=): grading, and every "
+        "job; unset: on a server listening on loopback only everyone is the instructor, elsewhere no one",
+    )
+    allowed_hosts: str = Field(
+        "",
+        description="host names the server answers to (the Host header), comma-separated, besides the loopback "
+        "names and the address it listens on; '.example.edu' names its subdomains too; '*': any",
+    )
+
     # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
     max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")
     max_json_depth: int = Field(64, ge=4, description="nesting of JSON arrays and objects in a request body")
@@ -128,6 +140,17 @@ class Settings(BaseSettings):
     max_texture_pixels: int = Field(
         8192 * 8192, ge=1, description="width x height of one texture or bump image (read from its header)"
     )
+
+    @field_validator("instructor_token", mode="before")
+    @classmethod
+    def _token(cls, v):
+        """An empty value is no token; any other must be one a client can send as a bearer token."""
+        text = v.get_secret_value() if isinstance(v, SecretStr) else v
+        if text is None or text == "":
+            return None
+        if not isinstance(text, str) or not re.fullmatch(r"[A-Za-z0-9._~+/=-]{16,512}", text):
+            raise ValueError("the instructor token must be 16 to 512 letters, digits or -._~+/= (a bearer token)")
+        return text
 
     @property
     def limits(self) -> Limits:

@@ -65,7 +65,8 @@ CREATE TABLE IF NOT EXISTS jobs (
     lane TEXT NOT NULL DEFAULT 'interactive', -- Lane: interactive first, then batch
     params TEXT NOT NULL DEFAULT '{}',      -- a ray tree's {x, y, sample}
     estimate REAL,                          -- seconds the render was estimated to take on one worker
-    snapshot INTEGER NOT NULL DEFAULT 0     -- the pass of the film saved in the job's snapshot file (0: none)
+    snapshot INTEGER NOT NULL DEFAULT 0,    -- the pass of the film saved in the job's snapshot file (0: none)
+    owner TEXT                              -- SHA-256 (hex) of the token that made it; NULL: the instructor's
 );
 """
 
@@ -191,12 +192,14 @@ class JobStore:
             ("params", "TEXT NOT NULL DEFAULT '{}'"),
             ("estimate", "REAL"),
             ("snapshot", "INTEGER NOT NULL DEFAULT 0"),
+            ("owner", "TEXT"),  # older rows: no owner, the instructor's (server/security.py)
         )
         for name, decl in added:
             if name not in have:
                 self.db.execute(f"ALTER TABLE jobs ADD COLUMN {name} {decl}")
         self.db.execute("DROP INDEX IF EXISTS jobs_queue")  # the claim order: lane, priority, age
         self.db.execute("CREATE INDEX IF NOT EXISTS jobs_claim ON jobs (status, lane, priority DESC, created_at)")
+        self.db.execute("CREATE INDEX IF NOT EXISTS jobs_owner ON jobs (owner, created_at)")  # a student's list
 
     # -- connections --------------------------------------------------------------------------
 
@@ -280,8 +283,10 @@ class JobStore:
         params: dict | None = None,
         estimate: float | None = None,
         samples_total: int | None = None,
+        owner: str | None = None,
     ) -> dict:
-        """Queue a job; raises QueueFull when `max_queued` jobs already wait."""
+        """Queue a job (`owner`: its token's hash; None: the instructor's); raises QueueFull when `max_queued`
+        jobs already wait."""
         job_id = new_job_id()
         total = samples_total if samples_total is not None else width * height * spp
         with self._tx() as db:
@@ -290,10 +295,11 @@ class JobStore:
                 raise QueueFull(queued)
             db.execute(
                 "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
-                " samples_total, max_seconds, kind, lane, params, estimate)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                " samples_total, max_seconds, kind, lane, params, estimate, owner)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (job_id, QUEUED, priority, time.time(), name, scene_json, json.dumps(warnings), width, height, spp,
-                 total, max_seconds, JobKind(kind).value, Lane(lane).value, json.dumps(params or {}), estimate),
+                 total, max_seconds, JobKind(kind).value, Lane(lane).value, json.dumps(params or {}), estimate,
+                 owner),
             )  # fmt: skip
         return self.get(job_id)
 
@@ -301,10 +307,16 @@ class JobStore:
         return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
 
     def list_jobs(
-        self, status: str | None = None, limit: int = 100, offset: int = 0, kind: str | None = JobKind.render
+        self,
+        status: str | None = None,
+        limit: int = 100,
+        offset: int = 0,
+        kind: str | None = JobKind.render,
+        owner: str | None = None,
     ) -> tuple[list[dict], int]:
-        """Jobs newest first: of one status if given, of one kind (renders unless said; None: every kind)."""
-        conds = [(c, a) for c, a in (("status = ?", status), ("kind = ?", kind)) if a is not None]
+        """Jobs newest first: of one status if given, of one kind (renders unless said; None: every kind), of
+        one owner if given (a token's hash)."""
+        conds = [(c, a) for c, a in (("status = ?", status), ("kind = ?", kind), ("owner = ?", owner)) if a is not None]
         where = ("WHERE " + " AND ".join(c for c, _ in conds)) if conds else ""
         args = tuple(str(a) for _, a in conds)
         rows = self.db.execute(

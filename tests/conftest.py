@@ -45,10 +45,12 @@ def compiled_kernels():
 @pytest.fixture(scope="session")
 def client(tmp_path_factory):
     """The app with one real render worker process, shared by the API tests: the worker starts once.
-    Each test leaves no job queued or running behind (it waits for its jobs or cancels them)."""
-    from test_api_support import api_client
+    Each test leaves no job queued or running behind (it waits for its jobs or cancels them). The app has
+    an instructor token (test_api_support.INSTRUCTOR), and the client is a student with a token of its own:
+    its jobs are its own (test_api_owners.py has the other students)."""
+    from test_api_support import INSTRUCTOR, api_client
 
-    with api_client(tmp_path_factory.mktemp("api-data"), workers=1) as c:
+    with api_client(tmp_path_factory.mktemp("api-data"), workers=1, instructor_token=INSTRUCTOR) as c:
         yield c
 
 
@@ -64,8 +66,9 @@ def settings(client):
 
 @pytest.fixture(scope="session")
 def client_without_workers(tmp_path_factory):
-    """The app with no render worker (submitted jobs wait in the queue), for routes that render nothing."""
-    from test_api_support import api_client
+    """The app with no render worker (submitted jobs wait in the queue), for routes that render nothing;
+    a student's client of a server with an instructor token, as `client`."""
+    from test_api_support import INSTRUCTOR, api_client
 
-    with api_client(tmp_path_factory.mktemp("api-data-no-workers"), workers=0) as c:
+    with api_client(tmp_path_factory.mktemp("api-data-no-workers"), workers=0, instructor_token=INSTRUCTOR) as c:
         yield c

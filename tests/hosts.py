@@ -174,9 +174,13 @@ class Cluster:
     def restore(self, ns: str) -> None:
         self.sh(self.broker, f"ip link set {self._host_end(ns)} up")
 
-    def http(self, ns: str, method: str, url: str, body: dict | None = None, timeout: float = 30) -> tuple[int, dict]:
+    def http(
+        self, ns: str, method: str, url: str, body: dict | None = None, timeout: float = 30, headers: dict | None = None
+    ) -> tuple[int, dict]:
         """An HTTP request made from inside `ns` (curl): (status, JSON body or {"text": ...})."""
         argv = ["curl", "-sS", "-m", str(int(timeout)), "-X", method, "-o", "-", "-w", "\n%{http_code}"]
+        for name, value in (headers or {}).items():
+            argv += ["-H", f"{name}: {value}"]
         if body is not None:
             argv += ["-H", "content-type: application/json", "--data-binary", json.dumps(body)]
         r = self.run(ns, [*argv, url], timeout=timeout + 5)
@@ -189,13 +193,12 @@ class Cluster:
             data = {"text": text}
         return int(code), data
 
-    def fetch(self, ns: str, url: str, path: Path, timeout: float = 30) -> int:
+    def fetch(self, ns: str, url: str, path: Path, timeout: float = 30, headers: dict | None = None) -> int:
         """Download a URL from inside `ns` into a file; the HTTP status."""
-        r = self.run(
-            ns,
-            ["curl", "-sS", "-m", str(int(timeout)), "-o", str(path), "-w", "%{http_code}", url],
-            timeout=timeout + 5,
-        )
+        argv = ["curl", "-sS", "-m", str(int(timeout)), "-o", str(path), "-w", "%{http_code}"]
+        for name, value in (headers or {}).items():
+            argv += ["-H", f"{name}: {value}"]
+        r = self.run(ns, [*argv, url], timeout=timeout + 5)
         if r.returncode != 0:
             raise RuntimeError(f"[{ns}] curl {url}: {r.stderr.strip()}")
         return int(r.stdout)

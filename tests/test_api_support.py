@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 import signal
 import socket
 import subprocess
@@ -20,6 +21,16 @@ import numpy as np
 from conftest import ROOT, scene_dict, small
 
 SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
+INSTRUCTOR = "instructor-token-of-the-tests"  # TRACER_INSTRUCTOR_TOKEN where a test's server has one
+
+
+def student_token() -> str:
+    """A fresh token, as POST /api/jobs issues them."""
+    return secrets.token_urlsafe(32)
+
+
+def bearer(token: str) -> dict[str, str]:
+    return {"Authorization": f"Bearer {token}"}
 
 
 def tiny_scene(size: int = 16, spp: int = 4, seed: int = 0) -> dict:
@@ -49,10 +60,14 @@ WORKERS_READY_TIMEOUT = 60  # seconds: a worker loads the kernels from Warp's ca
 
 
 @contextmanager
-def api_client(data_dir: Path, workers: int = 0, raise_server_exceptions: bool = True, **settings) -> Iterator:
+def api_client(
+    data_dir: Path, workers: int = 0, raise_server_exceptions: bool = True, token: str | None = "", **settings
+) -> Iterator:
     """A TestClient of the app on `data_dir` with `settings`, its lifespan run (kernels, job store,
     `workers` render processes, janitor), once its workers are ready; stopped on leaving. No worker kept
-    for interactive work unless `interactive_workers` says so (the lanes' own tests do)."""
+    for interactive work unless `interactive_workers` says so (the lanes' own tests do). The client asks
+    for http://127.0.0.1 (a Host the server serves) and sends `Authorization: Bearer <token>` on every
+    request: a fresh student's token unless given (None: no header)."""
     from fastapi.testclient import TestClient
 
     from server.main import create_app
@@ -61,7 +76,10 @@ def api_client(data_dir: Path, workers: int = 0, raise_server_exceptions: bool =
     settings.setdefault("interactive_workers", 0)
     app = create_app(Settings(data_dir=data_dir, workers=workers, **settings))
     every = workers + settings["interactive_workers"] if workers else 0
-    with TestClient(app, raise_server_exceptions=raise_server_exceptions) as client:
+    token = student_token() if token == "" else token
+    headers = bearer(token) if token else {}
+    base = "http://127.0.0.1"
+    with TestClient(app, base_url=base, raise_server_exceptions=raise_server_exceptions, headers=headers) as client:
 
         def ready() -> bool:
             return [w["ready"] for w in client.get("/api/health").json()["workers"]] == [True] * every
@@ -137,7 +155,8 @@ def free_port() -> int:
 
 
 class Server:
-    """`python -m server` on 127.0.0.1 in a subprocess, with its log in a file."""
+    """`python -m server` on 127.0.0.1 in a subprocess, with its log in a file. Its `client` sends a
+    student's token (`token`) on every request, as api_client's does."""
 
     def __init__(self, data_dir: Path, workers: int = 1, env: dict | None = None, port: int | None = None):
         self.data_dir, self.workers = Path(data_dir), workers
@@ -146,7 +165,8 @@ class Server:
         self.env = {**os.environ, "TRACER_INTERACTIVE_WORKERS": "0", **(env or {})}  # as api_client
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
         self.proc: subprocess.Popen | None = None
-        self.client = httpx.Client(base_url=self.url, timeout=30)
+        self.token = student_token()
+        self.client = httpx.Client(base_url=self.url, timeout=30, headers=bearer(self.token))
 
     def start(self) -> Server:
         self.data_dir.mkdir(parents=True, exist_ok=True)

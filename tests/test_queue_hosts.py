@@ -8,6 +8,9 @@ client (curl) runs inside a namespace; nothing is ever sent to a namespace's add
 - A host's cable is pulled mid-job and put back: the job runs again elsewhere, and what the cut-off
   try sends once it is back is dropped (counted, not applied): no stale or duplicate writes.
 - A cancel reaches a job on whichever host runs it.
+
+The API listens on the broker's address, not on loopback: its jobs are their tokens' (server/security.py),
+so the requests here carry a student's token; and a request naming another host is refused (DNS rebinding).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import pytest
 from conftest import ROOT, scene_dict, small
 from hosts import Cluster
 from queue_support import LOST_AFTER, api_argv, proc_env, redis_argv, worker_argv
-from test_api_support import wait_for
+from test_api_support import bearer, student_token, wait_for
 
 from tracer.film import read_exr
 
@@ -37,6 +40,7 @@ class Hosts:
         self.redis_url = f"redis://{cluster.broker_ip}:6379/0"
         self.api = f"http://{cluster.broker_ip}:{PORT}"
         self.host_procs: dict[str, subprocess.Popen] = {}
+        self.token = bearer(student_token())  # the jobs here are this student's
 
     def start(self) -> Hosts:
         c = self.c
@@ -72,7 +76,7 @@ class Hosts:
 
     def call(self, method: str, path: str, body: dict | None = None, ns: str | None = None) -> tuple[int, dict]:
         """An HTTP request to the API, made from inside a namespace (the broker's unless said)."""
-        return self.c.http(ns or self.c.broker, method, self.api + path, body)
+        return self.c.http(ns or self.c.broker, method, self.api + path, body, headers=self.token)
 
     def health(self) -> dict:
         return self.call("GET", "/api/health")[1]
@@ -91,7 +95,8 @@ class Hosts:
         return wait_for(lambda: condition(j := self.job(job_id)) and j, timeout, what, interval=0.2)
 
     def exr(self, job_id: str, path) -> np.ndarray:
-        assert self.c.fetch(self.c.broker, f"{self.api}/api/jobs/{job_id}/image?format=exr", path) == 200
+        url = f"{self.api}/api/jobs/{job_id}/image?format=exr"
+        assert self.c.fetch(self.c.broker, url, path, headers=self.token) == 200
         return read_exr(path)
 
     def logs(self) -> str:
@@ -188,3 +193,26 @@ def test_queue_hosts_cancel_reaches_a_job_on_another_host(hosts):
     assert ended["status"] == "cancelled" and ended["tries"][-1]["outcome"] == "cancelled"
     assert ended["preview"] >= 1  # the last full pass is kept
     wait_for(lambda: all(w["job"] is None for w in h.health()["workers"]), 30, "the host to be free again")
+
+
+def test_queue_hosts_jobs_are_their_token_s_and_the_host_is_checked(hosts):
+    """An API on a network address, without an instructor token: another host's request without the job's
+    token gets the 404 of an unknown id, grading is refused (there is no instructor), and a request that
+    names a host the API does not serve is refused (400)."""
+    h = hosts
+    job = h.submit(small(scene_dict("whitted"), 16, 12, sampler={"type": "jittered", "spp": 1}))
+    done = h.wait(job["id"], lambda j: j["finished"], "the small job")
+    assert done["status"] == "done"
+    other = h.c.workers[0]
+    url = f"{h.api}/api/jobs/{job['id']}"
+    status, body = h.c.http(other, "GET", url)
+    assert status == 404 and body == {"errors": [{"path": "id", "message": f"no job with id '{job['id']}'"}]}
+    status, body = h.c.http(other, "GET", url, headers=bearer(student_token()))
+    assert status == 404
+    assert h.c.http(other, "GET", f"{h.api}/api/jobs")[1] == {"jobs": [], "count": 0}
+    assert h.call("GET", "/api/jobs", ns=other)[1]["count"] >= 1  # the job's own token, from any host
+    status, body = h.c.http(other, "GET", f"{h.api}/api/grade/schema")
+    assert status == 403 and "TRACER_INSTRUCTOR_TOKEN" in body["errors"][0]["message"]
+    status, body = h.c.http(other, "GET", f"{h.api}/api/health", headers={"Host": "attacker.example"})
+    assert status == 400 and body["errors"][0]["path"] == "Host"
+    assert "without TRACER_INSTRUCTOR_TOKEN" in (h.root / "api.log").read_text()  # warned at start-up

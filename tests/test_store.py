@@ -153,3 +153,24 @@ def test_store_one_server_per_data_directory(tmp_path):
         lock_data_dir(tmp_path)
     lock.close()
     lock_data_dir(tmp_path).close()
+
+
+def test_store_jobs_have_owners_and_an_older_table_gains_the_column(tmp_path):
+    """A job's owner is its token's hash; a database from before owners gets the column, its rows unowned
+    (the instructor's: server/security.py), and lists filter by owner."""
+    import sqlite3
+
+    store = JobStore(tmp_path)
+    old = add(store)
+    store.db.execute("DROP INDEX jobs_owner")
+    store.db.execute("ALTER TABLE jobs DROP COLUMN owner")  # as a data directory made before owners
+    store.db.close()
+    assert "owner" not in {r[1] for r in sqlite3.connect(tmp_path / "jobs.sqlite3").execute("PRAGMA table_info(jobs)")}
+    store = JobStore(tmp_path)
+    assert store.get(old)["owner"] is None
+    mine = store.create(json.dumps({"camera": {}}), name=None, width=4, height=4, spp=1, priority=0, warnings=[],
+                        max_seconds=60, max_queued=100, owner="a" * 64)["id"]  # fmt: skip
+    assert store.get(mine)["owner"] == "a" * 64
+    assert [r["id"] for r in store.list_jobs(owner="a" * 64)[0]] == [mine]
+    assert store.list_jobs(owner="b" * 64) == ([], 0)
+    assert {r["id"] for r in store.list_jobs()[0]} == {old, mine}

@@ -1,7 +1,8 @@
 """The instructor's grading view (the page's "Grading" tab, web/js/grading.js) in a real browser.
 
-Uses the fixtures of test_web_page.py: `python -m server` on loopback with one render worker, Debian's
-Chromium driven by Playwright, and a page that fails on console errors it did not expect. The example
+Uses the fixtures of test_web_page.py: `python -m server` on loopback with one render worker and an
+instructor token (typed into the tab, as an instructor would), Debian's Chromium driven by Playwright,
+and a page that fails on console errors it did not expect. The example
 class (scenes/grading/class, 9 students) is graded through the page; on this 2-core machine that takes
 15 to 30 s, so the waits are generous. Screenshots of the done table and of erin's detail, at 1280 x 800
 and 390 x 844, go to /tmp/grading-*.png for a person to look at.
@@ -14,8 +15,8 @@ import zipfile
 from pathlib import Path
 
 import httpx
-from test_api_support import wait_for
-from test_web_page import PHONE, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
+from test_api_support import INSTRUCTOR, wait_for
+from test_web_page import PHONE, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
 SHOT_DIR = Path("/tmp")
@@ -37,13 +38,21 @@ def shot(page, name: str, full_page: bool = False) -> None:
     page.screenshot(path=str(SHOT_DIR / f"grading-{name}.png"), full_page=full_page)
 
 
-def open_grading(p: Page):
+def open_grading(p: Page, token: str | None = INSTRUCTOR):
+    """The Grading tab, the instructor's token typed into its field (unless None)."""
     page = p.open().page
     page.click("#tab-grading")
     assert page.get_attribute("#tab-grading", "aria-selected") == "true"
     assert page.is_visible("#page-grading") and not page.is_visible("#page-work")
     assert page.evaluate("() => location.hash") == "#grading"
+    if token is not None:
+        enter_token(page, token)
     return page
+
+
+def enter_token(page, token: str) -> None:
+    page.fill("#grade-token", token)
+    page.dispatch_event("#grade-token", "change")
 
 
 def load_example(page) -> None:
@@ -75,7 +84,7 @@ def wait_pictures(page, n: int = 4) -> None:
 
 def grade_example_over_api(server) -> str:  # noqa: F811
     """Grade the example class without the page; the run's id once it is done."""
-    with httpx.Client(base_url=server.url, timeout=60) as c:
+    with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
         example = c.get("/api/grade/example").json()
         r = c.post("/api/grade", json={"assignment": example["assignment"], "submissions": example["submissions"]})
         assert r.status_code == 202, r.text
@@ -152,9 +161,20 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     run_id = page.evaluate("() => JSON.parse(localStorage.getItem('grading.run'))")
     csv_href = page.get_attribute("#grade-csv", "href")
     assert csv_href == f"/api/grade/{run_id}/summary.csv"
-    csv = httpx.get(server.url + csv_href).text
+    with page.expect_download() as caught:  # fetched with the instructor's token, saved from a blob
+        page.click("#grade-csv")
+    assert caught.value.suggested_filename == "summary.csv"
+    csv = Path(caught.value.path()).read_text()
+    assert csv == httpx.get(server.url + csv_href, headers=TEACHER).text
     assert csv.startswith("student,kind,status,score,max_score") and "\nerin,scene,graded,7.0,13.0," in csv
-    summary = httpx.get(server.url + page.get_attribute("#grade-json", "href")).json()
+    assert httpx.get(server.url + csv_href).status_code == 401  # not without the token
+    with page.context.expect_page() as opened:  # summary.json opens in a new tab
+        page.click("#grade-json")
+    tab = opened.value
+    tab.wait_for_load_state()
+    assert tab.url.startswith("blob:") and re.search(r'"students":\s*9', tab.content())
+    tab.close()
+    summary = httpx.get(server.url + page.get_attribute("#grade-json", "href"), headers=TEACHER).json()
     assert summary["statistics"]["students"] == 9
 
     # sorting: by score (best first, as a fraction of the maximum), then back by name
@@ -175,8 +195,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert page.evaluate("() => document.activeElement.id") == "h-grade-detail"
     assert page.get_attribute("#grade-table tr[data-student=erin]", "aria-current") == "true"
     wait_pictures(page)
-    srcs = page.eval_on_selector_all("#grade-detail .grade-fig img", "imgs => imgs.map(i => i.getAttribute('src'))")
-    assert srcs == [f"/api/grade/{run_id}/students/erin/{p}.png" for p in PICTURES]
+    srcs = page.eval_on_selector_all("#grade-detail .grade-fig img", "imgs => imgs.map(i => i.dataset.src)")
+    assert srcs == [f"/api/grade/{run_id}/students/erin/{p}.png" for p in PICTURES]  # shown as blob: URLs
     sizes = page.eval_on_selector_all(
         "#grade-detail .grade-fig img",
         "imgs => imgs.map(i => [i.naturalWidth, i.getBoundingClientRect().width, getComputedStyle(i).imageRendering])",
@@ -193,7 +213,7 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     links = page.eval_on_selector_all("#grade-detail a.button", "as => as.map(a => a.getAttribute('href'))")
     assert f"/api/grade/{run_id}/students/erin/results.json" in links
     assert f"/api/grade/{run_id}/students/erin/report.json" in links
-    results = httpx.get(f"{server.url}/api/grade/{run_id}/students/erin/results.json").json()
+    results = httpx.get(f"{server.url}/api/grade/{run_id}/students/erin/results.json", headers=TEACHER).json()
     assert results["score"] == 7.0
     page.wait_for_timeout(600)  # the smooth scroll to the detail ends
     page.evaluate("() => window.scrollTo(0, document.querySelector('#grade-detail').offsetTop - 8)")
@@ -254,6 +274,7 @@ def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     root = Path(__file__).resolve().parents[1] / "scenes" / "grading" / "class"
     run_id = grade_example_over_api(server)
     phone.context.add_init_script(f"localStorage.setItem('grading.run', JSON.stringify('{run_id}'))")
+    phone.context.add_init_script(f"localStorage.setItem('rt.instructor', JSON.stringify('{INSTRUCTOR}'))")
     page = phone.open("#grading").page
     assert page.get_attribute("#tab-grading", "aria-selected") == "true"
 
@@ -293,3 +314,29 @@ def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     page.evaluate("() => window.scrollTo(0, document.querySelector('#grade-detail').offsetTop - 8)")
     shot(page, "phone-erin")
     shot(page, "phone-full", full_page=True)
+
+
+def test_web_grading_asks_for_the_instructor_s_token(desktop, server):  # noqa: F811
+    """Without the instructor's token the tab says what it needs, and points at the field; with a wrong one,
+    that the server refused it; with the right one it works, and the token is kept for the next visit."""
+    desktop.allow.append(r"status of 401")  # Chromium logs the refused requests
+    page = open_grading(desktop, token=None)
+    assert page.input_value("#grade-token") == ""
+    page.click("#grade-load-example")
+    page.wait_for_selector("#grade-token[aria-invalid=true]")
+    assert page.text_content("#grade-status") == "The server needs the instructor's token: enter it above."
+    assert page.evaluate("() => document.activeElement.id") == "grade-token"
+    assert "instructor's token" in page.text_content("#grade-errors")
+    shot(page, "desktop-token")
+    enter_token(page, "not-the-instructor-token")
+    page.click("#grade-load-example")
+    page.wait_for_function(
+        "() => document.querySelector('#grade-status').textContent.includes('refused the instructor token')"
+    )
+    enter_token(page, INSTRUCTOR)
+    assert page.get_attribute("#grade-token", "aria-invalid") is None
+    load_example(page)
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    page.click("#tab-grading")
+    assert page.input_value("#grade-token") == INSTRUCTOR  # kept in this browser

@@ -1,9 +1,11 @@
 """The web page in a real browser: Playwright driving Debian's Chromium (headless) against `python -m server`.
 
-Each test opens the page in a fresh browser context (empty localStorage) and fails on any console error
-or uncaught exception the page did not expect. Screenshots are written to $WEB_SHOTS (default
-/tmp/web_shots) for a person to look at. These tests never skip: without Playwright or Chromium they fail
-and say what is missing (`./dev test` installs both).
+Each test opens the page in a fresh browser context (empty localStorage: a new student, whose token the
+server issues with their first job) and fails on any console error or uncaught exception the page did not
+expect, a violation of the content security policy included. The server has an instructor token, as a
+class's server would: the test's own requests for a page's jobs carry it (`TEACHER`). Screenshots are
+written to $WEB_SHOTS (default /tmp/web_shots) for a person to look at. These tests never skip: without
+Playwright or Chromium they fail and say what is missing (`./dev test` installs both).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 import httpx
 import pytest
 from conftest import scene_dict, small
-from test_api_support import Server
+from test_api_support import INSTRUCTOR, Server, bearer
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = [
@@ -33,12 +35,13 @@ SHOTS = Path(os.environ.get("WEB_SHOTS", "/tmp/web_shots"))
 DESKTOP = {"width": 1280, "height": 800}
 PHONE = {"width": 390, "height": 844}
 DONE = ("done", "failed", "cancelled")
+TEACHER = bearer(INSTRUCTOR)
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     # previews every 0.1 s: a render of a second or two shows several passes
-    env = {"TRACER_PREVIEW_INTERVAL": "0.1"}
+    env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
     with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
         yield s
 
@@ -58,6 +61,10 @@ def browser():
         b.close()
 
 
+CSP_WATCH = """document.addEventListener("securitypolicyviolation", (e) =>
+    console.error(`content security policy: ${e.violatedDirective} blocked ${e.blockedURI || "inline"}`));"""
+
+
 class Page:
     """A page with its console watched: `allow` lists patterns of console errors a test expects."""
 
@@ -70,6 +77,7 @@ class Page:
         self.allow: list[str] = []
         self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
         self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+        self.context.add_init_script(CSP_WATCH)
 
     def open(self, hash_: str = "") -> Page:
         self.page.goto(f"{self.server.url}/{hash_}")
@@ -335,10 +343,18 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     assert "Done: 160 × 120" in page.inner_text("#viewer-message")
     desktop.shot("viewer-done")
 
-    # downloads and AOVs
-    for link, kind in (("#dl-png", "image/png"), ("#dl-exr", "image/x-exr")):
-        r = page.request.get(server.url + page.get_attribute(link, "href"))
-        assert r.ok and r.headers["content-type"] == kind
+    # downloads (fetched with the page's token) and AOVs
+    job_id = page.get_attribute("#stage", "data-job")
+    for link, fmt in (("#dl-png", "png"), ("#dl-exr", "exr")):
+        href = page.get_attribute(link, "href")
+        assert href == f"/api/jobs/{job_id}/image?format={fmt}"
+        with page.expect_download() as caught:
+            page.click(link)
+        saved = caught.value
+        assert saved.suggested_filename == re.sub(r"[^A-Za-z0-9_-]+", "_", scene["name"])[:40] + f".{fmt}"
+        data = Path(saved.path()).read_bytes()
+        assert data == httpx.get(server.url + href, headers=TEACHER, timeout=30).content
+        assert data[:4] == (b"\x89PNG" if fmt == "png" else b"\x76\x2f\x31\x01")
     page.click("[data-aov=rays]")
     page.wait_for_function("() => document.querySelector('#aov-legend').textContent.includes('Rays traced per pixel')")
     page.wait_for_function(
@@ -491,12 +507,84 @@ def test_web_page_cancel_and_my_jobs(desktop):
     page.wait_for_function("() => document.querySelector('#render-img').naturalWidth === 32")
 
 
+def job_ids(page) -> list[str]:
+    return page.eval_on_selector_all("#job-list li[data-id]", "lis => lis.map(li => li.dataset.id)")
+
+
+def test_web_page_each_student_sees_only_their_own_jobs(browser, server):
+    """Two students, two browser contexts: each page keeps the token the server issued with its first job
+    (localStorage), so its jobs survive a reload; neither page can list or open the other's jobs."""
+    alice, bob = Page(browser, server, DESKTOP), Page(browser, server, DESKTOP)
+    bob.allow = [r"status of 404"]  # Chromium logs the refused look at alice's job
+    try:
+        a = alice.open().page
+        assert a.evaluate("() => localStorage.getItem('rt.token')") is None  # no token before the first job
+        set_scene(a, whitted(32, 24, spp=4))
+        render(a)
+        a_job = a.get_attribute("#stage", "data-job")
+        a_token = a.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))")
+        assert re.fullmatch(r"[A-Za-z0-9_-]{43}", a_token)
+        assert httpx.get(f"{server.url}/api/jobs/{a_job}", headers=bearer(a_token)).json()["status"] == "done"
+        assert httpx.get(f"{server.url}/api/jobs/{a_job}").status_code == 404  # the id alone opens nothing
+        set_scene(a, whitted(40, 30, spp=4))
+        render(a)
+        assert a.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))") == a_token  # one token, kept
+        a_jobs = job_ids(a)
+        assert len(a_jobs) == 2 and a_job in a_jobs
+
+        b = bob.open().page
+        set_scene(b, whitted(24, 18, spp=4))
+        render(b)
+        b_job = b.get_attribute("#stage", "data-job")
+        b_token = b.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))")
+        assert b_token != a_token and job_ids(b) == [b_job]
+        mine = httpx.get(f"{server.url}/api/jobs", headers=bearer(b_token)).json()
+        assert [j["id"] for j in mine["jobs"]] == [b_job]
+        # bob's page asks for alice's job: the answer of an id that does not exist
+        answer = b.evaluate(
+            """async (id) => {
+                const { api } = await import('/js/api.js');
+                try { await api.job(id); return 'shown'; } catch (e) { return [e.status, e.message]; }
+            }""",
+            a_job,
+        )
+        assert answer == [404, f"id: no job with id '{a_job}'"]
+        # alice's id in bob's list (a copied link): gone from it after a reload, never shown
+        b.evaluate(
+            "(id) => localStorage.setItem('rt.jobs', JSON.stringify([id, ...JSON.parse(localStorage['rt.jobs'])]))",
+            a_job,
+        )
+        b.reload()
+        b.wait_for_selector("body[data-ready=true]", state="attached")
+        b.wait_for_selector(f"#job-list li[data-id='{b_job}']")
+        assert job_ids(b) == [b_job]
+        assert a_job not in b.evaluate("() => localStorage.getItem('rt.jobs')")
+        bob.shot("two-students-bob")
+
+        # alice reloads: her jobs are still hers, the one shown comes back with its image
+        a.reload()
+        a.wait_for_selector("body[data-ready=true]", state="attached")
+        a.wait_for_selector("#stage[data-status=done]")
+        assert job_ids(a) == a_jobs
+        a.wait_for_function("() => document.querySelector('#render-img').naturalWidth === 40")
+        a.wait_for_function(
+            "() => [...document.querySelectorAll('#job-list li img')].every(i => i.complete && i.naturalWidth > 0)"
+        )
+        assert a.locator("#job-list li img").count() == 2
+        alice.shot("two-students-alice")
+    finally:
+        alice.context.close()
+        bob.context.close()
+    assert alice.unexpected_errors() == [] and bob.unexpected_errors() == []
+
+
 def test_web_page_shows_a_queued_job_s_place_and_wait(desktop, server):
     """The only worker renders a long job (the batch lane, by its estimate): a job from the page says
     where it is in line, and runs as soon as the long render gives way at its next pass."""
-    busy = httpx.post(f"{server.url}/api/jobs", json={"scene": whitted(256, 192, spp=4096)}, timeout=30).json()
+    scene = {"scene": whitted(256, 192, spp=4096)}
+    busy = httpx.post(f"{server.url}/api/jobs", json=scene, headers=TEACHER, timeout=30).json()
     try:
-        wait_for_status = lambda: httpx.get(f"{server.url}/api/jobs/{busy['id']}").json()["status"]  # noqa: E731
+        wait_for_status = lambda: httpx.get(f"{server.url}/api/jobs/{busy['id']}", headers=TEACHER).json()["status"]  # noqa: E731
         deadline = time.monotonic() + 30
         while wait_for_status() != "running":
             assert time.monotonic() < deadline, "the long job did not start"
@@ -509,7 +597,7 @@ def test_web_page_shows_a_queued_job_s_place_and_wait(desktop, server):
         assert "Queued: next in line, starting in a moment" in text, text
         desktop.shot("viewer-queued")
     finally:
-        httpx.delete(f"{server.url}/api/jobs/{busy['id']}")
+        httpx.delete(f"{server.url}/api/jobs/{busy['id']}", headers=TEACHER)
     page.wait_for_selector("#stage[data-status=done]", timeout=60_000)
 
 
@@ -610,10 +698,11 @@ def test_web_page_sampler_pictures_draw_the_server_s_positions(desktop):
 
 def test_web_page_viewer_and_lessons_follow_jobs_the_same_way(desktop):
     """One followJob (web/js/jobs.js) follows jobs for the viewer and the lessons: a stream that keeps dropping
-    is retried MAX_FAILURES (8) times by both, then given up with a message."""
+    is retried MAX_FAILURES (8) times by both, then given up with a message. It reads the stream with fetch
+    (an EventSource cannot send the job's token)."""
     web = Path(__file__).resolve().parent.parent / "web" / "js"
-    makers = [p.name for p in web.glob("*.js") if "new EventSource" in p.read_text()]
-    assert makers == ["jobs.js"]
+    assert [p.name for p in web.glob("*.js") if "EventSource(" in p.read_text()] == []
+    assert [p.name for p in web.glob("*.js") if "eventsUrl(" in p.read_text() and p.name != "api.js"] == ["jobs.js"]
     for user in ("viewer.js", "lessons.js"):
         assert 'import { followJob } from "./jobs.js";' in (web / user).read_text(), user
 
@@ -757,7 +846,7 @@ def test_web_page_radiosity_panel_steps_through_the_solution(desktop, server):
     assert page.get_attribute("#stage", "data-status") == "done"
     page.wait_for_selector("#radiosity:not([hidden]) #rad-body:not([hidden])")
     job_id = page.get_attribute("#stage", "data-job")
-    sol = httpx.get(f"{server.url}/api/jobs/{job_id}/radiosity", timeout=30).json()
+    sol = httpx.get(f"{server.url}/api/jobs/{job_id}/radiosity", headers=TEACHER, timeout=30).json()
     history, sides = sol["history"], len(sol["radiosity"])
     steps, n = len(history), sides // 2
     assert steps > 20 and isinstance(history[0]["shooter"], str) and isinstance(history[1]["shooter"], int)

@@ -1,5 +1,6 @@
 """Grading: an instructor posts an assignment and submissions (a scene, an image, a list, or a zip);
-the renders go through the job queue; the run's state, reports and pictures are read back."""
+the renders go through the job queue; the run's state, reports and pictures are read back. Every route
+here is the instructor's (server/security.py): 401 without TRACER_INSTRUCTOR_TOKEN when the server has one."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from server.errors import ApiError, json_depth
 from server.grading import STUDENT_FILES, GradeRuns, Handed
 from server.lifecycle import JobStatus
 from server.models import ErrorResponse
+from server.security import require_instructor
 from server.settings import Settings
 from server.uploads import Upload, receive
 from tracer.grading import (
@@ -34,7 +36,13 @@ from tracer.grading import (
 from tracer.grading.archive import kept
 from tracer.grading.batch import MAX_FILES, group_files
 
-router = APIRouter(prefix="/api/grade", tags=["grading"])
+INSTRUCTOR = {
+    401: {"model": ErrorResponse, "description": "no instructor token, or not the instructor's (WWW-Authenticate)"},
+    403: {"model": ErrorResponse, "description": "this server has no instructor (not loopback, no instructor token)"},
+}
+router = APIRouter(
+    prefix="/api/grade", tags=["grading"], dependencies=[Depends(require_instructor)], responses=INSTRUCTOR
+)
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
 EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"

@@ -1,4 +1,7 @@
-"""Render jobs: submit, list, inspect, fetch the latest image, follow the events, cancel."""
+"""Render jobs: submit, list, inspect, fetch the latest image, follow the events, cancel.
+
+A job belongs to the token that submitted it (server/security.py): every route of one job answers
+only that token (or the instructor), and anyone else gets the 404 of an unknown id."""
 
 from __future__ import annotations
 
@@ -14,7 +17,8 @@ from fastapi.responses import StreamingResponse
 from server.deps import JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
-from server.models import ErrorResponse, JobCreate, JobList, JobPublic, QueuePlace
+from server.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, QueuePlace
+from server.security import CallerDep, new_token, token_hash, unauthorized
 from server.settings import Settings
 from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
 from tracer import estimate
@@ -25,7 +29,11 @@ router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
 KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
-NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
+UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
+NOT_FOUND = {
+    404: {"model": ErrorResponse, "description": "no such job, or not this token's job (the same answer)"},
+    **UNAUTHORIZED,
+}
 
 
 def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
@@ -43,24 +51,31 @@ def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
     summary="Submit a scene for rendering",
     responses={
         **ERRORS,
+        **UNAUTHORIZED,
         413: {"model": ErrorResponse, "description": "request body too large"},
         429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
     },
 )
-def submit(body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
+def submit(
+    body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, caller: CallerDep, response: Response
+) -> JobCreated:
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
     TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
-    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`."""
+    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
+
+    The job belongs to the request's token (`Authorization: Bearer <token>`); a request without one gets
+    a fresh token in `token`: only that token reads, follows, cancels and downloads the job."""
     scene, warnings = check_scene(body.scene, settings)
     seconds = estimate_seconds(scene, settings, store)
     lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
+    issued = new_token() if caller.token is None else None
     row = create_job(store, settings, scene, body.scene, priority=body.priority, warnings=warnings, lane=lane,
-                     estimate=seconds)  # fmt: skip
+                     estimate=seconds, owner=caller.owner or token_hash(issued))  # fmt: skip
     queue.submitted(row)
     response.headers["Location"] = f"/api/jobs/{row['id']}"
-    return public(row, store, queue)
+    return JobCreated(**public(row, store, queue).model_dump(), token=issued)
 
 
 def estimate_seconds(scene: Scene, settings: Settings, store: JobStore) -> float:
@@ -114,16 +129,35 @@ def public(row: dict, store: JobStore, queue, now: float | None = None) -> JobPu
     return job
 
 
-@router.get("", summary="Jobs, newest first")
+@router.get("", summary="The caller's jobs (the instructor: every job), newest first", responses=UNAUTHORIZED)
 def list_jobs(
     store: StoreDep,
     queue: QueueDep,
+    caller: CallerDep,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
     offset: Annotated[int, Query(ge=0)] = 0,
+    scope: Annotated[
+        Literal["mine", "all"] | None,
+        Query(
+            description="mine: the jobs of the request's token; all: every job (the instructor only, else 401); "
+            "default: all for the instructor, mine for anyone else"
+        ),
+    ] = None,
 ) -> JobList:
-    rows, count = store.list_jobs(status.value if status else None, limit, offset, kind.value if kind else None)
+    """A student sees the jobs of their token (none without one); the instructor (TRACER_INSTRUCTOR_TOKEN,
+    or anyone on a loopback-only server without one) every job, grading renders included."""
+    if scope == "all" and not caller.instructor:
+        raise unauthorized("listing every job needs the instructor's token (TRACER_INSTRUCTOR_TOKEN)", "")
+    if scope == "mine" or not caller.instructor:
+        if caller.owner is None:
+            return JobList(jobs=[], count=0)
+        owner = caller.owner
+    else:
+        owner = None
+    kinds = kind.value if kind else None
+    rows, count = store.list_jobs(status.value if status else None, limit, offset, kinds, owner=owner)
     now = time.time()
     return JobList(jobs=[public(r, store, queue, now) for r in rows], count=count)
 

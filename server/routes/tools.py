@@ -13,6 +13,7 @@ from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
 from server.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
 from server.routes.jobs import check_scene, create_job
+from server.security import CallerDep
 from server.store import JobFile
 from tracer.scene import scene_json_schema
 
@@ -22,8 +23,14 @@ RAYTREE_POLL = 0.01  # seconds between two looks at a ray tree's job
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
-def health(store: StoreDep, queue: QueueDep) -> Health:
-    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=queue.workers(), jobs=store.counts())
+def health(store: StoreDep, queue: QueueDep, caller: CallerDep) -> Health:
+    """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
+    workers = queue.workers()
+    if not caller.instructor:
+        for w in workers:
+            if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
+                w["job"] = None
+    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers, jobs=store.counts())
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")
@@ -52,11 +59,11 @@ def validate(body: ValidateRequest, settings: SettingsDep) -> dict:
     },
 )
 async def raytree(
-    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, request: Request
+    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, caller: CallerDep, request: Request
 ) -> dict:
     """Traced by a worker, as a short job of the interactive lane (never in the API process); a
     radiosity scene's solution is kept by its content, so only the first click on it solves it. A
-    client that gives up cancels it."""
+    client that gives up cancels it. The job belongs to the request's token (without one: the instructor)."""
     scene, _ = await anyio.to_thread.run_sync(check_scene, body.scene, settings)
     d = scene.film
     errors = [
@@ -71,7 +78,7 @@ async def raytree(
     params = {"x": body.x, "y": body.y, "sample": body.sample}
     row = create_job(
         store, settings, scene, body.scene, kind=JobKind.raytree, lane=Lane.interactive, priority=100,
-        params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[],
+        params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[], owner=caller.owner,
         name=f"ray tree ({body.x}, {body.y}) of {scene.name or 'a scene'}"[:200],
     )  # fmt: skip
     queue.submitted(row)

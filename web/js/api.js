@@ -1,5 +1,36 @@
 // The HTTP API (docs/service.md) as promises. Every failure becomes an ApiError with a message a
 // student can read: the server's `{"errors": [{path, message}]}`, or "the server is not answering".
+//
+// Every request carries this browser's token (`Authorization: Bearer`): the server issues it with the
+// first job (POST /api/jobs answers it in `token`), the page keeps it in localStorage, and only that
+// token reads, follows, cancels and downloads the jobs it submitted. The Grading tab's requests carry
+// the instructor's token instead (typed there, kept in localStorage too). Images and downloads are
+// fetched with the header and shown as blob: URLs (an <img src> or <a href> cannot send it).
+import { store } from "./util.js";
+
+const TOKEN_KEY = "rt.token"; // the student's token, as POST /api/jobs issued it
+const INSTRUCTOR_KEY = "rt.instructor"; // the instructor's token (the Grading tab)
+const kept = { student: null, instructor: null }; // when localStorage is not available (a private window)
+
+/** The tokens this browser holds: `student` (its jobs') and `instructor` (grading). */
+export const tokens = {
+  student: () => store.get(TOKEN_KEY, null) || kept.student,
+  instructor: () => store.get(INSTRUCTOR_KEY, null) || kept.instructor,
+  setStudent(token) {
+    kept.student = token || null;
+    store.set(TOKEN_KEY, kept.student);
+  },
+  setInstructor(token) {
+    kept.instructor = token || null;
+    store.set(INSTRUCTOR_KEY, kept.instructor);
+  },
+};
+
+/** The Authorization header of `as` ("student" or "instructor"), or none without a token. */
+export function authHeaders(as = "student") {
+  const token = as === "instructor" ? tokens.instructor() : tokens.student();
+  return token ? { authorization: `Bearer ${token}` } : {};
+}
 
 export class ApiError extends Error {
   constructor(status, errors, message) {
@@ -9,9 +40,10 @@ export class ApiError extends Error {
   }
 }
 
-/** One request: the parsed JSON answer, or an ApiError (the grading view uses it too). */
-export async function request(method, url, body, { raw = false, signal } = {}) {
-  const init = { method, signal, headers: {} };
+/** One request: the parsed JSON answer, or an ApiError (the grading view uses it too, `as: "instructor"`).
+ * `raw`: the Response itself when it is OK. */
+export async function request(method, url, body, { raw = false, signal, as = "student", cache } = {}) {
+  const init = { method, signal, cache, headers: authHeaders(as) };
   if (body instanceof FormData) {
     init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
   } else if (body !== undefined) {
@@ -43,6 +75,70 @@ export async function request(method, url, body, { raw = false, signal } = {}) {
   return data;
 }
 
+/** A resource that needs the token (an image, an AOV, a download) as a Blob. */
+export async function blob(url, { as = "student", signal } = {}) {
+  const res = await request("GET", url, undefined, { raw: true, as, signal, cache: "no-store" });
+  return res.blob();
+}
+
+/** Show `url` (an image that needs the token) in `img`, as a blob: URL; the one it showed before is
+ * released. `img.dataset.src` is the API's URL shown. Resolves to false when it could not be loaded. */
+export async function showImage(img, url, { as = "student" } = {}) {
+  if (img.dataset.src === url) return true;
+  img.dataset.src = url;
+  let data;
+  try {
+    data = await blob(url, { as });
+  } catch {
+    if (img.dataset.src === url) delete img.dataset.src;
+    return false;
+  }
+  if (img.dataset.src !== url) return false; // another image was asked for meanwhile
+  const old = img.dataset.blob;
+  img.dataset.blob = URL.createObjectURL(data);
+  img.src = img.dataset.blob;
+  if (old) setTimeout(() => URL.revokeObjectURL(old), 0);
+  return true;
+}
+
+/** Offer `url` (a file that needs the token) as a download named `name`. */
+export async function downloadFile(url, name, { as = "student" } = {}) {
+  const data = await blob(url, { as });
+  const href = URL.createObjectURL(data);
+  const a = document.createElement("a");
+  a.href = href;
+  a.download = name;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(href), 10_000);
+}
+
+/** Open `url` (a file that needs the token: a JSON report, a picture) in a new tab, as a blob: URL. */
+export async function openFile(url, { as = "student" } = {}) {
+  const data = await blob(url, { as });
+  const href = URL.createObjectURL(data);
+  window.open(href, "_blank", "noopener");
+  setTimeout(() => URL.revokeObjectURL(href), 60_000);
+}
+
+let issuing = null; // the first submission without a token: the others wait for the token it brings
+
+/** POST /api/jobs: the first submission of a browser without a token goes alone and keeps the token the
+ * server issues; submissions made at the same time (a lesson's panels) wait for it, so all are one owner's. */
+async function submitJob(body) {
+  while (!tokens.student() && issuing) await issuing.catch(() => null);
+  if (tokens.student()) return request("POST", "/api/jobs", body);
+  issuing = request("POST", "/api/jobs", body);
+  try {
+    const job = await issuing;
+    if (job && job.token) tokens.setStudent(job.token);
+    return job;
+  } finally {
+    issuing = null;
+  }
+}
+
 /** A request body with the scene spliced in as the editor's own text (so NaN reaches the validator,
  * and numbers are sent exactly as typed). `sceneText` must already be a parsed, valid JSON value. */
 export function withScene(sceneText, fields = {}) {
@@ -56,7 +152,7 @@ export const api = {
   scene: (name) => request("GET", `/api/scenes/${encodeURIComponent(name)}`),
   previewUrl: (name) => `/api/scenes/${encodeURIComponent(name)}/preview.png`,
   validate: (sceneText, signal) => request("POST", "/api/validate", withScene(sceneText), { signal }),
-  submit: (sceneText, priority = 0) => request("POST", "/api/jobs", withScene(sceneText, priority ? { priority } : {})),
+  submit: (sceneText, priority = 0) => submitJob(withScene(sceneText, priority ? { priority } : {})),
   job: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}`),
   jobScene: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}/scene`),
   cancel: (id) => request("DELETE", `/api/jobs/${encodeURIComponent(id)}`),
@@ -65,6 +161,7 @@ export const api = {
   imageUrl: (id, format = "png", pass = 0) =>
     `/api/jobs/${encodeURIComponent(id)}/image?format=${format}${pass ? `&pass=${pass}` : ""}`,
   eventsUrl: (id) => `/api/jobs/${encodeURIComponent(id)}/events`,
+  radiosity: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}/radiosity`, undefined, { cache: "no-store" }),
   raytree: (sceneText, x, y, sample, signal) => request("POST", "/api/raytree", withScene(sceneText, { x, y, sample }), { signal }),
   schema: () => request("GET", "/api/schema"),
   samples: (sceneText, x, y) => request("POST", "/api/samples", withScene(sceneText, { x, y })),

@@ -4,7 +4,9 @@
 // GET /api/grade/{id} until
 // it is done, then the class is shown as a table (a column per test) and each student's detail as
 // their picture, the reference, the FLIP error map and the rejected pixels, with every test's output.
-import { ApiError, request } from "./api.js";
+// Every request carries the instructor's token (a field of the tab, kept in localStorage): a server with
+// TRACER_INSTRUCTOR_TOKEN answers grading to it alone; pictures and files come as blob: URLs.
+import { ApiError, downloadFile, openFile, request, showImage, tokens } from "./api.js";
 import { locate, nodeLine, lineIndex, parse } from "./jsonpos.js";
 import { $, h, num, store } from "./util.js";
 
@@ -26,12 +28,13 @@ const METRICS = [
   ["rejected", "rejected", (x) => (x === null || x === undefined ? "–" : `${fixed(100 * x, 2)} %`), 1],
 ];
 
+const AS = { as: "instructor" }; // the token grading's requests carry
 const grade = {
-  example: () => request("GET", "/api/grade/example"),
+  example: () => request("GET", "/api/grade/example", undefined, AS),
   // file names -> the student ids the grader will use: the server's rule (tracer.grading.student_for_file), not a copy
-  students: (files) => request("POST", "/api/grade/students", { files }),
-  start: (form) => request("POST", "/api/grade/upload", form), // FormData: assignment, then class or files
-  state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`),
+  students: (files) => request("POST", "/api/grade/students", { files }, AS),
+  start: (form) => request("POST", "/api/grade/upload", form, AS), // FormData: assignment, then class or files
+  state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`, undefined, AS),
   summaryUrl: (id, fmt) => `/api/grade/${encodeURIComponent(id)}/summary.${fmt}`,
   fileUrl: (id, student, file) => `/api/grade/${encodeURIComponent(id)}/students/${encodeURIComponent(student)}/${file}`,
 };
@@ -59,6 +62,21 @@ function sizeText(bytes) {
   if (bytes < 1024) return `${bytes} B`;
   if (bytes < 1024 * 1024) return `${(bytes / 1024).toFixed(1)} KB`;
   return `${(bytes / 1024 / 1024).toFixed(1)} MB`;
+}
+
+/** Why the server refused a grading request for want of the instructor's token (401, 403), or null. */
+function tokenProblem(err) {
+  if (!(err instanceof ApiError)) return null;
+  if (err.status === 403) return `The server has no instructor: ${err.message}`;
+  if (err.status === 401) return tokens.instructor() ? "The server refused the instructor token: check it above." : "The server needs the instructor's token: enter it above.";
+  return null;
+}
+
+/** A picture of a run (it needs the instructor's token): an <img> that shows it once fetched. */
+function picture(url, alt) {
+  const img = h("img", { alt });
+  showImage(img, url, AS);
+  return img;
 }
 
 /** The bytes of base64 text (the example's images) as a Blob, to upload like a picked file. */
@@ -168,7 +186,24 @@ export class GradingPanel {
 
     this.results = h("section", { class: "panel grade-results", id: "grade-results", "aria-labelledby": "h-grade-results", hidden: true });
     this.detail = h("section", { class: "panel grade-detail", id: "grade-detail", "aria-labelledby": "h-grade-detail", hidden: true });
-    this.root.replaceChildren(h("div", { class: "grading" }, editor, submissions), this.results, this.detail);
+    this.tokenInput = h("input", {
+      type: "password", id: "grade-token", autocomplete: "off", spellcheck: "false", "aria-describedby": "grade-token-help",
+      value: tokens.instructor() || "", placeholder: "the server's TRACER_INSTRUCTOR_TOKEN",
+    });
+    this.tokenInput.addEventListener("change", () => {
+      tokens.setInstructor(this.tokenInput.value.trim());
+      this.tokenInput.removeAttribute("aria-invalid");
+      const last = store.get("grading.run");
+      if (typeof last === "string" && !this.run) this.follow(last, { quiet: true });
+    });
+    const access = h(
+      "div",
+      { class: "panel grade-access" },
+      h("label", { for: "grade-token" }, "Instructor token"),
+      this.tokenInput,
+      h("p", { id: "grade-token-help", class: "hint" }, "Grading is the instructor's: a server started with TRACER_INSTRUCTOR_TOKEN needs it here (kept in this browser). On your own machine without one, leave it empty."),
+    );
+    this.root.replaceChildren(access, h("div", { class: "grading" }, editor, submissions), this.results, this.detail);
     this.renderSubs();
   }
 
@@ -191,6 +226,7 @@ export class GradingPanel {
       this.note.textContent = `Loaded the example: “${ex.assignment.name}” and a class of ${ex.submissions.length} students.`;
     } catch (err) {
       this.note.textContent = "";
+      if (tokenProblem(err)) this.needToken(err);
       this.showErrors(err instanceof ApiError ? err.errors : [{ path: "", message: String(err.message || err) }], "Could not load the example:");
     } finally {
       button.disabled = false;
@@ -222,6 +258,7 @@ export class GradingPanel {
         try {
           ids = (await grade.students(picked.map((p) => p.f.name))).students;
         } catch (err) {
+          if (tokenProblem(err)) this.needToken(err);
           problems.push({ path: "", message: `Could not add the files: the server did not name their students (${err.message}).` });
           picked = [];
         }
@@ -356,6 +393,8 @@ export class GradingPanel {
         this.showSubErrors(others);
         this.setStatus("error", `Not graded: ${err.errors.length} problem${err.errors.length > 1 ? "s" : ""} (listed ${mine.length ? "under the assignment" : "above"}).`);
         if (mine.length) this.errors.scrollIntoView({ block: "nearest" });
+      } else if (tokenProblem(err)) {
+        this.needToken(err);
       } else {
         this.setStatus("error", `Could not start grading: ${err.message}.`);
       }
@@ -386,6 +425,10 @@ export class GradingPanel {
               if (!quiet) this.setStatus("error", "The grading run is gone (the server's data was removed?).");
               return;
             }
+            if (tokenProblem(err)) {
+              this.needToken(err, quiet);
+              return;
+            }
             if (++misses > 20) {
               this.setStatus("error", `Lost the grading run: ${err.message}.`);
               return;
@@ -410,6 +453,25 @@ export class GradingPanel {
     } finally {
       if (token === this.token) this.gradeButton.disabled = false;
     }
+  }
+
+  /** A link to a file of the run: a click fetches it with the instructor's token, then opens it in a new
+   * tab, or saves it as `save`. */
+  fileLink(url, attrs, text, save = null) {
+    const a = h("a", { ...attrs, href: url }, text);
+    a.addEventListener("click", (e) => {
+      e.preventDefault();
+      const name = url.split("/").pop();
+      (save ? downloadFile(url, save, AS) : openFile(url, AS)).catch((err) => this.setStatus("error", `Could not open ${name}: ${err.message}.`));
+    });
+    return a;
+  }
+
+  /** A request was refused for want of the instructor's token: say so, and point at the field. */
+  needToken(err, quiet = false) {
+    this.setStatus("error", tokenProblem(err));
+    this.tokenInput.setAttribute("aria-invalid", "true");
+    if (!quiet) this.tokenInput.focus();
   }
 
   setStatus(kind, text) {
@@ -457,8 +519,8 @@ export class GradingPanel {
         h(
           "span",
           { class: "toolbar" },
-          h("a", { class: "button", id: "grade-csv", href: grade.summaryUrl(st.id, "csv"), download: "summary.csv" }, "summary.csv"),
-          h("a", { class: "button", id: "grade-json", href: grade.summaryUrl(st.id, "json"), target: "_blank", rel: "noopener" }, "summary.json"),
+          this.fileLink(grade.summaryUrl(st.id, "csv"), { class: "button", id: "grade-csv", download: "summary.csv" }, "summary.csv", "summary.csv"),
+          this.fileLink(grade.summaryUrl(st.id, "json"), { class: "button", id: "grade-json" }, "summary.json"),
         ),
       ),
       h(
@@ -610,7 +672,7 @@ export class GradingPanel {
         "figure",
         { class: "grade-fig", dataset: { picture: name } },
         images.has(name)
-          ? h("a", { href: grade.fileUrl(id, student, `${name}.png`), target: "_blank", rel: "noopener", title: "open the PNG" }, h("img", { src: grade.fileUrl(id, student, `${name}.png`), alt: `${alt} of ${student}` }))
+          ? this.fileLink(grade.fileUrl(id, student, `${name}.png`), { title: "open the PNG" }, picture(grade.fileUrl(id, student, `${name}.png`), `${alt} of ${student}`))
           : h("div", { class: "grade-noimg" }, "no picture"),
         h("figcaption", {}, captions[name]),
       ),
@@ -646,8 +708,8 @@ export class GradingPanel {
         h(
           "span",
           { class: "toolbar" },
-          h("a", { class: "button", href: grade.fileUrl(id, student, "results.json"), target: "_blank", rel: "noopener", title: "Gradescope's autograder results" }, "results.json"),
-          h("a", { class: "button", href: grade.fileUrl(id, student, "report.json"), target: "_blank", rel: "noopener" }, "report.json"),
+          this.fileLink(grade.fileUrl(id, student, "results.json"), { class: "button", title: "Gradescope's autograder results" }, "results.json"),
+          this.fileLink(grade.fileUrl(id, student, "report.json"), { class: "button" }, "report.json"),
           h("button", { type: "button", id: "grade-detail-close", onclick: () => this.closeDetail() }, "Close"),
         ),
       ),

@@ -1,6 +1,6 @@
 // Lessons: the comparisons the lecture shows, side by side, one click each. Every panel is an example
 // scene with a few fields changed, rendered small through the job API; what changed is written under it.
-import { ApiError, api } from "./api.js";
+import { ApiError, api, showImage } from "./api.js";
 import { followJob } from "./jobs.js";
 import { drawSamples, samplerWords } from "./samplers.js";
 import { $, clone, h, integer, seconds } from "./util.js";
@@ -176,7 +176,7 @@ export class Lessons {
     rays.addEventListener("click", () => {
       const on = rays.getAttribute("aria-pressed") !== "true";
       rays.setAttribute("aria-pressed", String(on));
-      img.src = on ? api.aovUrl(panel.job.id, "rays") : api.imageUrl(panel.job.id, "png", panel.job.preview);
+      showImage(img, on ? api.aovUrl(panel.job.id, "rays") : api.imageUrl(panel.job.id, "png", panel.job.preview));
     });
     let samples = null;
     if (lesson.samples) {
@@ -224,7 +224,7 @@ export class Lessons {
     const solving = job?.progress?.phase === "radiosity" && job.progress.solve; // the radiosity solve comes first
     el.bar.value = solving ? job.progress.solve.fraction : job?.progress?.fraction ?? 0;
     if (job && job.image_url && !el.rays.getAttribute("aria-pressed").includes("true")) {
-      if (el.img.getAttribute("src") !== job.image_url) el.img.src = job.image_url;
+      showImage(el.img, job.image_url); // fetched with the token (once per pass)
       el.img.alt = panel.label;
     }
     if (panel.status === "done") {

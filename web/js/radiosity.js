@@ -2,7 +2,7 @@
 // through the scene's camera, each patch filled with its radiosity after a chosen number of shots of
 // progressive refinement, the patch that shoots at that step outlined; the convergence curve (the unshot
 // power after each shot, on a log scale) and the energy balance of the final solution.
-import { ApiError } from "./api.js";
+import { api } from "./api.js";
 import { $, fitCanvas, h, num } from "./util.js";
 import { add, cameraBasis, clipNear, cross, dot, length, mul, normalize, projectToFilm, sub, tangents, triple } from "./vec.js";
 
@@ -18,18 +18,6 @@ export function toneMap(b) {
 }
 
 const sum3 = (v) => (v ? v[0] + v[1] + v[2] : 0);
-
-async function getJSON(url) {
-  let res;
-  try {
-    res = await fetch(url, { cache: "no-store" });
-  } catch {
-    throw new ApiError(0, [{ path: "", message: "the server is not answering (is it running?)" }]);
-  }
-  const data = await res.json().catch(() => null);
-  if (!res.ok) throw new ApiError(res.status, data && Array.isArray(data.errors) && data.errors.length ? data.errors : [{ path: "", message: `the server answered ${res.status}` }]);
-  return data;
-}
 
 /** The polygon p (world points) cut to the half-space in front of the camera (clipNear on each edge). */
 function clipPolygon(pts, b, near) {
@@ -190,7 +178,7 @@ export class RadiosityPanel {
     this.status("busy", "Loading the radiosity solution…");
     let sol;
     try {
-      sol = await getJSON(`/api/jobs/${encodeURIComponent(view.id)}/radiosity`);
+      sol = await api.radiosity(view.id); // with the job's token (web/js/api.js)
     } catch (err) {
       if (seq === this.seq) {
         this.loading = null;

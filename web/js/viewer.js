@@ -1,7 +1,8 @@
 // The progressive viewer: submit the editor's scene, follow the job's Server-Sent Events (each pass's
 // image replaces the last), show samples, elapsed, ETA and rays by kind; cancel; download PNG / EXR;
-// the AOVs one click away; "my jobs" (the ids this browser submitted, kept in localStorage).
-import { ApiError, api } from "./api.js";
+// the AOVs one click away; "my jobs" (the ids this browser submitted, kept in localStorage with the token
+// that owns them: web/js/api.js). Images and downloads are fetched with the token, shown as blob: URLs.
+import { ApiError, api, blob, downloadFile } from "./api.js";
 import { followJob } from "./jobs.js";
 import { RAY_STYLES } from "./rays.js";
 import { withDefaults } from "./schema.js";
@@ -90,6 +91,12 @@ export class Viewer {
         return b;
       }),
     );
+    for (const a of [this.el.png, this.el.exr]) {
+      a.addEventListener("click", (e) => {
+        e.preventDefault(); // the link's URL needs the token: fetched, then saved from a blob
+        if (a.hasAttribute("href")) downloadFile(a.getAttribute("href"), a.getAttribute("download")).catch((err) => this.message("error", `Could not download the image: ${err.message}.`));
+      });
+    }
     new ResizeObserver(() => this.layout()).observe(this.el.stage);
     this.setDownloads(null);
   }
@@ -219,27 +226,25 @@ export class Viewer {
 
   async loadImage(url) {
     const id = this.view.id;
-    let blob;
+    let data;
     try {
-      const res = await fetch(url, { cache: "no-store" });
-      if (!res.ok) throw new Error(`the server answered ${res.status}`);
-      blob = await res.blob();
+      data = await blob(url);
     } catch (err) {
       if (this.view && this.view.id === id) this.message("warn", `Could not load the image: ${err.message}.`);
       return false;
     }
     if (!this.view || this.view.id !== id) return false;
     if (this.aov !== "image" && !url.includes("/aov/")) {
-      this.latestImage = blob; // keep the AOV on screen; the image comes back with the "Image" button
+      this.latestImage = data; // keep the AOV on screen; the image comes back with the "Image" button
       return true;
     }
-    this.setImageBlob(blob, url.includes("/aov/") ? "aov" : "image");
+    this.setImageBlob(data, url.includes("/aov/") ? "aov" : "image");
     return true;
   }
 
-  setImageBlob(blob, what) {
+  setImageBlob(data, what) {
     const old = this.blobUrl;
-    this.blobUrl = URL.createObjectURL(blob);
+    this.blobUrl = URL.createObjectURL(data);
     if (what === "image") this.imageBlobUrl = this.blobUrl;
     const img = this.el.img;
     img.onload = () => {
@@ -499,6 +504,20 @@ export class Viewer {
     return view;
   }
 
+  /** A job's image for the list, as a blob: URL fetched once per pass shown (null if it cannot be had). */
+  thumbnail(job) {
+    this.thumbs ??= new Map(); // id -> {url, made: Promise of the blob: URL}
+    const had = this.thumbs.get(job.id);
+    if (had && had.url === job.image_url) return had.made;
+    if (had) had.made.then((u) => u && URL.revokeObjectURL(u));
+    const made = blob(job.image_url).then(
+      (data) => URL.createObjectURL(data),
+      () => null,
+    );
+    this.thumbs.set(job.id, { url: job.image_url, made });
+    return made;
+  }
+
   renderList() {
     const list = this.el.list;
     const items = [...this.jobs.values()];
@@ -509,7 +528,8 @@ export class Viewer {
     list.replaceChildren(
       ...items.map((job) => {
         const when = job.created_at ? new Date(job.created_at).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" }) : "";
-        const thumb = job.image_url ? h("img", { src: job.image_url, alt: "", loading: "lazy", width: 64, height: Math.round((64 * job.height) / job.width) }) : h("span", { class: "thumb-empty" }, "no image");
+        const thumb = job.image_url ? h("img", { alt: "", width: 64, height: Math.round((64 * job.height) / job.width) }) : h("span", { class: "thumb-empty" }, "no image");
+        if (job.image_url) this.thumbnail(job).then((url) => url && (thumb.src = url));
         return h(
           "li",
           { class: this.view && this.view.id === job.id ? "current" : "", dataset: { status: job.status, id: job.id } },
