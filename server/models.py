@@ -261,4 +261,8 @@ class Health(BaseModel):
         "that had lost their job, dropped), lost (tries lost with their host), bytes (files received)",
     )
     workers: list[WorkerInfo]
+    checkers: list[dict] = Field(
+        default_factory=list,
+        description="the processes that check scenes (server/checks.py): pid, state (starting, idle, busy), restarts",
+    )
     jobs: dict[str, int] = Field(description="jobs by status")

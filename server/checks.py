@@ -1,0 +1,289 @@
+"""Scene checks off the API's event loop: validating a scene (POST /api/validate, and the scene of POST
+/api/jobs and POST /api/raytree) and a pixel's samples (POST /api/samples) run in a small pool of
+processes, never in the API process.
+
+Validating a scene of 25 000 spheres takes a fifth of a second of Python; four of them in the API's
+threads held its interpreter lock long enough to slow every other request (GET /api/jobs/{id} took
+0.7 s). Here each check is a task for one of `validate_processes` spawned processes (plain data in:
+the request's body as bytes, the limits; plain data out: errors, warnings, what the route needs of
+the scene). The route waits for the answer without holding the event loop, and
+- a check that runs past `max_validate_seconds` has its process killed (and a new one started): the
+  scene is refused as too costly to check;
+- a client that goes away while its scene is checked has the process doing it killed and replaced,
+  so no CPU goes on burning for an answer nobody reads;
+- past `max_validate_waiting` requests waiting for a free process, a request is answered 429.
+
+The processes are niced like the render workers (the API answers first), watch their server (and exit
+when it is gone), and load what they need once at start-up.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import multiprocessing as mp
+import os
+import signal
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import anyio
+from fastapi import Request
+
+from server.errors import ApiError
+from server.settings import Settings
+from tracer.scene import ASSET_DIR, Limits, SceneError, load_scene
+
+log = logging.getLogger("server.checks")
+
+POLL = 0.005  # seconds between two looks at a busy process's answer (and at the client)
+START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
+
+
+# ----------------------------------------------------------------------------- the tasks (in a process)
+
+
+def _scene_of(body: bytes, limits: Limits, assets: Path) -> tuple:
+    """The request body's scene, validated as POST /api/jobs validates it (the format, the limits, the asset
+    files): (Scene, warnings), or raises SceneError."""
+    data = json.loads(body)["scene"]  # the body was checked by the route's model: an object with a scene
+    return (*load_scene(data, limits, assets=assets), data)
+
+
+def validate(body: bytes, limits: Limits, assets: Path) -> dict:
+    """POST /api/validate's answer."""
+    try:
+        _, warnings, _ = _scene_of(body, limits, assets)
+    except SceneError as exc:
+        return {"valid": False, "errors": exc.errors, "warnings": []}
+    return {"valid": True, "errors": [], "warnings": warnings}
+
+
+def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
+    """What POST /api/jobs and POST /api/raytree need of a valid scene (the scene's JSON text, its size and
+    estimates), or its `errors`."""
+    from tracer import estimate
+
+    try:
+        scene, warnings, data = _scene_of(body, limits, assets)
+    except SceneError as exc:
+        return {"errors": exc.errors}
+    return {
+        "text": json.dumps(data), "warnings": warnings, "name": scene.name, "width": scene.film.width,
+        "height": scene.film.height, "spp": scene.sampler.spp, "integrator": scene.render.integrator,
+        "seconds": estimate.seconds(scene, threads, assets),
+        "solve_seconds": estimate.solve_seconds(scene, threads, assets),
+    }  # fmt: skip
+
+
+def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
+    """POST /api/samples's answer, or its `errors`."""
+    from tracer.compile import compile_scene
+    from tracer.samples import pixel_samples
+
+    try:
+        scene, _, _ = _scene_of(body, limits, assets)
+        # as many positions as a scene may have samples (the service's max_spp), the adaptive grid's included
+        return {"samples": pixel_samples(compile_scene(scene, assets, limits=limits), x, y, max_samples=limits.max_spp)}
+    except SceneError as exc:
+        return {"errors": exc.errors}
+
+
+TASKS = {"validate": validate, "summary": summary, "samples": samples}
+
+
+def checker_main(conn, nice: int) -> None:
+    """A checking process (spawned): below the API in priority, deaf to the terminal's Ctrl-C (the server
+    stops it), gone with its server; loads the kernels of the samples from Warp's cache, says it is ready,
+    then answers tasks (name, args) until its line closes."""
+    from server.grading import _watch_parent
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice:
+        try:
+            os.nice(nice)
+        except OSError:
+            pass
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    from tracer.samples import load_kernels
+
+    load_kernels()
+    conn.send("ready")
+    while True:
+        try:
+            name, args = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            answer = ("ok", TASKS[name](*args))
+        except Exception as exc:  # a bug must answer the request (a 500 in the API), not end the process
+            log.exception("scene check %s failed", name)
+            answer = ("crash", f"{type(exc).__name__}: {exc}")
+        conn.send(answer)
+
+
+# ----------------------------------------------------------------------------- the pool (in the API)
+
+
+@dataclass
+class _Checker:
+    index: int
+    process: mp.process.BaseProcess | None = None
+    conn: object = None  # the server's end of the process's line
+    state: str = "starting"  # starting, idle, busy
+    restarts: int = 0
+
+
+class CheckPool:
+    """`settings.validate_processes` checking processes, started with the app; `run` hands one a task."""
+
+    def __init__(self, settings: Settings):
+        self.settings = settings
+        self.ctx = mp.get_context("spawn")
+        self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
+        self.waiting = 0
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # -- life
+
+    def start(self) -> None:
+        for checker in self.checkers:
+            self._restart(checker)
+
+    def _restart(self, checker: _Checker, old=None) -> None:
+        """Start the checker's process again, in a thread: the old one (if any) is killed and reaped first."""
+        checker.state = "starting"
+        threading.Thread(target=self._start, args=(checker, old), name=f"checker-{checker.index}", daemon=True).start()
+
+    def _start(self, checker: _Checker, old) -> None:
+        if old is not None:
+            process, conn = old
+            process.kill()
+            process.join(timeout=10)
+            conn.close()
+        ours, theirs = self.ctx.Pipe()
+        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice), daemon=True,
+                                   name=f"scene-checker-{checker.index}")  # fmt: skip
+        with self._lock:
+            if self._closed:
+                return
+            process.start()
+        theirs.close()
+        try:
+            ready = ours.poll(START_TIMEOUT) and ours.recv() == "ready"
+        except (EOFError, OSError):
+            ready = False
+        with self._lock:
+            if self._closed:
+                return
+            if not ready:
+                log.error("scene checker %d did not start; starting it again", checker.index)
+                checker.restarts += 1
+                self._restart(checker, (process, ours))
+                return
+            checker.process, checker.conn, checker.state = process, ours, "idle"
+
+    def shutdown(self) -> None:
+        with self._lock:
+            self._closed = True
+        for checker in self.checkers:
+            if checker.conn is not None:
+                checker.conn.close()  # the process reads end-of-file: it exits
+        for checker in self.checkers:
+            if checker.process is not None:
+                checker.process.join(timeout=5)
+                if checker.process.is_alive():
+                    checker.process.kill()
+                    checker.process.join(timeout=5)
+
+    def info(self) -> list[dict]:
+        """Each checking process: pid, state (starting, idle, busy), restarts."""
+        return [
+            {"pid": c.process.pid if c.process is not None and c.state != "starting" else None, "state": c.state,
+             "restarts": c.restarts}
+            for c in self.checkers
+        ]  # fmt: skip
+
+    # -- a task
+
+    async def _take(self, request: Request) -> _Checker:
+        """An idle checker, marked busy; waits for one (429 past max_validate_waiting waiting)."""
+        queued = False
+        try:
+            while True:
+                with self._lock:
+                    free = next((c for c in self.checkers if c.state == "idle"), None)
+                    if free is not None:
+                        free.state = "busy"
+                        return free
+                    if not queued:
+                        if self.waiting >= self.settings.max_validate_waiting:
+                            raise ApiError(
+                                429, "too many scenes are being checked; try again later (TRACER_MAX_VALIDATE_WAITING)",
+                                headers={"Retry-After": "2"},
+                            )  # fmt: skip
+                        self.waiting += 1
+                        queued = True
+                if await request.is_disconnected():
+                    raise ApiError(499, "the client went away")
+                await anyio.sleep(POLL * 4)
+        finally:
+            if queued:
+                with self._lock:
+                    self.waiting -= 1
+
+    async def run(self, request: Request, task: str, *args):
+        """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
+        limit is stopped (422: the scene costs too much to check); one whose client went away is stopped too."""
+        checker = await self._take(request)
+        conn, process, answered = checker.conn, checker.process, False
+        limit = self.settings.max_validate_seconds
+        try:
+            await anyio.to_thread.run_sync(conn.send, (task, args))
+            deadline = time.monotonic() + limit
+            while not conn.poll():
+                if await request.is_disconnected():
+                    log.info("scene check stopped: the client went away")
+                    raise ApiError(499, "the client went away")
+                if time.monotonic() > deadline:
+                    log.warning("scene check stopped after %g s (TRACER_MAX_VALIDATE_SECONDS)", limit)
+                    message = (
+                        f"checking the scene took longer than the limit of {limit:g} s (TRACER_MAX_VALIDATE_SECONDS): "
+                        "it is too large to check; make it smaller"
+                    )
+                    raise ApiError(422, [{"path": "", "message": message}])
+                await anyio.sleep(POLL)
+            kind, value = await anyio.to_thread.run_sync(conn.recv)
+            answered = True
+        except (EOFError, OSError):
+            raise ApiError(503, "the scene's checking process died; try again") from None
+        finally:
+            with self._lock:
+                if answered:
+                    checker.state = "idle"
+                elif not self._closed:  # stopped mid-task (or dead): a new process takes its place
+                    checker.restarts += 1
+                    self._restart(checker, (process, conn))
+        if kind != "ok":
+            raise RuntimeError(f"scene check {task} failed in its process: {value}")
+        return value
+
+    async def validate(self, request: Request, body: bytes) -> dict:
+        return await self.run(request, "validate", body, self.settings.limits, ASSET_DIR)
+
+    async def summary(self, request: Request, body: bytes) -> dict:
+        """The scene's summary (`summary`); 422 with its errors when it is not valid."""
+        found = await self.run(request, "summary", body, self.settings.limits, ASSET_DIR,
+                               self.settings.threads_per_worker())  # fmt: skip
+        if "errors" in found:
+            raise ApiError(422, found["errors"])
+        return found
+
+    async def samples(self, request: Request, body: bytes, x: int, y: int) -> dict:
+        found = await self.run(request, "samples", body, self.settings.limits, ASSET_DIR, x, y)
+        if "errors" in found:
+            raise ApiError(422, found["errors"])
+        return found["samples"]
