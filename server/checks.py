@@ -30,7 +30,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import anyio
-from fastapi import Request
+from fastapi import APIRouter, Request, Response
+from fastapi.routing import APIRoute
 
 from server.errors import ApiError
 from server.settings import Settings
@@ -38,7 +39,8 @@ from tracer.scene import ASSET_DIR, Limits, SceneError, load_scene
 
 log = logging.getLogger("server.checks")
 
-POLL = 0.005  # seconds between two looks at a busy process's answer (and at the client)
+CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
+WAIT_POLL = 0.02  # seconds between two looks for a free process, while all are busy
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
 
 
@@ -91,7 +93,23 @@ def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
         return {"errors": exc.errors}
 
 
-TASKS = {"validate": validate, "summary": summary, "samples": samples}
+def read(body: bytes) -> tuple:
+    """A request body's JSON for the route's own model (server/models.py): ("ok", the body with its scene's
+    content left out), or why it is not JSON as the API would have said it: ("invalid", message, position)
+    for a JSON syntax error, ("unreadable", message) for the rest (not UTF-8, an integer too long, nesting
+    too deep for the parser)."""
+    try:
+        data = json.loads(body)
+    except json.JSONDecodeError as exc:
+        return "invalid", exc.msg, exc.pos
+    except (ValueError, RecursionError) as exc:
+        return "unreadable", f"{type(exc).__name__}: {exc}"
+    if isinstance(data, dict) and isinstance(data.get("scene"), dict):
+        data = {**data, "scene": {}}  # a scene is read, from the same bytes, where it is checked
+    return "ok", data
+
+
+TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samples}
 
 
 def checker_main(conn, nice: int) -> None:
@@ -122,6 +140,43 @@ def checker_main(conn, nice: int) -> None:
             log.exception("scene check %s failed", name)
             answer = ("crash", f"{type(exc).__name__}: {exc}")
         conn.send(answer)
+
+
+# ----------------------------------------------------------------------------- the routes' requests
+
+
+class SceneRequest(Request):
+    """The request of a route whose body carries a scene: its JSON is parsed in a checking process, not on
+    the event loop (1.6 MB of spheres took 30-50 ms to parse here), and the route's model sees the body with
+    an empty scene (`read`). The route sends the request's bytes to be checked (`CheckPool.summary`, ...)
+    and never reads `scene` from its model."""
+
+    async def json(self):
+        if not hasattr(self, "_json"):
+            self._json = await self.app.state.checks.read(self, await self.body())
+        return self._json
+
+
+class SceneRoute(APIRoute):
+    """A route whose request is a `SceneRequest` (FastAPI's custom route class)."""
+
+    def get_route_handler(self):
+        handler = super().get_route_handler()
+
+        async def route(request: Request) -> Response:
+            return await handler(SceneRequest(request.scope, request.receive))
+
+        return route
+
+
+def scene_post(router: APIRouter, path: str, **options):
+    """`@router.post(path, **options)` for a route whose body carries a scene: its request is a SceneRequest."""
+
+    def decorator(endpoint):
+        router.add_api_route(path, endpoint, methods=["POST"], route_class_override=SceneRoute, **options)
+        return endpoint
+
+    return decorator
 
 
 # ----------------------------------------------------------------------------- the pool (in the API)
@@ -229,7 +284,7 @@ class CheckPool:
                         queued = True
                 if await request.is_disconnected():
                     raise ApiError(499, "the client went away")
-                await anyio.sleep(POLL * 4)
+                await anyio.sleep(WAIT_POLL)
         finally:
             if queued:
                 with self._lock:
@@ -244,18 +299,20 @@ class CheckPool:
         try:
             await anyio.to_thread.run_sync(conn.send, (task, args))
             deadline = time.monotonic() + limit
-            while not conn.poll():
+            while True:
+                with anyio.move_on_after(min(CLIENT_CHECK, max(0.0, deadline - time.monotonic()))):
+                    await anyio.wait_readable(conn.fileno())  # the answer (or the process's end) is there
+                    break
                 if await request.is_disconnected():
                     log.info("scene check stopped: the client went away")
                     raise ApiError(499, "the client went away")
-                if time.monotonic() > deadline:
+                if time.monotonic() >= deadline:
                     log.warning("scene check stopped after %g s (TRACER_MAX_VALIDATE_SECONDS)", limit)
                     message = (
                         f"checking the scene took longer than the limit of {limit:g} s (TRACER_MAX_VALIDATE_SECONDS): "
                         "it is too large to check; make it smaller"
                     )
                     raise ApiError(422, [{"path": "", "message": message}])
-                await anyio.sleep(POLL)
             kind, value = await anyio.to_thread.run_sync(conn.recv)
             answered = True
         except (EOFError, OSError):
@@ -270,6 +327,16 @@ class CheckPool:
         if kind != "ok":
             raise RuntimeError(f"scene check {task} failed in its process: {value}")
         return value
+
+    async def read(self, request: Request, body: bytes):
+        """The request's JSON as the route's model reads it, its scene's content left out (`read`); raises
+        what json.loads would have raised here, so the answer to a body that is not JSON is the same."""
+        answer = await self.run(request, "read", body)
+        if answer[0] == "invalid":
+            raise json.JSONDecodeError(answer[1], body.decode(json.detect_encoding(body), "surrogatepass"), answer[2])
+        if answer[0] == "unreadable":
+            raise ValueError(answer[1])
+        return answer[1]
 
     async def validate(self, request: Request, body: bytes) -> dict:
         return await self.run(request, "validate", body, self.settings.limits, ASSET_DIR)

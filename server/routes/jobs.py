@@ -11,6 +11,7 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
+from server.checks import scene_post
 from server.deps import ChecksDep, JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
@@ -26,7 +27,8 @@ ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
 
 
-@router.post(
+@scene_post(
+    router,
     "",
     status_code=202,
     summary="Submit a scene for rendering",

@@ -7,6 +7,7 @@ from typing import ClassVar
 from fastapi import APIRouter, Request
 from pydantic import Field, StrictInt
 
+from server.checks import scene_post
 from server.deps import ChecksDep
 from server.models import ErrorResponse, _SceneRequest
 
@@ -20,7 +21,8 @@ class SamplesRequest(_SceneRequest):
     y: StrictInt = Field(description="pixel row from the top")
 
 
-@router.post(
+@scene_post(
+    router,
     "/samples",
     summary="Where the renderer puts the samples of one pixel (the sampler's positions)",
     responses={422: {"model": ErrorResponse, "description": "invalid scene, x or y off the film, too many samples"}},

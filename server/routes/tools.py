@@ -8,6 +8,7 @@ import time
 import anyio
 from fastapi import APIRouter, Request
 
+from server.checks import scene_post
 from server.deps import ChecksDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
@@ -32,7 +33,7 @@ def schema() -> dict:
     return scene_json_schema()
 
 
-@router.post("/validate", summary="Check a scene: errors with JSON paths, and warnings")
+@scene_post(router, "/validate", summary="Check a scene: errors with JSON paths, and warnings")
 async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -> dict:
     """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
     and the asset files are all checked (in a checking process, server/checks.py: a scene that takes
@@ -45,7 +46,8 @@ async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -
         return {"valid": False, "errors": exc.errors, "warnings": []}
 
 
-@router.post(
+@scene_post(
+    router,
     "/raytree",
     summary="The ray tree of one pixel sample (/reference/scene-format.md#the-ray-tree)",
     responses={
