@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import multiprocessing as mp
 import os
 import signal
@@ -30,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import anyio
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, HTTPException, Request, Response
 from fastapi.routing import APIRoute
 
 from server.errors import ApiError
@@ -41,6 +42,7 @@ log = logging.getLogger("server.checks")
 
 CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
 WAIT_POLL = 0.02  # seconds between two looks for a free process, while all are busy
+READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
 
 
@@ -146,15 +148,31 @@ def checker_main(conn, nice: int) -> None:
 
 
 class SceneRequest(Request):
-    """The request of a route whose body carries a scene: its JSON is parsed in a checking process, not on
-    the event loop (1.6 MB of spheres took 30-50 ms to parse here), and the route's model sees the body with
-    an empty scene (`read`). The route sends the request's bytes to be checked (`CheckPool.summary`, ...)
-    and never reads `scene` from its model."""
+    """The request of a route whose body carries a scene: a large body's JSON is parsed in a checking process,
+    not on the event loop (1.6 MB of spheres took 30-50 ms to parse here), and the route's model sees the
+    body with an empty scene (`read`; a small body is parsed here, the same way). The route sends the
+    request's bytes to be checked (`CheckPool.summary`, ...) and never reads `scene` from its model."""
 
     async def json(self):
         if not hasattr(self, "_json"):
-            self._json = await self.app.state.checks.read(self, await self.body())
+            body = await self.body()
+            if len(body) < READ_HERE:
+                self._json = _answer(read(body), body)
+            else:
+                try:
+                    self._json = await self.app.state.checks.read(self, body)
+                except ApiError as exc:  # FastAPI would answer anything else raised here with a 400
+                    raise HTTPException(exc.status, exc.errors[0]["message"], exc.headers) from None
         return self._json
+
+
+def _answer(answer: tuple, body: bytes):
+    """`read`'s answer as json.loads would have given it: the data, or its exception (the same error answer)."""
+    if answer[0] == "invalid":
+        raise json.JSONDecodeError(answer[1], body.decode(json.detect_encoding(body), "surrogatepass"), answer[2])
+    if answer[0] == "unreadable":
+        raise ValueError(answer[1])
+    return answer[1]
 
 
 class SceneRoute(APIRoute):
@@ -188,6 +206,7 @@ class _Checker:
     process: mp.process.BaseProcess | None = None
     conn: object = None  # the server's end of the process's line
     state: str = "starting"  # starting, idle, busy
+    task: str | None = None  # what it does while busy: read, validate, summary, samples
     restarts: int = 0
 
 
@@ -255,10 +274,10 @@ class CheckPool:
                     checker.process.join(timeout=5)
 
     def info(self) -> list[dict]:
-        """Each checking process: pid, state (starting, idle, busy), restarts."""
+        """Each checking process: pid, state (starting, idle, busy), task (while busy), restarts."""
         return [
             {"pid": c.process.pid if c.process is not None and c.state != "starting" else None, "state": c.state,
-             "restarts": c.restarts}
+             "task": c.task, "restarts": c.restarts}
             for c in self.checkers
         ]  # fmt: skip
 
@@ -290,15 +309,17 @@ class CheckPool:
                 with self._lock:
                     self.waiting -= 1
 
-    async def run(self, request: Request, task: str, *args):
+    async def run(self, request: Request, task: str, *args, timed: bool = True):
         """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
-        limit is stopped (422: the scene costs too much to check); one whose client went away is stopped too."""
+        limit (when `timed`) is stopped (422: the scene costs too much to check); one whose client went away
+        is stopped too."""
         checker = await self._take(request)
+        checker.task = task
         conn, process, answered = checker.conn, checker.process, False
         limit = self.settings.max_validate_seconds
         try:
             await anyio.to_thread.run_sync(conn.send, (task, args))
-            deadline = time.monotonic() + limit
+            deadline = time.monotonic() + (limit if timed else math.inf)
             while True:
                 with anyio.move_on_after(min(CLIENT_CHECK, max(0.0, deadline - time.monotonic()))):
                     await anyio.wait_readable(conn.fileno())  # the answer (or the process's end) is there
@@ -319,6 +340,7 @@ class CheckPool:
             raise ApiError(503, "the scene's checking process died; try again") from None
         finally:
             with self._lock:
+                checker.task = None
                 if answered:
                     checker.state = "idle"
                 elif not self._closed:  # stopped mid-task (or dead): a new process takes its place
@@ -331,12 +353,7 @@ class CheckPool:
     async def read(self, request: Request, body: bytes):
         """The request's JSON as the route's model reads it, its scene's content left out (`read`); raises
         what json.loads would have raised here, so the answer to a body that is not JSON is the same."""
-        answer = await self.run(request, "read", body)
-        if answer[0] == "invalid":
-            raise json.JSONDecodeError(answer[1], body.decode(json.detect_encoding(body), "surrogatepass"), answer[2])
-        if answer[0] == "unreadable":
-            raise ValueError(answer[1])
-        return answer[1]
+        return _answer(await self.run(request, "read", body, timed=False), body)  # bounded by the body's size
 
     async def validate(self, request: Request, body: bytes) -> dict:
         return await self.run(request, "validate", body, self.settings.limits, ASSET_DIR)

@@ -263,6 +263,7 @@ class Health(BaseModel):
     workers: list[WorkerInfo]
     checkers: list[dict] = Field(
         default_factory=list,
-        description="the processes that check scenes (server/checks.py): pid, state (starting, idle, busy), restarts",
+        description="the processes that check scenes (server/checks.py): pid, state (starting, idle, busy), task "
+        "(while busy: read, validate, summary, samples), restarts",
     )
     jobs: dict[str, int] = Field(description="jobs by status")
