@@ -504,13 +504,23 @@ class Sampler(_Model):
 class RadiositySettings(_Model):
     """The radiosity integrator's solution and how it is shown (an addition to the format)."""
 
-    patch_size: Num = Field(0.25, gt=0, description="Patch edge length (world units) of the meshed surfaces.")
+    patch_size: Num = Field(
+        0.25,
+        gt=0,
+        description="Patch edge length (world units) of the meshed surfaces; the patches it makes are counted, "
+        "before any is made, against the service's limit (TRACER_MAX_PATCHES).",
+    )
     display: Literal["two-pass", "flat", "smooth"] = Field(
         "two-pass",
         description="two-pass: the ray tree with the radiosity solution as its diffuse interreflection; "
         "flat: each patch's radiosity; smooth: radiosity interpolated from the patch corners.",
     )
-    rays: Int = Field(4096, ge=16, le=1_000_000, description="Form-factor rays per shot.")
+    rays: Int = Field(
+        4096,
+        ge=16,
+        le=1_000_000,
+        description="Form-factor rays per shot; rays x max_steps is bounded by the service (TRACER_MAX_SOLVE_RAYS).",
+    )
     threshold: Num = Field(0.01, gt=0, le=1, description="Stop when the unshot power is below this share of all.")
     max_steps: Int = Field(2000, ge=1, le=100_000, description="At most this many shots.")
 
@@ -567,7 +577,10 @@ class ImageTexture(_Model):
     """An image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Texture type.")
-    file: ImageFile = Field(description="Image file in the asset folder, or a data: URI.")
+    file: ImageFile = Field(
+        description="Image file in the asset folder, or a data: URI; its pixels count against the service's "
+        "limits on one image and on all of a scene's (read from its header)."
+    )
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
 
@@ -583,7 +596,10 @@ class ImageBump(_Model):
     """Bump mapping by a height image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Bump type.")
-    file: ImageFile = Field(description="Height image in the asset folder, or a data: URI.")
+    file: ImageFile = Field(
+        description="Height image in the asset folder, or a data: URI; its pixels count against the service's "
+        "limits on one image and on all of a scene's (read from its header)."
+    )
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
