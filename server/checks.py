@@ -44,6 +44,7 @@ CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still 
 WAIT_POLL = 0.02  # seconds between two looks for a free process, while all are busy
 READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
+PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
 
 
 # ----------------------------------------------------------------------------- the tasks (in a process)
@@ -74,11 +75,11 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
         scene, warnings, data = _scene_of(body, limits, assets)
     except SceneError as exc:
         return {"errors": exc.errors}
+    solve = estimate.solve_seconds(scene, threads, assets)
     return {
         "text": json.dumps(data), "warnings": warnings, "name": scene.name, "width": scene.film.width,
         "height": scene.film.height, "spp": scene.sampler.spp, "integrator": scene.render.integrator,
-        "seconds": estimate.seconds(scene, threads, assets),
-        "solve_seconds": estimate.solve_seconds(scene, threads, assets),
+        "seconds": estimate.seconds(scene, threads, assets, solve), "solve_seconds": solve,
     }  # fmt: skip
 
 
@@ -118,8 +119,6 @@ def checker_main(conn, nice: int) -> None:
     """A checking process (spawned): below the API in priority, deaf to the terminal's Ctrl-C (the server
     stops it), gone with its server; loads the kernels of the samples from Warp's cache, says it is ready,
     then answers tasks (name, args) until its line closes."""
-    from server.grading import _watch_parent
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if nice:
         try:
@@ -142,6 +141,15 @@ def checker_main(conn, nice: int) -> None:
             log.exception("scene check %s failed", name)
             answer = ("crash", f"{type(exc).__name__}: {exc}")
         conn.send(answer)
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process once its server is gone (killed without a word: SIGKILL, out of memory), even in the
+    middle of a task."""
+    while True:
+        time.sleep(PARENT_CHECK)
+        if os.getppid() != parent:
+            os._exit(0)
 
 
 # ----------------------------------------------------------------------------- the routes' requests
@@ -251,7 +259,9 @@ class CheckPool:
         except (EOFError, OSError):
             ready = False
         with self._lock:
-            if self._closed:
+            if self._closed:  # the server stopped meanwhile: this one reads end-of-file and exits
+                ours.close()
+                process.join(timeout=5)
                 return
             if not ready:
                 log.error("scene checker %d did not start; starting it again", checker.index)

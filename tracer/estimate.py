@@ -51,9 +51,9 @@ def solve_seconds(scene: Scene, threads: int, assets: Path | None = None) -> flo
     return rays / (SOLVE_RAYS_PER_SECOND * max(1, threads))
 
 
-def seconds(scene: Scene, threads: int = 1, assets: Path | None = None) -> float:
+def seconds(scene: Scene, threads: int = 1, assets: Path | None = None, solve: float | None = None) -> float:
     """Estimated seconds to render `scene` on `threads` threads, the radiosity solve included (`assets`:
-    the folder of its mesh files, for the solve's patches)."""
+    the folder of its mesh files, for the solve's patches; `solve`: the solve's seconds, when known)."""
     film, sampler = scene.film, scene.sampler
     if sampler.type == "adaptive":
         per_pixel = 5 + 12 * sampler.max_level  # corner and centre rays, then cells split at the edges
@@ -65,4 +65,4 @@ def seconds(scene: Scene, threads: int = 1, assets: Path | None = None) -> float
     shapes = sum(1 for o in scene.objects if o.type != "mesh" and o.type != "triangle") + len(scene.lights)
     rate = RAYS_PER_SECOND / (1 + shapes / SHAPES_HALVE_AT) * max(1, threads)
     render = eye * rays_per_sample(scene) / rate + passes * PASS_SECONDS
-    return render + solve_seconds(scene, threads, assets)
+    return render + (solve_seconds(scene, threads, assets) if solve is None else solve)
