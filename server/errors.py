@@ -162,29 +162,28 @@ def _depth_by_regex(body: bytes) -> int:
 def _depth_of_arrays(body: bytes) -> int | None:
     """`json_depth` with numpy alone (which releases the interpreter lock, so the event loop goes on while a
     thread reads a large body), or None where that could differ from `_depth_by_regex`: every string must
-    close and no backslash may stand outside one, as in JSON."""
+    close and no backslash may stand outside one, as in JSON. Arrays of one byte per byte of the body,
+    and of one number per backslash or bracket."""
     b = np.frombuffer(body, dtype=np.uint8)
     if not b.size:
         return 0
     backslash, quote = b == ord("\\"), b == ord('"')
-    if backslash.any():  # a quote is escaped when an odd run of backslashes comes right before it
-        at = np.arange(b.size)
-        run = at - np.maximum.accumulate(np.where(backslash, -1, at))  # backslashes ending at each byte
-        quote[1:] &= (run[:-1] & 1) == 0
-    toggles = np.cumsum(quote, dtype=np.int64)
-    if toggles[-1] & 1:
+    slashes = np.flatnonzero(backslash)
+    if slashes.size:  # the byte after an odd run of backslashes is escaped
+        breaks = np.flatnonzero(np.diff(slashes) != 1)
+        first, last = slashes[np.r_[0, breaks + 1]], slashes[np.r_[breaks, slashes.size - 1]]
+        after = last[((last - first) % 2 == 0) & (last + 1 < b.size)] + 1
+        quote[after] = False
+    inside = np.bitwise_xor.accumulate(quote.view(np.uint8)).view(bool)  # from an opening quote to its closing one
+    if inside[-1]:
         return None  # a string left open
-    inside = (toggles & 1).astype(bool) | quote  # from an opening quote to its closing one, both included
-    if (backslash & ~inside).any():
-        return None
-    outside = ~inside
-    opening = ((b == ord("[")) | (b == ord("{"))) & outside
-    closing = ((b == ord("]")) | (b == ord("}"))) & outside
-    brackets = opening | closing
-    if not brackets.any():
+    if slashes.size and not inside[slashes].all():
+        return None  # a backslash outside strings
+    at = np.flatnonzero(((b == ord("[")) | (b == ord("{")) | (b == ord("]")) | (b == ord("}"))) & ~inside)
+    if not at.size:
         return 0
-    levels = np.cumsum(opening.astype(np.int8) - closing.astype(np.int8), dtype=np.int64)
-    return int(levels[brackets].max())
+    opening = (b[at] == ord("[")) | (b[at] == ord("{"))
+    return int(np.cumsum(np.where(opening, 1, -1), dtype=np.int64).max())
 
 
 class RequestGate:

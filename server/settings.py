@@ -160,7 +160,7 @@ class Settings(BaseSettings):
         description="processes that check scenes for POST /api/validate, /api/jobs, /api/raytree and /api/samples",
     )
     max_validate_seconds: float = Field(
-        10.0, gt=0, description="seconds one scene check may take; its process is stopped and replaced past it"
+        10.0, gt=0, description="seconds of CPU one scene check may take; its process is stopped and replaced past it"
     )
     max_validate_waiting: int = Field(32, ge=0, description="requests waiting for a free checking process: 429 past it")
 
