@@ -9,7 +9,12 @@ one job rendered), then measures
    in hand; also by polling GET /api/jobs/{id} every 5 ms;
 2. the latency of GET /api/jobs/{id} while long renders keep the worker's threads busy on every
    core: a bounded loop of sequential requests on one keep-alive connection, then the same from
-   8 concurrent clients; percentiles, next to the same loop on an idle server.
+   8 concurrent clients; percentiles, next to the same loop on an idle server;
+3. the same GET's latency while 6 clients click pixels of the radiosity Cornell box (POST /api/raytree),
+   and while 4 clients validate a scene of 25 000 spheres at once (POST /api/validate), with the
+   latency of each click and each validation.
+
+`--validate-only` runs the last measure alone (after the warm-up and one finished job to GET).
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from __future__ import annotations
 import argparse
 import http.client
 import json
+import math
 import os
 import platform
 import socket
@@ -45,8 +51,8 @@ class Api:
         self.port = port
         self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
 
-    def call(self, method: str, path: str, body: dict | None = None) -> tuple[int, bytes]:
-        data = json.dumps(body).encode() if body is not None else None
+    def call(self, method: str, path: str, body: dict | bytes | None = None) -> tuple[int, bytes]:
+        data = body if isinstance(body, bytes) or body is None else json.dumps(body).encode()
         headers = {"content-type": "application/json"} if data is not None else {}
         try:
             self.conn.request(method, path, body=data, headers=headers)
@@ -224,12 +230,75 @@ def raytree_load(port: int, probe: str, clients: int = 6, rounds: int = 8) -> di
     }
 
 
+def spheres_scene(n: int) -> dict:
+    """A scene of n small spheres on a grid, one named material: a large scene to validate (25 000 spheres
+    are 1.6 MB of compact JSON, under the default TRACER_MAX_BODY_BYTES)."""
+    side = math.ceil(math.sqrt(n))
+    objects = [
+        {"type": "sphere", "center": [k % side - side // 2, 0, k // side - side // 2], "radius": 0.4, "material": "m"}
+        for k in range(n)
+    ]
+    return {
+        "camera": {"lookfrom": [0, 60, 120], "lookat": [0, 0, 0]}, "film": {"width": 64, "height": 64},
+        "materials": {"m": {"kd": 0.6}}, "lights": [{"type": "point", "position": [0, 80, 0]}], "objects": objects,
+    }  # fmt: skip
+
+
+def validate_load(port: int, probe: str, clients: int = 4, rounds: int = 5, spheres: int = 25_000) -> dict:
+    """`clients` clients validate a scene of `spheres` spheres (POST /api/validate), `rounds` times each, all at
+    once, while one client reads GET /api/jobs/{probe} in a loop: that GET's latency, and each validation's."""
+    body = json.dumps({"scene": spheres_scene(spheres)}, separators=(",", ":")).encode()
+    one = Api(port)
+    t0 = time.perf_counter()
+    status, answer = one.call("POST", "/api/validate", body)
+    alone = time.perf_counter() - t0
+    assert status == 200 and json.loads(answer)["valid"], answer[:300]
+    one.close()
+    times: list[float] = []
+    done = threading.Event()
+
+    def validator() -> None:
+        api = Api(port)
+        for _ in range(rounds):
+            t = time.perf_counter()
+            status, answer = api.call("POST", "/api/validate", body)
+            times.append(time.perf_counter() - t)
+            assert status == 200 and json.loads(answer)["valid"], answer[:300]
+        api.close()
+
+    gets: list[float] = []
+
+    def getter() -> None:
+        api = Api(port)
+        while not done.is_set():
+            t = time.perf_counter()
+            status, _ = api.call("GET", f"/api/jobs/{probe}")
+            gets.append((time.perf_counter() - t) * 1000)
+            assert status == 200
+        api.close()
+
+    reader = threading.Thread(target=getter)
+    reader.start()
+    threads = [threading.Thread(target=validator) for _ in range(clients)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    done.set()
+    reader.join()
+    return {
+        "spheres": spheres, "body_bytes": len(body), "clients": clients, "alone_s": alone,
+        "validate_ms": percentiles([v * 1000 for v in times]), "get_ms": percentiles(gets),
+    }  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="bench.service", description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", type=int, default=5, help="submissions per first-preview measurement")
     p.add_argument("--requests", type=int, default=2000, help="GET requests per latency loop")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--validate-only", action="store_true", help="only the validations of 25 000 spheres")
     args = p.parse_args(argv)
 
     cornell = json.loads((SCENES / "cornell.json").read_text())
@@ -249,7 +318,12 @@ def main(argv: list[str] | None = None) -> dict:
         results["server_start_s"] = time.perf_counter() - t_start
         try:
             api = Api(port)
-            wait_done(api, api.json("POST", "/api/jobs", {"scene": cornell})["id"])  # warm: one job rendered
+            warm = api.json("POST", "/api/jobs", {"scene": cornell})["id"]
+            wait_done(api, warm)  # warm: one job rendered
+            if args.validate_only:
+                results["validate_load"] = validate_load(port, warm)
+                api.close()
+                return _finish(results, args)
 
             events = [first_preview_by_events(port, cornell) for _ in range(args.runs)]
             polled = [first_preview_by_polling(port, cornell) for _ in range(args.runs)]
@@ -263,6 +337,7 @@ def main(argv: list[str] | None = None) -> dict:
             wait_done(api, probe)
             results["get_idle_ms"] = percentiles(get_loop(port, probe, args.requests))
             results["raytree_load"] = raytree_load(port, probe)
+            results["validate_load"] = validate_load(port, probe)
 
             busy = [api.json("POST", "/api/jobs", {"scene": long})["id"] for _ in range(args.workers + 1)]
             while api.json("GET", "/api/health")["jobs"]["running"] < args.workers:
@@ -279,6 +354,10 @@ def main(argv: list[str] | None = None) -> dict:
             proc.terminate()
             proc.wait(timeout=30)
 
+    return _finish(results, args)
+
+
+def _finish(results: dict, args) -> dict:
     if args.json:
         print(json.dumps(results, indent=2))
     else:
@@ -298,6 +377,9 @@ def report(r: dict) -> None:
 
     print(f"machine: {r['machine']}")
     print(f"server start (kernels cached) until workers ready: {r['server_start_s']:.2f} s")
+    if "first_preview_event_s" not in r:  # --validate-only
+        _report_validations(r["validate_load"], lat)
+        return
     print(f"cornell 256x256, 16 spp, whole render in the worker: {r['cornell_render_s']:.2f} s")
     print(f"submit -> first preview event (SSE):   {s(r['first_preview_event_s'])}")
     print(f"submit -> first preview PNG in hand:   {s(r['first_preview_png_s'])}")
@@ -310,6 +392,13 @@ def report(r: dict) -> None:
     print(f"ray trees of the radiosity Cornell box: the first click {rt['first_click_s']:.2f} s (solves)")
     print(f"  6 clients clicking at once, each click: {lat(rt['click_ms'])}")
     print(f"  GET /api/jobs/{{id}} meanwhile:           {lat(rt['get_ms'])}")
+    _report_validations(r["validate_load"], lat)
+
+
+def _report_validations(v: dict, lat) -> None:
+    print(f"validations of {v['spheres']} spheres ({v['body_bytes'] / 1e6:.2f} MB): one alone {v['alone_s']:.2f} s")
+    print(f"  {v['clients']} clients validating at once, each:  {lat(v['validate_ms'])}")
+    print(f"  GET /api/jobs/{{id}} meanwhile:           {lat(v['get_ms'])}")
 
 
 if __name__ == "__main__":

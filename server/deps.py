@@ -1,5 +1,5 @@
-"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, a job
-(the caller's own: server/security.py)."""
+"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, the scene
+checking processes, a job (the caller's own: server/security.py)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from typing import Annotated
 
 from fastapi import Depends, Path, Request
 
+from server.checks import CheckPool
 from server.errors import ApiError
 from server.queue import JobQueue
 from server.security import CallerDep
@@ -26,9 +27,14 @@ def get_queue(request: Request) -> JobQueue:
     return request.app.state.queue
 
 
+def get_checks(request: Request) -> CheckPool:
+    return request.app.state.checks
+
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 QueueDep = Annotated[JobQueue, Depends(get_queue)]
+ChecksDep = Annotated[CheckPool, Depends(get_checks)]
 
 
 def get_job(

@@ -1,11 +1,12 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
-opens the job store, puts back in the queue the jobs a dead server left running, starts the render
-workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
-removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where)
-and the workers give their running jobs back to the queue. Every request passes the host check and
-gets the security headers (server/security.py); the start-up log warns of a server open to others
+starts the processes that check scenes (server/checks.py), opens the job store, puts back in the
+queue the jobs a dead server left running, starts the render workers, resumes the grading runs a
+stopped server left unfinished, and starts the janitor (which removes old finished jobs); at
+shutdown the grading runs stop where they are (their rows say where), the workers give their
+running jobs back to the queue, and the checking processes end. Every request passes the host check
+and gets the security headers (server/security.py); the start-up log warns of a server open to others
 without an instructor token or a list of host names.
 """
 
@@ -20,6 +21,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
+from server.checks import CheckPool
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
 from server.janitor import Janitor
@@ -41,10 +43,12 @@ async def lifespan(app: FastAPI):
     for warning in start_up_warnings(settings):
         log.warning(warning)
     load_kernels()  # before the workers start, so that they only read the cache
-    load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
+    load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in the checking processes
     log.info("render kernels ready")
     settings.data_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_data_dir(settings.data_dir)
+    checks = app.state.checks = CheckPool(settings)
+    checks.start()  # scene checks, off the event loop
     store = JobStore(settings.data_dir)
     queue = make_queue(settings, store)
     app.state.store, app.state.queue = store, queue
@@ -59,6 +63,7 @@ async def lifespan(app: FastAPI):
         janitor.stop()
         grade_runs.shutdown()
         queue.shutdown()
+        checks.shutdown()
         lock.close()
 
 
@@ -87,7 +92,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,  # ReDoc's bundle still fetches its maker's logo from a CDN: /docs alone, fully offline
     )
     app.state.settings = settings
-    app.state.store = app.state.queue = app.state.grade_runs = None
+    app.state.store = app.state.queue = app.state.grade_runs = app.state.checks = None
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
     app.add_middleware(

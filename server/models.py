@@ -270,4 +270,9 @@ class Health(BaseModel):
         "that had lost their job, dropped), lost (tries lost with their host), bytes (files received)",
     )
     workers: list[WorkerInfo]
+    checkers: list[dict] = Field(
+        default_factory=list,
+        description="the processes that check scenes (server/checks.py): pid, state (starting, idle, busy), task "
+        "(while busy: read, validate, summary, samples), restarts",
+    )
     jobs: dict[str, int] = Field(description="jobs by status")

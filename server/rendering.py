@@ -193,11 +193,16 @@ class Try:
     def run(self) -> str:
         """Run the try to its end; returns how it ended: done, failed, cancel, timeout, shutdown, lost,
         gave way."""
+        from tracer.scene import SceneError
+
         job_id = self.job["id"]
         try:
             if self.job.get("kind", JobKind.render) == JobKind.raytree:
                 return self._raytree()
             return self._render()
+        except SceneError as exc:  # past a limit only the compiled scene shows (a radiosity solve's patches)
+            self._invalid(exc)
+            return "failed"
         except Exception as exc:  # a bug or a broken scene must fail the job, not the worker
             log.exception("job %s failed", job_id)
             self.channel.finish(JobStatus.failed, error=f"render error: {type(exc).__name__}: {exc}")
@@ -210,11 +215,15 @@ class Try:
 
         try:
             scene, _ = load_scene(json.loads(self.job["scene"]), self.limits)
-            return scene, compile_scene(scene, device=self.device)
+            return scene, compile_scene(scene, device=self.device, limits=self.limits)
         except SceneError as exc:
-            message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
-            self.channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
+            self._invalid(exc)
             return None
+
+    def _invalid(self, exc) -> None:
+        """The job failed for its scene's errors (a SceneError's), each at its path."""
+        message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
+        self.channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
 
     def _raytree(self) -> str:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
@@ -230,6 +239,8 @@ class Try:
         params = self.job.get("params") or {}
         params = json.loads(params) if isinstance(params, str) else params
         if scene.render.integrator == "radiosity":  # the solve (once per scene: then from the cache) may stop
+            if self._solve_too_long(cs, params):
+                return "failed"
             deadline, clock = time.time() + self.job["max_seconds"], {"check": 0.0}
             stop: dict = {}
 
@@ -261,6 +272,22 @@ class Try:
         solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if cs.radiosity is not None else {}
         self.channel.finish(JobStatus.done, samples_done=1, samples_total=1, passes_done=1, spp_done=1, **solved)
         return "done"
+
+    def _solve_too_long(self, cs, params: dict) -> bool:
+        """A ray tree whose radiosity solve is not in the cache, and is estimated (by the API, `solve_seconds`
+        in its params) past the ray tree's time limit, is refused before the solve starts: the job fails with
+        an error at render.radiosity. A solution in the cache is already paid for."""
+        estimate, limit = float(params.get("solve_seconds") or 0), self.job["max_seconds"]
+        if estimate <= limit or (self.cache is not None and self.cache.has(self.cache.key(cs))):
+            return False
+        message = (
+            f"the radiosity solve would take about {estimate:.0f} s here, past the ray tree's limit of {limit:g} s "
+            "(TRACER_MAX_RAYTREE_SECONDS): render the scene first (its solution is kept, and the ray trees of the "
+            "scene then use it), or use a larger patch_size, fewer rays or a larger threshold"
+        )
+        errors = [{"path": "render.radiosity", "message": message}]
+        self.channel.finish(JobStatus.failed, error=message, errors=errors)
+        return True
 
     def _resume_from(self) -> dict | None:
         """The film of an earlier try of this job, if it left one the row knows of (else from the start)."""

@@ -18,6 +18,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from tracer.scene import Limits
 
 UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+PILLOW_MAX_PIXELS = 89_478_485  # Pillow warns of a decompression bomb past this (PIL.Image.MAX_IMAGE_PIXELS)
 
 
 def _seconds(v):
@@ -138,8 +139,42 @@ class Settings(BaseSettings):
     max_light_samples: int = Field(256, ge=1, description="render.light_samples")
     max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles (mesh files included)")
     max_texture_pixels: int = Field(
-        8192 * 8192, ge=1, description="width x height of one texture or bump image (read from its header)"
+        4096 * 4096,
+        ge=1,
+        le=PILLOW_MAX_PIXELS,
+        description="width x height of one texture or bump image (read from its header, before any pixel is "
+        "decoded; a decoded pixel is 12 bytes)",
     )
+    max_texture_pixels_total: int = Field(
+        4096 * 4096,
+        ge=1,
+        description="width x height summed over every distinct image of a scene (textures and bump maps, files "
+        "and data: URIs), from their headers: at the default, 192 MiB of decoded pixels per scene",
+    )
+
+    max_patches: int = Field(
+        100_000,
+        ge=1,
+        description="radiosity: pieces of surface (two sides each) that render.radiosity.patch_size cuts a scene "
+        "into, counted from the geometry before anything is meshed",
+    )
+    max_solve_rays: int = Field(
+        250_000_000,
+        ge=1,
+        description="radiosity: render.radiosity.rays x max_steps, the form-factor rays of the longest solve",
+    )
+
+    # Scene checks (validation, a pixel's samples) run in their own processes, off the API's event loop.
+    validate_processes: int = Field(
+        2,
+        ge=1,
+        le=64,
+        description="processes that check scenes for POST /api/validate, /api/jobs, /api/raytree and /api/samples",
+    )
+    max_validate_seconds: float = Field(
+        10.0, gt=0, description="seconds of CPU one scene check may take; its process is stopped and replaced past it"
+    )
+    max_validate_waiting: int = Field(32, ge=0, description="requests waiting for a free checking process: 429 past it")
 
     @field_validator("instructor_token", mode="before")
     @classmethod
@@ -164,6 +199,9 @@ class Settings(BaseSettings):
             max_light_samples=self.max_light_samples,
             max_primitives=self.max_primitives,
             max_texture_pixels=self.max_texture_pixels,
+            max_texture_pixels_total=self.max_texture_pixels_total,
+            max_patches=self.max_patches,
+            max_solve_rays=self.max_solve_rays,
         )
 
     def threads_per_worker(self) -> int:

@@ -178,6 +178,37 @@ def test_api_errors_brackets_inside_strings_do_not_count_as_nesting(client):
     assert r.status_code == 200 and r.json()["valid"] is True
 
 
+def test_api_errors_json_depth_read_by_arrays_is_the_regex_s():
+    """The request gate finds the nesting of a large body with numpy (in a thread, off the event loop): on JSON
+    documents with escaped quotes and brackets in their strings, and on 20 000 random strings of brackets,
+    quotes and backslashes, its depth is the one of stripping strings by regular expression, or it leaves
+    that text to the regular expression."""
+    import random
+
+    from server.errors import _depth_by_regex, _depth_of_arrays, json_depth
+
+    rng = random.Random(7)
+
+    def document(depth: int = 0):
+        r = rng.random()
+        if depth > 6 or r < 0.3:
+            return rng.choice(['a\\"[', "\\\\", "]}", '"', 'x\\\\\\"{', 1, 2.5, None, True])
+        if r < 0.65:
+            return [document(depth + 1) for _ in range(rng.randint(0, 4))]
+        return {rng.choice(["k", "[", '\\"', "z}"]): document(depth + 1) for _ in range(rng.randint(0, 4))}
+
+    for _ in range(2000):
+        text = json.dumps(document()).encode()
+        assert _depth_of_arrays(text) == _depth_by_regex(text) == json_depth(text), text
+    left = 0
+    for _ in range(20_000):
+        text = bytes(rng.choice(b'[]{}"\\ab,: ') for _ in range(rng.randint(0, 40)))
+        depth = _depth_of_arrays(text)
+        left += depth is None
+        assert depth in (None, _depth_by_regex(text)) and json_depth(text) == _depth_by_regex(text), text
+    assert 0 < left < 20_000
+
+
 def test_api_errors_invalid_json_names_line_and_column(client):
     r = post_raw(client, "/api/jobs", b'{\n  "scene": {\n    "camera": }\n}')
     assert r.status_code == 422

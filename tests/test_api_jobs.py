@@ -165,6 +165,67 @@ def test_api_jobs_refused_when_its_estimate_is_past_the_limit(client, settings):
     assert "past the limit of 1 s per job (TRACER_MAX_JOB_SECONDS)" in error["message"]
 
 
+def radiosity_scene(seed: int, **radiosity) -> dict:
+    """The radiosity Cornell box, small, with a seed of its own (a radiosity solution is kept by what it solves,
+    the seed included: another test's solution never serves this one)."""
+    scene = small(scene_dict("cornell_radiosity"), 24, 24, sampler={"type": "jittered", "spp": 1})
+    scene["render"]["seed"] = seed
+    scene["render"]["radiosity"].update(radiosity)
+    return scene
+
+
+def test_api_jobs_radiosity_past_its_patches_or_rays_is_refused_at_submit(client):
+    """A patch_size that would cut the box into more than TRACER_MAX_PATCHES patches, and rays x max_steps
+    past TRACER_MAX_SOLVE_RAYS, are refused at submit at their fields, counted before anything is meshed."""
+    r = client.post("/api/jobs", json={"scene": radiosity_scene(1, patch_size=0.001)})
+    assert r.status_code == 422
+    (error,) = r.json()["errors"]
+    assert error["path"] == "render.radiosity.patch_size"
+    assert error["message"].startswith(
+        "patches of 0.001 cut the surfaces into 25760000 patches (objects[0] (quad): 4000000, "
+    )
+    assert error["message"].endswith("must be at most 100000 (service limit): use a larger patch_size")
+    r = client.post("/api/jobs", json={"scene": radiosity_scene(1, rays=1_000_000, max_steps=100_000)})
+    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["render.radiosity.rays"]
+
+
+def test_api_jobs_radiosity_solve_past_the_job_limit_is_refused_at_submit(client, settings):
+    """A render whose radiosity solve alone is estimated past TRACER_MAX_JOB_SECONDS is refused at
+    render.radiosity (not at the samples, which would not help)."""
+    settings.max_job_seconds = 0.001
+    r = client.post("/api/jobs", json={"scene": radiosity_scene(2)})
+    assert r.status_code == 422
+    (error,) = r.json()["errors"]
+    assert error["path"] == "render.radiosity" and error["message"].startswith("its radiosity solve would take about")
+    assert "past the limit of 0.001 s per job (TRACER_MAX_JOB_SECONDS)" in error["message"]
+
+
+def test_api_jobs_raytree_of_a_radiosity_scene_not_yet_solved_past_its_limit_is_refused_before_solving(
+    client, settings
+):
+    """A ray tree whose radiosity solve is estimated past TRACER_MAX_RAYTREE_SECONDS is refused (422 at
+    render.radiosity) by its worker before it solves anything; once a render of the scene has solved it, the
+    solution is kept and the same ray tree is traced at once."""
+    cache = settings.data_dir / "cache" / "radiosity"
+    scene = radiosity_scene(31337)
+    settings.max_raytree_seconds = 0.001
+    before = set(cache.glob("*.npz"))
+    r = client.post("/api/raytree", json={"scene": scene, "x": 12, "y": 12})
+    assert r.status_code == 422, r.text
+    (error,) = r.json()["errors"]
+    assert error["path"] == "render.radiosity"
+    assert error["message"].startswith("the radiosity solve would take about")
+    assert (
+        "past the ray tree's limit of 0.001 s (TRACER_MAX_RAYTREE_SECONDS): render the scene first" in error["message"]
+    )
+    assert set(cache.glob("*.npz")) == before  # nothing was solved
+    rendered = wait_finished(client, submit(client, scene)["id"], timeout=120)
+    assert rendered["status"] == "done", rendered["error"]
+    assert len(set(cache.glob("*.npz")) - before) == 1  # the render's solution, kept
+    r = client.post("/api/raytree", json={"scene": scene, "x": 12, "y": 12})
+    assert r.status_code == 200, r.text  # the kept solution is already paid for
+
+
 def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings, fast_machine):
     """A render that takes longer than estimated is still stopped at the limit."""
     settings.max_job_seconds = 1.0

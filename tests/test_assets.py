@@ -123,6 +123,52 @@ def test_image_pixels_are_linear_rgb_top_row_first():
     assert not pixels[1].any()
 
 
+def big_png_uri(width: int = 6000, height: int = 6000) -> str:
+    """A real PNG of width x height black pixels as a data: URI: it compresses to about 100 KB (a blank 6000 x
+    6000 one), yet decoded it is 108 MB of 8-bit RGB and 432 MB of float32 linear RGB."""
+    buf = io.BytesIO()
+    Image.new("L", (width, height)).save(buf, format="PNG")
+    return uri("image/png", buf.getvalue())
+
+
+def test_image_past_max_pixels_is_refused_from_its_header_before_decoding():
+    """read_image checks the header's size against `max_pixels` before it decodes a pixel: a PNG with junk
+    for pixels is refused for its size, not for its junk."""
+    header = uri("image/png", png_header_only(300, 200))
+    with pytest.raises(AssetError) as info:
+        read_image(header, max_pixels=59_999)
+    assert info.value.message == "the data: URI is 300x200 = 60000 pixels; at most 59999 here"
+    with pytest.raises(AssetError, match="could not be decoded as an image"):
+        read_image(header, max_pixels=60_000)  # within the limit: it is decoded, and its junk found
+    with pytest.raises(SceneError) as info:
+        load_image(header, "materials.m.bump.file", max_pixels=100)
+    assert info.value.errors[0]["path"] == "materials.m.bump.file"
+
+
+def test_image_pixels_go_through_the_srgb_curve_exactly():
+    """The 256 codes of an 8-bit image are decoded through a table worked out once; each value is the sRGB
+    curve's, computed per pixel in float32 as before the table, bit for bit."""
+    codes = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    img = Image.fromarray(np.stack([codes, codes[::-1], codes.T], axis=-1))
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    pixels = read_image(uri("image/png", buf.getvalue()))
+    rgb = np.asarray(img, dtype=np.float32) / 255.0
+    curve = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    np.testing.assert_array_equal(pixels, curve)
+
+
+def test_image_past_pillow_s_decompression_bomb_guard_is_a_clear_error():
+    """A header of 20000 x 20000 pixels trips Pillow's own guard (twice PIL.Image.MAX_IMAGE_PIXELS): a clear
+    AssetError, never Pillow's exception."""
+    bomb = uri("image/png", png_header_only(20_000, 20_000))
+    with pytest.raises(AssetError) as info:
+        image_size(bomb)
+    assert info.value.message == "the data: URI has more than 178956970 pixels, more than any image may have here"
+    with pytest.raises(SceneError):
+        load_image(bomb, "materials.m.texture.file")
+
+
 @pytest.mark.parametrize(
     "file",
     [

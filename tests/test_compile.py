@@ -106,3 +106,36 @@ def test_compile_camera_basis():
     assert_allclose(cam.right, [1, 0, 0])
     assert_allclose(cam.up, [0, 1, 0])
     assert cam.h == pytest.approx(math.tan(math.radians(45)))
+
+
+def test_compile_images_past_the_limits_are_refused_before_any_is_decoded():
+    """The renderer counts a scene's images against the limits from their headers, as validation does, before
+    it decodes one: a worker handed a 3000 x 2000 texture (which a scene validated without its assets never
+    counted) refuses it at its field, holding a few MB (72 MB once decoded); within the limits, it decodes."""
+    import tracemalloc
+
+    from test_assets import big_png_uri, png_uri
+
+    from tracer.scene import Limits
+
+    big, small = big_png_uri(3000, 2000), png_uri(4, 2)
+    scene = scene_with(
+        {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"texture": {"type": "image", "file": big}}},
+        materials={"m": {"bump": {"type": "image", "file": small}}},
+    )
+    for limits, message in [
+        (Limits(max_texture_pixels=5_999_999), "the image is 3000x2000 = 6000000 pixels; must be at most 5999999"),
+        (Limits(max_texture_pixels_total=6_000_007), "the scene's images come to 6000008 pixels"),
+    ]:
+        tracemalloc.start()
+        try:
+            with pytest.raises(SceneError) as info:
+                compile_scene(scene, limits=limits)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        (error,) = info.value.errors
+        assert error["path"] == "objects[0].material.texture.file" and message in error["message"], error
+        assert peak < 20_000_000, f"compiling held {peak / 1e6:.0f} MB before refusing"
+    cs = compile_scene(scene, limits=Limits(max_texture_pixels_total=6_000_008))
+    assert cs.data.tex_pixels.shape == (6_000_008,)

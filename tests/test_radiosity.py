@@ -370,3 +370,90 @@ def test_radiosity_solutions_are_cached_by_what_they_solve(tmp_path):
     for change in ({"materials": {**data["materials"], "red": {"kd": [0.5, 0.1, 0.1]}}}, {"render": finer}):
         other = attach(compile_scene(load_scene({**data, **change})[0]), cache=cache)
         assert not other.cached
+
+
+def _all_shapes(**radiosity) -> dict:
+    """Every shape radiosity meshes (a plane clipped to the scene, a transformed box, a sphere, a disk, a
+    triangle, an inline mesh and a mesh file, and a quad), with render.radiosity set to `radiosity`."""
+    from tracer.assets import ASSET_DIR  # noqa: F401 (the mesh file is resolved there)
+
+    m = {"kd": 0.5}
+    return {
+        "camera": {"lookfrom": [0, 1, 6], "lookat": [0, 0, 0]},
+        "film": {"width": 8, "height": 8},
+        "render": {"integrator": "radiosity", "radiosity": radiosity},
+        "lights": [{"type": "quad", "corner": [-0.5, 2.9, -0.5], "edge1": [1, 0, 0], "edge2": [0, 0, 1]}],
+        "objects": [
+            {"type": "plane", "point": [0, -1, 0], "normal": [0, 1, 0.2], "material": m},
+            {"type": "box", "min": [0, 0, 0], "max": [1, 0.7, 0.3],
+             "transform": {"rotate": [10, 30, 0], "scale": [1.3, 1, 2], "translate": [1, -1, 0]}, "material": m},
+            {"type": "sphere", "center": [-1, 0, 0], "radius": 0.6, "material": m},
+            {"type": "disk", "center": [0, 2, -1], "normal": [0, -1, 0.3], "radius": 0.8, "material": m},
+            {"type": "triangle", "vertices": [[0, 0, -2], [1.7, 0.2, -2], [0.3, 1.1, -2.1]], "material": m},
+            {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1.3, 0], [1, 1, 0.2]],
+             "faces": [[0, 1, 2], [1, 3, 2]], "transform": {"scale": 0.9, "translate": [-2, 0.5, 1]}, "material": m},
+            {"type": "mesh", "file": "icosahedron.ply", "transform": {"scale": 0.5, "translate": [2, 1, -1]},
+             "material": m},
+            {"type": "quad", "corner": [-3, -1, -3], "edge1": [6, 0, 0], "edge2": [0, 4, 0.5], "material": m},
+        ],
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("patch_size", [0.61, 0.25, 0.13, 0.071])
+def test_radiosity_patches_are_counted_before_meshing_as_meshing_makes_them(patch_size):
+    """tracer/meshing.py counts each object's patches from its geometry and patch_size alone, as validation
+    does (mesh files read from the asset folder), and the count is that of the mesh the solve makes."""
+    from tracer import meshing
+    from tracer.radiosity import triangles
+    from tracer.scene import ASSET_DIR
+
+    scene, _ = load_scene(_all_shapes(patch_size=patch_size), assets=ASSET_DIR)
+    counted = meshing.patch_counts(
+        scene, patch_size, meshing.mesh_triangles(scene.objects, meshing.mesh_files(ASSET_DIR))
+    )
+    cs = compile_scene(scene)
+    assert counted == meshing.patch_counts(scene, patch_size, triangles(cs))
+    p = build_patches(cs, patch_size)
+    made = np.bincount(p.obj[: len(p) // 2], minlength=len(scene.objects))
+    assert [counted[i] for i in range(len(scene.objects))] == made.tolist()
+
+
+def test_radiosity_patches_past_the_limit_are_refused_before_meshing():
+    """A patch_size that would cut the surfaces into more patches than max_patches is an error at
+    render.radiosity.patch_size, in validation and (for a scene validated under other limits) in the solve,
+    before a single patch is made: a patch_size of 1e-6 would make 2 x 10^14 of them."""
+    from tracer.assets import ASSET_DIR
+    from tracer.scene import Limits, validate_scene
+
+    limits = Limits(max_patches=5000)
+    errors = validate_scene(_all_shapes(patch_size=1e-6), limits, assets=ASSET_DIR)["errors"]
+    assert [e["path"] for e in errors] == ["render.radiosity.patch_size"]
+    assert errors[0]["message"].startswith("patches of 1e-06 cut the surfaces into ")
+    assert "(objects[0] (plane): 156555204360000, objects[7] (quad): 24186774000000, " in errors[0]["message"]
+    assert errors[0]["message"].endswith("must be at most 5000 (service limit): use a larger patch_size")
+    scene, _ = load_scene(_all_shapes(patch_size=1e-6), Limits(max_patches=10**15), assets=ASSET_DIR)
+    with pytest.raises(SceneError) as info:
+        solve(compile_scene(scene, limits=limits), patch_size=1e-6)
+    assert info.value.errors[0]["path"] == "render.radiosity.patch_size"
+    assert validate_scene(_all_shapes(patch_size=0.25), limits, assets=ASSET_DIR)["valid"]
+    other = _all_shapes(patch_size=1e-6)
+    other["render"]["integrator"] = "path"  # the settings have no effect (a warning), nor a cost
+    assert validate_scene(other, limits, assets=ASSET_DIR)["valid"]
+
+
+def test_radiosity_rays_times_steps_past_the_limit_are_refused():
+    """rays x max_steps bounds the form-factor rays of the longest solve: past max_solve_rays, an error at
+    render.radiosity.rays (the library's own limit allows every value the fields allow)."""
+    from tracer.scene import Limits, validate_scene
+
+    data = _all_shapes(rays=1_000_000, max_steps=100_000)
+    assert validate_scene(data)["valid"]
+    (error,) = validate_scene(data, Limits(max_solve_rays=250_000_000))["errors"]
+    assert error == {
+        "path": "render.radiosity.rays",
+        "message": "rays x max_steps = 1000000 x 100000 = 100000000000 form-factor rays at most; must be at most "
+        "250000000 (service limit): use fewer rays or fewer steps",
+    }
+    with pytest.raises(SceneError) as info:
+        solve(compile_scene(load_scene(data)[0], limits=Limits(max_solve_rays=10)), rays=4096, max_steps=2000)
+    assert info.value.errors[0]["path"] == "render.radiosity.rays"

@@ -755,6 +755,62 @@ def test_assets_texture_pixels_limit_read_from_the_header():
     }
 
 
+def test_assets_texture_pixels_total_counts_each_distinct_image_once():
+    """Every image of a scene (textures and bumps, of named and inline materials, data: URIs and files) counts
+    towards the total, each distinct file once, from its header; the error names the image that crosses it."""
+    a, b = uri("image/png", png_header_only(100, 30)), uri("image/png", png_header_only(50, 20))
+    data = _scene(
+        materials={
+            "m": {"texture": {"type": "image", "file": a}},  # 3000
+            "n": {"bump": {"type": "image", "file": a}},  # the same image again: not counted twice
+            "p": {"texture": {"type": "image", "file": "bricks.png"}},  # 256 x 256 = 65536, from the asset folder
+        },
+        objects=[
+            {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": {"bump": {"type": "image", "file": b}}}
+        ],
+    )
+    total = 3000 + 65536 + 1000
+    assert validate_scene(data, Limits(max_texture_pixels_total=total), assets=ASSET_DIR)["valid"]
+    assert validate_scene(data, Limits(max_texture_pixels_total=1))["valid"]  # the format alone reads no header
+    (error,) = validate_scene(data, Limits(max_texture_pixels_total=total - 1), assets=ASSET_DIR)["errors"]
+    assert error == {
+        "path": "objects[0].material.bump.file",
+        "message": f"with this 50x20 image the scene's images come to {total} pixels; all of a scene's images "
+        f"together must be at most {total - 1} (service limit)",
+    }
+    (error,) = validate_scene(data, Limits(max_texture_pixels_total=68_000), assets=ASSET_DIR)["errors"]
+    assert error["path"] == "materials.p.texture.file" and "come to 68536 pixels" in error["message"]
+    # an image past the limit of one image is reported at its own field, once
+    errors = validate_scene(data, Limits(max_texture_pixels=3000, max_texture_pixels_total=4000), assets=ASSET_DIR)
+    assert [e["path"] for e in errors["errors"]] == ["materials.p.texture.file"]
+    assert errors["errors"][0]["message"] == "the image is 256x256 = 65536 pixels; must be at most 3000 (service limit)"
+
+
+def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
+    """A real blank 6000 x 6000 PNG in a data: URI (100 KB; 432 MB once decoded as float32) is refused by the
+    service's limits at its field, and validating it holds no more than a few MB (traced allocations)."""
+    import tracemalloc
+
+    from test_assets import big_png_uri
+
+    from server.settings import Settings
+
+    data = _scene(materials={"m": {"texture": {"type": "image", "file": big_png_uri()}}})
+    tracemalloc.start()
+    try:
+        report = validate_scene(data, Settings().limits, assets=ASSET_DIR)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert report["errors"] == [
+        {
+            "path": "materials.m.texture.file",
+            "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (service limit)",
+        }
+    ]
+    assert peak < 20_000_000, f"validation held {peak / 1e6:.0f} MB"
+
+
 def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
     """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`."""
     (tmp_path / "grid.obj").write_text(obj_grid(10))  # 200 triangles

@@ -155,42 +155,63 @@ def _source(file: str, asset_dir: Path) -> tuple[str, Path | io.BytesIO, str]:
 
 
 def _open_image(file: str, asset_dir: Path):
+    """(how to name it, the image with its header read and no pixels decoded). Raises AssetError."""
     from PIL import Image, UnidentifiedImageError
 
     what, src, _ = _source(file, asset_dir)
     try:
-        return what, Image.open(src)  # reads the header only
+        img = Image.open(src)  # reads the header only
     except UnidentifiedImageError:  # no format Pillow knows (its message names a temporary object)
         raise AssetError(f"{what} is not a readable image ({IMAGE_KINDS})") from None
-    except Exception as e:  # a decompression bomb, a truncated header, an unreadable file
+    except Image.DecompressionBombError:  # Pillow's own guard, far past any limit of ours: a clear word, not its own
+        most = 2 * (Image.MAX_IMAGE_PIXELS or 0)
+        raise AssetError(f"{what} has more than {most} pixels, more than any image may have here") from None
+    except Exception as e:  # a truncated header, an unreadable file
         raise AssetError(f"{what} is not a readable image ({IMAGE_KINDS}): {_reason(e)}") from None
+    width, height = img.size
+    if width < 1 or height < 1:
+        img.close()
+        raise AssetError(f"{what} is an empty image ({width}x{height} pixels)")
+    return what, img
 
 
 def image_size(file: str, asset_dir: Path = ASSET_DIR) -> tuple[int, int]:
     """(width, height) of an image asset from its header, no pixels decoded. Raises AssetError."""
-    what, img = _open_image(file, asset_dir)
+    _, img = _open_image(file, asset_dir)
     with img:
-        width, height = img.size
-    if width < 1 or height < 1:
-        raise AssetError(f"{what} is an empty image ({width}x{height} pixels)")
-    return width, height
+        return img.size
 
 
-def read_image(file: str, asset_dir: Path = ASSET_DIR) -> np.ndarray:
-    """An image asset as linear RGB float32, shape (height, width, 3), top row first. Raises AssetError."""
-    what, img = _open_image(file, asset_dir)
-    try:
-        with img:
-            rgb = np.asarray(img.convert("RGB"), dtype=np.float32) / 255.0
-    except Exception as e:  # truncated or corrupt pixel data
-        raise AssetError(f"{what} could not be decoded as an image: {_reason(e)}") from None
+def _srgb_table() -> np.ndarray:
+    """The linear value of each 8-bit sRGB code, in float32: the sRGB curve (IEC 61966-2-1) worked out once
+    for the 256 codes instead of for every pixel."""
+    rgb = np.arange(256, dtype=np.float32) / 255.0
     return np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
-def load_image(file: str, path: str, asset_dir: Path = ASSET_DIR) -> np.ndarray:
+SRGB_TO_LINEAR = _srgb_table()
+
+
+def read_image(file: str, asset_dir: Path = ASSET_DIR, max_pixels: int | None = None) -> np.ndarray:
+    """An image asset as linear RGB float32, shape (height, width, 3), top row first; one of more than
+    `max_pixels` pixels (read from its header) is refused before anything is decoded. Raises AssetError.
+    Decoded, a pixel takes 3 bytes (8-bit RGB) and then 12 (the float32 result)."""
+    what, img = _open_image(file, asset_dir)
+    with img:
+        width, height = img.size
+        if max_pixels is not None and width * height > max_pixels:
+            raise AssetError(f"{what} is {width}x{height} = {width * height} pixels; at most {max_pixels} here")
+        try:
+            codes = np.asarray(img.convert("RGB"))
+        except Exception as e:  # truncated or corrupt pixel data
+            raise AssetError(f"{what} could not be decoded as an image: {_reason(e)}") from None
+    return SRGB_TO_LINEAR[codes]
+
+
+def load_image(file: str, path: str, asset_dir: Path = ASSET_DIR, max_pixels: int | None = None) -> np.ndarray:
     """`read_image`, raising SceneError at JSON path `path`."""
     try:
-        return read_image(file, asset_dir)
+        return read_image(file, asset_dir, max_pixels)
     except AssetError as e:
         raise _at(path, e) from None
 

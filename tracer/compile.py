@@ -15,11 +15,19 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from tracer.assets import ASSET_DIR, load_image, load_mesh_file  # noqa: F401 (load_mesh_file: re-exported)
+from tracer.assets import (  # noqa: F401 (load_mesh_file: re-exported)
+    ASSET_DIR,
+    AssetError,
+    image_size,
+    load_image,
+    load_mesh_file,
+)
 from tracer.film import filter_tables
 from tracer.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
 from tracer.lights import light_data, light_shape
-from tracer.scene import AREA_LIGHTS, Material, Scene, json_path
+from tracer.meshing import apply as _apply
+from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.compile's before)
+from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
 from tracer.structs import (
     FACE_SMOOTH,
     FACE_UV,
@@ -46,53 +54,7 @@ class CompiledScene:
     num_shapes: int
     keep: list = field(default_factory=list)  # Warp objects that must outlive `data` (the mesh)
     radiosity: object = None  # the radiosity.Solution when the integrator is radiosity
-
-
-# ----------------------------------------------------------------------------- transforms
-
-
-def transform_matrix(t) -> np.ndarray:
-    """4x4 matrix of a Transform: scale, then rotate about X, Y, Z (degrees), then translate."""
-    m = np.eye(4)
-    if t is None:
-        return m
-    s = np.diag([*t.scale, 1.0])
-    rx, ry, rz = (math.radians(a) for a in t.rotate)
-    cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
-    mx = np.array([[1, 0, 0, 0], [0, cx, -sx, 0], [0, sx, cx, 0], [0, 0, 0, 1]])
-    my = np.array([[cy, 0, sy, 0], [0, 1, 0, 0], [-sy, 0, cy, 0], [0, 0, 0, 1]])
-    mz = np.array([[cz, -sz, 0, 0], [sz, cz, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
-    tr = np.eye(4)
-    tr[:3, 3] = t.translate
-    return tr @ mz @ my @ mx @ s
-
-
-def _apply(m: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    return pts @ m[:3, :3].T + m[:3, 3]
-
-
-def box_faces(bmin, bmax, transform) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """The six faces of a (transformed) box as (corner, edge1, edge2), edge1 x edge2 outwards."""
-    m = transform_matrix(transform)
-    lo, hi = np.asarray(bmin, float), np.asarray(bmax, float)
-    centre = _apply(m, ((lo + hi) / 2)[None])[0]
-    faces = []
-    for axis in range(3):
-        a1, a2 = (axis + 1) % 3, (axis + 2) % 3
-        for side in (lo, hi):
-            c = lo.copy()
-            c[axis] = side[axis]
-            e1 = np.zeros(3)
-            e1[a1] = hi[a1] - lo[a1]
-            e2 = np.zeros(3)
-            e2[a2] = hi[a2] - lo[a2]
-            wc = _apply(m, c[None])[0]
-            we1 = m[:3, :3] @ e1
-            we2 = m[:3, :3] @ e2
-            if np.dot(np.cross(we1, we2), wc + 0.5 * (we1 + we2) - centre) < 0:
-                we1, we2 = we2, we1
-            faces.append((wc, we1, we2))
-    return faces
+    limits: Limits = field(default_factory=Limits)  # what it was compiled under (the radiosity solve's too)
 
 
 # ----------------------------------------------------------------------------- meshes
@@ -112,10 +74,11 @@ def vertex_normals(verts: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 class _Images:
-    """Texture images, loaded once each, packed into one linear-RGB array."""
+    """Texture images, loaded once each, packed into one linear-RGB array. Each is counted against the
+    limits (one image, and all of the scene's together) from its header before its pixels are decoded."""
 
-    def __init__(self, asset_dir: Path):
-        self.asset_dir = asset_dir
+    def __init__(self, asset_dir: Path, limits: Limits):
+        self.asset_dir, self.limits = asset_dir, limits
         self.index: dict[str, int] = {}
         self.pixels: list[np.ndarray] = []
         self.info: list[tuple[int, int, int]] = []
@@ -124,7 +87,14 @@ class _Images:
     def add(self, file: str, path: str) -> int:
         if file in self.index:
             return self.index[file]
-        lin = load_image(file, path, self.asset_dir)
+        try:
+            width, height = image_size(file, self.asset_dir)
+        except AssetError as e:
+            raise SceneError([{"path": path, "message": e.message}]) from None
+        problem = texture_problem(width, height, self.offset, self.limits)
+        if problem:
+            raise SceneError([{"path": path, "message": problem}])
+        lin = load_image(file, path, self.asset_dir, max_pixels=width * height)  # the file cannot have grown since
         h, w = lin.shape[:2]
         self.index[file] = len(self.info)
         self.info.append((self.offset, w, h))
@@ -187,12 +157,15 @@ def _camera(scene: Scene) -> CameraData:
     return cam
 
 
-def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu") -> CompiledScene:
-    """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets.
+def compile_scene(
+    scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu", limits: Limits | None = None
+) -> CompiledScene:
+    """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets, and on
+    images past `limits` (the library's defaults when None), found from their headers before any is decoded.
 
     Flattening only: a radiosity scene's solution is solved by `tracer.radiosity.attach`, which
     render() runs as a phase with progress and ray_tree() runs when it needs it."""
-    images = _Images(Path(asset_dir))
+    images = _Images(Path(asset_dir), limits or Limits())
     mat_names = list(scene.materials)
     mat_index = {n: i for i, n in enumerate(mat_names)}
     mats = [_material(m, json_path(("materials", n)), images) for n, m in scene.materials.items()]
@@ -271,7 +244,8 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
     data.num_lights = len(lights)
     data.lights = wp.array(lights or [LightData()], dtype=LightData, device=device)
     if images.pixels:
-        data.tex_pixels = wp.array(np.concatenate(images.pixels), dtype=wp.vec3, device=device)
+        pixels = images.pixels[0] if len(images.pixels) == 1 else np.concatenate(images.pixels)
+        data.tex_pixels = wp.array(pixels, dtype=wp.vec3, device=device)
         data.tex_info = wp.array(np.array(images.info, dtype=np.int32), dtype=wp.vec3i, device=device)
     else:
         data.tex_pixels = wp.zeros(1, dtype=wp.vec3, device=device)
@@ -301,6 +275,7 @@ def compile_scene(scene: Scene, asset_dir: Path = ASSET_DIR, device: str = "cpu"
         num_triangles=ntri,
         num_shapes=data.num_shapes,
         keep=keep,
+        limits=images.limits,
     )
 
 

@@ -11,13 +11,16 @@ long side; the service scales it by what finished jobs actually took.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+from tracer import meshing
 from tracer.scene import AREA_LIGHTS, Scene
 
 RAYS_PER_SECOND = 12.0e6  # per thread, analytic shapes (the examples ran at 5-15 M rays/s on one thread)
 SHAPES_HALVE_AT = 40  # the rate halves for every this many analytic shapes (each is tested by every ray)
 PASS_SECONDS = 0.01  # fixed cost of one progressive pass (launches, the preview)
 SOLVE_RAYS_PER_SECOND = 2.0e6  # radiosity form-factor rays per thread
+LIGHT_RAYS_PER_SIDE = 256  # an area light's shot: at least this many rays per patch side (tracer/radiosity.py)
 
 
 def rays_per_sample(scene: Scene) -> float:
@@ -34,20 +37,23 @@ def rays_per_sample(scene: Scene) -> float:
     return nodes * (1 + shadow)
 
 
-def solve_seconds(scene: Scene, threads: int) -> float:
-    """The radiosity solve: its shots' rays (patches from the surfaces' area, shots from the threshold)."""
+def solve_seconds(scene: Scene, threads: int, assets: Path | None = None) -> float:
+    """The radiosity solve: its shots' rays (the patches the surfaces are cut into, tracer/meshing.py, mesh
+    files included when `assets` is their folder; the shots from the threshold)."""
     if scene.render.integrator != "radiosity":
         return 0.0
     cfg = scene.render.radiosity
-    area = sum(_area(o) for o in scene.objects)
-    sides = 2 * max(1.0, area / cfg.patch_size**2)
+    triangles = meshing.mesh_triangles(scene.objects, meshing.mesh_files(assets))
+    patches = sum(meshing.patch_counts(scene, cfg.patch_size, triangles).values())
+    sides = 2 * max(1.0, patches)
     shots = min(cfg.max_steps, 0.3 * sides / 2 * math.log(1 / cfg.threshold) ** 1.5)
-    rays = shots * cfg.rays + 256 * sides
+    rays = shots * cfg.rays + LIGHT_RAYS_PER_SIDE * sides
     return rays / (SOLVE_RAYS_PER_SECOND * max(1, threads))
 
 
-def seconds(scene: Scene, threads: int = 1) -> float:
-    """Estimated seconds to render `scene` on `threads` threads, the radiosity solve included."""
+def seconds(scene: Scene, threads: int = 1, assets: Path | None = None, solve: float | None = None) -> float:
+    """Estimated seconds to render `scene` on `threads` threads, the radiosity solve included (`assets`:
+    the folder of its mesh files, for the solve's patches; `solve`: the solve's seconds, when known)."""
     film, sampler = scene.film, scene.sampler
     if sampler.type == "adaptive":
         per_pixel = 5 + 12 * sampler.max_level  # corner and centre rays, then cells split at the edges
@@ -59,23 +65,4 @@ def seconds(scene: Scene, threads: int = 1) -> float:
     shapes = sum(1 for o in scene.objects if o.type != "mesh" and o.type != "triangle") + len(scene.lights)
     rate = RAYS_PER_SECOND / (1 + shapes / SHAPES_HALVE_AT) * max(1, threads)
     render = eye * rays_per_sample(scene) / rate + passes * PASS_SECONDS
-    return render + solve_seconds(scene, threads)
-
-
-def _area(o) -> float:
-    """An object's surface area (world units^2), for the patch count; meshes and planes as a unit each."""
-    import numpy as np
-
-    if o.type == "sphere":
-        return 4 * math.pi * o.radius**2
-    if o.type == "disk":
-        return math.pi * o.radius**2
-    if o.type == "quad":
-        return float(np.linalg.norm(np.cross(o.edge1, o.edge2)))
-    if o.type == "box":
-        s = np.subtract(o.max, o.min) * (np.asarray(o.transform.scale) if o.transform else 1.0)
-        return float(2 * (s[0] * s[1] + s[1] * s[2] + s[0] * s[2]))
-    if o.type == "triangle":
-        v = np.asarray(o.vertices)
-        return float(np.linalg.norm(np.cross(v[1] - v[0], v[2] - v[0])) / 2)
-    return 4.0  # a plane (clipped to the scene), a mesh: a few patches' worth
+    return render + (solve_seconds(scene, threads, assets) if solve is None else solve)

@@ -39,11 +39,13 @@ import os
 import time
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, box_faces, compile_scene
+from tracer import meshing
+from tracer.compile import CompiledScene, compile_scene
 from tracer.geometry import PI, closest_hit
 from tracer.kinds import (
     PATCHES_DISK,
@@ -68,8 +70,8 @@ from tracer.structs import PatchIndex, RadiosityData, SceneData
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side
 SNAPSHOT_EVERY_STEP = 16  # snapshots of B after every shot up to this many, then after 32, 64, 128, ...
-SPHERE_MIN_SEGMENTS = (12, 6)  # a sphere's net has at least this many triangles around, and rows from pole to pole
-DISK_MIN_SECTORS = 16  # a disk's rings have at least this many sectors
+SPHERE_MIN_SEGMENTS = meshing.SPHERE_MIN_SEGMENTS  # a sphere's net: at least this many triangles around, and rows
+DISK_MIN_SECTORS = meshing.DISK_MIN_SECTORS  # a disk's rings have at least this many sectors
 SPHERE_REACH = wp.constant(1.001)  # a ray from a sphere's centre to its facets (inscribed) goes this far, in radii
 TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
 TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)
@@ -233,25 +235,7 @@ def _material_rho(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
 
 def _scene_bounds(cs: CompiledScene) -> tuple[np.ndarray, np.ndarray]:
     """A box around everything bounded in the scene (and the camera), to clip planes to."""
-    pts = [np.asarray(cs.scene.camera.lookfrom, float), np.asarray(cs.scene.camera.lookat, float)]
-    for obj in cs.scene.objects:
-        for key in ("center", "corner", "min", "max"):
-            if hasattr(obj, key):
-                pts.append(np.asarray(getattr(obj, key), float))
-        if obj.type in ("sphere", "disk"):
-            pts += [np.asarray(obj.center, float) - obj.radius, np.asarray(obj.center, float) + obj.radius]
-        if obj.type == "quad":
-            pts.append(np.add(obj.corner, np.add(obj.edge1, obj.edge2)))
-    for light in cs.scene.lights:
-        for key in ("position", "corner", "center"):
-            if hasattr(light, key):
-                pts.append(np.asarray(getattr(light, key), float))
-    if cs.num_triangles:
-        pts.extend(cs.data.mesh_points.numpy().astype(float))
-    p = np.array(pts)
-    lo, hi = p.min(axis=0), p.max(axis=0)
-    pad = 0.25 * (hi - lo).max() + 1e-3
-    return lo - pad, hi + pad
+    return meshing.scene_bounds(cs.scene, cs.data.mesh_points.numpy() if cs.num_triangles else np.zeros((0, 3)))
 
 
 def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -264,8 +248,7 @@ def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def sphere_net(center, radius: float, patch_size: float) -> np.ndarray:
     """A latitude-longitude net of triangles inscribed in a sphere, wound outwards: (T, 3 corners, 3)."""
-    n_lon = max(SPHERE_MIN_SEGMENTS[0], math.ceil(2 * math.pi * radius / patch_size))
-    n_lat = max(SPHERE_MIN_SEGMENTS[1], math.ceil(math.pi * radius / patch_size))
+    n_lon, n_lat = meshing.sphere_segments(radius, patch_size)
     theta = np.linspace(0.0, math.pi, n_lat + 1)
     phi = np.linspace(0.0, 2 * math.pi, n_lon + 1)
 
@@ -294,10 +277,9 @@ def sphere_net(center, radius: float, patch_size: float) -> np.ndarray:
 def disk_net(center, normal, radius: float, patch_size: float) -> tuple[np.ndarray, float]:
     """Rings of triangles inscribed in a disk, wound along its normal: (T, 3 corners, 3), and the radius
     of the circle inside their polygon."""
-    n_s = max(DISK_MIN_SECTORS, math.ceil(2 * math.pi * radius / patch_size))
-    n_r = max(1, math.ceil(radius / patch_size))
+    n_s, n_r = meshing.disk_segments(radius, patch_size)
     n = np.asarray(normal, float) / np.linalg.norm(normal)
-    t, b = _tangents(n)
+    t, b = meshing.tangents(n)
     c = np.asarray(center, float)
 
     def at(i: int, j: int) -> np.ndarray:
@@ -318,6 +300,22 @@ def disk_net(center, normal, radius: float, patch_size: float) -> tuple[np.ndarr
     return tris, radius * math.cos(math.pi / n_s)
 
 
+def triangles(cs: CompiledScene) -> meshing.Triangles:
+    """The compiled scene's triangles: points, faces, the object of each face."""
+    if not cs.num_triangles:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+    faces = cs.data.mesh_indices.numpy().reshape(-1, 3)
+    return cs.data.mesh_points.numpy(), faces, cs.data.face_obj.numpy()
+
+
+def check_limits(cs: CompiledScene, settings) -> None:
+    """Raise SceneError (at render.radiosity.patch_size or .rays) when a solve with `settings` (patch_size, rays,
+    max_steps) is past the limits the scene was compiled under: counted before anything is meshed or shot."""
+    problems = meshing.solve_problems(cs.scene, triangles(cs), settings, cs.limits)
+    if problems:
+        raise SceneError([{"path": f"render.radiosity.{field}", "message": message} for field, message in problems])
+
+
 def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
     """Mesh every object of the scene into patches of about patch_size (both sides of each)."""
     rho_m, emit_m = _material_rho(cs)
@@ -330,16 +328,12 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
 
     def grid(c, e1, e2, obj, mat):
         c, e1, e2 = (np.asarray(v, float) for v in (c, e1, e2))
-        nu = max(1, math.ceil(np.linalg.norm(e1) / patch_size))
-        nv = max(1, math.ceil(np.linalg.norm(e2) / patch_size))
+        nu, nv = meshing.grid_cells(e1, e2, patch_size)
         for j in range(nv):
             for i in range(nu):
                 rows.append((c + e1 * i / nu + e2 * j / nv, e1 / nu, e2 / nv, False, obj, mat, None, None, 0.0))
 
-    def tri(v0, v1, v2, obj, mat):
-        v0, v1, v2 = (np.asarray(v, float) for v in (v0, v1, v2))
-        longest = max(np.linalg.norm(v1 - v0), np.linalg.norm(v2 - v1), np.linalg.norm(v0 - v2))
-        n = max(1, math.ceil(longest / patch_size))
+    def tri(v0, v1, v2, n, obj, mat):
         a, b = (v1 - v0) / n, (v2 - v0) / n
         for j in range(n):
             for i in range(n - j):
@@ -353,16 +347,10 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         if obj.type == "quad":
             grid(obj.corner, obj.edge1, obj.edge2, i, mat)
         elif obj.type == "box":
-            for c, e1, e2 in box_faces(obj.min, obj.max, obj.transform):
+            for c, e1, e2 in meshing.box_faces(obj.min, obj.max, obj.transform):
                 grid(c, e1, e2, i, mat)
         elif obj.type == "plane":
-            n = np.asarray(obj.normal, float) / np.linalg.norm(obj.normal)
-            t, b = _tangents(n)
-            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-            rel = corners - np.asarray(obj.point, float)
-            u, v = rel @ t, rel @ b
-            origin = np.asarray(obj.point, float) + u.min() * t + v.min() * b
-            grid(origin, (u.max() - u.min()) * t, (v.max() - v.min()) * b, i, mat)
+            grid(*meshing.plane_rect(obj.point, obj.normal, lo, hi), i, mat)
         elif obj.type == "sphere":
             centre = np.asarray(obj.center, float)
             net = sphere_net(centre, obj.radius, patch_size)
@@ -382,8 +370,9 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         pts = cs.data.mesh_points.numpy().astype(float)
         idx = cs.data.mesh_indices.numpy().reshape(-1, 3)
         face_obj, face_mat = cs.data.face_obj.numpy(), cs.data.face_mat.numpy()
+        cuts = meshing.triangle_cells(pts, idx, patch_size).astype(np.int64)
         for f, (i0, i1, i2) in enumerate(idx):
-            tri(pts[i0], pts[i1], pts[i2], int(face_obj[f]), int(face_mat[f]))
+            tri(pts[i0], pts[i1], pts[i2], int(cuts[f]), int(face_obj[f]), int(face_mat[f]))
     if not rows:
         raise SceneError(
             [
@@ -430,16 +419,6 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
         object_center=object_center,
         object_radius=object_radius,
     )
-
-
-def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t = np.cross(n, a)
-    t /= np.linalg.norm(t)
-    return t, np.cross(n, t)
-
-
-# ------------------------------------------------------------------------------ lookup: the solution at a hit
 
 
 @wp.func(inline=True)
@@ -664,6 +643,7 @@ def solve(
     CUDA device each shot is one launch."""
     start = time.perf_counter()
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
+    check_limits(cs, SimpleNamespace(patch_size=patch_size, rays=rays, max_steps=max_steps))
     p = build_patches(cs, patch_size)
     ix, keep = patch_index(p, device)
     n = len(p)
@@ -842,6 +822,10 @@ class SolutionCache:
         h.update(json.dumps(meta, sort_keys=True).encode())
         h.update(Path(__file__).read_bytes())
         return h.hexdigest()[:32]
+
+    def has(self, key: str) -> bool:
+        """Is a solution of this key kept?"""
+        return (self.folder / f"{key}.npz").is_file()
 
     def get(self, key: str) -> Solution | None:
         path = self.folder / f"{key}.npz"

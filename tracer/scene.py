@@ -46,6 +46,7 @@ from pydantic import (
 from pydantic_core import InitErrorDetails, PydanticCustomError
 from pydantic_core.core_schema import ErrorType
 
+from tracer import meshing
 from tracer.assets import (  # noqa: F401 (ASSET_DIR and resolve_asset: re-exported, tracer.scene's since v1)
     ASSET_DIR,
     AssetError,
@@ -81,7 +82,12 @@ class Limits:
     max_depth: int = 64
     max_light_samples: int = 1024
     max_primitives: int = 5_000_000  # shapes plus triangles, those of mesh files included
+    # Images, counted from their headers before any is decoded; a decoded pixel is 12 bytes (float32 RGB)
     max_texture_pixels: int = 67_108_864  # width x height of one texture or bump image (8192 x 8192)
+    max_texture_pixels_total: int = 67_108_864  # the sum over every distinct image of a scene (768 MiB decoded)
+    # The radiosity solve, counted before anything is meshed or shot (tracer/meshing.py)
+    max_patches: int = 1_000_000  # pieces of surface (two sides each) that patch_size cuts the scene into
+    max_solve_rays: int = 100_000_000_000  # rays x max_steps: the form-factor rays of the longest solve
 
 
 # ---------------------------------------------------------------------------------------------
@@ -181,18 +187,44 @@ def _asset_file(v: str) -> str:
     return v
 
 
+def _image_size(file: str, info: ValidationInfo) -> tuple[int, int]:
+    """(width, height) of an image from its header, read once per validation (the scene's total reads it again)."""
+    sizes = info.context.setdefault("image_sizes", {})
+    if file not in sizes:
+        try:
+            sizes[file] = image_size(file, _asset_dir(info))
+        except AssetError as e:
+            sizes[file] = e
+    if isinstance(sizes[file], AssetError):
+        raise sizes[file]
+    return sizes[file]
+
+
 def _image_file(v: str, info: ValidationInfo) -> str:
     """With an asset folder: the image exists (or is a data: URI) and its header is readable; no pixels decoded."""
-    folder = _asset_dir(info)
-    if folder is not None:
+    if _asset_dir(info) is not None:
         try:
-            width, height = image_size(v, folder)
+            width, height = _image_size(v, info)
         except AssetError as e:
             raise _error(e.message) from None
-        limit = _limits(info).max_texture_pixels
-        if width * height > limit:
-            raise _error(f"the image is {width}x{height} = {width * height} pixels; {_limit(limit)}")
+        problem = texture_problem(width, height, 0, _limits(info))
+        if problem:
+            raise _error(problem)
     return v
+
+
+def texture_problem(width: int, height: int, used: int, limits: Limits) -> str | None:
+    """What is wrong with one more image of width x height pixels when the scene's images before it hold
+    `used` pixels (None: nothing). Validation and the renderer both ask, before any pixel is decoded."""
+    pixels = width * height
+    if pixels > limits.max_texture_pixels:
+        return f"the image is {width}x{height} = {pixels} pixels; {_limit(limits.max_texture_pixels)}"
+    if used + pixels > limits.max_texture_pixels_total:
+        return (
+            f"with this {width}x{height} image the scene's images come to {used + pixels} pixels; all of a "
+            f"scene's images together {_limit(limits.max_texture_pixels_total)}"
+        )
+    return None
 
 
 def _mesh_file(v: str, info: ValidationInfo) -> str:
@@ -472,13 +504,23 @@ class Sampler(_Model):
 class RadiositySettings(_Model):
     """The radiosity integrator's solution and how it is shown (an addition to the format)."""
 
-    patch_size: Num = Field(0.25, gt=0, description="Patch edge length (world units) of the meshed surfaces.")
+    patch_size: Num = Field(
+        0.25,
+        gt=0,
+        description="Patch edge length (world units) of the meshed surfaces; the patches it makes are counted, "
+        "before any is made, against the service's limit (TRACER_MAX_PATCHES).",
+    )
     display: Literal["two-pass", "flat", "smooth"] = Field(
         "two-pass",
         description="two-pass: the ray tree with the radiosity solution as its diffuse interreflection; "
         "flat: each patch's radiosity; smooth: radiosity interpolated from the patch corners.",
     )
-    rays: Int = Field(4096, ge=16, le=1_000_000, description="Form-factor rays per shot.")
+    rays: Int = Field(
+        4096,
+        ge=16,
+        le=1_000_000,
+        description="Form-factor rays per shot; rays x max_steps is bounded by the service (TRACER_MAX_SOLVE_RAYS).",
+    )
     threshold: Num = Field(0.01, gt=0, le=1, description="Stop when the unshot power is below this share of all.")
     max_steps: Int = Field(2000, ge=1, le=100_000, description="At most this many shots.")
 
@@ -535,7 +577,10 @@ class ImageTexture(_Model):
     """An image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Texture type.")
-    file: ImageFile = Field(description="Image file in the asset folder, or a data: URI.")
+    file: ImageFile = Field(
+        description="Image file in the asset folder, or a data: URI; its pixels count against the service's "
+        "limits on one image and on all of a scene's (read from its header)."
+    )
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
 
@@ -551,7 +596,10 @@ class ImageBump(_Model):
     """Bump mapping by a height image looked up at the surface's (u, v)."""
 
     type: Literal["image"] = Field(description="Bump type.")
-    file: ImageFile = Field(description="Height image in the asset folder, or a data: URI.")
+    file: ImageFile = Field(
+        description="Height image in the asset folder, or a data: URI; its pixels count against the service's "
+        "limits on one image and on all of a scene's (read from its header)."
+    )
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
@@ -858,6 +906,53 @@ def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
     return out
 
 
+def image_files(materials: dict, objects: list) -> list[tuple[tuple, str]]:
+    """(location, file) of every image texture and bump of a scene, in the order the renderer loads them:
+    the named materials', then the objects' own (tracer/compile.py). A location names the tags of the
+    unions it passes (an object's type, an inline material, an image), as pydantic's own do."""
+    found = [(("materials", name), m) for name, m in materials.items()]
+    found += [
+        (("objects", i, o.type, "material", "inline"), o.material)
+        for i, o in enumerate(objects)
+        if isinstance(o.material, Material)
+    ]
+    return [
+        ((*at, kind, "image", "file"), part.file)
+        for at, m in found
+        for kind in ("texture", "bump")
+        if isinstance(part := getattr(m, kind), ImageTexture | ImageBump)
+    ]
+
+
+def _texture_total(files: list[tuple[tuple, str]], info: ValidationInfo) -> list[tuple[tuple, str]]:
+    """The scene's images against the total: each distinct file counted once, from its header (an image that
+    cannot be read, or is past the limit of one image, is reported at its own field and not counted)."""
+    limits, used, seen = _limits(info), 0, set()
+    for loc, file in files:
+        if file in seen:
+            continue
+        seen.add(file)
+        try:
+            width, height = _image_size(file, info)
+        except AssetError:
+            continue
+        if width * height > limits.max_texture_pixels:
+            continue
+        problem = texture_problem(width, height, used, limits)
+        if problem:
+            return [(loc, problem)]
+        used += width * height
+    return []
+
+
+def _solve_limits(v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
+    """A radiosity scene's solve against the limits on its patches and rays, counted from the geometry (mesh
+    files included when validation resolves assets) before anything is meshed."""
+    triangles = meshing.mesh_triangles(v.objects, meshing.mesh_files(_asset_dir(info)))
+    problems = meshing.solve_problems(v, triangles, v.render.radiosity, _limits(info))
+    return [(("render", "radiosity", field), message) for field, message in problems]
+
+
 # ---------------------------------------------------------------------------------------------
 # The scene.
 
@@ -904,6 +999,10 @@ class Scene(_Model):
             where = ", ".join(f"objects[{i}].file: {n} triangles" for i, n in biggest)
             where = f" ({where})" if where else ""
             errors.append((("objects",), f"{count} primitives{where}; {_limit(limits.max_primitives)}"))
+        if _asset_dir(info) is not None:
+            errors += _texture_total(image_files(v.materials if _has(v, "materials") else {}, v.objects), info)
+        if _has(v, "render", "camera", "lights") and v.render.integrator == "radiosity":
+            errors += _solve_limits(v, info)
         return errors
 
     def material_for(self, obj: _Object) -> Material:

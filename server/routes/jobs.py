@@ -14,15 +14,14 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.deps import JobDep, QueueDep, SettingsDep, StoreDep
+from server.checks import scene_post
+from server.deps import ChecksDep, JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
 from server.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, QueuePlace
 from server.security import CallerDep, new_token, token_hash, unauthorized
 from server.settings import Settings
 from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
-from tracer import estimate
-from tracer.scene import ASSET_DIR, Scene, SceneError, load_scene
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -36,16 +35,8 @@ NOT_FOUND = {
 }
 
 
-def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
-    """Validate a scene for rendering: the format, the limits, and its asset files, resolved in the asset
-    folder as the worker will (a mesh read and its triangles counted, an image's header read)."""
-    try:
-        return load_scene(data, settings.limits, assets=ASSET_DIR)
-    except SceneError as exc:
-        raise ApiError(422, exc.errors) from None
-
-
-@router.post(
+@scene_post(
+    router,
     "",
     status_code=202,
     summary="Submit a scene for rendering",
@@ -56,53 +47,67 @@ def check_scene(data: dict, settings: Settings) -> tuple[Scene, list[dict]]:
         429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
     },
 )
-def submit(
-    body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, caller: CallerDep, response: Response
-) -> JobCreated:
+async def submit(
+    body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep,
+    request: Request, response: Response,
+) -> JobCreated:  # fmt: skip
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
     TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
     with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
+    The scene is validated in a checking process (server/checks.py), as the worker will, its asset
+    files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
 
     The job belongs to the request's token (`Authorization: Bearer <token>`); a request without one gets
     a fresh token in `token`: only that token reads, follows, cancels and downloads the job."""
-    scene, warnings = check_scene(body.scene, settings)
-    seconds = estimate_seconds(scene, settings, store)
-    lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
+    found = await checks.summary(request, await request.body())
     issued = new_token() if caller.token is None else None
-    row = create_job(store, settings, scene, body.scene, priority=body.priority, warnings=warnings, lane=lane,
-                     estimate=seconds, owner=caller.owner or token_hash(issued))  # fmt: skip
-    queue.submitted(row)
-    response.headers["Location"] = f"/api/jobs/{row['id']}"
-    return JobCreated(**public(row, store, queue).model_dump(), token=issued)
+
+    def queued() -> JobCreated:
+        seconds = estimate_seconds(found, settings, store)
+        lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
+        row = create_job(store, settings, found, priority=body.priority, warnings=found["warnings"], lane=lane,
+                         estimate=seconds, owner=caller.owner or token_hash(issued))  # fmt: skip
+        queue.submitted(row)
+        response.headers["Location"] = f"/api/jobs/{row['id']}"
+        return JobCreated(**public(row, store, queue).model_dump(), token=issued)
+
+    return await anyio.to_thread.run_sync(queued)
 
 
-def estimate_seconds(scene: Scene, settings: Settings, store: JobStore) -> float:
-    """The render's estimated seconds on one worker (tracer/estimate.py, scaled by how long finished renders
-    took against their estimates); 422 when past the per-job limit, so it is never accepted to fail later."""
-    seconds = estimate.seconds(scene, settings.threads_per_worker()) * store.pace()
-    limit = settings.max_job_seconds
+def estimate_seconds(found: dict, settings: Settings, store: JobStore) -> float:
+    """The render's estimated seconds on one worker (tracer/estimate.py, in the scene's summary: server/checks.py;
+    scaled by how long finished renders took against their estimates); 422 when past the per-job limit, so it
+    is never accepted to fail later (at render.radiosity when the radiosity solve alone is past it)."""
+    pace = store.pace()
+    seconds, limit = found["seconds"] * pace, settings.max_job_seconds
     if seconds > limit:
-        film, sampler = scene.film, scene.sampler
-        work = f"{film.width} x {film.height} pixels x {sampler.spp} samples"
+        solve = found["solve_seconds"] * pace
+        if solve > limit:
+            message = (
+                f"its radiosity solve would take about {solve:.0f} s here, past the limit of {limit:g} s per job "
+                "(TRACER_MAX_JOB_SECONDS): use a larger patch_size, fewer rays or a larger threshold"
+            )
+            raise ApiError(422, [{"path": "render.radiosity", "message": message}])
+        work = f"{found['width']} x {found['height']} pixels x {found['spp']} samples"
         message = (
-            f"this render would take about {seconds:.0f} s here ({work}, {scene.render.integrator}), past the limit "
+            f"this render would take about {seconds:.0f} s here ({work}, {found['integrator']}), past the limit "
             f"of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
         )
         raise ApiError(422, [{"path": "sampler.spp", "message": message}])
     return round(seconds, 3)
 
 
-def create_job(store: JobStore, settings: Settings, scene: Scene, data: dict, **fields) -> dict:
-    """Record a queued job of this scene (429 when the queue is full)."""
+def create_job(store: JobStore, settings: Settings, found: dict, **fields) -> dict:
+    """Record a queued job of a checked scene (its summary: server/checks.py); 429 when the queue is full."""
     try:
         return store.create(
-            json.dumps(data),
-            name=fields.pop("name", scene.name),
-            width=scene.film.width,
-            height=scene.film.height,
-            spp=scene.sampler.spp,
+            found["text"],
+            name=fields.pop("name", found["name"]),
+            width=found["width"],
+            height=found["height"],
+            spp=found["spp"],
             max_seconds=fields.pop("max_seconds", settings.max_job_seconds),
             max_queued=settings.max_queued_jobs,
             **fields,

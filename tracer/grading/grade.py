@@ -93,7 +93,7 @@ class InlineRenderer:
         try:
             scene, _ = load_scene(job.scene, job.limits)
             result = render(
-                compile_scene(scene), threads=self.threads,
+                compile_scene(scene, limits=job.limits), threads=self.threads,
                 cancel=lambda: time.monotonic() - start > job.max_seconds,
             )  # fmt: skip
         except SceneError as e:

@@ -1,0 +1,184 @@
+"""Scene checks off the event loop (server/checks.py): POST /api/validate, the scenes of POST /api/jobs and
+POST /api/raytree, and POST /api/samples are checked in a pool of processes, with a time limit, a bound on
+the requests waiting, and the process of a client that went away stopped; large bodies are read there too,
+with the answers of the API's own parser. Through the shared apps of conftest.py, and a real server on
+loopback for a client that goes away."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+
+import pytest
+from conftest import scene_dict, small
+from test_api_support import Server, pid_alive, wait_for
+from test_assets import big_png_uri
+
+from tracer.scene import validate_scene
+
+
+def spheres(n: int) -> dict:
+    """A scene of n small spheres in a row of rows, one named material: large to check (25 000 spheres are
+    1.6 MB of compact JSON and a fifth of a second of validation)."""
+    side = int(n**0.5) + 1
+    objects = [{"type": "sphere", "center": [k % side, 0, k // side], "radius": 0.4, "material": "m"} for k in range(n)]
+    scene = {"camera": {"lookfrom": [0, 60, 120], "lookat": [0, 0, 0]}, "film": {"width": 32, "height": 32}}
+    return {**scene, "materials": {"m": {"kd": 0.6}}, "objects": objects}
+
+
+def compact(body: dict) -> bytes:
+    return json.dumps(body, separators=(",", ":")).encode()
+
+
+def post(client, url: str, body: bytes):
+    return client.post(url, content=body, headers={"content-type": "application/json"})
+
+
+def cpu_seconds(pid: int) -> float:
+    """User and system CPU time of a process so far (/proc/PID/stat)."""
+    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def peak_rss(pid: int) -> int:
+    """The most memory the process has held at once (VmHWM, bytes)."""
+    for line in open(f"/proc/{pid}/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) * 1024
+    raise AssertionError("no VmHWM")
+
+
+def checkers(client) -> list[dict]:
+    return client.get("/api/health").json()["checkers"]
+
+
+def ready(client) -> list[dict]:
+    """The checking processes, once every one is started and idle."""
+
+    def idle() -> list[dict] | None:
+        found = checkers(client)
+        return found if all(c["state"] == "idle" for c in found) else None
+
+    return wait_for(idle, 60, "the checking processes to be idle")
+
+
+@pytest.fixture
+def client(client_without_workers):
+    return client_without_workers
+
+
+def test_api_checks_validation_runs_in_the_checking_processes(client):
+    """Validating 25 000 spheres costs the checking processes its CPU time, not the API process; the answer is
+    the library's."""
+    pool = ready(client)
+    assert len(pool) == 2 and all(c["pid"] != os.getpid() and pid_alive(c["pid"]) for c in pool)
+    scene = spheres(25_000)
+    before = sum(cpu_seconds(c["pid"]) for c in pool)
+    r = post(client, "/api/validate", compact({"scene": scene}))
+    assert r.status_code == 200 and r.json() == validate_scene(scene)
+    assert sum(cpu_seconds(c["pid"]) for c in pool) - before >= 0.05  # a fifth of a second, give or take
+    bad = scene_dict("whitted")
+    bad["objects"][2]["radius"] = -1
+    r = client.post("/api/validate", json={"scene": bad})
+    assert r.json()["errors"] == [{"path": "objects[2].radius", "message": "must be > 0"}]
+    assert [c["pid"] for c in ready(client)] == [c["pid"] for c in pool]  # the same processes, idle again
+
+
+def test_api_checks_a_6000_x_6000_data_image_is_refused_by_every_scene_route_without_decoding(client):
+    """A blank 6000 x 6000 PNG in a data: URI (a 100 KB request; 432 MB as float32 once decoded) is refused from
+    its header by validate, jobs, ray tree and samples alike, at its field; neither the API process nor a
+    checking process grows by more than a few tens of MB doing it."""
+    pool = ready(client)
+    pids = [os.getpid(), *(c["pid"] for c in pool)]
+    before = {pid: peak_rss(pid) for pid in pids}
+    scene = small(scene_dict("texture"), 32, 24)
+    scene["materials"]["big"] = {"texture": {"type": "image", "file": big_png_uri()}}
+    scene["objects"][0]["material"] = "big"
+    error = {
+        "path": "materials.big.texture.file",
+        "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (service limit)",
+    }
+    r = client.post("/api/validate", json={"scene": scene})
+    assert r.status_code == 200 and r.json() == {"valid": False, "errors": [error], "warnings": []}
+    for url, extra in (("/api/jobs", {}), ("/api/raytree", {"x": 1, "y": 1}), ("/api/samples", {"x": 1, "y": 1})):
+        r = client.post(url, json={"scene": scene, **extra})
+        assert r.status_code == 422 and r.json() == {"errors": [error]}, (url, r.text)
+    grown = {pid: peak_rss(pid) - before[pid] for pid in pids}
+    assert max(grown.values()) < 64_000_000, f"peak memory grew by {grown} bytes"
+
+
+def test_api_checks_a_check_past_its_time_limit_is_stopped_and_its_process_replaced(client, settings):
+    """Past TRACER_MAX_VALIDATE_SECONDS a check is stopped: its process is killed and a new one started; the
+    scene is not valid (POST /api/validate), refused (422, POST /api/jobs), with the limit named."""
+    pool = ready(client)
+    settings.max_validate_seconds = 0.001
+    body = compact({"scene": spheres(25_000)})
+    message = (
+        "checking the scene took longer than the limit of 0.001 s (TRACER_MAX_VALIDATE_SECONDS): it is too large "
+        "to check; make it smaller"
+    )
+    r = post(client, "/api/validate", body)
+    assert r.status_code == 200 and r.json() == {"valid": False, "errors": [{"path": "", "message": message}],
+                                                 "warnings": []}  # fmt: skip
+    r = post(client, "/api/jobs", body)
+    assert r.status_code == 422 and r.json() == {"errors": [{"path": "", "message": message}]}
+    settings.max_validate_seconds = 10
+    after = ready(client)
+    assert sum(c["restarts"] for c in after) == sum(c["restarts"] for c in pool) + 2
+    gone = {c["pid"] for c in pool} - {c["pid"] for c in after}
+    assert gone and not any(pid_alive(pid) for pid in gone)
+    assert post(client, "/api/validate", body).json()["valid"] is True
+
+
+def test_api_checks_large_bodies_read_in_a_checking_process_get_the_parser_s_answers(client):
+    """A body of more than 64 KB is parsed in a checking process: a JSON syntax error, a bare scene, a field the
+    route does not know and a body that is not UTF-8 get the answers the API's own parser gives."""
+    scene = spheres(2000)
+    text = compact({"scene": scene}).decode()
+    assert len(text) > 65536
+    cut = text[:-1] + ","  # the last brace replaced: a syntax error at the end
+    try:
+        json.loads(cut)
+    except json.JSONDecodeError as e:
+        where = f"line {e.lineno}, column {e.colno}: {e.msg}"
+    r = post(client, "/api/validate", cut.encode())
+    assert r.status_code == 422 and r.json() == {"errors": [{"path": "", "message": f"invalid JSON at {where}"}]}
+    r = post(client, "/api/validate", compact(scene))
+    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith(
+        'the scene must be sent inside the request as {"scene": {...}}; this body has the scene\'s own fields '
+        "(camera, objects, materials, ...)"
+    )
+    r = post(client, "/api/raytree", compact({"scene": scene, "x": 1, "y": "one", "colour": 1}))
+    assert r.status_code == 422
+    assert {e["path"] for e in r.json()["errors"]} == {"y", "colour"}
+    r = post(client, "/api/jobs", b'{"scene": {"name": "\xff\xfe"}, "pad": "' + b"x" * 70000 + b'"}')
+    assert r.status_code == 400
+    small_one = post(client, "/api/jobs", b'{"scene": {"name": "\xff\xfe"}}')
+    assert r.json() == small_one.json()  # the same answer as the API's own parser gives a small body
+
+
+def test_api_checks_a_client_that_goes_away_stops_its_check_and_the_waiting_line_is_bounded(tmp_path):
+    """`python -m server` with one checking process and no request allowed to wait: while a client's 200 000
+    spheres are being validated, another request is answered 429; when that client closes its connection,
+    the process checking its scene is killed (no CPU burning for an answer nobody reads) and a new one
+    takes its place."""
+    env = {"TRACER_VALIDATE_PROCESSES": "1", "TRACER_MAX_VALIDATE_WAITING": "0", "TRACER_MAX_BODY_BYTES": "40000000"}
+    with Server(tmp_path / "data", workers=0, env=env) as server:
+        (first,) = ready(server.client)
+        body = compact({"scene": spheres(200_000)})
+        head = "POST /api/validate HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+        head += f"Content-Length: {len(body)}\r\n\r\n"
+        with socket.create_connection(("127.0.0.1", server.port)) as gone:
+            gone.sendall(head.encode() + body)
+            wait_for(lambda: checkers(server.client)[0]["task"] == "validate", 60, "the scene being validated")
+            r = server.client.post("/api/validate", json={"scene": scene_dict("whitted")})
+            assert r.status_code == 429 and r.headers["retry-after"] == "2"
+            assert "TRACER_MAX_VALIDATE_WAITING" in r.json()["errors"][0]["message"]
+        # the client has gone: its check is stopped, by killing the process (it had seconds of work left)
+        (after,) = wait_for(lambda: (c := checkers(server.client))[0]["restarts"] == 1 and c, 30, "the checker killed")
+        wait_for(lambda: not pid_alive(first["pid"]), 30, "the old checking process to end")
+        (after,) = ready(server.client)
+        assert after["pid"] != first["pid"]
+        assert server.client.post("/api/validate", json={"scene": scene_dict("whitted")}).json()["valid"] is True
+        assert "scene check stopped: the client went away" in server.log_text()
