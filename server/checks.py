@@ -19,6 +19,8 @@ when it is gone), and load what they need once at start-up.
 
 from __future__ import annotations
 
+import asyncio
+import collections
 import json
 import logging
 import math
@@ -41,7 +43,7 @@ from tracer.scene import ASSET_DIR, Limits, SceneError, load_scene
 log = logging.getLogger("server.checks")
 
 CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
-WAIT_POLL = 0.02  # seconds between two looks for a free process, while all are busy
+WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
 READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
 PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
@@ -247,6 +249,7 @@ class CheckPool:
         self.ctx = mp.get_context("spawn")
         self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
         self.waiting = 0
+        self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
         self._lock = threading.Lock()
         self._closed = False
 
@@ -290,6 +293,17 @@ class CheckPool:
                 self._restart(checker, (process, ours))
                 return
             checker.process, checker.conn, checker.state = process, ours, "idle"
+            self._wake()
+
+    def _wake(self) -> None:
+        """Tell the oldest waiting request that a checker is free (under the lock; from any thread)."""
+        while self._waiters:
+            loop, event = self._waiters.popleft()
+            try:
+                loop.call_soon_threadsafe(event.set)
+                return
+            except RuntimeError:  # its event loop is closed
+                continue
 
     def shutdown(self) -> None:
         with self._lock:
@@ -315,14 +329,17 @@ class CheckPool:
     # -- a task
 
     async def _take(self, request: Request) -> _Checker:
-        """An idle checker, marked busy; waits for one (429 past max_validate_waiting waiting)."""
-        queued = False
+        """An idle checker, marked busy; waits for one, first come first served, without polling (429 past
+        max_validate_waiting waiting)."""
+        queued, waiter = False, None
         try:
             while True:
                 with self._lock:
                     free = next((c for c in self.checkers if c.state == "idle"), None)
                     if free is not None:
                         free.state = "busy"
+                        if any(c.state == "idle" for c in self.checkers):
+                            self._wake()  # another one is free: the next in line takes it
                         return free
                     if not queued:
                         if self.waiting >= self.settings.max_validate_waiting:
@@ -332,12 +349,19 @@ class CheckPool:
                             )  # fmt: skip
                         self.waiting += 1
                         queued = True
+                    waiter = (asyncio.get_running_loop(), asyncio.Event())
+                    self._waiters.append(waiter)
+                with anyio.move_on_after(WAIT_CHECK):
+                    await waiter[1].wait()
                 if await request.is_disconnected():
                     raise ApiError(499, "the client went away")
-                await anyio.sleep(WAIT_POLL)
         finally:
-            if queued:
-                with self._lock:
+            with self._lock:
+                if waiter is not None and waiter in self._waiters:
+                    self._waiters.remove(waiter)
+                elif waiter is not None and waiter[1].is_set() and any(c.state == "idle" for c in self.checkers):
+                    self._wake()  # woken but gone (the client left): the next in line takes the free one
+                if queued:
                     self.waiting -= 1
 
     async def run(self, request: Request, task: str, *args, timed: bool = True):
@@ -374,6 +398,7 @@ class CheckPool:
                 checker.task = None
                 if answered:
                     checker.state = "idle"
+                    self._wake()
                 elif not self._closed:  # stopped mid-task (or dead): a new process takes its place
                     checker.restarts += 1
                     self._restart(checker, (process, conn))

@@ -174,7 +174,9 @@ class Settings(BaseSettings):
     max_validate_seconds: float = Field(
         10.0, gt=0, description="seconds of CPU one scene check may take; its process is stopped and replaced past it"
     )
-    max_validate_waiting: int = Field(32, ge=0, description="requests waiting for a free checking process: 429 past it")
+    max_validate_waiting: int = Field(
+        256, ge=0, description="requests waiting for a free checking process (first come first served): 429 past it"
+    )
 
     @field_validator("instructor_token", mode="before")
     @classmethod
