@@ -24,6 +24,7 @@ router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
 KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
+MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such job"}}
 
@@ -121,7 +122,7 @@ def list_jobs(
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=MAX_QUERY_INT)] = 0,
 ) -> JobList:
     rows, count = store.list_jobs(status.value if status else None, limit, offset, kind.value if kind else None)
     now = time.time()
@@ -150,7 +151,9 @@ def image(
     format: Annotated[
         Literal["png", "exr"], Query(description="png: sRGB with the film's exposure; exr: linear")
     ] = "png",
-    pass_: Annotated[int | None, Query(alias="pass", ge=0, description="ignored; makes each pass's URL new")] = None,
+    pass_: Annotated[
+        int | None, Query(alias="pass", ge=0, le=MAX_QUERY_INT, description="ignored; makes each pass's URL new")
+    ] = None,
 ) -> Response:
     if not job["preview"]:
         raise ApiError(404, f"no image yet: the job is {job['status']}")
