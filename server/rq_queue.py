@@ -214,7 +214,7 @@ class RedisQueue:
                 full = self.store.get(row["id"])
                 if row["status"] == JobStatus.queued:
                     self._enqueue(full, attempt)
-                elif self.store.requeue(row["id"], Attempt(attempt)):  # given back: not counted as lost
+                elif self.store.requeue(row["id"], Attempt(attempt)) == JobStatus.queued:  # not counted as lost
                     self._enqueue(self.store.get(row["id"]), attempt + 1)
                     log.warning("job %s: its try %d is gone from Redis; queued again", row["id"], attempt)
 
@@ -284,9 +284,12 @@ class RedisQueue:
                 if data.get("fields"):
                     self.store.progress(job_id, fence, **data["fields"])
                 outcome = data.get("outcome") or "given back"
-                if self.store.requeue(job_id, fence, outcome):
+                moved = self.store.requeue(job_id, fence, outcome)
+                if moved == JobStatus.queued:
                     self._enqueue(self.store.get(job_id), attempt + 1)
                     log.info("job %s: try %d %s; queued as try %d", job_id, attempt, outcome, attempt + 1)
+                elif moved == JobStatus.cancelled:  # its cancel was accepted while it ran: it ends here
+                    self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
 
     def _copy_files(self, job_id: str, files: dict[str, str]) -> None:
         if not files:

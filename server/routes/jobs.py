@@ -300,10 +300,14 @@ async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -
     },
 )
 def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
-    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`."""
+    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`,
+    even if its render finishes before it sees the request; a job that has ended is 409 (the job's row
+    decides, in one transaction: the answer always agrees with the job's final status)."""
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
     row = store.cancel(job["id"])
+    if JobStatus(row["status"]) in (JobStatus.done, JobStatus.failed):  # it ended between the two reads
+        raise ApiError(409, f"the job has already ended ({row['status']})")
     queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202
