@@ -7,8 +7,9 @@ import logging
 
 import uvicorn
 
-from server.main import create_app
+from server.main import create_app, lock_data_dir
 from server.settings import load_settings
+from server.startup import StartupError, check_data_dir
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -33,9 +34,15 @@ def main(argv: list[str] | None = None) -> None:
     except (FileNotFoundError, ValueError) as exc:  # pydantic's ValidationError is a ValueError
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    log = logging.getLogger("server")
+    try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed
+        check_data_dir(settings.data_dir)
+        lock = lock_data_dir(settings.data_dir)
+    except StartupError as exc:
+        log.error("cannot start: %s", exc)
+        raise SystemExit(1) from None
     queue = f"Redis at {settings.redis_url}" if settings.redis_url else "embedded"
-    logging.getLogger("server").info(
+    log.info(
         "serving on http://%s:%d (data in %s, %d worker(s), queue: %s)",
         settings.host,
         settings.port,
@@ -43,7 +50,9 @@ def main(argv: list[str] | None = None) -> None:
         settings.workers,
         queue,
     )
-    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="info")
+    app = create_app(settings)
+    app.state.data_lock = lock
+    uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
-At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
-opens the job store, puts back in the queue the jobs a dead server left running, starts the render
-workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
-removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where)
-and the workers give their running jobs back to the queue.
+At start-up (the lifespan) the app checks its data directory (server/startup.py), compiles the render
+kernels (or loads them from Warp's cache), opens the job store, puts back in the queue the jobs a dead
+server left running, starts the render workers, resumes the grading runs a stopped server left
+unfinished, and starts the janitor (which removes old finished jobs); at shutdown the grading runs stop
+where they are (their rows say where) and the workers give their running jobs back to the queue.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from server.janitor import Janitor
 from server.queue import make_queue
 from server.routes import grade, jobs, reference, samples, scenes, tools
 from server.settings import Settings, load_settings
+from server.startup import StartupError, check_data_dir
 from server.store import JobStore
 from server.worker import load_kernels
 from tracer.samples import load_kernels as load_sample_kernels
@@ -35,11 +36,13 @@ log = logging.getLogger("server")
 @asynccontextmanager
 async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
+    lock = app.state.data_lock  # python -m server checked the data directory and took it before serving
+    if lock is None:
+        check_data_dir(settings.data_dir)
+        lock = lock_data_dir(settings.data_dir)
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
     log.info("render kernels ready")
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
-    lock = lock_data_dir(settings.data_dir)
     store = JobStore(settings.data_dir)
     queue = make_queue(settings, store)
     app.state.store, app.state.queue = store, queue
@@ -64,7 +67,9 @@ def lock_data_dir(data_dir: Path):
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
         lock.close()
-        raise RuntimeError(f"another server is using the data directory {data_dir}") from None
+        raise StartupError(
+            f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
+        ) from None
     return lock
 
 
@@ -83,6 +88,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.grade_runs = None
+    app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
     app.add_middleware(
