@@ -11,6 +11,8 @@ from server.main import create_app, lock_data_dir
 from server.settings import load_settings
 from server.startup import StartupError, check_data_dir
 
+GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
+
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="server", description="Serve the ray tracing app, its API and render workers.")
@@ -52,7 +54,30 @@ def main(argv: list[str] | None = None) -> None:
     )
     app = create_app(settings)
     app.state.data_lock = lock
-    uvicorn.run(app, host=settings.host, port=settings.port, log_level="info")
+    config = uvicorn.Config(
+        app, host=settings.host, port=settings.port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SECONDS
+    )
+    server = StoppingServer(config, app.state.stopping)
+    try:
+        server.run()
+    except KeyboardInterrupt:  # uvicorn raises Ctrl-C's signal again once it has shut down
+        pass
+    if not server.started:
+        raise SystemExit(3)  # uvicorn's own status when the app cannot start (the port taken, ...)
+
+
+class StoppingServer(uvicorn.Server):
+    """uvicorn's server, telling the app the moment it is asked to stop (SIGTERM, SIGINT: Ctrl-C, a service
+    manager, `kill -- -PGID`), before it waits for the open connections and runs the app's shutdown: from
+    then on the render workers give their jobs back and none is started again, and event streams end."""
+
+    def __init__(self, config: uvicorn.Config, stopping):
+        super().__init__(config)
+        self.stopping = stopping
+
+    def handle_exit(self, sig, frame) -> None:
+        self.stopping.set()  # a plain flag (server/main.py, Stopping): safe in a signal handler
+        super().handle_exit(sig, frame)
 
 
 if __name__ == "__main__":

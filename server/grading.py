@@ -150,10 +150,11 @@ PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the s
 
 
 def _pool_process(nice: int) -> None:
-    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C
-    (the server stops the pool), watching that the server lives, the grading modules loaded before the
-    first task."""
+    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C and
+    the group's SIGTERM (the server stops the pool), watching that the server lives, the grading modules
+    loaded before the first task."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the group's stop signal too: the server ends the pool
     if nice:
         os.nice(nice)
     # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
@@ -307,8 +308,9 @@ class GradeRuns:
         """At the server's shutdown: the runs stop where they are (their rows say where) and the grading
         processes end; the next server resumes the runs."""
         self.stopping.set()
+        deadline = time.monotonic() + 10  # for all of them together: a stopping server exits in seconds
         for thread in self.threads.values():
-            thread.join(timeout=10)
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
         self.pool.shutdown()
 
     # -- reading

@@ -4,7 +4,8 @@ At start-up (the lifespan) the app checks its data directory (server/startup.py)
 kernels (or loads them from Warp's cache), opens the job store, puts back in the queue the jobs a dead
 server left running, starts the render workers, resumes the grading runs a stopped server left
 unfinished, and starts the janitor (which removes old finished jobs); at shutdown the grading runs stop
-where they are (their rows say where) and the workers give their running jobs back to the queue.
+where they are (their rows say where) and the workers give their running jobs back to the queue (as
+soon as a stop signal arrives, with `python -m server`: see `Stopping`).
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ async def lifespan(app: FastAPI):
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in this process
     log.info("render kernels ready")
     store = JobStore(settings.data_dir)
-    queue = make_queue(settings, store)
+    queue = make_queue(settings, store, app.state.stopping)
     app.state.store, app.state.queue = store, queue
     grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
     queue.start()  # recovers the jobs a stopped server left, then takes jobs
@@ -54,10 +55,27 @@ async def lifespan(app: FastAPI):
     try:
         yield
     finally:
+        app.state.stopping.set()  # (already set if a signal stopped the server)
         janitor.stop()
         grade_runs.shutdown()
         queue.shutdown()
         lock.close()
+
+
+class Stopping:
+    """Whether the server has been asked to stop: set by `python -m server`'s signal handler the moment
+    SIGTERM or Ctrl-C arrives (before uvicorn waits for the open connections), else at the lifespan's end.
+    Then the workers give their jobs back and no new one starts, and event streams end. A plain flag,
+    read by calling it: a signal handler may set it at any moment, so it takes no lock."""
+
+    def __init__(self) -> None:
+        self.asked = False
+
+    def set(self) -> None:
+        self.asked = True
+
+    def __call__(self) -> bool:
+        return self.asked
 
 
 def lock_data_dir(data_dir: Path):
@@ -89,6 +107,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.grade_runs = None
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
+    app.state.stopping = Stopping()
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
     app.add_middleware(

@@ -27,6 +27,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -51,8 +52,9 @@ ROOT = Path(__file__).resolve().parent.parent
 class RedisQueue:
     backend = "redis"
 
-    def __init__(self, settings: Settings, store: JobStore):
+    def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
+        self.stopping = stopping  # the server has been asked to stop: its local worker hosts are not restarted
         self.url = settings.redis_url
         self.r = redis.Redis.from_url(self.url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
         self.queues = {name: Queue(name, connection=self.r) for name in ev.QUEUES}
@@ -391,7 +393,7 @@ class RedisQueue:
 
     def _keep_hosts(self) -> None:
         for slot, p in enumerate(self.hosts):
-            if p is not None and p.poll() is not None and not self.stop.is_set():
+            if p is not None and p.poll() is not None and not self.stop.is_set() and not self.stopping():
                 log.warning("local worker host %d exited with %s; starting it again", slot, p.returncode)
                 self._start_host(slot)
 

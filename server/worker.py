@@ -27,7 +27,10 @@ log = logging.getLogger("server.worker")
 def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> None:
     """Entry point of a worker process (spawned: it imports everything itself); `conn` is its end of
     the server's line (server/channel.py): wakes come in, "ready" goes out, end-of-file means stop."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the server stops us
+    # Ctrl-C, `kill -- -PGID` and a service manager signal the whole group: the server stops us (closing our
+    # line: we give our job back), never a signal, which would end the job's try as a crash
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     line = WorkerEnd(conn)
     settings = Settings(**settings_data)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")

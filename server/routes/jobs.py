@@ -254,7 +254,8 @@ def sse(event: str, data: dict) -> str:
 async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -> AsyncIterator[str]:
     yield "retry: 1000\n\n"
     last_progress, last_preview, quiet_since = None, 0, time.monotonic()
-    while True:
+    stopping = request.app.state.stopping
+    while not stopping():  # a stopping server ends its streams (the client reconnects to the next one)
         row = await anyio.to_thread.run_sync(store.get, job_id)
         if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
             return
