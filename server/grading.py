@@ -270,17 +270,21 @@ class GradeRuns:
         Grader(spec, None)  # raises for a reference scene given as a file name, or one that does not validate
         run_id = uuid.uuid4().hex
         folder = self.root / run_id
-        (folder / "submissions").mkdir(parents=True)
-        (folder / "assignment.json").write_text(text)
-        items = []
-        for i, h in enumerate(handed):
-            rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
-            if h.path is not None:
-                os.replace(h.path, folder / rel)
-            else:
-                (folder / rel).write_bytes(h.data or b"")
-            items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
-        self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)
+        try:
+            (folder / "submissions").mkdir(parents=True)
+            (folder / "assignment.json").write_text(text)
+            items = []
+            for i, h in enumerate(handed):
+                rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
+                if h.path is not None:
+                    os.replace(h.path, folder / rel)
+                else:
+                    (folder / rel).write_bytes(h.data or b"")
+                items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
+            self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)  # one transaction: all rows or none
+        except BaseException:  # a full disk: no half-written run is left behind
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
         log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
         self._spawn(run_id)
         return self.state(run_id)

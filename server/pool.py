@@ -32,7 +32,7 @@ from multiprocessing.connection import wait
 from server.channel import ServerEnd
 from server.lifecycle import LANES, Lane
 from server.settings import Settings
-from server.store import JobStore
+from server.store import JobStore, is_disk_full
 from server.worker import worker_main
 
 log = logging.getLogger("server.pool")
@@ -141,8 +141,11 @@ class WorkerPool:
                 told = True
             try:
                 self._check()
-            except Exception:  # the supervisor must outlive any surprise (a locked database, ...)
-                log.exception("worker supervisor")
+            except Exception as exc:  # the supervisor must outlive any surprise (a locked database, ...)
+                if is_disk_full(exc):  # it tries again at its next round
+                    log.warning("worker supervisor: the disk is full (%s)", exc)
+                else:
+                    log.exception("worker supervisor")
 
     def _check(self) -> None:
         now = time.monotonic()

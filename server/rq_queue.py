@@ -13,6 +13,9 @@
   - keeps the local worker hosts alive (`workers` > 0: `python -m server.worker` processes).
 - `cancelled`: a flag every host checks between bands; a queued try is taken out of RQ too.
 
+While the API's disk is full an event is not acknowledged: it is read and applied again every few
+seconds until it can be written (a full disk loses no progress, image or end of a job).
+
 One lock serialises every change the API makes to a job of this backend (applying an event,
 losing a try, a cancel), so a try is never both applied and lost.
 """
@@ -39,12 +42,13 @@ from rq.registry import StartedJobRegistry
 from server import events as ev
 from server.lifecycle import JobStatus, Lane
 from server.settings import Settings
-from server.store import Attempt, JobFile, JobStore
+from server.store import Attempt, JobFile, JobStore, is_disk_full
 
 log = logging.getLogger("server.rq_queue")
 
 MONITOR_INTERVAL = 1.0  # seconds between two rounds of the monitor
 HARD_GRACE = 10.0  # seconds past a try's time limit before the API fails it (its host stops it itself at the limit)
+DISK_FULL_PAUSE = 2.0  # seconds between two tries to apply an event while the data directory's disk is full
 DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive before its try is lost
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -253,7 +257,12 @@ class RedisQueue:
             except redis.RedisError as exc:
                 log.warning("Redis unreachable while reading events (%s); retrying", exc)
                 self.stop.wait(1.0)
-            except Exception:
+            except Exception as exc:
+                if is_disk_full(exc):  # not acknowledged: read again (every event applies twice harmlessly)
+                    log.warning("the disk is full: a worker host's event waits to be applied (%s)", exc)
+                    pending = True
+                    self.stop.wait(DISK_FULL_PAUSE)
+                    continue
                 log.exception("applying a worker host's event")
                 self.stop.wait(0.2)
 
@@ -318,8 +327,11 @@ class RedisQueue:
                 self._keep_hosts()
             except redis.RedisError as exc:
                 log.warning("Redis unreachable (%s); the monitor retries", exc)
-            except Exception:
-                log.exception("job queue monitor")
+            except Exception as exc:
+                if is_disk_full(exc):
+                    log.warning("job queue monitor: the disk is full (%s)", exc)
+                else:
+                    log.exception("job queue monitor")
 
     def _check_epoch(self) -> None:
         if self.r.get(ev.EPOCH) == self.epoch:

@@ -16,6 +16,7 @@ A job's files (its images, AOV pictures, radiosity solution) live in DATA/jobs/<
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import secrets
@@ -213,7 +214,7 @@ class JobStore:
         return conn
 
     def _tx(self):
-        return _Transaction(self.db)
+        return Transaction(self.db)
 
     def _one(self, sql: str, args=()) -> dict | None:
         row = self.db.execute(sql, args).fetchone()
@@ -594,8 +595,10 @@ class JobStore:
         return [dict(r) for r in rows]
 
 
-class _Transaction:
-    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection."""
+class Transaction:
+    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection. A COMMIT
+    that fails (the disk full) rolls back too, so the connection is never left inside a transaction: the
+    next one begins cleanly once there is space again."""
 
     def __init__(self, conn: sqlite3.Connection):
         self.conn = conn
@@ -605,7 +608,30 @@ class _Transaction:
         return self.conn
 
     def __exit__(self, kind, value, tb) -> None:
-        self.conn.execute("ROLLBACK" if kind else "COMMIT")
+        if kind is None:
+            try:
+                self.conn.execute("COMMIT")
+                return
+            except BaseException:
+                self._rollback()
+                raise
+        self._rollback()
+
+    def _rollback(self) -> None:
+        if self.conn.in_transaction:  # SQLite may have rolled it back itself (a full disk, an I/O error)
+            try:
+                self.conn.execute("ROLLBACK")
+            except sqlite3.Error:
+                pass
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Is `exc` a full disk (or quota): an OSError ENOSPC or EDQUOT, or SQLite's "database or disk is full"?"""
+    if isinstance(exc, OSError):
+        return exc.errno in (errno.ENOSPC, errno.EDQUOT)
+    if isinstance(exc, sqlite3.Error):
+        return getattr(exc, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL or "disk is full" in str(exc)
+    return False
 
 
 def write_atomic(path: Path, write) -> None:

@@ -11,12 +11,12 @@ import json
 import os
 import subprocess
 import sys
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 from conftest import ROOT
 from test_api_support import Server, free_port
+from test_disk_full import tmpfs
 
 from server.startup import StartupError
 from server.store import JobStore
@@ -117,20 +117,6 @@ def test_startup_a_data_directory_that_is_a_file(tmp_path):
     data = tmp_path / "data"
     data.write_text("not a folder")
     refused(data, "is a file, not a folder")
-
-
-@contextmanager
-def tmpfs(folder: Path, size: str = "16m"):
-    """A tmpfs mounted on `folder` for the block (the tests run as root); unmounted after. A mount that
-    cannot be made fails the test with the reason: it is never skipped."""
-    folder.mkdir(parents=True, exist_ok=True)
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], capture_output=True)
-    if done.returncode != 0:
-        pytest.fail(f"cannot mount a tmpfs on {folder} (the test needs root): {done.stderr.decode().strip()}")
-    try:
-        yield folder
-    finally:
-        subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
 def test_startup_a_read_only_data_directory(tmp_path):
