@@ -7,8 +7,11 @@ import logging
 
 import uvicorn
 
-from server.main import create_app
+from server.main import create_app, lock_data_dir
 from server.settings import load_settings
+from server.startup import StartupError, check_data_dir
+
+GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -33,9 +36,15 @@ def main(argv: list[str] | None = None) -> None:
     except (FileNotFoundError, ValueError) as exc:  # pydantic's ValidationError is a ValueError
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    log = logging.getLogger("server")
+    try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed
+        check_data_dir(settings.data_dir)
+        lock = lock_data_dir(settings.data_dir)
+    except StartupError as exc:
+        log.error("cannot start: %s", exc)
+        raise SystemExit(1) from None
     queue = f"Redis at {settings.redis_url}" if settings.redis_url else "embedded"
-    logging.getLogger("server").info(
+    log.info(
         "serving on http://%s:%d (data in %s, %d worker(s), queue: %s)",
         settings.host,
         settings.port,
@@ -43,7 +52,32 @@ def main(argv: list[str] | None = None) -> None:
         settings.workers,
         queue,
     )
-    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="info")
+    app = create_app(settings)
+    app.state.data_lock = lock
+    config = uvicorn.Config(
+        app, host=settings.host, port=settings.port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SECONDS
+    )
+    server = StoppingServer(config, app.state.stopping)
+    try:
+        server.run()
+    except KeyboardInterrupt:  # uvicorn raises Ctrl-C's signal again once it has shut down
+        pass
+    if not server.started:
+        raise SystemExit(3)  # uvicorn's own status when the app cannot start (the port taken, ...)
+
+
+class StoppingServer(uvicorn.Server):
+    """uvicorn's server, telling the app the moment it is asked to stop (SIGTERM, SIGINT: Ctrl-C, a service
+    manager, `kill -- -PGID`), before it waits for the open connections and runs the app's shutdown: from
+    then on the render workers give their jobs back and none is started again, and event streams end."""
+
+    def __init__(self, config: uvicorn.Config, stopping):
+        super().__init__(config)
+        self.stopping = stopping
+
+    def handle_exit(self, sig, frame) -> None:
+        self.stopping.set()  # a plain flag (server/main.py, Stopping): safe in a signal handler
+        super().handle_exit(sig, frame)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 
 - `ApiError` is raised by routes with a status and error items;
 - request validation errors (pydantic) are translated to JSON paths of the request body;
+- a full disk (the job store's or a file's write) is 507 Insufficient Storage, whatever route met it;
 - `SafeJSONResponse` is the app's response class: NaN and Infinity become null, so echoing a bad
   value can never crash the serialisation of its own error message;
 - `RequestGate` (ASGI middleware) answers 413 past the body size limit (by Content-Length and by
@@ -15,6 +16,7 @@ import json
 import logging
 import math
 import re
+import sqlite3
 from typing import Any
 
 import anyio
@@ -25,9 +27,14 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from server.store import is_disk_full
 from tracer.errors import translate_error
 
 log = logging.getLogger("server")
+DISK_FULL = (
+    "the server's disk is full: nothing of this request was kept; try again later (the server's log says so "
+    "to its administrator)"
+)
 
 
 def sanitise(value: Any) -> Any:
@@ -126,6 +133,16 @@ def install_error_handlers(app: FastAPI) -> None:
         if exc.status_code == 400 and detail == "There was an error parsing the body":
             detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
         return errors_response(exc.status_code, [{"path": "", "message": detail}], getattr(exc, "headers", None))
+
+    @app.exception_handler(OSError)
+    @app.exception_handler(sqlite3.Error)
+    async def storage_error(request: Request, exc: Exception):
+        """A full disk is 507, with nothing of the request kept (the job store's writes are transactions, its
+        files are written whole or not at all); any other storage error is the 500 of a bug."""
+        if is_disk_full(exc):
+            log.warning("%s %s: the data directory's disk is full (%s)", request.method, request.url.path, exc)
+            return errors_response(507, [{"path": "", "message": DISK_FULL}], {"Retry-After": "60"})
+        return await crashed(request, exc)
 
     @app.exception_handler(Exception)
     async def crashed(request: Request, exc: Exception):

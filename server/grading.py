@@ -150,10 +150,11 @@ PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the s
 
 
 def _pool_process(nice: int) -> None:
-    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C
-    (the server stops the pool), watching that the server lives, the grading modules loaded before the
-    first task."""
+    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C and
+    the group's SIGTERM (the server stops the pool), watching that the server lives, the grading modules
+    loaded before the first task."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the group's stop signal too: the server ends the pool
     if nice:
         os.nice(nice)
     # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
@@ -269,17 +270,21 @@ class GradeRuns:
         Grader(spec, None)  # raises for a reference scene given as a file name, or one that does not validate
         run_id = uuid.uuid4().hex
         folder = self.root / run_id
-        (folder / "submissions").mkdir(parents=True)
-        (folder / "assignment.json").write_text(text)
-        items = []
-        for i, h in enumerate(handed):
-            rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
-            if h.path is not None:
-                os.replace(h.path, folder / rel)
-            else:
-                (folder / rel).write_bytes(h.data or b"")
-            items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
-        self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)
+        try:
+            (folder / "submissions").mkdir(parents=True)
+            (folder / "assignment.json").write_text(text)
+            items = []
+            for i, h in enumerate(handed):
+                rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
+                if h.path is not None:
+                    os.replace(h.path, folder / rel)
+                else:
+                    (folder / rel).write_bytes(h.data or b"")
+                items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
+            self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)  # one transaction: all rows or none
+        except BaseException:  # a full disk: no half-written run is left behind
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
         log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
         self._spawn(run_id)
         return self.state(run_id)
@@ -307,8 +312,9 @@ class GradeRuns:
         """At the server's shutdown: the runs stop where they are (their rows say where) and the grading
         processes end; the next server resumes the runs."""
         self.stopping.set()
+        deadline = time.monotonic() + 10  # for all of them together: a stopping server exits in seconds
         for thread in self.threads.values():
-            thread.join(timeout=10)
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
         self.pool.shutdown()
 
     # -- reading

@@ -28,6 +28,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from server.lifecycle import JobStatus
+from server.store import Transaction as _Transaction
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS grading_runs (
@@ -226,17 +227,3 @@ def _decoded(row: dict, keys: tuple[str, ...]) -> dict:
         if row.get(key) is not None:
             row[key] = json.loads(row[key])
     return row
-
-
-class _Transaction:
-    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection."""
-
-    def __init__(self, conn: sqlite3.Connection):
-        self.conn = conn
-
-    def __enter__(self) -> sqlite3.Connection:
-        self.conn.execute("BEGIN IMMEDIATE")
-        return self.conn
-
-    def __exit__(self, kind, value, tb) -> None:
-        self.conn.execute("ROLLBACK" if kind else "COMMIT")

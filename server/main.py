@@ -1,13 +1,14 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
-At start-up (the lifespan) the app compiles the render kernels (or loads them from Warp's cache),
-starts the processes that check scenes (server/checks.py), opens the job store, puts back in the
-queue the jobs a dead server left running, starts the render workers, resumes the grading runs a
-stopped server left unfinished, and starts the janitor (which removes old finished jobs); at
-shutdown the grading runs stop where they are (their rows say where), the workers give their
-running jobs back to the queue, and the checking processes end. Every request passes the host check
-and gets the security headers (server/security.py); the start-up log warns of a server open to others
-without an instructor token or a list of host names.
+At start-up (the lifespan) the app checks its data directory (server/startup.py), compiles the render
+kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checks.py),
+opens the job store, puts back in the queue the jobs a dead server left running, starts the render
+workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
+removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
+the workers give their running jobs back to the queue (as soon as a stop signal arrives, with
+`python -m server`: see `Stopping`), and the checking processes end. Every request passes the host
+check and gets the security headers (server/security.py); the start-up log warns of a server open to
+others without an instructor token or a list of host names.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from server.queue import make_queue
 from server.routes import grade, jobs, reference, samples, scenes, tools
 from server.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.settings import Settings, load_settings
+from server.startup import StartupError, check_data_dir
 from server.store import JobStore
 from server.worker import load_kernels
 from tracer.samples import load_kernels as load_sample_kernels
@@ -42,15 +44,17 @@ async def lifespan(app: FastAPI):
     settings: Settings = app.state.settings
     for warning in start_up_warnings(settings):
         log.warning(warning)
+    lock = app.state.data_lock  # python -m server checked the data directory and took it before serving
+    if lock is None:
+        check_data_dir(settings.data_dir)
+        lock = lock_data_dir(settings.data_dir)
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in the checking processes
     log.info("render kernels ready")
-    settings.data_dir.mkdir(parents=True, exist_ok=True)
-    lock = lock_data_dir(settings.data_dir)
     checks = app.state.checks = CheckPool(settings)
     checks.start()  # scene checks, off the event loop
     store = JobStore(settings.data_dir)
-    queue = make_queue(settings, store)
+    queue = make_queue(settings, store, app.state.stopping)
     app.state.store, app.state.queue = store, queue
     grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
     queue.start()  # recovers the jobs a stopped server left, then takes jobs
@@ -60,11 +64,28 @@ async def lifespan(app: FastAPI):
     try:
         yield
     finally:
+        app.state.stopping.set()  # (already set if a signal stopped the server)
         janitor.stop()
         grade_runs.shutdown()
         queue.shutdown()
         checks.shutdown()
         lock.close()
+
+
+class Stopping:
+    """Whether the server has been asked to stop: set by `python -m server`'s signal handler the moment
+    SIGTERM or Ctrl-C arrives (before uvicorn waits for the open connections), else at the lifespan's end.
+    Then the workers give their jobs back and no new one starts, and event streams end. A plain flag,
+    read by calling it: a signal handler may set it at any moment, so it takes no lock."""
+
+    def __init__(self) -> None:
+        self.asked = False
+
+    def set(self) -> None:
+        self.asked = True
+
+    def __call__(self) -> bool:
+        return self.asked
 
 
 def lock_data_dir(data_dir: Path):
@@ -74,7 +95,9 @@ def lock_data_dir(data_dir: Path):
         fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
         lock.close()
-        raise RuntimeError(f"another server is using the data directory {data_dir}") from None
+        raise StartupError(
+            f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
+        ) from None
     return lock
 
 
@@ -93,6 +116,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.grade_runs = app.state.checks = None
+    app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
+    app.state.stopping = Stopping()
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
     app.add_middleware(

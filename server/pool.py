@@ -8,6 +8,13 @@ The supervisor wakes when a worker process ends (or every half second) and
   worker itself stops a job at its limit within one band of rows; this is for a render stuck in a
   single long launch).
 The API never depends on a worker being alive: it only reads and writes the job store.
+
+Stopping: a worker ignores SIGINT and SIGTERM (a terminal's Ctrl-C, `kill -- -PGID` and a service
+manager signal the whole process group), so such a signal never ends a worker nor looks like a
+crash to restart it after. The server alone stops its workers: as soon as it is asked to stop
+(`stopping()`, set by its own signal handler) the supervisor restarts no worker and closes every
+worker's line; each gives its job back to the queue at its next look (within a band of rows) and
+exits, and `shutdown` kills those that have not within its timeout.
 """
 
 from __future__ import annotations
@@ -18,13 +25,14 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import wait
 
 from server.channel import ServerEnd
 from server.lifecycle import LANES, Lane
 from server.settings import Settings
-from server.store import JobStore
+from server.store import JobStore, is_disk_full
 from server.worker import worker_main
 
 log = logging.getLogger("server.pool")
@@ -45,8 +53,9 @@ class Slot:
 
 
 class WorkerPool:
-    def __init__(self, settings: Settings, store: JobStore):
+    def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
+        self.stopping = stopping  # the server has been asked to stop (a signal): no more workers, no more jobs
         self.ctx = mp.get_context("spawn")
         general = [Slot(i) for i in range(settings.workers)]
         extra = [Slot(settings.workers + i, (Lane.interactive,)) for i in range(settings.interactive_workers)]
@@ -65,12 +74,11 @@ class WorkerPool:
 
     def shutdown(self, timeout: float = 10.0) -> None:
         """Ask the workers to give their jobs back and exit; kill those that do not in `timeout` s."""
-        self._closing.set()
+        with self._lock:  # after this, the supervisor starts no worker (it spawns holding the lock)
+            self._closing.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
-        for slot in self.slots:
-            if slot.line is not None:
-                slot.line.close()  # the worker reads end-of-file: stop
+        self._stop_workers()
         deadline = time.monotonic() + timeout
         for slot in self.slots:
             p = slot.process
@@ -83,6 +91,12 @@ class WorkerPool:
                 p.join(timeout=5)
             self._handle_death(slot, p)
             slot.process = None
+
+    def _stop_workers(self) -> None:
+        """Close every worker's line: each reads end-of-file, gives its job back and exits."""
+        for slot in self.slots:
+            if slot.line is not None:
+                slot.line.close()
 
     def _spawn(self, slot: Slot) -> None:
         if slot.line is not None:
@@ -112,6 +126,7 @@ class WorkerPool:
     # -- supervision --------------------------------------------------------------------------
 
     def _supervise(self) -> None:
+        told = False  # the workers were told to stop (the server is stopping)
         while not self._closing.is_set():
             sentinels = [s.process.sentinel for s in self.slots if s.process is not None and s.process.is_alive()]
             if sentinels:
@@ -120,14 +135,23 @@ class WorkerPool:
                 self._closing.wait(0.5)
             if self._closing.is_set():
                 return
+            if self.stopping() and not told:  # stop taking jobs now, before the server waits for its connections
+                log.info("stopping: the render workers give their jobs back to the queue")
+                with self._lock:
+                    self._stop_workers()
+                told = True
             try:
                 self._check()
-            except Exception:  # the supervisor must outlive any surprise (a locked database, ...)
-                log.exception("worker supervisor")
+            except Exception as exc:  # the supervisor must outlive any surprise (a locked database, ...)
+                if is_disk_full(exc):  # it tries again at its next round
+                    log.warning("worker supervisor: the disk is full (%s)", exc)
+                else:
+                    log.exception("worker supervisor")
 
     def _check(self) -> None:
         now = time.monotonic()
         with self._lock:
+            ending = self._closing.is_set() or self.stopping()  # never a new worker while the server stops
             for slot in self.slots:
                 p = slot.process
                 if p is not None and not p.is_alive():
@@ -136,7 +160,7 @@ class WorkerPool:
                     slot.failures_in_a_row = slot.failures_in_a_row + 1 if quick else 0
                     slot.not_before = now + (min(30.0, 2.0 ** (slot.failures_in_a_row - 1)) if quick else 0.0)
                     slot.process = None
-                if slot.process is None and now >= slot.not_before and not self._closing.is_set():
+                if slot.process is None and now >= slot.not_before and not ending:
                     slot.restarts += 1
                     self._spawn(slot)
         self._kill_overdue()
@@ -153,7 +177,7 @@ class WorkerPool:
         for job_id, status in self.store.worker_died(p.pid, self.settings.job_attempts, f"render worker {how}"):
             log.warning("worker %d %s while rendering job %s: job %s", p.pid, how, job_id, status)
             self.notify()
-        if not self._closing.is_set():
+        if not self._closing.is_set() and not self.stopping():
             log.warning("render worker %d (pid %d) %s", slot.index, p.pid, how)
 
     def _kill_overdue(self) -> None:

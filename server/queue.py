@@ -15,6 +15,7 @@ The routes, the SSE streams, grading and the page see only the store and this in
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Protocol
 
 from server.lifecycle import Lane
@@ -53,10 +54,10 @@ class EmbeddedQueue:
 
     backend = "embedded"
 
-    def __init__(self, settings: Settings, store: JobStore):
+    def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
         self.stats: dict[str, int] = {}
-        self.pool = WorkerPool(settings, store) if settings.workers > 0 else None
+        self.pool = WorkerPool(settings, store, stopping) if settings.workers > 0 else None
 
     def start(self) -> None:
         requeued, cancelled = self.store.recover()
@@ -91,10 +92,11 @@ class EmbeddedQueue:
         ]
 
 
-def make_queue(settings: Settings, store: JobStore) -> JobQueue:
-    """The backend the settings ask for: Redis with RQ when `redis_url` is set, else embedded."""
+def make_queue(settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False) -> JobQueue:
+    """The backend the settings ask for: Redis with RQ when `redis_url` is set, else embedded. `stopping()`
+    says that the server has been asked to stop (a signal): from then on no worker is started."""
     if settings.redis_url:
         from server.rq_queue import RedisQueue
 
-        return RedisQueue(settings, store)
-    return EmbeddedQueue(settings, store)
+        return RedisQueue(settings, store, stopping)
+    return EmbeddedQueue(settings, store, stopping)

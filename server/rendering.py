@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from server.lifecycle import JobKind, JobStatus, Lane
-from server.store import JobFile, JobStore
+from server.store import JobFile, JobStore, is_disk_full
 
 log = logging.getLogger("server.rendering")
 
@@ -97,6 +97,11 @@ class StoreChannel:
         if fields:
             self.store.progress(self.job_id, self.pid, **fields)
         self.store.requeue(self.job_id, self.pid, outcome)
+
+
+def disk_full_error(exc: BaseException) -> str:
+    """A job's error when its try met a full disk."""
+    return f"stopped: the disk is full, so the job's images could not be kept ({exc}); submit it again later"
 
 
 class Stop(Exception):
@@ -204,6 +209,10 @@ class Try:
             self._invalid(exc)
             return "failed"
         except Exception as exc:  # a bug or a broken scene must fail the job, not the worker
+            if is_disk_full(exc):  # not a bug: said plainly (a finish that cannot be written raises to the worker)
+                log.warning("job %s: %s", job_id, disk_full_error(exc))
+                self.channel.finish(JobStatus.failed, error=disk_full_error(exc))
+                return "failed"
             log.exception("job %s failed", job_id)
             self.channel.finish(JobStatus.failed, error=f"render error: {type(exc).__name__}: {exc}")
             return "failed"

@@ -13,6 +13,9 @@
   - keeps the local worker hosts alive (`workers` > 0: `python -m server.worker` processes).
 - `cancelled`: a flag every host checks between bands; a queued try is taken out of RQ too.
 
+While the API's disk is full an event is not acknowledged: it is read and applied again every few
+seconds until it can be written (a full disk loses no progress, image or end of a job).
+
 One lock serialises every change the API makes to a job of this backend (applying an event,
 losing a try, a cancel), so a try is never both applied and lost.
 """
@@ -27,6 +30,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -38,12 +42,13 @@ from rq.registry import StartedJobRegistry
 from server import events as ev
 from server.lifecycle import JobStatus, Lane
 from server.settings import Settings
-from server.store import Attempt, JobFile, JobStore
+from server.store import Attempt, JobFile, JobStore, is_disk_full
 
 log = logging.getLogger("server.rq_queue")
 
 MONITOR_INTERVAL = 1.0  # seconds between two rounds of the monitor
 HARD_GRACE = 10.0  # seconds past a try's time limit before the API fails it (its host stops it itself at the limit)
+DISK_FULL_PAUSE = 2.0  # seconds between two tries to apply an event while the data directory's disk is full
 DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive before its try is lost
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -51,8 +56,9 @@ ROOT = Path(__file__).resolve().parent.parent
 class RedisQueue:
     backend = "redis"
 
-    def __init__(self, settings: Settings, store: JobStore):
+    def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
+        self.stopping = stopping  # the server has been asked to stop: its local worker hosts are not restarted
         self.url = settings.redis_url
         self.r = redis.Redis.from_url(self.url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
         self.queues = {name: Queue(name, connection=self.r) for name in ev.QUEUES}
@@ -214,7 +220,7 @@ class RedisQueue:
                 full = self.store.get(row["id"])
                 if row["status"] == JobStatus.queued:
                     self._enqueue(full, attempt)
-                elif self.store.requeue(row["id"], Attempt(attempt)):  # given back: not counted as lost
+                elif self.store.requeue(row["id"], Attempt(attempt)) == JobStatus.queued:  # not counted as lost
                     self._enqueue(self.store.get(row["id"]), attempt + 1)
                     log.warning("job %s: its try %d is gone from Redis; queued again", row["id"], attempt)
 
@@ -251,7 +257,12 @@ class RedisQueue:
             except redis.RedisError as exc:
                 log.warning("Redis unreachable while reading events (%s); retrying", exc)
                 self.stop.wait(1.0)
-            except Exception:
+            except Exception as exc:
+                if is_disk_full(exc):  # not acknowledged: read again (every event applies twice harmlessly)
+                    log.warning("the disk is full: a worker host's event waits to be applied (%s)", exc)
+                    pending = True
+                    self.stop.wait(DISK_FULL_PAUSE)
+                    continue
                 log.exception("applying a worker host's event")
                 self.stop.wait(0.2)
 
@@ -284,9 +295,12 @@ class RedisQueue:
                 if data.get("fields"):
                     self.store.progress(job_id, fence, **data["fields"])
                 outcome = data.get("outcome") or "given back"
-                if self.store.requeue(job_id, fence, outcome):
+                moved = self.store.requeue(job_id, fence, outcome)
+                if moved == JobStatus.queued:
                     self._enqueue(self.store.get(job_id), attempt + 1)
                     log.info("job %s: try %d %s; queued as try %d", job_id, attempt, outcome, attempt + 1)
+                elif moved == JobStatus.cancelled:  # its cancel was accepted while it ran: it ends here
+                    self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
 
     def _copy_files(self, job_id: str, files: dict[str, str]) -> None:
         if not files:
@@ -313,8 +327,11 @@ class RedisQueue:
                 self._keep_hosts()
             except redis.RedisError as exc:
                 log.warning("Redis unreachable (%s); the monitor retries", exc)
-            except Exception:
-                log.exception("job queue monitor")
+            except Exception as exc:
+                if is_disk_full(exc):
+                    log.warning("job queue monitor: the disk is full (%s)", exc)
+                else:
+                    log.exception("job queue monitor")
 
     def _check_epoch(self) -> None:
         if self.r.get(ev.EPOCH) == self.epoch:
@@ -388,7 +405,7 @@ class RedisQueue:
 
     def _keep_hosts(self) -> None:
         for slot, p in enumerate(self.hosts):
-            if p is not None and p.poll() is not None and not self.stop.is_set():
+            if p is not None and p.poll() is not None and not self.stop.is_set() and not self.stopping():
                 log.warning("local worker host %d exited with %s; starting it again", slot, p.returncode)
                 self._start_host(slot)
 

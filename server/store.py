@@ -16,6 +16,7 @@ A job's files (its images, AOV pictures, radiosity solution) live in DATA/jobs/<
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import secrets
@@ -216,7 +217,7 @@ class JobStore:
         return conn
 
     def _tx(self):
-        return _Transaction(self.db)
+        return Transaction(self.db)
 
     def _one(self, sql: str, args=()) -> dict | None:
         row = self.db.execute(sql, args).fetchone()
@@ -368,11 +369,14 @@ class JobStore:
         return out
 
     def cancel(self, job_id: str) -> dict | None:
-        """Cancel a queued job now; ask the worker of a running one to stop. The job's row after."""
+        """Cancel a queued job now; ask the worker of a running one to stop. The job's row after: cancelled
+        (it was queued), running (asked to stop: however its try ends, it ends cancelled, see `finish`),
+        or done or failed (it had ended first: nothing changed)."""
         with self._tx() as db:
             self._move(db, QUEUED, CANCELLED, "id = ?", (job_id,), error="cancelled before it started")
             db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = ?", (job_id, RUNNING))
-        return self.get(job_id)
+            row = db.execute("SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        return dict(row) if row is not None else None
 
     def recover(self) -> tuple[int, int]:
         """At start-up: jobs left running by a dead server go back to the queue (or end, if cancelled)."""
@@ -492,18 +496,25 @@ class JobStore:
         )
         return cur.rowcount > 0
 
-    def requeue(self, job_id: str, who: int, outcome: str = "given back") -> bool:
+    def requeue(self, job_id: str, who: int, outcome: str = "given back") -> JobStatus | None:
         """Give a job back to the queue: its worker is shutting down ("given back"), or its render gives
         way to interactive work ("gave way"). An embedded worker's try does not count (the next claim
         counts it again); a try of the Redis backend is given back as the next try (tries are its
-        fence), which counts nothing lost either."""
+        fence), which counts nothing lost either. A job whose cancel was accepted ends cancelled
+        instead. The status it moved to (queued or cancelled), or None if `who` no longer had it."""
         where, args = _fence(who)
         again = _Sql("attempts + 1") if isinstance(who, Attempt) else _Sql("MAX(attempts - 1, 0)")
-        moved = self._move(
-            self.db, RUNNING, QUEUED, _and("id = ?", where), (job_id, *args),
-            worker=None, attempts=again, tries=_end_try(outcome),
-        )  # fmt: skip
-        return bool(moved)
+        with self._tx() as db:
+            if self._move(
+                db, RUNNING, CANCELLED, _and("id = ?", where, "cancel_requested = 1"), (job_id, *args),
+                worker=None, error=f"cancelled (its try was {outcome})", tries=_end_try(CANCELLED.value),
+            ):  # fmt: skip
+                return CANCELLED  # a cancel accepted while it ran wins: its client was told it ends cancelled
+            moved = self._move(
+                db, RUNNING, QUEUED, _and("id = ?", where), (job_id, *args),
+                worker=None, attempts=again, tries=_end_try(outcome),
+            )  # fmt: skip
+        return QUEUED if moved else None
 
     def interactive_waiting(self, longer_than: float = 1.0) -> bool:
         """Is interactive work waiting (queued for more than `longer_than` seconds: a free interactive
@@ -517,15 +528,25 @@ class JobStore:
     def finish(self, job_id: str, who: int | None, status: JobStatus, **fields) -> bool:
         """End a running job as `status` (done, failed or cancelled), with its last progress `fields`;
         only while `who` (a worker's pid, a try's Attempt) still has it (anyone's when None: the
-        supervisor). False if it had not."""
+        supervisor). False if it had not. A job whose cancel was accepted while it ran ends cancelled
+        whatever `status` says (a render that finished its last band before it saw the cancel): the
+        job's end agrees with the 202 its client got."""
         if not JobStatus(status).finished:
             raise BadTransition(f"finish() ends a job; {status} is not an end")
         for key in ("rays", "errors", "solve"):
             if key in fields:
                 fields[key] = json.dumps(fields[key])
+        status = JobStatus(status)
         where, args = _fence(who)
-        fields.setdefault("tries", _end_try(JobStatus(status).value))
-        return bool(self._move(self.db, RUNNING, JobStatus(status), _and("id = ?", where), (job_id, *args), **fields))
+        mine = (_and("id = ?", where), (job_id, *args))
+        with self._tx() as db:
+            if status is not CANCELLED:  # a cancel accepted while it ran (202) wins, whatever the try's end
+                error = f"cancelled ({fields['error']})" if fields.get("error") else "cancelled while rendering"
+                cancelled = {**fields, "error": error, "tries": _end_try(CANCELLED.value)}
+                if self._move(db, RUNNING, CANCELLED, _and(mine[0], "cancel_requested = 1"), mine[1], **cancelled):
+                    return True
+            fields.setdefault("tries", _end_try(status.value))
+            return bool(self._move(db, RUNNING, status, *mine, **fields))
 
     # -- the Redis backend: tries of jobs on worker hosts, applied by the API --------------------
 
@@ -586,8 +607,10 @@ class JobStore:
         return [dict(r) for r in rows]
 
 
-class _Transaction:
-    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection."""
+class Transaction:
+    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection. A COMMIT
+    that fails (the disk full) rolls back too, so the connection is never left inside a transaction: the
+    next one begins cleanly once there is space again."""
 
     def __init__(self, conn: sqlite3.Connection):
         self.conn = conn
@@ -597,7 +620,30 @@ class _Transaction:
         return self.conn
 
     def __exit__(self, kind, value, tb) -> None:
-        self.conn.execute("ROLLBACK" if kind else "COMMIT")
+        if kind is None:
+            try:
+                self.conn.execute("COMMIT")
+                return
+            except BaseException:
+                self._rollback()
+                raise
+        self._rollback()
+
+    def _rollback(self) -> None:
+        if self.conn.in_transaction:  # SQLite may have rolled it back itself (a full disk, an I/O error)
+            try:
+                self.conn.execute("ROLLBACK")
+            except sqlite3.Error:
+                pass
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Is `exc` a full disk (or quota): an OSError ENOSPC or EDQUOT, or SQLite's "database or disk is full"?"""
+    if isinstance(exc, OSError):
+        return exc.errno in (errno.ENOSPC, errno.EDQUOT)
+    if isinstance(exc, sqlite3.Error):
+        return getattr(exc, "sqlite_errorcode", None) == sqlite3.SQLITE_FULL or "disk is full" in str(exc)
+    return False
 
 
 def write_atomic(path: Path, write) -> None:

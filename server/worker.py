@@ -6,6 +6,10 @@ then loops: claim the next job (priority, then age; an idle worker sleeps until 
 a submission, or `poll_interval` at most) and render it. Only plain data crosses the process
 boundary: the job row in SQLite, the settings as a dict, and the image files.
 
+A full disk (the job store or a job's files cannot be written) never ends a worker: the job it renders
+fails with that reason (recorded as soon as the store can be written again), and it takes the next job
+once there is space; the API answers new jobs with 507 meanwhile.
+
 `python -m server.worker --redis URL` is the other backend's worker host (server/rq_worker.py).
 """
 
@@ -14,20 +18,26 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import time
 
 from server.channel import WorkerEnd
 from server.lifecycle import LANES
-from server.rendering import StoreChannel, Try
+from server.rendering import StoreChannel, Try, disk_full_error
 from server.settings import Settings
-from server.store import JobStore
+from server.store import JobStore, is_disk_full
 
 log = logging.getLogger("server.worker")
+
+DISK_FULL_PAUSE = 2.0  # seconds between two tries to write the job store while the disk is full
 
 
 def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> None:
     """Entry point of a worker process (spawned: it imports everything itself); `conn` is its end of
     the server's line (server/channel.py): wakes come in, "ready" goes out, end-of-file means stop."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the server stops us
+    # Ctrl-C, `kill -- -PGID` and a service manager signal the whole group: the server stops us (closing our
+    # line: we give our job back), never a signal, which would end the job's try as a crash
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     line = WorkerEnd(conn)
     settings = Settings(**settings_data)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
@@ -52,6 +62,7 @@ class Worker:
 
     def __init__(self, settings: Settings, store: JobStore, stopping, pid: int | None = None, lanes: tuple = LANES):
         self.settings, self.store, self.stopping = settings, store, stopping
+        self.wait = time.sleep  # how it waits: `loop` is given the line's wait (a wake or a stop ends it early)
         self.pid = pid or os.getpid()
         self.lanes = lanes
         from tracer.radiosity import SolutionCache
@@ -60,8 +71,15 @@ class Worker:
 
     def loop(self, wait) -> None:
         log.info("render worker %d ready", self.pid)
+        self.wait = wait
         while not self.stopping():
-            job = self.store.claim(self.pid, self.lanes)
+            try:
+                job = self.store.claim(self.pid, self.lanes)
+            except Exception as exc:
+                if not is_disk_full(exc):
+                    raise
+                self._disk_full(f"cannot take a job ({exc})")
+                continue
             if job is None:
                 wait(self.settings.poll_interval)
                 continue
@@ -73,10 +91,35 @@ class Worker:
         log.info("job %s: rendering (try %d)", job["id"], job["attempts"])
         channel = StoreChannel(self.store, job, self.pid)
         settings = self.settings
-        return Try(
-            job, channel, settings.limits, settings.threads_per_worker(), settings.preview_interval, self.stopping,
-            cache=self.cache, snapshot_interval=settings.snapshot_interval,
-        ).run()  # fmt: skip
+        try:
+            return Try(
+                job, channel, settings.limits, settings.threads_per_worker(), settings.preview_interval,
+                self.stopping, cache=self.cache, snapshot_interval=settings.snapshot_interval,
+            ).run()  # fmt: skip
+        except Exception as exc:  # the try could not even record its end: the disk is full
+            if not is_disk_full(exc):
+                raise
+            self._fail_when_possible(job, disk_full_error(exc))
+            return "failed"
+
+    def _fail_when_possible(self, job: dict, error: str) -> None:
+        """Fail the job with `error` as soon as the store can be written again. The worker waits rather than
+        die (its job would be left running); a stopping worker leaves the job running under its pid, and the
+        server gives it back to the queue (the supervisor, or the next start's recovery)."""
+        while not self.stopping():
+            try:
+                self.store.fail(job["id"], self.pid, error)
+                log.warning("job %s: failed, %s", job["id"], error)
+                return
+            except Exception as exc:
+                if not is_disk_full(exc):
+                    raise
+                self._disk_full(f"cannot record that job {job['id']} failed")
+
+    def _disk_full(self, what: str) -> None:
+        """Say so and wait a little (the janitor, or an administrator, may free space meanwhile)."""
+        log.warning("render worker %d: the disk is full: %s; trying again in %g s", self.pid, what, DISK_FULL_PAUSE)
+        self.wait(DISK_FULL_PAUSE)
 
 
 if __name__ == "__main__":  # python -m server.worker --redis URL ...: a worker host of the Redis backend

@@ -158,8 +158,11 @@ class Server:
     """`python -m server` on 127.0.0.1 in a subprocess, with its log in a file. Its `client` sends a
     student's token (`token`) on every request, as api_client's does."""
 
-    def __init__(self, data_dir: Path, workers: int = 1, env: dict | None = None, port: int | None = None):
+    def __init__(
+        self, data_dir: Path, workers: int = 1, env: dict | None = None, port: int | None = None, group: bool = False
+    ):
         self.data_dir, self.workers = Path(data_dir), workers
+        self.group = group  # in a process group of its own (its pid is the group's id), as a service manager starts it
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.env = {**os.environ, "TRACER_INTERACTIVE_WORKERS": "0", **(env or {})}  # as api_client
@@ -173,7 +176,9 @@ class Server:
         self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
         cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
         cmd += ["--workers", str(self.workers)]
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=self.log, stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen(
+            cmd, cwd=ROOT, env=self.env, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=self.group
+        )
         wait_for(self._ready, SERVER_START_TIMEOUT, f"the server to start (log: {self.log_path})", interval=0.2)
         return self
 

@@ -8,6 +8,7 @@ The service's tests use the app in a TestClient with real render workers (test_a
 
 from __future__ import annotations
 
+import base64
 import io
 import json
 import struct
@@ -208,6 +209,19 @@ def test_upload_a_zip_grades_the_example_class(app):
         assert r.status_code == 404 and "rendered for grading" in r.json()["errors"][0]["message"], r.text
 
 
+def test_upload_the_json_route_grades_a_zip_unpacked_on_disk(app):
+    """POST /api/grade with the example class as a base64 zip: unpacked to files as an upload is, the same
+    grades; the submissions' names are those inside the zip's top folder, as before."""
+    body = {"assignment": json.loads(assignment_text()), "zip": base64.b64encode(class_zip()).decode()}
+    r = app.post("/api/grade", json=body)
+    assert r.status_code == 202, r.text
+    state = finished(app, r.json()["url"])
+    assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == EXPECTED
+    folder = app.app.state.settings.data_dir / "grades" / r.json()["id"]
+    assert len(list((folder / "submissions").iterdir())) == 9
+    assert not list((folder.parent / ".uploads").iterdir())
+
+
 def test_upload_files_parts_name_their_students(app):
     """One part per file, as the page sends picked files: students by file name (Unicode letters kept), a
     folder in the name as in a zip, other files skipped."""
@@ -312,12 +326,73 @@ def test_upload_past_its_size_is_refused_by_content_length_and_by_bytes_streamed
 
 def test_upload_the_json_route_reads_its_zip_with_the_same_bounds(app, bomb):
     """POST /api/grade with a base64 zip (small classes): the same bounded reader."""
-    import base64
-
     body = {"assignment": json.loads(assignment_text()), "zip": base64.b64encode(bomb).decode()}
     r = app.post("/api/grade", json=body)
     assert r.status_code in (413, 422), r.text  # 1.4 MB of base64: under 2 MB
     assert r.json()["errors"][0]["message"] == "hw4/bomb.json: holds more than the 100 bytes its header declares"
+
+
+def corrupted_byte() -> bytes:
+    """The example class's zip with one byte of alice.json's deflated data flipped."""
+    data = bytearray(class_zip())
+    data[data.index(b"hw4/alice.json") + len("hw4/alice.json") + 40] ^= 0xFF
+    return bytes(data)
+
+
+@pytest.mark.parametrize("route", ["json", "upload"])
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (corrupted_byte, "hw4/alice.json: "),
+        (lambda: raw_zip([{"name": "hw4/a.json", "data": deflated(b"{}"), "size": 2, "crc": 1}]),
+         "hw4/a.json: bad CRC-32 (the entry is corrupt)"),
+        (lambda: raw_zip([{"name": "hw4/a.json", "data": b"\xff" * 40, "size": 10}]), "hw4/a.json: cannot unpack it"),
+        (lambda: b"PK\x03\x04" + bytes(range(256)) * 8, "not a zip file"),
+    ],
+    ids=["corrupted-byte", "bad-crc", "garbage-stream", "garbage"],
+)  # fmt: skip
+def test_upload_both_routes_answer_a_broken_zip_with_a_422_naming_the_entry(app, route, make, words):
+    """The issue's zips, through the JSON route (base64) and the upload: a 422 at the zip's field naming the
+    entry, never a 500; nothing of them is left in the staging folder."""
+    data = make()
+    if route == "json":
+        body = {"assignment": json.loads(assignment_text()), "zip": base64.b64encode(data).decode()}
+        r, where = app.post("/api/grade", json=body), "zip"
+    else:
+        r, where = post(app, files={"class": ("hw4.zip", data, "application/zip")}), "class"
+    assert r.status_code == 422, r.text
+    [error] = r.json()["errors"]
+    assert error["path"] == where and error["message"].startswith(words), error
+    uploads = app.app.state.settings.data_dir / "grades" / ".uploads"
+    assert not uploads.exists() or not list(uploads.iterdir())
+
+
+def test_upload_the_json_route_unpacks_to_disk_never_holding_the_class(app):
+    """The JSON route's zip (base64 in the body) used to be unpacked in memory: 70 entries of 19.9 MB of zeros
+    (1.4 MB of zip) were held at 1.39 GB. Now it is unpacked to files like an upload, a chunk at a time:
+    eight entries of 19.9 MB under a cap of 150 MB are refused at the eighth, by name, and Python's peak
+    allocation (tracemalloc, the app runs in this process) stays far under one entry's size."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as z:
+        for k in range(8):
+            z.writestr(f"hw4/s{k}.json", bytes(19_900_000))
+    body = {"assignment": json.loads(assignment_text()), "zip": base64.b64encode(buf.getvalue()).decode()}
+    del buf
+    settings = app.app.state.settings
+    saved = settings.max_class_bytes
+    settings.max_class_bytes = 150_000_000
+    tracemalloc.start()
+    try:
+        r = app.post("/api/grade", json=body)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+        settings.max_class_bytes = saved
+    assert r.status_code == 422, r.text
+    assert r.json()["errors"] == [{"path": "zip", "message": "hw4/s7.json: the class unpacks to more than 150000000 "
+                                   "bytes (TRACER_MAX_CLASS_BYTES)"}]  # fmt: skip
+    assert peak < 16_000_000, peak  # before: every entry unpacked in memory, 140 MB
+    assert not list((settings.data_dir / "grades" / ".uploads").iterdir())  # the unpacked files are gone
 
 
 def test_upload_openapi_documents_the_multipart_body(app):

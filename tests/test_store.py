@@ -119,12 +119,36 @@ def test_store_moves_follow_the_life_cycle(tmp_path):
         store.finish(job_id, None, JobStatus.queued)  # finish() only ends a job
     assert not store.finish(job_id, None, JobStatus.done)  # a queued job has no render to finish
     assert store.claim(pid=7)["status"] == "running"
-    assert store.cancel(job_id)["status"] == "running"  # a running job is asked to stop, not ended
     assert store.fail(job_id, None, "over the time limit")  # the supervisor ends it first ...
     assert not store.finish(job_id, 7, JobStatus.cancelled, error="cancelled while rendering")  # ... so this is late
     row = store.get(job_id)
     assert (row["status"], row["error"]) == ("failed", "over the time limit") and row["finished_at"] is not None
     assert not store.requeue(job_id, 7) and store.get(job_id)["status"] == "failed"
+    assert store.cancel(job_id)["status"] == "failed"  # an ended job: the cancel changes nothing
+
+
+@pytest.mark.parametrize(
+    "end, error",
+    [
+        (lambda s, j: s.finish(j, 7, JobStatus.done), "cancelled while rendering"),
+        (lambda s, j: s.fail(j, None, "over the time limit"), "cancelled (over the time limit)"),
+        (lambda s, j: s.requeue(j, 7) == JobStatus.cancelled, "cancelled (its try was given back)"),
+        (lambda s, j: s.worker_died(7, 2, "render worker killed") == [(j, "cancelled")], "cancelled (render worker"),
+    ],
+    ids=["finished-its-last-band", "failed", "given-back", "worker-died"],
+)
+def test_store_an_accepted_cancel_wins_over_the_try_s_end(tmp_path, end, error):
+    """The cancel race: a cancel accepted while the job ran (202) and a try that ends before it looks again
+    (its last band done, a time limit, a shutdown, a crash). However the try ends, the job ends cancelled."""
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    store.claim(pid=7)
+    assert store.cancel(job_id)["status"] == "running"  # a running job is asked to stop, not ended
+    assert end(store, job_id)
+    row = store.get(job_id)
+    assert row["status"] == "cancelled" and row["error"].startswith(error) and row["finished_at"] is not None
+    assert json.loads(row["tries"])[-1]["outcome"] in ("cancelled", "lost")
+    assert store.cancel(job_id)["status"] == "cancelled" and not store.finish(job_id, 7, JobStatus.done)
 
 
 def test_store_names_a_job_s_files(tmp_path):

@@ -28,13 +28,12 @@ from tracer.grading import (
     Caps,
     GradingError,
     group_names,
-    read_zip,
     student_for_file,
     student_name,
     unpack_zip,
 )
 from tracer.grading.archive import kept
-from tracer.grading.batch import MAX_FILES, group_files
+from tracer.grading.batch import MAX_FILES, _inside
 
 INSTRUCTOR = {
     401: {"model": ErrorResponse, "description": "no instructor token, or not the instructor's (WWW-Authenticate)"},
@@ -45,6 +44,7 @@ router = APIRouter(
 )
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
+NO_SUBMISSIONS = "no submissions in it (.json, .png or .exr files)"
 EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"
 UPLOAD = "/api/grade/upload"  # streamed (server/uploads.py): the request gate does not buffer it
 UPLOAD_BODY = {  # the multipart body, for /docs (the route parses it as a stream, not through FastAPI's models)
@@ -120,18 +120,18 @@ def class_caps(settings: Settings) -> Caps:
     )  # fmt: skip
 
 
-def _submissions(body: GradeCreate, settings: Settings) -> list[Handed]:
+def _submissions(body: GradeCreate, settings: Settings, staging: Path | None) -> list[Handed]:
+    """The body's submissions; a zip is unpacked into `staging` (a folder of the run's disk) with the same
+    bounded reader as an upload's: never more than a chunk of it in memory, whatever its headers say."""
     if body.scene is not None:
         text = body.scene if isinstance(body.scene, str) else json.dumps(body.scene)
         return [Handed("submission", "scene", "submission.json", text.encode())]
     if body.zip is not None:
-        try:
-            subs = group_files(read_zip(_b64(body.zip, "zip"), class_caps(settings)))
-        except GradingError as e:
-            raise ApiError(422, [{"path": "zip", "message": str(e)}]) from None
-        if not subs:
-            raise ApiError(422, [{"path": "zip", "message": "no submissions in it (.json, .png or .exr files)"}])
-        return [Handed(s.student, s.kind, s.filename, s.data) for s in subs]
+        src = staging / "class.zip"
+        src.write_bytes(_b64(body.zip, "zip"))
+        entries = _unpack(src, staging, class_caps(settings), "zip")
+        return [Handed(student, kind, _inside(name, entries), path=entries[name])
+                for student, name, kind in group_names(list(entries))]  # fmt: skip
     out, seen = [], set()
     for i, s in enumerate(body.submissions or []):
         name = student_name(s.student)
@@ -162,7 +162,12 @@ def grade(body: GradeCreate, runs: RunsDep, settings: SettingsDep, response: Res
     are queued jobs with the assignment's time limit each. Follow it at `url` until `status` is done.
     A class of any size: POST /api/grade/upload (multipart, streamed); this JSON body has the request
     size limit (TRACER_MAX_BODY_BYTES)."""
-    state = start_run(runs, body.assignment, _submissions(body, settings))
+    staging = runs.staging() if body.zip is not None else None
+    try:
+        state = start_run(runs, body.assignment, _submissions(body, settings, staging))
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
     response.headers["Location"] = f"/api/grade/{state['id']}"
     return _public(state, runs)
 
@@ -220,19 +225,26 @@ def _assignment(data: bytes, settings: Settings) -> dict:
 
 def _unpacked(up: Upload, staging: Path, caps: Caps) -> list[Handed]:
     """The uploaded class -> one submission per student, its file on disk (a zip unpacked first)."""
-    where = "class" if up.zip is not None else "files"
     if up.zip is not None:
-        try:
-            entries = unpack_zip(up.zip, staging / "class", caps)
-        except GradingError as e:
-            raise ApiError(422, [{"path": "class", "message": str(e)}]) from None
-        up.zip.unlink()
+        entries = _unpack(up.zip, staging, caps, "class")
     else:
         entries = {name.replace("\\", "/"): path for name, path in up.files if kept(name)}
-    subs = group_names(list(entries))
-    if not subs:
-        raise ApiError(422, [{"path": where, "message": "no submissions in it (.json, .png or .exr files)"}])
-    return [Handed(student, kind, name, path=entries[name]) for student, name, kind in subs]
+        if not group_names(list(entries)):
+            raise ApiError(422, [{"path": "files", "message": NO_SUBMISSIONS}])
+    return [Handed(student, kind, name, path=entries[name]) for student, name, kind in group_names(list(entries))]
+
+
+def _unpack(src: Path, staging: Path, caps: Caps, where: str) -> dict[str, Path]:
+    """A class's zip file -> its files in staging/class/ by relative path (422 at `where` naming the broken
+    entry, or when it holds no submission); the zip itself is removed."""
+    try:
+        entries = unpack_zip(src, staging / "class", caps)
+    except GradingError as e:
+        raise ApiError(422, [{"path": where, "message": str(e)}]) from None
+    src.unlink()
+    if not group_names(list(entries)):
+        raise ApiError(422, [{"path": where, "message": NO_SUBMISSIONS}])
+    return entries
 
 
 @router.get("/schema", summary="The JSON Schema of an assignment")

@@ -27,6 +27,7 @@ router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
 KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
+MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
 NOT_FOUND = {
@@ -142,7 +143,7 @@ def list_jobs(
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Annotated[int, Query(ge=0, le=MAX_QUERY_INT)] = 0,
     scope: Annotated[
         Literal["mine", "all"] | None,
         Query(
@@ -189,7 +190,9 @@ def image(
     format: Annotated[
         Literal["png", "exr"], Query(description="png: sRGB with the film's exposure; exr: linear")
     ] = "png",
-    pass_: Annotated[int | None, Query(alias="pass", ge=0, description="ignored; makes each pass's URL new")] = None,
+    pass_: Annotated[
+        int | None, Query(alias="pass", ge=0, le=MAX_QUERY_INT, description="ignored; makes each pass's URL new")
+    ] = None,
 ) -> Response:
     if not job["preview"]:
         raise ApiError(404, f"no image yet: the job is {job['status']}")
@@ -290,7 +293,8 @@ def sse(event: str, data: dict) -> str:
 async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -> AsyncIterator[str]:
     yield "retry: 1000\n\n"
     last_progress, last_preview, quiet_since = None, 0, time.monotonic()
-    while True:
+    stopping = request.app.state.stopping
+    while not stopping():  # a stopping server ends its streams (the client reconnects to the next one)
         row = await anyio.to_thread.run_sync(store.get, job_id)
         if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
             return
@@ -336,10 +340,14 @@ async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -
     },
 )
 def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
-    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`."""
+    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`,
+    even if its render finishes before it sees the request; a job that has ended is 409 (the job's row
+    decides, in one transaction: the answer always agrees with the job's final status)."""
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
     row = store.cancel(job["id"])
+    if JobStatus(row["status"]) in (JobStatus.done, JobStatus.failed):  # it ended between the two reads
+        raise ApiError(409, f"the job has already ended ({row['status']})")
     queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202

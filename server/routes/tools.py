@@ -100,9 +100,12 @@ async def raytree(
         row = await anyio.to_thread.run_sync(store.get, row["id"])
         if JobStatus(row["status"]).finished:
             break
-        if await request.is_disconnected() or time.monotonic() > deadline:
+        stopping = request.app.state.stopping()
+        if stopping or await request.is_disconnected() or time.monotonic() > deadline:
             cancelled = await anyio.to_thread.run_sync(store.cancel, row["id"])
             queue.cancelled(cancelled)
+            if stopping:
+                raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
             if time.monotonic() > deadline:
                 raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
             raise ApiError(499, "the client went away")

@@ -1,0 +1,151 @@
+"""`python -m server` on a data directory it cannot use (issue #15, item 7): a damaged job database (random
+bytes, a truncated file), an empty or missing database beside job folders, a read-only data directory (a
+read-only tmpfs mount: the test runs as root, who ignores mode bits), a data directory that is a file, and
+one another server holds. Each time: one message on stderr that says what is wrong and what to do, a
+non-zero exit status, no traceback, and every file of the data directory as it was (server/startup.py)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+from test_api_support import Server, free_port
+from test_disk_full import tmpfs
+
+from server.startup import StartupError
+from server.store import JobStore
+
+
+def start(data_dir: Path, timeout: float = 120) -> tuple[int, str]:
+    """`python -m server` on `data_dir`: its exit status and its output, once it has exited by itself."""
+    cmd = [sys.executable, "-m", "server", "--port", str(free_port()), "--data-dir", str(data_dir), "--workers", "0"]
+    env = {**os.environ, "TRACER_INTERACTIVE_WORKERS": "0"}
+    try:
+        done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired as e:  # it served instead of refusing (killed by subprocess.run)
+        raise AssertionError(f"the server did not refuse to start: {e.stderr}") from None
+    return done.returncode, done.stdout + done.stderr
+
+
+def snapshot(folder: Path) -> dict[str, str]:
+    """Every file under `folder` by relative path, with its content's hash."""
+    if folder.is_file():
+        return {folder.name: hashlib.sha256(folder.read_bytes()).hexdigest()}
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "folder"
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def with_jobs(data_dir: Path, n: int = 3, scene_bytes: int = 100) -> list[str]:
+    """A data directory with `n` queued jobs, each with a file in its folder; their ids."""
+    store = JobStore(data_dir)
+    ids = []
+    for i in range(n):
+        row = store.create(
+            json.dumps({"name": "x" * scene_bytes, "i": i}), name=None, width=4, height=4, spp=1, priority=0,
+            warnings=[], max_seconds=60, max_queued=10_000,
+        )  # fmt: skip
+        store.save_file(row["id"], "image.png", b"\x89PNG picture")
+        ids.append(row["id"])
+    store.db.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # everything in jobs.sqlite3 itself
+    store.db.close()
+    return ids
+
+
+def refused(data_dir: Path, *words: str) -> str:
+    """Start on `data_dir`; assert it refused with a message holding `words`, changing nothing."""
+    before = snapshot(data_dir)
+    code, out = start(data_dir)
+    assert code != 0, out
+    assert "Traceback" not in out and "cannot start: " in out, out
+    message = out[out.index("cannot start: ") :]
+    for w in words:
+        assert w in message, message
+    assert snapshot(data_dir) == before  # nothing changed, nothing removed
+    return message
+
+
+def test_startup_random_bytes_for_a_database(tmp_path):
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "jobs.sqlite3").write_bytes(os.urandom(8192))
+    refused(data, "jobs.sqlite3 is damaged (file is not a database)", "Restore it from a backup", "move the data")
+
+
+def test_startup_a_truncated_database(tmp_path):
+    data = tmp_path / "data"
+    with_jobs(data, n=300, scene_bytes=3000)  # about 1 MB of rows: cut in half, its pages point past the end
+    db = data / "jobs.sqlite3"
+    os.truncate(db, db.stat().st_size // 2)
+    refused(data, "jobs.sqlite3 is damaged (", "Restore it from a backup", "Nothing was changed")
+
+
+def test_startup_an_empty_database_beside_job_folders_is_refused(tmp_path):
+    """A 0-byte jobs.sqlite3 used to start silently as a new database, and the janitor then removed every
+    job folder as an orphan."""
+    data = tmp_path / "data"
+    ids = with_jobs(data)
+    (data / "jobs.sqlite3").write_bytes(b"")
+    message = refused(data, "jobs.sqlite3 is an empty file", "3 job folder(s)", "Restore jobs.sqlite3 from a backup")
+    assert all((data / "jobs" / i / "image.png").is_file() for i in ids), message
+
+
+def test_startup_a_missing_database_beside_job_folders_is_refused(tmp_path):
+    data = tmp_path / "data"
+    with_jobs(data, n=2)
+    (data / "jobs.sqlite3").unlink()
+    refused(data, "jobs.sqlite3 is missing", "2 job folder(s)")
+
+
+def test_startup_an_empty_database_without_job_folders_is_a_new_one(tmp_path):
+    """The same empty file on a fresh data directory is no loss: the server starts on it."""
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "jobs.sqlite3").write_bytes(b"")
+    with Server(data, workers=0) as server:
+        assert server.client.get("/api/jobs").json()["count"] == 0
+
+
+def test_startup_a_data_directory_that_is_a_file(tmp_path):
+    data = tmp_path / "data"
+    data.write_text("not a folder")
+    refused(data, "is a file, not a folder")
+
+
+def test_startup_a_read_only_data_directory(tmp_path):
+    """A read-only mount (root ignores chmod, so a read-only tmpfs is the real test): refused before the
+    database is opened, with the mount named as the thing to fix."""
+    with tmpfs(tmp_path / "mnt") as mnt:
+        data = mnt / "data"
+        with_jobs(data)
+        subprocess.run(["mount", "-o", "remount,ro", str(mnt)], check=True)
+        refused(data, "is not writable (Read-only file system)", "remount it read-write")
+
+
+def test_startup_a_data_directory_another_server_holds(tmp_path):
+    data = tmp_path / "data"
+    with Server(data, workers=0):
+        code, out = start(data)
+        assert code != 0 and "Traceback" not in out, out
+        assert "cannot start: another server is using the data directory" in out, out
+
+
+def test_startup_the_app_checks_too(tmp_path):
+    """The app started another way (a TestClient, another ASGI server) runs the same checks in its lifespan."""
+    from fastapi.testclient import TestClient
+
+    from server.main import create_app
+    from server.settings import Settings
+
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "jobs.sqlite3").write_bytes(os.urandom(4096))
+    with pytest.raises(StartupError, match="is damaged"), TestClient(create_app(Settings(data_dir=data, workers=0))):
+        pass
