@@ -45,15 +45,17 @@ def free_port() -> int:
 
 
 class Api:
-    """A keep-alive HTTP/1.1 connection to the server, JSON in and out."""
+    """A keep-alive HTTP/1.1 connection to the server, JSON in and out; with `token`, as its bearer."""
 
-    def __init__(self, port: int):
-        self.port = port
+    def __init__(self, port: int, token: str | None = None):
+        self.port, self.token = port, token
         self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
 
     def call(self, method: str, path: str, body: dict | bytes | None = None) -> tuple[int, bytes]:
         data = body if isinstance(body, bytes) or body is None else json.dumps(body).encode()
         headers = {"content-type": "application/json"} if data is not None else {}
+        if self.token is not None:
+            headers["Authorization"] = f"Bearer {self.token}"
         try:
             self.conn.request(method, path, body=data, headers=headers)
             r = self.conn.getresponse()

@@ -13,6 +13,7 @@ others without an instructor token or a list of host names.
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import logging
 from contextlib import asynccontextmanager
@@ -51,25 +52,24 @@ async def lifespan(app: FastAPI):
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in the checking processes
     log.info("render kernels ready")
-    checks = app.state.checks = CheckPool(settings)
-    checks.start()  # scene checks, off the event loop
-    store = JobStore(settings.data_dir)
-    queue = make_queue(settings, store, app.state.stopping)
-    app.state.store, app.state.queue = store, queue
-    grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
-    queue.start()  # recovers the jobs a stopped server left, then takes jobs
-    grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
-    janitor = Janitor(settings, store)
-    janitor.start()
-    try:
+    with contextlib.ExitStack() as stack:  # what started is stopped, last first, also when a later start fails
+        stack.callback(lock.close)
+        checks = app.state.checks = CheckPool(settings)
+        checks.start()  # scene checks, off the event loop
+        stack.callback(checks.shutdown)
+        store = JobStore(settings.data_dir)
+        queue = make_queue(settings, store, app.state.stopping)
+        app.state.store, app.state.queue = store, queue
+        grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
+        queue.start()  # recovers the jobs a stopped server left, then takes jobs
+        stack.callback(queue.shutdown)
+        grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
+        stack.callback(grade_runs.shutdown)
+        janitor = Janitor(settings, store)
+        janitor.start()
+        stack.callback(janitor.stop)
+        stack.callback(app.state.stopping.set)  # (already set if a signal stopped the server)
         yield
-    finally:
-        app.state.stopping.set()  # (already set if a signal stopped the server)
-        janitor.stop()
-        grade_runs.shutdown()
-        queue.shutdown()
-        checks.shutdown()
-        lock.close()
 
 
 class Stopping:
