@@ -119,8 +119,9 @@ TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samp
 
 def checker_main(conn, nice: int) -> None:
     """A checking process (spawned): below the API in priority, deaf to the terminal's Ctrl-C and to a SIGTERM
-    sent to the server's whole process group (the server stops it: closing its line), gone with its server; loads the kernels of the samples from Warp's cache, says it is ready,
-    then answers tasks (name, args) until its line closes."""
+    sent to the server's whole process group (the server stops it: closing its line), gone with its server;
+    loads the kernels of the samples from Warp's cache, says it is ready, then answers tasks (name, args)
+    until its line closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     if nice:

@@ -129,7 +129,10 @@ class Settings(BaseSettings):
         description="a class's files unpacked, all together (bytes, or 500MB, 1GB); an upload may be this big "
         "plus max_body_bytes (the assignment)",
     )
-    max_queued_jobs: int = Field(100, ge=1, description="jobs waiting in the queue: 429 past it")
+    max_queued_jobs: int = Field(1000, ge=1, description="jobs waiting in the queue: 429 past it")
+    max_queued_per_token: int = Field(
+        20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
+    )
     max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
     max_width: int = Field(2048, ge=1, description="image width (pixels)")
     max_height: int = Field(2048, ge=1, description="image height (pixels)")

@@ -158,7 +158,7 @@ def _end_try(outcome: str) -> _Sql:
 
 
 class QueueFull(Exception):
-    pass
+    """The queue is full (`args`: the jobs waiting, and "owner" when it is the owner's share that is)."""
 
 
 def new_job_id() -> str:
@@ -285,15 +285,21 @@ class JobStore:
         estimate: float | None = None,
         samples_total: int | None = None,
         owner: str | None = None,
+        max_queued_owner: int | None = None,
     ) -> dict:
         """Queue a job (`owner`: its token's hash; None: the instructor's); raises QueueFull when `max_queued`
-        jobs already wait."""
+        jobs already wait, or `max_queued_owner` of the same owner."""
         job_id = new_job_id()
         total = samples_total if samples_total is not None else width * height * spp
         with self._tx() as db:
             queued = db.execute("SELECT COUNT(*) FROM jobs WHERE status = ?", (QUEUED,)).fetchone()[0]
             if queued >= max_queued:
                 raise QueueFull(queued)
+            if owner is not None and max_queued_owner is not None:
+                mine = db.execute("SELECT COUNT(*) FROM jobs WHERE owner = ? AND status = ?", (owner, QUEUED))
+                waiting = mine.fetchone()[0]
+                if waiting >= max_queued_owner:
+                    raise QueueFull(waiting, "owner")
             db.execute(
                 "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
                 " samples_total, max_seconds, kind, lane, params, estimate, owner)"

@@ -12,10 +12,12 @@ import pytest
 from conftest import scene_dict, small
 from PIL import Image
 from test_api_support import (
+    bearer,
     exr_of,
     job,
     long_scene,
     parse_sse,
+    student_token,
     submit,
     tiny_scene,
     wait_finished,
@@ -132,6 +134,20 @@ def test_api_jobs_queue_limit_answers_429(client, settings, busy):
     r = client.post("/api/jobs", json={"scene": tiny_scene()})
     assert r.status_code == 429 and r.headers["retry-after"]
     assert "queue is full" in r.json()["errors"][0]["message"]
+    for j in queued:
+        client.delete(f"/api/jobs/{j['id']}")
+
+
+def test_api_jobs_queue_limit_per_token_answers_429(client, settings, busy):
+    settings.max_queued_per_token = 2
+    queued = [submit(client, tiny_scene()) for _ in range(2)]
+    r = client.post("/api/jobs", json={"scene": tiny_scene()})
+    assert r.status_code == 429 and r.headers["retry-after"]
+    assert "TRACER_MAX_QUEUED_PER_TOKEN" in r.json()["errors"][0]["message"]
+    someone = bearer(student_token())
+    other = client.post("/api/jobs", json={"scene": tiny_scene()}, headers=someone)
+    assert other.status_code == 202  # another student is not held back
+    client.delete(f"/api/jobs/{other.json()['id']}", headers=someone)
     for j in queued:
         client.delete(f"/api/jobs/{j['id']}")
 

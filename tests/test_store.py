@@ -77,6 +77,25 @@ def test_store_queue_limit(tmp_path):
     assert store.counts()["queued"] == 2
 
 
+def test_store_queue_limit_per_owner(tmp_path):
+    store = JobStore(tmp_path)
+
+    def add_owned(owner: str | None) -> str:
+        return store.create("{}", name=None, width=2, height=2, spp=1, priority=0, warnings=[], max_seconds=60,
+                            max_queued=100, owner=owner, max_queued_owner=2)["id"]  # fmt: skip
+
+    add_owned("a" * 64)
+    first = add_owned("a" * 64)
+    with pytest.raises(QueueFull) as full:
+        add_owned("a" * 64)
+    assert full.value.args == (2, "owner")
+    add_owned("b" * 64)  # another owner has a share of their own
+    add_owned(None)  # the instructor's jobs have no share
+    store.cancel(first)
+    add_owned("a" * 64)  # a place of one's own freed: one more
+    assert store.counts()["queued"] == 4
+
+
 def test_store_a_dead_worker_s_job_is_retried_then_failed(tmp_path):
     store = JobStore(tmp_path)
     job_id = add(store)

@@ -111,10 +111,17 @@ def create_job(store: JobStore, settings: Settings, found: dict, **fields) -> di
             spp=found["spp"],
             max_seconds=fields.pop("max_seconds", settings.max_job_seconds),
             max_queued=settings.max_queued_jobs,
+            max_queued_owner=settings.max_queued_per_token,
             **fields,
         )
     except QueueFull as full:
-        message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
+        if full.args[1:] == ("owner",):
+            message = (
+                f"you already have {full.args[0]} jobs waiting (TRACER_MAX_QUEUED_PER_TOKEN): wait for one to start, "
+                "or cancel one"
+            )
+        else:
+            message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
         raise ApiError(429, message, headers={"Retry-After": "5"}) from None
 
 
