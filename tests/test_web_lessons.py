@@ -197,18 +197,18 @@ def test_lesson_circle_of_confusion_of_a_clicked_point(desktop):
     open_lesson(page, "dof")
     pictures_loaded(page)
     box = page.locator(".lesson-panel >> nth=0").locator("img.lesson-picture").bounding_box()
-    # the near red ball, left of the centre (the lens focuses on the green ball, behind it)
-    page.mouse.click(box["x"] + box["width"] * 0.36, box["y"] + box["height"] * 0.62)
+    # the near red ball (the lens focuses on the green ball, behind it)
+    page.mouse.click(box["x"] + box["width"] * 0.58, box["y"] + box["height"] * 0.64)
     page.wait_for_selector(".coc-text[data-diameter]")
     text = page.inner_text(".coc-text")
     near = float(page.get_attribute(".coc-text", "data-diameter"))
     assert "near (red)" in text and near > 2, text
     assert page.get_attribute(".lesson-panel >> nth=1 >> canvas.lesson-overlay", "data-diameter") == f"{near:.2f}"
-    # a point near the focal plane: a smaller circle
-    page.mouse.click(box["x"] + box["width"] * 0.52, box["y"] + box["height"] * 0.5)
+    # the green ball, near the focal plane: a smaller circle
+    page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.47)
     page.wait_for_function("(d) => document.querySelector('.coc-text').dataset.diameter !== d", arg=f"{near:.2f}")
     text = page.inner_text(".coc-text")
-    assert float(page.get_attribute(".coc-text", "data-diameter")) < near, text
+    assert "in focus (green)" in text and float(page.get_attribute(".coc-text", "data-diameter")) < 1 < near, text
     desktop.shot("lesson-dof-coc", full_page=True)
 
 

@@ -91,7 +91,7 @@ export const LESSONS = [
     scene: "whitted",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
     text: "max_depth counts bounces of light on the way to the eye. With 1 (ray casting) the mirror and the glass show only their own Phong shading; with 2 the mirror reflects the scene but the glass ball is dark inside, because the transmitted ray is cut before it can leave the ball; with 3 the refracted floor appears through the glass.",
-    controls: [{ key: "kr", label: "the mirror ball's kr", kind: "range", min: 0, max: 1, step: 0.05, value: 0.85, path: "materials.mirror.kr" }],
+    controls: [{ key: "kr", label: "the mirror ball's kr (no effect on ray casting)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.85, panels: [1, 2], path: "materials.mirror.kr" }],
     panels: [
       { label: "ray casting (1 bounce)", set: { "render.max_depth": 1 } },
       { label: "ray tracing, 2 bounces", set: { "render.max_depth": 2 } },
