@@ -9,11 +9,13 @@ lesson are written to $WEB_SHOTS (default /tmp/web_shots) for a person to look a
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
+import httpx
 import pytest
-from test_web_page import DESKTOP, Page, browser, server  # noqa: F401  (the fixtures)
+from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
 
 ROOT = Path(__file__).resolve().parent.parent
 LESSON_IDS = re.findall(r'^    id: "([\w-]+)",$', (ROOT / "web" / "js" / "lessons.js").read_text(), re.M)
@@ -88,7 +90,7 @@ def change_control(page, lesson: str) -> list[int]:
         value = spec["max"] if spec["value"] != spec["max"] else spec["min"]
         control.fill(str(value))  # an input event, as a drag would give
     else:
-        current = __import__("json").dumps(spec["value"], separators=(",", ":"))
+        current = json.dumps(spec["value"], separators=(",", ":"))
         control.select_option([v for v in spec["choices"] if v != current][0])
     return spec["panels"]
 
@@ -183,10 +185,6 @@ def test_lesson_superseded_jobs_are_cancelled(desktop, server):  # noqa: F811
         arg=first,
         timeout=120_000,
     )
-    import httpx
-
-    from test_web_page import TEACHER
-
     old = httpx.get(f"{server.url}/api/jobs/{first}", headers=TEACHER, timeout=30).json()
     assert old["status"] in ("cancelled", "done")  # done: it ended before the cancel came
     assert "fog.density = 0.2" in page.inner_text(".lesson-panel >> nth=1")
@@ -226,7 +224,9 @@ def test_lesson_mystery_pictures_are_named_once_answered(desktop):
     titles = panel_texts(page, "figcaption strong")
     assert titles[2:] == ["picture A", "picture B"]
     assert panel_texts(page, "figcaption code")[3] == ""  # what B changed would give it away
-    page.wait_for_function("() => [...document.querySelectorAll('img.rays-map')].every(i => i.complete && i.naturalWidth)")
+    page.wait_for_function(
+        "() => [...document.querySelectorAll('img.rays-map')].every(i => i.complete && i.naturalWidth)"
+    )
     answer_question(page)
     titles = panel_texts(page, "figcaption strong")
     assert titles[3].startswith("picture B: adaptive")

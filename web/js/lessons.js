@@ -143,7 +143,7 @@ export const LESSONS = [
       prompt: "Pictures A and B were made by two different samplers. Which one used the adaptive sampler? (Look at their rays per pixel.)",
       choices: ["picture A", "picture B"],
       answer: 1,
-      explain: "B's rays per pixel vary: few in flat regions, many along edges, which only the adaptive sampler does. A spends the same 16 rays in every pixel (a flat grey map): that is a fixed-rate sampler, here jittered.",
+      explain: "B's count changes from pixel to pixel: many rays along the edges of the ball, the poles and the checks, few in flat regions; only the adaptive sampler does that. A's map has just two flat levels: 16 eye rays in every pixel, plus a shadow ray for each one that hits something (the sky has none). That is a fixed-rate sampler, here jittered.",
     },
   },
   {
@@ -590,6 +590,7 @@ export class Lessons {
       if (old.el) {
         panel.el = old.el;
         panel.el.panel = panel;
+        panel.el.info.textContent = "";
         this.caption(panel);
         if (panel.el.samples) this.drawPixelSamples(panel, lesson.samples, panel.el.samples.canvas, panel.el.samples.words);
       }
@@ -672,7 +673,6 @@ export class Lessons {
     el.title.textContent = panel.reveal && !hidden ? panel.reveal : panel.label;
     el.notes.textContent = hidden ? "" : panel.notes.join(", ");
     el.notes.hidden = !el.notes.textContent;
-    el.info.textContent = "";
   }
 
   /** The renderer's own sample positions in pixel [x, y] of the panel's scene (POST /api/samples), drawn. */
