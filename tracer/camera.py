@@ -30,6 +30,9 @@ def camera_ray(cam: CameraData, fx: float, fy: float, width: int, height: int, u
 
 
 @wp.func(inline=True)
-def shutter_time(cam: CameraData, u: float) -> float:
-    """The ray's time T = T0 + u (T1 - T0) (motion blur)."""
+def shutter_time(cam: CameraData, u: float, sample: int) -> float:
+    """The ray's time T = T0 + u (T1 - T0) (motion blur); with camera.instants N, the instant
+    T0 + (sample mod N + 0.5) (T1 - T0) / N instead (N still frames averaged: temporal aliasing)."""
+    if cam.instants > 0:
+        u = (float(sample % cam.instants) + 0.5) / float(cam.instants)
     return cam.t0 + u * (cam.t1 - cam.t0)

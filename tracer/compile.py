@@ -154,6 +154,7 @@ def _camera(scene: Scene) -> CameraData:
     cam.lens_radius = float(c.lens_radius)
     cam.focus_distance = float(c.focus_distance) if c.focus_distance else float(np.linalg.norm(lookat - lookfrom))
     cam.t0, cam.t1 = float(c.shutter[0]), float(c.shutter[1])
+    cam.instants = int(c.instants or 0)
     return cam
 
 

@@ -400,6 +400,13 @@ class Camera(_Model):
         None, description="Distance to the focal plane (world units); null = |lookat - lookfrom|."
     )
     shutter: Pair = Field((0.0, 1.0), description="Shutter [open, close] time; each ray gets T = T0 + u (T1 - T0).")
+    instants: Int | None = Field(
+        None,
+        ge=1,
+        le=1024,
+        description="null: each ray's time is continuous in the shutter; N: sample s is taken at instant "
+        "T0 + (s mod N + 0.5) (T1 - T0) / N (N frames averaged; temporal aliasing).",
+    )
 
     @classmethod
     def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
@@ -1035,6 +1042,14 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
     camera, sampler, render = scene.camera, scene.sampler, scene.render
     if "shutter" in camera.model_fields_set and not any(any(o.velocity) for o in scene.objects):
         warn(["camera", "shutter"], "has no effect: nothing moves (no object has a non-zero velocity)")
+    if camera.instants is not None:
+        if not any(any(o.velocity) for o in scene.objects):
+            warn(["camera", "instants"], "has no effect: nothing moves (no object has a non-zero velocity)")
+        elif sampler.type != "adaptive" and sampler.spp % camera.instants:
+            warn(
+                ["camera", "instants"],
+                f"the {camera.instants} instants are not used equally: spp ({sampler.spp}) is not a multiple of it",
+            )
     if camera.focus_distance is not None and camera.lens_radius == 0:
         warn(["camera", "focus_distance"], "has no effect with a pinhole camera (lens_radius = 0)")
     if sampler.type != "adaptive":

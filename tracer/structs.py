@@ -28,6 +28,7 @@ class CameraData:
     focus_distance: float  # distance to the focal plane along forward
     t0: float  # shutter open time
     t1: float  # shutter close time
+    instants: int  # 0: continuous time per ray; N: sample s at instant (s mod N + 0.5) / N of the shutter
 
 
 @wp.struct

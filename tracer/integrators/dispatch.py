@@ -81,13 +81,14 @@ def grid_sample(scene: SceneData, x: int, y: int, i: int, j: int, g: int):
 
 
 @wp.func(inline=True)
-def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32):
-    """The eye ray through film position (fx, fy), its lens point and shutter time drawn from rng:
+def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32, sample: int):
+    """The eye ray through film position (fx, fy), its lens point and shutter time drawn from rng (the
+    time is sample `sample`'s instant when camera.instants is set; the draw is made all the same):
     (origin, unit direction, time, rng after its draws)."""
     state = wp.uint32(rng)
     lens1 = wp.randf(state)
     lens2 = wp.randf(state)
-    time = shutter_time(scene.camera, wp.randf(state))
+    time = shutter_time(scene.camera, wp.randf(state), sample)
     o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
     return o, d, time, state
 
@@ -121,7 +122,7 @@ def make_kernels(trace, module: str):
     ) -> SampleOut:
         """The integrator's estimate at fine-grid point (i, j) of pixel (x, y) (see grid_sample)."""
         fx, fy, rng, key = grid_sample(scene, x, y, i, j, g)
-        o, d, time, state = eye_ray(scene, fx, fy, rng)
+        o, d, time, state = eye_ray(scene, fx, fy, rng, j * (g + 1) + i)
         return trace_outlined(scene, o, d, time, state, key, j * (g + 1) + i, st, row, record, rec)
 
     @wp.kernel(module=module)
@@ -141,7 +142,7 @@ def make_kernels(trace, module: str):
         alb = film.albedo[y, x]
         for s in range(s0, s1):
             fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
-            o, d, time, state = eye_ray(scene, fx, fy, rng)
+            o, d, time, state = eye_ray(scene, fx, fy, rng, s)
             out = trace(scene, o, d, time, state, key, s, st, row, 0, rec)
             c = out.color * weight  # the sample times its filter weight
             acc = acc + c
@@ -256,7 +257,7 @@ def make_kernels(trace, module: str):
             out[1] = wp.vec3(1.0, 0.0, 0.0)
         else:
             fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
-            o, d, time, state = eye_ray(scene, fx, fy, rng)
+            o, d, time, state = eye_ray(scene, fx, fy, rng, s)
             r = trace_outlined(scene, o, d, time, state, key, s, st, 0, 1, rec)
             out[0] = r.color * weight
             out[1] = wp.vec3(weight, 0.0, 0.0)

@@ -1,0 +1,232 @@
+"""The lessons in a real browser: Playwright driving Debian's Chromium (headless) against `python -m server`.
+
+For every lesson of web/js/lessons.js: open it, let its panels render through the job API, change one of its
+controls and see the panels it touches render again into different pictures (their old jobs superseded), with
+what changed and what it cost written under each; then answer its question wrongly and rightly. Any console
+error or uncaught exception fails the test (the fixtures are those of test_web_page.py). Screenshots of each
+lesson are written to $WEB_SHOTS (default /tmp/web_shots) for a person to look at.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import httpx
+import pytest
+from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
+
+ROOT = Path(__file__).resolve().parent.parent
+LESSON_IDS = re.findall(r'^    id: "([\w-]+)",$', (ROOT / "web" / "js" / "lessons.js").read_text(), re.M)
+ENDED = "['done', 'refused', 'failed', 'cancelled'].includes(p.dataset.status)"
+
+
+@pytest.fixture
+def desktop(browser, server):  # noqa: F811
+    p = Page(browser, server, DESKTOP)
+    yield p
+    p.context.close()
+    assert p.unexpected_errors() == []
+
+
+def open_lesson(page, lesson: str) -> None:
+    page.click(f".lesson-button[data-lesson={lesson}]")
+    page.wait_for_function(
+        f"""() => document.querySelector('#lesson-stage').dataset.lesson === '{lesson}'
+            && document.querySelectorAll('.lesson-panel').length > 0
+            && [...document.querySelectorAll('.lesson-panel')].every(p => {ENDED})""",
+        timeout=120_000,
+    )
+
+
+def pictures_loaded(page) -> None:
+    """Every panel's picture shows its job's final image (a blob: the page fetched it with the token)."""
+    page.wait_for_function(
+        """() => [...document.querySelectorAll('.lesson-panel')].every(p => {
+            const i = p.querySelector('img.lesson-picture');
+            return p.dataset.status === 'done' && i.dataset.shown === p.dataset.image
+                && i.src === i.dataset.blob && i.complete && i.naturalWidth > 0;
+        })""",
+        timeout=60_000,
+    )
+
+
+def fingerprints(page) -> list[str]:
+    """A hash of each panel picture's pixels."""
+    return page.evaluate(
+        """() => [...document.querySelectorAll('.lesson-panel img.lesson-picture')].map(img => {
+            const c = document.createElement('canvas');
+            c.width = img.naturalWidth; c.height = img.naturalHeight;
+            const ctx = c.getContext('2d');
+            ctx.drawImage(img, 0, 0);
+            const d = ctx.getImageData(0, 0, c.width, c.height).data;
+            let h = 2166136261;
+            for (let i = 0; i < d.length; i++) { h ^= d[i]; h = Math.imul(h, 16777619) >>> 0; }
+            return `${c.width}x${c.height}:${h}`;
+        })"""
+    )
+
+
+def panel_texts(page, selector: str) -> list[str]:
+    return [el.inner_text() for el in page.locator(f".lesson-panel {selector}").all()]
+
+
+def change_control(page, lesson: str) -> list[int]:
+    """Change the lesson's first control to another value; the indices of the panels it touches."""
+    spec = page.evaluate(
+        """async (id) => {
+            const { LESSONS } = await import('/js/lessons.js');
+            const l = LESSONS.find(x => x.id === id);
+            const c = l.controls[0];
+            return { key: c.key, kind: c.kind, value: c.value, min: c.min, max: c.max,
+                     choices: c.choices ? c.choices.map(([v]) => JSON.stringify(v)) : null,
+                     panels: c.panels || l.panels.map((_, i) => i) };
+        }""",
+        lesson,
+    )
+    control = page.locator(f".lesson-controls [data-key={spec['key']}]")
+    if spec["kind"] == "range":
+        value = spec["max"] if spec["value"] != spec["max"] else spec["min"]
+        control.fill(str(value))  # an input event, as a drag would give
+    else:
+        current = json.dumps(spec["value"], separators=(",", ":"))
+        control.select_option([v for v in spec["choices"] if v != current][0])
+    return spec["panels"]
+
+
+def answer_question(page) -> None:
+    page.wait_for_selector(".lesson-question .choice", timeout=60_000)
+    answer = page.evaluate("() => document.querySelector('.lesson-question').question.answer")
+    n = page.locator(".lesson-question .choice").count()
+    assert n >= 2 and 0 <= answer < n
+    wrong = (answer + 1) % n
+    page.click(f".lesson-question .choice[data-choice='{wrong}']")
+    assert page.get_attribute(".lesson-question .feedback", "data-verdict") == "wrong"
+    assert "Not quite" in page.inner_text(".lesson-question .feedback")
+    assert page.get_attribute(f".lesson-question .choice[data-choice='{wrong}']", "data-verdict") == "wrong"
+    page.click(f".lesson-question .choice[data-choice='{answer}']")
+    assert page.get_attribute(".lesson-question .feedback", "data-verdict") == "right"
+    feedback = page.inner_text(".lesson-question .feedback")
+    assert feedback.startswith("Right.") and len(feedback) > 60, feedback  # with its explanation
+
+
+def test_lessons_cover_the_lecture():
+    """Every topic of the lecture is a lesson (the ids the page's addresses use)."""
+    assert LESSON_IDS == [
+        "raytree-stop",
+        "phong",
+        "bounces",
+        "sampling",
+        "aliasing",
+        "temporal",
+        "motion",
+        "glossy",
+        "shadows",
+        "dof",
+        "integrators",
+        "radiosity",
+        "texture",
+        "bump",
+        "fog",
+        "etched-glass",
+    ]
+
+
+@pytest.mark.parametrize("lesson", LESSON_IDS)
+def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop, lesson):
+    page = desktop.open("#lessons").page
+    assert page.locator(".lesson-button").count() == len(LESSON_IDS)
+    open_lesson(page, lesson)
+    statuses = [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
+    assert statuses == ["done"] * len(statuses), statuses
+    pictures_loaded(page)
+    before = fingerprints(page)
+    jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
+    notes = panel_texts(page, "figcaption code")
+    costs = panel_texts(page, ".panel-info")
+    assert all(re.match(r"[\d,]+ rays: .*[\d,]+ eye", c) and c.endswith(" s") for c in costs), costs
+
+    touched = change_control(page, lesson)
+    page.wait_for_function(
+        f"""(old) => {{
+            const ps = [...document.querySelectorAll('.lesson-panel')];
+            return {touched}.every(i => ps[i].dataset.job !== old[i] && (p => {ENDED})(ps[i]));
+        }}""",
+        arg=jobs,
+        timeout=120_000,
+    )
+    statuses = [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
+    assert statuses == ["done"] * len(statuses), statuses
+    pictures_loaded(page)
+    after = fingerprints(page)
+    new_jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
+    new_notes = panel_texts(page, "figcaption code")
+    for i in range(len(before)):
+        if i in touched:
+            assert after[i] != before[i], f"panel {i} looks the same after the change"
+            assert new_notes[i] != notes[i], "the panel does not say what changed"
+        else:
+            assert (after[i], new_jobs[i]) == (before[i], jobs[i]), f"panel {i} was rendered again"
+    answer_question(page)
+    desktop.shot(f"lesson-{lesson}", full_page=True)
+
+
+def test_lesson_superseded_jobs_are_cancelled(desktop, server):  # noqa: F811
+    """Moving a slider while the panels render cancels the jobs the new values replace."""
+    page = desktop.open("#lessons").page
+    page.click(".lesson-button[data-lesson=fog]")
+    page.wait_for_function("() => document.querySelectorAll('.lesson-panel[data-job]').length === 2")
+    first = page.get_attribute(".lesson-panel >> nth=1", "data-job")
+    page.locator(".lesson-controls [data-key=density]").fill("0.2")
+    page.wait_for_function(
+        "(old) => { const p = document.querySelectorAll('.lesson-panel')[1]; "
+        "return p.dataset.job !== old && p.dataset.status === 'done'; }",
+        arg=first,
+        timeout=120_000,
+    )
+    old = httpx.get(f"{server.url}/api/jobs/{first}", headers=TEACHER, timeout=30).json()
+    assert old["status"] in ("cancelled", "done")  # done: it ended before the cancel came
+    assert "fog.density = 0.2" in page.inner_text(".lesson-panel >> nth=1")
+
+
+def test_lesson_circle_of_confusion_of_a_clicked_point(desktop):
+    page = desktop.open("#lessons").page
+    open_lesson(page, "dof")
+    pictures_loaded(page)
+    box = page.locator(".lesson-panel >> nth=0").locator("img.lesson-picture").bounding_box()
+    # the near red ball (the lens focuses on the green ball, behind it)
+    page.mouse.click(box["x"] + box["width"] * 0.58, box["y"] + box["height"] * 0.64)
+    page.wait_for_selector(".coc-text[data-diameter]")
+    text = page.inner_text(".coc-text")
+    near = float(page.get_attribute(".coc-text", "data-diameter"))
+    assert "near (red)" in text and near > 2, text
+    assert page.get_attribute(".lesson-panel >> nth=1 >> canvas.lesson-overlay", "data-diameter") == f"{near:.2f}"
+    # the green ball, near the focal plane: a smaller circle
+    page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.47)
+    page.wait_for_function("(d) => document.querySelector('.coc-text').dataset.diameter !== d", arg=f"{near:.2f}")
+    text = page.inner_text(".coc-text")
+    assert "in focus (green)" in text and float(page.get_attribute(".coc-text", "data-diameter")) < 1 < near, text
+    desktop.shot("lesson-dof-coc", full_page=True)
+
+
+def test_lesson_radiosity_links_to_the_shooting_view(desktop):
+    page = desktop.open("#lessons").page
+    open_lesson(page, "radiosity")
+    page.locator(".lesson-panel >> nth=2").get_by_role("button", name="Step through the shooting").click()
+    page.wait_for_selector("#page-work:not([hidden]) #radiosity:not([hidden]) #rad-body:not([hidden])")
+    assert page.locator("#rad-step").get_attribute("max") not in (None, "0")
+
+
+def test_lesson_mystery_pictures_are_named_once_answered(desktop):
+    page = desktop.open("#lessons").page
+    open_lesson(page, "aliasing")
+    titles = panel_texts(page, "figcaption strong")
+    assert titles[2:] == ["picture A", "picture B"]
+    assert panel_texts(page, "figcaption code")[3] == ""  # what B changed would give it away
+    page.wait_for_function(
+        "() => [...document.querySelectorAll('img.rays-map')].every(i => i.complete && i.naturalWidth)"
+    )
+    answer_question(page)
+    titles = panel_texts(page, "figcaption strong")
+    assert titles[3].startswith("picture B: adaptive")
