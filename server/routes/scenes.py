@@ -42,6 +42,16 @@ def get_scene(name: str) -> dict:
     return json.loads(_path(name).read_text())
 
 
+@router.post("/{name}/preview", status_code=202, summary="Ask for an example's preview: queued unless it is made")
+def ask_preview(name: str, request: Request) -> dict:
+    """The preview's state (as in GET /api/scenes), its render queued first when nothing made or queued it
+    (a server that does not render the previews ahead)."""
+    _path(name)
+    previews = request.app.state.previews
+    previews.ensure(name)
+    return previews.state(name)
+
+
 @router.get(
     "/{name}/preview.png",
     summary="A small render of an example scene, made by a render worker",

@@ -1,6 +1,7 @@
 // Lessons: the comparisons the lecture shows, side by side, one click each. Every panel is an example
 // scene with a few fields changed, rendered small through the job API; what changed is written under it.
 import { ApiError, api, showImage } from "./api.js";
+import { inspectGroup } from "./inspect.js";
 import { followJob } from "./jobs.js";
 import { drawSamples, samplerWords } from "./samplers.js";
 import { $, clone, h, integer, seconds } from "./util.js";
@@ -128,6 +129,7 @@ export class Lessons {
     for (const b of this.list.querySelectorAll("button")) b.setAttribute("aria-current", String(b.dataset.lesson === id));
     this.current = id;
     const grid = h("div", { class: "lesson-panels", dataset: { count: lesson.panels.length } });
+    inspectGroup(grid, ".lesson-image img"); // a magnifier over every panel at once, and the full-size view
     this.stage.replaceChildren(h("h2", { tabindex: -1 }, lesson.title), h("p", { class: "lesson-text" }, lesson.text), grid);
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
