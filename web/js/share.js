@@ -12,7 +12,12 @@ function toBase64url(bytes) {
 
 function fromBase64url(text) {
   if (!/^[A-Za-z0-9_-]*$/.test(text)) throw new Error("the link has characters a scene's data never has");
-  const bin = atob(text.replaceAll("-", "+").replaceAll("_", "/") + "===".slice((text.length + 3) % 4));
+  let bin;
+  try {
+    bin = atob(text.replaceAll("-", "+").replaceAll("_", "/") + "===".slice((text.length + 3) % 4));
+  } catch {
+    throw new Error("the link is cut short or damaged"); // a length base64 never has
+  }
   return Uint8Array.from(bin, (c) => c.charCodeAt(0));
 }
 
