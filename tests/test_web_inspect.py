@@ -143,6 +143,7 @@ def test_web_inspect_whole_description_and_the_tree_fitted(desktop):  # noqa: F8
     )
     set_scene(page, whitted(160, 120, spp=4))
     render(page)
+    page.wait_for_selector("#render-img:not([hidden])")
     box = page.locator("#render-img").bounding_box()
     page.mouse.click(box["x"] + box["width"] * 125 / 160, box["y"] + box["height"] * 70 / 120)  # the glass ball
     page.wait_for_selector("#rt-diagram svg")
