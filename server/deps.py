@@ -41,11 +41,13 @@ def get_job(
     job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")],
     store: StoreDep,
     caller: CallerDep,
+    request: Request,
 ):
     """The job's row, or 404 (ids that cannot be ours are refused before the database sees them). A job
-    of another token is the same 404 as an unknown id: ids are never confirmed."""
+    of another token is the same 404 as an unknown id: ids are never confirmed. The job's share token
+    reads it (GET) and nothing more."""
     row = store.get(job_id) if looks_like_job_id(job_id) else None
-    if row is None or not caller.owns(row):
+    if row is None or not (caller.owns(row) or (request.method == "GET" and caller.shares(row))):
         raise ApiError(404, [{"path": "id", "message": f"no job with id '{job_id[:64]}'"}])
     return row
 

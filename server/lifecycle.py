@@ -53,6 +53,7 @@ def check_transition(source: JobStatus, target: JobStatus) -> None:
 class JobKind(StrEnum):
     render = "render"  # an image, pass by pass (POST /api/jobs, grading's renders)
     raytree = "raytree"  # one pixel sample's ray tree (POST /api/raytree): a short job of its own
+    preview = "preview"  # an example scene's preview, rendered ahead in the batch lane (server/previews.py)
 
 
 class Lane(StrEnum):

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import logging
+import threading
 from contextlib import asynccontextmanager
 from pathlib import Path
 
@@ -27,8 +28,10 @@ from server.checks import CheckPool
 from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.grading import GradeRuns
 from server.janitor import Janitor
+from server.previews import Previews
 from server.queue import make_queue
 from server.routes import grade, jobs, reference, samples, scenes, tools
+from server.routes.scenes import SCENES
 from server.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.settings import Settings, load_settings
 from server.startup import StartupError, check_data_dir
@@ -65,6 +68,9 @@ async def lifespan(app: FastAPI):
         stack.callback(queue.shutdown)
         grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
         stack.callback(grade_runs.shutdown)
+        previews = app.state.previews = Previews(settings, store, queue.submitted, SCENES)
+        if settings.previews_ahead:  # the examples' pictures, rendered by the workers before anyone asks
+            threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
         janitor = Janitor(settings, store)
         janitor.start()
         stack.callback(janitor.stop)

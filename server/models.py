@@ -154,7 +154,9 @@ class JobPublic(BaseModel):
         "lost or gave it back)"
     )
     tries: list[TryInfo] = Field(description="each try, oldest first: where it ran and how it ended")
-    kind: JobKind = Field(description="render, or raytree (the short job behind POST /api/raytree)")
+    kind: JobKind = Field(
+        description="render, raytree (the short job behind POST /api/raytree), or preview (an example's picture)"
+    )
     lane: Lane = Field(description="interactive or batch")
     estimate: float | None = Field(description="seconds the render was estimated to take, at submit")
     queue: QueuePlace | None = Field(None, description="a queued job's place in the queue and its expected wait")

@@ -6,6 +6,10 @@
   downloaded only with the token that made it; any other caller gets the 404 of an unknown id, so ids
   are not confirmed. A job with no owner (the server's grading renders, rows from before owners, a
   ray tree asked for without a token) is the instructor's.
+- **A read-only share token** of a job (POST /api/jobs/{id}/share, its owner only) reads that one job: its
+  GET routes (the job, its events, image, AOVs, scene, radiosity), never a cancel, never another job. It is
+  an HMAC of the job's id keyed by the owner's token hash, so the server keeps nothing more, it cannot be
+  turned back into the owner's token, and it dies with the job.
 - **The instructor** (TRACER_INSTRUCTOR_TOKEN) grades, lists every job and reads any. Without such a
   token, a server that listens on loopback only is one person's own machine and everyone is the
   instructor (everything works as before tokens); a server on another address then has no instructor
@@ -55,6 +59,15 @@ def token_hash(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
+def share_token(row: dict) -> str | None:
+    """The job's read-only share token (None for a job with no owner: the instructor's own)."""
+    owner = row.get("owner")
+    if not owner:
+        return None
+    digest = hmac.new(bytes.fromhex(owner), f"share:{row['id']}".encode(), hashlib.sha256).digest()
+    return "share-" + base64.urlsafe_b64encode(digest).decode().rstrip("=")
+
+
 def loopback_only(host: str) -> bool:
     """Does an address to listen on (python -m server --host) reach this machine only?"""
     name = host.strip().strip("[]").lower().rstrip(".")
@@ -87,6 +100,11 @@ class Caller:
     token: str | None
     owner: str | None
     instructor: bool
+
+    def shares(self, row: dict) -> bool:
+        """Does this caller hold the job's read-only share token?"""
+        key = share_token(row)
+        return bool(key and self.token and hmac.compare_digest(key.encode(), self.token.encode()))
 
     def owns(self, row: dict) -> bool:
         """May this caller see the job? The instructor sees every job; a student those of their token."""

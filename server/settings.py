@@ -50,6 +50,11 @@ class Settings(BaseSettings):
     render_threads: int = Field(0, ge=0, description="threads per worker render; 0 = cores / workers")
     worker_nice: int = Field(10, ge=0, le=19, description="niceness of worker processes, so the API stays responsive")
     preview_size: int = Field(160, ge=8, le=1024, description="example scene thumbnails (pixels)")
+    previews_ahead: bool = Field(
+        True,
+        description="render the example scenes' previews at start-up, in the batch lane (off: each when first "
+        "asked for)",
+    )
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")

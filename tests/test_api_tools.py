@@ -3,6 +3,7 @@ TestClient of an app without workers (the jobs: test_api_jobs.py and the other t
 
 import pytest
 from conftest import scene_dict, small
+from test_api_support import INSTRUCTOR, bearer
 
 
 @pytest.fixture
@@ -20,8 +21,16 @@ def test_api_tools_health_schema_and_scenes(client):
     assert client.get("/api/scenes/whitted").json() == scene_dict("whitted")
     assert client.get("/api/scenes/nope").status_code == 404
     assert client.get("/api/scenes/..%2Fpyproject").status_code == 404
+    # previews are rendered by workers, never in the API process: without one, a preview waits, and says so
     png = client.get("/api/scenes/phong/preview.png")
-    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.status_code == 503 and png.headers["retry-after"] == "2"
+    assert png.json()["errors"] == [
+        {"path": "name", "message": "the preview of 'phong' waits for a render worker; try again in a moment"}
+    ]
+    assert client.get("/api/scenes").json()[names.index("phong")]["preview"]["state"] == "queued"
+    jobs = client.get("/api/jobs?kind=preview", headers=bearer(INSTRUCTOR)).json()["jobs"]
+    assert [j["name"] for j in jobs] == ["preview of phong"]
+    assert client.delete(f"/api/jobs/{jobs[0]['id']}", headers=bearer(INSTRUCTOR)).status_code == 200
     page = client.get("/")
     assert page.status_code == 200 and "/api/scenes" in page.text
 

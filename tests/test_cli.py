@@ -81,6 +81,28 @@ def test_cli_raytree_prints_the_tree(tmp_path):
     assert len(tree["color"]) == 3
 
 
+def test_cli_raytree_text_one_ray_per_line_indented_by_depth(tmp_path):
+    """--text: the tree a person reads, one ray per line (kind, hit, weight, what it carries, why it ended),
+    each ray two spaces further in than the ray it came from."""
+    f = tmp_path / "s.json"
+    f.write_text(json.dumps(small(scene_dict("whitted"), 32, 24)))
+    text = run("raytree", f, 9, 13, "--text").stdout  # a pixel of the mirror ball
+    tree = json.loads(run("raytree", f, 9, 13).stdout)
+    lines = text.splitlines()
+    assert lines[0].startswith("pixel (9, 13), sample 0: colour (")
+    assert len(lines) == 1 + len(tree["nodes"])  # one line per ray
+    eye, shadow, reflection = lines[1], lines[2], lines[3]
+    assert eye.startswith("#0 eye ray, depth 1: hit 'mirror ball' (material mirror) at (")
+    assert "weight (1, 1, 1)" in eye and "; carries (" in eye and eye.endswith("went on: reflection")
+    assert shadow.startswith("  #1 shadow ray to light 0: reached the light; weight (1, 1, 1); carries (")
+    assert reflection.startswith("  #2 reflection ray, depth 2: hit 'floor' (material floor)")
+    assert "weight (0.85, 0.85, 0.85)" in reflection and "ended: absorbed" in reflection
+    assert lines[4].startswith("    #3 shadow ray to light 0: ")  # the floor's shadow ray, one level further in
+    # what each line says it carries is the JSON's radiance
+    r = tree["nodes"][2]["radiance"]
+    assert f"carries ({r[0]:.4g}, {r[1]:.4g}, {r[2]:.4g})" in reflection
+
+
 def test_cli_validate_good_and_bad(tmp_path):
     assert "valid" in run("validate", SCENES / "whitted.json").stdout
     bad = scene_dict("whitted")

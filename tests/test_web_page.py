@@ -737,6 +737,7 @@ def test_web_page_phone_layout(phone):
     set_scene(page, whitted(80, 60, spp=4))
     phone.shot("phone-editor")
     render(page)
+    page.locator("#render-img").scroll_into_view_if_needed()  # the mouse clicks only what the screen shows
     img = page.locator("#render-img").bounding_box()
     page.mouse.click(img["x"] + img["width"] * 0.7, img["y"] + img["height"] * 0.6)
     page.wait_for_selector("#rt-diagram .rt-node")

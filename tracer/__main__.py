@@ -3,7 +3,7 @@
 python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H] [--seed S]
                         [--integrator NAME] [--max-depth D] [--threads T] [--exr OUT.exr]
                         [--device cpu|cuda:0]
-python -m tracer raytree SCENE.json X Y [--sample K]
+python -m tracer raytree SCENE.json X Y [--sample K] [--text | --pretty]
 python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
@@ -129,6 +129,11 @@ def cmd_raytree(args) -> int:
     from tracer.compile import compile_scene
 
     tree = ray_tree(compile_scene(scene, asset_dir=Path(args.assets)), args.x, args.y, args.sample)
+    if args.text:
+        from tracer.raytree import tree_text
+
+        sys.stdout.write(tree_text(tree))
+        return 0
     json.dump(tree, sys.stdout, indent=1 if args.pretty else None)
     print()
     return 0
@@ -280,12 +285,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_render)
 
-    t = sub.add_parser("raytree", help="print the ray tree of one pixel sample as JSON")
+    t = sub.add_parser("raytree", help="print the ray tree of one pixel sample as JSON (or as text: --text)")
     t.add_argument("scene")
     t.add_argument("x", type=int, help="column from the left")
     t.add_argument("y", type=int, help="row from the top")
     t.add_argument("--sample", type=int, default=0)
     t.add_argument("--pretty", action="store_true", help="indent the JSON")
+    t.add_argument(
+        "--text",
+        action="store_true",
+        help="indented lines instead of JSON, one ray per line: its kind, what it hit, its weight, what it "
+        "carries back and why it ended",
+    )
     t.add_argument("--assets", default=str(ASSET_DIR), help=ASSETS_HELP)
     t.set_defaults(func=cmd_raytree)
 

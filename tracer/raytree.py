@@ -131,3 +131,66 @@ def ray_tree(
         "nodes": nodes,
         "truncated": count > cap,
     }
+
+
+END_WORDS = {  # the same words as the page's (web/js/rays.js)
+    "miss": "missed: left the scene (returns the background)",
+    "max_depth": "max depth: a reflection or transmission ray was wanted, but depth + 1 > max_depth",
+    "min_weight": "min weight: every wanted child's weight fell below min_weight",
+    "tir": "total internal reflection: no transmission ray",
+    "light": "reached the light",
+    "absorbed": "absorbed: kr = kt = 0 here, no reflection or transmission ray",
+}
+
+
+def _rgb(v) -> str:
+    return "(" + ", ".join(f"{c:.4g}" for c in v) + ")"
+
+
+def _node_line(n: dict, children: list[dict]) -> str:
+    """One ray of a tree in words: kind, hit, weight, what it carries back, why it ended."""
+    hit = n["hit"]
+    if n["kind"] == "shadow":
+        head = f"#{n['id']} shadow ray to light {n['light']}"
+        if n["occluded"]:
+            where = f"'{hit['object_name']}' at t {n['t']:.4g}" if hit else "something"
+            what = f"blocked by {where}"
+        else:
+            what = "reached the light"
+        return f"{head}: {what}; weight {_rgb(n['weight'])}; carries {_rgb(n['radiance'])}"
+    head = f"#{n['id']} {n['kind']} ray, depth {n['depth']}"
+    if hit:
+        what = f"hit '{hit['object_name']}' (material {hit['material']}) at {_rgb(hit['point'])}, t {n['t']:.4g}"
+        if not hit["front_face"]:
+            what += " from inside"
+    else:
+        what = "missed: the background"
+    if n["end"]:
+        ended = f"ended: {END_WORDS.get(n['end'], n['end'])}"
+    else:
+        kinds = [c["kind"] for c in children if c["kind"] != "shadow"]
+        ended = "went on: " + " + ".join(kinds) if kinds else "ended: nothing more to trace"
+    if n["end"] == "miss":
+        return f"{head}: {what}; weight {_rgb(n['weight'])}; carries {_rgb(n['radiance'])}"
+    return f"{head}: {what}; weight {_rgb(n['weight'])}; carries {_rgb(n['radiance'])}; {ended}"
+
+
+def tree_text(tree: dict) -> str:
+    """A ray tree (from `ray_tree`) as indented lines a person reads: one ray per line, each ray's
+    children two spaces further in, in the order they were traced."""
+    nodes = tree["nodes"]
+    children: dict[int | None, list[dict]] = {}
+    for n in nodes:
+        children.setdefault(n["parent"], []).append(n)
+    weight = f", filter weight {tree['filter_weight']:.4g}" if tree["filter_weight"] != 1 else ""
+    x, y = tree["pixel"]
+    lines = [f"pixel ({x}, {y}), sample {tree['sample']}: colour {_rgb(tree['color'])}{weight}"]
+    stack = [(n, 0) for n in reversed(children.get(None, []))]
+    while stack:
+        n, level = stack.pop()
+        kids = children.get(n["id"], [])
+        lines.append("  " * level + _node_line(n, kids))
+        stack.extend((c, level + 1) for c in reversed(kids))
+    if tree["truncated"]:
+        lines.append(f"(truncated: only the first {len(nodes)} rays were recorded)")
+    return "\n".join(lines) + "\n"

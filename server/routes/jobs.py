@@ -19,7 +19,7 @@ from server.deps import ChecksDep, JobDep, QueueDep, SettingsDep, StoreDep
 from server.errors import ApiError
 from server.lifecycle import JobKind, JobStatus, Lane
 from server.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, QueuePlace
-from server.security import CallerDep, new_token, token_hash, unauthorized
+from server.security import CallerDep, new_token, share_token, token_hash, unauthorized
 from server.settings import Settings
 from server.store import AOV_NAMES, JobFile, JobStore, QueueFull
 
@@ -213,6 +213,17 @@ def image(
         "Content-Disposition": f'inline; filename="job-{job["id"]}.{format}"',
     }
     return Response(data, media_type=media, headers=headers)
+
+
+@router.post("/{job_id}/share", summary="A read-only link to the job: its share token", responses=NOT_FOUND)
+def share(job: JobDep) -> dict:
+    """The job's share token, which reads this job only (its GET routes: the job, events, image, AOVs, scene,
+    radiosity) and cancels nothing; and the page's read-only link. The token goes in the link's fragment,
+    which browsers never send to the server. Only the job's owner (or the instructor) asks for it."""
+    token = share_token(job)
+    if token is None:
+        raise ApiError(409, [{"path": "id", "message": "a job with no owner (a grading render) cannot be shared"}])
+    return {"share_token": token, "link": f"/#shared/{job['id']}/{token}"}
 
 
 @router.get("/{job_id}/scene", summary="The scene the job renders, as it was submitted", responses=NOT_FOUND)

@@ -1,25 +1,20 @@
-"""Example scenes: the list, one scene's JSON, and a small preview render of it."""
+"""Example scenes: the list (with the state of each one's preview), one scene's JSON, and its preview.
+
+The previews are rendered by the workers (server/previews.py), never in the API process: at start-up, or
+the first time one is asked for."""
 
 from __future__ import annotations
 
 import json
-import threading
 from pathlib import Path
 
-from fastapi import APIRouter
-from fastapi.responses import Response
+from fastapi import APIRouter, Request
+from fastapi.responses import FileResponse
 
-from server.deps import SettingsDep
 from server.errors import ApiError
-from server.store import write_atomic
-from tracer.compile import compile_scene
-from tracer.film import png_bytes
-from tracer.render import render
-from tracer.scene import SceneError, load_scene
 
 SCENES = Path(__file__).resolve().parent.parent.parent / "scenes"
 router = APIRouter(prefix="/api/scenes", tags=["scenes"])
-_render_lock = threading.Lock()  # one preview render at a time, in the API process (cached on disk after)
 
 
 def _path(name: str) -> Path:
@@ -29,12 +24,16 @@ def _path(name: str) -> Path:
     return p
 
 
-@router.get("", summary="The example scenes, one per lecture topic")
-def list_scenes() -> list[dict]:
+@router.get("", summary="The example scenes, one per lecture topic, and the state of their previews")
+def list_scenes(request: Request) -> list[dict]:
+    previews = request.app.state.previews
     out = []
     for p in sorted(SCENES.glob("*.json")):
         data = json.loads(p.read_text())
-        out.append({"name": p.stem, "title": data.get("name") or p.stem, "description": data.get("description", "")})
+        out.append({
+            "name": p.stem, "title": data.get("name") or p.stem, "description": data.get("description", ""),
+            "preview": previews.state(p.stem),
+        })  # fmt: skip
     return out
 
 
@@ -43,27 +42,32 @@ def get_scene(name: str) -> dict:
     return json.loads(_path(name).read_text())
 
 
+@router.post("/{name}/preview", status_code=202, summary="Ask for an example's preview: queued unless it is made")
+def ask_preview(name: str, request: Request) -> dict:
+    """The preview's state (as in GET /api/scenes), its render queued first when nothing made or queued it
+    (a server that does not render the previews ahead)."""
+    _path(name)
+    previews = request.app.state.previews
+    previews.ensure(name)
+    return previews.state(name)
+
+
 @router.get(
     "/{name}/preview.png",
-    summary="A small render of an example scene (cached on disk)",
-    response_class=Response,
-    responses={200: {"content": {"image/png": {}}}},
+    summary="A small render of an example scene, made by a render worker",
+    response_class=FileResponse,
+    responses={200: {"content": {"image/png": {}}}, 503: {"description": "not rendered yet (Retry-After)"}},
 )
-def preview(name: str, settings: SettingsDep) -> Response:
-    src = _path(name)
-    cache = settings.data_dir / "previews" / f"{name}-{settings.preview_size}-{int(src.stat().st_mtime)}.png"
-    if not cache.is_file():
-        data = json.loads(src.read_text())
-        w, h = data.get("film", {}).get("width", 256), data.get("film", {}).get("height", 256)
-        scale = settings.preview_size / max(w, h)
-        data.setdefault("film", {}).update(width=max(1, round(w * scale)), height=max(1, round(h * scale)))
-        try:
-            scene, _ = load_scene(data)
-            compiled = compile_scene(scene)
-        except SceneError as exc:  # an example using a feature this renderer does not have yet
-            raise ApiError(422, exc.errors) from None
-        with _render_lock:  # one thread: the API's own core stays free for requests
-            result = render(compiled, threads=1)
-        png = png_bytes(result.image, scene.film.exposure)
-        write_atomic(cache, lambda tmp: tmp.write_bytes(png))
-    return Response(cache.read_bytes(), media_type="image/png")
+def preview(name: str, request: Request) -> FileResponse:
+    _path(name)
+    previews = request.app.state.previews
+    png = previews.file(name)
+    if png is None:
+        previews.ensure(name)  # queued now when the server did not render previews ahead
+        state = previews.state(name)
+        words = {"queued": "waits for a render worker", "rendering": "is being rendered", "none": "waits"}
+        if state["state"] == "failed":
+            raise ApiError(422, [{"path": "name", "message": f"the preview of '{name}' failed: {state['error']}"}])
+        message = f"the preview of '{name}' {words.get(state['state'], 'is on its way')}; try again in a moment"
+        raise ApiError(503, [{"path": "name", "message": message}], headers={"Retry-After": "2"})
+    return FileResponse(png, media_type="image/png", headers={"Cache-Control": "no-cache"})

@@ -26,8 +26,18 @@ export const tokens = {
   },
 };
 
-/** The Authorization header of `as` ("student" or "instructor"), or none without a token. */
-export function authHeaders(as = "student") {
+const shared = new Map(); // job id -> its read-only share token (a job opened from a shared link)
+
+/** Read job `id` with its share token (a read-only link: `#shared/<id>/<token>`) rather than the student's. */
+export function useShareToken(id, token) {
+  shared.set(id, token);
+}
+
+/** The Authorization header of `as` ("student" or "instructor"), or none without a token; a request about a
+ * job opened from a shared link (`url`) carries that job's share token. */
+export function authHeaders(as = "student", url = "") {
+  const id = as === "student" ? /^\/api\/jobs\/([^/?#]+)/.exec(url)?.[1] : null;
+  if (id && shared.has(decodeURIComponent(id))) return { authorization: `Bearer ${shared.get(decodeURIComponent(id))}` };
   const token = as === "instructor" ? tokens.instructor() : tokens.student();
   return token ? { authorization: `Bearer ${token}` } : {};
 }
@@ -43,7 +53,7 @@ export class ApiError extends Error {
 /** One request: the parsed JSON answer, or an ApiError (the grading view uses it too, `as: "instructor"`).
  * `raw`: the Response itself when it is OK. */
 export async function request(method, url, body, { raw = false, signal, as = "student", cache } = {}) {
-  const init = { method, signal, cache, headers: authHeaders(as) };
+  const init = { method, signal, cache, headers: authHeaders(as, url) };
   if (body instanceof FormData) {
     init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
   } else if (body !== undefined) {
@@ -150,10 +160,12 @@ export const api = {
   health: () => request("GET", "/api/health"),
   scenes: () => request("GET", "/api/scenes"),
   scene: (name) => request("GET", `/api/scenes/${encodeURIComponent(name)}`),
+  askPreview: (name) => request("POST", `/api/scenes/${encodeURIComponent(name)}/preview`),
   previewUrl: (name) => `/api/scenes/${encodeURIComponent(name)}/preview.png`,
   validate: (sceneText, signal) => request("POST", "/api/validate", withScene(sceneText), { signal }),
   submit: (sceneText, priority = 0) => submitJob(withScene(sceneText, priority ? { priority } : {})),
   job: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}`),
+  share: (id) => request("POST", `/api/jobs/${encodeURIComponent(id)}/share`),
   jobScene: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}/scene`),
   cancel: (id) => request("DELETE", `/api/jobs/${encodeURIComponent(id)}`),
   aovs: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}/aov`),

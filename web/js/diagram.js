@@ -183,10 +183,14 @@ export function renderDiagram(container, model, { onHover, onSelect }) {
         edgeOf.get(n.id).classList.toggle("future", future);
       }
     },
+    /** on: the whole tree inside the panel (scaled down, never up); off: its natural size, scrolled. */
     fit(on) {
-      svg.setAttribute("width", on ? "100%" : width);
-      if (on) svg.removeAttribute("height");
-      else svg.setAttribute("height", height);
+      const maxH = parseFloat(getComputedStyle(container).maxHeight) || window.innerHeight * 0.75;
+      const k = on ? Math.min(1, (container.clientWidth || width) / width, maxH / height) : 1;
+      svg.setAttribute("width", String(Math.floor(width * k)));
+      svg.setAttribute("height", String(Math.floor(height * k)));
+      container.dataset.scale = String(k);
+      if (on) container.scrollTo({ left: 0, top: 0 });
     },
   };
 }

@@ -59,7 +59,7 @@ export function followJob(id, { onProgress, onPreview, onEnd, onDrop, onLost } =
     abort = new AbortController();
     let res;
     try {
-      res = await fetch(api.eventsUrl(id), { headers: { accept: "text/event-stream", ...authHeaders() }, cache: "no-store", signal: abort.signal });
+      res = await fetch(api.eventsUrl(id), { headers: { accept: "text/event-stream", ...authHeaders("student", api.eventsUrl(id)) }, cache: "no-store", signal: abort.signal });
     } catch {
       dropped();
       return;

@@ -4,6 +4,7 @@
 // fields) re-render the panels they touch, a moment after the last change, cancelling the jobs they
 // supersede. Each lesson ends with a question that the page checks, with an explanation.
 import { ApiError, api, showImage } from "./api.js";
+import { inspectGroup } from "./inspect.js";
 import { followJob } from "./jobs.js";
 import { drawSamples, samplerWords } from "./samplers.js";
 import { $, clone, debounce, h, integer, num, seconds } from "./util.js";
@@ -494,6 +495,7 @@ export class Lessons {
       this.runs.set(id, run);
     }
     const grid = h("div", { class: "lesson-panels", dataset: { count: lesson.panels.length } });
+    inspectGroup(grid, ".lesson-image img"); // a magnifier over every panel at once, and the full-size view
     const controls = this.controlsElement(lesson, run);
     const extra = h("div", { class: "lesson-extra" });
     const question = h("section", { class: "lesson-question", "aria-label": "Check yourself" });

@@ -1,16 +1,17 @@
 // The page: four tabs (workspace, lessons, examples, grading) and the wiring between the editor, the form, the
 // viewer and the ray tree. Any unexpected error shows a message in the banner, never a blank page.
-import { api } from "./api.js";
+import { api, useShareToken } from "./api.js";
 import { SceneEditor } from "./editor.js";
 import { SceneFields } from "./fields.js";
 import { formatJSON } from "./jsonpos.js";
 import { GradingPanel } from "./grading.js";
-import { Lessons } from "./lessons.js";
+import { LESSONS, Lessons } from "./lessons.js";
+import { decodeScene, encodeScene, MAX_LINK } from "./share.js";
 import { RadiosityPanel } from "./radiosity.js";
 import { RayTreePanel } from "./raytree.js";
 import { loadSchema } from "./schema.js";
 import { $, $$, download, h } from "./util.js";
-import { Viewer } from "./viewer.js";
+import { copyText, Viewer } from "./viewer.js";
 
 const banner = $("#banner");
 function notify(text, kind = "error", action = null) {
@@ -24,7 +25,7 @@ function notify(text, kind = "error", action = null) {
 window.addEventListener("error", (e) => notify(`Something went wrong on this page: ${e.message}`));
 window.addEventListener("unhandledrejection", (e) => notify(`Something went wrong on this page: ${e.reason?.message || e.reason}`));
 
-// -- tabs -----------------------------------------------------------------------------------------
+// -- tabs, and the address: each tab and lesson has its own (#lessons/bounces), so Back and Forward work -------
 
 const tabs = $$("[role=tab]");
 function selectTab(id, focus = false) {
@@ -36,17 +37,66 @@ function selectTab(id, focus = false) {
     if (on && focus) t.focus();
   }
   const page = id.replace("tab-", "");
-  if (location.hash !== `#${page}`) history.replaceState(null, "", page === "work" ? location.pathname : `#${page}`);
   if (page === "examples") gallery();
   if (page === "grading") grading.open();
 }
+
+/** The address of a tab: the workspace is the page itself, the lessons tab names the lesson shown. */
+function tabHash(id) {
+  const page = id.replace("tab-", "");
+  if (page === "work") return "";
+  if (page === "lessons" && lessons?.current) return `#lessons/${lessons.current}`;
+  return `#${page}`;
+}
+
+/** Go to an address: a new entry in the history (Back comes here again), then the page follows it. */
+function go(hash) {
+  if (location.hash === hash || (!hash && !location.hash)) return;
+  history.pushState(null, "", hash || location.pathname + location.search);
+  route();
+}
+
 tabs.forEach((t, i) => {
-  t.addEventListener("click", () => selectTab(t.id));
+  t.addEventListener("click", () => go(tabHash(t.id)));
   t.addEventListener("keydown", (e) => {
     const k = { ArrowRight: 1, ArrowLeft: -1 }[e.key];
-    if (k) selectTab(tabs[(i + k + tabs.length) % tabs.length].id, true);
+    if (!k) return;
+    const next = tabs[(i + k + tabs.length) % tabs.length].id;
+    go(tabHash(next));
+    selectTab(next, true);
   });
 });
+
+/** Show what the address names: #work (or nothing), #lessons, #lessons/<id>, #examples, #grading;
+ * #scene/<data> (a scene to open in the editor) and #shared/<job>/<token> (a job to view, read-only). */
+async function route() {
+  let parts;
+  try {
+    parts = decodeURIComponent(location.hash.slice(1)).split("/");
+  } catch {
+    parts = location.hash.slice(1).split("/"); // a broken %-escape: taken as it is
+  }
+  const [page, ...rest] = parts;
+  if (page === "lessons") {
+    selectTab("tab-lessons");
+    const id = rest[0];
+    if (!id) return;
+    if (!LESSONS.some((l) => l.id === id)) {
+      notify(`There is no lesson '${id}': choose one from the list.`, "warn");
+      return;
+    }
+    if (lessons.current !== id) lessons.run(id); // not awaited: it follows its panels to their end
+  } else if (page === "examples" || page === "grading") selectTab(`tab-${page}`);
+  else if (page === "scene") {
+    history.replaceState(null, "", location.pathname + location.search); // the editor keeps the scene from here
+    selectTab("tab-work");
+    await openSceneLink(rest.join("/"));
+  } else if (page === "shared") {
+    selectTab("tab-work");
+    await openSharedJob(rest[0], rest[1]);
+  } else selectTab("tab-work");
+}
+window.addEventListener("popstate", () => route());
 
 // -- the workspace --------------------------------------------------------------------------------
 
@@ -111,7 +161,10 @@ let previousText = null;
 function loadText(text, name, show = true) {
   previousText = editor.text;
   editor.setText(text, name);
-  if (show) selectTab("tab-work");
+  if (show) {
+    go("");
+    selectTab("tab-work");
+  }
   editor.setStatus("ok", `Loaded ${name}.`);
   const undo = h("button", { type: "button", class: "small" }, "Undo");
   undo.addEventListener("click", () => {
@@ -146,6 +199,58 @@ $("#btn-save-file").addEventListener("click", () => {
   const name = (editor.parseNow().value?.name || editor.name || "scene").replace(/[^A-Za-z0-9_-]+/g, "_").slice(0, 60);
   download(`${name}.json`, new Blob([editor.text], { type: "application/json" }));
 });
+// -- links: a scene to open in the editor, a job to view read-only ----------------------------------
+
+$("#btn-share-scene").addEventListener("click", async () => {
+  const note = $("#load-note");
+  const st = editor.parseNow();
+  if (st.syntax) {
+    note.replaceChildren(h("span", {}, `Fix the JSON syntax error first (line ${st.syntax.line}, column ${st.syntax.col}): a link carries a scene that parses.`));
+    return;
+  }
+  const data = await encodeScene(JSON.stringify(st.value));
+  const url = `${location.origin}${location.pathname}#scene/${data}`;
+  if (url.length > MAX_LINK) {
+    note.replaceChildren(h("span", { class: "bad" }, `This scene is too large for a link (${Math.ceil(url.length / 1000)} KB compressed; a link holds at most ${MAX_LINK / 1000} KB). Use "Save file" and send the file instead.`));
+    return;
+  }
+  const field = h("input", { type: "text", readonly: true, value: url, class: "share-link", "aria-label": "link that opens this scene in the editor" });
+  const copy = h("button", { type: "button", class: "small" }, "Copy");
+  copy.addEventListener("click", () => copyText(field, copy));
+  note.replaceChildren(h("span", {}, "Link to this scene (it opens in the editor of whoever follows it): "), field, copy);
+  field.select();
+});
+
+async function openSceneLink(data) {
+  let text;
+  try {
+    text = await decodeScene(data);
+    JSON.parse(text);
+  } catch (err) {
+    notify(`This link does not hold a scene the editor can open (${err.message}). Ask for the link again, or for the scene as a file.`);
+    return;
+  }
+  loadText(formatJSON(JSON.parse(text)), "the scene of a link");
+}
+
+async function openSharedJob(id, token) {
+  if (!id || !token) {
+    notify("This link to a shared job is cut short: it needs the job's id and its share token (#shared/<id>/<token>).");
+    return;
+  }
+  useShareToken(id, token);
+  let job;
+  try {
+    job = await api.job(id);
+  } catch (err) {
+    const why = err.status === 404 ? "there is no such job, or the link's token is not its share token (or the job was removed)" : err.message;
+    viewer.message("error", `Could not open the shared job: ${why}.`);
+    $("#viewer-panel").dataset.shared = "missing";
+    return;
+  }
+  await viewer.show(job, null, null, { shared: true });
+}
+
 $("#btn-format").addEventListener("click", () => {
   const st = editor.parseNow();
   if (st.syntax) return editor.validate();
@@ -160,33 +265,85 @@ const grading = new GradingPanel($("#page-grading"));
 
 let examples = [];
 let galleryBuilt = false;
+const cards = new Map(); // example name -> {root, img, state}
+let polling = null;
+
+/** The gallery: each example's preview once a render worker has made it, and meanwhile its state. */
 function gallery() {
-  if (galleryBuilt || !examples.length) return;
-  galleryBuilt = true;
-  $("#gallery").replaceChildren(
-    ...examples.map((s) =>
-      h(
-        "article",
-        { class: "card" },
-        h("h2", {}, s.title),
-        h("img", { src: api.previewUrl(s.name), alt: `render of ${s.name}`, loading: "lazy", width: 256, height: 192, onerror: (e) => (e.target.alt = `could not render ${s.name}`) }),
-        h("p", {}, s.description),
-        h("div", { class: "card-actions" }, h("button", { type: "button", onclick: () => loadExample(s.name) }, "Open in the editor"), h("a", { href: `/api/scenes/${encodeURIComponent(s.name)}` }, `scenes/${s.name}.json`)),
-      ),
-    ),
-  );
+  if (!examples.length) return;
+  if (!galleryBuilt) {
+    galleryBuilt = true;
+    $("#gallery").replaceChildren(
+      ...examples.map((s) => {
+        const img = h("img", { alt: `render of ${s.name}`, width: 256, height: 192, hidden: true });
+        const state = h("p", { class: "preview-state", role: "status" });
+        const root = h(
+          "article",
+          { class: "card", dataset: { name: s.name } },
+          h("h2", {}, s.title),
+          h("div", { class: "card-image" }, img, state),
+          h("p", {}, s.description),
+          h("div", { class: "card-actions" }, h("button", { type: "button", onclick: () => loadExample(s.name) }, "Open in the editor"), h("a", { href: `/api/scenes/${encodeURIComponent(s.name)}` }, `scenes/${s.name}.json`)),
+        );
+        cards.set(s.name, { root, img, state, asked: false });
+        return root;
+      }),
+    );
+  }
+  paintCards();
 }
 
+function paintCards() {
+  let waiting = false;
+  for (const s of examples) {
+    const card = cards.get(s.name);
+    const p = s.preview || { state: "none" };
+    card.root.dataset.preview = p.state;
+    if (p.state === "ready") {
+      if (!card.img.getAttribute("src")) card.img.src = api.previewUrl(s.name);
+      card.img.hidden = false;
+      card.state.hidden = true;
+      continue;
+    }
+    card.state.hidden = false;
+    card.state.textContent =
+      p.state === "failed" ? `Could not render the preview: ${p.error}` : p.state === "rendering" ? `Rendering the preview… ${Math.round(100 * (p.fraction || 0))}%` : p.state === "queued" ? "The preview waits for a render worker…" : "Asking for the preview…";
+    if (p.state === "failed") continue;
+    waiting = true;
+    if (p.state === "none" && !card.asked) {
+      card.asked = true; // the server then queues it (a server that does not render the previews ahead)
+      api.askPreview(s.name).catch(() => {});
+    }
+  }
+  clearTimeout(polling);
+  if (waiting) polling = setTimeout(refreshPreviews, 1000);
+}
+
+async function refreshPreviews() {
+  if ($("#page-examples").hidden) return; // looked at again when the tab is shown
+  try {
+    examples = await api.scenes();
+  } catch {
+    // the next look tries again
+  }
+  paintCards();
+}
+
+let lessons = null;
+
 async function start() {
-  const page = location.hash.slice(1);
-  const lessons = new Lessons($("#page-lessons"), {
+  lessons = new Lessons($("#page-lessons"), {
     openInWorkspace: async (scene, job, label) => {
       loadText(formatJSON(scene), label);
       viewer.remember(job);
       await viewer.show(job, scene, JSON.stringify(scene));
     },
   });
-  void lessons;
+  // a lesson chosen from the list gets its own address (the lesson itself runs from its button)
+  $("#lesson-list").addEventListener("click", (e) => {
+    const id = e.target.closest("[data-lesson]")?.dataset.lesson;
+    if (id && location.hash !== `#lessons/${id}`) history.pushState(null, "", `#lessons/${id}`);
+  });
   // the form's rules (kinds, bounds, defaults) are the server's; without them it still shows the text's values
   const schema = loadSchema().then(
     () => fields.schemaLoaded(),
@@ -204,9 +361,12 @@ async function start() {
     $("#load-note").replaceChildren();
   }
   await schema;
-  selectTab(["lessons", "examples", "grading"].includes(page) ? `tab-${page}` : "tab-work");
+  selectTab("tab-work");
   viewer.renderList();
-  await viewer.restore().catch((err) => notify(`Could not load your jobs: ${err.message}.`));
+  const shared = location.hash.startsWith("#shared/");
+  if (!shared) await viewer.restore().catch((err) => notify(`Could not load your jobs: ${err.message}.`));
+  await route();
+  if (shared) await viewer.restore({ show: false }).catch((err) => notify(`Could not load your jobs: ${err.message}.`));
   document.body.dataset.ready = "true";
 }
 

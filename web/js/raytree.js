@@ -51,6 +51,7 @@ export class RayTreePanel {
     this.el.depth.addEventListener("input", () => this.setDepth(Number(this.el.depth.value)));
     this.el.play.addEventListener("click", () => this.replay());
     this.el.sample.addEventListener("change", () => this.reload());
+    window.addEventListener("resize", () => this.el.fit.getAttribute("aria-pressed") === "true" && this.diagram?.fit(true));
     this.el.fit.addEventListener("click", () => {
       const on = this.el.fit.getAttribute("aria-pressed") !== "true";
       this.el.fit.setAttribute("aria-pressed", String(on));

@@ -81,6 +81,8 @@ export class Viewer {
     };
     this.el.render.addEventListener("click", () => this.submit());
     this.el.cancel.addEventListener("click", () => this.cancel());
+    this.el.share = $("#btn-share");
+    this.el.share.addEventListener("click", () => this.share());
     this.el.img.addEventListener("click", (e) => this.click(e));
     this.el.img.addEventListener("keydown", (e) => this.key(e));
     this.el.img.addEventListener("load", () => this.layout());
@@ -128,10 +130,14 @@ export class Viewer {
   }
 
   /** Show a job (new, or from my list): its latest image, and its events while it runs. */
-  async show(job, scene = null, sceneText = null) {
+  async show(job, scene = null, sceneText = null, { shared = false } = {}) {
     this.closeEvents();
-    this.view = { id: job.id, job, scene, sceneText, width: job.width, height: job.height };
-    store.set(CURRENT_KEY, job.id);
+    this.view = { id: job.id, job, scene, sceneText, width: job.width, height: job.height, shared };
+    if (!shared) store.set(CURRENT_KEY, job.id); // a shared job is not this browser's: not kept for a reload
+    this.el.stage.dataset.shared = String(shared);
+    this.el.share.disabled = shared;
+    $("#share-note").hidden = !shared;
+    if (shared) $("#share-note").replaceChildren(`A shared job, read-only: its image and its ray trees (click a pixel). "Edit" in the editor makes a copy of your own.`);
     this.previews = 0;
     this.runningPreviews = 0;
     this.cursor = null;
@@ -219,6 +225,25 @@ export class Viewer {
       this.message("info", job.status === "cancelled" ? "Cancelled." : "Stopping the render…");
     } catch (err) {
       this.message("error", `Could not cancel: ${err.message}.`);
+    }
+  }
+
+  /** A read-only link to the job shown (its share token in the fragment, which is never sent to a server). */
+  async share() {
+    const v = this.view;
+    if (!v || v.shared) return;
+    const note = $("#share-note");
+    try {
+      const { link } = await api.share(v.id);
+      const url = new URL(link, location.href).href;
+      const field = h("input", { type: "text", readonly: true, value: url, class: "share-link", "aria-label": "read-only link to this job" });
+      const copy = h("button", { type: "button", class: "small" }, "Copy");
+      copy.addEventListener("click", () => copyText(field, copy));
+      note.replaceChildren(h("span", {}, "Read-only link (its image and ray trees; no one can cancel or change it): "), field, copy);
+      note.hidden = false;
+      field.select();
+    } catch (err) {
+      this.message("error", `Could not make a link: ${err.message}.`);
     }
   }
 
@@ -353,7 +378,7 @@ export class Viewer {
     this.el.bar.textContent = `${Math.round(fraction * 100)}%`;
     this.el.stage.dataset.status = job.status;
     const running = !job.finished;
-    this.el.cancel.disabled = !running;
+    this.el.cancel.disabled = !running || !!this.view?.shared;
     const row = (k, v) => [h("div", {}, h("dt", {}, k), h("dd", {}, v))];
     st.replaceChildren(
       ...row("status", job.status),
@@ -461,7 +486,7 @@ export class Viewer {
   }
 
   /** Load my jobs from the server (and the one shown before the reload). */
-  async restore() {
+  async restore({ show = true } = {}) {
     const ids = store.get(JOBS_KEY, []);
     const found = await Promise.all(
       ids.map((id) =>
@@ -476,7 +501,7 @@ export class Viewer {
     this.jobs = new Map(jobs.filter((j) => !j.missing).map((j) => [j.id, j]));
     this.renderList();
     const current = store.get(CURRENT_KEY, null);
-    if (current && this.jobs.has(current)) await this.show(this.jobs.get(current));
+    if (show && current && this.jobs.has(current)) await this.show(this.jobs.get(current));
   }
 
   async open(id) {
@@ -574,4 +599,12 @@ export function queuedText(job) {
 function ordinal(n) {
   const s = n % 100 >= 11 && n % 100 <= 13 ? "th" : { 1: "st", 2: "nd", 3: "rd" }[n % 10] || "th";
   return `${n}${s}`;
+}
+
+/** Copy a text field's value (the clipboard API where the page may use it, else the selection). */
+export function copyText(field, button) {
+  field.select();
+  const done = () => (button.textContent = "Copied");
+  if (navigator.clipboard && window.isSecureContext) navigator.clipboard.writeText(field.value).then(done, () => {});
+  else if (document.execCommand?.("copy")) done();
 }

@@ -1,0 +1,258 @@
+"""The page's pictures and addresses in a real browser (the fixtures of test_web_page.py): the magnifier and
+the full-size view of a lesson's panels, the examples' previews ready without clicking, links to a scene and
+to a job (read-only), the address following tabs and lessons with Back and Forward, the whole description,
+the ray-tree diagram fitted to its panel. Each test fails on any console error or CSP violation it does not
+expect."""
+
+from __future__ import annotations
+
+import json
+import random
+import string
+
+import pytest
+from conftest import scene_dict
+from test_api_support import Server
+from test_web_page import DESKTOP, Page, browser, desktop, render, server, set_scene, whitted  # noqa: F401  (fixtures)
+
+LESSON_DONE = """(n) => document.querySelectorAll('.lesson-panel').length === n
+    && [...document.querySelectorAll('.lesson-panel')]
+        .every(p => ['done', 'refused', 'failed'].includes(p.dataset.status))
+    && [...document.querySelectorAll('.lesson-image img')].every(i => i.complete && i.naturalWidth > 0)"""
+
+
+def banner_says(page, words: str) -> None:
+    page.wait_for_function("(w) => document.querySelector('#banner').innerText.includes(w)", arg=words)
+
+
+def lenses(page) -> list[dict]:
+    return page.evaluate(
+        """() => [...document.querySelectorAll('.lesson-image')].map(box => {
+            const lens = box.querySelector('.inspect-lens');
+            return lens ? {hidden: lens.hidden, pixel: lens.dataset.pixel, data: lens.toDataURL()} : null;
+        })"""
+    )
+
+
+def test_web_inspect_magnifier_follows_on_every_panel_and_full_size_view(desktop):  # noqa: F811
+    page = desktop.open("#lessons/bounces").page  # the address opens the lesson
+    page.wait_for_function(LESSON_DONE, arg=3, timeout=90_000)
+    assert page.get_attribute("#lesson-stage", "data-lesson") == "bounces"
+    imgs = page.locator(".lesson-image img")
+    box = imgs.nth(0).bounding_box()
+    # hovering the first picture at about 3/10, 6/10 of it: the same picture pixel magnified on all three
+    page.mouse.move(box["x"] + 0.305 * box["width"], box["y"] + 0.605 * box["height"])
+    shown = lenses(page)
+    assert [ln["hidden"] for ln in shown] == [False] * 3
+    assert {ln["pixel"] for ln in shown} == {"48,72"}
+    assert shown[0]["data"] != shown[2]["data"]  # each lens shows its own picture (1 bounce vs 3)
+    desktop.shot("inspect-lenses")
+    # nearest neighbour: the lens is made of 8 x 8 squares of one colour each
+    same = page.evaluate(
+        """() => {
+            const c = document.querySelector('.lesson-image .inspect-lens');
+            const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+            let same = 0, all = 0;
+            for (let y = 0; y < c.height; y += 8) for (let x = 0; x < c.width; x += 8) {
+                const i = 4 * (y * c.width + x), j = 4 * ((y + 6) * c.width + x + 6);
+                if (y + 6 < c.height && x + 6 < c.width) { all++; if (d[i] === d[j] && d[i+1] === d[j+1]) same++; }
+            }
+            return same / all;
+        }"""
+    )
+    assert same > 0.9
+    # moving over the third picture moves every lens; leaving hides them
+    box3 = imgs.nth(2).bounding_box()
+    page.mouse.move(box3["x"] + 0.505 * box3["width"], box3["y"] + 0.255 * box3["height"])
+    assert {ln["pixel"] for ln in lenses(page)} == {"80,30"}
+    page.mouse.move(5, 5)
+    assert [ln["hidden"] for ln in lenses(page)] == [True] * 3
+    # the keyboard: focus a picture, arrows move the lenses one pixel (Shift: 10)
+    imgs.nth(1).focus()
+    page.keyboard.press("ArrowRight")
+    assert {ln["pixel"] for ln in lenses(page)} == {"81,60"}
+    page.keyboard.press("Shift+ArrowDown")
+    assert {ln["pixel"] for ln in lenses(page)} == {"81,70"}
+    page.keyboard.press("Escape")
+    assert [ln["hidden"] for ln in lenses(page)] == [True] * 3
+    # Enter (or a click) opens the group at full size, x4 first, pixelated; the zoom goes to x8; Esc closes
+    page.keyboard.press("Enter")
+    page.wait_for_selector("dialog.inspect-dialog[open]")
+    full = page.locator("dialog .inspect-full-img")
+    assert full.count() == 3
+    assert (
+        page.evaluate("() => getComputedStyle(document.querySelector('.inspect-full-img')).imageRendering")
+        == "pixelated"
+    )
+    assert full.nth(0).bounding_box()["width"] == pytest.approx(640, abs=1)
+    page.eval_on_selector(".inspect-zoom", "el => { el.value = '3'; el.dispatchEvent(new Event('input')); }")
+    assert full.nth(2).bounding_box()["width"] == pytest.approx(1280, abs=1)
+    assert page.inner_text(".inspect-zoom-out") == "×8"
+    page.eval_on_selector(
+        ".inspect-scroll >> nth=0", "el => { el.scrollLeft = 300; el.dispatchEvent(new Event('scroll')); }"
+    )
+    page.wait_for_function("() => document.querySelectorAll('.inspect-scroll')[2].scrollLeft === 300")
+    desktop.shot("inspect-full")
+    page.keyboard.press("Escape")
+    page.wait_for_selector("dialog.inspect-dialog", state="detached")
+    assert page.evaluate("() => document.activeElement === document.querySelectorAll('.lesson-image img')[1]")
+    imgs.nth(0).click()
+    page.wait_for_selector("dialog.inspect-dialog[open]")
+    page.click("dialog .inspect-head button")
+    page.wait_for_selector("dialog.inspect-dialog", state="detached")
+
+
+def test_web_inspect_address_follows_tabs_and_lessons_back_and_forward(desktop):  # noqa: F811
+    page = desktop.open().page
+    page.click("#tab-lessons")
+    assert page.evaluate("location.hash") == "#lessons"
+    page.click(".lesson-button[data-lesson=dof]")
+    assert page.evaluate("location.hash") == "#lessons/dof"
+    page.wait_for_function(LESSON_DONE, arg=2, timeout=90_000)
+    page.click(".lesson-button[data-lesson=motion]")
+    assert page.evaluate("location.hash") == "#lessons/motion"
+    page.wait_for_function("() => document.querySelector('#lesson-stage').dataset.lesson === 'motion'")
+    page.click("#tab-examples")
+    assert page.evaluate("location.hash") == "#examples" and page.is_visible("#page-examples")
+    page.go_back()
+    page.wait_for_function("() => !document.querySelector('#page-lessons').hidden")
+    assert page.get_attribute("#lesson-stage", "data-lesson") == "motion"
+    page.go_back()
+    page.wait_for_function("() => document.querySelector('#lesson-stage').dataset.lesson === 'dof'")
+    page.go_back()
+    page.go_back()
+    page.wait_for_function("() => !document.querySelector('#page-work').hidden")
+    assert page.evaluate("location.hash") == ""
+    page.go_forward()
+    page.wait_for_function("() => !document.querySelector('#page-lessons').hidden")
+    # the lessons tab comes back to the lesson it showed
+    page.click("#tab-work")
+    page.click("#tab-lessons")
+    assert page.evaluate("location.hash") == "#lessons/dof"
+    # an unknown lesson says so, plainly
+    page.goto(f"{desktop.server.url}/#lessons/glossy-nope")
+    banner_says(page, "There is no lesson 'glossy-nope'")
+
+
+def test_web_inspect_whole_description_and_the_tree_fitted(desktop):  # noqa: F811
+    page = desktop.open().page
+    text = page.inner_text("#scene-description")
+    assert text == scene_dict("whitted")["description"]  # the editor starts with whitted
+    assert page.evaluate(
+        "() => { const d = document.querySelector('#scene-description'); return d.scrollHeight <= d.clientHeight + 1 }"
+    )
+    set_scene(page, whitted(160, 120, spp=4))
+    render(page)
+    page.wait_for_selector("#render-img:not([hidden])")
+    box = page.locator("#render-img").bounding_box()
+    page.mouse.click(box["x"] + box["width"] * 125 / 160, box["y"] + box["height"] * 70 / 120)  # the glass ball
+    page.wait_for_selector("#rt-diagram svg")
+    assert page.get_attribute("#rt-fit", "aria-pressed") == "true"
+    fit = page.evaluate(
+        """() => { const c = document.querySelector('#rt-diagram'), s = c.querySelector('svg');
+            return {w: +s.getAttribute('width'), h: +s.getAttribute('height'), cw: c.clientWidth,
+                    ch: parseFloat(getComputedStyle(c).maxHeight), sw: c.scrollWidth, scale: +c.dataset.scale} }"""
+    )
+    assert fit["w"] <= fit["cw"] and fit["h"] <= fit["ch"] and fit["sw"] <= fit["cw"]
+    page.click("#rt-fit")  # off: the boxes at their own size
+    assert page.evaluate("() => +document.querySelector('#rt-diagram svg').getAttribute('width')") >= fit["w"]
+
+
+def test_web_inspect_links_open_a_scene_in_the_editor(desktop, browser):  # noqa: F811
+    page = desktop.open().page
+    scene = whitted(96, 72)
+    scene["name"] = "Zoë's linked scene"
+    set_scene(page, scene)
+    page.click("#btn-share-scene")
+    link = page.input_value("#load-note input.share-link")
+    assert "#scene/" in link and len(link) < 2000
+    other = Page(browser, desktop.server, DESKTOP)  # another student, another browser
+    try:
+        other.page.goto(link)
+        other.page.wait_for_selector("body[data-ready=true]", state="attached")
+        assert json.loads(other.page.input_value("#scene-text")) == scene
+        assert other.page.evaluate("location.hash") == ""  # the editor holds it from here
+        assert other.unexpected_errors() == []
+    finally:
+        other.context.close()
+    # a broken link says so; a scene too large for a link says to save it as a file
+    page.goto(f"{desktop.server.url}/#scene/AAAA$$")
+    banner_says(page, "This link does not hold a scene the editor can open (the link has characters")
+    page.click("#banner button.close")
+    page.goto(link[: link.index("#scene/") + 40])  # cut short
+    banner_says(page, "cut short or damaged")
+    page.click("#banner button.close")
+    page.goto(link[: link.index("#scene/") + 47])  # cut short at a length base64 may have
+    banner_says(page, "cut short or damaged")
+    big = whitted(96, 72)
+    big["description"] = "".join(random.Random(1).choices(string.ascii_letters, k=60_000))
+    set_scene(page, big)
+    page.click("#btn-share-scene")
+    page.wait_for_function("() => document.querySelector('#load-note').innerText.includes('too large for a link')")
+    assert "Save file" in page.inner_text("#load-note")
+
+
+def test_web_inspect_read_only_link_to_a_job(desktop, browser):  # noqa: F811
+    page = desktop.open().page
+    set_scene(page, whitted(96, 72, spp=4))
+    render(page)
+    job_id = page.get_attribute("#stage", "data-job")
+    page.click("#btn-share")
+    link = page.input_value("#share-note input.share-link")
+    assert f"#shared/{job_id}/share-" in link
+    guest = Page(browser, desktop.server, DESKTOP)  # someone else follows the link: image and ray trees, read-only
+    try:
+        guest.page.goto(link)
+        guest.page.wait_for_selector("body[data-ready=true]", state="attached")
+        g = guest.page
+        g.wait_for_function(
+            "() => { const i = document.querySelector('#render-img'); return !i.hidden && i.naturalWidth === 96 }"
+        )
+        assert g.get_attribute("#stage", "data-shared") == "true" and g.is_disabled("#btn-cancel")
+        assert g.is_disabled("#btn-share") and "read-only" in g.inner_text("#share-note")
+        box = g.locator("#render-img").bounding_box()
+        g.mouse.click(box["x"] + box["width"] * 0.7, box["y"] + box["height"] * 0.6)
+        g.wait_for_selector("#rt-diagram svg")
+        assert g.evaluate("() => localStorage.getItem('rt.viewer.job')") is None  # not kept as the guest's job
+        # the same job without the token, or with another token, is not found
+        guest.allow.append("404")
+        for bad in (f"#shared/{job_id}/", f"#shared/{job_id}/share-AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA"):
+            g.goto(f"{desktop.server.url}/{bad}")
+            g.wait_for_selector("body[data-ready=true]", state="attached")
+            g.reload()
+            g.wait_for_selector("body[data-ready=true]", state="attached")
+            words = g.inner_text("#banner") + g.inner_text("#viewer-message")
+            assert "cut short" in words or "no such job" in words, words
+            assert g.get_attribute("#stage", "data-job") != job_id
+        assert guest.unexpected_errors() == []
+    finally:
+        guest.context.close()
+
+
+@pytest.fixture(scope="module")
+def fresh_server(tmp_path_factory):
+    """A server that renders the examples' previews ahead, as `python -m server` does."""
+    env = {"TRACER_PREVIEWS_AHEAD": "1"}
+    with Server(tmp_path_factory.mktemp("web-previews"), workers=1, env=env) as s:
+        yield s
+
+
+def test_web_inspect_previews_ready_without_opening_them(browser, fresh_server):  # noqa: F811
+    p = Page(browser, fresh_server, DESKTOP)
+    try:
+        page = p.open("#examples").page
+        cards = page.locator("#gallery .card")
+        n = cards.count()
+        assert n > 10
+        first = [c.get_attribute("data-preview") for c in cards.all()]
+        assert set(first) <= {"queued", "rendering", "ready"}  # a state from the start, never a black box
+        assert page.locator("#gallery .card:not([data-preview=ready]) img:visible").count() == 0
+        page.wait_for_function(
+            """() => [...document.querySelectorAll('#gallery .card')].every(c => c.dataset.preview === 'ready'
+                && c.querySelector('img').complete && c.querySelector('img').naturalWidth > 0)""",
+            timeout=240_000,
+        )
+        p.shot("examples-ready", full_page=True)
+        assert p.unexpected_errors() == []
+    finally:
+        p.context.close()
