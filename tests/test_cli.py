@@ -178,3 +178,39 @@ def test_cli_validate_resolves_asset_files_like_render(tmp_path):
     assets.mkdir()
     (assets / "teapot.obj").write_text(obj_grid(2))
     assert run("validate", f, "--assets", assets).stdout.strip() == f"{f}: valid"
+
+
+COMMAND_AND_MODULES = """
+import json, sys
+from tracer.__main__ import main
+code = main(sys.argv[1:])
+from tracer.integrators import dispatch
+print(json.dumps({"code": code, "modules": sorted(m for m in sys.modules if m.startswith("tracer.integrators.")),
+                  "kernels": sorted(dispatch._BUILT)}))
+"""
+
+
+def command_modules(*args) -> dict:
+    """Run a command in a fresh process: its exit code, the integrator modules it imported and the integrator
+    kernels it made (the last line of its standard output)."""
+    p = subprocess.run(
+        [sys.executable, "-c", COMMAND_AND_MODULES, *map(str, args)], cwd=ROOT, capture_output=True, text=True,
+        timeout=300,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def test_cli_a_command_imports_and_loads_only_its_integrators_kernels(tmp_path):
+    """Start-up (#17): a Whitted render or ray tree neither imports the path integrator nor defines or
+    loads its kernels; a path-traced render makes only the path kernels."""
+    whitted = command_modules("render", SCENES / "whitted.json", "-o", tmp_path / "w.png", "--width", 8,
+                              "--height", 8, "--spp", 1, "-q")  # fmt: skip
+    assert whitted["code"] == 0 and whitted["kernels"] == ["whitted"]
+    assert "tracer.integrators.path" not in whitted["modules"]
+    tree = command_modules("raytree", SCENES / "whitted.json", 100, 100)
+    assert tree["code"] == 0 and tree["kernels"] == ["whitted"]
+    assert "tracer.integrators.path" not in tree["modules"]
+    path = command_modules("render", SCENES / "cornell_path.json", "-o", tmp_path / "p.png", "--width", 8,
+                           "--height", 8, "--spp", 1, "-q")  # fmt: skip
+    assert path["code"] == 0 and path["kernels"] == ["path"]

@@ -91,9 +91,11 @@ def make_film(height: int, width: int, device: str = "cpu") -> dispatch.FilmBuff
     return f
 
 
-def load_kernels(device: str = "cpu") -> None:
-    """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
-    for module in dispatch.KERNEL_MODULES.values():
+def load_kernels(device: str = "cpu", integrators=None) -> None:
+    """Compile the render kernels of `integrators` (Integrator values; default: every integrator's), or load
+    them from Warp's disk cache (call before threads start). A long-lived process (a service worker) loads
+    them all once; a command loads only its scene's: each module loaded costs the hash of its source."""
+    for module in dispatch.kernel_modules(integrators):
         wp.load_module(module, device=device)
 
 
@@ -169,8 +171,8 @@ class Renderer:
         self.cs = compiled
         self.device = device
         self.cuda = is_cuda(device)
-        load_kernels(device)
         data = compiled.data
+        load_kernels(device, [data.integrator])
         self.width, self.height, self.spp = data.width, data.height, data.spp
         self.adaptive = data.sampler == SamplerKind.ADAPTIVE
         self.render_pixels, self.render_adaptive, _ = dispatch.KERNELS[Integrator(data.integrator)]

@@ -7,10 +7,12 @@ tree recorded. `make_kernels(trace, module)` builds the three for one integrator
 kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
 code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
 inlines the shared helpers less when more code calls them). `KERNELS` has them for every
-integrator of the table in tracer/integrators/__init__.py.
+integrator of the table in tracer/integrators/__init__.py, each made when first asked for.
 """
 
 import importlib
+import threading
+from collections.abc import Mapping
 
 import warp as wp
 
@@ -267,12 +269,41 @@ def make_kernels(trace, module: str):
 
 def _kernels_of(module: str):
     """The kernels of integrator module `module`, made once however many integrators share them."""
-    if module not in _BUILT:
-        trace = importlib.import_module(f"tracer.integrators.{module}").trace
-        _BUILT[module] = make_kernels(trace, KERNEL_MODULES[module])
+    with _BUILDING:
+        if module not in _BUILT:
+            trace = importlib.import_module(f"tracer.integrators.{module}").trace
+            _BUILT[module] = make_kernels(trace, KERNEL_MODULES[module])
     return _BUILT[module]
 
 
+class _Kernels(Mapping):
+    """KERNELS[integrator]: its (render_pixels, render_adaptive, trace_one), made on first use. A command
+    imports an integrator's module and defines its kernels only when its scene needs them: the path
+    integrator's cost nothing to a Whitted render's start-up (BENCHMARKS.md, #17)."""
+
+    def __getitem__(self, integrator) -> tuple:
+        return _kernels_of(INTEGRATORS[Integrator(integrator)].kernels)
+
+    def __iter__(self):
+        return iter(Integrator)
+
+    def __len__(self) -> int:
+        return len(Integrator)
+
+
+def kernel_modules(integrators=None) -> list[str]:
+    """The Warp modules of `integrators`' kernels (default: every integrator's), each once, their kernels
+    made: what `wp.load_module` loads."""
+    names: list[str] = []
+    for i in Integrator if integrators is None else integrators:
+        KERNELS[i]
+        name = KERNEL_MODULES[INTEGRATORS[Integrator(i)].kernels]
+        if name not in names:
+            names.append(name)
+    return names
+
+
 _BUILT: dict = {}
+_BUILDING = threading.Lock()
 KERNEL_MODULES = {i.kernels: f"tracer_kernels_{i.kernels}" for i in INTEGRATORS}  # Warp module of each
-KERNELS = {Integrator[i.name.upper()]: _kernels_of(i.kernels) for i in INTEGRATORS}
+KERNELS = _Kernels()
