@@ -178,3 +178,66 @@ def test_cli_validate_resolves_asset_files_like_render(tmp_path):
     assets.mkdir()
     (assets / "teapot.obj").write_text(obj_grid(2))
     assert run("validate", f, "--assets", assets).stdout.strip() == f"{f}: valid"
+
+
+COMMAND_AND_MODULES = """
+import json, sys
+from tracer.__main__ import main
+code = main(sys.argv[1:])
+from tracer.integrators import dispatch
+print(json.dumps({"code": code, "modules": sorted(m for m in sys.modules if m.startswith("tracer.integrators.")),
+                  "kernels": sorted(dispatch._BUILT)}))
+"""
+
+
+def command_modules(*args) -> dict:
+    """Run a command in a fresh process: its exit code, the integrator modules it imported and the integrator
+    kernels it made (the last line of its standard output)."""
+    p = subprocess.run(
+        [sys.executable, "-c", COMMAND_AND_MODULES, *map(str, args)], cwd=ROOT, capture_output=True, text=True,
+        timeout=300,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def test_cli_a_command_imports_and_loads_only_its_integrators_kernels(tmp_path):
+    """Start-up (#17): a Whitted render or ray tree neither imports the path integrator nor defines or
+    loads its kernels; a path-traced render makes only the path kernels."""
+    whitted = command_modules("render", SCENES / "whitted.json", "-o", tmp_path / "w.png", "--width", 8,
+                              "--height", 8, "--spp", 1, "-q")  # fmt: skip
+    assert whitted["code"] == 0 and whitted["kernels"] == ["whitted"]
+    assert "tracer.integrators.path" not in whitted["modules"]
+    tree = command_modules("raytree", SCENES / "whitted.json", 100, 100)
+    assert tree["code"] == 0 and tree["kernels"] == ["whitted"]
+    assert "tracer.integrators.path" not in tree["modules"]
+    path = command_modules("render", SCENES / "cornell_path.json", "-o", tmp_path / "p.png", "--width", 8,
+                           "--height", 8, "--spp", 1, "-q")  # fmt: skip
+    assert path["code"] == 0 and path["kernels"] == ["path"]
+
+
+RUN_AS_PROGRAM = """
+import gc, json, runpy, sys
+full = []
+gc.callbacks.append(lambda phase, info: full.append(1) if phase == "stop" and info["generation"] == 2 else None)
+sys.argv = ["tracer", *sys.argv[1:]]
+try:
+    runpy.run_module("tracer", run_name="__main__", alter_sys=True)
+except SystemExit as e:
+    code = e.code
+print(json.dumps({"code": code, "on": gc.isenabled(), "frozen": gc.get_freeze_count(), "full": len(full)}))
+"""
+
+
+def test_cli_starts_without_garbage_collection_then_collects_again(tmp_path):
+    """Start-up (#17): python -m tracer render runs no full garbage collection while it imports and loads its
+    kernels (each one walks every object made so far: Warp's builtins, the scene models), then turns the
+    collector back on with start-up's objects frozen out of it."""
+    p = subprocess.run(
+        [sys.executable, "-c", RUN_AS_PROGRAM, "render", SCENES / "whitted.json", "-o", tmp_path / "w.png",
+         "--width", "8", "--height", "8", "--spp", "1", "-q"], cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr
+    state = json.loads(p.stdout.strip().splitlines()[-1])
+    assert state["code"] == 0 and (tmp_path / "w.png").exists()
+    assert state["full"] == 0 and state["on"] and state["frozen"] > 100_000

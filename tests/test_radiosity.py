@@ -9,6 +9,7 @@ from conftest import scene_dict, small
 
 from tracer.compile import compile_scene
 from tracer.kinds import RadDisplay
+from tracer.parallel import ITEMS_PER_BAND
 from tracer.radiosity import attach, build_patches, solve
 from tracer.raytree import ray_tree
 from tracer.render import render
@@ -296,6 +297,12 @@ def test_radiosity_solve_is_the_same_on_any_number_of_threads():
     three = solve(scene, patch_size=0.34, rays=1024, threshold=0.05, threads=3)
     assert np.array_equal(one.radiosity, two.radiosity) and np.array_equal(one.radiosity, three.radiosity)
     assert [h["shooter"] for h in one.history] == [h["shooter"] for h in three.history]
+    # with at least 2 ITEMS_PER_BAND rays a shot, the patches' shots too run in bands on every thread (#17)
+    rays = 2 * ITEMS_PER_BAND
+    one = solve(scene, patch_size=0.34, rays=rays, threshold=0.05, max_steps=60, threads=1)
+    two = solve(scene, patch_size=0.34, rays=rays, threshold=0.05, max_steps=60, threads=2)
+    assert len(one.history) > 10 and one.rays == two.rays
+    assert np.array_equal(one.radiosity, two.radiosity) and np.array_equal(one.unshot, two.unshot)
 
 
 def test_radiosity_solve_is_a_phase_of_the_render_with_progress_cancel_and_stats():

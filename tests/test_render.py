@@ -7,7 +7,7 @@ from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
 from tracer.raytree import ray_tree
-from tracer.render import Renderer, pass_schedule, render
+from tracer.render import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
 from tracer.scene import load_scene
 
 
@@ -145,6 +145,42 @@ def test_render_passes_refine_and_cancel_keeps_finished_samples():
     part = render(cs, threads=2, on_pass=passes.append, cancel=lambda: len(passes) >= 2)
     assert part.cancelled and part.spp == 2
     assert np.array_equal(part.image, seen[1][1])
+
+
+def test_render_adaptive_passes_trace_only_the_pixels_still_refined():
+    """#17: an adaptive pass traces only the pixels that the passes before left unfinished (a cell stopped at
+    their level limit, not on the threshold); the others keep their values. Each pass's image is a single pass
+    at its level, bit for bit, and the final image, AOVs and rays per pixel are the deepest pass's. The rays
+    counted are that pass's, plus the earlier passes of the pixels it still refined: not L + 1 whole passes."""
+    top = 3
+    scene, _ = load_scene(small(scene_dict("antialias_adaptive"), 64, 48, sampler={"max_level": top}))
+    cs = compile_scene(scene)
+    previews, snaps = [], []
+
+    def on_pass(p):
+        previews.append(p.image.copy())
+        snaps.append(snapshot_bytes(p.snapshot()))
+
+    progressive = render(cs, threads=2, on_pass=on_pass)
+    single = []  # one pass at each level, from scratch
+    for level in range(top + 1):
+        r = Renderer(cs, threads=2)
+        r.adaptive_pass(level)
+        single.append(r)
+    assert all(np.array_equal(previews[level], single[level].image()) for level in range(top + 1))
+    final = single[-1]
+    assert np.array_equal(progressive.image, final.image())
+    assert all(np.array_equal(progressive.aovs[k], v) for k, v in final.aovs().items())
+    rays = np.stack([r.film.counts.numpy().sum(-1).astype(np.int64) for r in single])  # (level, y, x)
+    # a pixel still refined gains rays at the next level: it is finished at the first level with its final rays
+    finished = np.argmax(rays == rays[-1], axis=0)
+    assert (finished == 0).mean() > 0.5 and (finished == top).any()
+    traced = sum(int(rays[level][finished >= level].sum()) for level in range(top + 1))
+    assert progressive.rays["total"] == traced
+    assert traced < rays.sum()  # every pass tracing every pixel, as before
+    # resumed after two passes, in another renderer from the snapshot's bytes: the same image and rays
+    resumed = render(cs, threads=1, resume=snapshot_from(snaps[1]))
+    assert np.array_equal(resumed.image, progressive.image) and resumed.rays == progressive.rays
 
 
 def test_render_stop_and_resume_from_a_snapshot():

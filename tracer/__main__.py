@@ -13,12 +13,17 @@ python -m tracer docs [--check]     the field tables of docs/scene-format.md, fr
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
-from pathlib import Path
+import gc
 
-from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene
+if __name__ == "__main__":  # python -m tracer: no garbage collection while starting (see `main`)
+    gc.disable()
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene  # noqa: E402
 
 
 def _read_json(path: str) -> dict:
@@ -73,12 +78,14 @@ def _print_warnings(warnings, file=sys.stderr) -> None:
 def cmd_render(args) -> int:
     from tracer.compile import compile_scene
     from tracer.film import aov_layers, write_exr, write_png
-    from tracer.render import render
+    from tracer.render import load_kernels, render
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_warnings(warnings)
     # render() solves a radiosity scene, with progress
     cs = compile_scene(scene, asset_dir=Path(args.assets), device=args.device)
+    load_kernels(args.device, [cs.data.integrator])
+    started()
     bars: dict = {}
     show = sys.stderr.isatty() and not args.quiet
     last = 0
@@ -152,6 +159,7 @@ def cmd_validate(args) -> int:
 def cmd_bench(args) -> int:
     from tracer.bench import main as bench_main
 
+    started()
     return bench_main(args)
 
 
@@ -200,6 +208,7 @@ def cmd_grade(args) -> int:
     if not subs:
         print(f"error: {path}: no submissions (.json, .png or .exr files)", file=sys.stderr)
         return 1
+    started()
     if batch:  # worker processes of our own, a time limit per render
         from tracer.grading.local import LocalRenderer
 
@@ -338,7 +347,25 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_PAUSED = [False]  # the garbage collector is off while this process starts
+
+
+def started() -> None:
+    """A command has imported and loaded what it needs: the garbage collector goes back on, leaving out
+    every object start-up made (gc.freeze). Start-up allocates hundreds of thousands of objects that live
+    as long as the process (Warp's builtins and functions, the scene models), and every full collection
+    while they are made walks them all again: 0.1 s of a tiny render's 0.7 (BENCHMARKS.md, #17). A short
+    command (validate, raytree, docs) ends with it still off."""
+    if _PAUSED[0]:
+        _PAUSED[0] = False
+        gc.freeze()
+        gc.enable()
+
+
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:  # this process's own command line (python -m tracer, or the `tracer` script)
+        gc.disable()
+        _PAUSED[0] = True
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

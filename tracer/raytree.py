@@ -47,7 +47,7 @@ def ray_tree(
         raise SceneError(errs)
     if d.integrator == Integrator.RADIOSITY and cs.radiosity is None:
         radiosity.attach(cs, device=device)
-    load_kernels(device)
+    load_kernels(device, [d.integrator])
     rec = make_record(cap, device)
     st = make_stack(1, d.max_depth, device)
     out = wp.zeros(2, dtype=wp.vec3, device=device)

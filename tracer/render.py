@@ -91,9 +91,11 @@ def make_film(height: int, width: int, device: str = "cpu") -> dispatch.FilmBuff
     return f
 
 
-def load_kernels(device: str = "cpu") -> None:
-    """Compile the render kernels, or load them from Warp's disk cache (call before threads start)."""
-    for module in dispatch.KERNEL_MODULES.values():
+def load_kernels(device: str = "cpu", integrators=None) -> None:
+    """Compile the render kernels of `integrators` (Integrator values; default: every integrator's), or load
+    them from Warp's disk cache (call before threads start). A long-lived process (a service worker) loads
+    them all once; a command loads only its scene's: each module loaded costs the hash of its source."""
+    for module in dispatch.kernel_modules(integrators):
         wp.load_module(module, device=device)
 
 
@@ -155,7 +157,7 @@ class Renderer:
     """A compiled scene with its film buffers.
 
     Uniform samplers: `add_samples(s0, s1)` adds samples to the running sums. Adaptive sampler:
-    `adaptive_pass(level)` recomputes the film with subdivision down to `level`.
+    `adaptive_pass(level)` refines the film down to `level`: the pixels earlier passes left unfinished.
     Work is cut into bands of consecutive pixels launched from one thread per core; on a CUDA device
     (or with `band=None`) the band is the whole image, launched from this thread (see `band_size`).
     """
@@ -169,8 +171,8 @@ class Renderer:
         self.cs = compiled
         self.device = device
         self.cuda = is_cuda(device)
-        load_kernels(device)
         data = compiled.data
+        load_kernels(device, [data.integrator])
         self.width, self.height, self.spp = data.width, data.height, data.spp
         self.adaptive = data.sampler == SamplerKind.ADAPTIVE
         self.render_pixels, self.render_adaptive, _ = dispatch.KERNELS[Integrator(data.integrator)]
@@ -185,6 +187,7 @@ class Renderer:
                 c.color = wp.empty((self.band, points), dtype=wp.vec3, device=device)
                 c.stamp = wp.zeros((self.band, points), dtype=wp.int32, device=device)
                 self.caches.append(c)
+            self.done = wp.zeros((self.height, self.width), dtype=wp.int32, device=device)  # pixels finished
         self.film = make_film(self.height, self.width, device)
         self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
@@ -236,16 +239,19 @@ class Renderer:
         self.samples_done = s1
 
     def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
-        """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level)."""
-        if self.samples_done:
-            self.passes_rays += self.film.counts.numpy().reshape(-1, len(RayKind)).astype(np.int64).sum(axis=0)
+        """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level). A pixel that
+        an earlier pass finished (no cell stopped at its level limit) keeps its film values: a pass traces only
+        the pixels still being refined, and gives the image a single pass at `level` gives, bit for bit."""
+        if self.samples_done:  # the pixels traced again: their counts of the pass before are overwritten
+            again = self.done.numpy() == 0
+            self.passes_rays += self.film.counts.numpy()[again].astype(np.int64).sum(axis=0)
 
         def launch(k: int, p0: int, n: int) -> None:
             wp.launch(
                 self.render_adaptive,
                 dim=n,
                 device=self.device,
-                inputs=[self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k]],
+                inputs=[self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k], self.done],
             )
 
         self._run(launch, on_band)
@@ -258,6 +264,8 @@ class Renderer:
         snap = {name: getattr(self.film, name).numpy().copy() for name in self.FIELDS}
         snap["samples_done"] = self.samples_done
         snap["passes_rays"] = self.passes_rays.copy()
+        if self.adaptive:
+            snap["done"] = self.done.numpy().copy()
         return snap
 
     def restore(self, snap: dict) -> None:
@@ -272,6 +280,8 @@ class Renderer:
             target.assign(wp.array(snap[name], dtype=target.dtype, device=self.device))
         self.samples_done = int(snap["samples_done"])
         self.passes_rays = np.asarray(snap["passes_rays"], dtype=np.int64).copy()
+        if self.adaptive and "done" in snap:  # a snapshot from before #17 has none: every pixel is traced again
+            self.done.assign(wp.array(np.asarray(snap["done"], dtype=np.int32), dtype=wp.int32, device=self.device))
 
     def image(self) -> np.ndarray:
         """The mean of the samples so far, (H, W, 3) float32."""

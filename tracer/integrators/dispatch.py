@@ -7,10 +7,12 @@ tree recorded. `make_kernels(trace, module)` builds the three for one integrator
 kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
 code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
 inlines the shared helpers less when more code calls them). `KERNELS` has them for every
-integrator of the table in tracer/integrators/__init__.py.
+integrator of the table in tracer/integrators/__init__.py, each made when first asked for.
 """
 
 import importlib
+import threading
+from collections.abc import Mapping
 
 import warp as wp
 
@@ -42,6 +44,9 @@ class FilmBuffers:
 # `max_level`. All points lie on one fine grid of (G+1)^2 points, G = 2^(max_level+1); a point's
 # colour is traced once and kept in a per-thread cache, and its random numbers are keyed by its
 # index on that grid, so pass L (subdivision stopped at level L) re-traces nothing differently.
+# A pixel whose every cell stopped on the threshold (none on the level limit) is finished: a deeper
+# pass would make the same choices, the same sums in the same order. `done` marks it, and later
+# passes leave its film values alone instead of tracing it again.
 
 ADAPTIVE_STACK = 32  # cells pending at once: 3 more per level of subdivision (max_level <= 8 in the scene format)
 vec_cells = wp.types.vector(length=ADAPTIVE_STACK, dtype=wp.int32)
@@ -190,14 +195,19 @@ def make_kernels(trace, module: str):
         rec: TreeRecord,
         film: FilmBuffers,
         cache: AdaptiveCache,
+        done: wp.array2d(dtype=wp.int32),
     ):
-        """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result."""
+        """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result. A pixel
+        marked in `done` is skipped (an earlier pass finished it); one that no cell stopped at the level limit
+        is marked."""
         row = wp.tid()
         pix = p0 + row
         if pix >= scene.width * scene.height:
             return
         x = pix % scene.width
         y = pix / scene.width
+        if done[y, x] != 0:
+            return
         g = 1 << (scene.max_level + 1)
         stamp = pix * PASSES_PER_PIXEL + level + 1
         # the centre ray first: it gives the AOVs
@@ -212,6 +222,7 @@ def make_kernels(trace, module: str):
         cj = vec_cells()
         cl = vec_cells()
         sp = int(1)
+        limited = int(0)  # cells stopped by the level limit, not the threshold: a deeper pass would split them
         while sp > 0:
             sp -= 1
             i0 = ci[sp]
@@ -227,7 +238,10 @@ def make_kernels(trace, module: str):
             lo = wp.min(wp.min(wp.min(c0, c1), wp.min(c2, c3)), c4)
             hi = wp.max(wp.max(wp.max(c0, c1), wp.max(c2, c3)), c4)
             spread = hi - lo
-            if lv >= level or wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold:
+            flat = wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold
+            if lv >= level or flat:
+                if not flat:
+                    limited += 1
                 area = 1.0 / float(1 << (2 * lv))
                 total += area * (c0 + c1 + c2 + c3 + c4) / 5.0
                 sq = wp.cw_mul(c0, c0) + wp.cw_mul(c1, c1) + wp.cw_mul(c2, c2) + wp.cw_mul(c3, c3) + wp.cw_mul(c4, c4)
@@ -245,6 +259,8 @@ def make_kernels(trace, module: str):
         film.depth[y, x] = centre.depth
         film.normal[y, x] = centre.normal
         film.albedo[y, x] = centre.albedo
+        if limited == 0:
+            done[y, x] = 1
 
     @wp.kernel(module=module)
     def trace_one(scene: SceneData, x: int, y: int, s: int, st: Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)):
@@ -267,12 +283,41 @@ def make_kernels(trace, module: str):
 
 def _kernels_of(module: str):
     """The kernels of integrator module `module`, made once however many integrators share them."""
-    if module not in _BUILT:
-        trace = importlib.import_module(f"tracer.integrators.{module}").trace
-        _BUILT[module] = make_kernels(trace, KERNEL_MODULES[module])
+    with _BUILDING:
+        if module not in _BUILT:
+            trace = importlib.import_module(f"tracer.integrators.{module}").trace
+            _BUILT[module] = make_kernels(trace, KERNEL_MODULES[module])
     return _BUILT[module]
 
 
+class _Kernels(Mapping):
+    """KERNELS[integrator]: its (render_pixels, render_adaptive, trace_one), made on first use. A command
+    imports an integrator's module and defines its kernels only when its scene needs them: the path
+    integrator's cost nothing to a Whitted render's start-up (BENCHMARKS.md, #17)."""
+
+    def __getitem__(self, integrator) -> tuple:
+        return _kernels_of(INTEGRATORS[Integrator(integrator)].kernels)
+
+    def __iter__(self):
+        return iter(Integrator)
+
+    def __len__(self) -> int:
+        return len(Integrator)
+
+
+def kernel_modules(integrators=None) -> list[str]:
+    """The Warp modules of `integrators`' kernels (default: every integrator's), each once, their kernels
+    made: what `wp.load_module` loads."""
+    names: list[str] = []
+    for i in Integrator if integrators is None else integrators:
+        KERNELS[i]
+        name = KERNEL_MODULES[INTEGRATORS[Integrator(i)].kernels]
+        if name not in names:
+            names.append(name)
+    return names
+
+
 _BUILT: dict = {}
+_BUILDING = threading.Lock()
 KERNEL_MODULES = {i.kernels: f"tracer_kernels_{i.kernels}" for i in INTEGRATORS}  # Warp module of each
-KERNELS = {Integrator[i.name.upper()]: _kernels_of(i.kernels) for i in INTEGRATORS}
+KERNELS = _Kernels()
