@@ -70,17 +70,18 @@ def quad_coords(p: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3) -> wp.vec
 
 @wp.func
 def intersect_parallelogram(
-    o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, n: wp.vec3, w: wp.vec3, t_max: float
+    o: wp.vec3, d: wp.vec3, corner: wp.vec3, n: wp.vec3, wa: wp.vec3, wb: wp.vec3, t_max: float
 ) -> float:
-    """corner + a e1 + b e2, a, b in [0, 1]; n = e1 x e2 and w = n / |n|^2 precomputed."""
+    """corner + a e1 + b e2, a, b in [0, 1]; n = e1 x e2, and wa = e2 x n / |n|^2 and wb = n x e1 / |n|^2
+    precomputed, so that a = wa . (p - corner) and b = wb . (p - corner) for p in the plane."""
     t = wp.dot(corner - o, n) / wp.dot(d, n)
     if not (t > 0.0 and t < t_max):  # also false for the NaN/inf of a ray parallel to the plane
         return -1.0
     q = o + t * d - corner
-    a = wp.dot(w, wp.cross(q, e2))
+    a = wp.dot(wa, q)
     if a < 0.0 or a > 1.0:
         return -1.0
-    b = wp.dot(w, wp.cross(e1, q))
+    b = wp.dot(wb, q)
     if b < 0.0 or b > 1.0:
         return -1.0
     return t
@@ -97,7 +98,7 @@ def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, rad
     return t
 
 
-@wp.func
+@wp.func(inline=True)
 def intersect_box(
     o: wp.vec3, d: wp.vec3, xf: wp.mat33, offset: wp.vec3, lo: wp.vec3, hi: wp.vec3, t_max: float
 ) -> float:
@@ -111,8 +112,10 @@ def intersect_box(
         inv = 1.0 / lo_d[k]
         ta = (lo[k] - lo_o[k]) * inv
         tb = (hi[k] - lo_o[k]) * inv
-        t_near = wp.max(t_near, wp.min(ta, tb))
-        t_far = wp.min(t_far, wp.max(ta, tb))
+        t0 = wp.where(ta < tb, ta, tb)
+        t1 = wp.where(ta < tb, tb, ta)
+        t_near = wp.where(t0 > t_near, t0, t_near)
+        t_far = wp.where(t1 < t_far, t1, t_far)
     if not (t_near <= t_far):
         return -1.0
     t = wp.where(t_near > 0.0, t_near, t_far)
@@ -129,7 +132,7 @@ def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float
     if s.kind == SHAPE_PLANE:
         return intersect_plane(o, d, s.p0, s.p1, t_max)
     if s.kind == SHAPE_QUAD:
-        return intersect_parallelogram(o, d, s.p0, s.p1, s.p2, s.n, s.w, t_max)
+        return intersect_parallelogram(o, d, s.p0, s.n, s.w, s.w2, t_max)
     if s.kind == SHAPE_DISK:
         return intersect_disk(o, d, s.p0, s.p1, s.radius, t_max)
     if s.kind == SHAPE_BOX:

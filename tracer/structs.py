@@ -40,7 +40,8 @@ class ShapeData:
     p1: wp.vec3  # plane/disk normal (unit), quad edge1
     p2: wp.vec3  # quad edge2
     n: wp.vec3  # quad: edge1 x edge2 (not normalised)
-    w: wp.vec3  # quad: n / |n|^2, for the edge coordinates of a hit
+    w: wp.vec3  # quad: edge2 x n / |n|^2, so that a hit's edge1 coordinate is w . (p - corner)
+    w2: wp.vec3  # quad: n x edge1 / |n|^2, its edge2 coordinate w2 . (p - corner)
     xf: wp.mat33  # box: world -> box coordinates, local = xf world + p2 (p0, p1 = the box's min and max)
     radius: float  # sphere/disk radius
     velocity: wp.vec3  # world units per unit time (motion blur)
