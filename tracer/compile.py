@@ -236,6 +236,7 @@ def compile_scene(
     data = SceneData()
     data.camera = _camera(scene)
     data.num_shapes = len(shapes)
+    data.shapes_move = int(any(s.velocity[0] != 0 or s.velocity[1] != 0 or s.velocity[2] != 0 for s in shapes))
     if not shapes:  # kernels index nothing when num_shapes == 0, but the array must exist
         shape(Shape.SPHERE, -1, 0, radius=1.0)
     data.shapes = wp.array(shapes, dtype=ShapeData, device=device)

@@ -229,7 +229,10 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
     best = int(-1)
     for i in range(scene.num_shapes):
         s = scene.shapes[i]
-        t = intersect_shape(s, o - s.velocity * time, d, h.t)
+        oi = o
+        if scene.shapes_move != 0:  # a static scene skips the motion's arithmetic
+            oi = o - s.velocity * time
+        t = intersect_shape(s, oi, d, h.t)
         if t > 0.0:
             h.t = t
             best = i
@@ -271,7 +274,10 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
     The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
     for i in range(scene.num_shapes):
         s = scene.shapes[i]
-        if intersect_shape(s, o - s.velocity * time, d, t_max) > 0.0:
+        oi = o
+        if scene.shapes_move != 0:
+            oi = o - s.velocity * time
+        if intersect_shape(s, oi, d, t_max) > 0.0:
             return 1
     for g in range(scene.num_meshes):
         if wp.mesh_query_ray_anyhit(scene.meshes[g], o - scene.mesh_vel[g] * time, d, t_max):
