@@ -269,10 +269,14 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
 
 
 @wp.func(inline=True)
-def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> int:
+def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float, skip: int) -> int:
     """1 if any surface lies along o + t d with 0 < t < t_max (shadow rays: the first one found will do).
-    The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
+    The same test as closest_hit's, so closest_hit(...).hit gives the same answer. Shape `skip` (or -1)
+    is left out: a shadow ray's own light, whose surface t_max reaches (direct.shadow_reach), which the
+    test t < t_max would reject anyway."""
     for i in range(scene.num_shapes):
+        if i == skip:
+            continue
         s = scene.shapes[i]
         oi = o
         if scene.shapes_move != 0:
