@@ -187,9 +187,9 @@ def compile_scene(
         s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
         s.p0, s.p1, s.p2, s.radius, s.velocity = vec3(p0), vec3(p1), vec3(p2), float(radius), vec3(velocity)
-        n = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
-        w = n / max(float(np.dot(n, n)), 1e-300)
-        s.n, s.w, s.w2 = vec3(n), vec3(np.cross(p2, w)), vec3(np.cross(w, p1))
+        m = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
+        w = m / max(float(np.dot(m, m)), 1e-300)
+        s.n, s.w, s.w2 = vec3(m / max(float(np.linalg.norm(m)), 1e-300)), vec3(np.cross(p2, w)), vec3(np.cross(w, p1))
         shapes.append(s)
 
     def triangles(i, m, v, f, velocity, uv=None, smooth=False):

@@ -8,7 +8,7 @@ normal by the caller (docs/scene-format.md, "Where spawned rays start"), so no e
 
 import warp as wp
 
-from tracer.kinds import SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
+from tracer.kinds import BUMP_NONE, SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE, TEX_NONE
 from tracer.structs import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
 
 PI = wp.constant(3.14159265358979323846)
@@ -72,8 +72,9 @@ def quad_coords(p: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3) -> wp.vec
 def intersect_parallelogram(
     o: wp.vec3, d: wp.vec3, corner: wp.vec3, n: wp.vec3, wa: wp.vec3, wb: wp.vec3, t_max: float
 ) -> float:
-    """corner + a e1 + b e2, a, b in [0, 1]; n = e1 x e2, and wa = e2 x n / |n|^2 and wb = n x e1 / |n|^2
-    precomputed, so that a = wa . (p - corner) and b = wb . (p - corner) for p in the plane."""
+    """corner + a e1 + b e2, a, b in [0, 1]; n the unit normal along e1 x e2, and with m = e1 x e2,
+    wa = e2 x m / |m|^2 and wb = m x e1 / |m|^2 precomputed, so that a = wa . (p - corner) and
+    b = wb . (p - corner) for p in the plane."""
     t = wp.dot(corner - o, n) / wp.dot(d, n)
     if not (t > 0.0 and t < t_max):  # also false for the NaN/inf of a ray parallel to the plane
         return -1.0
@@ -150,12 +151,16 @@ def basis(n: wp.vec3):
 
 
 @wp.func(inline=True)
-def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
-    """Fill the normal, uv and tangents of a hit point p on analytic shape s."""
+def shape_surface(s: ShapeData, p: wp.vec3, h: Hit, uv: int) -> Hit:
+    """Fill the normal of a hit point p on analytic shape s, and with uv = 1 its uv and tangents (which
+    only textures and bump maps read: without them the hit's uv and tangents stay zero)."""
     r = h
     if s.kind == SHAPE_SPHERE:
         n = (p - s.p0) / s.radius
         r.ng = n
+        if uv == 0:
+            r.ns = r.ng
+            return r
         phi = wp.atan2(-n[2], n[0]) + PI
         theta = wp.acos(wp.clamp(-n[1], -1.0, 1.0))
         r.uv = wp.vec2(phi / (2.0 * PI), theta / PI)
@@ -185,6 +190,9 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
         nl = wp.vec3(0.0)
         nl[axis] = side
         r.ng = wp.normalize(wp.transpose(s.xf) * nl)  # normals transform by the inverse transpose
+        if uv == 0:
+            r.ns = r.ng
+            return r
         a1 = (axis + 1) % 3
         a2 = (axis + 2) % 3
         r.uv = wp.vec2((q[a1] - s.p0[a1]) / size[a1], (q[a2] - s.p0[a2]) / size[a2])
@@ -196,12 +204,16 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
         r.dpdu = fwd * e1
         r.dpdv = fwd * e2
     elif s.kind == SHAPE_QUAD:
-        r.ng = wp.normalize(wp.cross(s.p1, s.p2))
-        r.uv = quad_coords(p, s.p0, s.p1, s.p2)
-        r.dpdu = s.p1
-        r.dpdv = s.p2
+        r.ng = s.n
+        if uv != 0:
+            r.uv = quad_coords(p, s.p0, s.p1, s.p2)
+            r.dpdu = s.p1
+            r.dpdv = s.p2
     else:  # plane and disk: planar coordinates in world units (disk: 0..1 across its diameter)
         r.ng = s.p1
+        if uv == 0:
+            r.ns = r.ng
+            return r
         t, b = basis(s.p1)
         q = p - s.p0
         if s.kind == SHAPE_DISK:
@@ -254,7 +266,7 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
         h.p = o + h.t * d
         h.obj = scene.face_obj[face]
         h.mat = scene.face_mat[face]
-        h = triangle_surface(scene, face, bu, bv, h)
+        h = triangle_surface(scene, face, bu, bv, h, needs_uv(scene, h.mat))
         h.po = h.p - scene.mesh_vel[group] * time
     elif best >= 0:
         h.hit = 1
@@ -264,7 +276,7 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
         h.obj = s.obj
         h.mat = s.mat
         h.light = s.light
-        h = shape_surface(s, h.po, h)
+        h = shape_surface(s, h.po, h, needs_uv(scene, s.mat))
     return h
 
 
@@ -290,8 +302,16 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
 
 
 @wp.func(inline=True)
-def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) -> Hit:
-    """Normals, uv and tangents of a hit on mesh face `face` at Warp barycentrics (bu, bv)."""
+def needs_uv(scene: SceneData, mat: int) -> int:
+    """1 when material `mat` reads a hit's uv or tangents (an image texture, a bump map), else 0."""
+    m = scene.materials[mat]
+    return wp.where(m.tex != TEX_NONE or m.bump != BUMP_NONE, 1, 0)
+
+
+@wp.func(inline=True)
+def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit, uv: int) -> Hit:
+    """Normals of a hit on mesh face `face` at Warp barycentrics (bu, bv), and with uv = 1 its uv and
+    tangents."""
     i0 = scene.mesh_indices[3 * face + 0]
     i1 = scene.mesh_indices[3 * face + 1]
     i2 = scene.mesh_indices[3 * face + 2]
@@ -307,6 +327,8 @@ def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) 
         if wp.length(ns) > 1.0e-8:
             ns = wp.normalize(ns)
             h.ns = wp.where(wp.dot(ns, h.ng) < 0.0, -ns, ns)
+    if uv == 0:
+        return h
     uv0 = wp.vec2(0.0, 0.0)
     uv1 = wp.vec2(1.0, 0.0)
     uv2 = wp.vec2(0.0, 1.0)

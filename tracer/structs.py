@@ -39,9 +39,9 @@ class ShapeData:
     p0: wp.vec3  # sphere/disk centre, plane point, quad corner
     p1: wp.vec3  # plane/disk normal (unit), quad edge1
     p2: wp.vec3  # quad edge2
-    n: wp.vec3  # quad: edge1 x edge2 (not normalised)
-    w: wp.vec3  # quad: edge2 x n / |n|^2, so that a hit's edge1 coordinate is w . (p - corner)
-    w2: wp.vec3  # quad: n x edge1 / |n|^2, its edge2 coordinate w2 . (p - corner)
+    n: wp.vec3  # quad: the unit normal, along edge1 x edge2
+    w: wp.vec3  # quad: with m = edge1 x edge2, edge2 x m / |m|^2: a hit's edge1 coordinate is w . (p - corner)
+    w2: wp.vec3  # quad: m x edge1 / |m|^2, its edge2 coordinate w2 . (p - corner)
     xf: wp.mat33  # box: world -> box coordinates, local = xf world + p2 (p0, p1 = the box's min and max)
     radius: float  # sphere/disk radius
     velocity: wp.vec3  # world units per unit time (motion blur)
