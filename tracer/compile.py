@@ -233,9 +233,18 @@ def compile_scene(
             shape(kind, -1 - k, len(mats) - 1, light=k, **where)
             lights[-1].shape = len(shapes) - 1
 
+    # quads first (their own loop in the intersection tests, without the dispatch over kinds), the rest
+    # in the scene's order; an area light's shape index follows its shape
+    order = sorted(range(len(shapes)), key=lambda k: shapes[k].kind != int(Shape.QUAD))
+    where = {old: new for new, old in enumerate(order)}
+    shapes = [shapes[k] for k in order]
+    for ld in lights:
+        if ld.shape >= 0:
+            ld.shape = where[ld.shape]
     data = SceneData()
     data.camera = _camera(scene)
     data.num_shapes = len(shapes)
+    data.num_quads = sum(1 for s in shapes if s.kind == int(Shape.QUAD))
     data.shapes_move = int(any(s.velocity[0] != 0 or s.velocity[1] != 0 or s.velocity[2] != 0 for s in shapes))
     if not shapes:  # kernels index nothing when num_shapes == 0, but the array must exist
         shape(Shape.SPHERE, -1, 0, radius=1.0)

@@ -239,10 +239,19 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
     h.t = t_max
     h.light = -1
     best = int(-1)
-    for i in range(scene.num_shapes):
+    for i in range(scene.num_quads):  # the quads come first: no dispatch over kinds
         s = scene.shapes[i]
         oi = o
         if scene.shapes_move != 0:  # a static scene skips the motion's arithmetic
+            oi = o - s.velocity * time
+        t = intersect_parallelogram(oi, d, s.p0, s.n, s.w, s.w2, h.t)
+        if t > 0.0:
+            h.t = t
+            best = i
+    for i in range(scene.num_quads, scene.num_shapes):
+        s = scene.shapes[i]
+        oi = o
+        if scene.shapes_move != 0:
             oi = o - s.velocity * time
         t = intersect_shape(s, oi, d, h.t)
         if t > 0.0:
@@ -286,7 +295,16 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
     The same test as closest_hit's, so closest_hit(...).hit gives the same answer. Shape `skip` (or -1)
     is left out: a shadow ray's own light, whose surface t_max reaches (direct.shadow_reach), which the
     test t < t_max would reject anyway."""
-    for i in range(scene.num_shapes):
+    for i in range(scene.num_quads):
+        if i == skip:
+            continue
+        s = scene.shapes[i]
+        oi = o
+        if scene.shapes_move != 0:
+            oi = o - s.velocity * time
+        if intersect_parallelogram(oi, d, s.p0, s.n, s.w, s.w2, t_max) > 0.0:
+            return 1
+    for i in range(scene.num_quads, scene.num_shapes):
         if i == skip:
             continue
         s = scene.shapes[i]

@@ -124,6 +124,7 @@ class SceneData:
     camera: CameraData
     shapes: wp.array(dtype=ShapeData)
     num_shapes: int
+    num_quads: int  # shapes[0 .. num_quads - 1] are the quads (parallelograms), the rest other kinds
     shapes_move: int  # 1 when some shape has a velocity (else the intersection loops skip the motion)
     meshes: wp.array(dtype=wp.uint64)  # wp.Mesh ids: group 0 the static triangles, then one per moving object
     mesh_vel: wp.array(dtype=wp.vec3)  # velocity of each group
