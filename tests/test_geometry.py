@@ -20,7 +20,8 @@ def k_intersect(o: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), out: wp.
     e2 = wp.vec3(0.0, 2.0, 0.0)
     n = wp.cross(e1, e2)  # compile.py precomputes n and the edge coordinates' vectors for each quad
     w = n / wp.dot(n, n)
-    out[i, 2] = intersect_parallelogram(o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), n, wp.cross(e2, w), wp.cross(w, e1), 1.0e30)
+    corner = wp.vec3(-1.0, -1.0, -2.0)
+    out[i, 2] = intersect_parallelogram(o[i], d[i], corner, wp.normalize(n), wp.cross(e2, w), wp.cross(w, e1), 1.0e30)
     out[i, 3] = intersect_disk(o[i], d[i], wp.vec3(0.0, 0.0, -3.0), wp.vec3(0.0, 0.0, 1.0), 0.5, 1.0e30)
 
 

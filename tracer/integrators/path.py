@@ -208,7 +208,9 @@ def trace(
         elif total <= 0.0:
             end = END_ABSORBED
         else:
-            u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
+            u0 = float(0.0)
+            if pd + ps < 1.0:  # a choice between lobes to make (a purely diffuse or Phong material has none)
+                u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
             uv = sample_2d(key, dims + DIM_BSDF, sample)
             wi, factor, next_kind, delta, pdf = sample_lobes(s, rd, rdir, kr, kt, tdir, pd, ps, total, u0, uv[0], uv[1])
             if depth >= RR_DEPTH:  # Russian roulette
