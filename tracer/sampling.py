@@ -13,6 +13,7 @@ from tracer.geometry import PI, basis
 from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
 from tracer.structs import SceneData
 
+INV_PI = wp.constant(1.0 / 3.14159265358979323846)  # a product where a quotient would wait for the divider
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))
 PCG_OUT = wp.constant(wp.uint32(277803737))
@@ -180,7 +181,7 @@ def sample_cosine_hemisphere(u1: float, u2: float) -> wp.vec3:
 
 @wp.func
 def cosine_hemisphere_pdf(cos_theta: float) -> float:
-    return wp.max(cos_theta, 0.0) / PI
+    return wp.max(cos_theta, 0.0) * INV_PI
 
 
 @wp.func

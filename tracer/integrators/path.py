@@ -91,8 +91,11 @@ def sample_lobes(
             wi = to_world(sample_cos_lobe(u1, u2, m.shininess), rdir)
         pdf = phong_lobes_pdf(pd, ps, m.shininess, s.n, rdir, wi)
         if wp.dot(wi, s.nf) > 0.0 and wp.dot(wi, s.n) > 0.0 and pdf > 0.0:
-            dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, s.n, wi, -rd)
-            factor = (dterm + sterm) / pdf
+            if ps > 0.0:
+                dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, s.n, wi, -rd)
+                factor = (dterm + sterm) / pdf
+            else:  # Lambertian: f cos / pdf = (kd / pi) cos / (pd cos / pi)
+                factor = s.kd / pd
         delta = 0
     elif u0 < pd + ps + max3(kr) / total:
         wi = glossy_direction(rdir, m.gloss, u1, u2)
