@@ -167,10 +167,12 @@ def trace(
 
         # the lobes, chosen in proportion to their largest weight: diffuse and the Phong highlight
         # (continuous), the mirror and refraction (discrete, with Fresnel and total internal reflection)
-        rdir = wp.normalize(reflect(rd, s.n))
         kr, kt, tdir, tir = scatter_weights(s.m, rd, s.n, s.front)
         wd = max3(s.kd)
         ws = max3(s.m.ks)
+        rdir = wp.vec3(0.0)  # the mirror direction, for the Phong lobe and the mirror (a diffuse surface has neither)
+        if ws > 0.0 or max3(kr) > 0.0:
+            rdir = wp.normalize(reflect(rd, s.n))
         total = wd + ws + max3(kr) + max3(kt)
         pd = float(0.0)
         ps = float(0.0)
