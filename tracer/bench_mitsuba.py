@@ -11,8 +11,8 @@ kernel loading, the render, the image written): `python -m tracer render` and, f
 variant, tracer/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours, ...), so that the
 machine's other load falls on all of them alike; medians of the rounds, wall and CPU time (user +
 sys). Mitsuba runs under the interpreter `python` (its own virtual environment, if it is not
-installed beside the tracer). Quality: the RMSE of each image against a reference (Mitsuba at 16x
-the samples), and the samples (and time) our renderer needs to reach the RMSE of Mitsuba's
+installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba at 16x
+the samples; each round with its own seed, the squared errors averaged), and the samples (and time) our renderer needs to reach the RMSE of Mitsuba's
 llvm_ad_rgb variant at the benchmark's samples, from the RMSE after each of our progressive passes.
 The llvm_ad_rgb variant needs a libLLVM (Debian's libllvm19; Mitsuba's JIT fails with LLVM 15 on
 this AVX-512 machine): DRJIT_LIBLLVM_PATH is pointed at the newest found.
@@ -157,7 +157,9 @@ def run_mitsuba(python: str, spec: Path, variant: str, spp: int, out: Path, seed
     return {"wall": wall, "cpu": cpu, "render_s": inner["render_s"], "image": np.load(out)}
 
 
-def run_ours(scene_file: Path, out: Path, threads: int | None = None, tree: str | None = None) -> dict:
+def run_ours(
+    scene_file: Path, out: Path, threads: int | None = None, tree: str | None = None, seed: int | None = None
+) -> dict:
     """One render by our command line as a whole process (`python -m tracer render`): wall and CPU
     seconds, the render's own seconds (its last line), and the image (its EXR). `tree`: the checkout
     whose tracer runs (another commit's, to compare), by default this one."""
@@ -165,6 +167,7 @@ def run_ours(scene_file: Path, out: Path, threads: int | None = None, tree: str 
 
     cmd = [sys.executable, "-m", "tracer", "render", str(scene_file), "-o", str(out.with_suffix(".png"))]
     cmd += ["--exr", str(out.with_suffix(".exr")), "-q"] + (["--threads", str(threads)] if threads else [])
+    cmd += ["--seed", str(seed)] if seed is not None else []
     res, wall, cpu = _timed(cmd, cwd=tree or str(Path(__file__).resolve().parent.parent))
     # "OUT.png: 256x256, 64 spp, 1.23 s, ... rays ...": the render's seconds follow the spp
     seconds = float(res.stdout.strip().splitlines()[-1].split(" spp, ")[1].split(" s,")[0])
@@ -204,8 +207,10 @@ def compare(
 ) -> dict:
     """The whole-process comparison of our renderer and Mitsuba's `variants` on the scene `data` (a scene
     dict with its film, sampler and max_depth set), `rounds` turns each, alternating; then the quality:
-    RMSE against Mitsuba's render at ref_factor x the samples, and the samples our renderer needs to
-    reach the RMSE of the first variant (llvm_ad_rgb when there). `baseline`: another checkout of the
+    RMSE against Mitsuba's render at ref_factor x the samples (each round renders with its own seed;
+    the RMSE is the root of the mean squared error over the rounds, as one image's RMSE swings with its
+    few brightest pixels), and the samples our renderer needs to reach the RMSE of the first variant
+    (llvm_ad_rgb when there). `baseline`: another checkout of the
     tracer (the commit before a change), timed in the same turns as "baseline". Prints as it goes;
     returns every number."""
     from tracer.render import render
@@ -231,11 +236,12 @@ def compare(
                 for v in variants:
                     run_mitsuba(python, spec, v, spp, folder / f"{v}.npy", threads=threads or 0)
                 continue
-            runs["ours"].append(run_ours(scene_file, folder / "ours", threads))
+            seed = r + 1  # each round its own seed, the same for every renderer: the RMSE is a mean over rounds
+            runs["ours"].append(run_ours(scene_file, folder / "ours", threads, seed=seed))
             if baseline:
-                runs["baseline"].append(run_ours(scene_file, folder / "baseline", threads, tree=baseline))
+                runs["baseline"].append(run_ours(scene_file, folder / "baseline", threads, tree=baseline, seed=seed))
             for v in variants:
-                runs[v].append(run_mitsuba(python, spec, v, spp, folder / f"{v}.npy", threads=threads or 0))
+                runs[v].append(run_mitsuba(python, spec, v, spp, folder / f"{v}.npy", seed=seed, threads=threads or 0))
             line = ", ".join(f"{k} {x[-1]['wall']:.2f} s" for k, x in runs.items())
             print(f"  round {r + 1}/{rounds}: {line}", flush=True)
         ref_variant = variants[0]
@@ -250,18 +256,23 @@ def compare(
                 "cpu": statistics.median(x["cpu"] for x in rs),
                 "render": statistics.median(x["render_s"] for x in rs),
                 "walls": [round(x["wall"], 3) for x in rs],
-                "rmse": rmse(rs[0]["image"], ref_img),
+                "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
+                "rmse_rounds": [round(rmse(x["image"], ref_img), 6) for x in rs],
                 "mean": float(rs[0]["image"].mean()),
             }
-        # our RMSE after each progressive pass (1, 2, 4, ... spp) up to 4x the samples, in process
+        # our RMSE after each progressive pass (1, 2, 4, ... spp) up to 4x the samples, in process, the
+        # squared errors averaged over the first three rounds' seeds
         more = json.loads(json.dumps(data))
         more["sampler"]["spp"] = spp * 4
-        curve: list[tuple[int, float]] = []
+        sq: dict[int, list[float]] = {}
 
         def on_pass(p) -> None:
-            curve.append((p.spp_done, rmse(p.image, ref_img)))
+            sq.setdefault(p.spp_done, []).append(rmse(p.image, ref_img) ** 2)
 
-        render(load_scene(more)[0], threads=threads, on_pass=on_pass)
+        for seed in range(1, min(rounds, 3) + 1):
+            more.setdefault("render", {})["seed"] = seed
+            render(load_scene(more)[0], threads=threads, on_pass=on_pass)
+        curve = [(s, math.sqrt(statistics.fmean(v))) for s, v in sorted(sq.items())]
         out["ours"]["rmse_curve"] = [[s, round(e, 6)] for s, e in curve]
         target = out[ref_variant]["rmse"]
         need = spp_to_reach(curve, target)
