@@ -12,10 +12,11 @@ variant, tracer/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours,
 machine's other load falls on all of them alike; medians of the rounds, wall and CPU time (user +
 sys). Mitsuba runs under the interpreter `python` (its own virtual environment, if it is not
 installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba at 16x
-the samples; each round with its own seed, the squared errors averaged), and the samples (and time) our renderer needs to reach the RMSE of Mitsuba's
-llvm_ad_rgb variant at the benchmark's samples, from the RMSE after each of our progressive passes.
-The llvm_ad_rgb variant needs a libLLVM (Debian's libllvm19; Mitsuba's JIT fails with LLVM 15 on
-this AVX-512 machine): DRJIT_LIBLLVM_PATH is pointed at the newest found.
+the samples; each round with its own seed, the squared errors averaged), and the samples (and
+time) our renderer needs to reach the RMSE of Mitsuba's llvm_ad_rgb variant at the benchmark's
+samples, from the RMSE after each of our progressive passes. The llvm_ad_rgb variant needs a
+libLLVM (Debian's libllvm19; Mitsuba's JIT fails with LLVM 15 on this AVX-512 machine):
+DRJIT_LIBLLVM_PATH is pointed at the newest found.
 """
 
 from __future__ import annotations
