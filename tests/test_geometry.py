@@ -18,8 +18,10 @@ def k_intersect(o: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), out: wp.
     out[i, 1] = intersect_plane(o[i], d[i], wp.vec3(0.0, -1.0, 0.0), wp.vec3(0.0, 1.0, 0.0), 1.0e30)
     e1 = wp.vec3(2.0, 0.0, 0.0)
     e2 = wp.vec3(0.0, 2.0, 0.0)
-    n = wp.cross(e1, e2)  # compile.py precomputes n and n / |n|^2 for each quad
-    out[i, 2] = intersect_parallelogram(o[i], d[i], wp.vec3(-1.0, -1.0, -2.0), e1, e2, n, n / wp.dot(n, n), 1.0e30)
+    n = wp.cross(e1, e2)  # compile.py precomputes n and the edge coordinates' vectors for each quad
+    w = n / wp.dot(n, n)
+    corner = wp.vec3(-1.0, -1.0, -2.0)
+    out[i, 2] = intersect_parallelogram(o[i], d[i], corner, wp.normalize(n), wp.cross(e2, w), wp.cross(w, e1), 1.0e30)
     out[i, 3] = intersect_disk(o[i], d[i], wp.vec3(0.0, 0.0, -3.0), wp.vec3(0.0, 0.0, 1.0), 0.5, 1.0e30)
 
 

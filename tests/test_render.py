@@ -25,8 +25,11 @@ def test_render_every_example_scene(path):
     assert ("radiosity" in r.rays) == (scene.render.integrator == "radiosity")  # the solve's rays are counted
 
 
-def test_render_bit_identical_for_any_thread_count_and_pass_split():
-    scene, _ = load_scene(small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9}))
+@pytest.mark.parametrize("name", ["whitted", "cornell_path"])
+def test_render_bit_identical_for_any_thread_count_and_pass_split(name):
+    """The same image for any thread count and split of the samples into passes, for the Whitted
+    integrator and for the path integrator's shuffled low-discrepancy samples."""
+    scene, _ = load_scene(small(scene_dict(name), 48, 40, sampler={"type": "jittered", "spp": 9}))
     cs = compile_scene(scene)
     one = render(cs, threads=1)
     two = render(cs, threads=2)
@@ -39,9 +42,7 @@ def test_render_bit_identical_for_any_thread_count_and_pass_split():
     r.add_samples(2, 9)
     assert np.array_equal(r.image(), one.image)
     # a different seed gives a different image
-    other, _ = load_scene(
-        small(scene_dict("whitted"), 48, 40, sampler={"type": "jittered", "spp": 9}, render={"seed": 7})
-    )
+    other, _ = load_scene(small(scene_dict(name), 48, 40, sampler={"type": "jittered", "spp": 9}, render={"seed": 7}))
     assert not np.array_equal(render(other, threads=2).image, one.image)
 
 

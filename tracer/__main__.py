@@ -5,7 +5,7 @@ python -m tracer render SCENE.json -o OUT.png [--spp N] [--width W] [--height H]
                         [--device cpu|cuda:0]
 python -m tracer raytree SCENE.json X Y [--sample K] [--text | --pretty]
 python -m tracer validate SCENE.json [--assets DIR]
-python -m tracer bench [--quick]
+python -m tracer bench [--quick] [--mitsuba [--mitsuba-python PY] [--rounds N]] [--only SECTIONS]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
     SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
 python -m tracer docs [--check]     the field tables of docs/scene-format.md, from tracer/scene.py
@@ -323,9 +323,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument(
         "--mitsuba",
         action="store_true",
-        help="also render the path-traced Cornell box with Mitsuba 3 (pip install mitsuba; "
-        "llvm_ad_rgb needs Debian's libllvm19)",
+        help="also the path-traced Cornell box against Mitsuba 3 as whole processes, alternating (pip install "
+        "mitsuba; llvm_ad_rgb needs a libLLVM, Debian's libllvm19; its LLVM 15 fails on AVX-512 here)",
     )
+    b.add_argument("--mitsuba-python", help="the Python that has mitsuba (default: this one)")
+    b.add_argument("--rounds", type=int, default=3, help="--mitsuba: alternating rounds, medians (default 3)")
+    b.add_argument("--baseline", help="--mitsuba: also time the tracer of this checkout (another commit's), alike")
+    b.add_argument("--only", help="some of the sections, comma-separated: scenes, cornell, radiosity, scaling")
     b.set_defaults(func=cmd_bench)
 
     g = sub.add_parser("grade", help="grade a scene, a student's image or a class against an assignment")

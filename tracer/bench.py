@@ -2,7 +2,8 @@
 
     python -m tracer bench            # every scene in scenes/ at 256x256, plus the targets
     python -m tracer bench --quick    # a smoke run at 64x64
-    python -m tracer bench --mitsuba  # also render the path-traced Cornell box with Mitsuba 3 (if installed)
+    python -m tracer bench --mitsuba  # also the path-traced Cornell box against Mitsuba 3 (if installed)
+    python -m tracer bench --mitsuba --only cornell --mitsuba-python VENV/bin/python --rounds 6
 
 Kernels are compiled (or loaded from Warp's cache) before any timing; each render is timed
 whole, from the first band to the last, on `--threads` threads (default one per core).
@@ -13,9 +14,8 @@ from __future__ import annotations
 import json
 import os
 import platform
+import sys
 from pathlib import Path
-
-import numpy as np
 
 from tracer.compile import compile_scene
 from tracer.parallel import default_threads
@@ -24,6 +24,7 @@ from tracer.scene import load_scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 KINDS = ("eye", "shadow", "reflection", "transmission")
+SECTIONS = ("scenes", "cornell", "radiosity", "scaling")  # --only picks some of them
 
 
 def _scene(path: Path, width: int, height: int, **render_opts):
@@ -73,6 +74,22 @@ def main(args) -> int:
     }
     # compile before timing anything
     render(_scene(SCENES / "whitted.json", 8, 8, sampler={"spp": 1}), threads=1)
+    only = set((getattr(args, "only", None) or ",".join(SECTIONS)).split(","))
+    if "scenes" in only:
+        scenes(args, threads, size, results)
+    if "cornell" in only:
+        results["cornell"] = cornell(args, threads)
+    if "radiosity" in only:
+        results["radiosity"] = radiosity(args)
+    if "scaling" in only:
+        results["scaling"] = scaling(args, threads)
+    if args.out:
+        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    return 0
+
+
+def scenes(args, threads: int, size: int, results: dict) -> None:
+    """Every example scene at size x size with its own spp and depth; the core issue's Whitted target."""
     print(
         f"{'scene':24} {'size':>9} {'spp':>4} {'s':>7} {'Msmp/s':>7} {'Mray/s':>7} "
         + " ".join(f"{k[:6]:>7}" for k in KINDS)
@@ -98,55 +115,46 @@ def main(args) -> int:
         f"\nwhitted {tsize}x{tsize} 16 spp depth 5: {many['seconds']:.2f} s on {threads} threads, "
         f"{one['seconds']:.2f} s on 1 thread, speed-up {results['targets']['speedup']:.2f}x"
     )
-    results["cornell"] = cornell(args, threads)
-    results["radiosity"] = radiosity(args)
-    results["scaling"] = scaling(args, threads)
-    if args.out:
-        Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
-    return 0
+
+
+def cornell_data(size: int, spp: int) -> dict:
+    """The path-traced Cornell box of issue #17's comparison: scenes/cornell_path.json at size x size, spp
+    samples of the random sampler, max_depth 7 (Mitsuba's path integrator with max_depth 8)."""
+    data = json.loads((SCENES / "cornell_path.json").read_text())
+    data["film"].update(width=size, height=size)
+    data["sampler"] = {"type": "random", "spp": spp}
+    data["render"]["max_depth"] = 7
+    return data
 
 
 def cornell(args, threads: int) -> dict:
-    """The path-traced Cornell box at 256x256 and 512x512, 64 spp; beside it Mitsuba 3 when installed."""
+    """The path-traced Cornell box at 256x256 and 512x512, 64 spp (on one thread and on every core); with
+    --mitsuba, the whole-process comparison with Mitsuba 3 (tracer/bench_mitsuba.py)."""
     from tracer import bench_mitsuba
 
     out = {}
     spp = 4 if args.quick else 64
     sizes = (64,) if args.quick else (256, 512)
-    print(f"\npath-traced Cornell box (scenes/cornell_path.json), {spp} spp")
+    print(f"\npath-traced Cornell box (scenes/cornell_path.json, random sampler, max_depth 7), {spp} spp")
     for size in sizes:
-        row = measure(_scene(SCENES / "cornell_path.json", size, size, sampler={"spp": spp}), threads)
-        out[f"ours_{size}"] = row
-        print(f"  ours      {size}x{size}: {row['seconds']:7.2f} s  {row['mrays_s']:.2f} Mrays/s")
-    variants = bench_mitsuba.available() if args.mitsuba else []
-    if args.mitsuba and not variants:
-        print("  Mitsuba 3 is not installed (pip install mitsuba): no comparison")
-    if variants:
-        size = sizes[0]
-        data = json.loads((SCENES / "cornell_path.json").read_text())
-        data["film"].update(width=size, height=size)
-        data["sampler"]["spp"] = spp
-        scene, _ = load_scene(data)
-        ours = render(compile_scene(scene), threads=threads).image
-        # image quality: RMSE against a converged reference (16x the samples)
-        ref_variant = "llvm_ad_rgb" if "llvm_ad_rgb" in variants else "scalar_rgb"
-        ref, _ = bench_mitsuba.render(scene, spp * 16, ref_variant)
-
-        def rmse(img):
-            return float(np.sqrt(np.mean((img - ref) ** 2)))
-
-        out["reference"] = f"Mitsuba {ref_variant}, {spp * 16} spp"
-        out[f"ours_{size}"]["rmse"] = rmse(ours)
-        out[f"ours_{size}"]["mean"] = [float(v) for v in ours.mean(axis=(0, 1))]
-        print(f"  ours      {size}x{size}: RMSE {rmse(ours):.4f} against the reference, mean {ours.mean():.4f}")
-        for v in variants:
-            img, seconds = bench_mitsuba.render(scene, spp, v)
-            out[f"mitsuba_{v}_{size}"] = {
-                "seconds": round(seconds, 3),
-                "rmse": rmse(img),
-                "mean": [float(c) for c in img.mean(axis=(0, 1))],
-            }
-            print(f"  Mitsuba {v:12} {size}x{size}: {seconds:7.2f} s  RMSE {rmse(img):.4f}, mean {img.mean():.4f}")
+        cs = compile_scene(load_scene(cornell_data(size, spp))[0])
+        for t in sorted({1, threads}):
+            row = measure(cs, t)
+            out[f"ours_{size}_{t}t"] = row
+            print(f"  ours      {size}x{size}, {t} thread(s): {row['seconds']:7.2f} s  {row['mrays_s']:.2f} Mrays/s")
+    if not args.mitsuba:
+        return out
+    python = args.mitsuba_python or sys.executable
+    variants = bench_mitsuba.available(python)
+    if not variants:
+        print(f"  Mitsuba 3 is not installed for {python} (pip install mitsuba; or --mitsuba-python): no comparison")
+        return out
+    data = cornell_data(sizes[0], spp)
+    for t in [args.threads] if args.threads else sorted({1, default_threads()}):
+        baseline = getattr(args, "baseline", None)
+        cmp = bench_mitsuba.compare(data, python, variants, rounds=args.rounds, threads=t, baseline=baseline)
+        bench_mitsuba.print_comparison(cmp)
+        out[f"mitsuba_{t}t"] = cmp
     return out
 
 
@@ -234,4 +242,8 @@ if __name__ == "__main__":  # pragma: no cover
     p.add_argument("--threads", type=int)
     p.add_argument("--out")
     p.add_argument("--mitsuba", action="store_true")
+    p.add_argument("--mitsuba-python")
+    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--only")
+    p.add_argument("--baseline")
     main(p.parse_args())

@@ -1,43 +1,64 @@
-"""The same Cornell box in Mitsuba 3 (PyPI `mitsuba`), for `python -m tracer bench --mitsuba`.
+"""Our path tracer against Mitsuba 3 (PyPI `mitsuba`) on the Cornell box, for `python -m tracer bench --mitsuba`.
 
 Our scene (quads, boxes, diffuse materials, one quad light, the `path` integrator) is written out as
 OBJ meshes and a Mitsuba scene dictionary: two-sided diffuse BSDFs with the same reflectances, an
-area emitter of the same radiance, the same camera, and Mitsuba's `path` integrator with
-max_depth = ours + 1 (Mitsuba counts path segments, we count bounces; docs/scene-format.md).
-The llvm_ad_rgb variant needs Debian's libllvm19: DRJIT_LIBLLVM_PATH is pointed at it when present.
+area emitter of the same radiance, the same camera, a box pixel filter, and Mitsuba's `path`
+integrator with max_depth = ours + 1 (Mitsuba counts path segments, we count bounces;
+docs/scene-format.md). Our `random` sampler is Mitsuba's `independent`, `jittered` its `stratified`.
+
+`compare` times both as whole processes, as a user waits for them (start-up, scene loading, JIT or
+kernel loading, the render, the image written): `python -m tracer render` and, for each Mitsuba
+variant, tracer/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours, ...), so that the
+machine's other load falls on all of them alike; medians of the rounds, wall and CPU time (user +
+sys). Mitsuba runs under the interpreter `python` (its own virtual environment, if it is not
+installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba at 16x
+the samples; each round with its own seed, the squared errors averaged), and the samples (and
+time) our renderer needs to reach the RMSE of Mitsuba's llvm_ad_rgb variant at the benchmark's
+samples, from the RMSE after each of our progressive passes. The llvm_ad_rgb variant needs a
+libLLVM (Debian's libllvm19; Mitsuba's JIT fails with LLVM 15 on this AVX-512 machine):
+DRJIT_LIBLLVM_PATH is pointed at the newest found.
 """
 
 from __future__ import annotations
 
 import glob
+import json
+import math
 import os
+import resource
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from tracer.compile import box_faces
+from tracer.meshing import box_faces
 from tracer.scene import Scene
 
+CHILD = Path(__file__).resolve().parent / "mitsuba_child.py"
+SAMPLERS = {"random": "independent", "jittered": "stratified"}  # ours -> Mitsuba's
 
-def available() -> list[str]:
-    """The Mitsuba variants that can run here (scalar_rgb; llvm_ad_rgb with libLLVM)."""
+
+def available(python: str | None = None) -> list[str]:
+    """The Mitsuba variants that can run under `python` (default: this interpreter): scalar_rgb, and
+    llvm_ad_rgb where a libLLVM is found."""
+    code = "import mitsuba, sys; sys.stdout.write(' '.join(mitsuba.variants()))"
     try:
-        import mitsuba  # noqa: F401
-    except ImportError:
+        out = subprocess.run([python or sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired):
         return []
-    out = ["scalar_rgb"]
-    if os.environ.get("DRJIT_LIBLLVM_PATH") or glob.glob("/usr/lib/*/libLLVM-1[5-9]*.so*"):
-        out.append("llvm_ad_rgb")
-    return out
-
-
-def _llvm_path() -> None:
-    if not os.environ.get("DRJIT_LIBLLVM_PATH"):
-        found = sorted(glob.glob("/usr/lib/*/libLLVM-19*.so*") or glob.glob("/usr/lib/*/libLLVM-1[5-8]*.so*"))
-        if found:
-            os.environ["DRJIT_LIBLLVM_PATH"] = found[0]
+    if out.returncode != 0:
+        return []
+    have = out.stdout.split()
+    found = [v for v in ("llvm_ad_rgb", "scalar_rgb") if v in have]
+    if "llvm_ad_rgb" in found and not (
+        os.environ.get("DRJIT_LIBLLVM_PATH") or glob.glob("/usr/lib/*/libLLVM-1[5-9]*.so*")
+    ):
+        found.remove("llvm_ad_rgb")
+    return found
 
 
 def _quad_obj(path: Path, quads: list) -> None:
@@ -52,8 +73,12 @@ def _quad_obj(path: Path, quads: list) -> None:
 
 
 def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
-    """A Mitsuba scene dict equivalent to `scene` (quads, boxes, quad lights, diffuse kd only)."""
+    """A Mitsuba scene dict equivalent to `scene` (quads, boxes, quad lights, diffuse kd only), as plain
+    JSON: the sensor's transform is given by its look-at parameters (`look_at`), which
+    tracer/mitsuba_child.py turns into Mitsuba's transform. The meshes are written into `folder`."""
     c = scene.camera
+    if scene.sampler.type not in SAMPLERS:
+        raise ValueError(f"sampler.type: only {', '.join(SAMPLERS)} have a Mitsuba sampler, not {scene.sampler.type}")
     d: dict = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": scene.render.max_depth + 1},
@@ -61,9 +86,7 @@ def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
             "type": "perspective",
             "fov": c.vfov,
             "fov_axis": "y",
-            "to_world": __import__("mitsuba")
-            .ScalarTransform4f()
-            .look_at(origin=list(c.lookfrom), target=list(c.lookat), up=list(c.vup)),
+            "look_at": {"origin": list(c.lookfrom), "target": list(c.lookat), "up": list(c.vup)},
             "film": {
                 "type": "hdrfilm",
                 "width": scene.film.width,
@@ -71,7 +94,7 @@ def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
                 "rfilter": {"type": "box"},
                 "pixel_format": "rgb",
             },
-            "sampler": {"type": "stratified", "sample_count": spp},
+            "sampler": {"type": SAMPLERS[scene.sampler.type], "sample_count": spp},
         },
     }
     for i, obj in enumerate(scene.objects):
@@ -108,17 +131,183 @@ def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
     return d
 
 
-def render(scene: Scene, spp: int, variant: str, seed: int = 0) -> tuple[np.ndarray, float]:
-    """(linear RGB image, seconds of the timed render); a small render first warms up (JIT, threads)."""
-    if variant.startswith("llvm"):
-        _llvm_path()
-    import mitsuba as mi
+def write_spec(scene: Scene, spp: int, folder: Path) -> Path:
+    """The scene for tracer/mitsuba_child.py: its meshes and SPEC.json in `folder`."""
+    path = folder / "mitsuba_scene.json"
+    path.write_text(json.dumps(scene_dict(scene, spp, folder)))
+    return path
 
-    mi.set_variant(variant)
-    with tempfile.TemporaryDirectory() as tmp:
-        sc = mi.load_dict(scene_dict(scene, spp, Path(tmp)))
-        np.asarray(mi.render(sc, spp=spp, seed=seed + 1))  # warm-up: the same size so JIT kernels are reused
-        t0 = time.perf_counter()
-        img = np.asarray(mi.render(sc, spp=spp, seed=seed))
-        seconds = time.perf_counter() - t0
-    return img[..., :3].astype(np.float32), seconds
+
+def _timed(cmd: list[str], cwd: str | None = None) -> tuple[subprocess.CompletedProcess, float, float]:
+    """Run a whole process: (its result, wall seconds, CPU seconds (user + sys) of it and its children)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({out.returncode}):\n{out.stderr[-2000:]}")
+    return out, wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def run_mitsuba(python: str, spec: Path, variant: str, spp: int, out: Path, seed: int = 0, threads: int = 0) -> dict:
+    """One Mitsuba render as a whole process: wall and CPU seconds, its own split, and the image."""
+    cmd = [python, str(CHILD), str(spec), variant, str(spp), str(out), "--seed", str(seed), "--threads", str(threads)]
+    res, wall, cpu = _timed(cmd)
+    inner = json.loads(res.stdout.strip().splitlines()[-1])
+    return {"wall": wall, "cpu": cpu, "render_s": inner["render_s"], "image": np.load(out)}
+
+
+def run_ours(
+    scene_file: Path, out: Path, threads: int | None = None, tree: str | None = None, seed: int | None = None
+) -> dict:
+    """One render by our command line as a whole process (`python -m tracer render`): wall and CPU
+    seconds, the render's own seconds (its last line), and the image (its EXR). `tree`: the checkout
+    whose tracer runs (another commit's, to compare), by default this one."""
+    from tracer.film import read_exr
+
+    cmd = [sys.executable, "-m", "tracer", "render", str(scene_file), "-o", str(out.with_suffix(".png"))]
+    cmd += ["--exr", str(out.with_suffix(".exr")), "-q"] + (["--threads", str(threads)] if threads else [])
+    cmd += ["--seed", str(seed)] if seed is not None else []
+    res, wall, cpu = _timed(cmd, cwd=tree or str(Path(__file__).resolve().parent.parent))
+    # "OUT.png: 256x256, 64 spp, 1.23 s, ... rays ...": the render's seconds follow the spp
+    seconds = float(res.stdout.strip().splitlines()[-1].split(" spp, ")[1].split(" s,")[0])
+    return {"wall": wall, "cpu": cpu, "render_s": seconds, "image": read_exr(out.with_suffix(".exr"))}
+
+
+def rmse(img: np.ndarray, ref: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((np.asarray(img, np.float64) - ref) ** 2)))
+
+
+def spp_to_reach(curve: list[tuple[int, float]], target: float) -> float | None:
+    """The samples per pixel at which RMSE falls to `target`, from (spp, RMSE) pairs in increasing spp:
+    interpolated on log-log axes between the two passes that bracket it (RMSE ~ spp^-1/2 for Monte
+    Carlo, so a straight line there), extrapolated from the last two when none does; None for fewer
+    than two points."""
+    pts = [(s, e) for s, e in curve if s > 0 and e > 0]
+    if len(pts) < 2:
+        return None
+    k = next((k for k in range(len(pts) - 1) if pts[k][1] >= target >= pts[k + 1][1]), None)
+    if k is None:  # not bracketed: the first two passes when the target is above them, else the last two
+        k = 0 if target > pts[0][1] else len(pts) - 2
+    (s0, e0), (s1, e1) = pts[k], pts[k + 1]
+    if e0 == e1:
+        return float(s1)
+    slope = (math.log(s1) - math.log(s0)) / (math.log(e1) - math.log(e0))
+    return float(math.exp(math.log(s0) + slope * (math.log(target) - math.log(e0))))
+
+
+def compare(
+    data: dict,
+    python: str,
+    variants: list[str],
+    rounds: int = 3,
+    threads: int | None = None,
+    ref_factor: int = 16,
+    baseline: str | None = None,
+) -> dict:
+    """The whole-process comparison of our renderer and Mitsuba's `variants` on the scene `data` (a scene
+    dict with its film, sampler and max_depth set), `rounds` turns each, alternating; then the quality:
+    RMSE against Mitsuba's render at ref_factor x the samples (each round renders with its own seed;
+    the RMSE is the root of the mean squared error over the rounds, as one image's RMSE swings with its
+    few brightest pixels), and the samples our renderer needs to reach the RMSE of the first variant
+    (llvm_ad_rgb when there). `baseline`: another checkout of the
+    tracer (the commit before a change), timed in the same turns as "baseline". Prints as it goes;
+    returns every number."""
+    from tracer.render import render
+    from tracer.scene import load_scene
+
+    scene, _ = load_scene(data)
+    spp = scene.sampler.spp
+    out: dict = {"spp": spp, "size": [scene.film.width, scene.film.height], "max_depth": scene.render.max_depth}
+    out["sampler"] = scene.sampler.type
+    out["threads"] = threads or os.cpu_count()
+    out["load_before"] = os.getloadavg()
+    runs: dict[str, list[dict]] = {name: [] for name in ["ours", *(["baseline"] if baseline else []), *variants]}
+    with tempfile.TemporaryDirectory(prefix="tracer-bench-") as tmp:
+        folder = Path(tmp)
+        scene_file = folder / "scene.json"
+        scene_file.write_text(json.dumps(data))
+        spec = write_spec(scene, spp, folder)
+        for r in range(-1, rounds):  # round -1 warms up (Warp's and Dr.Jit's kernel caches), untimed
+            if r < 0:
+                run_ours(scene_file, folder / "ours", threads)
+                if baseline:
+                    run_ours(scene_file, folder / "baseline", threads, tree=baseline)
+                for v in variants:
+                    run_mitsuba(python, spec, v, spp, folder / f"{v}.npy", threads=threads or 0)
+                continue
+            seed = r + 1  # each round its own seed, the same for every renderer: the RMSE is a mean over rounds
+            runs["ours"].append(run_ours(scene_file, folder / "ours", threads, seed=seed))
+            if baseline:
+                runs["baseline"].append(run_ours(scene_file, folder / "baseline", threads, tree=baseline, seed=seed))
+            for v in variants:
+                runs[v].append(run_mitsuba(python, spec, v, spp, folder / f"{v}.npy", seed=seed, threads=threads or 0))
+            line = ", ".join(f"{k} {x[-1]['wall']:.2f} s" for k, x in runs.items())
+            print(f"  round {r + 1}/{rounds}: {line}", flush=True)
+        ref_variant = variants[0]
+        ref_spp = spp * ref_factor
+        ref = run_mitsuba(python, spec, ref_variant, ref_spp, folder / "ref.npy", seed=12345, threads=threads or 0)
+        out["reference"] = f"Mitsuba {ref_variant}, {spp * ref_factor} spp"
+        ref_img = ref["image"].astype(np.float64)
+        out["load_after"] = os.getloadavg()
+        for name, rs in runs.items():
+            out[name] = {
+                "wall": statistics.median(x["wall"] for x in rs),
+                "cpu": statistics.median(x["cpu"] for x in rs),
+                "render": statistics.median(x["render_s"] for x in rs),
+                "walls": [round(x["wall"], 3) for x in rs],
+                "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
+                "rmse_rounds": [round(rmse(x["image"], ref_img), 6) for x in rs],
+                "mean": float(rs[0]["image"].mean()),
+            }
+        # our RMSE after each progressive pass (1, 2, 4, ... spp) up to 4x the samples, in process, the
+        # squared errors averaged over the first three rounds' seeds
+        more = json.loads(json.dumps(data))
+        more["sampler"]["spp"] = spp * 4
+        sq: dict[int, list[float]] = {}
+
+        def on_pass(p) -> None:
+            sq.setdefault(p.spp_done, []).append(rmse(p.image, ref_img) ** 2)
+
+        for seed in range(1, min(rounds, 3) + 1):
+            more.setdefault("render", {})["seed"] = seed
+            render(load_scene(more)[0], threads=threads, on_pass=on_pass)
+        curve = [(s, math.sqrt(statistics.fmean(v))) for s, v in sorted(sq.items())]
+        out["ours"]["rmse_curve"] = [[s, round(e, 6)] for s, e in curve]
+        target = out[ref_variant]["rmse"]
+        need = spp_to_reach(curve, target)
+        o = out["ours"]
+        fixed = o["wall"] - o["render"]  # start-up, loading and writing: the same at any spp
+        out["equal_quality"] = {
+            "target": f"the RMSE of Mitsuba {ref_variant} at {spp} spp",
+            "target_rmse": target,
+            "ours_spp": need,
+            "ours_wall": None if need is None else fixed + o["render"] * need / spp,
+        }
+    return out
+
+
+def print_comparison(out: dict) -> None:
+    """The table of `compare`'s numbers."""
+    w, h = out["size"]
+    print(
+        f"\nCornell box {w}x{h}, {out['spp']} spp, max_depth {out['max_depth']}, {out['sampler']} sampler, "
+        f"{out['threads']} threads; whole processes, medians of {len(out['ours']['walls'])} alternating rounds; "
+        f"load average {out['load_before'][0]:.2f} before, {out['load_after'][0]:.2f} after"
+    )
+    print(f"  {'renderer':22} {'wall s':>7} {'CPU s':>7} {'render s':>9} {'RMSE':>8} {'mean':>7}")
+    for name in [k for k in out if isinstance(out[k], dict) and "wall" in out[k]]:
+        r = out[name]
+        label = name if name in ("ours", "baseline") else f"Mitsuba {name}"
+        print(f"  {label:22} {r['wall']:7.2f} {r['cpu']:7.2f} {r['render']:9.2f} {r['rmse']:8.5f} {r['mean']:7.4f}")
+    o = out["ours"]
+    for name in [k for k in out if k != "ours" and isinstance(out[k], dict) and "wall" in out[k]]:
+        m = out[name]
+        print(f"  ours / {name}: {o['wall'] / m['wall']:.2f}x the wall time, {o['cpu'] / m['cpu']:.2f}x the CPU")
+    q = out["equal_quality"]
+    if q["ours_spp"] is not None:
+        print(
+            f"  equal quality ({q['target']}, RMSE {q['target_rmse']:.5f} against {out['reference']}): "
+            f"ours needs {q['ours_spp']:.1f} spp, {q['ours_wall']:.2f} s as a whole process"
+        )

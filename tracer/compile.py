@@ -187,8 +187,9 @@ def compile_scene(
         s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
         s.p0, s.p1, s.p2, s.radius, s.velocity = vec3(p0), vec3(p1), vec3(p2), float(radius), vec3(velocity)
-        n = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
-        s.n, s.w = vec3(n), vec3(n / max(float(np.dot(n, n)), 1e-300))
+        m = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
+        w = m / max(float(np.dot(m, m)), 1e-300)
+        s.n, s.w, s.w2 = vec3(m / max(float(np.linalg.norm(m)), 1e-300)), vec3(np.cross(p2, w)), vec3(np.cross(w, p1))
         shapes.append(s)
 
     def triangles(i, m, v, f, velocity, uv=None, smooth=False):
@@ -232,9 +233,19 @@ def compile_scene(
             shape(kind, -1 - k, len(mats) - 1, light=k, **where)
             lights[-1].shape = len(shapes) - 1
 
+    # quads first (their own loop in the intersection tests, without the dispatch over kinds), the rest
+    # in the scene's order; an area light's shape index follows its shape
+    order = sorted(range(len(shapes)), key=lambda k: shapes[k].kind != int(Shape.QUAD))
+    where = {old: new for new, old in enumerate(order)}
+    shapes = [shapes[k] for k in order]
+    for ld in lights:
+        if ld.shape >= 0:
+            ld.shape = where[ld.shape]
     data = SceneData()
     data.camera = _camera(scene)
     data.num_shapes = len(shapes)
+    data.num_quads = sum(1 for s in shapes if s.kind == int(Shape.QUAD))
+    data.shapes_move = int(any(s.velocity[0] != 0 or s.velocity[1] != 0 or s.velocity[2] != 0 for s in shapes))
     if not shapes:  # kernels index nothing when num_shapes == 0, but the array must exist
         shape(Shape.SPHERE, -1, 0, radius=1.0)
     data.shapes = wp.array(shapes, dtype=ShapeData, device=device)

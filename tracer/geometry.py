@@ -8,7 +8,7 @@ normal by the caller (docs/scene-format.md, "Where spawned rays start"), so no e
 
 import warp as wp
 
-from tracer.kinds import SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE
+from tracer.kinds import BUMP_NONE, SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE, TEX_NONE
 from tracer.structs import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
 
 PI = wp.constant(3.14159265358979323846)
@@ -70,17 +70,19 @@ def quad_coords(p: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3) -> wp.vec
 
 @wp.func
 def intersect_parallelogram(
-    o: wp.vec3, d: wp.vec3, corner: wp.vec3, e1: wp.vec3, e2: wp.vec3, n: wp.vec3, w: wp.vec3, t_max: float
+    o: wp.vec3, d: wp.vec3, corner: wp.vec3, n: wp.vec3, wa: wp.vec3, wb: wp.vec3, t_max: float
 ) -> float:
-    """corner + a e1 + b e2, a, b in [0, 1]; n = e1 x e2 and w = n / |n|^2 precomputed."""
+    """corner + a e1 + b e2, a, b in [0, 1]; n the unit normal along e1 x e2, and with m = e1 x e2,
+    wa = e2 x m / |m|^2 and wb = m x e1 / |m|^2 precomputed, so that a = wa . (p - corner) and
+    b = wb . (p - corner) for p in the plane."""
     t = wp.dot(corner - o, n) / wp.dot(d, n)
     if not (t > 0.0 and t < t_max):  # also false for the NaN/inf of a ray parallel to the plane
         return -1.0
     q = o + t * d - corner
-    a = wp.dot(w, wp.cross(q, e2))
+    a = wp.dot(wa, q)
     if a < 0.0 or a > 1.0:
         return -1.0
-    b = wp.dot(w, wp.cross(e1, q))
+    b = wp.dot(wb, q)
     if b < 0.0 or b > 1.0:
         return -1.0
     return t
@@ -97,7 +99,7 @@ def intersect_disk(o: wp.vec3, d: wp.vec3, center: wp.vec3, normal: wp.vec3, rad
     return t
 
 
-@wp.func
+@wp.func(inline=True)
 def intersect_box(
     o: wp.vec3, d: wp.vec3, xf: wp.mat33, offset: wp.vec3, lo: wp.vec3, hi: wp.vec3, t_max: float
 ) -> float:
@@ -111,8 +113,10 @@ def intersect_box(
         inv = 1.0 / lo_d[k]
         ta = (lo[k] - lo_o[k]) * inv
         tb = (hi[k] - lo_o[k]) * inv
-        t_near = wp.max(t_near, wp.min(ta, tb))
-        t_far = wp.min(t_far, wp.max(ta, tb))
+        t0 = wp.where(ta < tb, ta, tb)
+        t1 = wp.where(ta < tb, tb, ta)
+        t_near = wp.where(t0 > t_near, t0, t_near)
+        t_far = wp.where(t1 < t_far, t1, t_far)
     if not (t_near <= t_far):
         return -1.0
     t = wp.where(t_near > 0.0, t_near, t_far)
@@ -129,7 +133,7 @@ def intersect_shape(s: ShapeData, o: wp.vec3, d: wp.vec3, t_max: float) -> float
     if s.kind == SHAPE_PLANE:
         return intersect_plane(o, d, s.p0, s.p1, t_max)
     if s.kind == SHAPE_QUAD:
-        return intersect_parallelogram(o, d, s.p0, s.p1, s.p2, s.n, s.w, t_max)
+        return intersect_parallelogram(o, d, s.p0, s.n, s.w, s.w2, t_max)
     if s.kind == SHAPE_DISK:
         return intersect_disk(o, d, s.p0, s.p1, s.radius, t_max)
     if s.kind == SHAPE_BOX:
@@ -147,12 +151,16 @@ def basis(n: wp.vec3):
 
 
 @wp.func(inline=True)
-def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
-    """Fill the normal, uv and tangents of a hit point p on analytic shape s."""
+def shape_surface(s: ShapeData, p: wp.vec3, h: Hit, uv: int) -> Hit:
+    """Fill the normal of a hit point p on analytic shape s, and with uv = 1 its uv and tangents (which
+    only textures and bump maps read: without them the hit's uv and tangents stay zero)."""
     r = h
     if s.kind == SHAPE_SPHERE:
         n = (p - s.p0) / s.radius
         r.ng = n
+        if uv == 0:
+            r.ns = r.ng
+            return r
         phi = wp.atan2(-n[2], n[0]) + PI
         theta = wp.acos(wp.clamp(-n[1], -1.0, 1.0))
         r.uv = wp.vec2(phi / (2.0 * PI), theta / PI)
@@ -182,6 +190,9 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
         nl = wp.vec3(0.0)
         nl[axis] = side
         r.ng = wp.normalize(wp.transpose(s.xf) * nl)  # normals transform by the inverse transpose
+        if uv == 0:
+            r.ns = r.ng
+            return r
         a1 = (axis + 1) % 3
         a2 = (axis + 2) % 3
         r.uv = wp.vec2((q[a1] - s.p0[a1]) / size[a1], (q[a2] - s.p0[a2]) / size[a2])
@@ -193,12 +204,16 @@ def shape_surface(s: ShapeData, p: wp.vec3, h: Hit) -> Hit:
         r.dpdu = fwd * e1
         r.dpdv = fwd * e2
     elif s.kind == SHAPE_QUAD:
-        r.ng = wp.normalize(wp.cross(s.p1, s.p2))
-        r.uv = quad_coords(p, s.p0, s.p1, s.p2)
-        r.dpdu = s.p1
-        r.dpdv = s.p2
+        r.ng = s.n
+        if uv != 0:
+            r.uv = quad_coords(p, s.p0, s.p1, s.p2)
+            r.dpdu = s.p1
+            r.dpdv = s.p2
     else:  # plane and disk: planar coordinates in world units (disk: 0..1 across its diameter)
         r.ng = s.p1
+        if uv == 0:
+            r.ns = r.ng
+            return r
         t, b = basis(s.p1)
         q = p - s.p0
         if s.kind == SHAPE_DISK:
@@ -224,9 +239,21 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
     h.t = t_max
     h.light = -1
     best = int(-1)
-    for i in range(scene.num_shapes):
+    for i in range(scene.num_quads):  # the quads come first: no dispatch over kinds
         s = scene.shapes[i]
-        t = intersect_shape(s, o - s.velocity * time, d, h.t)
+        oi = o
+        if scene.shapes_move != 0:  # a static scene skips the motion's arithmetic
+            oi = o - s.velocity * time
+        t = intersect_parallelogram(oi, d, s.p0, s.n, s.w, s.w2, h.t)
+        if t > 0.0:
+            h.t = t
+            best = i
+    for i in range(scene.num_quads, scene.num_shapes):
+        s = scene.shapes[i]
+        oi = o
+        if scene.shapes_move != 0:
+            oi = o - s.velocity * time
+        t = intersect_shape(s, oi, d, h.t)
         if t > 0.0:
             h.t = t
             best = i
@@ -248,7 +275,7 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
         h.p = o + h.t * d
         h.obj = scene.face_obj[face]
         h.mat = scene.face_mat[face]
-        h = triangle_surface(scene, face, bu, bv, h)
+        h = triangle_surface(scene, face, bu, bv, h, needs_uv(scene, h.mat))
         h.po = h.p - scene.mesh_vel[group] * time
     elif best >= 0:
         h.hit = 1
@@ -258,17 +285,33 @@ def closest_hit(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: fl
         h.obj = s.obj
         h.mat = s.mat
         h.light = s.light
-        h = shape_surface(s, h.po, h)
+        h = shape_surface(s, h.po, h, needs_uv(scene, s.mat))
     return h
 
 
 @wp.func(inline=True)
-def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float) -> int:
+def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float, skip: int) -> int:
     """1 if any surface lies along o + t d with 0 < t < t_max (shadow rays: the first one found will do).
-    The same test as closest_hit's, so closest_hit(...).hit gives the same answer."""
-    for i in range(scene.num_shapes):
+    The same test as closest_hit's, so closest_hit(...).hit gives the same answer. Shape `skip` (or -1)
+    is left out: a shadow ray's own light, whose surface t_max reaches (direct.shadow_reach), which the
+    test t < t_max would reject anyway."""
+    for i in range(scene.num_quads):
+        if i == skip:
+            continue
         s = scene.shapes[i]
-        if intersect_shape(s, o - s.velocity * time, d, t_max) > 0.0:
+        oi = o
+        if scene.shapes_move != 0:
+            oi = o - s.velocity * time
+        if intersect_parallelogram(oi, d, s.p0, s.n, s.w, s.w2, t_max) > 0.0:
+            return 1
+    for i in range(scene.num_quads, scene.num_shapes):
+        if i == skip:
+            continue
+        s = scene.shapes[i]
+        oi = o
+        if scene.shapes_move != 0:
+            oi = o - s.velocity * time
+        if intersect_shape(s, oi, d, t_max) > 0.0:
             return 1
     for g in range(scene.num_meshes):
         if wp.mesh_query_ray_anyhit(scene.meshes[g], o - scene.mesh_vel[g] * time, d, t_max):
@@ -277,8 +320,16 @@ def occluded(scene: SceneData, o: wp.vec3, d: wp.vec3, t_max: float, time: float
 
 
 @wp.func(inline=True)
-def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) -> Hit:
-    """Normals, uv and tangents of a hit on mesh face `face` at Warp barycentrics (bu, bv)."""
+def needs_uv(scene: SceneData, mat: int) -> int:
+    """1 when material `mat` reads a hit's uv or tangents (an image texture, a bump map), else 0."""
+    m = scene.materials[mat]
+    return wp.where(m.tex != TEX_NONE or m.bump != BUMP_NONE, 1, 0)
+
+
+@wp.func(inline=True)
+def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit, uv: int) -> Hit:
+    """Normals of a hit on mesh face `face` at Warp barycentrics (bu, bv), and with uv = 1 its uv and
+    tangents."""
     i0 = scene.mesh_indices[3 * face + 0]
     i1 = scene.mesh_indices[3 * face + 1]
     i2 = scene.mesh_indices[3 * face + 2]
@@ -294,6 +345,8 @@ def triangle_surface(scene: SceneData, face: int, bu: float, bv: float, h: Hit) 
         if wp.length(ns) > 1.0e-8:
             ns = wp.normalize(ns)
             h.ns = wp.where(wp.dot(ns, h.ng) < 0.0, -ns, ns)
+    if uv == 0:
+        return h
     uv0 = wp.vec2(0.0, 0.0)
     uv1 = wp.vec2(1.0, 0.0)
     uv2 = wp.vec2(0.0, 1.0)

@@ -13,6 +13,7 @@ from tracer.geometry import PI, basis
 from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
 from tracer.structs import SceneData
 
+INV_PI = wp.constant(1.0 / 3.14159265358979323846)  # a product where a quotient would wait for the divider
 PCG_MUL = wp.constant(wp.uint32(747796405))
 PCG_INC = wp.constant(wp.uint32(2891336453))
 PCG_OUT = wp.constant(wp.uint32(277803737))
@@ -45,18 +46,54 @@ R2_A1 = wp.constant(wp.uint32(3242174889))  # 2^32 / plastic number: Roberts' R2
 R2_A2 = wp.constant(wp.uint32(2447445413))  # 2^32 / plastic number^2, 2nd axis
 U24 = wp.constant(1.0 / 16777216.0)
 GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # 2^32 / golden ratio: keeps pixel keys apart from rng states
+LK_1 = wp.constant(wp.uint32(0x6C50B47C))  # the Laine-Karras hash's constants, as Burley 2020 improved them
+LK_2 = wp.constant(wp.uint32(0xB82F1E52))
+LK_3 = wp.constant(wp.uint32(0xC7AFE638))
+LK_4 = wp.constant(wp.uint32(0x8D22F6E6))
+MASK_1 = wp.constant(wp.uint32(0x55555555))  # reverse_bits: swap bits, pairs, nibbles, bytes, halves
+MASK_2 = wp.constant(wp.uint32(0x33333333))
+MASK_4 = wp.constant(wp.uint32(0x0F0F0F0F))
+MASK_8 = wp.constant(wp.uint32(0x00FF00FF))
+
+
+@wp.func
+def reverse_bits(x: wp.uint32) -> wp.uint32:
+    """The 32 bits of x in reverse order."""
+    x = ((x >> wp.uint32(1)) & MASK_1) | ((x & MASK_1) << wp.uint32(1))
+    x = ((x >> wp.uint32(2)) & MASK_2) | ((x & MASK_2) << wp.uint32(2))
+    x = ((x >> wp.uint32(4)) & MASK_4) | ((x & MASK_4) << wp.uint32(4))
+    x = ((x >> wp.uint32(8)) & MASK_8) | ((x & MASK_8) << wp.uint32(8))
+    return (x >> wp.uint32(16)) | (x << wp.uint32(16))
+
+
+@wp.func
+def shuffle(index: wp.uint32, seed: wp.uint32) -> wp.uint32:
+    """A permutation of the sample indices keyed by `seed` that maps every aligned block of 2^k indices
+    onto an aligned block of 2^k (Owen scrambling of the index's bits, Burley 2020, with the
+    Laine-Karras hash as improved there)."""
+    x = reverse_bits(index)
+    x = x + seed
+    x = x ^ (x * LK_1)
+    x = x ^ (x * LK_2)
+    x = x ^ (x * LK_3)
+    x = x ^ (x * LK_4)
+    return reverse_bits(x)
 
 
 @wp.func
 def sample_2d(key: wp.uint32, dim: int, index: int) -> wp.vec2:
     """Point `index` of Roberts' R2 low-discrepancy sequence, shifted (Cranley-Patterson rotation) by
-    a random offset keyed by (key, dim): successive samples of one pixel fill [0,1)^2 evenly for
-    each dimension pair, while pixels and dimensions stay independent. Fixed-point arithmetic keeps
-    it exact for any index."""
+    a random offset keyed by (key, dim), its index shuffled by the same key: successive samples of
+    one pixel fill [0,1)^2 evenly for each dimension pair (the first 2^k of them are 2^k successive
+    points of the sequence), while pixels and dimensions stay independent. Without the shuffle every
+    dimension pair would take the same points in the same order, only shifted: the path's
+    successive bounces would be correlated, and a pixel's error would stop falling with more samples.
+    Fixed-point arithmetic keeps it exact for any index."""
     h = pcg_hash(key ^ pcg_hash(wp.uint32(dim)))
     h2 = pcg_hash(h)
-    x = h + wp.uint32(index) * R2_A1
-    y = h2 + wp.uint32(index) * R2_A2
+    i = shuffle(wp.uint32(index), h2 ^ GOLDEN)
+    x = h + i * R2_A1
+    y = h2 + i * R2_A2
     return wp.vec2(float(x >> wp.uint32(8)) * U24, float(y >> wp.uint32(8)) * U24)
 
 
@@ -144,7 +181,7 @@ def sample_cosine_hemisphere(u1: float, u2: float) -> wp.vec3:
 
 @wp.func
 def cosine_hemisphere_pdf(cos_theta: float) -> float:
-    return wp.max(cos_theta, 0.0) / PI
+    return wp.max(cos_theta, 0.0) * INV_PI
 
 
 @wp.func

@@ -39,8 +39,9 @@ class ShapeData:
     p0: wp.vec3  # sphere/disk centre, plane point, quad corner
     p1: wp.vec3  # plane/disk normal (unit), quad edge1
     p2: wp.vec3  # quad edge2
-    n: wp.vec3  # quad: edge1 x edge2 (not normalised)
-    w: wp.vec3  # quad: n / |n|^2, for the edge coordinates of a hit
+    n: wp.vec3  # quad: the unit normal, along edge1 x edge2
+    w: wp.vec3  # quad: with m = edge1 x edge2, edge2 x m / |m|^2: a hit's edge1 coordinate is w . (p - corner)
+    w2: wp.vec3  # quad: m x edge1 / |m|^2, its edge2 coordinate w2 . (p - corner)
     xf: wp.mat33  # box: world -> box coordinates, local = xf world + p2 (p0, p1 = the box's min and max)
     radius: float  # sphere/disk radius
     velocity: wp.vec3  # world units per unit time (motion blur)
@@ -123,6 +124,8 @@ class SceneData:
     camera: CameraData
     shapes: wp.array(dtype=ShapeData)
     num_shapes: int
+    num_quads: int  # shapes[0 .. num_quads - 1] are the quads (parallelograms), the rest other kinds
+    shapes_move: int  # 1 when some shape has a velocity (else the intersection loops skip the motion)
     meshes: wp.array(dtype=wp.uint64)  # wp.Mesh ids: group 0 the static triangles, then one per moving object
     mesh_vel: wp.array(dtype=wp.vec3)  # velocity of each group
     mesh_face0: wp.array(dtype=wp.int32)  # global index of each group's first face

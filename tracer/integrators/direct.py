@@ -51,13 +51,16 @@ def shadow_reach(scene: SceneData, light: LightData, so: wp.vec3, l: wp.vec3, di
 
 
 @wp.func(inline=True)
-def shadow_test(scene: SceneData, so: wp.vec3, l: wp.vec3, t_max: float, time: float, record: int) -> Hit:
-    """The shadow ray's occluder (hit = 1) or none. Rendering asks only whether there is one; the
-    ray tree (record = 1) also wants the nearest one, which the same test finds."""
+def shadow_test(
+    scene: SceneData, so: wp.vec3, l: wp.vec3, t_max: float, time: float, record: int, light_shape: int
+) -> Hit:
+    """The shadow ray's occluder (hit = 1) or none. Rendering asks only whether there is one (never
+    testing the light's own shape, which t_max reaches); the ray tree (record = 1) also wants the nearest
+    one, which the same test finds."""
     if record != 0:
         return closest_hit(scene, so, l, t_max, time)
     h = Hit()
-    h.hit = occluded(scene, so, l, t_max, time)
+    h.hit = occluded(scene, so, l, t_max, time, light_shape)
     return h
 
 
@@ -110,7 +113,7 @@ def direct_light(
             if reaches != 0 and wp.dot(s.n, l) > 0.0:
                 so = offset_origin(s.p, s.nf, l)
                 rays += 1
-                occluder = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record)
+                occluder = shadow_test(scene, so, l, shadow_reach(scene, light, so, l, dist), time, record, light.shape)
                 dterm, sterm = phong_terms(s.kd, s.m.ks, s.m.shininess, s.n, l, v)
                 dterm = wp.cw_mul(e, dterm) * mis
                 sterm = wp.cw_mul(e, sterm) * mis

@@ -91,8 +91,11 @@ def sample_lobes(
             wi = to_world(sample_cos_lobe(u1, u2, m.shininess), rdir)
         pdf = phong_lobes_pdf(pd, ps, m.shininess, s.n, rdir, wi)
         if wp.dot(wi, s.nf) > 0.0 and wp.dot(wi, s.n) > 0.0 and pdf > 0.0:
-            dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, s.n, wi, -rd)
-            factor = (dterm + sterm) / pdf
+            if ps > 0.0:
+                dterm, sterm = phong_terms(s.kd, m.ks, m.shininess, s.n, wi, -rd)
+                factor = (dterm + sterm) / pdf
+            else:  # Lambertian: f cos / pdf = (kd / pi) cos / (pd cos / pi)
+                factor = s.kd / pd
         delta = 0
     elif u0 < pd + ps + max3(kr) / total:
         wi = glossy_direction(rdir, m.gloss, u1, u2)
@@ -164,10 +167,12 @@ def trace(
 
         # the lobes, chosen in proportion to their largest weight: diffuse and the Phong highlight
         # (continuous), the mirror and refraction (discrete, with Fresnel and total internal reflection)
-        rdir = wp.normalize(reflect(rd, s.n))
         kr, kt, tdir, tir = scatter_weights(s.m, rd, s.n, s.front)
         wd = max3(s.kd)
         ws = max3(s.m.ks)
+        rdir = wp.vec3(0.0)  # the mirror direction, for the Phong lobe and the mirror (a diffuse surface has neither)
+        if ws > 0.0 or max3(kr) > 0.0:
+            rdir = wp.normalize(reflect(rd, s.n))
         total = wd + ws + max3(kr) + max3(kt)
         pd = float(0.0)
         ps = float(0.0)
@@ -208,7 +213,9 @@ def trace(
         elif total <= 0.0:
             end = END_ABSORBED
         else:
-            u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
+            u0 = float(0.0)
+            if pd + ps < 1.0:  # a choice between lobes to make (a purely diffuse or Phong material has none)
+                u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
             uv = sample_2d(key, dims + DIM_BSDF, sample)
             wi, factor, next_kind, delta, pdf = sample_lobes(s, rd, rdir, kr, kt, tdir, pd, ps, total, u0, uv[0], uv[1])
             if depth >= RR_DEPTH:  # Russian roulette
