@@ -128,7 +128,7 @@ class RenderResult:
         total = self.rays.get("total", 0)
         kinds = " ".join(f"{k}={v}" for k, v in self.rays.items() if k != "total")
         mrays = total / self.seconds / 1e6 if self.seconds > 0 else 0.0
-        line = f"{self.seconds:.2f} s, {total} rays ({kinds}), {mrays:.2f} Mrays/s"
+        line = f"{self.seconds:.3f} s, {total} rays ({kinds}), {mrays:.2f} Mrays/s"
         if self.solve:
             s = self.solve
             line += f"; radiosity solve: {s['seconds']:.2f} s, {s['shots']} shots, {s['patches']} patch sides"
