@@ -15,7 +15,7 @@ import zipfile
 from pathlib import Path
 
 import httpx
-from test_api_support import INSTRUCTOR, wait_for
+from test_api_support import INSTRUCTOR, long_scene, wait_for
 from test_web_page import PHONE, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
@@ -121,7 +121,15 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
                 .observe(el, {childList: true, characterData: true, subtree: true});
         }"""
     )
+    # a long job holds the only worker, so the class's renders wait where the page can see them
+    busy = httpx.post(f"{server.url}/api/jobs", json={"scene": long_scene()}, headers=TEACHER, timeout=30).json()["id"]
+    job_url = f"{server.url}/api/jobs/{busy}"
+    wait_for(lambda: httpx.get(job_url, headers=TEACHER, timeout=30).json()["status"] == "running", 60, "the long job")
     page.click("#grade-start")
+    try:
+        page.wait_for_function(r"() => window.__statuses.some(s => /renders \d+\/\d+/.test(s))", timeout=GRADE_TIMEOUT)
+    finally:
+        httpx.delete(job_url, headers=TEACHER, timeout=30)
     page.wait_for_selector("#grade-table", timeout=GRADE_TIMEOUT)
     statuses = page.evaluate("() => window.__statuses")
     assert any(re.search(r"renders \d+/\d+", s) for s in statuses), statuses
