@@ -24,7 +24,6 @@ import json
 import os
 import platform
 import shutil
-import socket
 import statistics
 import subprocess
 import sys
@@ -32,38 +31,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench.service import Api, free_port
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class Api:
-    def __init__(self, port: int):
-        self.port = port
-        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-
-    def json(self, method: str, path: str, body: dict | None = None) -> dict:
-        data = json.dumps(body).encode() if body is not None else None
-        headers = {"content-type": "application/json"} if data is not None else {}
-        for attempt in (0, 1):
-            try:
-                self.conn.request(method, path, body=data, headers=headers)
-                r = self.conn.getresponse()
-                status, payload = r.status, r.read()
-                break
-            except (http.client.HTTPException, OSError):
-                self.conn.close()
-                self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=60)
-                if attempt:
-                    raise
-        if status >= 400:
-            raise RuntimeError(f"{method} {path}: {status} {payload[:300]!r}")
-        return json.loads(payload)
 
 
 class Procs:

@@ -35,6 +35,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench.service import Api, free_port
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scenes"
 MEAN_TOLERANCE = 1e-4  # relative difference of the means, CPU against GPU (measured ~1e-5 on an H200)
@@ -172,32 +174,11 @@ def part_renders(args, report: Report) -> dict:
     return out
 
 
-class Api:
-    def __init__(self, port: int):
-        self.port = port
-
-    def call(self, method: str, path: str, body: dict | None = None) -> tuple[int, bytes]:
-        conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=120)
-        try:
-            data = json.dumps(body).encode() if body is not None else None
-            conn.request(method, path, body=data, headers={"content-type": "application/json"} if data else {})
-            r = conn.getresponse()
-            return r.status, r.read()
-        finally:
-            conn.close()
-
-    def json(self, method: str, path: str, body: dict | None = None) -> dict:
-        status, payload = self.call(method, path, body)
-        if status >= 400:
-            raise RuntimeError(f"{method} {path}: {status} {payload[:300]!r}")
-        return json.loads(payload)
-
-
 def part_host(args, report: Report, images: dict, logs: Path) -> dict:
     import numpy as np
     import redis
 
-    from bench.cluster import Procs, free_port, wait
+    from bench.cluster import Procs, wait
     from tracer.film import read_exr
 
     server = shutil.which("redis-server") or "/usr/bin/redis-server"
@@ -211,7 +192,7 @@ def part_host(args, report: Report, images: dict, logs: Path) -> dict:
         api_port = free_port()
         api_argv = [sys.executable, "-m", "server", "--port", str(api_port), "--data-dir", str(logs / "data")]
         procs.start("api", [*api_argv, "--workers", "0", "--redis", url])
-        api = Api(api_port)
+        api = Api(api_port, timeout=120)
         wait(lambda: _up(api), 300, "the API")
         t = time.perf_counter()
         host = [sys.executable, "-m", "server.worker", "--redis", url, "--device", args.device, "--name", "gpu-host"]
@@ -265,7 +246,7 @@ def _ping(redis, url: str) -> bool:
 def _up(api: Api) -> bool:
     try:
         return api.call("GET", "/api/health")[0] == 200
-    except OSError:
+    except (OSError, http.client.HTTPException):
         return False
 
 

@@ -47,9 +47,9 @@ def free_port() -> int:
 class Api:
     """A keep-alive HTTP/1.1 connection to the server, JSON in and out; with `token`, as its bearer."""
 
-    def __init__(self, port: int, token: str | None = None):
-        self.port, self.token = port, token
-        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    def __init__(self, port: int, token: str | None = None, timeout: float = 60):
+        self.port, self.token, self.timeout = port, token, timeout
+        self.conn = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
 
     def call(self, method: str, path: str, body: dict | bytes | None = None) -> tuple[int, bytes]:
         data = body if isinstance(body, bytes) or body is None else json.dumps(body).encode()
@@ -61,7 +61,7 @@ class Api:
             r = self.conn.getresponse()
         except (http.client.HTTPException, OSError):
             self.conn.close()  # a dropped keep-alive connection: once more, on a new one
-            self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=60)
+            self.conn = http.client.HTTPConnection("127.0.0.1", self.port, timeout=self.timeout)
             self.conn.request(method, path, body=data, headers=headers)
             r = self.conn.getresponse()
         return r.status, r.read()
@@ -184,27 +184,10 @@ def concurrent_get_loops(port: int, job_id: str, clients: int, n_each: int) -> l
     return [x for r in results for x in r]
 
 
-def raytree_load(port: int, probe: str, clients: int = 6, rounds: int = 8) -> dict:
-    """`clients` clients click pixels of the radiosity Cornell box (POST /api/raytree), `rounds` clicks each,
-    while one client reads GET /api/jobs/{probe} in a loop: that GET's latency, and each click's (the first
-    click solves the radiosity; the cache serves the others)."""
-    scene = json.loads((SCENES / "cornell_radiosity.json").read_text())
-    first = Api(port)
-    t0 = time.perf_counter()
-    first.json("POST", "/api/raytree", {"scene": scene, "x": 128, "y": 128})
-    first_click = time.perf_counter() - t0
-    first.close()
-    clicks: list[float] = []
+def gets_while(port: int, probe: str, work: list) -> list[float]:
+    """Run each callable of `work` in a thread of its own, all at once, while one more client reads
+    GET /api/jobs/{probe} in a loop: that GET's latencies (ms) until the work is done."""
     done = threading.Event()
-
-    def clicker(k: int) -> None:
-        api = Api(port)
-        for r in range(rounds):
-            t = time.perf_counter()
-            api.json("POST", "/api/raytree", {"scene": scene, "x": 20 + 30 * k, "y": 20 + 25 * r})
-            clicks.append(time.perf_counter() - t)
-        api.close()
-
     gets: list[float] = []
 
     def getter() -> None:
@@ -218,13 +201,37 @@ def raytree_load(port: int, probe: str, clients: int = 6, rounds: int = 8) -> di
 
     reader = threading.Thread(target=getter)
     reader.start()
-    threads = [threading.Thread(target=clicker, args=(k,)) for k in range(clients)]
+    threads = [threading.Thread(target=w) for w in work]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
     done.set()
     reader.join()
+    return gets
+
+
+def raytree_load(port: int, probe: str, clients: int = 6, rounds: int = 8) -> dict:
+    """`clients` clients click pixels of the radiosity Cornell box (POST /api/raytree), `rounds` clicks each,
+    while one client reads GET /api/jobs/{probe} in a loop: that GET's latency, and each click's (the first
+    click solves the radiosity; the cache serves the others)."""
+    scene = json.loads((SCENES / "cornell_radiosity.json").read_text())
+    first = Api(port)
+    t0 = time.perf_counter()
+    first.json("POST", "/api/raytree", {"scene": scene, "x": 128, "y": 128})
+    first_click = time.perf_counter() - t0
+    first.close()
+    clicks: list[float] = []
+
+    def clicker(k: int) -> None:
+        api = Api(port)
+        for r in range(rounds):
+            t = time.perf_counter()
+            api.json("POST", "/api/raytree", {"scene": scene, "x": 20 + 30 * k, "y": 20 + 25 * r})
+            clicks.append(time.perf_counter() - t)
+        api.close()
+
+    gets = gets_while(port, probe, [lambda k=k: clicker(k) for k in range(clients)])
     return {
         "first_click_s": first_click,
         "click_ms": percentiles([c * 1000 for c in clicks]),
@@ -257,7 +264,6 @@ def validate_load(port: int, probe: str, clients: int = 4, rounds: int = 5, sphe
     assert status == 200 and json.loads(answer)["valid"], answer[:300]
     one.close()
     times: list[float] = []
-    done = threading.Event()
 
     def validator() -> None:
         api = Api(port)
@@ -268,26 +274,7 @@ def validate_load(port: int, probe: str, clients: int = 4, rounds: int = 5, sphe
             assert status == 200 and json.loads(answer)["valid"], answer[:300]
         api.close()
 
-    gets: list[float] = []
-
-    def getter() -> None:
-        api = Api(port)
-        while not done.is_set():
-            t = time.perf_counter()
-            status, _ = api.call("GET", f"/api/jobs/{probe}")
-            gets.append((time.perf_counter() - t) * 1000)
-            assert status == 200
-        api.close()
-
-    reader = threading.Thread(target=getter)
-    reader.start()
-    threads = [threading.Thread(target=validator) for _ in range(clients)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    done.set()
-    reader.join()
+    gets = gets_while(port, probe, [validator] * clients)
     return {
         "spheres": spheres, "body_bytes": len(body), "clients": clients, "alone_s": alone,
         "validate_ms": percentiles([v * 1000 for v in times]), "get_ms": percentiles(gets),
