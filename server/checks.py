@@ -250,7 +250,6 @@ class CheckPool:
         self.settings = settings
         self.ctx = mp.get_context("spawn")
         self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
-        self.waiting = 0
         self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
         self._lock = threading.Lock()
         self._closed = False
@@ -298,14 +297,15 @@ class CheckPool:
             self._wake()
 
     def _wake(self) -> None:
-        """Tell the oldest waiting request that a checker is free (under the lock; from any thread)."""
-        while self._waiters:
-            loop, event = self._waiters.popleft()
+        """Tell the oldest waiting request that a checker is free (under the lock; from any thread); it stays
+        first in line until it has taken one."""
+        if self._waiters:
+            loop, event = self._waiters[0]
             try:
                 loop.call_soon_threadsafe(event.set)
-                return
-            except RuntimeError:  # its event loop is closed
-                continue
+            except RuntimeError:  # its event loop is closed: it is gone
+                self._waiters.popleft()
+                self._wake()
 
     def shutdown(self) -> None:
         with self._lock:
@@ -331,40 +331,42 @@ class CheckPool:
     # -- a task
 
     async def _take(self, request: Request) -> _Checker:
-        """An idle checker, marked busy; waits for one, first come first served, without polling (429 past
-        max_validate_waiting waiting)."""
-        queued, waiter = False, None
+        """An idle checker, marked busy; waits for one without polling, first come first served: a request
+        takes a free checker only when nobody waits before it (429 past max_validate_waiting waiting)."""
+        waiter = None
         try:
             while True:
                 with self._lock:
                     free = next((c for c in self.checkers if c.state == "idle"), None)
-                    if free is not None:
+                    first = self._waiters[0] is waiter if self._waiters else waiter is None
+                    if free is not None and first:
                         free.state = "busy"
+                        if waiter is not None:
+                            self._waiters.popleft()
+                            waiter = None
                         if any(c.state == "idle" for c in self.checkers):
                             self._wake()  # another one is free: the next in line takes it
                         return free
-                    if not queued:
-                        if self.waiting >= self.settings.max_validate_waiting:
+                    if waiter is None:
+                        if len(self._waiters) >= self.settings.max_validate_waiting:
                             raise ApiError(
                                 429, "too many scenes are being checked; try again later (TRACER_MAX_VALIDATE_WAITING)",
                                 headers={"Retry-After": "2"},
                             )  # fmt: skip
-                        self.waiting += 1
-                        queued = True
-                    waiter = (asyncio.get_running_loop(), asyncio.Event())
-                    self._waiters.append(waiter)
+                        waiter = (asyncio.get_running_loop(), asyncio.Event())
+                        self._waiters.append(waiter)
+                    waiter[1].clear()
                 with anyio.move_on_after(WAIT_CHECK):
                     await waiter[1].wait()
                 if await request.is_disconnected():
                     raise ApiError(499, "the client went away")
         finally:
-            with self._lock:
-                if waiter is not None and waiter in self._waiters:
+            if waiter is not None:  # gone while waiting (the client left, or a 429 of someone's): out of the line
+                with self._lock:
+                    head = bool(self._waiters) and self._waiters[0] is waiter
                     self._waiters.remove(waiter)
-                elif waiter is not None and waiter[1].is_set() and any(c.state == "idle" for c in self.checkers):
-                    self._wake()  # woken but gone (the client left): the next in line takes the free one
-                if queued:
-                    self.waiting -= 1
+                    if head and any(c.state == "idle" for c in self.checkers):
+                        self._wake()  # it was woken for a free checker: the next in line takes it
 
     async def run(self, request: Request, task: str, *args, timed: bool = True):
         """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time

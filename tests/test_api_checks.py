@@ -182,3 +182,46 @@ def test_api_checks_a_client_that_goes_away_stops_its_check_and_the_waiting_line
         assert after["pid"] != first["pid"]
         assert server.client.post("/api/validate", json={"scene": scene_dict("whitted")}).json()["valid"] is True
         assert "scene check stopped: the client went away" in server.log_text()
+
+
+def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
+    """The waiting line of CheckPool._take (no processes: its checkers' states are set by hand): requests that
+    wait take a freed checker in the order they came, and a newcomer does not take one before them."""
+    import anyio
+
+    from server.checks import CheckPool
+    from server.settings import Settings
+
+    class Here:  # a request whose client stays
+        async def is_disconnected(self) -> bool:
+            return False
+
+    pool = CheckPool(Settings(data_dir=tmp_path, validate_processes=1))
+    checker = pool.checkers[0]
+    checker.state = "busy"
+    served: list[str] = []
+
+    async def take(name: str) -> None:
+        await pool._take(Here())
+        served.append(name)
+
+    def free() -> None:
+        with pool._lock:
+            checker.state = "idle"
+            pool._wake()
+
+    async def main() -> None:
+        async with anyio.create_task_group() as tg:
+            for name in "abc":
+                tg.start_soon(take, name)
+                await anyio.sleep(0.05)  # in line in this order
+            assert len(pool._waiters) == 3 and served == []
+            free()
+            tg.start_soon(take, "newcomer")  # comes while the freed checker is handed to the first in line
+            await anyio.sleep(0.05)
+            for _ in range(3):
+                free()
+                await anyio.sleep(0.05)
+            assert served == ["a", "b", "c", "newcomer"] and not pool._waiters
+
+    anyio.run(main)
