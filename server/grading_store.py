@@ -19,7 +19,6 @@ Every write is one short statement or transaction; each thread opens its own con
 from __future__ import annotations
 
 import json
-import os
 import sqlite3
 import threading
 import time
@@ -29,6 +28,7 @@ from pathlib import Path
 
 from server.lifecycle import JobStatus
 from server.store import Transaction as _Transaction
+from server.store import thread_connection
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS grading_runs (
@@ -103,15 +103,7 @@ class GradingStore:
 
     @property
     def db(self) -> sqlite3.Connection:
-        conn = getattr(self._local, "conn", None)
-        if conn is None or getattr(self._local, "pid", None) != os.getpid():
-            conn = sqlite3.connect(self.db_path, timeout=30, isolation_level=None)
-            conn.row_factory = sqlite3.Row
-            conn.execute("PRAGMA journal_mode=WAL")
-            conn.execute("PRAGMA synchronous=NORMAL")
-            conn.execute("PRAGMA busy_timeout=30000")
-            self._local.conn, self._local.pid = conn, os.getpid()
-        return conn
+        return thread_connection(self._local, self.db_path)
 
     def _tx(self):
         return _Transaction(self.db)

@@ -206,15 +206,7 @@ class JobStore:
 
     @property
     def db(self) -> sqlite3.Connection:
-        conn = getattr(self._local, "conn", None)
-        if conn is None or getattr(self._local, "pid", None) != os.getpid():
-            conn = sqlite3.connect(self.db_path, timeout=30, isolation_level=None, check_same_thread=True)
-            conn.row_factory = sqlite3.Row
-            conn.execute("PRAGMA journal_mode=WAL")
-            conn.execute("PRAGMA synchronous=NORMAL")
-            conn.execute("PRAGMA busy_timeout=30000")
-            self._local.conn, self._local.pid = conn, os.getpid()
-        return conn
+        return thread_connection(self._local, self.db_path)
 
     def _tx(self):
         return Transaction(self.db)
@@ -611,6 +603,20 @@ class JobStore:
             (QUEUED, RUNNING),
         ).fetchall()
         return [dict(r) for r in rows]
+
+
+def thread_connection(local: threading.local, db_path: Path) -> sqlite3.Connection:
+    """This thread's connection to the database, kept in `local` (a new one in another process: a connection
+    never crosses a fork): autocommit (transactions are `Transaction`s), WAL, waiting up to 30 s for a lock."""
+    conn = getattr(local, "conn", None)
+    if conn is None or getattr(local, "pid", None) != os.getpid():
+        conn = sqlite3.connect(db_path, timeout=30, isolation_level=None, check_same_thread=True)
+        conn.row_factory = sqlite3.Row
+        conn.execute("PRAGMA journal_mode=WAL")
+        conn.execute("PRAGMA synchronous=NORMAL")
+        conn.execute("PRAGMA busy_timeout=30000")
+        local.conn, local.pid = conn, os.getpid()
+    return conn
 
 
 class Transaction:
