@@ -2,12 +2,15 @@
 
 import numpy as np
 import pytest
+import warp as wp
 from conftest import EXAMPLES, scene_dict, small
 from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
+from tracer.integrators import dispatch
 from tracer.raytree import ray_tree
 from tracer.render import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
+from tracer.samples import adaptive_count, adaptive_levels
 from tracer.scene import load_scene
 
 
@@ -148,40 +151,140 @@ def test_render_passes_refine_and_cancel_keeps_finished_samples():
     assert np.array_equal(part.image, seen[1][1])
 
 
-def test_render_adaptive_passes_trace_only_the_pixels_still_refined():
+def adaptive_scene(width: int = 64, height: int = 48, top: int = 3, **sampler):
+    scene, _ = load_scene(small(scene_dict("antialias_adaptive"), width, height, sampler={"max_level": top, **sampler}))
+    return compile_scene(scene)
+
+
+def single_passes(cs) -> list[Renderer]:
+    """One adaptive pass at each level, each from scratch (a new Renderer)."""
+    out = []
+    for level in range(cs.data.max_level + 1):
+        r = Renderer(cs, threads=2)
+        r.adaptive_pass(level)
+        out.append(r)
+    return out
+
+
+def pixel_rays(renderers) -> np.ndarray:
+    """(level, y, x): the rays of each pixel in a single pass at each level."""
+    return np.stack([r.film.counts.numpy().sum(-1).astype(np.int64) for r in renderers])
+
+
+@pytest.mark.parametrize("jitter", [False, True])
+def test_render_adaptive_passes_trace_each_grid_point_once(jitter):
     """#17: an adaptive pass traces only the pixels that the passes before left unfinished (a cell stopped at
-    their level limit, not on the threshold); the others keep their values. Each pass's image is a single pass
-    at its level, bit for bit, and the final image, AOVs and rays per pixel are the deepest pass's. The rays
-    counted are that pass's, plus the earlier passes of the pixels it still refined: not L + 1 whole passes."""
+    their level limit, not on the threshold), and of those only the grid points of its own level: the colours
+    of the points below it are kept from the pass before. Each pass's image, and the rays traced so far, are a
+    single pass's at its level, bit for bit; the final image, AOVs and rays are the deepest pass's: the rays of
+    all passes together are the rays of that one pass."""
     top = 3
-    scene, _ = load_scene(small(scene_dict("antialias_adaptive"), 64, 48, sampler={"max_level": top}))
-    cs = compile_scene(scene)
-    previews, snaps = [], []
+    cs = adaptive_scene(top=top, jitter=jitter)
+    previews, snaps, rays_so_far = [], [], []
 
     def on_pass(p):
         previews.append(p.image.copy())
         snaps.append(snapshot_bytes(p.snapshot()))
+        rays_so_far.append(p.rays)
 
     progressive = render(cs, threads=2, on_pass=on_pass)
-    single = []  # one pass at each level, from scratch
-    for level in range(top + 1):
-        r = Renderer(cs, threads=2)
-        r.adaptive_pass(level)
-        single.append(r)
+    single = single_passes(cs)
     assert all(np.array_equal(previews[level], single[level].image()) for level in range(top + 1))
+    assert rays_so_far == [r.rays() for r in single]
     final = single[-1]
     assert np.array_equal(progressive.image, final.image())
     assert all(np.array_equal(progressive.aovs[k], v) for k, v in final.aovs().items())
-    rays = np.stack([r.film.counts.numpy().sum(-1).astype(np.int64) for r in single])  # (level, y, x)
-    # a pixel still refined gains rays at the next level: it is finished at the first level with its final rays
-    finished = np.argmax(rays == rays[-1], axis=0)
-    assert (finished == 0).mean() > 0.5 and (finished == top).any()
-    traced = sum(int(rays[level][finished >= level].sum()) for level in range(top + 1))
-    assert progressive.rays["total"] == traced
-    assert traced < rays.sum()  # every pass tracing every pixel, as before
-    # resumed after two passes, in another renderer from the snapshot's bytes: the same image and rays
-    resumed = render(cs, threads=1, resume=snapshot_from(snaps[1]))
-    assert np.array_equal(resumed.image, progressive.image) and resumed.rays == progressive.rays
+    assert progressive.rays == final.rays()  # every kind: the passes before the last traced nothing twice
+    rays = pixel_rays(single)
+    assert (rays[1] > rays[0]).any() and (rays[3] > rays[2]).any(), "some pixels are refined to the last level"
+    # resumed after two passes, in another renderer from the snapshot's bytes: the same image; the colours kept
+    # are not in the snapshot, so its first pass traces the pixels still unfinished from level 0 again
+    snap = snapshot_from(snaps[1])
+    resumed = render(cs, threads=1, resume=snap)
+    assert np.array_equal(resumed.image, progressive.image)
+    again = snap["counts"][snap["done"] == 0].astype(np.int64).sum(axis=0)  # their rays of passes 0 and 1
+    assert again.sum() > 0
+    kinds = [k for k in progressive.rays if k != "total"]
+    assert [resumed.rays[k] for k in kinds] == [progressive.rays[k] + int(n) for k, n in zip(kinds, again, strict=True)]
+
+
+@pytest.mark.parametrize("keep_bytes", [0, 4000, 40000])
+def test_render_adaptive_passes_keep_colours_within_a_bound(keep_bytes):
+    """The colours kept from one pass for the next take at most `keep_bytes`: the pixels traced get slots in
+    row order while they fit, and a pixel the pass before kept nothing of is traced from level 0 (as every
+    pixel was before #17: keep_bytes 0). The images are the same all the same, and the rays counted are the
+    rays traced: for each pass, each pixel's rays at that level less, where the pass before kept its colours,
+    its rays at the level before."""
+    top = 3
+    cs = adaptive_scene(top=top)
+    single = single_passes(cs)
+    rays = pixel_rays(single)
+    r = Renderer(cs, threads=2, keep_bytes=keep_bytes)
+    expected, kept = 0, np.zeros(rays.shape[1:], bool)
+    for level in range(top + 1):
+        todo = r.done.numpy() == 0
+        r.adaptive_pass(level)
+        assert np.array_equal(r.image(), single[level].image())
+        expected += int((rays[level] - np.where(kept, rays[level - 1], 0))[todo].sum())
+        assert r.rays()["total"] == expected
+        fit = keep_bytes // (12 * dispatch.kept_points(level)) if level < top else 0
+        kept = np.zeros_like(kept)
+        kept.flat[np.flatnonzero(todo)[:fit]] = True  # the slots this pass had: its first pixels traced
+        assert r.kept is None if not kept.any() else np.array_equal(r.kept.slots >= 0, kept)
+        assert r.kept is None or r.kept.nbytes <= keep_bytes
+    assert all(np.array_equal(r.aovs()[k], v) for k, v in single[-1].aovs().items())
+    # before #17 every pass traced its pixels from level 0: the counts of the pixels still unfinished, pass by pass
+    finished = np.argmax(rays == rays[-1], axis=0)  # a pixel is finished at the first level with its final rays
+    old = sum(int(rays[level][finished >= level].sum()) for level in range(top + 1))
+    if keep_bytes == 0:
+        assert expected == old
+    else:
+        assert rays[-1].sum() < expected < old
+
+
+def test_render_adaptive_passes_same_for_any_thread_count_and_band():
+    """The kept colours live in per-pixel slots: 1 and 2 threads, and the whole image in one launch, give the
+    same images and rays bit for bit."""
+    cs = adaptive_scene(80, 60, top=2)
+    results = []
+    for threads, band in [(1, "auto"), (2, "auto"), (2, 512), (1, None)]:
+        r = Renderer(cs, threads=threads, band=band)
+        images = []
+        for level in range(3):
+            r.adaptive_pass(level)
+            images.append(r.image())
+        results.append((images, r.rays(), r.aovs()))
+    first = results[0]
+    for images, rays, aovs in results[1:]:
+        assert all(np.array_equal(a, b) for a, b in zip(images, first[0], strict=True))
+        assert rays == first[1]
+        assert all(np.array_equal(aovs[k], v) for k, v in first[2].items())
+
+
+@wp.kernel(module="test_render_point_slot")
+def point_slots(g: int, top: int, out: wp.array2d(dtype=wp.int32)):
+    """Level and slot index of every fine-grid point, as the adaptive kernel numbers them."""
+    i, j = wp.tid()
+    level, index = dispatch.point_slot(i, j, g, top)
+    out[j * (g + 1) + i, 0] = level
+    out[j * (g + 1) + i, 1] = index
+
+
+@pytest.mark.parametrize("top", [0, 1, 2, 4])
+def test_render_adaptive_point_slots_number_each_level_in_turn(top):
+    """The kept colours of a pixel: every grid point a cell uses has a place of its own, at the level of the
+    first cells that use it (samples.adaptive_levels), numbered level by level from 0 to kept_points(top)."""
+    g = 1 << (top + 1)
+    out = wp.zeros(((g + 1) ** 2, 2), dtype=wp.int32)
+    wp.launch(point_slots, dim=(g + 1, g + 1), inputs=[g, top, out])
+    got = out.numpy()
+    levels = adaptive_levels(top)
+    assert {k: int(got[k, 0]) for k in levels} == levels
+    index = sorted(int(got[k, 1]) for k in levels)
+    assert index == list(range(dispatch.kept_points(top)))
+    for k, level in levels.items():
+        assert dispatch.kept_points(level - 1) <= got[k, 1] < dispatch.kept_points(level)
+    assert dispatch.kept_points(top) == adaptive_count(top)
 
 
 def test_render_stop_and_resume_from_a_snapshot():

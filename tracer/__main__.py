@@ -121,7 +121,7 @@ def cmd_render(args) -> int:
         write_exr(args.exr, result.image, aov_layers(result.aovs) if args.aovs else None)
     if scene.sampler.type == "adaptive":
         per_pixel = result.aovs["rays"].mean()
-        sampling = f"adaptive to level {scene.sampler.max_level} ({per_pixel:.1f} rays/pixel in the last pass)"
+        sampling = f"adaptive to level {scene.sampler.max_level} ({per_pixel:.1f} rays/pixel)"
     else:
         sampling = f"{result.spp} spp"
     on = "" if args.device == "cpu" else f" on {args.device}"

@@ -33,6 +33,8 @@ from tracer.scene import Scene
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
+ADAPTIVE_KEEP_BYTES = 256 << 20  # the colours an adaptive pass keeps for the next (see Renderer.adaptive_pass)
+KEEP_BYTES_PER_POINT = 12  # a kept grid point: its colour (vec3)
 WHOLE_IMAGE_SCRATCH_BYTES = 2 << 30  # whole-image launches: the most their stacks and cache may take
 STACK_BYTES_PER_LEVEL = 6 * 12  # a pixel's ray stack: o, d, k, w, tau (vec3) and i (vec3i) per depth
 CACHE_BYTES_PER_POINT = 12 + 4  # a pixel's adaptive cache: a colour (vec3) and a stamp (int32) per grid point
@@ -113,6 +115,21 @@ class Progress:
 
 
 @dataclass
+class Kept:
+    """The colours an adaptive pass kept for the next (Renderer.adaptive_pass): a slot of
+    dispatch.kept_points(level) colours for each pixel that got one."""
+
+    level: int  # the pass's subdivision level
+    colours: wp.array2d  # (slots, kept_points(level)) vec3, numbered as dispatch.point_slot numbers them
+    slots: np.ndarray  # (H, W) int32: each pixel's row of `colours`, -1 for none
+    slots_wp: wp.array2d  # the same on the device
+
+    @property
+    def nbytes(self) -> int:
+        return self.colours.shape[0] * self.colours.shape[1] * KEEP_BYTES_PER_POINT
+
+
+@dataclass
 class RenderResult:
     image: np.ndarray  # (H, W, 3) float32 linear radiance, the mean of the samples
     spp: int  # samples per pixel in `image`
@@ -160,10 +177,16 @@ class Renderer:
     `adaptive_pass(level)` refines the film down to `level`: the pixels earlier passes left unfinished.
     Work is cut into bands of consecutive pixels launched from one thread per core; on a CUDA device
     (or with `band=None`) the band is the whole image, launched from this thread (see `band_size`).
+    `keep_bytes`: the most memory an adaptive pass may keep colours in for the next (see adaptive_pass).
     """
 
     def __init__(
-        self, compiled: CompiledScene, threads: int | None = None, device: str = "cpu", band: int | str | None = AUTO
+        self,
+        compiled: CompiledScene,
+        threads: int | None = None,
+        device: str = "cpu",
+        band: int | str | None = AUTO,
+        keep_bytes: int = ADAPTIVE_KEEP_BYTES,
     ):
         on = str(compiled.data.shapes.device)  # a wp.Device prints as its alias: cpu, cuda:0
         if on != str(wp.get_device(device)):
@@ -188,6 +211,10 @@ class Renderer:
                 c.stamp = wp.zeros((self.band, points), dtype=wp.int32, device=device)
                 self.caches.append(c)
             self.done = wp.zeros((self.height, self.width), dtype=wp.int32, device=device)  # pixels finished
+            self.keep_bytes = keep_bytes
+            self.kept: Kept | None = None  # the colours the last pass kept for the next
+            self.no_slots = wp.full((self.height, self.width), -1, dtype=wp.int32, device=device)
+            self.no_colours = wp.empty((1, 1), dtype=wp.vec3, device=device)
         self.film = make_film(self.height, self.width, device)
         self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
@@ -241,21 +268,46 @@ class Renderer:
     def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
         """Adaptive supersampling of every pixel with subdivision down to `level` (<= max_level). A pixel that
         an earlier pass finished (no cell stopped at its level limit) keeps its film values: a pass traces only
-        the pixels still being refined, and gives the image a single pass at `level` gives, bit for bit."""
-        if self.samples_done:  # the pixels traced again: their counts of the pass before are overwritten
-            again = self.done.numpy() == 0
+        the pixels still being refined, and gives the image a single pass at `level` gives, bit for bit.
+
+        A pass below max_level keeps, for each pixel it traces, the colours of the grid points it used, and
+        the next pass (at level + 1) traces only its own level's points for those pixels: over all passes,
+        each point once. The colours kept take at most `keep_bytes`: the pixels traced get slots in row order
+        while they fit (a pixel needs kept_points(level) colours of 12 bytes), and a pixel without one is
+        traced from level 0 by the next pass (its rays counted again). While a pass runs it holds the
+        colours of the pass before as well: 2 * keep_bytes at most. Snapshots do not hold them: a restored
+        render traces the pixels still unfinished from level 0 in its first pass."""
+        todo = self.done.numpy() == 0
+        old = self.kept if self.kept is not None and self.kept.level == level - 1 else None
+        carried = todo & (old.slots >= 0) if old is not None else np.zeros_like(todo)
+        if self.samples_done:  # the pixels traced again from level 0: their counts of the pass before are overwritten
+            again = todo & ~carried
             self.passes_rays += self.film.counts.numpy()[again].astype(np.int64).sum(axis=0)
+        new = self._keep(level, todo) if level < self.cs.data.max_level else None  # the last pass keeps nothing
+        keep = dispatch.AdaptiveKeep()
+        keep.prev, keep.prev_slot = (old.colours, old.slots_wp) if old else (self.no_colours, self.no_slots)
+        keep.next, keep.next_slot = (new.colours, new.slots_wp) if new else (self.no_colours, self.no_slots)
 
         def launch(k: int, p0: int, n: int) -> None:
-            wp.launch(
-                self.render_adaptive,
-                dim=n,
-                device=self.device,
-                inputs=[self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k], self.done],
-            )
+            inputs = [self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k], self.done, keep]
+            wp.launch(self.render_adaptive, dim=n, device=self.device, inputs=inputs)
 
+        self.kept = None  # the colours of the pass before are freed once this pass has read them
         self._run(launch, on_band)
+        self.kept = new
         self.samples_done = 1
+
+    def _keep(self, level: int, todo: np.ndarray) -> Kept | None:
+        """Slots for the colours the pass at `level` keeps: the pixels it traces (`todo`), in row order, as
+        many as keep_bytes holds. None when not one fits."""
+        points = dispatch.kept_points(level)
+        n = min(int(todo.sum()), self.keep_bytes // (points * KEEP_BYTES_PER_POINT))
+        if n == 0:
+            return None
+        slots = np.full(todo.shape, -1, dtype=np.int32)
+        slots.flat[np.flatnonzero(todo)[:n]] = np.arange(n, dtype=np.int32)
+        colours = wp.empty((n, points), dtype=wp.vec3, device=self.device)
+        return Kept(level, colours, slots, wp.array(slots, dtype=wp.int32, device=self.device))
 
     FIELDS = ("accum", "sumsq", "counts", "depth", "normal", "albedo")
 
@@ -280,6 +332,8 @@ class Renderer:
             target.assign(wp.array(snap[name], dtype=target.dtype, device=self.device))
         self.samples_done = int(snap["samples_done"])
         self.passes_rays = np.asarray(snap["passes_rays"], dtype=np.int64).copy()
+        if self.adaptive:
+            self.kept = None  # not in a snapshot: the next pass traces the unfinished pixels from level 0
         if self.adaptive and "done" in snap:  # a snapshot from before #17 has none: every pixel is traced again
             self.done.assign(wp.array(np.asarray(snap["done"], dtype=np.int32), dtype=wp.int32, device=self.device))
 
@@ -292,8 +346,9 @@ class Renderer:
         """Arbitrary output variables, averaged over the samples so far (float32):
         depth (H, W): distance to the eye ray's hit, 0 where it left the scene; normal (H, W, 3): the
         shading normal there; albedo (H, W, 3): kd there; rays (H, W): rays traced for the pixel, all
-        kinds (adaptive: by the last pass); variance (H, W, 3): the samples' variance (unbiased, per
-        channel; adaptive: the area-weighted spread of the colours it averaged)."""
+        kinds (adaptive: the rays of the grid points its last pass used, whichever pass traced them);
+        variance (H, W, 3): the samples' variance (unbiased, per channel; adaptive: the area-weighted
+        spread of the colours it averaged)."""
         n = max(self.samples_done, 1)
         mean = self.film.accum.numpy() / n
         var = (self.film.sumsq.numpy() / n - mean * mean) * (n / max(n - 1, 1))
