@@ -201,6 +201,34 @@ def test_path_error_keeps_falling_with_more_samples():
     assert spread(64) / spread(1024) > 2.5
 
 
+@pytest.mark.parametrize(("name", "ratio"), [("cornell_path", 0.5), ("depth_of_field", 0.9), ("motion_blur", 0.6)])
+def test_lowdiscrepancy_sampler_same_image_less_noise(name, ratio):
+    """The lowdiscrepancy sampler (film position, and lens point and time, from each pixel's Sobol
+    points) renders the image the random sampler converges to, with less noise at the same samples:
+    against a 1024-spp random image, its RMSE at 16 spp is under `ratio` x random's (three seeds each;
+    measured 0.34, 0.81 and 0.44: a blurred pixel integrates over film and lens together, and the two
+    2D sequences are each even but independent of each other), and the image means agree within 1%. Path tracing
+    (the bounces' own sequences besides the camera's), depth of field (the lens), motion blur (the
+    time)."""
+    from conftest import small
+
+    data = json.loads((SCENES / f"{name}.json").read_text())
+    if name == "cornell_path":
+        data["render"]["max_depth"] = 3
+
+    def image(sampler: str, spp: int, seed: int) -> np.ndarray:
+        d = small(data, 24, 16, sampler={"type": sampler, "spp": spp}, render={"seed": seed})
+        return render(load_scene(d)[0], threads=2).image.astype(np.float64)
+
+    ref = image("random", 1024, 99)
+
+    def rmse(sampler: str) -> float:
+        return math.sqrt(np.mean([((image(sampler, 16, seed) - ref) ** 2).mean() for seed in (1, 2, 3)]))
+
+    assert rmse("lowdiscrepancy") < ratio * rmse("random")
+    assert abs(image("lowdiscrepancy", 256, 1).mean() - ref.mean()) < 0.01 * ref.mean()
+
+
 def test_path_a_sphere_light_too_far_to_see_gives_no_nan():
     """From 3000 units away a sphere light's cone is 1 - cos = 0 in float32: its density is infinite, the
     light's share 0, and its MIS weight 1 rather than inf / inf (NaN pixels near the horizon, before)."""

@@ -47,8 +47,9 @@ def film_point(cs, node: dict) -> np.ndarray:
         ({"type": "jittered", "spp": 4}, {"filter": {"type": "tent"}}),  # offsets reach into the neighbours
         ({"type": "adaptive", "max_level": 2}, {}),
         ({"type": "adaptive", "max_level": 1, "jitter": True}, {}),
+        ({"type": "lowdiscrepancy", "spp": 7}, {}),  # any spp
     ],
-    ids=["center", "grid", "random", "jittered", "jittered-tent", "adaptive", "adaptive-jitter"],
+    ids=["center", "grid", "random", "jittered", "jittered-tent", "adaptive", "adaptive-jitter", "lowdiscrepancy"],
 )
 def test_samples_positions_are_the_ray_tree_s_eye_rays(sampler, film):
     cs = compiled(sampler, film={"width": 37, "height": 23, **film}, render={"seed": 5})

@@ -72,6 +72,7 @@ class SamplerKind(IntEnum):
     RANDOM = 2
     JITTERED = 3
     ADAPTIVE = 4
+    LOWDISCREPANCY = 5
 
 
 class PatchKind(IntEnum):
@@ -143,6 +144,7 @@ SAMPLER_CENTER = wp.constant(int(SamplerKind.CENTER))
 SAMPLER_GRID = wp.constant(int(SamplerKind.GRID))
 SAMPLER_RANDOM = wp.constant(int(SamplerKind.RANDOM))
 SAMPLER_ADAPTIVE = wp.constant(int(SamplerKind.ADAPTIVE))
+SAMPLER_LOWDISCREPANCY = wp.constant(int(SamplerKind.LOWDISCREPANCY))
 
 # Spawned rays start at hit + RAY_OFFSET * N (docs/scene-format.md, "Where spawned rays start"): part of the contract.
 RAY_OFFSET = wp.constant(1.0e-4)

@@ -26,7 +26,7 @@ from tracer.integrators import dispatch
 from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.render import load_kernels as load_render_kernels
 from tracer.render import make_record, make_stack
-from tracer.sampling import film_offset, filter_offset, rng_start
+from tracer.sampling import film_offset, film_uniforms, filter_offset, pixel_key, rng_start
 from tracer.scene import SceneError
 from tracer.structs import SceneData
 
@@ -58,8 +58,7 @@ def pixel_offsets(
         offset[t] = wp.vec2(fx, fy)
         weight[t] = 1.0
     else:
-        u1 = wp.randf(rng)
-        u2 = wp.randf(rng)
+        u1, u2, rng = film_uniforms(scene.sampler, pixel_key(scene.seed, y * scene.width + x), s, rng)
         off, w = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
         offset[t] = off
         weight[t] = w

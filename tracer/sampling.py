@@ -10,7 +10,7 @@ with chosen values.
 import warp as wp
 
 from tracer.geometry import PI, basis
-from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_RANDOM
+from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_LOWDISCREPANCY, SAMPLER_RANDOM
 from tracer.structs import SceneData
 
 INV_PI = wp.constant(1.0 / 3.14159265358979323846)  # a product where a quotient would wait for the divider
@@ -54,6 +54,11 @@ MASK_1 = wp.constant(wp.uint32(0x55555555))  # reverse_bits: swap bits, pairs, n
 MASK_2 = wp.constant(wp.uint32(0x33333333))
 MASK_4 = wp.constant(wp.uint32(0x0F0F0F0F))
 MASK_8 = wp.constant(wp.uint32(0x00FF00FF))
+SOBOL_M1 = wp.constant(wp.uint32(0xAAAAAAAA))  # bit positions k with bit 0 of k set (sobol1_reversed)
+SOBOL_M2 = wp.constant(wp.uint32(0xCCCCCCCC))  # ... with bit 1 set
+SOBOL_M4 = wp.constant(wp.uint32(0xF0F0F0F0))
+SOBOL_M8 = wp.constant(wp.uint32(0xFF00FF00))
+SOBOL_M16 = wp.constant(wp.uint32(0xFFFF0000))
 
 
 @wp.func
@@ -67,17 +72,37 @@ def reverse_bits(x: wp.uint32) -> wp.uint32:
 
 
 @wp.func
-def shuffle(index: wp.uint32, seed: wp.uint32) -> wp.uint32:
-    """A permutation of the sample indices keyed by `seed` that maps every aligned block of 2^k indices
-    onto an aligned block of 2^k (Owen scrambling of the index's bits, Burley 2020, with the
-    Laine-Karras hash as improved there)."""
-    x = reverse_bits(index)
+def laine_karras(x: wp.uint32, seed: wp.uint32) -> wp.uint32:
+    """A hash keyed by `seed` in which each bit of x depends only on that bit and the bits below it:
+    on bit-reversed numbers, Owen's nested uniform scrambling (Laine and Karras 2011, with the
+    constants of Burley 2020)."""
     x = x + seed
     x = x ^ (x * LK_1)
     x = x ^ (x * LK_2)
     x = x ^ (x * LK_3)
     x = x ^ (x * LK_4)
-    return reverse_bits(x)
+    return x
+
+
+@wp.func
+def shuffle(index: wp.uint32, seed: wp.uint32) -> wp.uint32:
+    """A permutation of the sample indices keyed by `seed` that maps every aligned block of 2^k indices
+    onto an aligned block of 2^k (Owen scrambling of the index's bits, Burley 2020)."""
+    return reverse_bits(laine_karras(reverse_bits(index), seed))
+
+
+@wp.func
+def sobol1_reversed(n: wp.uint32) -> wp.uint32:
+    """The second dimension of Sobol's sequence at index n, its 32 bits reversed: bit j is the parity of
+    the index bits k that contain j (k & j == j), since its direction numbers are the rows of Pascal's
+    triangle mod 2 (Lucas). Five shifts instead of a loop over the index's bits."""
+    r = n
+    r = r ^ ((r & SOBOL_M1) >> wp.uint32(1))
+    r = r ^ ((r & SOBOL_M2) >> wp.uint32(2))
+    r = r ^ ((r & SOBOL_M4) >> wp.uint32(4))
+    r = r ^ ((r & SOBOL_M8) >> wp.uint32(8))
+    r = r ^ ((r & SOBOL_M16) >> wp.uint32(16))
+    return r
 
 
 @wp.func
@@ -98,15 +123,58 @@ def sample_2d(key: wp.uint32, dim: int, index: int) -> wp.vec2:
 
 
 @wp.func
+def sobol_2d(key: wp.uint32, dim: int, index: int) -> wp.vec2:
+    """Point `index` of a pixel's 2D low-discrepancy sequence for dimension pair `dim` (the camera's,
+    for the lowdiscrepancy sampler): the first two dimensions of Sobol's sequence, Owen-scrambled
+    (nested uniform scrambling, each coordinate with its own seed keyed by (key, dim)), its index
+    shuffled by the same key (Burley 2020, "Practical Hash-based Owen Scrambling"). Any first 2^k
+    samples of a pixel form a (0, k, 2)-net: one point in every box of 2^-a x 2^-b with a + b = k (2x2
+    cells at 4 samples, 4x4 at 16, and the strips between), so they cover the pixel at least as evenly
+    as a jittered grid, for every power of two on the way, and for the counts between nearly so;
+    pixels and dimension pairs stay independent. Twice sample_2d's cost, which is why the path's
+    bounces keep R2 (where the film's noise, not theirs, was the larger)."""
+    h = pcg_hash(key ^ pcg_hash(wp.uint32(dim)))
+    h2 = pcg_hash(h)
+    n = shuffle(wp.uint32(index), h2 ^ GOLDEN)
+    x = reverse_bits(laine_karras(n, h))
+    y = reverse_bits(laine_karras(sobol1_reversed(n), pcg_hash(h2)))
+    return wp.vec2(float(x >> wp.uint32(8)) * U24, float(y >> wp.uint32(8)) * U24)
+
+
+# The camera's low-discrepancy dimensions (sobol_2d) for the lowdiscrepancy sampler; the path
+# integrator's bounces take theirs from 1024 on (integrators/path.py, DIMS_PER_BOUNCE)
+DIM_FILM = wp.constant(0)  # the film position
+DIM_LENS = wp.constant(1)  # the point of the lens (depth of field)
+DIM_TIME = wp.constant(2)  # the shutter time (motion blur): the first coordinate
+
+
+@wp.func
+def film_uniforms(sampler: int, key: wp.uint32, sample: int, rng: wp.uint32):
+    """The two uniform numbers (u1, u2) that place sample `sample` in its pixel, and the random state
+    after its two draws (made for every sampler, so the draws after them are the same): the draws
+    themselves, or for the lowdiscrepancy sampler the pixel's point `sample` (sobol_2d, keyed by the
+    pixel's `key`)."""
+    state = wp.uint32(rng)
+    u1 = wp.randf(state)
+    u2 = wp.randf(state)
+    if sampler == SAMPLER_LOWDISCREPANCY:
+        p = sobol_2d(key, DIM_FILM, sample)
+        u1 = p[0]
+        u2 = p[1]
+    return u1, u2, state
+
+
+@wp.func
 def film_offset(sampler: int, sample: int, spp: int, u1: float, u2: float) -> wp.vec2:
     """Position (u, v) in [0,1)^2 inside the pixel of sample `sample` of `spp`.
 
     center: the pixel centre; grid: centres of a sqrt(spp) x sqrt(spp) grid; random: (u1, u2);
-    jittered: one random point in each grid cell (stratified, Cook 1986).
+    jittered: one random point in each grid cell (stratified, Cook 1986); lowdiscrepancy: (u1, u2) as
+    film_uniforms draws them, a point of the pixel's low-discrepancy sequence.
     """
     if sampler == SAMPLER_CENTER:
         return wp.vec2(0.5, 0.5)
-    if sampler == SAMPLER_RANDOM:
+    if sampler == SAMPLER_RANDOM or sampler == SAMPLER_LOWDISCREPANCY:
         return wp.vec2(u1, u2)
     n = int(wp.floor(wp.sqrt(float(spp)) + 0.5))
     i = sample % n

@@ -68,7 +68,7 @@ from tracer.integrators import INTEGRATORS
 from tracer.integrators import NAMES as INTEGRATOR_NAMES
 
 IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
-SamplerType = Literal["center", "grid", "random", "jittered", "adaptive"]
+SamplerType = Literal["center", "grid", "random", "jittered", "adaptive", "lowdiscrepancy"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -473,7 +473,14 @@ class Sampler(_Model):
         "center: exactly 1; grid, jittered: a perfect square.",
         # the default as data for editors (the page's form); tests/test_samples.py keeps it equal to _default_spp
         json_schema_extra={
-            "x-default-by-type": {"center": 1, "grid": 16, "random": 16, "jittered": 16, "adaptive": 16}
+            "x-default-by-type": {
+                "center": 1,
+                "grid": 16,
+                "random": 16,
+                "jittered": 16,
+                "adaptive": 16,
+                "lowdiscrepancy": 16,
+            }
         },
     )
     threshold: Num = Field(

@@ -20,8 +20,17 @@ from tracer.camera import camera_ray, shutter_time
 from tracer.integrators import INTEGRATORS
 from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.record import TreeRecord
-from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
-from tracer.sampling import film_offset, filter_offset, pixel_key, rng_start
+from tracer.kinds import SAMPLER_ADAPTIVE, SAMPLER_LOWDISCREPANCY, Integrator
+from tracer.sampling import (
+    DIM_LENS,
+    DIM_TIME,
+    film_offset,
+    film_uniforms,
+    filter_offset,
+    pixel_key,
+    rng_start,
+    sobol_2d,
+)
 from tracer.structs import SceneData
 
 
@@ -128,11 +137,9 @@ def point_slot(i: int, j: int, g: int, top: int):
 def pixel_sample(scene: SceneData, x: int, y: int, s: int):
     """Sample s of pixel (x, y): its film position (filter importance sampled) and weight, its random
     state (after the two draws of the position) and its pixel's low-discrepancy key."""
-    rng = rng_start(scene.seed, y * scene.width + x, s)
-    u1 = wp.randf(rng)
-    u2 = wp.randf(rng)
-    off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
     key = pixel_key(scene.seed, y * scene.width + x)
+    u1, u2, rng = film_uniforms(scene.sampler, key, s, rng_start(scene.seed, y * scene.width + x, s))
+    off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
     return float(x) + off[0], float(y) + off[1], weight, rng, key
 
 
@@ -151,14 +158,23 @@ def grid_sample(scene: SceneData, x: int, y: int, i: int, j: int, g: int):
 
 
 @wp.func(inline=True)
-def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32, sample: int):
+def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32, key: wp.uint32, sample: int):
     """The eye ray through film position (fx, fy), its lens point and shutter time drawn from rng (the
-    time is sample `sample`'s instant when camera.instants is set; the draw is made all the same):
-    (origin, unit direction, time, rng after its draws)."""
+    time is sample `sample`'s instant when camera.instants is set; the draw is made all the same; the
+    lowdiscrepancy sampler takes both from the pixel's sequence, keyed by `key`, the draws made all
+    the same): (origin, unit direction, time, rng after its draws)."""
     state = wp.uint32(rng)
     lens1 = wp.randf(state)
     lens2 = wp.randf(state)
-    time = shutter_time(scene.camera, wp.randf(state), sample)
+    u = wp.randf(state)
+    if scene.sampler == SAMPLER_LOWDISCREPANCY:
+        if scene.camera.lens_radius > 0.0:
+            lens = sobol_2d(key, DIM_LENS, sample)
+            lens1 = lens[0]
+            lens2 = lens[1]
+        if scene.camera.t1 > scene.camera.t0:
+            u = sobol_2d(key, DIM_TIME, sample)[0]
+    time = shutter_time(scene.camera, u, sample)
     o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
     return o, d, time, state
 
@@ -192,7 +208,7 @@ def make_kernels(trace, module: str):
     ) -> SampleOut:
         """The integrator's estimate at fine-grid point (i, j) of pixel (x, y) (see grid_sample)."""
         fx, fy, rng, key = grid_sample(scene, x, y, i, j, g)
-        o, d, time, state = eye_ray(scene, fx, fy, rng, j * (g + 1) + i)
+        o, d, time, state = eye_ray(scene, fx, fy, rng, key, j * (g + 1) + i)
         return trace_outlined(scene, o, d, time, state, key, j * (g + 1) + i, st, row, record, rec)
 
     @wp.kernel(module=module)
@@ -212,7 +228,7 @@ def make_kernels(trace, module: str):
         alb = film.albedo[y, x]
         for s in range(s0, s1):
             fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
-            o, d, time, state = eye_ray(scene, fx, fy, rng, s)
+            o, d, time, state = eye_ray(scene, fx, fy, rng, key, s)
             out = trace(scene, o, d, time, state, key, s, st, row, 0, rec)
             c = out.color * weight  # the sample times its filter weight
             acc = acc + c
@@ -368,7 +384,7 @@ def make_kernels(trace, module: str):
             out[1] = wp.vec3(1.0, 0.0, 0.0)
         else:
             fx, fy, weight, rng, key = pixel_sample(scene, x, y, s)
-            o, d, time, state = eye_ray(scene, fx, fy, rng, s)
+            o, d, time, state = eye_ray(scene, fx, fy, rng, key, s)
             r = trace_outlined(scene, o, d, time, state, key, s, st, 0, 1, rec)
             out[0] = r.color * weight
             out[1] = wp.vec3(weight, 0.0, 0.0)

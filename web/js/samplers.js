@@ -57,6 +57,8 @@ export function samplerWords(listed) {
       return `${n} rays, one at a random point of each cell`;
     case "random":
       return `${n} rays at uniform random points`;
+    case "lowdiscrepancy":
+      return `${n} rays at successive points of a low-discrepancy sequence`;
     case "adaptive": {
       const traced = listed.samples.filter((s) => s.traced).length;
       return `${traced} rays: a cell is split where its colours differ, down to level ${listed.max_level}`;
