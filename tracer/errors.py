@@ -22,6 +22,10 @@ FINITE = "must be a finite number (not NaN or Infinity)"
 FLOAT32 = "must be between -3.4e38 and 3.4e38 (the renderer computes in 32-bit floats)"
 
 
+class Cancelled(Exception):
+    """A radiosity solve was asked to stop (its `cancel()` returned True between two shots)."""
+
+
 class SceneError(Exception):
     """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...}."""
 

@@ -46,6 +46,7 @@ import warp as wp
 
 from tracer import meshing
 from tracer.compile import CompiledScene, compile_scene
+from tracer.errors import Cancelled
 from tracer.geometry import PI, closest_hit
 from tracer.kinds import (
     PATCHES_DISK,
@@ -75,10 +76,6 @@ DISK_MIN_SECTORS = meshing.DISK_MIN_SECTORS  # a disk's rings have at least this
 SPHERE_REACH = wp.constant(1.001)  # a ray from a sphere's centre to its facets (inscribed) goes this far, in radii
 TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
 TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)
-
-
-class Cancelled(Exception):
-    """The solve was asked to stop (`cancel()` returned True between two shots)."""
 
 
 @dataclass

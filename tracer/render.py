@@ -19,17 +19,21 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import warp as wp
 
-from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
+from tracer.errors import Cancelled
 from tracer.integrators import dispatch, record
 from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
 from tracer.parallel import default_threads, is_cuda, thread_pool
 from tracer.scene import Scene
+
+if TYPE_CHECKING:
+    from tracer import radiosity
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
@@ -426,7 +430,7 @@ def render(
     total = pixels * (cs.data.max_level + 1 if adaptive else cs.data.spp)
     try:
         solve = solve_radiosity(cs, threads, progress, cancel, device, start, total, radiosity_cache)
-    except radiosity.Cancelled:
+    except Cancelled:
         shape = (cs.data.height, cs.data.width, 3)
         return RenderResult(np.zeros(shape, np.float32), 0, time.perf_counter() - start, cancelled=True)
     solve_rays = solve["rays"] if solve else 0
@@ -484,9 +488,12 @@ def solve_radiosity(
 ) -> dict | None:
     """The radiosity phase of a render: solve and attach the scene's radiosity solution when its
     integrator needs one that is not there yet, reporting each shot to `progress` (phase "radiosity")
-    and asking `cancel` before each (True raises radiosity.Cancelled). Returns the solve's stats."""
+    and asking `cancel` before each (True raises Cancelled). Returns the solve's stats. The solver is
+    imported here: other scenes' renders need not load it."""
     if cs.data.integrator != Integrator.RADIOSITY:
         return None
+    from tracer import radiosity
+
     if cs.radiosity is None:
 
         def on_step(sol, step: int) -> None:
