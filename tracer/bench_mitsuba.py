@@ -11,10 +11,11 @@ kernel loading, the render, the image written): `python -m tracer render` and, f
 variant, tracer/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours, ...), so that the
 machine's other load falls on all of them alike; medians of the rounds, wall and CPU time (user +
 sys). Mitsuba runs under the interpreter `python` (its own virtual environment, if it is not
-installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba at 16x
-the samples; each round with its own seed, the squared errors averaged), and the samples (and
-time) our renderer needs to reach the RMSE of Mitsuba's llvm_ad_rgb variant at the benchmark's
-samples, from the RMSE after each of our progressive passes. The llvm_ad_rgb variant needs a
+installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba's
+low-discrepancy sampler at 64x the samples; each round with its own seed, the squared errors
+averaged), and the samples (and time) our renderer needs to reach the RMSE of Mitsuba's llvm_ad_rgb
+variant at the benchmark's samples, from the RMSE after each of our progressive passes; then the
+same with the better samplers of both (`better_sampling`). The llvm_ad_rgb variant needs a
 libLLVM (Debian's libllvm19; Mitsuba's JIT fails with LLVM 15 on this AVX-512 machine):
 DRJIT_LIBLLVM_PATH is pointed at the newest found.
 """
@@ -203,12 +204,14 @@ def compare(
     variants: list[str],
     rounds: int = 3,
     threads: int | None = None,
-    ref_factor: int = 16,
+    ref_factor: int = 64,
     baseline: str | None = None,
 ) -> dict:
     """The whole-process comparison of our renderer and Mitsuba's `variants` on the scene `data` (a scene
     dict with its film, sampler and max_depth set), `rounds` turns each, alternating; then the quality:
-    RMSE against Mitsuba's render at ref_factor x the samples (each round renders with its own seed;
+    RMSE against Mitsuba's render at ref_factor x the samples with its low-discrepancy sampler (`ldsampler`:
+    at 16x with the independent one, the reference's own noise, about 0.008 here, hid the differences of the
+    better samplers, whose errors are near 0.013) (each round renders with its own seed;
     the RMSE is the root of the mean squared error over the rounds, as one image's RMSE swings with its
     few brightest pixels), and the samples our renderer needs to reach the RMSE of the first variant
     (llvm_ad_rgb when there). `baseline`: another checkout of the
@@ -247,8 +250,12 @@ def compare(
             print(f"  round {r + 1}/{rounds}: {line}", flush=True)
         ref_variant = variants[0]
         ref_spp = spp * ref_factor
-        ref = run_mitsuba(python, spec, ref_variant, ref_spp, folder / "ref.npy", seed=12345, threads=threads or 0)
-        out["reference"] = f"Mitsuba {ref_variant}, {spp * ref_factor} spp"
+        ref_data = json.loads(json.dumps(data))
+        ref_data["sampler"] = {"type": "lowdiscrepancy", "spp": ref_spp}
+        (folder / "reference").mkdir()
+        ref_spec = write_spec(load_scene(ref_data)[0], ref_spp, folder / "reference")
+        ref = run_mitsuba(python, ref_spec, ref_variant, ref_spp, folder / "ref.npy", seed=12345, threads=threads or 0)
+        out["reference"] = f"Mitsuba {ref_variant}, ldsampler, {ref_spp} spp"
         ref_img = ref["image"].astype(np.float64)
         out["load_after"] = os.getloadavg()
         for name, rs in runs.items():
