@@ -58,7 +58,7 @@ def seconds(scene: Scene, threads: int = 1, assets: Path | None = None, solve: f
     if sampler.type == "adaptive":
         per_pixel = 5 + 12 * sampler.max_level  # corner and centre rays, then cells split at the edges
         passes = sampler.max_level + 1
-        eye = film.width * film.height * per_pixel * passes  # each pass traces its levels again
+        eye = film.width * film.height * per_pixel  # each grid point once over all the passes
     else:
         eye = film.width * film.height * sampler.spp
         passes = 1 + max(0, math.ceil(math.log2(max(sampler.spp, 1))))
