@@ -198,6 +198,20 @@ def spp_to_reach(curve: list[tuple[int, float]], target: float) -> float | None:
     return float(math.exp(math.log(s0) + slope * (math.log(target) - math.log(e0))))
 
 
+def summary(rs: list[dict], ref_img: np.ndarray) -> dict:
+    """One renderer's rounds: median wall, CPU and render seconds, and the RMSE against `ref_img` (the root
+    of the squared errors averaged over the rounds, each with its own seed), each round's too."""
+    return {
+        "wall": statistics.median(x["wall"] for x in rs),
+        "cpu": statistics.median(x["cpu"] for x in rs),
+        "render": statistics.median(x["render_s"] for x in rs),
+        "walls": [round(x["wall"], 3) for x in rs],
+        "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
+        "rmse_rounds": [round(rmse(x["image"], ref_img), 6) for x in rs],
+        "mean": float(rs[0]["image"].mean()),
+    }
+
+
 def compare(
     data: dict,
     python: str,
@@ -259,15 +273,7 @@ def compare(
         ref_img = ref["image"].astype(np.float64)
         out["load_after"] = os.getloadavg()
         for name, rs in runs.items():
-            out[name] = {
-                "wall": statistics.median(x["wall"] for x in rs),
-                "cpu": statistics.median(x["cpu"] for x in rs),
-                "render": statistics.median(x["render_s"] for x in rs),
-                "walls": [round(x["wall"], 3) for x in rs],
-                "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
-                "rmse_rounds": [round(rmse(x["image"], ref_img), 6) for x in rs],
-                "mean": float(rs[0]["image"].mean()),
-            }
+            out[name] = summary(rs, ref_img)
         # our RMSE after each progressive pass (1, 2, 4, ... spp) up to 4x the samples, in process, the
         # squared errors averaged over the first three rounds' seeds
         more = json.loads(json.dumps(data))
@@ -360,13 +366,7 @@ def better_sampling(
         line = ", ".join(f"{k} {x[-1]['wall']:.2f} s" for k, x in runs.items())
         print(f"  round {r + 1}/{rounds}: ours lowdiscrepancy {n_spp} spp and Mitsuba's samplers: {line}", flush=True)
     for name, rs in runs.items():
-        out[name] = {
-            "wall": statistics.median(x["wall"] for x in rs),
-            "cpu": statistics.median(x["cpu"] for x in rs),
-            "render": statistics.median(x["render_s"] for x in rs),
-            "walls": [round(x["wall"], 3) for x in rs],
-            "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
-        }
+        out[name] = summary(rs, ref_img)
     o = out["ours"]
     fixed, per_spp = o["wall"] - o["render"], o["render"] / n_spp
     for name in specs:
