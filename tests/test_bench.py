@@ -43,6 +43,25 @@ def test_bench_mitsuba_scene_is_json_with_the_same_settings(tmp_path):
     jittered = json.loads((SCENES / "cornell_path.json").read_text())
     s2, _ = load_scene(jittered)
     assert bench_mitsuba.scene_dict(s2, 64, tmp_path)["sensor"]["sampler"]["type"] == "stratified"
+    jittered["sampler"] = {"type": "lowdiscrepancy", "spp": 64}
+    s3, _ = load_scene(jittered)
+    assert bench_mitsuba.scene_dict(s3, 64, tmp_path)["sensor"]["sampler"]["type"] == "ldsampler"
+
+
+def test_bench_interior_leaves_out_the_light_and_its_rim():
+    """RMSE 'inside': the pixels more than 3 steps (up, down, left, right) from any whose reference radiance
+    passes 1.5 (the light)."""
+    ref = np.full((20, 30, 3), 0.5)
+    ref[5:7, 10:14] = 17.0
+    inside = bench_mitsuba.interior(ref)
+    y, x = np.mgrid[:20, :30]
+    steps = np.maximum(0, np.maximum(5 - y, y - 6)) + np.maximum(0, np.maximum(10 - x, x - 13))
+    assert np.array_equal(inside, steps > 3)
+    img = ref.copy()
+    img[6, 12] += 1.0  # an error on the light: the whole image's RMSE, not the inside's
+    img[15, 25] += 0.3
+    assert bench_mitsuba.rmse(img, ref, inside) == pytest.approx(math.sqrt(0.3**2 / inside.sum()))
+    assert bench_mitsuba.rmse(img, ref) == pytest.approx(math.sqrt((1.0 + 0.3**2) / 600))
 
 
 def test_bench_mitsuba_scene_names_what_it_cannot_convert(tmp_path):

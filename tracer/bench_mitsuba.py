@@ -176,8 +176,26 @@ def run_ours(
     return {"wall": wall, "cpu": cpu, "render_s": seconds, "image": read_exr(out.with_suffix(".exr"))}
 
 
-def rmse(img: np.ndarray, ref: np.ndarray) -> float:
-    return float(np.sqrt(np.mean((np.asarray(img, np.float64) - ref) ** 2)))
+def rmse(img: np.ndarray, ref: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """The root mean squared error of `img` against `ref`, over the pixels of `mask` (all by default)."""
+    sq = ((np.asarray(img, np.float64) - ref) ** 2).mean(axis=-1)
+    return float(np.sqrt(sq.mean() if mask is None else sq[mask].mean()))
+
+
+def interior(ref: np.ndarray, bright: float = 1.5, rim: int = 3) -> np.ndarray:
+    """The pixels away from the light: not within `rim` pixels of one whose reference radiance (mean of
+    the channels) is above `bright`. The light's edges are where the film position matters most (a
+    radiance of 17 next to 0.7), and they weigh most in a whole image's RMSE; inside, the noise is the
+    paths' own."""
+    near = ref.mean(axis=-1) > bright
+    for _ in range(rim):
+        grown = near.copy()
+        grown[1:] |= near[:-1]
+        grown[:-1] |= near[1:]
+        grown[:, 1:] |= near[:, :-1]
+        grown[:, :-1] |= near[:, 1:]
+        near = grown
+    return ~near
 
 
 def spp_to_reach(curve: list[tuple[int, float]], target: float) -> float | None:
@@ -198,9 +216,10 @@ def spp_to_reach(curve: list[tuple[int, float]], target: float) -> float | None:
     return float(math.exp(math.log(s0) + slope * (math.log(target) - math.log(e0))))
 
 
-def summary(rs: list[dict], ref_img: np.ndarray) -> dict:
+def summary(rs: list[dict], ref_img: np.ndarray, inside: np.ndarray) -> dict:
     """One renderer's rounds: median wall, CPU and render seconds, and the RMSE against `ref_img` (the root
-    of the squared errors averaged over the rounds, each with its own seed), each round's too."""
+    of the squared errors averaged over the rounds, each with its own seed), each round's too, and over
+    the pixels `inside` (see `interior`)."""
     return {
         "wall": statistics.median(x["wall"] for x in rs),
         "cpu": statistics.median(x["cpu"] for x in rs),
@@ -208,6 +227,7 @@ def summary(rs: list[dict], ref_img: np.ndarray) -> dict:
         "walls": [round(x["wall"], 3) for x in rs],
         "rmse": math.sqrt(statistics.fmean(rmse(x["image"], ref_img) ** 2 for x in rs)),
         "rmse_rounds": [round(rmse(x["image"], ref_img), 6) for x in rs],
+        "rmse_interior": math.sqrt(statistics.fmean(rmse(x["image"], ref_img, inside) ** 2 for x in rs)),
         "mean": float(rs[0]["image"].mean()),
     }
 
@@ -271,25 +291,32 @@ def compare(
         ref = run_mitsuba(python, ref_spec, ref_variant, ref_spp, folder / "ref.npy", seed=12345, threads=threads or 0)
         out["reference"] = f"Mitsuba {ref_variant}, ldsampler, {ref_spp} spp"
         ref_img = ref["image"].astype(np.float64)
+        inside = interior(ref_img)
+        out["interior_pixels"] = int(inside.sum())
         out["load_after"] = os.getloadavg()
         for name, rs in runs.items():
-            out[name] = summary(rs, ref_img)
+            out[name] = summary(rs, ref_img, inside)
         # our RMSE after each progressive pass (1, 2, 4, ... spp) up to 4x the samples, in process, the
         # squared errors averaged over the first three rounds' seeds
         more = json.loads(json.dumps(data))
         more["sampler"]["spp"] = spp * 4
         sq: dict[int, list[float]] = {}
+        sq_in: dict[int, list[float]] = {}
 
         def on_pass(p) -> None:
             sq.setdefault(p.spp_done, []).append(rmse(p.image, ref_img) ** 2)
+            sq_in.setdefault(p.spp_done, []).append(rmse(p.image, ref_img, inside) ** 2)
 
         for seed in range(1, min(rounds, 3) + 1):
             more.setdefault("render", {})["seed"] = seed
             render(load_scene(more)[0], threads=threads, on_pass=on_pass)
         curve = [(s, math.sqrt(statistics.fmean(v))) for s, v in sorted(sq.items())]
+        curve_in = [(s, math.sqrt(statistics.fmean(v))) for s, v in sorted(sq_in.items())]
         out["ours"]["rmse_curve"] = [[s, round(e, 6)] for s, e in curve]
+        out["ours"]["rmse_curve_interior"] = [[s, round(e, 6)] for s, e in curve_in]
         target = out[ref_variant]["rmse"]
         need = spp_to_reach(curve, target)
+        need_in = spp_to_reach(curve_in, out[ref_variant]["rmse_interior"])
         o = out["ours"]
         fixed = o["wall"] - o["render"]  # start-up, loading and writing: the same at any spp
         out["equal_quality"] = {
@@ -297,10 +324,12 @@ def compare(
             "target_rmse": target,
             "ours_spp": need,
             "ours_wall": None if need is None else fixed + o["render"] * need / spp,
+            "ours_spp_interior": need_in,
+            "ours_wall_interior": None if need_in is None else fixed + o["render"] * need_in / spp,
         }
         if scene.sampler.type == "random":
             out["better_sampling"] = better_sampling(
-                data, python, ref_variant, target, ref_img, rounds, threads, folder
+                data, python, ref_variant, out[ref_variant], ref_img, inside, rounds, threads, folder
             )
     return out
 
@@ -309,8 +338,9 @@ def better_sampling(
     data: dict,
     python: str,
     variant: str,
-    target: float,
+    theirs: dict,
     ref_img: np.ndarray,
+    inside: np.ndarray,
     rounds: int,
     threads: int | None,
     folder: Path,
@@ -318,12 +348,13 @@ def better_sampling(
     """Equal quality with better sampling than the independent one. Ours: the `lowdiscrepancy` sampler
     (film positions from each pixel's low-discrepancy sequence, as the path's bounces already are): its
     RMSE against `ref_img` at 1/8 to 4x the scene's samples, each count rendered in process (three seeds,
-    the squared errors averaged), gives the fewest samples that reach `target` (Mitsuba `variant`'s RMSE
-    with its independent sampler at the scene's samples); then our whole process at those samples,
+    the squared errors averaged), gives the fewest samples that reach the RMSE of `theirs` (Mitsuba
+    `variant`'s summary with its independent sampler at the scene's samples); then our whole process at
+    those samples,
     and Mitsuba `variant` with its own better samplers (`stratified`, `ldsampler`) at the scene's
     samples, in alternating rounds. Also the samples (and the time they take, from the whole process's
-    fixed cost and render time) we need to reach each of those samplers' RMSE. Returns every number;
-    prints as it goes."""
+    fixed cost and render time) we need to reach each of those samplers' RMSE, and each RMSE over the
+    `inside` pixels only (`interior`). Returns every number; prints as it goes."""
     from tracer.render import render
     from tracer.scene import load_scene
 
@@ -339,13 +370,17 @@ def better_sampling(
     # each count rendered on its own: a first n of a pixel's samples that is no power of two spreads
     # less evenly than the progressive passes' 1, 2, 4, ... would suggest
     counts = sorted({max(1, spp * k // 16) for k in (2, 3, 4, 5, 6, 7, 8, 10, 12, 16, 24, 32, 48, 64)})
-    curve = []
+    curve, curve_in = [], []
     for n in counts:
-        errs = [rmse(render(load_scene(ours(n, seed))[0], threads=threads).image, ref_img) ** 2 for seed in (1, 2, 3)]
-        curve.append((n, math.sqrt(statistics.fmean(errs))))
+        images = [render(load_scene(ours(n, seed))[0], threads=threads).image for seed in (1, 2, 3)]
+        curve.append((n, math.sqrt(statistics.fmean(rmse(m, ref_img) ** 2 for m in images))))
+        curve_in.append((n, math.sqrt(statistics.fmean(rmse(m, ref_img, inside) ** 2 for m in images))))
     print("  ours lowdiscrepancy, RMSE: " + ", ".join(f"{n} spp {e:.5f}" for n, e in curve), flush=True)
+    print("    inside: " + ", ".join(f"{n} spp {e:.5f}" for n, e in curve_in), flush=True)
+    target = theirs["rmse"]
     n_spp = next((n for n, e in curve if e <= target), counts[-1])  # the fewest listed that reach it
     out: dict = {"target_rmse": target, "curve": [[n, round(e, 6)] for n, e in curve], "ours_spp": n_spp}
+    out["curve_interior"] = [[n, round(e, 6)] for n, e in curve_in]
     scene_file = folder / "lowdiscrepancy.json"
     scene_file.write_text(json.dumps(ours(n_spp)))
     specs = {}
@@ -366,13 +401,17 @@ def better_sampling(
         line = ", ".join(f"{k} {x[-1]['wall']:.2f} s" for k, x in runs.items())
         print(f"  round {r + 1}/{rounds}: ours lowdiscrepancy {n_spp} spp and Mitsuba's samplers: {line}", flush=True)
     for name, rs in runs.items():
-        out[name] = summary(rs, ref_img)
+        out[name] = summary(rs, ref_img, inside)
     o = out["ours"]
     fixed, per_spp = o["wall"] - o["render"], o["render"] / n_spp
-    for name in specs:
-        n = spp_to_reach(curve, out[name]["rmse"])
+    for name, m in [(k, out[k]) for k in specs] + [("independent", theirs)]:
+        n = spp_to_reach(curve, m["rmse"])
+        n_in = spp_to_reach(curve_in, m["rmse_interior"])
+        out.setdefault(name, {})
         out[name]["ours_spp"] = n
         out[name]["ours_wall"] = None if n is None else fixed + per_spp * n
+        out[name]["ours_spp_interior"] = n_in
+        out[name]["ours_wall_interior"] = None if n_in is None else fixed + per_spp * n_in
     return out
 
 
@@ -382,34 +421,51 @@ def print_comparison(out: dict) -> None:
     print(
         f"\nCornell box {w}x{h}, {out['spp']} spp, max_depth {out['max_depth']}, {out['sampler']} sampler, "
         f"{out['threads']} threads; whole processes, medians of {len(out['ours']['walls'])} alternating rounds; "
-        f"load average {out['load_before'][0]:.2f} before, {out['load_after'][0]:.2f} after"
+        f"load average {out['load_before'][0]:.2f} before, {out['load_after'][0]:.2f} after; RMSE against "
+        f"{out['reference']}, 'inside' over the {out['interior_pixels']} pixels away from the light (see interior)"
     )
-    print(f"  {'renderer':22} {'wall s':>7} {'CPU s':>7} {'render s':>9} {'RMSE':>8} {'mean':>7}")
-    for name in [k for k in out if isinstance(out[k], dict) and "wall" in out[k]]:
+    print(f"  {'renderer':22} {'wall s':>7} {'CPU s':>7} {'render s':>9} {'RMSE':>8} {'inside':>8} {'mean':>7}")
+    runs = [k for k in out if isinstance(out[k], dict) and "wall" in out[k]]
+    for name in runs:
         r = out[name]
         label = name if name in ("ours", "baseline") else f"Mitsuba {name}"
-        print(f"  {label:22} {r['wall']:7.2f} {r['cpu']:7.2f} {r['render']:9.2f} {r['rmse']:8.5f} {r['mean']:7.4f}")
+        print(
+            f"  {label:22} {r['wall']:7.2f} {r['cpu']:7.2f} {r['render']:9.2f} {r['rmse']:8.5f} "
+            f"{r['rmse_interior']:8.5f} {r['mean']:7.4f}"
+        )
     o = out["ours"]
-    for name in [k for k in out if k != "ours" and isinstance(out[k], dict) and "wall" in out[k]]:
+    for name in [k for k in runs if k != "ours"]:
         m = out[name]
         print(f"  ours / {name}: {o['wall'] / m['wall']:.2f}x the wall time, {o['cpu'] / m['cpu']:.2f}x the CPU")
+    ref = next(k for k in runs if k not in ("ours", "baseline"))
     q = out["equal_quality"]
-    if q["ours_spp"] is not None:
-        print(
-            f"  equal quality ({q['target']}, RMSE {q['target_rmse']:.5f} against {out['reference']}): "
-            f"ours needs {q['ours_spp']:.1f} spp, {q['ours_wall']:.2f} s as a whole process"
-        )
+    print(f"  equal quality with Mitsuba {ref} at {out['spp']} spp, ours {out['sampler']}: {_reach(q, out[ref])}")
     b = out.get("better_sampling")
-    if b:
-        ref = next(k for k in out if isinstance(out[k], dict) and "rmse" in out[k] and k not in ("ours", "baseline"))
-        o = b["ours"]
+    if not b:
+        return
+    o = b["ours"]
+    print(
+        f"  ours lowdiscrepancy at {b['ours_spp']} spp: RMSE {o['rmse']:.5f} (inside {o['rmse_interior']:.5f}), "
+        f"{o['wall']:.2f} s as a whole process, {o['wall'] / out[ref]['wall']:.2f}x Mitsuba {ref}'s independent "
+        f"{out['spp']} spp (RMSE {out[ref]['rmse']:.5f}, inside {out[ref]['rmse_interior']:.5f})"
+    )
+    reach = _reach(b["independent"], out[ref])
+    print(f"  equal quality with Mitsuba {ref} independent {out['spp']} spp, ours lowdiscrepancy: {reach}")
+    for name in ("stratified", "ldsampler"):
+        m = b[name]
         print(
-            f"  equal quality with better sampling: ours lowdiscrepancy {b['ours_spp']} spp, RMSE {o['rmse']:.5f} "
-            f"(target {b['target_rmse']:.5f}), {o['wall']:.2f} s as a whole process: "
-            f"{o['wall'] / out[ref]['wall']:.2f}x Mitsuba {ref}'s {out[ref]['wall']:.2f} s"
+            f"  Mitsuba {ref} {name} {out['spp']} spp: RMSE {m['rmse']:.5f} (inside {m['rmse_interior']:.5f}), "
+            f"{m['wall']:.2f} s; ours lowdiscrepancy to its quality: {_reach(m, m)}"
         )
-        for name in ("stratified", "ldsampler"):
-            m = b[name]
-            need = "" if m["ours_spp"] is None else f"; ours lowdiscrepancy reaches it at {m['ours_spp']:.1f} spp, "
-            need += "" if m["ours_wall"] is None else f"{m['ours_wall']:.2f} s ({m['ours_wall'] / m['wall']:.2f}x)"
-            print(f"  Mitsuba {ref} {name} {out['spp']} spp: RMSE {m['rmse']:.5f}, {m['wall']:.2f} s{need}")
+
+
+def _reach(q: dict, theirs: dict) -> str:
+    """Our samples and whole-process seconds to reach a quality (whole image, inside), against their time."""
+    parts = []
+    for key, what in (("", "RMSE"), ("_interior", "inside")):
+        n, wall = q.get("ours_spp" + key), q.get("ours_wall" + key)
+        if n is None or wall is None:
+            parts.append(f"{what}: not reached")
+        else:
+            parts.append(f"{what}: {n:.1f} spp, {wall:.2f} s ({wall / theirs['wall']:.2f}x)")
+    return "; ".join(parts)
