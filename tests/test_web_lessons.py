@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import json
 import re
+from io import BytesIO
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
+from PIL import Image
 from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -125,6 +128,7 @@ def test_lessons_cover_the_lecture():
         "shadows",
         "dof",
         "integrators",
+        "noise",
         "radiosity",
         "texture",
         "bump",
@@ -231,3 +235,71 @@ def test_lesson_mystery_pictures_are_named_once_answered(desktop):
     answer_question(page)
     titles = panel_texts(page, "figcaption strong")
     assert titles[3].startswith("picture B: adaptive")
+
+
+def panel_errors(page) -> list[float | None]:
+    """Each panel's RMS difference from its reference (levels of 255), as written under it; None: no error shown."""
+    return page.evaluate(
+        """() => [...document.querySelectorAll('.lesson-panel')].map(p => {
+            const e = p.querySelector('.panel-error');
+            return e && e.dataset.rms ? Number(e.dataset.rms) : null;
+        })"""
+    )
+
+
+def wait_for_errors(page, n: int) -> None:
+    page.wait_for_function(
+        "(n) => document.querySelectorAll('.lesson-panel .panel-error[data-rms]').length === n", arg=n, timeout=60_000
+    )
+
+
+def test_lesson_noise_errors_against_the_references(desktop, server):  # noqa: F811
+    """The noise lesson: random, jittered and low-discrepancy at the same rays per pixel, on the checkered floor
+    (top row) and on the path-traced Cornell box (bottom row), each with its RMS difference from its row's
+    reference. On the floor the film position is all that is sampled: low-discrepancy < jittered < random. In
+    the box the noise comes from the bounces, which the sampler does not choose: the three are within 10 %.
+    The page's numbers are checked against the PNGs themselves; the drawings say how evenly the points lie."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "noise")
+    pictures_loaded(page)
+    wait_for_errors(page, 6)
+    errors = panel_errors(page)
+    assert errors[3] is None and errors[7] is None, errors  # the references
+    floor, box = errors[0:3], errors[4:7]
+    assert floor[2] < floor[1] < floor[0] and floor[2] < 0.7 * floor[0], floor
+    assert max(box) < 1.1 * min(box), box
+
+    # the numbers are the RMS difference of the pictures' own PNGs (0-255, over the three channels)
+    jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
+
+    def png(i: int) -> np.ndarray:
+        r = httpx.get(f"{server.url}/api/jobs/{jobs[i]}/image?format=png", headers=TEACHER, timeout=30)
+        r.raise_for_status()
+        return np.asarray(Image.open(BytesIO(r.content)).convert("RGB"), dtype=np.float64)
+
+    for i, ref in ((0, 3), (2, 3), (5, 7)):
+        rms = float(np.sqrt(((png(i) - png(ref)) ** 2).mean()))
+        assert abs(rms - errors[i]) < 0.01, (i, rms, errors[i])
+
+    # one pixel's points: the low-discrepancy ones fill every cell, column and row; random ones leave gaps
+    page.wait_for_function("() => [...document.querySelectorAll('canvas.samples')].every(c => c.dataset.positions)")
+    words = panel_texts(page, ".samples-box small")
+    assert len(words) == 6, words
+    assert "One in each of the 4 × 4 cells, 16 columns and 16 rows" in words[2], words[2]
+    assert "Empty: 0 of the 4 × 4 cells" in words[1], words[1]
+    assert re.search(r"Empty: [1-9]\d* of the 4 × 4 cells", words[0]), words[0]
+
+    # more rays: every error falls
+    page.locator(".lesson-controls [data-key=spp]").select_option("64")
+    page.wait_for_function(
+        """() => [...document.querySelectorAll('.lesson-panel')].every(p => p.dataset.status === 'done')
+            && [...document.querySelectorAll('.lesson-panel code')]
+                .filter(c => c.textContent.includes('sampler.spp = 64')).length === 6""",
+        timeout=120_000,
+    )
+    pictures_loaded(page)
+    wait_for_errors(page, 6)
+    more = panel_errors(page)
+    assert all(more[i] < errors[i] for i in (0, 1, 2, 4, 5, 6)), (errors, more)
+    assert more[2] < more[1] < more[0], more
+    desktop.shot("lesson-noise-64", full_page=True)

@@ -3,7 +3,7 @@
 // (rays by kind, time) are written under it. A lesson's controls (sliders and choices bound to scene
 // fields) re-render the panels they touch, a moment after the last change, cancelling the jobs they
 // supersede. Each lesson ends with a question that the page checks, with an explanation.
-import { ApiError, api, showImage } from "./api.js";
+import { ApiError, api, blob, showImage } from "./api.js";
 import { inspectGroup } from "./inspect.js";
 import { followJob } from "./jobs.js";
 import { drawSamples, samplerWords } from "./samplers.js";
@@ -23,6 +23,10 @@ function eachMaterial(s, fn) {
 function named(s, name) {
   return (s.objects || []).find((o) => o.name === name);
 }
+
+/** A reference panel of the noise lesson: many rays, and another seed than the panels it is compared with (a
+ * low-discrepancy panel's points are the first ones of the same seed's longer sequence). */
+const REFERENCE = { "sampler.type": "lowdiscrepancy", "sampler.spp": 256, "render.seed": 1 };
 
 /** Choices of a select control from plain values: [[value, text]]. */
 const values = (...xs) => xs.map((x) => [x, String(x)]);
@@ -109,7 +113,7 @@ export const LESSONS = [
     id: "sampling",
     title: "One ray per pixel vs supersampling vs adaptive vs jittered",
     samples: [44, 37], // the pixel whose samples are drawn (at 160 x 120): the ball's edge against the sky crosses it
-    text: "The same scene sampled four ways; under each, where the sampler puts its rays inside one pixel. One ray per pixel gives jaggies, broken thin poles and moiré near the horizon (a frequency too high for the pixels masquerading as a lower one). A regular grid smooths edges but the moiré only moves. Adaptive supersampling starts from the corners and the centre and splits only cells whose colours differ (here across an edge). Jittered sampling (one random point per cell) turns the moiré into noise.",
+    text: "The same scene sampled four ways; under each, where the sampler puts its rays inside one pixel. One ray per pixel gives jaggies, broken thin poles and moiré near the horizon (a frequency too high for the pixels masquerading as a lower one). A regular grid smooths edges but the moiré only moves. Adaptive supersampling starts from the corners and the centre and splits only cells whose colours differ (here across an edge). Jittered sampling (one random point per cell) turns the moiré into noise; how much noise depends on how evenly the points lie (the noise lesson compares random, jittered and low-discrepancy points).",
     controls: [{ key: "spp", label: "rays per pixel (grid and jittered)", kind: "select", choices: values(4, 16, 64), value: 16, panels: [1, 3], path: "sampler.spp" }],
     panels: [
       { label: "one ray per pixel (center)", scene: "antialias_center" },
@@ -281,6 +285,34 @@ export const LESSONS = [
     },
   },
   {
+    id: "noise",
+    title: "Noise: random vs jittered vs low-discrepancy (quasi-Monte Carlo)",
+    samples: [44, 37], // the pixel whose samples are drawn (at 160 x 120 and 120 x 120)
+    text: "A pixel's colour is an average (over its area, and over the lens, the shutter and a path's bounces) estimated from a few rays: the estimate is off by a random error, the noise. How the rays' points are spread changes that error, not the picture they converge to. Random: independent points, which clump and leave gaps. Jittered: one random point in each cell of a √n × √n grid (stratified). Low-discrepancy (quasi-Monte Carlo): the successive points of a Sobol sequence, scrambled for each pixel; every first 2ᵏ of them form a (0,k,2)-net, one point in each box of area 2⁻ᵏ: at 16 rays one in each of the 4 × 4 cells, and also one in each of 16 thin columns and 16 thin rows. The sampler chooses only where a ray crosses the pixel (and the lens, and the shutter time); a path's bounce directions and its points on the light come from the path's own points, the same for all three. Under each picture: one pixel's rays, and the RMS difference from the row's reference (256 rays per pixel, another seed; its own small noise counts too). Top: ray tracing with a point light. Bottom: the path-traced Cornell box.",
+    controls: [{ key: "spp", label: "rays per pixel (all but the references)", kind: "select", choices: values(4, 16, 64), value: 16, panels: [0, 1, 2, 4, 5, 6], path: "sampler.spp" }],
+    panels: [
+      { label: (s) => `random, ${s.sampler.spp} rays`, scene: "antialias_jittered", set: { "sampler.type": "random" }, against: 3 },
+      { label: (s) => `jittered, ${s.sampler.spp} rays (${Math.sqrt(s.sampler.spp)} × ${Math.sqrt(s.sampler.spp)} cells)`, scene: "antialias_jittered", set: { "sampler.type": "jittered" }, against: 3 },
+      { label: (s) => `low-discrepancy, ${s.sampler.spp} rays`, scene: "antialias_jittered", set: { "sampler.type": "lowdiscrepancy" }, against: 3 },
+      { label: "reference: low-discrepancy, 256 rays", scene: "antialias_jittered", set: REFERENCE, samples: null },
+      { label: (s) => `path traced, random, ${s.sampler.spp} rays`, scene: "cornell_path", set: { "sampler.type": "random" }, against: 7 },
+      { label: (s) => `path traced, jittered, ${s.sampler.spp} rays (${Math.sqrt(s.sampler.spp)} × ${Math.sqrt(s.sampler.spp)} cells)`, scene: "cornell_path", set: { "sampler.type": "jittered" }, against: 7 },
+      { label: (s) => `path traced, low-discrepancy, ${s.sampler.spp} rays`, scene: "cornell_path", set: { "sampler.type": "lowdiscrepancy" }, against: 7 },
+      { label: "path traced reference: low-discrepancy, 256 rays", scene: "cornell_path", set: REFERENCE, samples: null },
+    ],
+    question: {
+      prompt: "At the same number of rays, the low-discrepancy picture of the floor is the closest to its reference and the random one the farthest. Yet on the path-traced Cornell box the three are about equally far from theirs. Why?",
+      choices: [
+        "Low-discrepancy points only work for ray tracing with a point light",
+        "The sampler chooses only where each ray crosses the pixel; most of the box's noise comes from the bounce directions and the points on the light, which are the same for all three",
+        "The Cornell box was rendered with fewer rays per pixel",
+        "The path tracer averages the three samplers together",
+      ],
+      answer: 1,
+      explain: "On the floor, the film position is the only random choice, and a pixel's error comes from the edges (of the checks, the ball, the poles) that cross it. Random points leave gaps and clumps, so the error of their average falls only as 1/√n: 4 times the rays, half the noise. Stratification puts one point in each cell, so only the cells an edge crosses contribute to the error, and it falls faster. A (0,k,2)-net is stratified in every shape at once (4 × 4 cells, 2 × 8, 16 thin columns, 16 thin rows), so an edge at any angle is met evenly; and every first 2ᵏ points are such a net, so a progressive render is even at each pass. In the box most pixels see no edge: their noise is the choice of each bounce's direction and of a point on the light, and changing where the rays cross the pixel does not change it; only the few pixels on an edge gain. The renderer's bounces already take their own low-discrepancy points, whatever the sampler.",
+    },
+  },
+  {
     id: "radiosity",
     title: "Radiosity: flat vs smooth vs two-pass",
     scene: "cornell_radiosity",
@@ -427,6 +459,20 @@ function rayWords(rays) {
   if (!rays) return "";
   const kinds = Object.entries(rays).filter(([k, n]) => k !== "total" && n > 0);
   return `${integer(rays.total)} rays${kinds.length ? `: ${kinds.map(([k, n]) => `${integer(n)} ${k}`).join(", ")}` : ""}`;
+}
+
+/** The pixel [x, y] whose samples panel `panel` draws: its own `samples` (null: none), else the lesson's. */
+function samplesPixel(lesson, panel) {
+  const spec = lesson.panels[panel.index];
+  return spec.samples !== undefined ? spec.samples : lesson.samples;
+}
+
+/** The RMS difference of two pictures' pixels (ImageData of one size) over R, G and B, in levels of 255. */
+function rmsDifference(a, b) {
+  if (a.width !== b.width || a.height !== b.height) return null;
+  let sum = 0;
+  for (let i = 0; i < a.data.length; i += 4) for (let k = 0; k < 3; k++) sum += (a.data[i + k] - b.data[i + k]) ** 2;
+  return Math.sqrt(sum / (a.width * a.height * 3));
 }
 
 /** The image of a panel (its picture, or its rays-per-pixel map): made here only, one place for every panel. */
@@ -594,11 +640,12 @@ export class Lessons {
         panel.el.panel = panel;
         panel.el.info.textContent = "";
         this.caption(panel);
-        if (panel.el.samples) this.drawPixelSamples(panel, lesson.samples, panel.el.samples.canvas, panel.el.samples.words);
+        if (panel.el.samples) this.drawPixelSamples(panel, samplesPixel(lesson, panel), panel.el.samples.canvas, panel.el.samples.words);
       }
       this.paint(panel);
       fresh.push(panel);
     }
+    for (const p of run.panels) if (indices.includes(p.index) || indices.includes(lesson.panels[p.index].against)) this.clearError(p);
     await this.start(fresh);
   }
 
@@ -629,18 +676,19 @@ export class Lessons {
       actions.push(step);
     }
     let samples = null;
-    if (lesson.samples) {
+    if (samplesPixel(lesson, panel)) {
       const canvas = h("canvas", { class: "samples", role: "img", "aria-label": `where the ${panel.scene.sampler?.type} sampler puts the rays of one pixel` });
       const words = h("small", {}, "asking the renderer where the samples go…");
       samples = h("div", { class: "samples-box" }, canvas, words);
       el.samples = { canvas, words };
-      this.drawPixelSamples(panel, lesson.samples, canvas, words);
+      this.drawPixelSamples(panel, samplesPixel(lesson, panel), canvas, words);
     }
     let map = null;
     if (lesson.raysMap) {
       el.map = panelImage(panel, "rays");
       map = h("div", { class: "lesson-image rays-box", title: "rays per pixel: black few, white many" }, el.map);
     }
+    if (lesson.panels[panel.index].against != null) el.error = h("p", { class: "panel-error" });
     const image = h("div", { class: "lesson-image" }, img, state);
     if (lesson.coc) {
       el.overlay = h("canvas", { class: "lesson-overlay", "aria-hidden": "true" });
@@ -654,7 +702,7 @@ export class Lessons {
       { class: "lesson-panel", dataset: { status: panel.status, index: panel.index } },
       image,
       bar,
-      h("figcaption", {}, title, notes, info),
+      h("figcaption", {}, title, notes, info, el.error),
       map,
       samples,
       h("div", { class: "panel-actions" }, ...actions),
@@ -663,6 +711,7 @@ export class Lessons {
     el.panel = panel;
     panel.el = el;
     this.caption(panel);
+    this.clearError(panel);
     for (const m of run.marks || []) if (m.panel === panel.index) this.drawMark(panel, m.x, m.y);
     return el;
   }
@@ -675,6 +724,59 @@ export class Lessons {
     el.title.textContent = panel.reveal && !hidden ? panel.reveal : panel.label;
     el.notes.textContent = hidden ? "" : panel.notes.join(", ");
     el.notes.hidden = !el.notes.textContent;
+  }
+
+  /** A panel's error against its reference, not known (yet). */
+  clearError(panel) {
+    const e = panel.el?.error;
+    if (!e) return;
+    delete e.dataset.rms;
+    delete e.dataset.pair;
+    e.textContent = "RMS difference from the reference: once both pictures are done";
+  }
+
+  /** Each panel compared with its reference (`against`): the RMS difference of their final pictures, once both
+   * jobs have ended (their own PNGs, fetched and decoded here: what an <img> shows may still be a pass). The
+   * reference's own noise is in it too (small: it has many more rays). */
+  async compare(lesson, run) {
+    for (const p of run.panels) {
+      const e = p.el?.error;
+      const ref = run.panels[lesson.panels[p.index].against];
+      if (!e || !ref || p.job?.status !== "done" || ref.job?.status !== "done") continue;
+      const pair = `${p.job.image_url} ${ref.job.image_url}`;
+      if (e.dataset.pair === pair) continue;
+      e.dataset.pair = pair; // a later change of either panel clears it (clearError)
+      let rms;
+      try {
+        rms = rmsDifference(await this.pixels(run, p.job.image_url), await this.pixels(run, ref.job.image_url));
+      } catch (err) {
+        if (e.dataset.pair === pair) e.textContent = `Could not compare with the reference: ${err.message}.`;
+        continue;
+      }
+      if (e.dataset.pair !== pair || rms == null) continue; // superseded meanwhile
+      e.dataset.rms = rms.toFixed(4);
+      e.textContent = `RMS difference from the reference: ${rms.toFixed(1)} of 255`;
+    }
+  }
+
+  /** The pixels (ImageData) of a job's picture at `url`, fetched with the token once per lesson run. */
+  pixels(run, url) {
+    run.pixels ??= new Map();
+    if (!run.pixels.has(url)) {
+      const decoded = blob(url)
+        .then((b) => createImageBitmap(b))
+        .then((bitmap) => {
+          const c = document.createElement("canvas");
+          c.width = bitmap.width;
+          c.height = bitmap.height;
+          const ctx = c.getContext("2d", { willReadFrequently: true });
+          ctx.drawImage(bitmap, 0, 0);
+          return ctx.getImageData(0, 0, c.width, c.height);
+        });
+      decoded.catch(() => run.pixels.delete(url)); // asked again next time
+      run.pixels.set(url, decoded);
+    }
+    return run.pixels.get(url);
   }
 
   /** The renderer's own sample positions in pixel [x, y] of the panel's scene (POST /api/samples), drawn. */
@@ -716,6 +818,8 @@ export class Lessons {
     if (!done) el.rays.setAttribute("aria-pressed", "false");
     if (done) {
       el.state.replaceChildren();
+      const lesson = LESSONS.find((l) => l.id === panel.lesson);
+      if (job.status === "done" && lesson.panels.some((p) => p.against != null)) this.compare(lesson, this.runs.get(panel.lesson)); // its job has ended
       el.info.textContent = `${rayWords(job.rays)} · ${seconds(job.elapsed)}`;
       el.root.dataset.image = job.image_url;
       el.bar.hidden = true;

@@ -1,8 +1,11 @@
 // One pixel's samples drawn large, where the renderer puts them. POST /api/samples (tracer/samples.py) gives
 // each sample's film position inside the pixel, computed by the renderer's own sampling code for the
 // scene, the pixel and the seed: the grid's cell centres, one random point per jittered cell, uniform random
-// points, and for the adaptive sampler the cells it visited (each filled with the mean colour of its
-// corners and centre, as the PNG shows it) and the grid points it traced.
+// points, the successive points of a pixel's low-discrepancy sequence, and for the adaptive sampler the
+// cells it visited (each filled with the mean colour of its corners and centre, as the PNG shows it) and
+// the grid points it traced. For n = m² random or low-discrepancy points the m x m grid is drawn too, as
+// a guide, and the words under the drawing count how many of its cells, and of the n columns and n rows
+// of width 1/n, the points leave empty (a (0,k,2)-net leaves none; jittered points none of the cells).
 
 import { fitCanvas } from "./util.js";
 
@@ -26,7 +29,7 @@ export function drawSamples(canvas, listed, size = 132) {
   ctx.strokeStyle = "#8c96a3";
   ctx.lineWidth = 1;
   for (const c of listed?.cells || []) ctx.strokeRect(X(c.corner[0]), X(c.corner[1]), c.size * s, c.size * s);
-  const n = listed?.strata;
+  const n = listed?.strata || guideCells(listed);
   if (n) for (let j = 0; j < n; j++) for (let i = 0; i < n; i++) ctx.strokeRect(X(i / n), X(j / n), s / n, s / n);
   ctx.strokeStyle = "#1d2733";
   ctx.lineWidth = 2;
@@ -45,20 +48,50 @@ export function drawSamples(canvas, listed, size = 132) {
   return pts.length;
 }
 
+/** The side m of the m x m grid drawn over n = m² (> 1) random or low-discrepancy points inside the pixel; else 0. */
+function guideCells(listed) {
+  if (!["random", "lowdiscrepancy"].includes(listed?.sampler)) return 0;
+  const pts = listed.samples.map((s) => s.position);
+  const m = Math.round(Math.sqrt(pts.length));
+  return m > 1 && m * m === pts.length && pts.every(([u, v]) => u >= 0 && u < 1 && v >= 0 && v < 1) ? m : 0;
+}
+
+/** How evenly n = m² points (inside the pixel) cover it: the empty cells of the m x m grid, and the empty
+ * columns and rows of width 1/n (null: not a square count, or points outside the pixel). */
+export function evenness(pts) {
+  const n = pts.length;
+  const m = Math.round(Math.sqrt(n));
+  if (m < 2 || m * m !== n || !pts.every(([u, v]) => u >= 0 && u < 1 && v >= 0 && v < 1)) return null;
+  const cells = new Set(pts.map(([u, v]) => Math.floor(v * m) * m + Math.floor(u * m)));
+  const columns = new Set(pts.map(([u]) => Math.floor(u * n)));
+  const rows = new Set(pts.map(([, v]) => Math.floor(v * n)));
+  return { n, m, emptyCells: m * m - cells.size, emptyColumns: n - columns.size, emptyRows: n - rows.size };
+}
+
+/** `evenness` in words: ". One in each of the 4 × 4 cells, 16 columns and 16 rows (strips 1/16 wide)." */
+function evennessWords(pts) {
+  const e = evenness(pts);
+  if (!e) return "";
+  const { n, m, emptyCells, emptyColumns, emptyRows } = e;
+  if (!emptyCells && !emptyColumns && !emptyRows) return `. One in each of the ${m} × ${m} cells, ${n} columns and ${n} rows (strips 1/${n} wide).`;
+  return `. Empty: ${emptyCells} of the ${m} × ${m} cells, ${emptyColumns} of ${n} columns, ${emptyRows} of ${n} rows (strips 1/${n} wide).`;
+}
+
 /** The samples in words, under the drawing. */
 export function samplerWords(listed) {
   const n = listed.samples.length;
+  const even = () => evennessWords(listed.samples.map((s) => s.position));
   switch (listed.sampler) {
     case "center":
       return "one ray through the centre";
     case "grid":
       return `${n} rays at the cell centres of a regular grid`;
     case "jittered":
-      return `${n} rays, one at a random point of each cell`;
+      return `${n} rays, one at a random point of each cell${even()}`;
     case "random":
-      return `${n} rays at uniform random points`;
+      return `${n} rays at uniform random points${even()}`;
     case "lowdiscrepancy":
-      return `${n} rays at successive points of a low-discrepancy sequence`;
+      return `${n} rays at successive points of a low-discrepancy sequence${even()}`;
     case "adaptive": {
       const traced = listed.samples.filter((s) => s.traced).length;
       return `${traced} rays: a cell is split where its colours differ, down to level ${listed.max_level}`;
