@@ -384,12 +384,12 @@ def better_sampling(
     scene_file = folder / "lowdiscrepancy.json"
     scene_file.write_text(json.dumps(ours(n_spp)))
     specs = {}
-    for ours_type, theirs in (("jittered", "stratified"), ("lowdiscrepancy", "ldsampler")):
-        sub = folder / theirs
+    for ours_type, mitsuba_type in (("jittered", "stratified"), ("lowdiscrepancy", "ldsampler")):
+        sub = folder / mitsuba_type
         sub.mkdir(exist_ok=True)
         d = json.loads(json.dumps(data))
         d["sampler"] = {"type": ours_type, "spp": spp}
-        specs[theirs] = write_spec(load_scene(d)[0], spp, sub)
+        specs[mitsuba_type] = write_spec(load_scene(d)[0], spp, sub)
     runs: dict[str, list[dict]] = {"ours": [], **{k: [] for k in specs}}
     for r in range(rounds):
         seed = r + 1
