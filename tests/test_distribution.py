@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from conftest import SCENES
+from conftest import SCENES, small
 from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
@@ -210,8 +210,6 @@ def test_lowdiscrepancy_sampler_same_image_less_noise(name, ratio):
     2D sequences are each even but independent of each other), and the image means agree within 1%. Path tracing
     (the bounces' own sequences besides the camera's), depth of field (the lens), motion blur (the
     time)."""
-    from conftest import small
-
     data = json.loads((SCENES / f"{name}.json").read_text())
     if name == "cornell_path":
         data["render"]["max_depth"] = 3

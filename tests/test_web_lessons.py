@@ -137,17 +137,22 @@ def test_lessons_cover_the_lecture():
     ]
 
 
+def panels_state(page) -> tuple[list[str], list[str], list[str]]:
+    """Every panel of the open lesson done and its picture loaded: their pictures' fingerprints, their jobs
+    and the notes saying what each changed."""
+    statuses = [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
+    assert statuses == ["done"] * len(statuses), statuses
+    pictures_loaded(page)
+    jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
+    return fingerprints(page), jobs, panel_texts(page, "figcaption code")
+
+
 @pytest.mark.parametrize("lesson", LESSON_IDS)
 def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop, lesson):
     page = desktop.open("#lessons").page
     assert page.locator(".lesson-button").count() == len(LESSON_IDS)
     open_lesson(page, lesson)
-    statuses = [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
-    assert statuses == ["done"] * len(statuses), statuses
-    pictures_loaded(page)
-    before = fingerprints(page)
-    jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-    notes = panel_texts(page, "figcaption code")
+    before, jobs, notes = panels_state(page)
     costs = panel_texts(page, ".panel-info")
     assert all(re.match(r"[\d,]+ rays: .*[\d,]+ eye", c) and c.endswith(" s") for c in costs), costs
 
@@ -160,12 +165,7 @@ def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop
         arg=jobs,
         timeout=120_000,
     )
-    statuses = [p.get_attribute("data-status") for p in page.locator(".lesson-panel").all()]
-    assert statuses == ["done"] * len(statuses), statuses
-    pictures_loaded(page)
-    after = fingerprints(page)
-    new_jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-    new_notes = panel_texts(page, "figcaption code")
+    after, new_jobs, new_notes = panels_state(page)
     for i in range(len(before)):
         if i in touched:
             assert after[i] != before[i], f"panel {i} looks the same after the change"

@@ -129,10 +129,10 @@ def sobol_2d(key: wp.uint32, dim: int, index: int) -> wp.vec2:
     (nested uniform scrambling, each coordinate with its own seed keyed by (key, dim)), its index
     shuffled by the same key (Burley 2020, "Practical Hash-based Owen Scrambling"). Any first 2^k
     samples of a pixel form a (0, k, 2)-net: one point in every box of 2^-a x 2^-b with a + b = k (2x2
-    cells at 4 samples, 4x4 at 16, and the strips between), so they cover the pixel at least as evenly
-    as a jittered grid, for every power of two on the way, and for the counts between nearly so;
-    pixels and dimension pairs stay independent. Twice sample_2d's cost, which is why the path's
-    bounces keep R2 (where the film's noise, not theirs, was the larger)."""
+    cells at 4 samples, 4x4 at 16, and the strips between): stratified like a jittered grid, and in
+    thin strips too, at every power of two on the way; pixels and dimension pairs stay independent.
+    About twice sample_2d's cost: the path's bounces keep R2, since these points gave them no less
+    error (BENCHMARKS.md)."""
     h = pcg_hash(key ^ pcg_hash(wp.uint32(dim)))
     h2 = pcg_hash(h)
     n = shuffle(wp.uint32(index), h2 ^ GOLDEN)
