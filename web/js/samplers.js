@@ -51,9 +51,7 @@ export function drawSamples(canvas, listed, size = 132) {
 /** The side m of the m x m grid drawn over n = m² (> 1) random or low-discrepancy points inside the pixel; else 0. */
 function guideCells(listed) {
   if (!["random", "lowdiscrepancy"].includes(listed?.sampler)) return 0;
-  const pts = listed.samples.map((s) => s.position);
-  const m = Math.round(Math.sqrt(pts.length));
-  return m > 1 && m * m === pts.length && pts.every(([u, v]) => u >= 0 && u < 1 && v >= 0 && v < 1) ? m : 0;
+  return evenness(listed.samples.map((s) => s.position))?.m || 0;
 }
 
 /** How evenly n = m² points (inside the pixel) cover it: the empty cells of the m x m grid, and the empty
