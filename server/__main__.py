@@ -7,9 +7,9 @@ import logging
 
 import uvicorn
 
+from server.core.settings import load_settings
+from server.core.startup import StartupError, check_data_dir
 from server.main import create_app, lock_data_dir
-from server.settings import load_settings
-from server.startup import StartupError, check_data_dir
 
 GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
 

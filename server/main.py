@@ -1,13 +1,13 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
-At start-up (the lifespan) the app checks its data directory (server/startup.py), compiles the render
-kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checks.py),
+At start-up (the lifespan) the app checks its data directory (server/core/startup.py), compiles the render
+kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checks/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
 removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
 the workers give their running jobs back to the queue (as soon as a stop signal arrives, with
 `python -m server`: see `Stopping`), and the checking processes end. Every request passes the host
-check and gets the security headers (server/security.py); the start-up log warns of a server open to
+check and gets the security headers (server/core/security.py); the start-up log warns of a server open to
 others without an instructor token or a list of host names.
 """
 
@@ -24,19 +24,19 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from server.checks import CheckPool
-from server.errors import RequestGate, SafeJSONResponse, install_error_handlers
-from server.grading import GradeRuns
-from server.janitor import Janitor
-from server.previews import Previews
-from server.queue import make_queue
-from server.routes import grade, jobs, reference, samples, scenes, tools
-from server.routes.scenes import SCENES
-from server.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
-from server.settings import Settings, load_settings
-from server.startup import StartupError, check_data_dir
-from server.store import JobStore
-from server.worker import load_kernels
+from server.api.routes import grade, jobs, reference, samples, scenes, tools
+from server.api.routes.scenes import SCENES
+from server.checks.pool import CheckPool
+from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
+from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
+from server.core.settings import Settings, load_settings
+from server.core.startup import StartupError, check_data_dir
+from server.grading.runs import GradeRuns
+from server.jobs.janitor import Janitor
+from server.jobs.previews import Previews
+from server.jobs.store import JobStore
+from server.queue.base import make_queue
+from server.queue.embedded.worker import load_kernels
 from tracer.samples import load_kernels as load_sample_kernels
 
 WEB = Path(__file__).resolve().parent.parent / "web"

@@ -1,4 +1,4 @@
-"""Interactive work first (server/lifecycle.py's lanes), on the embedded backend: a worker kept for
+"""Interactive work first (server/jobs/lifecycle.py's lanes), on the embedded backend: a worker kept for
 interactive jobs, a batch render that gives way at a pass boundary and resumes where it stopped, a
 queued job's place and expected wait, and a render that continues from its last snapshot after its
 worker died. Each with its own app and real worker processes."""

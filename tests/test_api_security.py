@@ -1,4 +1,4 @@
-"""Who may do what (server/security.py): each student's jobs are theirs alone, the instructor's routes need
+"""Who may do what (server/core/security.py): each student's jobs are theirs alone, the instructor's routes need
 the instructor, the Host header is checked, and every answer has the security headers.
 
 `client` (conftest.py) is a student of a server with an instructor token; the other students here are
@@ -29,8 +29,8 @@ from test_api_support import (
     wait_status,
 )
 
-from server.security import host_name, loopback_only, served_hosts, token_hash
-from server.settings import Settings
+from server.core.security import host_name, loopback_only, served_hosts, token_hash
+from server.core.settings import Settings
 
 TEACHER = bearer(INSTRUCTOR)
 JOB_ROUTES = ["", "/image", "/image?format=exr", "/scene", "/events", "/aov", "/aov/rays", "/radiosity"]

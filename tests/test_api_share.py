@@ -40,6 +40,6 @@ def test_api_share_a_job_with_no_owner_is_refused(client):
     wait_status(client, job["id"], {"done"})
     # the instructor shares a student's job; a job without an owner (grading) has no share token
     assert client.post(f"/api/jobs/{job['id']}/share", headers=bearer(INSTRUCTOR)).status_code == 200
-    from server.security import share_token
+    from server.core.security import share_token
 
     assert share_token({"id": job["id"], "owner": None}) is None

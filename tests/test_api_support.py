@@ -70,8 +70,8 @@ def api_client(
     request: a fresh student's token unless given (None: no header)."""
     from fastapi.testclient import TestClient
 
+    from server.core.settings import Settings
     from server.main import create_app
-    from server.settings import Settings
 
     settings.setdefault("interactive_workers", 0)
     settings.setdefault("previews_ahead", False)  # no example previews queued behind the test's own jobs

@@ -1,4 +1,4 @@
-"""The tool and example routes (server/routes/tools.py, scenes.py) and the API's own docs, through the
+"""The tool and example routes (server/api/routes/tools.py, scenes.py) and the API's own docs, through the
 TestClient of an app without workers (the jobs: test_api_jobs.py and the other test_api_*.py)."""
 
 import pytest

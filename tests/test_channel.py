@@ -1,4 +1,4 @@
-"""The server's line to a render worker (server/channel.py)."""
+"""The server's line to a render worker (server/queue/embedded/wakeup.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ def test_channel_wakes_readies_and_stops():
     import multiprocessing as mp
     import time
 
-    from server.channel import ServerEnd, WorkerEnd
+    from server.queue.embedded.wakeup import ServerEnd, WorkerEnd
 
     ours, theirs = mp.get_context("spawn").Pipe()
     server, worker = ServerEnd(ours), WorkerEnd(theirs)

@@ -1,4 +1,4 @@
-"""Grading (tracer/grading, server/grading.py, POST /api/grade, `python -m tracer grade`).
+"""Grading (tracer/grading, server/grading/runs.py, POST /api/grade, `python -m tracer grade`).
 
 The example class in scenes/grading/class (written by scenes/grading/make_class.py) has one student
 per case; their grades are asserted exactly, test by test:
@@ -691,8 +691,8 @@ class _FakeStore:
 def test_time_limit_messages_cite_what_set_the_limit(service_seconds, priority, killed, expected):
     """The worker only knows its job's seconds, and names TRACER_MAX_JOB_SECONDS; the grader knows
     whether the assignment's limit, the service's, or the reference's (ten times the assignment's) set them."""
-    from server.grading import QueueRenderer
-    from server.settings import Settings
+    from server.core.settings import Settings
+    from server.grading.runs import QueueRenderer
 
     spec, _ = load_assignment(inline_assignment(max_seconds=2))
     grader = Grader(spec, None)

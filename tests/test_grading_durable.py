@@ -1,4 +1,4 @@
-"""Durable grading runs (server/grading_store.py, server/grading_run.py): a run is rows in SQLite, resumed
+"""Durable grading runs (server/grading/store.py, server/grading/run.py): a run is rows in SQLite, resumed
 by a restarted server with the renders that were done kept, on both queue backends; each student's work
 runs in grading processes (tracer/grading/tasks.py), the same reports as grading in process.
 

@@ -21,7 +21,7 @@ import pytest
 from conftest import ROOT
 from test_api_support import api_client, wait_for
 
-from server.store import JobFile
+from server.jobs.files import JobFile
 from tracer.grading import Caps, GradingError, read_zip, unpack_zip
 from tracer.grading.archive import CHUNK
 

@@ -1,4 +1,4 @@
-"""The janitor (server/janitor.py): finished jobs removed by age and by the data directory's size cap,
+"""The janitor (server/jobs/janitor.py): finished jobs removed by age and by the data directory's size cap,
 folders left without a job, and the server running it."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 from test_api_support import api_client
 from test_store import add
 
-from server.store import JobStore
+from server.jobs.store import JobStore
 
 DAY = 86400.0
 NOW = 1_900_000_000.0  # the present, for the janitor's rounds
@@ -23,8 +23,8 @@ def job_in(store: JobStore, status: str, ended: float | None = None, size: int =
 
 
 def janitor(tmp_path, **settings):
-    from server.janitor import Janitor
-    from server.settings import Settings
+    from server.core.settings import Settings
+    from server.jobs.janitor import Janitor
 
     store = JobStore(tmp_path)
     return Janitor(Settings(data_dir=tmp_path, **settings), store), store
@@ -52,7 +52,7 @@ def test_janitor_keeps_everything_when_told_to(tmp_path):
 
 
 def test_janitor_caps_the_data_directory_oldest_finished_first(tmp_path, caplog):
-    from server.janitor import GRACE, tree_size
+    from server.jobs.janitor import GRACE, tree_size
 
     jan, store = janitor(tmp_path, keep_finished=0, max_data_bytes=0)
     first, second, third = (job_in(store, "done", NOW - (10 - k) * 3600, size=100_000) for k in range(3))
@@ -67,7 +67,7 @@ def test_janitor_caps_the_data_directory_oldest_finished_first(tmp_path, caplog)
     assert gone == [True, True, False, False, False]
     # room for one image only: all that may be removed is, and the rest is said once
     jan.settings.max_data_bytes = base + 100_000
-    with caplog.at_level("WARNING", logger="server.janitor"):
+    with caplog.at_level("WARNING", logger="server.jobs.janitor"):
         assert jan.clean(now=NOW).for_size == 1 and store.get(third) is None
         assert store.get(running) is not None and store.get(just_done) is not None
         jan.clean(now=NOW)
@@ -77,7 +77,7 @@ def test_janitor_caps_the_data_directory_oldest_finished_first(tmp_path, caplog)
 def test_janitor_sweeps_folders_left_without_a_job(tmp_path):
     import os
 
-    from server.janitor import GRACE
+    from server.jobs.janitor import GRACE
 
     jan, store = janitor(tmp_path, keep_finished="7d", max_data_bytes=0)
     kept = job_in(store, "done", NOW)

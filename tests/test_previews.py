@@ -1,4 +1,4 @@
-"""The example scenes' previews (server/previews.py): rendered ahead by a worker, not in the API process; served
+"""The example scenes' previews (server/jobs/previews.py): rendered ahead by a worker, not in the API process; served
 by the scenes route; a changed example gets a new preview."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import time
 from conftest import SCENES
 from test_api_support import INSTRUCTOR, api_client, bearer
 
-from server.lifecycle import JobStatus
-from server.previews import Previews
-from server.settings import Settings
-from server.store import JobStore
+from server.core.settings import Settings
+from server.jobs.lifecycle import JobStatus
+from server.jobs.previews import Previews
+from server.jobs.store import JobStore
 
 
 def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(tmp_path):

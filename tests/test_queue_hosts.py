@@ -9,7 +9,7 @@ client (curl) runs inside a namespace; nothing is ever sent to a namespace's add
   try sends once it is back is dropped (counted, not applied): no stale or duplicate writes.
 - A cancel reaches a job on whichever host runs it.
 
-The API listens on the broker's address, not on loopback: its jobs are their tokens' (server/security.py),
+The API listens on the broker's address, not on loopback: its jobs are their tokens' (server/core/security.py),
 so the requests here carry a student's token; and a request naming another host is refused (DNS rebinding).
 """
 

@@ -793,7 +793,7 @@ def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
 
     from test_assets import big_png_uri
 
-    from server.settings import Settings
+    from server.core.settings import Settings
 
     data = _scene(materials={"m": {"texture": {"type": "image", "file": big_png_uri()}}})
     tracemalloc.start()

@@ -1,4 +1,4 @@
-"""Settings (server/settings.py): the command line, the environment and a settings file, durations and sizes."""
+"""Settings (server/core/settings.py): the command line, the environment and a settings file, durations and sizes."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 
 
 def test_settings_from_the_environment_and_a_file(tmp_path, monkeypatch):
-    from server.settings import load_settings
+    from server.core.settings import load_settings
 
     conf = tmp_path / "service.env"
     conf.write_text("TRACER_MAX_SPP=256\nTRACER_MAX_JOB_SECONDS=30\nTRACER_WORKERS=3\n")
@@ -20,7 +20,7 @@ def test_settings_from_the_environment_and_a_file(tmp_path, monkeypatch):
 
 
 def test_settings_read_durations_and_sizes(monkeypatch):
-    from server.settings import Settings
+    from server.core.settings import Settings
 
     monkeypatch.setenv("TRACER_KEEP_FINISHED", "12h")
     monkeypatch.setenv("TRACER_MAX_DATA_BYTES", "2GiB")

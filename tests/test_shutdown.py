@@ -4,7 +4,7 @@ one queued and an event stream open. The server stops taking jobs, its worker gi
 worker is started again (its log), and it exits within a bound; started again, the running job is back
 in the queue as it was (its try not counted) and the queued one is still there.
 
-A worker ignores the group's signals: the server alone stops it (server/pool.py), so a signal is never a
+A worker ignores the group's signals: the server alone stops it (server/queue/embedded/pool.py), so a signal is never a
 crash to restart it after, and its job is given back, not lost."""
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 bytes, a truncated file), an empty or missing database beside job folders, a read-only data directory (a
 read-only tmpfs mount: the test runs as root, who ignores mode bits), a data directory that is a file, and
 one another server holds. Each time: one message on stderr that says what is wrong and what to do, a
-non-zero exit status, no traceback, and every file of the data directory as it was (server/startup.py)."""
+non-zero exit status, no traceback, and every file of the data directory as it was (server/core/startup.py)."""
 
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from conftest import ROOT
 from test_api_support import Server, free_port
 from test_disk_full import tmpfs
 
-from server.startup import StartupError
-from server.store import JobStore
+from server.core.startup import StartupError
+from server.jobs.store import JobStore
 
 
 def start(data_dir: Path, timeout: float = 120) -> tuple[int, str]:
@@ -141,8 +141,8 @@ def test_startup_the_app_checks_too(tmp_path):
     """The app started another way (a TestClient, another ASGI server) runs the same checks in its lifespan."""
     from fastapi.testclient import TestClient
 
+    from server.core.settings import Settings
     from server.main import create_app
-    from server.settings import Settings
 
     data = tmp_path / "data"
     data.mkdir()

@@ -1,4 +1,4 @@
-"""The job store alone (server/store.py, server/lifecycle.py): queue order, atomic claims, a dead worker's jobs,
+"""The job store alone (server/jobs/): queue order, atomic claims, a dead worker's jobs,
 recovery after a restart, the moves of the life cycle, a job's files."""
 
 from __future__ import annotations
@@ -8,8 +8,10 @@ import threading
 
 import pytest
 
-from server.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
-from server.store import AOV_NAMES, JobFile, JobStore, QueueFull, looks_like_job_id
+from server.core.ids import looks_like_job_id
+from server.jobs.files import AOV_NAMES, JobFile
+from server.jobs.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
+from server.jobs.store import JobStore, QueueFull
 
 
 def add(store: JobStore, priority: int = 0, max_queued: int = 100) -> str:
@@ -200,7 +202,7 @@ def test_store_one_server_per_data_directory(tmp_path):
 
 def test_store_jobs_have_owners_and_an_older_table_gains_the_column(tmp_path):
     """A job's owner is its token's hash; a database from before owners gets the column, its rows unowned
-    (the instructor's: server/security.py), and lists filter by owner."""
+    (the instructor's: server/core/security.py), and lists filter by owner."""
     import sqlite3
 
     store = JobStore(tmp_path)

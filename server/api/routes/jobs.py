@@ -1,0 +1,373 @@
+"""Render jobs: submit, list, inspect, fetch the latest image, follow the events, cancel.
+
+A job belongs to the token that submitted it (server/core/security.py): every route of one job answers
+only that token (or the instructor), and anyone else gets the 404 of an unknown id."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import AsyncIterator
+from typing import Annotated, Literal
+
+import anyio
+from fastapi import APIRouter, Query, Request, Response
+from fastapi.responses import StreamingResponse
+
+from server.api.deps import ChecksDep, JobDep, QueueDep, SettingsDep, StoreDep
+from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, QueuePlace
+from server.api.scene_route import scene_post
+from server.core.errors import ApiError
+from server.core.security import CallerDep, new_token, share_token, token_hash, unauthorized
+from server.core.settings import Settings
+from server.jobs.files import AOV_NAMES, JobFile
+from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.store import JobStore, QueueFull
+
+router = APIRouter(prefix="/api/jobs", tags=["jobs"])
+
+EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
+KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
+MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
+ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
+UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
+NOT_FOUND = {
+    404: {"model": ErrorResponse, "description": "no such job, or not this token's job (the same answer)"},
+    **UNAUTHORIZED,
+}
+
+
+@scene_post(
+    router,
+    "",
+    status_code=202,
+    summary="Submit a scene for rendering",
+    responses={
+        **ERRORS,
+        **UNAUTHORIZED,
+        413: {"model": ErrorResponse, "description": "request body too large"},
+        429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
+    },
+)
+async def submit(
+    body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep,
+    request: Request, response: Response,
+) -> JobCreated:  # fmt: skip
+    """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
+
+    A render estimated to take longer than the per-job limit is refused (422); one estimated past
+    TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
+    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
+    The scene is validated in a checking process (server/checks/pool.py), as the worker will, its asset
+    files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
+
+    The job belongs to the request's token (`Authorization: Bearer <token>`); a request without one gets
+    a fresh token in `token`: only that token reads, follows, cancels and downloads the job."""
+    found = await checks.summary(request, await request.body())
+    issued = new_token() if caller.token is None else None
+
+    def queued() -> JobCreated:
+        seconds = estimate_seconds(found, settings, store)
+        lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
+        row = create_job(store, settings, found, priority=body.priority, warnings=found["warnings"], lane=lane,
+                         estimate=seconds, owner=caller.owner or token_hash(issued))  # fmt: skip
+        queue.submitted(row)
+        response.headers["Location"] = f"/api/jobs/{row['id']}"
+        return JobCreated(**public(row, store, queue).model_dump(), token=issued)
+
+    return await anyio.to_thread.run_sync(queued)
+
+
+def estimate_seconds(found: dict, settings: Settings, store: JobStore) -> float:
+    """The render's estimated seconds on one worker (tracer/estimate.py, in the scene's summary: server/checks/pool.py;
+    scaled by how long finished renders took against their estimates); 422 when past the per-job limit, so it
+    is never accepted to fail later (at render.radiosity when the radiosity solve alone is past it)."""
+    pace = store.pace()
+    seconds, limit = found["seconds"] * pace, settings.max_job_seconds
+    if seconds > limit:
+        solve = found["solve_seconds"] * pace
+        if solve > limit:
+            message = (
+                f"its radiosity solve would take about {solve:.0f} s here, past the limit of {limit:g} s per job "
+                "(TRACER_MAX_JOB_SECONDS): use a larger patch_size, fewer rays or a larger threshold"
+            )
+            raise ApiError(422, [{"path": "render.radiosity", "message": message}])
+        work = f"{found['width']} x {found['height']} pixels x {found['spp']} samples"
+        message = (
+            f"this render would take about {seconds:.0f} s here ({work}, {found['integrator']}), past the limit "
+            f"of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
+        )
+        raise ApiError(422, [{"path": "sampler.spp", "message": message}])
+    return round(seconds, 3)
+
+
+def create_job(store: JobStore, settings: Settings, found: dict, **fields) -> dict:
+    """Record a queued job of a checked scene (its summary: server/checks/pool.py); 429 when the queue is full."""
+    try:
+        return store.create(
+            found["text"],
+            name=fields.pop("name", found["name"]),
+            width=found["width"],
+            height=found["height"],
+            spp=found["spp"],
+            max_seconds=fields.pop("max_seconds", settings.max_job_seconds),
+            max_queued=settings.max_queued_jobs,
+            max_queued_owner=settings.max_queued_per_token,
+            **fields,
+        )
+    except QueueFull as full:
+        if full.args[1:] == ("owner",):
+            message = (
+                f"you already have {full.args[0]} jobs waiting (TRACER_MAX_QUEUED_PER_TOKEN): wait for one to start, "
+                "or cancel one"
+            )
+        else:
+            message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
+        raise ApiError(429, message, headers={"Retry-After": "5"}) from None
+
+
+def public(row: dict, store: JobStore, queue, now: float | None = None) -> JobPublic:
+    """The job as the API shows it; a queued one with its place in the queue and its expected wait."""
+    job = JobPublic.from_row(row, now)
+    if job.status is JobStatus.queued:
+        lane = Lane(row["lane"])
+        place = store.place(row)
+        workers = queue.capacity(lane)
+        wait = None
+        if workers > 0:
+            wait = round((place["ahead_seconds"] + place["running_seconds"]) / workers, 2)
+        job.queue = QueuePlace(
+            lane=lane, position=place["ahead"] + 1, ahead=place["ahead"], running=place["running"],
+            workers=workers, expected_wait=wait,
+        )  # fmt: skip
+    return job
+
+
+@router.get("", summary="The caller's jobs (the instructor: every job), newest first", responses=UNAUTHORIZED)
+def list_jobs(
+    store: StoreDep,
+    queue: QueueDep,
+    caller: CallerDep,
+    status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
+    kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
+    limit: Annotated[int, Query(ge=1, le=1000)] = 100,
+    offset: Annotated[int, Query(ge=0, le=MAX_QUERY_INT)] = 0,
+    scope: Annotated[
+        Literal["mine", "all"] | None,
+        Query(
+            description="mine: the jobs of the request's token; all: every job (the instructor only, else 401); "
+            "default: all for the instructor, mine for anyone else"
+        ),
+    ] = None,
+) -> JobList:
+    """A student sees the jobs of their token (none without one); the instructor (TRACER_INSTRUCTOR_TOKEN,
+    or anyone on a loopback-only server without one) every job, grading renders included."""
+    if scope == "all" and not caller.instructor:
+        raise unauthorized("listing every job needs the instructor's token (TRACER_INSTRUCTOR_TOKEN)", "")
+    if scope == "mine" or not caller.instructor:
+        if caller.owner is None:
+            return JobList(jobs=[], count=0)
+        owner = caller.owner
+    else:
+        owner = None
+    kinds = kind.value if kind else None
+    rows, count = store.list_jobs(status.value if status else None, limit, offset, kinds, owner=owner)
+    now = time.time()
+    return JobList(jobs=[public(r, store, queue, now) for r in rows], count=count)
+
+
+@router.get(
+    "/{job_id}", summary="One job: status, place in the queue, progress, elapsed and ETA, rays", responses=NOT_FOUND
+)
+def get_job(job: JobDep, store: StoreDep, queue: QueueDep) -> JobPublic:
+    return public(job, store, queue)
+
+
+@router.get(
+    "/{job_id}/image",
+    summary="The latest image: progressive while running, final when done",
+    response_class=Response,
+    responses={
+        200: {"content": {"image/png": {}, "image/x-exr": {}}, "description": "PNG (sRGB), or EXR (linear float)"},
+        **NOT_FOUND,
+    },
+)
+def image(
+    job: JobDep,
+    store: StoreDep,
+    format: Annotated[
+        Literal["png", "exr"], Query(description="png: sRGB with the film's exposure; exr: linear")
+    ] = "png",
+    pass_: Annotated[
+        int | None, Query(alias="pass", ge=0, le=MAX_QUERY_INT, description="ignored; makes each pass's URL new")
+    ] = None,
+) -> Response:
+    if not job["preview"]:
+        raise ApiError(404, f"no image yet: the job is {job['status']}")
+    try:
+        data = store.job_file(job["id"], JobFile.image(format)).read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, "the job's image is missing from the data directory") from None
+    media = "image/png" if format == "png" else "image/x-exr"
+    headers = {
+        "Cache-Control": "no-store",
+        "Content-Disposition": f'inline; filename="job-{job["id"]}.{format}"',
+    }
+    return Response(data, media_type=media, headers=headers)
+
+
+@router.post("/{job_id}/share", summary="A read-only link to the job: its share token", responses=NOT_FOUND)
+def share(job: JobDep) -> dict:
+    """The job's share token, which reads this job only (its GET routes: the job, events, image, AOVs, scene,
+    radiosity) and cancels nothing; and the page's read-only link. The token goes in the link's fragment,
+    which browsers never send to the server. Only the job's owner (or the instructor) asks for it."""
+    token = share_token(job)
+    if token is None:
+        raise ApiError(409, [{"path": "id", "message": "a job with no owner (a grading render) cannot be shared"}])
+    return {"share_token": token, "link": f"/#shared/{job['id']}/{token}"}
+
+
+@router.get("/{job_id}/scene", summary="The scene the job renders, as it was submitted", responses=NOT_FOUND)
+def job_scene(job: JobDep) -> dict:
+    """For a client that shows an older job: its ray tree needs the very scene it rendered."""
+    return json.loads(job["scene"])
+
+
+def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
+    if job["status"] != JobStatus.done:
+        raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
+    try:
+        return json.loads(store.job_file(job["id"], JobFile.aov_ranges).read_text())
+    except FileNotFoundError:
+        params = job.get("params") or {}
+        if (json.loads(params) if isinstance(params, str) else params).get("outputs") == "floats":
+            raise ApiError(404, "no AOV pictures: this job rendered for grading, which keeps only its image") from None
+        raise ApiError(404, "the job's AOVs are missing from the data directory") from None
+
+
+@router.get(
+    "/{job_id}/radiosity", summary="A finished radiosity job's solution: patches, convergence", responses=NOT_FOUND
+)
+def radiosity(job: JobDep, store: StoreDep) -> Response:
+    """`patches` (corner, e1, e2, triangle, normal, area, object, reflectance, emission; the second half
+    are the backs of the first), `radiosity` (B per patch side, W/m^2), `energy` (emitted, absorbed,
+    unshot, escaped), `history` (per shot: shooter, power, unshot left) and `snapshots` (B after every
+    shot up to 16, then 32, 64, ..., and the last), for showing which patch shoots, step by step."""
+    if job["status"] != JobStatus.done:
+        raise ApiError(404, f"no radiosity solution: it is saved when the job is done, and it is {job['status']}")
+    try:
+        data = store.job_file(job["id"], JobFile.radiosity).read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, "this job has no radiosity solution (its integrator is not radiosity)") from None
+    return Response(data, media_type="application/json")
+
+
+@router.get("/{job_id}/aov", summary="The AOV pictures of a finished job and the range of each", responses=NOT_FOUND)
+def aov_list(job: JobDep, store: StoreDep) -> dict:
+    """`names`; `ranges` {name: [min, max]} of the values the pictures show (rays per pixel, depth, ...)."""
+    ranges = _aov_ready(job, store)
+    return {"names": [n for n in AOV_NAMES if n in ranges], "ranges": ranges}
+
+
+@router.get(
+    "/{job_id}/aov/{name}",
+    summary="One AOV of a finished job as a PNG",
+    response_class=Response,
+    responses={200: {"content": {"image/png": {}}}, **NOT_FOUND},
+)
+def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
+    """rays: rays per pixel as a heat map (black 0, white the maximum); depth: near white, far dark, black
+    where nothing was hit; normal: 0.5 + 0.5 n; albedo: kd (sRGB); variance: per-pixel variance as a heat map."""
+    if name not in AOV_NAMES:
+        message = f"no AOV named '{name[:64]}'; one of: {', '.join(AOV_NAMES)}"
+        raise ApiError(404, [{"path": "name", "message": message}])
+    _aov_ready(job, store)
+    try:
+        data = store.job_file(job["id"], JobFile.aov(name)).read_bytes()
+    except FileNotFoundError:
+        raise ApiError(404, [{"path": "name", "message": f"the job has no '{name}' AOV"}]) from None
+    headers = {"Cache-Control": "no-store", "Content-Disposition": f'inline; filename="job-{job["id"]}-{name}.png"'}
+    return Response(data, media_type="image/png", headers=headers)
+
+
+@router.get(
+    "/{job_id}/events",
+    summary="Server-Sent Events: progress, preview (a new image), end",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+)
+def events(job: JobDep, store: StoreDep, queue: QueueDep, request: Request) -> StreamingResponse:
+    """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
+    eta, rays};
+    `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes."""
+    headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    stream = _event_stream(store, queue, job["id"], request)
+    return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
+
+
+def sse(event: str, data: dict) -> str:
+    return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
+
+
+async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -> AsyncIterator[str]:
+    yield "retry: 1000\n\n"
+    last_progress, last_preview, quiet_since = None, 0, time.monotonic()
+    stopping = request.app.state.stopping
+    while not stopping():  # a stopping server ends its streams (the client reconnects to the next one)
+        row = await anyio.to_thread.run_sync(store.get, job_id)
+        if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
+            return
+        job = await anyio.to_thread.run_sync(public, row, store, queue)
+        p = job.progress
+        sent = False
+        place = job.queue.model_dump(mode="json") if job.queue else None
+        now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0, json.dumps(place))
+        if now_at != last_progress:
+            last_progress = now_at
+            data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
+            data.update(queue=place, finished=job.finished)
+            yield sse("progress", data)
+            sent = True
+        if job.preview and job.preview != last_preview:
+            last_preview = job.preview
+            base = f"/api/jobs/{job_id}/image"
+            data = {"pass": job.preview, "spp": p.spp_done, "url": f"{base}?pass={job.preview}"}
+            data["exr_url"] = f"{base}?format=exr&pass={job.preview}"
+            yield sse("preview", data)
+            sent = True
+        if job.status.finished:
+            yield sse("end", job.model_dump(mode="json"))
+            return
+        now = time.monotonic()
+        if sent:
+            quiet_since = now
+        elif now - quiet_since > KEEPALIVE:
+            quiet_since = now
+            yield ": keep-alive\n\n"
+        if await request.is_disconnected():
+            return
+        await anyio.sleep(EVENT_POLL)
+
+
+@router.delete(
+    "/{job_id}",
+    summary="Cancel a queued or running job",
+    responses={
+        202: {"model": JobPublic, "description": "running: it stops within one band of rows, keeping its last image"},
+        409: {"model": ErrorResponse, "description": "the job has already ended"},
+        **NOT_FOUND,
+    },
+)
+def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
+    """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`,
+    even if its render finishes before it sees the request; a job that has ended is 409 (the job's row
+    decides, in one transaction: the answer always agrees with the job's final status)."""
+    if JobStatus(job["status"]).finished:
+        raise ApiError(409, f"the job has already ended ({job['status']})")
+    row = store.cancel(job["id"])
+    if JobStatus(row["status"]) in (JobStatus.done, JobStatus.failed):  # it ended between the two reads
+        raise ApiError(409, f"the job has already ended ({row['status']})")
+    queue.cancelled(row)
+    if JobStatus(row["status"]) is JobStatus.running:
+        response.status_code = 202
+    return public(row, store, queue)

@@ -1,0 +1,119 @@
+"""Validation, the JSON Schema, the ray tree of one pixel, and health."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import anyio
+from fastapi import APIRouter, Request
+
+from server.api.deps import ChecksDep, QueueDep, SettingsDep, StoreDep
+from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
+from server.api.routes.jobs import create_job
+from server.api.scene_route import scene_post
+from server.core.errors import ApiError
+from server.core.security import CallerDep
+from server.jobs.files import JobFile
+from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from tracer.scene import scene_json_schema
+
+router = APIRouter(prefix="/api", tags=["tools"])
+
+RAYTREE_POLL = 0.01  # seconds between two looks at a ray tree's job
+
+
+@router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
+def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep) -> Health:
+    """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
+    workers = queue.workers()
+    if not caller.instructor:
+        for w in workers:
+            if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
+                w["job"] = None
+    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers, checkers=checks.info(),
+                  jobs=store.counts())  # fmt: skip
+
+
+@router.get("/schema", summary="The scene format's JSON Schema (for editors)")
+def schema() -> dict:
+    return scene_json_schema()
+
+
+@scene_post(router, "/validate", summary="Check a scene: errors with JSON paths, and warnings")
+async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -> dict:
+    """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
+    and the asset files are all checked (in a checking process, server/checks/pool.py: a scene that takes
+    longer than TRACER_MAX_VALIDATE_SECONDS to check is not valid)."""
+    try:
+        return await checks.validate(request, await request.body())
+    except ApiError as exc:
+        if exc.status != 422:
+            raise
+        return {"valid": False, "errors": exc.errors, "warnings": []}
+
+
+@scene_post(
+    router,
+    "/raytree",
+    summary="The ray tree of one pixel sample (/reference/scene-format.md#the-ray-tree)",
+    responses={
+        422: {"model": ErrorResponse, "description": "invalid scene, or x, y, sample out of range"},
+        503: {"model": ErrorResponse, "description": "no worker takes interactive work"},
+        504: {"model": ErrorResponse, "description": "it took longer than TRACER_MAX_RAYTREE_SECONDS"},
+    },
+)
+async def raytree(
+    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, checks: ChecksDep,
+    caller: CallerDep, request: Request,
+) -> dict:  # fmt: skip
+    """Traced by a worker, as a short job of the interactive lane (never in the API process); a
+    radiosity scene's solution is kept by its content, so only the first click on it solves it, and a
+    solve estimated past the ray tree's time limit is refused before it starts unless its solution is
+    kept. A client that gives up cancels it. The job belongs to the request's token (without one: the
+    instructor)."""
+    found = await checks.summary(request, await request.body())
+    errors = [
+        {"path": k, "message": f"must be a {what} in 0..{n - 1}"}
+        for k, v, n, what in (("x", body.x, found["width"], "column"), ("y", body.y, found["height"], "row"))
+        if not 0 <= v < n
+    ]
+    if errors:
+        raise ApiError(422, errors)
+    if queue.capacity(Lane.interactive) == 0:
+        raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
+
+    def queued() -> dict:
+        solve = round(found["solve_seconds"] * store.pace(), 3)  # the worker refuses it past the limit, unless kept
+        params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": solve}
+        row = create_job(
+            store, settings, found, kind=JobKind.raytree, lane=Lane.interactive, priority=100,
+            params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[],
+            owner=caller.owner, name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
+        )  # fmt: skip
+        queue.submitted(row)
+        return row
+
+    row = await anyio.to_thread.run_sync(queued)
+    deadline = time.monotonic() + settings.max_raytree_seconds + 10
+    while True:
+        row = await anyio.to_thread.run_sync(store.get, row["id"])
+        if JobStatus(row["status"]).finished:
+            break
+        stopping = request.app.state.stopping()
+        if stopping or await request.is_disconnected() or time.monotonic() > deadline:
+            cancelled = await anyio.to_thread.run_sync(store.cancel, row["id"])
+            queue.cancelled(cancelled)
+            if stopping:
+                raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
+            if time.monotonic() > deadline:
+                raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
+            raise ApiError(499, "the client went away")
+        await anyio.sleep(RAYTREE_POLL)
+    if row["status"] == JobStatus.done:
+        text = await anyio.to_thread.run_sync(store.job_file(row["id"], JobFile.raytree).read_text)
+        return json.loads(text)
+    errors = json.loads(row["errors"] or "[]")
+    if errors:
+        raise ApiError(422, errors)
+    raise ApiError(503, row["error"] or f"the ray tree's job was {row['status']}")

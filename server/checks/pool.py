@@ -1,0 +1,270 @@
+"""Scene checks off the API's event loop: validating a scene (POST /api/validate, and the scene of POST
+/api/jobs and POST /api/raytree) and a pixel's samples (POST /api/samples) run in a small pool of
+processes, never in the API process.
+
+Validating a scene of 25 000 spheres takes a fifth of a second of Python; four of them in the API's
+threads held its interpreter lock long enough to slow every other request (GET /api/jobs/{id} took
+0.7 s). Here each check is a task for one of `validate_processes` spawned processes (plain data in:
+the request's body as bytes, the limits; plain data out: errors, warnings, what the route needs of
+the scene). The route waits for the answer without holding the event loop, and
+- a check that uses more than `max_validate_seconds` of CPU has its process killed (and a new one
+  started): the scene is refused as too costly to check;
+- a client that goes away while its scene is checked has the process doing it killed and replaced,
+  so no CPU goes on burning for an answer nobody reads;
+- past `max_validate_waiting` requests waiting for a free process, a request is answered 429.
+
+The processes are niced like the render workers (the API answers first), watch their server (and exit
+when it is gone), and load what they need once at start-up.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import logging
+import math
+import multiprocessing as mp
+import os
+import threading
+import time
+from dataclasses import dataclass
+
+import anyio
+from fastapi import Request
+
+from server.checks.tasks import checker_main, loaded
+from server.core.errors import ApiError
+from server.core.settings import Settings
+from tracer.scene import ASSET_DIR
+
+log = logging.getLogger(__name__)
+
+CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
+WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
+READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
+START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
+PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
+
+
+class _Clock:
+    """Seconds a task has taken: the CPU time its process has used since (from /proc, so a check slowed down
+    by a busy machine is not taken for a costly one), or the time since, where /proc cannot say."""
+
+    def __init__(self, pid: int):
+        self.pid, self.wall = pid, time.monotonic()
+        self.cpu = self._cpu()
+
+    def _cpu(self) -> float | None:
+        try:
+            with open(f"/proc/{self.pid}/stat", "rb") as f:
+                fields = f.read().rsplit(b")", 1)[1].split()
+            return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+        except (OSError, IndexError, ValueError):
+            return None
+
+    def __call__(self) -> float:
+        now = self._cpu() if self.cpu is not None else None
+        return now - self.cpu if now is not None else time.monotonic() - self.wall
+
+
+
+
+
+@dataclass
+class _Checker:
+    index: int
+    process: mp.process.BaseProcess | None = None
+    conn: object = None  # the server's end of the process's line
+    state: str = "starting"  # starting, idle, busy
+    task: str | None = None  # what it does while busy: read, validate, summary, samples
+    restarts: int = 0
+
+
+class CheckPool:
+    """`settings.validate_processes` checking processes, started with the app; `run` hands one a task."""
+
+    def __init__(self, settings: Settings):
+        self.settings = settings
+        self.ctx = mp.get_context("spawn")
+        self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
+        self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # -- life
+
+    def start(self) -> None:
+        for checker in self.checkers:
+            self._restart(checker)
+
+    def _restart(self, checker: _Checker, old=None) -> None:
+        """Start the checker's process again, in a thread: the old one (if any) is killed and reaped first."""
+        checker.state = "starting"
+        threading.Thread(target=self._start, args=(checker, old), name=f"checker-{checker.index}", daemon=True).start()
+
+    def _start(self, checker: _Checker, old) -> None:
+        if old is not None:
+            process, conn = old
+            process.kill()
+            process.join(timeout=10)
+            conn.close()
+        ours, theirs = self.ctx.Pipe()
+        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice), daemon=True,
+                                   name=f"scene-checker-{checker.index}")  # fmt: skip
+        with self._lock:
+            if self._closed:
+                return
+            process.start()
+        theirs.close()
+        try:
+            ready = ours.poll(START_TIMEOUT) and ours.recv() == "ready"
+        except (EOFError, OSError):
+            ready = False
+        with self._lock:
+            if self._closed:  # the server stopped meanwhile: this one reads end-of-file and exits
+                ours.close()
+                process.join(timeout=5)
+                return
+            if not ready:
+                log.error("scene checker %d did not start; starting it again", checker.index)
+                checker.restarts += 1
+                self._restart(checker, (process, ours))
+                return
+            checker.process, checker.conn, checker.state = process, ours, "idle"
+            self._wake()
+
+    def _wake(self) -> None:
+        """Tell the oldest waiting request that a checker is free (under the lock; from any thread); it stays
+        first in line until it has taken one."""
+        if self._waiters:
+            loop, event = self._waiters[0]
+            try:
+                loop.call_soon_threadsafe(event.set)
+            except RuntimeError:  # its event loop is closed: it is gone
+                self._waiters.popleft()
+                self._wake()
+
+    def shutdown(self) -> None:
+        with self._lock:
+            self._closed = True
+        for checker in self.checkers:
+            if checker.conn is not None:
+                checker.conn.close()  # the process reads end-of-file: it exits
+        for checker in self.checkers:
+            if checker.process is not None:
+                checker.process.join(timeout=5)
+                if checker.process.is_alive():
+                    checker.process.kill()
+                    checker.process.join(timeout=5)
+
+    def info(self) -> list[dict]:
+        """Each checking process: pid, state (starting, idle, busy), task (while busy), restarts."""
+        return [
+            {"pid": c.process.pid if c.process is not None and c.state != "starting" else None, "state": c.state,
+             "task": c.task, "restarts": c.restarts}
+            for c in self.checkers
+        ]  # fmt: skip
+
+    # -- a task
+
+    async def _take(self, request: Request) -> _Checker:
+        """An idle checker, marked busy; waits for one without polling, first come first served: a request
+        takes a free checker only when nobody waits before it (429 past max_validate_waiting waiting)."""
+        waiter = None
+        try:
+            while True:
+                with self._lock:
+                    free = next((c for c in self.checkers if c.state == "idle"), None)
+                    first = self._waiters[0] is waiter if self._waiters else waiter is None
+                    if free is not None and first:
+                        free.state = "busy"
+                        if waiter is not None:
+                            self._waiters.popleft()
+                            waiter = None
+                        if any(c.state == "idle" for c in self.checkers):
+                            self._wake()  # another one is free: the next in line takes it
+                        return free
+                    if waiter is None:
+                        if len(self._waiters) >= self.settings.max_validate_waiting:
+                            raise ApiError(
+                                429, "too many scenes are being checked; try again later (TRACER_MAX_VALIDATE_WAITING)",
+                                headers={"Retry-After": "2"},
+                            )  # fmt: skip
+                        waiter = (asyncio.get_running_loop(), asyncio.Event())
+                        self._waiters.append(waiter)
+                    waiter[1].clear()
+                with anyio.move_on_after(WAIT_CHECK):
+                    await waiter[1].wait()
+                if await request.is_disconnected():
+                    raise ApiError(499, "the client went away")
+        finally:
+            if waiter is not None:  # gone while waiting (the client left, or a 429 of someone's): out of the line
+                with self._lock:
+                    head = bool(self._waiters) and self._waiters[0] is waiter
+                    self._waiters.remove(waiter)
+                    if head and any(c.state == "idle" for c in self.checkers):
+                        self._wake()  # it was woken for a free checker: the next in line takes it
+
+    async def run(self, request: Request, task: str, *args, timed: bool = True):
+        """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
+        limit (when `timed`) is stopped (422: the scene costs too much to check); one whose client went away
+        is stopped too."""
+        checker = await self._take(request)
+        checker.task = task
+        conn, process, answered = checker.conn, checker.process, False
+        limit = self.settings.max_validate_seconds if timed else math.inf
+        try:
+            await anyio.to_thread.run_sync(conn.send, (task, args))
+            spent = _Clock(process.pid)
+            while True:
+                with anyio.move_on_after(CLIENT_CHECK):
+                    await anyio.wait_readable(conn.fileno())  # the answer (or the process's end) is there
+                    break
+                if await request.is_disconnected():
+                    log.info("scene check stopped: the client went away")
+                    raise ApiError(499, "the client went away")
+                if spent() >= limit:
+                    log.warning("scene check stopped after %g s (TRACER_MAX_VALIDATE_SECONDS)", limit)
+                    message = (
+                        f"checking the scene took longer than the limit of {limit:g} s (TRACER_MAX_VALIDATE_SECONDS): "
+                        "it is too large to check; make it smaller"
+                    )
+                    raise ApiError(422, [{"path": "", "message": message}])
+            kind, value = await anyio.to_thread.run_sync(conn.recv)
+            answered = True
+        except (EOFError, OSError):
+            raise ApiError(503, "the scene's checking process died; try again") from None
+        finally:
+            with self._lock:
+                checker.task = None
+                if answered:
+                    checker.state = "idle"
+                    self._wake()
+                elif not self._closed:  # stopped mid-task (or dead): a new process takes its place
+                    checker.restarts += 1
+                    self._restart(checker, (process, conn))
+        if kind != "ok":
+            raise RuntimeError(f"scene check {task} failed in its process: {value}")
+        return value
+
+    async def read(self, request: Request, body: bytes):
+        """The request's JSON as the route's model reads it, its scene's content left out (`read`); raises
+        what json.loads would have raised here, so the answer to a body that is not JSON is the same."""
+        return loaded(await self.run(request, "read", body, timed=False), body)  # bounded by the body's size
+
+    async def validate(self, request: Request, body: bytes) -> dict:
+        return await self.run(request, "validate", body, self.settings.limits, ASSET_DIR)
+
+    async def summary(self, request: Request, body: bytes) -> dict:
+        """The scene's summary (`summary`); 422 with its errors when it is not valid."""
+        found = await self.run(request, "summary", body, self.settings.limits, ASSET_DIR,
+                               self.settings.threads_per_worker())  # fmt: skip
+        if "errors" in found:
+            raise ApiError(422, found["errors"])
+        return found
+
+    async def samples(self, request: Request, body: bytes, x: int, y: int) -> dict:
+        found = await self.run(request, "samples", body, self.settings.limits, ASSET_DIR, x, y)
+        if "errors" in found:
+            raise ApiError(422, found["errors"])
+        return found["samples"]

@@ -1,0 +1,139 @@
+"""What a checking process does (spawned by server/checks/pool.py): each task takes plain data (a request's
+body as bytes, the limits) and answers plain data (errors, warnings, what the route needs of the scene)."""
+
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+from tracer.scene import Limits, SceneError, load_scene
+
+log = logging.getLogger(__name__)
+
+CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
+WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
+READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
+START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
+PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
+
+
+
+
+def _scene_of(body: bytes, limits: Limits, assets: Path) -> tuple:
+    """The request body's scene, validated as POST /api/jobs validates it (the format, the limits, the asset
+    files): (Scene, warnings), or raises SceneError."""
+    data = json.loads(body)["scene"]  # the body was checked by the route's model: an object with a scene
+    return (*load_scene(data, limits, assets=assets), data)
+
+
+def validate(body: bytes, limits: Limits, assets: Path) -> dict:
+    """POST /api/validate's answer."""
+    try:
+        _, warnings, _ = _scene_of(body, limits, assets)
+    except SceneError as exc:
+        return {"valid": False, "errors": exc.errors, "warnings": []}
+    return {"valid": True, "errors": [], "warnings": warnings}
+
+
+def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
+    """What POST /api/jobs and POST /api/raytree need of a valid scene (the scene's JSON text, its size and
+    estimates), or its `errors`."""
+    from tracer import estimate
+
+    try:
+        scene, warnings, data = _scene_of(body, limits, assets)
+    except SceneError as exc:
+        return {"errors": exc.errors}
+    solve = estimate.solve_seconds(scene, threads, assets)
+    return {
+        "text": json.dumps(data), "warnings": warnings, "name": scene.name, "width": scene.film.width,
+        "height": scene.film.height, "spp": scene.sampler.spp, "integrator": scene.render.integrator,
+        "seconds": estimate.seconds(scene, threads, assets, solve), "solve_seconds": solve,
+    }  # fmt: skip
+
+
+def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
+    """POST /api/samples's answer, or its `errors`."""
+    from tracer.compile import compile_scene
+    from tracer.samples import pixel_samples
+
+    try:
+        scene, _, _ = _scene_of(body, limits, assets)
+        # as many positions as a scene may have samples (the service's max_spp), the adaptive grid's included
+        return {"samples": pixel_samples(compile_scene(scene, assets, limits=limits), x, y, max_samples=limits.max_spp)}
+    except SceneError as exc:
+        return {"errors": exc.errors}
+
+
+def read(body: bytes) -> tuple:
+    """A request body's JSON for the route's own model (server/api/models.py): ("ok", the body with its scene's
+    content left out), or why it is not JSON as the API would have said it: ("invalid", message, position)
+    for a JSON syntax error, ("unreadable", message) for the rest (not UTF-8, an integer too long, nesting
+    too deep for the parser)."""
+    try:
+        data = json.loads(body)
+    except json.JSONDecodeError as exc:
+        return "invalid", exc.msg, exc.pos
+    except (ValueError, RecursionError) as exc:
+        return "unreadable", f"{type(exc).__name__}: {exc}"
+    if isinstance(data, dict) and isinstance(data.get("scene"), dict):
+        data = {**data, "scene": {}}  # a scene is read, from the same bytes, where it is checked
+    return "ok", data
+
+
+def loaded(answer: tuple, body: bytes):
+    """`read`'s answer as json.loads would have given it: the data, or its exception (the same error answer)."""
+    if answer[0] == "invalid":
+        raise json.JSONDecodeError(answer[1], body.decode(json.detect_encoding(body), "surrogatepass"), answer[2])
+    if answer[0] == "unreadable":
+        raise ValueError(answer[1])
+    return answer[1]
+
+
+TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samples}
+
+
+def checker_main(conn, nice: int) -> None:
+    """A checking process (spawned): below the API in priority, deaf to the terminal's Ctrl-C and to a SIGTERM
+    sent to the server's whole process group (the server stops it: closing its line), gone with its server;
+    loads the kernels of the samples from Warp's cache, says it is ready, then answers tasks (name, args)
+    until its line closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    if nice:
+        try:
+            os.nice(nice)
+        except OSError:
+            pass
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    from tracer.samples import load_kernels
+
+    load_kernels()
+    conn.send("ready")
+    while True:
+        try:
+            name, args = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            answer = ("ok", TASKS[name](*args))
+        except Exception as exc:  # a bug must answer the request (a 500 in the API), not end the process
+            log.exception("scene check %s failed", name)
+            answer = ("crash", f"{type(exc).__name__}: {exc}")
+        conn.send(answer)
+
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process once its server is gone (killed without a word: SIGKILL, out of memory), even in the
+    middle of a task."""
+    while True:
+        time.sleep(PARENT_CHECK)
+        if os.getppid() != parent:
+            os._exit(0)

@@ -1,0 +1,53 @@
+"""SQLite as the service uses it: one connection per thread and process (WAL, a busy timeout), and
+transactions that never leave a connection inside one (the job store and the grading store share them)."""
+
+from __future__ import annotations
+
+import os
+import sqlite3
+import threading
+from pathlib import Path
+
+
+def thread_connection(local: threading.local, db_path: Path) -> sqlite3.Connection:
+    """This thread's connection to the database, kept in `local` (a new one in another process: a connection
+    never crosses a fork): autocommit (transactions are `Transaction`s), WAL, waiting up to 30 s for a lock."""
+    conn = getattr(local, "conn", None)
+    if conn is None or getattr(local, "pid", None) != os.getpid():
+        conn = sqlite3.connect(db_path, timeout=30, isolation_level=None, check_same_thread=True)
+        conn.row_factory = sqlite3.Row
+        conn.execute("PRAGMA journal_mode=WAL")
+        conn.execute("PRAGMA synchronous=NORMAL")
+        conn.execute("PRAGMA busy_timeout=30000")
+        local.conn, local.pid = conn, os.getpid()
+    return conn
+
+
+class Transaction:
+    """`with`: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception), on an autocommit connection. A COMMIT
+    that fails (the disk full) rolls back too, so the connection is never left inside a transaction: the
+    next one begins cleanly once there is space again."""
+
+    def __init__(self, conn: sqlite3.Connection):
+        self.conn = conn
+
+    def __enter__(self) -> sqlite3.Connection:
+        self.conn.execute("BEGIN IMMEDIATE")
+        return self.conn
+
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is None:
+            try:
+                self.conn.execute("COMMIT")
+                return
+            except BaseException:
+                self._rollback()
+                raise
+        self._rollback()
+
+    def _rollback(self) -> None:
+        if self.conn.in_transaction:  # SQLite may have rolled it back itself (a full disk, an I/O error)
+            try:
+                self.conn.execute("ROLLBACK")
+            except sqlite3.Error:
+                pass

@@ -1,0 +1,287 @@
+"""Every error answer has one shape, `{"errors": [{"path", "message"}]}`, and no error is ever a 500 by accident.
+
+- `ApiError` is raised by routes with a status and error items;
+- request validation errors (pydantic) are translated to JSON paths of the request body;
+- a full disk (the job store's or a file's write) is 507 Insufficient Storage, whatever route met it;
+- `SafeJSONResponse` is the app's response class: NaN and Infinity become null, so echoing a bad
+  value can never crash the serialisation of its own error message;
+- `RequestGate` (ASGI middleware) answers 413 past the body size limit (by Content-Length and by
+  the bytes actually streamed) and 400 for JSON nested deeper than the depth limit, before any
+  parser or validator sees the body; an upload (a class's files) streams through it with its own limit.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import re
+import sqlite3
+from typing import Any
+
+import anyio
+import numpy as np
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from server.core.files import is_disk_full
+from tracer.errors import translate_error
+
+log = logging.getLogger("server")
+DISK_FULL = (
+    "the server's disk is full: nothing of this request was kept; try again later (the server's log says so "
+    "to its administrator)"
+)
+
+
+def sanitise(value: Any) -> Any:
+    """A copy of `value` that JSON can carry: non-finite floats -> None, tuples -> lists, bytes -> text."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): sanitise(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [sanitise(v) for v in value]
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    return value
+
+
+class SafeJSONResponse(JSONResponse):
+    """JSON that never fails on NaN or Infinity (they become null)."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(sanitise(content), ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode()
+
+
+class ApiError(Exception):
+    """An answer with a 4xx status and error items."""
+
+    def __init__(self, status: int, errors: list[dict[str, str]] | str, headers: dict[str, str] | None = None):
+        self.status = status
+        self.errors = [{"path": "", "message": errors}] if isinstance(errors, str) else list(errors)
+        self.headers = headers
+        super().__init__(f"{status}: {self.errors}")
+
+
+def errors_response(status: int, errors: list[dict[str, str]], headers: dict[str, str] | None = None):
+    items = [{"path": str(e.get("path", "")), "message": str(e.get("message", ""))} for e in errors]
+    return SafeJSONResponse({"errors": items}, status_code=status, headers=headers)
+
+
+def _line_col(doc: Any, pos: int) -> str:
+    if isinstance(doc, bytes | bytearray):
+        doc = doc.decode("utf-8", errors="replace")
+    if not isinstance(doc, str) or not 0 <= pos <= len(doc):
+        return f"character {pos}"
+    line = doc.count("\n", 0, pos) + 1
+    col = pos - (doc.rfind("\n", 0, pos) + 1) + 1
+    return f"line {line}, column {col}"
+
+
+# ---------------------------------------------------------------------------------------------
+# pydantic's errors about a request -> {path, message}.
+#
+# The request's own part is here: where an error is (the body, or a query, path or header parameter)
+# and errors of the body as a whole (not JSON, not an object). An error at a field is worded by the
+# library's one translator (tracer/errors.py), in the words of a scene's errors; a request's model is
+# not in FastAPI's error, so it translates without one.
+
+LOCATIONS = ("body", "query", "path", "header")  # where FastAPI says a request's error is
+BODY_TYPE_ERRORS = ("model_attributes_type", "dict_type", "model_type")  # a body that is not an object
+
+
+def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]]:
+    """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body."""
+    out = []
+    for err in exc.errors():
+        loc = list(err.get("loc") or ())
+        where = loc.pop(0) if loc and loc[0] in LOCATIONS else "body"
+        kind = err.get("type", "")
+        if kind == "json_invalid":
+            pos = loc[0] if loc and isinstance(loc[0], int) else 0
+            error = (err.get("ctx") or {}).get("error", "decode error")
+            message = f"invalid JSON at {_line_col(getattr(exc, 'body', None), pos)}: {error}"
+            out.append({"path": "", "message": message})
+        elif kind == "missing" and not loc:
+            out.append({"path": "", "message": "a JSON object body is required"})
+        elif kind in BODY_TYPE_ERRORS and not loc and where == "body":
+            out.append({"path": "", "message": "the body must be a JSON object (Content-Type: application/json)"})
+        else:
+            item = translate_error({**err, "loc": tuple(loc)})
+            if where != "body" and item["path"]:
+                item["message"] += f" (in the {where} parameter '{item['path']}')"
+            out.append(item)
+    return out or [{"path": "", "message": "invalid request"}]
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(ApiError)
+    async def api_error(request: Request, exc: ApiError):
+        return errors_response(exc.status, exc.errors, exc.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def request_errors(request: Request, exc: RequestValidationError):
+        return errors_response(422, translate_request_errors(exc))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_errors(request: Request, exc: StarletteHTTPException):
+        detail = exc.detail if isinstance(exc.detail, str) else json.dumps(sanitise(exc.detail))
+        if exc.status_code == 400 and detail == "There was an error parsing the body":
+            detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
+        return errors_response(exc.status_code, [{"path": "", "message": detail}], getattr(exc, "headers", None))
+
+    @app.exception_handler(OSError)
+    @app.exception_handler(sqlite3.Error)
+    async def storage_error(request: Request, exc: Exception):
+        """A full disk is 507, with nothing of the request kept (the job store's writes are transactions, its
+        files are written whole or not at all); any other storage error is the 500 of a bug."""
+        if is_disk_full(exc):
+            log.warning("%s %s: the data directory's disk is full (%s)", request.method, request.url.path, exc)
+            return errors_response(507, [{"path": "", "message": DISK_FULL}], {"Retry-After": "60"})
+        return await crashed(request, exc)
+
+    @app.exception_handler(Exception)
+    async def crashed(request: Request, exc: Exception):
+        log.exception("unhandled error in %s %s", request.method, request.url.path)
+        return errors_response(500, [{"path": "", "message": "internal error (logged on the server)"}])
+
+
+# ---------------------------------------------------------------------------------------------
+# The request gate: body size and JSON depth, checked before anything parses the body.
+
+_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"')
+THREAD_FROM = 65536  # bytes: a body this large has its depth found in a thread, off the event loop
+_NOT_BRACKETS = bytes(c for c in range(256) if c not in b"[]{}")
+
+
+def json_depth(body: bytes) -> int:
+    """The deepest nesting of arrays and objects in JSON text (brackets inside strings ignored): in array
+    operations that let other threads run (`_depth_of_arrays`), or, for text those do not read as JSON
+    reads it (a string left open, a backslash outside strings), by stripping strings with a regular
+    expression, as `_depth_by_regex` did first."""
+    depth = _depth_of_arrays(body)
+    return _depth_by_regex(body) if depth is None else depth
+
+
+def _depth_by_regex(body: bytes) -> int:
+    brackets = _STRING.sub(b"", body).translate(None, _NOT_BRACKETS)
+    if not brackets:
+        return 0
+    b = np.frombuffer(brackets, dtype=np.uint8)
+    steps = np.where((b == ord("[")) | (b == ord("{")), 1, -1)
+    return int(np.cumsum(steps).max())
+
+
+def _depth_of_arrays(body: bytes) -> int | None:
+    """`json_depth` with numpy alone (which releases the interpreter lock, so the event loop goes on while a
+    thread reads a large body), or None where that could differ from `_depth_by_regex`: every string must
+    close and no backslash may stand outside one, as in JSON. Arrays of one byte per byte of the body,
+    and of one number per backslash or bracket."""
+    b = np.frombuffer(body, dtype=np.uint8)
+    if not b.size:
+        return 0
+    backslash, quote = b == ord("\\"), b == ord('"')
+    slashes = np.flatnonzero(backslash)
+    if slashes.size:  # the byte after an odd run of backslashes is escaped
+        breaks = np.flatnonzero(np.diff(slashes) != 1)
+        first, last = slashes[np.r_[0, breaks + 1]], slashes[np.r_[breaks, slashes.size - 1]]
+        after = last[((last - first) % 2 == 0) & (last + 1 < b.size)] + 1
+        quote[after] = False
+    inside = np.bitwise_xor.accumulate(quote.view(np.uint8)).view(bool)  # from an opening quote to its closing one
+    if inside[-1]:
+        return None  # a string left open
+    if slashes.size and not inside[slashes].all():
+        return None  # a backslash outside strings
+    at = np.flatnonzero(((b == ord("[")) | (b == ord("{")) | (b == ord("]")) | (b == ord("}"))) & ~inside)
+    if not at.size:
+        return 0
+    opening = (b[at] == ord("[")) | (b[at] == ord("{"))
+    return int(np.cumsum(np.where(opening, 1, -1), dtype=np.int64).max())
+
+
+class RequestGate:
+    """ASGI middleware: 413 past `max_bytes`, 400 past `max_depth` levels of JSON nesting.
+
+    `streamed` names routes whose bodies are not JSON and are read as a stream by the route itself
+    (a class's upload), each with its own limit (bytes, and the settings that make it): their bodies
+    pass through unbuffered, counted, and the request fails with 413 as soon as it is past the limit."""
+
+    def __init__(
+        self, app: ASGIApp, max_bytes: int, max_depth: int, streamed: dict[str, tuple[int, str]] | None = None
+    ):
+        self.app, self.max_bytes, self.max_depth = app, max_bytes, max_depth
+        self.streamed = streamed or {}
+
+    def _too_large(self, limit: int | None = None, name: str = "TRACER_MAX_BODY_BYTES") -> JSONResponse:
+        msg = f"request body larger than {limit or self.max_bytes} bytes ({name})"
+        return errors_response(413, [{"path": "", "message": msg}])
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
+            await self.app(scope, receive, send)
+            return
+        headers = dict(scope.get("headers") or [])
+        length = headers.get(b"content-length")
+        limit, name = self.streamed.get(scope["path"], (self.max_bytes, "TRACER_MAX_BODY_BYTES"))
+        if length is not None:
+            try:
+                declared = int(length)
+            except ValueError:
+                await errors_response(400, [{"path": "", "message": "invalid Content-Length"}])(scope, receive, send)
+                return
+            if declared > limit:
+                await self._too_large(limit, name)(scope, receive, send)
+                return
+        if scope["path"] in self.streamed:
+            await self.app(scope, _counted(receive, limit, name), send)
+            return
+        # Read the whole body (it is bounded), then check and replay it to the app.
+        chunks, size = [], 0
+        while True:
+            message = await receive()
+            if message["type"] == "http.disconnect":
+                return
+            chunk = message.get("body", b"")
+            size += len(chunk)
+            if size > self.max_bytes:
+                await self._too_large()(scope, receive, send)
+                return
+            chunks.append(chunk)
+            if not message.get("more_body", False):
+                break
+        body = b"".join(chunks)
+        depth = json_depth(body) if size < THREAD_FROM else await anyio.to_thread.run_sync(json_depth, body)
+        if depth > self.max_depth:
+            msg = f"JSON nested {depth} levels deep; at most {self.max_depth} (TRACER_MAX_JSON_DEPTH)"
+            await errors_response(400, [{"path": "", "message": msg}])(scope, receive, send)
+            return
+        replayed = False
+
+        async def replay() -> Message:
+            nonlocal replayed
+            if not replayed:
+                replayed = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
+
+
+def _counted(receive: Receive, limit: int, name: str) -> Receive:
+    """`receive`, counting the body's bytes: past `limit` it raises ApiError(413) into the route reading it."""
+    seen = 0
+
+    async def counted() -> Message:
+        nonlocal seen
+        message = await receive()
+        if message["type"] == "http.request":
+            seen += len(message.get("body", b""))
+            if seen > limit:
+                raise ApiError(413, [{"path": "", "message": f"request body larger than {limit} bytes ({name})"}])
+        return message
+
+    return counted

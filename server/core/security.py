@@ -1,0 +1,316 @@
+"""Who may do what, and what the server answers to: job ownership, the instructor, host names, headers.
+
+- **Jobs belong to a token.** POST /api/jobs takes `Authorization: Bearer <token>`; without one it
+  issues a fresh random token (`secrets.token_urlsafe(32)`) in the answer's `token`. The store keeps
+  only the token's SHA-256 (the jobs' `owner` column). A job is read, streamed, cancelled or
+  downloaded only with the token that made it; any other caller gets the 404 of an unknown id, so ids
+  are not confirmed. A job with no owner (the server's grading renders, rows from before owners, a
+  ray tree asked for without a token) is the instructor's.
+- **A read-only share token** of a job (POST /api/jobs/{id}/share, its owner only) reads that one job: its
+  GET routes (the job, its events, image, AOVs, scene, radiosity), never a cancel, never another job. It is
+  an HMAC of the job's id keyed by the owner's token hash, so the server keeps nothing more, it cannot be
+  turned back into the owner's token, and it dies with the job.
+- **The instructor** (TRACER_INSTRUCTOR_TOKEN) grades, lists every job and reads any. Without such a
+  token, a server that listens on loopback only is one person's own machine and everyone is the
+  instructor (everything works as before tokens); a server on another address then has no instructor
+  (grading is refused with 403), and warns at start-up.
+- **Host names** (`HostCheck`): a request whose Host header is not a name the server serves is
+  refused (400), against DNS rebinding: the loopback names, the address it listens on, and
+  TRACER_ALLOWED_HOSTS. A server listening on every address (0.0.0.0, ::) with no list accepts any
+  Host, and warns at start-up.
+- **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
+  assets (and /docs its one inline script, by hash), no MIME sniffing, no framing, no referrer
+  to other sites.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import hmac
+import ipaddress
+import logging
+import re
+import secrets
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, Request
+from fastapi.security import HTTPBearer
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from server.core.errors import ApiError, errors_response
+from server.core.settings import Settings
+
+log = logging.getLogger("server")
+
+TOKEN = re.compile(r"[A-Za-z0-9._~+/=-]{16,512}")  # RFC 6750's b64token, 16 to 512 characters
+TOKEN_WORDS = "16 to 512 letters, digits or -._~+/="
+LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
+WILDCARDS = ("0.0.0.0", "::", "")  # listening on every address
+
+
+def new_token() -> str:
+    return secrets.token_urlsafe(32)  # 256 random bits
+
+
+def token_hash(token: str) -> str:
+    """What the store keeps of a token: its SHA-256, in hex."""
+    return hashlib.sha256(token.encode()).hexdigest()
+
+
+def share_token(row: dict) -> str | None:
+    """The job's read-only share token (None for a job with no owner: the instructor's own)."""
+    owner = row.get("owner")
+    if not owner:
+        return None
+    digest = hmac.new(bytes.fromhex(owner), f"share:{row['id']}".encode(), hashlib.sha256).digest()
+    return "share-" + base64.urlsafe_b64encode(digest).decode().rstrip("=")
+
+
+def loopback_only(host: str) -> bool:
+    """Does an address to listen on (python -m server --host) reach this machine only?"""
+    name = host.strip().strip("[]").lower().rstrip(".")
+    if name == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def instructor_token(settings: Settings) -> str | None:
+    return settings.instructor_token.get_secret_value() if settings.instructor_token else None
+
+
+# -- the caller ----------------------------------------------------------------------------------
+
+bearer = HTTPBearer(
+    auto_error=False,
+    scheme_name="token",
+    description="A job's token (POST /api/jobs issues one when none is sent), or the instructor's "
+    "(TRACER_INSTRUCTOR_TOKEN) for grading and every job.",
+)
+
+
+@dataclass(frozen=True)
+class Caller:
+    """Who asks: their token's hash (None without a token) and whether they are the instructor."""
+
+    token: str | None
+    owner: str | None
+    instructor: bool
+
+    def shares(self, row: dict) -> bool:
+        """Does this caller hold the job's read-only share token?"""
+        key = share_token(row)
+        return bool(key and self.token and hmac.compare_digest(key.encode(), self.token.encode()))
+
+    def owns(self, row: dict) -> bool:
+        """May this caller see the job? The instructor sees every job; a student those of their token."""
+        if self.instructor:
+            return True
+        owner = row.get("owner")
+        return bool(owner and self.owner and hmac.compare_digest(owner, self.owner))
+
+
+def unauthorized(message: str, error: str = "invalid_token") -> ApiError:
+    header = f'Bearer realm="tracer", error="{error}"' if error else 'Bearer realm="tracer"'
+    return ApiError(401, [{"path": "Authorization", "message": message}], headers={"WWW-Authenticate": header})
+
+
+def bearer_token(request: Request) -> str | None:
+    """The request's bearer token; None without an Authorization header; 401 for a malformed one."""
+    header = request.headers.get("authorization")
+    if header is None:
+        return None
+    scheme, _, value = header.strip().partition(" ")
+    value = value.strip()
+    if scheme.lower() != "bearer" or not TOKEN.fullmatch(value):
+        raise unauthorized(
+            f"expected the header 'Authorization: Bearer <token>' with a token of {TOKEN_WORDS} "
+            "(the token POST /api/jobs gave, or the instructor's)",
+            "invalid_request",
+        )
+    return value
+
+
+def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = None) -> Caller:
+    """The caller of a request (`_`: only so that /docs offers a field for the token)."""
+    token = bearer_token(request)
+    settings: Settings = request.app.state.settings
+    secret = instructor_token(settings)
+    if secret is not None:
+        instructor = token is not None and hmac.compare_digest(token.encode(), secret.encode())
+    else:
+        instructor = loopback_only(settings.host)  # one person on their own machine
+    return Caller(token, token_hash(token) if token else None, instructor)
+
+
+CallerDep = Annotated[Caller, Depends(get_caller)]
+
+
+def require_instructor(caller: CallerDep, request: Request) -> Caller:
+    """401 unless the caller is the instructor (403 on a server that has no instructor)."""
+    if caller.instructor:
+        return caller
+    settings: Settings = request.app.state.settings
+    if instructor_token(settings) is None:
+        message = (
+            f"this server listens on {settings.host}, not on loopback only, and has no instructor token: "
+            "start it with TRACER_INSTRUCTOR_TOKEN set to grade"
+        )
+        raise ApiError(403, [{"path": "Authorization", "message": message}])
+    if caller.token is None:
+        raise unauthorized("this needs the instructor's token: send 'Authorization: Bearer <token>'", "")
+    raise unauthorized("this token is not the instructor's (TRACER_INSTRUCTOR_TOKEN)")
+
+
+InstructorDep = Annotated[Caller, Depends(require_instructor)]
+
+
+# -- start-up --------------------------------------------------------------------------------------
+
+
+def start_up_warnings(settings: Settings) -> list[str]:
+    """What an operator should know about how open this server is (logged at start-up)."""
+    out = []
+    if instructor_token(settings) is None and not loopback_only(settings.host):
+        out.append(
+            f"listening on {settings.host} (not loopback only) without TRACER_INSTRUCTOR_TOKEN: grading is "
+            "refused and jobs without an owner (grading renders, older jobs) cannot be read; set it"
+        )
+    if served_hosts(settings) is None and not settings.allowed_hosts.strip():
+        out.append(
+            f"listening on every address ({settings.host or '*'}) without TRACER_ALLOWED_HOSTS: any Host header "
+            "is accepted; name the server's host names in TRACER_ALLOWED_HOSTS"
+        )
+    return out
+
+
+# -- host names ----------------------------------------------------------------------------------
+
+
+def served_hosts(settings: Settings) -> frozenset[str] | None:
+    """The host names a request may name (lower case, no port): the loopback names, the address the server
+    listens on when it is one address, and TRACER_ALLOWED_HOSTS ('.example.edu' also names its
+    subdomains). None: any (TRACER_ALLOWED_HOSTS=*, or listening on every address with no list)."""
+    listed = [h.strip().lower().rstrip(".") for h in settings.allowed_hosts.split(",") if h.strip()]
+    if "*" in listed:
+        return None
+    bound = settings.host.strip().strip("[]").lower().rstrip(".")
+    if bound in WILDCARDS and not listed:
+        return None
+    names = {*LOOPBACK_NAMES, *listed}
+    if bound not in WILDCARDS:
+        names.add(bound)
+    return frozenset(n.strip("[]") for n in names)
+
+
+def host_name(header: str) -> str:
+    """A Host header's name: without its port, IPv6 brackets or a final dot, in lower case."""
+    header = header.strip().lower()
+    if header.startswith("["):
+        return header[1 : header.find("]")] if "]" in header else header
+    return header.rpartition(":")[0].rstrip(".") if ":" in header else header.rstrip(".")
+
+
+def host_allowed(name: str, served: frozenset[str]) -> bool:
+    return name in served or any(s.startswith(".") and (name == s[1:] or name.endswith(s)) for s in served)
+
+
+class HostCheck:
+    """ASGI middleware: 400 for a request whose Host header names a host the server does not serve."""
+
+    def __init__(self, app: ASGIApp, served: frozenset[str] | None):
+        self.app, self.served = app, served
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or self.served is None:
+            await self.app(scope, receive, send)
+            return
+        header = next((v for k, v in scope.get("headers") or () if k == b"host"), None)
+        name = host_name(header.decode("latin-1")) if header is not None else ""
+        if not name or not host_allowed(name, self.served):
+            shown = repr(header.decode("latin-1")[:100]) if header is not None else "none"
+            message = (
+                f"the Host header ({shown}) is not a name this server answers to; it serves "
+                f"{', '.join(sorted(self.served))} (TRACER_ALLOWED_HOSTS adds names)"
+            )
+            await errors_response(400, [{"path": "Host", "message": message}])(scope, receive, send)
+            return
+        await self.app(scope, receive, send)
+
+
+# -- headers -------------------------------------------------------------------------------------
+
+POLICY = (
+    "default-src 'self'; img-src 'self' blob: data:; object-src 'none'; base-uri 'self'; form-action 'self'; "
+    "frame-ancestors 'none'"
+)
+DOCS_PATHS = ("/docs", "/docs/oauth2-redirect")  # Swagger UI's pages: an inline script each, allowed by its hash
+INLINE_SCRIPT = re.compile(rb"<script>(.*?)</script>", re.S)
+HEADERS = [
+    (b"x-content-type-options", b"nosniff"),
+    (b"x-frame-options", b"DENY"),
+    (b"referrer-policy", b"same-origin"),
+]
+
+
+def docs_policy(html: bytes) -> str:
+    """The policy of a Swagger UI page: its inline scripts by hash, and the inline styles its UI sets."""
+    hashes = " ".join(
+        f"'sha256-{base64.b64encode(hashlib.sha256(s).digest()).decode()}'" for s in INLINE_SCRIPT.findall(html)
+    )
+    return (
+        f"default-src 'self'; script-src 'self' {hashes}; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
+        "object-src 'none'; base-uri 'self'; form-action 'self'; frame-ancestors 'none'"
+    )
+
+
+class SecurityHeaders:
+    """ASGI middleware: every answer gets the content security policy and the headers above."""
+
+    def __init__(self, app: ASGIApp):
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        if scope["path"] in DOCS_PATHS:
+            await self._docs(scope, receive, send)
+            return
+
+        async def send_with_headers(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                message["headers"] = _with(message.get("headers") or [], POLICY)
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+    async def _docs(self, scope: Scope, receive: Receive, send: Send) -> None:
+        """A Swagger UI page is small: held whole, so that its policy can name its inline script's hash."""
+        start, body = None, []
+
+        async def held(message: Message) -> None:
+            nonlocal start
+            if message["type"] == "http.response.start":
+                start = message
+                return
+            body.append(message.get("body", b""))
+            if not message.get("more_body", False):
+                html = b"".join(body)
+                start["headers"] = _with(start.get("headers") or [], docs_policy(html))
+                await send(start)
+                await send({"type": "http.response.body", "body": html})
+
+        await self.app(scope, receive, held)
+
+
+def _with(headers, policy: str) -> list:
+    have = {k.lower() for k, _ in headers}
+    out = list(headers) + [(k, v) for k, v in HEADERS if k not in have]
+    if b"content-security-policy" not in have:
+        out.append((b"content-security-policy", policy.encode()))
+    return out

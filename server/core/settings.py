@@ -1,0 +1,228 @@
+"""Settings in one place: command line, then environment (TRACER_*), then a settings file, then defaults.
+
+Every field below can be set as an environment variable named TRACER_ + the field name in capitals
+(`TRACER_MAX_SPP=1024`), or in a settings file of such lines (`--settings FILE`, or the file named
+by TRACER_SETTINGS_FILE). docs/service.md lists them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import BeforeValidator, ByteSize, Field, SecretStr, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from tracer.scene import Limits
+
+UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+PILLOW_MAX_PIXELS = 89_478_485  # Pillow warns of a decompression bomb past this (PIL.Image.MAX_IMAGE_PIXELS)
+
+
+def _seconds(v):
+    """A duration: a number of seconds, or text such as 90, 90s, 30m, 12h, 7d."""
+    if isinstance(v, str):
+        m = re.fullmatch(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*([smhd]?)\s*", v.lower())
+        if m is None:
+            raise ValueError(f"expected seconds or a duration such as 90s, 30m, 12h, 7d; got {v!r}")
+        return float(m[1]) * UNITS[m[2] or "s"]
+    return v
+
+
+Duration = Annotated[float, BeforeValidator(_seconds)]
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="TRACER_", extra="ignore", validate_assignment=True)
+
+    # Where and how the service runs.
+    host: str = Field("127.0.0.1", description="address to listen on")
+    port: int = Field(8000, ge=0, le=65535, description="TCP port")
+    data_dir: Path = Field(Path("data"), description="job database (jobs.sqlite3) and images (jobs/<id>/)")
+    workers: int = Field(
+        1,
+        ge=0,
+        le=64,
+        description="render worker processes on this host (with Redis: local worker hosts); 0 = none (the API alone)",
+    )
+    render_threads: int = Field(0, ge=0, description="threads per worker render; 0 = cores / workers")
+    worker_nice: int = Field(10, ge=0, le=19, description="niceness of worker processes, so the API stays responsive")
+    preview_size: int = Field(160, ge=8, le=1024, description="example scene thumbnails (pixels)")
+    previews_ahead: bool = Field(
+        True,
+        description="render the example scenes' previews at start-up, in the batch lane (off: each when first "
+        "asked for)",
+    )
+    preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
+    poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
+    job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")
+    grading_processes: int = Field(
+        0,
+        ge=0,
+        le=64,
+        description="worker processes for grading's per-student work (reading submissions, the image tests); "
+        "0 = one per core",
+    )
+
+    # Lanes (server/jobs/lifecycle.py): interactive work first; long renders and grading in the batch lane.
+    interactive_seconds: float = Field(
+        20.0, ge=0, description="renders estimated to take longer than this (seconds) go to the batch lane"
+    )
+    interactive_workers: int = Field(
+        1, ge=0, le=16, description="extra embedded worker processes that take only interactive jobs"
+    )
+    max_raytree_seconds: float = Field(30.0, gt=0, description="seconds a ray tree may take (its own short job)")
+    snapshot_interval: Duration = Field(
+        10.0,
+        ge=0,
+        description="seconds of rendering between two snapshots of a render's film, which a retried "
+        "or resumed job continues from (0: after every pass)",
+    )
+    cache_dir: Path | None = Field(
+        None, description="where workers keep radiosity solutions by their scene's content (default DATA/cache)"
+    )
+
+    # The job queue (server/queue/base.py): embedded worker processes, or worker hosts through Redis with RQ.
+    redis_url: str | None = Field(
+        None,
+        description="Redis URL (redis://host:6379/0): jobs go to worker hosts (python -m server.worker) through "
+        "RQ; unset: the embedded worker processes of this host",
+    )
+    lost_after: Duration = Field(
+        15.0,
+        ge=2,
+        le=3600,
+        description="Redis backend: seconds without a heartbeat from a try's worker host after which the try is "
+        "lost and the job runs again on another host",
+    )
+
+    # Housekeeping (server/jobs/janitor.py): finished jobs are removed, rows and folders together.
+    keep_finished: Duration = Field(
+        7 * 86400.0, ge=0, description="how long a finished job is kept after it ended (90s, 30m, 12h, 7d); 0 = forever"
+    )
+    max_data_bytes: ByteSize = Field(
+        ByteSize(10_000_000_000),
+        ge=0,
+        description="size cap of the data directory (bytes, or 500MB, 10GB, 2GiB): past it the finished jobs "
+        "that ended first are removed; 0 = no cap",
+    )
+    janitor_interval: Duration = Field(60.0, gt=0, description="time between two rounds of the janitor (seconds)")
+
+    # Who may do what (server/core/security.py): each job belongs to the token that made it.
+    instructor_token: SecretStr | None = Field(
+        None,
+        description="the instructor's bearer token (16 to 512 letters, digits or -._~+/=): grading, and every "
+        "job; unset: on a server listening on loopback only everyone is the instructor, elsewhere no one",
+    )
+    allowed_hosts: str = Field(
+        "",
+        description="host names the server answers to (the Host header), comma-separated, besides the loopback "
+        "names and the address it listens on; '.example.edu' names its subdomains too; '*': any",
+    )
+
+    # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
+    max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")
+    max_json_depth: int = Field(64, ge=4, description="nesting of JSON arrays and objects in a request body")
+    max_class_entries: int = Field(
+        5000, ge=1, description="entries of a class's zip (files and folders), or files uploaded for a class"
+    )
+    max_class_bytes: ByteSize = Field(
+        ByteSize(1_000_000_000),
+        ge=1024,
+        description="a class's files unpacked, all together (bytes, or 500MB, 1GB); an upload may be this big "
+        "plus max_body_bytes (the assignment)",
+    )
+    max_queued_jobs: int = Field(1000, ge=1, description="jobs waiting in the queue: 429 past it")
+    max_queued_per_token: int = Field(
+        20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
+    )
+    max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
+    max_width: int = Field(2048, ge=1, description="image width (pixels)")
+    max_height: int = Field(2048, ge=1, description="image height (pixels)")
+    max_pixels: int = Field(2048 * 2048, ge=1, description="width x height")
+    max_spp: int = Field(4096, ge=1, description="samples per pixel")
+    max_depth: int = Field(64, ge=1, description="render.max_depth")
+    max_light_samples: int = Field(256, ge=1, description="render.light_samples")
+    max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles (mesh files included)")
+    max_texture_pixels: int = Field(
+        4096 * 4096,
+        ge=1,
+        le=PILLOW_MAX_PIXELS,
+        description="width x height of one texture or bump image (read from its header, before any pixel is "
+        "decoded; a decoded pixel is 12 bytes)",
+    )
+    max_texture_pixels_total: int = Field(
+        4096 * 4096,
+        ge=1,
+        description="width x height summed over every distinct image of a scene (textures and bump maps, files "
+        "and data: URIs), from their headers: at the default, 192 MiB of decoded pixels per scene",
+    )
+
+    max_patches: int = Field(
+        100_000,
+        ge=1,
+        description="radiosity: pieces of surface (two sides each) that render.radiosity.patch_size cuts a scene "
+        "into, counted from the geometry before anything is meshed",
+    )
+    max_solve_rays: int = Field(
+        250_000_000,
+        ge=1,
+        description="radiosity: render.radiosity.rays x max_steps, the form-factor rays of the longest solve",
+    )
+
+    # Scene checks (validation, a pixel's samples) run in their own processes, off the API's event loop.
+    validate_processes: int = Field(
+        2,
+        ge=1,
+        le=64,
+        description="processes that check scenes for POST /api/validate, /api/jobs, /api/raytree and /api/samples",
+    )
+    max_validate_seconds: float = Field(
+        10.0, gt=0, description="seconds of CPU one scene check may take; its process is stopped and replaced past it"
+    )
+    max_validate_waiting: int = Field(
+        256, ge=0, description="requests waiting for a free checking process (first come first served): 429 past it"
+    )
+
+    @field_validator("instructor_token", mode="before")
+    @classmethod
+    def _token(cls, v):
+        """An empty value is no token; any other must be one a client can send as a bearer token."""
+        text = v.get_secret_value() if isinstance(v, SecretStr) else v
+        if text is None or text == "":
+            return None
+        if not isinstance(text, str) or not re.fullmatch(r"[A-Za-z0-9._~+/=-]{16,512}", text):
+            raise ValueError("the instructor token must be 16 to 512 letters, digits or -._~+/= (a bearer token)")
+        return text
+
+    @property
+    def limits(self) -> Limits:
+        """The scene limits, as the tracer's validators take them."""
+        return Limits(
+            max_width=self.max_width,
+            max_height=self.max_height,
+            max_pixels=self.max_pixels,
+            max_spp=self.max_spp,
+            max_depth=self.max_depth,
+            max_light_samples=self.max_light_samples,
+            max_primitives=self.max_primitives,
+            max_texture_pixels=self.max_texture_pixels,
+            max_texture_pixels_total=self.max_texture_pixels_total,
+            max_patches=self.max_patches,
+            max_solve_rays=self.max_solve_rays,
+        )
+
+    def threads_per_worker(self) -> int:
+        if self.render_threads:
+            return self.render_threads
+        return max(1, (os.cpu_count() or 1) // max(1, self.workers))
+
+
+def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -> Settings:
+    """Settings from `overrides`, the environment and a settings file (argument or TRACER_SETTINGS_FILE)."""
+    settings_file = settings_file or os.environ.get("TRACER_SETTINGS_FILE") or None
+    if settings_file is not None and not Path(settings_file).is_file():
+        raise FileNotFoundError(f"settings file not found: {settings_file}")
+    return Settings(_env_file=settings_file, **overrides)

@@ -1,0 +1,99 @@
+"""Checks of the data directory before the server starts, each answered with what is wrong and what to do.
+
+`python -m server` runs them before it serves anything (and the app's lifespan for a server started
+another way); a problem is one message on stderr and a non-zero exit status, never a traceback, and
+nothing in the data directory is changed or removed:
+
+- the data directory is a file, cannot be made, or is read-only (a real write is tried: root ignores
+  mode bits, a read-only mount does not);
+- jobs/ is not a folder;
+- the job database (jobs.sqlite3) is damaged: not an SQLite file, or `PRAGMA quick_check` finds broken
+  pages (a truncated file);
+- the job database is missing or new (an empty file, or one without the jobs table) while jobs/ holds
+  job folders: their rows are gone, and the janitor would remove the folders as orphans. The server
+  refuses to start rather than drop them: a job's folder holds its images but not its scene or status,
+  so the jobs cannot be adopted back from it.
+"""
+
+from __future__ import annotations
+
+import os
+import sqlite3
+import tempfile
+from pathlib import Path
+
+from server.core.ids import looks_like_job_id
+
+DB_NAME = "jobs.sqlite3"
+
+
+class StartupError(RuntimeError):
+    """The server cannot start on this data directory: the message says why and what to do."""
+
+
+def check_data_dir(data_dir: Path) -> None:
+    """Raise StartupError if the server cannot run on `data_dir` (creating it when it is missing)."""
+    data_dir = Path(data_dir)
+    where = f"the data directory {data_dir} (--data-dir, TRACER_DATA_DIR)"
+    if data_dir.exists() and not data_dir.is_dir():
+        raise StartupError(f"{where} is a file, not a folder: give a folder (it is made if it is missing)")
+    try:
+        data_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise StartupError(f"cannot make {where}: {e.strerror}; make it yourself or give another folder") from None
+    try:
+        with tempfile.TemporaryFile(dir=data_dir, prefix=".write-check-"):
+            pass
+    except OSError as e:
+        raise StartupError(
+            f"{where} is not writable ({e.strerror}): the server keeps its job database and images there. Make "
+            "it writable (a read-only mount: remount it read-write) or give another folder"
+        ) from None
+    jobs = data_dir / "jobs"
+    if jobs.exists() and not jobs.is_dir():
+        raise StartupError(f"{jobs} is a file; the server keeps each job's files in that folder: move the file away")
+    check_database(data_dir)
+
+
+def job_folders(data_dir: Path) -> list[str]:
+    """The names of the job folders in DATA/jobs/."""
+    try:
+        return [e.name for e in os.scandir(data_dir / "jobs") if e.is_dir() and looks_like_job_id(e.name)]
+    except FileNotFoundError:
+        return []
+
+
+def check_database(data_dir: Path) -> None:
+    """The job database is whole (PRAGMA quick_check), and holds the jobs whose folders are in jobs/."""
+    path = data_dir / DB_NAME
+    folders = job_folders(data_dir)
+    orphans = (
+        f"{len(folders)} job folder(s) in {data_dir / 'jobs'} belong to jobs it does not hold, and starting would "
+        "lose them (their scenes and statuses were in the database; the janitor removes folders without a job). "
+        "Restore jobs.sqlite3 from a backup; or, to start afresh, move the data directory away and start on a new "
+        "one. Nothing was changed"
+    )
+    if not path.exists():
+        if folders:
+            raise StartupError(f"{path} is missing: {orphans}")
+        return
+    damaged = (
+        f"the job database {path} is damaged ({{}}). Restore it from a backup; or, to start afresh, move the data "
+        "directory away and start on a new one (its jobs/ folder keeps the images). Nothing was changed"
+    )
+    try:
+        conn = sqlite3.connect(f"file:{path}?mode=rw", uri=True, timeout=30, isolation_level=None)
+    except sqlite3.Error as e:
+        raise StartupError(damaged.format(e)) from None
+    try:
+        problems = [row[0] for row in conn.execute("PRAGMA quick_check(5)")]
+        if problems != ["ok"]:
+            raise StartupError(damaged.format("; ".join(problems)))
+        tables = {row[0] for row in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    except sqlite3.DatabaseError as e:  # "file is not a database", "database disk image is malformed"
+        raise StartupError(damaged.format(e)) from None
+    finally:
+        conn.close()
+    if "jobs" not in tables and folders:
+        state = "an empty file" if path.stat().st_size == 0 else "a database without the jobs table"
+        raise StartupError(f"{path} is {state}: {orphans}")

@@ -1,0 +1,83 @@
+"""The grading processes: where each student's work is done (tracer/grading/tasks.py: reading and checking
+a submission, the image tests), never in the API process."""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+import signal
+import threading
+import time
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+
+log = logging.getLogger(__name__)
+
+PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the server is still there
+
+
+def _pool_process(nice: int) -> None:
+    """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C and
+    the group's SIGTERM (the server stops the pool), watching that the server lives, the grading modules
+    loaded before the first task."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the group's stop signal too: the server ends the pool
+    if nice:
+        os.nice(nice)
+    # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
+    # threads spinning on cores the renders use made a 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
+    os.environ["OMP_NUM_THREADS"] = "1"
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process once its server is gone (killed without a word: SIGKILL, out of memory). Python's
+    pool cannot tell: each process holds both ends of the pipe it waits on, so it would wait forever."""
+    while True:
+        time.sleep(PARENT_CHECK)
+        if os.getppid() != parent:
+            os._exit(0)
+
+
+class GradingPool:
+    """Worker processes for the runs' per-student work (tracer/grading/tasks.py): `processes` of them,
+    spawned (nothing of the API's state crosses: tasks are plain data), niced like the render workers,
+    started at the first task and kept. A process that dies breaks Python's pool: the next `submit`
+    starts a new one, and each run submits again what it had lost (server/grading/run.py)."""
+
+    def __init__(self, processes: int, nice: int = 0):
+        self.processes, self.nice = max(1, processes), nice
+        self._executor: ProcessPoolExecutor | None = None
+        self._lock = threading.Lock()
+        self.closed = False
+
+    def _new(self) -> ProcessPoolExecutor:
+        ctx = mp.get_context("spawn")
+        return ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_process, initargs=(self.nice,))
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        with self._lock:
+            if self.closed:
+                raise RuntimeError("the grading pool is shut down")
+            if self._executor is None:
+                self._executor = self._new()
+            try:
+                return self._executor.submit(fn, *args, **kwargs)
+            except BrokenProcessPool:
+                log.warning("a grading process died: starting new ones")
+                self._executor.shutdown(wait=False, cancel_futures=True)
+                self._executor = self._new()
+                return self._executor.submit(fn, *args, **kwargs)
+
+    def pids(self) -> list[int]:
+        executor = self._executor
+        return sorted((getattr(executor, "_processes", None) or {}).keys()) if executor else []
+
+    def shutdown(self) -> None:
+        with self._lock:
+            self.closed = True
+            if self._executor is not None:
+                self._executor.shutdown(wait=False, cancel_futures=True)
+                self._executor = None

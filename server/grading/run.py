@@ -1,0 +1,406 @@
+"""One grading run, driven from its rows by a thread of the API process (server/grading/runs.py starts it,
+for a new run and for one a restarted server resumes: the same code, which reads where the run is).
+
+A student's grade goes through `Stage`s, each kept in their row before the next begins:
+  submitted -> prepared: in a grading process (tracer.grading.tasks.prepare_submission): validity,
+               requirements, and the render the image tests need, which is then queued as a job;
+  prepared -> rendered: that job ended; its image is linked into the run's folder (renders/<job>.exr),
+               so the janitor may remove the job from then on;
+  rendered -> graded: in a grading process (tracer.grading.tasks.grade_metrics): FLIP, SSIM, PSNR and
+               the z test against the reference and the noise baseline; report.json and the pictures.
+The class's renders (the reference mean; one noise baseline per sampler, spp and light samples) are
+rows too, queued first (by priority); each baseline is measured once per way of storing images.
+
+So a resumed run prepares, queues, measures and grades only what its rows say is not done: a render
+job it had queued is found by its id (still queued or running: waited for; finished: its image taken,
+never rendered again), and only a job that is gone (the janitor removed it before the run took its
+image) is queued again.
+
+Each task goes to the grading processes with at most FLIGHT_PER_PROCESS per process in flight. A
+process that dies breaks the pool: the tasks that were in flight become suspects and run again one at
+a time, so the one that kills its process is found and fails alone (twice alone: failed).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures.process import BrokenProcessPool
+from functools import partial
+from typing import TYPE_CHECKING
+
+from server.grading.renders import capped, job_outcome
+from server.grading.store import RenderStatus, Stage
+from server.jobs.files import JobFile
+from server.jobs.lifecycle import JobStatus, Lane
+from tracer.grading import Grader, Prepared, RenderJob, Report, Submission, load_assignment, tasks
+from tracer.grading.batch import class_summary, summary_row, write_report, write_summary
+from tracer.grading.grade import finish_report
+from tracer.scene import Limits, SceneError, load_scene
+
+if TYPE_CHECKING:
+    from server.grading.runs import GradeRuns
+
+log = logging.getLogger(__name__)
+
+POLL = 0.2  # seconds between two looks at the run's render jobs
+FLIGHT_PER_PROCESS = 2  # tasks of one run in the grading pool at once, per process
+MAX_QUEUED = 1_000_000  # a class is queued whole: the queue's limit (TRACER_MAX_QUEUED_JOBS) is for students
+MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
+
+
+def _key(it: dict) -> str | None:
+    """A prepared student's baseline: its row's key ([sampler, spp, light_samples] as JSON), kept in the item."""
+    if "_key" not in it:
+        p = it["prepared"]
+        it["_key"] = json.dumps(list(p["key"])) if p is not None and p["key"] is not None else None
+        it["_enc"] = f"{p['encoding'][0]}/{p['encoding'][1]}" if p is not None else None
+    return it["_key"]
+
+
+def _encoding(it: dict) -> str:
+    """How a prepared student's image is stored ("png/8", "render/32"): a baseline is measured once per one."""
+    _key(it)
+    return it["_enc"]
+
+
+class GradingRun:
+    def __init__(self, runs: GradeRuns, run_id: str):
+        self.runs, self.id = runs, run_id
+        self.gs, self.store, self.settings, self.pool = runs.gs, runs.store, runs.settings, runs.pool
+        self.folder = runs.root / run_id
+        self.flight: dict[Future, tuple[tuple, bool]] = {}  # future -> (task, submitted alone)
+        self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
+        self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
+        self.jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
+
+    def run(self) -> None:
+        try:
+            self._load()
+            if self._loop():
+                self._finish()
+        except Exception as e:  # a bug must end the run with a reason, never leave it "running"
+            log.exception("grading run %s failed", self.id)
+            self.gs.end_run(self.id, JobStatus.failed, f"{type(e).__name__}: {e}")
+
+    def _load(self) -> None:
+        row = self.gs.run(self.id)
+        self.text = row["assignment"]
+        spec, _ = load_assignment(self.text)
+        self.grader = Grader(spec, None)
+        self.tests = spec.image_tests()
+        self.items = {it["student"]: it for it in self.gs.items(self.id)}
+        self.renders = {r["key"]: r for r in self.gs.renders(self.id)}
+        self.renders_total = row["renders_total"]
+
+    def _loop(self) -> bool:
+        """Until every student is graded (True), or the server stops (False: the rows say where it was)."""
+        if self.grader.reference is not None:
+            self._queue_render(MEAN)
+        stopping = self.runs.stopping
+        while not stopping.is_set():
+            self._poll_jobs()
+            self._schedule()
+            if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
+                return True
+            if self.flight:
+                done, _ = wait(list(self.flight), timeout=POLL, return_when=FIRST_COMPLETED)
+                for future in done:
+                    self._collect(future)
+            else:
+                stopping.wait(POLL)
+        return False
+
+    def _finish(self) -> None:
+        items = sorted(self.items.values(), key=lambda it: it["position"])
+        rows = [it["row"] for it in items]
+        table = class_summary(self.grader.assignment.name if rows else None, rows,
+                              [(it["score"], it["max_score"]) for it in items])  # fmt: skip
+        (self.folder / "out").mkdir(parents=True, exist_ok=True)
+        write_summary(self.folder / "out", table)
+        self.gs.end_run(self.id, JobStatus.done, summary=table)
+        log.info("grading run %s: done, %d students", self.id, len(rows))
+
+    # -- render jobs ----------------------------------------------------------------------------
+
+    def _create(self, job: RenderJob, size: tuple, warnings: list, seconds: float) -> str:
+        """Queue a render job (like any other: the queue's backend gets it rendered); its id."""
+        width, height, spp = size
+        # grading is batch work (the page's renders and ray trees go first), and it reads only the floats
+        row = self.store.create(
+            json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=width, height=height, spp=spp,
+            priority=job.priority, warnings=warnings, max_seconds=seconds, max_queued=MAX_QUEUED, lane=Lane.batch,
+            params={"outputs": "floats"},
+        )  # fmt: skip
+        if self.runs.queued:
+            self.runs.queued(row)
+        return row["id"]
+
+    def _reference_job(self, key: str) -> RenderJob:
+        if key not in self.jobs:
+            wanted = None if key == MEAN else tuple(json.loads(key))
+            for what, k, job in self.grader.reference_jobs(set() if wanted is None else {wanted}):
+                if (what == "mean") == (wanted is None) and k == wanted:
+                    self.jobs[key] = job
+        return self.jobs[key]
+
+    def _queue_render(self, key: str) -> None:
+        """The class's render `key` queued once (MEAN, or a baseline's key)."""
+        r = self.renders.get(key)
+        if r is not None and (r["job_id"] or r["status"] != RenderStatus.waiting):
+            return
+        if r is None:
+            self.gs.add_render(self.id, key)
+            r = self.renders[key] = {"key": key, "job_id": None, "status": RenderStatus.waiting, "spp": None,
+                                     "seconds": None, "error": None, "measured": {}}  # fmt: skip
+        job = self._reference_job(key)
+        limits, seconds, _ = capped(job, self.settings)
+        try:
+            scene, warnings = load_scene(job.scene, limits)
+        except SceneError as e:
+            error = "invalid scene: " + "; ".join(f"{x['path']}: {x['message']}" for x in e.errors)
+            r.update(status=RenderStatus.failed, error=error)
+            self.gs.update_render(self.id, key, status=r["status"], error=error)
+            return
+        size = (scene.film.width, scene.film.height, scene.sampler.spp)
+        r["job_id"] = self._create(job, size, warnings, seconds)
+        self.gs.update_render(self.id, key, job_id=r["job_id"])
+
+    def _queue_item(self, it: dict) -> None:
+        """A student's render queued, once."""
+        p = it["prepared"]
+        job = _render_job(p["job"])
+        _, seconds, _ = capped(job, self.settings)
+        it["job_id"] = self._create(job, tuple(p["size"]), p["render_warnings"], seconds)
+        self.gs.update_item(self.id, it["student"], job_id=it["job_id"])
+
+    def _poll_jobs(self) -> None:
+        """The render jobs this run waits for, in one query: each one that ended is taken in."""
+        waiting: dict[str, tuple[str, str]] = {}
+        for key, r in self.renders.items():
+            if r["status"] == RenderStatus.waiting and r["job_id"]:
+                waiting[r["job_id"]] = ("render", key)
+        for student, it in self.items.items():
+            if it["stage"] == Stage.prepared and it["job_id"]:
+                waiting[it["job_id"]] = ("item", student)
+        if not waiting:
+            return
+        states = self.gs.job_states(waiting)
+        for job_id, (what, name) in waiting.items():
+            row = states.get(job_id)
+            if row is None:  # removed before we took its image: queue it again
+                log.warning("grading run %s: render job %s is gone; queued again", self.id, job_id)
+                if what == "render":
+                    self.renders[name]["job_id"] = None
+                    self._queue_render(name)
+                else:
+                    self._queue_item(self.items[name])
+                continue
+            if not JobStatus(row["status"]).finished:
+                continue
+            job = self._reference_job(name) if what == "render" else _render_job(self.items[name]["prepared"]["job"])
+            _, seconds, source = capped(job, self.settings)
+            error, spp, took = job_outcome(row, seconds, source)
+            if error is None:
+                try:
+                    self._take(job_id, variance=what == "render" and name == MEAN)
+                except OSError as e:
+                    error = f"the render job {job_id} left no readable image: {e}"
+            if what == "render":
+                status = RenderStatus.failed if error else RenderStatus.done
+                self.renders[name].update(status=status, spp=spp, seconds=took, error=error)
+                self.gs.update_render(self.id, name, status=status, spp=spp, seconds=took, error=error)
+            else:
+                render = {"error": error} if error else {"image": f"renders/{job_id}.exr", "spp": spp, "seconds": took}
+                self.items[name].update(stage=Stage.rendered, render=render)
+                self.gs.update_item(self.id, name, stage=Stage.rendered, render=render)
+
+    def _take(self, job_id: str, variance: bool) -> None:
+        """A finished job's image (and the reference's variance) into the run's folder: a hard link
+        (no copy; the job's own file may go), or a copy where links are not allowed."""
+        files = {JobFile.image_exr: f"{job_id}.exr"}
+        if variance:
+            files[JobFile.aov_floats] = f"{job_id}.variance.exr"
+        (self.folder / "renders").mkdir(exist_ok=True)
+        for kind, name in files.items():
+            src, dst = self.store.job_file(job_id, kind), self.folder / "renders" / name
+            if dst.exists():
+                continue
+            tmp = dst.with_name(f".{name}.tmp")
+            tmp.unlink(missing_ok=True)
+            try:
+                os.link(src, tmp)
+            except OSError:
+                if not src.is_file():
+                    raise
+                shutil.copyfile(src, tmp)
+            os.replace(tmp, dst)
+
+    # -- tasks in the grading processes ---------------------------------------------------------
+
+    def _schedule(self) -> None:
+        for it in self.items.values():  # what a server stopped between two writes left undone
+            if it["stage"] in (Stage.prepared, Stage.rendered) and _key(it) is not None:
+                self._queue_render(_key(it))
+            if it["stage"] == Stage.prepared and not it["job_id"]:
+                self._queue_item(it)
+        if self.renders_total is None and all(it["stage"] != Stage.submitted for it in self.items.values()):
+            students = sum(it["prepared"]["job"] is not None for it in self.items.values())
+            self.renders_total = len(self.renders) + students
+            self.gs.update_run(self.id, renders_total=self.renders_total)
+        if self.suspects:  # after a process died: the tasks that were in flight, one at a time
+            if not self.flight:
+                for task, fn, kwargs in self._ready():
+                    if task in self.suspects:
+                        self.flight[self.pool.submit(fn, **kwargs())] = (task, True)
+                        break
+            return
+        room = self.pool.processes * FLIGHT_PER_PROCESS - len(self.flight)
+        for task, fn, kwargs in self._ready():
+            if room <= 0:
+                break
+            self.flight[self.pool.submit(fn, **kwargs())] = (task, False)
+            room -= 1
+
+    def _ready(self) -> Iterator[tuple[tuple, Callable, Callable[[], dict]]]:
+        """The tasks whose inputs are all there and that are not in flight, baselines first (many students
+        wait for each): (task, function, its arguments when asked for)."""
+        busy = {task for task, _ in self.flight.values()}
+        mean = self.renders.get(MEAN)
+        if mean is not None and mean["status"] == RenderStatus.done:
+            wanted: dict[str, set[str]] = {}  # baseline -> the encodings of its students
+            for it in self.items.values():
+                if _key(it) is not None:
+                    wanted.setdefault(_key(it), set()).add(_encoding(it))
+            for key, r in list(self.renders.items()):
+                if key == MEAN or r["status"] == RenderStatus.waiting:
+                    continue
+                for enc in sorted(wanted.get(key, set()) - set(r["measured"])):
+                    if r["status"] == RenderStatus.failed:  # nothing to measure: the students are told why
+                        self._measured(key, enc, {"error": r["error"]})
+                    elif ("baseline", key, enc) not in busy:
+                        yield ("baseline", key, enc), tasks.measure_baseline, partial(self._baseline_args, r, enc)
+        for s, it in self.items.items():
+            if it["stage"] == Stage.submitted and ("prepare", s) not in busy:
+                yield ("prepare", s), tasks.prepare_submission, partial(self._prepare_args, it)
+        for s, it in self.items.items():
+            if it["stage"] == Stage.rendered and ("metrics", s) not in busy and self._inputs_ready(it):
+                yield ("metrics", s), tasks.grade_metrics, partial(self._metrics_args, it)
+
+    def _prepare_args(self, it: dict) -> dict:
+        return dict(assignment=self.text, student=it["student"], kind=it["kind"], path=str(self.folder / it["file"]),
+                    filename=it["filename"])  # fmt: skip
+
+    def _baseline_args(self, r: dict, enc: str) -> dict:
+        fmt, bits = enc.split("/")
+        baseline = {"image": str(self.folder / "renders" / f"{r['job_id']}.exr"), "spp": r["spp"]}
+        return dict(assignment=self.text, reference=self._reference(), baseline=baseline, key=json.loads(r["key"]),
+                    encoding=[fmt, int(bits)])  # fmt: skip
+
+    def _inputs_ready(self, it: dict) -> bool:
+        """Whether everything a student's image tests may need has ended (tracer.grading.finish_report's
+        order: no tests or a problem found while preparing, then the reference, their render, the baseline)."""
+        p = it["prepared"]
+        if p["report"]["errors"] or not self.tests or p["report"]["metrics"].get("problem"):
+            return True
+        mean = self.renders.get(MEAN)
+        if mean is None or mean["status"] == RenderStatus.waiting:
+            return False
+        if mean["status"] == RenderStatus.failed or (it["render"] or {}).get("error"):
+            return True
+        base = self.renders.get(_key(it))
+        return base is not None and _encoding(it) in base["measured"]
+
+    def _reference(self) -> dict:
+        mean = self.renders.get(MEAN)
+        if mean is None or mean["status"] == RenderStatus.waiting:
+            return {}
+        if mean["status"] == RenderStatus.failed:
+            return {"error": mean["error"]}
+        name = self.folder / "renders" / mean["job_id"]
+        return {"mean": f"{name}.exr", "variance": f"{name}.variance.exr", "spp": mean["spp"]}
+
+    def _metrics_args(self, it: dict) -> dict:
+        p, render = it["prepared"], it["render"]
+        if render and render.get("image"):
+            render = {**render, "image": str(self.folder / render["image"])}
+        base = self.renders.get(_key(it)) if _key(it) is not None else None
+        return dict(
+            assignment=self.text, prepared=p, out=str(self.folder / "out" / it["student"]),
+            submission=str(self.folder / it["file"]), render=render, reference=self._reference(),
+            baseline=base["measured"].get(_encoding(it)) if base else None,
+        )  # fmt: skip
+
+    def _collect(self, future: Future) -> None:
+        task, alone = self.flight.pop(future)
+        try:
+            result = future.result()
+        except BrokenProcessPool:
+            if not alone:
+                self.suspects.add(task)
+                return
+            self.breaks[task] = self.breaks.get(task, 0) + 1
+            if self.breaks[task] < 2:
+                return  # once more, alone (another run's task may have broken the pool this time)
+            log.error("grading run %s: %s killed its grading process twice; it fails alone", self.id, task)
+            self.suspects.discard(task)
+            return self._failed(task, "its grading process died (twice; the server's log may say why)")
+        except Exception as e:  # a bug, or a file the grading process could not read: this student alone fails
+            log.exception("grading run %s: %s failed", self.id, task)
+            self.suspects.discard(task)
+            return self._failed(task, f"grading error: {type(e).__name__}: {e}")
+        self.suspects.discard(task)
+        if task[0] == "prepare":
+            self._prepared(task[1], result["prepared"], result["seconds"])
+        elif task[0] == "baseline":
+            self._measured(task[1], task[2], result)
+        else:
+            self._graded(task[1], result)
+
+    def _prepared(self, student: str, p: dict, seconds: float | None) -> None:
+        it = self.items[student]
+        stage = Stage.prepared if p["job"] is not None else Stage.rendered
+        it.update(prepared=p, stage=stage)
+        it.pop("_key", None)
+        self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
+        if _key(it) is not None:
+            self._queue_render(_key(it))
+        if p["job"] is not None:
+            self._queue_item(it)
+
+    def _measured(self, key: str, enc: str, metrics: dict) -> None:
+        r = self.renders[key]
+        r["measured"] = {**r["measured"], enc: metrics}
+        self.gs.update_render(self.id, key, measured=r["measured"])
+
+    def _graded(self, student: str, result: dict) -> None:
+        row = result["row"]
+        fields = dict(stage=Stage.graded, status=row["status"], score=result["score"], max_score=result["max_score"],
+                      row=row, metrics_seconds=result["seconds"])  # fmt: skip
+        self.items[student].update(fields)
+        self.gs.update_item(self.id, student, **fields)
+
+    def _failed(self, task: tuple, message: str) -> None:
+        """A task that could not be done: its student (or those of a baseline) is told why, and the run goes on."""
+        if task[0] == "baseline":
+            return self._measured(task[1], task[2], {"error": message})
+        it = self.items[task[1]]
+        if task[0] == "prepare":
+            kind = "scene" if it["kind"] == "scene" else "image"
+            blank = Prepared(Submission(it["student"], b"", it["kind"], it["filename"]),
+                             Report(it["student"], self.grader.assignment.name, kind))  # fmt: skip
+            return self._prepared(it["student"], self.grader.unreadable(blank, message).to_json(), None)
+        p = Prepared.from_json(it["prepared"])  # the image tests: not compared, with the reason
+        p.report.metrics["problem"] = message
+        report = finish_report(self.grader.assignment, p, None, None, dict)
+        write_report(self.folder / "out" / it["student"], report)
+        self._graded(it["student"], {"row": summary_row(report), "score": report.score,
+                                     "max_score": report.max_score, "seconds": None})  # fmt: skip
+
+
+def _render_job(d: dict) -> RenderJob:
+    return RenderJob(**{**d, "limits": Limits(**d["limits"])})

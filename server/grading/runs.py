@@ -1,0 +1,193 @@
+"""The service's grading runs (POST /api/grade, POST /api/grade/upload): started, resumed, read.
+
+A run is rows in SQLite (server/grading/store.py) and files under <data_dir>/grades/<id>/; a thread of the
+API process drives it (server/grading/run.py) and a restarted server resumes it from its rows. The grader's
+renders are jobs that the render workers take like any other (through the job service), each with the
+assignment's time limit, so one slow or broken submission fails alone while the others go on; each
+student's other work runs in the grading processes (server/grading/pool.py).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import threading
+import time
+import uuid
+from collections.abc import Callable
+from pathlib import Path
+
+from server.core.settings import Settings
+from server.grading.pool import GradingPool
+from server.grading.store import GradingStore, Stage
+from server.jobs.lifecycle import JobStatus
+from server.jobs.store import JobStore
+from tracer.grading import Grader, load_assignment
+
+log = logging.getLogger(__name__)
+
+STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
+    "render.png": "image/png", "reference.png": "image/png", "error_map.png": "image/png",
+    "rejected.png": "image/png", "results.json": "application/json", "report.json": "application/json",
+}  # fmt: skip
+
+
+
+class Handed:
+    """A submission handed to a new run: its file's bytes (`data`), or a file (`path`, an upload's, on
+    the data directory's disk) that the run takes into its folder."""
+
+    student: str
+    kind: str  # scene, png or exr
+    filename: str  # as submitted
+    data: bytes | None = None
+    path: Path | None = None
+
+
+SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
+
+
+class GradeRuns:
+    """The service's grading runs: start one, read its state, resume the unfinished ones at start-up.
+
+    A run's status is a job's (server/jobs/lifecycle.py): running, then done or failed. Its record is rows
+    in the job store's database (server/grading/store.py); its files are in <data_dir>/grades/<id>/:
+    submissions/ (the files handed in), renders/ (the images its render jobs made, linked there as soon
+    as each job ends, so the janitor may remove the jobs), out/ (each student's report and pictures,
+    the class summary). `resume()` takes up every run a stopped server left running."""
+
+    def __init__(self, settings: Settings, store: JobStore, queued: Callable[[dict], None] | None):
+        self.settings, self.store, self.queued = settings, store, queued
+        self.root = settings.data_dir / "grades"
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.uploads = self.root / ".uploads"  # uploads being unpacked (a crash leaves them: removed here)
+        shutil.rmtree(self.uploads, ignore_errors=True)
+        self.gs = GradingStore(settings.data_dir)
+        self.pool = GradingPool(settings.grading_processes or os.cpu_count() or 1, settings.worker_nice)
+        self.stopping = threading.Event()
+        self.threads: dict[str, threading.Thread] = {}
+        self._import_legacy()
+
+    # -- starting, resuming, stopping
+
+    def staging(self) -> Path:
+        """A fresh folder for an upload's files, on the data directory's disk (a run takes them by renaming)."""
+        path = self.uploads / uuid.uuid4().hex
+        path.mkdir(parents=True)
+        return path
+
+    def start(self, assignment: dict, handed: list[Handed]) -> dict:
+        """Check the assignment (AssignmentError with paths), keep the submissions and the run's rows,
+        then grade in a thread; the run's state."""
+        text = json.dumps(assignment)
+        spec, _ = load_assignment(text)
+        Grader(spec, None)  # raises for a reference scene given as a file name, or one that does not validate
+        run_id = uuid.uuid4().hex
+        folder = self.root / run_id
+        try:
+            (folder / "submissions").mkdir(parents=True)
+            (folder / "assignment.json").write_text(text)
+            items = []
+            for i, h in enumerate(handed):
+                rel = f"submissions/{i:05d}{SUFFIX[h.kind]}"
+                if h.path is not None:
+                    os.replace(h.path, folder / rel)
+                else:
+                    (folder / rel).write_bytes(h.data or b"")
+                items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
+            self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)  # one transaction: all rows or none
+        except BaseException:  # a full disk: no half-written run is left behind
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
+        self._spawn(run_id)
+        return self.state(run_id)
+
+    def resume(self) -> list[str]:
+        """Take up the runs a stopped server left running (call it once the job queue has started: their
+        render jobs are back in the queue by then)."""
+        ids = self.gs.running()
+        for run_id in ids:
+            self.gs.resumed(run_id)
+            log.info("grading run %s: resumed", run_id)
+            self._spawn(run_id)
+        return ids
+
+    def _spawn(self, run_id: str) -> None:
+        from server.grading.run import GradingRun
+
+        run = GradingRun(self, run_id)
+        thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
+        self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
+        self.threads[run_id] = thread
+        thread.start()
+
+    def shutdown(self) -> None:
+        """At the server's shutdown: the runs stop where they are (their rows say where) and the grading
+        processes end; the next server resumes the runs."""
+        self.stopping.set()
+        deadline = time.monotonic() + 10  # for all of them together: a stopping server exits in seconds
+        for thread in self.threads.values():
+            thread.join(timeout=max(0.0, deadline - time.monotonic()))
+        self.pool.shutdown()
+
+    # -- reading
+
+    def folder(self, run_id: str) -> Path | None:
+        if len(run_id) != 32 or not all(c in "0123456789abcdef" for c in run_id):
+            return None
+        return self.root / run_id if self.gs.run(run_id) is not None else None
+
+    def state(self, run_id: str) -> dict | None:
+        row = self.gs.run(run_id) if self.folder(run_id) else None
+        if row is None:
+            return None
+        progress = self.gs.progress(run_id)
+        return {
+            "id": run_id, "status": row["status"], "assignment": row["name"], "created_at": row["created_at"],
+            "finished_at": row["finished_at"], "error": row["error"], "students": self.gs.students(run_id),
+            "renders_done": progress["renders_done"], "renders_total": row["renders_total"],
+            "graded": progress["stages"]["graded"], "max_score": row["max_score"],
+            "summary": json.loads(row["summary"]) if row["summary"] else None, "resumed": row["starts"] - 1,
+        }  # fmt: skip
+
+    def reports(self, run_id: str) -> list[dict]:
+        """Each graded student's report.json, in the class's order."""
+        folder = self.folder(run_id)
+        out = []
+        for it in self.gs.items(run_id) if folder else ():
+            path = folder / "out" / it["student"] / "report.json"
+            if it["stage"] == Stage.graded and path.is_file():
+                out.append(json.loads(path.read_text()))
+        return out
+
+    # -- runs of a server from before the database kept them (a status.json in their folder)
+
+    def _import_legacy(self) -> None:
+        for status in sorted(self.root.glob("*/status.json")):
+            run_id = status.parent.name
+            if self.folder(run_id) is not None or len(run_id) != 32:
+                continue
+            try:
+                state = json.loads(status.read_text())
+                text = (status.parent / "assignment.json").read_text()
+            except (OSError, ValueError):
+                continue
+            if state.get("status") == JobStatus.running:
+                state.update(status=JobStatus.failed, error="the server stopped while grading; submit it again")
+            rows = {r["student"]: r for r in (state.get("summary") or {}).get("students", [])}
+            items = [{"student": s, "kind": (rows.get(s) or {}).get("kind", "scene"), "filename": "", "file": ""}
+                     for s in state.get("students", [])]  # fmt: skip
+            self.gs.create_run(run_id, text, state.get("assignment") or "", state.get("max_score") or 0, items)
+            for s in state.get("students", []):
+                if s in rows:
+                    row = rows[s]
+                    self.gs.update_item(run_id, s, stage=Stage.graded, status=row["status"], score=row["score"],
+                                        max_score=row["max_score"], row=row)  # fmt: skip
+            self.gs.update_run(run_id, status=state["status"], error=state.get("error"),
+                               created_at=state.get("created_at") or 0, finished_at=state.get("finished_at"),
+                               renders_total=state.get("renders_total"),
+                               summary=json.dumps(state["summary"]) if state.get("summary") else None)  # fmt: skip
+            log.info("grading run %s: imported from its status.json", run_id)

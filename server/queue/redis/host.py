@@ -1,0 +1,328 @@
+"""A worker host of the Redis backend: `python -m server.worker --redis URL [--device cpu] [--threads N]
+[--queues interactive batch] [--name NAME] [--no-fork]`, on any machine that has the project installed.
+
+It loads the render kernels once, at start-up, before RQ forks anything; then an RQ worker takes
+tries from the queues and runs each in a forked work horse, which inherits the loaded kernels. The
+work horse renders the try (server/queue/render_try.py) and reports through `RedisChannel`: events on the
+stream, files as keys (server/queue/redis/events.py). The API applies them to its store.
+
+On a CUDA device (`--device cuda:0`) nothing forks: CUDA does not survive a fork (a child forked
+after CUDA was initialised cannot use it), and initialising CUDA afresh in every work horse would cost
+more than a GPU render. So a GPU host initialises CUDA and loads the kernels once, in its one process,
+and runs each try there (`InProcessWorker`, RQ's SimpleWorker with this host's heartbeats); the CUDA
+context stays warm from try to try. `--no-fork` picks that class on the CPU too (the tests use it).
+
+Heartbeats: the RQ worker refreshes its try's entry in RQ's started registry every
+`lost_after / 4` seconds with an expiry of `lost_after` (the API's setting, read from Redis), so a
+host that dies or is cut off loses its try after `lost_after` seconds: the API finds the expired
+entry and queues the job's next try for another host.
+
+Stopping (SIGTERM or Ctrl-C): the try in hand gives its job back at its next check (within a band
+of rows), then the host exits; a second signal kills the try at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import faulthandler
+import logging
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+import redis
+from rq import Queue, Worker, worker_registration
+from rq.worker import WorkerStatus
+
+from server.jobs.files import JobFile
+from server.jobs.lifecycle import JobStatus
+from server.queue.redis import events as ev
+from server.queue.render_try import Try
+from tracer.radiosity import SolutionCache
+
+log = logging.getLogger(__name__)
+
+HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname(), "cache": None}
+DEFAULT_LOST_AFTER = 15.0
+HORSE_GRACE = 60  # s past an RQ job's timeout before its host gives up on it (RQ kills a forked horse then)
+EXIT_STUCK = 70  # an in-process host's exit status when a try ran past that: a supervisor starts it afresh
+SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
+
+
+def _redis(url: str) -> redis.Redis:
+    return redis.Redis.from_url(url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
+
+
+class RedisChannel:
+    """A try's reports to the API through Redis (server/queue/render_try.py's Channel)."""
+
+    def __init__(self, r: redis.Redis, job_id: str, attempt: int, snapshot_key: str | None = None):
+        self.r, self.job_id, self.attempt, self.snapshot_key = r, job_id, attempt, snapshot_key
+        self.files: dict[str, str] = {}  # JobFile value -> key, sent with the next event
+        self.serial = 0
+        self.bytes_sent = 0
+        self.unreachable = 0  # reports that could not reach Redis (dropped, or retried for the final one)
+
+    def _send(self, kind: str, **data) -> None:
+        entry = ev.encode(kind, self.job_id, self.attempt, **data)
+        self.r.xadd(ev.STREAM, entry, maxlen=ev.STREAM_MAXLEN, approximate=True)
+        self.bytes_sent += sum(len(v) for v in entry.values())
+
+    def started(self, worker: str) -> None:
+        self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
+
+    def stop_reason(self) -> str | None:
+        try:
+            cancel, current, giveback = self.r.mget(
+                ev.cancel_key(self.job_id), ev.try_key(self.job_id), ev.giveback_key(self.job_id, self.attempt)
+            )
+        except redis.RedisError:
+            self.unreachable += 1
+            return None  # cut off: render on; what it sends later is fenced if the job moved on meanwhile
+        if cancel:
+            return "cancel"
+        if current is not None and int(current) != self.attempt:
+            return "lost"
+        if giveback:
+            return "shutdown"
+        return None
+
+    def should_yield(self) -> bool:
+        """Interactive work waits in its queue for more than a second (a free host would have taken it)."""
+        try:
+            first = self.r.lindex(Queue(ev.QUEUES[0], connection=self.r).key, 0)
+            if first is None:
+                return False
+            enqueued = self.r.hget(f"rq:job:{first.decode()}", "enqueued_at")
+        except redis.RedisError:
+            return False
+        if enqueued is None:
+            return False
+        when = datetime.fromisoformat(enqueued.decode().replace("Z", "+00:00"))
+        if when.tzinfo is None:
+            when = when.replace(tzinfo=UTC)
+        return (datetime.now(UTC) - when).total_seconds() > 1.0
+
+    def snapshot(self) -> bytes | None:
+        if not self.snapshot_key:
+            return None
+        try:
+            return self.r.get(self.snapshot_key)
+        except redis.RedisError:
+            return None
+
+    def save(self, kind: JobFile, data: bytes | str) -> None:
+        raw = data.encode() if isinstance(data, str) else data
+        self.serial += 1
+        key = ev.blob_key(self.job_id, self.attempt, self.serial)
+        try:
+            self.r.set(key, raw, ex=ev.BLOB_TTL)
+        except redis.RedisError:
+            self.unreachable += 1
+            return
+        self.bytes_sent += len(raw)
+        self.files[JobFile(kind).value] = key
+
+    def progress(self, **fields) -> None:
+        try:
+            self._send("progress", fields=fields, files=self.files)
+            self.files = {}
+        except redis.RedisError:
+            self.unreachable += 1  # a later report carries the state again
+
+    def finish(self, status: JobStatus, **fields) -> None:
+        self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
+
+    def give_back(self, outcome: str = "given back", **fields) -> None:
+        self._final("giveback", outcome=outcome, fields=fields, files=self.files)
+
+    def _final(self, kind: str, **data) -> None:
+        """The last word of a try: retried while Redis is unreachable (a cut cable may come back)."""
+        deadline = time.monotonic() + SEND_RETRY_SECONDS
+        while True:
+            try:
+                self._send(kind, **data)
+                return
+            except redis.RedisError:
+                self.unreachable += 1
+                if time.monotonic() > deadline:
+                    log.warning("job %s try %d: Redis unreachable; its %s is lost", self.job_id, self.attempt, kind)
+                    return
+                time.sleep(1.0)
+
+
+def run_try(payload: dict) -> dict:
+    """The RQ job: one try of one job, in the work horse (forked from the worker, kernels loaded).
+    `payload`: {job: {id, scene, max_seconds, samples_total, attempts}, limits: {...}, preview_interval}."""
+    from rq import get_current_job
+
+    from tracer.scene import Limits
+
+    job = payload["job"]
+    r = _redis(HOST["url"])
+    channel = RedisChannel(r, job["id"], int(job["attempts"]), payload.get("snapshot_key"))
+    rq_job = get_current_job()
+    channel.started(HOST["name"] or (rq_job.worker_name if rq_job else None) or HOST["host"])
+    limits = Limits(**payload["limits"])
+    ended = Try(
+        job, channel, limits, HOST["threads"], payload["preview_interval"], lambda: False, device=HOST["device"],
+        cache=SolutionCache(HOST["cache"]), snapshot_interval=payload.get("snapshot_interval", 10.0),
+    ).run()  # fmt: skip
+    return {"ended": ended, "bytes_sent": channel.bytes_sent, "unreachable": channel.unreachable}
+
+
+class HostWorker(Worker):
+    """RQ's forking worker, with heartbeats every `lost_after / 4` s that expire after `lost_after` s (RQ's
+    own grace is a minute), this host's description in Redis, and a graceful stop that gives the try in
+    hand back to the queue."""
+
+    def __init__(self, *args, lost_after: float = DEFAULT_LOST_AFTER, **kwargs):
+        self.lost_after = float(lost_after)
+        kwargs.setdefault("job_monitoring_interval", max(1, int(self.lost_after / 4)))
+        # RQ waits for work in blocks of worker_ttl - 15 seconds and beats its heart after each: twice
+        # within lost_after, so an idle host never looks lost
+        kwargs.setdefault("worker_ttl", 15 + max(1, int(self.lost_after / 2)))
+        super().__init__(*args, **kwargs)
+
+    def get_heartbeat_ttl(self, job, working_time: float = 0.0) -> int:
+        return max(2, int(self.lost_after))
+
+    def heartbeat(self, timeout: int | None = None, pipeline=None):
+        super().heartbeat(timeout, pipeline)
+        connection = pipeline if pipeline is not None else self.connection
+        # RQ drops a worker from its registry when anyone lists the workers while its key is missing (a
+        # host cut off long enough): every heartbeat registers it again, so a host that comes back is seen
+        worker_registration.register(self, pipeline=connection)
+        key = ev.host_key(self.name)
+        mapping = {"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]}
+        connection.hset(key, mapping={**mapping, "lanes": ",".join(self.queue_names())})
+        connection.expire(key, max(2, int(self.lost_after)))
+
+    def request_stop(self, signum, frame):
+        current = self.get_current_job_id()
+        parsed = ev.parse_rq_job_id(current) if current else None
+        if parsed is not None:
+            try:
+                self.connection.set(ev.giveback_key(*parsed), 1, ex=ev.FLAG_TTL)
+            except redis.RedisError:
+                pass  # unreachable: a second signal stops the try the hard way
+        super().request_stop(signum, frame)
+
+
+class InProcessWorker(HostWorker):
+    """A host that runs each try in its own process, as RQ's SimpleWorker does: the class of a CUDA
+    device's host (see the module's notes) and of `--no-fork`. What a forking worker does while its work
+    horse renders, a thread does here: heartbeats every `lost_after / 4` s, so a long try is not lost; and
+    if the try runs past its hard limit (RQ's timeout + HORSE_GRACE, where a forking worker kills its
+    horse) the host exits with EXIT_STUCK: a render stuck in a GPU kernel cannot be interrupted any other
+    way. The API has failed that job by then; the host's supervisor (systemd, a loop) starts it afresh."""
+
+    def execute_job(self, job, queue) -> None:
+        execution = self.prepare_execution(job)
+        done = threading.Event()
+        beats = threading.Thread(target=self._beat, args=(job, execution, done), name="heartbeat", daemon=True)
+        beats.start()
+        try:
+            self.perform_job(job, queue, execution)
+        finally:
+            done.set()
+            beats.join()
+        self.set_state(WorkerStatus.IDLE)
+
+    def _beat(self, job, execution, done: threading.Event) -> None:
+        started = time.monotonic()
+        limit = job.timeout + HORSE_GRACE if job.timeout and job.timeout > 0 else None
+        while not done.wait(self.job_monitoring_interval):
+            if limit is not None and time.monotonic() - started > limit:
+                log.error("worker host %s: try %s still running after %.0f s; exiting", self.name, job.id, limit)
+                logging.shutdown()
+                os._exit(EXIT_STUCK)
+            try:
+                self.maintain_heartbeats(job, execution)
+            except redis.RedisError as exc:  # cut off: the next beat tries again (or the try is lost)
+                log.warning("worker host %s: heartbeat failed (%s)", self.name, exc)
+
+    def kill_horse(self, sig=None) -> None:
+        """No horse: the try runs in this process (RQ's Worker would signal the process group, its own)."""
+
+    def wait_for_horse(self):
+        return None, None, None
+
+
+def main(argv: list[str] | None = None) -> int:
+    from tracer.parallel import default_threads, device_arg, is_cuda
+    from tracer.render import load_kernels
+
+    p = argparse.ArgumentParser(
+        prog="server.worker",
+        description="A worker host: render jobs from the API's Redis queue (python -m server --redis URL).",
+    )
+    p.add_argument("--redis", required=True, metavar="URL", help="the Redis the API uses (redis://host:6379/0)")
+    p.add_argument(
+        "--device", default="cpu", type=device_arg, help="Warp device to render on: cpu (default), cuda:0, ..."
+    )
+    p.add_argument(
+        "--threads", type=int, default=0, help="render threads (default: every core; a CUDA device: whole images)"
+    )
+    p.add_argument(
+        "--queues",
+        nargs="+",
+        default=list(ev.QUEUES),
+        choices=ev.QUEUES,
+        help="the lanes to take jobs from, in order (default: interactive batch; a host for the page: interactive)",
+    )
+    p.add_argument("--name", help="this worker's name (default: host.pid)")
+    p.add_argument(
+        "--cache-dir",
+        default=str(Path.home() / ".cache" / "raytrace-edu" / "radiosity"),
+        help="where this host keeps radiosity solutions by their scene's content",
+    )
+    p.add_argument(
+        "--no-fork",
+        action="store_true",
+        help="run each try in this process, not in a forked work horse (always so on a CUDA device)",
+    )
+    args = p.parse_args(argv)  # an unknown device: "warp has no device cuda:0 here; available: cpu", exit 2
+    device = args.device
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
+    faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
+    cuda = is_cuda(device)
+    worker_class = InProcessWorker if cuda or args.no_fork else HostWorker  # CUDA must not be forked
+    threads = 1 if cuda else args.threads or default_threads()
+    HOST.update(url=args.redis, device=device, threads=threads, cache=args.cache_dir)
+    HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
+    load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
+    how = "in this process" if worker_class is InProcessWorker else "in forked work horses"
+    log.info("worker host %s: kernels ready on %s, %d thread(s), tries %s", HOST["name"], device, HOST["threads"], how)
+    stop = threading.Event()
+    pause = 1.0
+    while not stop.is_set():
+        try:
+            r = _redis(args.redis)
+            lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
+            queues = [Queue(name, connection=r) for name in args.queues]
+            worker = worker_class(queues, connection=r, name=HOST["name"], lost_after=lost_after)
+            worker.work(logging_level="INFO", with_scheduler=False)
+            if worker._stop_requested or worker._shutdown_requested_date is not None:
+                stop.set()
+            else:  # RQ quits its loop on a lost connection: wait, and take up work again
+                log.warning("worker host %s: lost Redis; retrying in %.0f s", HOST["name"], pause)
+                time.sleep(pause)
+                pause = min(10.0, pause * 2)
+        except redis.RedisError as exc:
+            log.warning("worker host %s: Redis unreachable (%s); retrying in %.0f s", HOST["name"], exc, pause)
+            time.sleep(pause)
+            pause = min(10.0, pause * 2)
+        except (KeyboardInterrupt, SystemExit):
+            stop.set()
+    log.info("worker host %s: stopped", HOST["name"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
