@@ -663,21 +663,6 @@ def test_api_names_students_as_the_grader_does(server):
     assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
 
 
-class _FakeStore:
-    """Just enough of a JobStore for QueueRenderer: every job ends failed with the worker's message."""
-
-    def __init__(self, error: str):
-        self.error, self.rows = error, {}
-
-    def create(self, scene_json, **kw) -> dict:
-        row = {"id": str(len(self.rows)), "status": "failed", "error": self.error, "max_seconds": kw["max_seconds"]}
-        self.rows[row["id"]] = row
-        return row
-
-    def get(self, job_id: str) -> dict:
-        return self.rows[job_id]
-
-
 @pytest.mark.parametrize(
     "service_seconds, priority, killed, expected",
     [
@@ -692,16 +677,16 @@ def test_time_limit_messages_cite_what_set_the_limit(service_seconds, priority, 
     """The worker only knows its job's seconds, and names TRACER_MAX_JOB_SECONDS; the grader knows
     whether the assignment's limit, the service's, or the reference's (ten times the assignment's) set them."""
     from server.core.settings import Settings
-    from server.grading.runs import QueueRenderer
+    from server.grading.renders import capped, job_outcome
 
     spec, _ = load_assignment(inline_assignment(max_seconds=2))
     grader = Grader(spec, None)
     scene = json.loads((CLASS / "alice.json").read_text())
     job = grader._job("reference" if priority else "alice", scene, priority)
     worker_said = "stopped: over the time limit of 9 s per job (TRACER_MAX_JOB_SECONDS)" + ("; worker killed" * killed)
-    renderer = QueueRenderer(_FakeStore(worker_said), settings=Settings(max_job_seconds=service_seconds))
-    [result] = renderer([job])
-    assert result.error == "stopped: " + expected
+    _, seconds, source = capped(job, Settings(max_job_seconds=service_seconds))
+    error, _, _ = job_outcome({"id": "0", "status": "failed", "error": worker_said}, seconds, source)
+    assert error == "stopped: " + expected
     if service_seconds == 600 and not killed:  # rendered here: the same words
         inline = InlineRenderer().one(dataclasses.replace(job, max_seconds=1e-9))
         assert inline.error == "stopped: " + expected.replace(" 2 s ", " 1e-09 s ")
