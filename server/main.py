@@ -25,21 +25,21 @@ from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
 from server.api.routes import grade, jobs, reference, samples, scenes, tools
-from server.api.routes.scenes import SCENES
 from server.checks.pool import CheckPool
 from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
+from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.grading.runs import GradeRuns
 from server.jobs.janitor import Janitor
 from server.jobs.previews import Previews
+from server.jobs.service import JobService
 from server.jobs.store import JobStore
 from server.queue.base import make_queue
 from server.queue.embedded.worker import load_kernels
 from tracer.samples import load_kernels as load_sample_kernels
 
-WEB = Path(__file__).resolve().parent.parent / "web"
 log = logging.getLogger("server")
 
 
@@ -62,13 +62,15 @@ async def lifespan(app: FastAPI):
         stack.callback(checks.shutdown)
         store = JobStore(settings.data_dir)
         queue = make_queue(settings, store, app.state.stopping)
-        app.state.store, app.state.queue = store, queue
-        grade_runs = app.state.grade_runs = GradeRuns(settings, store, queue.submitted)
+        jobs = JobService(settings, store, queue, app.state.stopping)
+        app.state.store, app.state.queue, app.state.jobs = store, queue, jobs
+        stack.callback(jobs.close)
+        grade_runs = app.state.grade_runs = GradeRuns(settings, jobs)
         queue.start()  # recovers the jobs a stopped server left, then takes jobs
         stack.callback(queue.shutdown)
         grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
         stack.callback(grade_runs.shutdown)
-        previews = app.state.previews = Previews(settings, store, queue.submitted, SCENES)
+        previews = app.state.previews = Previews(settings, jobs, SCENES)
         if settings.previews_ahead:  # the examples' pictures, rendered by the workers before anyone asks
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
         janitor = Janitor(settings, store)
@@ -121,7 +123,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,  # ReDoc's bundle still fetches its maker's logo from a CDN: /docs alone, fully offline
     )
     app.state.settings = settings
-    app.state.store = app.state.queue = app.state.grade_runs = app.state.checks = None
+    app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
     install_error_handlers(app)

@@ -13,6 +13,7 @@ from test_api_support import INSTRUCTOR, api_client, bearer
 from server.core.settings import Settings
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
+from server.jobs.service import JobService
 from server.jobs.store import JobStore
 
 
@@ -46,6 +47,13 @@ def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(
         assert {s["preview"]["state"] for s in client.get("/api/scenes").json()} == {"ready"}
 
 
+class _Recording:
+    """The queue's interface as far as a preview needs it: what was handed to it, in order."""
+
+    def __init__(self, queued: list):
+        self.submitted = queued.append
+
+
 def test_previews_a_changed_example_gets_a_new_preview(tmp_path):
     scenes = tmp_path / "scenes"
     scenes.mkdir()
@@ -53,7 +61,7 @@ def test_previews_a_changed_example_gets_a_new_preview(tmp_path):
     settings = Settings(data_dir=tmp_path / "data")
     store = JobStore(settings.data_dir)
     queued = []
-    previews = Previews(settings, store, queued.append, scenes)
+    previews = Previews(settings, JobService(settings, store, _Recording(queued), lambda: False), scenes)
     assert previews.state("phong")["state"] == "none"
     previews.ahead()
     assert previews.state("phong")["state"] == "queued" and len(queued) == 1

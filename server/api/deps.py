@@ -1,5 +1,5 @@
-"""Dependencies of the routes, as `Annotated` aliases: the settings, the job store, the job queue, the scene
-checking processes, a job (the caller's own: server/core/security.py)."""
+"""Dependencies of the routes, as `Annotated` aliases: the settings, the job service (and its store), the job
+queue's interface, the scene checking processes, a job (the caller's own: server/core/security.py)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from server.core.errors import ApiError
 from server.core.ids import looks_like_job_id
 from server.core.security import CallerDep
 from server.core.settings import Settings
+from server.jobs.service import JobService
 from server.jobs.store import JobStore
 from server.queue.base import JobQueue
 
@@ -28,6 +29,10 @@ def get_queue(request: Request) -> JobQueue:
     return request.app.state.queue
 
 
+def get_jobs(request: Request) -> JobService:
+    return request.app.state.jobs
+
+
 def get_checks(request: Request) -> CheckPool:
     return request.app.state.checks
 
@@ -36,6 +41,7 @@ SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 QueueDep = Annotated[JobQueue, Depends(get_queue)]
 ChecksDep = Annotated[CheckPool, Depends(get_checks)]
+JobsDep = Annotated[JobService, Depends(get_jobs)]
 
 
 def get_job(

@@ -24,6 +24,7 @@ import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from pydantic import BaseModel, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -35,6 +36,12 @@ DISK_FULL = (
     "the server's disk is full: nothing of this request was kept; try again later (the server's log says so "
     "to its administrator)"
 )
+
+
+class ErrorItem(BaseModel):
+    path: str = Field(description="JSON path of the offending field ('' for the whole request)")
+    message: str
+
 
 
 def sanitise(value: Any) -> Any:

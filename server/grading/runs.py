@@ -16,14 +16,14 @@ import shutil
 import threading
 import time
 import uuid
-from collections.abc import Callable
 from pathlib import Path
 
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
+from server.grading.run import GradingRun
 from server.grading.store import GradingStore, Stage
 from server.jobs.lifecycle import JobStatus
-from server.jobs.store import JobStore
+from server.jobs.service import JobService
 from tracer.grading import Grader, load_assignment
 
 log = logging.getLogger(__name__)
@@ -58,8 +58,8 @@ class GradeRuns:
     as each job ends, so the janitor may remove the jobs), out/ (each student's report and pictures,
     the class summary). `resume()` takes up every run a stopped server left running."""
 
-    def __init__(self, settings: Settings, store: JobStore, queued: Callable[[dict], None] | None):
-        self.settings, self.store, self.queued = settings, store, queued
+    def __init__(self, settings: Settings, jobs: JobService):
+        self.settings, self.jobs, self.store = settings, jobs, jobs.store
         self.root = settings.data_dir / "grades"
         self.root.mkdir(parents=True, exist_ok=True)
         self.uploads = self.root / ".uploads"  # uploads being unpacked (a crash leaves them: removed here)
@@ -116,8 +116,6 @@ class GradeRuns:
         return ids
 
     def _spawn(self, run_id: str) -> None:
-        from server.grading.run import GradingRun
-
         run = GradingRun(self, run_id)
         thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
         self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going

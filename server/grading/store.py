@@ -22,7 +22,6 @@ import json
 import sqlite3
 import threading
 import time
-from collections.abc import Iterable
 from enum import StrEnum
 from pathlib import Path
 
@@ -195,23 +194,6 @@ class GradingStore:
         self.db.execute(
             f"UPDATE grading_renders SET {sets} WHERE run_id = ? AND key = ?", (*fields.values(), run_id, key)
         )
-
-    # -- the jobs a run waits for (read only) ---------------------------------------------------
-
-    def job_states(self, ids: Iterable[str]) -> dict[str, dict]:
-        """The rows of these jobs that still exist: what a run needs of them (status, error, spp_done,
-        started_at, finished_at), in one query per 500 ids."""
-        ids = list(ids)
-        out = {}
-        for i in range(0, len(ids), 500):
-            part = ids[i : i + 500]
-            rows = self.db.execute(
-                "SELECT id, status, error, spp_done, started_at, finished_at FROM jobs"
-                f" WHERE id IN ({', '.join('?' * len(part))})",
-                part,
-            )
-            out.update({r["id"]: dict(r) for r in rows})
-        return out
 
 
 def _decoded(row: dict, keys: tuple[str, ...]) -> dict:

@@ -25,7 +25,8 @@ from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
-from server.jobs.store import JobStore, QueueFull
+from server.jobs.service import JobService
+from server.jobs.store import QueueFull
 
 log = logging.getLogger(__name__)
 
@@ -45,8 +46,8 @@ def preview_scene(src: Path, size: int) -> dict:
 class Previews:
     """The previews of the example scenes in `scenes`: their state, and their jobs queued when needed."""
 
-    def __init__(self, settings: Settings, store: JobStore, submitted, scenes: Path):
-        self.settings, self.store, self.submitted, self.scenes = settings, store, submitted, scenes
+    def __init__(self, settings: Settings, jobs: JobService, scenes: Path):
+        self.settings, self.jobs, self.store, self.scenes = settings, jobs, jobs.store, scenes
         self.folder = settings.data_dir / "previews"
         self._lock = threading.Lock()  # one caller queues a scene's job
 
@@ -106,10 +107,9 @@ class Previews:
                     return
             film, spp = scene["film"], (scene.get("sampler") or {}).get("spp", 16)
             try:
-                row = self.store.create(
+                row = self.jobs.submit(
                     json.dumps(scene), name=f"preview of {name}"[:200], width=int(film["width"]),
                     height=int(film["height"]), spp=int(spp) if isinstance(spp, int) else 16, priority=PRIORITY,
-                    warnings=[], max_seconds=self.settings.max_job_seconds, max_queued=self.settings.max_queued_jobs,
                     kind=JobKind.preview, lane=Lane.batch, owner=None,
                 )  # fmt: skip
             except QueueFull:
@@ -117,7 +117,6 @@ class Previews:
                 return
             base.parent.mkdir(parents=True, exist_ok=True)
             write_atomic(base.with_suffix(".job"), lambda tmp: tmp.write_text(json.dumps({"job": row["id"]})))
-        self.submitted(row)
 
     def names(self) -> list[str]:
         return sorted(p.stem for p in self.scenes.glob("*.json"))

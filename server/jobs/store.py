@@ -23,7 +23,7 @@ import socket
 import sqlite3
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from server.core.db import Transaction, thread_connection
@@ -265,6 +265,29 @@ class JobStore:
 
     def get(self, job_id: str) -> dict | None:
         return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
+
+    def rows(self, ids: Iterable[str]) -> dict[str, dict]:
+        """The rows of these jobs (those that exist) without their scenes, in one query per 500 ids: what the
+        job service's watcher compares from one look to the next (server/jobs/service.py)."""
+        return self._many(ids, ", ".join(c for c in self._columns() if c != "scene"))
+
+    def states(self, ids: Iterable[str]) -> dict[str, dict]:
+        """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at)."""
+        return self._many(ids, "id, status, error, spp_done, started_at, finished_at")
+
+    def _many(self, ids: Iterable[str], columns: str) -> dict[str, dict]:
+        ids = list(ids)
+        out = {}
+        for i in range(0, len(ids), 500):
+            part = ids[i : i + 500]
+            rows = self.db.execute(f"SELECT {columns} FROM jobs WHERE id IN ({', '.join('?' * len(part))})", part)
+            out.update({r["id"]: dict(r) for r in rows})
+        return out
+
+    def _columns(self) -> list[str]:
+        if not hasattr(self, "_column_names"):
+            self._column_names = [r["name"] for r in self.db.execute("PRAGMA table_info(jobs)")]
+        return self._column_names
 
     def list_jobs(
         self,

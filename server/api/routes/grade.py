@@ -18,6 +18,7 @@ from starlette.concurrency import run_in_threadpool
 from server.api.deps import SettingsDep
 from server.api.models import ErrorResponse
 from server.core.errors import ApiError, json_depth
+from server.core.paths import ROOT
 from server.core.security import require_instructor
 from server.core.settings import Settings
 from server.grading.runs import STUDENT_FILES, GradeRuns, Handed
@@ -267,11 +268,9 @@ def students(body: StudentsIn) -> dict:
 def example() -> dict:
     """What the page's "Load the example" fills in: scenes/grading/assignment.json with its reference
     scene inline, and the example class (scenes as text, images as base64)."""
-    from pathlib import Path
-
     from tracer.grading import collect
 
-    root = Path(__file__).resolve().parents[2] / EXAMPLE
+    root = ROOT / EXAMPLE
     assignment = json.loads((root / "assignment.json").read_text())
     assignment["reference"]["scene"] = json.loads((root / assignment["reference"]["scene"]).read_text())
     subs = []

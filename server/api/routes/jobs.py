@@ -14,20 +14,18 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.api.deps import ChecksDep, JobDep, QueueDep, SettingsDep, StoreDep
-from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, QueuePlace
+from server.api.deps import ChecksDep, JobDep, JobsDep, StoreDep
+from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
 from server.api.scene_route import scene_post
 from server.core.errors import ApiError
 from server.core.security import CallerDep, new_token, share_token, token_hash, unauthorized
-from server.core.settings import Settings
 from server.jobs.files import AOV_NAMES, JobFile
-from server.jobs.lifecycle import JobKind, JobStatus, Lane
-from server.jobs.store import JobStore, QueueFull
+from server.jobs.lifecycle import JobKind, JobStatus
+from server.jobs.service import JobService
+from server.jobs.store import JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
-EVENT_POLL = 0.1  # seconds between two looks at a job's row while streaming its events
-KEEPALIVE = 15.0  # seconds between SSE comments on a quiet stream
 MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
@@ -50,9 +48,8 @@ NOT_FOUND = {
     },
 )
 async def submit(
-    body: JobCreate, settings: SettingsDep, store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep,
-    request: Request, response: Response,
-) -> JobCreated:  # fmt: skip
+    body: JobCreate, jobs: JobsDep, checks: ChecksDep, caller: CallerDep, request: Request, response: Response
+) -> JobCreated:
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
@@ -67,86 +64,18 @@ async def submit(
     issued = new_token() if caller.token is None else None
 
     def queued() -> JobCreated:
-        seconds = estimate_seconds(found, settings, store)
-        lane = body.lane or (Lane.interactive if seconds <= settings.interactive_seconds else Lane.batch)
-        row = create_job(store, settings, found, priority=body.priority, warnings=found["warnings"], lane=lane,
-                         estimate=seconds, owner=caller.owner or token_hash(issued))  # fmt: skip
-        queue.submitted(row)
+        seconds = jobs.estimate(found)
+        row = jobs.submit_checked(found, priority=body.priority, warnings=found["warnings"], estimate=seconds,
+                                  lane=jobs.lane_for(seconds, body.lane), owner=caller.owner or token_hash(issued))
         response.headers["Location"] = f"/api/jobs/{row['id']}"
-        return JobCreated(**public(row, store, queue).model_dump(), token=issued)
+        return JobCreated(**jobs.public(row).model_dump(), token=issued)
 
     return await anyio.to_thread.run_sync(queued)
 
 
-def estimate_seconds(found: dict, settings: Settings, store: JobStore) -> float:
-    """The render's estimated seconds on one worker (tracer/estimate.py, in the scene's summary: server/checks/pool.py;
-    scaled by how long finished renders took against their estimates); 422 when past the per-job limit, so it
-    is never accepted to fail later (at render.radiosity when the radiosity solve alone is past it)."""
-    pace = store.pace()
-    seconds, limit = found["seconds"] * pace, settings.max_job_seconds
-    if seconds > limit:
-        solve = found["solve_seconds"] * pace
-        if solve > limit:
-            message = (
-                f"its radiosity solve would take about {solve:.0f} s here, past the limit of {limit:g} s per job "
-                "(TRACER_MAX_JOB_SECONDS): use a larger patch_size, fewer rays or a larger threshold"
-            )
-            raise ApiError(422, [{"path": "render.radiosity", "message": message}])
-        work = f"{found['width']} x {found['height']} pixels x {found['spp']} samples"
-        message = (
-            f"this render would take about {seconds:.0f} s here ({work}, {found['integrator']}), past the limit "
-            f"of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
-        )
-        raise ApiError(422, [{"path": "sampler.spp", "message": message}])
-    return round(seconds, 3)
-
-
-def create_job(store: JobStore, settings: Settings, found: dict, **fields) -> dict:
-    """Record a queued job of a checked scene (its summary: server/checks/pool.py); 429 when the queue is full."""
-    try:
-        return store.create(
-            found["text"],
-            name=fields.pop("name", found["name"]),
-            width=found["width"],
-            height=found["height"],
-            spp=found["spp"],
-            max_seconds=fields.pop("max_seconds", settings.max_job_seconds),
-            max_queued=settings.max_queued_jobs,
-            max_queued_owner=settings.max_queued_per_token,
-            **fields,
-        )
-    except QueueFull as full:
-        if full.args[1:] == ("owner",):
-            message = (
-                f"you already have {full.args[0]} jobs waiting (TRACER_MAX_QUEUED_PER_TOKEN): wait for one to start, "
-                "or cancel one"
-            )
-        else:
-            message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
-        raise ApiError(429, message, headers={"Retry-After": "5"}) from None
-
-
-def public(row: dict, store: JobStore, queue, now: float | None = None) -> JobPublic:
-    """The job as the API shows it; a queued one with its place in the queue and its expected wait."""
-    job = JobPublic.from_row(row, now)
-    if job.status is JobStatus.queued:
-        lane = Lane(row["lane"])
-        place = store.place(row)
-        workers = queue.capacity(lane)
-        wait = None
-        if workers > 0:
-            wait = round((place["ahead_seconds"] + place["running_seconds"]) / workers, 2)
-        job.queue = QueuePlace(
-            lane=lane, position=place["ahead"] + 1, ahead=place["ahead"], running=place["running"],
-            workers=workers, expected_wait=wait,
-        )  # fmt: skip
-    return job
-
-
 @router.get("", summary="The caller's jobs (the instructor: every job), newest first", responses=UNAUTHORIZED)
 def list_jobs(
-    store: StoreDep,
-    queue: QueueDep,
+    jobs: JobsDep,
     caller: CallerDep,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
@@ -171,16 +100,16 @@ def list_jobs(
     else:
         owner = None
     kinds = kind.value if kind else None
-    rows, count = store.list_jobs(status.value if status else None, limit, offset, kinds, owner=owner)
+    rows, count = jobs.store.list_jobs(status.value if status else None, limit, offset, kinds, owner=owner)
     now = time.time()
-    return JobList(jobs=[public(r, store, queue, now) for r in rows], count=count)
+    return JobList(jobs=[jobs.public(r, now) for r in rows], count=count)
 
 
 @router.get(
     "/{job_id}", summary="One job: status, place in the queue, progress, elapsed and ETA, rays", responses=NOT_FOUND
 )
-def get_job(job: JobDep, store: StoreDep, queue: QueueDep) -> JobPublic:
-    return public(job, store, queue)
+def get_job(job: JobDep, jobs: JobsDep) -> JobPublic:
+    return jobs.public(job)
 
 
 @router.get(
@@ -296,12 +225,13 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
     response_class=StreamingResponse,
     responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
 )
-def events(job: JobDep, store: StoreDep, queue: QueueDep, request: Request) -> StreamingResponse:
+def events(job: JobDep, jobs: JobsDep, request: Request) -> StreamingResponse:
     """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
     eta, rays};
-    `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes."""
+    `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes.
+    The stream is woken when the job's row changes (the job service's watcher): it never polls the store."""
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
-    stream = _event_stream(store, queue, job["id"], request)
+    stream = _event_stream(jobs, job["id"], request)
     return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
 
 
@@ -309,17 +239,14 @@ def sse(event: str, data: dict) -> str:
     return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
 
 
-async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -> AsyncIterator[str]:
+async def _event_stream(jobs: JobService, job_id: str, request: Request) -> AsyncIterator[str]:
     yield "retry: 1000\n\n"
-    last_progress, last_preview, quiet_since = None, 0, time.monotonic()
-    stopping = request.app.state.stopping
-    while not stopping():  # a stopping server ends its streams (the client reconnects to the next one)
-        row = await anyio.to_thread.run_sync(store.get, job_id)
-        if row is None:  # cannot happen (jobs are never deleted), but never loop on nothing
-            return
-        job = await anyio.to_thread.run_sync(public, row, store, queue)
+    last_progress, last_preview = None, 0
+    async for job in jobs.follow(job_id, request.is_disconnected):
+        if job is None:
+            yield ": keep-alive\n\n"
+            continue
         p = job.progress
-        sent = False
         place = job.queue.model_dump(mode="json") if job.queue else None
         now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0, json.dumps(place))
         if now_at != last_progress:
@@ -327,26 +254,15 @@ async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -
             data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
             data.update(queue=place, finished=job.finished)
             yield sse("progress", data)
-            sent = True
         if job.preview and job.preview != last_preview:
             last_preview = job.preview
             base = f"/api/jobs/{job_id}/image"
             data = {"pass": job.preview, "spp": p.spp_done, "url": f"{base}?pass={job.preview}"}
             data["exr_url"] = f"{base}?format=exr&pass={job.preview}"
             yield sse("preview", data)
-            sent = True
         if job.status.finished:
             yield sse("end", job.model_dump(mode="json"))
             return
-        now = time.monotonic()
-        if sent:
-            quiet_since = now
-        elif now - quiet_since > KEEPALIVE:
-            quiet_since = now
-            yield ": keep-alive\n\n"
-        if await request.is_disconnected():
-            return
-        await anyio.sleep(EVENT_POLL)
 
 
 @router.delete(
@@ -358,16 +274,15 @@ async def _event_stream(store: JobStore, queue, job_id: str, request: Request) -
         **NOT_FOUND,
     },
 )
-def cancel(job: JobDep, store: StoreDep, queue: QueueDep, response: Response) -> JobPublic:
+def cancel(job: JobDep, jobs: JobsDep, response: Response) -> JobPublic:
     """A queued job is cancelled at once (200); a running one is asked to stop (202) and ends `cancelled`,
     even if its render finishes before it sees the request; a job that has ended is 409 (the job's row
     decides, in one transaction: the answer always agrees with the job's final status)."""
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
-    row = store.cancel(job["id"])
+    row = jobs.cancel(job["id"])
     if JobStatus(row["status"]) in (JobStatus.done, JobStatus.failed):  # it ended between the two reads
         raise ApiError(409, f"the job has already ended ({row['status']})")
-    queue.cancelled(row)
     if JobStatus(row["status"]) is JobStatus.running:
         response.status_code = 202
-    return public(row, store, queue)
+    return jobs.public(row)

@@ -18,9 +18,9 @@ from fastapi.responses import HTMLResponse
 from markdown_it import MarkdownIt
 
 from server.core.errors import ApiError
+from server.core.paths import DOCS
 from tracer.docs import slug
 
-DOCS = Path(__file__).resolve().parent.parent.parent / "docs"
 router = APIRouter(prefix="/reference", tags=["reference"], include_in_schema=False)
 
 PAGE = """<!doctype html>

@@ -12,8 +12,8 @@ from fastapi import APIRouter, Request
 from fastapi.responses import FileResponse
 
 from server.core.errors import ApiError
+from server.core.paths import SCENES
 
-SCENES = Path(__file__).resolve().parent.parent.parent / "scenes"
 router = APIRouter(prefix="/api/scenes", tags=["scenes"])
 
 

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import json
-import time
 
 import anyio
 from fastapi import APIRouter, Request
 
-from server.api.deps import ChecksDep, QueueDep, SettingsDep, StoreDep
+from server.api.deps import ChecksDep, JobsDep, QueueDep, SettingsDep, StoreDep
 from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
-from server.api.routes.jobs import create_job
 from server.api.scene_route import scene_post
 from server.core.errors import ApiError
 from server.core.security import CallerDep
@@ -19,9 +17,6 @@ from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
-
-RAYTREE_POLL = 0.01  # seconds between two looks at a ray tree's job
-
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
 def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep) -> Health:
@@ -64,9 +59,8 @@ async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -
     },
 )
 async def raytree(
-    body: RayTreeRequest, settings: SettingsDep, store: StoreDep, queue: QueueDep, checks: ChecksDep,
-    caller: CallerDep, request: Request,
-) -> dict:  # fmt: skip
+    body: RayTreeRequest, jobs: JobsDep, settings: SettingsDep, checks: ChecksDep, caller: CallerDep, request: Request
+) -> dict:
     """Traced by a worker, as a short job of the interactive lane (never in the API process); a
     radiosity scene's solution is kept by its content, so only the first click on it solves it, and a
     solve estimated past the ray tree's time limit is refused before it starts unless its solution is
@@ -80,40 +74,30 @@ async def raytree(
     ]
     if errors:
         raise ApiError(422, errors)
-    if queue.capacity(Lane.interactive) == 0:
+    if jobs.capacity(Lane.interactive) == 0:
         raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
 
     def queued() -> dict:
-        solve = round(found["solve_seconds"] * store.pace(), 3)  # the worker refuses it past the limit, unless kept
-        params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": solve}
-        row = create_job(
-            store, settings, found, kind=JobKind.raytree, lane=Lane.interactive, priority=100,
-            params=params, max_seconds=settings.max_raytree_seconds, samples_total=1, warnings=[],
-            owner=caller.owner, name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
+        params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": jobs.solve_estimate(found)}
+        return jobs.submit_checked(
+            found, kind=JobKind.raytree, lane=Lane.interactive, priority=100, params=params,
+            max_seconds=settings.max_raytree_seconds, samples_total=1, owner=caller.owner,
+            name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
         )  # fmt: skip
-        queue.submitted(row)
-        return row
 
     row = await anyio.to_thread.run_sync(queued)
-    deadline = time.monotonic() + settings.max_raytree_seconds + 10
-    while True:
-        row = await anyio.to_thread.run_sync(store.get, row["id"])
-        if JobStatus(row["status"]).finished:
-            break
-        stopping = request.app.state.stopping()
-        if stopping or await request.is_disconnected() or time.monotonic() > deadline:
-            cancelled = await anyio.to_thread.run_sync(store.cancel, row["id"])
-            queue.cancelled(cancelled)
-            if stopping:
-                raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
-            if time.monotonic() > deadline:
-                raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
+    ended = await jobs.ended(row["id"], settings.max_raytree_seconds + 10, request.is_disconnected)
+    if ended is None:
+        await anyio.to_thread.run_sync(jobs.cancel, row["id"])
+        if jobs.stopping():
+            raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
+        if await request.is_disconnected():
             raise ApiError(499, "the client went away")
-        await anyio.sleep(RAYTREE_POLL)
-    if row["status"] == JobStatus.done:
-        text = await anyio.to_thread.run_sync(store.job_file(row["id"], JobFile.raytree).read_text)
+        raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
+    if ended["status"] == JobStatus.done:
+        text = await anyio.to_thread.run_sync(jobs.store.job_file(ended["id"], JobFile.raytree).read_text)
         return json.loads(text)
-    errors = json.loads(row["errors"] or "[]")
+    errors = json.loads(ended["errors"] or "[]")
     if errors:
         raise ApiError(422, errors)
-    raise ApiError(503, row["error"] or f"the ray tree's job was {row['status']}")
+    raise ApiError(503, ended["error"] or f"the ray tree's job was {ended['status']}")

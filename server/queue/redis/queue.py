@@ -32,7 +32,6 @@ import threading
 import time
 from collections.abc import Callable
 from datetime import UTC, datetime
-from pathlib import Path
 
 import redis
 from rq import Queue, Worker
@@ -40,6 +39,7 @@ from rq.job import Job
 from rq.registry import StartedJobRegistry
 
 from server.core.files import is_disk_full
+from server.core.paths import ROOT
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane
@@ -52,7 +52,6 @@ MONITOR_INTERVAL = 1.0  # seconds between two rounds of the monitor
 HARD_GRACE = 10.0  # seconds past a try's time limit before the API fails it (its host stops it itself at the limit)
 DISK_FULL_PAUSE = 2.0  # seconds between two tries to apply an event while the data directory's disk is full
 DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive before its try is lost
-ROOT = Path(__file__).resolve().parent.parent
 
 
 class RedisQueue:

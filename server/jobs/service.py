@@ -1,0 +1,289 @@
+"""The job service: the one place that uses the job store and the job queue together.
+
+Every caller that makes a job submits it here (the routes of renders and ray trees, the examples'
+previews, grading runs): the store records it queued, then the queue is told. Cancels, the waits for
+a job's end, the render estimate and the public view (a queued job's place and its expected wait)
+live here too, and so do a job's changes: one watcher thread (`JobWatch`) reads the rows of every job
+someone follows in one query and wakes the followers whose job changed, so no event stream and no
+waiting request polls the store on its own.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
+from contextlib import contextmanager
+from typing import TYPE_CHECKING
+
+import anyio
+
+from server.core.errors import ApiError
+from server.core.settings import Settings
+from server.jobs.lifecycle import JobStatus, Lane
+from server.jobs.store import JobStore, QueueFull
+from server.jobs.views import JobPublic, QueuePlace
+
+if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface
+    from server.queue.base import JobQueue
+
+TICK = 0.1  # seconds between two looks at the followed jobs' rows
+URGENT_TICK = 0.01  # ... while someone waits for a short job to end (a ray tree: a student clicked a pixel)
+PLACE_EVERY = 1.0  # seconds between two wakes of a queued job's followers (its place moves with other jobs)
+CAPACITY_SECONDS = 1.0  # how long the queue's count of workers per lane is kept (Redis lists them from Redis)
+KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open)
+WAKE = 1.0  # seconds a follower waits before it looks again whether its client or the server is going
+
+
+class Follower:
+    """One follower of one job (an event stream, a waiting request): woken in its event loop when the job's
+    row changes; `row` is the latest the watcher read."""
+
+    def __init__(self, job_id: str, urgent: bool):
+        self.job_id, self.urgent = job_id, urgent
+        self.loop = asyncio.get_running_loop()
+        self.event = asyncio.Event()
+        self.row: dict | None = None
+        self.woken = 0.0  # monotonic time of the last wake (a queued job's followers are woken every PLACE_EVERY)
+
+    def wake(self, row: dict | None) -> None:
+        """From the watcher's thread."""
+        self.row = row
+        self.woken = time.monotonic()
+        self.loop.call_soon_threadsafe(self.event.set)
+
+    async def changed(self, timeout: float) -> dict | None:
+        """The job's row once it changed, or None after `timeout` seconds without a change."""
+        with anyio.move_on_after(timeout):
+            await self.event.wait()
+        if not self.event.is_set():
+            return None
+        self.event.clear()
+        return self.row
+
+
+class JobWatch:
+    """One thread for all followers: while anyone follows a job, it reads the followed rows (without their
+    scenes) in one query every TICK seconds (URGENT_TICK while an urgent follower waits), and wakes the
+    followers of each row that changed, and of each queued job every PLACE_EVERY seconds."""
+
+    def __init__(self, store: JobStore, stopping: Callable[[], bool]):
+        self.store, self.stopping = store, stopping
+        self._lock = threading.Lock()
+        self._followers: dict[str, set[Follower]] = {}
+        self._seen: dict[str, dict | None] = {}
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._closed = False
+
+    @contextmanager
+    def follow(self, job_id: str, urgent: bool = False):
+        follower = Follower(job_id, urgent)
+        with self._lock:
+            self._followers.setdefault(job_id, set()).add(follower)
+            if self._thread is None and not self._closed:
+                self._thread = threading.Thread(target=self._loop, name="job-watch", daemon=True)
+                self._thread.start()
+        self._wake.set()
+        try:
+            yield follower
+        finally:
+            with self._lock:
+                mine = self._followers.get(job_id)
+                if mine is not None:
+                    mine.discard(follower)
+                    if not mine:
+                        del self._followers[job_id]
+                        self._seen.pop(job_id, None)
+
+    def followed(self) -> int:
+        with self._lock:
+            return sum(len(f) for f in self._followers.values())
+
+    def close(self) -> None:
+        self._closed = True
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+
+    def _loop(self) -> None:
+        while not self._closed:
+            with self._lock:
+                followers = {k: set(v) for k, v in self._followers.items()}
+            if not followers:
+                self._wake.wait(1.0)
+                self._wake.clear()
+                continue
+            try:
+                self._round(followers)
+            except Exception:  # a locked or full database: the next round tries again
+                pass
+            urgent = any(f.urgent for fs in followers.values() for f in fs)
+            self._wake.wait(URGENT_TICK if urgent else TICK)
+            self._wake.clear()
+
+    def _round(self, followers: dict[str, set[Follower]]) -> None:
+        rows = self.store.rows(followers)
+        now, stopping = time.monotonic(), self.stopping()
+        for job_id, fs in followers.items():
+            row = rows.get(job_id)
+            changed = self._seen.get(job_id, False) != row
+            self._seen[job_id] = row
+            for f in fs:
+                queued = row is not None and row["status"] == JobStatus.queued
+                if changed or stopping or f.row is None or (queued and now - f.woken >= PLACE_EVERY):
+                    f.wake(row)
+
+
+class JobService:
+    """Submit, cancel, wait for, estimate and show jobs (the routes, previews and grading all come here)."""
+
+    def __init__(self, settings: Settings, store: JobStore, queue: JobQueue, stopping: Callable[[], bool]):
+        self.settings, self.store, self.queue, self.stopping = settings, store, queue, stopping
+        self.watch = JobWatch(store, stopping)
+        self._capacity: dict[Lane, tuple[float, int]] = {}
+
+    def close(self) -> None:
+        self.watch.close()
+
+    # -- submit and cancel ----------------------------------------------------------------------
+
+    def submit(self, scene: str, *, name: str | None, width: int, height: int, spp: int, **fields) -> dict:
+        """Record a queued job of `scene` (JSON text) and get it rendered; its row. `fields` as the store's
+        `create` takes them; the time limit and the queue's size default to the settings'. Raises QueueFull."""
+        fields.setdefault("max_seconds", self.settings.max_job_seconds)
+        fields.setdefault("max_queued", self.settings.max_queued_jobs)
+        fields.setdefault("warnings", [])
+        row = self.store.create(scene, name=name, width=width, height=height, spp=spp, **fields)
+        self.queue.submitted(row)
+        return row
+
+    def submit_checked(self, found: dict, **fields) -> dict:
+        """A client's job of a scene checked in a checking process (its summary: server/checks/tasks.py);
+        429 when the queue, or the owner's share of it, is full."""
+        fields.setdefault("max_queued_owner", self.settings.max_queued_per_token)
+        try:
+            return self.submit(found["text"], name=fields.pop("name", found["name"]), width=found["width"],
+                               height=found["height"], spp=found["spp"], **fields)  # fmt: skip
+        except QueueFull as full:
+            if full.args[1:] == ("owner",):
+                message = (
+                    f"you already have {full.args[0]} jobs waiting (TRACER_MAX_QUEUED_PER_TOKEN): wait for one to "
+                    "start, or cancel one"
+                )
+            else:
+                message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
+            raise ApiError(429, message, headers={"Retry-After": "5"}) from None
+
+    def cancel(self, job_id: str) -> dict | None:
+        """Cancel a queued job, or ask a running one to stop (the store decides, in one transaction), and
+        tell the queue; the row after."""
+        row = self.store.cancel(job_id)
+        if row is not None:
+            self.queue.cancelled(row)
+        return row
+
+    # -- the estimate ---------------------------------------------------------------------------
+
+    def estimate(self, found: dict) -> float:
+        """The render's estimated seconds on one worker (tracer/estimate.py, in the scene's summary; scaled by
+        how long finished renders took against their estimates); 422 when past the per-job limit, so it is
+        never accepted to fail later (at render.radiosity when the radiosity solve alone is past it)."""
+        pace = self.store.pace()
+        seconds, limit = found["seconds"] * pace, self.settings.max_job_seconds
+        if seconds > limit:
+            solve = found["solve_seconds"] * pace
+            if solve > limit:
+                message = (
+                    f"its radiosity solve would take about {solve:.0f} s here, past the limit of {limit:g} s per "
+                    "job (TRACER_MAX_JOB_SECONDS): use a larger patch_size, fewer rays or a larger threshold"
+                )
+                raise ApiError(422, [{"path": "render.radiosity", "message": message}])
+            work = f"{found['width']} x {found['height']} pixels x {found['spp']} samples"
+            message = (
+                f"this render would take about {seconds:.0f} s here ({work}, {found['integrator']}), past the "
+                f"limit of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
+            )
+            raise ApiError(422, [{"path": "sampler.spp", "message": message}])
+        return round(seconds, 3)
+
+    def lane_for(self, seconds: float, asked: Lane | None = None) -> Lane:
+        """The lane a render goes to: the one asked for, else by its estimate (TRACER_INTERACTIVE_SECONDS)."""
+        return asked or (Lane.interactive if seconds <= self.settings.interactive_seconds else Lane.batch)
+
+    def solve_estimate(self, found: dict) -> float:
+        """The radiosity solve's estimated seconds (a ray tree's worker refuses it past its limit, unless kept)."""
+        return round(found["solve_seconds"] * self.store.pace(), 3)
+
+    # -- the public view ------------------------------------------------------------------------
+
+    def capacity(self, lane: Lane) -> int:
+        """Workers that take jobs of `lane`, kept CAPACITY_SECONDS (the Redis backend reads them from Redis)."""
+        now = time.monotonic()
+        kept = self._capacity.get(lane)
+        if kept is None or now - kept[0] > CAPACITY_SECONDS:
+            kept = self._capacity[lane] = (now, self.queue.capacity(lane))
+        return kept[1]
+
+    def public(self, row: dict, now: float | None = None) -> JobPublic:
+        """The job as the API shows it; a queued one with its place in the queue and its expected wait."""
+        job = JobPublic.from_row(row, now)
+        if job.status is JobStatus.queued:
+            lane = Lane(row["lane"])
+            place = self.store.place(row)
+            workers = self.capacity(lane)
+            wait = None
+            if workers > 0:
+                wait = round((place["ahead_seconds"] + place["running_seconds"]) / workers, 2)
+            job.queue = QueuePlace(
+                lane=lane, position=place["ahead"] + 1, ahead=place["ahead"], running=place["running"],
+                workers=workers, expected_wait=wait,
+            )  # fmt: skip
+        return job
+
+    async def _view(self, row: dict) -> JobPublic:
+        if row["status"] == JobStatus.queued:  # its place is a query
+            return await anyio.to_thread.run_sync(self.public, row)
+        return self.public(row)
+
+    # -- following and waiting ------------------------------------------------------------------
+
+    async def follow(self, job_id: str, gone: Callable[[], Awaitable[bool]]) -> AsyncIterator[JobPublic | None]:
+        """The job's public view now and each time it changes, until it has ended (the last one yielded is
+        finished), the server stops, or `gone()` says its client left; None after KEEPALIVE quiet seconds."""
+        with self.watch.follow(job_id) as follower:
+            row = await anyio.to_thread.run_sync(self.store.get, job_id)
+            quiet = time.monotonic()
+            while row is not None:
+                job = await self._view(row)
+                yield job
+                if job.status.finished:
+                    return
+                row = None
+                while row is None:
+                    row = await follower.changed(WAKE)
+                    if self.stopping() or await gone():
+                        return  # a stopping server ends its streams (the client reconnects to the next one)
+                    if row is None and time.monotonic() - quiet > KEEPALIVE:
+                        quiet = time.monotonic()
+                        yield None
+                quiet = time.monotonic()
+
+    async def ended(self, job_id: str, seconds: float, gone: Callable[[], Awaitable[bool]]) -> dict | None:
+        """Wait for a short job to end (a ray tree): its finished row; None when `seconds` passed first, the
+        server is stopping, or `gone()` says the client left (see `self.stopping()` for which)."""
+        deadline = time.monotonic() + seconds
+        with self.watch.follow(job_id, urgent=True) as follower:
+            row = await anyio.to_thread.run_sync(self.store.get, job_id)
+            while row is None or not JobStatus(row["status"]).finished:
+                left = deadline - time.monotonic()
+                if left <= 0 or self.stopping() or await gone():
+                    return None
+                row = await follower.changed(min(WAKE, left)) or row
+            return row
+
+    def states(self, ids: Iterable[str]) -> dict[str, dict]:
+        """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at), for
+        those that still exist, in one query per 500 ids: the run looks at them between its own tasks."""
+        return self.store.states(ids)
