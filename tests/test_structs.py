@@ -3,77 +3,19 @@ no import cycle anywhere under tracer/, and the library never imports the servic
 
 from __future__ import annotations
 
-import ast
 import subprocess
 import sys
 
 from conftest import ROOT
+from layering import cycles, imports_of, modules
+from layering import graph as package_graph
 
-TRACER = ROOT / "tracer"
-
-
-def module_name(path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-MODULES = {module_name(p): p for p in sorted(TRACER.rglob("*.py"))}
-
-
-def imports_of(name: str) -> set[str]:
-    """Every module `name` imports, at the top or inside a function (a lazy import is still a dependency):
-    `from tracer.kinds import End` names the module, `from tracer.integrators import record` the submodule
-    alone (a package's __init__ runs first in any case)."""
-    path = MODULES[name]
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    out = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            out |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:  # relative: from the package up
-                up = package.split(".")[: len(package.split(".")) - node.level + 1]
-                base = ".".join([*up, base] if base else up)
-            subs = {f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in MODULES}
-            out |= subs if len(subs) == len(node.names) else {base, *subs}
-    return out
+MODULES = modules("tracer")
 
 
 def graph() -> dict[str, set[str]]:
     """Edges between tracer's own modules."""
-    return {m: {i for i in imports_of(m) if i in MODULES and i != m} for m in MODULES}
-
-
-def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
-    """The strongly connected components of more than one module (Tarjan)."""
-    index, low, stack, on, out = {}, {}, [], set(), []
-
-    def visit(v: str) -> None:
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on.add(v)
-        for w in sorted(edges[v]):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                out.append(sorted(comp))
-
-    for v in sorted(edges):
-        if v not in index:
-            visit(v)
-    return out
+    return package_graph("tracer")
 
 
 def test_structs_the_package_has_no_import_cycle():
@@ -85,8 +27,10 @@ def test_structs_the_cycle_finder_finds_one():
 
 
 def test_structs_the_library_never_imports_the_service():
-    offenders = {m: sorted(i for i in imports_of(m) if i == "server" or i.startswith("server.")) for m in MODULES}
-    assert {m: i for m, i in offenders.items() if i} == {}
+    def of_service(m: str) -> list[str]:
+        return sorted(i for i in imports_of(m, MODULES) if i == "server" or i.startswith("server."))
+
+    assert {m: i for m in MODULES if (i := of_service(m))} == {}
 
 
 def test_structs_depend_on_nothing_of_the_renderer():

@@ -30,7 +30,19 @@ from server.core.db import Transaction, thread_connection
 from server.core.files import write_atomic
 from server.core.ids import looks_like_job_id, new_job_id
 from server.jobs.files import JobFile
-from server.jobs.lifecycle import FINISHED, LANES, BadTransition, JobKind, JobStatus, Lane, check_transition
+from server.jobs.lifecycle import (
+    FINISHED,
+    LANE_RANK,
+    LANES,
+    BadTransition,
+    JobKind,
+    JobStatus,
+    Lane,
+    TryEnd,
+    after_lost,
+    check_transition,
+    lost_error,
+)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
@@ -74,7 +86,8 @@ CREATE TABLE IF NOT EXISTS jobs (
 
 QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
 HOST = socket.gethostname()  # the embedded workers' host: this one
-LANE_ORDER = "CASE lane WHEN 'interactive' THEN 0 ELSE 1 END"  # SQL: the lanes in the order workers take them
+_WHEN = " ".join(f"WHEN '{lane}' THEN {rank}" for lane, rank in LANE_RANK.items())
+LANE_ORDER = f"CASE lane {_WHEN} ELSE {len(LANES)} END"  # SQL: the lanes in the order workers take them
 FINISHED_IN = f"status IN ({', '.join('?' * len(FINISHED))})"  # SQL: the job has ended (args: *FINISHED)
 
 
@@ -313,7 +326,7 @@ class JobStore:
         """A queued job's place: the queued jobs that a worker takes before it (its lane's order: lane,
         priority, age) and their estimated seconds; the running jobs it waits for (an interactive job:
         the interactive ones) and their estimated seconds left."""
-        rank = 0 if row["lane"] == Lane.interactive else 1
+        rank = LANE_RANK[Lane(row["lane"])]
         ahead = self.db.execute(
             f"SELECT COUNT(*), COALESCE(SUM(COALESCE(estimate, 0)), 0) FROM jobs WHERE status = ? AND"
             f" ({LANE_ORDER} < ? OR ({LANE_ORDER} = ? AND (priority > ? OR (priority = ? AND"
@@ -407,22 +420,19 @@ class JobStore:
         row = self._one("SELECT id FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid))
         return row["id"] if row else None
 
-    def worker_died(self, pid: int, attempts: int, reason: str) -> list[tuple[str, str]]:
-        """The jobs of a dead worker: re-queued while they have tries left, else failed. [(id, status)]."""
+    def worker_died(self, pid: int, max_tries: int, reason: str) -> list[tuple[str, str]]:
+        """The jobs of a dead embedded worker: each try is lost (`lifecycle.after_lost`: queued again while
+        fewer than `max_tries` tries are lost, else failed). [(id, status)]."""
         out = []
         with self._tx() as db:
             rows = db.execute(
-                "SELECT id, attempts, cancel_requested FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid)
+                "SELECT id, attempts, lost, cancel_requested FROM jobs WHERE status = ? AND worker = ?", (RUNNING, pid)
             ).fetchall()
             for r in rows:
-                if r["cancel_requested"]:
-                    status, error = CANCELLED, f"cancelled ({reason})"
-                elif r["attempts"] < attempts:
-                    status, error = QUEUED, None
-                else:
-                    status, error = FAILED, f"{reason}; tried {r['attempts']} time(s)"
+                status = after_lost(r["lost"], max_tries, bool(r["cancel_requested"]))
+                error = {CANCELLED: f"cancelled ({reason})", FAILED: lost_error(reason, r["attempts"])}.get(status)
                 self._move(db, RUNNING, status, "id = ?", (r["id"],), error=error, worker=None,
-                           lost=_Sql("lost + 1"), tries=_end_try("lost"))  # fmt: skip
+                           lost=_Sql("lost + 1"), tries=_end_try(TryEnd.lost))  # fmt: skip
                 out.append((r["id"], status.value))
         return out
 
@@ -478,9 +488,9 @@ class JobStore:
         )
         return cur.rowcount > 0
 
-    def requeue(self, job_id: str, who: int, outcome: str = "given back") -> JobStatus | None:
-        """Give a job back to the queue: its worker is shutting down ("given back"), or its render gives
-        way to interactive work ("gave way"). An embedded worker's try does not count (the next claim
+    def requeue(self, job_id: str, who: int, outcome: TryEnd = TryEnd.given_back) -> JobStatus | None:
+        """Give a job back to the queue: its worker is shutting down (given back), or its render gives
+        way to interactive work (gave way). An embedded worker's try does not count (the next claim
         counts it again); a try of the Redis backend is given back as the next try (tries are its
         fence), which counts nothing lost either. A job whose cancel was accepted ends cancelled
         instead. The status it moved to (queued or cancelled), or None if `who` no longer had it."""
@@ -552,10 +562,10 @@ class JobStore:
         )  # fmt: skip
         return rows[0] if rows else None
 
-    def lose_try(self, job_id: str, attempt: int, reason: str, max_lost: int) -> tuple[str, int] | None:
-        """Try `attempt` of a queued or running job was lost with its worker: the job goes back to the
-        queue as the next try while fewer than `max_lost` tries were lost, else it fails with `reason`.
-        Returns (new status, attempt to queue) or None if the job had moved on."""
+    def lose_try(self, job_id: str, attempt: int, reason: str, max_tries: int) -> tuple[str, int] | None:
+        """Try `attempt` of a queued or running job was lost with its worker host (`lifecycle.after_lost`: the
+        job goes back to the queue as the next try while fewer than `max_tries` tries are lost, else it fails
+        with `reason`). Returns (new status, attempt to queue) or None if the job had moved on."""
         with self._tx() as db:
             row = db.execute(
                 "SELECT status, lost, cancel_requested FROM jobs WHERE id = ? AND attempts = ?", (job_id, attempt)
@@ -563,14 +573,12 @@ class JobStore:
             if row is None or row["status"] not in (QUEUED, RUNNING):
                 return None
             source = JobStatus(row["status"])
-            end = _end_try("lost") if source is RUNNING else _Sql("tries")
-            if row["cancel_requested"]:
-                self._move(db, source, CANCELLED, "id = ?", (job_id,), error=f"cancelled ({reason})", tries=end)
-                return CANCELLED.value, attempt
-            if row["lost"] + 1 >= max_lost:
-                error = f"{reason}; tried {attempt} time(s)"
-                self._move(db, source, FAILED, "id = ?", (job_id,), error=error, lost=_Sql("lost + 1"), tries=end)
-                return FAILED.value, attempt
+            end = _end_try(TryEnd.lost) if source is RUNNING else _Sql("tries")
+            status = after_lost(row["lost"], max_tries, bool(row["cancel_requested"]))
+            if status is not QUEUED:
+                error = f"cancelled ({reason})" if status is CANCELLED else lost_error(reason, attempt)
+                self._move(db, source, status, "id = ?", (job_id,), error=error, lost=_Sql("lost + 1"), tries=end)
+                return status.value, attempt
             if source is RUNNING:
                 self._move(db, RUNNING, QUEUED, "id = ?", (job_id,), attempts=_Sql("attempts + 1"),
                            lost=_Sql("lost + 1"), tries=end)  # fmt: skip

@@ -11,7 +11,7 @@ radiosity job's solution.
 A try stops early when its channel says the job is cancelled or no longer this try's, when it runs
 past its time limit, or when its host shuts down (the job goes back to the queue). The check runs
 before each pass and, between passes, after each band of rows, so a long pass is cut short too:
-the band callback raises `Stop`, and the image of the last finished pass is the one kept.
+the band callback raises `Stopped`, and the image of the last finished pass is the one kept.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from typing import Protocol
 
 from server.core.files import is_disk_full
 from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.lifecycle import JobKind, JobStatus, Lane, Stop, TryEnd
 from server.jobs.store import JobStore
 
 log = logging.getLogger(__name__)
@@ -36,9 +36,9 @@ PROGRESS_INTERVAL = 0.2  # seconds between two progress reports during a pass
 class Channel(Protocol):
     """Where a try reports (the job store here, or a worker host's Redis events)."""
 
-    def stop_reason(self) -> str | None:
-        """'cancel' (the job was cancelled), 'lost' (it is no longer this try's), 'shutdown' (the host
-        asks for the job back), or None: go on."""
+    def stop_reason(self) -> Stop | None:
+        """Stop.cancel (the job was cancelled), Stop.lost (it is no longer this try's), Stop.shutdown (the
+        host asks for the job back), or None: go on."""
 
     def should_yield(self) -> bool:
         """Is interactive work waiting for this worker? (asked of a batch render at each pass)"""
@@ -57,9 +57,9 @@ class Channel(Protocol):
     def finish(self, status: JobStatus, **fields) -> None:
         """The try ended the job: done, failed or cancelled, with its last progress fields."""
 
-    def give_back(self, outcome: str = "given back", **fields) -> None:
-        """The job goes back to the queue: the host is shutting down ("given back"), or the render gives
-        way to interactive work ("gave way", its film saved just before)."""
+    def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
+        """The job goes back to the queue: the host is shutting down (given back), or the render gives
+        way to interactive work (gave way, its film saved just before)."""
 
 
 class StoreChannel:
@@ -69,11 +69,11 @@ class StoreChannel:
     def __init__(self, store: JobStore, job: dict, pid: int):
         self.store, self.job, self.job_id, self.pid = store, job, job["id"], pid
 
-    def stop_reason(self) -> str | None:
+    def stop_reason(self) -> Stop | None:
         row = self.store.control(self.job_id, self.pid)
         if row is None:
-            return "lost"  # the job is no longer ours (the server gave it to another worker)
-        return "cancel" if row["cancel_requested"] else None
+            return Stop.lost  # the job is no longer ours (the server gave it to another worker)
+        return Stop.cancel if row["cancel_requested"] else None
 
     def should_yield(self) -> bool:
         return self.store.interactive_waiting()
@@ -95,7 +95,7 @@ class StoreChannel:
     def finish(self, status: JobStatus, **fields) -> None:
         self.store.finish(self.job_id, self.pid, status, **fields)
 
-    def give_back(self, outcome: str = "given back", **fields) -> None:
+    def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
         if fields:
             self.store.progress(self.job_id, self.pid, **fields)
         self.store.requeue(self.job_id, self.pid, outcome)
@@ -106,10 +106,10 @@ def disk_full_error(exc: BaseException) -> str:
     return f"stopped: the disk is full, so the job's images could not be kept ({exc}); submit it again later"
 
 
-class Stop(Exception):
-    """Raised from the band callback to end a render mid-pass; `reason` says why."""
+class Stopped(Exception):
+    """Raised from the band callback to end a render mid-pass; `reason` (a Stop) says why."""
 
-    def __init__(self, reason: str):
+    def __init__(self, reason: Stop):
         super().__init__(reason)
         self.reason = reason
 
@@ -197,9 +197,9 @@ class Try:
     cache: object = None
     snapshot_interval: float = 10.0
 
-    def run(self) -> str:
-        """Run the try to its end; returns how it ended: done, failed, cancel, timeout, shutdown, lost,
-        gave way."""
+    def run(self) -> TryEnd | Stop:
+        """Run the try to its end; returns how it ended: TryEnd.done or .failed, TryEnd.gave_way, or the
+        Stop that ended it (cancel, timeout, shutdown, lost)."""
         from tracer.scene import SceneError
 
         job_id = self.job["id"]
@@ -209,15 +209,15 @@ class Try:
             return self._render()
         except SceneError as exc:  # past a limit only the compiled scene shows (a radiosity solve's patches)
             self._invalid(exc)
-            return "failed"
+            return TryEnd.failed
         except Exception as exc:  # a bug or a broken scene must fail the job, not the worker
             if is_disk_full(exc):  # not a bug: said plainly (a finish that cannot be written raises to the worker)
                 log.warning("job %s: %s", job_id, disk_full_error(exc))
                 self.channel.finish(JobStatus.failed, error=disk_full_error(exc))
-                return "failed"
+                return TryEnd.failed
             log.exception("job %s failed", job_id)
             self.channel.finish(JobStatus.failed, error=f"render error: {type(exc).__name__}: {exc}")
-            return "failed"
+            return TryEnd.failed
 
     def _scene(self):
         """The job's scene, validated and compiled; None (the job failed, with its errors) if it is not."""
@@ -245,13 +245,13 @@ class Try:
 
         compiled = self._scene()
         if compiled is None:
-            return "failed"
+            return TryEnd.failed
         scene, cs = compiled
         params = self.job.get("params") or {}
         params = json.loads(params) if isinstance(params, str) else params
         if scene.render.integrator == "radiosity":  # the solve (once per scene: then from the cache) may stop
             if self._solve_too_long(cs, params):
-                return "failed"
+                return TryEnd.failed
             deadline, clock = time.time() + self.job["max_seconds"], {"check": 0.0}
             stop: dict = {}
 
@@ -259,30 +259,30 @@ class Try:
                 if time.monotonic() - clock["check"] < CHECK_INTERVAL:
                     return False
                 clock["check"] = time.monotonic()
-                stop["why"] = "timeout" if time.time() > deadline else self.channel.stop_reason()
+                stop["why"] = Stop.timeout if time.time() > deadline else self.channel.stop_reason()
                 return stop["why"] is not None
 
             try:
                 radiosity.attach(cs, device=self.device, threads=self.threads, cancel=cancel, cache=self.cache)
             except radiosity.Cancelled:
-                if stop["why"] == "timeout":
+                if stop["why"] is Stop.timeout:
                     limit = self.job["max_seconds"]
                     error = f"stopped: the radiosity solve took longer than the ray tree's limit of {limit:g} s"
                     self.channel.finish(JobStatus.failed, error=error)
-                elif stop["why"] == "cancel":
+                elif stop["why"] is Stop.cancel:
                     self.channel.finish(JobStatus.cancelled, error="cancelled while solving")
-                elif stop["why"] == "shutdown":
+                elif stop["why"] is Stop.shutdown:
                     self.channel.give_back()
                 return stop["why"]
         try:
             tree = ray_tree(cs, int(params["x"]), int(params["y"]), int(params.get("sample", 0)), device=self.device)
         except SceneError as exc:
             self.channel.finish(JobStatus.failed, error="; ".join(e["message"] for e in exc.errors), errors=exc.errors)
-            return "failed"
+            return TryEnd.failed
         self.channel.save(JobFile.raytree, json.dumps(tree))
         solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if cs.radiosity is not None else {}
         self.channel.finish(JobStatus.done, samples_done=1, samples_total=1, passes_done=1, spp_done=1, **solved)
-        return "done"
+        return TryEnd.done
 
     def _solve_too_long(self, cs, params: dict) -> bool:
         """A ray tree whose radiosity solve is not in the cache, and is estimated (by the API, `solve_seconds`
@@ -323,7 +323,7 @@ class Try:
         deadline = time.time() + job["max_seconds"]
         compiled = self._scene()
         if compiled is None:
-            return "failed"
+            return TryEnd.failed
         scene, compiled = compiled
         exposure = scene.film.exposure
         last: _Pass | None = None  # the latest finished pass
@@ -341,9 +341,9 @@ class Try:
 
         def reason_to_stop() -> str | None:
             if self.stopping():
-                return "shutdown"
+                return Stop.shutdown
             if time.time() > deadline:
-                return "timeout"
+                return Stop.timeout
             return channel.stop_reason()
 
         def publish(p: _Pass) -> None:
@@ -366,7 +366,7 @@ class Try:
                 clock["check"] = now
                 reason = reason_to_stop()
                 if reason:
-                    raise Stop(reason)
+                    raise Stopped(reason)
 
         def on_pass(pr) -> None:
             nonlocal last
@@ -386,7 +386,7 @@ class Try:
                 if published != last.number:
                     publish(last)
                 channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))
-                raise Stop("yield")
+                raise Stopped(Stop.give_way)
 
         stop_reason = None
 
@@ -416,13 +416,13 @@ class Try:
                     passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number, **solved,
                 )  # fmt: skip
                 log.info("job %s: done, %s", job["id"], result.stats_line())
-                return "done"
-        except Stop as stop:
+                return TryEnd.done
+        except Stopped as stop:
             stop_reason = stop.reason
-        if stop_reason == "yield":
-            channel.give_back("gave way", snapshot=last.number, preview=published)
+        if stop_reason is Stop.give_way:
+            channel.give_back(TryEnd.gave_way, snapshot=last.number, preview=published)
             log.info("job %s: gave way to interactive work after pass %d", job["id"], last.number)
-            return "gave way"
+            return TryEnd.gave_way
         return self._stopped(stop_reason, last, published, publish)
 
     def _save_aovs(self, aovs: dict, pictures: bool = True) -> None:
@@ -449,27 +449,27 @@ class Try:
         except Exception:  # the image is what matters
             log.exception("job %s: could not save the radiosity solution", self.job["id"])
 
-    def _stopped(self, reason: str | None, last: _Pass | None, published: int, publish) -> str:
+    def _stopped(self, reason: Stop | None, last: _Pass | None, published: int, publish) -> Stop:
         """End a render that stopped early: keep the last pass's image, then record why."""
         job, channel = self.job, self.channel
-        if reason == "lost":
+        if reason is Stop.lost:
             log.warning("job %s: no longer this try's; dropped", job["id"])
-            return "lost"
-        if reason == "shutdown":
+            return Stop.lost
+        if reason is Stop.shutdown:
             channel.give_back()
             log.info("job %s: back in the queue (worker stopping)", job["id"])
-            return "shutdown"
+            return Stop.shutdown
         if last is not None and published != last.number:
             publish(last)
         kept = {}
         if last is not None:
             kept = dict(passes_done=last.number, spp_done=last.spp, rays=last.rays, preview=last.number)
             kept["samples_done"] = last.samples
-        if reason == "timeout":
+        if reason is Stop.timeout:
             limit = job["max_seconds"]
             error = f"stopped: over the time limit of {limit:g} s per job (TRACER_MAX_JOB_SECONDS)"
             channel.finish(JobStatus.failed, error=error, **kept)
         else:
             channel.finish(JobStatus.cancelled, error="cancelled while rendering", **kept)
         log.info("job %s: stopped (%s)", job["id"], reason)
-        return reason or "cancel"
+        return reason or Stop.cancel

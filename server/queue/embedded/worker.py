@@ -22,7 +22,7 @@ import time
 
 from server.core.files import is_disk_full
 from server.core.settings import Settings
-from server.jobs.lifecycle import LANES
+from server.jobs.lifecycle import LANES, Stop, TryEnd
 from server.jobs.store import JobStore
 from server.queue.embedded.wakeup import WorkerEnd
 from server.queue.render_try import StoreChannel, Try, disk_full_error
@@ -87,7 +87,7 @@ class Worker:
             self.run(job)
         log.info("render worker %d stopping", self.pid)
 
-    def run(self, job: dict) -> str:
+    def run(self, job: dict) -> TryEnd | Stop:
         """One try of a claimed job, reported into the store; how it ended (see rendering.Try.run)."""
         log.info("job %s: rendering (try %d)", job["id"], job["attempts"])
         channel = StoreChannel(self.store, job, self.pid)
@@ -101,7 +101,7 @@ class Worker:
             if not is_disk_full(exc):
                 raise
             self._fail_when_possible(job, disk_full_error(exc))
-            return "failed"
+            return TryEnd.failed
 
     def _fail_when_possible(self, job: dict, error: str) -> None:
         """Fail the job with `error` as soon as the store can be written again. The worker waits rather than

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import json
 
+from server.jobs.lifecycle import LANES
+
 PREFIX = "tracer:"
 STREAM = PREFIX + "events"  # the events of every try, in order
 GROUP = "api"  # the API's consumer group on the stream
@@ -35,7 +37,7 @@ EPOCH = PREFIX + "epoch"  # set by the API; gone after Redis lost its data
 CONFIG = PREFIX + "config"  # hash: lost_after (seconds), for the worker hosts' heartbeats
 API = PREFIX + "api"  # held by the one API that uses this Redis database (refreshed; expires if it dies)
 API_TTL = 10  # seconds
-QUEUES = ("interactive", "batch")  # the RQ queues, one per lane (jobs/lifecycle.py), in the order hosts take them
+QUEUES = tuple(str(lane) for lane in LANES)  # the RQ queues, one per lane, in the order hosts take them
 STREAM_MAXLEN = 100_000  # events kept (approximately); the API acknowledges as it applies them
 BLOB_TTL = 24 * 3600  # seconds a file sent by a worker host waits for the API
 FLAG_TTL = 7 * 24 * 3600  # seconds the try, cancel and give-back keys live

@@ -40,7 +40,7 @@ from rq import Queue, Worker, worker_registration
 from rq.worker import WorkerStatus
 
 from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobStatus
+from server.jobs.lifecycle import JobStatus, Stop, TryEnd
 from server.queue.redis import events as ev
 from server.queue.render_try import Try
 from tracer.radiosity import SolutionCache
@@ -76,7 +76,7 @@ class RedisChannel:
     def started(self, worker: str) -> None:
         self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
 
-    def stop_reason(self) -> str | None:
+    def stop_reason(self) -> Stop | None:
         try:
             cancel, current, giveback = self.r.mget(
                 ev.cancel_key(self.job_id), ev.try_key(self.job_id), ev.giveback_key(self.job_id, self.attempt)
@@ -85,11 +85,11 @@ class RedisChannel:
             self.unreachable += 1
             return None  # cut off: render on; what it sends later is fenced if the job moved on meanwhile
         if cancel:
-            return "cancel"
+            return Stop.cancel
         if current is not None and int(current) != self.attempt:
-            return "lost"
+            return Stop.lost
         if giveback:
-            return "shutdown"
+            return Stop.shutdown
         return None
 
     def should_yield(self) -> bool:
@@ -138,7 +138,7 @@ class RedisChannel:
     def finish(self, status: JobStatus, **fields) -> None:
         self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
 
-    def give_back(self, outcome: str = "given back", **fields) -> None:
+    def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
         self._final("giveback", outcome=outcome, fields=fields, files=self.files)
 
     def _final(self, kind: str, **data) -> None:

@@ -42,7 +42,7 @@ from server.core.files import is_disk_full
 from server.core.paths import ROOT
 from server.core.settings import Settings
 from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobStatus, Lane
+from server.jobs.lifecycle import JobStatus, Lane, TryEnd
 from server.jobs.store import Attempt, JobStore
 from server.queue.redis import events as ev
 
@@ -295,7 +295,7 @@ class RedisQueue:
             elif kind == "giveback":
                 if data.get("fields"):
                     self.store.progress(job_id, fence, **data["fields"])
-                outcome = data.get("outcome") or "given back"
+                outcome = TryEnd(data.get("outcome") or TryEnd.given_back)
                 moved = self.store.requeue(job_id, fence, outcome)
                 if moved == JobStatus.queued:
                     self._enqueue(self.store.get(job_id), attempt + 1)

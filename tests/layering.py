@@ -1,0 +1,89 @@
+"""The import graph of a package of this repository, read from its sources (nothing is imported): what each
+module imports, at the top or inside a function (a lazy import is still a dependency), less the imports
+made only for type checkers (`if TYPE_CHECKING:`); and the import cycles in it (Tarjan)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+from conftest import ROOT
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def modules(package: str) -> dict[str, Path]:
+    """Every module of the package (tracer, server), by its dotted name."""
+    return {module_name(p): p for p in sorted((ROOT / package).rglob("*.py"))}
+
+
+def _typing_only(tree: ast.AST) -> set[int]:
+    """The ids of the import nodes under an `if TYPE_CHECKING:` (never run: no dependency at run time)."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", getattr(node.test, "attr", None)) == "TYPE_CHECKING":
+            out |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
+    return out
+
+
+def imports_of(name: str, known: dict[str, Path]) -> set[str]:
+    """Every module `name` imports: `from tracer.kinds import End` names the module, `from tracer.integrators
+    import record` the submodule alone (a package's __init__ runs first in any case)."""
+    path = known[name]
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    tree = ast.parse(path.read_text(), str(path))
+    skip = _typing_only(tree)
+    out = set()
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative: from the package up
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*up, base] if base else up)
+            subs = {f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in known}
+            out |= subs if len(subs) == len(node.names) else {base, *subs}
+    return out
+
+
+def graph(package: str) -> dict[str, set[str]]:
+    """Edges between the package's own modules."""
+    known = modules(package)
+    return {m: {i for i in imports_of(m, known) if i in known and i != m} for m in known}
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return out
