@@ -1,7 +1,7 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app checks its data directory (server/core/startup.py), compiles the render
-kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checks/pool.py),
+kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
 removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
@@ -25,7 +25,7 @@ from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
 from server.api.routes import grade, jobs, reference, samples, scenes, tools
-from server.checks.pool import CheckPool
+from server.checkers.pool import CheckPool
 from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings

@@ -1,4 +1,4 @@
-"""Scene checks off the event loop (server/checks/pool.py): POST /api/validate, the scenes of POST /api/jobs and
+"""Scene checks off the event loop (server/checkers/pool.py): POST /api/validate, the scenes of POST /api/jobs and
 POST /api/raytree, and POST /api/samples are checked in a pool of processes, with a time limit, a bound on
 the requests waiting, and the process of a client that went away stopped; large bodies are read there too,
 with the answers of the API's own parser. Through the shared apps of conftest.py, and a real server on
@@ -189,7 +189,7 @@ def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
     wait take a freed checker in the order they came, and a newcomer does not take one before them."""
     import anyio
 
-    from server.checks.pool import CheckPool
+    from server.checkers.pool import CheckPool
     from server.core.settings import Settings
 
     class Here:  # a request whose client stays

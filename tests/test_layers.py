@@ -14,11 +14,11 @@ TOP = {"server", "server.main", "server.__main__", "server.worker"}  # the app's
 LAYERS = {  # a package of server/ -> what of server/ its modules may import (a prefix: the package or a module)
     "server.core": set(),  # settings, errors, security, start-up checks, the disk and SQLite helpers
     "server.jobs": {"server.core"},  # life cycle, store, files, the job service, janitor, previews
-    "server.checks": {"server.core"},  # the scene checking processes
+    "server.checkers": {"server.core"},  # the scene checking processes
     "server.queue": {"server.core", "server.jobs"},  # the interface, the render try, embedded/ and redis/
     "server.grading": {"server.core", "server.jobs"},  # grading runs, their store, uploads
     # the routes: the job service and its store, and the queue's interface only (never a backend)
-    "server.api": {"server.core", "server.jobs", "server.checks", "server.grading", "server.queue.base"},
+    "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.queue.base"},
 }
 
 

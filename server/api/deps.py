@@ -7,7 +7,7 @@ from typing import Annotated
 
 from fastapi import Depends, Path, Request
 
-from server.checks.pool import CheckPool
+from server.checkers.pool import CheckPool
 from server.core.errors import ApiError
 from server.core.ids import looks_like_job_id
 from server.core.security import CallerDep

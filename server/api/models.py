@@ -109,7 +109,7 @@ class Health(BaseModel):
     workers: list[WorkerInfo]
     checkers: list[dict] = Field(
         default_factory=list,
-        description="the processes that check scenes (server/checks/pool.py): pid, state (starting, idle, busy), task "
+        description="the processes that check scenes (server/checkers/): pid, state (starting, idle, busy), task "
         "(while busy: read, validate, summary, samples), restarts",
     )
     jobs: dict[str, int] = Field(description="jobs by status")

@@ -7,7 +7,7 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException, Request, Response
 from fastapi.routing import APIRoute
 
-from server.checks.tasks import loaded, read
+from server.checkers.tasks import loaded, read
 from server.core.errors import ApiError
 
 CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked

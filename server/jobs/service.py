@@ -160,7 +160,7 @@ class JobService:
         return row
 
     def submit_checked(self, found: dict, **fields) -> dict:
-        """A client's job of a scene checked in a checking process (its summary: server/checks/tasks.py);
+        """A client's job of a scene checked in a checking process (its summary: server/checkers/tasks.py);
         429 when the queue, or the owner's share of it, is full."""
         fields.setdefault("max_queued_owner", self.settings.max_queued_per_token)
         try:

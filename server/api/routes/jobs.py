@@ -55,7 +55,7 @@ async def submit(
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
     TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
     with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
-    The scene is validated in a checking process (server/checks/pool.py), as the worker will, its asset
+    The scene is validated in a checking process (server/checkers/pool.py), as the worker will, its asset
     files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
 
     The job belongs to the request's token (`Authorization: Bearer <token>`); a request without one gets

@@ -32,5 +32,5 @@ async def samples(body: SamplesRequest, checks: ChecksDep, request: Request) -> 
     sample k's eye ray passes through film point (x + u, y + v), `position` = [u, v] (docs/web.md,
     "Sample positions"). The adaptive sampler lists every point of its grid levels, whether this
     pixel's subdivision traced it, and the cells it visited. Computed in a checking process
-    (server/checks/pool.py), never in the API process."""
+    (server/checkers/pool.py), never in the API process."""
     return await checks.samples(request, await request.body(), body.x, body.y)

@@ -38,7 +38,7 @@ def schema() -> dict:
 @scene_post(router, "/validate", summary="Check a scene: errors with JSON paths, and warnings")
 async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -> dict:
     """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
-    and the asset files are all checked (in a checking process, server/checks/pool.py: a scene that takes
+    and the asset files are all checked (in a checking process, server/checkers/pool.py: a scene that takes
     longer than TRACER_MAX_VALIDATE_SECONDS to check is not valid)."""
     try:
         return await checks.validate(request, await request.body())

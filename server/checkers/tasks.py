@@ -1,4 +1,4 @@
-"""What a checking process does (spawned by server/checks/pool.py): each task takes plain data (a request's
+"""What a checking process does (spawned by server/checkers/pool.py): each task takes plain data (a request's
 body as bytes, the limits) and answers plain data (errors, warnings, what the route needs of the scene)."""
 
 

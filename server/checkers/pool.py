@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import anyio
 from fastapi import Request
 
-from server.checks.tasks import checker_main, loaded
+from server.checkers.tasks import checker_main, loaded
 from server.core.errors import ApiError
 from server.core.settings import Settings
 from tracer.scene import ASSET_DIR

@@ -1,2 +1,0 @@
-"""Scene checks in a pool of processes, off the API's event loop: validation, a pixel's samples, large
-bodies' JSON."""
