@@ -155,6 +155,7 @@ class JobService:
         fields.setdefault("max_seconds", self.settings.max_job_seconds)
         fields.setdefault("max_queued", self.settings.max_queued_jobs)
         fields.setdefault("warnings", [])
+        fields.setdefault("priority", 0)
         row = self.store.create(scene, name=name, width=width, height=height, spp=spp, **fields)
         self.queue.submitted(row)
         return row

@@ -1,0 +1,94 @@
+"""The job service (server/jobs/service.py): every job made through it, and one watcher that wakes the
+followers of the jobs that changed, reading every followed row in one query (no stream polls the store)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+
+from server.core.settings import Settings
+from server.jobs.lifecycle import JobStatus, Lane
+from server.jobs.service import JobService, JobWatch
+from server.jobs.store import JobStore
+
+
+class Recording:
+    """The queue's interface as far as these tests need it: what was handed to it, and its workers."""
+
+    def __init__(self, workers: int = 1):
+        self.submitted_rows, self.cancelled_rows, self.asked, self.workers = [], [], 0, workers
+
+    def submitted(self, row: dict) -> None:
+        self.submitted_rows.append(row)
+
+    def cancelled(self, row: dict) -> None:
+        self.cancelled_rows.append(row)
+
+    def capacity(self, lane) -> int:
+        self.asked += 1
+        return self.workers
+
+
+class CountingStore(JobStore):
+    """A real store on disk that counts the watcher's reads."""
+
+    reads = 0
+
+    def rows(self, ids):
+        self.reads += 1
+        return super().rows(ids)
+
+
+def service(tmp_path, workers: int = 1) -> tuple[JobService, Recording]:
+    queue = Recording(workers)
+    settings = Settings(data_dir=tmp_path)
+    return JobService(settings, CountingStore(tmp_path), queue, lambda: False), queue
+
+
+def submit(jobs: JobService, **fields) -> dict:
+    return jobs.submit(json.dumps({"name": "x"}), name="x", width=4, height=3, spp=1, **fields)
+
+
+def test_job_service_submits_to_the_store_then_the_queue(tmp_path):
+    jobs, queue = service(tmp_path)
+    row = submit(jobs, lane=Lane.batch)
+    assert [r["id"] for r in queue.submitted_rows] == [row["id"]]
+    assert jobs.store.get(row["id"])["status"] == JobStatus.queued and row["max_seconds"] == 600.0
+    cancelled = jobs.cancel(row["id"])
+    assert cancelled["status"] == JobStatus.cancelled and [r["id"] for r in queue.cancelled_rows] == [row["id"]]
+
+
+def test_job_service_keeps_the_queue_s_worker_count_a_second(tmp_path):
+    """A queued job's view asks the queue how many workers take its lane (the Redis backend lists them from
+    Redis): 100 views ask it once."""
+    jobs, queue = service(tmp_path, workers=2)
+    row = submit(jobs)
+    views = [jobs.public(jobs.store.get(row["id"])) for _ in range(100)]
+    assert queue.asked == 1 and {v.queue.workers for v in views} == {2}
+
+
+def test_job_service_watch_reads_every_followed_job_in_one_query_and_wakes_only_the_changed(tmp_path):
+    """50 followers (event streams) of 50 jobs: one job changes, its follower alone is woken, and the store
+    is read once per look for all of them (a few looks in 0.35 s, not 50 per look)."""
+    jobs, _ = service(tmp_path)
+    rows = [submit(jobs) for _ in range(50)]
+    store = jobs.store
+    watch = JobWatch(store, lambda: False)
+
+    async def run() -> tuple[int, list[bool]]:
+        with contextlib.ExitStack() as stack:
+            followers = [stack.enter_context(watch.follow(r["id"])) for r in rows]
+            first = [await f.changed(5.0) for f in followers]  # each is handed its row once
+            assert [r["id"] for r in first] == [r["id"] for r in rows]
+            reads = store.reads
+            store.cancel(rows[7]["id"])  # one job changes
+            await asyncio.sleep(0.35)
+            return store.reads - reads, [f.event.is_set() for f in followers]
+
+    try:
+        reads, woken = asyncio.run(run())
+    finally:
+        watch.close()
+    assert woken == [i == 7 for i in range(50)]
+    assert 1 <= reads <= 6, reads
