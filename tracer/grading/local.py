@@ -24,7 +24,7 @@ from collections.abc import Callable
 from multiprocessing.connection import wait
 from pathlib import Path
 
-from tracer.grading.grade import InlineRenderer, Rendered, RenderJob, over_time
+from tracer.grading.renders import InlineRenderer, Rendered, RenderJob, over_time
 
 log = logging.getLogger("tracer.grading.local")
 
