@@ -96,4 +96,5 @@ def _round(x: float) -> float:
 
 
 def error_text(e: dict) -> str:
+    """One of a scene's errors ({path, message}) as a line of a report: "objects[3].radius: must be > 0"."""
     return f"{e['path']}: {e['message']}" if e.get("path") else e["message"]
