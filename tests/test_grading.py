@@ -323,7 +323,7 @@ def test_own_images_16_bit_pngs_keep_their_16_bits():
     np.testing.assert_allclose(read_image(png16_bytes(codes), "png"), codes / 65535.0, rtol=0, atol=1e-7)
     grey = read_image(png16_bytes(codes[..., 0]), "png")
     np.testing.assert_allclose(grey, np.repeat(codes[..., :1], 3, axis=-1) / 65535.0, rtol=0, atol=1e-7)
-    from tracer.grading.grade import decode_image
+    from tracer.grading.submission import decode_image
 
     assert decode_image(png16_bytes(codes), "png")[1] == metrics.Encoding("png", 16)
     assert decode_image(png16_bytes(codes[..., 0]), "png")[1] == metrics.Encoding("png", 16)
@@ -348,7 +348,7 @@ def test_own_images_quantisation_steps_follow_the_bit_depth():
 def test_own_images_exr_channels_are_said_so(tmp_path):
     import OpenEXR
 
-    from tracer.grading.grade import decode_image
+    from tracer.grading.submission import decode_image
 
     path = str(tmp_path / "image.exr")
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}

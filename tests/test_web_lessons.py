@@ -1,10 +1,10 @@
 """The lessons in a real browser: Playwright driving Debian's Chromium (headless) against `python -m server`.
 
-For every lesson of web/js/lessons.js: open it, let its panels render through the job API, change one of its
-controls and see the panels it touches render again into different pictures (their old jobs superseded), with
-what changed and what it cost written under each; then answer its question wrongly and rightly. Any console
-error or uncaught exception fails the test (the fixtures are those of test_web_page.py). Screenshots of each
-lesson are written to $WEB_SHOTS (default /tmp/web_shots) for a person to look at.
+For every lesson of web/js/lessons.js (the entries in web/js/lessons/): open it, let its panels render through the
+job API, change one of its controls and see the panels it touches render again into different pictures (their old
+jobs superseded), with what changed and what it cost written under each; then answer its question wrongly and
+rightly. Any console error or uncaught exception fails the test (the fixtures are those of test_web_page.py).
+Screenshots of each lesson are written to $WEB_SHOTS (default /tmp/web_shots) for a person to look at.
 """
 
 from __future__ import annotations
@@ -21,7 +21,18 @@ from PIL import Image
 from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
 
 ROOT = Path(__file__).resolve().parent.parent
-LESSON_IDS = re.findall(r'^    id: "([\w-]+)",$', (ROOT / "web" / "js" / "lessons.js").read_text(), re.M)
+JS = ROOT / "web" / "js"
+
+
+def lesson_ids() -> list[str]:
+    """The ids of LESSONS in order: web/js/lessons.js puts together the lists of its topics' files (lessons/)."""
+    engine = (JS / "lessons.js").read_text()
+    files = dict(re.findall(r'^import \{ (\w+) \} from "\./(lessons/[\w-]+\.js)";$', engine, re.M))
+    order = re.findall(r"\.\.\.(\w+)", re.search(r"^export const LESSONS = \[(.*)\];$", engine, re.M)[1])
+    return [i for name in order for i in re.findall(r'^    id: "([\w-]+)",$', (JS / files[name]).read_text(), re.M)]
+
+
+LESSON_IDS = lesson_ids()
 ENDED = "['done', 'refused', 'failed', 'cancelled'].includes(p.dataset.status)"
 
 

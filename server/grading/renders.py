@@ -8,7 +8,7 @@ from dataclasses import fields
 from server.core.settings import Settings
 from server.jobs.lifecycle import JobStatus
 from tracer.grading import RenderJob
-from tracer.grading.grade import over_time
+from tracer.grading.renders import over_time
 from tracer.scene import Limits
 
 

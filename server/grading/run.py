@@ -39,7 +39,7 @@ from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane
 from tracer.grading import Grader, Prepared, RenderJob, Report, Submission, load_assignment, tasks
 from tracer.grading.batch import class_summary, summary_row, write_report, write_summary
-from tracer.grading.grade import finish_report
+from tracer.grading.imagetests import finish_report
 from tracer.scene import Limits, SceneError, load_scene
 
 if TYPE_CHECKING:

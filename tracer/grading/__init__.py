@@ -11,21 +11,14 @@ from tracer.grading.batch import (
     write_all,
     write_report,
 )
-from tracer.grading.grade import (
-    Grader,
-    InlineRenderer,
-    Prepared,
-    ReferenceImages,
-    Rendered,
-    RenderJob,
-    Report,
-    Submission,
-    TestResult,
-    read_image,
-    student_name,
-)
+from tracer.grading.grader import Grader
+from tracer.grading.imagetests import ReferenceImages
 from tracer.grading.metrics import GradingError
+from tracer.grading.prepared import Prepared
+from tracer.grading.renders import InlineRenderer, Rendered, RenderJob
+from tracer.grading.report import Report, TestResult
 from tracer.grading.spec import PRESETS, Assignment, AssignmentError, load_assignment
+from tracer.grading.submission import Submission, read_image, student_name
 
 __all__ = [
     "PRESETS", "Assignment", "AssignmentError", "Caps", "Grader", "GradingError", "InlineRenderer", "Prepared",

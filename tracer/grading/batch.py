@@ -18,8 +18,9 @@ import json
 from pathlib import Path, PurePosixPath
 
 from tracer.grading.archive import MAX_FILE_BYTES, SUFFIXES, Caps, read_zip
-from tracer.grading.grade import Report, Submission, student_name
 from tracer.grading.metrics import GradingError
+from tracer.grading.report import Report
+from tracer.grading.submission import Submission, student_name
 
 MAX_FILES = 2000  # files of a class read from a folder (and kept from a zip) by the CLI
 

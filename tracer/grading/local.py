@@ -1,7 +1,7 @@
 """The grading CLI's renderer: every render in a worker process of its own, N at a time, each stopped at
 its time limit.
 
-The grader takes any `renderer`, a callable from a list of RenderJobs to one Rendered each (grade.py):
+The grader takes any `renderer`, a callable from a list of RenderJobs to one Rendered each (renders.py):
 `InlineRenderer` renders in this process, the service renders through its job queue (server/grading.py),
 and `LocalRenderer` is the same isolation without the service: a slow or broken submission fails alone
 (its worker is killed at the limit, or dies, and is replaced) while the others go on. Jobs cross the
@@ -24,7 +24,7 @@ from collections.abc import Callable
 from multiprocessing.connection import wait
 from pathlib import Path
 
-from tracer.grading.grade import InlineRenderer, Rendered, RenderJob, over_time
+from tracer.grading.renders import InlineRenderer, Rendered, RenderJob, over_time
 
 log = logging.getLogger("tracer.grading.local")
 

@@ -26,11 +26,14 @@ from pathlib import Path
 
 import numpy as np
 
-from tracer.grading import grade as _grade
 from tracer.grading.batch import summary_row, write_report
-from tracer.grading.grade import Grader, Prepared, ReferenceImages, Rendered, Submission, decode_image
+from tracer.grading.grader import Grader
+from tracer.grading.imagetests import ReferenceImages, baseline_metrics, finish_report
 from tracer.grading.metrics import Encoding
+from tracer.grading.prepared import Prepared
+from tracer.grading.renders import Rendered
 from tracer.grading.spec import load_assignment
+from tracer.grading.submission import Submission, decode_image
 
 
 @functools.lru_cache(maxsize=4)
@@ -85,7 +88,7 @@ def measure_baseline(assignment: str, reference: dict, baseline: dict, key: list
     render as `rendered` takes it."""
     g = grader(assignment)
     ref = reference_images(assignment, reference)
-    return _grade.baseline_metrics(g.assignment, ref, rendered(baseline), tuple(key), Encoding(*encoding))
+    return baseline_metrics(g.assignment, ref, rendered(baseline), tuple(key), Encoding(*encoding))
 
 
 def grade_metrics(
@@ -111,7 +114,7 @@ def grade_metrics(
     if p.report.kind == "image" and not p.report.errors and submission is not None:
         p.image, _ = decode_image(Path(submission).read_bytes(), p.sub.kind)
     ref = reference_images(assignment, reference or {}) if g.reference is not None else None
-    report = _grade.finish_report(
+    report = finish_report(
         g.assignment, p, rendered(render), ref, lambda: baseline if baseline is not None else {"error": "no baseline"}
     )
     write_report(Path(out), report)
