@@ -1,7 +1,6 @@
 """Routes whose body carries a scene: a large body's JSON is parsed in a checking process, not on the event
 loop (`scene_post`)."""
 
-
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException, Request, Response
@@ -10,13 +9,7 @@ from fastapi.routing import APIRoute
 from server.checkers.tasks import loaded, read
 from server.core.errors import ApiError
 
-CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
-WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
 READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
-START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
-PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
-
-
 
 
 class SceneRequest(Request):

@@ -41,9 +41,7 @@ log = logging.getLogger(__name__)
 
 CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
 WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
-READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
-PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
 
 
 class _Clock:
@@ -65,9 +63,6 @@ class _Clock:
     def __call__(self) -> float:
         now = self._cpu() if self.cpu is not None else None
         return now - self.cpu if now is not None else time.monotonic() - self.wall
-
-
-
 
 
 @dataclass

@@ -1,7 +1,6 @@
 """What a checking process does (spawned by server/checkers/pool.py): each task takes plain data (a request's
 body as bytes, the limits) and answers plain data (errors, warnings, what the route needs of the scene)."""
 
-
 from __future__ import annotations
 
 import json
@@ -16,13 +15,7 @@ from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger(__name__)
 
-CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
-WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
-READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
-START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
 PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
-
-
 
 
 def _scene_of(body: bytes, limits: Limits, assets: Path) -> tuple:
@@ -127,7 +120,6 @@ def checker_main(conn, nice: int) -> None:
             log.exception("scene check %s failed", name)
             answer = ("crash", f"{type(exc).__name__}: {exc}")
         conn.send(answer)
-
 
 
 def _watch_parent(parent: int) -> None:

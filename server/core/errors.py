@@ -43,7 +43,6 @@ class ErrorItem(BaseModel):
     message: str
 
 
-
 def sanitise(value: Any) -> Any:
     """A copy of `value` that JSON can carry: non-finite floats -> None, tuples -> lists, bytes -> text."""
     if isinstance(value, float):

@@ -35,7 +35,6 @@ STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
 }  # fmt: skip
 
 
-
 @dataclass
 class Handed:
     """A submission handed to a new run: its file's bytes (`data`), or a file (`path`, an upload's, on

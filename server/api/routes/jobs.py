@@ -65,8 +65,14 @@ async def submit(
 
     def queued() -> JobCreated:
         seconds = jobs.estimate(found)
-        row = jobs.submit_checked(found, priority=body.priority, warnings=found["warnings"], estimate=seconds,
-                                  lane=jobs.lane_for(seconds, body.lane), owner=caller.owner or token_hash(issued))
+        row = jobs.submit_checked(
+            found,
+            priority=body.priority,
+            warnings=found["warnings"],
+            estimate=seconds,
+            lane=jobs.lane_for(seconds, body.lane),
+            owner=caller.owner or token_hash(issued),
+        )
         response.headers["Location"] = f"/api/jobs/{row['id']}"
         return JobCreated(**jobs.public(row).model_dump(), token=issued)
 

@@ -18,6 +18,7 @@ from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
 
+
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
 def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep) -> Health:
     """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
