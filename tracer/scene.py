@@ -64,7 +64,7 @@ from tracer.errors import (  # noqa: F401 (json_path: re-exported, tracer.scene'
     pydantic_errors,
     show_value,
 )
-from tracer.integrators import INTEGRATORS
+from tracer.integrators import BY_NAME, INTEGRATORS, IntegratorInfo
 from tracer.integrators import NAMES as INTEGRATOR_NAMES
 
 IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
@@ -557,6 +557,11 @@ class RenderSettings(_Model):
         default_factory=RadiositySettings, description="Settings of the radiosity integrator."
     )
 
+    @property
+    def integrator_info(self) -> IntegratorInfo:
+        """The integrator's row of the table (tracer/integrators/__init__.py): its pre-pass, its cost."""
+        return BY_NAME[self.integrator]
+
     @classmethod
     def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
@@ -1015,7 +1020,7 @@ class Scene(_Model):
             errors.append((("objects",), f"{count} primitives{where}; {_limit(limits.max_primitives)}"))
         if _asset_dir(info) is not None:
             errors += _texture_total(image_files(v.materials if _has(v, "materials") else {}, v.objects), info)
-        if _has(v, "render", "camera", "lights") and v.render.integrator == "radiosity":
+        if _has(v, "render", "camera", "lights") and v.render.integrator_info.prepass == "radiosity":
             errors += _solve_limits(v, info)
         return errors
 
@@ -1071,9 +1076,10 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
             warn(["sampler", "spp"], "has no effect: the adaptive sampler decides how many rays each pixel gets")
         if "filter" in scene.film.model_fields_set:
             warn(["film", "filter"], "has no effect: the adaptive sampler averages its cells (a box filter)")
-    if "radiosity" in render.model_fields_set and render.integrator != "radiosity":
+    solves = render.integrator_info.prepass == "radiosity"  # the radiosity solution, before the render
+    if "radiosity" in render.model_fields_set and not solves:
         warn(["render", "radiosity"], f"has no effect: the integrator is {render.integrator}")
-    if render.integrator == "radiosity":
+    if solves:
         for i, obj in enumerate(scene.objects):
             if any(obj.velocity):
                 warn(
