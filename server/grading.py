@@ -25,7 +25,7 @@ import uuid
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 from server.grading_store import GradingStore, Stage
@@ -122,8 +122,7 @@ def capped(job: RenderJob, settings: Settings | None) -> tuple[Limits, float, st
     set the seconds (for the message of a render stopped at its limit)."""
     if settings is None:
         return job.limits, job.max_seconds, job.limit_source
-    mine = settings.limits
-    limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
+    limits = job.limits.tighter(settings.limits)
     if settings.max_job_seconds < job.max_seconds:
         return limits, settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
     return limits, job.max_seconds, job.limit_source

@@ -12,13 +12,12 @@ Validation works in three steps, each reporting at the offending field's own JSO
    tags dropped) and pydantic's message -> a human one ("unknown field 'radus'; did you mean 'radius'?");
 3. `_warnings`: settings that have no effect, found from `model_fields_set`.
 
-Service limits (`Limits`), the set of material names and, when asked (`load_scene(...,
-assets=DIR)`), the asset folder reach the validators through pydantic's validation context: an
-undefined material is reported even when other parts are invalid, and the asset files (tracer/
-assets.py) are resolved and read as part of validation, their errors at their own paths too.
+The limits (`Limits`, made from the one table of tracer/limits.py), the set of material names and,
+when asked (`load_scene(..., assets=DIR)`), the asset folder reach the validators through pydantic's
+validation context: an undefined material is reported even when other parts are invalid, and the asset
+files (tracer/assets.py) are resolved and read as part of validation, their errors at their own paths too.
 """
 
-import dataclasses
 import difflib
 import functools
 import json
@@ -66,28 +65,10 @@ from tracer.errors import (  # noqa: F401 (json_path: re-exported, tracer.scene'
 )
 from tracer.integrators import BY_NAME, INTEGRATORS, IntegratorInfo
 from tracer.integrators import NAMES as INTEGRATOR_NAMES
+from tracer.limits import Limits
 
 IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
 SamplerType = Literal["center", "grid", "random", "jittered", "adaptive", "lowdiscrepancy"]
-
-
-@dataclasses.dataclass(frozen=True)
-class Limits:
-    """Service limits; a value past one is an error at its JSON path."""
-
-    max_width: int = 8192
-    max_height: int = 8192
-    max_pixels: int = 16_777_216
-    max_spp: int = 65536
-    max_depth: int = 64
-    max_light_samples: int = 1024
-    max_primitives: int = 5_000_000  # shapes plus triangles, those of mesh files included
-    # Images, counted from their headers before any is decoded; a decoded pixel is 12 bytes (float32 RGB)
-    max_texture_pixels: int = 67_108_864  # width x height of one texture or bump image (8192 x 8192)
-    max_texture_pixels_total: int = 67_108_864  # the sum over every distinct image of a scene (768 MiB decoded)
-    # The radiosity solve, counted before anything is meshed or shot (tracer/meshing.py)
-    max_patches: int = 1_000_000  # pieces of surface (two sides each) that patch_size cuts the scene into
-    max_solve_rays: int = 100_000_000_000  # rays x max_steps: the form-factor rays of the longest solve
 
 
 # ---------------------------------------------------------------------------------------------
@@ -218,11 +199,11 @@ def texture_problem(width: int, height: int, used: int, limits: Limits) -> str |
     `used` pixels (None: nothing). Validation and the renderer both ask, before any pixel is decoded."""
     pixels = width * height
     if pixels > limits.max_texture_pixels:
-        return f"the image is {width}x{height} = {pixels} pixels; {_limit(limits.max_texture_pixels)}"
+        return f"the image is {width}x{height} = {pixels} pixels; {limits.at_most('max_texture_pixels')}"
     if used + pixels > limits.max_texture_pixels_total:
         return (
             f"with this {width}x{height} image the scene's images come to {used + pixels} pixels; all of a "
-            f"scene's images together {_limit(limits.max_texture_pixels_total)}"
+            f"scene's images together {limits.at_most('max_texture_pixels_total')}"
         )
     return None
 
@@ -292,10 +273,6 @@ def _parallel(a, b, eps: float = 1e-9) -> bool:
 
 def _limits(info: ValidationInfo) -> Limits:
     return (info.context or {}).get("limits") or Limits()
-
-
-def _limit(n: int) -> str:
-    return f"must be at most {n} (service limit)"
 
 
 _KNOWN_ERRORS = frozenset(get_args(ErrorType))
@@ -453,12 +430,12 @@ class Film(_Model):
     def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
         if _has(v, "width") and v.width > limits.max_width:
-            errors.append((("width",), _limit(limits.max_width)))
+            errors.append((("width",), limits.at_most("max_width")))
         if _has(v, "height") and v.height > limits.max_height:
-            errors.append((("height",), _limit(limits.max_height)))
+            errors.append((("height",), limits.at_most("max_height")))
         if not errors and _has(v, "width", "height") and v.width * v.height > limits.max_pixels:
             pixels = v.width * v.height
-            errors.append((("height",), f"width x height = {pixels} pixels; {_limit(limits.max_pixels)}"))
+            errors.append((("height",), f"width x height = {pixels} pixels; {limits.at_most('max_pixels')}"))
         return errors
 
 
@@ -511,7 +488,7 @@ class Sampler(_Model):
             nearest = f"{root * root} or {(root + 1) ** 2}"
             errors.append((("spp",), f"must be a perfect square for the {kind} sampler (e.g. {nearest})"))
         elif spp > limits.max_spp:
-            errors.append((("spp",), _limit(limits.max_spp)))
+            errors.append((("spp",), limits.at_most("max_spp")))
         return errors
 
 
@@ -566,9 +543,9 @@ class RenderSettings(_Model):
     def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
         limits, errors = _limits(info), []
         if _has(v, "max_depth") and v.max_depth > limits.max_depth:
-            errors.append((("max_depth",), _limit(limits.max_depth)))
+            errors.append((("max_depth",), limits.at_most("max_depth")))
         if _has(v, "light_samples") and v.light_samples > limits.max_light_samples:
-            errors.append((("light_samples",), _limit(limits.max_light_samples)))
+            errors.append((("light_samples",), limits.at_most("max_light_samples")))
         return errors
 
 
@@ -1017,7 +994,7 @@ class Scene(_Model):
             biggest = sorted(files.items(), key=lambda item: -item[1])[:3]
             where = ", ".join(f"objects[{i}].file: {n} triangles" for i, n in biggest)
             where = f" ({where})" if where else ""
-            errors.append((("objects",), f"{count} primitives{where}; {_limit(limits.max_primitives)}"))
+            errors.append((("objects",), f"{count} primitives{where}; {limits.at_most('max_primitives')}"))
         if _asset_dir(info) is not None:
             errors += _texture_total(image_files(v.materials if _has(v, "materials") else {}, v.objects), info)
         if _has(v, "render", "camera", "lights") and v.render.integrator_info.prepass == "radiosity":
