@@ -2,7 +2,7 @@
 is cut into, counted from the geometry and `patch_size` before any meshing.
 
 The renderer (tracer/compile.py) and the radiosity solve (tracer/radiosity.py) place surfaces and cut
-them with these functions, and validation (tracer/scene.py) counts the patches with the same ones, so a
+them with these functions, and validation (tracer/scene/model.py) counts the patches with the same ones, so a
 scene refused for its number of patches is refused before a single patch is made, and the count is the
 one the mesh would have:
 
