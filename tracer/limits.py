@@ -1,10 +1,10 @@
 """The scene limits: one table, from which every set of them is made.
 
 A scene past a limit is an error at the offending field's JSON path ("must be at most 2048 (limit
-max_width)"), the same through the command line, the service and grading. The table below is the only
-place a limit is named:
+max_width)"), the same through the command line, the service and grading. The table below is the one
+definition of the limits (name, default, what is counted):
 
-- `Limits`, the dataclass the validators read (tracer/scene), is made from it, its defaults the table's;
+- `Limits`, the dataclass the validators read (tracer/scene/), is made from it, its defaults the table's;
 - the service's settings TRACER_MAX_WIDTH, ... (server/settings.py) are its rows, with the same defaults
   and descriptions (docs/service.md lists them);
 - an assignment's limits (tracer/grading/spec.py, `GradingLimits`) tighten some of them for its students,
