@@ -97,7 +97,7 @@ def test_api_checks_a_6000_x_6000_data_image_is_refused_by_every_scene_route_wit
     scene["objects"][0]["material"] = "big"
     error = {
         "path": "materials.big.texture.file",
-        "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (service limit)",
+        "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (limit max_texture_pixels)",
     }
     r = client.post("/api/validate", json={"scene": scene})
     assert r.status_code == 200 and r.json() == {"valid": False, "errors": [error], "warnings": []}

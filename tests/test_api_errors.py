@@ -240,7 +240,7 @@ def test_api_errors_too_many_primitives_points_at_objects(client):
     scene = tiny_scene()
     scene["objects"] += [{"type": "sphere", "center": [i, 0, -5], "radius": 0.1, "material": "red"} for i in range(30)]
     r = client.post("/api/jobs", json={"scene": scene})
-    assert paths(r) == ["objects"] and "service limit" in r.json()["errors"][0]["message"]
+    assert paths(r) == ["objects"] and "(limit max_primitives)" in r.json()["errors"][0]["message"]
 
 
 def test_api_errors_streamed_body_over_the_limit_is_413(client):
@@ -322,7 +322,7 @@ def test_api_errors_mesh_triangles_count_against_the_primitive_limit(primitives_
     i = len(scene["objects"]) - 1
     (error,) = check_error(client.post("/api/jobs", json={"scene": scene}), 422)
     assert error["path"] == "objects"
-    assert f"(objects[{i}].file: 3000 triangles); must be at most 200 (service limit)" in error["message"]
+    assert f"(objects[{i}].file: 3000 triangles); must be at most 200 (limit max_primitives)" in error["message"]
     assert client.post("/api/validate", json={"scene": scene}).json()["errors"] == [error]
     assert check_error(client.post("/api/raytree", json={"scene": scene, "x": 1, "y": 1}), 422) == [error]
     scene["objects"][-1]["file"] = obj_uri(5, 5)  # 50 triangles

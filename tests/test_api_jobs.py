@@ -200,7 +200,7 @@ def test_api_jobs_radiosity_past_its_patches_or_rays_is_refused_at_submit(client
     assert error["message"].startswith(
         "patches of 0.001 cut the surfaces into 25760000 patches (objects[0] (quad): 4000000, "
     )
-    assert error["message"].endswith("must be at most 100000 (service limit): use a larger patch_size")
+    assert error["message"].endswith("must be at most 100000 (limit max_patches): use a larger patch_size")
     r = client.post("/api/jobs", json={"scene": radiosity_scene(1, rays=1_000_000, max_steps=100_000)})
     assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["render.radiosity.rays"]
 

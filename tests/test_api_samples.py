@@ -65,7 +65,7 @@ def test_api_samples_refuses_what_the_scene_and_the_route_refuse(client):
     # the service's max_spp, for the scene's spp and for the adaptive grid's points
     max_spp = client.app.state.settings.limits.max_spp
     (error,) = errors(lesson_scene({"type": "random", "spp": max_spp + 1}))
-    assert error == {"path": "sampler.spp", "message": f"must be at most {max_spp} (service limit)"}
+    assert error == {"path": "sampler.spp", "message": f"must be at most {max_spp} (limit max_spp)"}
     (error,) = errors(small(scene_dict("antialias_adaptive"), 16, 16, sampler={"max_level": 6}))
     assert error == {
         "path": "sampler.max_level",

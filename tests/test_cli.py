@@ -124,6 +124,24 @@ def test_cli_validate_good_and_bad(tmp_path):
     assert p.returncode == 1 and "line 1" in p.stderr
 
 
+def test_cli_validate_refuses_what_the_service_refuses(tmp_path, client_without_workers):
+    """One table of limits (tracer/limits.py): a 4000 x 3000 film is past max_width and max_height for
+    `validate` as for POST /api/validate, with the same errors, each naming its limit."""
+    data = scene_dict("whitted")
+    data["film"] = {**data.get("film", {}), "width": 4000, "height": 3000}
+    report = client_without_workers.post("/api/validate", json={"scene": data}).json()
+    assert report["valid"] is False
+    assert report["errors"] == [
+        {"path": "film.width", "message": "must be at most 2048 (limit max_width)"},
+        {"path": "film.height", "message": "must be at most 2048 (limit max_height)"},
+    ]
+    f = tmp_path / "big.json"
+    f.write_text(json.dumps(data))
+    p = run("validate", f, check=False)
+    assert p.returncode == 1
+    assert p.stderr.splitlines() == [f"error: {e['path']}: {e['message']}" for e in report["errors"]]
+
+
 def test_cli_renders_radiosity(tmp_path):
     data = small(scene_dict("cornell_path"), 24, 24, sampler={"type": "jittered", "spp": 4})
     data["render"] = {"integrator": "radiosity", "max_depth": 2, "radiosity": {"patch_size": 0.5, "rays": 256}}

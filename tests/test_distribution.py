@@ -25,7 +25,7 @@ from tracer.sampling import (
     sample_cos_lobe,
     sample_cosine_hemisphere,
 )
-from tracer.scene import load_scene
+from tracer.scene import Limits, load_scene
 from tracer.structs import LightData
 
 N = 200_000
@@ -120,7 +120,7 @@ def test_lights_area_sampling_is_unbiased():
     assert irradiance_estimate(sph, p, n) == pytest.approx(math.pi * (0.5 / d) ** 2 * 2.0 / d, rel=0.02)
 
 
-def scene(objects, lights=(), **extra):
+def scene(objects, lights=(), limits=None, **extra):
     d = {
         "camera": {"lookfrom": [0, 0, 5], "lookat": [0, 0, 0], "vfov": 40},
         "film": {"width": 16, "height": 16},
@@ -131,7 +131,7 @@ def scene(objects, lights=(), **extra):
         "objects": list(objects),
     }
     d.update(extra)
-    return load_scene(d)[0]
+    return load_scene(d, limits)[0]
 
 
 def test_path_white_furnace():
@@ -253,6 +253,7 @@ def test_soft_shadow_penumbra_against_analytic_irradiance():
         film={"width": width, "height": 1},
         sampler={"type": "center"},
         render={"max_depth": 1, "light_samples": 1024},
+        limits=Limits(max_light_samples=1024),  # past the service's 256 (tracer/limits.py): the test wants little noise
     )
     img = render(s).image[0, :, 0]
     for x in range(width):

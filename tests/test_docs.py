@@ -18,10 +18,10 @@ def reference() -> str:
 
 
 def test_docs_field_tables_are_those_of_the_models():
-    """`python -m tracer docs` would change nothing: every table is what tracer/scene.py gives."""
+    """`python -m tracer docs` would change nothing: every table is what tracer/scene/ gives."""
     text = reference()
     assert docs.missing(text) == [], "models without a field table"
-    assert docs.render(text) == text, "the field tables differ from tracer/scene.py: run python -m tracer docs"
+    assert docs.render(text) == text, "the field tables differ from tracer/scene/: run python -m tracer docs"
 
 
 def test_docs_check_notices_a_stale_table(tmp_path, capsys):

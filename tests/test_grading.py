@@ -663,6 +663,24 @@ def test_api_names_students_as_the_grader_does(server):
     assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
 
 
+def test_grading_limits_are_the_tables_within_the_services():
+    """An assignment's limits tighten some of the table's (tracer/limits.py); the others are the defaults,
+    and a render through the service takes the tighter of the assignment's and the service's."""
+    from server.core.settings import Settings
+    from server.grading.renders import capped
+    from tracer.limits import NAMES, Limits
+
+    spec, _ = load_assignment(inline_assignment(max_spp=64))
+    fields = [name for name in type(spec.limits).model_fields if name.startswith("max_") and name != "max_seconds"]
+    assert set(fields) <= set(NAMES)
+    limits = spec.limits.scene_limits()
+    assert limits == Limits(**{name: getattr(spec.limits, name) for name in fields}) and limits.max_spp == 64
+    job = Grader(spec, None)._job("alice", json.loads((CLASS / "alice.json").read_text()), 0)
+    got, _, _ = capped(job, Settings(max_spp=16, max_width=4096, max_patches=5))
+    assert got == limits.tighter(Limits(max_spp=16, max_width=4096, max_patches=5))
+    assert (got.max_spp, got.max_width, got.max_patches) == (16, spec.limits.max_width, 5)
+
+
 @pytest.mark.parametrize(
     "service_seconds, priority, killed, expected",
     [

@@ -4,9 +4,11 @@ What each integrator computes is tested by the scenes: test_analytic.py, test_di
 (path against whitted, MIS), test_radiosity.py, test_render.py (every example, ray trees)."""
 
 import importlib
+import re
 from typing import get_args
 
 import pytest
+from conftest import ROOT
 
 from tracer.errors import SceneError
 from tracer.grading.spec import RenderOverrides
@@ -29,6 +31,31 @@ def test_integrators_are_published_in_the_json_schema():
     assert field["enum"] == list(NAMES)
     assert [e["name"] for e in field["x-integrators"]] == list(NAMES)
     assert all(e["description"].endswith(".") and "\n" not in e["description"] for e in field["x-integrators"])
+
+
+def test_integrators_the_table_says_what_is_solved_first_and_what_a_sample_costs():
+    assert {i.name: (i.prepass, i.cost) for i in INTEGRATORS} == {
+        "whitted": (None, "tree"),
+        "path": (None, "path"),
+        "radiosity": ("radiosity", "tree"),
+    }
+    scene, _ = load_scene({"camera": {"lookfrom": [0, 0, 1], "lookat": [0, 0, 0]}, "render": {"integrator": "path"}})
+    assert scene.render.integrator_info is INTEGRATORS[NAMES.index("path")]
+
+
+def test_integrators_are_named_only_by_their_table():
+    """Code outside the table asks an integrator's row (its prepass, its cost), never compares its name."""
+    members = "|".join(n.upper() for n in NAMES)
+    pattern = re.compile(rf"\.integrator\s*(==|!=|in |not in )|Integrator\.({members})\b")
+    found = [
+        f"{path.relative_to(ROOT)}:{k}: {line.strip()}"
+        for folder in ("tracer", "server")
+        for path in sorted((ROOT / folder).rglob("*.py"))
+        if path != ROOT / "tracer" / "integrators" / "__init__.py"
+        for k, line in enumerate(path.read_text().splitlines(), 1)
+        if pattern.search(line)
+    ]
+    assert found == []
 
 
 def test_integrators_share_their_kernels_where_the_table_says():

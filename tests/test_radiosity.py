@@ -437,7 +437,7 @@ def test_radiosity_patches_past_the_limit_are_refused_before_meshing():
     assert [e["path"] for e in errors] == ["render.radiosity.patch_size"]
     assert errors[0]["message"].startswith("patches of 1e-06 cut the surfaces into ")
     assert "(objects[0] (plane): 156555204360000, objects[7] (quad): 24186774000000, " in errors[0]["message"]
-    assert errors[0]["message"].endswith("must be at most 5000 (service limit): use a larger patch_size")
+    assert errors[0]["message"].endswith("must be at most 5000 (limit max_patches): use a larger patch_size")
     scene, _ = load_scene(_all_shapes(patch_size=1e-6), Limits(max_patches=10**15), assets=ASSET_DIR)
     with pytest.raises(SceneError) as info:
         solve(compile_scene(scene, limits=limits), patch_size=1e-6)
@@ -450,17 +450,18 @@ def test_radiosity_patches_past_the_limit_are_refused_before_meshing():
 
 def test_radiosity_rays_times_steps_past_the_limit_are_refused():
     """rays x max_steps bounds the form-factor rays of the longest solve: past max_solve_rays, an error at
-    render.radiosity.rays (the library's own limit allows every value the fields allow)."""
+    render.radiosity.rays (the default limit is the service's, tracer/limits.py)."""
     from tracer.scene import Limits, validate_scene
 
     data = _all_shapes(rays=1_000_000, max_steps=100_000)
-    assert validate_scene(data)["valid"]
-    (error,) = validate_scene(data, Limits(max_solve_rays=250_000_000))["errors"]
+    most = Limits(max_solve_rays=100_000_000_000)  # every value the fields allow
+    assert validate_scene(data, most)["valid"]
+    (error,) = validate_scene(data)["errors"]
     assert error == {
         "path": "render.radiosity.rays",
         "message": "rays x max_steps = 1000000 x 100000 = 100000000000 form-factor rays at most; must be at most "
-        "250000000 (service limit): use fewer rays or fewer steps",
+        "250000000 (limit max_solve_rays): use fewer rays or fewer steps",
     }
     with pytest.raises(SceneError) as info:
-        solve(compile_scene(load_scene(data)[0], limits=Limits(max_solve_rays=10)), rays=4096, max_steps=2000)
+        solve(compile_scene(load_scene(data, most)[0], limits=Limits(max_solve_rays=10)), rays=4096, max_steps=2000)
     assert info.value.errors[0]["path"] == "render.radiosity.rays"

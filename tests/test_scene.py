@@ -5,6 +5,7 @@ tests/bad_scenes/expected.json lists, per file, the exact error paths and a subs
 """
 
 import copy
+import dataclasses
 import json
 import math
 import random
@@ -281,7 +282,10 @@ INDEPENDENT = [
     ),
     (
         {"render": {"max_depth": 65, "light_samples": 2000}},
-        [("render.max_depth", "must be <= 64"), ("render.light_samples", "must be at most 1024 (service limit)")],
+        [
+            ("render.max_depth", "must be <= 64"),
+            ("render.light_samples", "must be at most 256 (limit max_light_samples)"),
+        ],
     ),
     (
         {"sampler": {"type": "grid", "spp": 10, "max_level": 20}},
@@ -289,7 +293,7 @@ INDEPENDENT = [
     ),
     (
         {"sampler": {"type": "gird", "spp": 99999}},
-        [("sampler.type", "expected one of: center, grid"), ("sampler.spp", "must be at most 65536 (service limit)")],
+        [("sampler.type", "expected one of: center, grid"), ("sampler.spp", "must be at most 4096 (limit max_spp)")],
     ),
     (
         {"camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 0], "vup": [0, 0, 1], "shutter": [1, "x"]}},
@@ -297,7 +301,7 @@ INDEPENDENT = [
     ),
     (
         {"film": {"width": 9000, "height": 0}},
-        [("film.height", "must be >= 1"), ("film.width", "must be at most 8192 (service limit)")],
+        [("film.height", "must be >= 1"), ("film.width", "must be at most 2048 (limit max_width)")],
     ),
     (
         {
@@ -345,7 +349,7 @@ def test_error_scene_checks_beside_errors_elsewhere():
     data["materials"] = {"m": {"kd": "red"}}
     errors = validate_scene(data, Limits(max_primitives=2))["errors"]
     assert [e["path"] for e in errors] == ["film.width", "materials.m.kd", "objects"]
-    assert errors[-1]["message"] == "3 primitives; must be at most 2 (service limit)"
+    assert errors[-1]["message"] == "3 primitives; must be at most 2 (limit max_primitives)"
 
 
 def test_error_numbers_outside_float32_at_their_path():
@@ -522,7 +526,9 @@ def test_limits_primitive_count_at_objects():
     load_scene(data, Limits(max_primitives=18))
     with pytest.raises(SceneError) as info:
         load_scene(data, Limits(max_primitives=17))
-    assert info.value.errors == [{"path": "objects", "message": "18 primitives; must be at most 17 (service limit)"}]
+    assert info.value.errors == [
+        {"path": "objects", "message": "18 primitives; must be at most 17 (limit max_primitives)"}
+    ]
 
 
 def test_limits_configurable_each_at_its_field():
@@ -536,12 +542,32 @@ def test_limits_configurable_each_at_its_field():
     with pytest.raises(SceneError) as info:
         load_scene(data, limits)
     assert {e["path"]: e["message"] for e in info.value.errors} == {
-        "film.width": "must be at most 32 (service limit)",
-        "film.height": "must be at most 32 (service limit)",
-        "sampler.spp": "must be at most 16 (service limit)",
-        "render.max_depth": "must be at most 8 (service limit)",
-        "render.light_samples": "must be at most 4 (service limit)",
+        "film.width": "must be at most 32 (limit max_width)",
+        "film.height": "must be at most 32 (limit max_height)",
+        "sampler.spp": "must be at most 16 (limit max_spp)",
+        "render.max_depth": "must be at most 8 (limit max_depth)",
+        "render.light_samples": "must be at most 4 (limit max_light_samples)",
     }
+
+
+def test_limits_pixels_at_the_height():
+    """width x height past max_pixels is reported at the height, once each side is within its own limit."""
+    data = _scene(film={"width": 11, "height": 10})
+    assert validate_scene(data, Limits(max_pixels=110))["valid"]
+    assert validate_scene(data, Limits(max_pixels=109))["errors"] == [
+        {"path": "film.height", "message": "width x height = 110 pixels; must be at most 109 (limit max_pixels)"}
+    ]
+
+
+def test_limits_one_table_gives_the_defaults_and_the_tighter_of_two():
+    """Limits is the table of tracer/limits.py: its defaults are the service's (2048 pixels wide, ...)."""
+    from tracer.limits import LIMITS
+
+    assert dataclasses.asdict(Limits()) == {limit.name: limit.default for limit in LIMITS}
+    assert Limits().max_width == 2048 and Limits().max_spp == 4096
+    a, b = Limits(max_width=100, max_spp=8), Limits(max_width=50, max_patches=7)
+    assert a.tighter(b) == b.tighter(a) == Limits(max_width=50, max_spp=8, max_patches=7)
+    assert Limits(max_depth=3).at_most("max_depth") == "must be at most 3 (limit max_depth)"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -751,7 +777,7 @@ def test_assets_texture_pixels_limit_read_from_the_header():
     (error,) = validate_scene(data, Limits(max_texture_pixels=2999), assets=ASSET_DIR)["errors"]
     assert error == {
         "path": "materials.m.texture.file",
-        "message": "the image is 100x30 = 3000 pixels; must be at most 2999 (service limit)",
+        "message": "the image is 100x30 = 3000 pixels; must be at most 2999 (limit max_texture_pixels)",
     }
 
 
@@ -776,14 +802,17 @@ def test_assets_texture_pixels_total_counts_each_distinct_image_once():
     assert error == {
         "path": "objects[0].material.bump.file",
         "message": f"with this 50x20 image the scene's images come to {total} pixels; all of a scene's images "
-        f"together must be at most {total - 1} (service limit)",
+        f"together must be at most {total - 1} (limit max_texture_pixels_total)",
     }
     (error,) = validate_scene(data, Limits(max_texture_pixels_total=68_000), assets=ASSET_DIR)["errors"]
     assert error["path"] == "materials.p.texture.file" and "come to 68536 pixels" in error["message"]
     # an image past the limit of one image is reported at its own field, once
     errors = validate_scene(data, Limits(max_texture_pixels=3000, max_texture_pixels_total=4000), assets=ASSET_DIR)
     assert [e["path"] for e in errors["errors"]] == ["materials.p.texture.file"]
-    assert errors["errors"][0]["message"] == "the image is 256x256 = 65536 pixels; must be at most 3000 (service limit)"
+    assert (
+        errors["errors"][0]["message"]
+        == "the image is 256x256 = 65536 pixels; must be at most 3000 (limit max_texture_pixels)"
+    )
 
 
 def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
@@ -805,7 +834,7 @@ def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
     assert report["errors"] == [
         {
             "path": "materials.m.texture.file",
-            "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (service limit)",
+            "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (limit max_texture_pixels)",
         }
     ]
     assert peak < 20_000_000, f"validation held {peak / 1e6:.0f} MB"
@@ -823,7 +852,7 @@ def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
         {
             "path": "objects",
             "message": "3201 primitives (objects[0].file: 3000 triangles, objects[1].file: 200 triangles); "
-            "must be at most 200 (service limit)",
+            "must be at most 200 (limit max_primitives)",
         }
     ]
 

@@ -31,3 +31,25 @@ def test_settings_read_durations_and_sizes(monkeypatch):
     assert Settings(**s.model_dump(mode="json")).keep_finished == 43200.0  # as the workers receive them
     with pytest.raises(ValueError, match="30m, 12h, 7d"):
         Settings(keep_finished="a week")
+
+
+def test_settings_the_scene_limits_are_the_rows_of_one_table(monkeypatch):
+    """TRACER_MAX_WIDTH ... TRACER_MAX_SOLVE_RAYS are the rows of tracer/limits.py: their defaults the
+    library's, their descriptions the table's, and docs/service.md lists each with its default."""
+    from conftest import ROOT
+
+    from server.core.settings import Settings
+    from tracer.limits import LIMITS, Limits
+
+    assert Settings().limits == Limits()
+    for limit in LIMITS:
+        field = Settings.model_fields[limit.name]
+        assert (field.default, field.description) == (limit.default, limit.description)
+    monkeypatch.setenv("TRACER_MAX_PATCHES", "7")
+    assert Settings().limits == Limits(max_patches=7)
+    with pytest.raises(ValueError, match="max_texture_pixels"):
+        Settings(max_texture_pixels=100_000_000)  # past Pillow's decompression-bomb guard
+    rows = (ROOT / "docs" / "service.md").read_text().splitlines()
+    for limit in LIMITS:
+        (row,) = [line for line in rows if line.startswith("| ") and f"`TRACER_{limit.name.upper()}`" in line]
+        assert row.split(" | ")[1] == str(limit.default), row

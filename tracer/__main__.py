@@ -8,7 +8,7 @@ python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick] [--mitsuba [--mitsuba-python PY] [--rounds N]] [--only SECTIONS]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
     SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
-python -m tracer docs [--check]     the field tables of docs/scene-format.md, from tracer/scene.py
+python -m tracer docs [--check]     the field tables of docs/scene-format.md, from tracer/scene/
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ A scene names an asset either by a path relative to the asset folder (scenes/ass
 given `--assets DIR`) or by a data: URI (RFC 2397: `data:<media type>[;base64],<data>`) that holds
 the file itself. A path never reaches outside the folder, after '..' and symbolic links are resolved.
 
-Validation (tracer/scene.py) resolves every asset: an image's header is read (format and size, no
+Validation (tracer/scene/) resolves every asset: an image's header is read (format and size, no
 pixels decoded) and a mesh is read and its triangles counted against the primitive limit. Compiling
 (tracer/compile.py) reads the same files through the same functions, so the two never disagree.
 

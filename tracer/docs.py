@@ -6,7 +6,7 @@ The reference is written by hand, except its field tables: each sits between two
     ...
     <!-- end fields -->
 
-and is made from the pydantic model of that name in tracer/scene.py: every field in order, its
+and is made from the pydantic model of that name in tracer/scene/: every field in order, its
 type and limits (from the published JSON Schema), its default, and its description (meaning and
 unit). `Object` stands for the fields every object has; an object type's own table lists only its
 own fields. `python -m tracer docs` rewrites the tables in place; `--check` says whether the file
@@ -217,7 +217,7 @@ def main(check: bool = False, path: Path = DOC) -> int:
         return 1
     if check:
         if fresh != text:
-            print(f"{path}: the field tables differ from tracer/scene.py; run python -m tracer docs")
+            print(f"{path}: the field tables differ from tracer/scene/; run python -m tracer docs")
             return 1
         print(f"{path}: up to date")
         return 0

@@ -30,7 +30,7 @@ def rays_per_sample(scene: Scene) -> float:
     shadow = sum(r.light_samples if isinstance(light, AREA_LIGHTS) else 1 for light in scene.lights)
     materials = [scene.material_for(o) for o in scene.objects]
     specular = any(max(m.kr) > 0 or max(m.kt) > 0 for m in materials)
-    if r.integrator == "path":
+    if r.integrator_info.cost == "path":
         nodes = min(r.max_depth, 6)  # Russian roulette ends most paths past depth 5
     else:
         nodes = 1 + (0.3 * min(r.max_depth - 1, 4) if specular else 0)  # most branches end early
@@ -40,7 +40,7 @@ def rays_per_sample(scene: Scene) -> float:
 def solve_seconds(scene: Scene, threads: int, assets: Path | None = None) -> float:
     """The radiosity solve: its shots' rays (the patches the surfaces are cut into, tracer/meshing.py, mesh
     files included when `assets` is their folder; the shots from the threshold)."""
-    if scene.render.integrator != "radiosity":
+    if scene.render.integrator_info.prepass != "radiosity":
         return 0.0
     cfg = scene.render.radiosity
     triangles = meshing.mesh_triangles(scene.objects, meshing.mesh_files(assets))

@@ -10,7 +10,7 @@ light of intensity radiance A cos(theta_y) with inverse-square fall-off (docs/sc
 is E = radiance / pdf_omega with pdf_omega = d^2 / (A cos(theta_y)) the solid-angle density of y.
 A sphere light is sampled inside the cone it subtends (same expectation, far less noise).
 
-Everything about a light type is here but its model (tracer/scene.py: the fields, and whether it is
+Everything about a light type is here but its model (tracer/scene/lights.py: the fields, and whether it is
 an area light): its kind, its LightData, an area light's own shape, and the @wp.func code that
 lights a point with it, samples it and (radiosity) shoots from its surface.
 """
@@ -37,7 +37,7 @@ LIGHT_SPHERE = wp.constant(int(LightKind.SPHERE))
 
 
 def light_data(light) -> LightData:
-    """A light of the scene (tracer/scene.py) as the kernels read it."""
+    """A light of the scene (tracer/scene/lights.py) as the kernels read it."""
     d = LightData()
     d.kind = int(LightKind[light.type.upper()])
     d.position, d.direction = wp.vec3(0.0), wp.vec3(0.0, -1.0, 0.0)

@@ -2,7 +2,7 @@
 is cut into, counted from the geometry and `patch_size` before any meshing.
 
 The renderer (tracer/compile.py) and the radiosity solve (tracer/radiosity.py) place surfaces and cut
-them with these functions, and validation (tracer/scene.py) counts the patches with the same ones, so a
+them with these functions, and validation (tracer/scene/model.py) counts the patches with the same ones, so a
 scene refused for its number of patches is refused before a single patch is made, and the count is the
 one the mesh would have:
 
@@ -245,7 +245,7 @@ def solve_problems(scene, triangles: Triangles, settings, limits) -> list[tuple[
         out.append((
             "rays",
             f"rays x max_steps = {settings.rays} x {settings.max_steps} = {most} form-factor rays at most; "
-            f"must be at most {limits.max_solve_rays} (service limit): use fewer rays or fewer steps",
+            f"{limits.at_most('max_solve_rays')}: use fewer rays or fewer steps",
         ))  # fmt: skip
     counts = patch_counts(scene, settings.patch_size, triangles)
     total = sum(counts.values())
@@ -255,7 +255,7 @@ def solve_problems(scene, triangles: Triangles, settings, limits) -> list[tuple[
         out.append((
             "patch_size",
             f"patches of {settings.patch_size:g} cut the surfaces into {_number(total)} patches ({where}); "
-            f"must be at most {limits.max_patches} (service limit): use a larger patch_size",
+            f"{limits.at_most('max_patches')}: use a larger patch_size",
         ))  # fmt: skip
     return out
 

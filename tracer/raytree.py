@@ -14,7 +14,7 @@ import warp as wp
 
 from tracer import radiosity
 from tracer.compile import CompiledScene, compile_scene
-from tracer.integrators import dispatch
+from tracer.integrators import INTEGRATORS, dispatch
 from tracer.integrators import record as W
 from tracer.kinds import End, Integrator, RayKind
 from tracer.render import load_kernels, make_record, make_stack
@@ -45,7 +45,7 @@ def ray_tree(
         errs.append({"path": "sample", "message": f"must be a sample index in 0..{n_samples - 1}"})
     if errs:
         raise SceneError(errs)
-    if d.integrator == Integrator.RADIOSITY and cs.radiosity is None:
+    if INTEGRATORS[d.integrator].prepass == "radiosity" and cs.radiosity is None:
         radiosity.attach(cs, device=device)
     load_kernels(device, [d.integrator])
     rec = make_record(cap, device)

@@ -26,7 +26,7 @@ import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
-from tracer.integrators import dispatch, record
+from tracer.integrators import INTEGRATORS, dispatch, record
 from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
 from tracer.parallel import default_threads, is_cuda, thread_pool
@@ -490,7 +490,7 @@ def solve_radiosity(
     integrator needs one that is not there yet, reporting each shot to `progress` (phase "radiosity")
     and asking `cancel` before each (True raises Cancelled). Returns the solve's stats. The solver is
     imported here: other scenes' renders need not load it."""
-    if cs.data.integrator != Integrator.RADIOSITY:
+    if INTEGRATORS[cs.data.integrator].prepass != "radiosity":
         return None
     from tracer import radiosity
 

@@ -12,13 +12,13 @@ import re
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BeforeValidator, ByteSize, Field, SecretStr, field_validator
+from pydantic import BeforeValidator, ByteSize, Field, SecretStr, create_model, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from tracer.scene import Limits
+from tracer.limits import LIMITS, Limits
+from tracer.limits import NAMES as LIMIT_NAMES
 
 UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
-PILLOW_MAX_PIXELS = 89_478_485  # Pillow warns of a decompression bomb past this (PIL.Image.MAX_IMAGE_PIXELS)
 
 
 def _seconds(v):
@@ -34,7 +34,16 @@ def _seconds(v):
 Duration = Annotated[float, BeforeValidator(_seconds)]
 
 
-class Settings(BaseSettings):
+# The scene limits, one setting per row of the table in tracer/limits.py (TRACER_MAX_WIDTH, ...), each
+# answered with a 422 at the offending field's JSON path: the library's defaults are the service's.
+SceneLimits = create_model(
+    "SceneLimits",
+    __base__=BaseSettings,
+    **{limit.name: (int, Field(limit.default, ge=1, le=limit.most, description=limit.description)) for limit in LIMITS},
+)
+
+
+class Settings(SceneLimits):
     model_config = SettingsConfigDict(env_prefix="TRACER_", extra="ignore", validate_assignment=True)
 
     # Where and how the service runs.
@@ -139,38 +148,7 @@ class Settings(BaseSettings):
         20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
     )
     max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
-    max_width: int = Field(2048, ge=1, description="image width (pixels)")
-    max_height: int = Field(2048, ge=1, description="image height (pixels)")
-    max_pixels: int = Field(2048 * 2048, ge=1, description="width x height")
-    max_spp: int = Field(4096, ge=1, description="samples per pixel")
-    max_depth: int = Field(64, ge=1, description="render.max_depth")
-    max_light_samples: int = Field(256, ge=1, description="render.light_samples")
-    max_primitives: int = Field(2_000_000, ge=1, description="shapes plus mesh triangles (mesh files included)")
-    max_texture_pixels: int = Field(
-        4096 * 4096,
-        ge=1,
-        le=PILLOW_MAX_PIXELS,
-        description="width x height of one texture or bump image (read from its header, before any pixel is "
-        "decoded; a decoded pixel is 12 bytes)",
-    )
-    max_texture_pixels_total: int = Field(
-        4096 * 4096,
-        ge=1,
-        description="width x height summed over every distinct image of a scene (textures and bump maps, files "
-        "and data: URIs), from their headers: at the default, 192 MiB of decoded pixels per scene",
-    )
-
-    max_patches: int = Field(
-        100_000,
-        ge=1,
-        description="radiosity: pieces of surface (two sides each) that render.radiosity.patch_size cuts a scene "
-        "into, counted from the geometry before anything is meshed",
-    )
-    max_solve_rays: int = Field(
-        250_000_000,
-        ge=1,
-        description="radiosity: render.radiosity.rays x max_steps, the form-factor rays of the longest solve",
-    )
+    # The scene limits (max_width, ... max_solve_rays) are the rows of tracer/limits.py: see SceneLimits.
 
     # Scene checks (validation, a pixel's samples) run in their own processes, off the API's event loop.
     validate_processes: int = Field(
@@ -200,19 +178,7 @@ class Settings(BaseSettings):
     @property
     def limits(self) -> Limits:
         """The scene limits, as the tracer's validators take them."""
-        return Limits(
-            max_width=self.max_width,
-            max_height=self.max_height,
-            max_pixels=self.max_pixels,
-            max_spp=self.max_spp,
-            max_depth=self.max_depth,
-            max_light_samples=self.max_light_samples,
-            max_primitives=self.max_primitives,
-            max_texture_pixels=self.max_texture_pixels,
-            max_texture_pixels_total=self.max_texture_pixels_total,
-            max_patches=self.max_patches,
-            max_solve_rays=self.max_solve_rays,
-        )
+        return Limits(**{name: getattr(self, name) for name in LIMIT_NAMES})
 
     def threads_per_worker(self) -> int:
         if self.render_threads:

@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-from dataclasses import fields
-
 from server.core.settings import Settings
 from server.jobs.lifecycle import JobStatus
 from tracer.grading import RenderJob
@@ -17,8 +15,7 @@ def capped(job: RenderJob, settings: Settings | None) -> tuple[Limits, float, st
     set the seconds (for the message of a render stopped at its limit)."""
     if settings is None:
         return job.limits, job.max_seconds, job.limit_source
-    mine = settings.limits
-    limits = Limits(**{f.name: min(getattr(job.limits, f.name), getattr(mine, f.name)) for f in fields(Limits)})
+    limits = job.limits.tighter(settings.limits)
     if settings.max_job_seconds < job.max_seconds:
         return limits, settings.max_job_seconds, "the server's max_job_seconds, TRACER_MAX_JOB_SECONDS"
     return limits, job.max_seconds, job.limit_source

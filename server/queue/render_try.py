@@ -249,7 +249,7 @@ class Try:
         scene, cs = compiled
         params = self.job.get("params") or {}
         params = json.loads(params) if isinstance(params, str) else params
-        if scene.render.integrator == "radiosity":  # the solve (once per scene: then from the cache) may stop
+        if scene.render.integrator_info.prepass == "radiosity":  # the solve (once per scene, then cached) may stop
             if self._solve_too_long(cs, params):
                 return TryEnd.failed
             deadline, clock = time.time() + self.job["max_seconds"], {"check": 0.0}
@@ -392,7 +392,7 @@ class Try:
 
         def cancel() -> bool:  # before each pass, and before each shot of a radiosity solve
             nonlocal stop_reason
-            solving = scene.render.integrator == "radiosity" and compiled.radiosity is None
+            solving = scene.render.integrator_info.prepass == "radiosity" and compiled.radiosity is None
             if solving and time.monotonic() - clock["check"] < CHECK_INTERVAL:
                 return False  # a solve's shots come every few ms: look at the channel every CHECK_INTERVAL
             clock["check"] = time.monotonic()

@@ -25,6 +25,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from tracer.errors import pydantic_errors
+from tracer.limits import NAMES as LIMIT_NAMES
 from tracer.scene import AREA_LIGHT_TYPES, IntegratorName, Limits, SamplerType, SceneError
 
 COMPARISONS = {  # word -> (symbol for messages, test)
@@ -133,7 +134,8 @@ class RenderOverrides(_Model):
 
 class GradingLimits(_Model):
     """Per student: a submission past one of these is invalid (with the field named), and a render
-    that runs longer than `max_seconds` is stopped (its image tests score 0)."""
+    that runs longer than `max_seconds` is stopped (its image tests score 0). Each max_* is a limit of
+    the table in tracer/limits.py, tighter by default than the service's."""
 
     max_seconds: float = Field(60.0, gt=0, le=3600, description="Seconds one render may take.")
     max_width: int = Field(1024, ge=1)
@@ -145,11 +147,8 @@ class GradingLimits(_Model):
     max_primitives: int = Field(100_000, ge=1)
 
     def scene_limits(self) -> Limits:
-        return Limits(
-            max_width=self.max_width, max_height=self.max_height, max_pixels=self.max_pixels,
-            max_spp=self.max_spp, max_depth=self.max_depth, max_light_samples=self.max_light_samples,
-            max_primitives=self.max_primitives,
-        )  # fmt: skip
+        """The scene limits of a student's render: these, and the table's defaults for the others."""
+        return Limits(**{name: getattr(self, name) for name in LIMIT_NAMES if name in type(self).model_fields})
 
 
 class Validity(_Model):

@@ -1,4 +1,4 @@
-// The scene format's rules as the server states them: GET /api/schema, the JSON Schema that tracer/scene.py
+// The scene format's rules as the server states them: GET /api/schema, the JSON Schema that tracer/scene/
 // generates from its models. A field's kind, bounds, default, choices and description come from there, so
 // the page holds no copy of them: fields.js keeps only labels, their order and the spinners' steps.
 // main.js loads the schema once at start; without it (the server not answering) the form shows the text's
