@@ -71,7 +71,7 @@ def _encoding(it: dict) -> str:
 class GradingRun:
     def __init__(self, runs: GradeRuns, run_id: str):
         self.runs, self.id = runs, run_id
-        self.gs, self.jobs, self.settings, self.pool = runs.gs, runs.jobs, runs.settings, runs.pool
+        self.gs, self.service, self.settings, self.pool = runs.gs, runs.jobs, runs.settings, runs.pool
         self.store = runs.jobs.store  # the render jobs' files
         self.folder = runs.root / run_id
         self.flight: dict[Future, tuple[tuple, bool]] = {}  # future -> (task, submitted alone)
@@ -132,7 +132,7 @@ class GradingRun:
         """Queue a render job (like any other: the queue's backend gets it rendered); its id."""
         width, height, spp = size
         # grading is batch work (the page's renders and ray trees go first), and it reads only the floats
-        row = self.jobs.submit(
+        row = self.service.submit(
             json.dumps(job.scene), name=f"grading: {job.name}"[:200], width=width, height=height, spp=spp,
             priority=job.priority, warnings=warnings, max_seconds=seconds, max_queued=MAX_QUEUED, lane=Lane.batch,
             params={"outputs": "floats"},
@@ -188,7 +188,7 @@ class GradingRun:
                 waiting[it["job_id"]] = ("item", student)
         if not waiting:
             return
-        states = self.jobs.states(waiting)
+        states = self.service.states(waiting)
         for job_id, (what, name) in waiting.items():
             row = states.get(job_id)
             if row is None:  # removed before we took its image: queue it again
