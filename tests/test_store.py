@@ -102,12 +102,34 @@ def test_store_a_dead_worker_s_job_is_retried_then_failed(tmp_path):
     store = JobStore(tmp_path)
     job_id = add(store)
     assert store.claim(pid=11)["attempts"] == 1
-    assert store.worker_died(11, attempts=2, reason="render worker killed") == [(job_id, "queued")]
+    assert store.worker_died(11, max_tries=2, reason="render worker killed") == [(job_id, "queued")]
     assert store.claim(pid=12)["attempts"] == 2
     assert not store.progress(job_id, 11, samples_done=5)  # the old worker no longer owns it
-    assert store.worker_died(12, attempts=2, reason="render worker killed") == [(job_id, "failed")]
+    assert store.worker_died(12, max_tries=2, reason="render worker killed") == [(job_id, "failed")]
     row = store.get(job_id)
     assert row["status"] == JobStatus.failed and row["error"] == "render worker killed; tried 2 time(s)"
+
+
+def test_store_a_try_put_back_by_a_restart_is_not_a_lost_one(tmp_path):
+    """A job running when its server stopped is queued again at the next start (`recover`): that try was not
+    lost with its worker, so one death after it still gets the job its retry (one rule for both backends:
+    lifecycle.after_lost counts the tries lost, never the tries taken)."""
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    store.claim(pid=11)
+    assert store.recover() == (1, 0)
+    assert store.claim(pid=12)["attempts"] == 2
+    assert store.worker_died(12, max_tries=2, reason="render worker killed") == [(job_id, "queued")]
+    assert store.claim(pid=13)["attempts"] == 3
+    assert store.worker_died(13, max_tries=2, reason="render worker killed") == [(job_id, "failed")]
+    assert store.get(job_id)["lost"] == 2
+
+
+def test_store_lifecycle_after_lost_is_the_rule_of_both_backends():
+    from server.jobs.lifecycle import after_lost
+
+    assert [after_lost(lost, 2, False) for lost in (0, 1, 2)] == [JobStatus.queued, JobStatus.failed, JobStatus.failed]
+    assert after_lost(0, 2, True) is JobStatus.cancelled
 
 
 def test_store_recover_requeues_running_jobs(tmp_path):
