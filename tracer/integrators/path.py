@@ -143,16 +143,6 @@ def emission_seen(scene: SceneData, h: Hit, s: Surface, ray: PathRay) -> wp.vec3
 
 
 @wp.func(inline=True)
-def with_first_hit(out: SampleOut, t: float, s: Surface) -> SampleOut:
-    """out with the eye ray's hit in its AOVs: distance, shading normal, albedo."""
-    r = out
-    r.depth = t
-    r.normal = s.n
-    r.albedo = s.kd
-    return r
-
-
-@wp.func(inline=True)
 def sample_lobes(s: Surface, rd: wp.vec3, lb: Lobes, u0: float, u1: float, u2: float):
     """The extension ray's direction from the material's lobes, u0 choosing the lobe (diffuse with
     probability lb.pd, the Phong lobe about the mirror direction lb.rdir with lb.ps, the mirror and the
@@ -203,19 +193,52 @@ def russian_roulette(factor: wp.vec3, tb: wp.vec3, rng: wp.uint32):
 
 
 @wp.func(inline=True)
+def choose_direction(
+    scene: SceneData, s: Surface, rd: wp.vec3, depth: int, lb: Lobes, key: wp.uint32, dims: int, sample: int
+):
+    """The extension ray's direction at s (depth: the arriving ray's) from the lobes, at the pixel's R2 points
+    of the bounce's dimensions `dims`, or why the path ends here: (END_* or -1, then as sample_lobes)."""
+    if depth + 1 > scene.max_depth:
+        return END_MAX_DEPTH, wp.vec3(0.0), wp.vec3(0.0), int(RAY_REFLECTION), 1, 0.0
+    if lb.total <= 0.0:
+        return END_ABSORBED, wp.vec3(0.0), wp.vec3(0.0), int(RAY_REFLECTION), 1, 0.0
+    u0 = float(0.0)
+    if lb.pd + lb.ps < 1.0:  # a choice between lobes to make (a purely diffuse or Phong material has none)
+        u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
+    uv = sample_2d(key, dims + DIM_BSDF, sample)
+    wi, factor, kind, delta, pdf = sample_lobes(s, rd, lb, u0, uv[0], uv[1])
+    return -1, wi, factor, kind, delta, pdf
+
+
+@wp.func(inline=True)
 def next_ray(
-    p: wp.vec3, nf: wp.vec3, wi: wp.vec3, kind: int, depth: int, tb: wp.vec3, factor: wp.vec3, node: int
+    end: int,
+    p: wp.vec3,
+    nf: wp.vec3,
+    wi: wp.vec3,
+    kind: int,
+    delta: int,
+    pdf: float,
+    depth: int,
+    tb: wp.vec3,
+    factor: wp.vec3,
+    node: int,
 ) -> PathRay:
-    """The extension ray from hit p (geometric normal nf) along wi, of RAY_* kind, at depth + 1: its
-    throughput tb factor (tb the throughput at the surface), child of the ray tree's `node`."""
+    """The extension ray from hit p (geometric normal nf) along wi, of RAY_* kind, chosen as `delta` and `pdf`
+    say, at depth + 1: its throughput tb factor (tb the throughput at the surface), child of the ray tree's
+    `node`. Depth 0 (the path is over) when `end` says why it ends. Made whether the path goes on or not, so
+    that `trace` assigns its ray once a bounce, outside any branch: a struct assigned inside a branch costs
+    Warp a select of every field where the branch ends (the Cornell box ran 10 % slower so)."""
     ray = PathRay()
     ray.o = offset_origin(p, nf, wi)
     ray.d = wi
     ray.kind = kind
-    ray.depth = depth + 1
+    ray.depth = wp.where(end >= 0, 0, depth + 1)
     ray.beta = wp.cw_mul(tb, factor)
     ray.k = factor
     ray.parent = node
+    ray.delta = delta
+    ray.pdf = pdf
     ray.p = p
     return ray
 
@@ -254,8 +277,10 @@ def trace(
         if scene.fog_density > 0.0:  # what the fog scatters towards the eye on the way
             out.color += wp.cw_mul(ray.beta, (1.0 - fog_t) * scene.fog_color)
         s = surface_at(scene, h, ray.d)
-        if ray.kind == RAY_EYE:
-            out = with_first_hit(out, h.t, s)
+        if ray.kind == RAY_EYE:  # the AOVs: the eye ray's hit
+            out.depth = h.t
+            out.normal = s.n
+            out.albedo = s.kd
         record_hit(rec, node, h.t, h.p, s.n, h.obj, h.mat, s.front, fog_t)
         tb = ray.beta * fog_t  # throughput at the surface
 
@@ -273,26 +298,12 @@ def trace(
         record_terms(rec, node, emission, wp.vec3(0.0), diffuse, specular)
 
         # choose a direction from the lobes, Russian roulette, and continue
-        end = int(-1)
-        if ray.depth + 1 > scene.max_depth:
-            end = END_MAX_DEPTH
-        elif lb.total <= 0.0:
+        end, wi, factor, kind, delta, pdf = choose_direction(scene, s, ray.d, ray.depth, lb, key, dims, sample)
+        if end < 0 and ray.depth >= RR_DEPTH:
+            factor, state = russian_roulette(factor, tb, state)
+        if end < 0 and max3(factor) <= 0.0:
             end = END_ABSORBED
-        else:
-            u0 = float(0.0)
-            if lb.pd + lb.ps < 1.0:  # a choice between lobes to make (a purely diffuse or Phong material has none)
-                u0 = sample_2d(key, dims + DIM_LOBE, sample)[0]
-            uv = sample_2d(key, dims + DIM_BSDF, sample)
-            wi, factor, kind, delta, pdf = sample_lobes(s, ray.d, lb, u0, uv[0], uv[1])
-            if ray.depth >= RR_DEPTH:
-                factor, state = russian_roulette(factor, tb, state)
-            if max3(factor) <= 0.0:
-                end = END_ABSORBED
-            else:
-                ray = next_ray(h.p, s.nf, wi, kind, ray.depth, tb, factor, node)
-                ray.delta = delta
-                ray.pdf = pdf
         if end >= 0:
             record_end(rec, node, end)
-            ray.depth = 0
+        ray = next_ray(end, h.p, s.nf, wi, kind, delta, pdf, ray.depth, tb, factor, node)
     return out
