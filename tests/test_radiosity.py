@@ -465,3 +465,36 @@ def test_radiosity_rays_times_steps_past_the_limit_are_refused():
     with pytest.raises(SceneError) as info:
         solve(compile_scene(load_scene(data, most)[0], limits=Limits(max_solve_rays=10)), rays=4096, max_steps=2000)
     assert info.value.errors[0]["path"] == "render.radiosity.rays"
+
+
+PACKAGE_MODULES = """
+import json, sys
+import tracer.render, tracer.raytree, tracer.integrators.whitted
+print(json.dumps(sorted(m for m in sys.modules if m.startswith("tracer.radiosity"))))
+"""
+
+
+def test_radiosity_the_integrators_import_only_the_lookup():
+    """A render, a ray tree and the Whitted integrator's code import the one module of the package that their
+    kernels call (lookup.py); the solver, the meshing and the cache load only when a scene needs a solution."""
+    import json
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    p = subprocess.run([sys.executable, "-c", PACKAGE_MODULES], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert json.loads(p.stdout.splitlines()[-1]) == ["tracer.radiosity", "tracer.radiosity.lookup"]
+
+
+def test_radiosity_every_public_name_is_where_the_package_says():
+    """The package's names (today's `radiosity.attach`, `radiosity.SolutionCache`, ...) come from their modules."""
+    import importlib
+
+    from tracer import radiosity
+
+    for name in radiosity.__all__:
+        assert getattr(radiosity, name) is getattr(importlib.import_module(radiosity.HOME[name]), name)
+    with pytest.raises(AttributeError):
+        radiosity.no_such_name  # noqa: B018

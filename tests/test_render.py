@@ -7,7 +7,7 @@ from conftest import EXAMPLES, scene_dict, small
 from numpy.testing import assert_allclose
 
 from tracer.compile import compile_scene
-from tracer.integrators import dispatch
+from tracer.integrators import adaptive
 from tracer.raytree import ray_tree
 from tracer.render import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
 from tracer.samples import adaptive_count, adaptive_levels
@@ -227,7 +227,7 @@ def test_render_adaptive_passes_keep_colours_within_a_bound(keep_bytes):
         assert np.array_equal(r.image(), single[level].image())
         expected += int((rays[level] - np.where(kept, rays[level - 1], 0))[todo].sum())
         assert r.rays()["total"] == expected
-        fit = keep_bytes // (12 * dispatch.kept_points(level)) if level < top else 0
+        fit = keep_bytes // (12 * adaptive.kept_points(level)) if level < top else 0
         kept = np.zeros_like(kept)
         kept.flat[np.flatnonzero(todo)[:fit]] = True  # the slots this pass had: its first pixels traced
         assert r.kept is None if not kept.any() else np.array_equal(r.kept.slots >= 0, kept)
@@ -265,7 +265,7 @@ def test_render_adaptive_passes_same_for_any_thread_count_and_band():
 def point_slots(g: int, top: int, out: wp.array2d(dtype=wp.int32)):
     """Level and slot index of every fine-grid point, as the adaptive kernel numbers them."""
     i, j = wp.tid()
-    level, index = dispatch.point_slot(i, j, g, top)
+    level, index = adaptive.point_slot(i, j, g, top)
     out[j * (g + 1) + i, 0] = level
     out[j * (g + 1) + i, 1] = index
 
@@ -281,10 +281,10 @@ def test_render_adaptive_point_slots_number_each_level_in_turn(top):
     levels = adaptive_levels(top)
     assert {k: int(got[k, 0]) for k in levels} == levels
     index = sorted(int(got[k, 1]) for k in levels)
-    assert index == list(range(dispatch.kept_points(top)))
+    assert index == list(range(adaptive.kept_points(top)))
     for k, level in levels.items():
-        assert dispatch.kept_points(level - 1) <= got[k, 1] < dispatch.kept_points(level)
-    assert dispatch.kept_points(top) == adaptive_count(top)
+        assert adaptive.kept_points(level - 1) <= got[k, 1] < adaptive.kept_points(level)
+    assert adaptive.kept_points(top) == adaptive_count(top)
 
 
 def test_render_stop_and_resume_from_a_snapshot():

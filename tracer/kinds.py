@@ -76,7 +76,7 @@ class SamplerKind(IntEnum):
 
 
 class PatchKind(IntEnum):
-    """How the radiosity patches of an object are found from a point on it (tracer/radiosity.py)."""
+    """How the radiosity patches of an object are found from a point on it (tracer/radiosity/lookup.py)."""
 
     NONE = 0  # not meshed (an object the solve cannot see)
     FLAT = 1  # flat facets: the nearest facet to the point

@@ -1,10 +1,10 @@
 """The surfaces' shapes in plain numpy: transforms, a box's faces, and the radiosity patches each surface
 is cut into, counted from the geometry and `patch_size` before any meshing.
 
-The renderer (tracer/compile.py) and the radiosity solve (tracer/radiosity.py) place surfaces and cut
-them with these functions, and validation (tracer/scene/model.py) counts the patches with the same ones, so a
-scene refused for its number of patches is refused before a single patch is made, and the count is the
-one the mesh would have:
+The renderer (tracer/compile.py) and the radiosity solve (tracer/radiosity/patches.py) place surfaces and
+cut them with these functions, and validation (tracer/scene/model.py) counts the patches with the same ones,
+so a scene refused for its number of patches is refused before a single patch is made, and the count is
+the one the mesh would have:
 
 - a parallelogram (a quad, a box face, a plane clipped to a box around the scene): ceil(|e1| / s) x
   ceil(|e2| / s) cells;

@@ -4,11 +4,11 @@
 sample's eye ray passes through, as an offset (u, v) from the pixel's corner: the ray of sample k goes
 through film point (x + u, y + v) (docs/scene-format.md, "Camera rays"). The offsets are computed by
 the renderer's own functions (`sampling.film_offset`, then `sampling.filter_offset`; for the adaptive
-sampler the fine grid of `integrators/dispatch.grid_sample`) in a one-pixel kernel, keyed by the same
+sampler the fine grid of `integrators/adaptive.grid_sample`) in a one-pixel kernel, keyed by the same
 (seed, pixel, sample) random numbers, so they are the image's positions exactly.
 
 The adaptive sampler (Whitted 1980) decides from the colours which cells to split; `pixel_samples`
-follows the same rule as `dispatch.render_adaptive` (a readable copy here, tested equal to it): it
+follows the same rule as `adaptive.render_adaptive` (a readable copy here, tested equal to it): it
 traces the corners and centre of a cell, and splits the cell while their colours differ by more than
 `threshold`, down to `max_level`. It reports the cells visited and which grid points were traced.
 """

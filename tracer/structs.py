@@ -92,7 +92,7 @@ class LightData:
 
 @wp.struct
 class PatchIndex:
-    """Which radiosity patch a point of a surface lies on (tracer/radiosity.py, `patch_at`): every patch
+    """Which radiosity patch a point of a surface lies on (tracer/radiosity/lookup.py, `patch_at`): every patch
     as triangles of one wp.Mesh, and how each object's points are brought onto its facets."""
 
     mesh: wp.uint64  # every patch as triangles (a parallelogram is two)
@@ -107,7 +107,7 @@ class PatchIndex:
 
 @wp.struct
 class RadiosityData:
-    """A radiosity solution for the `radiosity` integrator (tracer/radiosity.py); inactive otherwise."""
+    """A radiosity solution for the `radiosity` integrator (`radiosity.attach` fills it); inactive otherwise."""
 
     active: int  # 1 when the scene's integrator is radiosity
     mode: int  # RAD_TWO_PASS: the ray tree + the solution's interreflection; RAD_FLAT: patches; RAD_SMOOTH

@@ -2,7 +2,7 @@
 
 `render_pixels` adds samples s0..s1-1 of every pixel of a band to the film's running sums
 (one thread per pixel, samples in order, so any split into passes gives the same sums);
-`render_adaptive` runs the adaptive sampler; `trace_one` traces one pixel sample with its ray
+`render_adaptive` runs the adaptive sampler (adaptive.py); `trace_one` traces one pixel sample with its ray
 tree recorded. `make_kernels(trace, module)` builds the three for one integrator's `trace` (Warp
 kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
 code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
@@ -16,167 +16,16 @@ from collections.abc import Mapping
 
 import warp as wp
 
-from tracer.camera import camera_ray, shutter_time
 from tracer.integrators import INTEGRATORS
+from tracer.integrators.adaptive import AdaptiveCache, AdaptiveKeep, kept_points, make_adaptive, point_slot
 from tracer.integrators.common import SampleOut, Stack
+from tracer.integrators.pixel import FilmBuffers, band_pixel, eye_ray, pixel_sample
 from tracer.integrators.record import TreeRecord
-from tracer.kinds import SAMPLER_ADAPTIVE, SAMPLER_LOWDISCREPANCY, Integrator
-from tracer.sampling import (
-    DIM_LENS,
-    DIM_TIME,
-    film_offset,
-    film_uniforms,
-    filter_offset,
-    pixel_key,
-    rng_start,
-    sobol_2d,
-)
+from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.structs import SceneData
 
-
-@wp.struct
-class FilmBuffers:
-    """Per-pixel running sums over the samples so far (divide by the sample count)."""
-
-    accum: wp.array2d(dtype=wp.vec3)  # sum of w L (w the filter weight)
-    sumsq: wp.array2d(dtype=wp.vec3)  # sum of (w L)^2, for the variance AOV
-    counts: wp.array2d(dtype=wp.vec4i)  # rays by RAY_* kind
-    depth: wp.array2d(dtype=float)  # sum of the eye rays' hit distances (0 for a miss)
-    normal: wp.array2d(dtype=wp.vec3)  # sum of the first hits' shading normals
-    albedo: wp.array2d(dtype=wp.vec3)  # sum of the first hits' kd
-
-
-# ------------------------------------------------------------------------------------------------
-# Adaptive supersampling (Whitted 1980): rays at the 4 corners and the centre of the pixel; if the
-# 5 colours are within `threshold` their average is the pixel, otherwise the pixel is cut into 4
-# cells, each treated the same way (its corners are shared with its neighbours), down to
-# `max_level`. All points lie on one fine grid of (G+1)^2 points, G = 2^(max_level+1); a point's
-# colour is traced once and kept in a per-thread cache, and its random numbers are keyed by its
-# index on that grid, so pass L (subdivision stopped at level L) re-traces nothing differently.
-# A pixel whose every cell stopped on the threshold (none on the level limit) is finished: a deeper
-# pass would make the same choices, the same sums in the same order. `done` marks it, and later
-# passes leave its film values alone instead of tracing it again.
-# A pixel still being refined is not traced again from level 0 either. Pass L visits the cells of
-# pass L - 1 (the same colours make the same choices) and splits those that stopped at level L - 1
-# on the limit; every grid point it needs below level L was traced by pass L - 1, and every point of
-# level L is new (a level-L cell's corners are its parent's corners, centre and edge midpoints). So a
-# pass keeps the colours of the points it used, per pixel, in a slot of `AdaptiveKeep.next` (points
-# numbered level by level, see point_slot), and the next pass reads them from there (its `prev`) and
-# traces only the points of its own level: over all passes, each point once. The slots are the
-# render's to give (tracer/render.py, within ADAPTIVE_KEEP_BYTES); a pixel without a slot of the
-# pass before is traced from level 0, as a single pass is.
-
-ADAPTIVE_STACK = 32  # cells pending at once: 3 more per level of subdivision (max_level <= 8 in the scene format)
-vec_cells = wp.types.vector(length=ADAPTIVE_STACK, dtype=wp.int32)
-PASSES_PER_PIXEL = wp.constant(16)  # cache stamps: pixel * this + pass level + 1 (levels 0..8)
-
-
-@wp.struct
-class AdaptiveCache:
-    color: wp.array2d(dtype=wp.vec3)  # (threads of a band, (G+1)^2) colours of traced grid points
-    stamp: wp.array2d(dtype=wp.int32)  # which pixel and pass filled each entry
-
-
-@wp.struct
-class AdaptiveKeep:
-    """The colours of the grid points pixels used, kept from one adaptive pass for the next."""
-
-    prev: wp.array2d(dtype=wp.vec3)  # (slots, kept_points(L - 1)): the colours pass L - 1 kept
-    prev_slot: wp.array2d(dtype=wp.int32)  # (H, W): a pixel's row of `prev`, -1 for none
-    next: wp.array2d(dtype=wp.vec3)  # (slots, kept_points(L)): the colours this pass keeps for the next
-    next_slot: wp.array2d(dtype=wp.int32)  # (H, W): a pixel's row of `next`, -1 for none
-
-
-def kept_points(level: int) -> int:
-    """Grid points a pixel may use with subdivision down to `level`: (2^L + 1)^2 cell corners and 4^L
-    centres (samples.adaptive_count). A slot of AdaptiveKeep holds them numbered level by level."""
-    return ((1 << level) + 1) ** 2 + (1 << (2 * level)) if level >= 0 else 0
-
-
-@wp.func
-def level_start(level: int) -> int:
-    """The first slot index of `level`'s points: kept_points(level - 1)."""
-    if level == 0:
-        return 0
-    n = 1 << (level - 1)
-    return (n + 1) * (n + 1) + n * n
-
-
-@wp.func
-def point_slot(i: int, j: int, g: int, top: int):
-    """(level, slot index) of fine-grid point (i, j) (g cells a side, levels 0..top): the level of the
-    first cells that use it, and its place in a slot of AdaptiveKeep. Level 0: the pixel's corners 0-3
-    and its centre 4; level L >= 1 (cells of s = g >> L grid steps): the 4^L cell centres, then the
-    corners that coarser cells do not have (on the lattice of step s, one coordinate an odd multiple
-    of s), numbered in row order."""
-    level = int(-1)
-    index = int(0)
-    if (i & (g - 1)) == 0 and (j & (g - 1)) == 0:  # g = 2^(top + 1): shifts and masks, no division
-        level = 0
-        index = (j >> (top + 1)) * 2 + (i >> (top + 1))
-    elif i == g >> 1 and j == g >> 1:
-        level = 0
-        index = 4
-    lv = int(1)
-    while level < 0 and lv <= top:
-        shift = top + 1 - lv  # the cells of level lv are s = 2^shift grid steps
-        mask = (1 << shift) - 1
-        half = 1 << (shift - 1)
-        n = 1 << lv
-        if (i & mask) == 0 and (j & mask) == 0:  # a corner of level-lv cells (both odd multiples: a centre of lv - 1)
-            level = lv
-            index = level_start(lv) + n * n + (((j >> shift) * (n + 1) + (i >> shift) - 1) >> 1)
-        elif (i & mask) == half and (j & mask) == half:  # a centre of a level-lv cell
-            level = lv
-            index = level_start(lv) + (j >> shift) * n + (i >> shift)
-        lv += 1
-    return level, index
-
-
-@wp.func(inline=True)
-def pixel_sample(scene: SceneData, x: int, y: int, s: int):
-    """Sample s of pixel (x, y): its film position (filter importance sampled) and weight, its random
-    state (after the two draws of the position) and its pixel's low-discrepancy key."""
-    key = pixel_key(scene.seed, y * scene.width + x)
-    u1, u2, rng = film_uniforms(scene.sampler, key, s, rng_start(scene.seed, y * scene.width + x, s))
-    off, weight = filter_offset(scene, film_offset(scene.sampler, s, scene.spp, u1, u2))
-    return float(x) + off[0], float(y) + off[1], weight, rng, key
-
-
-@wp.func(inline=True)
-def grid_sample(scene: SceneData, x: int, y: int, i: int, j: int, g: int):
-    """Fine-grid point (i, j) of pixel (x, y) (adaptive sampler, g cells a side): its film position,
-    exactly there or jittered by up to half the grid spacing when sampler.jitter is set, its random
-    state and its pixel's key. Its sample index is j (g + 1) + i."""
-    rng = rng_start(scene.seed, y * scene.width + x, j * (g + 1) + i)
-    fx = float(i) / float(g)
-    fy = float(j) / float(g)
-    if scene.jitter != 0:
-        fx = wp.clamp(fx + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-        fy = wp.clamp(fy + (wp.randf(rng) - 0.5) / float(g), 0.0, 1.0)
-    return float(x) + fx, float(y) + fy, rng, pixel_key(scene.seed, y * scene.width + x)
-
-
-@wp.func(inline=True)
-def eye_ray(scene: SceneData, fx: float, fy: float, rng: wp.uint32, key: wp.uint32, sample: int):
-    """The eye ray through film position (fx, fy), its lens point and shutter time drawn from rng (the
-    time is sample `sample`'s instant when camera.instants is set; the draw is made all the same; the
-    lowdiscrepancy sampler takes both from the pixel's sequence, keyed by `key`, the draws made all
-    the same): (origin, unit direction, time, rng after its draws)."""
-    state = wp.uint32(rng)
-    lens1 = wp.randf(state)
-    lens2 = wp.randf(state)
-    u = wp.randf(state)
-    if scene.sampler == SAMPLER_LOWDISCREPANCY:
-        if scene.camera.lens_radius > 0.0:
-            lens = sobol_2d(key, DIM_LENS, sample)
-            lens1 = lens[0]
-            lens2 = lens[1]
-        if scene.camera.t1 > scene.camera.t0:
-            u = sobol_2d(key, DIM_TIME, sample)[0]
-    time = shutter_time(scene.camera, u, sample)
-    o, d = camera_ray(scene.camera, fx, fy, scene.width, scene.height, lens1, lens2)
-    return o, d, time, state
+__all__ = ["KERNELS", "KERNEL_MODULES", "FilmBuffers", "kernel_modules", "make_kernels"]
+__all__ += ["AdaptiveCache", "AdaptiveKeep", "kept_points", "point_slot"]  # tracer/render.py's names, from adaptive.py
 
 
 def make_kernels(trace, module: str):
@@ -202,24 +51,15 @@ def make_kernels(trace, module: str):
         each call site of the other kernels would take minutes to compile (BENCHMARKS.md)."""
         return trace(scene, o, d, time, rng, key, sample, st, row, record, rec)
 
-    @wp.func(inline=True)
-    def grid_trace(
-        scene: SceneData, x: int, y: int, i: int, j: int, g: int, st: Stack, row: int, record: int, rec: TreeRecord
-    ) -> SampleOut:
-        """The integrator's estimate at fine-grid point (i, j) of pixel (x, y) (see grid_sample)."""
-        fx, fy, rng, key = grid_sample(scene, x, y, i, j, g)
-        o, d, time, state = eye_ray(scene, fx, fy, rng, key, j * (g + 1) + i)
-        return trace_outlined(scene, o, d, time, state, key, j * (g + 1) + i, st, row, record, rec)
+    grid_trace, render_adaptive = make_adaptive(trace_outlined, module)  # the adaptive sampler (adaptive.py)
 
     @wp.kernel(module=module)
     def render_pixels(scene: SceneData, p0: int, s0: int, s1: int, st: Stack, rec: TreeRecord, film: FilmBuffers):
         """Add samples s0..s1-1 of pixels p0.. (row-major) to the film's sums (one thread per pixel)."""
         row = wp.tid()
-        pix = p0 + row
-        if pix >= scene.width * scene.height:
+        x, y, inside = band_pixel(scene, p0, row)
+        if inside == 0:
             return
-        x = pix % scene.width
-        y = pix / scene.width
         acc = film.accum[y, x]
         sq = film.sumsq[y, x]
         cnt = film.counts[y, x]
@@ -243,135 +83,6 @@ def make_kernels(trace, module: str):
         film.depth[y, x] = dep
         film.normal[y, x] = nrm
         film.albedo[y, x] = alb
-
-    @wp.func(inline=True)
-    def cached_point(
-        scene: SceneData,
-        x: int,
-        y: int,
-        i: int,
-        j: int,
-        g: int,
-        level: int,
-        stamp: int,
-        cache: AdaptiveCache,
-        keep: AdaptiveKeep,
-        carried: int,
-        slot: int,
-        st: Stack,
-        row: int,
-        rec: TreeRecord,
-    ):
-        """(colour, rays traced now) of grid point (i, j) in the pass at `level`: kept by the pass before
-        (row `carried` of keep.prev) when below `level`, else cached by this pass, else traced now. A pixel
-        with a `slot` of keep.next keeps it there for the next pass."""
-        lv = int(0)
-        kept = int(0)
-        if carried >= 0 or slot >= 0:
-            lv, kept = point_slot(i, j, g, scene.max_level)
-        if carried >= 0 and lv < level:
-            c = keep.prev[carried, kept]
-            if slot >= 0:
-                keep.next[slot, kept] = c
-            return c, wp.vec4i(0)
-        k = j * (g + 1) + i
-        if cache.stamp[row, k] == stamp:
-            return cache.color[row, k], wp.vec4i(0)
-        out = grid_trace(scene, x, y, i, j, g, st, row, 0, rec)
-        cache.color[row, k] = out.color
-        cache.stamp[row, k] = stamp
-        if slot >= 0:
-            keep.next[slot, kept] = out.color
-        return out.color, out.counts
-
-    @wp.kernel(module=module)
-    def render_adaptive(
-        scene: SceneData,
-        p0: int,
-        level: int,
-        st: Stack,
-        rec: TreeRecord,
-        film: FilmBuffers,
-        cache: AdaptiveCache,
-        done: wp.array2d(dtype=wp.int32),
-        keep: AdaptiveKeep,
-    ):
-        """Pixels p0.. (row-major) by adaptive subdivision down to `level`; the film holds the result. A pixel
-        marked in `done` is skipped (an earlier pass finished it); one that no cell stopped at the level limit
-        is marked. A pixel whose colours the pass before kept (keep.prev_slot) traces only the points of
-        `level`: its film's ray counts and AOVs hold the passes before, its rays are added."""
-        row = wp.tid()
-        pix = p0 + row
-        if pix >= scene.width * scene.height:
-            return
-        x = pix % scene.width
-        y = pix / scene.width
-        if done[y, x] != 0:
-            return
-        g = 1 << (scene.max_level + 1)
-        stamp = pix * PASSES_PER_PIXEL + level + 1
-        carried = keep.prev_slot[y, x]
-        slot = keep.next_slot[y, x]
-        counts = wp.vec4i(0)
-        mid = g / 2
-        if carried >= 0:
-            counts = film.counts[y, x]  # the rays of the passes before (the walk reads their colours)
-        else:  # the centre ray first: it gives the AOVs
-            centre = grid_trace(scene, x, y, mid, mid, g, st, row, 0, rec)
-            cache.color[row, mid * (g + 1) + mid] = centre.color
-            cache.stamp[row, mid * (g + 1) + mid] = stamp
-            if slot >= 0:
-                keep.next[slot, 4] = centre.color  # the centre is level 0's point 4 (point_slot)
-            counts = centre.counts
-            film.depth[y, x] = centre.depth
-            film.normal[y, x] = centre.normal
-            film.albedo[y, x] = centre.albedo
-        total = wp.vec3(0.0)
-        total_sq = wp.vec3(0.0)
-        ci = vec_cells()
-        cj = vec_cells()
-        cl = vec_cells()
-        sp = int(1)
-        limited = int(0)  # cells stopped by the level limit, not the threshold: a deeper pass would split them
-        while sp > 0:
-            sp -= 1
-            i0 = ci[sp]
-            j0 = cj[sp]
-            lv = cl[sp]
-            size = g >> lv
-            half = size / 2
-            c0, n0 = cached_point(scene, x, y, i0, j0, g, level, stamp, cache, keep, carried, slot, st, row, rec)
-            c1, n1 = cached_point(scene, x, y, i0 + size, j0, g, level, stamp, cache, keep, carried, slot, st, row, rec)
-            c2, n2 = cached_point(scene, x, y, i0, j0 + size, g, level, stamp, cache, keep, carried, slot, st, row, rec)
-            c3, n3 = cached_point(
-                scene, x, y, i0 + size, j0 + size, g, level, stamp, cache, keep, carried, slot, st, row, rec
-            )
-            c4, n4 = cached_point(
-                scene, x, y, i0 + half, j0 + half, g, level, stamp, cache, keep, carried, slot, st, row, rec
-            )
-            counts = counts + n0 + n1 + n2 + n3 + n4
-            lo = wp.min(wp.min(wp.min(c0, c1), wp.min(c2, c3)), c4)
-            hi = wp.max(wp.max(wp.max(c0, c1), wp.max(c2, c3)), c4)
-            spread = hi - lo
-            flat = wp.max(spread[0], wp.max(spread[1], spread[2])) <= scene.threshold
-            if lv >= level or flat:
-                if not flat:
-                    limited += 1
-                area = 1.0 / float(1 << (2 * lv))
-                total += area * (c0 + c1 + c2 + c3 + c4) / 5.0
-                sq = wp.cw_mul(c0, c0) + wp.cw_mul(c1, c1) + wp.cw_mul(c2, c2) + wp.cw_mul(c3, c3) + wp.cw_mul(c4, c4)
-                total_sq += area * sq / 5.0
-            else:
-                for q in range(4):
-                    ci[sp] = i0 + (q % 2) * half
-                    cj[sp] = j0 + (q / 2) * half
-                    cl[sp] = lv + 1
-                    sp += 1
-        film.accum[y, x] = total
-        film.sumsq[y, x] = total_sq
-        film.counts[y, x] = counts
-        if limited == 0:
-            done[y, x] = 1
 
     @wp.kernel(module=module)
     def trace_one(scene: SceneData, x: int, y: int, s: int, st: Stack, rec: TreeRecord, out: wp.array(dtype=wp.vec3)):

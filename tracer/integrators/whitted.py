@@ -13,7 +13,7 @@ With a stochastic sampler, a lens, a shutter, area lights and `gloss`, the same 
 distribution ray tracing (Cook, Porter & Carpenter 1984): every ray carries a time, shadow
 rays sample the area of the lights (penumbrae), and glossy rays are drawn from a cos^m lobe.
 
-With the radiosity integrator the same tree shades with a radiosity solution (tracer/radiosity.py):
+With the radiosity integrator the same tree shades with a radiosity solution (tracer/radiosity/lookup.py):
 its interreflection in place of the ambient term (the two-pass method), or the patches' own radiance.
 With `record` = 1 the same code writes each ray as a node of the ray tree (record.py).
 """
@@ -55,7 +55,7 @@ from tracer.kinds import (
     T_FAR,
 )
 from tracer.materials import reflect
-from tracer.radiosity import radiosity_ambient
+from tracer.radiosity.lookup import radiosity_ambient
 from tracer.structs import SceneData
 
 
