@@ -20,7 +20,7 @@ RAYS_PER_SECOND = 12.0e6  # per thread, analytic shapes (the examples ran at 5-1
 SHAPES_HALVE_AT = 40  # the rate halves for every this many analytic shapes (each is tested by every ray)
 PASS_SECONDS = 0.01  # fixed cost of one progressive pass (launches, the preview)
 SOLVE_RAYS_PER_SECOND = 2.0e6  # radiosity form-factor rays per thread
-LIGHT_RAYS_PER_SIDE = 256  # an area light's shot: at least this many rays per patch side (tracer/radiosity.py)
+LIGHT_RAYS_PER_SIDE = 256  # an area light's shot: at least this many rays per patch side (radiosity/solver.py)
 
 
 def rays_per_sample(scene: Scene) -> float:

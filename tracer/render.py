@@ -26,7 +26,7 @@ import warp as wp
 
 from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
-from tracer.integrators import INTEGRATORS, dispatch, record
+from tracer.integrators import INTEGRATORS, adaptive, dispatch, record
 from tracer.integrators.common import Stack
 from tracer.kinds import Integrator, RayKind, SamplerKind
 from tracer.parallel import default_threads, is_cuda, thread_pool
@@ -121,10 +121,10 @@ class Progress:
 @dataclass
 class Kept:
     """The colours an adaptive pass kept for the next (Renderer.adaptive_pass): a slot of
-    dispatch.kept_points(level) colours for each pixel that got one."""
+    adaptive.kept_points(level) colours for each pixel that got one."""
 
     level: int  # the pass's subdivision level
-    colours: wp.array2d  # (slots, kept_points(level)) vec3, numbered as dispatch.point_slot numbers them
+    colours: wp.array2d  # (slots, kept_points(level)) vec3, numbered as adaptive.point_slot numbers them
     slots: np.ndarray  # (H, W) int32: each pixel's row of `colours`, -1 for none
     slots_wp: wp.array2d  # the same on the device
 
@@ -210,7 +210,7 @@ class Renderer:
         if self.adaptive:
             self.caches = []
             for _ in range(self.threads):
-                c = dispatch.AdaptiveCache()
+                c = adaptive.AdaptiveCache()
                 c.color = wp.empty((self.band, points), dtype=wp.vec3, device=device)
                 c.stamp = wp.zeros((self.band, points), dtype=wp.int32, device=device)
                 self.caches.append(c)
@@ -288,7 +288,7 @@ class Renderer:
             again = todo & ~carried
             self.passes_rays += self.film.counts.numpy()[again].astype(np.int64).sum(axis=0)
         new = self._keep(level, todo) if level < self.cs.data.max_level else None  # the last pass keeps nothing
-        keep = dispatch.AdaptiveKeep()
+        keep = adaptive.AdaptiveKeep()
         keep.prev, keep.prev_slot = (old.colours, old.slots_wp) if old else (self.no_colours, self.no_slots)
         keep.next, keep.next_slot = (new.colours, new.slots_wp) if new else (self.no_colours, self.no_slots)
 
@@ -304,7 +304,7 @@ class Renderer:
     def _keep(self, level: int, todo: np.ndarray) -> Kept | None:
         """Slots for the colours the pass at `level` keeps: the pixels it traces (`todo`), in row order, as
         many as keep_bytes holds. None when not one fits."""
-        points = dispatch.kept_points(level)
+        points = adaptive.kept_points(level)
         n = min(int(todo.sum()), self.keep_bytes // (points * KEEP_BYTES_PER_POINT))
         if n == 0:
             return None

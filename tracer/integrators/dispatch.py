@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import warp as wp
 
 from tracer.integrators import INTEGRATORS
-from tracer.integrators.adaptive import AdaptiveCache, AdaptiveKeep, kept_points, make_adaptive, point_slot
+from tracer.integrators.adaptive import make_adaptive
 from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.pixel import FilmBuffers, band_pixel, eye_ray, pixel_sample
 from tracer.integrators.record import TreeRecord
@@ -25,7 +25,6 @@ from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.structs import SceneData
 
 __all__ = ["KERNELS", "KERNEL_MODULES", "FilmBuffers", "kernel_modules", "make_kernels"]
-__all__ += ["AdaptiveCache", "AdaptiveKeep", "kept_points", "point_slot"]  # tracer/render.py's names, from adaptive.py
 
 
 def make_kernels(trace, module: str):
