@@ -1,15 +1,26 @@
 """Shared fixtures: example scenes as dicts, small renders, the repository's paths, and the app in a
-TestClient for the API tests (built by test_api_support.api_client; its helpers live there too)."""
+TestClient for the API tests (built by test_api_support.api_client; its helpers live there too).
+
+The tests' folders mirror the packages (tracer/, server/api/, server/queue/, ..., web/), and a test
+module may use another's helpers by name (`from test_assets import png_uri`, whatever folder either is
+in): every folder of tests/ is on the import path from the start (pytest would add each only when it
+first collects a file there). Test modules' names are unique across the folders."""
 
 from __future__ import annotations
 
 import copy
 import json
+import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+TESTS = Path(__file__).resolve().parent
+for _folder in sorted(p for p in TESTS.rglob("*") if p.is_dir() and "__pycache__" not in p.parts):
+    if any(_folder.glob("*.py")) and str(_folder) not in sys.path:
+        sys.path.append(str(_folder))
+
+ROOT = TESTS.parent
 SCENES = ROOT / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.json"))
 

@@ -1,5 +1,5 @@
-"""Writes the example class of submissions (the fixtures of tests/test_grading.py) (run from the repository root:
-`python scenes/grading/make_class.py`). Each student is one case the tests grade exactly:
+"""Writes the example class of submissions (the fixtures of tests/tracer/grading/test_grading.py) (run from
+the repository root: `python scenes/grading/make_class.py`). Each student is one case the tests grade exactly:
 
 alice.json   the reference scene as is (correct)
 bob.json     a point light instead of the area light (misses a requirement; hard shadows)

@@ -96,7 +96,7 @@ class Sampler(_Model):
         ge=1,
         description="Samples per pixel; null = 1 for center, 16 otherwise. "
         "center: exactly 1; grid, jittered: a perfect square.",
-        # the default as data for editors (the page's form); tests/test_samples.py keeps it equal to _default_spp
+        # the default as data for editors (the page's form); tests/tracer/test_samples.py keeps it equal to _default_spp
         json_schema_extra={
             "x-default-by-type": {
                 "center": 1,

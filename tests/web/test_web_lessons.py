@@ -12,15 +12,14 @@ from __future__ import annotations
 import json
 import re
 from io import BytesIO
-from pathlib import Path
 
 import httpx
 import numpy as np
 import pytest
+from conftest import ROOT
 from PIL import Image
 from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
 
-ROOT = Path(__file__).resolve().parent.parent
 JS = ROOT / "web" / "js"
 
 

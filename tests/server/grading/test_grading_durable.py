@@ -54,7 +54,7 @@ def slow_class() -> bytes:
     return buf.getvalue()
 
 
-EXAMPLE_GRADES = {  # the example class (every test's points: tests/test_grading.py)
+EXAMPLE_GRADES = {  # the example class (every test's points: tests/tracer/grading/test_grading.py)
     "alice": (13.0, "graded"), "bob": (6.0, "graded"), "carol": (0.0, "invalid"), "dave": (13.0, "graded"),
     "erin": (7.0, "graded"), "frank": (0.0, "invalid"), "grace": (7.0, "graded"), "heidi": (1.0, "graded"),
     "ivan": (0.0, "invalid"),

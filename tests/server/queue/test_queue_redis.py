@@ -149,7 +149,8 @@ def test_queue_redis_losing_its_data_requeues_what_the_store_has(redis_server, t
 
 def test_queue_redis_grades_a_class_through_the_worker_hosts(cluster):
     """Grading needs nothing new: its renders are jobs like any other, rendered on a worker host, their
-    images and variances back on the API host: the example's scores (the example class: tests/test_grading.py)."""
+    images and variances back on the API host: the example's scores (the example class:
+    tests/tracer/grading/test_grading.py)."""
     import base64
     import json
 

@@ -6,14 +6,13 @@ The app here has no render worker (workers = 0): nothing is rendered, jobs that 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
-from conftest import scene_dict
+from conftest import ROOT, scene_dict
 from test_api_support import api_client, tiny_scene
 from test_assets import no_repr, obj_uri, png_uri, uri
 
-BAD_DIR = Path(__file__).parent / "bad_scenes"
+BAD_DIR = ROOT / "tests" / "bad_scenes"
 EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())
 LIMITS = dict(max_width=512, max_height=512, max_pixels=512 * 400, max_spp=64, max_depth=8, max_light_samples=4)
 LIMITS.update(max_primitives=20, max_body_bytes=100_000, max_json_depth=32)

@@ -27,7 +27,7 @@ from tracer.grading.archive import CHUNK
 
 EXAMPLE = ROOT / "scenes" / "grading"
 CLASS = EXAMPLE / "class"
-EXPECTED = {  # the example class's scores and statuses (every test: tests/test_grading.py)
+EXPECTED = {  # the example class's scores and statuses (every test: tests/tracer/grading/test_grading.py)
     "alice": (13.0, "graded"), "bob": (6.0, "graded"), "carol": (0.0, "invalid"), "dave": (13.0, "graded"),
     "erin": (7.0, "graded"), "frank": (0.0, "invalid"), "grace": (7.0, "graded"), "heidi": (1.0, "graded"),
     "ivan": (0.0, "invalid"),
@@ -181,7 +181,7 @@ def finished(client, url: str) -> dict:
 
 def test_upload_a_zip_grades_the_example_class(app):
     """The page's way: a multipart body with the assignment and the class as a zip, parsed as a stream;
-    the same grades as every other way (tests/test_grading.py)."""
+    the same grades as every other way (tests/tracer/grading/test_grading.py)."""
     r = post(app, files={"class": ("hw4.zip", class_zip(), "application/zip")})
     assert r.status_code == 202, r.text
     run = r.json()

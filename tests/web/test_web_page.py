@@ -19,7 +19,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from conftest import scene_dict, small
+from conftest import ROOT, scene_dict, small
 from test_api_support import INSTRUCTOR, Server, bearer
 
 CHROMIUM = "/usr/bin/chromium"
@@ -700,7 +700,7 @@ def test_web_page_viewer_and_lessons_follow_jobs_the_same_way(desktop):
     """One followJob (web/js/jobs.js) follows jobs for the viewer and the lessons: a stream that keeps dropping
     is retried MAX_FAILURES (8) times by both, then given up with a message. It reads the stream with fetch
     (an EventSource cannot send the job's token)."""
-    web = Path(__file__).resolve().parent.parent / "web" / "js"
+    web = ROOT / "web" / "js"
     assert [p.name for p in web.glob("*.js") if "EventSource(" in p.read_text()] == []
     assert [p.name for p in web.glob("*.js") if "eventsUrl(" in p.read_text() and p.name != "api.js"] == ["jobs.js"]
     for user in ("viewer.js", "lessons.js"):

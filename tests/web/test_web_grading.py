@@ -15,6 +15,7 @@ import zipfile
 from pathlib import Path
 
 import httpx
+from conftest import ROOT
 from test_api_support import INSTRUCTOR, long_scene, wait_for
 from test_web_page import PHONE, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
 
@@ -279,7 +280,7 @@ def test_web_grading_broken_assignment_shows_the_servers_paths(desktop):  # noqa
 def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     """Files picked (a scene, an image, a stray text file; then a zip alone), and the phone layout of
     the table and a student's detail (the run graded over the API, shown again from localStorage)."""
-    root = Path(__file__).resolve().parents[1] / "scenes" / "grading" / "class"
+    root = ROOT / "scenes" / "grading" / "class"
     run_id = grade_example_over_api(server)
     phone.context.add_init_script(f"localStorage.setItem('grading.run', JSON.stringify('{run_id}'))")
     phone.context.add_init_script(f"localStorage.setItem('rt.instructor', JSON.stringify('{INSTRUCTOR}'))")

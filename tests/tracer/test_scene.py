@@ -13,6 +13,7 @@ import re
 from pathlib import Path
 
 import pytest
+from conftest import ROOT
 from pydantic import ValidationError
 from test_assets import no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
@@ -44,8 +45,8 @@ from tracer.scene import (
     validate_scene,
 )
 
-BAD_DIR = Path(__file__).parent / "bad_scenes"
-SCENES_DIR = Path(__file__).resolve().parent.parent / "scenes"
+BAD_DIR = ROOT / "tests" / "bad_scenes"
+SCENES_DIR = ROOT / "scenes"
 EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())
 
 # SCENE_FORMAT.md's example with every documented field, plus one of each light and object type.
@@ -721,7 +722,7 @@ def test_resolve_asset_inside_missing_absolute_escaping(tmp_path):
 
 
 def test_resolve_asset_default_folder_is_scenes_assets():
-    assert ASSET_DIR == Path(__file__).resolve().parent.parent / "scenes" / "assets"
+    assert ASSET_DIR == ROOT / "scenes" / "assets"
 
 
 def _mesh(file: str) -> dict:

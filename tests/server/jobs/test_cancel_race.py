@@ -6,7 +6,7 @@ done), the answer the client got and the job's final status agree:
 
 The jobs are short (a few passes of a small scene) so that many cancels land in a render's last pass,
 after its last look at the cancel flag; the delays sweep that window. The store's own test of the race is
-tests/test_store.py (test_store_an_accepted_cancel_wins_over_the_try_s_end)."""
+tests/server/jobs/test_store.py (test_store_an_accepted_cancel_wins_over_the_try_s_end)."""
 
 from __future__ import annotations
 

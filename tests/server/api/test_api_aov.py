@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+from conftest import ROOT
 from PIL import Image
 from test_api_support import long_scene, parse_sse, submit, tiny_scene, wait_for, wait_status
 
@@ -73,9 +74,8 @@ def test_api_aov_job_scene_and_rays_in_progress_events(client):
 def test_api_radiosity_solution_of_a_finished_job(client):
     """A radiosity job keeps its solution: the patches, the energy balance, who shot when."""
     import json
-    from pathlib import Path
 
-    scene = json.loads((Path(__file__).resolve().parent.parent / "scenes" / "cornell_radiosity.json").read_text())
+    scene = json.loads((ROOT / "scenes" / "cornell_radiosity.json").read_text())
     scene["film"].update(width=16, height=16)
     scene["sampler"] = {"type": "center"}
     scene["render"]["radiosity"] = {"patch_size": 0.5, "rays": 256, "threshold": 0.05}
@@ -100,11 +100,8 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     """The solve reports its own progress (phase 'radiosity', the solve's fraction and shots) before the
     first pass, ends in the job's stats (shots, patches, the solve's rays), and a cancel stops it mid-solve."""
     import json
-    from pathlib import Path
 
-    scene = json.loads(
-        (Path(__file__).resolve().parent.parent / "scenes" / "cornell_spheres_radiosity.json").read_text()
-    )
+    scene = json.loads((ROOT / "scenes" / "cornell_spheres_radiosity.json").read_text())
     scene["film"].update(width=16, height=16)
     scene["sampler"] = {"type": "center"}
     scene["render"]["radiosity"] = {"patch_size": 0.25, "rays": 1024, "threshold": 0.002, "max_steps": 20000}
