@@ -77,7 +77,7 @@ class GradingRun:
         self.flight: dict[Future, tuple[tuple, bool]] = {}  # future -> (task, submitted alone)
         self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
         self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
-        self.jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
+        self.render_jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
 
     def run(self) -> None:
         try:
@@ -140,12 +140,12 @@ class GradingRun:
         return row["id"]
 
     def _reference_job(self, key: str) -> RenderJob:
-        if key not in self.jobs:
+        if key not in self.render_jobs:
             wanted = None if key == MEAN else tuple(json.loads(key))
             for what, k, job in self.grader.reference_jobs(set() if wanted is None else {wanted}):
                 if (what == "mean") == (wanted is None) and k == wanted:
-                    self.jobs[key] = job
-        return self.jobs[key]
+                    self.render_jobs[key] = job
+        return self.render_jobs[key]
 
     def _queue_render(self, key: str) -> None:
         """The class's render `key` queued once (MEAN, or a baseline's key)."""

@@ -16,6 +16,7 @@ import shutil
 import threading
 import time
 import uuid
+from dataclasses import dataclass
 from pathlib import Path
 
 from server.core.settings import Settings
@@ -34,7 +35,7 @@ STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
 }  # fmt: skip
 
 
-
+@dataclass
 class Handed:
     """A submission handed to a new run: its file's bytes (`data`), or a file (`path`, an upload's, on
     the data directory's disk) that the run takes into its folder."""
