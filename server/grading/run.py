@@ -97,24 +97,40 @@ class GradingRun:
         self.items = {it["student"]: it for it in self.gs.items(self.id)}
         self.renders = {r["key"]: r for r in self.gs.renders(self.id)}
         self.renders_total = row["renders_total"]
+        self.open = self.gs.is_open(self.id)
 
     def _loop(self) -> bool:
-        """Until every student is graded (True), or the server stops (False: the rows say where it was)."""
+        """Until every student is graded (True), or the server stops (False: the rows say where it was). An
+        open run (an assignment's version) waits for more students while it is open: `GradeRuns.add` wakes it."""
         if self.grader.reference is not None:
             self._queue_render(MEAN)
-        stopping = self.runs.stopping
+        stopping, woken = self.runs.stopping, self.runs.wake(self.id)
         while not stopping.is_set():
+            if woken.is_set():
+                woken.clear()
+                self._newcomers()
             self._poll_jobs()
             self._schedule()
             if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
-                return True
-            if self.flight:
+                if not self.open:
+                    return True
+                woken.wait(POLL)  # idle until a submission comes
+            elif self.flight:
                 done, _ = wait(list(self.flight), timeout=POLL, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(future)
             else:
                 stopping.wait(POLL)
         return False
+
+    def _newcomers(self) -> None:
+        """An open run's students added since it last looked (and whether it is still open)."""
+        self.open = self.gs.is_open(self.id)
+        last = max((it["position"] for it in self.items.values()), default=-1)
+        new = self.gs.items(self.id, after=last)
+        if new:
+            self.items.update({it["student"]: it for it in new})
+            self.renders_total = None  # counted again once they are prepared
 
     def _finish(self) -> None:
         items = sorted(self.items.values(), key=lambda it: it["position"])
