@@ -20,7 +20,7 @@ from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
 from server.course.policy import AssignmentIn, Instant
 from server.course.service import Course, Who, iso, links_csv, not_found
-from tracer.errors import translate_error
+from tracer.errors import pydantic_errors
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
@@ -103,7 +103,7 @@ async def _assignment_body(request: Request) -> AssignmentIn:
     try:
         return AssignmentIn.model_validate(data)
     except ValidationError as e:
-        raise ApiError(422, [translate_error(x) for x in e.errors()]) from None
+        raise ApiError(422, pydantic_errors(e, AssignmentIn)) from None
 
 
 ASSIGNMENT_BODY = {
