@@ -1,0 +1,91 @@
+"""Assignments survive their server (server/course/, server/grading/): `python -m server` on loopback is
+killed (SIGKILL) with a burst of submissions half graded, and started again on its data directory; every
+submission acknowledged before the kill is graded exactly once: one row in its version's grading run, one
+render job, the example's grade. Two submissions are also made to look as if the server had died between
+acknowledging them and handing them to their run (their rows' `handed` cleared while it is down): the new
+server hands them again, and they are still graded once."""
+
+from __future__ import annotations
+
+import copy
+import json
+import signal
+import sqlite3
+from datetime import UTC, datetime, timedelta
+
+from conftest import ROOT
+from test_api_support import INSTRUCTOR, Server, bearer, wait_for
+
+EXAMPLE = ROOT / "scenes" / "grading"
+SLOW = 8  # students submitting alice's scene at 64 spp and 16 light samples (~0.3 s each to render)
+
+
+def spec() -> dict:
+    a = json.loads((EXAMPLE / "assignment.json").read_text())
+    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    return a
+
+
+def slow_alice() -> dict:
+    scene = copy.deepcopy(json.loads((EXAMPLE / "class" / "alice.json").read_text()))
+    scene["sampler"] = {"type": "jittered", "spp": 64}
+    scene["render"]["light_samples"] = 16
+    return scene
+
+
+def statuses(server: Server, aid: str) -> dict[str, dict]:
+    r = server.client.get(f"/api/assignments/{aid}/submissions", headers=bearer(INSTRUCTOR))
+    assert r.status_code == 200, r.text
+    return {s["id"]: s for s in r.json()["submissions"]}
+
+
+def test_assignments_a_killed_server_grades_every_submission_once_when_started_again(tmp_path):
+    data = tmp_path / "data"
+    env = {"TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
+    server = Server(data, workers=1, env=env).start()
+    try:
+        deadline = (datetime.now(UTC) + timedelta(days=1)).isoformat()
+        r = server.client.post("/api/assignments", json={"spec": spec(), "deadline": deadline},
+                               headers=bearer(INSTRUCTOR))  # fmt: skip
+        assert r.status_code == 201, r.text
+        aid = r.json()["id"]
+        text = "id,name,email\n" + "".join(f"s{i},Student {i},\n" for i in range(SLOW))
+        r = server.client.post(f"/api/assignments/{aid}/roster", content=text,
+                               headers={**bearer(INSTRUCTOR), "Content-Type": "text/csv"})  # fmt: skip
+        tokens = [s["token"] for s in r.json()["students"]]
+        sids = []
+        for tok in tokens:
+            r = server.client.post(f"/api/assignments/{aid}/submissions", json={"scene": slow_alice()},
+                                   headers=bearer(tok))  # fmt: skip
+            assert r.status_code == 202 and r.json()["status"] == "queued", r.text
+            sids.append(r.json()["id"])
+
+        def mid_burst():
+            s = statuses(server, aid)
+            graded = sum(x["status"] == "graded" for x in s.values())
+            return 1 <= graded <= SLOW - 3 and s
+
+        before = wait_for(mid_burst, 240, "the burst half graded", interval=0.1)
+        server.stop(signal.SIGKILL)
+        waiting = [sid for sid in sids if before[sid]["status"] != "graded"][:2]
+        db = sqlite3.connect(data / "jobs.sqlite3")
+        db.executemany("UPDATE course_submissions SET handed = 0 WHERE id = ?", [(s,) for s in waiting])
+        db.commit()
+        db.close()
+
+        server = Server(data, workers=1, env=env).start()
+        done = wait_for(lambda: all((s := statuses(server, aid))[x]["status"] == "graded" for x in sids) and s, 300,
+                        "every submission graded", interval=0.2)  # fmt: skip
+        assert {(done[x]["score"], done[x]["max_score"]) for x in sids} == {(13.0, 13.0)}
+        assert "course: 2 accepted submission(s) handed to their grading runs" in server.log_path.read_text()
+    finally:
+        server.stop()
+    db = sqlite3.connect(data / "jobs.sqlite3")
+    try:
+        run_id = db.execute("SELECT run_id FROM course_versions WHERE assignment_id = ?", (aid,)).fetchone()[0]
+        items = db.execute("SELECT student, COUNT(*) FROM grading_items WHERE run_id = ? GROUP BY student", (run_id,))
+        assert dict(items.fetchall()) == {"reference": 1, **{sid: 1 for sid in sids}}
+        jobs = dict(db.execute("SELECT name, COUNT(*) FROM jobs WHERE name LIKE 'grading: %' GROUP BY name"))
+        assert {sid: jobs.get(f"grading: {sid}") for sid in sids} == {sid: 1 for sid in sids}  # rendered once each
+    finally:
+        db.close()
