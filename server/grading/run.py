@@ -48,6 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 POLL = 0.2  # seconds between two looks at the run's render jobs
+IDLE = 1.0  # seconds between two looks whether the server stops, for an open run with nothing to do
 FLIGHT_PER_PROCESS = 2  # tasks of one run in the grading pool at once, per process
 MAX_QUEUED = 1_000_000  # a class is queued whole: the queue's limit (TRACER_MAX_QUEUED_JOBS) is for students
 MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
@@ -114,7 +115,7 @@ class GradingRun:
             if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
                 if not self.open:
                     return True
-                woken.wait(POLL)  # idle until a submission comes
+                woken.wait(IDLE)  # idle until a submission comes (or the server stops)
             elif self.flight:
                 done, _ = wait(list(self.flight), timeout=POLL, return_when=FIRST_COMPLETED)
                 for future in done:
