@@ -150,7 +150,13 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     assert sorted(s["student"] for s in everyone) == ["s1", "s2", "s3"]
     mine = app.get(f"/api/assignments/{aid}/submissions", headers=bearer(tok["s1"])).json()["submissions"]
     assert [s["id"] for s in mine] == [alice["id"]] and mine[0]["counts"] is True
+    assert sorted(got["s1"]["files"]) == ["render.png"]  # the error map would show the hidden test
+    r = app.get(got["s1"]["files"]["render.png"], headers=bearer(tok["s1"]))
+    assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
+    assert app.get(f"{got['s1']['url']}/error_map.png", headers=bearer(tok["s1"])).status_code == 404
+    assert app.get(got["s1"]["files"]["render.png"], headers=bearer(tok["s3"])).status_code == 404
     teacher_view = app.get(f"/api/assignments/{aid}/submissions/{alice['id']}", headers=TEACHER).json()
+    assert sorted(teacher_view["files"]) == ["error_map.png", "reference.png", "rejected.png", "render.png"]
     assert [t for t in teacher_view["feedback"]["tests"] if t["test"] == "pixels"][0]["score"] == 2
 
     assert grades(app, aid) == [
@@ -162,7 +168,7 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     clock.now = DEADLINE + timedelta(seconds=1)  # the deadline passed (no late cut-off): the pixels test shown
     after = app.get(f"/api/assignments/{aid}/submissions/{alice['id']}", headers=bearer(tok["s1"])).json()
     assert [t for t in after["feedback"]["tests"] if t["test"] == "pixels"][0]["score"] == 2
-    assert "metrics" in after["feedback"]
+    assert "metrics" in after["feedback"] and sorted(after["files"]) == ["error_map.png", "rejected.png", "render.png"]
 
 
 # ------------------------------------------------------------------------- deadlines and caps

@@ -37,7 +37,7 @@ from server.course.policy import AssignmentIn, Feedback, Policy, When
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.store import JobStore
-from tracer.grading import AssignmentError, Grader, load_assignment, student_name
+from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +71,7 @@ class Course:
         self.store = CourseStore(settings.data_dir)
         self.root = settings.data_dir / "course"
         self.root.mkdir(parents=True, exist_ok=True)
+        self._specs: dict[tuple[str, int], Assignment] = {}  # a version's spec, parsed (versions never change)
 
     def now(self) -> float:
         return self.clock().timestamp()
@@ -320,10 +321,18 @@ class Course:
 
     # -- what a caller sees --------------------------------------------------------------------
 
+    def spec(self, aid: str, version: int) -> Assignment:
+        """A version's spec, parsed once."""
+        key = (aid, version)
+        if key not in self._specs:
+            row = next(v for v in self.store.versions(aid) if v["version"] == version)
+            self._specs[key] = load_assignment(row["spec"])[0]
+        return self._specs[key]
+
     def brief(self, a: dict, who: Who, base: str) -> dict:
         spec, p, now = a["spec"], a["policy"], self.now()
         due, cut = self.deadlines(a, who.student)
-        assignment, _ = load_assignment(spec)
+        assignment = self.spec(a["id"], a["version"])
         out = {
             "id": a["id"],
             "version": a["version"],
@@ -406,12 +415,34 @@ class Course:
         if status in ("graded", "invalid", "failed"):
             item = self.runs.item(sub["run_id"], sub["id"])
             report = (item or {}).get("report") or {}
-            out["feedback"] = self._feedback(a, report, feedback, who, now, sub["kind"])
+            out["feedback"] = self._feedback(a, sub, report, feedback, who, now)
+            out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
         return out
 
-    def _feedback(self, a: dict, report: dict, feedback: Feedback, who: Who, now: float, kind: str) -> dict:
-        assignment, _ = load_assignment(a["spec"])
-        keys = report_keys(assignment, kind)
+    def files(self, a: dict, sub: dict, who: Who) -> list[str]:
+        """The pictures of a graded submission the caller may fetch: its render (their own work); the error
+        map and the rejected pixels when no image test is hidden (they show the reference's structure); the
+        reference when the policy shows it. The instructor: all of them."""
+        if _status(sub) != "graded":
+            return []
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        now = self.now()
+        names = ["render.png"]
+        tests = self.spec(a["id"], sub["version"]).image_tests()
+        if all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests):
+            names += ["error_map.png", "rejected.png"]
+        if who.instructor or a["policy"]["show_reference"]:
+            names.append("reference.png")
+        folder = self.runs.root / sub["run_id"] / "out" / sub["id"]
+        return [n for n in names if (folder / n).is_file()]
+
+    def file(self, a: dict, sub: dict, who: Who, name: str) -> Path | None:
+        if name not in self.files(a, sub, who):
+            return None
+        return self.runs.root / sub["run_id"] / "out" / sub["id"] / name
+
+    def _feedback(self, a: dict, sub: dict, report: dict, feedback: Feedback, who: Who, now: float) -> dict:
+        keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
         tests, hidden_image = [], False
         for key, t in zip(keys, report.get("tests", []), strict=False):
             when = feedback.tests.get(key, feedback.default)

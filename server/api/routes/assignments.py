@@ -288,6 +288,20 @@ def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict
     return course.view(a, sub, who, c["id"] if c else None)
 
 
+@router.get("/{aid}/submissions/{sid}/{name}", summary="A graded submission's picture", responses=NOT_FOUND)
+def submission_file(aid: str, sid: str, name: str, course: CourseDep, caller: CallerDep) -> Response:
+    """render.png (always, once graded); error_map.png and rejected.png when no image test's feedback is
+    hidden; reference.png when the policy shows the reference. The submission's `files` lists them."""
+    a, who = course.who(aid, caller)
+    sub = course.store.submission(aid, sid) if len(sid) == 32 else None
+    if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
+        raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
+    path = course.file(a, sub, who, name)
+    if path is None:
+        raise ApiError(404, [{"path": "name", "message": f"no {name[:40]!r} to show for this submission"}])
+    return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})
+
+
 @router.get("/{aid}/grades.csv", summary="The grades: one row per roster student", responses=NOT_FOUND)
 def grades(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     a = _instructor(course, aid, caller, request)
