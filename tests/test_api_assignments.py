@@ -404,6 +404,10 @@ def test_assignments_the_repositorys_spec_with_its_reference_file_beside_it(app)
         "deadline": DEADLINE.isoformat(),
     }
     assert app.post("/api/assignments", json=body).status_code == 201
+    listed = app.get("/api/assignments").json()["assignments"]
+    assert a["id"] in [x["id"] for x in listed] and listed[0]["name"] == spec()["name"]
+    assert app.get("/api/assignments", headers=bearer(student_token())).status_code == 401
+    assert app.get("/openapi.json").json()["paths"]["/api/assignments"]["post"]["requestBody"]
     png = wait_for(
         lambda: (r := app.get(f"/api/assignments/{a['id']}/reference.png")).status_code == 200 and r,
         120,

@@ -106,24 +106,17 @@ async def _assignment_body(request: Request) -> AssignmentIn:
         raise ApiError(422, pydantic_errors(e, AssignmentIn)) from None
 
 
-ASSIGNMENT_BODY = {
-    "requestBody": {
-        "required": True,
-        "content": {
-            "application/json": {"schema": AssignmentIn.model_json_schema()},
-            "multipart/form-data": {
-                "schema": {
-                    "type": "object",
-                    "properties": {
-                        "spec": {"type": "string", "format": "binary"},
-                        "reference": {"type": "string", "format": "binary"},
-                        "deadline": {"type": "string"},
-                    },
-                }
-            },
-        },
-    }
-}
+POLICY_FIELDS = {name: {"description": f.description or ""} for name, f in AssignmentIn.model_fields.items()}
+REQUIRED = ["spec", "deadline"]
+ASSIGNMENT_BODY = {  # for /docs: the route reads JSON or multipart itself (docs/assignments.md has every field)
+    "requestBody": {"required": True, "content": {
+        "application/json": {"schema": {"type": "object", "required": REQUIRED, "properties": POLICY_FIELDS}},
+        "multipart/form-data": {"schema": {"type": "object", "required": REQUIRED, "properties": {
+            **POLICY_FIELDS, "spec": {"type": "string", "format": "binary", "description": "the spec's JSON file"},
+            "reference": {"type": "string", "format": "binary", "description": "the reference scene's JSON file"},
+        }}},
+    }},
+}  # fmt: skip
 
 
 @router.post(
@@ -160,6 +153,16 @@ async def edit(
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.edit, aid, body, regrade)
     return course.brief(a, Who(None), _base(request))
+
+
+@router.get("", summary="Every assignment (the instructor's)", dependencies=[Depends(require_instructor)])
+def listing(course: CourseDep) -> dict:
+    out = []
+    for aid in course.store.assignments():
+        a = course.store.assignment(aid)
+        out.append({"id": aid, "name": a["spec"]["name"], "version": a["version"], "deadline": a["policy"]["deadline"],
+                    "students": len(course.store.students(aid)), "url": f"/api/assignments/{aid}"})  # fmt: skip
+    return {"assignments": out}
 
 
 @router.get("/{aid}", summary="The brief (a student's) or everything (the instructor's)", responses=NOT_FOUND)
