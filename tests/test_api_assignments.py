@@ -207,6 +207,11 @@ def test_assignments_late_window_penalty_extension_and_cut_off(app, clock):
     seen = app.get(f"/api/assignments/{aid}/submissions/{late['id']}", headers=bearer(tok["late"])).json()
     assert (seen["score"], seen["raw_score"], seen["penalty"]) == (5.25, 7.0, 0.25)
 
+    # an extension granted afterwards takes the late mark and its penalty away
+    r = app.post(f"/api/assignments/{aid}/extensions", json={"student": "late", "deadline": late_until.isoformat()})
+    assert r.status_code == 200, r.text
+    assert {r["id"]: (r["score"], r["late"]) for r in grades(app, aid)}["late"] == ("7", "false")
+
     r = app.post(f"/api/assignments/{aid}/extensions", json={"student": "nobody", "deadline": None})
     assert r.status_code == 404 and r.json()["errors"][0]["path"] == "student"
 

@@ -14,7 +14,7 @@ import sqlite3
 from datetime import UTC, datetime, timedelta
 
 from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, wait_for
+from test_api_support import INSTRUCTOR, Server, api_client, bearer, wait_for
 
 EXAMPLE = ROOT / "scenes" / "grading"
 SLOW = 8  # students submitting alice's scene at 64 spp and 16 light samples (~0.3 s each to render)
@@ -89,3 +89,29 @@ def test_assignments_a_killed_server_grades_every_submission_once_when_started_a
         assert {sid: jobs.get(f"grading: {sid}") for sid in sids} == {sid: 1 for sid in sids}  # rendered once each
     finally:
         db.close()
+
+
+def test_assignments_an_app_stopped_mid_grading_goes_on_when_started_again(tmp_path):
+    """The app stopped (its lifespan ends: the grading runs stop where their rows say) with submissions
+    queued and being graded, then started again on the same data directory: each graded once."""
+    data = tmp_path / "data"
+    settings = {"instructor_token": INSTRUCTOR, "token": INSTRUCTOR}
+    with api_client(data, workers=1, **settings) as client:
+        r = client.post("/api/assignments", json={"spec": spec(), "deadline": "2100-01-01T00:00:00Z"})
+        aid = r.json()["id"]
+        r = client.post(f"/api/assignments/{aid}/roster", content="id,name,email\na,A,\nb,B,\nc,C,\n",
+                        headers={"Content-Type": "text/csv"})  # fmt: skip
+        sids = [client.post(f"/api/assignments/{aid}/submissions", json={"scene": slow_alice()},
+                            headers=bearer(s["token"])).json()["id"] for s in r.json()["students"]]  # fmt: skip
+        first = statuses_in(client, aid)
+    assert any(s["status"] != "graded" for s in first.values())  # stopped before the end
+    with api_client(data, workers=1, **settings) as client:
+        done = wait_for(lambda: all((s := statuses_in(client, aid))[x]["status"] == "graded" for x in sids) and s,
+                        240, "every submission graded", interval=0.2)  # fmt: skip
+        assert {(done[x]["score"], done[x]["max_score"]) for x in sids} == {(13.0, 13.0)}
+        jobs = [j["name"] for j in client.app.state.store.list_jobs(limit=100)[0]]
+        assert sorted(n for n in jobs if n in {f"grading: {x}" for x in sids}) == sorted(f"grading: {x}" for x in sids)
+
+
+def statuses_in(client, aid: str) -> dict[str, dict]:
+    return {s["id"]: s for s in client.get(f"/api/assignments/{aid}/submissions").json()["submissions"]}

@@ -300,8 +300,29 @@ class Course:
                 "submission costs none)"
             )
             raise ApiError(403, [{"path": "max_submissions", "message": message}])
-        self._hand(sub)
-        return self.store.submission(a["id"], sid)
+        try:
+            self._hand(sub)
+        except BaseException:  # a full disk: nothing of it is kept (the client was not told it was taken)
+            self.store.remove_submission(sid)
+            path.unlink(missing_ok=True)
+            raise
+        return self.submission(a, sid)
+
+    def submissions(self, a: dict, student: str | None = None) -> list[dict]:
+        """Submissions (one student's, or all), each `late` by the student's deadline as it is now: an
+        extension granted afterwards, or an edit that moves the deadline, takes a late mark (and its penalty)
+        away or gives it (the row keeps what was true when the body came)."""
+        subs = self.store.submissions(a["id"], student)
+        due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
+        for sub in subs:
+            sub["late"] = int(sub["accepted_at"] > due.get(sub["student"], sub["accepted_at"]))
+        return subs
+
+    def submission(self, a: dict, sid: str) -> dict | None:
+        sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
+        if sub is not None:
+            sub["late"] = int(sub["accepted_at"] > self.deadlines(a, self.store.student(a["id"], sub["student"]))[0])
+        return sub
 
     def _hand(self, sub: dict) -> None:
         self.runs.add(
@@ -480,7 +501,7 @@ class Course:
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
         subs: dict[str, list[dict]] = {}
-        for s in self.store.submissions(a["id"]):
+        for s in self.submissions(a):
             subs.setdefault(s["student"], []).append(s)
         for st in self.store.students(a["id"]):
             mine = subs.get(st["student"], [])

@@ -58,7 +58,7 @@ CREATE TABLE IF NOT EXISTS course_submissions (
     kind TEXT NOT NULL,                   -- scene, png or exr
     file TEXT NOT NULL,                   -- relative to DATA/course/
     accepted_at REAL NOT NULL,            -- Unix time (s): the API's clock when its body was accepted
-    late INTEGER NOT NULL,                -- after the student's deadline (and before the late cut-off)
+    late INTEGER NOT NULL,                -- after the student's deadline when it came (its view reads the deadline now)
     handed INTEGER NOT NULL DEFAULT 0     -- its row is in the grading run (a restart hands those that are not)
 );
 CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
@@ -206,6 +206,9 @@ class CourseStore:
             f" AND g.student = s.id WHERE s.assignment_id = ? AND s.student = ? AND {HOLDS_ATTEMPT}",
             (aid, student),
         ).fetchone()[0]
+
+    def remove_submission(self, sid: str) -> None:
+        self.db.execute("DELETE FROM course_submissions WHERE id = ?", (sid,))
 
     def handed(self, sid: str) -> None:
         self.db.execute("UPDATE course_submissions SET handed = 1 WHERE id = ?", (sid,))

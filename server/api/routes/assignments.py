@@ -272,7 +272,7 @@ def submit(
 @router.get("/{aid}/submissions", summary="Submissions: a student's own, or all (the instructor)", responses=NOT_FOUND)
 def submissions(aid: str, course: CourseDep, caller: CallerDep) -> dict:
     a, who = course.who(aid, caller)
-    subs = course.store.submissions(aid, None if who.instructor else who.student["student"])
+    subs = course.submissions(a, None if who.instructor else who.student["student"])
     counting: dict[str, str] = {}
     for student in {s["student"] for s in subs}:
         c = course.counting(a, [s for s in subs if s["student"] == student])
@@ -284,10 +284,10 @@ def submissions(aid: str, course: CourseDep, caller: CallerDep) -> dict:
 @router.get("/{aid}/submissions/{sid}", summary="One submission: status, score, feedback", responses=NOT_FOUND)
 def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict:
     a, who = course.who(aid, caller)
-    sub = course.store.submission(aid, sid) if len(sid) == 32 else None
+    sub = course.submission(a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
-    c = course.counting(a, course.store.submissions(aid, sub["student"]))
+    c = course.counting(a, course.submissions(a, sub["student"]))
     return course.view(a, sub, who, c["id"] if c else None)
 
 
@@ -296,7 +296,7 @@ def submission_file(aid: str, sid: str, name: str, course: CourseDep, caller: Ca
     """render.png (always, once graded); error_map.png and rejected.png when no image test's feedback is
     hidden; reference.png when the policy shows the reference. The submission's `files` lists them."""
     a, who = course.who(aid, caller)
-    sub = course.store.submission(aid, sid) if len(sid) == 32 else None
+    sub = course.submission(a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
     path = course.file(a, sub, who, name)
