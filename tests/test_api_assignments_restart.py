@@ -13,6 +13,7 @@ import signal
 import sqlite3
 from datetime import UTC, datetime, timedelta
 
+import pytest
 from conftest import ROOT
 from test_api_support import INSTRUCTOR, Server, api_client, bearer, wait_for
 
@@ -115,3 +116,51 @@ def test_assignments_an_app_stopped_mid_grading_goes_on_when_started_again(tmp_p
 
 def statuses_in(client, aid: str) -> dict[str, dict]:
     return {s["id"]: s for s in client.get(f"/api/assignments/{aid}/submissions").json()["submissions"]}
+
+
+@pytest.fixture(scope="module")
+def redis_server(tmp_path_factory):
+    from queue_support import RedisServer
+
+    with RedisServer(tmp_path_factory.mktemp("redis") / "redis.log") as r:
+        yield r
+
+
+def test_assignments_on_the_redis_backend(redis_server, tmp_path):
+    """The same course with the renders on a worker host through Redis (the API renders nothing): a scene
+    and an image graded as the example class is, and the grades exported."""
+    import base64
+
+    from queue_support import Api, Process, worker_argv
+
+    api = Api(tmp_path / "data", redis_server.url).start()  # on loopback without a token: the instructor is anyone
+    host = Process(worker_argv(redis_server.url, "host-a", threads=2), tmp_path / "host-a.log").start()
+    try:
+        api.wait_hosts(1)
+        c = api.client
+        r = c.post("/api/assignments", json={"spec": spec(), "deadline": "2100-01-01T00:00:00Z"})
+        assert r.status_code == 201, r.text
+        aid = r.json()["id"]
+        r = c.post(f"/api/assignments/{aid}/roster", content="id,name,email\na,A,\ng,G,\n",
+                   headers={"Content-Type": "text/csv"})  # fmt: skip
+        tok = {s["id"]: s["token"] for s in r.json()["students"]}
+        png = base64.b64encode((EXAMPLE / "class" / "grace.png").read_bytes()).decode()
+        subs = {
+            "a": c.post(f"/api/assignments/{aid}/submissions", json={"scene": slow_alice()}, headers=bearer(tok["a"])),
+            "g": c.post(f"/api/assignments/{aid}/submissions", json={"image": png, "format": "png"},
+                        headers=bearer(tok["g"])),
+        }  # fmt: skip
+        assert all(r.status_code == 202 for r in subs.values()), [r.text for r in subs.values()]
+
+        def graded():
+            got = {k: c.get(r.headers["location"], headers=bearer(tok[k])).json() for k, r in subs.items()}
+            return all(g["status"] == "graded" for g in got.values()) and got
+
+        got = wait_for(graded, 300, "both graded on the worker host", interval=0.2)
+        assert {k: (g["score"], g["max_score"]) for k, g in got.items()} == {"a": (13.0, 13.0), "g": (7.0, 7.0)}
+        assert c.get(f"/api/assignments/{aid}/grades.csv").text.splitlines()[1:] == ["a,A,13,13,false,1",
+                                                                                     "g,G,7,7,false,1"]  # fmt: skip
+        assert "job " in host.log_path.read_text()  # the host rendered them
+    finally:
+        host.stop()
+        api.stop()
