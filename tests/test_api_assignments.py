@@ -455,3 +455,21 @@ def test_assignments_an_edit_keeps_every_version_and_regrades(app, clock):
         "name": "flip",
         "points": 4,
     }
+
+
+def test_assignments_a_submissions_grade_streams_as_it_moves(app, spare, clock):
+    """GET .../events: the submission now, then each time its grade moves, then `end`; another student's
+    submission is a 404 there too."""
+    from test_api_support import parse_sse
+
+    tok = roster(app, spare, [("sse", "Stream S", ""), ("other", "Other O", "")])
+    sub = submit(app, spare, tok["sse"]["token"], image("grace"))
+    url = f"/api/assignments/{spare}/submissions/{sub['id']}/events"
+    assert app.get(url, headers=bearer(tok["other"]["token"])).status_code == 404
+    with app.stream("GET", url, headers=bearer(tok["sse"]["token"])) as r:
+        assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
+        events = list(parse_sse(r.iter_lines()))
+    assert events[-1] == ("end", {})
+    views = [data for kind, data in events if kind == "submission"]
+    assert views[0]["status"] in ("queued", "grading") and views[-1]["status"] == "graded"
+    assert (views[-1]["score"], views[-1]["max_score"]) == (7.0, 7.0)

@@ -25,8 +25,10 @@ import io
 import json
 import logging
 import secrets
+import threading
 import uuid
 from collections.abc import Callable
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -36,6 +38,7 @@ from server.core.settings import Settings
 from server.course.policy import AssignmentIn, Feedback, Policy, When
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns, Handed
+from server.jobs.service import Follower
 from server.jobs.store import JobStore
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name
 
@@ -72,6 +75,9 @@ class Course:
         self.root = settings.data_dir / "course"
         self.root.mkdir(parents=True, exist_ok=True)
         self._specs: dict[tuple[str, int], Assignment] = {}  # a version's spec, parsed (versions never change)
+        self._followers: dict[str, set[Follower]] = {}  # a submission's event streams, by its id
+        self._lock = threading.Lock()
+        runs.listeners.append(self._changed)
 
     def now(self) -> float:
         return self.clock().timestamp()
@@ -339,6 +345,29 @@ class Course:
         if subs:
             log.info("course: %d accepted submission(s) handed to their grading runs", len(subs))
         return len(subs)
+
+    # -- following a submission ---------------------------------------------------------------
+
+    @contextmanager
+    def follow(self, sid: str):
+        """A follower of one submission, woken (from a grading run's thread) each time its grade moves."""
+        follower = Follower(sid, urgent=False)
+        with self._lock:
+            self._followers.setdefault(sid, set()).add(follower)
+        try:
+            yield follower
+        finally:
+            with self._lock:
+                mine = self._followers.get(sid, set())
+                mine.discard(follower)
+                if not mine:
+                    self._followers.pop(sid, None)
+
+    def _changed(self, run_id: str, student: str) -> None:
+        with self._lock:
+            followers = list(self._followers.get(student, ()))
+        for f in followers:
+            f.wake({"id": student})
 
     # -- what a caller sees --------------------------------------------------------------------
 

@@ -234,6 +234,7 @@ class GradingRun:
                 render = {"error": error} if error else {"image": f"renders/{job_id}.exr", "spp": spp, "seconds": took}
                 self.items[name].update(stage=Stage.rendered, render=render)
                 self.gs.update_item(self.id, name, stage=Stage.rendered, render=render)
+                self.runs.item_changed(self.id, name)
 
     def _take(self, job_id: str, variance: bool) -> None:
         """A finished job's image (and the reference's variance) into the run's folder: a hard link
@@ -383,6 +384,7 @@ class GradingRun:
         it.update(prepared=p, stage=stage)
         it.pop("_key", None)
         self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
+        self.runs.item_changed(self.id, student)
         if _key(it) is not None:
             self._queue_render(_key(it))
         if p["job"] is not None:
@@ -399,6 +401,7 @@ class GradingRun:
                       row=row, metrics_seconds=result["seconds"])  # fmt: skip
         self.items[student].update(fields)
         self.gs.update_item(self.id, student, **fields)
+        self.runs.item_changed(self.id, student)
 
     def _failed(self, task: tuple, message: str) -> None:
         """A task that could not be done: its student (or those of a baseline) is told why, and the run goes on."""

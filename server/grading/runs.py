@@ -16,6 +16,7 @@ import shutil
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,6 +72,7 @@ class GradeRuns:
         self.threads: dict[str, threading.Thread] = {}
         self._wakes: dict[str, threading.Event] = {}  # an open run's: set when a student is added
         self._wakes_lock = threading.Lock()
+        self.listeners: list[Callable[[str, str], None]] = []  # told (run, student) when a student's stage moves
         self._import_legacy()
 
     # -- starting, resuming, stopping
@@ -132,6 +134,14 @@ class GradeRuns:
         """An open run takes no more submissions: it ends once those it has are graded."""
         self.gs.close(run_id)
         self.wake(run_id).set()
+
+    def item_changed(self, run_id: str, student: str) -> None:
+        """From a run's thread: a student's row moved (prepared, rendered, graded); the listeners are told."""
+        for listener in self.listeners:
+            try:
+                listener(run_id, student)
+            except Exception:  # a listener's bug never stops a run
+                log.exception("grading run %s: a listener failed", run_id)
 
     def wake(self, run_id: str) -> threading.Event:
         """The event that wakes an open run's thread (set: look for new students)."""

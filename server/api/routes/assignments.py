@@ -8,9 +8,12 @@ from __future__ import annotations
 import base64
 import binascii
 import json
+import time
+from collections.abc import AsyncIterator
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 from starlette.concurrency import run_in_threadpool
 
@@ -109,14 +112,28 @@ async def _assignment_body(request: Request) -> AssignmentIn:
 POLICY_FIELDS = {name: {"description": f.description or ""} for name, f in AssignmentIn.model_fields.items()}
 REQUIRED = ["spec", "deadline"]
 ASSIGNMENT_BODY = {  # for /docs: the route reads JSON or multipart itself (docs/assignments.md has every field)
-    "requestBody": {"required": True, "content": {
-        "application/json": {"schema": {"type": "object", "required": REQUIRED, "properties": POLICY_FIELDS}},
-        "multipart/form-data": {"schema": {"type": "object", "required": REQUIRED, "properties": {
-            **POLICY_FIELDS, "spec": {"type": "string", "format": "binary", "description": "the spec's JSON file"},
-            "reference": {"type": "string", "format": "binary", "description": "the reference scene's JSON file"},
-        }}},
-    }},
-}  # fmt: skip
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/json": {"schema": {"type": "object", "required": REQUIRED, "properties": POLICY_FIELDS}},
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": REQUIRED,
+                    "properties": {
+                        **POLICY_FIELDS,
+                        "spec": {"type": "string", "format": "binary", "description": "the spec's JSON file"},
+                        "reference": {
+                            "type": "string",
+                            "format": "binary",
+                            "description": "the reference scene's JSON file",
+                        },
+                    },
+                }
+            },
+        },
+    },
+}
 
 
 @router.post(
@@ -160,8 +177,16 @@ def listing(course: CourseDep) -> dict:
     out = []
     for aid in course.store.assignments():
         a = course.store.assignment(aid)
-        out.append({"id": aid, "name": a["spec"]["name"], "version": a["version"], "deadline": a["policy"]["deadline"],
-                    "students": len(course.store.students(aid)), "url": f"/api/assignments/{aid}"})  # fmt: skip
+        out.append(
+            {
+                "id": aid,
+                "name": a["spec"]["name"],
+                "version": a["version"],
+                "deadline": a["policy"]["deadline"],
+                "students": len(course.store.students(aid)),
+                "url": f"/api/assignments/{aid}",
+            }
+        )
     return {"assignments": out}
 
 
@@ -289,6 +314,50 @@ def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
     c = course.counting(a, course.submissions(a, sub["student"]))
     return course.view(a, sub, who, c["id"] if c else None)
+
+
+FINAL = ("graded", "invalid", "failed")
+KEEPALIVE = 15.0  # seconds of quiet after which a comment keeps the stream open
+
+
+@router.get(
+    "/{aid}/submissions/{sid}/events",
+    summary="Server-Sent Events: the submission as its grade moves",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+)
+async def submission_events(aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep):
+    """`submission` {the submission as GET .../submissions/{sid} shows it} now and each time its grade moves
+    (queued, grading, then graded, invalid or failed), then `end`, and the stream closes. Woken by the
+    grading run when the submission's row changes: it never polls the store."""
+    a, who = await run_in_threadpool(course.who, aid, caller)
+    sub = await run_in_threadpool(course.submission, a, sid)
+    if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
+        raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
+    stopping = request.app.state.stopping
+
+    async def stream() -> AsyncIterator[str]:
+        yield "retry: 1000\n\n"
+        last, quiet = None, time.monotonic()
+        with course.follow(sid) as follower:
+            while True:
+                view = await run_in_threadpool(lambda: course.view(a, course.submission(a, sid), who))
+                if view != last:
+                    last = view
+                    yield f"event: submission\ndata: {json.dumps(view, separators=(',', ':'))}\n\n"
+                if view["status"] in FINAL:
+                    yield "event: end\ndata: {}\n\n"
+                    return
+                while await follower.changed(1.0) is None:
+                    if stopping() or await request.is_disconnected():
+                        return
+                    if time.monotonic() - quiet > KEEPALIVE:
+                        quiet = time.monotonic()
+                        yield ": keep-alive\n\n"
+
+    return StreamingResponse(
+        stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    )
 
 
 @router.get("/{aid}/submissions/{sid}/{name}", summary="A graded submission's picture", responses=NOT_FOUND)
