@@ -146,11 +146,12 @@ class Course:
     def edit(self, aid: str, body: AssignmentIn, regrade: bool) -> dict:
         """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
         rows of its grading run (durable as any)."""
-        old = self.assignment(aid)
+        self.assignment(aid)  # 404 for an unknown one
         spec, policy = self._checked(body)
         run_id = self._open_run(spec)
         version = self.store.add_version(aid, spec, policy, run_id, self.now())
-        self.runs.close(old["run_id"])  # its last submissions are still graded, then it ends
+        # the old version's run stays open: a submission accepted under it a moment ago is still handed to
+        # it and graded (closing it could let its thread end first); an idle open run costs a look a second
         if regrade:
             for sub in self.store.regrade(aid, version, run_id):
                 self._hand(sub)
@@ -335,7 +336,7 @@ class Course:
             sub["run_id"],
             Handed(sub["id"], sub["kind"], f"submission{SUFFIX[sub['kind']]}", path=self.root / sub["file"]),
         )
-        self.store.handed(sub["id"])
+        self.store.handed(sub["id"], sub["run_id"])
 
     def resume(self) -> int:
         """At start-up: the submissions a stopped server accepted but had not handed to their run."""

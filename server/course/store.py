@@ -210,8 +210,9 @@ class CourseStore:
     def remove_submission(self, sid: str) -> None:
         self.db.execute("DELETE FROM course_submissions WHERE id = ?", (sid,))
 
-    def handed(self, sid: str) -> None:
-        self.db.execute("UPDATE course_submissions SET handed = 1 WHERE id = ?", (sid,))
+    def handed(self, sid: str, run_id: str) -> None:
+        """Its row is in `run_id` (unless a regrade moved it to another run meanwhile: then it is handed again)."""
+        self.db.execute("UPDATE course_submissions SET handed = 1 WHERE id = ? AND run_id = ?", (sid, run_id))
 
     def unhanded(self) -> list[dict]:
         """Submissions accepted but not yet in their grading run (a server stopped in between)."""
