@@ -472,3 +472,32 @@ def test_assignments_a_submissions_grade_streams_as_it_moves(app, spare, clock):
     views = [data for kind, data in events if kind == "submission"]
     assert views[0]["status"] in ("queued", "grading") and views[-1]["status"] == "graded"
     assert (views[-1]["score"], views[-1]["max_score"]) == (7.0, 7.0)
+
+
+def test_assignments_a_check_shows_what_the_policy_shows_now_and_keeps_nothing(app, clock):
+    """POST .../check: validity and the requirements in seconds, each as the policy shows it now (a hidden
+    requirement stays hidden), the image tests named; no submission is made and no attempt used."""
+    aid = publish(app, max_submissions=1, feedback={"tests": {"a glass object": "never"}})["id"]
+    tok = roster(app, aid, [("chk", "Check C", "")])["chk"]["token"]
+    r = app.post(f"/api/assignments/{aid}/check", json={"scene": json.loads(scene_text("alice"))}, headers=bearer(tok))
+    assert r.status_code == 200, r.text
+    got = r.json()
+    assert got["valid"] is True and got["image_tests"] == ["flip", "ssim", "psnr", "pixels"]
+    assert [(t["test"], t.get("score")) for t in got["tests"]] == [
+        ("validity", 1),
+        ("a glass object", None),
+        ("an area light", 1),
+        ("three bounces", 1),
+        ("a small scene", 1),
+        ("a render budget", 1),
+    ]
+    bad = app.post(f"/api/assignments/{aid}/check", json={"scene": scene_text("carol")}, headers=bearer(tok)).json()
+    assert bad["valid"] is False and bad["errors"][0]["message"].startswith("invalid JSON")
+    img = app.post(f"/api/assignments/{aid}/check", json=image("grace"), headers=bearer(tok)).json()
+    assert img["valid"] is True and [t["test"] for t in img["tests"]] == ["validity"]
+    b = app.get(f"/api/assignments/{aid}", headers=bearer(tok)).json()
+    assert b["submissions_left"] == 1 and app.get(
+        f"/api/assignments/{aid}/submissions", headers=bearer(tok)
+    ).json() == {"submissions": []}
+    teacher = app.post(f"/api/assignments/{aid}/check", json={"scene": scene_text("alice")}).json()
+    assert teacher["tests"][1]["score"] == 2  # the instructor sees every test

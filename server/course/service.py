@@ -28,6 +28,8 @@ import secrets
 import threading
 import uuid
 from collections.abc import Callable
+from concurrent.futures import TimeoutError
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
@@ -40,13 +42,14 @@ from server.course.store import CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower
 from server.jobs.store import JobStore
-from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name
+from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
 
 log = logging.getLogger(__name__)
 
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
 IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
 SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
+CHECK_SECONDS = 30  # a check waits this long for a grading process (they are busy with a deadline's burst)
 
 
 def not_found(what: str, key: str) -> ApiError:
@@ -314,6 +317,49 @@ class Course:
             path.unlink(missing_ok=True)
             raise
         return self.submission(a, sid)
+
+    def check(self, a: dict, who: Who, kind: str, data: bytes) -> dict:
+        """What a submission would get now, without submitting (no attempt, no row): validity and, for a
+        scene, the requirements, in a grading process (seconds: no render), shown as the policy shows them
+        now; the image tests are only named (they need the render a submission gets)."""
+        folder = self.root / a["id"] / "checks"
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / f"{uuid.uuid4().hex}{SUFFIX[kind]}"
+        path.write_bytes(data)
+        try:
+            future = self.runs.pool.submit(
+                tasks.prepare_submission, json.dumps(a["spec"]), "check", kind, str(path), f"check{SUFFIX[kind]}"
+            )
+            result = future.result(timeout=CHECK_SECONDS)
+        except (BrokenProcessPool, TimeoutError):
+            raise ApiError(
+                503, [{"path": "", "message": "the check could not run now; try again"}], headers={"Retry-After": "5"}
+            ) from None
+        finally:
+            path.unlink(missing_ok=True)
+        report = result["prepared"]["report"]
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        assignment, now = self.spec(a["id"], a["version"]), self.now()
+        keys = report_keys(assignment, kind)
+        tests = []
+        for key, t in zip(keys, report["tests"], strict=False):
+            when = feedback.tests.get(key, feedback.default)
+            entry = {"name": t["name"], "test": key, "max_score": t["max_score"], "shown": when}
+            if self.shown(when, a, who, now):
+                entry.update(
+                    score=t["score"], status="passed" if t["score"] >= t["max_score"] else "failed", output=t["output"]
+                )
+            else:
+                entry["hidden"] = f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
+            tests.append(entry)
+        valid = not report["errors"]
+        return {
+            "valid": valid,
+            "tests": tests,
+            "errors": report["errors"],
+            "warnings": report["warnings"],
+            "image_tests": list(assignment.image_tests()) if valid else [],
+        }
 
     def submissions(self, a: dict, student: str | None = None) -> list[dict]:
         """Submissions (one student's, or all), each `late` by the student's deadline as it is now: an

@@ -281,17 +281,33 @@ def submit(
     accepted, then graded once in the batch lane."""
     accepted = course.now()  # the body was read and parsed before this runs
     a, who = course.who(aid, caller)
-    if body.image is not None:
-        try:
-            data, kind = base64.b64decode(body.image, validate=True), body.format
-        except (binascii.Error, ValueError):
-            raise ApiError(422, [{"path": "image", "message": "expected base64 data"}]) from None
-    else:
-        text = body.scene if isinstance(body.scene, str) else json.dumps(body.scene)
-        data, kind = text.encode(), "scene"
+    kind, data = _submitted(body)
     sub = course.submit(a, who, kind, data, accepted)
     response.headers["Location"] = f"/api/assignments/{aid}/submissions/{sub['id']}"
     return course.view(a, sub, who)
+
+
+@router.post(
+    "/{aid}/check",
+    summary="Check a scene or an image as the policy shows it now (no attempt)",
+    responses={**ERRORS, **NOT_FOUND},
+)
+def check(aid: str, body: SubmissionIn, course: CourseDep, caller: CallerDep) -> dict:
+    """The body of a submission -> `valid`, `tests` (validity and the requirements, each as the feedback
+    policy shows it now), `errors` at their JSON paths, `warnings`, and the `image_tests` a submission would
+    also get. Nothing is kept and no attempt is used; it runs in seconds (no render)."""
+    a, who = course.who(aid, caller)
+    kind, data = _submitted(body)
+    return course.check(a, who, kind, data)
+
+
+def _submitted(body: SubmissionIn) -> tuple[str, bytes]:
+    if body.image is not None:
+        try:
+            return body.format, base64.b64decode(body.image, validate=True)
+        except (binascii.Error, ValueError):
+            raise ApiError(422, [{"path": "image", "message": "expected base64 data"}]) from None
+    return "scene", (body.scene if isinstance(body.scene, str) else json.dumps(body.scene)).encode()
 
 
 @router.get("/{aid}/submissions", summary="Submissions: a student's own, or all (the instructor)", responses=NOT_FOUND)
