@@ -142,7 +142,11 @@ class Course:
         spec, policy = self._checked(body)
         aid = uuid.uuid4().hex
         run_id = self._open_run(spec)
-        self.store.create(aid, spec, policy, run_id, self.now())
+        try:
+            self.store.create(aid, spec, policy, run_id, self.now())
+        except BaseException:  # a full disk: the run ends (its reference is graded), no assignment is left
+            self.runs.close(run_id)
+            raise
         log.info("assignment %s published (grading run %s)", aid, run_id)
         return self.store.assignment(aid)
 
@@ -152,7 +156,11 @@ class Course:
         self.assignment(aid)  # 404 for an unknown one
         spec, policy = self._checked(body)
         run_id = self._open_run(spec)
-        version = self.store.add_version(aid, spec, policy, run_id, self.now())
+        try:
+            version = self.store.add_version(aid, spec, policy, run_id, self.now())
+        except BaseException:
+            self.runs.close(run_id)
+            raise
         # the old version's run stays open: a submission accepted under it a moment ago is still handed to
         # it and graded (closing it could let its thread end first); an idle open run costs a look a second
         if regrade:
