@@ -446,8 +446,9 @@ def test_assignments_an_edit_keeps_every_version_and_regrades(app, clock):
     assert r.status_code == 200, r.text
     assert [v["version"] for v in r.json()["versions"]] == [1, 2]
     assert len({v["run_id"] for v in r.json()["versions"]}) == 2
-    old_run = app.get(f"/api/grade/{r.json()['versions'][0]['run_id']}").json()  # v1's run, kept as it was
-    assert old_run["students"] == ["reference", first["id"]] and old_run["graded"] == 2
+    v1 = f"/api/grade/{r.json()['versions'][0]['run_id']}"  # v1's run, kept: its reference and the submission
+    old_run = wait_for(lambda: (s := app.get(v1).json())["graded"] == 2 and s, 240, "v1's run to grade both")
+    assert old_run["students"] == ["reference", first["id"]] and old_run["status"] == "running"
     again = finished(app, aid, first["id"])
     assert (again["version"], again["score"], again["max_score"]) == (2, 9.0, 9.0)
     assert app.get(f"/api/assignments/{aid}", headers=bearer(tok)).json()["image_tests"][0] == {

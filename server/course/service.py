@@ -607,8 +607,10 @@ class Course:
         return buf.getvalue()
 
     def reference_png(self, a: dict) -> Path | None:
+        """The reference image, once the version's reference is graded (its pictures are written whole by then)."""
+        ref = self.runs.gs.item(a["run_id"], REFERENCE)
         path = self.runs.root / a["run_id"] / "out" / REFERENCE / "reference.png"
-        return path if path.is_file() else None
+        return path if ref is not None and ref["stage"] == "graded" and path.is_file() else None
 
 
 def _status(sub: dict) -> str:
