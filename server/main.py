@@ -3,8 +3,9 @@
 At start-up (the lifespan) the app checks its data directory (server/core/startup.py), compiles the render
 kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
-workers, resumes the grading runs a stopped server left unfinished, and starts the janitor (which
-removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
+workers, resumes the grading runs a stopped server left unfinished (the course's assignments' among them,
+with the submissions it had accepted but not handed to them: server/course/), and starts the janitor
+(which removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
 the workers give their running jobs back to the queue (as soon as a stop signal arrives, with
 `python -m server`: see `Stopping`), and the checking processes end. Every request passes the host
 check and gets the security headers (server/core/security.py); the start-up log warns of a server open to
@@ -18,19 +19,21 @@ import fcntl
 import logging
 import threading
 from contextlib import asynccontextmanager
+from datetime import UTC, datetime
 from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from server.api.routes import grade, jobs, reference, samples, scenes, tools
+from server.api.routes import assignments, grade, jobs, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import StartupError, check_data_dir
+from server.course.service import Course
 from server.grading.runs import GradeRuns
 from server.jobs.janitor import Janitor
 from server.jobs.previews import Previews
@@ -70,6 +73,8 @@ async def lifespan(app: FastAPI):
         stack.callback(queue.shutdown)
         grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
         stack.callback(grade_runs.shutdown)
+        course = app.state.course = Course(settings, grade_runs, lambda: app.state.clock())
+        course.resume()  # submissions a stopped server accepted but had not handed to their grading run
         previews = app.state.previews = Previews(settings, jobs, SCENES)
         if settings.previews_ahead:  # the examples' pictures, rendered by the workers before anyone asks
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
@@ -109,6 +114,10 @@ def lock_data_dir(data_dir: Path):
     return lock
 
 
+def utc_now() -> datetime:
+    return datetime.now(UTC)
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or load_settings()
     app = FastAPIOffline(  # /docs: Swagger UI with its scripts served by us, so it works offline
@@ -124,6 +133,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
+    app.state.course = None
+    app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
     install_error_handlers(app)
@@ -139,6 +150,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
+    app.include_router(assignments.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

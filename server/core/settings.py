@@ -143,6 +143,9 @@ class Settings(SceneLimits):
         description="a class's files unpacked, all together (bytes, or 500MB, 1GB); an upload may be this big "
         "plus max_body_bytes (the assignment)",
     )
+    max_submissions_per_hour: int = Field(
+        20, ge=1, description="submissions of one student to one assignment in any hour: 429 past it"
+    )
     max_queued_jobs: int = Field(1000, ge=1, description="jobs waiting in the queue: 429 past it")
     max_queued_per_token: int = Field(
         20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"

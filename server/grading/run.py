@@ -48,6 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 POLL = 0.2  # seconds between two looks at the run's render jobs
+IDLE = 1.0  # seconds between two looks whether the server stops, for an open run with nothing to do
 FLIGHT_PER_PROCESS = 2  # tasks of one run in the grading pool at once, per process
 MAX_QUEUED = 1_000_000  # a class is queued whole: the queue's limit (TRACER_MAX_QUEUED_JOBS) is for students
 MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
@@ -77,7 +78,7 @@ class GradingRun:
         self.flight: dict[Future, tuple[tuple, bool]] = {}  # future -> (task, submitted alone)
         self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
         self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
-        self.jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
+        self.render_jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
 
     def run(self) -> None:
         try:
@@ -97,24 +98,40 @@ class GradingRun:
         self.items = {it["student"]: it for it in self.gs.items(self.id)}
         self.renders = {r["key"]: r for r in self.gs.renders(self.id)}
         self.renders_total = row["renders_total"]
+        self.open = self.gs.is_open(self.id)
 
     def _loop(self) -> bool:
-        """Until every student is graded (True), or the server stops (False: the rows say where it was)."""
+        """Until every student is graded (True), or the server stops (False: the rows say where it was). An
+        open run (an assignment's version) waits for more students while it is open: `GradeRuns.add` wakes it."""
         if self.grader.reference is not None:
             self._queue_render(MEAN)
-        stopping = self.runs.stopping
+        stopping, woken = self.runs.stopping, self.runs.wake(self.id)
         while not stopping.is_set():
+            if woken.is_set():
+                woken.clear()
+                self._newcomers()
             self._poll_jobs()
             self._schedule()
             if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
-                return True
-            if self.flight:
+                if not self.open:
+                    return True
+                woken.wait(IDLE)  # idle until a submission comes (or the server stops)
+            elif self.flight:
                 done, _ = wait(list(self.flight), timeout=POLL, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._collect(future)
             else:
                 stopping.wait(POLL)
         return False
+
+    def _newcomers(self) -> None:
+        """An open run's students added since it last looked (and whether it is still open)."""
+        self.open = self.gs.is_open(self.id)
+        last = max((it["position"] for it in self.items.values()), default=-1)
+        new = self.gs.items(self.id, after=last)
+        if new:
+            self.items.update({it["student"]: it for it in new})
+            self.renders_total = None  # counted again once they are prepared
 
     def _finish(self) -> None:
         items = sorted(self.items.values(), key=lambda it: it["position"])
@@ -140,12 +157,12 @@ class GradingRun:
         return row["id"]
 
     def _reference_job(self, key: str) -> RenderJob:
-        if key not in self.jobs:
+        if key not in self.render_jobs:
             wanted = None if key == MEAN else tuple(json.loads(key))
             for what, k, job in self.grader.reference_jobs(set() if wanted is None else {wanted}):
                 if (what == "mean") == (wanted is None) and k == wanted:
-                    self.jobs[key] = job
-        return self.jobs[key]
+                    self.render_jobs[key] = job
+        return self.render_jobs[key]
 
     def _queue_render(self, key: str) -> None:
         """The class's render `key` queued once (MEAN, or a baseline's key)."""
@@ -217,6 +234,7 @@ class GradingRun:
                 render = {"error": error} if error else {"image": f"renders/{job_id}.exr", "spp": spp, "seconds": took}
                 self.items[name].update(stage=Stage.rendered, render=render)
                 self.gs.update_item(self.id, name, stage=Stage.rendered, render=render)
+                self.runs.item_changed(self.id, name)
 
     def _take(self, job_id: str, variance: bool) -> None:
         """A finished job's image (and the reference's variance) into the run's folder: a hard link
@@ -366,6 +384,7 @@ class GradingRun:
         it.update(prepared=p, stage=stage)
         it.pop("_key", None)
         self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
+        self.runs.item_changed(self.id, student)
         if _key(it) is not None:
             self._queue_render(_key(it))
         if p["job"] is not None:
@@ -382,6 +401,7 @@ class GradingRun:
                       row=row, metrics_seconds=result["seconds"])  # fmt: skip
         self.items[student].update(fields)
         self.gs.update_item(self.id, student, **fields)
+        self.runs.item_changed(self.id, student)
 
     def _failed(self, task: tuple, message: str) -> None:
         """A task that could not be done: its student (or those of a baseline) is told why, and the run goes on."""

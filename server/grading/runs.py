@@ -16,6 +16,7 @@ import shutil
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,6 +70,9 @@ class GradeRuns:
         self.pool = GradingPool(settings.grading_processes or os.cpu_count() or 1, settings.worker_nice)
         self.stopping = threading.Event()
         self.threads: dict[str, threading.Thread] = {}
+        self._wakes: dict[str, threading.Event] = {}  # an open run's: set when a student is added
+        self._wakes_lock = threading.Lock()
+        self.listeners: list[Callable[[str, str], None]] = []  # told (run, student) when a student's stage moves
         self._import_legacy()
 
     # -- starting, resuming, stopping
@@ -79,9 +83,10 @@ class GradeRuns:
         path.mkdir(parents=True)
         return path
 
-    def start(self, assignment: dict, handed: list[Handed]) -> dict:
+    def start(self, assignment: dict, handed: list[Handed], open_: bool = False) -> dict:
         """Check the assignment (AssignmentError with paths), keep the submissions and the run's rows,
-        then grade in a thread; the run's state."""
+        then grade in a thread; the run's state. An `open_` run takes more submissions as they come (`add`),
+        sharing its reference renders with all of them, until it is `close`d (a course's assignment)."""
         text = json.dumps(assignment)
         spec, _ = load_assignment(text)
         Grader(spec, None)  # raises for a reference scene given as a file name, or one that does not validate
@@ -98,13 +103,58 @@ class GradeRuns:
                 else:
                     (folder / rel).write_bytes(h.data or b"")
                 items.append({"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
-            self.gs.create_run(run_id, text, spec.name, spec.max_score(), items)  # one transaction: all rows or none
+            # one transaction: all rows or none
+            self.gs.create_run(run_id, text, spec.name, spec.max_score(), items, open_)
         except BaseException:  # a full disk: no half-written run is left behind
             shutil.rmtree(folder, ignore_errors=True)
             raise
         log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
         self._spawn(run_id)
         return self.state(run_id)
+
+    def add(self, run_id: str, h: Handed) -> bool:
+        """One more submission for an open run (its file kept in the run's folder, then its row); False if
+        the run has that student already: handing the same submission again grades it once."""
+        folder = self.root / run_id
+        rel = f"submissions/{h.student}{SUFFIX[h.kind]}"
+        if self.gs.item(run_id, h.student) is not None:
+            return False
+        (folder / "submissions").mkdir(parents=True, exist_ok=True)
+        tmp = folder / "submissions" / f".{h.student}.tmp"
+        if h.path is not None:
+            shutil.copyfile(h.path, tmp)
+        else:
+            tmp.write_bytes(h.data or b"")
+        os.replace(tmp, folder / rel)
+        added = self.gs.add_item(run_id, {"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
+        self.wake(run_id).set()
+        return added
+
+    def close(self, run_id: str) -> None:
+        """An open run takes no more submissions: it ends once those it has are graded."""
+        self.gs.close(run_id)
+        self.wake(run_id).set()
+
+    def item_changed(self, run_id: str, student: str) -> None:
+        """From a run's thread: a student's row moved (prepared, rendered, graded); the listeners are told."""
+        for listener in self.listeners:
+            try:
+                listener(run_id, student)
+            except Exception:  # a listener's bug never stops a run
+                log.exception("grading run %s: a listener failed", run_id)
+
+    def wake(self, run_id: str) -> threading.Event:
+        """The event that wakes an open run's thread (set: look for new students)."""
+        with self._wakes_lock:
+            return self._wakes.setdefault(run_id, threading.Event())
+
+    def item(self, run_id: str, student: str) -> dict | None:
+        """One student's row (stage, status, exact score) and their report.json once graded."""
+        it = self.gs.item(run_id, student)
+        if it is not None and it["stage"] == Stage.graded:
+            path = self.root / run_id / "out" / student / "report.json"
+            it["report"] = json.loads(path.read_text()) if path.is_file() else None
+        return it
 
     def resume(self) -> list[str]:
         """Take up the runs a stopped server left running (call it once the job queue has started: their
@@ -150,6 +200,7 @@ class GradeRuns:
             "renders_done": progress["renders_done"], "renders_total": row["renders_total"],
             "graded": progress["stages"]["graded"], "max_score": row["max_score"],
             "summary": json.loads(row["summary"]) if row["summary"] else None, "resumed": row["starts"] - 1,
+            "open": self.gs.is_open(run_id),
         }  # fmt: skip
 
     def reports(self, run_id: str) -> list[dict]:

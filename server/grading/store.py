@@ -9,6 +9,8 @@ and reads their status with one query per look (`job_states`).
 - `grading_renders`: the class's shared renders, the reference mean and one noise baseline per
   (sampler, spp, light samples): each one's job, its outcome, and the baseline's metrics per way of
   storing an image (`measured`), so a resumed run neither renders nor measures them again.
+- `grading_open`: the runs that stay open for more students (a course assignment's version takes each
+  submission as it comes: `add_item`); such a run is never done while it is open.
 - `grading_items`: one per student: their submission's file, how far their grade got (`Stage`), what
   the first half of it found (`prepared`), their render job and its outcome, and once graded their
   summary row and exact score (report.json and the pictures are files in the run's folder).
@@ -73,6 +75,9 @@ CREATE TABLE IF NOT EXISTS grading_items (
     metrics_seconds REAL,
     PRIMARY KEY (run_id, student)
 );
+CREATE TABLE IF NOT EXISTS grading_open (
+    run_id TEXT PRIMARY KEY               -- a run that takes submissions as they come (an assignment's version,
+);                                        -- server/course/): it stays running while it is here
 CREATE INDEX IF NOT EXISTS grading_runs_status ON grading_runs (status);
 """
 
@@ -109,9 +114,14 @@ class GradingStore:
 
     # -- runs ---------------------------------------------------------------------------------
 
-    def create_run(self, run_id: str, assignment: str, name: str, max_score: float, items: list[dict]) -> None:
-        """A run and its students (dicts: student, kind, filename, file), in one transaction."""
+    def create_run(
+        self, run_id: str, assignment: str, name: str, max_score: float, items: list[dict], open_: bool = False
+    ) -> None:
+        """A run and its students (dicts: student, kind, filename, file), in one transaction; `open_`: it takes
+        more students later (`add_item`) and stays running until `close`d."""
         with self._tx() as db:
+            if open_:
+                db.execute("INSERT INTO grading_open (run_id) VALUES (?)", (run_id,))
             db.execute(
                 "INSERT INTO grading_runs (id, status, name, assignment, max_score, created_at)"
                 " VALUES (?, ?, ?, ?, ?, ?)",
@@ -123,6 +133,28 @@ class GradingStore:
                 [(run_id, it["student"], i, it["kind"], it["filename"], it["file"], Stage.submitted)
                  for i, it in enumerate(items)],
             )  # fmt: skip
+
+    def add_item(self, run_id: str, it: dict) -> bool:
+        """One more student (a dict as create_run's) at the end of an open run; False if they are in it already
+        (so handing a submission twice grades it once)."""
+        cur = self.db.execute(
+            "INSERT OR IGNORE INTO grading_items (run_id, student, position, kind, filename, file, stage)"
+            " SELECT ?1, ?2, COALESCE(MAX(position) + 1, 0), ?3, ?4, ?5, ?6 FROM grading_items WHERE run_id = ?1",
+            (run_id, it["student"], it["kind"], it["filename"], it["file"], Stage.submitted),
+        )
+        return cur.rowcount == 1
+
+    def is_open(self, run_id: str) -> bool:
+        return self.db.execute("SELECT 1 FROM grading_open WHERE run_id = ?", (run_id,)).fetchone() is not None
+
+    def close(self, run_id: str) -> None:
+        """No more students: the run ends once those it has are graded."""
+        self.db.execute("DELETE FROM grading_open WHERE run_id = ?", (run_id,))
+
+    def item(self, run_id: str, student: str) -> dict | None:
+        row = self.db.execute("SELECT * FROM grading_items WHERE run_id = ? AND student = ?", (run_id, student))
+        row = row.fetchone()
+        return _decoded(dict(row), ("prepared", "render", "row")) if row else None
 
     def run(self, run_id: str) -> dict | None:
         row = self.db.execute("SELECT * FROM grading_runs WHERE id = ?", (run_id,)).fetchone()
@@ -161,8 +193,11 @@ class GradingStore:
 
     # -- students -----------------------------------------------------------------------------
 
-    def items(self, run_id: str) -> list[dict]:
-        rows = self.db.execute("SELECT * FROM grading_items WHERE run_id = ? ORDER BY position", (run_id,))
+    def items(self, run_id: str, after: int = -1) -> list[dict]:
+        """The run's students (those past position `after` only: an open run's newcomers)."""
+        rows = self.db.execute(
+            "SELECT * FROM grading_items WHERE run_id = ? AND position > ? ORDER BY position", (run_id, after)
+        )
         return [_decoded(dict(r), ("prepared", "render", "row")) for r in rows]
 
     def students(self, run_id: str) -> list[str]:

@@ -3,6 +3,8 @@ files, never held whole in memory.
 
 The parts:
 - `assignment`: the assignment's JSON, as a text field or a file; at most TRACER_MAX_BODY_BYTES;
+- `reference` (optional): the reference scene's JSON, when the assignment names it as a file
+  (`scenes/grading/assignment.json` with `reference.json` beside it); at most TRACER_MAX_BODY_BYTES;
 - `class`: the whole class as one zip file, unpacked afterwards with the caps (tracer/grading/archive.py);
 - or `files`: one part per submitted file (a scene .json, an image .png or .exr), its student named by
   its file name as in a zip ("carol/scene.json" puts it in carol's folder).
@@ -28,7 +30,7 @@ from starlette.requests import Request
 from server.core.errors import ApiError
 from tracer.grading import Caps
 
-PARTS = ("assignment", "class", "files")
+PARTS = ("assignment", "reference", "class", "files")
 _STAR = re.compile(rb"filename\*\s*=\s*([\w!#$%&+.^`|~-]*)'[^']*'([^;\s]+)", re.IGNORECASE)
 _HTML5 = {"%22": '"', "%0A": "\n", "%0D": "\r"}  # how browsers escape these in a form's file names
 
@@ -38,6 +40,7 @@ class Upload:
     """What a multipart body held: the assignment's bytes, and the class as a zip or as files."""
 
     assignment: bytearray = field(default_factory=bytearray)
+    reference: bytearray | None = None  # the reference scene, when it came as its own part
     zip: Path | None = None
     files: list[tuple[str, Path]] = field(default_factory=list)  # (the file's name as sent, where it is)
     seen: set[str] = field(default_factory=set)  # the parts given
@@ -103,12 +106,14 @@ class _Parts:
         filename = _filename(disposition, options)
         up = self.upload
         if self.name not in PARTS:
-            raise _refuse(self.name or "", f"unknown part '{self.name[:80]}'; the parts: assignment, then class "
-                                           "(a zip) or files (one per submission)")  # fmt: skip
-        if self.name in ("assignment", "class") and self.name in up.seen:
+            raise _refuse(self.name or "", f"unknown part '{self.name[:80]}'; the parts: assignment (and "
+                                           "reference), then class (a zip) or files (one per submission)")  # fmt: skip
+        if self.name in ("assignment", "reference", "class") and self.name in up.seen:
             raise _refuse(self.name, f"give one '{self.name}' part")
         up.seen.add(self.name)
-        if self.name == "class":
+        if self.name == "reference":
+            up.reference = bytearray()
+        elif self.name == "class":
             up.zip = self.staging / "class.zip"
             self.out = open(up.zip, "wb")  # noqa: SIM115 (closed at the part's end, or by close())
         elif self.name == "files":
@@ -126,8 +131,9 @@ class _Parts:
         self.size += n
         if self.out is None:
             if self.size > self.max_assignment:
-                raise _refuse("assignment", f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", 413)
-            self.upload.assignment += data[start:end]
+                raise _refuse(self.name, f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", 413)
+            held = self.upload.reference if self.name == "reference" else self.upload.assignment
+            held += data[start:end]
             return
         if self.name == "files":
             self.total += n

@@ -322,6 +322,10 @@ class JobStore:
         count = self.db.execute(f"SELECT COUNT(*) FROM jobs {where}", args).fetchone()[0]
         return [dict(r) for r in rows], count
 
+    def give_owner(self, old: str, new: str) -> int:
+        """Every job of the token hash `old` now belongs to `new` (a student's replaced link); how many."""
+        return self.db.execute("UPDATE jobs SET owner = ? WHERE owner = ?", (new, old)).rowcount
+
     def place(self, row: dict) -> dict:
         """A queued job's place: the queued jobs that a worker takes before it (its lane's order: lane,
         priority, age) and their estimated seconds; the running jobs it waits for (an interactive job:

@@ -17,8 +17,10 @@ LAYERS = {  # a package of server/ -> what of server/ its modules may import (a 
     "server.checkers": {"server.core"},  # the scene checking processes
     "server.queue": {"server.core", "server.jobs"},  # the interface, the render try, embedded/ and redis/
     "server.grading": {"server.core", "server.jobs"},  # grading runs, their store, uploads
+    "server.course": {"server.core", "server.jobs", "server.grading"},  # assignments, rosters, submissions, grades
     # the routes: the job service and its store, and the queue's interface only (never a backend)
-    "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.queue.base"},
+    "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.course",
+                   "server.queue.base"},
 }
 
 

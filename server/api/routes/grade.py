@@ -188,7 +188,8 @@ def start_run(runs: GradeRuns, assignment: dict, handed: list[Handed]) -> dict:
     openapi_extra=UPLOAD_BODY,
 )  # fmt: skip
 async def upload(request: Request, runs: RunsDep, settings: SettingsDep, response: Response) -> dict:
-    """multipart/form-data: an `assignment` part (its JSON, the reference scene inline) and the class as
+    """multipart/form-data: an `assignment` part (its JSON, the reference scene inline, or named as a file and
+    sent as a `reference` part beside it) and the class as
     one `class` part (a zip, laid out as docs/grading.md says) or as `files` parts (one per submission,
     named by its file name). Read as a stream into files, never whole into memory; the class may have
     at most TRACER_MAX_CLASS_ENTRIES entries and TRACER_MAX_CLASS_BYTES unpacked, each file 20 MB (422
@@ -198,6 +199,11 @@ async def upload(request: Request, runs: RunsDep, settings: SettingsDep, respons
     try:
         up = await receive(request, staging, caps, settings.max_body_bytes)
         assignment = _assignment(up.assignment, settings)
+        if up.reference is not None:  # the reference scene beside an assignment that names it as a file
+            reference = _assignment(up.reference, settings, "reference", "the reference scene")
+            if not isinstance(assignment.get("reference"), dict):
+                raise ApiError(422, [{"path": "reference", "message": "the assignment has no 'reference' for it"}])
+            assignment["reference"]["scene"] = reference
         handed = await run_in_threadpool(_unpacked, up, staging, caps)
         state = await run_in_threadpool(start_run, runs, assignment, handed)
     finally:
@@ -206,21 +212,21 @@ async def upload(request: Request, runs: RunsDep, settings: SettingsDep, respons
     return _public(state, runs)
 
 
-def _assignment(data: bytes, settings: Settings) -> dict:
-    """The `assignment` part -> its JSON object (422 at `assignment` when it is not one)."""
+def _assignment(data: bytes, settings: Settings, where: str = "assignment", what: str = "the assignment") -> dict:
+    """The `assignment` part (or another JSON part) -> its JSON object (422 at `where` when it is not one)."""
     depth = json_depth(bytes(data))
     if depth > settings.max_json_depth:
         message = f"JSON nested {depth} levels deep; at most {settings.max_json_depth} (TRACER_MAX_JSON_DEPTH)"
-        raise ApiError(422, [{"path": "assignment", "message": message}])
+        raise ApiError(422, [{"path": where, "message": message}])
     try:
         value = json.loads(bytes(data).decode("utf-8"))
     except UnicodeDecodeError:
-        raise ApiError(422, [{"path": "assignment", "message": "not UTF-8 text"}]) from None
+        raise ApiError(422, [{"path": where, "message": "not UTF-8 text"}]) from None
     except json.JSONDecodeError as e:
         message = f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
-        raise ApiError(422, [{"path": "assignment", "message": message}]) from None
+        raise ApiError(422, [{"path": where, "message": message}]) from None
     if not isinstance(value, dict):
-        raise ApiError(422, [{"path": "assignment", "message": "the assignment must be a JSON object {...}"}])
+        raise ApiError(422, [{"path": where, "message": f"{what} must be a JSON object {{...}}"}])
     return value
 
 

@@ -411,3 +411,23 @@ def test_upload_path_in_a_zip_stays_inside(tmp_path):
     files = unpack_zip(io.BytesIO(buf.getvalue()), tmp_path / "out")
     assert list(files) == ["fine.json"] and files["fine.json"].parent == tmp_path / "out"
     assert not (tmp_path / "evil.json").exists() and not Path("/etc/evil.json").exists()
+
+
+def test_upload_the_repositorys_assignment_with_its_reference_file_beside_it(app):
+    """`-F assignment=@scenes/grading/assignment.json` names its reference scene as a file: sent as a
+    `reference` part beside it (`-F reference=@scenes/grading/reference.json`), the class is graded as
+    with the scene inline; without it, the 422 says to send it so."""
+    root = ROOT / "scenes" / "grading"
+    parts = {"assignment": ("assignment.json", (root / "assignment.json").read_bytes(), "application/json"),
+             "reference": ("reference.json", (root / "reference.json").read_bytes(), "application/json"),
+             "files": ("grace.png", (root / "class" / "grace.png").read_bytes(), "image/png")}  # fmt: skip
+    r = app.post("/api/grade/upload", files=parts)
+    assert r.status_code == 202, r.text
+    state = finished(app, r.json()["url"])
+    assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == {"grace": EXPECTED["grace"]}
+    del parts["reference"]
+    r = app.post("/api/grade/upload", files=parts)
+    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment.reference.scene", r.text
+    r = app.post("/api/grade/upload", files={**parts, "reference": ("r.json", b"[1]", "application/json")})
+    assert r.status_code == 422 and r.json()["errors"] == [
+        {"path": "reference", "message": "the reference scene must be a JSON object {...}"}]  # fmt: skip

@@ -1,0 +1,409 @@
+"""Assignments (the course, docs/assignments.md): the instructor publishes a grading spec with a deadline and
+a policy, uploads the roster and reads the grades; a student opens the brief with their link's token,
+submits scenes or images and reads their own submissions. A student sees only their own work: every other
+answer is the 404 of an unknown id. The rules live in server/course/service.py."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import time
+from collections.abc import AsyncIterator
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from starlette.concurrency import run_in_threadpool
+
+from server.api.deps import StoreDep
+from server.api.models import ErrorResponse
+from server.core.errors import ApiError
+from server.core.security import Caller, CallerDep, require_instructor
+from server.course.policy import AssignmentIn, Instant
+from server.course.service import Course, Who, iso, links_csv, not_found
+from tracer.errors import pydantic_errors
+
+router = APIRouter(prefix="/api/assignments", tags=["assignments"])
+ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
+NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such assignment (or not yours)"}}
+
+
+def get_course(request: Request) -> Course:
+    return request.app.state.course
+
+
+CourseDep = Annotated[Course, Depends(get_course)]
+
+
+class SubmissionIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    scene: dict[str, Any] | str | None = Field(None, description="a scene object, or its JSON text (may be broken)")
+    image: str | None = Field(None, description="a PNG or EXR image of the reference scene, base64")
+    format: Literal["png", "exr"] = Field("png", description="the image's format")
+
+    @model_validator(mode="after")
+    def _one(self) -> SubmissionIn:
+        if (self.scene is None) == (self.image is None):
+            raise ValueError("give exactly one of 'scene' and 'image'")
+        return self
+
+
+class ExtensionIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    student: str = Field(min_length=1, max_length=80, description="the roster's id")
+    deadline: Instant | None = Field(description="their own deadline (ISO 8601 with a zone); null: the assignment's")
+
+
+class JoinIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(min_length=1, max_length=120, description="the name to be known by (self-declared)")
+
+
+def _base(request: Request) -> str:
+    return str(request.base_url)
+
+
+def _instructor(course: Course, aid: str, caller: Caller, request: Request) -> dict:
+    """The assignment, for the instructor only: its students' tokens get the 404 of an unknown id (on a
+    server where everyone is the instructor too), anyone else 401 or 403."""
+    if caller.owner and course.store.by_token(aid, caller.owner) is not None:
+        raise not_found("assignment", aid)
+    require_instructor(caller, request)
+    return course.assignment(aid)
+
+
+async def _assignment_body(request: Request) -> AssignmentIn:
+    """JSON, or multipart (spec and reference as files or fields, the policy as fields; feedback and starter
+    as JSON text), as the repository's scenes/grading/ has it."""
+    kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if kind == "multipart/form-data":
+        form = await request.form()
+        data: dict[str, Any] = {}
+        for key, value in form.multi_items():
+            text = (await value.read()).decode("utf-8", errors="replace") if hasattr(value, "read") else value
+            if key in ("spec", "reference", "starter", "feedback"):
+                try:
+                    data[key] = json.loads(text)
+                except json.JSONDecodeError as e:
+                    message = f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
+                    raise ApiError(422, [{"path": key, "message": message}]) from None
+            else:
+                data[key] = text if text != "" else None
+    elif kind in ("application/json", ""):
+        try:
+            data = json.loads(await request.body())
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise ApiError(422, [{"path": "", "message": f"the body is not JSON: {e}"}]) from None
+    else:
+        raise ApiError(415, [{"path": "", "message": "expected application/json or multipart/form-data"}])
+    if not isinstance(data, dict):
+        raise ApiError(422, [{"path": "", "message": "the body must be a JSON object"}])
+    try:
+        return AssignmentIn.model_validate(data)
+    except ValidationError as e:
+        raise ApiError(422, pydantic_errors(e, AssignmentIn)) from None
+
+
+POLICY_FIELDS = {name: {"description": f.description or ""} for name, f in AssignmentIn.model_fields.items()}
+REQUIRED = ["spec", "deadline"]
+ASSIGNMENT_BODY = {  # for /docs: the route reads JSON or multipart itself (docs/assignments.md has every field)
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/json": {"schema": {"type": "object", "required": REQUIRED, "properties": POLICY_FIELDS}},
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": REQUIRED,
+                    "properties": {
+                        **POLICY_FIELDS,
+                        "spec": {"type": "string", "format": "binary", "description": "the spec's JSON file"},
+                        "reference": {
+                            "type": "string",
+                            "format": "binary",
+                            "description": "the reference scene's JSON file",
+                        },
+                    },
+                }
+            },
+        },
+    },
+}
+
+
+@router.post(
+    "",
+    status_code=201,
+    summary="Publish an assignment (the instructor's)",
+    responses=ERRORS,
+    openapi_extra=ASSIGNMENT_BODY,
+    dependencies=[Depends(require_instructor)],
+)
+async def publish(request: Request, course: CourseDep, response: Response) -> dict:
+    """`{"spec": {...}, "deadline": "...", ...policy}` -> 201 with `id`. The spec's reference scene inline, or
+    as a file name with the scene beside it (`reference`). Its reference renders start now."""
+    body = await _assignment_body(request)
+    a = await run_in_threadpool(course.publish, body)
+    response.headers["Location"] = f"/api/assignments/{a['id']}"
+    return course.brief(a, Who(None), _base(request))
+
+
+@router.put(
+    "/{aid}",
+    summary="Edit an assignment: a new version, the earlier kept",
+    responses={**ERRORS, **NOT_FOUND},
+    openapi_extra=ASSIGNMENT_BODY,
+)
+async def edit(
+    aid: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    regrade: Annotated[bool, Query(description="grade every submission again under it")] = False,
+) -> dict:
+    _instructor(course, aid, caller, request)
+    body = await _assignment_body(request)
+    a = await run_in_threadpool(course.edit, aid, body, regrade)
+    return course.brief(a, Who(None), _base(request))
+
+
+@router.get("", summary="Every assignment (the instructor's)", dependencies=[Depends(require_instructor)])
+def listing(course: CourseDep) -> dict:
+    out = []
+    for aid in course.store.assignments():
+        a = course.store.assignment(aid)
+        out.append(
+            {
+                "id": aid,
+                "name": a["spec"]["name"],
+                "version": a["version"],
+                "deadline": a["policy"]["deadline"],
+                "students": len(course.store.students(aid)),
+                "url": f"/api/assignments/{aid}",
+            }
+        )
+    return {"assignments": out}
+
+
+@router.get("/{aid}", summary="The brief (a student's) or everything (the instructor's)", responses=NOT_FOUND)
+def brief(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    a, who = course.who(aid, caller)
+    return course.brief(a, who, _base(request))
+
+
+@router.post(
+    "/{aid}/roster",
+    summary="Upload the roster (text/csv: id,name,email)",
+    responses={**ERRORS, **NOT_FOUND},
+    openapi_extra={"requestBody": {"required": True, "content": {"text/csv": {"schema": {"type": "string"}}}}},
+)
+async def roster(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
+    """200 with `students: [{id, name, email, link, token, new}]`: each new student's token is shown this once
+    (kept hashed). `Accept: text/csv` answers the links as CSV (id,name,email,link) to mail out."""
+    _instructor(course, aid, caller, request)
+    try:
+        text = (await request.body()).decode("utf-8")
+    except UnicodeDecodeError:
+        raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
+    students = await run_in_threadpool(course.roster, aid, text, _base(request))
+    if "text/csv" in request.headers.get("accept", ""):
+        return Response(
+            links_csv(students),
+            media_type="text/csv",
+            headers={"Content-Disposition": 'attachment; filename="links.csv"', "Cache-Control": "no-store"},
+        )
+    return Response(
+        json.dumps({"students": students}), media_type="application/json", headers={"Cache-Control": "no-store"}
+    )
+
+
+@router.get("/{aid}/roster", summary="The roster with each student's deadline (no tokens)", responses=NOT_FOUND)
+def roster_list(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    a = _instructor(course, aid, caller, request)
+    out = []
+    for s in course.store.students(aid):
+        due, cut = course.deadlines(a, s)
+        out.append(
+            {
+                "id": s["student"],
+                "name": s["name"],
+                "email": s["email"],
+                "self_declared": bool(s["self_declared"]),
+                "deadline": iso(due),
+                "extended": s["deadline"] is not None,
+            }
+        )
+    return {"students": out}
+
+
+@router.post(
+    "/{aid}/students/{student}/link",
+    summary="Replace one student's link (the old one stops working)",
+    responses=NOT_FOUND,
+)
+def new_link(aid: str, student: str, request: Request, course: CourseDep, caller: CallerDep, store: StoreDep) -> dict:
+    _instructor(course, aid, caller, request)
+    return course.new_link(aid, student, _base(request), store)
+
+
+@router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
+def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    _instructor(course, aid, caller, request)
+    return course.extend(aid, body.student, body.deadline)
+
+
+@router.post("/{aid}/join", summary="Join an open assignment by a name", responses={**ERRORS, **NOT_FOUND})
+def join(aid: str, body: JoinIn, request: Request, course: CourseDep) -> dict:
+    """Open assignments only: anyone with the link gets a token (shown once), marked self-declared."""
+    return course.join(aid, body.name, _base(request))
+
+
+@router.post(
+    "/{aid}/submissions",
+    status_code=202,
+    summary="Submit a scene or an image (a student's)",
+    responses={
+        **ERRORS,
+        **NOT_FOUND,
+        403: {"model": ErrorResponse, "description": "past the cut-off, or no attempts left"},
+        429: {"model": ErrorResponse, "description": "past TRACER_MAX_SUBMISSIONS_PER_HOUR"},
+    },
+)
+def submit(
+    aid: str, body: SubmissionIn, request: Request, course: CourseDep, caller: CallerDep, response: Response
+) -> dict:
+    """202 with `id` and `status` (queued): kept at once, with the API's clock time when its body was
+    accepted, then graded once in the batch lane."""
+    accepted = course.now()  # the body was read and parsed before this runs
+    a, who = course.who(aid, caller)
+    kind, data = _submitted(body)
+    sub = course.submit(a, who, kind, data, accepted)
+    response.headers["Location"] = f"/api/assignments/{aid}/submissions/{sub['id']}"
+    return course.view(a, sub, who)
+
+
+@router.post(
+    "/{aid}/check",
+    summary="Check a scene or an image as the policy shows it now (no attempt)",
+    responses={**ERRORS, **NOT_FOUND},
+)
+def check(aid: str, body: SubmissionIn, course: CourseDep, caller: CallerDep) -> dict:
+    """The body of a submission -> `valid`, `tests` (validity and the requirements, each as the feedback
+    policy shows it now), `errors` at their JSON paths, `warnings`, and the `image_tests` a submission would
+    also get. Nothing is kept and no attempt is used; it runs in seconds (no render)."""
+    a, who = course.who(aid, caller)
+    kind, data = _submitted(body)
+    return course.check(a, who, kind, data)
+
+
+def _submitted(body: SubmissionIn) -> tuple[str, bytes]:
+    if body.image is not None:
+        try:
+            return body.format, base64.b64decode(body.image, validate=True)
+        except (binascii.Error, ValueError):
+            raise ApiError(422, [{"path": "image", "message": "expected base64 data"}]) from None
+    return "scene", (body.scene if isinstance(body.scene, str) else json.dumps(body.scene)).encode()
+
+
+@router.get("/{aid}/submissions", summary="Submissions: a student's own, or all (the instructor)", responses=NOT_FOUND)
+def submissions(aid: str, course: CourseDep, caller: CallerDep) -> dict:
+    a, who = course.who(aid, caller)
+    subs = course.submissions(a, None if who.instructor else who.student["student"])
+    counting: dict[str, str] = {}
+    for student in {s["student"] for s in subs}:
+        c = course.counting(a, [s for s in subs if s["student"] == student])
+        if c is not None:
+            counting[student] = c["id"]
+    return {"submissions": [course.view(a, s, who, counting.get(s["student"])) for s in subs]}
+
+
+@router.get("/{aid}/submissions/{sid}", summary="One submission: status, score, feedback", responses=NOT_FOUND)
+def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict:
+    a, who = course.who(aid, caller)
+    sub = course.submission(a, sid)
+    if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
+        raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
+    c = course.counting(a, course.submissions(a, sub["student"]))
+    return course.view(a, sub, who, c["id"] if c else None)
+
+
+FINAL = ("graded", "invalid", "failed")
+KEEPALIVE = 15.0  # seconds of quiet after which a comment keeps the stream open
+
+
+@router.get(
+    "/{aid}/submissions/{sid}/events",
+    summary="Server-Sent Events: the submission as its grade moves",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+)
+async def submission_events(aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep):
+    """`submission` {the submission as GET .../submissions/{sid} shows it} now and each time its grade moves
+    (queued, grading, then graded, invalid or failed), then `end`, and the stream closes. Woken by the
+    grading run when the submission's row changes: it never polls the store."""
+    a, who = await run_in_threadpool(course.who, aid, caller)
+    sub = await run_in_threadpool(course.submission, a, sid)
+    if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
+        raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
+    stopping = request.app.state.stopping
+
+    async def stream() -> AsyncIterator[str]:
+        yield "retry: 1000\n\n"
+        last, quiet = None, time.monotonic()
+        with course.follow(sid) as follower:
+            while True:
+                view = await run_in_threadpool(lambda: course.view(a, course.submission(a, sid), who))
+                if view != last:
+                    last = view
+                    yield f"event: submission\ndata: {json.dumps(view, separators=(',', ':'))}\n\n"
+                if view["status"] in FINAL:
+                    yield "event: end\ndata: {}\n\n"
+                    return
+                while await follower.changed(1.0) is None:
+                    if stopping() or await request.is_disconnected():
+                        return
+                    if time.monotonic() - quiet > KEEPALIVE:
+                        quiet = time.monotonic()
+                        yield ": keep-alive\n\n"
+
+    return StreamingResponse(
+        stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    )
+
+
+@router.get("/{aid}/submissions/{sid}/{name}", summary="A graded submission's picture", responses=NOT_FOUND)
+def submission_file(aid: str, sid: str, name: str, course: CourseDep, caller: CallerDep) -> Response:
+    """render.png (always, once graded); error_map.png and rejected.png when no image test's feedback is
+    hidden; reference.png when the policy shows the reference. The submission's `files` lists them."""
+    a, who = course.who(aid, caller)
+    sub = course.submission(a, sid)
+    if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
+        raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
+    path = course.file(a, sub, who, name)
+    if path is None:
+        raise ApiError(404, [{"path": "name", "message": f"no {name[:40]!r} to show for this submission"}])
+    return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})
+
+
+@router.get("/{aid}/grades.csv", summary="The grades: one row per roster student", responses=NOT_FOUND)
+def grades(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
+    a = _instructor(course, aid, caller, request)
+    return Response(
+        course.grades_csv(a),
+        media_type="text/csv",
+        headers={"Content-Disposition": 'attachment; filename="grades.csv"'},
+    )
+
+
+@router.get("/{aid}/reference.png", summary="The reference image (when the policy shows it)", responses=NOT_FOUND)
+def reference_png(aid: str, course: CourseDep, caller: CallerDep) -> Response:
+    a, who = course.who(aid, caller)
+    path = course.reference_png(a) if who.instructor or a["policy"]["show_reference"] else None
+    if path is None:
+        raise ApiError(404, [{"path": "", "message": "no reference image (not shown, or not rendered yet)"}])
+    return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})

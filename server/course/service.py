@@ -1,0 +1,701 @@
+"""The course's rules: publishing and editing assignments, the roster and its tokens, submissions (their caps,
+the deadline and late cut-off, each handed once to its version's grading run), what a student may see of a
+grade (the feedback policy), the counting submission and the grades.
+
+**Graded once, the reference shared.** Each version of an assignment has one *open* grading run
+(server/grading/runs.py, `GradeRuns.start(..., open_=True)`): it renders the reference mean as soon as the
+version is published, grades the reference scene itself (the instructor's check that it earns full marks,
+and the source of the reference image), then takes each submission as one more student of that run. So the
+reference is rendered once per version and each noise baseline once per (sampler, spp, light samples) of
+the version, whatever the number of submissions; every render is a batch-lane job; and the run's rows
+make it durable: a restarted server resumes it. A submission is its row here first (acknowledged), then its
+row in the run, keyed by its own id (`INSERT OR IGNORE`): handed twice, graded once.
+
+**Time** is `clock()`, the app's `state.clock` (UTC now; tests set it): a submission's time is the clock when
+its body was accepted, and the deadline, the late mark and the feedback shown follow it.
+
+**Identity**: a student's token is issued here and kept as its SHA-256, which is exactly the owner that
+server/core/security.py derives from a bearer token, so the same token owns the student's workspace jobs.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import logging
+import secrets
+import threading
+import uuid
+from collections.abc import Callable
+from concurrent.futures import TimeoutError
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+
+from server.core.errors import ApiError
+from server.core.security import Caller, new_token, token_hash
+from server.core.settings import Settings
+from server.course.policy import AssignmentIn, Feedback, Policy, When
+from server.course.store import CourseStore
+from server.grading.runs import GradeRuns, Handed
+from server.jobs.service import Follower
+from server.jobs.store import JobStore
+from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
+
+log = logging.getLogger(__name__)
+
+REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
+IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
+SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
+CHECK_SECONDS = 30  # a check waits this long for a grading process (they are busy with a deadline's burst)
+
+
+def not_found(what: str, key: str) -> ApiError:
+    return ApiError(404, [{"path": "id", "message": f"no {what} with id '{key[:64]}'"}])
+
+
+def iso(t: float | None) -> str | None:
+    return None if t is None else datetime.fromtimestamp(t, UTC).isoformat().replace("+00:00", "Z")
+
+
+class Who:
+    """The caller as an assignment sees them: the instructor, or one student of its roster."""
+
+    def __init__(self, student: dict | None):
+        self.student = student
+
+    @property
+    def instructor(self) -> bool:
+        return self.student is None
+
+
+class Course:
+    def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):
+        self.settings, self.runs, self.clock = settings, runs, clock
+        self.store = CourseStore(settings.data_dir)
+        self.root = settings.data_dir / "course"
+        self.root.mkdir(parents=True, exist_ok=True)
+        self._specs: dict[tuple[str, int], Assignment] = {}  # a version's spec, parsed (versions never change)
+        self._followers: dict[str, set[Follower]] = {}  # a submission's event streams, by its id
+        self._lock = threading.Lock()
+        runs.listeners.append(self._changed)
+
+    def now(self) -> float:
+        return self.clock().timestamp()
+
+    # -- publishing ----------------------------------------------------------------------------
+
+    def _checked(self, body: AssignmentIn) -> tuple[str, dict]:
+        """The spec as JSON text with its reference inline, and the policy to keep (422 with paths)."""
+        spec = json.loads(json.dumps(body.spec))
+        ref = spec.get("reference")
+        if body.reference is not None:
+            if not isinstance(ref, dict):
+                raise ApiError(422, [{"path": "reference", "message": "the spec has no 'reference' for this scene"}])
+            ref["scene"] = body.reference
+        elif isinstance(ref, dict) and isinstance(ref.get("scene"), str):
+            message = (
+                f"the reference scene is a file name ({ref['scene'][:80]!r}): send the scene inline, or beside the "
+                "spec as 'reference' (a JSON field, or a multipart part)"
+            )
+            raise ApiError(422, [{"path": "spec.reference.scene", "message": message}])
+        try:
+            assignment, _ = load_assignment(spec)
+            Grader(assignment, None)  # the reference scene validates
+        except AssignmentError as e:
+            raise ApiError(
+                422,
+                [{"path": "spec" + ("." + x["path"] if x["path"] else ""), "message": x["message"]} for x in e.errors],
+            ) from None
+        keys = test_keys(assignment)
+        unknown = [k for k in body.feedback.tests if k not in keys]
+        if unknown:
+            message = f"no test named {unknown[0]!r} in the spec; the tests: {', '.join(keys)}"
+            raise ApiError(422, [{"path": f"feedback.tests.{unknown[0]}", "message": message}])
+        if body.starter is not None:
+            from tracer.scene import SceneError, load_scene
+
+            try:
+                load_scene(body.starter, assignment.limits.scene_limits())
+            except SceneError as e:
+                raise ApiError(
+                    422,
+                    [
+                        {"path": "starter" + ("." + x["path"] if x["path"] else ""), "message": x["message"]}
+                        for x in e.errors
+                    ],
+                ) from None
+        policy = Policy.model_validate(body.model_dump(exclude={"spec", "reference"})).stored()
+        return json.dumps(spec), policy
+
+    def _open_run(self, spec_text: str) -> str:
+        spec = json.loads(spec_text)
+        handed = []
+        if spec.get("reference"):
+            scene = json.dumps(spec["reference"]["scene"]).encode()
+            handed.append(Handed(REFERENCE, "scene", "reference.json", scene))
+        return self.runs.start(spec, handed, open_=True)["id"]
+
+    def publish(self, body: AssignmentIn) -> dict:
+        spec, policy = self._checked(body)
+        aid = uuid.uuid4().hex
+        run_id = self._open_run(spec)
+        try:
+            self.store.create(aid, spec, policy, run_id, self.now())
+        except BaseException:  # a full disk: the run ends (its reference is graded), no assignment is left
+            self.runs.close(run_id)
+            raise
+        log.info("assignment %s published (grading run %s)", aid, run_id)
+        return self.store.assignment(aid)
+
+    def edit(self, aid: str, body: AssignmentIn, regrade: bool) -> dict:
+        """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
+        rows of its grading run (durable as any)."""
+        self.assignment(aid)  # 404 for an unknown one
+        spec, policy = self._checked(body)
+        run_id = self._open_run(spec)
+        try:
+            version = self.store.add_version(aid, spec, policy, run_id, self.now())
+        except BaseException:
+            self.runs.close(run_id)
+            raise
+        # the old version's run stays open: a submission accepted under it a moment ago is still handed to
+        # it and graded (closing it could let its thread end first); an idle open run costs a look a second
+        if regrade:
+            for sub in self.store.regrade(aid, version, run_id):
+                self._hand(sub)
+        return self.store.assignment(aid)
+
+    def assignment(self, aid: str) -> dict:
+        a = self.store.assignment(aid) if len(aid) == 32 else None
+        if a is None:
+            raise not_found("assignment", aid)
+        return a
+
+    # -- who asks ------------------------------------------------------------------------------
+
+    def who(self, aid: str, caller: Caller) -> tuple[dict, Who]:
+        """The assignment and the caller: one of its students (by their token), or the instructor; anyone else
+        gets the 404 of an unknown assignment."""
+        a = self.assignment(aid)
+        student = self.store.by_token(aid, caller.owner) if caller.owner else None
+        if student is None and not caller.instructor:
+            raise not_found("assignment", aid)
+        return a, Who(student)
+
+    # -- the roster ----------------------------------------------------------------------------
+
+    def _link(self, base: str, aid: str, token: str) -> str:
+        return f"{base.rstrip('/')}/assignments/{aid}#token={token}"
+
+    def roster(self, aid: str, text: str, base: str) -> list[dict]:
+        """The roster CSV (header id,name,email) -> each new student with their link and token (shown once);
+        students already on it keep theirs (token and link null: replace one with `new_link`)."""
+        self.assignment(aid)
+        rows = parse_roster(text)
+        tokens = {r["student"]: new_token() for r in rows}
+        for r in rows:
+            r["token_hash"] = token_hash(tokens[r["student"]])
+        added = set(self.store.add_students(aid, rows, self.now()))
+        out = []
+        for r in rows:
+            token = tokens[r["student"]] if r["student"] in added else None
+            out.append(
+                {
+                    "id": r["student"],
+                    "name": r["name"],
+                    "email": r["email"],
+                    "token": token,
+                    "link": self._link(base, aid, token) if token else None,
+                    "new": token is not None,
+                }
+            )
+        return out
+
+    def new_link(self, aid: str, student: str, base: str, jobs: JobStore) -> dict:
+        """A fresh token for one student (the old one stops working); their workspace jobs move to it."""
+        self.assignment(aid)
+        row = self.store.student(aid, student)
+        if row is None:
+            raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
+        token = new_token()
+        self.store.set_token(aid, student, token_hash(token))
+        jobs.give_owner(row["token_hash"], token_hash(token))
+        return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
+
+    def join(self, aid: str, name: str, base: str) -> dict:
+        """An open assignment: anyone with its link joins by a name (marked self-declared)."""
+        a = self.assignment(aid)
+        if not a["policy"]["open"]:
+            raise not_found("assignment", aid)
+        shown = " ".join(name.split())
+        sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
+        token = new_token()
+        self.store.add_students(
+            aid,
+            [{"student": sid, "name": shown, "email": "", "token_hash": token_hash(token), "self_declared": 1}],
+            self.now(),
+        )
+        return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
+
+    def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:
+        a = self.assignment(aid)
+        if not self.store.extend(aid, student, deadline.timestamp() if deadline else None):
+            raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
+        row = self.store.student(aid, student)
+        due, cut = self.deadlines(a, row)
+        return {"id": student, "deadline": iso(due), "late_until": iso(cut)}
+
+    # -- deadlines -----------------------------------------------------------------------------
+
+    @staticmethod
+    def deadlines(a: dict, student: dict | None) -> tuple[float, float]:
+        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much."""
+        p = a["policy"]
+        due = datetime.fromisoformat(p["deadline"]).timestamp()
+        cut = datetime.fromisoformat(p["late_until"]).timestamp() if p["late_until"] else due
+        if student is not None and student["deadline"] is not None:
+            shift = student["deadline"] - due
+            due, cut = student["deadline"], max(student["deadline"], cut + shift)
+        return due, cut
+
+    def shown(self, when: str, a: dict, who: Who, now: float) -> bool:
+        if who.instructor or when == When.now:
+            return True
+        if when == When.never:
+            return False
+        return now >= self.deadlines(a, who.student)[1]
+
+    # -- submissions ---------------------------------------------------------------------------
+
+    def submit(self, a: dict, who: Who, kind: str, data: bytes, accepted: float) -> dict:
+        """Keep the submission (its file, then its row: acknowledged), then hand it to the grading run."""
+        if who.instructor:
+            raise ApiError(
+                403,
+                [
+                    {
+                        "path": "Authorization",
+                        "message": "submissions are a student's: send a student's token (the roster gives each one)",
+                    }
+                ],
+            )
+        student = who.student
+        due, cut = self.deadlines(a, student)
+        if accepted > cut:
+            late = f"; late submissions were taken until {iso(cut)}" if cut > due else ""
+            message = f"the deadline was {iso(due)}{late}; this submission came at {iso(accepted)}"
+            raise ApiError(403, [{"path": "deadline", "message": message}])
+        sid = uuid.uuid4().hex
+        rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
+        path = self.root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{sid}.tmp")
+        tmp.write_bytes(data)
+        tmp.replace(path)
+        sub = {
+            "id": sid,
+            "assignment_id": a["id"],
+            "student": student["student"],
+            "version": a["version"],
+            "run_id": a["run_id"],
+            "kind": kind,
+            "file": rel,
+            "accepted_at": accepted,
+            "late": int(accepted > due),
+        }
+        cap = self.settings.max_submissions_per_hour
+        refused = self.store.add_submission(sub, a["policy"]["max_submissions"], cap, accepted - 3600)
+        if refused is not None:
+            path.unlink(missing_ok=True)
+            if refused == "hour":
+                message = f"at most {cap} submissions per hour (TRACER_MAX_SUBMISSIONS_PER_HOUR); try again later"
+                raise ApiError(429, [{"path": "", "message": message}], headers={"Retry-After": "600"})
+            message = (
+                f"no submissions left: {a['policy']['max_submissions']} used (an invalid or ungradable "
+                "submission costs none)"
+            )
+            raise ApiError(403, [{"path": "max_submissions", "message": message}])
+        try:
+            self._hand(sub)
+        except BaseException:  # a full disk: nothing of it is kept (the client was not told it was taken)
+            self.store.remove_submission(sid)
+            path.unlink(missing_ok=True)
+            raise
+        return self.submission(a, sid)
+
+    def check(self, a: dict, who: Who, kind: str, data: bytes) -> dict:
+        """What a submission would get now, without submitting (no attempt, no row): validity and, for a
+        scene, the requirements, in a grading process (seconds: no render), shown as the policy shows them
+        now; the image tests are only named (they need the render a submission gets)."""
+        folder = self.root / a["id"] / "checks"
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / f"{uuid.uuid4().hex}{SUFFIX[kind]}"
+        path.write_bytes(data)
+        try:
+            future = self.runs.pool.submit(
+                tasks.prepare_submission, json.dumps(a["spec"]), "check", kind, str(path), f"check{SUFFIX[kind]}"
+            )
+            result = future.result(timeout=CHECK_SECONDS)
+        except (BrokenProcessPool, TimeoutError):
+            raise ApiError(
+                503, [{"path": "", "message": "the check could not run now; try again"}], headers={"Retry-After": "5"}
+            ) from None
+        finally:
+            path.unlink(missing_ok=True)
+        report = result["prepared"]["report"]
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        assignment, now = self.spec(a["id"], a["version"]), self.now()
+        keys = report_keys(assignment, kind)
+        tests = []
+        for key, t in zip(keys, report["tests"], strict=False):
+            when = feedback.tests.get(key, feedback.default)
+            entry = {"name": t["name"], "test": key, "max_score": t["max_score"], "shown": when}
+            if self.shown(when, a, who, now):
+                entry.update(
+                    score=t["score"], status="passed" if t["score"] >= t["max_score"] else "failed", output=t["output"]
+                )
+            else:
+                entry["hidden"] = f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
+            tests.append(entry)
+        valid = not report["errors"]
+        return {
+            "valid": valid,
+            "tests": tests,
+            "errors": report["errors"],
+            "warnings": report["warnings"],
+            "image_tests": list(assignment.image_tests()) if valid else [],
+        }
+
+    def submissions(self, a: dict, student: str | None = None) -> list[dict]:
+        """Submissions (one student's, or all), each `late` by the student's deadline as it is now: an
+        extension granted afterwards, or an edit that moves the deadline, takes a late mark (and its penalty)
+        away or gives it (the row keeps what was true when the body came)."""
+        subs = self.store.submissions(a["id"], student)
+        due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
+        for sub in subs:
+            sub["late"] = int(sub["accepted_at"] > due.get(sub["student"], sub["accepted_at"]))
+        return subs
+
+    def submission(self, a: dict, sid: str) -> dict | None:
+        sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
+        if sub is not None:
+            sub["late"] = int(sub["accepted_at"] > self.deadlines(a, self.store.student(a["id"], sub["student"]))[0])
+        return sub
+
+    def _hand(self, sub: dict) -> None:
+        self.runs.add(
+            sub["run_id"],
+            Handed(sub["id"], sub["kind"], f"submission{SUFFIX[sub['kind']]}", path=self.root / sub["file"]),
+        )
+        self.store.handed(sub["id"], sub["run_id"])
+
+    def resume(self) -> int:
+        """At start-up: the submissions a stopped server accepted but had not handed to their run."""
+        subs = self.store.unhanded()
+        for sub in subs:
+            self._hand(sub)
+        if subs:
+            log.info("course: %d accepted submission(s) handed to their grading runs", len(subs))
+        return len(subs)
+
+    # -- following a submission ---------------------------------------------------------------
+
+    @contextmanager
+    def follow(self, sid: str):
+        """A follower of one submission, woken (from a grading run's thread) each time its grade moves."""
+        follower = Follower(sid, urgent=False)
+        with self._lock:
+            self._followers.setdefault(sid, set()).add(follower)
+        try:
+            yield follower
+        finally:
+            with self._lock:
+                mine = self._followers.get(sid, set())
+                mine.discard(follower)
+                if not mine:
+                    self._followers.pop(sid, None)
+
+    def _changed(self, run_id: str, student: str) -> None:
+        with self._lock:
+            followers = list(self._followers.get(student, ()))
+        for f in followers:
+            f.wake({"id": student})
+
+    # -- what a caller sees --------------------------------------------------------------------
+
+    def spec(self, aid: str, version: int) -> Assignment:
+        """A version's spec, parsed once."""
+        key = (aid, version)
+        if key not in self._specs:
+            row = next(v for v in self.store.versions(aid) if v["version"] == version)
+            self._specs[key] = load_assignment(row["spec"])[0]
+        return self._specs[key]
+
+    def brief(self, a: dict, who: Who, base: str) -> dict:
+        spec, p, now = a["spec"], a["policy"], self.now()
+        due, cut = self.deadlines(a, who.student)
+        assignment = self.spec(a["id"], a["version"])
+        out = {
+            "id": a["id"],
+            "version": a["version"],
+            "name": spec["name"],
+            "description": spec.get("description"),
+            "requirements": [
+                {"name": r.name, "points": r.points, "description": r.description} for r in assignment.requirements
+            ],
+            "image_tests": [{"name": k, "points": t.points} for k, t in assignment.image_tests().items()],
+            "validity": {"points": assignment.validity.points},
+            "max_score": assignment.max_score(),
+            "render": assignment.render.model_dump(exclude_none=True),
+            "limits": assignment.limits.model_dump(),
+            "deadline": iso(due),
+            "late_until": iso(cut) if cut > due else None,
+            "late_penalty": p["late_penalty"],
+            "time_left": max(0.0, due - now),
+            "late_time_left": max(0.0, cut - now) if cut > due else None,
+            "closed": now > cut,
+            "counts": p["counts"],
+            "max_submissions": p["max_submissions"],
+            "starter": p["starter"],
+            "open": p["open"],
+            "reference_image": f"/api/assignments/{a['id']}/reference.png"
+            if p["show_reference"] or who.instructor
+            else None,
+            "feedback": p["feedback"],
+        }
+        if who.instructor:
+            out.update(
+                spec=spec,
+                policy=p,
+                run_id=a["run_id"],
+                students=len(self.store.students(a["id"])),
+                versions=[
+                    {"version": v["version"], "created_at": iso(v["version_at"]), "run_id": v["run_id"]}
+                    for v in self.store.versions(a["id"])
+                ],
+            )
+            if p["open"]:
+                out["join"] = f"{base.rstrip('/')}/assignments/{a['id']}"
+            ref = self.runs.item(a["run_id"], REFERENCE)
+            out["reference_grade"] = _grade(ref) if ref else None
+        else:
+            s = who.student
+            used = self.store.attempts(a["id"], s["student"])
+            left = None if p["max_submissions"] is None else max(0, p["max_submissions"] - used)
+            out.update(
+                student={"id": s["student"], "name": s["name"], "self_declared": bool(s["self_declared"])},
+                submissions_left=left,
+                attempts_used=used,
+            )
+        return out
+
+    def view(self, a: dict, sub: dict, who: Who, counting: str | None = None) -> dict:
+        """A submission as the caller may see it: the score when the policy shows it, each test's feedback by
+        its own rule; everything to the instructor."""
+        p, now = a["policy"], self.now()
+        feedback = Feedback.model_validate(p["feedback"])
+        status = _status(sub)
+        penalty = p["late_penalty"] if sub["late"] else 0.0
+        show_score = self.shown(feedback.score_when(), a, who, now) and status in ("graded", "invalid", "failed")
+        out = {
+            "id": sub["id"],
+            "student": sub["student"],
+            "status": status,
+            "kind": sub["kind"],
+            "version": sub["version"],
+            "accepted_at": iso(sub["accepted_at"]),
+            "late": bool(sub["late"]),
+            "counts_as_attempt": status not in ("invalid", "failed"),
+            "counts": sub["id"] == counting,
+            "score": round(sub["score"] * (1 - penalty), 6) if show_score and sub["score"] is not None else None,
+            "raw_score": sub["score"] if show_score else None,
+            "penalty": penalty,
+            "max_score": sub["max_score"],
+            "feedback": None,
+            "url": f"/api/assignments/{a['id']}/submissions/{sub['id']}",
+        }
+        if status in ("graded", "invalid", "failed"):
+            item = self.runs.item(sub["run_id"], sub["id"])
+            report = (item or {}).get("report") or {}
+            out["feedback"] = self._feedback(a, sub, report, feedback, who, now)
+            out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
+        return out
+
+    def files(self, a: dict, sub: dict, who: Who) -> list[str]:
+        """The pictures of a graded submission the caller may fetch: its render (their own work); the error
+        map and the rejected pixels when no image test is hidden (they show the reference's structure); the
+        reference when the policy shows it. The instructor: all of them."""
+        if _status(sub) != "graded":
+            return []
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        now = self.now()
+        names = ["render.png"]
+        tests = self.spec(a["id"], sub["version"]).image_tests()
+        if all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests):
+            names += ["error_map.png", "rejected.png"]
+        if who.instructor or a["policy"]["show_reference"]:
+            names.append("reference.png")
+        folder = self.runs.root / sub["run_id"] / "out" / sub["id"]
+        return [n for n in names if (folder / n).is_file()]
+
+    def file(self, a: dict, sub: dict, who: Who, name: str) -> Path | None:
+        if name not in self.files(a, sub, who):
+            return None
+        return self.runs.root / sub["run_id"] / "out" / sub["id"] / name
+
+    def _feedback(self, a: dict, sub: dict, report: dict, feedback: Feedback, who: Who, now: float) -> dict:
+        keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
+        tests, hidden_image = [], False
+        for key, t in zip(keys, report.get("tests", []), strict=False):
+            when = feedback.tests.get(key, feedback.default)
+            entry = {"name": t["name"], "test": key, "max_score": t["max_score"], "shown": when}
+            if self.shown(when, a, who, now):
+                entry.update(score=t["score"], status=t["status"], output=t["output"])
+            else:
+                entry["hidden"] = f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
+                hidden_image |= key in IMAGE_TESTS
+            tests.append(entry)
+        out = {"tests": tests, "errors": report.get("errors", []), "warnings": report.get("warnings", [])}
+        if not hidden_image and report.get("metrics"):
+            out["metrics"] = report["metrics"]
+        return out
+
+    def counting(self, a: dict, subs: list[dict]) -> dict | None:
+        """The submission that is the grade: the last graded one, or the best (by the share of its points
+        after the late penalty; the later of two equal ones)."""
+        graded = [s for s in subs if _status(s) == "graded" and s["score"] is not None]
+        if not graded:
+            return None
+        if a["policy"]["counts"] == "last":
+            return graded[-1]
+        penalty = a["policy"]["late_penalty"]
+
+        def share(s: dict) -> float:
+            return s["score"] * (1 - (penalty if s["late"] else 0)) / (s["max_score"] or 1)
+
+        return max(reversed(graded), key=share)
+
+    def grades_csv(self, a: dict) -> str:
+        """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
+        when none was graded), max_score, late, submissions (all they made)."""
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
+        subs: dict[str, list[dict]] = {}
+        for s in self.submissions(a):
+            subs.setdefault(s["student"], []).append(s)
+        for st in self.store.students(a["id"]):
+            mine = subs.get(st["student"], [])
+            c = self.counting(a, mine)
+            if c is None:
+                w.writerow([st["student"], st["name"], "", "", "", len(mine)])
+                continue
+            penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
+            w.writerow(
+                [
+                    st["student"],
+                    st["name"],
+                    _num(c["score"] * (1 - penalty)),
+                    _num(c["max_score"]),
+                    "true" if c["late"] else "false",
+                    len(mine),
+                ]
+            )
+        return buf.getvalue()
+
+    def reference_png(self, a: dict) -> Path | None:
+        """The reference image, once the version's reference is graded (its pictures are written whole by then)."""
+        ref = self.runs.gs.item(a["run_id"], REFERENCE)
+        path = self.runs.root / a["run_id"] / "out" / REFERENCE / "reference.png"
+        return path if ref is not None and ref["stage"] == "graded" and path.is_file() else None
+
+
+def _status(sub: dict) -> str:
+    """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
+    stage = sub.get("stage")
+    if stage is None or stage == "submitted":
+        return "queued"
+    if stage != "graded":
+        return "grading"
+    return sub["status"] or "failed"
+
+
+def _grade(item: dict) -> dict:
+    return {
+        "status": item["status"] if item["stage"] == "graded" else _status(item),
+        "score": item["score"],
+        "max_score": item["max_score"],
+    }
+
+
+def _num(x: float | None) -> str:
+    return "" if x is None else f"{round(x, 6):g}"
+
+
+def test_keys(assignment) -> list[str]:
+    """The names a feedback policy may give tests: validity, the requirements', the image tests'."""
+    return ["validity", *(r.name for r in assignment.requirements), *assignment.image_tests()]
+
+
+def report_keys(assignment, kind: str) -> list[str]:
+    """The policy's name of each test of a report, in the report's order (an image has no requirements)."""
+    requirements = [r.name for r in assignment.requirements] if kind == "scene" else []
+    return ["validity", *requirements, *assignment.image_tests()]
+
+
+def parse_roster(text: str) -> list[dict]:
+    """A roster CSV (header: id,name,email) -> rows; 422 naming the line and column of anything wrong."""
+    reader = csv.reader(io.StringIO(text.lstrip("\ufeff")))
+    try:
+        header = next(reader, None)
+    except csv.Error as e:
+        raise ApiError(422, [{"path": "line 1", "message": f"not CSV: {e}"}]) from None
+    if header is None or [h.strip().lower() for h in header] != ["id", "name", "email"]:
+        got = ",".join(header or [])[:120]
+        raise ApiError(422, [{"path": "line 1", "message": f"expected the header 'id,name,email'; got {got!r}"}])
+    rows, seen, errors = [], {}, []
+    try:
+        for line, fields in enumerate(reader, start=2):
+            if not any(f.strip() for f in fields):
+                continue
+            if len(fields) != 3:
+                errors.append(
+                    {"path": f"line {line}", "message": f"expected 3 fields (id,name,email); got {len(fields)}"}
+                )
+                continue
+            sid, name, email = (f.strip() for f in fields)
+            if not sid or student_name(sid) != sid or len(sid) > 80:
+                errors.append(
+                    {
+                        "path": f"line {line}.id",
+                        "message": f"{sid[:80]!r}: an id is 1 to 80 letters, digits, "
+                        "'.', '_' or '-' (no spaces), not starting or ending with '.' or '_'",
+                    }
+                )
+            elif sid in seen:
+                errors.append({"path": f"line {line}.id", "message": f"'{sid}' is on line {seen[sid]} too"})
+            if not name:
+                errors.append({"path": f"line {line}.name", "message": "a name is required"})
+            if email and ("@" not in email or len(email) > 254):
+                errors.append({"path": f"line {line}.email", "message": f"{email[:80]!r} is not an email address"})
+            seen.setdefault(sid, line)
+            rows.append({"student": sid, "name": name[:200], "email": email})
+    except csv.Error as e:
+        errors.append({"path": f"line {reader.line_num}", "message": f"not CSV: {e}"})
+    if errors:
+        raise ApiError(422, errors[:20])
+    if not rows:
+        raise ApiError(422, [{"path": "line 2", "message": "no students under the header"}])
+    return rows
+
+
+def links_csv(students: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["id", "name", "email", "link"])
+    for s in students:
+        w.writerow([s["id"], s["name"], s["email"], s["link"] or ""])
+    return buf.getvalue()

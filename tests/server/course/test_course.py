@@ -1,0 +1,66 @@
+"""The course's store and rules without the app (server/course/): attempts as the grading rows say, the
+caps counted with the write, the roster's CSV, deadlines moved by an extension."""
+
+from __future__ import annotations
+
+import pytest
+
+from server.core.errors import ApiError
+from server.course.service import Course, parse_roster
+from server.course.store import CourseStore
+from server.grading.store import GradingStore
+
+
+def sub(sid: str, at: float, student: str = "s1") -> dict:
+    return {"id": sid, "assignment_id": "a" * 32, "student": student, "version": 1, "run_id": "r" * 32,
+            "kind": "scene", "file": f"{sid}.json", "accepted_at": at, "late": 0}  # fmt: skip
+
+
+def test_course_a_pending_submission_holds_its_attempt_until_graded_invalid(tmp_path):
+    store, gs = CourseStore(tmp_path), GradingStore(tmp_path)
+    gs.create_run("r" * 32, "{}", "hw", 13, [], open_=True)
+    assert store.add_submission(sub("x1", 100.0), max_attempts=1, per_hour=10, hour_ago=0) is None
+    assert store.attempts("a" * 32, "s1") == 1  # queued: holds it
+    assert store.add_submission(sub("x2", 101.0), max_attempts=1, per_hour=10, hour_ago=0) == "attempts"
+    gs.add_item("r" * 32, {"student": "x1", "kind": "scene", "filename": "s.json", "file": "x1.json"})
+    gs.update_item("r" * 32, "x1", stage="graded", status="invalid", score=0.0, max_score=13.0)
+    assert store.attempts("a" * 32, "s1") == 0  # found invalid: given back
+    assert store.add_submission(sub("x2", 102.0), max_attempts=1, per_hour=10, hour_ago=0) is None
+    assert [s["id"] for s in store.submissions("a" * 32)] == ["x1", "x2"]
+
+
+def test_course_the_hourly_cap_counts_the_last_hour_only(tmp_path):
+    store = CourseStore(tmp_path)
+    for i in range(3):
+        assert store.add_submission(sub(f"h{i}", 1000.0 + i), None, per_hour=3, hour_ago=0) is None
+    assert store.add_submission(sub("h3", 1003.0), None, per_hour=3, hour_ago=1003.0 - 3600) == "hour"
+    assert store.add_submission(sub("h3", 4601.5), None, per_hour=3, hour_ago=4601.5 - 3600) is None
+    assert store.add_submission(sub("o1", 1003.0, student="s2"), None, per_hour=3, hour_ago=0) is None  # per student
+
+
+def test_course_a_handed_twice_submission_is_one_grading_row(tmp_path):
+    gs = GradingStore(tmp_path)
+    gs.create_run("r" * 32, "{}", "hw", 13, [], open_=True)
+    it = {"student": "x1", "kind": "scene", "filename": "s.json", "file": "x1.json"}
+    assert gs.add_item("r" * 32, it) is True
+    assert gs.add_item("r" * 32, it) is False
+    assert [i["student"] for i in gs.items("r" * 32)] == ["x1"] and gs.is_open("r" * 32)
+
+
+def test_course_roster_rows_and_errors():
+    rows = parse_roster('\ufeffID, Name ,Email\ns1,Zoë O\'Brien,z@x.edu\n\ns2,"Doe, Jane",\n')
+    assert rows == [{"student": "s1", "name": "Zoë O'Brien", "email": "z@x.edu"},
+                    {"student": "s2", "name": "Doe, Jane", "email": ""}]  # fmt: skip
+    with pytest.raises(ApiError) as e:
+        parse_roster("id,name,email\n.x,X,\n")
+    assert e.value.errors[0]["path"] == "line 2.id"
+
+
+def test_course_an_extension_moves_the_deadline_and_the_late_cut_off_alike():
+    a = {"policy": {"deadline": "2026-12-03T12:00:00+00:00", "late_until": "2026-12-04T12:00:00+00:00"}}
+    due, cut = Course.deadlines(a, None)
+    assert cut - due == 86400
+    ext = {"deadline": due + 3600}
+    assert Course.deadlines(a, ext) == (due + 3600, cut + 3600)
+    a["policy"]["late_until"] = None
+    assert Course.deadlines(a, ext) == (due + 3600, due + 3600)
