@@ -5,7 +5,7 @@ max_width)"), the same through the command line, the service and grading. The ta
 definition of the limits (name, default, what is counted):
 
 - `Limits`, the dataclass the validators read (tracer/scene/), is made from it, its defaults the table's;
-- the service's settings TRACER_MAX_WIDTH, ... (server/settings.py) are its rows, with the same defaults
+- the service's settings TRACER_MAX_WIDTH, ... (server/core/settings.py) are its rows, with the same defaults
   and descriptions (docs/service.md lists them);
 - an assignment's limits (tracer/grading/spec.py, `GradingLimits`) tighten some of them for its students,
   and a grading render takes the tighter of the assignment's and the service's (`Limits.tighter`).

@@ -2,7 +2,7 @@
 its time limit.
 
 The grader takes any `renderer`, a callable from a list of RenderJobs to one Rendered each (renders.py):
-`InlineRenderer` renders in this process, the service renders through its job queue (server/grading.py),
+`InlineRenderer` renders in this process, the service renders through its job queue (server/grading/runs.py),
 and `LocalRenderer` is the same isolation without the service: a slow or broken submission fails alone
 (its worker is killed at the limit, or dies, and is replaced) while the others go on. Jobs cross the
 process boundary as plain data and each worker renders them with `InlineRenderer`, so the images, and

@@ -22,7 +22,7 @@ from tracer.scene import Limits
 class Prepared:
     """A submission checked (validity, requirements) and the render it needs, before any image test:
     the first half of a student's grade. As plain data (`to_json`) it crosses process boundaries and
-    is kept in the service's database between the two halves (server/grading.py)."""
+    is kept in the service's database between the two halves (server/grading/runs.py)."""
 
     sub: Submission
     report: Report

@@ -2,7 +2,7 @@
 
 A renderer is a callable that takes a list of RenderJobs and returns one Rendered each, in order.
 `InlineRenderer` renders here, one after another; the CLI's worker processes (local.py) and the service's
-job queue (server/grading.py) render them elsewhere, with a time limit per job.
+job queue (server/grading/runs.py) render them elsewhere, with a time limit per job.
 """
 
 from __future__ import annotations

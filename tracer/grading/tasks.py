@@ -1,7 +1,7 @@
 """A grading run's work, as functions of plain data (JSON text, dicts, file paths, numbers) that run in
 any process and return plain data.
 
-The service runs them in a pool of worker processes beside the API (server/grading.py), so no
+The service runs them in a pool of worker processes beside the API (server/grading/runs.py), so no
 submission is parsed and no image compared in the API process; a job queue could run them as jobs
 of their own kind, as they take nothing but data and files. The grading logic is the library's
 (`Grader.prepare`, `finish_report`): the same reports as grading in process, bit for bit.
