@@ -3,7 +3,7 @@ Job statuses: server/jobs/lifecycle.py."""
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, model_validator
 from pydantic_core import PydanticCustomError
@@ -113,3 +113,20 @@ class Health(BaseModel):
         "(while busy: read, validate, summary, samples), restarts",
     )
     jobs: dict[str, int] = Field(description="jobs by status")
+
+
+class HandedIn(BaseModel):
+    """A student's work as it is handed in: a scene, or an image of the reference scene from their own
+    ray tracer (exactly one of the two)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    scene: dict[str, Any] | str | None = Field(None, description="a scene object, or its JSON text (may be broken)")
+    image: str | None = Field(None, description="a PNG or EXR image of the reference scene, base64")
+    format: Literal["png", "exr"] = Field("png", description="the image's format")
+
+    @model_validator(mode="after")
+    def _one(self) -> HandedIn:
+        if (self.scene is None) == (self.image is None):
+            raise ValueError("give exactly one of 'scene' and 'image'")
+        return self

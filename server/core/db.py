@@ -51,3 +51,20 @@ class Transaction:
                 self.conn.execute("ROLLBACK")
             except sqlite3.Error:
                 pass
+
+
+class Tables:
+    """Tables of the data directory's database (DATA/jobs.sqlite3: the jobs', the grading runs', the
+    course's): `schema` made if new, this thread's connection (`db`), transactions (`_tx`)."""
+
+    def __init__(self, data_dir: Path, schema: str):
+        self.db_path = Path(data_dir) / "jobs.sqlite3"
+        self._local = threading.local()
+        self.db.executescript(schema)
+
+    @property
+    def db(self) -> sqlite3.Connection:
+        return thread_connection(self._local, self.db_path)
+
+    def _tx(self) -> Transaction:
+        return Transaction(self.db)

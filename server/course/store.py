@@ -17,10 +17,9 @@ from __future__ import annotations
 
 import json
 import sqlite3
-import threading
 from pathlib import Path
 
-from server.core.db import Transaction, thread_connection
+from server.core.db import Tables
 from server.grading.store import GradingStore
 
 SCHEMA = """
@@ -68,21 +67,15 @@ CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (ass
 HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))"
 
 
-class CourseStore:
+class CourseStore(Tables):
     def __init__(self, data_dir: Path):
         GradingStore(data_dir)  # the grading tables this store's queries join (created if new)
-        self.db_path = Path(data_dir) / "jobs.sqlite3"
-        self._local = threading.local()
-        self.db.executescript(SCHEMA)
-
-    @property
-    def db(self) -> sqlite3.Connection:
-        return thread_connection(self._local, self.db_path)
+        super().__init__(data_dir, SCHEMA)
 
     # -- assignments and their versions --------------------------------------------------------
 
     def create(self, aid: str, spec: str, policy: dict, run_id: str, now: float) -> None:
-        with Transaction(self.db) as db:
+        with self._tx() as db:
             db.execute("INSERT INTO course_assignments (id, version, created_at) VALUES (?, 1, ?)", (aid, now))
             db.execute(
                 "INSERT INTO course_versions (assignment_id, version, spec, policy, run_id, created_at)"
@@ -91,7 +84,7 @@ class CourseStore:
             )
 
     def add_version(self, aid: str, spec: str, policy: dict, run_id: str, now: float) -> int:
-        with Transaction(self.db) as db:
+        with self._tx() as db:
             version = db.execute("SELECT version FROM course_assignments WHERE id = ?", (aid,)).fetchone()[0] + 1
             db.execute(
                 "INSERT INTO course_versions (assignment_id, version, spec, policy, run_id, created_at)"
@@ -144,7 +137,7 @@ class CourseStore:
         """The roster's new students (dicts: student, name, email, token_hash, self_declared), in one
         transaction; those already on it keep their token (their name and email are updated). The ids added."""
         added = []
-        with Transaction(self.db) as db:
+        with self._tx() as db:
             for r in rows:
                 cur = db.execute(
                     "UPDATE course_students SET name = ?, email = ? WHERE assignment_id = ? AND student = ?",
@@ -178,7 +171,7 @@ class CourseStore:
     def add_submission(self, sub: dict, max_attempts: int | None, per_hour: int, hour_ago: float) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),
         with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap."""
-        with Transaction(self.db) as db:
+        with self._tx() as db:
             who = (sub["assignment_id"], sub["student"])
             recent = db.execute(
                 "SELECT COUNT(*) FROM course_submissions WHERE assignment_id = ? AND student = ? AND accepted_at > ?",
@@ -221,7 +214,7 @@ class CourseStore:
 
     def regrade(self, aid: str, version: int, run_id: str) -> list[dict]:
         """Every submission of the assignment moved to a new version's run, to be handed to it again."""
-        with Transaction(self.db) as db:
+        with self._tx() as db:
             db.execute(
                 "UPDATE course_submissions SET version = ?, run_id = ?, handed = 0 WHERE assignment_id = ?",
                 (version, run_id, aid),

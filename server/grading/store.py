@@ -21,14 +21,11 @@ Every write is one short statement or transaction; each thread opens its own con
 from __future__ import annotations
 
 import json
-import sqlite3
-import threading
 import time
 from enum import StrEnum
 from pathlib import Path
 
-from server.core.db import Transaction as _Transaction
-from server.core.db import thread_connection
+from server.core.db import Tables
 from server.jobs.lifecycle import JobStatus
 
 SCHEMA = """
@@ -97,20 +94,11 @@ class RenderStatus(StrEnum):
     failed = "failed"  # no image: `error` says why
 
 
-class GradingStore:
+class GradingStore(Tables):
     """The grading tables, in the database file of the job store `data_dir/jobs.sqlite3`."""
 
     def __init__(self, data_dir: Path):
-        self.db_path = Path(data_dir) / "jobs.sqlite3"
-        self._local = threading.local()
-        self.db.executescript(SCHEMA)
-
-    @property
-    def db(self) -> sqlite3.Connection:
-        return thread_connection(self._local, self.db_path)
-
-    def _tx(self):
-        return _Transaction(self.db)
+        super().__init__(data_dir, SCHEMA)
 
     # -- runs ---------------------------------------------------------------------------------
 

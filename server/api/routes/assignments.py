@@ -10,15 +10,15 @@ import binascii
 import json
 import time
 from collections.abc import AsyncIterator
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import StreamingResponse
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import StoreDep
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
 from server.course.policy import AssignmentIn, Instant
@@ -37,18 +37,7 @@ def get_course(request: Request) -> Course:
 CourseDep = Annotated[Course, Depends(get_course)]
 
 
-class SubmissionIn(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    scene: dict[str, Any] | str | None = Field(None, description="a scene object, or its JSON text (may be broken)")
-    image: str | None = Field(None, description="a PNG or EXR image of the reference scene, base64")
-    format: Literal["png", "exr"] = Field("png", description="the image's format")
-
-    @model_validator(mode="after")
-    def _one(self) -> SubmissionIn:
-        if (self.scene is None) == (self.image is None):
-            raise ValueError("give exactly one of 'scene' and 'image'")
-        return self
+SubmissionIn = HandedIn  # POST /api/assignments/{id}/submissions and /check
 
 
 class ExtensionIn(BaseModel):

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import SettingsDep
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError, json_depth
 from server.core.paths import ROOT
 from server.core.security import require_instructor
@@ -61,19 +61,10 @@ UPLOAD_BODY = {  # the multipart body, for /docs (the route parses it as a strea
 }  # fmt: skip
 
 
-class SubmissionIn(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class SubmissionIn(HandedIn):
+    """One student's work in a class graded at once."""
 
     student: str = Field(min_length=1, max_length=80, description="the student's name or id")
-    scene: dict[str, Any] | str | None = Field(None, description="a scene object, or its JSON text (may be broken)")
-    image: str | None = Field(None, description="a PNG or EXR image, base64")
-    format: Literal["png", "exr"] = Field("png", description="the image's format")
-
-    @model_validator(mode="after")
-    def _one(self) -> SubmissionIn:
-        if (self.scene is None) == (self.image is None):
-            raise ValueError("give exactly one of 'scene' and 'image'")
-        return self
 
 
 class GradeCreate(BaseModel):
