@@ -48,6 +48,7 @@ log = logging.getLogger(__name__)
 
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
 IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
+VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
 SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
 CHECK_SECONDS = 30  # a check waits this long for a grading process (they are busy with a deadline's burst)
 
@@ -578,33 +579,69 @@ class Course:
 
         return max(reversed(graded), key=share)
 
+    def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
+        """Each roster student: (their row, the counting submission or None, its score after the late
+        penalty or None, how many submissions they made), in the roster's order."""
+        subs: dict[str, list[dict]] = {}
+        for s in self.submissions(a):
+            subs.setdefault(s["student"], []).append(s)
+        out = []
+        for st in self.store.students(a["id"]):
+            mine = subs.get(st["student"], [])
+            c = self.counting(a, mine)
+            penalty = a["policy"]["late_penalty"] if c is not None and c["late"] else 0.0
+            out.append((st, c, None if c is None else c["score"] * (1 - penalty), len(mine)))
+        return out
+
     def grades_csv(self, a: dict) -> str:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
         when none was graded), max_score, late, submissions (all they made)."""
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
-        subs: dict[str, list[dict]] = {}
-        for s in self.submissions(a):
-            subs.setdefault(s["student"], []).append(s)
-        for st in self.store.students(a["id"]):
-            mine = subs.get(st["student"], [])
-            c = self.counting(a, mine)
+        for st, c, score, n in self.final_grades(a):
             if c is None:
-                w.writerow([st["student"], st["name"], "", "", "", len(mine)])
-                continue
-            penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
-            w.writerow(
-                [
-                    st["student"],
-                    st["name"],
-                    _num(c["score"] * (1 - penalty)),
-                    _num(c["max_score"]),
-                    "true" if c["late"] else "false",
-                    len(mine),
-                ]
-            )
+                w.writerow([st["student"], st["name"], "", "", "", n])
+            else:
+                w.writerow([st["student"], st["name"], _num(score), _num(c["max_score"]), str(c["late"]).lower(), n])
         return buf.getvalue()
+
+    def gradebook_csv(self, a: dict) -> str:
+        """The grades as a learning management system imports them (Canvas's gradebook columns: Student, ID,
+        SIS User ID, SIS Login ID, Section, then one column for this assignment, and a Points Possible row):
+        the roster's id as the SIS User ID, its email as the SIS Login ID; a student with nothing graded has
+        an empty cell, which an import leaves as it was. The column has one number of points (the spec's), so
+        a score out of another maximum (an image: no requirements) is scaled to it: 3.5 of 7 is 6.5 of 13."""
+        spec = self.spec(a["id"], a["version"])
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["Student", "ID", "SIS User ID", "SIS Login ID", "Section", f"{spec.name} ({a['id'][:8]})"])
+        points = spec.max_score()
+        w.writerow(["Points Possible", "", "", "", "", _num(points)])
+        for st, c, score, _ in self.final_grades(a):
+            scaled = None if c is None else score * points / (c["max_score"] or points)
+            w.writerow([st["name"], "", st["student"], st.get("email") or "", "", _num(scaled)])
+        return buf.getvalue()
+
+    def gradescope(self, a: dict, sub: dict) -> dict | None:
+        """A graded submission as Gradescope's autograder results.json (for an autograder that hands a
+        student's work to this service and reports what it says): each test's visibility from the feedback
+        policy (now: visible, after the deadline: after_due_date, never: hidden), the score after the late
+        penalty, and the whole result's visibility that of the score. None before it is graded."""
+        path = self.runs.root / sub["run_id"] / "out" / sub["id"] / "results.json"
+        if sub.get("stage") != "graded" or not path.is_file():
+            return None
+        results = json.loads(path.read_text())
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
+        for key, test in zip(keys, results.get("tests", []), strict=False):
+            test["visibility"] = VISIBILITY[When(feedback.tests.get(key, feedback.default))]
+        results["visibility"] = VISIBILITY[When(feedback.score_when())]
+        if sub["late"] and a["policy"]["late_penalty"]:
+            penalty = a["policy"]["late_penalty"]
+            results["score"] = round(results["score"] * (1 - penalty), 6)
+            results["output"] += f"\nlate: {penalty:g} of the points taken off"
+        return results
 
     def reference_png(self, a: dict) -> Path | None:
         """The reference image, once the version's reference is graded (its pictures are written whole by then)."""

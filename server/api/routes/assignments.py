@@ -365,6 +365,23 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
     )
 
 
+@router.get(
+    "/{aid}/submissions/{sid}/results.json",
+    summary="A graded submission as Gradescope's autograder results.json",
+    responses=NOT_FOUND,
+)
+def gradescope_results(aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """For a Gradescope autograder that hands the student's work to this service: the tests with their
+    scores, each test's visibility from the feedback policy, the score after the late penalty. The
+    instructor's (its token is the autograder's)."""
+    a = _instructor(course, aid, caller, request)
+    sub = course.submission(a, sid)
+    results = course.gradescope(a, sub) if sub is not None else None
+    if results is None:
+        raise ApiError(404, [{"path": "sid", "message": f"no graded submission with id '{sid[:64]}'"}])
+    return results
+
+
 @router.get("/{aid}/submissions/{sid}/{name}", summary="A graded submission's picture", responses=NOT_FOUND)
 def submission_file(aid: str, sid: str, name: str, course: CourseDep, caller: CallerDep) -> Response:
     """render.png (always, once graded); error_map.png and rejected.png when no image test's feedback is
@@ -386,6 +403,18 @@ def grades(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> 
         course.grades_csv(a),
         media_type="text/csv",
         headers={"Content-Disposition": 'attachment; filename="grades.csv"'},
+    )
+
+
+@router.get("/{aid}/gradebook.csv", summary="The grades as an LMS gradebook imports them", responses=NOT_FOUND)
+def gradebook(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
+    """Canvas's gradebook columns (Student, ID, SIS User ID, SIS Login ID, Section, the assignment) and a
+    Points Possible row: the roster's id is the SIS User ID, its email the SIS Login ID."""
+    a = _instructor(course, aid, caller, request)
+    return Response(
+        course.gradebook_csv(a),
+        media_type="text/csv",
+        headers={"Content-Disposition": 'attachment; filename="gradebook.csv"'},
     )
 
 

@@ -500,3 +500,41 @@ def test_assignments_a_check_shows_what_the_policy_shows_now_and_keeps_nothing(a
     ).json() == {"submissions": []}
     teacher = app.post(f"/api/assignments/{aid}/check", json={"scene": scene_text("alice")}).json()
     assert teacher["tests"][1]["score"] == 2  # the instructor sees every test
+
+
+# ------------------------------------------------------------------------------------- exports
+
+
+def test_assignments_exports_an_lms_gradebook_and_gradescope_results(app, clock):
+    """gradebook.csv has Canvas's gradebook columns and a Points Possible row, the roster's id as the SIS User
+    ID; a graded submission's results.json is Gradescope's, each test's visibility from the feedback policy
+    and the score after the late penalty. Both are the instructor's: a student's token gets a 404."""
+    late_until = DEADLINE + timedelta(hours=24)
+    feedback = {"tests": {"pixels": "never", "flip": "after_deadline"}, "score": "after_deadline"}
+    aid = publish(app, late_until=late_until.isoformat(), late_penalty=0.5, feedback=feedback)["id"]
+    tok = {k: v["token"] for k, v in roster(app, aid, [("g1", "Grace G", "g@x.edu"), ("n1", "None N", "")]).items()}
+    clock.now = DEADLINE + timedelta(hours=1)  # late: half the points
+    sub = submit(app, aid, tok["g1"], image("grace"))
+    assert finished(app, aid, sub["id"])["score"] == 3.5
+
+    r = app.get(f"/api/assignments/{aid}/gradebook.csv", headers=TEACHER)
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv"), r.text
+    rows = list(csv.reader(io.StringIO(r.text)))
+    assert rows[0] == ["Student", "ID", "SIS User ID", "SIS Login ID", "Section", f"{spec()['name']} ({aid[:8]})"]
+    assert rows[1] == ["Points Possible", "", "", "", "", "13"]
+    assert rows[2:] == [["Grace G", "", "g1", "g@x.edu", "", "6.5"], ["None N", "", "n1", "", "", ""]]  # 3.5 of 7
+
+    results = app.get(f"/api/assignments/{aid}/submissions/{sub['id']}/results.json", headers=TEACHER).json()
+    assert results["score"] == 3.5 and "late: 0.5 of the points taken off" in results["output"]
+    assert results["visibility"] == "after_due_date"
+    shown = {t["name"]: t["visibility"] for t in results["tests"]}
+    assert shown == {
+        "readable image": "visible",
+        "FLIP against the reference": "after_due_date",
+        "SSIM against the reference": "visible",
+        "PSNR against the reference": "visible",
+        "pixels match the reference": "hidden",
+    }
+    for path in ("gradebook.csv", f"submissions/{sub['id']}/results.json"):
+        path = f"/api/assignments/{aid}/{path}"
+        assert app.get(path, headers=bearer(tok["g1"])).status_code == 404, path
