@@ -603,7 +603,8 @@ class Course:
             if c is None:
                 w.writerow([st["student"], st["name"], "", "", "", n])
             else:
-                w.writerow([st["student"], st["name"], _num(score), _num(c["max_score"]), str(c["late"]).lower(), n])
+                late = "true" if c["late"] else "false"
+                w.writerow([st["student"], st["name"], _num(score), _num(c["max_score"]), late, n])
         return buf.getvalue()
 
     def gradebook_csv(self, a: dict) -> str:
