@@ -97,10 +97,6 @@ class JobWatch:
                         del self._followers[job_id]
                         self._seen.pop(job_id, None)
 
-    def followed(self) -> int:
-        with self._lock:
-            return sum(len(f) for f in self._followers.values())
-
     def close(self) -> None:
         self._closed = True
         self._wake.set()

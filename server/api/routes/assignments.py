@@ -201,11 +201,7 @@ async def roster(aid: str, request: Request, course: CourseDep, caller: CallerDe
         raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
     students = await run_in_threadpool(course.roster, aid, text, _base(request))
     if "text/csv" in request.headers.get("accept", ""):
-        return Response(
-            links_csv(students),
-            media_type="text/csv",
-            headers={"Content-Disposition": 'attachment; filename="links.csv"', "Cache-Control": "no-store"},
-        )
+        return _csv(links_csv(students), "links.csv")
     return Response(
         json.dumps({"students": students}), media_type="application/json", headers={"Cache-Control": "no-store"}
     )
@@ -398,24 +394,20 @@ def submission_file(aid: str, sid: str, name: str, course: CourseDep, caller: Ca
 
 @router.get("/{aid}/grades.csv", summary="The grades: one row per roster student", responses=NOT_FOUND)
 def grades(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
-    a = _instructor(course, aid, caller, request)
-    return Response(
-        course.grades_csv(a),
-        media_type="text/csv",
-        headers={"Content-Disposition": 'attachment; filename="grades.csv"'},
-    )
+    return _csv(course.grades_csv(_instructor(course, aid, caller, request)), "grades.csv")
 
 
 @router.get("/{aid}/gradebook.csv", summary="The grades as an LMS gradebook imports them", responses=NOT_FOUND)
 def gradebook(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """Canvas's gradebook columns (Student, ID, SIS User ID, SIS Login ID, Section, the assignment) and a
     Points Possible row: the roster's id is the SIS User ID, its email the SIS Login ID."""
-    a = _instructor(course, aid, caller, request)
-    return Response(
-        course.gradebook_csv(a),
-        media_type="text/csv",
-        headers={"Content-Disposition": 'attachment; filename="gradebook.csv"'},
-    )
+    return _csv(course.gradebook_csv(_instructor(course, aid, caller, request)), "gradebook.csv")
+
+
+def _csv(text: str, filename: str) -> Response:
+    """A CSV export, downloaded as `filename` and never cached (links carry tokens, grades are private)."""
+    headers = {"Content-Disposition": f'attachment; filename="{filename}"', "Cache-Control": "no-store"}
+    return Response(text, media_type="text/csv", headers=headers)
 
 
 @router.get("/{aid}/reference.png", summary="The reference image (when the policy shows it)", responses=NOT_FOUND)
