@@ -35,6 +35,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from server.core.errors import ApiError
+from server.core.files import write_atomic
 from server.core.security import Caller, new_token, token_hash
 from server.core.settings import Settings
 from server.course.policy import AssignmentIn, Feedback, Policy, When
@@ -292,10 +293,7 @@ class Course:
         sid = uuid.uuid4().hex
         rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
         path = self.root / rel
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{sid}.tmp")
-        tmp.write_bytes(data)
-        tmp.replace(path)
+        write_atomic(path, lambda tmp: tmp.write_bytes(data))
         sub = {
             "id": sid,
             "assignment_id": a["id"],

@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
 from server.grading.run import GradingRun
@@ -119,13 +120,10 @@ class GradeRuns:
         rel = f"submissions/{h.student}{SUFFIX[h.kind]}"
         if self.gs.item(run_id, h.student) is not None:
             return False
-        (folder / "submissions").mkdir(parents=True, exist_ok=True)
-        tmp = folder / "submissions" / f".{h.student}.tmp"
         if h.path is not None:
-            shutil.copyfile(h.path, tmp)
+            write_atomic(folder / rel, lambda tmp: shutil.copyfile(h.path, tmp))
         else:
-            tmp.write_bytes(h.data or b"")
-        os.replace(tmp, folder / rel)
+            write_atomic(folder / rel, lambda tmp: tmp.write_bytes(h.data or b""))
         added = self.gs.add_item(run_id, {"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
         self.wake(run_id).set()
         return added
