@@ -60,10 +60,14 @@ class Previews:
     def file(self, name: str) -> Path | None:
         """The preview's PNG once it is rendered (copied from its finished job), else None."""
         _, base = self._key(name)
+        return self._file(base, None)
+
+    def _file(self, base: Path, row: dict | None) -> Path | None:
+        """The PNG at `base`, copied from the job `row` (read here when None) once it is done."""
         png = base.with_suffix(".png")
         if png.is_file():
             return png
-        row = self._job(base)
+        row = row or self._job(base)
         if row is not None and row["status"] == JobStatus.done:
             image = self.store.job_file(row["id"], JobFile.image_png)
             if image.is_file():
@@ -80,10 +84,10 @@ class Previews:
 
     def state(self, name: str) -> dict:
         """{state: ready | queued | rendering | failed | none, fraction, error}: `none` before it was queued."""
-        if self.file(name) is not None:
-            return {"state": "ready", "fraction": 1.0, "error": None}
         _, base = self._key(name)
-        row = self._job(base)
+        row = self._job(base)  # read once: the job may end between two reads (then it would read as failed)
+        if self._file(base, row) is not None:
+            return {"state": "ready", "fraction": 1.0, "error": None}
         if row is None:
             return {"state": "none", "fraction": 0.0, "error": None}
         status = JobStatus(row["status"])
@@ -93,6 +97,8 @@ class Previews:
             return {"state": "queued", "fraction": 0.0, "error": None}
         if status == JobStatus.running:
             return {"state": "rendering", "fraction": round(fraction, 3), "error": None}
+        if status == JobStatus.done:  # done, yet its picture is gone from the job's folder
+            return {"state": "failed", "fraction": 1.0, "error": "the rendered picture is missing"}
         return {"state": "failed", "fraction": fraction, "error": row.get("error") or f"the render {status}"}
 
     def ensure(self, name: str, retry_failed: bool = False) -> None:

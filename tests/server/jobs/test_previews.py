@@ -81,3 +81,33 @@ def test_previews_a_changed_example_gets_a_new_preview(tmp_path):
     assert previews.state("phong")["state"] == "none" and previews.file("phong") is None
     previews.ensure("phong")
     assert len(queued) == 2 and json.loads(queued[1]["scene"])["background"] == [1, 0, 0]
+
+
+def test_previews_a_job_that_ends_while_its_state_is_read_is_ready_not_failed(tmp_path):
+    """The CI failure of 2026-12-01: state() read the job once to look for its picture (still running) and once
+    more for its status (done by then), and a done job without a copied picture read as "failed"."""
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    shutil.copy(SCENES / "phong.json", scenes)
+    settings = Settings(data_dir=tmp_path / "data")
+    store = JobStore(settings.data_dir)
+    queued = []
+    previews = Previews(settings, JobService(settings, store, _Recording(queued), lambda: False), scenes)
+    previews.ensure("phong")
+    job = queued[0]
+    store.save_file(job["id"], "image.png", b"\x89PNG done")
+    get, reads = store.get, []
+
+    def get_then_finish(job_id):  # the worker finishes the job right after the first read
+        row = get(job_id)
+        reads.append(row["status"])
+        if len(reads) == 1:
+            with store._tx() as db:
+                db.execute("UPDATE jobs SET status = ? WHERE id = ?", (JobStatus.done.value, job_id))
+        return row
+
+    store.get = get_then_finish
+    first = previews.state("phong")
+    assert first["state"] in ("queued", "ready"), first  # never "failed"
+    assert previews.state("phong")["state"] == "ready"
+    assert previews.file("phong").read_bytes() == b"\x89PNG done"
