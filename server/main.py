@@ -26,7 +26,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from server.api.routes import assignments, grade, jobs, reference, samples, scenes, tools
+from server.api.routes import assignments, grade, jobs, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
@@ -152,5 +152,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(grade.router)
     app.include_router(assignments.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
+    app.include_router(pages.router)  # /assignments/{id} and /course: the course's pages of web/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app
