@@ -21,6 +21,7 @@ from server.api.deps import StoreDep
 from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
+from server.course import dashboard as course_board
 from server.course.policy import AssignmentIn, Instant
 from server.course.service import Course, Who, iso, links_csv, not_found
 from tracer.errors import pydantic_errors
@@ -417,3 +418,31 @@ def reference_png(aid: str, course: CourseDep, caller: CallerDep) -> Response:
     if path is None:
         raise ApiError(404, [{"path": "", "message": "no reference image (not shown, or not rendered yet)"}])
     return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})
+
+
+
+# -- the instructor's dashboard (web/course.html; server/course/dashboard.py) ------------------------
+
+
+@router.get(
+    "/{aid}/dashboard", summary="The roster with each student's state and score (the instructor's)", responses=NOT_FOUND
+)
+def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """Every roster student with their deadline (an extension marked), state (none, submitted, graded,
+    invalid, failed), counting score, submissions and whether self-declared; and the class's counts, mean and
+    median. One answer for the whole class, for a page that follows it while it submits."""
+    return course_board.dashboard(course, _instructor(course, aid, caller, request))
+
+
+@router.get(
+    "/{aid}/students/{student}",
+    summary="One student: their state and every submission (the instructor's)",
+    responses=NOT_FOUND,
+)
+def student_detail(aid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """The student's dashboard row and their history: each submission as GET .../submissions/{sid} shows it
+    to the instructor (status, late, score, feedback, pictures), oldest first."""
+    out = course_board.student_detail(course, _instructor(course, aid, caller, request), student)
+    if out is None:
+        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
+    return out

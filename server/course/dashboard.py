@@ -1,0 +1,124 @@
+"""The instructor's dashboard of one assignment (web/course.html): the roster joined with each student's
+state in one answer, so that a page following a class of 300 while it submits asks once every few seconds
+rather than once per student.
+
+A student's **state** is what the roster column says of them:
+- `none`: nothing submitted;
+- `submitted`: something is waiting to be graded (queued or grading) and nothing of theirs is graded yet;
+- `graded`: a graded submission counts (the last or the best, as the policy says); `pending` tells whether
+  a newer one is still waiting;
+- `invalid`: every submission was invalid (its scene did not validate, its image could not be read);
+- `failed`: nothing graded, and a submission could not be graded (it costs no attempt).
+
+`score` is the counting submission's after the late penalty (as grades.csv has it), `max_score` its own
+maximum (a scene's 13 or an image's 7 in the example), and `points` the score scaled to the spec's points
+(as gradebook.csv has it), which the distribution uses: scenes and images then share one axis.
+"""
+
+from __future__ import annotations
+
+import statistics
+
+from server.course.service import Course, Who, iso
+
+PENDING = ("queued", "grading")
+
+
+def _status(sub: dict) -> str:
+    stage = sub.get("stage")
+    if stage is None or stage == "submitted":
+        return "queued"
+    if stage != "graded":
+        return "grading"
+    return sub["status"] or "failed"
+
+
+def student_rows(course: Course, a: dict) -> list[dict]:
+    """Each roster student with their deadline, state, counting score and submissions, in roster order."""
+    points = course.spec(a["id"], a["version"]).max_score()
+    subs: dict[str, list[dict]] = {}
+    for s in course.submissions(a):
+        subs.setdefault(s["student"], []).append(s)
+    penalty = a["policy"]["late_penalty"]
+    rows = []
+    for st in course.store.students(a["id"]):
+        mine = subs.get(st["student"], [])
+        statuses = [_status(s) for s in mine]
+        counting = course.counting(a, mine)
+        pending = sum(x in PENDING for x in statuses)
+        if counting is not None:
+            state = "graded"
+        elif pending:
+            state = "submitted"
+        elif not mine:
+            state = "none"
+        elif all(x == "invalid" for x in statuses):
+            state = "invalid"
+        else:
+            state = "failed"
+        due, cut = course.deadlines(a, st)
+        score = None
+        if counting is not None:
+            score = counting["score"] * (1 - (penalty if counting["late"] else 0.0))
+        rows.append(
+            {
+                "id": st["student"],
+                "name": st["name"],
+                "email": st["email"],
+                "self_declared": bool(st["self_declared"]),
+                "deadline": iso(due),
+                "late_until": iso(cut) if cut > due else None,
+                "extended": st["deadline"] is not None,
+                "state": state,
+                "pending": pending,
+                "submissions": len(mine),
+                "late": bool(counting["late"]) if counting is not None else any(s["late"] for s in mine),
+                "score": None if score is None else round(score, 6),
+                "max_score": counting["max_score"] if counting is not None else None,
+                "points": None if score is None else round(score * points / (counting["max_score"] or points), 6),
+                "counting": counting["id"] if counting is not None else None,
+                "last_at": iso(mine[-1]["accepted_at"]) if mine else None,
+            }
+        )
+    return rows
+
+
+def dashboard(course: Course, a: dict) -> dict:
+    """The assignment's dashboard: its students (student_rows) and the counts, mean and median of the class
+    (in the spec's points, over the students with a graded submission). `submitted`: students who submitted
+    anything; `waiting`: those with a submission not graded yet; `graded`, `invalid`, `failed`: by state."""
+    rows = student_rows(course, a)
+    graded = [r["points"] for r in rows if r["points"] is not None]
+    counts = {k: sum(r["state"] == k for r in rows) for k in ("none", "submitted", "graded", "invalid", "failed")}
+    return {
+        "id": a["id"],
+        "version": a["version"],
+        "name": a["spec"]["name"],
+        "max_points": course.spec(a["id"], a["version"]).max_score(),
+        "deadline": a["policy"]["deadline"],
+        "now": iso(course.now()),
+        "students": rows,
+        "summary": {
+            "students": len(rows),
+            "submitted": len(rows) - counts["none"],
+            "not_submitted": counts["none"],
+            "waiting": sum(r["pending"] > 0 for r in rows),
+            "late": sum(r["late"] for r in rows),
+            "graded": counts["graded"],
+            "invalid": counts["invalid"],
+            "failed": counts["failed"],
+            "mean": round(statistics.fmean(graded), 6) if graded else None,
+            "median": round(statistics.median(graded), 6) if graded else None,
+        },
+    }
+
+
+def student_detail(course: Course, a: dict, student: str) -> dict | None:
+    """One student's row (as student_rows) and every submission of theirs, as the instructor sees it
+    (feedback whole, pictures listed), oldest first. None for a student not on the roster."""
+    row = next((r for r in student_rows(course, a) if r["id"] == student), None)
+    if row is None:
+        return None
+    subs = course.submissions(a, student)
+    who = Who(None)
+    return {**row, "history": [course.view(a, s, who, row["counting"]) for s in subs]}
