@@ -420,8 +420,7 @@ def reference_png(aid: str, course: CourseDep, caller: CallerDep) -> Response:
     return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})
 
 
-
-# -- the instructor's dashboard (web/course.html; server/course/dashboard.py) ------------------------
+# -- the instructor's dashboard (web/course.html; server/course/dashboard.py)
 
 
 @router.get(
