@@ -1,0 +1,616 @@
+// One assignment's dashboard (the course page at /course#<id>): the roster upload and the links to mail
+// (shown this once), the roster against each student's state (GET .../dashboard: one answer for the whole
+// class, asked again every few seconds while the page is shown, so it fills live while a class submits),
+// the distribution of the scores, a student's detail (their history with feedback and pictures, an
+// extension, a replaced link), the versions with the form that publishes a new one (and regrades), and
+// the exports. Pictures and files are fetched with the instructor's header and shown as blob: URLs.
+import { downloadFile, showImage } from "../api.js";
+import { $, download, h, s } from "../util.js";
+import { AssignmentForm } from "./instructor_form.js";
+import { AS, course, errorList, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
+
+const POLL_MS = 3000; // the roster is asked again this often while the page is shown
+const BINS = 10; // the histogram's bars: tenths of the spec's points
+const STATE_TEXT = { none: "not submitted", submitted: "submitted", graded: "graded", invalid: "invalid only", failed: "ungradable" };
+const FILTERS = [
+  ["all", "everyone"],
+  ["none", "not submitted"],
+  ["waiting", "waiting to be graded"],
+  ["graded", "graded"],
+  ["late", "late"],
+  ["invalid", "invalid only"],
+  ["failed", "ungradable"],
+  ["extended", "with an extension"],
+  ["self", "self-declared names"],
+];
+const PICTURES = [
+  ["render.png", "their render"],
+  ["reference.png", "the reference"],
+  ["error_map.png", "FLIP error map"],
+  ["rejected.png", "pixels the z test rejected"],
+];
+
+/** CSV text of rows (RFC 4180: a field with a comma, a quote or a line break is quoted). */
+function csvText(rows) {
+  const field = (v) => {
+    const t = v === null || v === undefined ? "" : String(v);
+    return /[",\r\n]/.test(t) ? `"${t.replace(/"/g, '""')}"` : t;
+  };
+  return rows.map((r) => r.map(field).join(",")).join("\n") + "\n";
+}
+
+function matches(row, filter) {
+  switch (filter) {
+    case "all": return true;
+    case "waiting": return row.pending > 0;
+    case "late": return row.late;
+    case "extended": return row.extended;
+    case "self": return row.self_declared;
+    default: return row.state === filter;
+  }
+}
+
+const COLUMNS = [
+  // key, header, sort value (null: last whichever way), first direction
+  ["student", "Student", (r) => r.index, 1],
+  ["state", "Status", (r) => ["none", "submitted", "invalid", "failed", "graded"].indexOf(r.state), 1],
+  ["score", "Score", (r) => r.points, -1],
+  ["submissions", "Submissions", (r) => r.submissions, -1],
+  ["deadline", "Deadline", (r) => r.deadline, 1],
+  ["last", "Last submitted", (r) => r.last_at, -1],
+];
+
+export class Board {
+  constructor(aid, root, { access }) {
+    this.aid = aid;
+    this.root = root;
+    this.access = access;
+    this.rows = new Map(); // student id -> {sig, tr}
+    this.data = null; // the last dashboard answer
+    this.sort = { key: "student", dir: 1 };
+    this.filter = "all";
+    this.timer = null;
+    this.closed = false;
+    this.open_ = null; // the student whose detail is shown
+  }
+
+  close() {
+    this.closed = true;
+    clearTimeout(this.timer);
+  }
+
+  async open() {
+    this.root.replaceChildren(h("p", { class: "hint", role: "status" }, "Loading the assignment…"));
+    try {
+      this.brief = await course.brief(this.aid);
+    } catch (err) {
+      if (this.closed) return;
+      this.access(err);
+      this.root.replaceChildren(
+        h("section", { class: "panel" }, h("h2", {}, "No such assignment"), h("p", { class: "message", dataset: { kind: "error" } }, err.message), h("p", {}, h("a", { href: "#" }, "All assignments"))),
+      );
+      return;
+    }
+    if (this.closed) return;
+    this.access(null);
+    this.build();
+    await this.refresh();
+  }
+
+  // -- building -----------------------------------------------------------------------------------
+
+  build() {
+    const b = this.brief;
+    document.title = `${b.name}: dashboard`;
+    $("#crumbs").replaceChildren(h("a", { href: "#" }, "All assignments"), h("span", { "aria-hidden": "true" }, " › "), h("span", { "aria-current": "page" }, b.name));
+    this.head = h("section", { class: "panel board-head", "aria-labelledby": "h-board" });
+    this.status = h("p", { id: "board-status", role: "status", "aria-live": "polite" });
+    this.renderHead();
+
+    // the roster and its links
+    this.rosterInput = h("input", { type: "file", id: "roster-file", accept: ".csv,text/csv", "aria-describedby": "roster-help roster-errors" });
+    this.rosterInput.addEventListener("change", () => this.uploadRoster());
+    this.rosterErrors = errorList("roster-errors", "Problems in the roster");
+    this.rosterStatus = h("p", { id: "roster-status", role: "status", "aria-live": "polite" });
+    this.linksBox = h("div", { id: "links-box", class: "links-box", hidden: true });
+    const roster = h(
+      "section",
+      { class: "panel", "aria-labelledby": "h-roster" },
+      h("div", { class: "panel-head" }, h("h2", { id: "h-roster" }, "Roster and links")),
+      h("label", { for: "roster-file", class: "grade-label" }, "Upload the roster (CSV with the header id,name,email)"),
+      this.rosterInput,
+      h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Each link is shown once: download the links right after the upload."),
+      this.rosterErrors,
+      this.rosterStatus,
+      this.linksBox,
+    );
+
+    // the distribution
+    this.stats = h("dl", { class: "stats board-stats", id: "board-stats", "aria-label": "The class" });
+    this.histo = h("div", { class: "histo", id: "histogram" });
+    const dist = h(
+      "section",
+      { class: "panel", "aria-labelledby": "h-dist" },
+      h("div", { class: "panel-head" }, h("h2", { id: "h-dist" }, "Scores")),
+      this.stats,
+      this.histo,
+      h("p", { class: "hint" }, "Each student's counting score, in the spec's points (an image, out of fewer points, is scaled as the gradebook scales it). Mean and median over the graded students."),
+    );
+
+    // the roster against the states
+    this.filterSelect = h("select", { id: "roster-filter" }, FILTERS.map(([v, t]) => h("option", { value: v }, t)));
+    this.filterSelect.addEventListener("change", () => {
+      this.filter = this.filterSelect.value;
+      this.renderTable();
+    });
+    this.search = h("input", { type: "search", id: "roster-search", placeholder: "id or name", "aria-label": "Find a student by id or name" });
+    this.search.addEventListener("input", () => this.renderTable());
+    this.count = h("span", { class: "muted", id: "roster-count", "aria-live": "polite" });
+    this.tbody = h("tbody", { id: "roster-rows" });
+    this.thead = h("thead", {});
+    this.caption = h("caption", { class: "sr-only" });
+    const table = h(
+      "section",
+      { class: "panel board-roster", "aria-labelledby": "h-class" },
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-class" }, "The class"),
+        this.count,
+        h("span", { class: "toolbar" }, h("label", { class: "inline" }, "Show ", this.filterSelect), this.search),
+      ),
+      h("p", { class: "hint" }, `Filled live while the class submits (asked every ${POLL_MS / 1000} s). Click a student (or focus the row and press Enter) for their submissions, an extension or a new link.`),
+      h("div", { class: "grade-table-box board-table-box" }, h("table", { class: "grade-table board-table", id: "roster-table" }, this.caption, this.thead, this.tbody)),
+    );
+
+    this.detail = h("section", { class: "panel grade-detail board-detail", id: "student-detail", "aria-labelledby": "h-student", hidden: true });
+    this.versions = h("section", { class: "panel board-versions", "aria-labelledby": "h-versions" });
+    this.renderVersions();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, this.versions);
+  }
+
+  renderHead() {
+    const b = this.brief;
+    const ref = b.reference_grade;
+    const refText = !ref ? "–" : ref.status === "graded" ? `${pts(ref.score)} / ${pts(ref.max_score)}` : ref.status;
+    const exp = (name, file) =>
+      h("button", { type: "button", id: `export-${name}`, onclick: () => downloadFile(`${course.url(this.aid)}/${file}`, file, AS).catch((e) => say(this.status, "error", `Could not download ${file}: ${e.message}`)) }, file);
+    this.head.replaceChildren(
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-board" }, b.name),
+        h("span", { class: "muted" }, `version ${b.version} · ${b.max_score} points`),
+        h("span", { class: "toolbar", role: "group", "aria-label": "Exports" }, exp("grades", "grades.csv"), exp("gradebook", "gradebook.csv")),
+      ),
+      h(
+        "dl",
+        { class: "stats" },
+        h("div", {}, h("dt", {}, "deadline"), h("dd", { id: "board-deadline" }, when(b.deadline))),
+        b.late_until ? h("div", {}, h("dt", {}, "late until"), h("dd", {}, `${when(b.late_until)} (−${Math.round(b.late_penalty * 100)} %)`)) : null,
+        h("div", {}, h("dt", {}, "attempts"), h("dd", {}, b.max_submissions ?? "no limit")),
+        h("div", {}, h("dt", {}, "the grade is"), h("dd", {}, `the ${b.counts} graded`)),
+        h("div", { title: "the reference scene graded against its own spec: full marks says the spec and its reference agree" }, h("dt", {}, "reference's grade"), h("dd", { id: "reference-grade" }, refText)),
+        b.join ? h("div", {}, h("dt", {}, "open: join at"), h("dd", {}, h("code", {}, b.join))) : null,
+      ),
+      h("p", { class: "hint" }, "grades.csv: one row per roster student (id, name, score, max_score, late, submissions). gradebook.csv: the same for an LMS import (Canvas's columns). Each graded submission's Gradescope results.json is in the student's history."),
+      this.status,
+    );
+  }
+
+  // -- following the class --------------------------------------------------------------------------
+
+  async refresh() {
+    clearTimeout(this.timer);
+    if (this.closed) return;
+    try {
+      const data = await course.board(this.aid);
+      if (this.closed) return;
+      const before = this.data;
+      this.data = data;
+      this.renderSummary();
+      this.renderTable();
+      if (this.open_) {
+        const was = before?.students.find((r) => r.id === this.open_);
+        const now = data.students.find((r) => r.id === this.open_);
+        if (now && JSON.stringify(was) !== JSON.stringify(now)) this.showStudent(this.open_, false);
+      }
+      if (this.brief.reference_grade?.status !== "graded") {
+        this.brief = await course.brief(this.aid).catch(() => this.brief); // the reference is still being graded
+        this.renderHead();
+      }
+    } catch (err) {
+      if (!this.access(err) && err.status) say(this.status, "error", `Could not read the class: ${err.message}`);
+    } finally {
+      if (!this.closed) this.timer = setTimeout(() => this.poll(), POLL_MS);
+    }
+  }
+
+  poll() {
+    if (document.hidden) {
+      this.timer = setTimeout(() => this.poll(), POLL_MS);
+      return;
+    }
+    this.refresh();
+  }
+
+  renderSummary() {
+    const d = this.data;
+    const m = d.summary;
+    const stat = (key, label, value) => h("div", { dataset: { stat: key } }, h("dt", {}, label), h("dd", {}, String(value)));
+    this.stats.replaceChildren(
+      stat("students", "students", m.students),
+      stat("submitted", "submitted", m.submitted),
+      stat("graded", "graded", m.graded),
+      stat("waiting", "waiting", m.waiting),
+      stat("not_submitted", "not submitted", m.not_submitted),
+      stat("invalid", "invalid only", m.invalid),
+      stat("late", "late", m.late),
+      stat("mean", "mean", m.mean === null ? "–" : `${pts(m.mean)} / ${pts(d.max_points)}`),
+      stat("median", "median", m.median === null ? "–" : `${pts(m.median)} / ${pts(d.max_points)}`),
+    );
+    this.renderHistogram();
+  }
+
+  /** The scores as a bar chart (SVG): tenths of the spec's points, the count over each bar, the mean and
+   * the median marked. */
+  renderHistogram() {
+    const d = this.data;
+    const max = d.max_points || 1;
+    const counts = new Array(BINS).fill(0);
+    const scores = d.students.map((r) => r.points).filter((x) => typeof x === "number");
+    for (const x of scores) counts[Math.min(BINS - 1, Math.max(0, Math.floor((x / max) * BINS)))]++;
+    const W = 360, H = 150, L = 22, B = 24, T = 30, R = 8;
+    const top = Math.max(1, ...counts);
+    const bw = (W - L - R) / BINS;
+    const y = (n) => H - B - (n / top) * (H - B - T);
+    const x = (p) => L + (p / max) * (W - L - R);
+    const bars = counts.map((n, i) => {
+      const lo = (i * max) / BINS, hi = ((i + 1) * max) / BINS;
+      return s(
+        "g",
+        { class: "bar", dataset: { bin: i, count: n } },
+        s("title", {}, `${n} student${n === 1 ? "" : "s"} with ${pts(lo)} to ${i === BINS - 1 ? pts(hi) : `under ${pts(hi)}`} points`),
+        s("rect", { x: L + i * bw + 1, y: y(n), width: bw - 2, height: H - B - y(n) }),
+        n ? s("text", { x: L + (i + 0.5) * bw, y: y(n) - 3, "text-anchor": "middle", class: "count" }, String(n)) : null,
+      );
+    });
+    const ticks = [0, max / 2, max].map((p) => s("text", { x: x(p), y: H - B + 15, "text-anchor": p === 0 ? "start" : p === max ? "end" : "middle", class: "tick" }, pts(p)));
+    const mark = (value, cls, label, row) => {
+      if (value === null) return null;
+      const right = x(value) > W / 2; // the label on the side with room for it
+      const text = s("text", { x: x(value) + (right ? -3 : 3), y: T - 4 + row * 11, "text-anchor": right ? "end" : "start", class: "mark" }, `${label} ${pts(value)}`);
+      return s("g", { class: cls }, s("line", { x1: x(value), x2: x(value), y1: T - 8, y2: H - B }), text);
+    };
+    const m = d.summary;
+    const label = scores.length
+      ? `The distribution of ${scores.length} graded scores out of ${pts(max)} points: ${counts.map((n, i) => `${n} in ${pts((i * max) / BINS)}–${pts(((i + 1) * max) / BINS)}`).join(", ")}; mean ${pts(m.mean)}, median ${pts(m.median)}.`
+      : "No graded scores yet.";
+    const svg = s(
+      "svg",
+      { viewBox: `0 0 ${W} ${H}`, role: "img", "aria-label": label, class: "histo-svg", id: "histogram-svg" },
+      s("line", { x1: L, x2: W - R, y1: H - B, y2: H - B, class: "axis" }),
+      s("text", { x: 2, y: T + 4, class: "tick" }, String(top)),
+      bars,
+      ticks,
+      mark(m.mean, "mean", "mean", 0),
+      mark(m.median, "median", "median", 1),
+    );
+    this.histo.replaceChildren(scores.length ? svg : h("p", { class: "hint histo-empty" }, "No graded scores yet: the bars appear as the class is graded."));
+  }
+
+  columns() {
+    const on = (key) => this.sort.key === key;
+    return h(
+      "tr",
+      {},
+      COLUMNS.map(([key, label, , first]) =>
+        h(
+          "th",
+          { scope: "col", class: ["score", "submissions"].includes(key) ? "num" : null, dataset: { col: key }, "aria-sort": on(key) ? (this.sort.dir > 0 ? "ascending" : "descending") : null },
+          h(
+            "button",
+            {
+              type: "button",
+              class: "sort",
+              onclick: () => {
+                this.sort = on(key) ? { key, dir: -this.sort.dir } : { key, dir: first };
+                this.renderTable();
+                $(`th[data-col="${key}"] button`, this.thead)?.focus();
+              },
+            },
+            label,
+            h("span", { "aria-hidden": "true" }, on(key) ? (this.sort.dir > 0 ? " ▲" : " ▼") : ""),
+          ),
+        ),
+      ),
+    );
+  }
+
+  /** The table, kept fast at 300 rows: a row is built again only when its student's data changed. */
+  renderTable() {
+    if (!this.data) return;
+    this.thead.replaceChildren(this.columns());
+    const all = this.data.students.map((r, index) => ({ ...r, index }));
+    const q = this.search.value.trim().toLowerCase();
+    const shown = all.filter((r) => matches(r, this.filter) && (!q || r.id.toLowerCase().includes(q) || r.name.toLowerCase().includes(q)));
+    const col = COLUMNS.find((c) => c[0] === this.sort.key) || COLUMNS[0];
+    const key = col[2];
+    shown.sort((a, b) => {
+      const x = key(a), y = key(b);
+      if ((x === null || x === undefined) !== (y === null || y === undefined)) return x === null || x === undefined ? 1 : -1;
+      if (x !== y && x !== null && x !== undefined) return (x < y ? -1 : 1) * this.sort.dir;
+      return a.index - b.index;
+    });
+    const ids = new Set(all.map((r) => r.id));
+    for (const id of this.rows.keys()) if (!ids.has(id)) this.rows.delete(id);
+    const trs = shown.map((r) => {
+      const { index, ...data } = r;
+      const sig = JSON.stringify(data);
+      let kept = this.rows.get(r.id);
+      if (!kept || kept.sig !== sig) {
+        kept = { sig, tr: this.row(data) };
+        this.rows.set(r.id, kept);
+      }
+      if (this.open_ === r.id) kept.tr.setAttribute("aria-current", "true");
+      else kept.tr.removeAttribute("aria-current");
+      return kept.tr;
+    });
+    if (!all.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No students yet: upload the roster.")));
+    else if (!shown.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No student matches.")));
+    this.tbody.replaceChildren(...trs);
+    const filtered = shown.length !== all.length ? `${shown.length} of ${all.length}` : `${all.length}`;
+    this.count.textContent = `${filtered} student${all.length === 1 ? "" : "s"}`;
+    this.caption.textContent = `The class: ${filtered} students, by ${col[1].toLowerCase()}`;
+  }
+
+  row(r) {
+    const state = h("span", { class: `badge state-${r.state}` }, STATE_TEXT[r.state] || r.state);
+    const tr = h(
+      "tr",
+      {
+        tabindex: 0,
+        class: "student",
+        dataset: { student: r.id, state: r.state, late: r.late, extended: r.extended, pending: r.pending },
+        "aria-label": `${r.name} (${r.id}): ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
+      },
+      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null),
+      h(
+        "td",
+        { class: "state" },
+        state,
+        r.pending && r.state === "graded" ? h("span", { class: "badge state-submitted" }, `${r.pending} waiting`) : null,
+        r.late ? h("span", { class: "badge late" }, "late") : null,
+      ),
+      h("td", { class: "num score" }, r.score === null ? h("span", { class: "muted" }, "–") : [h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`]),
+      h("td", { class: "num subs" }, String(r.submissions)),
+      h("td", { class: "deadline" }, when(r.deadline, true), r.extended ? h("span", { class: "badge extended", title: "an extension: their own deadline" }, "extended") : null),
+      h("td", { class: "last" }, r.last_at ? when(r.last_at, true) : h("span", { class: "muted" }, "–")),
+    );
+    tr.addEventListener("click", () => this.showStudent(r.id));
+    tr.addEventListener("keydown", (e) => {
+      if (e.target !== tr) return;
+      if (e.key === "Enter" || e.key === " ") {
+        e.preventDefault();
+        this.showStudent(r.id);
+      } else if (e.key === "ArrowDown" || e.key === "ArrowUp") {
+        e.preventDefault();
+        (e.key === "ArrowDown" ? tr.nextElementSibling : tr.previousElementSibling)?.focus();
+      }
+    });
+    return tr;
+  }
+
+  // -- the roster and its links -------------------------------------------------------------------
+
+  async uploadRoster() {
+    const file = this.rosterInput.files?.[0];
+    if (!file) return;
+    this.rosterErrors.replaceChildren();
+    this.rosterInput.removeAttribute("aria-invalid");
+    say(this.rosterStatus, "busy", `Uploading ${file.name}…`);
+    try {
+      const { students } = await course.roster(this.aid, await file.text());
+      const fresh = students.filter((st) => st.link);
+      const kept = students.length - fresh.length;
+      say(this.rosterStatus, "ok", `${students.length} students on ${file.name}: ${fresh.length} new${kept ? `, ${kept} already on the roster (they keep their links)` : ""}.`);
+      this.showLinks(fresh, `links-${file.name.replace(/\.csv$/i, "")}.csv`);
+      this.refresh();
+    } catch (err) {
+      showFieldErrors(err.errors || [{ path: "", message: String(err.message || err) }], {}, this.rosterErrors);
+      this.rosterInput.setAttribute("aria-invalid", "true");
+      say(this.rosterStatus, "error", `The roster was refused: ${err.errors?.length || 1} problem${err.errors?.length > 1 ? "s" : ""} (nothing was changed).`);
+      this.rosterInput.focus();
+    } finally {
+      this.rosterInput.value = "";
+    }
+  }
+
+  /** The new students' links as a CSV to mail out (id,name,email,link): the tokens are shown this once. */
+  showLinks(students, name) {
+    if (!students.length) {
+      this.linksBox.hidden = true;
+      return;
+    }
+    const text = csvText([["id", "name", "email", "link"], ...students.map((st) => [st.id, st.name, st.email, st.link])]);
+    const button = h("button", { type: "button", class: "primary", id: "links-download", onclick: () => download(name, new Blob([text], { type: "text/csv" })) }, `Download ${name} (${students.length} link${students.length > 1 ? "s" : ""})`);
+    this.linksBox.replaceChildren(
+      h("p", { class: "message", dataset: { kind: "warn" } }, h("strong", {}, "Download the links now. "), "Each link carries its student's secret token and is shown this once: the server keeps only a hash of it. A lost link can be replaced (in the student's detail), which ends the old one."),
+      button,
+      h("details", {}, h("summary", {}, "The links"), h("ul", { class: "links-list" }, students.map((st) => h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, h("code", {}, st.link))))),
+    );
+    this.linksBox.hidden = false;
+    button.focus();
+  }
+
+  // -- a student's detail ---------------------------------------------------------------------------
+
+  async showStudent(sid, focus = true) {
+    this.open_ = sid;
+    for (const { tr } of this.rows.values()) {
+      if (tr.dataset.student === sid) tr.setAttribute("aria-current", "true");
+      else tr.removeAttribute("aria-current");
+    }
+    let d;
+    try {
+      d = await course.student(this.aid, sid);
+    } catch (err) {
+      say(this.status, "error", `Could not read ${sid}: ${err.message}`);
+      return;
+    }
+    if (this.open_ !== sid || this.closed) return;
+    const ext = h("input", { type: "datetime-local", id: "ext-deadline", value: localValue(d.deadline), "aria-describedby": "ext-help ext-errors" });
+    const extErrors = errorList("ext-errors", "Problems with the extension");
+    const extStatus = h("p", { id: "ext-status", role: "status", "aria-live": "polite" });
+    const grant = async (deadline) => {
+      extErrors.replaceChildren();
+      try {
+        const r = await course.extend(this.aid, sid, deadline);
+        say(extStatus, "ok", deadline ? `${sid}'s deadline is now ${when(r.deadline)}${r.late_until ? ` (late until ${when(r.late_until)})` : ""}.` : `${sid} is back to the assignment's deadline.`);
+        await this.refresh();
+      } catch (err) {
+        showFieldErrors(err.errors || [], { deadline: { input: ext, list: extErrors } }, extErrors);
+        say(extStatus, "error", "The extension was refused.");
+      }
+    };
+    const linkOut = h("div", { id: "new-link", class: "new-link", "aria-live": "polite" });
+    const replaceLink = async () => {
+      if (!confirm(`Replace ${sid}'s link? Their old link stops working at once.`)) return;
+      try {
+        const r = await course.newLink(this.aid, sid);
+        const out = h("input", { type: "text", readonly: true, class: "share-link", value: r.link, "aria-label": `${sid}'s new link` });
+        linkOut.replaceChildren(h("p", { class: "hint" }, "The new link, shown this once (the old one no longer works):"), out, h("button", { type: "button", class: "small", onclick: () => navigator.clipboard?.writeText(r.link) }, "Copy"));
+        out.select();
+      } catch (err) {
+        linkOut.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not replace the link: ${err.message}`));
+      }
+    };
+    const history = [...d.history].reverse(); // newest first
+    this.detail.replaceChildren(
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-student", tabindex: -1 }, `${d.name} (${d.id})`),
+        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null),
+        h("span", { class: "toolbar" }, h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…"), h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
+      ),
+      linkOut,
+      h(
+        "form",
+        { class: "ext-form", id: "ext-form", "aria-label": `An extension for ${sid}` },
+        h("label", { for: "ext-deadline" }, `Their deadline${d.extended ? " (extended)" : ""}`),
+        ext,
+        h("button", { type: "submit", id: "ext-grant" }, "Grant the extension"),
+        d.extended ? h("button", { type: "button", id: "ext-clear", onclick: () => grant(null) }, "Back to the assignment's deadline") : null,
+        h("p", { id: "ext-help", class: "hint" }, `In this browser's zone (${zoneName()}). An extension moves their deadline and their late cut-off by as much.`),
+        extErrors,
+        extStatus,
+      ),
+      h("h3", {}, `Submissions (${d.history.length})`),
+      history.length ? h("ol", { class: "history", id: "history", reversed: true }, history.map((sub, i) => this.submission(sub, history.length - i))) : h("p", { class: "hint" }, "Nothing submitted yet."),
+    );
+    $("#ext-form", this.detail).addEventListener("submit", (e) => {
+      e.preventDefault();
+      if (!ext.value) return showFieldErrors([{ path: "deadline", message: "pick a date and a time" }], { deadline: { input: ext, list: extErrors } }, extErrors);
+      grant(zoned(ext.value));
+    });
+    this.detail.hidden = false;
+    this.detail.dataset.student = sid;
+    if (focus) {
+      this.detail.scrollIntoView({ behavior: "smooth", block: "start" });
+      $("#h-student", this.detail).focus({ preventScroll: true });
+    }
+  }
+
+  closeStudent() {
+    const sid = this.open_;
+    this.open_ = null;
+    this.detail.hidden = true;
+    delete this.detail.dataset.student;
+    this.renderTable();
+    if (sid) this.tbody.querySelector(`tr[data-student="${CSS.escape(sid)}"]`)?.focus();
+  }
+
+  submission(sub, n) {
+    const fb = sub.feedback || {};
+    const files = sub.files || {};
+    const tests = (fb.tests || []).map((t) => {
+      const ok = t.status === "passed";
+      const multi = (t.output || "").includes("\n");
+      return h(
+        "li",
+        { class: `grade-test ${ok ? "pass" : "fail"}`, dataset: { test: t.test, status: t.status || "" } },
+        h(
+          "div",
+          { class: "grade-test-head" },
+          h("span", { class: "pf", "aria-hidden": "true" }, ok ? "✓" : "✗"),
+          h("strong", {}, t.name),
+          h("span", { class: "muted", title: "when the student sees it" }, `shown ${t.shown === "after_deadline" ? "after the deadline" : t.shown}`),
+          h("span", { class: "pts" }, `${pts(t.score)} / ${pts(t.max_score)}`),
+        ),
+        t.output ? (multi ? h("pre", { class: "grade-output" }, t.output) : h("p", { class: "grade-output" }, t.output)) : null,
+      );
+    });
+    const problem = (e) => h("li", {}, h("code", {}, e.path || "(the submission)"), " ", e.message);
+    const figs = PICTURES.filter(([name]) => files[name]).map(([name, alt]) => {
+      const img = h("img", { alt: `${alt} (submission ${n})` });
+      showImage(img, files[name], AS);
+      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, alt));
+    });
+    const results = sub.status === "graded"
+      ? h("button", { type: "button", class: "small", dataset: { results: sub.id }, onclick: () => downloadFile(`${sub.url}/results.json`, `results-${sub.student}-${n}.json`, AS).catch((e) => say(this.status, "error", e.message)) }, "results.json")
+      : null;
+    return h(
+      "li",
+      { class: "history-item", dataset: { sid: sub.id, status: sub.status } },
+      h(
+        "div",
+        { class: "history-head" },
+        h("strong", {}, `#${n}`),
+        h("span", {}, when(sub.accepted_at)),
+        h("span", { class: "muted" }, `${sub.kind === "scene" ? "scene" : `image (${sub.kind.toUpperCase()})`} · version ${sub.version}`),
+        h("span", { class: `badge ${sub.status}` }, sub.status),
+        sub.late ? h("span", { class: "badge late" }, sub.penalty ? `late −${Math.round(sub.penalty * 100)} %` : "late") : null,
+        sub.counts ? h("span", { class: "badge counts", title: "this submission is the grade" }, "counts") : null,
+        !sub.counts_as_attempt ? h("span", { class: "muted" }, "no attempt used") : null,
+        h("span", { class: "pts" }, sub.score === null ? "" : `${pts(sub.score)} / ${pts(sub.max_score)}`),
+        results,
+      ),
+      fb.errors?.length ? h("div", { class: "message grade-problems", dataset: { kind: "error" } }, h("strong", {}, `${fb.errors.length} error${fb.errors.length > 1 ? "s" : ""}:`), h("ul", {}, fb.errors.map(problem))) : null,
+      fb.warnings?.length ? h("div", { class: "message grade-problems", dataset: { kind: "warn" } }, h("strong", {}, "Warnings:"), h("ul", {}, fb.warnings.map(problem))) : null,
+      figs.length ? h("div", { class: "grade-figs" }, figs) : null,
+      tests.length ? h("ol", { class: "grade-tests" }, tests) : sub.status === "queued" || sub.status === "grading" ? h("p", { class: "hint" }, `${sub.status === "queued" ? "Waiting to be graded" : "Being graded"}…`) : null,
+    );
+  }
+
+  // -- versions and a new version -----------------------------------------------------------------
+
+  renderVersions() {
+    const b = this.brief;
+    const form = new AssignmentForm({
+      edit: b,
+      onDone: async (a) => {
+        this.brief = await course.brief(this.aid).catch(() => a);
+        this.renderHead();
+        this.renderVersions();
+        say(this.status, "ok", `Version ${a.version} published.`);
+        this.refresh();
+      },
+    });
+    this.versions.replaceChildren(
+      h("div", { class: "panel-head" }, h("h2", { id: "h-versions" }, "Versions")),
+      h(
+        "ol",
+        { class: "versions", id: "versions" },
+        (b.versions || []).map((v) => h("li", { dataset: { version: v.version } }, `version ${v.version}, published ${when(v.created_at)}`, v.version === b.version ? h("span", { class: "badge graded" }, "current") : null)),
+      ),
+      h(
+        "details",
+        { class: "edit-box", id: "edit-box" },
+        h("summary", {}, "Edit: publish a new version (and regrade)"),
+        h("p", { class: "hint" }, "Every earlier version is kept. New submissions are graded under the new version; with regrading, every earlier submission is graded again under it. The roster, extensions and submissions stay."),
+        form.el,
+      ),
+    );
+  }
+}
