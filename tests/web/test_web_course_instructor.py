@@ -18,22 +18,38 @@ import base64
 import csv
 import io
 import json
-import re
 from pathlib import Path
 from urllib.parse import urlparse
 
 import httpx
 from test_api_support import INSTRUCTOR, bearer
 from test_dashboard import bad_scene, good_scene, small_reference, small_spec
-from test_web_page import DESKTOP, SHOTS, TEACHER, Page, browser, server  # noqa: F401  (fixtures)
+from test_web_page import CSP_WATCH, DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (fixtures)
 
 GRADE_TIMEOUT = 120_000  # ms: a few small renders and their metrics on a busy 2-core machine
 ROSTER = [("s1", "Ada Lovelace", "ada@x.edu"), ("s2", "Bob, Jr.", "bob@x.edu"), ("s3", "Cy Young", ""),
           ("s4", "Dee Dee", "dee@x.edu")]  # fmt: skip
 
 
+ZONE = "America/New_York"  # the browser's zone: UTC-05:00 in December, so the deadline's offset is seen
+
+
+class CoursePage(Page):
+    """test_web_page's Page (its console watched) in a browser context whose time zone is ZONE."""
+
+    def __init__(self, browser, server, viewport):  # noqa: F811
+        super().__init__(browser, server, viewport)
+        self.context.close()
+        self.context = browser.new_context(viewport=viewport, timezone_id=ZONE, accept_downloads=True)
+        self.page = self.context.new_page()
+        self.page.set_default_timeout(30_000)
+        self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
+        self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+        self.context.add_init_script(CSP_WATCH)
+
+
 def open_course(browser, server, tmp: Path):  # noqa: F811
-    p = Page(browser, server, DESKTOP)
+    p = CoursePage(browser, server, DESKTOP)
     p.allow.append(r"status of 401")  # the page's first request, before the token is typed, is refused
     p.page.goto(f"{server.url}/course")
     p.page.wait_for_selector("body[data-ready=true]", state="attached")
@@ -100,7 +116,7 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     assert page.text_content("#h-board") == "HW 0: a small glass ball"
     with httpx.Client(base_url=server.url, timeout=30, headers=TEACHER) as api:
         a = api.get(f"/api/assignments/{aid}").json()
-        assert re.fullmatch(r"2099-12-0[89]T\d\d:59:00Z", a["deadline"]), a["deadline"]  # sent with the zone's offset
+        assert a["deadline"] == "2099-12-09T04:59:00Z"  # 23:59 in New York, sent with its offset (-05:00)
         assert a["policy"]["max_submissions"] == 3 and a["policy"]["counts"] == "best" and a["policy"]["show_reference"]
         assert a["policy"]["feedback"]["tests"] == {"pixels": "after_deadline"}
         assert a["spec"]["reference"]["scene"] == small_reference()  # the file, sent beside the spec
@@ -165,7 +181,7 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     )
     assert "extended" in roster_rows(page)["s4"]["badges"] and "Dec 15" in roster_rows(page)["s4"]["deadline"]
     ext = httpx.get(f"{server.url}/api/assignments/{aid}/roster", headers=TEACHER, timeout=30).json()["students"]
-    assert re.fullmatch(r"2099-12-1[45]T\d\d:00:00Z", {s["id"]: s for s in ext}["s4"]["deadline"])
+    assert {s["id"]: s for s in ext}["s4"]["deadline"] == "2099-12-15T17:00:00Z"  # noon in New York
 
     # -- s1's detail: their history with the feedback and pictures (fetched with the instructor's header)
     page.click("#roster-rows tr[data-student=s1]")
