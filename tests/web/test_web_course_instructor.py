@@ -18,11 +18,12 @@ import base64
 import csv
 import io
 import json
+import os
 from pathlib import Path
 from urllib.parse import urlparse
 
 import httpx
-from test_api_support import INSTRUCTOR, bearer
+from test_api_support import INSTRUCTOR, Server, bearer
 from test_dashboard import bad_scene, good_scene, small_reference, small_spec
 from test_web_page import CSP_WATCH, DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (fixtures)
 
@@ -327,3 +328,19 @@ def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path
     p.shot("course-class-1024", full_page=False)
     p.context.close()
     assert p.unexpected_errors() == []
+
+
+def test_web_course_on_loopback_without_a_token_everyone_is_the_instructor(browser, tmp_path):  # noqa: F811
+    """A server on loopback with no TRACER_INSTRUCTOR_TOKEN: the page answers without a token and says why."""
+    env = {k: v for k, v in os.environ.items() if k != "TRACER_INSTRUCTOR_TOKEN"}
+    with Server(tmp_path / "data", workers=0, env=env) as own:
+        p = CoursePage(browser, own, DESKTOP)
+        try:
+            p.page.goto(f"{own.url}/course")
+            p.page.wait_for_selector("body[data-ready=true]", state="attached")
+            p.page.wait_for_function("() => document.querySelector('#course-access-status').dataset.kind === 'ok'")
+            assert "everyone who reaches it is the instructor" in p.page.text_content("#course-access-status")
+            assert "None yet" in p.page.text_content("#list-status")
+        finally:
+            p.context.close()
+        assert p.unexpected_errors() == []
