@@ -522,6 +522,20 @@ export class Board {
     }
   }
 
+  /** The ray trees of a clicked pixel of a submission's error map, the student's beside the reference's
+   * (web/js/course/compare.js, loaded when first asked for). */
+  async compareAt(box, sub, img, e) {
+    const r = img.getBoundingClientRect();
+    const x = Math.min(img.naturalWidth - 1, Math.floor(((e.clientX - r.left) / r.width) * img.naturalWidth));
+    const y = Math.min(img.naturalHeight - 1, Math.floor(((e.clientY - r.top) / r.height) * img.naturalHeight));
+    try {
+      const { showCompare } = await import("./compare.js");
+      await showCompare(box, { aid: this.aid, sid: sub.id, x, y, as: "instructor" });
+    } catch (err) {
+      box.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not compare the ray trees at (${x}, ${y}): ${err.message}`));
+    }
+  }
+
   closeStudent() {
     const sid = this.open_;
     this.open_ = null;
@@ -552,10 +566,17 @@ export class Board {
       );
     });
     const problem = (e) => h("li", {}, h("code", {}, e.path || "(the submission)"), " ", e.message);
+    const compare = h("div", { class: "compare-box", "aria-live": "polite" });
     const figs = PICTURES.filter(([name]) => files[name]).map(([name, alt]) => {
       const img = h("img", { alt: `${alt} (submission ${n})` });
       showImage(img, files[name], AS);
-      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, alt));
+      const pick = name === "error_map.png" && sub.kind === "scene"; // a pixel of it: their ray tree beside the reference's
+      if (pick) {
+        img.classList.add("pick");
+        img.title = "Click a pixel: their ray tree beside the reference's there";
+        img.addEventListener("click", (e) => this.compareAt(compare, sub, img, e));
+      }
+      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, pick ? `${alt} (click a pixel to compare ray trees)` : alt));
     });
     const results = sub.status === "graded"
       ? h("button", { type: "button", class: "small", dataset: { results: sub.id }, onclick: () => downloadFile(`${sub.url}/results.json`, `results-${sub.student}-${n}.json`, AS).catch((e) => say(this.status, "error", e.message)) }, "results.json")
@@ -579,6 +600,7 @@ export class Board {
       fb.errors?.length ? h("div", { class: "message grade-problems", dataset: { kind: "error" } }, h("strong", {}, `${fb.errors.length} error${fb.errors.length > 1 ? "s" : ""}:`), h("ul", {}, fb.errors.map(problem))) : null,
       fb.warnings?.length ? h("div", { class: "message grade-problems", dataset: { kind: "warn" } }, h("strong", {}, "Warnings:"), h("ul", {}, fb.warnings.map(problem))) : null,
       figs.length ? h("div", { class: "grade-figs" }, figs) : null,
+      compare,
       tests.length ? h("ol", { class: "grade-tests" }, tests) : sub.status === "queued" || sub.status === "grading" ? h("p", { class: "hint" }, `${sub.status === "queued" ? "Waiting to be graded" : "Being graded"}…`) : null,
     );
   }
