@@ -264,6 +264,16 @@ def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, ser
     assert "see the fields marked" in page.text_content("#publish .af-status")
     assert page.evaluate("() => location.hash") == ""
     p.shot("course-bad-spec")
+
+    # the spec fixed, the assignment is published; a roster with a wrong header is refused, saying why
+    page.set_input_files("#publish-spec", write(tmp_path, "good.json", small_spec(inline=True)))
+    page.click("#publish button[type=submit]")
+    page.wait_for_selector("#h-board")
+    page.set_input_files("#roster-file", write(tmp_path, "roster.csv", "name,id,email\nAda,s1,\n"))
+    page.wait_for_selector("#roster-errors li")
+    assert "expected the header 'id,name,email'" in page.text_content("#roster-errors")
+    assert page.get_attribute("#roster-file", "aria-invalid") == "true" and page.is_hidden("#links-box")
+    assert "No students yet" in page.text_content("#roster-rows")
     p.context.close()
     assert p.unexpected_errors() == []
 
@@ -285,15 +295,18 @@ def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path
     page is open: every row is shown, the graded ones with their scores, the histogram spread over them;
     the filter and the sort work on the whole class. Screenshots for a person to look at."""
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as api:
-        body = {"spec": small_spec(), "deadline": "2099-12-08T23:59:00Z", "counts": "last"}
+        body = {"spec": small_spec(), "deadline": "2099-12-08T23:59:00Z", "counts": "last", "open": True}
         aid = api.post("/api/assignments", json=body).json()["id"]
         text = "id,name,email\n" + "".join(f"st{i:03d},Student {i},st{i}@x.edu\n" for i in range(300))
         r = api.post(f"/api/assignments/{aid}/roster", content=text, headers={"Content-Type": "text/csv"})
         tok = [s["token"] for s in r.json()["students"]]
+        zoe = api.post(f"/api/assignments/{aid}/join", json={"name": "Zoë Z"}).json()["id"]  # one more, by a name
     p = open_course(browser, server, tmp_path)
     page = p.page
     page.evaluate(f"() => (location.hash = '{aid}')")
-    page.wait_for_function("() => document.querySelectorAll('#roster-rows tr[data-student]').length === 300")
+    page.wait_for_function("() => document.querySelectorAll('#roster-rows tr[data-student]').length === 301")
+    assert "self-declared" in roster_rows(page)[zoe]["badges"]
+    assert [k for k, v in roster_rows(page).items() if "self-declared" in v["badges"]] == [zoe]
     changes = ["good", "no glass", "blue ball", "point light", "bad"] * 4 + ["good"] * 4
     with httpx.Client(base_url=server.url, timeout=60) as c:
         for i, change in enumerate(changes):
@@ -306,13 +319,8 @@ def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path
         timeout=GRADE_TIMEOUT * 2,
     )
     s = stats(page)
-    assert (s["students"], s["submitted"], s["graded"], s["invalid"], s["not_submitted"]) == (
-        "300",
-        "24",
-        "20",
-        "4",
-        "276",
-    )
+    counts = (s["students"], s["submitted"], s["graded"], s["invalid"], s["not_submitted"])
+    assert counts == ("301", "24", "20", "4", "277")
     bars = page.eval_on_selector_all("#histogram-svg .bar", "gs => gs.map(g => Number(g.dataset.count))")
     assert sum(bars) == 20 and bars[-1] >= 8 and sum(1 for b in bars if b) >= 2, bars  # spread, the good ones on top
     page.click("#roster-table th[data-col=score] button")  # the best first
