@@ -106,6 +106,9 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     assert tests == ["validity", "a glass object", "an area light", "psnr", "pixels"]
     page.set_input_files("#publish-reference", write(tmp_path, "reference.json", small_reference()))
     page.fill("#publish-deadline", "2099-12-08T23:59")
+    page.fill("#publish-late_until", "2099-12-09T23:59")
+    page.fill("#publish-late_penalty", "0.25")
+    page.set_input_files("#publish-starter", write(tmp_path, "starter.json", good_scene()))
     page.fill("#publish-max_submissions", "3")
     page.select_option("#publish-counts", "best")
     page.select_option(".af-fb-table tr[data-test=pixels] select", "after_deadline")
@@ -120,6 +123,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
         assert a["deadline"] == "2099-12-09T04:59:00Z"  # 23:59 in New York, sent with its offset (-05:00)
         assert a["policy"]["max_submissions"] == 3 and a["policy"]["counts"] == "best" and a["policy"]["show_reference"]
         assert a["policy"]["feedback"]["tests"] == {"pixels": "after_deadline"}
+        assert (a["policy"]["late_until"], a["policy"]["late_penalty"]) == ("2099-12-10T04:59:00Z", 0.25)
+        assert a["policy"]["starter"] == good_scene()
         assert a["spec"]["reference"]["scene"] == small_reference()  # the file, sent beside the spec
     page.wait_for_function(
         "() => document.querySelector('#reference-grade').textContent === '6 / 6'", timeout=GRADE_TIMEOUT
@@ -231,6 +236,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     page.set_input_files("#edit-box input[name=spec]", write(tmp_path, "hw0-v2.json", edited))
     assert page.is_checked("#edit-box input[id$=-regrade]")
     assert page.input_value("#edit-box input[name=deadline]") == "2099-12-08T23:59"  # the policy kept
+    assert page.input_value("#edit-box input[name=late_until]") == "2099-12-09T23:59"
+    assert page.input_value("#edit-box tr[data-test=pixels] select") == "after_deadline"
     page.click("#edit-box button[type=submit]")
     page.wait_for_function("() => document.querySelectorAll('#versions li').length === 2")
     page.wait_for_function(
@@ -238,7 +245,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
         timeout=GRADE_TIMEOUT,
     )
     a = httpx.get(f"{server.url}/api/assignments/{aid}", headers=TEACHER, timeout=30).json()
-    assert a["version"] == 2 and a["policy"]["max_submissions"] == 3
+    assert a["version"] == 2 and a["policy"]["max_submissions"] == 3 and a["policy"]["late_penalty"] == 0.25
+    assert a["policy"]["starter"] == good_scene() and a["policy"]["feedback"]["tests"] == {"pixels": "after_deadline"}
     p.context.close()
     assert p.unexpected_errors() == []
 
@@ -263,7 +271,7 @@ def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, ser
     assert page.text_content("#publish-deadline-err") == ""
     assert "see the fields marked" in page.text_content("#publish .af-status")
     assert page.evaluate("() => location.hash") == ""
-    p.shot("course-bad-spec")
+    p.shot("course-bad-spec", full_page=True)
 
     # the spec fixed, the assignment is published; a roster with a wrong header is refused, saying why
     page.set_input_files("#publish-spec", write(tmp_path, "good.json", small_spec(inline=True)))
