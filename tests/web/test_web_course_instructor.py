@@ -205,6 +205,10 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     name, text = download(page, "#student-detail [data-results]")
     assert json.loads(text)["score"] == 6 and name == "results-s1-1.json"
     p.shot("course-detail")
+    assert page.evaluate("() => location.hash") == f"#{aid}/s1"  # a link to this detail: opened again by a reload
+    page.reload()  # (the token is kept in this browser)
+    page.wait_for_selector("#student-detail[data-student=s1] .history-item[data-status=graded]")
+    assert page.input_value("#course-token") == INSTRUCTOR
     page.click("#student-close")
     page.evaluate("() => window.scrollTo(0, 0)")
     p.shot("course-dashboard", full_page=True)

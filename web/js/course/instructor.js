@@ -14,9 +14,11 @@ const access = $("#course-access-status");
 const tokenInput = $("#course-token");
 let board = null;
 
-function idFromHash() {
-  const id = decodeURIComponent(location.hash.slice(1));
-  return /^[0-9a-f]{32}$/.test(id) ? id : null;
+/** The address's assignment and student: /course#<id> is the dashboard, /course#<id>/<student> with that
+ * student's detail open. */
+function fromHash() {
+  const [id, student] = location.hash.slice(1).split("/").map((x) => decodeURIComponent(x || ""));
+  return /^[0-9a-f]{32}$/.test(id) ? { id, student: student || null } : { id: null, student: null };
 }
 
 /** Say what the server's last answer tells of the token; true when it answered. */
@@ -77,12 +79,15 @@ async function showList() {
 }
 
 async function route() {
-  const id = idFromHash();
+  const { id, student } = fromHash();
   if (!id) return showList();
-  if (board?.aid === id) return;
+  if (board?.aid === id) {
+    if (student && student !== board.open_) board.showStudent(student);
+    return;
+  }
   board?.close();
   board = new Board(id, view, { access: accessOk });
-  await board.open();
+  await board.open(student);
 }
 
 tokenInput.value = tokens.instructor() || "";

@@ -79,7 +79,8 @@ export class Board {
     clearTimeout(this.timer);
   }
 
-  async open() {
+  /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
+  async open(student = null) {
     this.root.replaceChildren(h("p", { class: "hint", role: "status" }, "Loading the assignment…"));
     try {
       this.brief = await course.brief(this.aid);
@@ -95,6 +96,7 @@ export class Board {
     this.access(null);
     this.build();
     await this.refresh();
+    if (student) await this.showStudent(student);
   }
 
   // -- building -----------------------------------------------------------------------------------
@@ -447,6 +449,7 @@ export class Board {
 
   async showStudent(sid, focus = true) {
     this.open_ = sid;
+    window.history.replaceState(null, "", `#${this.aid}/${encodeURIComponent(sid)}`); // a link to this student's detail
     for (const { tr } of this.rows.values()) {
       if (tr.dataset.student === sid) tr.setAttribute("aria-current", "true");
       else tr.removeAttribute("aria-current");
@@ -539,6 +542,7 @@ export class Board {
   closeStudent() {
     const sid = this.open_;
     this.open_ = null;
+    window.history.replaceState(null, "", `#${this.aid}`);
     this.detail.hidden = true;
     delete this.detail.dataset.student;
     this.renderTable();
