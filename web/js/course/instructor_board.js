@@ -447,7 +447,12 @@ export class Board {
 
   // -- a student's detail ---------------------------------------------------------------------------
 
-  async showStudent(sid, focus = true) {
+  /** Open a student's detail (a click, the address, or a change in their row while it is open). */
+  showStudent(sid, focus = true) {
+    return this.renderStudent(sid, focus).catch((err) => say(this.status, "error", `Could not show ${sid}: ${err.message}`));
+  }
+
+  async renderStudent(sid, focus) {
     this.open_ = sid;
     window.history.replaceState(null, "", `#${this.aid}/${encodeURIComponent(sid)}`); // a link to this student's detail
     for (const { tr } of this.rows.values()) {
