@@ -325,6 +325,7 @@ def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path
             scene = bad_scene() if change == "bad" else variant(change)
             r = c.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=bearer(tok[i * 7]))
             assert r.status_code == 202, r.text
+    page.wait_for_function("() => document.querySelectorAll('#roster-rows tr:not([data-state=none])').length === 24")
     page.wait_for_function(
         """() => document.querySelectorAll('#roster-rows tr[data-state=graded]').length === 20
                   && document.querySelectorAll('#roster-rows tr[data-state=invalid]').length === 4""",
