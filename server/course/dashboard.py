@@ -19,32 +19,17 @@ from __future__ import annotations
 
 import statistics
 
-from server.course.service import Course, Who, iso
+from server.course.service import Course, Who, iso, status_of
 
 PENDING = ("queued", "grading")
-
-
-def _status(sub: dict) -> str:
-    stage = sub.get("stage")
-    if stage is None or stage == "submitted":
-        return "queued"
-    if stage != "graded":
-        return "grading"
-    return sub["status"] or "failed"
 
 
 def student_rows(course: Course, a: dict) -> list[dict]:
     """Each roster student with their deadline, state, counting score and submissions, in roster order."""
     points = course.spec(a["id"], a["version"]).max_score()
-    subs: dict[str, list[dict]] = {}
-    for s in course.submissions(a):
-        subs.setdefault(s["student"], []).append(s)
-    penalty = a["policy"]["late_penalty"]
     rows = []
-    for st in course.store.students(a["id"]):
-        mine = subs.get(st["student"], [])
-        statuses = [_status(s) for s in mine]
-        counting = course.counting(a, mine)
+    for st, mine, counting, score in course.class_grades(a):
+        statuses = [status_of(s) for s in mine]
         pending = sum(x in PENDING for x in statuses)
         if counting is not None:
             state = "graded"
@@ -57,9 +42,6 @@ def student_rows(course: Course, a: dict) -> list[dict]:
         else:
             state = "failed"
         due, cut = course.deadlines(a, st)
-        score = None
-        if counting is not None:
-            score = counting["score"] * (1 - (penalty if counting["late"] else 0.0))
         rows.append(
             {
                 "id": st["student"],

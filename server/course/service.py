@@ -496,7 +496,7 @@ class Course:
         its own rule; everything to the instructor."""
         p, now = a["policy"], self.now()
         feedback = Feedback.model_validate(p["feedback"])
-        status = _status(sub)
+        status = status_of(sub)
         penalty = p["late_penalty"] if sub["late"] else 0.0
         show_score = self.shown(feedback.score_when(), a, who, now) and status in ("graded", "invalid", "failed")
         out = {
@@ -527,7 +527,7 @@ class Course:
         """The pictures of a graded submission the caller may fetch: its render (their own work); the error
         map and the rejected pixels when no image test is hidden (they show the reference's structure); the
         reference when the policy shows it. The instructor: all of them."""
-        if _status(sub) != "graded":
+        if status_of(sub) != "graded":
             return []
         feedback = Feedback.model_validate(a["policy"]["feedback"])
         now = self.now()
@@ -565,7 +565,7 @@ class Course:
     def counting(self, a: dict, subs: list[dict]) -> dict | None:
         """The submission that is the grade: the last graded one, or the best (by the share of its points
         after the late penalty; the later of two equal ones)."""
-        graded = [s for s in subs if _status(s) == "graded" and s["score"] is not None]
+        graded = [s for s in subs if status_of(s) == "graded" and s["score"] is not None]
         if not graded:
             return None
         if a["policy"]["counts"] == "last":
@@ -577,9 +577,9 @@ class Course:
 
         return max(reversed(graded), key=share)
 
-    def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
-        """Each roster student: (their row, the counting submission or None, its score after the late
-        penalty or None, how many submissions they made), in the roster's order."""
+    def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]:
+        """Each roster student: (their row, their submissions in order, the counting submission or None, its
+        score after the late penalty or None), in the roster's order."""
         subs: dict[str, list[dict]] = {}
         for s in self.submissions(a):
             subs.setdefault(s["student"], []).append(s)
@@ -588,8 +588,13 @@ class Course:
             mine = subs.get(st["student"], [])
             c = self.counting(a, mine)
             penalty = a["policy"]["late_penalty"] if c is not None and c["late"] else 0.0
-            out.append((st, c, None if c is None else c["score"] * (1 - penalty), len(mine)))
+            out.append((st, mine, c, None if c is None else c["score"] * (1 - penalty)))
         return out
+
+    def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
+        """Each roster student: (their row, the counting submission or None, its score after the late
+        penalty or None, how many submissions they made), in the roster's order."""
+        return [(st, c, score, len(mine)) for st, mine, c, score in self.class_grades(a)]
 
     def grades_csv(self, a: dict) -> str:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
@@ -649,7 +654,7 @@ class Course:
         return path if ref is not None and ref["stage"] == "graded" and path.is_file() else None
 
 
-def _status(sub: dict) -> str:
+def status_of(sub: dict) -> str:
     """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
     stage = sub.get("stage")
     if stage is None or stage == "submitted":
@@ -661,7 +666,7 @@ def _status(sub: dict) -> str:
 
 def _grade(item: dict) -> dict:
     return {
-        "status": item["status"] if item["stage"] == "graded" else _status(item),
+        "status": item["status"] if item["stage"] == "graded" else status_of(item),
         "score": item["score"],
         "max_score": item["max_score"],
     }
