@@ -203,12 +203,16 @@ def _image_test(name: str, t, m: dict, base: dict, spp: int = 1, kind: str = "sc
 # where the submission has more rejected pixels than the noise baseline has at the same place: in the
 # WINDOW x WINDOW pixels around it, of the pixels rejected in exactly one of the two images, so many are the
 # submission's that a fair coin (the two are alike when the scene is correct) gives as many with chance below
-# DENSE (McNemar's exact test). The noise baseline's map of rejected pixels travels with its metrics for this
-# (`rejected_map`, packed bits). A wrong region stays red; the noise's rejections are drawn pale yellow ("as
-# many as a correct render has"), and the caption (metrics.captions) says both with the baseline's share.
+# DENSE (McNemar's exact test), or near the centre of such a neighbourhood (REACH). The noise baseline's map
+# of rejected pixels travels with its metrics for this (`rejected_map`, packed bits). A wrong region stays red;
+# the noise's rejections are drawn pale yellow ("as many as a correct render has"), and the caption
+# (metrics.captions) says both with the baseline's share.
 
 WINDOW = 9  # pixels: the side of the neighbourhood whose rejected pixels are counted
-DENSE = 1e-3  # a neighbourhood is beyond noise when a correct render gives its count with less chance than this
+REACH = 5  # pixels: a rejected pixel within the REACH x REACH pixels around a dense window's centre is red
+DENSE = 1e-5  # a neighbourhood is beyond noise when a correct render gives its count with less chance than this
+# (so small, as thousands of neighbourhoods are looked at: a correct render at 40 % rejected shows about one red
+# speck in 20 images; a wrong 4 x 4 pixel patch is red)
 RED = (255, 40, 40)  # rejected, beyond what the noise explains
 NOISE = (235, 215, 120)  # rejected, as many as a correct render has there
 
@@ -228,12 +232,12 @@ def unpack_map(packed: dict) -> np.ndarray:
     return bits.reshape(h, w).astype(bool)
 
 
-def _box(a: np.ndarray) -> np.ndarray:
-    """The sum of `a` (H, W) over the WINDOW x WINDOW pixels centred at each pixel (zero outside), by an integral
+def _box(a: np.ndarray, side: int = WINDOW) -> np.ndarray:
+    """The sum of `a` (H, W) over the side x side pixels centred at each pixel (zero outside), by an integral
     image."""
-    r = WINDOW // 2
+    r = side // 2
     c = np.pad(np.pad(a.astype(np.int64), r).cumsum(0).cumsum(1), ((1, 0), (1, 0)))
-    return c[WINDOW:, WINDOW:] - c[:-WINDOW, WINDOW:] - c[WINDOW:, :-WINDOW] + c[:-WINDOW, :-WINDOW]
+    return c[side:, side:] - c[:-side, side:] - c[side:, :-side] + c[:-side, :-side]
 
 
 def beyond_noise(rejected: np.ndarray, baseline: np.ndarray | None, share: float, alpha: float) -> np.ndarray:
@@ -248,8 +252,8 @@ def beyond_noise(rejected: np.ndarray, baseline: np.ndarray | None, share: float
     else:
         p = min(max(share, alpha), 1.0)
         chance = binom.sf(_box(rejected) - 1, _box(np.ones(rejected.shape, bool)), p)
-    dense = chance < DENSE
-    return rejected & (_box(dense) > 0)  # each pixel of a dense neighbourhood, not only its centre
+    dense = (chance < DENSE).astype(np.int64)
+    return rejected & (_box(dense, REACH) > 0)  # near a dense window's centre: a region's corners are red too
 
 
 def _pictures(report: Report, ref: ReferenceImages, m: dict, base: dict, alpha: float, spp: int) -> None:
