@@ -417,3 +417,44 @@ def reference_png(aid: str, course: CourseDep, caller: CallerDep) -> Response:
     if path is None:
         raise ApiError(404, [{"path": "", "message": "no reference image (not shown, or not rendered yet)"}])
     return Response(path.read_bytes(), media_type="image/png", headers={"Cache-Control": "no-store"})
+
+
+@router.get(
+    "/{aid}/submissions/{sid}/raytree",
+    summary="A pixel's ray trees: the student's scene beside the reference's, and where they first differ",
+    responses={
+        **ERRORS,
+        **NOT_FOUND,
+        403: {"model": ErrorResponse, "description": "the feedback policy does not show the reference's structure yet"},
+        409: {"model": ErrorResponse, "description": "an image submission (no scene), or not graded (yet)"},
+        503: {"model": ErrorResponse, "description": "no worker takes interactive work"},
+        504: {"model": ErrorResponse, "description": "a tree took longer than TRACER_MAX_RAYTREE_SECONDS"},
+    },
+)
+async def submission_raytree(
+    aid: str,
+    sid: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    x: Annotated[int, Query(description="a column of the graded image (render.png, error_map.png)")],
+    y: Annotated[int, Query(description="a row of the graded image, from the top")],
+    sample: Annotated[int, Query(description="the sample index within the pixel")] = 0,
+) -> dict:
+    """`{x, y, sample, student, reference, difference}`: both ray trees of that pixel sample (the format of POST
+    /api/raytree), traced by workers as the grader rendered the scenes (server/course/compare.py), and the first
+    node where they differ, `{student: path, reference: path, what, message, nodes}` (a path: child indices from
+    the eye ray), or null. Shown when the image tests' pictures are (the feedback policy); the instructor's always."""
+    from server.course import compare
+
+    state = request.app.state
+    return await compare.raytrees(
+        course, state.jobs, state.settings, lambda body: state.checks.summary(request, body), caller, aid, sid,
+        x, y, sample, request.is_disconnected,
+    )  # fmt: skip
+
+
+# the route above goes before "/{aid}/submissions/{sid}/{name}" (a picture), which would take "raytree" for a name
+router.routes.insert(
+    next(i for i, r in enumerate(router.routes) if getattr(r, "name", "") == "submission_file"), router.routes.pop()
+)
