@@ -15,7 +15,7 @@ this order (the order a cause shows itself first):
 3. its weight ("weight": the product of kr or kt from the eye);
 4. its shadow rays, one by one ("missing": a light that one tree has and the other does not reach;
    "light": towards another place; "shadow": blocked in one and not in the other);
-5. the local terms at the hit ("material": ambient, diffuse, specular or emission differ at the same hit);
+5. the local terms at the hit ("material": diffuse, specular, ambient or emission differ at the same hit);
 6. what its shadow rays carry ("light": the light's contribution at the same place differs);
 7. its reflection and transmission rays, each compared whole (depth first) before the next
    ("missing": a ray one tree has and the other not);
@@ -30,7 +30,12 @@ from collections.abc import Iterable
 
 RELATIVE = 1e-3  # two numbers agree when they differ by at most this share of the larger ...
 ABSOLUTE = 1e-4  # ... plus this (float noise of two traces of different scenes through the same code)
-SECONDARY = ("reflection", "transmission")
+TERMS = (  # the local terms of a hit (the ray tree's `terms`), the most telling first, and what sets each
+    ("diffuse", "kd: its colour"),
+    ("specular", "ks or shininess"),
+    ("ambient", "ka, which is kd unless set, or the scene's ambient"),
+    ("emission", "emission"),
+)
 
 
 def _close(a, b) -> bool:
@@ -226,24 +231,21 @@ def _pair(s: _Tree, r: _Tree, a: dict, b: dict) -> None:
                 "an object casts another shadow here.",
             )
     ta, tb = a.get("terms") or {}, b.get("terms") or {}
-    for term, field in (
-        ("emission", "emission"),
-        ("ambient", "ka, or the ambient light"),
-        ("diffuse", "kd, its colour"),
-        ("specular", "ks or its shininess"),
-    ):
-        va, vb = ta.get(term), tb.get(term)
-        if term == "emission" and va is None and vb is None:
-            continue
-        if not _close(va or [0.0, 0.0, 0.0], vb or [0.0, 0.0, 0.0]):
-            _differ(
-                a,
-                b,
-                "material",
-                f"At the same hit on {_where(a)}, your {ray}'s {term} term is {_num(va or 0.0)}; "
-                f"the reference's is {_num(vb or 0.0)}: the material differs ({field}; or the light's "
-                "intensity).",
-            )
+    differ = [
+        (term, field, ta.get(term) or [0.0] * 3, tb.get(term) or [0.0] * 3)
+        for term, field in TERMS
+        if not _close(ta.get(term) or [0.0] * 3, tb.get(term) or [0.0] * 3)
+    ]
+    if differ:
+        terms = "; ".join(f"{term} {_num(x)} against {_num(y)}" for term, _, x, y in differ)
+        fields = ", ".join(field for _, field, _, _ in differ)
+        _differ(
+            a,
+            b,
+            "material",
+            f"Where your {ray} hits {_where(a)}, as the reference's does, the light it reflects there differs "
+            f"(yours against the reference's): {terms}. The material differs ({fields}), or a light's intensity.",
+        )
     for k in shadows:
         x, y = ka[k], kb[k]
         if not _close(x.get("radiance"), y.get("radiance")):

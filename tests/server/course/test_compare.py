@@ -138,8 +138,10 @@ def test_compare_a_pixel_on_the_recoloured_ball_differs_in_material(app, graded)
     d = body["difference"]
     assert d["what"] == "material" and d["student"] == [] and d["reference"] == []
     assert d["nodes"] == {"student": 0, "reference": 0}
-    assert d["message"].startswith("At the same hit on red ball (material 'red'), your eye ray's ")
-    assert "the material differs" in d["message"]
+    assert d["message"].startswith("Where your eye ray hits red ball (material 'red'), as the reference's does, ")
+    assert "(yours against the reference's): diffuse " in d["message"] and "; ambient " in d["message"]
+    assert d["message"].endswith("The material differs (kd: its colour, ka, which is kd unless set, or the scene's "
+                                 "ambient), or a light's intensity.")  # fmt: skip
     s_diffuse = body["student"]["nodes"][0]["terms"]["diffuse"]
     r_diffuse = body["reference"]["nodes"][0]["terms"]["diffuse"]
     assert s_diffuse[2] > s_diffuse[0] and r_diffuse[0] > r_diffuse[2]  # blue against red
