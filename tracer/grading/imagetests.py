@@ -271,10 +271,6 @@ def _pictures(report: Report, ref: ReferenceImages, m: dict, base: dict, alpha: 
     report.metrics["beyond_noise"] = round(float(red.mean()), 6)
     report.metrics["captions"] = {
         "error_map": "FLIP error map: black where the pictures look the same, bright where they differ most",
-        "rejected": (f"rejected pixels: red where they differ beyond noise ({red.mean():.2%} of the image); "
-                     f"pale yellow where they are as many as noise explains ({correct_share(share, spp)})"),
+        "rejected": (f"rejected pixels: red where they differ beyond noise ({red.mean():.2%} of the image); pale "
+                     f"yellow as many as noise makes (a correct render at {spp_words(spp)}: {share:.2%})"),
     }  # fmt: skip
-
-
-def correct_share(share: float, spp: int) -> str:
-    return f"a correct render at {spp_words(spp)} has {share:.2%} of its pixels rejected"
