@@ -5,6 +5,10 @@ Fair to Monte Carlo noise: each image test's threshold is relative to a *noise b
 reference scene rendered exactly as the submission was (same spp, sampler and size) with another
 seed. A correct scene at 4 spp is as noisy as the baseline and passes; a wrong one does not.
 
+Each test's output says what its score means against that baseline, in words for a first graphics course: a
+verdict, the numbers (the submission's, the baseline's, the allowance), and where to look when it fails; the
+rejected pixels picture marks in red only what the baseline's noise does not explain (see "the pictures").
+
 Grader.finish and the service's worker processes (tracer/grading/tasks.py) both grade through these:
 they take the reference, the submission's image and the baseline's metrics as plain data.
 """
