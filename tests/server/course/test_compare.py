@@ -10,6 +10,7 @@ import base64
 import copy
 import io
 import json
+import re
 from datetime import UTC, datetime, timedelta
 
 import pytest
@@ -236,3 +237,18 @@ def test_compare_follows_the_feedback_policy(app):
     r = trees(app, never, sid, tok, x=1, y=1)
     assert r.status_code == 403 and r.json()["errors"][0]["message"].endswith("(flip) to students: they are not shown")
     finished(app, never, sid)  # graded before the server stops (the run's rows are kept either way)
+
+
+def test_compare_a_submission_not_graded_yet_is_a_409(tmp_path):
+    """A server without render workers renders nothing: a submission is never graded, and its ray trees wait."""
+    with api_client(tmp_path / "data", workers=0, instructor_token=INSTRUCTOR, token=INSTRUCTOR) as c:
+        c.app.state.clock = Clock(T0)
+        aid = publish(c)
+        tok = roster(c, aid, "s1")["s1"]
+        sid = submit(c, aid, tok, {"scene": blue()})
+        r = trees(c, aid, sid, tok, x=1, y=1)
+        assert r.status_code == 409
+        (error,) = r.json()["errors"]
+        assert error["path"] == "sid"  # queued, or prepared (its checks made) and waiting for its render
+        assert re.fullmatch(f"submission '{sid}' is (queued|being graded): its ray trees can be compared once it is "
+                            "graded", error["message"]), error  # fmt: skip
