@@ -192,8 +192,7 @@ def _image_test(name: str, t, m: dict, base: dict, spp: int = 1, kind: str = "sc
         side = "above" if lower_is_better else "below"
         first = "Differs from the reference more than noise can explain" if t.limit is None else (
             "Further from the reference than the assignment allows")  # fmt: skip
-        lines = [f"{first}: {label} {m[name]:.4g}{unit} is {side} the {bound:.4g}{unit} allowed, where {correct} "
-                 f"has {base[name]:.4g}{unit}.", numbers,
+        lines = [f"{first}: {label} {m[name]:.4g}{unit} is {side} the {bound:.4g}{unit} allowed.", numbers,
                  f"Where to look: the FLIP error map (bright where the pictures differ most) and the rejected "
                  f"pixels (red); {where}."]  # fmt: skip
     return TestResult(TEST_NAMES[name], t.points if ok else 0.0, t.points, "\n".join(lines), "image")

@@ -147,7 +147,7 @@ def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
     for t in erin.tests[6:]:
         verdict, numbers, where = t.output.split("\n")
         assert verdict.startswith("Differs from the reference more than noise can explain: ")
-        assert "a correct render at 16 samples per pixel" in verdict and "(the noise baseline)" in numbers
+        assert "a correct render at 16 samples per pixel (the noise baseline)" in numbers
         assert where.startswith("Where to look: ") and "rejected pixels" in where and "your scene" in where
     assert erin.tests[9].output.startswith(
         "Differs from the reference more than noise can explain: 8.48% of your pixels are off, where a correct "
