@@ -158,7 +158,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert len(headers) == 11
     flip = page.locator('#grade-table tr[data-student=erin] td[data-test="FLIP against the reference"]')
     assert flip.get_attribute("data-status") == "failed"
-    assert flip.get_attribute("title").startswith("FLIP 0.06")  # the output as a tooltip
+    title = flip.get_attribute("title")  # the output as a tooltip
+    assert title.startswith("Differs from the reference more than noise can explain: FLIP 0.06")
     assert "✗" in flip.text_content()
     glass = page.locator('#grade-table tr[data-student=erin] td[data-test="a glass object"]')
     assert glass.get_attribute("data-status") == "passed" and "✓" in glass.text_content()
@@ -216,6 +217,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert flip_test.get_attribute("data-status") == "failed"
     assert "failed" in flip_test.text_content() and "0 / 2" in flip_test.text_content()
     assert "the noise baseline" in flip_test.text_content()
+    caption = page.text_content('#grade-detail .grade-fig[data-picture=rejected] figcaption')
+    assert caption.startswith("rejected pixels: red where they differ beyond noise")  # the grader's caption
     glass_out = page.text_content('#grade-detail-tests li[data-test="a glass object"] pre')  # multi-line: <pre>
     assert glass_out.startswith("passed: found 1 materials") and "\n" in glass_out
     assert page.locator("#grade-detail-tests li").count() == 10

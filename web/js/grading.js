@@ -664,7 +664,7 @@ export class GradingPanel {
       render: r.kind === "image" ? "their image" : `their scene, rendered${m.spp ? ` (${m.spp} spp)` : ""}`,
       reference: "the reference",
       error_map: `FLIP error map${typeof m.flip === "number" ? ` (mean ${fixed(m.flip, 3)})` : ""}`,
-      rejected: `pixels the z test rejected${typeof m.rejected === "number" ? ` (${fixed(100 * m.rejected, 2)} %)` : ""}`,
+      rejected: m.captions?.rejected || `pixels the z test rejected${typeof m.rejected === "number" ? ` (${fixed(100 * m.rejected, 2)} %)` : ""}`, // the grader's words: red beyond noise, yellow as noise
     };
     const images = new Set(r.images || []);
     const figures = PICTURES.map(([name, alt]) =>

@@ -21,6 +21,7 @@ from server.api.deps import StoreDep
 from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
+from server.course import compare
 from server.course import dashboard as course_board
 from server.course.policy import AssignmentIn, Instant
 from server.course.service import Course, Who, iso, links_csv, not_found
@@ -377,6 +378,39 @@ def gradescope_results(aid: str, sid: str, request: Request, course: CourseDep, 
     if results is None:
         raise ApiError(404, [{"path": "sid", "message": f"no graded submission with id '{sid[:64]}'"}])
     return results
+
+
+@router.get(
+    "/{aid}/submissions/{sid}/raytree",
+    summary="A pixel's ray trees: the student's scene beside the reference's, and where they first differ",
+    responses={
+        **ERRORS,
+        **NOT_FOUND,
+        403: {"model": ErrorResponse, "description": "the feedback policy does not show the reference's structure yet"},
+        409: {"model": ErrorResponse, "description": "an image submission (no scene), or not graded (yet)"},
+        503: {"model": ErrorResponse, "description": "no worker takes interactive work"},
+        504: {"model": ErrorResponse, "description": "a tree took longer than TRACER_MAX_RAYTREE_SECONDS"},
+    },
+)
+async def submission_raytree(
+    aid: str,
+    sid: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    x: Annotated[int, Query(description="a column of the graded image (render.png, error_map.png)")],
+    y: Annotated[int, Query(description="a row of the graded image, from the top")],
+    sample: Annotated[int, Query(description="the sample index within the pixel")] = 0,
+) -> dict:
+    """`{x, y, sample, student, reference, difference}`: both ray trees of that pixel sample (the format of POST
+    /api/raytree), traced by workers as the grader rendered the scenes (server/course/compare.py), and the first
+    node where they differ, `{student: path, reference: path, what, message, nodes}` (a path: child indices from
+    the eye ray), or null. Shown when the image tests' pictures are (the feedback policy); the instructor's always."""
+    state = request.app.state
+    return await compare.raytrees(
+        course, state.jobs, state.settings, lambda body: state.checks.summary(request, body), caller, aid, sid,
+        x, y, sample, request.is_disconnected,
+    )  # fmt: skip
 
 
 @router.get("/{aid}/submissions/{sid}/{name}", summary="A graded submission's picture", responses=NOT_FOUND)

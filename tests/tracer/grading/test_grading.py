@@ -103,7 +103,7 @@ def test_grading_messages_say_why(graded):
     ivan = graded["ivan"]
     assert ivan.errors[0]["message"] == "the image is 64x48 pixels; the assignment renders 96x72"
     erin = graded["erin"]
-    assert "the noise baseline's" in erin.tests[6].output
+    assert "(the noise baseline) 0.01603" in erin.tests[6].output
     assert erin.metrics["flip"] > erin.metrics["baseline"]["flip"] + 0.02
 
 
@@ -115,6 +115,96 @@ def test_grading_is_fair_to_noise(graded):
     assert dave["spp"] == 1 and erin["spp"] == 16
     assert abs(dave["psnr"] - dave["baseline"]["psnr"]) < 2.0
     assert dave["rejected"] <= dave["baseline"]["rejected"] + 0.01
+
+
+def test_grading_words_a_correct_noisy_render_reads_as_matching_the_baseline(graded):
+    """dave's correct 1-spp render has full marks, and each image test says so first, against a correct render
+    at the same samples per pixel (the noise baseline), before any number: 12 % of its pixels past the z test
+    read as noise, not failure (before: "11.99 % of pixels differ from the reference by more than the noise
+    explains", beside a mostly red picture)."""
+    dave = graded["dave"]
+    for t in dave.tests[6:]:
+        lines = t.output.split("\n")
+        assert lines[0] == "Matches the reference as closely as a correct render with 1 sample per pixel does."
+        assert "a correct render at 1 sample per pixel (the noise baseline)" in lines[1]
+    pixels = dave.tests[9].output.split("\n")
+    assert pixels[1].startswith("Pixels off by more than noise explains (a z test per pixel, alpha 0.001; fewer is")
+    assert "yours 11.99%; a correct render at 1 sample per pixel (the noise baseline) 12.09%" in pixels[1]
+    assert "allowed up to 13.09% (the baseline's + 1.00%)" in pixels[1]
+    assert pixels[2] == "At 1 sample per pixel even a correct render has this many: they are noise, not mistakes."
+    flip, ssim, psnr = (dave.tests[i].output.split("\n")[1] for i in (6, 7, 8))
+    assert flip.startswith("FLIP (how different the two pictures look to a viewer; 0 is identical, lower is better)")
+    assert ssim.startswith("SSIM (how alike the pictures' edges, textures and contrast are; 1 is identical, higher")
+    assert psnr.startswith("PSNR (the pixels' average error on a log scale; higher is better, 100 dB is identical)")
+    assert "allowed at most 0.1055 (the baseline's + 0.02)" in flip
+    assert "allowed at least 20.34 dB (the baseline's - 2 dB)" in psnr
+
+
+def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
+    """erin's wrong picture: each image test starts with the verdict and its reason, gives the numbers, then
+    where to look (the pictures, and what in a scene to compare); heidi's wrong image points at her tracer."""
+    erin = graded["erin"]
+    for t in erin.tests[6:]:
+        verdict, numbers, where = t.output.split("\n")
+        assert verdict.startswith("Differs from the reference more than noise can explain: ")
+        assert "a correct render at 16 samples per pixel (the noise baseline)" in numbers
+        assert where.startswith("Where to look: ") and "rejected pixels" in where and "your scene" in where
+    assert erin.tests[9].output.startswith(
+        "Differs from the reference more than noise can explain: 8.48% of your pixels are off, where a correct "
+        "render at 16 samples per pixel has 0.01%.\n"
+    )
+    assert erin.tests[6].output.startswith("Differs from the reference more than noise can explain: FLIP 0.06297 "
+                                           "is above the 0.03603 allowed")  # fmt: skip
+    assert "the FLIP error map (bright where the pictures differ most)" in erin.tests[6].output
+    heidi = graded["heidi"].tests[4].output
+    assert heidi.startswith("Differs from the reference") and "what your ray tracer computes there" in heidi
+
+
+RED = (255, 40, 40)
+
+
+def red_share(pixels: np.ndarray) -> float:
+    return float(np.all(pixels == RED, axis=-1).mean())
+
+
+def test_grading_rejected_picture_marks_red_only_what_noise_does_not_explain(graded):
+    """The rejected pixels picture: dave's correct 1-spp render has 12 % of its pixels past the z test, as many
+    as the noise baseline, and none of them red (they are pale yellow, "as a correct render has them"); erin's
+    wrong cube and ball are red, nearly all her rejected pixels; the caption says both, with the baseline's share."""
+    dave, erin = graded["dave"], graded["erin"]
+    assert dave.metrics["rejected"] > 0.1 and red_share(dave.images["rejected"]) == 0.0
+    yellow = np.all(dave.images["rejected"] == (235, 215, 120), axis=-1).mean()
+    assert yellow == pytest.approx(dave.metrics["rejected"], abs=1e-6)  # the metric is rounded to 6 places
+    assert dave.metrics["beyond_noise"] == 0.0
+    assert red_share(erin.images["rejected"]) > 0.9 * erin.metrics["rejected"]
+    assert erin.metrics["beyond_noise"] == pytest.approx(red_share(erin.images["rejected"]), abs=1e-6)
+    caption = dave.metrics["captions"]["rejected"]
+    assert "red where they differ beyond noise (0.00% of the image)" in caption
+    assert caption.endswith("pale yellow as many as noise makes (a correct render at 1 sample per pixel: 12.09%)")
+    assert "rejected_map" not in dave.metrics["baseline"]  # the baseline's map is for the picture, not the report
+
+
+def test_grading_beyond_noise_against_the_baselines_map_and_without_it():
+    """beyond_noise by hand: scattered rejections as many as the baseline's at the same places are not red; a
+    dense block is, each of its pixels (and the noise's rejections within half a window of it, no further);
+    without the baseline's map, against its share spread evenly."""
+    from tracer.grading.imagetests import beyond_noise, pack_map, unpack_map
+
+    rng = np.random.default_rng(3)
+    baseline = rng.random((40, 60)) < 0.15
+    noise = rng.random((40, 60)) < 0.15
+    assert not beyond_noise(noise, baseline, 0.15, 1e-3).any()
+    assert not beyond_noise(rng.random((40, 60)) < 0.4, rng.random((40, 60)) < 0.4, 0.4, 1e-3).any()
+    wrong = noise.copy()
+    wrong[10:20, 20:32] = True
+    red = beyond_noise(wrong, baseline, 0.15, 1e-3)
+    assert red[10:20, 20:32].all()
+    near = np.zeros_like(red)
+    near[10 - 6 : 20 + 6, 20 - 6 : 32 + 6] = True  # the block and the noise within half a window (and reach) of it
+    assert not red[~near].any()
+    assert red[10:20, 20:32].all() == beyond_noise(wrong, None, 0.15, 1e-3)[10:20, 20:32].all()
+    assert not beyond_noise(noise & (rng.random((40, 60)) < 0.05), None, 0.15, 1e-3).any()
+    assert np.array_equal(unpack_map(pack_map(wrong)), wrong)
 
 
 def test_grading_is_deterministic(graded):
@@ -160,7 +250,8 @@ def test_grading_error_map_shows_where_the_picture_is_wrong(graded):
     """erin's cube and ball are wrong: the FLIP error there is far above the floor's."""
     erin = graded["erin"]
     err = erin.images["error_map"].astype(float).sum(axis=-1)
-    rejected = np.all(erin.images["rejected"] == (255, 40, 40), axis=-1)
+    red = np.all(erin.images["rejected"] == (255, 40, 40), axis=-1)  # beyond noise
+    rejected = red | np.all(erin.images["rejected"] == (235, 215, 120), axis=-1)  # ... or as noise has them
     assert rejected.mean() == pytest.approx(erin.metrics["rejected"], abs=1e-6)  # rounded to 6 digits
     assert err[rejected].mean() > 3 * err[~rejected].mean()
 
