@@ -15,6 +15,7 @@ they take the reference, the submission's image and the baseline's metrics as pl
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -222,14 +223,10 @@ NOISE = (235, 215, 120)  # rejected, as many as a correct render has there
 
 def pack_map(rejected: np.ndarray) -> dict:
     """An (H, W) bool map as plain data: {"shape": [H, W], "bits": base64 of its packed bits}."""
-    import base64
-
     return {"shape": list(rejected.shape), "bits": base64.b64encode(np.packbits(rejected.ravel())).decode()}
 
 
 def unpack_map(packed: dict) -> np.ndarray:
-    import base64
-
     h, w = packed["shape"]
     bits = np.unpackbits(np.frombuffer(base64.b64decode(packed["bits"]), np.uint8), count=h * w)
     return bits.reshape(h, w).astype(bool)
