@@ -12,6 +12,7 @@ import { RayTreePanel } from "./raytree.js";
 import { loadSchema } from "./schema.js";
 import { $, $$, download, h } from "./util.js";
 import { copyText, Viewer } from "./viewer.js";
+import { showWorkingOn } from "./course/working.js";
 
 const banner = $("#banner");
 function notify(text, kind = "error", action = null) {
@@ -332,6 +333,7 @@ async function refreshPreviews() {
 let lessons = null;
 
 async function start() {
+  showWorkingOn($("#working-on")); // opened from an assignment's "Start": the way back to it
   lessons = new Lessons($("#page-lessons"), {
     openInWorkspace: async (scene, job, label) => {
       loadText(formatJSON(scene), label);
