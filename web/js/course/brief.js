@@ -37,6 +37,17 @@ export function duration(s) {
   return `${sec} s`;
 }
 
+const ORDER = ["now", "after_deadline", "never"];
+
+/** When the score is shown (server/course/policy.py score_when): the policy's `score`, else the latest of the
+ * tests' (a score would tell a hidden test's points). */
+export function scoreWhen(feedback) {
+  if (!feedback) return "now";
+  if (feedback.score) return feedback.score;
+  const all = [feedback.default || "now", ...Object.values(feedback.tests || {})];
+  return all.reduce((a, b) => (ORDER.indexOf(b) > ORDER.indexOf(a) ? b : a), "now");
+}
+
 const when = (brief, test) => brief.feedback?.tests?.[test] || brief.feedback?.default || "now";
 
 function timeEl(iso) {

@@ -87,7 +87,10 @@ export function showFeedback(root, sub, ctx) {
   }
   if (fb?.warnings?.length) parts.push(problemList(fb.warnings, { kind: "warn", title: "Warnings:" }));
   if (["graded", "invalid", "failed"].includes(sub.status)) {
-    if (sub.score === null || sub.score === undefined) parts.push(h("p", { class: "a-score-note" }, "The score is not shown yet: the feedback policy shows it after the deadline."));
+    if (sub.score === null || sub.score === undefined) {
+      const later = ctx.scoreWhen === "never" ? "The score is not shown to students: your instructor has it." : "The score is not shown yet: the feedback policy shows it after the deadline.";
+      parts.push(h("p", { class: "a-score-note" }, later));
+    }
     else if (sub.penalty) parts.push(h("p", { class: "a-score-note" }, `Late: ${num(100 * sub.penalty, 3)} % of the points taken off (${pts(sub.raw_score)} before the penalty).`));
   }
   const files = sub.files || {};
@@ -118,7 +121,12 @@ export function showFeedback(root, sub, ctx) {
       );
     }
   }
-  if (fb?.tests?.length) parts.push(h("h4", {}, "Tests"), h("ol", { class: "grade-tests a-tests" }, fb.tests.map(testItem)));
+  if (fb?.tests?.length) {
+    const list = h("ol", { class: "grade-tests a-tests" }, fb.tests.map(testItem));
+    // an invalid submission's tests were not checked: folded, the errors above say it all
+    if (sub.status === "invalid") parts.push(h("details", { class: "a-unchecked" }, h("summary", {}, "Tests (not checked: the submission is invalid)"), list));
+    else parts.push(h("h4", {}, "Tests"), list);
+  }
   root.replaceChildren(...parts);
 }
 

@@ -3,14 +3,14 @@
 // policy allows, each followed live while it is graded. The link's token is this page's identity (session.js)
 // and becomes the workspace's too (api.js tokens.setStudent), so the renders the student makes in the
 // workspace are theirs on this assignment, as the server treats a roster token as a job's owner.
-import { ApiError, tokens } from "../api.js";
+import { ApiError } from "../api.js";
 import { encodeScene, MAX_LINK } from "../share.js";
 import { $, h } from "../util.js";
-import { showBrief } from "./brief.js";
+import { scoreWhen, showBrief } from "./brief.js";
 import { HandIn } from "./handin.js";
 import { assignmentId, forget, join, keep, linkToken, studentApi } from "./session.js";
 import { SubmissionList } from "./submissions.js";
-import { setWorkingOn } from "./working.js";
+import { setWorkingOn, useIdentity } from "./working.js";
 
 const status = $("#a-status");
 function say(kind, ...content) {
@@ -58,7 +58,7 @@ async function open(token, { joined = null } = {}) {
     noAccess(["This is the instructor's view of the assignment, not a student's: a student's link carries their own token (#token=… from the roster)."]);
     return;
   }
-  tokens.setStudent(token); // the workspace's "my jobs" are this student's from now on
+  useIdentity(token); // the workspace's "my jobs" are this student's from now on
   say("", "");
   $("#a-access").hidden = true;
   const briefRoot = $("#a-brief");
@@ -73,7 +73,7 @@ async function open(token, { joined = null } = {}) {
   stopCountdown = showBrief(briefRoot, brief, token, { onPhase: () => refreshBrief(api) });
   await startLink(brief);
 
-  const ctx = { aid, token, api, compareBox: $("#compare"), onFinal: () => (list.load(), refreshBrief(api)) };
+  const ctx = { aid, token, api, compareBox: $("#compare"), scoreWhen: scoreWhen(brief.feedback), onFinal: () => (list.load(), refreshBrief(api)) };
   if (!handin) handin = new HandIn($("#a-handin"), { aid, api, starter: brief.starter, onSubmitted: (view) => (list.add(view), refreshBrief(api)) });
   list?.close();
   list = new SubmissionList($("#a-sub-list"), $("#a-attempts"), $("#a-subs-status"), ctx);
@@ -143,4 +143,8 @@ async function start() {
   await open(token);
 }
 
+// a link followed while this page is open (only its fragment changes: no new page): start again with its token
+window.addEventListener("hashchange", () => {
+  if (new URLSearchParams(location.hash.slice(1)).get("token")) location.reload();
+});
 start().finally(() => (document.body.dataset.ready = "true"));

@@ -106,6 +106,11 @@ export class SubmissionList {
   /** A new submission (the 202's answer): at the top, opened, followed. */
   add(view) {
     const n = this.rows.size + 1;
+    for (const id of this.open) {
+      this.open.delete(id); // the new one is the one to read: the others fold
+      const row = this.rows.get(id);
+      if (row) this.paint(row);
+    }
     this.open.add(view.id);
     this.update(view, n);
     this.list.prepend(this.rows.get(view.id).li);
@@ -139,7 +144,7 @@ export class SubmissionList {
     row.li.dataset.late = String(!!v.late);
     row.li.dataset.counts = String(!!v.counts);
     row.head.setAttribute("aria-expanded", String(open));
-    const score = v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : FINAL.has(v.status) && v.status === "graded" ? h("span", { class: "a-sub-score muted" }, "score shown later") : null;
+    const score = v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
     const parts = [
       h("span", { class: "a-sub-n" }, `#${row.n}`),
       h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
