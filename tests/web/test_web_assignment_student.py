@@ -93,7 +93,7 @@ def hw(server):  # noqa: F811
         "feedback": {"tests": {"a small scene": "never"}, "score": "now"},
     }
     aid = publish(server, **policy)
-    students = roster(server, aid, ["brief", "start", "check", "submit", "image", "pixel", "other"])
+    students = roster(server, aid, ["brief", "start", "check", "submit", "image", "pixel", "late"])
     return {"id": aid, "students": students}
 
 
@@ -219,7 +219,7 @@ def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief
     assert page.is_visible("#a-brief") and not page.is_visible("#a-access")
 
 
-def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student, server, hw):  # noqa: F811
+def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student, server, hw, tmp_path):  # noqa: F811
     s = hw["students"]["start"]
     me = student()
     page = me.open(s["link"])
@@ -231,6 +231,7 @@ def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student
     back = page.locator("#working-on")
     assert back.is_visible() and "HW 4: glass, mirrors and soft shadows" in back.text_content()
     assert page.get_attribute("#working-back", "href") == f"/assignments/{hw['id']}"
+    me.shot("workspace-working-on", full_page=False)
 
     # the workspace's scene, changed there, is handed in from the assignment's page
     mine = starter()
@@ -244,6 +245,12 @@ def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student
     page.click("#a-from-workspace")
     assert json.loads(page.input_value("#a-scene")) == mine
     assert "Took the scene in the workspace's editor" in page.text_content("#a-scene-note")
+
+    # or a .json file of the student's
+    (tmp_path / "mine.json").write_text(json.dumps(reference()))
+    page.set_input_files("#a-scene-file", str(tmp_path / "mine.json"))
+    page.wait_for_function("() => document.querySelector('#a-scene-note').textContent === 'Opened mine.json.'")
+    assert json.loads(page.input_value("#a-scene")) == reference()
 
 
 def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, server, hw):  # noqa: F811
@@ -322,6 +329,8 @@ def test_an_invalid_then_a_valid_submission_graded_live(student, server, hw):  #
         httpx.delete(job_url, headers=TEACHER, timeout=30)
     wait_status(page, sid, "graded")
     assert page.evaluate("() => window.__sameDocument") is True  # no reload: the event stream brought it
+    said = page.text_content("#a-subs-status")  # the live region's words
+    assert re.fullmatch(r"Submission #2 is graded: \d+(\.\d+)? / 13\.", said), said
     row = page.locator(f"#a-sub-list li[data-id='{sid}']")
     page.wait_for_function(
         f"() => document.querySelector(\"#a-sub-list li[data-id='{sid}']\").dataset.counts === 'true'"
@@ -441,6 +450,36 @@ def test_refusals_are_the_servers_own_words_in_place(student, server):  # noqa: 
     page.wait_for_function("() => document.querySelector('#a-submit-status').dataset.kind === 'error'")
     assert "no submissions left: 1 used" in page.text_content("#a-submit-status")
     assert page.locator("#a-sub-list li.a-sub").count() == 1
+
+
+def test_a_late_submission_is_marked_and_its_penalty_said(student, server, hw):  # noqa: F811
+    """An extension to an hour ago moves this student's deadline and late cut-off back alike: they are in their
+    late day (by the server's clock, no waiting), and their submission is late, 20 % off."""
+    s = hw["students"]["late"]
+    an_hour_ago = (datetime.now(UTC) - timedelta(hours=1)).isoformat()
+    r = httpx.post(f"{server.url}/api/assignments/{hw['id']}/extensions", headers=TEACHER, timeout=30,
+                   json={"student": "late", "deadline": an_hour_ago})  # fmt: skip
+    assert r.status_code == 200, r.text
+    me = student()
+    page = me.open(s["link"])
+    assert page.get_attribute("#a-time-left", "data-phase") == "late"
+    assert re.fullmatch(
+        r"the deadline has passed; 2[23] h \d+ min \d+ s left to hand in late", page.text_content("#a-time-left")
+    )
+    assert "marked late and loses 20 % of its points" in page.text_content("#a-phase")
+    set_scene(page, reference())
+    page.click("#a-submit")
+    page.wait_for_selector("#a-sub-list li.a-sub")
+    assert "(late)" in page.text_content("#a-submit-status")
+    sid = sub_rows(page)[0]["id"]
+    wait_status(page, sid, "graded")
+    row = sub_rows(page)[0]
+    assert row["late"] == "true" and "late" in row["head"]
+    view = httpx.get(f"{server.url}/api/assignments/{hw['id']}/submissions/{sid}", headers=bearer(s["token"])).json()
+    assert view["late"] and view["penalty"] == 0.2 and view["score"] == round(0.8 * view["raw_score"], 6)
+    assert f"{view['score']:g} / 13" in row["head"]
+    note = page.text_content(f"#a-sub-list li[data-id='{sid}'] .a-score-note")
+    assert note == f"Late: 20 % of the points taken off ({view['raw_score']:g} before the penalty)."
 
 
 def pixel_of(scene: dict, point: list[float]) -> tuple[int, int]:

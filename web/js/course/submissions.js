@@ -98,7 +98,8 @@ export class SubmissionList {
     // newest first
     const ordered = subs.map((s) => this.rows.get(s.id).li).reverse();
     this.list.replaceChildren(...ordered);
-    this.status.textContent = subs.length ? "" : "None yet: Check your scene, then Submit it.";
+    if (!subs.length) this.status.textContent = "None yet: Check your scene, then Submit it.";
+    else if (this.status.textContent.startsWith("None yet")) this.status.textContent = "";
     const used = subs.filter((s) => s.counts_as_attempt).length;
     this.attempts.textContent = subs.length ? `${subs.length} submitted, ${used} counting as attempts` : "";
   }
@@ -172,7 +173,9 @@ export class SubmissionList {
         const r = this.rows.get(id);
         if (!r) return;
         view.counts = r.view.counts; // the stream's view does not know the counting one: the list read says
+        const moved = view.status !== r.view.status;
         this.update(view);
+        if (moved) this.announce(r);
       },
       onEnd: () => {
         const r = this.rows.get(id);
@@ -180,6 +183,14 @@ export class SubmissionList {
         this.ctx.onFinal?.(this.rows.get(id)?.view);
       },
     });
+  }
+
+  /** Say (to a screen reader too: the status line is a live region) where a followed submission now is. */
+  announce(row) {
+    const v = row.view;
+    const score = v.score !== null && v.score !== undefined ? `: ${pts(v.score)} / ${pts(v.max_score)}` : "";
+    const what = { queued: "is queued", grading: "is being graded", graded: `is graded${score}`, invalid: "is invalid (no attempt used)", failed: "could not be graded (no attempt used)" }[v.status];
+    this.status.textContent = `Submission #${row.n} ${what || v.status}.`;
   }
 
   close() {
