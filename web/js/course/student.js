@@ -5,7 +5,8 @@
 // workspace are theirs on this assignment, as the server treats a roster token as a job's owner.
 import { ApiError } from "../api.js";
 import { encodeScene, MAX_LINK } from "../share.js";
-import { $, h } from "../util.js";
+import { formatJSON } from "../jsonpos.js";
+import { $, h, store } from "../util.js";
 import { scoreWhen, showBrief } from "./brief.js";
 import { HandIn } from "./handin.js";
 import { assignmentId, forget, join, keep, linkToken, studentApi } from "./session.js";
@@ -101,7 +102,7 @@ async function startLink(brief) {
   if (a.href.length > MAX_LINK) a.href = "/"; // too long for a link: handed over through the editor's kept text below
   a.onclick = () => {
     setWorkingOn(aid, brief.name);
-    if (a.getAttribute("href") === "/") localStorage.setItem("rt.editor.text", JSON.stringify(JSON.stringify(brief.starter, null, 2)));
+    if (a.getAttribute("href") === "/") store.set("rt.editor.text", formatJSON(brief.starter)); // the editor's kept text (editor.js KEY)
   };
 }
 
