@@ -272,6 +272,21 @@ def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, se
     )
     assert selected.strip() == "-0.7"
 
+    # broken JSON: sent as text, the server's syntax error names its line, and the page goes there
+    text = json.dumps(reference(), indent=2).replace('"vfov": 40', '"vfov": 40,,')
+    set_scene(page, text)
+    page.click("#a-check")
+    page.wait_for_selector("#a-check-result[data-valid=false]", timeout=30_000)
+    assert "The scene is invalid: 1 error." in page.text_content("#a-check-verdict")
+    errors = page.text_content("#a-check-body .a-problems")
+    line = text[: text.index(",,")].count("\n") + 1
+    assert f"line {line}" in errors, errors
+    page.click("#a-check-body .a-problems .a-jump")
+    caret = page.evaluate(
+        "() => { const t = document.querySelector('#a-scene'); return t.value.slice(t.selectionStart, t.selectionEnd) }"
+    )
+    assert '"vfov": 40,,' in caret
+
     # a valid scene without glass: the requirements' results in seconds, the hidden one by name only
     no_glass = reference()
     no_glass["materials"]["glass"] = {"kd": 0.5}

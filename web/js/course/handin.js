@@ -116,29 +116,34 @@ export class HandIn {
     }
   }
 
-  /** Where an error's JSON path is in the text now: a line to go to. */
+  /** Where an error is in the text now: its JSON path's line, or the line a syntax error names. */
   jump() {
     const text = this.ta.value;
     let nodes = null;
     try {
       nodes = parse(text).nodes;
     } catch {
-      return null;
+      nodes = null; // a syntax error: its message names the line
     }
     const where = lineIndex(text);
+    const place = (e) => {
+      const found = nodes && e.path ? locate(nodes, e.path) : null;
+      if (found) return { line: nodeLine(where, found.node), start: found.node.start, end: found.node.end };
+      const m = /line (\d+)/.exec(e.message);
+      if (!m) return null;
+      const line = Number(m[1]);
+      const start = where.lineStart(line);
+      const end = text.indexOf("\n", start);
+      return { line, start, end: end < 0 ? text.length : end };
+    };
     return {
-      lineOf: (e) => {
-        const m = /line (\d+)/.exec(e.message);
-        if (!e.path && m) return Number(m[1]); // a syntax error names its line
-        const found = locate(nodes, e.path || "");
-        return found && e.path ? nodeLine(where, found.node) : null;
-      },
+      lineOf: (e) => place(e)?.line ?? null,
       go: (e) => {
-        const found = e.path ? locate(nodes, e.path) : null;
+        const p = place(e);
+        if (!p) return;
         this.ta.focus();
-        if (found) this.ta.setSelectionRange(found.node.start, found.node.end);
-        const line = found ? nodeLine(where, found.node) : 1;
-        this.ta.scrollTop = Math.max(0, (line - 3) * 19);
+        this.ta.setSelectionRange(p.start, p.end);
+        this.ta.scrollTop = Math.max(0, (p.line - 3) * 19); // 12.5 px text, 1.5 line height (grading.css .grade-json)
       },
     };
   }
@@ -164,6 +169,9 @@ export class HandIn {
     }
     this.setBusy(true);
     this.say("info", "Checking…");
+    this.result.hidden = true; // the last check's answer goes: it was about another text
+    delete this.result.dataset.valid;
+    $("#a-check-body", this.root).replaceChildren();
     const kind = this.kind;
     let res;
     try {
