@@ -19,7 +19,7 @@ import httpx
 import pytest
 from conftest import ROOT
 from test_api_support import bearer, long_scene, wait_for
-from test_web_page import CSP_WATCH, DESKTOP, SHOTS, TEACHER, browser, server  # noqa: F401  (fixtures)
+from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER, browser, server  # noqa: F401  (fixtures)
 
 EXAMPLE = ROOT / "scenes" / "grading"
 SIZE = (32, 24)  # the assignment's film: every render is graded at it
@@ -211,6 +211,13 @@ def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief
     page.set_viewport_size({"width": 1024, "height": 700})  # a small laptop: hand-in and submissions stacked
     assert page.evaluate("() => document.documentElement.scrollWidth <= 1024")  # nothing wider than the window
     me.shot("brief-1024")
+    page.set_viewport_size(PHONE)
+    me.shot("brief-phone")
+    wide = page.evaluate(
+        "() => [...document.querySelectorAll('body *')].filter(e => e.getBoundingClientRect().right > 391)"
+        ".map(e => `${e.tagName}#${e.id}.${e.className}`)"
+    )
+    assert wide == []  # nothing wider than a phone
     page.set_viewport_size(DESKTOP)
 
     # a later visit without the fragment uses the kept token

@@ -94,8 +94,9 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   }
   $("#a-points tbody", root).replaceChildren(...rows);
   const imagePts = (brief.image_tests || []).reduce((a, t) => a + t.points, (brief.validity?.points || 0));
-  const imageNote = brief.requirements?.length && brief.image_tests?.length ? h("small", { class: "muted" }, ` (an image: ${pts(imagePts)}; the requirements apply to scenes)`) : "";
-  $("#a-max", root).replaceChildren(h("strong", {}, pts(brief.max_score)), imageNote);
+  $("#a-max", root).replaceChildren(h("strong", {}, pts(brief.max_score)));
+  const imageNote = brief.requirements?.length && brief.image_tests?.length ? `An image from your own ray tracer is out of ${pts(imagePts)}: the requirements apply to scenes.` : "";
+  $("#a-points-note", root).textContent = imageNote;
 
   const limits = brief.limits || {};
   const render = brief.render || {};
