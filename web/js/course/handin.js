@@ -223,7 +223,7 @@ export class HandIn {
     } finally {
       this.setBusy(false);
     }
-    this.say("ok", `Submitted at ${localTime(view.accepted_at)}${view.late ? " (late)" : ""}: it is queued to be graded, and its feedback appears below when it is ready.`);
+    this.say("ok", `Submitted at ${localTime(view.accepted_at)}${view.late ? " (late)" : ""}. It is graded in turn: its feedback arrives under “Your submissions” as soon as it is ready.`);
     this.ctx.onSubmitted?.(view);
   }
 }

@@ -101,7 +101,7 @@ export class SubmissionList {
     if (!subs.length) this.status.textContent = "None yet: Check your scene, then Submit it.";
     else if (this.status.textContent.startsWith("None yet")) this.status.textContent = "";
     const used = subs.filter((s) => s.counts_as_attempt).length;
-    this.attempts.textContent = subs.length ? `${subs.length} submitted, ${used} counting as attempts` : "";
+    this.attempts.textContent = subs.length ? `${subs.length} submitted, ${used} counting as ${used === 1 ? "an attempt" : "attempts"}` : "";
   }
 
   /** A new submission (the 202's answer): at the top, opened, followed. */
