@@ -1,7 +1,7 @@
 """The student's view of an assignment (web/assignment.html at /assignments/{id}, web/js/course/) in a real browser.
 
-`python -m server` on loopback with one render worker and an instructor token (test_web_page's `server`), and
-Debian's Chromium through Playwright (its `browser`). An assignment is published through the API with a tiny
+`python -m server` on loopback with one render worker, an instructor token and an hourly cap of 3 submissions,
+and Debian's Chromium through Playwright (test_web_page's `browser`). An assignment is published through the API with a tiny
 reference (32 x 24 pixels, 16 spp: graded in about a second), a roster uploaded, and each test opens one
 student's mailed link in a fresh browser context (its own localStorage), in New York's time zone, failing on any
 console error it did not expect. The server's clock is the real one here (a subprocess): deadlines are a day
@@ -18,8 +18,8 @@ from datetime import UTC, datetime, timedelta
 import httpx
 import pytest
 from conftest import ROOT
-from test_api_support import bearer, long_scene, wait_for
-from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER, browser, server  # noqa: F401  (fixtures)
+from test_api_support import INSTRUCTOR, Server, bearer, long_scene, wait_for
+from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER, browser  # noqa: F401  (a fixture)
 
 EXAMPLE = ROOT / "scenes" / "grading"
 SIZE = (32, 24)  # the assignment's film: every render is graded at it
@@ -28,6 +28,16 @@ GRADED = ("graded", "invalid", "failed")
 # until helper R's web/css/compare.css is merged, the page's <link> to it answers 404 (as JSON)
 COMPARE_CSS_MISSING = not (ROOT / "web" / "css" / "compare.css").exists()
 NOT_FOUND = r"Failed to load resource: the server responded with a status of 404"
+
+
+PER_HOUR = 3  # TRACER_MAX_SUBMISSIONS_PER_HOUR of these tests' server (a student's submissions in any hour)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    env = {"TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR, "TRACER_MAX_SUBMISSIONS_PER_HOUR": str(PER_HOUR)}
+    with Server(tmp_path_factory.mktemp("web-assignment-data"), workers=1, env=env) as s:
+        yield s
 
 
 def reference() -> dict:
@@ -93,7 +103,7 @@ def hw(server):  # noqa: F811
         "feedback": {"tests": {"a small scene": "never"}, "score": "now"},
     }
     aid = publish(server, **policy)
-    students = roster(server, aid, ["brief", "start", "check", "submit", "image", "pixel", "late"])
+    students = roster(server, aid, ["brief", "start", "check", "submit", "image", "pixel", "late", "burst"])
     return {"id": aid, "students": students}
 
 
@@ -448,7 +458,9 @@ def test_an_open_assignment_is_joined_by_a_name(student, server):  # noqa: F811
     assert page.evaluate(f"() => JSON.parse(localStorage.getItem('rt.course.{aid}.token'))") == link.split("#token=")[1]
 
 
-def test_refusals_are_the_servers_own_words_in_place(student, server):  # noqa: F811
+def test_refusals_are_the_servers_own_words_in_place(student, server, hw):  # noqa: F811
+    """Past the cut-off (a deadline an hour ago), with no attempts left, and past the hourly cap: each the
+    server's 403 or 429, said where the Submit button is, with nothing added to the list."""
     closed = publish(server, deadline=(datetime.now(UTC) - timedelta(hours=1)).isoformat())
     one = publish(server, max_submissions=1)
     a = roster(server, closed, ["late"])["late"]
@@ -472,6 +484,22 @@ def test_refusals_are_the_servers_own_words_in_place(student, server):  # noqa: 
     page.wait_for_function("() => document.querySelector('#a-submit-status').dataset.kind === 'error'")
     assert "no submissions left: 1 used" in page.text_content("#a-submit-status")
     assert page.locator("#a-sub-list li.a-sub").count() == 1
+
+    # invalid scenes cost no attempt, but the hourly cap counts every submission
+    page = me.open(hw["students"]["burst"]["link"])
+    me.allow.append(r"status of 429")
+    set_scene(page, '{"version": 1, "camera": 7}')
+    for n in range(1, PER_HOUR + 1):
+        page.click("#a-submit")
+        page.wait_for_function(f"() => document.querySelectorAll('#a-sub-list li.a-sub').length === {n}")
+    page.click("#a-submit")
+    page.wait_for_function("() => document.querySelector('#a-submit-status').dataset.kind === 'error'")
+    said = page.text_content("#a-submit-status")
+    assert (
+        said
+        == f"Not accepted: at most {PER_HOUR} submissions per hour (TRACER_MAX_SUBMISSIONS_PER_HOUR); try again later."
+    )
+    assert page.locator("#a-sub-list li.a-sub").count() == PER_HOUR
 
 
 def test_a_late_submission_is_marked_and_its_penalty_said(student, server, hw):  # noqa: F811
