@@ -1,11 +1,12 @@
 """The student's view of an assignment (web/assignment.html at /assignments/{id}, web/js/course/) in a real browser.
 
 `python -m server` on loopback with one render worker, an instructor token and an hourly cap of 3 submissions,
-and Debian's Chromium through Playwright (test_web_page's `browser`). An assignment is published through the API with a tiny
-reference (32 x 24 pixels, 16 spp: graded in about a second), a roster uploaded, and each test opens one
-student's mailed link in a fresh browser context (its own localStorage), in New York's time zone, failing on any
-console error it did not expect. The server's clock is the real one here (a subprocess): deadlines are a day
-away, or already passed when a test needs a closed assignment. Screenshots go to $WEB_SHOTS (/tmp/web_shots).
+and Debian's Chromium through Playwright (test_web_page's `browser`). An assignment is published through the
+API with a tiny reference (32 x 24 pixels, 16 spp: graded in about a second), a roster uploaded, and each test
+opens one student's mailed link in a fresh browser context (its own localStorage), in New York's time zone,
+failing on any console error it did not expect. The server's clock is the real one here (a subprocess):
+deadlines are a day away, or already passed (an assignment published late, an extension to an hour ago) when a
+test needs them passed; nothing waits for one. Screenshots go to $WEB_SHOTS (/tmp/web_shots).
 """
 
 from __future__ import annotations
