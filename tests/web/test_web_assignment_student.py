@@ -588,3 +588,11 @@ def test_student_clicks_a_pixel_of_the_difference_map(student, server, hw):  # n
     mine = f"#a-sub-list li[data-id='{sid}']"
     assert page.evaluate("(sel) => document.querySelector(sel).contains(document.querySelector('#compare'))", mine)
     me.shot("compare")
+
+    # with the keyboard: the arrows move the chosen pixel, Enter compares there
+    img.focus()
+    page.keyboard.press("ArrowRight")
+    with page.expect_request(re.compile(r"/raytree\?")) as asked:
+        page.keyboard.press("Enter")
+    query = dict(p.split("=") for p in asked.value.url.split("?", 1)[1].split("&"))
+    assert (int(query["x"]), int(query["y"])) == (x + 1, y)
