@@ -51,9 +51,11 @@ export class ApiError extends Error {
 }
 
 /** One request: the parsed JSON answer, or an ApiError (the grading view uses it too, `as: "instructor"`).
- * `raw`: the Response itself when it is OK. */
-export async function request(method, url, body, { raw = false, signal, as = "student", cache } = {}) {
-  const init = { method, signal, cache, headers: authHeaders(as, url) };
+ * `raw`: the Response itself when it is OK. `token`: this token instead of `as`'s (an assignment's page
+ * sends its own link's token; null sends none). */
+export async function request(method, url, body, { raw = false, signal, as = "student", cache, token } = {}) {
+  const headers = token === undefined ? authHeaders(as, url) : token ? { authorization: `Bearer ${token}` } : {};
+  const init = { method, signal, cache, headers };
   if (body instanceof FormData) {
     init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
   } else if (body !== undefined) {
@@ -86,19 +88,19 @@ export async function request(method, url, body, { raw = false, signal, as = "st
 }
 
 /** A resource that needs the token (an image, an AOV, a download) as a Blob. */
-export async function blob(url, { as = "student", signal } = {}) {
-  const res = await request("GET", url, undefined, { raw: true, as, signal, cache: "no-store" });
+export async function blob(url, { as = "student", signal, token } = {}) {
+  const res = await request("GET", url, undefined, { raw: true, as, signal, cache: "no-store", token });
   return res.blob();
 }
 
 /** Show `url` (an image that needs the token) in `img`, as a blob: URL; the one it showed before is
  * released. `img.dataset.src` is the API's URL shown. Resolves to false when it could not be loaded. */
-export async function showImage(img, url, { as = "student" } = {}) {
+export async function showImage(img, url, { as = "student", token } = {}) {
   if (img.dataset.src === url) return true;
   img.dataset.src = url;
   let data;
   try {
-    data = await blob(url, { as });
+    data = await blob(url, { as, token });
   } catch {
     if (img.dataset.src === url) delete img.dataset.src;
     return false;

@@ -10,6 +10,12 @@ const NAME_KEY = "rt.editor.name";
 const LINE_HEIGHT = 20; // px, as .code in app.css
 const PAD = 8; // px, the textarea's padding
 
+/** The workspace editor's text as it was last kept (another page of the site, an assignment's, hands it in). */
+export function keptText() {
+  const text = store.get(KEY, null);
+  return typeof text === "string" ? text : null;
+}
+
 export class SceneEditor {
   /** root: the element holding .code, #problems, #validation-status. */
   constructor(root, { onChange = () => {}, onRender = () => {} } = {}) {

@@ -85,8 +85,9 @@ export function followJob(id, { onProgress, onPreview, onEnd, onDrop, onLost } =
 }
 
 /** Read a text/event-stream body: `dispatch(event, data)` for each event, `setRetry(ms)` for `retry:`
- * (comments and ids ignored), as the EventSource specification parses it. */
-async function readEvents(body, dispatch, setRetry) {
+ * (comments and ids ignored), as the EventSource specification parses it. (The assignment page reads a
+ * submission's events with it too.) */
+export async function readEvents(body, dispatch, setRetry) {
   const reader = body.pipeThrough(new TextDecoderStream()).getReader();
   let buffer = "";
   let event = "message";

@@ -12,6 +12,7 @@ import { RayTreePanel } from "./raytree.js";
 import { loadSchema } from "./schema.js";
 import { $, $$, download, h } from "./util.js";
 import { copyText, Viewer } from "./viewer.js";
+import { identityJobs, showWorkingOn } from "./course/working.js";
 
 const banner = $("#banner");
 function notify(text, kind = "error", action = null) {
@@ -332,6 +333,7 @@ async function refreshPreviews() {
 let lessons = null;
 
 async function start() {
+  showWorkingOn($("#working-on")); // opened from an assignment's "Start": the way back to it
   lessons = new Lessons($("#page-lessons"), {
     openInWorkspace: async (scene, job, label) => {
       loadText(formatJSON(scene), label);
@@ -367,6 +369,8 @@ async function start() {
   if (!shared) await viewer.restore().catch((err) => notify(`Could not load your jobs: ${err.message}.`));
   await route();
   if (shared) await viewer.restore({ show: false }).catch((err) => notify(`Could not load your jobs: ${err.message}.`));
+  // an assignment's link made this browser a student's: their jobs from another browser join "my jobs"
+  for (const job of (await identityJobs().catch(() => [])).reverse()) if (!viewer.jobs.has(job.id)) viewer.remember(job);
   document.body.dataset.ready = "true";
 }
 

@@ -1,0 +1,199 @@
+// "Your submissions": each with its time, late mark, status, score, whether it costs an attempt and whether it
+// is the one that counts, and its feedback. A submission not yet graded is followed live through its event
+// stream (GET .../submissions/{sid}/events, read with fetch: only fetch sends the token), so its row moves from
+// queued to grading to graded (or invalid, failed) without a reload.
+import { readEvents } from "../jobs.js";
+import { h } from "../util.js";
+import { localTime, pts } from "./brief.js";
+import { showFeedback } from "./feedback.js";
+
+const FINAL = new Set(["graded", "invalid", "failed"]);
+const STATUS = { queued: "queued", grading: "grading", graded: "graded", invalid: "invalid", failed: "could not be graded" };
+const MAX_DROPS = 8;
+
+/** Follow one submission until its grade is final: onView(view) for each `submission` event, onEnd() once. */
+export function followSubmission(url, token, { onView, onEnd }) {
+  let open = true;
+  let abort = null;
+  let drops = 0;
+  let retry = 1000;
+  const close = () => {
+    open = false;
+    abort?.abort();
+  };
+  const connect = async () => {
+    if (!open) return;
+    abort = new AbortController();
+    let ended = false;
+    try {
+      const res = await fetch(url, { headers: { accept: "text/event-stream", authorization: `Bearer ${token}` }, cache: "no-store", signal: abort.signal });
+      if (res.status === 404) return close(); // not this token's (a replaced link): no retry brings it back
+      if (res.ok && res.body) {
+        await readEvents(
+          res.body,
+          (event, text) => {
+            if (!open) return;
+            if (event === "submission") {
+              drops = 0;
+              onView(JSON.parse(text));
+            } else if (event === "end") {
+              ended = true;
+              close();
+              onEnd?.();
+            }
+          },
+          (ms) => (retry = ms),
+        );
+      }
+    } catch {
+      // dropped: tried again below
+    }
+    if (open && !ended && ++drops < MAX_DROPS) setTimeout(connect, retry);
+    else if (open && !ended) {
+      close();
+      onEnd?.(); // given up: the list read again shows where it stands
+    }
+  };
+  connect();
+  return { close };
+}
+
+export class SubmissionList {
+  /** ctx: {aid, token, api, compareBox, onFinal(view)}: onFinal when a followed submission's grade is final. */
+  constructor(list, attempts, status, ctx) {
+    this.list = list;
+    this.attempts = attempts;
+    this.status = status;
+    this.ctx = ctx;
+    this.rows = new Map(); // id -> {li, view, detail, follow}
+    this.open = new Set(); // the ids whose feedback is shown
+  }
+
+  async load() {
+    let data;
+    try {
+      data = await this.ctx.api.submissions();
+    } catch (err) {
+      this.status.textContent = `Could not read your submissions: ${err.message}.`;
+      return;
+    }
+    const subs = data.submissions || [];
+    if (!this.rows.size && subs.length) this.open.add(subs[subs.length - 1].id); // the latest, opened
+    this.render(subs);
+  }
+
+  render(subs) {
+    const seen = new Set();
+    subs.forEach((view, i) => {
+      seen.add(view.id);
+      this.update(view, i + 1);
+    });
+    for (const [id, row] of this.rows) {
+      if (!seen.has(id)) {
+        row.follow?.close();
+        row.li.remove();
+        this.rows.delete(id);
+      }
+    }
+    // newest first
+    const ordered = subs.map((s) => this.rows.get(s.id).li).reverse();
+    this.list.replaceChildren(...ordered);
+    if (!subs.length) this.status.textContent = "None yet: Check your scene, then Submit it.";
+    else if (this.status.textContent.startsWith("None yet")) this.status.textContent = "";
+    const used = subs.filter((s) => s.counts_as_attempt).length;
+    this.attempts.textContent = subs.length ? `${subs.length} submitted, ${used} counting as ${used === 1 ? "an attempt" : "attempts"}` : "";
+  }
+
+  /** A new submission (the 202's answer): at the top, opened, followed. */
+  add(view) {
+    const n = this.rows.size + 1;
+    for (const id of this.open) {
+      this.open.delete(id); // the new one is the one to read: the others fold
+      const row = this.rows.get(id);
+      if (row) this.paint(row);
+    }
+    this.open.add(view.id);
+    this.update(view, n);
+    this.list.prepend(this.rows.get(view.id).li);
+    this.status.textContent = "";
+  }
+
+  update(view, n) {
+    let row = this.rows.get(view.id);
+    if (!row) {
+      const detail = h("div", { class: "a-sub-detail", id: `a-sub-${view.id}` });
+      const head = h("button", { type: "button", class: "a-sub-head", "aria-controls": detail.id });
+      head.addEventListener("click", () => {
+        if (this.open.has(view.id)) this.open.delete(view.id);
+        else this.open.add(view.id);
+        this.paint(row);
+      });
+      const li = h("li", { class: "a-sub", dataset: { id: view.id } }, head, detail);
+      row = { li, head, detail, view, n };
+      this.rows.set(view.id, row);
+    }
+    if (n) row.n = n;
+    row.view = view;
+    this.paint(row);
+    if (!FINAL.has(view.status) && !row.follow) this.follow(row);
+  }
+
+  paint(row) {
+    const v = row.view;
+    const open = this.open.has(v.id);
+    row.li.dataset.status = v.status;
+    row.li.dataset.late = String(!!v.late);
+    row.li.dataset.counts = String(!!v.counts);
+    row.head.setAttribute("aria-expanded", String(open));
+    const score = v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
+    const parts = [
+      h("span", { class: "a-sub-n" }, `#${row.n}`),
+      h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
+      h("span", { class: "muted" }, v.kind === "scene" ? "scene" : `${v.kind.toUpperCase()} image`),
+      v.late ? h("span", { class: "badge a-late" }, "late") : null,
+      h("span", { class: `badge ${v.status} a-sub-status` }, STATUS[v.status] || v.status),
+      score,
+      v.counts ? h("span", { class: "badge a-counts", title: "the submission that is your grade" }, "★ counts") : null,
+      h("span", { class: "a-sub-attempt muted" }, v.counts_as_attempt ? (FINAL.has(v.status) ? "an attempt" : "holds an attempt") : "no attempt used"),
+      h("span", { class: "a-sub-toggle", "aria-hidden": "true" }, open ? "▾" : "▸"),
+    ];
+    row.head.replaceChildren(...parts.filter(Boolean));
+    row.detail.hidden = !open;
+    const key = JSON.stringify({ ...v, counts: null }); // drawn again only when it changed (an open comparison stays)
+    if (open && row.drawn !== key) {
+      row.drawn = key;
+      showFeedback(row.detail, v, this.ctx);
+    }
+  }
+
+  follow(row) {
+    const id = row.view.id;
+    row.follow = followSubmission(this.ctx.api.eventsUrl(id), this.ctx.token, {
+      onView: (view) => {
+        const r = this.rows.get(id);
+        if (!r) return;
+        view.counts = r.view.counts; // the stream's view does not know the counting one: the list read says
+        const moved = view.status !== r.view.status;
+        this.update(view);
+        if (moved) this.announce(r);
+      },
+      onEnd: () => {
+        const r = this.rows.get(id);
+        if (r) r.follow = null;
+        this.ctx.onFinal?.(this.rows.get(id)?.view);
+      },
+    });
+  }
+
+  /** Say (to a screen reader too: the status line is a live region) where a followed submission now is. */
+  announce(row) {
+    const v = row.view;
+    const score = v.score !== null && v.score !== undefined ? `: ${pts(v.score)} / ${pts(v.max_score)}` : "";
+    const what = { queued: "is queued", grading: "is being graded", graded: `is graded${score}`, invalid: "is invalid (no attempt used)", failed: "could not be graded (no attempt used)" }[v.status];
+    this.status.textContent = `Submission #${row.n} ${what || v.status}.`;
+  }
+
+  close() {
+    for (const row of this.rows.values()) row.follow?.close();
+  }
+}
