@@ -26,8 +26,6 @@ EXAMPLE = ROOT / "scenes" / "grading"
 SIZE = (32, 24)  # the assignment's film: every render is graded at it
 TIMEZONE = "America/New_York"
 GRADED = ("graded", "invalid", "failed")
-# until helper R's web/css/compare.css is merged, the page's <link> to it answers 404 (as JSON)
-COMPARE_CSS_MISSING = not (ROOT / "web" / "css" / "compare.css").exists()
 NOT_FOUND = r"Failed to load resource: the server responded with a status of 404"
 
 
@@ -118,7 +116,7 @@ class Student:
         self.page.set_default_timeout(30_000)
         self.server = server
         self.errors: list[str] = []
-        self.allow = list(allow) + ([NOT_FOUND, r"compare\.css"] if COMPARE_CSS_MISSING else [])
+        self.allow = list(allow)
         self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text} {m.location}"))
         self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
 
@@ -579,7 +577,7 @@ def test_student_clicks_a_pixel_of_the_difference_map(student, server, hw):  # n
     query = dict(p.split("=") for p in asked.value.url.split("?", 1)[1].split("&"))
     assert (int(query["x"]), int(query["y"])) == (x, y)
     assert f"/api/assignments/{hw['id']}/submissions/{sid}/raytree" in asked.value.url
-    page.wait_for_selector("#compare div.compare, #compare p.compare-error")
+    page.wait_for_selector("#compare section.compare-side, #compare p.compare-error")  # after its "Tracing..."
     assert page.locator("#compare p.compare-error").count() == 0, page.text_content("#compare")
     sides = page.eval_on_selector_all("#compare div.compare section.compare-side", "ss => ss.map(s => s.dataset.side)")
     assert sides == ["student", "reference"]

@@ -66,9 +66,9 @@ function mark(view, what) {
 /**
  * Show the two ray trees of pixel (x, y) of submission `sid` in `container`: a `div.compare` with the server's
  * message (or `p.compare-error`) and a `section.compare-side` per tree. Resolves to the server's answer, or null
- * when it answered an error (shown in the container).
+ * when it answered an error (shown in the container). `token`: send this one rather than the browser's token of `as`.
  */
-export async function showCompare(container, { aid, sid, x, y, sample = null, as = "student" }) {
+export async function showCompare(container, { aid, sid, x, y, sample = null, as = "student", token }) {
   const root = h("div", { class: "compare", dataset: { x, y } });
   const status = h("p", { class: "compare-status", role: "status" }, `Tracing your ray tree and the reference's at pixel (${x}, ${y})…`);
   root.append(status);
@@ -78,7 +78,7 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   const url = `/api/assignments/${encodeURIComponent(aid)}/submissions/${encodeURIComponent(sid)}/raytree?${query}`;
   let answer;
   try {
-    answer = await request("GET", url, undefined, { as });
+    answer = await request("GET", url, undefined, { as, token }); // `token`: the page's own (a student's link), else `as`'s
   } catch (err) {
     root.replaceChildren(h("p", { class: "compare-error", role: "alert", dataset: { status: err.status } }, err.message));
     return null;

@@ -3,7 +3,7 @@
 // metrics against the noise baseline, and its pictures (render, difference map, rejected pixels, reference).
 // A pixel of a scene submission's difference map, clicked (or chosen with the keyboard), shows the student's
 // ray tree beside the reference's at that pixel (compare.js, loaded at the first click).
-import { showImage, tokens } from "../api.js";
+import { showImage } from "../api.js";
 import { h, num } from "../util.js";
 import { pts } from "./brief.js";
 
@@ -156,7 +156,6 @@ function pickable(img, fig, sub, ctx) {
     box.dataset.x = String(at[0]);
     box.dataset.y = String(at[1]);
     box.replaceChildren(h("p", { class: "hint" }, `Tracing both ray trees at pixel (${at[0]}, ${at[1]})…`));
-    tokens.setStudent(ctx.token); // compare.js asks as "the student": this assignment's student
     let mod;
     try {
       mod = await import("./compare.js");
