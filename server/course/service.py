@@ -523,6 +523,11 @@ class Course:
             out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
         return out
 
+    def view_one(self, a: dict, sub: dict, who: Who) -> dict:
+        """`view` of one submission, with whether it is the one that counts among its student's."""
+        c = self.counting(a, self.submissions(a, sub["student"]))
+        return self.view(a, sub, who, c["id"] if c else None)
+
     def files(self, a: dict, sub: dict, who: Who) -> list[str]:
         """The pictures of a graded submission the caller may fetch: its render (their own work); the error
         map and the rejected pixels when no image test is hidden (they show the reference's structure); the

@@ -315,8 +315,7 @@ def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict
     sub = course.submission(a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
-    c = course.counting(a, course.submissions(a, sub["student"]))
-    return course.view(a, sub, who, c["id"] if c else None)
+    return course.view_one(a, sub, who)
 
 
 FINAL = ("graded", "invalid", "failed")
@@ -344,7 +343,7 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
         last, quiet = None, time.monotonic()
         with course.follow(sid) as follower:
             while True:
-                view = await run_in_threadpool(lambda: course.view(a, course.submission(a, sid), who))
+                view = await run_in_threadpool(lambda: course.view_one(a, course.submission(a, sid), who))
                 if view != last:
                     last = view
                     yield f"event: submission\ndata: {json.dumps(view, separators=(',', ':'))}\n\n"

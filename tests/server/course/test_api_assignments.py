@@ -471,6 +471,7 @@ def test_assignments_a_submissions_grade_streams_as_it_moves(app, spare, clock):
     views = [data for kind, data in events if kind == "submission"]
     assert views[0]["status"] in ("queued", "grading") and views[-1]["status"] == "graded"
     assert (views[-1]["score"], views[-1]["max_score"]) == (7.0, 7.0)
+    assert views[-1]["counts"] is True  # its one graded submission is the grade, as GET .../{sid} says too
 
 
 def test_assignments_a_check_shows_what_the_policy_shows_now_and_keeps_nothing(app, clock):
