@@ -172,7 +172,6 @@ export class SubmissionList {
       onView: (view) => {
         const r = this.rows.get(id);
         if (!r) return;
-        view.counts = r.view.counts; // the stream's view does not know the counting one: the list read says
         const moved = view.status !== r.view.status;
         this.update(view);
         if (moved) this.announce(r);
