@@ -52,7 +52,7 @@ def _num(x) -> str:
     if isinstance(x, list | tuple):
         if len(set(x)) == 1:
             return _num(x[0])
-        return " ".join(_num(v) for v in x)
+        return "(" + ", ".join(_num(v) for v in x) + ")"  # an RGB triple, as the ray tree's text shows one
     return f"{x:.3g}"
 
 

@@ -10,7 +10,8 @@ import { pts } from "./brief.js";
 const PICTURES = [
   ["render.png", (sub) => (sub.kind === "scene" ? "your scene, rendered at the assignment's settings" : "your image")],
   ["error_map.png", (sub) => `the difference map (FLIP error: black is none, white the most)${sub.kind === "scene" ? ". Click a pixel to compare your ray tree with the reference's there" : ""}`],
-  ["rejected.png", () => "pixels the z test rejected (red): they differ by more than noise explains"],
+  // the grader's own caption when it has one: red beyond noise, pale yellow as much as noise makes (its shares)
+  ["rejected.png", (sub) => sub.feedback?.metrics?.captions?.rejected || "pixels the z test rejected: red where they differ by more than noise explains"],
   ["reference.png", () => "the reference"],
 ];
 const METRICS = [

@@ -585,7 +585,8 @@ export class Board {
         img.title = "Click a pixel: their ray tree beside the reference's there";
         img.addEventListener("click", (e) => this.compareAt(compare, sub, img, e));
       }
-      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, pick ? `${alt} (click a pixel to compare ray trees)` : alt));
+      const said = name === "rejected.png" ? sub.feedback?.metrics?.captions?.rejected || alt : alt; // the grader's caption
+      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, pick ? `${alt} (click a pixel to compare ray trees)` : said));
     });
     const results = sub.status === "graded"
       ? h("button", { type: "button", class: "small", dataset: { results: sub.id }, onclick: () => downloadFile(`${sub.url}/results.json`, `results-${sub.student}-${n}.json`, AS).catch((e) => say(this.status, "error", e.message)) }, "results.json")
