@@ -188,6 +188,7 @@ def start_service(args, procs: Procs, root: Path, token: str) -> tuple[Api, dict
         api = start_api(procs, root / "data", ["--workers", "2"], {**env, "TRACER_RENDER_THREADS": "1"})
         roles["api"] = procs.procs[-1][0]
         wait(lambda: all(w["ready"] for w in api.json("GET", "/api/health")["workers"]), 180, "the render workers")
+        roles["workers"] = [w["pid"] for w in api.json("GET", "/api/health")["workers"]]
     return api, roles
 
 
@@ -221,6 +222,9 @@ def cpu_of(roles: dict) -> dict[str, float]:
     """CPU seconds so far of each role's process tree, the children that ended included (a host's work horses;
     the API's grading processes and, on the embedded backend, its render workers)."""
     out = {"api": sum(tree_cpu(roles["api"].pid, waited=True).values())}
+    if roles.get("workers"):  # the embedded render workers, apart from the API and its grading processes
+        out["render workers"] = sum(sum(tree_cpu(pid, waited=True).values()) for pid in roles["workers"])
+        out["api"] -= out["render workers"]
     for k, p in enumerate(roles["hosts"]):
         out[f"host-{k}"] = sum(tree_cpu(p.pid, waited=True).values())
     if "redis" in roles:
@@ -298,13 +302,19 @@ def server_counts(data_dir: Path, aid: str, run_id: str, subs: list[Submission],
         if j[3] is not None and j[4] is not None:
             k["worker_s"] += j[4] - j[3]
             k["in_burst"] += j[3] >= t0
+    burst = [j for j in jobs.values() if j[3] is not None and j[4] is not None and j[3] >= t0]
+    hosts: dict[str, int] = {}
+    for j in burst:
+        hosts[j[8] or "embedded"] = hosts.get(j[8] or "embedded", 0) + 1
+    span = max((j[4] for j in burst), default=t0) - t0  # the burst's renders: from its start to the last one's end
     halves = [it for sid in rows for it in items.get(sid, [])]
     return {
         "rows": len(rows), "acknowledged": len(acked), "lost": len(lost), "lost_ids": lost[:5],
         "graded_twice": len(twice) + len(reopened), "twice_ids": (twice + reopened)[:5],
         "render_jobs": sum(len(by_name.get(sid, [])) for sid in rows), "retried_jobs": retried,
         "by_status": {st: sum(1 for sid in rows if items.get(sid) and items[sid][0][2] == st) for st in FINAL},
-        "phases": {k: pct(v) for k, v in phases.items()}, "render_kinds": kinds,
+        "phases": {k: pct(v) for k, v in phases.items()}, "render_kinds": kinds, "jobs_by_host": hosts,
+        "render_span_s": span, "render_busy_s": sum(j[4] - j[3] for j in burst),
         "prepare_s": sum(h[4] or 0 for h in halves), "metrics_s": sum(h[5] or 0 for h in halves),
     }  # fmt: skip
 
@@ -403,7 +413,8 @@ def report(r: dict) -> None:
     def lat(d: dict, unit: str, scale: float = 1.0) -> str:
         if not d.get("n"):
             return "none"
-        return (f"p50 {d['p50'] * scale:.{1 if unit == 's' else 0}f} {unit}, p99 {d['p99'] * scale:.1f} {unit}, "
+        digits = 2 if unit == "s" else 1
+        return (f"p50 {d['p50'] * scale:.{digits}f} {unit}, p99 {d['p99'] * scale:.{digits}f} {unit}, "
                 f"max {d['max'] * scale:.1f} {unit} ({d['n']})")  # fmt: skip
 
     c = r["server"]
@@ -430,6 +441,11 @@ def report(r: dict) -> None:
     print("  worker time by render: " + "; ".join(
         f"{k} {v['jobs']} jobs, {v['worker_s']:.1f} s ({v['in_burst']} in the burst)"
         for k, v in c["render_kinds"].items()))  # fmt: skip
+    workers = r["hosts"] or 2
+    busy = 100 * c["render_busy_s"] / max(1e-9, workers * c["render_span_s"])
+    print(f"  the burst's renders: {c['render_busy_s']:.1f} s of worker time in {c['render_span_s']:.1f} s from the "
+          f"window's start to the last render's end ({busy:.0f} % of {workers} workers); jobs by host "
+          f"{c['jobs_by_host']}")  # fmt: skip
     print(f"  grading processes: prepare {c['prepare_s']:.1f} s, metrics {c['metrics_s']:.1f} s of process time")
     print("  CPU during the burst (s): " + ", ".join(f"{k} {v:.1f}" for k, v in r["cpu_s"].items()))
     if r["load"]["mean"] is not None:
