@@ -22,8 +22,9 @@ hosts or on the embedded one.
    this process: at its time it POSTs the submission with its student's token (the submit latency: to
    the 202), then follows its event stream (`.../submissions/{sid}/events`, as the page does) to its
    final status (submit-to-feedback: from the POST to that event). `--kill-host` (Redis): at the middle
-   of the window, one worker host dies: SIGKILL of its process group and of its work horses (RQ runs
-   each in a session of its own), so its try is lost and runs again on the other host.
+   of the window, the first moment it is rendering, one worker host dies: SIGKILL of its process group
+   and of its work horses (RQ runs each in a session of its own), so its try is lost (after the API's
+   TRACER_LOST_AFTER, 15 s by default) and runs again on the other host; the dead host stays dead.
 4. Counted from the server's rows at the end (the database and the instructor's list), not from what
    the clients saw: every acknowledged submission has its row, one row in its version's grading run
    and (a scene that validates) one render job; `lost` and `graded twice` must be 0. The profile splits
@@ -218,6 +219,16 @@ def kill_host(proc) -> list[int]:
     return pids
 
 
+def rendering(data_dir: Path, host: str) -> bool:
+    """Whether a job's running try is on `host` now (its row in the job store)."""
+    db = sqlite3.connect(f"file:{data_dir / 'jobs.sqlite3'}?mode=ro", uri=True, timeout=5)
+    try:
+        rows = db.execute("SELECT tries FROM jobs WHERE status = 'running'").fetchall()
+    finally:
+        db.close()
+    return any((t := json.loads(r[0] or "[]")) and t[-1].get("worker") == host for r in rows)
+
+
 def cpu_of(roles: dict) -> dict[str, float]:
     """CPU seconds so far of each role's process tree, the children that ended included (a host's work horses;
     the API's grading processes and, on the embedded backend, its render workers)."""
@@ -304,8 +315,10 @@ def server_counts(data_dir: Path, aid: str, run_id: str, subs: list[Submission],
             k["in_burst"] += j[3] >= t0
     burst = [j for j in jobs.values() if j[3] is not None and j[4] is not None and j[3] >= t0]
     hosts: dict[str, int] = {}
-    for j in burst:
-        hosts[j[8] or "embedded"] = hosts.get(j[8] or "embedded", 0) + 1
+    for j in burst:  # by the worker that ended each (the last try's: a host's name, an embedded worker's number)
+        tries = json.loads(j[9] or "[]")
+        who = str(tries[-1].get("worker")) if tries else "?"
+        hosts[who] = hosts.get(who, 0) + 1
     span = max((j[4] for j in burst), default=t0) - t0  # the burst's renders: from its start to the last one's end
     halves = [it for sid in rows for it in items.get(sid, [])]
     return {
@@ -370,8 +383,10 @@ def run(args, root: Path) -> dict:
 
         sampler = threading.Thread(target=sample_load, daemon=True)
         sampler.start()
-        if args.kill_host:
+        if args.kill_host:  # at the middle of the window, once host-0 is rendering (bounded: the window's end)
             time.sleep(max(0.0, t0 + args.window / 2 - time.time()))
+            while not rendering(root / "data", "host-0") and time.time() < t0 + args.window:
+                time.sleep(0.05)
             killed = kill_host(roles["hosts"][0])
             print(f"  killed worker host host-0 at {time.time() - t0:.1f} s: pids {killed}", flush=True)
         give_up = t0 + args.window + args.timeout
