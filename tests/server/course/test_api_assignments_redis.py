@@ -85,17 +85,22 @@ class Course:
         assert sorted(n for n, _ in jobs) == sorted(f"grading: {s}" for s in rendered)  # one render job each
         return {n.removeprefix("grading: "): a for n, a in jobs}
 
-    def running(self, sid: str) -> str | None:
-        """The worker host rendering this submission's job now (its job from its row in the grading run)."""
+    def job_of(self, sid: str) -> str | None:
+        """The render job of a submission, once its grading run has made it (its row there)."""
         db = sqlite3.connect(self.root / "data" / "jobs.sqlite3")
         try:
             row = db.execute("SELECT job_id FROM grading_items WHERE run_id = ? AND student = ?",
                              (self.run_id, sid)).fetchone()  # fmt: skip
         finally:
             db.close()
-        if not row or not row[0]:
+        return row[0] if row else None
+
+    def running(self, sid: str) -> str | None:
+        """The worker host rendering this submission's job now."""
+        job_id = self.job_of(sid)
+        if job_id is None:
             return None
-        job = self.api.client.get(f"/api/jobs/{row[0]}", headers=TEACHER).json()
+        job = self.api.client.get(f"/api/jobs/{job_id}", headers=TEACHER).json()
         started = job["status"] == "running" and job["progress"]["passes_done"] >= 1  # well into it
         return job["tries"][-1]["worker"] if started and job["tries"] else None
 
@@ -188,7 +193,8 @@ def test_assignments_redis_a_class_graded_once_through_a_dead_worker_host(course
 
 def test_assignments_redis_a_restarted_redis_loses_no_submission(course):
     """Redis is stopped with a burst half graded and started again empty on its port; a submission comes
-    while it is down (acknowledged: its row is in SQLite). The API queues the lost tries again."""
+    while it is down (acknowledged: its row is in SQLite) and its grading run makes its render job then (the
+    job waits in the job store). The API queues the lost tries and that job once Redis is back."""
     tokens = course.roster([f"r{i}" for i in range(6)])
     sids = [course.submit(tokens[f"r{i}"], {"scene": slow_alice()}) for i in range(5)]
     wait_for(lambda: 1 <= sum(course.all()[x]["status"] == "graded" for x in sids) <= 3, 120, "the burst half graded",
@@ -196,6 +202,8 @@ def test_assignments_redis_a_restarted_redis_loses_no_submission(course):
     port = course.redis.port
     course.redis.__exit__(None, None, None)
     sids.append(course.submit(tokens["r5"], {"scene": slow_alice()}))
+    # its render job is made while Redis is away: queued in the job store, it goes out once Redis is back
+    wait_for(lambda: course.job_of(sids[-1]), 60, "the render job of the submission made while Redis is down")
     again = RedisServer(course.root / "redis-again.log")
     again.port, again.url = port, course.redis.url  # the same address: the API and the hosts reconnect
     course.redis = again.__enter__()
@@ -203,4 +211,6 @@ def test_assignments_redis_a_restarted_redis_loses_no_submission(course):
     done = course.graded(sids, timeout=180)
     assert {(done[x]["score"], done[x]["max_score"]) for x in sids} == {(13.0, 13.0)}
     course.once(sids, sids)
-    assert "Redis lost its data" in course.api.log_path.read_text()
+    log = course.api.log_path.read_text()
+    assert "Redis lost its data" in log
+    assert f"job {course.job_of(sids[-1])}: Redis unreachable" in log  # made while it was away, sent after
