@@ -323,7 +323,7 @@ def server_counts(data_dir: Path, aid: str, run_id: str, subs: list[Submission],
     halves = [it for sid in rows for it in items.get(sid, [])]
     return {
         "rows": len(rows), "acknowledged": len(acked), "lost": len(lost), "lost_ids": lost[:5],
-        "graded_twice": len(twice) + len(reopened), "twice_ids": (twice + reopened)[:5],
+        "graded_twice": len(set(twice) | set(reopened)), "twice_ids": sorted(set(twice) | set(reopened))[:5],
         "render_jobs": sum(len(by_name.get(sid, [])) for sid in rows), "retried_jobs": retried,
         "by_status": {st: sum(1 for sid in rows if items.get(sid) and items[sid][0][2] == st) for st in FINAL},
         "phases": {k: pct(v) for k, v in phases.items()}, "render_kinds": kinds, "jobs_by_host": hosts,
