@@ -142,20 +142,23 @@ def redis_bytes(url_port: int) -> int:
     return int(stats["total_net_input_bytes"]) + int(stats["total_net_output_bytes"])
 
 
+def start_redis(procs: Procs) -> tuple[int, str]:
+    """A throwaway redis-server on a free loopback port, no persistence: (its port, its URL)."""
+    port = free_port()
+    redis_server = shutil.which("redis-server") or "/usr/bin/redis-server"
+    procs.start("redis", [redis_server, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"])
+    wait(
+        lambda: subprocess.run(["redis-cli", "-p", str(port), "ping"], capture_output=True).returncode == 0,
+        30,
+        "redis",
+    )
+    return port, f"redis://127.0.0.1:{port}/0"
+
+
 def redis_run(args, hosts: int, root: Path) -> dict:
     procs = Procs(root)
     try:
-        port = free_port()
-        redis_server = shutil.which("redis-server") or "/usr/bin/redis-server"
-        procs.start(
-            "redis", [redis_server, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"]
-        )
-        wait(
-            lambda: subprocess.run(["redis-cli", "-p", str(port), "ping"], capture_output=True).returncode == 0,
-            30,
-            "redis",
-        )
-        url = f"redis://127.0.0.1:{port}/0"
+        port, url = start_redis(procs)
         env = {**os.environ, "TRACER_MAX_QUEUED_JOBS": "10000"}
         api = start_api(procs, root / "data", ["--workers", "0", "--redis", url], env)
         for k in range(hosts):

@@ -20,7 +20,6 @@
 from __future__ import annotations
 
 import argparse
-import copy
 import io
 import json
 import os
@@ -56,46 +55,55 @@ def render(scene: dict):
     return run(compile_scene(load_scene(scene)[0])).image
 
 
-def make_class(n: int) -> bytes:
-    """A zip of `n` submissions made from the nine of the example, each copy a little different."""
+def class_names() -> list[str]:
+    """The example class's nine students (their files' names without the suffix), in order."""
+    return sorted(p.stem if p.is_file() else p.name for p in CLASS.iterdir())
+
+
+def submission_file(i: int, base: str) -> tuple[str, bytes]:
+    """The `i`-th copy of the example student `base`'s submission, a little different from the others: (its
+    name in a class's zip, its bytes). bench/deadline.py submits them one by one."""
     import numpy as np
 
     from tracer.film import png_bytes
 
-    names = sorted(p.stem if p.is_file() else p.name for p in CLASS.iterdir())
-    reference = json.loads((EXAMPLE / "reference.json").read_text())
+    names = class_names()
+    who = f"{base}_{i:03d}"
+    if base in ("alice", "bob", "dave", "erin"):
+        scene = json.loads((CLASS / f"{base}.json").read_text())
+        scene["sampler"] = {"type": "jittered", "spp": SPP[(i // len(names)) % len(SPP)]}
+        scene["name"] = f"{who}'s scene"
+        if base == "bob":
+            scene["lights"][0]["intensity"] = 20 + i % 7  # another point light
+        if base == "erin":
+            scene["materials"]["red"] = {"kd": [0.1, 0.2, 0.5 + 0.01 * (i % 30)]}
+        return f"hw4/{who}.json", json.dumps(scene, indent=1).encode()
+    if base == "carol":  # broken JSON, broken differently
+        return f"hw4/{who}.json", (CLASS / "carol.json").read_text().replace("5]", f"{i % 9}]").encode()
+    if base == "frank":  # schema errors, in a folder
+        return f"hw4/{who}/scene.json", (CLASS / "frank" / "scene.json").read_bytes()
+    if base == "ivan":  # the wrong size, as it is
+        return f"hw4/{who}.png", (CLASS / "ivan.png").read_bytes()
+    # grace (right) and heidi (wrong): their own renders with another seed, in turn PNG, EXR
+    scene = json.loads((EXAMPLE / "reference.json").read_text())
+    scene["render"]["seed"] = 5000 + i
+    if base == "heidi":
+        scene["render"]["max_depth"] = 1
+        scene["lights"] = [{"type": "point", "position": [0, 3.5, 0], "intensity": 0.0001}]
+        scene["ambient"] = 0.6
+    image = render(scene)
+    if (i // len(names)) % 2:
+        return f"hw4/{who}.exr", exr_bytes(image.astype(np.float16))
+    return f"hw4/{who}.png", png_bytes(image)
+
+
+def make_class(n: int) -> bytes:
+    """A zip of `n` submissions made from the nine of the example, each copy a little different."""
+    names = class_names()
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
         for i in range(n):
-            base = names[i % len(names)]
-            who = f"{base}_{i:03d}"
-            if base in ("alice", "bob", "dave", "erin"):
-                scene = json.loads((CLASS / f"{base}.json").read_text())
-                scene["sampler"] = {"type": "jittered", "spp": SPP[(i // len(names)) % len(SPP)]}
-                scene["name"] = f"{who}'s scene"
-                if base == "bob":
-                    scene["lights"][0]["intensity"] = 20 + i % 7  # another point light
-                if base == "erin":
-                    scene["materials"]["red"] = {"kd": [0.1, 0.2, 0.5 + 0.01 * (i % 30)]}
-                z.writestr(f"hw4/{who}.json", json.dumps(scene, indent=1))
-            elif base == "carol":  # broken JSON, broken differently
-                z.writestr(f"hw4/{who}.json", (CLASS / "carol.json").read_text().replace("5]", f"{i % 9}]"))
-            elif base == "frank":  # schema errors, in a folder
-                z.writestr(f"hw4/{who}/scene.json", (CLASS / "frank" / "scene.json").read_text())
-            elif base == "ivan":  # the wrong size, as it is
-                z.writestr(f"hw4/{who}.png", (CLASS / "ivan.png").read_bytes())
-            else:  # grace (right) and heidi (wrong): their own renders with another seed, in turn PNG, EXR
-                scene = copy.deepcopy(reference)
-                scene["render"]["seed"] = 5000 + i
-                if base == "heidi":
-                    scene["render"]["max_depth"] = 1
-                    scene["lights"] = [{"type": "point", "position": [0, 3.5, 0], "intensity": 0.0001}]
-                    scene["ambient"] = 0.6
-                image = render(scene)
-                if (i // len(names)) % 2:
-                    z.writestr(f"hw4/{who}.exr", exr_bytes(image.astype(np.float16)))
-                else:
-                    z.writestr(f"hw4/{who}.png", png_bytes(image))
+            z.writestr(*submission_file(i, names[i % len(names)]))
     return buf.getvalue()
 
 
@@ -124,8 +132,9 @@ def multipart(fields: dict[str, str], files: dict[str, tuple[str, bytes]]) -> tu
     return out.getvalue(), f"multipart/form-data; boundary={boundary}"
 
 
-def tree_cpu(pid: int) -> dict[int, float]:
-    """CPU seconds (user + system) of a process and each of its descendants alive now, by pid (Linux /proc)."""
+def tree_cpu(pid: int, waited: bool = False) -> dict[int, float]:
+    """CPU seconds (user + system) of a process and each of its descendants alive now, by pid (Linux /proc);
+    `waited`: each with its children that ended and were waited for (a worker host's work horses)."""
     tick = os.sysconf("SC_CLK_TCK")
     stats = {}
     for stat in Path("/proc").glob("[0-9]*/stat"):
@@ -133,7 +142,8 @@ def tree_cpu(pid: int) -> dict[int, float]:
             fields = stat.read_text().rsplit(")", 1)[1].split()
         except OSError:
             continue
-        stats[int(stat.parent.name)] = (int(fields[1]), (int(fields[11]) + int(fields[12])) / tick)
+        ticks = sum(int(f) for f in fields[11:15 if waited else 13])
+        stats[int(stat.parent.name)] = (int(fields[1]), ticks / tick)
     out, todo = {}, [pid]
     while todo:
         p = todo.pop()

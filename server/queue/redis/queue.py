@@ -71,6 +71,7 @@ class RedisQueue:
         self.died_since: dict[str, float] = {}  # rq id -> when its render process was first seen dead
         self.hosts: list[subprocess.Popen | None] = [None] * settings.workers
         self.stats = {"events": 0, "stale": 0, "bytes": 0, "lost": 0}
+        self.unsent = False  # a job was queued in the store while Redis was unreachable: the monitor sends it
 
     # -- life ---------------------------------------------------------------------------------
 
@@ -130,7 +131,12 @@ class RedisQueue:
 
     def submitted(self, row: dict) -> None:
         with self.lock:
-            self._enqueue(row, 1)
+            try:
+                self._enqueue(row, 1)
+            except redis.RedisError as exc:  # the job is queued in the store: it goes out once Redis answers
+                self.unsent = True
+                log.warning("job %s: Redis unreachable (%s); it is queued here and goes out when Redis is back",
+                            row["id"], exc)  # fmt: skip
 
     def cancelled(self, row: dict) -> None:
         with self.lock:
@@ -323,6 +329,10 @@ class RedisQueue:
             try:
                 self.r.set(ev.API, self.mark, ex=ev.API_TTL)
                 self._check_epoch()
+                if self.unsent:
+                    with self.lock:  # raises while Redis is still away: the next round tries again
+                        self._requeue_missing()
+                        self.unsent = False
                 self._lost_tries()
                 self._overdue()
                 self._keep_hosts()
