@@ -110,8 +110,8 @@ def test_treediff_another_colour_is_the_material_of_the_eye_rays_hit():
     assert d["nodes"] == {"student": 0, "reference": 0}
     assert d["message"] == (
         "Where your eye ray hits red ball (material 'red'), as the reference's does, the light it reflects there "
-        "differs (yours against the reference's): diffuse (0.1, 0.1, 0.5) against (0.5, 0.1, 0.08). The material differs "
-        "(kd: its colour), or a light's intensity."
+        "differs (yours against the reference's): diffuse (0.1, 0.1, 0.5) against (0.5, 0.1, 0.08). The material "
+        "differs (kd: its colour), or a light's intensity."
     )
 
 
