@@ -192,4 +192,3 @@ async def raytrees(
         raise _no(503, "", f"the reference's ray tree could not be traced: {message}") from None
     return {"x": x, "y": y, "sample": sample, "student": student, "reference": reference,
             "difference": first_difference(student, reference)}  # fmt: skip
-

@@ -118,9 +118,15 @@ def editor_text(page) -> str:
 
 
 def render(page, timeout: float = 60_000) -> None:
+    """Render and wait for this job to end: the stage's job must be a new one first (right after the click the
+    stage still shows the previous job's "done", and a busy machine answers the submit later)."""
+    before = page.get_attribute("#stage", "data-job")
     page.click("#btn-render")
     page.wait_for_function(
-        f"() => {list(DONE)}.includes(document.querySelector('#stage').dataset.status)", timeout=timeout
+        "([before, done]) => { const s = document.querySelector('#stage').dataset;"
+        " return s.job && s.job !== before && done.includes(s.status); }",
+        arg=[before, list(DONE)],
+        timeout=timeout,
     )
 
 

@@ -319,6 +319,8 @@ def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict
 
 
 FINAL = ("graded", "invalid", "failed")
+INT32 = 2**31 - 1  # a query's number is checked against the image when the submission is read; this bound comes
+# first, so that a huge one is an error at its own name even beside a missing other one
 KEEPALIVE = 15.0  # seconds of quiet after which a comment keeps the stream open
 
 
@@ -397,9 +399,9 @@ async def submission_raytree(
     request: Request,
     course: CourseDep,
     caller: CallerDep,
-    x: Annotated[int, Query(description="a column of the graded image (render.png, error_map.png)")],
-    y: Annotated[int, Query(description="a row of the graded image, from the top")],
-    sample: Annotated[int, Query(description="the sample index within the pixel")] = 0,
+    x: Annotated[int, Query(ge=-INT32, le=INT32, description="a column of the graded image (render.png)")],
+    y: Annotated[int, Query(ge=-INT32, le=INT32, description="a row of the graded image, from the top")],
+    sample: Annotated[int, Query(ge=-INT32, le=INT32, description="the sample index within the pixel")] = 0,
 ) -> dict:
     """`{x, y, sample, student, reference, difference}`: both ray trees of that pixel sample (the format of POST
     /api/raytree), traced by workers as the grader rendered the scenes (server/course/compare.py), and the first
