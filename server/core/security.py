@@ -207,12 +207,34 @@ def served_hosts(settings: Settings) -> frozenset[str] | None:
     return frozenset(n.strip("[]") for n in names)
 
 
+HOST_NAME = re.compile(r"[a-z0-9_-]+(?:\.[a-z0-9_-]+)*\.?")  # a DNS name or an IPv4 address, a final dot allowed
+HOST_PORT = re.compile(r":([0-9]{1,5})")
+
+
 def host_name(header: str) -> str:
-    """A Host header's name: without its port, IPv6 brackets or a final dot, in lower case."""
+    """A Host header's name: without its port, IPv6 brackets or a final dot, in lower case; "" (served by no
+    server) unless the header is a name (letters, digits, '-', '_' and dots) or a bracketed IPv6 literal, then
+    nothing but an optional port of digits in 1..65535 (RFC 9110's `uri-host [":" port]`, narrowed):
+    `127.0.0.1:80@evil.com`, `[::1]x`, `localhost:0` and `host:` name nothing."""
     header = header.strip().lower()
     if header.startswith("["):
-        return header[1 : header.find("]")] if "]" in header else header
-    return header.rpartition(":")[0].rstrip(".") if ":" in header else header.rstrip(".")
+        name, bracket, rest = header[1:].partition("]")
+        try:
+            ipaddress.IPv6Address(name)
+        except ValueError:
+            return ""
+        if not bracket:
+            return ""
+    else:
+        name, colon, port = header.partition(":")
+        rest = colon + port
+        if not HOST_NAME.fullmatch(name):
+            return ""
+        name = name.rstrip(".")
+    port = HOST_PORT.fullmatch(rest)
+    if rest and not (port and 1 <= int(port[1]) <= 65535):
+        return ""
+    return name
 
 
 def host_allowed(name: str, served: frozenset[str]) -> bool:
