@@ -197,7 +197,7 @@ class Settings(SceneLimits):
         "roster (an open assignment's join gives one) or the instructor's; anyone else gets 401",
     )
     max_new_tokens_per_address: int = Field(
-        20,
+        60,
         ge=1,
         description="tokens issued to one client address (POST /api/jobs without a token, joining an open "
         "assignment) in any TRACER_ADDRESS_WINDOW: 429 past it",
