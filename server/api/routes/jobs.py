@@ -74,7 +74,9 @@ async def submit(
     instructor's), before a 429 (server/core/clients.py); TRACER_REQUIRE_IDENTITY refuses those with a 401."""
     caller = client.caller
     with contextlib.ExitStack() as rooms:  # room under the address's caps, taken before the scene is checked
-        new = rooms.enter_context(caps.new_token(client.address)) if caller.token is None else None
+        new = None
+        if caller.token is None and not client.known:  # (known: on a loopback-only server with no instructor)
+            new = rooms.enter_context(caps.new_token(client.address))
         waiting = None
         if not client.known:
             taken = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))

@@ -83,3 +83,13 @@ def test_identity_joining_an_open_assignment_gives_one_and_counts_as_a_new_token
     assert refused.status_code == 429 and int(refused.headers["retry-after"]) > 0
     assert "TRACER_MAX_NEW_TOKENS_PER_ADDRESS" in refused.json()["errors"][0]["message"]
     assert app.post(f"/api/assignments/{'0' * 32}/join", json={"name": "Wu"}).status_code == 429  # (the cap first)
+
+
+def test_identity_one_person_on_their_own_machine_is_under_no_cap(tmp_path):
+    """A loopback-only server without an instructor token is one person's: everyone is the instructor, a known
+    identity, so a script of theirs that sends no token is never refused for it."""
+    settings = dict(max_new_tokens_per_address=1, max_queued_per_address=1, require_identity=True)
+    with api_client(tmp_path / "data", workers=0, token=None, **settings) as c:
+        for _ in range(3):
+            r = c.post("/api/jobs", json={"scene": tiny_scene()})
+            assert r.status_code == 202 and r.json()["token"], r.text
