@@ -41,6 +41,7 @@ INSTRUCTOR = "bench-load-instructor-" + secrets.token_urlsafe(16)
 def start(data_dir: Path, port: int, workers: int) -> subprocess.Popen:
     """`python -m server` in a process group of its own (so that a SIGTERM can go to the whole group)."""
     env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR, "TRACER_MAX_QUEUED_JOBS": "1000"}
+    env["TRACER_SHARED_NETWORKS"] = "127.0.0.1"  # the whole class on one address: a class behind one NAT
     cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir), "--workers", str(workers)]
     log = open(data_dir.parent / "server.log", "ab")  # noqa: SIM115 (lives as long as the server)
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)

@@ -28,6 +28,7 @@ from fastapi_offline import FastAPIOffline
 
 from server.api.routes import assignments, grade, jobs, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
+from server.core.clients import AddressCaps
 from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
@@ -135,6 +136,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
     app.state.course = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
+    app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
     install_error_handlers(app)

@@ -1,17 +1,21 @@
 """Dependencies of the routes, as `Annotated` aliases: the settings, the job service (and its store), the job
-queue's interface, the scene checking processes, a job (the caller's own: server/core/security.py)."""
+queue's interface, the scene checking processes, a job (the caller's own: server/core/security.py), and who asks
+for work from which address (the caps of anonymous clients: server/core/clients.py)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import Depends, Path, Request
 
 from server.checkers.pool import CheckPool
+from server.core.clients import AddressCaps
 from server.core.errors import ApiError
 from server.core.ids import looks_like_job_id
-from server.core.security import CallerDep
+from server.core.security import Caller, CallerDep, unauthorized
 from server.core.settings import Settings
+from server.jobs.lifecycle import JobStatus
 from server.jobs.service import JobService
 from server.jobs.store import JobStore
 from server.queue.base import JobQueue
@@ -37,11 +41,16 @@ def get_checks(request: Request) -> CheckPool:
     return request.app.state.checks
 
 
+def get_caps(request: Request) -> AddressCaps:
+    return request.app.state.caps
+
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 QueueDep = Annotated[JobQueue, Depends(get_queue)]
 ChecksDep = Annotated[CheckPool, Depends(get_checks)]
 JobsDep = Annotated[JobService, Depends(get_jobs)]
+CapsDep = Annotated[AddressCaps, Depends(get_caps)]
 
 
 def get_job(
@@ -60,3 +69,45 @@ def get_job(
 
 
 JobDep = Annotated[dict, Depends(get_job)]
+
+
+# -- who asks for work -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Client:
+    """Who asks for work (a job, a ray tree, a scene checked), from which address, and whether their identity is
+    known: the instructor, or a student on some assignment's roster (their token's hash is their owner)."""
+
+    caller: Caller
+    address: str | None
+    known: bool
+
+
+NO_TOKEN = (
+    "this server works only for the students of its course (TRACER_REQUIRE_IDENTITY): open your assignment's link "
+    "first (it carries your token), or ask your instructor for it"
+)
+NOT_ON_A_ROSTER = (
+    "this token is on no assignment's roster (TRACER_REQUIRE_IDENTITY), so this server does no work for it: open "
+    "your assignment's link again (an open assignment's page lets you join by your name), or ask your instructor "
+    "for a new link"
+)
+
+
+def get_client(request: Request, caller: CallerDep) -> Client:
+    """The client asking for work; with TRACER_REQUIRE_IDENTITY, 401 unless their identity is known."""
+    course = request.app.state.course
+    on_roster = caller.owner is not None and course is not None and course.store.on_a_roster(caller.owner)
+    known = caller.instructor or on_roster
+    if not known and request.app.state.settings.require_identity:
+        raise unauthorized(NO_TOKEN, "") if caller.token is None else unauthorized(NOT_ON_A_ROSTER)
+    return Client(caller, request.client.host if request.client else None, known)
+
+
+ClientDep = Annotated[Client, Depends(get_client)]
+
+
+def still_waiting(jobs: JobService):
+    """For the caps of anonymous clients: which of these job ids are still waiting in the queue."""
+    return lambda ids: [i for i, row in jobs.store.states(ids).items() if row["status"] == JobStatus.queued]

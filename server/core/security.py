@@ -4,8 +4,9 @@
   issues a fresh random token (`secrets.token_urlsafe(32)`) in the answer's `token`. The store keeps
   only the token's SHA-256 (the jobs' `owner` column). A job is read, streamed, cancelled or
   downloaded only with the token that made it; any other caller gets the 404 of an unknown id, so ids
-  are not confirmed. A job with no owner (the server's grading renders, rows from before owners, a
-  ray tree asked for without a token) is the instructor's.
+  are not confirmed. A job with no owner (the server's grading renders, rows from before owners) is the
+  instructor's; a ray tree asked for without a token belongs to its client's address (server/core/clients.py,
+  which also caps what one address may do without a known identity).
 - **A read-only share token** of a job (POST /api/jobs/{id}/share, its owner only) reads that one job: its
   GET routes (the job, its events, image, AOVs, scene, radiosity), never a cancel, never another job. It is
   an HMAC of the job's id keyed by the owner's token hash, so the server keeps nothing more, it cannot be
@@ -16,8 +17,9 @@
   (grading is refused with 403), and warns at start-up.
 - **Host names** (`HostCheck`): a request whose Host header is not a name the server serves is
   refused (400), against DNS rebinding: the loopback names, the address it listens on, and
-  TRACER_ALLOWED_HOSTS. A server listening on every address (0.0.0.0, ::) with no list accepts any
-  Host, and warns at start-up.
+  TRACER_ALLOWED_HOSTS. A Host is a name or a bracketed IPv6 literal, then at most a port of digits in
+  1..65535 (`host_name`): anything else names no host. A server listening on every address (0.0.0.0, ::)
+  with no list accepts any Host, and warns at start-up.
 - **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
   assets (and /docs its one inline script, by hash), no MIME sniffing, no framing, no referrer
   to other sites.
@@ -207,12 +209,34 @@ def served_hosts(settings: Settings) -> frozenset[str] | None:
     return frozenset(n.strip("[]") for n in names)
 
 
+HOST_NAME = re.compile(r"[a-z0-9_-]+(?:\.[a-z0-9_-]+)*\.?")  # a DNS name or an IPv4 address, a final dot allowed
+HOST_PORT = re.compile(r":([0-9]{1,5})")
+
+
 def host_name(header: str) -> str:
-    """A Host header's name: without its port, IPv6 brackets or a final dot, in lower case."""
+    """A Host header's name: without its port, IPv6 brackets or a final dot, in lower case; "" (served by no
+    server) unless the header is a name (letters, digits, '-', '_' and dots) or a bracketed IPv6 literal, then
+    nothing but an optional port of digits in 1..65535 (RFC 9110's `uri-host [":" port]`, narrowed):
+    `127.0.0.1:80@evil.com`, `[::1]x`, `localhost:0` and `host:` name nothing."""
     header = header.strip().lower()
     if header.startswith("["):
-        return header[1 : header.find("]")] if "]" in header else header
-    return header.rpartition(":")[0].rstrip(".") if ":" in header else header.rstrip(".")
+        name, bracket, rest = header[1:].partition("]")
+        try:
+            ipaddress.IPv6Address(name)
+        except ValueError:
+            return ""
+        if not bracket:
+            return ""
+    else:
+        name, colon, port = header.partition(":")
+        rest = colon + port
+        if not HOST_NAME.fullmatch(name):
+            return ""
+        name = name.rstrip(".")
+    port = HOST_PORT.fullmatch(rest)
+    if rest and not (port and 1 <= int(port[1]) <= 65535):
+        return ""
+    return name
 
 
 def host_allowed(name: str, served: frozenset[str]) -> bool:

@@ -7,6 +7,7 @@ by TRACER_SETTINGS_FILE). docs/service.md lists them.
 
 from __future__ import annotations
 
+import ipaddress
 import os
 import re
 from pathlib import Path
@@ -187,6 +188,51 @@ class Settings(SceneLimits):
         if self.render_threads:
             return self.render_threads
         return max(1, (os.cpu_count() or 1) // max(1, self.workers))
+
+    # Anonymous clients (server/core/clients.py): what one client address may do without a known identity
+    # (the instructor's token, or a token on some assignment's roster), and whether anyone may work without one.
+    require_identity: bool = Field(
+        False,
+        description="jobs, ray trees, validation and samples need a known identity: a token on some assignment's "
+        "roster (an open assignment's join gives one) or the instructor's; anyone else gets 401",
+    )
+    max_new_tokens_per_address: int = Field(
+        60,
+        ge=1,
+        description="tokens issued to one client address (POST /api/jobs without a token, joining an open "
+        "assignment) in any TRACER_ADDRESS_WINDOW: 429 past it",
+    )
+    max_queued_per_address: int = Field(
+        40,
+        ge=1,
+        description="jobs and ray trees waiting in the queue from one client address without a known identity "
+        "(a token's own share, TRACER_MAX_QUEUED_PER_TOKEN, holds too): 429 past it",
+    )
+    address_window: Duration = Field(
+        3600.0, gt=0, le=7 * 86400, description="the sliding window of TRACER_MAX_NEW_TOKENS_PER_ADDRESS (90s, 30m, 1h)"
+    )
+    shared_networks: str = Field(
+        "",
+        description="networks (CIDR, comma-separated: 203.0.113.7/32, 10.0.0.0/8) whose addresses each stand for "
+        "many clients, such as a class behind one NAT: their caps are TRACER_SHARED_NETWORK_CLIENTS times one "
+        "address's",
+    )
+    shared_network_clients: int = Field(
+        300, ge=1, le=100_000, description="the clients one address of TRACER_SHARED_NETWORKS stands for"
+    )
+
+    @field_validator("shared_networks")
+    @classmethod
+    def _networks(cls, v: str) -> str:
+        for part in (p.strip() for p in v.split(",")):
+            try:
+                if part:
+                    ipaddress.ip_network(part, strict=False)
+            except ValueError:
+                raise ValueError(
+                    f"expected networks such as 10.0.0.0/8 or 203.0.113.7, comma-separated; got {part[:80]!r}"
+                ) from None
+        return v
 
 
 def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -> Settings:

@@ -133,6 +133,11 @@ class CourseStore(Tables):
         ).fetchone()
         return dict(row) if row else None
 
+    def on_a_roster(self, token_hash: str) -> bool:
+        """Is this token's hash a student's of any assignment (a known identity: server/core/clients.py)?"""
+        row = self.db.execute("SELECT 1 FROM course_students WHERE token_hash = ? LIMIT 1", (token_hash,)).fetchone()
+        return row is not None
+
     def add_students(self, aid: str, rows: list[dict], now: float) -> list[str]:
         """The roster's new students (dicts: student, name, email, token_hash, self_declared), in one
         transaction; those already on it keep their token (their name and email are updated). The ids added."""

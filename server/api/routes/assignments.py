@@ -17,7 +17,7 @@ from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import StoreDep
+from server.api.deps import CapsDep, StoreDep
 from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
@@ -244,10 +244,26 @@ def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, cal
     return course.extend(aid, body.student, body.deadline)
 
 
-@router.post("/{aid}/join", summary="Join an open assignment by a name", responses={**ERRORS, **NOT_FOUND})
-def join(aid: str, body: JoinIn, request: Request, course: CourseDep) -> dict:
-    """Open assignments only: anyone with the link gets a token (shown once), marked self-declared."""
-    return course.join(aid, body.name, _base(request))
+@router.post(
+    "/{aid}/join",
+    summary="Join an open assignment by a name",
+    responses={
+        **ERRORS,
+        **NOT_FOUND,
+        429: {
+            "model": ErrorResponse,
+            "description": "too many new tokens for one address (TRACER_MAX_NEW_TOKENS_PER_ADDRESS)",
+        },
+    },
+)
+def join(aid: str, body: JoinIn, request: Request, course: CourseDep, caps: CapsDep) -> dict:
+    """Open assignments only: anyone with the link gets a token (shown once), marked self-declared. It is a new
+    token of the request's address, under TRACER_MAX_NEW_TOKENS_PER_ADDRESS (server/core/clients.py), counted
+    only when the join succeeds."""
+    with caps.new_token(request.client.host if request.client else None) as room:
+        joined = course.join(aid, body.name, _base(request))
+        room.keep()
+    return joined
 
 
 @router.post(

@@ -5,6 +5,7 @@ only that token (or the instructor), and anyone else gets the 404 of an unknown 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from collections.abc import AsyncIterator
@@ -14,7 +15,7 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.api.deps import ChecksDep, JobDep, JobsDep, StoreDep
+from server.api.deps import CapsDep, ChecksDep, ClientDep, JobDep, JobsDep, StoreDep, still_waiting
 from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
 from server.api.scene_route import scene_post
 from server.core.errors import ApiError
@@ -42,14 +43,23 @@ NOT_FOUND = {
     summary="Submit a scene for rendering",
     responses={
         **ERRORS,
-        **UNAUTHORIZED,
+        401: {
+            "model": ErrorResponse,
+            "description": "a malformed Authorization header; with TRACER_REQUIRE_IDENTITY, no token of a "
+            "roster or the instructor's",
+        },
         413: {"model": ErrorResponse, "description": "request body too large"},
-        429: {"model": ErrorResponse, "description": "too many jobs in the queue"},
+        429: {
+            "model": ErrorResponse,
+            "description": "too many jobs in the queue, or new tokens or waiting jobs of one address "
+            "without a known identity",
+        },
     },
 )
 async def submit(
-    body: JobCreate, jobs: JobsDep, checks: ChecksDep, caller: CallerDep, request: Request, response: Response
-) -> JobCreated:
+    body: JobCreate, jobs: JobsDep, checks: ChecksDep, client: ClientDep, caps: CapsDep, request: Request,
+    response: Response,
+) -> JobCreated:  # fmt: skip
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
@@ -59,24 +69,38 @@ async def submit(
     files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
 
     The job belongs to the request's token (`Authorization: Bearer <token>`); a request without one gets
-    a fresh token in `token`: only that token reads, follows, cancels and downloads the job."""
-    found = await checks.summary(request, await request.body())
-    issued = new_token() if caller.token is None else None
+    a fresh token in `token`: only that token reads, follows, cancels and downloads the job. One address gets
+    so many new tokens, and has so many jobs waiting without a known identity (a roster's token or the
+    instructor's), before a 429 (server/core/clients.py); TRACER_REQUIRE_IDENTITY refuses those with a 401."""
+    caller = client.caller
+    with contextlib.ExitStack() as rooms:  # room under the address's caps, taken before the scene is checked
+        new = None
+        if caller.token is None and not client.known:  # (known: on a loopback-only server with no instructor)
+            new = rooms.enter_context(caps.new_token(client.address))
+        waiting = None
+        if not client.known:
+            taken = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
+            waiting = rooms.enter_context(taken)
+        found = await checks.summary(request, await request.body())
+        issued = new_token() if caller.token is None else None
 
-    def queued() -> JobCreated:
-        seconds = jobs.estimate(found)
-        row = jobs.submit_checked(
-            found,
-            priority=body.priority,
-            warnings=found["warnings"],
-            estimate=seconds,
-            lane=jobs.lane_for(seconds, body.lane),
-            owner=caller.owner or token_hash(issued),
-        )
-        response.headers["Location"] = f"/api/jobs/{row['id']}"
-        return JobCreated(**jobs.public(row).model_dump(), token=issued)
+        def queued() -> JobCreated:
+            seconds = jobs.estimate(found)
+            row = jobs.submit_checked(
+                found,
+                priority=body.priority,
+                warnings=found["warnings"],
+                estimate=seconds,
+                lane=jobs.lane_for(seconds, body.lane),
+                owner=caller.owner or token_hash(issued),
+            )
+            for room in (new, waiting):
+                if room is not None:
+                    room.keep(row["id"])
+            response.headers["Location"] = f"/api/jobs/{row['id']}"
+            return JobCreated(**jobs.public(row).model_dump(), token=issued)
 
-    return await anyio.to_thread.run_sync(queued)
+        return await anyio.to_thread.run_sync(queued)
 
 
 @router.get("", summary="The caller's jobs (the instructor: every job), newest first", responses=UNAUTHORIZED)

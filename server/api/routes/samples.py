@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from pydantic import Field, StrictInt
 
-from server.api.deps import ChecksDep
+from server.api.deps import ChecksDep, get_client
 from server.api.models import ErrorResponse, _SceneRequest
 from server.api.scene_route import scene_post
 
@@ -25,7 +25,11 @@ class SamplesRequest(_SceneRequest):
     router,
     "/samples",
     summary="Where the renderer puts the samples of one pixel (the sampler's positions)",
-    responses={422: {"model": ErrorResponse, "description": "invalid scene, x or y off the film, too many samples"}},
+    dependencies=[Depends(get_client)],  # TRACER_REQUIRE_IDENTITY: a known identity, else 401
+    responses={
+        401: {"model": ErrorResponse, "description": "TRACER_REQUIRE_IDENTITY, and no known identity"},
+        422: {"model": ErrorResponse, "description": "invalid scene, x or y off the film, too many samples"},
+    },
 )
 async def samples(body: SamplesRequest, checks: ChecksDep, request: Request) -> dict:
     """The film positions of the eye rays of pixel (x, y), computed by the renderer's own sampling code:

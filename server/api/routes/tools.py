@@ -2,14 +2,26 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 
 import anyio
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 
-from server.api.deps import ChecksDep, JobsDep, QueueDep, SettingsDep, StoreDep
+from server.api.deps import (
+    CapsDep,
+    ChecksDep,
+    ClientDep,
+    JobsDep,
+    QueueDep,
+    SettingsDep,
+    StoreDep,
+    get_client,
+    still_waiting,
+)
 from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
 from server.api.scene_route import scene_post
+from server.core.clients import address_owner
 from server.core.errors import ApiError
 from server.core.security import CallerDep
 from server.jobs.files import JobFile
@@ -17,6 +29,8 @@ from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
+RAYTREE_PRIORITY = 100  # a ray tree of a token is a click that waits for its answer: ahead of renders
+ANONYMOUS_PRIORITY = 0  # one without a token: an anonymous job's default (JobCreate.priority)
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
@@ -36,7 +50,13 @@ def schema() -> dict:
     return scene_json_schema()
 
 
-@scene_post(router, "/validate", summary="Check a scene: errors with JSON paths, and warnings")
+@scene_post(
+    router,
+    "/validate",
+    summary="Check a scene: errors with JSON paths, and warnings",
+    dependencies=[Depends(get_client)],  # TRACER_REQUIRE_IDENTITY: a known identity, else 401
+    responses={401: {"model": ErrorResponse, "description": "TRACER_REQUIRE_IDENTITY, and no known identity"}},
+)
 async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -> dict:
     """`valid` is true when POST /api/jobs would accept the scene: the format, the service limits,
     and the asset files are all checked (in a checking process, server/checkers/pool.py: a scene that takes
@@ -54,39 +74,54 @@ async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -
     "/raytree",
     summary="The ray tree of one pixel sample (/reference/scene-format.md#the-ray-tree)",
     responses={
+        401: {"model": ErrorResponse, "description": "TRACER_REQUIRE_IDENTITY, and no known identity"},
         422: {"model": ErrorResponse, "description": "invalid scene, or x, y, sample out of range"},
+        429: {"model": ErrorResponse, "description": "the queue, the token's or the address's share of it is full"},
         503: {"model": ErrorResponse, "description": "no worker takes interactive work"},
         504: {"model": ErrorResponse, "description": "it took longer than TRACER_MAX_RAYTREE_SECONDS"},
     },
 )
 async def raytree(
-    body: RayTreeRequest, jobs: JobsDep, settings: SettingsDep, checks: ChecksDep, caller: CallerDep, request: Request
-) -> dict:
+    body: RayTreeRequest, jobs: JobsDep, settings: SettingsDep, checks: ChecksDep, client: ClientDep, caps: CapsDep,
+    request: Request,
+) -> dict:  # fmt: skip
     """Traced by a worker, as a short job of the interactive lane (never in the API process); a
     radiosity scene's solution is kept by its content, so only the first click on it solves it, and a
     solve estimated past the ray tree's time limit is refused before it starts unless its solution is
-    kept. A client that gives up cancels it. The job belongs to the request's token (without one: the
-    instructor)."""
-    found = await checks.summary(request, await request.body())
-    errors = [
-        {"path": k, "message": f"must be a {what} in 0..{n - 1}"}
-        for k, v, n, what in (("x", body.x, found["width"], "column"), ("y", body.y, found["height"], "row"))
-        if not 0 <= v < n
-    ]
-    if errors:
-        raise ApiError(422, errors)
-    if jobs.capacity(Lane.interactive) == 0:
-        raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
+    kept. A client that gives up cancels it. The job belongs to the request's token, at the ray trees'
+    priority (100); without a token, to the request's address, at an anonymous job's priority (0), counted
+    under the address's caps (server/core/clients.py) like any of its anonymous work."""
+    caller = client.caller
+    waiting = None
+    if not client.known:  # room under the address's cap, taken before the scene is checked
+        waiting = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
+    with waiting or contextlib.nullcontext():
+        found = await checks.summary(request, await request.body())
+        errors = [
+            {"path": k, "message": f"must be a {what} in 0..{n - 1}"}
+            for k, v, n, what in (("x", body.x, found["width"], "column"), ("y", body.y, found["height"], "row"))
+            if not 0 <= v < n
+        ]
+        if errors:
+            raise ApiError(422, errors)
+        if jobs.capacity(Lane.interactive) == 0:
+            raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
+        anonymous = caller.token is None and not caller.instructor
 
-    def queued() -> dict:
-        params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": jobs.solve_estimate(found)}
-        return jobs.submit_checked(
-            found, kind=JobKind.raytree, lane=Lane.interactive, priority=100, params=params,
-            max_seconds=settings.max_raytree_seconds, samples_total=1, owner=caller.owner,
-            name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
-        )  # fmt: skip
+        def queued() -> dict:
+            params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": jobs.solve_estimate(found)}
+            row = jobs.submit_checked(
+                found, kind=JobKind.raytree, lane=Lane.interactive, params=params,
+                priority=ANONYMOUS_PRIORITY if anonymous else RAYTREE_PRIORITY,
+                owner=address_owner(client.address) if anonymous else caller.owner,
+                max_seconds=settings.max_raytree_seconds, samples_total=1,
+                name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
+            )  # fmt: skip
+            if waiting is not None:
+                waiting.keep(row["id"])
+            return row
 
-    row = await anyio.to_thread.run_sync(queued)
+        row = await anyio.to_thread.run_sync(queued)
     ended = await jobs.ended(row["id"], settings.max_raytree_seconds + 10, request.is_disconnected)
     if ended is None:
         await anyio.to_thread.run_sync(jobs.cancel, row["id"])
