@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 from pydantic import ValidationError
-from test_assets import no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
+from test_assets import gltf_instanced, gltf_uri, no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
 from tracer.scene import (
     ASSET_DIR,
@@ -842,18 +842,40 @@ def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
 
 
 def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
-    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`."""
+    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`; a file past the limit
+    on its own is refused at its own path."""
     (tmp_path / "grid.obj").write_text(obj_grid(10))  # 200 triangles
     objects = [_mesh(obj_uri(30, 50)), _mesh("grid.obj"), {"type": "sphere", "center": [0, 0, 0], "radius": 1}]
     data = _scene(materials={"m": {}}, objects=[{**o, "material": "m"} for o in objects])
     assert validate_scene(data, Limits(max_primitives=200))["valid"]  # the format alone cannot count them
     assert validate_scene(data, Limits(max_primitives=3201), assets=tmp_path)["valid"]
-    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    errors = validate_scene(data, Limits(max_primitives=3000), assets=tmp_path)["errors"]
     assert errors == [
         {
             "path": "objects",
             "message": "3201 primitives (objects[0].file: 3000 triangles, objects[1].file: 200 triangles); "
-            "must be at most 200 (limit max_primitives)",
+            "must be at most 3000 (limit max_primitives)",
+        }
+    ]
+    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    assert errors == [
+        {
+            "path": "objects[0].file",
+            "message": "the data: URI makes 3000 triangles; must be at most 200 (limit max_primitives)",
+        }
+    ]  # the scene's count waits for its objects to be valid
+
+
+def test_assets_mesh_gltf_instances_are_refused_at_the_mesh_s_path():
+    """1000 nodes of one 200-triangle glTF mesh: 200000 triangles, refused at objects[0].file from the node
+    tree (nothing built), through the whole scene's validation."""
+    data = _scene(materials={"m": {}}, objects=[{**_mesh(gltf_uri(gltf_instanced(1000))), "material": "m"}])
+    errors = validate_scene(data, Limits(max_primitives=100_000), assets=ASSET_DIR)["errors"]
+    assert errors == [
+        {
+            "path": "objects[0].file",
+            "message": "the data: URI makes 200000 triangles (1000 mesh instances in its node tree); "
+            "must be at most 100000 (limit max_primitives)",
         }
     ]
 
