@@ -33,7 +33,13 @@ import numpy as np
 from tracer.errors import FLOAT32_MAX, SceneError
 
 ASSET_DIR = Path(__file__).resolve().parent.parent / "scenes" / "assets"
-IMAGE_KINDS = "PNG, JPEG, ..."  # what Pillow reads, as a student is told
+IMAGE_FORMATS = {"PNG": (b"\x89PNG\r\n\x1a\n",), "JPEG": (b"\xff\xd8\xff",)}  # the images read: Pillow format -> magic
+IMAGE_KINDS = "PNG or JPEG"  # ... as a student is told
+OTHER_FORMATS = {  # what a file that is not one of them is, by its first bytes, to say so
+    b"GIF87a": "a GIF image", b"GIF89a": "a GIF image", b"BM": "a BMP image", b"II*\x00": "a TIFF image",
+    b"MM\x00*": "a TIFF image", b"%!PS": "a PostScript (EPS) file", b"\xc5\xd0\xd3\xc6": "a PostScript (EPS) file",
+    b"%PDF": "a PDF file", b"v/1\x01": "an OpenEXR image", b"\x00\x00\x01\x00": "an ICO icon",
+}  # fmt: skip
 MESH_TYPES = {  # data: URI media type -> trimesh file type
     "model/obj": "obj",
     "text/plain": "obj",
@@ -161,13 +167,44 @@ def _source(file: str, asset_dir: Path) -> tuple[str, Path | io.BytesIO, str]:
 # Images.
 
 
+def image_format(head: bytes) -> str | None:
+    """The format of IMAGE_FORMATS that a file's first bytes are the magic of (None: none of them)."""
+    return next((name for name, magics in IMAGE_FORMATS.items() if head.startswith(magics)), None)
+
+
+def other_format(head: bytes) -> str | None:
+    """What a file of these first bytes is, when they are the magic of a format of OTHER_FORMATS ("a GIF
+    image"; None: not known)."""
+    if head.startswith(b"RIFF") and head[8:12] == b"WEBP":
+        return "a WebP image"
+    return next((name for magic, name in OTHER_FORMATS.items() if head.startswith(magic)), None)
+
+
+def _not_allowed(what: str, head: bytes) -> AssetError:
+    other = other_format(head)
+    return AssetError(f"{what} is not a readable image ({IMAGE_KINDS})" + (f": it is {other}" if other else ""))
+
+
 def _open_image(file: str, asset_dir: Path):
-    """(how to name it, the image with its header read and no pixels decoded). Raises AssetError."""
+    """(how to name it, the image with its header read and no pixels decoded). Only PNG and JPEG are opened,
+    told by their magic bytes before Pillow sees the file (and Pillow told to try no other format): Pillow
+    reads dozens, some through other programs (EPS through Ghostscript), none of which a texture needs.
+    Raises AssetError."""
     from PIL import Image, UnidentifiedImageError
 
     what, src, _ = _source(file, asset_dir)
+    if isinstance(src, Path):
+        try:
+            with open(src, "rb") as f:
+                head = f.read(16)
+        except OSError as e:
+            raise AssetError(f"cannot read {what}: {e.strerror}") from None
+    else:
+        head = src.getvalue()[:16]
+    if image_format(head) is None:
+        raise _not_allowed(what, head)
     try:
-        img = Image.open(src)  # reads the header only
+        img = Image.open(src, formats=list(IMAGE_FORMATS))  # reads the header only
     except UnidentifiedImageError:  # no format Pillow knows (its message names a temporary object)
         raise AssetError(f"{what} is not a readable image ({IMAGE_KINDS})") from None
     except Image.DecompressionBombError:  # Pillow's own guard, far past any limit of ours: a clear word, not its own

@@ -20,6 +20,7 @@ from PIL import Image
 
 from tracer.assets import (
     ASSET_DIR,
+    SRGB_TO_LINEAR,
     AssetError,
     data_uri,
     image_size,
@@ -185,7 +186,7 @@ def test_image_not_an_image_says_so_without_a_repr(file):
     with pytest.raises(AssetError) as info:
         image_size(file)
     message = info.value.message
-    assert message.startswith("the data: URI is not a readable image (PNG, JPEG, ...)") and no_repr(message)
+    assert message.startswith("the data: URI is not a readable image (PNG or JPEG)") and no_repr(message)
     with pytest.raises(SceneError) as info:
         load_image(file, "materials.m.texture.file")
     (error,) = info.value.errors
@@ -196,7 +197,7 @@ def test_image_file_that_is_not_an_image(tmp_path):
     (tmp_path / "notes.png").write_text("not a picture")
     with pytest.raises(AssetError) as info:
         image_size("notes.png", tmp_path)
-    assert info.value.message == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert info.value.message == "asset file 'notes.png' is not a readable image (PNG or JPEG)"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -396,3 +397,50 @@ def test_mesh_gltf_file_s_buffers_stay_inside_the_asset_folder(tmp_path):
     (tmp_path / "assets" / "models" / "out.gltf").write_text(json.dumps(tree))
     with pytest.raises(AssetError, match=r"as a mesh \(OBJ, PLY, glTF\): '../../outside.bin' escapes resolver root"):
         read_mesh("models/out.gltf", tmp_path / "assets")
+
+
+def image_bytes(fmt: str, width: int = 4, height: int = 2) -> bytes:
+    """A width x height orange image that Pillow writes (and reads back) in format `fmt`."""
+    buf = io.BytesIO()
+    Image.new("RGB", (width, height), (255, 128, 0)).save(buf, format=fmt)
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("fmt", "told"),
+    [
+        ("EPS", ": it is a PostScript (EPS) file"),  # Pillow reads its header; its pixels through Ghostscript
+        ("BMP", ": it is a BMP image"),
+        ("TIFF", ": it is a TIFF image"),
+        ("GIF", ": it is a GIF image"),
+        ("WEBP", ": it is a WebP image"),
+        ("ICO", ": it is an ICO icon"),
+        ("TGA", ""),  # no magic bytes of its own
+        ("PPM", ""),
+    ],
+)
+def test_image_formats_other_than_png_and_jpeg_are_refused_by_their_first_bytes(fmt, told, tmp_path, monkeypatch):
+    """Every one is an image Pillow reads (and so was a valid texture); now it never reaches Pillow, from a
+    data: URI (whatever its media type says) or a file (whatever its suffix says)."""
+    raw = image_bytes(fmt)
+    assert Image.open(io.BytesIO(raw)).size == (4, 2)
+    (tmp_path / "texture.png").write_bytes(raw)
+    monkeypatch.setattr(Image, "open", lambda *a, **k: pytest.fail("Pillow opened it"))
+    with pytest.raises(AssetError) as info:
+        image_size(uri("image/png", raw))
+    assert info.value.message == f"the data: URI is not a readable image (PNG or JPEG){told}"
+    with pytest.raises(SceneError) as info:
+        load_image("texture.png", "materials.m.bump.file", tmp_path)
+    assert info.value.errors == [
+        {
+            "path": "materials.m.bump.file",
+            "message": f"asset file 'texture.png' is not a readable image (PNG or JPEG){told}",
+        }
+    ]
+
+
+def test_image_png_and_jpeg_are_read():
+    assert image_size(uri("image/png", image_bytes("PNG", 5, 3))) == (5, 3)
+    pixels = read_image(uri("image/jpeg", image_bytes("JPEG", 8, 8)))
+    assert pixels.shape == (8, 8, 3)
+    np.testing.assert_allclose(pixels[4, 4], SRGB_TO_LINEAR[[255, 128, 0]], atol=0.02)  # JPEG's loss

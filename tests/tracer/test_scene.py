@@ -6,6 +6,7 @@ tests/bad_scenes/expected.json lists, per file, the exact error paths and a subs
 
 import copy
 import dataclasses
+import io
 import json
 import math
 import random
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import pytest
 from conftest import ROOT
+from PIL import Image
 from pydantic import ValidationError
 from test_assets import gltf_instanced, gltf_uri, no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
@@ -765,11 +767,26 @@ def test_assets_data_textures_that_are_not_images(tmp_path):
     assert validate_scene(data)["valid"]  # the format alone
     errors = validate_scene(data, assets=tmp_path)["errors"]
     assert [e["path"] for e in errors] == [f"materials.{n}.{kind}.file" for n, (kind, _) in files.items() if n != "ok"]
-    not_image = "the data: URI is not a readable image (PNG, JPEG, ...)"
-    assert [e["message"] for e in errors[:4]] == [not_image] * 4
+    not_image = "the data: URI is not a readable image (PNG or JPEG)"
+    assert [e["message"] for e in errors[:4]] == [not_image, not_image, f"{not_image}: it is a GIF image", not_image]
     assert errors[4]["message"].startswith("the data: URI's data is not valid base64")
-    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG or JPEG)"
     assert all(no_repr(e["message"]) for e in errors)
+
+
+def test_assets_an_eps_texture_is_not_valid():
+    """The issue's case: an EPS "texture" was valid (Pillow reads its header) and failed in the worker (its
+    pixels need Ghostscript, which would run a student's PostScript). Refused at validation, at its field."""
+    eps = io.BytesIO()
+    Image.new("RGB", (4, 2)).save(eps, format="EPS")
+    texture = {"type": "image", "file": uri("application/postscript", eps.getvalue())}
+    data = _scene(materials={"m": {"texture": texture}})
+    assert validate_scene(data, assets=ASSET_DIR)["errors"] == [
+        {
+            "path": "materials.m.texture.file",
+            "message": "the data: URI is not a readable image (PNG or JPEG): it is a PostScript (EPS) file",
+        }
+    ]
 
 
 def test_assets_texture_pixels_limit_read_from_the_header():
