@@ -366,8 +366,6 @@ def _checked_gltf(raw: bytes, kind: str, what: str, max_triangles: int | None) -
 
 
 def _parse_mesh(file: str, asset_dir: Path, max_triangles: int | None = None) -> MeshData:
-    import trimesh
-
     what, src, media = _source(file, asset_dir)
     if isinstance(src, Path):
         kind = src.suffix.lower().lstrip(".")
@@ -377,10 +375,17 @@ def _parse_mesh(file: str, asset_dir: Path, max_triangles: int | None = None) ->
             raise AssetError(
                 f"unsupported data: URI type '{media}' (expected model/obj, model/ply or model/gltf-binary)"
             )
-    try:
-        if kind in ("gltf", "glb"):
+    checked = None
+    if kind in ("gltf", "glb"):  # counted before trimesh is even imported (60 MB of a checking process)
+        try:
             raw = src.read_bytes() if isinstance(src, Path) else src.getvalue()
-            checked = _checked_gltf(raw, kind, what, max_triangles)
+        except OSError as e:
+            raise AssetError(f"cannot read {what}: {e.strerror}") from None
+        checked = _checked_gltf(raw, kind, what, max_triangles)
+    import trimesh
+
+    try:
+        if checked is not None:
             resolver = None
             if isinstance(src, Path):  # its buffers beside it: trimesh refuses any outside the file's folder
                 resolver = trimesh.resolvers.FilePathResolver(str(src))
