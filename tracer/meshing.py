@@ -112,15 +112,15 @@ def mesh_triangles(objects: list, mesh_file=None) -> tuple[np.ndarray, np.ndarra
     return np.concatenate(pts), np.concatenate(faces), np.concatenate(owner)
 
 
-def mesh_files(folder: Path | None):
+def mesh_files(folder: Path | None, max_triangles: int | None = None):
     """`mesh_triangles`' reader of mesh files from the asset folder (None: none is read); a file that does
-    not read is left out (validation reports it at its own field)."""
+    not read, or has more than `max_triangles`, is left out (validation reports it at its own field)."""
     if folder is None:
         return None
 
     def read(i: int, obj) -> tuple[np.ndarray, np.ndarray] | None:
         try:
-            return read_mesh(obj.file, folder)[:2]
+            return read_mesh(obj.file, folder, max_triangles)[:2]
         except AssetError:
             return None
 

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import base64
 import io
+import json
 import shutil
 import struct
+import tracemalloc
 import zlib
 
 import numpy as np
@@ -18,6 +20,7 @@ from PIL import Image
 
 from tracer.assets import (
     ASSET_DIR,
+    SRGB_TO_LINEAR,
     AssetError,
     data_uri,
     image_size,
@@ -183,7 +186,7 @@ def test_image_not_an_image_says_so_without_a_repr(file):
     with pytest.raises(AssetError) as info:
         image_size(file)
     message = info.value.message
-    assert message.startswith("the data: URI is not a readable image (PNG, JPEG, ...)") and no_repr(message)
+    assert message.startswith("the data: URI is not a readable image (PNG or JPEG)") and no_repr(message)
     with pytest.raises(SceneError) as info:
         load_image(file, "materials.m.texture.file")
     (error,) = info.value.errors
@@ -194,7 +197,7 @@ def test_image_file_that_is_not_an_image(tmp_path):
     (tmp_path / "notes.png").write_text("not a picture")
     with pytest.raises(AssetError) as info:
         image_size("notes.png", tmp_path)
-    assert info.value.message == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert info.value.message == "asset file 'notes.png' is not a readable image (PNG or JPEG)"
 
 
 # ---------------------------------------------------------------------------------------------
@@ -254,3 +257,190 @@ def test_mesh_that_cannot_be_read_says_so_at_its_path(file, message):
         load_mesh_file(file, "objects[2].file")
     (error,) = info.value.errors
     assert error["path"] == "objects[2].file" and message in error["message"] and no_repr(error["message"])
+
+
+def gltf_instanced(nodes: int, grid: int = 10, **tree) -> dict:
+    """A glTF 2.0 (JSON, its buffer a data: URI) of `nodes` nodes side by side, each an instance of one mesh:
+    a grid x grid plane of 2 grid² triangles. `tree` replaces parts of it."""
+    xs = np.linspace(0.0, 1.0, grid + 1)
+    verts = np.array([[x, y, 0.0] for y in xs for x in xs], np.float32)
+    a = (np.arange(grid)[:, None] * (grid + 1) + np.arange(grid)[None, :]).reshape(-1)
+    faces = np.concatenate([np.stack([a, a + 1, a + grid + 2], 1), np.stack([a, a + grid + 2, a + grid + 1], 1)])
+    buf = faces.astype(np.uint32).tobytes() + verts.tobytes()
+    return {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(buf), "uri": uri("application/octet-stream", buf)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": faces.size * 4},
+            {"buffer": 0, "byteOffset": faces.size * 4, "byteLength": verts.nbytes},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5125, "count": faces.size, "type": "SCALAR"},
+            {
+                "bufferView": 1,
+                "componentType": 5126,
+                "count": len(verts),
+                "type": "VEC3",
+                "min": [0, 0, 0],
+                "max": [1, 1, 0],
+            },
+        ],  # fmt: skip
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 1}, "indices": 0}]}],
+        "nodes": [{"mesh": 0, "translation": [2.0 * i, 0.0, 0.0]} for i in range(nodes)],
+        "scenes": [{"nodes": list(range(nodes))}],
+        **tree,
+    }
+
+
+def gltf_uri(tree: dict) -> str:
+    return uri("model/gltf+json", json.dumps(tree).encode())
+
+
+def test_mesh_gltf_instances_count_as_trimesh_builds_them():
+    """Three nodes of one 200-triangle mesh are 600 triangles, placed by their translations; a node tree that
+    names a node twice (or in a cycle) holds it once, as trimesh's scene graph does."""
+    with pytest.raises(AssetError) as info:
+        read_mesh(gltf_uri(gltf_instanced(3)), max_triangles=599)
+    assert info.value.message == (
+        "the data: URI makes 600 triangles (3 mesh instances in its node tree); "
+        "must be at most 599 (limit max_primitives)"
+    )
+    verts, faces, _ = read_mesh(gltf_uri(gltf_instanced(3)), max_triangles=600)
+    assert faces.shape == (600, 3)
+    np.testing.assert_allclose(sorted({round(float(x)) for x in verts[:, 0]}), [0, 1, 2, 3, 4, 5])
+    repeated = gltf_instanced(2, scenes=[{"nodes": [0, 0, 1]}])
+    repeated["nodes"][0]["children"] = [1, 1]
+    repeated["nodes"][1]["children"] = [1]
+    with pytest.raises(AssetError, match=r"^the data: URI makes 400 triangles \(2 mesh instances"):
+        read_mesh(gltf_uri(repeated), max_triangles=399)
+
+
+def test_mesh_gltf_instancing_is_refused_before_anything_is_built_and_never_kept():
+    """The issue's case: 1000 nodes sharing one 5000-triangle mesh, 5 million triangles from a data: URI of
+    a few hundred KB (trimesh took the checker to 2.5 GB building them). The count from the node tree refuses
+    it holding a few MB (tracemalloc: Python's and numpy's allocations), and the refused mesh is not cached."""
+    from tracer import assets
+
+    tree = gltf_instanced(1000, grid=50)  # 2 x 50² = 5000 triangles
+    file = gltf_uri(tree)
+    assert len(file) < 400_000
+    tracemalloc.start()
+    try:
+        with pytest.raises(SceneError) as info:
+            load_mesh_file(file, "objects[0].file", max_triangles=2_000_000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert info.value.errors == [
+        {
+            "path": "objects[0].file",
+            "message": "the data: URI makes 5000000 triangles (1000 mesh instances in its node tree); "
+            "must be at most 2000000 (limit max_primitives)",
+        }
+    ]
+    assert peak < 10_000_000, f"held {peak / 1e6:.0f} MB"
+    assert assets._mesh_key(file, ASSET_DIR) not in assets._meshes
+
+
+def test_mesh_gltf_accessors_past_their_bytes_are_refused_before_trimesh_allocates_them():
+    """An accessor without a bufferView becomes zeros of its count in trimesh: 10⁹ VEC3 floats are 12 GB from
+    a few bytes of JSON. The accessors' bytes are bounded by the triangle limit (128 bytes a triangle)."""
+    tree = gltf_instanced(1)
+    tree["accessors"].append({"componentType": 5126, "count": 10**9, "type": "VEC3"})
+    with pytest.raises(AssetError) as info:
+        read_mesh(gltf_uri(tree), max_triangles=2_000_000)
+    assert info.value.message == (
+        "the data: URI's glTF accessors hold 12000003852 bytes; at most 256000000 here "
+        "(128 bytes per triangle of limit max_primitives)"
+    )
+
+
+def test_mesh_gltf_images_are_not_decoded(monkeypatch):
+    """A glTF's images are dropped before trimesh reads it (it would open them with Pillow in any format):
+    an EPS image inside a glTF never reaches Pillow."""
+    import PIL.Image
+
+    opened = []
+    monkeypatch.setattr(PIL.Image, "open", lambda *a, **k: opened.append(a) or pytest.fail("Pillow opened it"))
+    tree = gltf_instanced(1, images=[{"uri": uri("application/postscript", b"%!PS-Adobe-3.0 EPSF-3.0\n")}],
+                          textures=[{"source": 0}],
+                          materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}])  # fmt: skip
+    tree["meshes"][0]["primitives"][0]["material"] = 0
+    _, faces, _ = read_mesh(gltf_uri(tree))
+    assert len(faces) == 200 and opened == []
+
+
+def test_mesh_cache_is_bounded_in_bytes(tmp_path, monkeypatch):
+    """Past MESH_CACHE_BYTES the oldest meshes go; the one just read stays (validation, then compilation)."""
+    from tracer import assets
+
+    monkeypatch.setattr(assets, "_meshes", type(assets._meshes)())
+    monkeypatch.setattr(assets, "MESH_CACHE_BYTES", 10_000)
+    first, second = obj_uri(20), obj_uri(21)  # 441 and 484 vertices: about 20 KB each
+    read_mesh(first)
+    read_mesh(second)
+    assert list(assets._meshes) == [assets._mesh_key(second, ASSET_DIR)]
+
+
+def test_mesh_gltf_file_s_buffers_stay_inside_the_asset_folder(tmp_path):
+    """A .gltf file's buffer beside it is read (the file is read as bytes, its images dropped, and its buffers
+    through trimesh's resolver of its folder); one reached by '..' outside that folder is refused."""
+    tree = gltf_instanced(2)
+    raw = data_uri(tree["buffers"][0]["uri"])[1]
+    (tmp_path / "assets" / "models").mkdir(parents=True)
+    (tmp_path / "assets" / "models" / "plane.bin").write_bytes(raw)
+    (tmp_path / "outside.bin").write_bytes(raw)
+    tree["buffers"][0]["uri"] = "plane.bin"
+    (tmp_path / "assets" / "models" / "plane.gltf").write_text(json.dumps(tree))
+    assert len(read_mesh("models/plane.gltf", tmp_path / "assets")[1]) == 400
+    tree["buffers"][0]["uri"] = "../../outside.bin"
+    (tmp_path / "assets" / "models" / "out.gltf").write_text(json.dumps(tree))
+    with pytest.raises(AssetError, match=r"as a mesh \(OBJ, PLY, glTF\): '../../outside.bin' escapes resolver root"):
+        read_mesh("models/out.gltf", tmp_path / "assets")
+
+
+def image_bytes(fmt: str, width: int = 4, height: int = 2) -> bytes:
+    """A width x height orange image that Pillow writes (and reads back) in format `fmt`."""
+    buf = io.BytesIO()
+    Image.new("RGB", (width, height), (255, 128, 0)).save(buf, format=fmt)
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("fmt", "told"),
+    [
+        ("EPS", ": it is a PostScript (EPS) file"),  # Pillow reads its header; its pixels through Ghostscript
+        ("BMP", ": it is a BMP image"),
+        ("TIFF", ": it is a TIFF image"),
+        ("GIF", ": it is a GIF image"),
+        ("WEBP", ": it is a WebP image"),
+        ("ICO", ": it is an ICO icon"),
+        ("TGA", ""),  # no magic bytes of its own
+        ("PPM", ""),
+    ],
+)
+def test_image_formats_other_than_png_and_jpeg_are_refused_by_their_first_bytes(fmt, told, tmp_path, monkeypatch):
+    """Every one is an image Pillow reads (and so was a valid texture); now it never reaches Pillow, from a
+    data: URI (whatever its media type says) or a file (whatever its suffix says)."""
+    raw = image_bytes(fmt)
+    assert Image.open(io.BytesIO(raw)).size == (4, 2)
+    (tmp_path / "texture.png").write_bytes(raw)
+    monkeypatch.setattr(Image, "open", lambda *a, **k: pytest.fail("Pillow opened it"))
+    with pytest.raises(AssetError) as info:
+        image_size(uri("image/png", raw))
+    assert info.value.message == f"the data: URI is not a readable image (PNG or JPEG){told}"
+    with pytest.raises(SceneError) as info:
+        load_image("texture.png", "materials.m.bump.file", tmp_path)
+    assert info.value.errors == [
+        {
+            "path": "materials.m.bump.file",
+            "message": f"asset file 'texture.png' is not a readable image (PNG or JPEG){told}",
+        }
+    ]
+
+
+def test_image_png_and_jpeg_are_read():
+    assert image_size(uri("image/png", image_bytes("PNG", 5, 3))) == (5, 3)
+    pixels = read_image(uri("image/jpeg", image_bytes("JPEG", 8, 8)))
+    assert pixels.shape == (8, 8, 3)
+    np.testing.assert_allclose(pixels[4, 4], SRGB_TO_LINEAR[[255, 128, 0]], atol=0.02)  # JPEG's loss

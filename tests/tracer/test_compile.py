@@ -91,7 +91,7 @@ def test_compile_data_texture_that_is_not_an_image_is_an_error_at_its_path():
     with pytest.raises(SceneError) as e:
         compile_scene(s)
     assert e.value.errors == [
-        {"path": "materials.t.texture.file", "message": "the data: URI is not a readable image (PNG, JPEG, ...)"}
+        {"path": "materials.t.texture.file", "message": "the data: URI is not a readable image (PNG or JPEG)"}
     ]
     assert no_repr(str(e.value))
 

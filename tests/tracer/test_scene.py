@@ -6,6 +6,7 @@ tests/bad_scenes/expected.json lists, per file, the exact error paths and a subs
 
 import copy
 import dataclasses
+import io
 import json
 import math
 import random
@@ -14,8 +15,9 @@ from pathlib import Path
 
 import pytest
 from conftest import ROOT
+from PIL import Image
 from pydantic import ValidationError
-from test_assets import no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
+from test_assets import gltf_instanced, gltf_uri, no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
 from tracer.scene import (
     ASSET_DIR,
@@ -765,11 +767,26 @@ def test_assets_data_textures_that_are_not_images(tmp_path):
     assert validate_scene(data)["valid"]  # the format alone
     errors = validate_scene(data, assets=tmp_path)["errors"]
     assert [e["path"] for e in errors] == [f"materials.{n}.{kind}.file" for n, (kind, _) in files.items() if n != "ok"]
-    not_image = "the data: URI is not a readable image (PNG, JPEG, ...)"
-    assert [e["message"] for e in errors[:4]] == [not_image] * 4
+    not_image = "the data: URI is not a readable image (PNG or JPEG)"
+    assert [e["message"] for e in errors[:4]] == [not_image, not_image, f"{not_image}: it is a GIF image", not_image]
     assert errors[4]["message"].startswith("the data: URI's data is not valid base64")
-    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG, JPEG, ...)"
+    assert errors[5]["message"] == "asset file 'notes.png' is not a readable image (PNG or JPEG)"
     assert all(no_repr(e["message"]) for e in errors)
+
+
+def test_assets_an_eps_texture_is_not_valid():
+    """The issue's case: an EPS "texture" was valid (Pillow reads its header) and failed in the worker (its
+    pixels need Ghostscript, which would run a student's PostScript). Refused at validation, at its field."""
+    eps = io.BytesIO()
+    Image.new("RGB", (4, 2)).save(eps, format="EPS")
+    texture = {"type": "image", "file": uri("application/postscript", eps.getvalue())}
+    data = _scene(materials={"m": {"texture": texture}})
+    assert validate_scene(data, assets=ASSET_DIR)["errors"] == [
+        {
+            "path": "materials.m.texture.file",
+            "message": "the data: URI is not a readable image (PNG or JPEG): it is a PostScript (EPS) file",
+        }
+    ]
 
 
 def test_assets_texture_pixels_limit_read_from_the_header():
@@ -842,18 +859,40 @@ def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
 
 
 def test_assets_mesh_triangles_count_against_the_primitive_limit(tmp_path):
-    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`."""
+    """A 3000-triangle data: OBJ and a mesh file count like inline meshes, at `objects`; a file past the limit
+    on its own is refused at its own path."""
     (tmp_path / "grid.obj").write_text(obj_grid(10))  # 200 triangles
     objects = [_mesh(obj_uri(30, 50)), _mesh("grid.obj"), {"type": "sphere", "center": [0, 0, 0], "radius": 1}]
     data = _scene(materials={"m": {}}, objects=[{**o, "material": "m"} for o in objects])
     assert validate_scene(data, Limits(max_primitives=200))["valid"]  # the format alone cannot count them
     assert validate_scene(data, Limits(max_primitives=3201), assets=tmp_path)["valid"]
-    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    errors = validate_scene(data, Limits(max_primitives=3000), assets=tmp_path)["errors"]
     assert errors == [
         {
             "path": "objects",
             "message": "3201 primitives (objects[0].file: 3000 triangles, objects[1].file: 200 triangles); "
-            "must be at most 200 (limit max_primitives)",
+            "must be at most 3000 (limit max_primitives)",
+        }
+    ]
+    errors = validate_scene(data, Limits(max_primitives=200), assets=tmp_path)["errors"]
+    assert errors == [
+        {
+            "path": "objects[0].file",
+            "message": "the data: URI makes 3000 triangles; must be at most 200 (limit max_primitives)",
+        }
+    ]  # the scene's count waits for its objects to be valid
+
+
+def test_assets_mesh_gltf_instances_are_refused_at_the_mesh_s_path():
+    """1000 nodes of one 200-triangle glTF mesh: 200000 triangles, refused at objects[0].file from the node
+    tree (nothing built), through the whole scene's validation."""
+    data = _scene(materials={"m": {}}, objects=[{**_mesh(gltf_uri(gltf_instanced(1000))), "material": "m"}])
+    errors = validate_scene(data, Limits(max_primitives=100_000), assets=ASSET_DIR)["errors"]
+    assert errors == [
+        {
+            "path": "objects[0].file",
+            "message": "the data: URI makes 200000 triangles (1000 mesh instances in its node tree); "
+            "must be at most 100000 (limit max_primitives)",
         }
     ]
 

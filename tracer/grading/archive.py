@@ -3,8 +3,10 @@
 A zip's headers declare each entry's size; a zip bomb lies (a header says 100 B, the entry inflates to
 1 GiB of zeros) or tells the truth about something huge. So nothing here trusts a declared size:
 
-- the number of entries is read from the end of central directory record and checked against
-  `Caps.entries` before the directory itself is parsed;
+- the number of entries is checked against `Caps.entries` before Python's zipfile reads the directory
+  into memory (a ZipInfo per entry): first as the end of central directory record says it, then by
+  counting the directory's entries as zipfile will walk them, header by header, stopping at the cap (an
+  end record that says 1 of a million entries is refused after reading the cap's worth of headers);
 - each entry is inflated as a stream, a chunk at a time, counting what comes out: past the size its
   header declares, past `Caps.file_bytes` (one file) or past `Caps.total_bytes` (all of them) it is
   refused at once, by name, having held at most one chunk more than the cap;
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import copy
 import io
+import struct
 import zipfile
 import zlib
 from collections.abc import Iterator
@@ -76,8 +79,8 @@ def kept(name: str) -> bool:
 
 
 def open_zip(src: BinaryIO, caps: Caps) -> zipfile.ZipFile:
-    """A zip file opened once its entry count is known to be within the cap (the count comes from the
-    end of central directory record, before Python reads the directory into memory)."""
+    """A zip file opened once its entry count is known to be within the cap (counted before Python reads
+    the directory into memory: the end of central directory record's count, then the directory's own)."""
     try:
         end = zipfile._EndRecData(src)  # the end record (zip64 too); None when there is none
     except OSError as e:
@@ -87,10 +90,37 @@ def open_zip(src: BinaryIO, caps: Caps) -> zipfile.ZipFile:
     count = end[zipfile._ECD_ENTRIES_TOTAL]
     if count > caps.entries:
         raise caps.too_many(count)
+    if directory_entries(src, end, caps.entries) > caps.entries:
+        raise GradingError(f"more than {caps.entries} entries in its central directory (its end record says "
+                           f"{count}); at most {caps.entries}{_named(caps.entries_name)}")  # fmt: skip
     try:
         return zipfile.ZipFile(src)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, ValueError, EOFError) as e:
         raise GradingError(f"not a zip file: {e}") from None
+
+
+def directory_entries(src: BinaryIO, end: list, most: int) -> int:
+    """The entries of the central directory that zipfile would read (ZipFile._RealGetContents: from where
+    the end record puts the directory, header after header for the directory's size in bytes), counted up
+    to `most` + 1 without keeping any. A header that is cut short or not one ends the count (zipfile then
+    says why the file is broken)."""
+    size = end[zipfile._ECD_SIZE]
+    start = end[zipfile._ECD_LOCATION] - size
+    if end[zipfile._ECD_SIGNATURE] == zipfile.stringEndArchive64:
+        start -= zipfile.sizeEndCentDir64 + zipfile.sizeEndCentDir64Locator
+    if start < 0:
+        return 0
+    n, at = 0, 0
+    while at < size and n <= most:
+        src.seek(start + at)
+        head = src.read(zipfile.sizeCentralDir)
+        if len(head) != zipfile.sizeCentralDir or head[:4] != zipfile.stringCentralDir:
+            break
+        fields = struct.unpack(zipfile.structCentralDir, head)
+        lengths = (zipfile._CD_FILENAME_LENGTH, zipfile._CD_EXTRA_FIELD_LENGTH, zipfile._CD_COMMENT_LENGTH)
+        at += zipfile.sizeCentralDir + sum(fields[i] for i in lengths)
+        n += 1
+    return n
 
 
 def members(zf: zipfile.ZipFile) -> list[tuple[str, zipfile.ZipInfo]]:

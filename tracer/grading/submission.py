@@ -12,6 +12,9 @@ import numpy as np
 from tracer.grading import metrics
 
 IMAGE_KINDS = ("png", "exr")  # the submissions that are images (the others are scenes)
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"  # a PNG's first bytes
+EXR_MAGIC = b"v/1\x01"  # an OpenEXR file's
+ALLOWED = "a submitted image is a PNG or an OpenEXR file"
 
 
 @dataclass
@@ -53,7 +56,14 @@ def decode_image(data: bytes, kind: str) -> tuple[np.ndarray, metrics.Encoding]:
       channels, 32-bit float or 16-bit half float; NaN and infinities become 0;
     - a PNG holds sRGB(clamp(2^exposure L)) in [0, 1], at its own bit depth (16-bit PNGs keep their
       16 bits; Pillow would round them to 8), grey, grey with alpha, RGB, RGBA or a palette; alpha is dropped.
-    Raises GradingError for a file that is not what its kind says."""
+    Raises GradingError for a file that is not what its kind says, told by its first bytes before any
+    decoder sees it (Pillow would read dozens of formats, EPS through Ghostscript)."""
+    magic, name = (EXR_MAGIC, "an OpenEXR file") if kind == "exr" else (PNG_MAGIC, "a PNG file")
+    if not data.startswith(magic):
+        from tracer.assets import other_format
+
+        raise metrics.GradingError(f"cannot read the {kind.upper()} image: it is "
+                                   f"{other_format(data[:16]) or 'not ' + name}; {ALLOWED}")  # fmt: skip
     if kind == "exr":
         return _decode_exr(data)
     bits = _png_bit_depth(data)
@@ -64,7 +74,7 @@ def decode_image(data: bytes, kind: str) -> tuple[np.ndarray, metrics.Encoding]:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        im = Image.open(io.BytesIO(data))
+        im = Image.open(io.BytesIO(data), formats=["PNG"])
         im.load()
     except (UnidentifiedImageError, OSError, ValueError) as e:
         raise metrics.GradingError(f"cannot read the PNG image: {e}") from None

@@ -71,11 +71,12 @@ def texture_problem(width: int, height: int, used: int, limits: Limits) -> str |
 
 
 def _mesh_file(v: str, info: ValidationInfo) -> str:
-    """With an asset folder: the mesh exists (or is a data: URI) and reads as triangles."""
+    """With an asset folder: the mesh exists (or is a data: URI) and reads as triangles, no more of them than
+    the scene may have primitives (a glTF's counted from its node tree before any is built)."""
     folder = _asset_dir(info)
     if folder is not None:
         try:
-            read_mesh(v, folder)
+            read_mesh(v, folder, _limits(info).max_primitives)
         except AssetError as e:
             raise _error(e.message) from None
     return v

@@ -25,8 +25,8 @@ class ImageTexture(_Model):
 
     type: Literal["image"] = Field(description="Texture type.")
     file: ImageFile = Field(
-        description="Image file in the asset folder, or a data: URI; its pixels count against the service's "
-        "limits on one image and on all of a scene's (read from its header)."
+        description="Image file (PNG or JPEG) in the asset folder, or a data: URI; its pixels count against the "
+        "service's limits on one image and on all of a scene's (read from its header)."
     )
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")
 
@@ -44,8 +44,8 @@ class ImageBump(_Model):
 
     type: Literal["image"] = Field(description="Bump type.")
     file: ImageFile = Field(
-        description="Height image in the asset folder, or a data: URI; its pixels count against the service's "
-        "limits on one image and on all of a scene's (read from its header)."
+        description="Height image (PNG or JPEG) in the asset folder, or a data: URI; its pixels count against the "
+        "service's limits on one image and on all of a scene's (read from its header)."
     )
     strength: Num = Field(1.0, ge=0, description="Height of the bumps (dimensionless gain).")
     scale: Pair = Field((1.0, 1.0), description="Repeats of the image along u and v.")

@@ -27,7 +27,7 @@ def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
     for i, o in enumerate(objects):
         if isinstance(o, Mesh) and o.file is not None:
             try:
-                out[i] = len(read_mesh(o.file, folder)[1])
+                out[i] = len(read_mesh(o.file, folder, _limits(info).max_primitives)[1])
             except AssetError:  # reported at objects[i].file
                 pass
     return out
@@ -75,7 +75,7 @@ def _texture_total(files: list[tuple[tuple, str]], info: ValidationInfo) -> list
 def _solve_limits(v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
     """A radiosity scene's solve against the limits on its patches and rays, counted from the geometry (mesh
     files included when validation resolves assets) before anything is meshed."""
-    triangles = meshing.mesh_triangles(v.objects, meshing.mesh_files(_asset_dir(info)))
+    triangles = meshing.mesh_triangles(v.objects, meshing.mesh_files(_asset_dir(info), _limits(info).max_primitives))
     problems = meshing.solve_problems(v, triangles, v.render.radiosity, _limits(info))
     return [(("render", "radiosity", field), message) for field, message in problems]
 

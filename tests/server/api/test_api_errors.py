@@ -303,9 +303,10 @@ def test_api_errors_data_textures_that_are_not_images_are_refused_at_submit(clie
         "bump": {"type": "image", "file": png_uri()},
     }
     want = [
-        {"path": f"materials.bad{k}.texture.file", "message": "the data: URI is not a readable image (PNG, JPEG, ...)"}
+        {"path": f"materials.bad{k}.texture.file", "message": "the data: URI is not a readable image (PNG or JPEG)"}
         for k in range(5)
     ]
+    want[2]["message"] += ": it is a GIF image"  # told by its first bytes
     assert check_error(client.post("/api/jobs", json={"scene": scene}), 422) == want
     report = client.post("/api/validate", json={"scene": scene}).json()
     assert report == {"valid": False, "errors": want, "warnings": []}

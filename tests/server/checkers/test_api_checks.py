@@ -13,7 +13,7 @@ import socket
 import pytest
 from conftest import scene_dict, small
 from test_api_support import Server, pid_alive, wait_for
-from test_assets import big_png_uri
+from test_assets import big_png_uri, gltf_instanced, gltf_uri
 
 from tracer.scene import validate_scene
 
@@ -106,6 +106,34 @@ def test_api_checks_a_6000_x_6000_data_image_is_refused_by_every_scene_route_wit
         assert r.status_code == 422 and r.json() == {"errors": [error]}, (url, r.text)
     grown = {pid: peak_rss(pid) - before[pid] for pid in pids}
     assert max(grown.values()) < 64_000_000, f"peak memory grew by {grown} bytes"
+
+
+def test_api_checks_instanced_gltf_meshes_are_refused_from_their_node_tree_holding_nothing(client):
+    """The issue's glTF: 1000 nodes sharing one 5000-triangle mesh, a 233 KB data: URI that trimesh built into
+    5 million triangles (a checking process reached 766 MB for one, and kept each in its mesh cache: 1468 MB
+    after four). Four different ones, through validate and jobs, are refused at the mesh's field from the
+    counts in their JSON (trimesh is not even imported); no checking process grows by more than a few MB."""
+    pool = ready(client)
+    for _ in pool:  # the scene without the mesh first: what a first check costs a process is not the mesh's
+        r = client.post("/api/validate", json={"scene": small(scene_dict("texture"), 32, 24)})
+        assert r.json()["valid"]
+    before = {c["pid"]: peak_rss(c["pid"]) for c in pool}
+    for k in range(4):
+        tree = gltf_instanced(1000, grid=50)
+        tree["nodes"][0]["translation"] = [float(k), 0.0, 0.0]  # another file, another key in the mesh cache
+        scene = small(scene_dict("texture"), 32, 24)
+        scene["objects"].append({"type": "mesh", "file": gltf_uri(tree), "material": scene["objects"][0]["material"]})
+        error = {
+            "path": f"objects[{len(scene['objects']) - 1}].file",
+            "message": "the data: URI makes 5000000 triangles (1000 mesh instances in its node tree); "
+            "must be at most 2000000 (limit max_primitives)",
+        }
+        r = client.post("/api/validate", json={"scene": scene})
+        assert r.status_code == 200 and r.json() == {"valid": False, "errors": [error], "warnings": []}
+        r = client.post("/api/jobs", json={"scene": scene})
+        assert r.status_code == 422 and r.json() == {"errors": [error]}, r.text
+    grown = {pid: peak_rss(pid) - before[pid] for pid in before}
+    assert max(grown.values()) < 16_000_000, f"peak memory grew by {grown} bytes"
 
 
 def test_api_checks_a_check_past_its_time_limit_is_stopped_and_its_process_replaced(client, settings):

@@ -69,6 +69,27 @@ def raw_zip(entries: list[dict]) -> bytes:
     return out.getvalue()
 
 
+def lying_zip(data: bytes, says: int = 1, zip64: bool = False) -> bytes:
+    """A zip (written by zipfile, without a comment) whose end of central directory record says it holds
+    `says` entries, whatever its directory holds; with `zip64`, the count is in a zip64 end record (and its
+    locator) put before it, as zipfile reads for more than 65535 entries."""
+    end = len(data) - zipfile.sizeEndCentDir
+    sig, disk, first, _, _, size, offset, comment = struct.unpack(zipfile.structEndArchive, data[end:])
+    if not zip64:
+        return data[:end] + struct.pack(zipfile.structEndArchive, sig, disk, first, says, says, size, offset, comment)
+    record = struct.pack(zipfile.structEndArchive64, zipfile.stringEndArchive64, 44, 45, 45, 0, 0, says, says,
+                         size, offset)  # fmt: skip
+    locator = struct.pack(zipfile.structEndArchive64Locator, zipfile.stringEndArchive64Locator, 0, end, 1)
+    end64 = struct.pack(zipfile.structEndArchive, sig, 0, 0, 0xFFFF, 0xFFFF, 0xFFFFFFFF, 0xFFFFFFFF, 0)
+    return data[:end] + record + locator + end64
+
+
+def many_entries(n: int) -> bytes:
+    """A zip of n stored scenes s0.json ... '{}'."""
+    return raw_zip([{"name": f"s{i}.json", "data": b"{}", "method": 0, "size": 2, "crc": zlib.crc32(b"{}")}
+                    for i in range(n)])  # fmt: skip
+
+
 def deflated(data: bytes) -> bytes:
     c = zlib.compressobj(9, zlib.DEFLATED, -15)
     return c.compress(data) + c.flush()
@@ -124,6 +145,37 @@ def test_archive_caps_on_size_and_entries_are_checked_before_reading():
             z.writestr(name, " " * 400)
     with pytest.raises(GradingError, match=r"^c.json: the class unpacks to more than 1000 bytes \(TRACER_MAX_CLASS"):
         read_zip(total.getvalue(), caps)
+
+
+@pytest.mark.parametrize("zip64", [False, True], ids=["end-record", "zip64-end-record"])
+def test_archive_entries_are_counted_in_the_directory_whatever_the_end_record_says(zip64):
+    """A zip of 20 entries whose end record (or zip64 end record) says 1: its directory's headers are counted
+    as zipfile would read them, and the count stops past the cap, before zipfile makes a ZipInfo of each."""
+    honest = many_entries(20)
+    lying = lying_zip(honest, zip64=zip64)
+    assert zipfile._EndRecData(io.BytesIO(lying))[zipfile._ECD_ENTRIES_TOTAL] == 1
+    assert len(read_zip(lying)) == 20  # zipfile reads all 20, whatever the end record says
+    caps = Caps(entries=5, entries_name="TRACER_MAX_CLASS_ENTRIES")
+    with pytest.raises(GradingError) as e:
+        read_zip(lying, caps)
+    assert str(e.value) == (
+        "more than 5 entries in its central directory (its end record says 1); at most 5 (TRACER_MAX_CLASS_ENTRIES)"
+    )
+    assert len(read_zip(lying, Caps(entries=20))) == 20
+
+
+def test_archive_a_lying_end_record_of_many_entries_is_refused_holding_little():
+    """60 000 entries said to be 1 (the issue's were 10⁶, through the API: 22.8 s and 568 MB more): refused
+    after reading 5001 headers, holding little (tracemalloc), where zipfile's ZipInfos would be tens of MB."""
+    lying = lying_zip(many_entries(60_000))
+    tracemalloc.start()
+    try:
+        with pytest.raises(GradingError, match=r"^more than 5000 entries in its central directory \(its end record"):
+            read_zip(io.BytesIO(lying))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2_000_000, peak
 
 
 @pytest.mark.parametrize(
@@ -255,13 +307,16 @@ def test_upload_a_zip_bomb_is_refused_with_the_entry_named(app, bomb):
         (lambda: {"class": ("x.zip", raw_zip([{"name": f"s{i}.json", "data": b"{}", "method": 0, "size": 2,
                                               "crc": zlib.crc32(b"{}")} for i in range(41)]))},
          422, "class", "41 entries; at most 40 (TRACER_MAX_CLASS_ENTRIES)"),
+        (lambda: {"class": ("x.zip", lying_zip(many_entries(2000)))},
+         422, "class", "more than 40 entries in its central directory (its end record says 1); at most 40 "
+                       "(TRACER_MAX_CLASS_ENTRIES)"),
         (lambda: {"class": ("x.zip", _many_bytes())},
          422, "class", "the class unpacks to more than 2000000 bytes (TRACER_MAX_CLASS_BYTES)"),
         (lambda: {"class": ("x.zip", raw_zip([{"name": "notes.txt", "data": b"x", "method": 0, "size": 1,
                                               "crc": zlib.crc32(b"x")}]))},
          422, "class", "no submissions in it (.json, .png or .exr files)"),
     ],
-    ids=["garbage", "bad-crc", "too-many-entries", "too-many-bytes", "no-submissions"],
+    ids=["garbage", "bad-crc", "too-many-entries", "lying-end-record", "too-many-bytes", "no-submissions"],
 )  # fmt: skip
 def test_upload_refuses_a_bad_zip_with_a_422(app, make, status, path, words):
     r = post(app, files=make())

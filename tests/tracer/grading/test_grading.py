@@ -849,3 +849,25 @@ def test_unreadable_images_are_said_so():
     Image.fromarray(np.full((4, 6), 65535, np.uint16)).save(grey16, format="PNG")
     image = read_image(grey16.getvalue(), "png")
     assert image.shape == (4, 6, 3) and np.all(image == 1.0)
+
+
+@pytest.mark.parametrize(
+    ("fmt", "told"),
+    [("EPS", "a PostScript (EPS) file"), ("GIF", "a GIF image"), ("BMP", "a BMP image"), ("TGA", "not a PNG file")],
+)
+def test_own_images_of_other_formats_are_refused_before_any_decoder(fmt, told, monkeypatch):
+    """A student's .png that is another format Pillow reads (an EPS would go through Ghostscript): refused by
+    its first bytes, Pillow never called; an .exr that is not one never reaches OpenEXR either."""
+    from PIL import Image
+
+    from tracer.grading.submission import decode_image
+
+    picture = io.BytesIO()
+    Image.new("RGB", (4, 2), (255, 128, 0)).save(picture, format=fmt)
+    monkeypatch.setattr(Image, "open", lambda *a, **k: pytest.fail("Pillow opened it"))
+    with pytest.raises(GradingError) as e:
+        decode_image(picture.getvalue(), "png")
+    assert str(e.value) == f"cannot read the PNG image: it is {told}; a submitted image is a PNG or an OpenEXR file"
+    with pytest.raises(GradingError) as e:
+        decode_image(picture.getvalue(), "exr")
+    assert str(e.value).startswith("cannot read the EXR image: it is ")
