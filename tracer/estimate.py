@@ -39,20 +39,43 @@ def tree_rays(scene: Scene, max_tree_rays: int | None = None) -> float:
     of m children per ray (the objects' materials' children, 2 where kr and kt are on, each object as likely
     to be hit), over the levels max_depth and min_weight allow, at most `max_tree_rays` (the limit's
     default when None): the bound the kernel keeps."""
-    r = scene.render
     bound = Limits().max_tree_rays if max_tree_rays is None else max_tree_rays
     materials = [scene.material_for(o) for o in scene.objects]
     if not materials:
         return 1.0
     children = [(max(m.kr) > 0) + (max(m.kt) > 0) for m in materials]
     m = sum(children) / (len(materials) + sum(1 for light in scene.lights if isinstance(light, AREA_LIGHTS)))
-    # the largest K of a child (kr, kt, or kr + kt under total internal reflection without Fresnel)
-    k = max(max(max(mt.kr) + (0 if mt.fresnel else max(mt.kt)), max(mt.kt)) for mt in materials)
-    levels = r.max_depth
-    if 0 < k < 1 and r.min_weight > 0:  # a branch of weight k^(n - 1) < min_weight is not traced
-        levels = min(levels, 1 + math.floor(math.log(r.min_weight) / math.log(k)))
+    levels = tree_levels(scene)
     nodes = float(levels) if m == 1 else (m**levels - 1) / (m - 1)  # 1 + m + m^2 + ... (m <= 2: no overflow)
     return min(nodes, float(bound))
+
+
+def tree_levels(scene: Scene) -> int:
+    """Levels a ray tree can have: max_depth, fewer where min_weight ends every branch sooner (a child's
+    weight is at most k^(level - 1), k the largest K of a child: kr, kt, or kr + kt under total internal
+    reflection without Fresnel)."""
+    r = scene.render
+    materials = [scene.material_for(o) for o in scene.objects]
+    k = max((max(max(mt.kr) + (0 if mt.fresnel else max(mt.kt)), max(mt.kt)) for mt in materials), default=0.0)
+    if 0 < k < 1 and r.min_weight > 0:
+        return min(r.max_depth, 1 + math.floor(math.log(r.min_weight) / math.log(k)))
+    return r.max_depth
+
+
+def most_rays_per_sample(scene: Scene, max_tree_rays: int | None = None) -> int:
+    """The most rays one pixel sample can trace: every ray its tree could have (two children a ray where a
+    material reflects and transmits, over tree_levels), at most `max_tree_rays`, times one plus the shadow
+    rays at each hit; a path's bounces, each with its shadow rays and one more. tracer/render.py sizes its
+    launches by it."""
+    r = scene.render
+    bound = Limits().max_tree_rays if max_tree_rays is None else max_tree_rays
+    shadow = sum(r.light_samples if isinstance(light, AREA_LIGHTS) else 1 for light in scene.lights)
+    if r.integrator_info.cost == "path":
+        return r.max_depth * (2 + shadow)
+    children = max(((max(m.kr) > 0) + (max(m.kt) > 0) for m in map(scene.material_for, scene.objects)), default=0)
+    levels = tree_levels(scene)
+    possible = 1 if children == 0 else levels if children == 1 else (1 << min(levels, 40)) - 1
+    return min(possible, bound) * (1 + shadow)
 
 
 def rays_per_sample(scene: Scene, max_tree_rays: int | None = None) -> float:
