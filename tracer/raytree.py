@@ -65,11 +65,16 @@ def ray_tree(
     fog_color = np.asarray(cs.scene.fog.color, dtype=np.float64)
 
     radiance = np.zeros((n, 3))
+    kids: list[list[int]] = [[] for _ in range(n)]  # each ray's reflection and transmission children, in order
+    for j in range(n):
+        parent = int(ints[j, W.I_PARENT])
+        if parent >= 0 and ints[j, W.I_KIND] != RayKind.SHADOW:
+            kids[parent].append(j)
     for i in range(n - 1, -1, -1):  # children are recorded after their parent
         if ints[i, W.I_KIND] == RayKind.SHADOW:
             radiance[i] = vecs[i, W.V_CARRIED]
             continue
-        children = [j for j in range(i + 1, n) if ints[j, W.I_PARENT] == i and ints[j, W.I_KIND] != RayKind.SHADOW]
+        children = kids[i]
         if ints[i, W.I_HIT] == 0:
             radiance[i] = fog_color if fog_on else np.asarray(cs.scene.background, dtype=np.float64)
             continue
