@@ -163,6 +163,7 @@ def compile_scene(
 ) -> CompiledScene:
     """Flatten a validated scene into a SceneData on `device`. Raises SceneError on missing assets, and on
     images past `limits` (the library's defaults when None), found from their headers before any is decoded.
+    The kernels bound each pixel sample's ray tree by `limits.max_tree_rays`.
 
     Flattening only: a radiosity scene's solution is solved by `tracer.radiosity.attach`, which
     render() runs as a phase with progress and ray_tree() runs when it needs it."""
@@ -267,6 +268,7 @@ def compile_scene(
     r = scene.render
     data.integrator = int(Integrator[r.integrator.upper()])
     data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)
+    data.max_tree_rays = int(images.limits.max_tree_rays)
     data.width, data.height = int(scene.film.width), int(scene.film.height)
     sm = scene.sampler
     data.spp, data.sampler = int(sm.spp), int(SamplerKind[sm.type.upper()])

@@ -53,6 +53,7 @@ class End(IntEnum):
     TIR = 4
     LIGHT = 5
     ABSORBED = 6
+    MAX_TREE_RAYS = 7  # a wanted child was not traced: the sample's tree had its max_tree_rays rays (limits.py)
 
 
 # The integrators of the table in tracer/integrators/__init__.py, numbered in its order (SceneData.integrator).
@@ -139,6 +140,7 @@ END_MIN_WEIGHT = wp.constant(int(End.MIN_WEIGHT))
 END_TIR = wp.constant(int(End.TIR))
 END_LIGHT = wp.constant(int(End.LIGHT))
 END_ABSORBED = wp.constant(int(End.ABSORBED))
+END_MAX_TREE_RAYS = wp.constant(int(End.MAX_TREE_RAYS))
 
 SAMPLER_CENTER = wp.constant(int(SamplerKind.CENTER))
 SAMPLER_GRID = wp.constant(int(SamplerKind.GRID))

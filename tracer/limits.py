@@ -1,8 +1,12 @@
 """The scene limits: one table, from which every set of them is made.
 
 A scene past a limit is an error at the offending field's JSON path ("must be at most 2048 (limit
-max_width)"), the same through the command line, the service and grading. The table below is the one
-definition of the limits (name, default, what is counted):
+max_width)"), the same through the command line, the service and grading. One limit is a bound the
+kernels keep instead: `max_tree_rays`, the rays of one pixel sample's ray tree (Whitted's tree doubles with
+each level where a material both reflects and transmits: with max_depth 64 and min_weight 0 nothing else
+ends it). A ray past it is not traced, the same in the image and in the ray tree, which shows the cut as
+the end reason `max_tree_rays`; tracer/estimate.py counts a sample's rays up to it. The table below is the
+one definition of the limits (name, default, what is counted):
 
 - `Limits`, the dataclass the validators read (tracer/scene/), is made from it, its defaults the table's;
 - the service's settings TRACER_MAX_WIDTH, ... (server/core/settings.py) are its rows, with the same defaults
@@ -61,6 +65,13 @@ LIMITS = (
         "max_solve_rays",
         250_000_000,
         "radiosity: render.radiosity.rays x max_steps, the form-factor rays of the longest solve",
+    ),
+    # Not checked at validation: the kernels enforce it, as the end reason max_tree_rays of the ray tree
+    LimitInfo(
+        "max_tree_rays",
+        1024,
+        "eye, reflection and transmission rays of one pixel sample's ray tree (its shadow rays come on top): a "
+        "wanted ray past it is not traced, and the ray tree shows where (end max_tree_rays)",
     ),
 )
 NAMES = tuple(limit.name for limit in LIMITS)

@@ -5,6 +5,11 @@ node records into the JSON of docs/scene-format.md ("The ray tree") and fills in
 back, bottom-up: a ray returns T (local + sum of K_child L_child) + (1 - T) fog colour, with T
 its fog transmittance (1 without fog); a shadow ray returns the light's f_att I cos(theta) f,
 or 0 when occluded. The root's radiance is the pixel sample's colour.
+
+Two bounds, each said in the tree: the kernel traces at most `max_tree_rays` eye, reflection and
+transmission rays per sample (tracer/limits.py; the image's samples too), and a wanted ray past them ends
+its parent with the reason `max_tree_rays`; the record keeps the first `cap` nodes (shadow rays included),
+and a larger tree is `truncated`.
 """
 
 from __future__ import annotations
@@ -60,11 +65,16 @@ def ray_tree(
     fog_color = np.asarray(cs.scene.fog.color, dtype=np.float64)
 
     radiance = np.zeros((n, 3))
+    kids: list[list[int]] = [[] for _ in range(n)]  # each ray's reflection and transmission children, in order
+    for j in range(n):
+        parent = int(ints[j, W.I_PARENT])
+        if parent >= 0 and ints[j, W.I_KIND] != RayKind.SHADOW:
+            kids[parent].append(j)
     for i in range(n - 1, -1, -1):  # children are recorded after their parent
         if ints[i, W.I_KIND] == RayKind.SHADOW:
             radiance[i] = vecs[i, W.V_CARRIED]
             continue
-        children = [j for j in range(i + 1, n) if ints[j, W.I_PARENT] == i and ints[j, W.I_KIND] != RayKind.SHADOW]
+        children = kids[i]
         if ints[i, W.I_HIT] == 0:
             radiance[i] = fog_color if fog_on else np.asarray(cs.scene.background, dtype=np.float64)
             continue
@@ -130,6 +140,7 @@ def ray_tree(
         "time": float(floats[0, W.F_TIME]) if n else None,
         "nodes": nodes,
         "truncated": count > cap,
+        "max_tree_rays": int(d.max_tree_rays),
     }
 
 
@@ -140,6 +151,8 @@ END_WORDS = {  # the same words as the page's (web/js/rays.js)
     "tir": "total internal reflection: no transmission ray",
     "light": "reached the light",
     "absorbed": "absorbed: kr = kt = 0 here, no reflection or transmission ray",
+    "max_tree_rays": "max tree rays: a reflection or transmission ray was wanted, but the sample had traced its "
+    "max_tree_rays eye, reflection and transmission rays",
 }
 
 
@@ -193,4 +206,6 @@ def tree_text(tree: dict) -> str:
         stack.extend((c, level + 1) for c in reversed(kids))
     if tree["truncated"]:
         lines.append(f"(truncated: only the first {len(nodes)} rays were recorded)")
+    if any(n["end"] == "max_tree_rays" for n in nodes):
+        lines.append(f"(cut: the sample's tree reached its bound of {tree['max_tree_rays']} rays, max_tree_rays)")
     return "\n".join(lines) + "\n"

@@ -10,6 +10,12 @@ On a CUDA device the band is the whole image: one launch per pass, no thread poo
 gives the same image there, bit for bit. The one bound: a launch's scratch memory (ray stacks,
 the adaptive sampler's cache) stays within WHOLE_IMAGE_SCRATCH_BYTES; a bigger image is launched
 in the fewest bands that fit, one after the other.
+
+A launch cannot be stopped, and a cancel is seen between launches (`on_band` follows each), so no
+launch is long: a band is cut into launches of fewer pixels, or of fewer of a pass's samples, of at
+most LAUNCH_RAYS rays if every sample traced the most rays it can (estimate.most_rays_per_sample: the
+bound on its ray tree) and, once a launch has been timed, of about LAUNCH_SECONDS. Any such cut
+gives the same sums, so the image does not depend on it.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import warp as wp
 
+from tracer import estimate
 from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
 from tracer.integrators import INTEGRATORS, adaptive, dispatch, record
@@ -43,6 +50,9 @@ WHOLE_IMAGE_SCRATCH_BYTES = 2 << 30  # whole-image launches: the most their stac
 STACK_BYTES_PER_LEVEL = 6 * 12  # a pixel's ray stack: o, d, k, w, tau (vec3) and i (vec3i) per depth
 CACHE_BYTES_PER_POINT = 12 + 4  # a pixel's adaptive cache: a colour (vec3) and a stamp (int32) per grid point
 AUTO = "auto"  # Renderer(band=AUTO): the whole image on a CUDA device, BAND_PIXELS on the CPU
+LAUNCH_RAYS = 8_000_000  # the most rays a CPU launch may trace (about a second on one thread; a cancel waits for it)
+CUDA_LAUNCH_RAYS = 1 << 29  # the same on a CUDA device (a fraction of a second there)
+LAUNCH_SECONDS = 0.25  # a launch's length once the pace of the ones before is known
 
 
 def band_size(device: str, pixels: int, max_depth: int, grid_points: int, band: int | str | None = AUTO) -> int:
@@ -107,8 +117,9 @@ def load_kernels(device: str = "cpu", integrators=None) -> None:
 
 @dataclass
 class Progress:
-    """What a progress callback sees after each band of each pass (and after each shot of a
-    radiosity solve, which comes first: `phase` "radiosity", with `solve` telling how far it is)."""
+    """What a progress callback sees after each launch of each pass (a band of pixels, or a piece of one), and
+    after each shot of a radiosity solve, which comes first: `phase` "radiosity", with `solve` telling how far
+    it is."""
 
     samples_done: int  # pixel samples finished so far
     samples_total: int
@@ -224,15 +235,52 @@ class Renderer:
         self.dummy = make_record(0, device)
         self.samples_done = 0  # per pixel (adaptive: 1 once a pass has run)
         self.passes_rays = np.zeros(len(RayKind), dtype=np.int64)  # adaptive: rays of the passes before the last
+        self.sample_rays = estimate.most_rays_per_sample(compiled.scene, data.max_tree_rays)  # at most, per sample
+        self.launch_rays = CUDA_LAUNCH_RAYS if self.cuda else LAUNCH_RAYS
+        self.pace = 0.0  # seconds per unit of work of the last launch (0: none timed yet)
 
-    def _run(self, launch: Callable[[int, int, int], None], on_band: Callable[[int], None] | None) -> None:
-        """launch(worker, first pixel, pixel count) over every band, one worker thread per core (one
-        thread, this one, on a CUDA device or when the band is the whole image). `on_band(pixels)` follows a
-        finished band."""
+    def _units(self, unit_rays: int) -> int:
+        """Units of work (pixel samples, or pixels of an adaptive pass) the next launch may take: at most
+        launch_rays rays if each unit traced `unit_rays`, the most it can, and about LAUNCH_SECONDS at the
+        pace of the last launch."""
+        units = self.launch_rays // max(1, unit_rays)
+        if self.pace > 0:
+            units = min(units, int(LAUNCH_SECONDS / self.pace))
+        return max(1, units)
+
+    def _run(
+        self,
+        launch: Callable[[int, int, int, int, int], None],
+        on_band: Callable[[int], None] | None,
+        samples: tuple[int, int] = (0, 1),
+        unit_rays: int = 1,
+    ) -> None:
+        """launch(worker, first pixel, pixel count, first sample, end sample) over every band, one worker thread
+        per core (one thread, this one, on a CUDA device or when the band is the whole image), each band in
+        launches of at most `_units(unit_rays)` pixel samples (an adaptive pass: samples (0, 1), a unit a
+        pixel), a band's launches one after the other on its thread, so each pixel's samples are added in
+        order. `on_band(units)` follows each launch; when it raises (a cancel), every thread stops before its
+        next launch, and the exception is raised here once they all have."""
         total = self.width * self.height
         bands = [(p0, min(self.band, total - p0)) for p0 in range(0, total, self.band)]
         queue = iter(bands)
         lock = threading.Lock()
+        s0, s1 = samples
+        stopped = threading.Event()
+
+        def timed(k: int, p: int, m: int, a: int, b: int) -> None:
+            start = time.perf_counter()
+            launch(k, p, m, a, b)
+            if self.cuda:  # a CUDA launch returns at once: the pace and the progress count finished work
+                wp.synchronize_device(self.device)
+            with lock:
+                self.pace = (time.perf_counter() - start) / (m * (b - a))
+                if on_band and not stopped.is_set():
+                    try:
+                        on_band(m * (b - a))
+                    except BaseException:
+                        stopped.set()
+                        raise
 
         def worker(k: int) -> None:
             while True:
@@ -240,33 +288,40 @@ class Renderer:
                     item = next(queue, None)
                 if item is None:
                     return
-                launch(k, *item)
-                if on_band:
-                    if self.cuda:  # a CUDA launch returns at once: progress counts finished work
-                        wp.synchronize_device(self.device)
-                    with lock:
-                        on_band(item[1])
+                p, end = item[0], item[0] + item[1]
+                while p < end:  # pixels p .. p + m - 1, through the samples in launches of n
+                    m = min(end - p, max(1, self._units(unit_rays) // (s1 - s0)))
+                    s = s0
+                    while s < s1:
+                        if stopped.is_set():
+                            return
+                        n = min(s1 - s, max(1, self._units(unit_rays) // m))
+                        timed(k, p, m, s, s + n)
+                        s += n
+                    p += m
 
         if self.threads == 1:
             worker(0)
         else:
             pool = thread_pool(self.threads)
-            for f in [pool.submit(worker, k) for k in range(self.threads)]:
-                f.result()
+            futures = [pool.submit(worker, k) for k in range(self.threads)]
+            errors = [e for e in (f.exception() for f in futures) if e is not None]  # waits for every thread
+            if errors:
+                raise errors[0]
         wp.synchronize_device(self.device)
 
     def add_samples(self, s0: int, s1: int, on_band: Callable[[int], None] | None = None) -> None:
         """Trace samples s0..s1-1 of every pixel."""
 
-        def launch(k: int, p0: int, n: int) -> None:
+        def launch(k: int, p0: int, n: int, a: int, b: int) -> None:
             wp.launch(
                 self.render_pixels,
                 dim=n,
                 device=self.device,
-                inputs=[self.cs.data, p0, s0, s1, self.stacks[k], self.dummy, self.film],
+                inputs=[self.cs.data, p0, a, b, self.stacks[k], self.dummy, self.film],
             )
 
-        self._run(launch, on_band)
+        self._run(launch, on_band, (s0, s1), self.sample_rays)
         self.samples_done = s1
 
     def adaptive_pass(self, level: int, on_band: Callable[[int], None] | None = None) -> None:
@@ -292,12 +347,13 @@ class Renderer:
         keep.prev, keep.prev_slot = (old.colours, old.slots_wp) if old else (self.no_colours, self.no_slots)
         keep.next, keep.next_slot = (new.colours, new.slots_wp) if new else (self.no_colours, self.no_slots)
 
-        def launch(k: int, p0: int, n: int) -> None:
+        def launch(k: int, p0: int, n: int, a: int, b: int) -> None:
             inputs = [self.cs.data, p0, level, self.stacks[k], self.dummy, self.film, self.caches[k], self.done, keep]
             wp.launch(self.render_adaptive, dim=n, device=self.device, inputs=inputs)
 
         self.kept = None  # the colours of the pass before are freed once this pass has read them
-        self._run(launch, on_band)
+        self.pace = 0.0  # a deeper level costs more a pixel: timed afresh
+        self._run(launch, on_band, unit_rays=self.sample_rays * adaptive.kept_points(level))
         self.kept = new
         self.samples_done = 1
 
@@ -415,9 +471,10 @@ def render(
     """Render a scene progressively; with the radiosity integrator, solve its radiosity first (or read
     it from `radiosity_cache`).
 
-    `progress` is called after each shot of the solve (phase "radiosity") and after each band of
-    rows, `on_pass` after each pass with the running image, `cancel` before each shot and each pass:
-    when it returns True the render stops and the result holds the samples finished so far
+    `progress` is called after each shot of the solve (phase "radiosity") and after each launch (a band
+    of pixels, or a piece of one: see the module's docstring), `on_pass` after each pass with the running
+    image, `cancel` before each shot and each pass: when it returns True the render stops and the result
+    holds the samples finished so far
     (`cancelled` = True; none if the solve was not finished). `resume`: a snapshot taken after a pass
     of this scene's render (`PassResult.snapshot()`): the render goes on from there, and ends with
     exactly the image of an uninterrupted one. `device`: Warp's device ("cpu", "cuda:0"; a compiled
@@ -452,9 +509,9 @@ def render(
             rays["total"] = sum(rays.values())
         return rays
 
-    def on_band(n_pixels: int) -> None:
+    def on_band(units: int) -> None:  # pixel samples (adaptive: pixels of this pass's level)
         nonlocal done
-        done += n_pixels * (s1 - s0)
+        done += units
         if progress:
             progress(Progress(done, total, passes, time.perf_counter() - start))
 

@@ -149,6 +149,7 @@ class SceneData:
     integrator: int  # Integrator (tracer/kinds.py)
     max_depth: int  # bounces; 1 = ray casting
     min_weight: float
+    max_tree_rays: int  # eye, reflection and transmission rays of one pixel sample's tree, at most (limits.py)
     light_samples: int
     width: int
     height: int

@@ -47,7 +47,7 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
     return {
         "text": json.dumps(data), "warnings": warnings, "name": scene.name, "width": scene.film.width,
         "height": scene.film.height, "spp": scene.sampler.spp, "integrator": scene.render.integrator,
-        "seconds": estimate.seconds(scene, threads, assets, solve), "solve_seconds": solve,
+        "seconds": estimate.seconds(scene, threads, assets, solve, limits), "solve_seconds": solve,
     }  # fmt: skip
 
 

@@ -10,8 +10,10 @@ radiosity job's solution.
 
 A try stops early when its channel says the job is cancelled or no longer this try's, when it runs
 past its time limit, or when its host shuts down (the job goes back to the queue). The check runs
-before each pass and, between passes, after each band of rows, so a long pass is cut short too:
-the band callback raises `Stopped`, and the image of the last finished pass is the one kept.
+before each pass and, during a pass, after each launch (tracer/render.py cuts a pass into launches of
+about a quarter of a second, none past a bound on its rays), so a long pass is cut short too, within
+about a second: the band callback raises `Stopped`, and the image of the last finished pass is the one
+kept. A ray tree is one launch of one sample, whose rays the scene's bound on a tree keeps few.
 """
 
 from __future__ import annotations

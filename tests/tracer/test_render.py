@@ -301,3 +301,52 @@ def test_render_stop_and_resume_from_a_snapshot():
     later.add_samples(3, 16)
     assert np.array_equal(later.image(), whole.image)
     assert later.rays() == whole.rays
+
+
+def test_render_a_long_pass_is_cut_into_launches_a_cancel_can_stop_between(monkeypatch):
+    """A launch cannot be stopped, so none may be long: the mirror box of issue 24 (each sample up to 2048 rays)
+    at 16 x 16 is launched 16 pixels at a time when a launch may trace 16 samples' worth, with progress after
+    each; the band callback's exception stops the render after the launch it follows."""
+    import json
+
+    from conftest import ROOT
+
+    import tracer.render as render_module
+
+    box = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
+    cs = compile_scene(load_scene(small(box, 16, 16))[0])
+    monkeypatch.setattr(render_module, "LAUNCH_RAYS", 2048 * 16)
+    monkeypatch.setattr(render_module, "LAUNCH_SECONDS", 1e9)  # cut by the bound on rays alone
+    seen = []
+    render(cs, threads=1, progress=lambda p: seen.append(p.samples_done))
+    assert seen == [16 * k for k in range(1, 17)]
+
+    class Stop(Exception):
+        pass
+
+    def stop(p):
+        seen.append(p.samples_done)
+        raise Stop
+
+    seen.clear()
+    for threads in (1, 2):
+        with pytest.raises(Stop):
+            render(cs, threads=threads, progress=stop, band=64)  # two threads: a band of 64 pixels each
+    assert seen == [16, 16]  # one launch's progress each time: the other thread stopped before its next
+
+
+@pytest.mark.parametrize("name", ["whitted", "antialias_adaptive"])
+def test_render_bit_identical_for_any_cut_of_a_pass_into_launches(name, monkeypatch):
+    """Launches of a few pixels, or of a few of a pixel's samples, one pixel after the other: the same
+    image, the same rays, bit for bit, as whole bands."""
+    import tracer.render as render_module
+
+    sampler = {} if name == "antialias_adaptive" else {"sampler": {"type": "jittered", "spp": 9}}
+    cs = compile_scene(load_scene(small(scene_dict(name), 40, 30, **sampler))[0])
+    whole = render(cs, threads=2)
+    most = Renderer(cs).sample_rays * (adaptive.kept_points(cs.data.max_level) if name == "antialias_adaptive" else 1)
+    for units in (1, 4, 7):  # 7 units of 9 samples: one pixel, 7 samples then 2
+        monkeypatch.setattr(render_module, "LAUNCH_RAYS", most * units)
+        for threads in (1, 2):
+            cut = render(cs, threads=threads)
+            assert np.array_equal(cut.image, whole.image) and cut.rays == whole.rays

@@ -9,6 +9,11 @@ while depth + 1 <= max_depth and the branch weight stays >= min_weight. The pixe
 the sum over the tree of (weight x local term); fog, when on, mixes in its colour with
 transmittance e^(-density t) along each ray.
 
+Where a material both reflects and transmits, the tree can double with each level (a glass ball in a
+box of mirrors, max_depth 64, min_weight 0: nothing else ends it), so a sample's tree has at most
+`max_tree_rays` eye, reflection and transmission rays (tracer/limits.py): a child wanted past them is
+not traced (end reason END_MAX_TREE_RAYS), depth first, so the same rays in the image and the tree.
+
 With a stochastic sampler, a lens, a shutter, area lights and `gloss`, the same tree is
 distribution ray tracing (Cook, Porter & Carpenter 1984): every ray carries a time, shadow
 rays sample the area of the lights (penumbrae), and glossy rays are drawn from a cos^m lobe.
@@ -45,6 +50,7 @@ from tracer.integrators.record import (
 from tracer.kinds import (
     END_ABSORBED,
     END_MAX_DEPTH,
+    END_MAX_TREE_RAYS,
     END_MIN_WEIGHT,
     END_NONE,
     END_TIR,
@@ -123,6 +129,7 @@ def trace(
     state = wp.uint32(rng)
     one = wp.vec3(1.0)
     sp = push(st, row, 0, o, d, one, one, one, 1, RAY_EYE, -1)
+    rays = int(1)  # tree rays pushed so far (traced or pending): at most scene.max_tree_rays
     while sp > 0:
         sp -= 1
         ro = st.o[row, sp]
@@ -179,17 +186,28 @@ def trace(
             go_r = max3(wr) > 0.0 and max3(wr) >= scene.min_weight
             go_t = max3(wt) > 0.0 and max3(wt) >= scene.min_weight
             child_tau = tau * fog_t
+            cut = int(0)  # a wanted child left untraced: the tree has its max_tree_rays rays
             if go_t:
                 # frosted glass: a direction from the cos^m lobe about the refracted one, kept inside
                 gdir = glossy_direction(tdir, m.gloss, wp.randf(state), wp.randf(state))
-                if wp.dot(gdir, s.nf) < 0.0 or m.gloss <= 0.0:
+                inside = wp.dot(gdir, s.nf) < 0.0 or m.gloss <= 0.0
+                if inside and rays >= scene.max_tree_rays:
+                    cut = 1
+                elif inside:
                     sp = push_child(st, row, sp, h.p, s.nf, gdir, kt, w, child_tau, depth + 1, RAY_TRANSMISSION, node)
+                    rays += 1
             if go_r:
                 rdir = wp.normalize(reflect(rd, s.n))
                 gdir = glossy_direction(rdir, m.gloss, wp.randf(state), wp.randf(state))
-                if wp.dot(gdir, s.nf) > 0.0 or m.gloss <= 0.0:
+                outside = wp.dot(gdir, s.nf) > 0.0 or m.gloss <= 0.0
+                if outside and rays >= scene.max_tree_rays:
+                    cut = 1
+                elif outside:
                     sp = push_child(st, row, sp, h.p, s.nf, gdir, kr, w, child_tau, depth + 1, RAY_REFLECTION, node)
-            if (max3(wr) > 0.0 or max3(wt) > 0.0) and not go_r and not go_t:
+                    rays += 1
+            if cut != 0:
+                end = END_MAX_TREE_RAYS
+            elif (max3(wr) > 0.0 or max3(wt) > 0.0) and not go_r and not go_t:
                 end = END_MIN_WEIGHT
             elif tir != 0:
                 end = END_TIR

@@ -29,13 +29,14 @@ export const END_WORDS = {
   tir: "total internal reflection: no transmission ray",
   light: "reached the light",
   absorbed: "absorbed: kr = kt = 0 here, no reflection or transmission ray",
+  max_tree_rays: "max tree rays: a reflection or transmission ray was wanted, but the sample had traced its max_tree_rays eye, reflection and transmission rays",
 };
 
 /** Why a node ended, in words (shadow rays that were blocked read "blocked"). */
 export function endWords(node, short = false) {
   if (!node.end) return short ? "" : "—";
   if (node.kind === "shadow" && node.end === "absorbed") return short ? "blocked" : "blocked before the light";
-  if (short) return { max_depth: "max depth", min_weight: "min weight", tir: "total internal refl.", light: "reached light" }[node.end] || node.end;
+  if (short) return { max_depth: "max depth", max_tree_rays: "max tree rays", min_weight: "min weight", tir: "total internal refl.", light: "reached light" }[node.end] || node.end;
   return END_WORDS[node.end] || node.end;
 }
 

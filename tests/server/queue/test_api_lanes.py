@@ -5,12 +5,13 @@ worker died. Each with its own app and real worker processes."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
+from conftest import ROOT, scene_dict, small
 from test_api_support import api_client, exr_of, submit, wait_for, wait_status
 
 from tracer.render import render
@@ -99,5 +100,16 @@ def test_api_lanes_a_long_render_goes_to_the_batch_lane_by_its_estimate(client, 
     settings.interactive_seconds = 1.0
     r = client.post("/api/jobs", json={"scene": long_job(spp)})
     assert r.status_code == 202 and r.json()["lane"] == "batch" and r.json()["estimate"] > 1.0
+    client.delete(f"/api/jobs/{r.json()['id']}")
+    wait_for(lambda: job(client, r.json()["id"])["finished"], 30, "the cancel")
+
+
+def test_api_lanes_a_render_of_an_exploding_ray_tree_goes_to_the_batch_lane(client, settings):
+    """Issue 24: a glass ball in a box of mirrors (max_depth 64, min_weight 0) was estimated as a trivial job,
+    each sample's tree counted as a few rays; it is counted at the tree's bound (TRACER_MAX_TREE_RAYS)."""
+    box = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
+    settings.interactive_seconds = 20.0
+    r = client.post("/api/jobs", json={"scene": small(box, 256, 256, sampler={"type": "jittered", "spp": 16})})
+    assert r.status_code == 202 and r.json()["lane"] == "batch" and r.json()["estimate"] > 20.0
     client.delete(f"/api/jobs/{r.json()['id']}")
     wait_for(lambda: job(client, r.json()["id"])["finished"], 30, "the cancel")
