@@ -124,6 +124,13 @@ def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]
     return out or [{"path": "", "message": "invalid request"}]
 
 
+def not_text(exc: UnicodeDecodeError) -> str:
+    """The message of a JSON body that is not UTF-8: the first byte that is not, by its offset in the body."""
+    where = f"byte 0x{exc.object[exc.start]:02x} at offset {exc.start}" if exc.start < len(exc.object) else "its end"
+    encoding = "UTF-8" if exc.encoding.replace("-", "").lower() == "utf8" else exc.encoding.upper()
+    return f"the body is not {encoding} text: {where} ({exc.reason}); JSON must be sent as UTF-8"
+
+
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(ApiError)
     async def api_error(request: Request, exc: ApiError):
@@ -137,7 +144,11 @@ def install_error_handlers(app: FastAPI) -> None:
     async def http_errors(request: Request, exc: StarletteHTTPException):
         detail = exc.detail if isinstance(exc.detail, str) else json.dumps(sanitise(exc.detail))
         if exc.status_code == 400 and detail == "There was an error parsing the body":
-            detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
+            cause = exc.__cause__  # what json.loads raised (FastAPI's `raise ... from`)
+            if isinstance(cause, UnicodeDecodeError):
+                detail = not_text(cause)
+            else:
+                detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
         return errors_response(exc.status_code, [{"path": "", "message": detail}], getattr(exc, "headers", None))
 
     @app.exception_handler(OSError)
