@@ -232,6 +232,12 @@ def _ask_to_stop(signum, frame) -> None:
     STOP.set()
 
 
+def _outside_rq() -> None:
+    """This host's signal handlers, outside RQ's loop (which has its own: HostWorker.request_stop)."""
+    signal.signal(signal.SIGTERM, _ask_to_stop)
+    signal.signal(signal.SIGINT, _ask_to_stop)
+
+
 class HostWorker(Worker):
     """RQ's forking worker, with heartbeats every `lost_after / 4` s that expire after `lost_after` s (RQ's
     own grace is a minute), this host's description in Redis, and a graceful stop that gives the try in
@@ -384,17 +390,25 @@ def main(argv: list[str] | None = None) -> int:
     load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
     how = "in this process" if worker_class is InProcessWorker else "in forked work horses"
     log.info("worker host %s: kernels ready on %s, %d thread(s), tries %s", HOST["name"], device, HOST["threads"], how)
-    pause, worker = 1.0, None
+    pause, worker, stale = 1.0, None, None
+    _outside_rq()
     while not STOP():
-        signal.signal(signal.SIGTERM, _ask_to_stop)  # RQ's loop has its own (HostWorker.request_stop)
-        signal.signal(signal.SIGINT, _ask_to_stop)
         try:
+            if stale is not None:  # a worker whose connection was lost: its death first, or the next is refused
+                stale.register_death()
+                stale = None
             r = _redis(args.redis)
             lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
             queues = [Queue(name, connection=r) for name in args.queues]
             worker = worker_class(queues, connection=r, name=HOST["name"], lost_after=lost_after)
-            worker.work(logging_level="INFO", with_scheduler=False)
+            stale = worker  # until its loop ends as it should
+            try:
+                worker.work(logging_level="INFO", with_scheduler=False)
+            finally:
+                _outside_rq()
+            stale = None
             if not STOP() and not worker._stop_requested:  # RQ quits its loop on a lost connection
+                stale = worker
                 log.warning("worker host %s: lost Redis; retrying in %.0f s", HOST["name"], pause)
                 STOP.wait(pause)
                 pause = min(10.0, pause * 2)
@@ -405,7 +419,7 @@ def main(argv: list[str] | None = None) -> int:
                 log.warning("worker host %s: Redis unreachable (%s); retrying in %.0f s", HOST["name"], exc, pause)
                 STOP.wait(pause)
                 pause = min(10.0, pause * 2)
-        except (KeyboardInterrupt, SystemExit):
+        except (KeyboardInterrupt, SystemExit, StopRequested):  # (RQ's handler, outside its loop's own catch)
             STOP.set()
     if worker is not None and worker.horse_pid:  # RQ's loop ended without its horse (Redis lost mid-try)
         _end_horse(worker.horse_pid)
