@@ -42,6 +42,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+HELPERS: list[subprocess.Popen] = []  # redis-server and worker hosts of a --redis run, stopped at its end
 SCENES = ROOT / "scenes"
 
 
@@ -83,11 +84,17 @@ class Api:
         self.conn.close()
 
 
-def start_server(data_dir: Path, workers: int) -> tuple[subprocess.Popen, int]:
+def start_server(data_dir: Path, workers: int, redis_url: str | None = None) -> tuple[subprocess.Popen, int]:
+    """`python -m server` (with `redis_url`: the API alone, its `workers` worker hosts started beside it)."""
     port = free_port()
-    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir), "--workers", str(workers)]
+    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir)]
+    cmd += ["--workers", "0", "--redis", redis_url] if redis_url else ["--workers", str(workers)]
     log = open(data_dir.parent / "server.log", "wb")  # noqa: SIM115 (lives as long as the server)
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+    if redis_url:
+        for k in range(workers):
+            host = [sys.executable, "-m", "server.worker", "--redis", redis_url, "--name", f"bench-{k}"]
+            HELPERS.append(subprocess.Popen(host, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT))
     deadline = time.monotonic() + 180
     while True:
         if proc.poll() is not None:
@@ -369,6 +376,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--validate-only", action="store_true", help="only the validations of 25 000 spheres")
     p.add_argument("--streams", help="only open event streams while rendering: their numbers, e.g. 50,100,200,500")
     p.add_argument("--seconds", type=float, default=20.0, help="seconds of GETs for each number of streams")
+    p.add_argument("--redis", action="store_true", help="the Redis backend: a redis-server and worker hosts here")
     args = p.parse_args(argv)
 
     cornell = json.loads((SCENES / "cornell.json").read_text())
@@ -383,8 +391,20 @@ def main(argv: list[str] | None = None) -> dict:
     }
     with tempfile.TemporaryDirectory(prefix="bench-service-") as tmp:
         data = Path(tmp) / "data"
+        redis_url = None
+        if args.redis:
+            redis_port = free_port()
+            argv = ["redis-server", "--port", str(redis_port), "--bind", "127.0.0.1", "--save", ""]
+            HELPERS.append(subprocess.Popen([*argv, "--appendonly", "no"], stdout=subprocess.DEVNULL))
+            for _ in range(100):  # until it listens
+                with socket.socket() as probe:
+                    if probe.connect_ex(("127.0.0.1", redis_port)) == 0:
+                        break
+                time.sleep(0.1)
+            redis_url = f"redis://127.0.0.1:{redis_port}/0"
+            results["backend"] = "redis"
         t_start = time.perf_counter()
-        proc, port = start_server(data, args.workers)
+        proc, port = start_server(data, args.workers, redis_url)
         results["server_start_s"] = time.perf_counter() - t_start
         try:
             api = Api(port)
@@ -439,6 +459,9 @@ def main(argv: list[str] | None = None) -> dict:
         finally:
             proc.terminate()
             proc.wait(timeout=30)
+            for helper in reversed(HELPERS):
+                helper.terminate()
+                helper.wait(timeout=30)
 
     return _finish(results, args)
 

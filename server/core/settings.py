@@ -175,7 +175,7 @@ class Settings(SceneLimits):
         30.0, gt=0, description="seconds a JSON body may take in all, and any body between two of its chunks: 408"
     )
     max_connections: int = Field(
-        1000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
+        2000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
     )
     body_budget_bytes: ByteSize = Field(
         64_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
