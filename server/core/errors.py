@@ -321,12 +321,13 @@ class RequestGate:
             if not await self.budget.take(share):
                 await self._busy()(scope, receive, send)
                 return
+        held = [share]  # the shares this request holds (a body of unknown size takes one as it grows)
         try:
-            await self._gated(scope, receive, send, share)
+            await self._gated(scope, receive, send, held)
         finally:
-            self.budget.give_back(share)
+            self.budget.give_back(sum(held))
 
-    async def _gated(self, scope: Scope, receive: Receive, send: Send, share: int) -> None:
+    async def _gated(self, scope: Scope, receive: Receive, send: Send, held: list[int]) -> None:
         """Read the whole body (it is bounded, in size and in time), then check it and replay it to the app."""
         chunks, size = [], 0
         with anyio.move_on_after(self.body_timeout) as reading:
@@ -339,12 +340,11 @@ class RequestGate:
                 if size > self.max_bytes:
                     await self._too_large()(scope, receive, send)
                     return
-                if size >= THREAD_FROM and not share:  # a large body of unknown size (chunked)
-                    share = self.max_bytes
-                    if not await self.budget.take(share):
-                        share = 0
+                if size >= THREAD_FROM and not any(held):  # a large body of unknown size (chunked)
+                    if not await self.budget.take(self.max_bytes):
                         await self._busy()(scope, receive, send)
                         return
+                    held.append(self.max_bytes)
                 chunks.append(chunk)
                 if not message.get("more_body", False):
                     break

@@ -76,7 +76,8 @@ def test_slow_clients_headers_and_bodies_that_never_end_are_closed(tmp_path):
 def test_slow_clients_large_bodies_share_a_budget_that_small_ones_pass(tmp_path):
     """A budget of 300 kB for large bodies (64 KB or more), and half a second's wait for it: while one
     client's 200 kB body is held (stalled half way), another's is answered 503 with Retry-After; a small
-    request is served meanwhile; once the first body is complete and answered, a large one is taken again."""
+    request is served meanwhile; once the first body is complete and answered, a large one is taken again,
+    and so is one after a chunked body (of unknown size) was answered."""
     env = {"TRACER_BODY_BUDGET_BYTES": "300000", "TRACER_BODY_BUDGET_WAIT": "0.5", "TRACER_BODY_TIMEOUT": "60"}
     pad = "x" * 200_000
     body = json.dumps({"scene": tiny_scene(), "pad": pad}).encode()
@@ -96,3 +97,12 @@ def test_slow_clients_large_bodies_share_a_budget_that_small_ones_pass(tmp_path)
         again = connect(server, stack)
         again.sendall(request + body)
         assert answer(again)[0] == 422
+        chunked = connect(server, stack)  # of unknown size: it takes the most a body may be, and gives it back
+        chunks = b"".join(
+            b"%x\r\n%s\r\n" % (len(body[k : k + 50_000]), body[k : k + 50_000]) for k in range(0, len(body), 50_000)
+        )
+        chunked.sendall(f"{HEAD}Transfer-Encoding: chunked\r\n\r\n".encode() + chunks + b"0\r\n\r\n")
+        assert answer(chunked)[0] == 422
+        last = connect(server, stack)
+        last.sendall(request + body)
+        assert answer(last)[0] == 422
