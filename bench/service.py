@@ -20,7 +20,8 @@ one job rendered), then measures
 worker busy, N clients each hold GET /api/jobs/{id}/events open on a running render (read by one thread
 of this process, so that the server never waits on them); meanwhile one more client reads
 GET /api/jobs/{id} and /api/health in a loop: their p50 and p99, and the CPU the API process used
-(seconds of CPU per second: 1.0 is one core), for each N in turn.
+(seconds of CPU per second: 1.0 is one core), for each N in turn. `--redis` runs it on the Redis backend:
+a redis-server, the API alone and `--workers` worker hosts (niced, as the embedded workers are), all here.
 """
 
 from __future__ import annotations
