@@ -178,7 +178,7 @@ class Settings(SceneLimits):
         2000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
     )
     body_budget_bytes: ByteSize = Field(
-        64_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
+        32_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
     )
     body_budget_wait: Duration = Field(
         2.0, ge=0, description="seconds a large body waits for the budget before its request is answered 503"
