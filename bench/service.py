@@ -15,6 +15,13 @@ one job rendered), then measures
    latency of each click and each validation.
 
 `--validate-only` runs the last measure alone (after the warm-up and one finished job to GET).
+
+`--streams 50,100,200,500` measures open event streams instead (issue #24): while long renders keep the
+worker busy, N clients each hold GET /api/jobs/{id}/events open on a running render (read by one thread
+of this process, so that the server never waits on them); meanwhile one more client reads
+GET /api/jobs/{id} and /api/health in a loop: their p50 and p99, and the CPU the API process used
+(seconds of CPU per second: 1.0 is one core), for each N in turn. `--redis` runs it on the Redis backend:
+a redis-server, the API alone and `--workers` worker hosts (niced, as the embedded workers are), all here.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import json
 import math
 import os
 import platform
+import selectors
 import socket
 import statistics
 import subprocess
@@ -35,6 +43,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+HELPERS: list[subprocess.Popen] = []  # redis-server and worker hosts of a --redis run, stopped at its end
 SCENES = ROOT / "scenes"
 
 
@@ -76,11 +85,18 @@ class Api:
         self.conn.close()
 
 
-def start_server(data_dir: Path, workers: int) -> tuple[subprocess.Popen, int]:
+def start_server(data_dir: Path, workers: int, redis_url: str | None = None) -> tuple[subprocess.Popen, int]:
+    """`python -m server` (with `redis_url`: the API alone, its `workers` worker hosts started beside it)."""
     port = free_port()
-    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir), "--workers", str(workers)]
+    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir)]
+    cmd += ["--workers", "0", "--redis", redis_url] if redis_url else ["--workers", str(workers)]
     log = open(data_dir.parent / "server.log", "wb")  # noqa: SIM115 (lives as long as the server)
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
+    if redis_url:
+        for k in range(workers):
+            # niced as the embedded backend's workers are: here they share the API's cores, not machines of their own
+            host = ["nice", "-n", "10", sys.executable, "-m", "server.worker", "--redis", redis_url, "--name", f"b{k}"]
+            HELPERS.append(subprocess.Popen(host, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT))
     deadline = time.monotonic() + 180
     while True:
         if proc.poll() is not None:
@@ -281,6 +297,78 @@ def validate_load(port: int, probe: str, clients: int = 4, rounds: int = 5, sphe
     }  # fmt: skip
 
 
+def cpu_seconds(pid: int) -> float:
+    """The CPU time (user + system) a process has used, from /proc."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+class Streams:
+    """N event streams held open (raw sockets, read and dropped by one thread): GET /api/jobs/{id}/events."""
+
+    def __init__(self, port: int, job_ids: list[str], n: int):
+        self.selector, self.socks, self.opened, self.bytes = selectors.DefaultSelector(), [], 0, 0
+        self.stop = threading.Event()
+        for k in range(n):
+            s = socket.create_connection(("127.0.0.1", port))
+            path = f"/api/jobs/{job_ids[k % len(job_ids)]}/events"
+            s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nAccept: text/event-stream\r\n\r\n".encode())
+            s.setblocking(False)
+            self.selector.register(s, selectors.EVENT_READ, {"head": b""})
+            self.socks.append(s)
+        self.reader = threading.Thread(target=self._read, daemon=True)
+        self.reader.start()
+
+    def _read(self) -> None:
+        while not self.stop.is_set():
+            for key, _ in self.selector.select(timeout=0.2):
+                try:
+                    data = key.fileobj.recv(65536)
+                except BlockingIOError:
+                    continue
+                if not data:
+                    self.selector.unregister(key.fileobj)
+                    continue
+                self.bytes += len(data)
+                if key.data["head"] is not None:
+                    key.data["head"] += data
+                    if key.data["head"].startswith(b"HTTP/1.1 200"):
+                        self.opened += 1
+                        key.data["head"] = None
+
+    def close(self) -> None:
+        self.stop.set()
+        self.reader.join()
+        for s in self.socks:
+            s.close()
+
+
+def stream_load(port: int, pid: int, probe: str, job_ids: list[str], n: int, seconds: float = 20.0) -> dict:
+    """`n` open event streams on the running renders `job_ids`; for `seconds`, one client alternates
+    GET /api/jobs/{probe} and GET /api/health: their latencies, and the API process's CPU meanwhile."""
+    streams = Streams(port, job_ids, n)
+    deadline = time.monotonic() + 30
+    while streams.opened < n and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # the streams settled
+    api, gets, healths = Api(port), [], []
+    cpu0, t0 = cpu_seconds(pid), time.monotonic()
+    while time.monotonic() - t0 < seconds:
+        for path, out in ((f"/api/jobs/{probe}", gets), ("/api/health", healths)):
+            t = time.perf_counter()
+            status, _ = api.call("GET", path)
+            out.append((time.perf_counter() - t) * 1000)
+            assert status == 200, (path, status)
+        time.sleep(0.01)
+    cores = (cpu_seconds(pid) - cpu0) / (time.monotonic() - t0)
+    api.close()
+    opened, received = streams.opened, streams.bytes
+    streams.close()
+    load = Path("/proc/loadavg").read_text().strip()
+    return {"streams": n, "opened": opened, "bytes": received, "get_ms": percentiles(gets),
+            "health_ms": percentiles(healths), "api_cores": cores, "load": load}  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="bench.service", description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", type=int, default=5, help="submissions per first-preview measurement")
@@ -288,6 +376,9 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--validate-only", action="store_true", help="only the validations of 25 000 spheres")
+    p.add_argument("--streams", help="only open event streams while rendering: their numbers, e.g. 50,100,200,500")
+    p.add_argument("--seconds", type=float, default=20.0, help="seconds of GETs for each number of streams")
+    p.add_argument("--redis", action="store_true", help="the Redis backend: a redis-server and worker hosts here")
     args = p.parse_args(argv)
 
     cornell = json.loads((SCENES / "cornell.json").read_text())
@@ -302,8 +393,20 @@ def main(argv: list[str] | None = None) -> dict:
     }
     with tempfile.TemporaryDirectory(prefix="bench-service-") as tmp:
         data = Path(tmp) / "data"
+        redis_url = None
+        if args.redis:
+            redis_port = free_port()
+            argv = ["redis-server", "--port", str(redis_port), "--bind", "127.0.0.1", "--save", ""]
+            HELPERS.append(subprocess.Popen([*argv, "--appendonly", "no"], stdout=subprocess.DEVNULL))
+            for _ in range(100):  # until it listens
+                with socket.socket() as probe:
+                    if probe.connect_ex(("127.0.0.1", redis_port)) == 0:
+                        break
+                time.sleep(0.1)
+            redis_url = f"redis://127.0.0.1:{redis_port}/0"
+            results["backend"] = "redis"
         t_start = time.perf_counter()
-        proc, port = start_server(data, args.workers)
+        proc, port = start_server(data, args.workers, redis_url)
         results["server_start_s"] = time.perf_counter() - t_start
         try:
             api = Api(port)
@@ -311,6 +414,22 @@ def main(argv: list[str] | None = None) -> dict:
             wait_done(api, warm)  # warm: one job rendered
             if args.validate_only:
                 results["validate_load"] = validate_load(port, warm)
+                api.close()
+                return _finish(results, args)
+            if args.streams:
+                renders = [api.json("POST", "/api/jobs", {"scene": long})["id"] for _ in range(args.workers + 1)]
+                while api.json("GET", "/api/health")["jobs"]["running"] < args.workers:
+                    time.sleep(0.05)
+                running = [j for j in renders if api.json("GET", f"/api/jobs/{j}")["status"] == "running"]
+                followed = renders  # a running render's stream, and a queued one's: both are followed
+                results["stream_load"] = [
+                    stream_load(port, proc.pid, warm, followed, int(n), args.seconds) for n in args.streams.split(",")
+                ]
+                results["still_rendering"] = all(
+                    api.json("GET", f"/api/jobs/{j}")["status"] == "running" for j in running
+                )
+                for job_id in renders:
+                    api.call("DELETE", f"/api/jobs/{job_id}")
                 api.close()
                 return _finish(results, args)
 
@@ -342,6 +461,9 @@ def main(argv: list[str] | None = None) -> dict:
         finally:
             proc.terminate()
             proc.wait(timeout=30)
+            for helper in reversed(HELPERS):
+                helper.terminate()
+                helper.wait(timeout=30)
 
     return _finish(results, args)
 
@@ -366,6 +488,14 @@ def report(r: dict) -> None:
 
     print(f"machine: {r['machine']}")
     print(f"server start (kernels cached) until workers ready: {r['server_start_s']:.2f} s")
+    for load in r.get("stream_load", []):  # --streams
+        print(f"{load['streams']} event streams open ({load['opened']} answered, {load['bytes']} bytes of events), "
+              f"API {load['api_cores']:.2f} cores, load {load['load']}")  # fmt: skip
+        print(f"  GET /api/jobs/{{id}}: {lat(load['get_ms'])}")
+        print(f"  GET /api/health:    {lat(load['health_ms'])}")
+    if "stream_load" in r:
+        print(f"renders still running at the end: {r['still_rendering']}")
+        return
     if "first_preview_event_s" not in r:  # --validate-only
         _report_validations(r["validate_load"], lat)
         return

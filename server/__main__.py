@@ -5,13 +5,18 @@ from __future__ import annotations
 import argparse
 import logging
 
+import h11
 import uvicorn
+from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from server.core.settings import load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.main import create_app, lock_data_dir
 
 GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
+HEADER_BYTES = 16384  # a request's line and headers, at most (h11's own default, said here): 400 past it
+log = logging.getLogger("server")
+TIMED_OUT = b"HTTP/1.1 408 Request Timeout\r\ncontent-length: 0\r\nconnection: close\r\n\r\n"
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -36,7 +41,6 @@ def main(argv: list[str] | None = None) -> None:
     except (FileNotFoundError, ValueError) as exc:  # pydantic's ValidationError is a ValueError
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    log = logging.getLogger("server")
     try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed
         check_data_dir(settings.data_dir)
         lock = lock_data_dir(settings.data_dir)
@@ -55,8 +59,10 @@ def main(argv: list[str] | None = None) -> None:
     app = create_app(settings)
     app.state.data_lock = lock
     config = uvicorn.Config(
-        app, host=settings.host, port=settings.port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SECONDS
-    )
+        app, host=settings.host, port=settings.port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SECONDS,
+        http=deadline_protocol(settings.header_timeout, settings.body_timeout),
+        limit_concurrency=settings.max_connections, h11_max_incomplete_event_size=HEADER_BYTES,
+    )  # fmt: skip
     server = StoppingServer(config, app.state.stopping)
     try:
         server.run()
@@ -64,6 +70,73 @@ def main(argv: list[str] | None = None) -> None:
         pass
     if not server.started:
         raise SystemExit(3)  # uvicorn's own status when the app cannot start (the port taken, ...)
+
+
+class DeadlineProtocol(H11Protocol):
+    """uvicorn's HTTP/1.1 protocol (h11) with deadlines, so that a slow client cannot hold a connection: a
+    request's headers must have arrived `header_seconds` after the connection opened or its previous answer
+    ended (uvicorn waits for them for ever), and its body may pause at most `body_seconds` between two
+    chunks. Past either the connection is closed, with a 408 when nothing was answered on it yet. (The
+    whole of a JSON body has its own deadline in the request gate, server/core/errors.py.)"""
+
+    header_seconds = 10.0
+    body_seconds = 30.0
+
+    def connection_made(self, transport) -> None:
+        super().connection_made(transport)
+        self.deadline, self.waiting_for = None, None
+        self._arm()
+
+    def data_received(self, data: bytes) -> None:
+        if self.waiting_for == "body":
+            self._arm(again=True)  # the body moved: its pause starts again
+        super().data_received(data)
+        self._arm()
+
+    def on_response_complete(self) -> None:
+        super().on_response_complete()
+        self._arm()
+
+    def connection_lost(self, exc) -> None:
+        self._disarm()
+        super().connection_lost(exc)
+
+    def _arm(self, again: bool = False) -> None:
+        """The deadline of what the connection waits for now: headers (h11's IDLE: between requests, or
+        before the first) or body (SEND_BODY); none while the app works or answers."""
+        state = self.conn.their_state
+        waiting_for = "headers" if state is h11.IDLE else "body" if state is h11.SEND_BODY else None
+        if waiting_for == self.waiting_for and not again:
+            return
+        self._disarm()
+        self.waiting_for = waiting_for
+        if waiting_for is not None and not self.transport.is_closing():
+            seconds = self.header_seconds if waiting_for == "headers" else self.body_seconds
+            self.deadline = self.loop.call_later(seconds, self._expired, waiting_for)
+
+    def _disarm(self) -> None:
+        if self.deadline is not None:
+            self.deadline.cancel()
+            self.deadline = None
+
+    def _expired(self, waiting_for: str) -> None:
+        self.deadline = None
+        if self.transport.is_closing():
+            return
+        partial = self.conn.trailing_data[0] if waiting_for == "headers" else self.conn.our_state is h11.SEND_RESPONSE
+        if partial:  # a request begun and not answered (a connection that sent nothing is closed without a word)
+            self.transport.write(TIMED_OUT)
+        log.info("%s: connection closed, the request's %s took too long", self.client, waiting_for)
+        if self.cycle is not None and not self.cycle.response_complete:
+            self.cycle.disconnected = True
+            self.cycle.message_event.set()  # the app's receive() answers http.disconnect
+        self.transport.close()
+
+
+def deadline_protocol(header_seconds: float, body_seconds: float) -> type[DeadlineProtocol]:
+    """DeadlineProtocol with these deadlines (uvicorn makes one protocol object per connection from a class)."""
+    seconds = {"header_seconds": header_seconds, "body_seconds": body_seconds}
+    return type("DeadlineProtocol", (DeadlineProtocol,), seconds)
 
 
 class StoppingServer(uvicorn.Server):

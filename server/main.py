@@ -29,7 +29,7 @@ from fastapi_offline import FastAPIOffline
 from server.api.routes import assignments, grade, jobs, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
-from server.core.errors import RequestGate, SafeJSONResponse, install_error_handlers
+from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
@@ -141,9 +141,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.stopping = Stopping()
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
+    budget = BodyBudget(int(settings.body_budget_bytes), settings.body_budget_wait)  # large bodies held at once
     app.add_middleware(
         RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
-        streamed={grade.UPLOAD: upload},
+        streamed={grade.UPLOAD: upload}, body_timeout=settings.body_timeout, budget=budget,
     )  # fmt: skip
     app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
     app.add_middleware(SecurityHeaders)  # the outermost: every answer has its policy, nosniff, no framing

@@ -11,7 +11,10 @@ the scene). The route waits for the answer without holding the event loop, and
   started): the scene is refused as too costly to check;
 - a client that goes away while its scene is checked has the process doing it killed and replaced,
   so no CPU goes on burning for an answer nobody reads;
-- past `max_validate_waiting` requests waiting for a free process, a request is answered 429.
+- past `max_validate_waiting` requests waiting for a free process, a request is answered 429;
+- requests wait in two lines, each first come first served: a small body's (under 64 KB, a student's
+  scene) is served before a large one's, so that a class's small submissions pass a crowd of large
+  validations (one of which takes a checker a fifth of a second) rather than waiting behind all of them.
 
 The processes are niced like the render workers (the API answers first), watch their server (and exit
 when it is gone), and load what they need once at start-up.
@@ -33,7 +36,7 @@ import anyio
 from fastapi import Request
 
 from server.checkers.tasks import checker_main, loaded
-from server.core.errors import ApiError
+from server.core.errors import THREAD_FROM, ApiError
 from server.core.settings import Settings
 from tracer.scene import ASSET_DIR
 
@@ -83,6 +86,7 @@ class CheckPool:
         self.ctx = mp.get_context("spawn")
         self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
         self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
+        self._small: collections.deque = collections.deque()  # the same of small bodies' requests, served first
         self._lock = threading.Lock()
         self._closed = False
 
@@ -128,15 +132,21 @@ class CheckPool:
             checker.process, checker.conn, checker.state = process, ours, "idle"
             self._wake()
 
+    def _head(self):
+        """The waiting request a free checker goes to: the oldest small one, else the oldest (None: nobody)."""
+        line = self._small or self._waiters
+        return line[0] if line else None
+
     def _wake(self) -> None:
-        """Tell the oldest waiting request that a checker is free (under the lock; from any thread); it stays
-        first in line until it has taken one."""
-        if self._waiters:
-            loop, event = self._waiters[0]
+        """Tell the first waiting request (`_head`) that a checker is free (under the lock; from any thread); it
+        stays first in line until it has taken one."""
+        head = self._head()
+        if head is not None:
+            loop, event = head
             try:
                 loop.call_soon_threadsafe(event.set)
             except RuntimeError:  # its event loop is closed: it is gone
-                self._waiters.popleft()
+                (self._small if self._small and self._small[0] is head else self._waiters).popleft()
                 self._wake()
 
     def shutdown(self) -> None:
@@ -162,31 +172,37 @@ class CheckPool:
 
     # -- a task
 
-    async def _take(self, request: Request) -> _Checker:
-        """An idle checker, marked busy; waits for one without polling, first come first served: a request
-        takes a free checker only when nobody waits before it (429 past max_validate_waiting waiting)."""
-        waiter = None
+    async def _take(self, request: Request, small: bool = False) -> _Checker:
+        """An idle checker, marked busy; waits for one without polling, first come first served in its line
+        (`small`: a small body's, served first): a request takes a free checker only when nobody waits before
+        it (429 past max_validate_waiting waiting in both lines)."""
+        waiter, line = None, self._small if small else self._waiters
         try:
             while True:
                 with self._lock:
                     free = next((c for c in self.checkers if c.state == "idle"), None)
-                    first = self._waiters[0] is waiter if self._waiters else waiter is None
+                    head = self._head()
+                    first = head is waiter if head is not None else waiter is None
+                    if small and waiter is None and not self._small:
+                        first = True  # no small one waits: the large ones' line is behind this one
                     if free is not None and first:
                         free.state = "busy"
                         if waiter is not None:
-                            self._waiters.popleft()
+                            line.remove(waiter)
                             waiter = None
                         if any(c.state == "idle" for c in self.checkers):
                             self._wake()  # another one is free: the next in line takes it
                         return free
                     if waiter is None:
-                        if len(self._waiters) >= self.settings.max_validate_waiting:
+                        if len(self._waiters) + len(self._small) >= self.settings.max_validate_waiting:
                             raise ApiError(
                                 429, "too many scenes are being checked; try again later (TRACER_MAX_VALIDATE_WAITING)",
                                 headers={"Retry-After": "2"},
                             )  # fmt: skip
                         waiter = (asyncio.get_running_loop(), asyncio.Event())
-                        self._waiters.append(waiter)
+                        line.append(waiter)
+                        if free is not None:
+                            self._wake()  # it goes before those woken for the free checker: it takes it
                     waiter[1].clear()
                 with anyio.move_on_after(WAIT_CHECK):
                     await waiter[1].wait()
@@ -195,8 +211,8 @@ class CheckPool:
         finally:
             if waiter is not None:  # gone while waiting (the client left, or a 429 of someone's): out of the line
                 with self._lock:
-                    head = bool(self._waiters) and self._waiters[0] is waiter
-                    self._waiters.remove(waiter)
+                    head = self._head() is waiter
+                    line.remove(waiter)
                     if head and any(c.state == "idle" for c in self.checkers):
                         self._wake()  # it was woken for a free checker: the next in line takes it
 
@@ -204,7 +220,8 @@ class CheckPool:
         """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
         limit (when `timed`) is stopped (422: the scene costs too much to check); one whose client went away
         is stopped too."""
-        checker = await self._take(request)
+        small = bool(args) and isinstance(args[0], bytes) and len(args[0]) < THREAD_FROM
+        checker = await self._take(request, small)
         checker.task = task
         conn, process, answered = checker.conn, checker.process, False
         limit = self.settings.max_validate_seconds if timed else math.inf

@@ -67,12 +67,15 @@ def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
 def read(body: bytes) -> tuple:
     """A request body's JSON for the route's own model (server/api/models.py): ("ok", the body with its scene's
     content left out), or why it is not JSON as the API would have said it: ("invalid", message, position)
-    for a JSON syntax error, ("unreadable", message) for the rest (not UTF-8, an integer too long, nesting
-    too deep for the parser)."""
+    for a JSON syntax error, ("undecodable", encoding, start, end, reason) for bytes that are not text in the
+    encoding JSON's first bytes name (UTF-8 but for a body that starts with a zero byte), ("unreadable",
+    message) for the rest (an integer too long, nesting too deep for the parser)."""
     try:
         data = json.loads(body)
     except json.JSONDecodeError as exc:
         return "invalid", exc.msg, exc.pos
+    except UnicodeDecodeError as exc:
+        return "undecodable", exc.encoding, exc.start, exc.end, exc.reason
     except (ValueError, RecursionError) as exc:
         return "unreadable", f"{type(exc).__name__}: {exc}"
     if isinstance(data, dict) and isinstance(data.get("scene"), dict):
@@ -84,6 +87,8 @@ def loaded(answer: tuple, body: bytes):
     """`read`'s answer as json.loads would have given it: the data, or its exception (the same error answer)."""
     if answer[0] == "invalid":
         raise json.JSONDecodeError(answer[1], body.decode(json.detect_encoding(body), "surrogatepass"), answer[2])
+    if answer[0] == "undecodable":
+        raise UnicodeDecodeError(answer[1], body, *answer[2:])
     if answer[0] == "unreadable":
         raise ValueError(answer[1])
     return answer[1]

@@ -168,6 +168,23 @@ class Settings(SceneLimits):
         256, ge=0, description="requests waiting for a free checking process (first come first served): 429 past it"
     )
 
+    # Connections and bodies in flight (issue #24, item 5): slow clients time out, bodies held have a budget.
+    header_timeout: Duration = Field(
+        10.0, gt=0, description="seconds a request's headers may take, from the connection or its previous answer"
+    )
+    body_timeout: Duration = Field(
+        30.0, gt=0, description="seconds a JSON body may take in all, and any body between two of its chunks: 408"
+    )
+    max_connections: int = Field(
+        2000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
+    )
+    body_budget_bytes: ByteSize = Field(
+        32_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
+    )
+    body_budget_wait: Duration = Field(
+        2.0, ge=0, description="seconds a large body waits for the budget before its request is answered 503"
+    )
+
     @field_validator("instructor_token", mode="before")
     @classmethod
     def _token(cls, v):

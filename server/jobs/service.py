@@ -33,6 +33,7 @@ URGENT_TICK = 0.01  # ... while someone waits for a short job to end (a ray tree
 PLACE_EVERY = 1.0  # seconds between two wakes of a queued job's followers (its place moves with other jobs)
 CAPACITY_SECONDS = 1.0  # how long the queue's count of workers per lane is kept (Redis lists them from Redis)
 KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open)
+VIEWS_KEPT = 4096  # views of followed jobs' rows kept for their other followers (a class's jobs, and more)
 WAKE = 1.0  # seconds a follower waits before it looks again whether its client or the server is going
 
 
@@ -139,6 +140,7 @@ class JobService:
         self.settings, self.store, self.queue, self.stopping = settings, store, queue, stopping
         self.watch = JobWatch(store, stopping)
         self._capacity: dict[Lane, tuple[float, int]] = {}
+        self._views: dict[str, tuple] = {}  # job id -> (the row the watcher read, its view or the view coming)
 
     def close(self) -> None:
         self.watch.close()
@@ -240,9 +242,19 @@ class JobService:
         return job
 
     async def _view(self, row: dict) -> JobPublic:
-        if row["status"] == JobStatus.queued:  # its place is a query
-            return await anyio.to_thread.run_sync(self.public, row)
-        return self.public(row)
+        """The row's public view. The watcher hands one row to all of a job's followers: its view is made once
+        for them all (500 streams of a class on two jobs made 500 views, and queries, per change)."""
+        made = self._views.get(row["id"])
+        if made is None or made[0] is not row:
+            if row["status"] == JobStatus.queued:  # its place is a query, in a thread: one task for all who wait
+                view = asyncio.ensure_future(anyio.to_thread.run_sync(self.public, row))
+            else:
+                view = self.public(row)
+            if len(self._views) >= VIEWS_KEPT:
+                self._views.clear()
+            made = self._views[row["id"]] = (row, view)
+        view = made[1]
+        return await asyncio.shield(view) if isinstance(view, asyncio.Future) else view
 
     # -- following and waiting ------------------------------------------------------------------
 

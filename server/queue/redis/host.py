@@ -17,8 +17,12 @@ Heartbeats: the RQ worker refreshes its try's entry in RQ's started registry eve
 host that dies or is cut off loses its try after `lost_after` seconds: the API finds the expired
 entry and queues the job's next try for another host.
 
-Stopping (SIGTERM or Ctrl-C): the try in hand gives its job back at its next check (within a band
-of rows), then the host exits; a second signal kills the try at once.
+Stopping (SIGTERM or Ctrl-C): the host passes the signal to its work horse (which RQ puts in a process group
+of its own, so a signal to the host's group misses it), the try gives its job back at its next check
+(within a band of rows), then the host exits; a horse that has not ended `HORSE_STOP_GRACE` seconds later
+is killed, and a second signal kills it at once. A horse stopped by a SIGTERM of its own (a service manager
+that signals every process of its unit) gives its try back too, and so does a horse whose host is gone (a
+SIGKILL to the host's group). None of this waits on Redis, so a host whose Redis has gone away stops too.
 """
 
 from __future__ import annotations
@@ -37,6 +41,8 @@ from pathlib import Path
 
 import redis
 from rq import Queue, Worker, worker_registration
+from rq.exceptions import StopRequested
+from rq.utils import now
 from rq.worker import WorkerStatus
 
 from server.jobs.files import JobFile
@@ -52,6 +58,33 @@ DEFAULT_LOST_AFTER = 15.0
 HORSE_GRACE = 60  # s past an RQ job's timeout before its host gives up on it (RQ kills a forked horse then)
 EXIT_STUCK = 70  # an in-process host's exit status when a try ran past that: a supervisor starts it afresh
 SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
+HORSE_STOP_GRACE = 20.0  # s a work horse has to give its try back once its host is stopping, before it is killed
+HOST_CHECK = 0.5  # s between a work horse's looks at whether its host is still there
+
+
+class Stopping:
+    """Whether this host is stopping (in a work horse: whether its try is to give its job back), read by calling
+    it. A plain flag, set by signal handlers: an Event's lock, taken again by a second signal's handler
+    running inside the first one's, would hang the process for good."""
+
+    def __init__(self) -> None:
+        self.asked = False
+
+    def set(self) -> None:
+        self.asked = True
+
+    def __call__(self) -> bool:
+        return self.asked
+
+    def wait(self, seconds: float) -> bool:
+        """Sleep `seconds`, or less if asked to stop meanwhile; whether it was."""
+        deadline = time.monotonic() + seconds
+        while not self.asked and time.monotonic() < deadline:
+            time.sleep(min(0.1, max(0.0, deadline - time.monotonic())))
+        return self.asked
+
+
+STOP = Stopping()
 
 
 def _redis(url: str) -> redis.Redis:
@@ -77,6 +110,8 @@ class RedisChannel:
         self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
 
     def stop_reason(self) -> Stop | None:
+        if STOP():
+            return Stop.shutdown
         try:
             cancel, current, giveback = self.r.mget(
                 ev.cancel_key(self.job_id), ev.try_key(self.job_id), ev.giveback_key(self.job_id, self.attempt)
@@ -164,16 +199,43 @@ def run_try(payload: dict) -> dict:
     from tracer.scene import Limits
 
     job = payload["job"]
+    if os.getpid() != HOST["pid"]:
+        _horse_watch(HOST["pid"])
     r = _redis(HOST["url"])
     channel = RedisChannel(r, job["id"], int(job["attempts"]), payload.get("snapshot_key"))
     rq_job = get_current_job()
     channel.started(HOST["name"] or (rq_job.worker_name if rq_job else None) or HOST["host"])
     limits = Limits(**payload["limits"])
     ended = Try(
-        job, channel, limits, HOST["threads"], payload["preview_interval"], lambda: False, device=HOST["device"],
+        job, channel, limits, HOST["threads"], payload["preview_interval"], STOP, device=HOST["device"],
         cache=SolutionCache(HOST["cache"]), snapshot_interval=payload.get("snapshot_interval", 10.0),
     ).run()  # fmt: skip
     return {"ended": ended, "bytes_sent": channel.bytes_sent, "unreachable": channel.unreachable}
+
+
+def _horse_watch(host: int) -> None:
+    """In a forked work horse: its try gives its job back (STOP) on a SIGTERM of its own, or once its host is
+    gone (killed with its process group, which the horse is not in)."""
+    signal.signal(signal.SIGTERM, lambda signum, frame: STOP.set())
+
+    def watch() -> None:
+        while not STOP.wait(HOST_CHECK):
+            if os.getppid() != host:
+                log.warning("work horse %d: its worker host %d is gone; giving the try back", os.getpid(), host)
+                STOP.set()
+
+    threading.Thread(target=watch, name="host-watch", daemon=True).start()
+
+
+def _ask_to_stop(signum, frame) -> None:
+    """The host's handler of SIGTERM and SIGINT outside RQ's loop (waiting for Redis, starting a worker)."""
+    STOP.set()
+
+
+def _outside_rq() -> None:
+    """This host's signal handlers, outside RQ's loop (which has its own: HostWorker.request_stop)."""
+    signal.signal(signal.SIGTERM, _ask_to_stop)
+    signal.signal(signal.SIGINT, _ask_to_stop)
 
 
 class HostWorker(Worker):
@@ -183,6 +245,8 @@ class HostWorker(Worker):
 
     def __init__(self, *args, lost_after: float = DEFAULT_LOST_AFTER, **kwargs):
         self.lost_after = float(lost_after)
+        self.stop_asked = time.monotonic()  # when the stop was asked (request_stop)
+        self.giveback_sent = False
         kwargs.setdefault("job_monitoring_interval", max(1, int(self.lost_after / 4)))
         # RQ waits for work in blocks of worker_ttl - 15 seconds and beats its heart after each: twice
         # within lost_after, so an idle host never looks lost
@@ -203,15 +267,41 @@ class HostWorker(Worker):
         connection.hset(key, mapping={**mapping, "lanes": ",".join(self.queue_names())})
         connection.expire(key, max(2, int(self.lost_after)))
 
+    def _install_signal_handlers(self):
+        super()._install_signal_handlers()
+        if STOP():  # asked before RQ's handlers were there: stop before taking a try
+            self._stop_requested = True
+
     def request_stop(self, signum, frame):
-        current = self.get_current_job_id()
-        parsed = ev.parse_rq_job_id(current) if current else None
-        if parsed is not None:
+        """SIGTERM or Ctrl-C inside RQ's loop: the try in hand gives its job back (its work horse told by a
+        signal of its own), then the loop ends; idle, it ends at once. RQ's own handler asks Redis whether the
+        worker is busy, and waits on a Redis that has gone away; this one asks nothing, and takes no lock."""
+        STOP.set()
+        self.stop_asked = time.monotonic()
+        self._shutdown_requested_date = now()  # a second signal (not one sent twice within a second) kills the try
+        signal.signal(signal.SIGINT, self.request_force_stop)
+        signal.signal(signal.SIGTERM, self.request_force_stop)
+        if self.horse_pid:
             try:
-                self.connection.set(ev.giveback_key(*parsed), 1, ex=ev.FLAG_TTL)
-            except redis.RedisError:
-                pass  # unreachable: a second signal stops the try the hard way
-        super().request_stop(signum, frame)
+                os.kill(self.horse_pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+        if self.get_state() == WorkerStatus.BUSY:
+            self._stop_requested = True  # RQ's loop ends once the try has ended
+        else:
+            raise StopRequested()  # out of RQ's wait for work
+
+    def maintain_heartbeats(self, job, execution) -> None:
+        """RQ's heartbeats while a try runs; once the host is stopping, the try's `giveback` key too (for a
+        horse that missed its signal), and a horse not ended HORSE_STOP_GRACE s after the signal is killed."""
+        if STOP() and self.horse_pid and time.monotonic() - self.stop_asked > HORSE_STOP_GRACE:
+            log.warning("worker host %s: the work horse did not stop in %g s; killing it", self.name, HORSE_STOP_GRACE)
+            self.kill_horse()
+        if STOP() and not self.giveback_sent and (parsed := ev.parse_rq_job_id(job.id)) is not None:
+            log.info("worker host %s: stopping; the try in hand gives its job back", self.name)
+            self.connection.set(ev.giveback_key(*parsed), 1, ex=ev.FLAG_TTL)
+            self.giveback_sent = True
+        super().maintain_heartbeats(job, execution)
 
 
 class InProcessWorker(HostWorker):
@@ -296,32 +386,61 @@ def main(argv: list[str] | None = None) -> int:
     threads = 1 if cuda else args.threads or default_threads()
     HOST.update(url=args.redis, device=device, threads=threads, cache=args.cache_dir)
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
+    HOST["pid"] = os.getpid()  # a try run in another process runs in a forked work horse
     load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
     how = "in this process" if worker_class is InProcessWorker else "in forked work horses"
     log.info("worker host %s: kernels ready on %s, %d thread(s), tries %s", HOST["name"], device, HOST["threads"], how)
-    stop = threading.Event()
-    pause = 1.0
-    while not stop.is_set():
+    pause, worker, stale = 1.0, None, None
+    _outside_rq()
+    while not STOP():
         try:
+            if stale is not None:  # a worker whose connection was lost: its death first, or the next is refused
+                stale.register_death()
+                stale = None
             r = _redis(args.redis)
             lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
             queues = [Queue(name, connection=r) for name in args.queues]
             worker = worker_class(queues, connection=r, name=HOST["name"], lost_after=lost_after)
-            worker.work(logging_level="INFO", with_scheduler=False)
-            if worker._stop_requested or worker._shutdown_requested_date is not None:
-                stop.set()
-            else:  # RQ quits its loop on a lost connection: wait, and take up work again
+            stale = worker  # until its loop ends as it should
+            try:
+                worker.work(logging_level="INFO", with_scheduler=False)
+            finally:
+                _outside_rq()
+            stale = None
+            if not STOP() and not worker._stop_requested:  # RQ quits its loop on a lost connection
+                stale = worker
                 log.warning("worker host %s: lost Redis; retrying in %.0f s", HOST["name"], pause)
-                time.sleep(pause)
+                STOP.wait(pause)
                 pause = min(10.0, pause * 2)
+            else:
+                STOP.set()
         except redis.RedisError as exc:
-            log.warning("worker host %s: Redis unreachable (%s); retrying in %.0f s", HOST["name"], exc, pause)
-            time.sleep(pause)
-            pause = min(10.0, pause * 2)
-        except (KeyboardInterrupt, SystemExit):
-            stop.set()
+            if not STOP():
+                log.warning("worker host %s: Redis unreachable (%s); retrying in %.0f s", HOST["name"], exc, pause)
+                STOP.wait(pause)
+                pause = min(10.0, pause * 2)
+        except (KeyboardInterrupt, SystemExit, StopRequested):  # (RQ's handler, outside its loop's own catch)
+            STOP.set()
+    if worker is not None and worker.horse_pid:  # RQ's loop ended without its horse (Redis lost mid-try)
+        _end_horse(worker.horse_pid)
     log.info("worker host %s: stopped", HOST["name"])
     return 0
+
+
+def _end_horse(horse: int) -> None:
+    """A work horse left running when the host stops: asked to give its try back, killed if it has not
+    ended `HORSE_STOP_GRACE` seconds later."""
+    try:
+        os.kill(horse, signal.SIGTERM)
+        deadline = time.monotonic() + HORSE_STOP_GRACE
+        while os.waitpid(horse, os.WNOHANG) == (0, 0):
+            if time.monotonic() > deadline:
+                os.killpg(horse, signal.SIGKILL)
+                os.waitpid(horse, 0)
+                return
+            time.sleep(0.1)
+    except (ChildProcessError, ProcessLookupError):
+        pass  # already ended (and reaped)
 
 
 if __name__ == "__main__":

@@ -214,6 +214,26 @@ def test_api_errors_invalid_json_names_line_and_column(client):
     assert check_error(r)[0]["message"].startswith("invalid JSON at line 3, column 15")
 
 
+@pytest.mark.parametrize(
+    "url,body",
+    [
+        ("/api/jobs", b'{"scene": {"name": "caf\xe9"}}'),  # Latin-1's é
+        ("/api/validate", b'{"scene": {"name": "caf\xe9"}, "pad": "' + b"x" * 70_000 + b'"}'),  # read in a checker
+        ("/api/grade/students", b'{"files": ["caf\xe9.json"]}'),  # a route of FastAPI's own parser
+    ],
+    ids=["small scene", "large scene", "other route"],
+)
+def test_api_errors_a_body_that_is_not_utf8_names_its_first_bad_byte(client, url, body):
+    """Not "a number too long, or nesting too deep": the body is not UTF-8, at this byte offset."""
+    at = body.index(b"\xe9")
+    (error,) = check_error(post_raw(client, url, body), 400)
+    assert error == {
+        "path": "",
+        "message": f"the body is not UTF-8 text: byte 0xe9 at offset {at} (invalid continuation byte); "
+        "JSON must be sent as UTF-8",
+    }
+
+
 @pytest.mark.parametrize("name", sorted(EXPECTED))
 def test_api_errors_bad_scene_corpus_points_at_the_field(library_limits, name):
     """Errors raised inside the scene's model validators keep the offending field's own path."""

@@ -253,3 +253,52 @@ def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
             assert served == ["a", "b", "c", "newcomer"] and not pool._waiters
 
     anyio.run(main)
+
+
+def test_checks_a_small_body_s_request_passes_the_line_of_large_ones(tmp_path):
+    """The two lines of CheckPool._take (no processes, states set by hand): with large bodies' requests
+    waiting, a small body's request that comes later takes the next freed checker, a newcomer small one
+    included; the large ones then keep their order."""
+    import anyio
+
+    from server.checkers.pool import CheckPool
+    from server.core.settings import Settings
+
+    class Here:  # a request whose client stays
+        async def is_disconnected(self) -> bool:
+            return False
+
+    pool = CheckPool(Settings(data_dir=tmp_path, validate_processes=1))
+    checker = pool.checkers[0]
+    checker.state = "busy"
+    served: list[str] = []
+
+    async def take(name: str) -> None:
+        await pool._take(Here(), small=name.startswith("small"))
+        served.append(name)
+
+    def free() -> None:
+        with pool._lock:
+            checker.state = "idle"
+            pool._wake()
+
+    async def main() -> None:
+        async with anyio.create_task_group() as tg:
+            for name in ["large 1", "large 2", "small 1", "large 3", "small 2"]:
+                tg.start_soon(take, name)
+                await anyio.sleep(0.05)  # in line in this order
+            assert len(pool._waiters) == 3 and len(pool._small) == 2 and served == []
+            for _ in range(2):
+                free()
+                await anyio.sleep(0.05)
+            assert served == ["small 1", "small 2"]
+            checker.state = "idle"
+            tg.start_soon(take, "small 3")  # a checker is free, large ones wait: the small newcomer takes it
+            await anyio.sleep(0.05)
+            for _ in range(3):
+                free()
+                await anyio.sleep(0.05)
+            assert served == ["small 1", "small 2", "small 3", "large 1", "large 2", "large 3"]
+            assert not pool._waiters and not pool._small
+
+    anyio.run(main)

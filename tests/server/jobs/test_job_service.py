@@ -92,3 +92,31 @@ def test_job_service_watch_reads_every_followed_job_in_one_query_and_wakes_only_
         watch.close()
     assert woken == [i == 7 for i in range(50)]
     assert 1 <= reads <= 6, reads
+
+
+def test_job_service_one_view_of_a_row_for_all_its_followers(tmp_path):
+    """The watcher hands one row to all of a job's followers: 100 streams woken at once by a queued job's row
+    (whose view, with its place in the queue, is made in a thread) and by a running one's make one view each,
+    and a new row of the job a new view."""
+    jobs, _ = service(tmp_path)
+    queued, running = submit(jobs), submit(jobs)
+    made: list[str] = []
+    public = jobs.public
+
+    def counted(row: dict):
+        made.append(row["id"])
+        return public(row)
+
+    jobs.public = counted
+    queued_row = jobs.store.get(queued["id"])
+    running_row = {**jobs.store.get(running["id"]), "status": JobStatus.running}
+
+    async def run() -> list:
+        rows = [queued_row] * 100 + [running_row] * 100
+        return await asyncio.gather(*(jobs._view(row) for row in rows))
+
+    views = asyncio.run(run())
+    assert sorted(made) == sorted([queued["id"], running["id"]])
+    assert len({id(v) for v in views}) == 2 and views[0].id == queued["id"] and views[-1].id == running["id"]
+    asyncio.run(jobs._view(dict(queued_row)))  # a row read again (the job changed): its own view
+    assert made.count(queued["id"]) == 2

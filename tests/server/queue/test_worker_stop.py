@@ -1,0 +1,114 @@
+"""Stopping a worker host (`python -m server.worker`, issue #24 item 8): RQ forks each try into a work horse
+in a process group of its own, so a signal to the host's group never reaches it. A real redis-server, the
+API with `--redis` and a forking host of one thread on loopback, with a long render in its horse.
+
+- SIGTERM to every process of the host, as a service manager stopping its whole unit sends it (systemd's
+  `KillMode=control-group`): the horse gives its try back (outcome "given back", not counted) and the host
+  exits 0, the horse gone (twice: a signal of its host's and one of its own, whose handlers must not hang
+  on each other);
+- SIGKILL to the host's process group (`kill -9 -- -PGID`): the horse, missed by the signal, sees its
+  host gone, gives its try back and ends;
+- SIGTERM to a host whose Redis has gone away: it exits.
+
+The bounds below are on an end that must come, not speed measurements: each stop takes about a second here."""
+
+from __future__ import annotations
+
+import os
+import signal
+from pathlib import Path
+
+import pytest
+from queue_support import Api, Process, RedisServer, worker_argv
+from test_api_support import long_scene, pid_alive, wait_for
+
+STOP_BOUND = 60  # seconds
+
+
+@pytest.fixture(scope="module")
+def api(tmp_path_factory):
+    root = tmp_path_factory.mktemp("worker-stop")
+    with RedisServer(root / "redis.log") as redis_server:
+        api = Api(root / "data", redis_server.url).start()
+        try:
+            yield api, redis_server, root
+        finally:
+            api.stop()
+
+
+def children(pid: int) -> list[int]:
+    """The processes whose parent is `pid` (from /proc)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(stat[1]) == pid and stat[0] != "Z":
+                found.append(int(entry.name))
+    return found
+
+
+def host_rendering(api: Api, redis_url: str, root: Path, name: str) -> tuple[Process, int, dict]:
+    """A forking worker host (in a process group of its own, as a service manager starts it) rendering a long
+    job in its work horse: (the host, the horse's pid, the job)."""
+    host = Process(worker_argv(redis_url, name), root / f"{name}.log").start()
+    api.wait_hosts(1)
+    job = api.submit(long_scene(spp=4096))
+    api.wait(job["id"], lambda j: j["status"] == "running" and j["preview"] >= 1, "the long job to render a pass")
+    (horse,) = wait_for(lambda: children(host.pid), 30, "the host's work horse")
+    assert os.getpgid(horse) != os.getpgid(host.pid)  # the premise: a signal to the host's group misses it
+    return host, horse, job
+
+
+def given_back(api: Api, job_id: str) -> dict:
+    return api.wait(job_id, lambda j: j["status"] == "queued" and j["tries"][-1]["outcome"], "the try's end")
+
+
+def clean_up(api: Api, host: Process, horse: int, job: dict) -> None:
+    host.stop(signal.SIGKILL)
+    if pid_alive(horse):
+        os.kill(horse, signal.SIGKILL)
+    api.client.delete(f"/api/jobs/{job['id']}")
+
+
+def test_worker_stop_sigterm_to_the_host_and_its_horse_gives_the_try_back(api):
+    api, redis_server, root = api
+    host, horse, job = host_rendering(api, redis_server.url, root, "host-term")
+    try:
+        os.killpg(host.pid, signal.SIGTERM)  # systemd, KillMode=control-group: every process of the unit
+        os.kill(horse, signal.SIGTERM)
+        assert host.proc.wait(timeout=STOP_BOUND) == 0, host.log()
+        wait_for(lambda: not pid_alive(horse), STOP_BOUND, "the work horse to end")
+        back = given_back(api, job["id"])
+        assert [t["outcome"] for t in back["tries"]] == ["given back"], (back["tries"], host.log())
+        assert "Traceback" not in host.log(), host.log()
+    finally:
+        clean_up(api, host, horse, job)
+
+
+def test_worker_stop_a_killed_host_s_horse_gives_the_try_back_and_ends(api):
+    api, redis_server, root = api
+    host, horse, job = host_rendering(api, redis_server.url, root, "host-kill")
+    try:
+        os.killpg(host.pid, signal.SIGKILL)  # kill -9 -- -PGID: the host, not its horse
+        host.proc.wait(timeout=10)
+        wait_for(lambda: not pid_alive(horse), STOP_BOUND, "the orphaned work horse to end")
+        back = given_back(api, job["id"])
+        assert [t["outcome"] for t in back["tries"]] == ["given back"], (back["tries"], host.log())
+    finally:
+        clean_up(api, host, horse, job)
+
+
+def test_worker_stop_sigterm_to_a_host_whose_redis_is_gone(tmp_path):
+    with RedisServer(tmp_path / "redis.log") as redis_server:
+        host = Process(worker_argv(redis_server.url, "host-alone"), tmp_path / "host.log").start()
+        try:
+            wait_for(lambda: redis_server.client().keys("rq:worker:host-alone"), 120, "the host to register")
+            redis_server.__exit__()  # Redis goes away
+            wait_for(lambda: "Redis" in host.log().split("kernels ready", 1)[-1], 60, "the host to miss Redis")
+            os.killpg(host.pid, signal.SIGTERM)
+            assert host.proc.wait(timeout=STOP_BOUND) == 0, host.log()
+        finally:
+            host.stop(signal.SIGKILL)
