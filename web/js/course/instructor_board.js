@@ -262,7 +262,7 @@ export class Board {
     const counts = new Array(BINS).fill(0);
     const scores = d.students.map((r) => r.points).filter((x) => typeof x === "number");
     for (const x of scores) counts[Math.min(BINS - 1, Math.max(0, Math.floor((x / max) * BINS)))]++;
-    const W = 360, H = 150, L = 22, B = 24, T = 30, R = 8;
+    const W = 360, H = 160, L = 22, B = 24, T = 40, R = 8; // T: room above the bars for the two marks' labels
     const top = Math.max(1, ...counts);
     const bw = (W - L - R) / BINS;
     const y = (n) => H - B - (n / top) * (H - B - T);
@@ -281,8 +281,9 @@ export class Board {
     const mark = (value, cls, label, row) => {
       if (value === null) return null;
       const right = x(value) > W / 2; // the label on the side with room for it
-      const text = s("text", { x: x(value) + (right ? -3 : 3), y: T - 4 + row * 11, "text-anchor": right ? "end" : "start", class: "mark" }, `${label} ${pts(value)}`);
-      return s("g", { class: cls }, s("line", { x1: x(value), x2: x(value), y1: T - 8, y2: H - B }), text);
+      // the labels in two rows above the tallest bar's count, so that neither covers it nor the other
+      const text = s("text", { x: x(value) + (right ? -3 : 3), y: 10 + row * 11, "text-anchor": right ? "end" : "start", class: "mark" }, `${label} ${pts(value)}`);
+      return s("g", { class: cls }, s("line", { x1: x(value), x2: x(value), y1: 2 + row * 11, y2: H - B }), text);
     };
     const m = d.summary;
     const label = scores.length
