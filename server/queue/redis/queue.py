@@ -52,6 +52,9 @@ MONITOR_INTERVAL = 1.0  # seconds between two rounds of the monitor
 HARD_GRACE = 10.0  # seconds past a try's time limit before the API fails it (its host stops it itself at the limit)
 DISK_FULL_PAUSE = 2.0  # seconds between two tries to apply an event while the data directory's disk is full
 DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive before its try is lost
+# seconds a try that RQ says finished may stay without its last word (done, failed) before it is lost: its
+# events were sent to a Redis that died as it finished, while RQ wrote "finished" to the one that replaced it
+FINISHED_GRACE = 10.0
 
 
 class RedisQueue:
@@ -367,9 +370,9 @@ class RedisQueue:
                 reason = f"its worker host sent no heartbeat for {self.settings.lost_after:g} s"
             elif row["status"] == JobStatus.running:
                 status = self.r.hget(Job.key_for(rq_id), "status")
-                if status in (b"failed", b"stopped", b"canceled"):
+                if status in (b"failed", b"stopped", b"canceled", b"finished"):
                     first = self.died_since.setdefault(rq_id, now)
-                    if now - first >= DIED_GRACE:
+                    if now - first >= (FINISHED_GRACE if status == b"finished" else DIED_GRACE):
                         reason = f"its render process on the worker host ended without a word ({status.decode()})"
             if reason is not None:
                 self._lose(row["id"], max(1, row["attempts"]), reason)
