@@ -60,8 +60,15 @@ FINISHED_GRACE = 10.0
 class RedisQueue:
     backend = "redis"
 
-    def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
+    def __init__(
+        self,
+        settings: Settings,
+        store: JobStore,
+        stopping: Callable[[], bool] = lambda: False,
+        clock: Callable[[], float] = time.time,
+    ):
         self.settings, self.store = settings, store
+        self.clock = clock  # the wall clock of the monitor's graces and time limits (a test's own)
         self.stopping = stopping  # the server has been asked to stop: its local worker hosts are not restarted
         self.url = settings.redis_url
         self.r = redis.Redis.from_url(self.url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
@@ -361,7 +368,7 @@ class RedisQueue:
         """Tries whose host stopped its heartbeats (an expired entry in RQ's started registry), or whose
         render process died (RQ marked it failed or stopped without a last word from the try)."""
         registries = [StartedJobRegistry(name, connection=self.r) for name in ev.QUEUES]
-        now = time.time()
+        now = self.clock()
         expired = {rq_id for registry in registries for rq_id in registry.get_expired_job_ids(now)}
         for row in self.store.live_tries():
             rq_id = ev.rq_job_id(row["id"], max(1, row["attempts"]))
@@ -396,7 +403,7 @@ class RedisQueue:
                 log.warning("job %s: try %d lost (%s); the job is %s", job_id, attempt, reason, status)
 
     def _overdue(self) -> None:
-        now = time.time()
+        now = self.clock()
         for row in self.store.live_tries():
             if row["status"] != JobStatus.running or row["started_at"] is None:
                 continue

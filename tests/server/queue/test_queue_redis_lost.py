@@ -1,0 +1,77 @@
+"""The Redis backend's monitor losing tries, on a real redis-server and a job store on disk, with the monitor's
+clock in the test's hand: a try whose RQ job says it finished, but whose last word (done, failed) never came, is
+lost after FINISHED_GRACE and queued again; a try still running is not."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from conftest import scene_dict, small
+from queue_support import RedisServer
+from rq.job import Job
+
+from server.core.settings import load_settings
+from server.jobs.lifecycle import JobStatus
+from server.jobs.store import JobStore
+from server.queue.redis import events as ev
+from server.queue.redis.queue import FINISHED_GRACE, RedisQueue
+
+
+class Clock:
+    def __init__(self, t: float = 1_000_000.0):
+        self.t = t
+
+    def __call__(self) -> float:
+        return self.t
+
+
+@pytest.fixture
+def queue(tmp_path):
+    with RedisServer(tmp_path / "redis.log") as redis_server:
+        settings = load_settings(data_dir=tmp_path / "data", redis_url=redis_server.url, workers=0)
+        clock = Clock()
+        q = RedisQueue(settings, JobStore(settings.data_dir), clock=clock)
+        yield q, clock
+
+
+def running_job(q: RedisQueue) -> str:
+    """A job queued in the store and in RQ, whose try 1 a worker host took."""
+    scene = small(scene_dict("whitted"), 8)
+    row = q.store.create(json.dumps(scene), name=None, width=8, height=8, spp=1, priority=0, warnings=[],
+                         max_seconds=60, max_queued=10)  # fmt: skip
+    q.submitted(row)
+    assert q.store.start_try(row["id"], 1, "host-a", "cpu", "w1") is not None
+    return row["id"]
+
+
+def rq_status(q: RedisQueue, job_id: str, attempt: int) -> bytes | None:
+    return q.r.hget(Job.key_for(ev.rq_job_id(job_id, attempt)), "status")
+
+
+def test_queue_redis_a_finished_try_without_its_last_word_runs_again(queue):
+    q, clock = queue
+    job_id = running_job(q)
+    # RQ wrote "finished" (to a Redis that came back empty, say) while the try's done event went to the one that died
+    q.r.hset(Job.key_for(ev.rq_job_id(job_id, 1)), "status", "finished")
+    q._lost_tries()
+    clock.t += FINISHED_GRACE - 0.5
+    q._lost_tries()
+    assert q.store.get(job_id)["status"] == JobStatus.running  # its last word may still be on the way
+    clock.t += 1.0
+    q._lost_tries()
+    row = q.store.get(job_id)
+    assert (row["status"], row["attempts"], row["lost"]) == (JobStatus.queued, 2, 1)
+    assert rq_status(q, job_id, 2) == b"queued"  # try 2 is in RQ's queue for a host to take
+    assert q.r.get(ev.try_key(job_id)) == b"2"  # and try 1's late events are stale
+
+
+def test_queue_redis_a_try_still_running_is_not_lost(queue):
+    q, clock = queue
+    job_id = running_job(q)
+    q.r.hset(Job.key_for(ev.rq_job_id(job_id, 1)), "status", "started")
+    for _ in range(3):
+        q._lost_tries()
+        clock.t += 10 * FINISHED_GRACE
+    row = q.store.get(job_id)
+    assert (row["status"], row["attempts"], row["lost"]) == (JobStatus.running, 1, 0)
