@@ -26,11 +26,9 @@ import anyio
 
 from server.core.errors import ApiError
 from server.core.security import Caller
-from server.core.settings import Settings
 from server.course.policy import Feedback, When
 from server.course.service import Course, Who, iso
-from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.lifecycle import RAYTREE_PRIORITY
 from server.jobs.service import JobService
 from tracer.grading import tasks
 from tracer.grading.treediff import first_difference
@@ -115,7 +113,6 @@ def in_range(x: int, y: int, sample: int, size: tuple[int, int]) -> None:
 
 async def trace(
     jobs: JobService,
-    settings: Settings,
     check: Check,
     scene: dict,
     x: int,
@@ -128,36 +125,12 @@ async def trace(
     """One ray tree, as POST /api/raytree traces it: the scene checked in a checking process, then a short job
     of the interactive lane, waited for; its tree, or the error it ended with."""
     found = await check(json.dumps({"scene": scene}).encode())
-
-    def queued() -> dict:
-        params = {"x": x, "y": y, "sample": sample, "solve_seconds": jobs.solve_estimate(found)}
-        return jobs.submit_checked(
-            found, kind=JobKind.raytree, lane=Lane.interactive, priority=100, params=params,
-            max_seconds=settings.max_raytree_seconds, samples_total=1, owner=owner, name=name[:200],
-        )  # fmt: skip
-
-    row = await anyio.to_thread.run_sync(queued)
-    ended = await jobs.ended(row["id"], settings.max_raytree_seconds + 10, gone)
-    if ended is None:
-        await anyio.to_thread.run_sync(jobs.cancel, row["id"])
-        if jobs.stopping():
-            raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
-        if await gone():
-            raise ApiError(499, "the client went away")
-        raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
-    if ended["status"] == JobStatus.done:
-        text = await anyio.to_thread.run_sync(jobs.store.job_file(ended["id"], JobFile.raytree).read_text)
-        return json.loads(text)
-    errors = json.loads(ended["errors"] or "[]")
-    if errors:
-        raise ApiError(422, errors)
-    raise ApiError(503, ended["error"] or f"the ray tree's job was {ended['status']}")
+    return await jobs.raytree(found, (x, y, sample), priority=RAYTREE_PRIORITY, owner=owner, name=name, gone=gone)
 
 
 async def raytrees(
     course: Course,
     jobs: JobService,
-    settings: Settings,
     check: Check,
     caller: Caller,
     aid: str,
@@ -178,12 +151,10 @@ async def raytrees(
     allowed(course, a, sub, who)
     mine, theirs, size = await anyio.to_thread.run_sync(as_graded, course, a, sub)
     in_range(x, y, sample, size)
-    if jobs.capacity(Lane.interactive) == 0:
-        raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
     where = f"({x}, {y}) of submission {sid[:8]}"
-    student = await trace(jobs, settings, check, mine, x, y, sample, caller.owner, f"ray tree {where}", gone)
+    student = await trace(jobs, check, mine, x, y, sample, caller.owner, f"ray tree {where}", gone)
     try:
-        reference = await trace(jobs, settings, check, theirs, x, y, sample, None, f"reference ray tree {where}", gone)
+        reference = await trace(jobs, check, theirs, x, y, sample, None, f"reference ray tree {where}", gone)
     except ApiError as e:
         if e.status != 422:
             raise

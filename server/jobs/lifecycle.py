@@ -74,6 +74,9 @@ LANES = (Lane.interactive, Lane.batch)  # in the order workers take them
 
 LANE_RANK = {lane: rank for rank, lane in enumerate(LANES)}  # a lane's place in the order workers take them
 
+RAYTREE_PRIORITY = 100  # a ray tree of a token is a click that waits for its answer: ahead of renders
+ANONYMOUS_PRIORITY = 0  # one without a token: an anonymous job's default (JobCreate.priority)
+
 
 class Stop(StrEnum):
     """Why a try stops before its job is done (a channel's `stop_reason`, server/queue/render_try.py)."""

@@ -11,6 +11,7 @@ waiting request polls the store on its own.
 from __future__ import annotations
 
 import asyncio
+import json
 import threading
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
@@ -21,7 +22,8 @@ import anyio
 
 from server.core.errors import ApiError
 from server.core.settings import Settings
-from server.jobs.lifecycle import JobStatus, Lane
+from server.jobs.files import JobFile
+from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
 
@@ -291,6 +293,53 @@ class JobService:
                     return None
                 row = await follower.changed(min(WAKE, left)) or row
             return row
+
+    async def raytree(
+        self,
+        found: dict,
+        pixel: tuple[int, int, int],
+        *,
+        priority: int,
+        owner: str | None,
+        name: str,
+        gone: Callable[[], Awaitable[bool]],
+        queued: Callable[[dict], None] = lambda row: None,
+    ) -> dict:
+        """One pixel sample's ray tree (`pixel`: x, y, sample) of a scene checked in a checking process: a short
+        job of the interactive lane, waited for (`queued` hears of its row first, in the submitting thread). Its
+        tree; or an ApiError: 503 when no worker takes interactive work (or the server stops, or the job failed
+        otherwise), 422 with the errors it ended with, 504 past TRACER_MAX_RAYTREE_SECONDS, 499 when the client
+        went away."""
+        x, y, sample = pixel
+        limit = self.settings.max_raytree_seconds
+        if self.capacity(Lane.interactive) == 0:
+            raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
+
+        def submit() -> dict:
+            params = {"x": x, "y": y, "sample": sample, "solve_seconds": self.solve_estimate(found)}
+            row = self.submit_checked(
+                found, kind=JobKind.raytree, lane=Lane.interactive, priority=priority, params=params,
+                max_seconds=limit, samples_total=1, owner=owner, name=name[:200],
+            )  # fmt: skip
+            queued(row)
+            return row
+
+        row = await anyio.to_thread.run_sync(submit)
+        ended = await self.ended(row["id"], limit + 10, gone)
+        if ended is None:
+            await anyio.to_thread.run_sync(self.cancel, row["id"])
+            if self.stopping():
+                raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
+            if await gone():
+                raise ApiError(499, "the client went away")
+            raise ApiError(504, f"the ray tree took longer than {limit:g} s")
+        if ended["status"] == JobStatus.done:
+            tree = self.store.job_file(ended["id"], JobFile.raytree)
+            return json.loads(await anyio.to_thread.run_sync(tree.read_text))
+        errors = json.loads(ended["errors"] or "[]")
+        if errors:
+            raise ApiError(422, errors)
+        raise ApiError(503, ended["error"] or f"the ray tree's job was {ended['status']}")
 
     def states(self, ids: Iterable[str]) -> dict[str, dict]:
         """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at), for

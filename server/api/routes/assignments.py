@@ -425,7 +425,7 @@ async def submission_raytree(
     the eye ray), or null. Shown when the image tests' pictures are (the feedback policy); the instructor's always."""
     state = request.app.state
     return await compare.raytrees(
-        course, state.jobs, state.settings, lambda body: state.checks.summary(request, body), caller, aid, sid,
+        course, state.jobs, lambda body: state.checks.summary(request, body), caller, aid, sid,
         x, y, sample, request.is_disconnected,
     )  # fmt: skip
 

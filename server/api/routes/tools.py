@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 
 import anyio
 from fastapi import APIRouter, Depends, Request
@@ -24,13 +23,10 @@ from server.api.scene_route import scene_post
 from server.core.clients import address_owner
 from server.core.errors import ApiError
 from server.core.security import CallerDep
-from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.lifecycle import ANONYMOUS_PRIORITY, RAYTREE_PRIORITY
 from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
-RAYTREE_PRIORITY = 100  # a ray tree of a token is a click that waits for its answer: ahead of renders
-ANONYMOUS_PRIORITY = 0  # one without a token: an anonymous job's default (JobCreate.priority)
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
@@ -104,36 +100,10 @@ async def raytree(
         ]
         if errors:
             raise ApiError(422, errors)
-        if jobs.capacity(Lane.interactive) == 0:
-            raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
         anonymous = caller.token is None and not caller.instructor
-
-        def queued() -> dict:
-            params = {"x": body.x, "y": body.y, "sample": body.sample, "solve_seconds": jobs.solve_estimate(found)}
-            row = jobs.submit_checked(
-                found, kind=JobKind.raytree, lane=Lane.interactive, params=params,
-                priority=ANONYMOUS_PRIORITY if anonymous else RAYTREE_PRIORITY,
-                owner=address_owner(client.address) if anonymous else caller.owner,
-                max_seconds=settings.max_raytree_seconds, samples_total=1,
-                name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}"[:200],
-            )  # fmt: skip
-            if waiting is not None:
-                waiting.keep(row["id"])
-            return row
-
-        row = await anyio.to_thread.run_sync(queued)
-    ended = await jobs.ended(row["id"], settings.max_raytree_seconds + 10, request.is_disconnected)
-    if ended is None:
-        await anyio.to_thread.run_sync(jobs.cancel, row["id"])
-        if jobs.stopping():
-            raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
-        if await request.is_disconnected():
-            raise ApiError(499, "the client went away")
-        raise ApiError(504, f"the ray tree took longer than {settings.max_raytree_seconds:g} s")
-    if ended["status"] == JobStatus.done:
-        text = await anyio.to_thread.run_sync(jobs.store.job_file(ended["id"], JobFile.raytree).read_text)
-        return json.loads(text)
-    errors = json.loads(ended["errors"] or "[]")
-    if errors:
-        raise ApiError(422, errors)
-    raise ApiError(503, ended["error"] or f"the ray tree's job was {ended['status']}")
+        return await jobs.raytree(
+            found, (body.x, body.y, body.sample), priority=ANONYMOUS_PRIORITY if anonymous else RAYTREE_PRIORITY,
+            owner=address_owner(client.address) if anonymous else caller.owner, gone=request.is_disconnected,
+            name=f"ray tree ({body.x}, {body.y}) of {found['name'] or 'a scene'}",
+            queued=(lambda row: waiting.keep(row["id"])) if waiting is not None else lambda row: None,
+        )  # fmt: skip
