@@ -159,29 +159,38 @@ export class HandIn {
     this.status.replaceChildren(...content);
   }
 
-  async check() {
-    if (this.busy) return;
+  /** Send the hand-in with `call` (the API's check or submit) while saying `doing`: its answer, or null when
+   * the hand-in could not be read or the server refused it (said in the status line). */
+  async send(call, doing, before = () => {}) {
+    if (this.busy) return null;
     let body;
     try {
       body = this.body();
     } catch (err) {
-      return this.say("error", err.message);
+      this.say("error", err.message);
+      return null;
     }
     this.setBusy(true);
-    this.say("info", "Checking…");
-    this.result.hidden = true; // the last check's answer goes: it was about another text
-    delete this.result.dataset.valid;
-    $("#a-check-body", this.root).replaceChildren();
-    const kind = this.kind;
-    let res;
+    this.say("info", doing);
+    before();
     try {
-      res = await this.ctx.api.check(body);
+      return await call(body);
     } catch (err) {
       this.say("error", refusal(err));
-      return;
+      return null;
     } finally {
       this.setBusy(false);
     }
+  }
+
+  async check() {
+    const kind = this.kind;
+    const res = await this.send((body) => this.ctx.api.check(body), "Checking…", () => {
+      this.result.hidden = true; // the last check's answer goes: it was about another text
+      delete this.result.dataset.valid;
+      $("#a-check-body", this.root).replaceChildren();
+    });
+    if (!res) return;
     this.say("", "");
     this.showCheck(res, kind);
   }
@@ -205,24 +214,8 @@ export class HandIn {
   }
 
   async submit() {
-    if (this.busy) return;
-    let body;
-    try {
-      body = this.body();
-    } catch (err) {
-      return this.say("error", err.message);
-    }
-    this.setBusy(true);
-    this.say("info", "Submitting…");
-    let view;
-    try {
-      view = await this.ctx.api.submit(body);
-    } catch (err) {
-      this.say("error", refusal(err));
-      return;
-    } finally {
-      this.setBusy(false);
-    }
+    const view = await this.send((body) => this.ctx.api.submit(body), "Submitting…");
+    if (!view) return;
     this.say("ok", `Submitted at ${localTime(view.accepted_at)}${view.late ? " (late)" : ""}. It is graded in turn: its feedback arrives under “Your submissions” as soon as it is ready.`);
     this.ctx.onSubmitted?.(view);
   }
