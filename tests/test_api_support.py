@@ -14,6 +14,7 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from pathlib import Path
 
 import httpx
@@ -86,6 +87,25 @@ def api_client(
             return [w["ready"] for w in client.get("/api/health").json()["workers"]] == [True] * every
 
         wait_for(ready, WORKERS_READY_TIMEOUT, "the render workers")
+        yield client
+
+
+class Clock:
+    """A clock the test sets (`now`: a datetime for the app's clock, seconds for a component's own)."""
+
+    def __init__(self, now):
+        self.now = now
+
+    def __call__(self):
+        return self.now
+
+
+@contextmanager
+def course_client(data_dir: Path, now: datetime, workers: int = 1, **settings) -> Iterator:
+    """`api_client` as the instructor with `workers` render workers, its app's clock a `Clock` at `now` (the course's
+    deadlines, caps and feedback times follow it): `client.app.state.clock.now = ...` moves it."""
+    with api_client(data_dir, workers, instructor_token=INSTRUCTOR, token=INSTRUCTOR, **settings) as client:
+        client.app.state.clock = Clock(now)
         yield client
 
 

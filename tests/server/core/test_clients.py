@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 from pydantic import ValidationError
+from test_api_support import Clock
 
 from server.core.clients import AddressCaps, address_key, address_owner
 from server.core.errors import ApiError
@@ -13,16 +14,8 @@ from server.core.security import token_hash
 from server.core.settings import Settings
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.now = 1000.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def caps(**settings) -> tuple[AddressCaps, Clock]:
-    clock = Clock()
+    clock = Clock(1000.0)
     return AddressCaps(Settings(**settings), clock=clock), clock
 
 

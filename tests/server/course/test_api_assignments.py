@@ -13,7 +13,7 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 from conftest import ROOT
-from test_api_support import INSTRUCTOR, api_client, bearer, student_token, wait_for
+from test_api_support import INSTRUCTOR, Clock, bearer, course_client, student_token, wait_for
 
 EXAMPLE = ROOT / "scenes" / "grading"
 CLASS = EXAMPLE / "class"
@@ -38,21 +38,10 @@ def image(name: str) -> dict:
     return {"image": base64.b64encode(path.read_bytes()).decode(), "format": path.suffix[1:]}
 
 
-class Clock:
-    """The app's clock, set by the test."""
-
-    def __init__(self, now: datetime):
-        self.now = now
-
-    def __call__(self) -> datetime:
-        return self.now
-
-
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     data = tmp_path_factory.mktemp("assignments-data")
-    with api_client(data, workers=1, instructor_token=INSTRUCTOR, token=INSTRUCTOR, max_submissions_per_hour=6) as c:
-        c.app.state.clock = Clock(T0)
+    with course_client(data, T0, max_submissions_per_hour=6) as c:
         yield c
 
 

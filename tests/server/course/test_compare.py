@@ -14,7 +14,7 @@ import re
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from test_api_support import INSTRUCTOR, api_client, bearer
+from test_api_support import INSTRUCTOR, bearer, course_client
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=1)
@@ -48,14 +48,6 @@ SPEC = {
 RED_BALL, GREEN_BALL = (16, 12), (25, 11)
 
 
-class Clock:
-    def __init__(self, now: datetime):
-        self.now = now
-
-    def __call__(self) -> datetime:
-        return self.now
-
-
 def blue() -> dict:
     """The student's scene: the reference with the red ball blue."""
     scene = copy.deepcopy(REFERENCE)
@@ -66,8 +58,7 @@ def blue() -> dict:
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     data = tmp_path_factory.mktemp("compare-data")
-    with api_client(data, workers=1, instructor_token=INSTRUCTOR, token=INSTRUCTOR) as c:
-        c.app.state.clock = Clock(T0)
+    with course_client(data, T0) as c:
         yield c
 
 
@@ -241,8 +232,7 @@ def test_compare_follows_the_feedback_policy(app):
 
 def test_compare_a_submission_not_graded_yet_is_a_409(tmp_path):
     """A server without render workers renders nothing: a submission is never graded, and its ray trees wait."""
-    with api_client(tmp_path / "data", workers=0, instructor_token=INSTRUCTOR, token=INSTRUCTOR) as c:
-        c.app.state.clock = Clock(T0)
+    with course_client(tmp_path / "data", T0, workers=0) as c:
         aid = publish(c)
         tok = roster(c, aid, "s1")["s1"]
         sid = submit(c, aid, tok, {"scene": blue()})

@@ -15,7 +15,7 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 from conftest import ROOT
-from test_api_support import INSTRUCTOR, api_client, bearer, student_token, wait_for
+from test_api_support import Clock, bearer, course_client, student_token, wait_for
 
 EXAMPLE = ROOT / "scenes" / "grading"
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
@@ -76,19 +76,10 @@ def good_image(client, aid: str) -> dict:
     return {"image": base64.b64encode(png).decode(), "format": "png"}
 
 
-class Clock:
-    def __init__(self, now: datetime):
-        self.now = now
-
-    def __call__(self) -> datetime:
-        return self.now
-
-
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     data = tmp_path_factory.mktemp("dashboard-data")
-    with api_client(data, workers=1, instructor_token=INSTRUCTOR, token=INSTRUCTOR) as c:
-        c.app.state.clock = Clock(T0)
+    with course_client(data, T0) as c:
         yield c
 
 

@@ -10,6 +10,7 @@ import pytest
 from conftest import scene_dict, small
 from queue_support import RedisServer
 from rq.job import Job
+from test_api_support import Clock
 
 from server.core.settings import load_settings
 from server.jobs.lifecycle import JobStatus
@@ -18,19 +19,11 @@ from server.queue.redis import events as ev
 from server.queue.redis.queue import FINISHED_GRACE, RedisQueue
 
 
-class Clock:
-    def __init__(self, t: float = 1_000_000.0):
-        self.t = t
-
-    def __call__(self) -> float:
-        return self.t
-
-
 @pytest.fixture
 def queue(tmp_path):
     with RedisServer(tmp_path / "redis.log") as redis_server:
         settings = load_settings(data_dir=tmp_path / "data", redis_url=redis_server.url, workers=0)
-        clock = Clock()
+        clock = Clock(1_000_000.0)
         q = RedisQueue(settings, JobStore(settings.data_dir), clock=clock)
         yield q, clock
 
@@ -55,10 +48,10 @@ def test_queue_redis_a_finished_try_without_its_last_word_runs_again(queue):
     # RQ wrote "finished" (to a Redis that came back empty, say) while the try's done event went to the one that died
     q.r.hset(Job.key_for(ev.rq_job_id(job_id, 1)), "status", "finished")
     q._lost_tries()
-    clock.t += FINISHED_GRACE - 0.5
+    clock.now += FINISHED_GRACE - 0.5
     q._lost_tries()
     assert q.store.get(job_id)["status"] == JobStatus.running  # its last word may still be on the way
-    clock.t += 1.0
+    clock.now += 1.0
     q._lost_tries()
     row = q.store.get(job_id)
     assert (row["status"], row["attempts"], row["lost"]) == (JobStatus.queued, 2, 1)
@@ -72,6 +65,6 @@ def test_queue_redis_a_try_still_running_is_not_lost(queue):
     q.r.hset(Job.key_for(ev.rq_job_id(job_id, 1)), "status", "started")
     for _ in range(3):
         q._lost_tries()
-        clock.t += 10 * FINISHED_GRACE
+        clock.now += 10 * FINISHED_GRACE
     row = q.store.get(job_id)
     assert (row["status"], row["attempts"], row["lost"]) == (JobStatus.running, 1, 0)
