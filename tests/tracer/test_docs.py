@@ -100,6 +100,19 @@ def test_docs_the_readme_links_the_reference():
     assert Path(ROOT / "docs" / "scene-format.md").is_file()
 
 
+def test_docs_the_readme_speaks_to_its_users_before_its_implementers():
+    """The README opens with the set-up, then a path each for a student, an instructor and whoever runs it for a
+    class; how the renderer works inside (its random numbers, its sequences) is in docs/renderer.md, linked."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    opening = readme[: readme.index("\n## ")]
+    for who in ("**If you are a student**", "**If you are an instructor**", "**If you run it for a class**"):
+        assert who in opening, who
+    for inside in ("PCG", "Sobol", "Owen", "Cranley", "Burley", "@wp.func"):
+        assert inside not in readme, f"the README explains {inside}: that is docs/renderer.md's"
+        assert inside in (ROOT / "docs" / "renderer.md").read_text(encoding="utf-8"), inside
+    assert "](docs/renderer.md)" in readme
+
+
 def test_docs_the_service_serves_the_reference_as_a_page(client_without_workers):
     client = client_without_workers
     page = client.get("/reference/scene-format.md")
