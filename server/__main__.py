@@ -7,9 +7,10 @@ import logging
 
 import h11
 import uvicorn
+from pydantic import ValidationError
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
-from server.core.settings import load_settings
+from server.core.settings import explain, load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.main import create_app, lock_data_dir
 
@@ -38,7 +39,9 @@ def main(argv: list[str] | None = None) -> None:
     given = {k: v for k, v in vars(args).items() if k != "settings" and v is not None}
     try:
         settings = load_settings(args.settings, **given)
-    except (FileNotFoundError, ValueError) as exc:  # pydantic's ValidationError is a ValueError
+    except ValidationError as exc:  # each setting by the name it was given (an option, or its TRACER_ variable)
+        p.error(explain(exc, {a.dest: a.option_strings[0] for a in p._actions if a.dest in given}))
+    except FileNotFoundError as exc:
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed

@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BeforeValidator, ByteSize, Field, SecretStr, create_model, field_validator
+from pydantic import BeforeValidator, ByteSize, Field, SecretStr, ValidationError, create_model, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.limits import LIMITS, Limits
@@ -258,3 +258,15 @@ def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -
     if settings_file is not None and not Path(settings_file).is_file():
         raise FileNotFoundError(f"settings file not found: {settings_file}")
     return Settings(_env_file=settings_file, **overrides)
+
+
+def explain(exc: ValidationError, flags: dict[str, str] | None = None) -> str:
+    """pydantic's errors as one line per setting, named as the user gave it (`flags`: field -> the command
+    line's option that set it; else its TRACER_ variable) with what was expected; never the value (a token)."""
+    lines = []
+    for e in exc.errors():
+        field = str(e["loc"][0]) if e["loc"] else ""
+        name = (flags or {}).get(field) or f"TRACER_{field.upper()}"
+        message = e["msg"].removeprefix("Value error, ")
+        lines.append(f"{name}: {message}")
+    return "; ".join(lines)

@@ -53,3 +53,25 @@ def test_settings_the_scene_limits_are_the_rows_of_one_table(monkeypatch):
     for limit in LIMITS:
         (row,) = [line for line in rows if line.startswith("| ") and f"`TRACER_{limit.name.upper()}`" in line]
         assert row.split(" | ")[1] == str(limit.default), row
+
+
+def test_settings_a_bad_setting_stops_the_server_naming_it_as_given(tmp_path):
+    """`python -m server` refuses a bad setting before it starts anything: one line per setting, named as the user
+    gave it (the TRACER_ variable, or the command line's option), what was expected, and never the value itself
+    (a token) nor pydantic's own wording and links."""
+    import os
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": "short-secret"}
+    argv = [sys.executable, "-m", "server", "--port", "9", "--workers", "-2", "--data-dir", str(tmp_path / "data")]
+    r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    error = r.stderr.strip().splitlines()[-1]
+    assert "TRACER_INSTRUCTOR_TOKEN: the instructor token must be 16 to 512 letters" in error, error
+    assert "--workers: Input should be greater than or equal to 0" in error, error
+    for unsaid in ("short-secret", "pydantic", "validation error", "type=", "input_value"):
+        assert unsaid not in r.stderr, unsaid
+    assert not (tmp_path / "data").exists()  # nothing was made
