@@ -212,31 +212,40 @@ def test_api_checks_a_client_that_goes_away_stops_its_check_and_the_waiting_line
         assert "scene check stopped: the client went away" in server.log_text()
 
 
-def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
-    """The waiting line of CheckPool._take (no processes: its checkers' states are set by hand): requests that
-    wait take a freed checker in the order they came, and a newcomer does not take one before them."""
-    import anyio
-
-    from server.checkers.pool import CheckPool
-    from server.core.settings import Settings
+class CheckerLine:
+    """A CheckPool of one checker and no processes, its checker busy: `take(name)` waits in its line (a small
+    body's when the name starts with "small") and records the name once served; `free()` frees the checker."""
 
     class Here:  # a request whose client stays
         async def is_disconnected(self) -> bool:
             return False
 
-    pool = CheckPool(Settings(data_dir=tmp_path, validate_processes=1))
-    checker = pool.checkers[0]
-    checker.state = "busy"
-    served: list[str] = []
+    def __init__(self, tmp_path):
+        from server.checkers.pool import CheckPool
+        from server.core.settings import Settings
 
-    async def take(name: str) -> None:
-        await pool._take(Here())
-        served.append(name)
+        self.pool = CheckPool(Settings(data_dir=tmp_path, validate_processes=1))
+        self.checker = self.pool.checkers[0]
+        self.checker.state = "busy"
+        self.served: list[str] = []
 
-    def free() -> None:
-        with pool._lock:
-            checker.state = "idle"
-            pool._wake()
+    async def take(self, name: str) -> None:
+        await self.pool._take(self.Here(), small=name.startswith("small"))
+        self.served.append(name)
+
+    def free(self) -> None:
+        with self.pool._lock:
+            self.checker.state = "idle"
+            self.pool._wake()
+
+
+def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
+    """The waiting line of CheckPool._take (no processes: its checkers' states are set by hand): requests that
+    wait take a freed checker in the order they came, and a newcomer does not take one before them."""
+    import anyio
+
+    line = CheckerLine(tmp_path)
+    pool, served, take, free = line.pool, line.served, line.take, line.free
 
     async def main() -> None:
         async with anyio.create_task_group() as tg:
@@ -261,26 +270,8 @@ def test_checks_a_small_body_s_request_passes_the_line_of_large_ones(tmp_path):
     included; the large ones then keep their order."""
     import anyio
 
-    from server.checkers.pool import CheckPool
-    from server.core.settings import Settings
-
-    class Here:  # a request whose client stays
-        async def is_disconnected(self) -> bool:
-            return False
-
-    pool = CheckPool(Settings(data_dir=tmp_path, validate_processes=1))
-    checker = pool.checkers[0]
-    checker.state = "busy"
-    served: list[str] = []
-
-    async def take(name: str) -> None:
-        await pool._take(Here(), small=name.startswith("small"))
-        served.append(name)
-
-    def free() -> None:
-        with pool._lock:
-            checker.state = "idle"
-            pool._wake()
+    line = CheckerLine(tmp_path)
+    pool, checker, served, take, free = line.pool, line.checker, line.served, line.take, line.free
 
     async def main() -> None:
         async with anyio.create_task_group() as tg:
