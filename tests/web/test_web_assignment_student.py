@@ -413,6 +413,15 @@ def test_an_image_from_the_students_own_ray_tracer(student, server, hw, tmp_path
     wait_status(page, sid, "graded")
     head = sub_rows(page)[0]["head"]
     assert "PNG image" in head and "/ 7" in head, head
+    # the same render as an OpenEXR file (floats): the page sends it as EXR, and Check reads it (no attempt)
+    exr = httpx.get(f"{server.url}/api/jobs/{job}/image?format=exr", headers=bearer(s["token"]), timeout=30).content
+    (tmp_path / "mine.exr").write_bytes(exr)
+    page.set_input_files("#a-image", str(tmp_path / "mine.exr"))
+    page.wait_for_function("() => document.querySelector('#a-image-note').textContent.includes('EXR')")
+    page.click("#a-check")
+    page.wait_for_selector("#a-check-verdict")
+    assert page.text_content("#a-check-verdict") == "The image can be read. No attempt was used."
+    assert page.get_attribute("#a-check-result", "data-valid") == "true"
     # the job the student rendered with their link's token is theirs in the workspace too
     page = me.open(f"{server.url}/")
     page.wait_for_selector(f"#job-list li[data-id='{job}']")
