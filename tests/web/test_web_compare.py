@@ -11,6 +11,7 @@ difference a ray deeper). Screenshots go to $WEB_SHOTS (compare-*.png) for a per
 from __future__ import annotations
 
 import copy
+import re
 from datetime import UTC, datetime, timedelta
 
 import httpx
@@ -134,6 +135,14 @@ def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, ph
     for side in ("student", "reference"):
         seen = page.evaluate(VISIBLE, side)
         assert seen["inBox"] and seen["inView"] and seen["stroke"] == "rgb(255, 77, 109)", seen
+    # each side's colour as RGB numbers and a swatch of it (the student's ball is blue, the reference's red)
+    summaries = page.eval_on_selector_all(
+        "#compare-test .compare-summary", "ps => ps.map(p => [p.textContent, p.querySelector('.sw').style.background])"
+    )
+    assert all(re.search(r"colour RGB \(([-\d.e]+, ){2}[-\d.e]+\)$", text) for text, _ in summaries), summaries
+    (_, mine), (_, theirs) = summaries
+    blue, red = (tuple(map(int, re.findall(r"\d+", c))) for c in (mine, theirs))
+    assert blue[2] > blue[0] and red[0] > red[2], summaries
     # side by side on a wide screen
     boxes = page.eval_on_selector_all("#compare-test section.compare-side", TOPS)
     assert boxes[0] == boxes[1]

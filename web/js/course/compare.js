@@ -10,7 +10,7 @@
 import { request } from "../api.js";
 import { renderDiagram } from "../diagram.js";
 import { legend } from "../rays.js";
-import { h, rgb, s } from "../util.js";
+import { cssColour, h, rgb, s } from "../util.js";
 
 const SIDES = [
   ["student", "Your ray tree"],
@@ -43,7 +43,13 @@ function side(name, title, tree, marked) {
     "section",
     { class: "compare-side", dataset: { side: name } },
     h("h3", {}, title),
-    h("p", { class: "compare-summary" }, `${model.nodes.length} ray${model.nodes.length === 1 ? "" : "s"}; the pixel sample's colour ${rgb(tree.color)}`),
+    h(
+      "p",
+      { class: "compare-summary" },
+      `${model.nodes.length} ray${model.nodes.length === 1 ? "" : "s"}; the pixel sample's colour `,
+      h("span", { class: "sw", style: `background:${cssColour(tree.color)}`, title: "the colour, as the display shows it" }),
+      `RGB (${tree.color.map((x) => rgb(x)).join(", ")})`,
+    ),
     box,
   );
   return { section, box, model, marked };
