@@ -58,7 +58,9 @@ export const INDIRECT = [
     id: "radiosity",
     title: "Radiosity: flat vs smooth vs two-pass",
     scene: "cornell_radiosity",
-    set: { "sampler.spp": 4, "render.light_samples": 2, "render.radiosity.rays": 1024 },
+    // 16 rays per pixel and 4 shadow rays each: two-pass's shadows are clean, so they can be compared with the patches'
+    // (the solve's 0.5 s is most of every panel's cost; flat and smooth trace no shadow rays)
+    set: { "sampler.spp": 16, "render.light_samples": 4, "render.radiosity.rays": 1024 },
     stepper: true,
     text: "Radiosity cuts the diffuse surfaces into patches and solves how much light each patch sends to every other (form factors), by progressive refinement: the brightest patch shoots its unshot power, again and again. Flat shows each patch's radiosity as it is, tiles and all; smooth interpolates it from the patch corners (Gouraud); two-pass adds a ray-tracing pass that computes direct light, shadows and mirrors per pixel and takes only the light bounced between surfaces from the patches. “Step through the shooting” opens a panel's job in the workspace, where the radiosity view replays the shots one by one.",
     controls: [{ key: "patch", label: "patch size", kind: "select", choices: values(0.5, 0.35, 0.25), value: 0.35, path: "render.radiosity.patch_size" }],
