@@ -281,6 +281,25 @@ def test_lesson_ray_tree_question_is_about_the_left_picture(desktop):
     assert f"render.max_depth = {depth}" in panels.nth(["left", "right"].index(side[1])).inner_text()
 
 
+def test_lesson_motion_words_name_every_moving_object(desktop, server):  # noqa: F811
+    """What moves in the moving picture's scene (its objects with a velocity, as the server rendered them) is what
+    the lesson's words name: each as its material and kind ("red ball") in the text, the control and the answers."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "motion")
+    job = page.get_attribute(".lesson-panel >> nth=1", "data-job")
+    scene = httpx.get(f"{server.url}/api/jobs/{job}/scene", headers=TEACHER, timeout=30).json()
+    moving = [o for o in scene["objects"] if any(o.get("velocity") or [])]
+    assert moving, "nothing moves in the moving picture"
+    words = {
+        "text": page.inner_text(".lesson-text"),
+        "control": page.inner_text(".lesson-controls"),
+        "question": page.inner_text(".lesson-question .choices"),
+    }
+    for o in moving:
+        name = f"{o['material']} {o['name'].split()[-1]}"  # "red ball"
+        assert all(name in w for w in words.values()), (name, words)
+
+
 def test_lesson_radiosity_links_to_the_shooting_view(desktop):
     page = desktop.open("#lessons").page
     open_lesson(page, "radiosity")

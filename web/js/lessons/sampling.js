@@ -71,7 +71,8 @@ export const SAMPLING = [
     title: "Motion blur: the object, its shadow, its reflection",
     scene: "motion_blur",
     set: { "sampler.spp": 16 },
-    text: "Each eye ray gets its own time while the shutter is open, and moving objects are where they are at that time; the shadow and reflection rays it spawns share that time. So the moving ball blurs, and so do its shadow on the floor and its image in the mirror behind. The still version is the same scene with every velocity removed.",
+    edit: (s) => delete named(s, "falling box").velocity, // one motion at a time: the red ball's
+    text: "Each eye ray gets its own time while the shutter is open, and moving objects are where they are at that time; the shadow and reflection rays it spawns share that time. So the moving red ball blurs, and so do its shadow on the floor and its image in the mirror behind. Only the red ball moves here (the example's falling box is held still); the still version is the same scene with every velocity removed.",
     controls: [
       {
         key: "speed",
@@ -94,7 +95,7 @@ export const SAMPLING = [
       prompt: "In the moving picture, what blurs?",
       choices: ["only the red ball", "the red ball and its shadow", "the red ball, its shadow and its reflection in the mirror"],
       answer: 2,
-      explain: "A shadow ray and a reflection ray carry the time of the eye ray that spawned them, so they meet the ball where it was at that time: the shadow and the mirror image are averaged over the shutter interval as well. Only the still blue ball, and what it casts, stays sharp.",
+      explain: "A shadow ray and a reflection ray carry the time of the eye ray that spawned them, so they meet the ball where it was at that time: the shadow and the mirror image are averaged over the shutter interval as well. What stands still (the blue ball, the box) stays sharp, and so does what it casts.",
     },
   },
 ];
