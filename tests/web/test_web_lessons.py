@@ -162,7 +162,7 @@ def panels_state(page) -> tuple[list[str], list[str], list[str]]:
     assert statuses == ["done"] * len(statuses), statuses
     pictures_loaded(page)
     jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-    return fingerprints(page), jobs, panel_texts(page, "figcaption code")
+    return fingerprints(page), jobs, panel_texts(page, ".panel-notes")
 
 
 @pytest.mark.parametrize("lesson", LESSON_IDS)
@@ -300,6 +300,51 @@ def test_lesson_motion_words_name_every_moving_object(desktop, server):  # noqa:
         assert all(name in w for w in words.values()), (name, words)
 
 
+def test_lesson_texts_link_to_the_reference_sections_they_name(desktop, server):  # noqa: F811
+    """Every lesson links to the reference that explains what its text only names (the server's /reference/
+    pages, which work offline): each link's page is served and has the section its anchor names. The links are
+    shown under the lesson's text."""
+    page = desktop.open("#lessons").page
+    more = page.evaluate(
+        "async () => (await import('/js/lessons.js')).LESSONS.map(l => [l.id, (l.more || []).map(([, href]) => href)])"
+    )
+    assert [i for i, hrefs in more if not hrefs] == [], "lessons without a link to the reference"
+    pages: dict[str, str] = {}
+    for href in sorted({h for _, hrefs in more for h in hrefs}):
+        path, _, anchor = href.partition("#")
+        assert path.startswith("/reference/") and anchor, href
+        if path not in pages:
+            r = httpx.get(f"{server.url}{path}", timeout=30)
+            assert r.status_code == 200, (href, r.status_code)
+            pages[path] = r.text
+        assert f'id="{anchor}"' in pages[path], f"{path} has no section #{anchor}"
+    open_lesson(page, "fog")
+    shown = [a.get_attribute("href") for a in page.locator("#lesson-stage .lesson-more a").all()]
+    assert shown == dict(more)["fog"]
+
+
+def test_lesson_phong_captions_one_change_a_line(desktop):
+    """Under each Phong picture, what changed is one change a line, and no field is named twice (the ambient
+    picture said "kd = 0.7 × blue" and then "kd = ks = 0", run together on one line): the kd, ks and n sliders
+    change only the pictures that have their term."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "phong")
+    for i, panel in enumerate(page.locator(".lesson-panel").all()):
+        items = panel.locator(".panel-notes li")
+        notes = items.all_inner_texts()
+        assert len(notes) >= 2, (i, notes)
+        fields = [f.strip() for n in notes for f in n.split(" = ")[:-1]]  # "kd = ks = 0": kd and ks
+        assert len(fields) == len(set(fields)), (i, notes)
+        tops = [items.nth(k).bounding_box()["y"] for k in range(len(notes))]
+        assert tops == sorted(set(tops)), (i, notes, tops)  # each on a line of its own
+    assert page.locator(".lesson-panel >> nth=0").locator(".panel-notes").inner_text().splitlines() == [
+        "ka = 0.3",
+        "attenuation = [0,0,1]",
+        "kd = ks = 0",
+    ]
+    desktop.shot("lesson-phong-captions")
+
+
 def test_lesson_radiosity_links_to_the_shooting_view(desktop):
     page = desktop.open("#lessons").page
     open_lesson(page, "radiosity")
@@ -313,7 +358,7 @@ def test_lesson_mystery_pictures_are_named_once_answered(desktop):
     open_lesson(page, "aliasing")
     titles = panel_texts(page, "figcaption strong")
     assert titles[2:] == ["picture A", "picture B"]
-    assert panel_texts(page, "figcaption code")[3] == ""  # what B changed would give it away
+    assert panel_texts(page, ".panel-notes")[3] == ""  # what B changed would give it away
     page.wait_for_function(
         "() => [...document.querySelectorAll('img.rays-map')].every(i => i.complete && i.naturalWidth)"
     )
