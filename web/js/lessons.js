@@ -598,7 +598,7 @@ export class Lessons {
 
 /** The lesson's links to the reference (`more`), opened beside the lesson (which keeps its pictures). */
 function moreElement(lesson) {
-  if (!lesson.more?.length) return null;
+  if (!lesson.more?.length) return h("p", { class: "lesson-more", hidden: true });
   const links = lesson.more.map(([text, href]) => h("a", { href, target: "_blank", rel: "noopener" }, text));
   return h("p", { class: "lesson-more" }, "More in the reference: ", ...links.flatMap((a, i) => (i ? [", ", a] : [a])), ".");
 }
