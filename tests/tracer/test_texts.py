@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 import pytest
-from conftest import scene_dict
+from conftest import ROOT, scene_dict
 
 # (example, a phrase of its description with {} where a number stands, the JSON path of that number)
 QUOTED = [
@@ -39,3 +39,14 @@ def test_texts_example_descriptions_quote_their_own_numbers(name, phrase, path):
     found = re.search(pattern, scene["description"])
     assert found, f"{name}.json's description no longer says {phrase!r}"
     assert float(found[1]) == pytest.approx(_at(scene, path)), f"{name}.json: the description says {found[0]!r}"
+
+
+def test_texts_example_descriptions_point_to_the_page_not_the_command_line():
+    """The examples' descriptions are read on the page's cards: for the rays-per-pixel picture they name the page's
+    own button (the viewer's and each lesson panel's "Rays / pixel"), not a command line flag."""
+    text = scene_dict("antialias_adaptive")["description"]
+    assert "--aovs" not in text and "python -m" not in text, text
+    assert "Rays / pixel" in text, text
+    web = ROOT / "web" / "js"
+    assert '["rays", "Rays / pixel"]' in (web / "viewer.js").read_text()
+    assert '"Rays / pixel")' in (web / "lessons.js").read_text()

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from conftest import ROOT
 from PIL import Image
+from test_api_support import wait_finished
 from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
 
 JS = ROOT / "web" / "js"
@@ -79,6 +80,13 @@ def fingerprints(page) -> list[str]:
             return `${c.width}x${c.height}:${h}`;
         })"""
     )
+
+
+def job_png(server, job_id: str) -> np.ndarray:  # noqa: F811
+    """A job's final picture as it was sent (0-255 RGB floats)."""
+    r = httpx.get(f"{server.url}/api/jobs/{job_id}/image?format=png", headers=TEACHER, timeout=30)
+    r.raise_for_status()
+    return np.asarray(Image.open(BytesIO(r.content)).convert("RGB"), dtype=np.float64)
 
 
 def panel_texts(page, selector: str) -> list[str]:
@@ -154,7 +162,7 @@ def panels_state(page) -> tuple[list[str], list[str], list[str]]:
     assert statuses == ["done"] * len(statuses), statuses
     pictures_loaded(page)
     jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-    return fingerprints(page), jobs, panel_texts(page, "figcaption code")
+    return fingerprints(page), jobs, panel_texts(page, ".panel-notes")
 
 
 @pytest.mark.parametrize("lesson", LESSON_IDS)
@@ -217,12 +225,124 @@ def test_lesson_circle_of_confusion_of_a_clicked_point(desktop):
     near = float(page.get_attribute(".coc-text", "data-diameter"))
     assert "near (red)" in text and near > 2, text
     assert page.get_attribute(".lesson-panel >> nth=1 >> canvas.lesson-overlay", "data-diameter") == f"{near:.2f}"
+    # the magnifiers the pointer opened would cover the circle just drawn: hidden while the pointer stays on the
+    # clicked picture, back once it has left it
+    lenses = ".lesson-panel .inspect-lens:not([hidden])"
+    page.mouse.move(box["x"] + box["width"] * 0.58 + 3, box["y"] + box["height"] * 0.64 + 2)
+    assert page.locator(lenses).count() == 0
+    desktop.shot("lesson-dof-coc-after-click")
+    page.mouse.move(box["x"] + box["width"] * 0.5, box["y"] - 20)
+    page.mouse.move(box["x"] + box["width"] * 0.3, box["y"] + box["height"] * 0.3)
+    page.wait_for_function(f"() => document.querySelectorAll('{lenses}').length === 2")
     # the green ball, near the focal plane: a smaller circle
     page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.47)
     page.wait_for_function("(d) => document.querySelector('.coc-text').dataset.diameter !== d", arg=f"{near:.2f}")
     text = page.inner_text(".coc-text")
     assert "in focus (green)" in text and float(page.get_attribute(".coc-text", "data-diameter")) < 1 < near, text
     desktop.shot("lesson-dof-coc", full_page=True)
+
+
+def test_lesson_radiosity_two_pass_shadows_are_clean(desktop, server):  # noqa: F811
+    """The question asks why two-pass has the sharper shadows: its panel must not hide them in noise. Its RMS
+    difference from the same scene at 64 rays per pixel and 16 shadow rays each (the same seed, so the same
+    radiosity solution: what differs is the per-pixel noise) stays under 2 levels of 255; with 4 rays per pixel
+    and 2 shadow rays it was 4.1, speckles plain to see, where the flat and smooth panels have none."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "radiosity")
+    pictures_loaded(page)
+    job = page.get_attribute(".lesson-panel >> nth=2", "data-job")
+    with httpx.Client(base_url=server.url, headers=TEACHER, timeout=30) as client:
+        scene = client.get(f"/api/jobs/{job}/scene").json()
+        assert scene["render"]["radiosity"]["display"] == "two-pass"
+        scene["sampler"]["spp"] = 64
+        scene["render"]["light_samples"] = 16
+        r = client.post("/api/jobs", json={"scene": scene})
+        assert r.status_code == 202, r.text
+        reference = wait_finished(client, r.json()["id"], timeout=120)
+    assert reference["status"] == "done", reference
+    rms = float(np.sqrt(((job_png(server, job) - job_png(server, reference["id"])) ** 2).mean()))
+    assert rms < 2.0, rms
+
+
+def test_lesson_ray_tree_question_is_about_the_left_picture(desktop):
+    """The ray tree question's max_depth is where the left picture's slider starts, its pixel is marked on that
+    picture, and the explanation sends the student to a picture cut at that depth."""
+    page = desktop.open("#lessons").page
+    page.click(".lesson-button[data-lesson=raytree-stop]")
+    page.wait_for_selector(".lesson-question .choice", timeout=60_000)
+    depth = int(re.search(r"max_depth (\d+)", page.inner_text(".lesson-question .question"))[1])
+    assert int(page.input_value(".lesson-controls [data-key=depth]")) == depth
+    panels = page.locator(".lesson-panel")
+    assert panels.nth(0).locator(".lesson-mark").count() == 1
+    answer_question(page)
+    feedback = page.inner_text(".lesson-question .feedback")
+    side = re.search(r"[Tt]he (left|right) picture is cut at depth (\d+)", feedback)
+    assert side and int(side[2]) == depth, feedback
+    assert f"render.max_depth = {depth}" in panels.nth(["left", "right"].index(side[1])).inner_text()
+
+
+def test_lesson_motion_words_name_every_moving_object(desktop, server):  # noqa: F811
+    """What moves in the moving picture's scene (its objects with a velocity, as the server rendered them) is what
+    the lesson's words name: each as its material and kind ("red ball") in the text, the control and the answers."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "motion")
+    job = page.get_attribute(".lesson-panel >> nth=1", "data-job")
+    scene = httpx.get(f"{server.url}/api/jobs/{job}/scene", headers=TEACHER, timeout=30).json()
+    moving = [o for o in scene["objects"] if any(o.get("velocity") or [])]
+    assert moving, "nothing moves in the moving picture"
+    words = {
+        "text": page.inner_text(".lesson-text"),
+        "control": page.inner_text(".lesson-controls"),
+        "question": page.inner_text(".lesson-question .choices"),
+    }
+    for o in moving:
+        name = f"{o['material']} {o['name'].split()[-1]}"  # "red ball"
+        assert all(name in w for w in words.values()), (name, words)
+
+
+def test_lesson_texts_link_to_the_reference_sections_they_name(desktop, server):  # noqa: F811
+    """Every lesson links to the reference that explains what its text only names (the server's /reference/
+    pages, which work offline): each link's page is served and has the section its anchor names. The links are
+    shown under the lesson's text."""
+    page = desktop.open("#lessons").page
+    more = page.evaluate(
+        "async () => (await import('/js/lessons.js')).LESSONS.map(l => [l.id, (l.more || []).map(([, href]) => href)])"
+    )
+    assert [i for i, hrefs in more if not hrefs] == [], "lessons without a link to the reference"
+    pages: dict[str, str] = {}
+    for href in sorted({h for _, hrefs in more for h in hrefs}):
+        path, _, anchor = href.partition("#")
+        assert path.startswith("/reference/") and anchor, href
+        if path not in pages:
+            r = httpx.get(f"{server.url}{path}", timeout=30)
+            assert r.status_code == 200, (href, r.status_code)
+            pages[path] = r.text
+        assert f'id="{anchor}"' in pages[path], f"{path} has no section #{anchor}"
+    open_lesson(page, "fog")
+    shown = [a.get_attribute("href") for a in page.locator("#lesson-stage .lesson-more a").all()]
+    assert shown == dict(more)["fog"]
+
+
+def test_lesson_phong_captions_one_change_a_line(desktop):
+    """Under each Phong picture, what changed is one change a line, and no field is named twice (the ambient
+    picture said "kd = 0.7 × blue" and then "kd = ks = 0", run together on one line): the kd, ks and n sliders
+    change only the pictures that have their term."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "phong")
+    for i, panel in enumerate(page.locator(".lesson-panel").all()):
+        items = panel.locator(".panel-notes li")
+        notes = items.all_inner_texts()
+        assert len(notes) >= 2, (i, notes)
+        fields = [f.strip() for n in notes for f in n.split(" = ")[:-1]]  # "kd = ks = 0": kd and ks
+        assert len(fields) == len(set(fields)), (i, notes)
+        tops = [items.nth(k).bounding_box()["y"] for k in range(len(notes))]
+        assert tops == sorted(set(tops)), (i, notes, tops)  # each on a line of its own
+    assert page.locator(".lesson-panel >> nth=0").locator(".panel-notes").inner_text().splitlines() == [
+        "ka = 0.3",
+        "attenuation = [0,0,1]",
+        "kd = ks = 0",
+    ]
+    desktop.shot("lesson-phong-captions")
 
 
 def test_lesson_radiosity_links_to_the_shooting_view(desktop):
@@ -238,7 +358,7 @@ def test_lesson_mystery_pictures_are_named_once_answered(desktop):
     open_lesson(page, "aliasing")
     titles = panel_texts(page, "figcaption strong")
     assert titles[2:] == ["picture A", "picture B"]
-    assert panel_texts(page, "figcaption code")[3] == ""  # what B changed would give it away
+    assert panel_texts(page, ".panel-notes")[3] == ""  # what B changed would give it away
     page.wait_for_function(
         "() => [...document.querySelectorAll('img.rays-map')].every(i => i.complete && i.naturalWidth)"
     )
@@ -281,14 +401,8 @@ def test_lesson_noise_errors_against_the_references(desktop, server):  # noqa: F
 
     # the numbers are the RMS difference of the pictures' own PNGs (0-255, over the three channels)
     jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-
-    def png(i: int) -> np.ndarray:
-        r = httpx.get(f"{server.url}/api/jobs/{jobs[i]}/image?format=png", headers=TEACHER, timeout=30)
-        r.raise_for_status()
-        return np.asarray(Image.open(BytesIO(r.content)).convert("RGB"), dtype=np.float64)
-
     for i, ref in ((0, 3), (2, 3), (5, 7)):
-        rms = float(np.sqrt(((png(i) - png(ref)) ** 2).mean()))
+        rms = float(np.sqrt(((job_png(server, jobs[i]) - job_png(server, jobs[ref])) ** 2).mean()))
         assert abs(rms - errors[i]) < 0.01, (i, rms, errors[i])
 
     # one pixel's points: the low-discrepancy ones fill every cell, column and row; random ones leave gaps

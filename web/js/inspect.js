@@ -2,7 +2,9 @@
 // picture of the group at once, each pixel a square (nearest neighbour, never smoothed), and a full-size view
 // of the group, zoomable x1 to x8. Mouse: hover or drag a picture to move the lenses, click for the full-size
 // view. Keyboard: focus a picture, arrows move the lenses one pixel (Shift: 10), Enter opens the full-size view,
-// Escape hides the lenses or closes the view.
+// Escape hides the lenses or closes the view. A picture with a click of its own (class "clickable": the depth of
+// field lesson draws on the pictures) hides the lenses when clicked, until the pointer leaves it, so that they do
+// not cover what the click drew.
 import { h } from "./util.js";
 
 const LENS = 120; // CSS pixels of a lens
@@ -13,6 +15,7 @@ const ZOOMS = [1, 2, 4, 8];
  * `labelOf(img)` names a picture in the full-size view (default: its alt text). */
 export function inspectGroup(container, selector, { labelOf = (img) => img.alt } = {}) {
   let at = null; // the lenses' centre, in picture pixels of the picture under the pointer: [x, y] (fractional)
+  let clicked = null; // a clickable picture just clicked: no lenses while the pointer stays on it
   const shown = () => [...container.querySelectorAll(selector)].filter((i) => !i.hidden && i.complete && i.naturalWidth > 0);
 
   const prepare = () => {
@@ -74,14 +77,22 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
   };
   container.addEventListener("pointermove", (e) => {
     const img = e.target.closest?.(selector);
-    if (img && container.contains(img)) moveTo(img, e);
+    if (img !== clicked) clicked = null;
+    if (img && container.contains(img) && !clicked) moveTo(img, e);
     else if (at) hide();
   });
-  container.addEventListener("pointerleave", hide);
+  container.addEventListener("pointerleave", () => {
+    clicked = null;
+    hide();
+  });
   container.addEventListener("click", (e) => {
     const img = e.target.closest?.(selector);
-    if (!img || !container.contains(img) || img.classList.contains("clickable")) return; // a click of its own
-    openFull(shown(), img, labelOf);
+    if (!img || !container.contains(img)) return;
+    if (!img.classList.contains("clickable")) openFull(shown(), img, labelOf);
+    else {
+      clicked = img; // a click of its own, which may draw under the lenses
+      hide();
+    }
   });
   container.addEventListener("dblclick", (e) => {
     const img = e.target.closest?.(selector);
@@ -94,6 +105,7 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
     const d = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] }[e.key];
     if (d) {
       e.preventDefault();
+      clicked = null;
       const [u, v] = at || [0.5, 0.5];
       const x = Math.min(img.naturalWidth - 1, Math.max(0, Math.floor(u * img.naturalWidth) + d[0]));
       const y = Math.min(img.naturalHeight - 1, Math.max(0, Math.floor(v * img.naturalHeight) + d[1]));

@@ -23,7 +23,8 @@ const SETTLE_MS = 350; // a control's panels re-render this long after its last 
  * value}) and `edit(scene)`, the changes every panel gets; `panels`, each with a `label` (text, or a function of its
  * scene), its own `scene`, `set`, `edit` and `note`; `controls`, each bound to a `path` (or `apply(scene, value)`
  * with a `note(value)`) of the `panels` it names (none: all); a `question` ({prompt, choices, answer, explain}, or
- * `make(context)` giving one); and what a lesson adds (samples, raysMap, stepper, coc, a panel's reveal and against). */
+ * `make(context)` giving one); `more`, links to the reference ([text, address]) that explain what the text only
+ * names; and what a lesson adds (samples, raysMap, stepper, coc, a panel's reveal and against). */
 export const LESSONS = [...RAY_TRACING, ...SAMPLING, ...DISTRIBUTED, ...INDIRECT, ...SURFACES];
 
 /** Set `obj`'s field at a dotted path ("render.max_depth"), making the sections on the way. */
@@ -136,7 +137,7 @@ export class Lessons {
     const controls = this.controlsElement(lesson, run);
     const extra = h("div", { class: "lesson-extra" });
     const question = h("section", { class: "lesson-question", "aria-label": "Check yourself" });
-    this.stage.replaceChildren(h("h2", { tabindex: -1 }, lesson.title), h("p", { class: "lesson-text" }, lesson.text), controls, grid, extra, question);
+    this.stage.replaceChildren(h("h2", { tabindex: -1 }, lesson.title), h("p", { class: "lesson-text" }, lesson.text), moreElement(lesson), controls, grid, extra, question);
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
     run.extra = extra;
@@ -246,7 +247,7 @@ export class Lessons {
     const bar = h("progress", { max: 1, value: 0, "aria-label": `${panel.label}: progress` });
     const info = h("p", { class: "panel-info" });
     const title = h("strong", {});
-    const notes = h("code", {});
+    const notes = h("ul", { class: "panel-notes", "aria-label": "what changed" });
     const el = { img, state, bar, info, title, notes, panel };
     const open = h("button", { type: "button", class: "small", disabled: true, onclick: () => this.openInWorkspace(el.panel.scene, el.panel.job, el.panel.label) }, "Open in workspace");
     const rays = h("button", { type: "button", class: "small", disabled: true, "aria-pressed": "false" }, "Rays / pixel");
@@ -313,8 +314,8 @@ export class Lessons {
     const run = this.runs.get(panel.lesson);
     const hidden = panel.reveal && !run?.answered;
     el.title.textContent = panel.reveal && !hidden ? panel.reveal : panel.label;
-    el.notes.textContent = hidden ? "" : panel.notes.join(", ");
-    el.notes.hidden = !el.notes.textContent;
+    el.notes.replaceChildren(...(hidden ? [] : panel.notes.map((n) => h("li", {}, h("code", {}, n))))); // one change a line
+    el.notes.hidden = !el.notes.childElementCount;
   }
 
   /** A panel's error against its reference, not known (yet). */
@@ -593,6 +594,13 @@ export class Lessons {
     ctx.lineTo(cx, cy + 5);
     ctx.stroke();
   }
+}
+
+/** The lesson's links to the reference (`more`), opened beside the lesson (which keeps its pictures). */
+function moreElement(lesson) {
+  if (!lesson.more?.length) return h("p", { class: "lesson-more", hidden: true });
+  const links = lesson.more.map(([text, href]) => h("a", { href, target: "_blank", rel: "noopener" }, text));
+  return h("p", { class: "lesson-more" }, "More in the reference: ", ...links.flatMap((a, i) => (i ? [", ", a] : [a])), ".");
 }
 
 /** A lesson panel's queued job: its place in line (from the server). */

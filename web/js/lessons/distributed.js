@@ -1,5 +1,5 @@
 // The lessons on distributed ray tracing: glossy reflection, soft shadows, depth of field.
-import { eachMaterial, values } from "./helpers.js";
+import { eachMaterial, reference, values } from "./helpers.js";
 
 export const DISTRIBUTED = [
   {
@@ -7,7 +7,8 @@ export const DISTRIBUTED = [
     title: "Glossy reflection: a cone of rays",
     scene: "glossy",
     set: { "sampler.spp": 16 },
-    text: "A perfect mirror sends one reflection ray. A glossy surface sends reflection rays in a cone around the mirror direction, narrower the larger the material's gloss m (a cos^m lobe, like the Phong exponent): averaged over the pixel's rays, the reflections of the other objects blur. The left ball's m is the slider; the others keep theirs (300, 40, and frosted glass 150). Fewer rays per pixel: a noisier blur.",
+    text: "A perfect mirror sends one reflection ray. A glossy surface sends reflection rays in a cone around the mirror direction, narrower the larger the material's gloss m (a direction at angle α from the mirror direction is drawn in proportion to cos^m α, like the Phong exponent n of a highlight): averaged over the pixel's rays, the reflections of the other objects blur. The left ball's m is the slider; the others keep theirs (300, 40, and frosted glass 150). Fewer rays per pixel: a noisier blur.",
+    more: [reference("materials and their gloss", "materials"), reference("reflection and transmission rays", "reflection-and-transmission-rays")],
     controls: [
       { key: "m", label: "gloss m (left ball)", kind: "select", choices: values(10, 40, 150, 600, 3000), value: 40, panels: [1], path: "materials.mirror.gloss" },
       { key: "spp", label: "rays per pixel", kind: "select", choices: values(4, 16, 64), value: 16, path: "sampler.spp" },
@@ -28,6 +29,7 @@ export const DISTRIBUTED = [
     title: "Hard vs soft shadows",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
     text: "A point light casts hard shadows: a point is lit or not. An area light is sampled with light_samples shadow rays to random points of the light per shading point: the fraction that reaches the light makes the penumbra. Fewer rays, more noise; more rays, less noise (and more shadow rays to pay for). The penumbra is widest where the shadow is far from the object that casts it.",
+    more: [reference("area lights", "area-lights"), reference("shadow rays", "shadow-rays")],
     controls: [{ key: "light", label: "shadow rays per point (right)", kind: "range", min: 1, max: 32, step: 1, value: 16, panels: [2], path: "render.light_samples" }],
     panels: [
       { label: "point light: hard shadows", scene: "cornell" },
@@ -48,6 +50,7 @@ export const DISTRIBUTED = [
     set: { "sampler.spp": 16 },
     coc: true,
     text: "A pinhole camera sends every eye ray through one point: everything is sharp. A thin lens starts eye rays at random points of the lens, all through the point where the pinhole ray meets the focal plane: objects on that plane stay sharp, the others blur in proportion to their distance from it. Click a point of either picture: its circle of confusion (the disk a point at that depth spreads into) is drawn on the lens picture, from the thin-lens formula.",
+    more: [reference("camera rays through a thin lens", "camera-rays"), reference("the camera's lens fields", "camera")],
     controls: [
       { key: "radius", label: "lens radius", kind: "range", min: 0, max: 0.4, step: 0.01, value: 0.15, panels: [1], path: "camera.lens_radius" },
       { key: "focus", label: "focus distance", kind: "range", min: 3, max: 13, step: 0.1, value: 7.3, panels: [1], path: "camera.focus_distance" },

@@ -12,3 +12,6 @@ export function named(s, name) {
 
 /** Choices of a select control from plain values: [[value, text]]. */
 export const values = (...xs) => xs.map((x) => [x, String(x)]);
+
+/** A link of a lesson's `more` to a section of the scene format's reference (the server's /reference/ page). */
+export const reference = (text, anchor) => [text, `/reference/scene-format.md#${anchor}`];

@@ -1,6 +1,6 @@
 // The lessons on light bounced between surfaces: Whitted vs path tracing vs radiosity, Monte Carlo noise,
 // radiosity's displays.
-import { values } from "./helpers.js";
+import { reference, values } from "./helpers.js";
 
 /** A reference panel of the noise lesson: many rays, and another seed than the panels it is compared with (a
  * low-discrepancy panel's points are the first ones of the same seed's longer sequence). */
@@ -13,6 +13,7 @@ export const INDIRECT = [
     scene: "cornell_path",
     set: { "sampler.spp": 16 },
     text: "The same Cornell box and ceiling light. Whitted's ray tree follows only mirror and refraction rays: soft shadows from the area light, but light does not bounce between walls; its ambient term (ka·Ia, the slider) fakes the missing light with one constant. The path tracer samples diffuse bounces too: red and green bleed onto the white blocks and the ceiling is lit. Radiosity solves diffuse interreflection between the diffuse surfaces first (patches and form factors), then traces the ray tree for direct light and mirrors.",
+    more: [reference("integrators and depth", "integrators-and-depth"), reference("the ambient term", "the-local-term")],
     controls: [{ key: "ambient", label: "Whitted's ambient Ia", kind: "range", min: 0, max: 0.5, step: 0.05, value: 0, panels: [0], path: "ambient" }],
     panels: [
       { label: (s) => `Whitted ray tracing, ambient ${s.ambient}`, set: { "render.integrator": "whitted" } },
@@ -30,7 +31,8 @@ export const INDIRECT = [
     id: "noise",
     title: "Noise: random vs jittered vs low-discrepancy (quasi-Monte Carlo)",
     samples: [44, 37], // the pixel whose samples are drawn (at 160 x 120 and 120 x 120)
-    text: "A pixel's colour is an average (over its area, and over the lens, the shutter and a path's bounces) estimated from a few rays: the estimate is off by a random error, the noise. How the rays' points are spread changes that error, not the picture they converge to. Random: independent points, which clump and leave gaps. Jittered: one random point in each cell of a √n × √n grid (stratified). Low-discrepancy (quasi-Monte Carlo): the successive points of a Sobol sequence, scrambled for each pixel; every first 2ᵏ of them form a (0,k,2)-net, one point in each box of area 2⁻ᵏ: at 16 rays one in each of the 4 × 4 cells, and also one in each of 16 thin columns and 16 thin rows. The sampler chooses only where a ray crosses the pixel (and the lens, and the shutter time); a path's bounce directions and its points on the light come from the path's own points, the same for all three. Under each picture: one pixel's rays, and the RMS difference from the row's reference (256 rays per pixel, another seed; its own small noise counts too). Top: ray tracing with a point light. Bottom: the path-traced Cornell box.",
+    text: "A pixel's colour is an average (over its area, and over the lens, the shutter and a path's bounces) estimated from a few rays: the estimate is off by a random error, the noise. How the rays' points are spread changes that error, not the picture they converge to. Random: independent points, which clump and leave gaps. Jittered: one random point in each cell of a √n × √n grid (stratified). Low-discrepancy (quasi-Monte Carlo: Monte Carlo with points placed evenly on purpose instead of independently): the successive points of a Sobol sequence, a fixed sequence built so that its first points already spread evenly, shuffled at random for each pixel. Its first 4, 8, 16, … points (a power of 2) lie one in each box of any grid of that many equal boxes: at 16 rays, one in each of the 4 × 4 cells, and also one in each of 16 thin columns and 16 thin rows (such a set is called a (0,k,2)-net). The sampler chooses only where a ray crosses the pixel (and the lens, and the shutter time); a path's bounce directions and its points on the light come from the path's own points, the same for all three. Under each picture: one pixel's rays, and how far the picture is from the row's reference (256 rays per pixel, another seed; its own small noise counts too), as the RMS difference: the square root of the mean squared difference of the pixels' levels, 0 to 255. Top: ray tracing with a point light. Bottom: the path-traced Cornell box.",
+    more: [reference("the samplers, low-discrepancy among them", "sampler"), reference("random numbers", "random-numbers")],
     controls: [{ key: "spp", label: "rays per pixel (all but the references)", kind: "select", choices: values(4, 16, 64), value: 16, panels: [0, 1, 2, 4, 5, 6], path: "sampler.spp" }],
     panels: [
       { label: (s) => `random, ${s.sampler.spp} rays`, scene: "antialias_jittered", set: { "sampler.type": "random" }, against: 3 },
@@ -51,16 +53,19 @@ export const INDIRECT = [
         "The path tracer averages the three samplers together",
       ],
       answer: 1,
-      explain: "On the floor, the film position is the only random choice, and a pixel's error comes from the edges (of the checks, the ball, the poles) that cross it. Random points leave gaps and clumps, so the error of their average falls only as 1/√n: 4 times the rays, half the noise. Stratification puts one point in each cell, so only the cells an edge crosses contribute to the error, and it falls faster. A (0,k,2)-net is stratified in every shape at once (4 × 4 cells, 2 × 8, 16 thin columns, 16 thin rows), so an edge at any angle is met evenly; and every first 2ᵏ points are such a net, so a progressive render is even at each pass. In the box most pixels see no edge: their noise is the choice of each bounce's direction and of a point on the light, and changing where the rays cross the pixel does not change it; only the few pixels on an edge gain. The renderer's bounces already take their own low-discrepancy points, whatever the sampler.",
+      explain: "On the floor, the film position is the only random choice, and a pixel's error comes from the edges (of the checks, the ball, the poles) that cross it. Random points leave gaps and clumps, so the error of their average falls only as 1/√n: 4 times the rays, half the noise. Stratification puts one point in each cell, so only the cells an edge crosses contribute to the error, and it falls faster. Low-discrepancy points are stratified in every shape at once (4 × 4 cells, 2 × 8, 16 thin columns, 16 thin rows), so an edge at any angle is met evenly; and every first 4, 8, 16, … points are spread that way, so a progressive render is even at each pass. In the box most pixels see no edge: their noise is the choice of each bounce's direction and of a point on the light, and changing where the rays cross the pixel does not change it; only the few pixels on an edge gain. The renderer's bounces already take their own low-discrepancy points, whatever the sampler.",
     },
   },
   {
     id: "radiosity",
     title: "Radiosity: flat vs smooth vs two-pass",
     scene: "cornell_radiosity",
-    set: { "sampler.spp": 4, "render.light_samples": 2, "render.radiosity.rays": 1024 },
+    // 16 rays per pixel and 4 shadow rays each: two-pass's shadows are clean, so they can be compared with the patches'
+    // (the solve's 0.5 s is most of every panel's cost; flat and smooth trace no shadow rays)
+    set: { "sampler.spp": 16, "render.light_samples": 4, "render.radiosity.rays": 1024 },
     stepper: true,
-    text: "Radiosity cuts the diffuse surfaces into patches and solves how much light each patch sends to every other (form factors), by progressive refinement: the brightest patch shoots its unshot power, again and again. Flat shows each patch's radiosity as it is, tiles and all; smooth interpolates it from the patch corners (Gouraud); two-pass adds a ray-tracing pass that computes direct light, shadows and mirrors per pixel and takes only the light bounced between surfaces from the patches. “Step through the shooting” opens a panel's job in the workspace, where the radiosity view replays the shots one by one.",
+    text: "Radiosity cuts the diffuse surfaces into patches and solves how much light each patch sends to every other: a form factor is the share of the light leaving one patch that lands on another, here estimated by casting rays from it. The solve is progressive refinement: the patch with the most light not yet sent on (its unshot power) shoots it to the others, again and again. A patch's radiosity is the light leaving it per unit area. Flat shows each patch's radiosity as it is, tiles and all; smooth blends it across each patch from values at its corners (Gouraud shading, as for the vertex colours of a polygon); two-pass adds a ray-tracing pass that computes direct light, shadows and mirrors per pixel and takes only the light bounced between surfaces from the patches. “Step through the shooting” opens a panel's job in the workspace, where the radiosity view replays the shots one by one.",
+    more: [reference("the radiosity integrator", "integrators-and-depth"), reference("radiosity settings", "radiosity-settings")],
     controls: [{ key: "patch", label: "patch size", kind: "select", choices: values(0.5, 0.35, 0.25), value: 0.35, path: "render.radiosity.patch_size" }],
     panels: [
       { label: "flat: one colour per patch", set: { "render.radiosity.display": "flat" } },

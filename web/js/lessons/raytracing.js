@@ -1,8 +1,9 @@
 // The lessons on Whitted's ray tracing: the ray tree and where it is cut, the Phong terms, bounces.
 import { api } from "../api.js";
-import { values } from "./helpers.js";
+import { reference, values } from "./helpers.js";
 
 const GLASS_PIXEL = [110, 70]; // on the glass ball of `whitted` at 160 x 120 (the lessons' size)
+const QUESTION_DEPTH = 3; // the ray tree question's max_depth, where the left picture's slider starts
 
 export const RAY_TRACING = [
   {
@@ -11,8 +12,9 @@ export const RAY_TRACING = [
     scene: "whitted",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
     text: "Each eye ray that hits a mirror or glass spawns a reflection ray and a transmission ray, and those spawn their own: a ray tree. A branch ends where its ray leaves the scene, or where it is cut: at max_depth, or where its contribution to the pixel, the product of the K's (kr, kt) along the way, falls below min_weight. Cutting by depth stops every branch at the same generation, bright or faint; cutting by weight stops faint branches early and lets the bright ones (a mirror seen in a mirror) go deep. Compare the pictures and what each cost in rays.",
+    more: [reference("the ray tree", "the-ray-tree"), reference("why a ray ends", "why-a-ray-ends"), reference("reflection and transmission rays", "reflection-and-transmission-rays")],
     controls: [
-      { key: "depth", label: "max_depth (left)", kind: "range", min: 1, max: 10, step: 1, value: 2, panels: [0], path: "render.max_depth" },
+      { key: "depth", label: "max_depth (left)", kind: "range", min: 1, max: 10, step: 1, value: QUESTION_DEPTH, panels: [0], path: "render.max_depth" },
       { key: "weight", label: "min_weight (right)", kind: "select", choices: values(0.001, 0.05, 0.2, 0.5, 0.9), value: 0.2, panels: [1], path: "render.min_weight" },
     ],
     panels: [
@@ -31,12 +33,13 @@ export const RAY_TRACING = [
       s.materials.ball = { kd: [0.2, 0.35, 0.8], ks: 0.5, shininess: 64 };
       s.lights = [{ type: "point", position: [-3, 5, 4], intensity: 60 }];
     },
-    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time; the sliders change the ball's coefficients (and the light's attenuation, which shows best on the floor).",
+    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time; the sliders change the ball's coefficients in the pictures that have their term (kd from the middle one on, ks and n on the right), and the light's attenuation, which shows best on the floor.",
+    more: [reference("the local term", "the-local-term"), reference("materials", "materials"), reference("the point light's attenuation", "point-light")],
     controls: [
       { key: "ka", label: "ka (ambient)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.3, apply: (s, v) => (s.materials.ball.ka = v), note: (v) => `ka = ${v}` },
-      { key: "kd", label: "kd (diffuse)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.7, apply: (s, v) => (s.materials.ball.kd = [0.3 * v, 0.5 * v, v]), note: (v) => `kd = ${v} × blue` },
-      { key: "ks", label: "ks (specular)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.5, apply: (s, v) => (s.materials.ball.ks = v), note: (v) => `ks = ${v}` },
-      { key: "n", label: "n (shininess)", kind: "select", choices: values(2, 8, 32, 64, 256, 1024), value: 64, apply: (s, v) => (s.materials.ball.shininess = v), note: (v) => `n = ${v}` },
+      { key: "kd", label: "kd (diffuse)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.7, panels: [1, 2], apply: (s, v) => (s.materials.ball.kd = [0.3 * v, 0.5 * v, v]), note: (v) => `kd = ${v} × blue` },
+      { key: "ks", label: "ks (specular)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.5, panels: [2], apply: (s, v) => (s.materials.ball.ks = v), note: (v) => `ks = ${v}` },
+      { key: "n", label: "n (shininess)", kind: "select", choices: values(2, 8, 32, 64, 256, 1024), value: 64, panels: [2], apply: (s, v) => (s.materials.ball.shininess = v), note: (v) => `n = ${v}` },
       {
         key: "att",
         label: "f_att",
@@ -69,6 +72,7 @@ export const RAY_TRACING = [
     scene: "whitted",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
     text: "max_depth counts bounces of light on the way to the eye. With 1 (ray casting) the mirror and the glass show only their own Phong shading; with 2 the mirror reflects the scene but the glass ball is dark inside, because the transmitted ray is cut before it can leave the ball; with 3 the refracted floor appears through the glass.",
+    more: [reference("integrators and depth", "integrators-and-depth"), reference("reflection and transmission rays", "reflection-and-transmission-rays")],
     controls: [{ key: "kr", label: "the mirror ball's kr (no effect on ray casting)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.85, panels: [1, 2], path: "materials.mirror.kr" }],
     panels: [
       { label: "ray casting (1 bounce)", set: { "render.max_depth": 1 } },
@@ -84,11 +88,12 @@ export const RAY_TRACING = [
   },
 ];
 
-/** The ray tree question: the tree of one pixel of the glass ball at max_depth 3, predicted before it is shown. */
+/** The ray tree question: the tree of one pixel of the glass ball at max_depth QUESTION_DEPTH (the left picture's
+ * first depth), predicted before it is shown. */
 async function rayTreeQuestion(ctx) {
   const [x, y] = GLASS_PIXEL;
   const scene = await ctx.scene("whitted");
-  Object.assign(scene.render, { max_depth: 3, min_weight: 0 });
+  Object.assign(scene.render, { max_depth: QUESTION_DEPTH, min_weight: 0 });
   scene.sampler = { type: "jittered", spp: 4 };
   scene.film = { ...scene.film, width: ctx.size[0], height: ctx.size[1] };
   const tree = await api.raytree(JSON.stringify(scene), x, y, 0);
@@ -99,10 +104,10 @@ async function rayTreeQuestion(ctx) {
   ctx.mark(0, x, y);
   const where = (node) => (node.hit ? node.hit.object_name : "leaves the scene");
   return {
-    prompt: `Predict the ray tree of pixel (${x}, ${y}), on the glass ball (marked on the left picture), with max_depth 3 and min_weight 0: how many reflection and transmission rays does it hold (not counting the eye ray and the shadow rays)?`,
+    prompt: `Predict the ray tree of pixel (${x}, ${y}), on the glass ball (marked on the left picture), with max_depth ${QUESTION_DEPTH} and min_weight 0: how many reflection and transmission rays does it hold (not counting the eye ray and the shadow rays)?`,
     choices: choices.map(String),
     answer: choices.indexOf(n),
-    explain: `${n}. The eye ray hits the ${where(tree.nodes[0])}; ${spawned.map((r) => `a ${r.kind} ray at depth ${r.depth} ${r.hit ? `hits the ${where(r)}` : "leaves the scene"}`).join("; ")}. Depth 3 is the last generation: the rays spawned at depth 3 would be depth 4, so the tree stops there. Open the left picture in the workspace and click the pixel to see the tree drawn.`,
+    explain: `${n}. The eye ray hits the ${where(tree.nodes[0])}; ${spawned.map((r) => `a ${r.kind} ray at depth ${r.depth} ${r.hit ? `hits the ${where(r)}` : "leaves the scene"}`).join("; ")}. Depth ${QUESTION_DEPTH} is the last generation: the rays spawned at depth ${QUESTION_DEPTH} would be depth ${QUESTION_DEPTH + 1}, so the tree stops there. The left picture is cut at depth ${QUESTION_DEPTH} when the lesson opens (set its slider back to ${QUESTION_DEPTH} if you moved it): open it in the workspace and click the marked pixel to see this tree drawn.`,
   };
 }
 

@@ -1,5 +1,5 @@
 // The lessons on sampling a pixel and the shutter: supersampling, adaptive sampling, temporal aliasing, motion blur.
-import { named, values } from "./helpers.js";
+import { named, reference, values } from "./helpers.js";
 
 export const SAMPLING = [
   {
@@ -7,6 +7,7 @@ export const SAMPLING = [
     title: "One ray per pixel vs supersampling vs adaptive vs jittered",
     samples: [44, 37], // the pixel whose samples are drawn (at 160 x 120): the ball's edge against the sky crosses it
     text: "The same scene sampled four ways; under each, where the sampler puts its rays inside one pixel. One ray per pixel gives jaggies, broken thin poles and moiré near the horizon (a frequency too high for the pixels masquerading as a lower one). A regular grid smooths edges but the moiré only moves. Adaptive supersampling starts from the corners and the centre and splits only cells whose colours differ (here across an edge). Jittered sampling (one random point per cell) turns the moiré into noise; how much noise depends on how evenly the points lie (the noise lesson compares random, jittered and low-discrepancy points).",
+    more: [reference("the samplers", "sampler"), reference("camera rays", "camera-rays")],
     controls: [{ key: "spp", label: "rays per pixel (grid and jittered)", kind: "select", choices: values(4, 16, 64), value: 16, panels: [1, 3], path: "sampler.spp" }],
     panels: [
       { label: "one ray per pixel (center)", scene: "antialias_center" },
@@ -27,6 +28,7 @@ export const SAMPLING = [
     scene: "antialias_adaptive",
     raysMap: true,
     text: "The adaptive sampler traces the 4 corners and the centre of each pixel; where those colours differ by more than the threshold the pixel is cut into 4 cells, each sampled the same way, down to max_level. Under each picture, its rays per pixel (white: many). The rays gather on edges and the poles, but a cell can look uniform while it spans several checks of the floor near the horizon: there the sampling grid meets a regular structure and still aliases. Adaptive stochastic sampling (jitter) moves the grid points at random inside their cells, which turns that aliasing into noise.",
+    more: [reference("the adaptive sampler", "sampler")],
     controls: [
       { key: "threshold", label: "threshold", kind: "select", choices: values(0.01, 0.05, 0.1, 0.3), value: 0.05, panels: [0, 1], path: "sampler.threshold" },
       { key: "level", label: "max_level", kind: "range", min: 1, max: 4, step: 1, value: 3, panels: [0, 1], path: "sampler.max_level" },
@@ -50,6 +52,7 @@ export const SAMPLING = [
     scene: "temporal",
     set: { "sampler.type": "jittered" },
     text: "Time is sampled too. A single instant shows a fast ball frozen (a strobe). Averaging N instants (frames at 120 Hz averaged into one, camera.instants = N) shows N separate copies: the time samples are regular, so fast motion aliases. Giving every ray its own random time in the shutter (distributed ray tracing) makes one continuous streak, noisy where there are few rays. All three pictures cost the same number of rays.",
+    more: [reference("the camera's shutter and instants", "camera"), reference("camera rays", "camera-rays")],
     controls: [
       { key: "n", label: "instants N (middle)", kind: "select", choices: values(2, 4, 8), value: 4, panels: [1], path: "camera.instants" },
       { key: "spp", label: "rays per pixel (all)", kind: "select", choices: values(4, 16, 64), value: 16, path: "sampler.spp" },
@@ -71,7 +74,9 @@ export const SAMPLING = [
     title: "Motion blur: the object, its shadow, its reflection",
     scene: "motion_blur",
     set: { "sampler.spp": 16 },
-    text: "Each eye ray gets its own time while the shutter is open, and moving objects are where they are at that time; the shadow and reflection rays it spawns share that time. So the moving ball blurs, and so do its shadow on the floor and its image in the mirror behind. The still version is the same scene with every velocity removed.",
+    edit: (s) => delete named(s, "falling box").velocity, // one motion at a time: the red ball's
+    text: "Each eye ray gets its own time while the shutter is open, and moving objects are where they are at that time; the shadow and reflection rays it spawns share that time. So the moving red ball blurs, and so do its shadow on the floor and its image in the mirror behind. Only the red ball moves here (the example's falling box is held still); the still version is the same scene with every velocity removed.",
+    more: [reference("camera rays and their time", "camera-rays"), reference("objects and their velocity", "objects")],
     controls: [
       {
         key: "speed",
@@ -94,7 +99,7 @@ export const SAMPLING = [
       prompt: "In the moving picture, what blurs?",
       choices: ["only the red ball", "the red ball and its shadow", "the red ball, its shadow and its reflection in the mirror"],
       answer: 2,
-      explain: "A shadow ray and a reflection ray carry the time of the eye ray that spawned them, so they meet the ball where it was at that time: the shadow and the mirror image are averaged over the shutter interval as well. Only the still blue ball, and what it casts, stays sharp.",
+      explain: "A shadow ray and a reflection ray carry the time of the eye ray that spawned them, so they meet the ball where it was at that time: the shadow and the mirror image are averaged over the shutter interval as well. What stands still (the blue ball, the box) stays sharp, and so does what it casts.",
     },
   },
 ];

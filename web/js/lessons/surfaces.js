@@ -1,5 +1,5 @@
 // The lessons on what a surface (and the air) adds: texture maps, bump maps, fog, etched glass.
-import { eachMaterial, values } from "./helpers.js";
+import { eachMaterial, reference, values } from "./helpers.js";
 
 export const SURFACES = [
   {
@@ -7,6 +7,7 @@ export const SURFACES = [
     title: "Texture maps",
     scene: "texture",
     text: "A texture replaces a material's diffuse colour kd at each hit: a solid 3D checker computed from the hit's position (the floor and the torus), or an image looked up by the surface's (u, v) coordinates (the ball and the wall). The geometry and the lighting stay the same.",
+    more: [reference("textures and bump maps", "textures-and-bump-maps")],
     controls: [{ key: "size", label: "floor checker size", kind: "select", choices: values(0.25, 0.5, 1, 2), value: 0.5, panels: [1], path: "materials.floor.texture.size" }],
     panels: [
       { label: "without textures", edit: (s) => eachMaterial(s, (m) => delete m.texture), note: "every texture removed" },
@@ -24,6 +25,7 @@ export const SURFACES = [
     title: "Bump maps",
     scene: "bump",
     text: "A bump map tilts the shading normal by the slope of a height field (noise or an image), without moving the surface (Blinn 1978): the shading, the highlights and the reflections ripple, but silhouettes and shadows stay smooth.",
+    more: [reference("textures and bump maps", "textures-and-bump-maps")],
     controls: [
       {
         key: "gain",
@@ -52,6 +54,7 @@ export const SURFACES = [
     title: "Fog",
     scene: "fog",
     text: "Fog on every eye, reflection and transmission ray: a ray that travels a distance t keeps e^(−σ t) of what it sees and takes the rest from the fog's colour, so the row of pillars fades into grey with distance. σ is fog.density.",
+    more: [reference("fog along a ray", "fog-along-a-ray"), reference("the fog fields", "fog")],
     controls: [{ key: "density", label: "density σ", kind: "range", min: 0.01, max: 0.3, step: 0.01, value: 0.07, panels: [1], path: "fog.density" }],
     panels: [
       { label: "without fog", set: { "fog.density": 0 } },
@@ -69,6 +72,7 @@ export const SURFACES = [
     title: "Semi-transparent glass with an etched image",
     scene: "etched_glass",
     text: "The pane transmits kt of the light behind it (its transmission ray, not bent: ior 1) and adds its own Phong shading, whose kd is an image texture: the etching, lit by the lamp, over what is seen through the glass. Without the texture the same pane is plain tinted glass. kt is the slider.",
+    more: [reference("materials: kt and ior", "materials"), reference("textures", "textures-and-bump-maps")],
     controls: [{ key: "kt", label: "the pane's kt", kind: "range", min: 0, max: 1, step: 0.05, value: 0.65, path: "materials.etched.kt" }],
     panels: [
       { label: "plain glass (no texture)", edit: (s) => delete s.materials.etched.texture, note: "materials.etched.texture removed" },
