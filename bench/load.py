@@ -1,6 +1,6 @@
 """Load test of the rendering service: a class submitting at once (docs/service.md, "A class at once").
 
-    python -m bench.load [--students 200] [--workers 1] [--restart] [--json]
+    python -m bench.load [--students 200] [--workers 1] [--restart] [--redis] [--json]
 
 It starts `python -m server` on 127.0.0.1 with a fresh data directory and an instructor token, then
 `--students` clients, each with a token of its own, submit a small scene at the same moment (one
@@ -12,6 +12,9 @@ thread each, released together by a barrier) and follow their job until it ends.
 - the latency of `GET /api/jobs/{id}` read meanwhile by one more client;
 - with `--restart`: the server is stopped by SIGTERM to its process group once every job is queued,
   and started again on the same data directory; every job must still end `done`.
+
+`--redis` runs it on the Redis backend: a redis-server, the API alone and `--workers` worker hosts (niced),
+all on this machine (bench.service's); a restart restarts the API alone, the hosts stay.
 
 A job is lost when its submission was answered 202 and it is then missing, or does not end `done`.
 Nothing here is a test: the numbers go in docs/service.md.
@@ -26,37 +29,27 @@ import platform
 import secrets
 import signal
 import subprocess
-import sys
 import tempfile
 import threading
 import time
 from pathlib import Path
 
-from bench.service import Api, free_port, percentiles
+from bench.service import Api, free_port, percentiles, start_redis, start_server, stop_helpers
 
 ROOT = Path(__file__).resolve().parent.parent
 INSTRUCTOR = "bench-load-instructor-" + secrets.token_urlsafe(16)
 
 
-def start(data_dir: Path, port: int, workers: int) -> subprocess.Popen:
-    """`python -m server` in a process group of its own (so that a SIGTERM can go to the whole group)."""
-    env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR, "TRACER_MAX_QUEUED_JOBS": "1000"}
-    env["TRACER_SHARED_NETWORKS"] = "127.0.0.1"  # the whole class on one address: a class behind one NAT
-    cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir), "--workers", str(workers)]
-    log = open(data_dir.parent / "server.log", "ab")  # noqa: SIM115 (lives as long as the server)
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
-    deadline = time.monotonic() + 180
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise RuntimeError(f"the server exited; see {data_dir.parent / 'server.log'}")
-        try:
-            health = Api(port, INSTRUCTOR).json("GET", "/api/health")
-            if len(health["workers"]) >= workers and all(w["ready"] for w in health["workers"]):
-                return proc
-        except (OSError, RuntimeError):
-            pass
-        time.sleep(0.2)
-    raise RuntimeError("the server did not start in time")
+ENV = {
+    "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR,
+    "TRACER_MAX_QUEUED_JOBS": "1000",
+    "TRACER_SHARED_NETWORKS": "127.0.0.1",  # the whole class on one address: a class behind one NAT
+}
+
+
+def start(data_dir: Path, port: int, workers: int, redis_url: str | None, hosts: bool = True) -> subprocess.Popen:
+    """`python -m server` with the instructor's token, in a process group of its own (bench.service)."""
+    return start_server(data_dir, workers, redis_url, port=port, env=ENV, token=INSTRUCTOR, hosts=hosts)[0]
 
 
 def stop(proc: subprocess.Popen) -> float:
@@ -82,18 +75,22 @@ def tiny_scene(k: int) -> dict:
     return scene
 
 
-def run(students: int, workers: int, restart: bool) -> dict:
+def run(students: int, workers: int, restart: bool, redis: bool = False) -> dict:
     results: dict = {
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}",
         "students": students,
         "workers": workers,
+        "backend": "redis" if redis else "embedded",
     }
     with tempfile.TemporaryDirectory(prefix="bench-load-") as tmp:
         data = Path(tmp) / "data"
+        data.mkdir()
         port = free_port()
-        proc = start(data, port, workers)
+        redis_url = start_redis() if redis else None
+        proc = None
         try:
+            proc = start(data, port, workers, redis_url)
             teacher = Api(port, INSTRUCTOR)
             warm = teacher.json("POST", "/api/jobs", {"scene": tiny_scene(0)})["id"]
             while not teacher.json("GET", f"/api/jobs/{warm}")["finished"]:
@@ -152,12 +149,13 @@ def run(students: int, workers: int, restart: bool) -> dict:
             if restart:
                 results["stop_s"] = stop(proc)
                 t = time.perf_counter()
-                proc = start(data, port, workers)
+                proc = start(data, port, workers, redis_url, hosts=False)  # the worker hosts stayed
                 results["restart_s"] = time.perf_counter() - t
 
             deadline = time.monotonic() + 30 * 60
             ended: dict[str, dict] = {}
-            while len(ended) < sum(1 for i in ids if i) and time.monotonic() < deadline:
+            mine = {i for i in ids if i}  # the students' jobs (the warm-up's and the previews' end too)
+            while not mine <= ended.keys() and time.monotonic() < deadline:
                 for row in teacher.json("GET", "/api/jobs?limit=1000&scope=all")["jobs"]:
                     if row["finished"]:
                         ended[row["id"]] = row
@@ -198,8 +196,9 @@ def run(students: int, workers: int, restart: bool) -> dict:
             results["worker_restarts"] = sum(w.get("restarts", 0) for w in health["workers"])
             teacher.close()
         finally:
-            if proc.poll() is None:
+            if proc is not None and proc.poll() is None:
                 results.setdefault("final_stop_s", stop(proc))
+            stop_helpers()
     return results
 
 
@@ -207,7 +206,7 @@ def report(r: dict) -> None:
     def lat(d: dict | None) -> str:
         return "none" if not d else f"p50 {d['p50']:.1f} ms, p99 {d['p99']:.1f} ms, max {d['max']:.1f} ms"
 
-    print(f"machine: {r['machine']}; {r['students']} students at once, {r['workers']} worker(s)")
+    print(f"machine: {r['machine']}; {r['students']} students at once, {r['workers']} worker(s), {r['backend']}")
     answered = f"all answered in {r['all_answered_s']:.2f} s"
     print(f"submissions: {r['submit_statuses']}, {answered}; latency {lat(r['submit_ms'])}")
     if r["refused"]:
@@ -227,9 +226,10 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--students", type=int, default=200, help="clients submitting at once, one token each")
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--restart", action="store_true", help="SIGTERM the server's group once all are queued, restart")
+    p.add_argument("--redis", action="store_true", help="the Redis backend: a redis-server and worker hosts here")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
-    r = run(args.students, args.workers, args.restart)
+    r = run(args.students, args.workers, args.restart, args.redis)
     print(json.dumps(r, indent=1)) if args.json else report(r)
     return r
 

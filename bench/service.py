@@ -85,14 +85,47 @@ class Api:
         self.conn.close()
 
 
-def start_server(data_dir: Path, workers: int, redis_url: str | None = None) -> tuple[subprocess.Popen, int]:
-    """`python -m server` (with `redis_url`: the API alone, its `workers` worker hosts started beside it)."""
+def start_redis() -> str:
+    """A redis-server on a free loopback port, without persistence (one of HELPERS); its URL once it listens."""
     port = free_port()
+    argv = ["redis-server", "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"]
+    HELPERS.append(subprocess.Popen(argv, stdout=subprocess.DEVNULL))
+    for _ in range(100):  # until it listens
+        with socket.socket() as probe:
+            if probe.connect_ex(("127.0.0.1", port)) == 0:
+                break
+        time.sleep(0.1)
+    return f"redis://127.0.0.1:{port}/0"
+
+
+def stop_helpers() -> None:
+    """Stop the worker hosts and the redis-server of a --redis run, the last started first."""
+    while HELPERS:
+        helper = HELPERS.pop()
+        helper.terminate()
+        helper.wait(timeout=30)
+
+
+def start_server(
+    data_dir: Path,
+    workers: int,
+    redis_url: str | None = None,
+    *,
+    port: int | None = None,
+    env: dict | None = None,
+    token: str | None = None,
+    hosts: bool = True,
+) -> tuple[subprocess.Popen, int]:
+    """`python -m server` in a process group of its own (a SIGTERM can go to the whole group), its log appended
+    to server.log beside `data_dir`; with `redis_url`, the API alone, and (`hosts`) its `workers` worker hosts
+    started beside it. `env`: more of the environment; `token`: the one its health is asked with."""
+    port = port or free_port()
     cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir)]
     cmd += ["--workers", "0", "--redis", redis_url] if redis_url else ["--workers", str(workers)]
-    log = open(data_dir.parent / "server.log", "wb")  # noqa: SIM115 (lives as long as the server)
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)
-    if redis_url:
+    log = open(data_dir.parent / "server.log", "ab")  # noqa: SIM115 (lives as long as the server)
+    env = {**os.environ, **(env or {})}
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+    if redis_url and hosts:
         for k in range(workers):
             # niced as the embedded backend's workers are: here they share the API's cores, not machines of their own
             host = ["nice", "-n", "10", sys.executable, "-m", "server.worker", "--redis", redis_url, "--name", f"b{k}"]
@@ -102,7 +135,7 @@ def start_server(data_dir: Path, workers: int, redis_url: str | None = None) -> 
         if proc.poll() is not None:
             raise RuntimeError(f"the server exited; see {data_dir.parent / 'server.log'}")
         try:
-            health = Api(port).json("GET", "/api/health")
+            health = Api(port, token).json("GET", "/api/health")
             if len(health["workers"]) >= workers and all(w["ready"] for w in health["workers"]):
                 return proc, port
         except (OSError, http.client.HTTPException):
@@ -395,15 +428,7 @@ def main(argv: list[str] | None = None) -> dict:
         data = Path(tmp) / "data"
         redis_url = None
         if args.redis:
-            redis_port = free_port()
-            argv = ["redis-server", "--port", str(redis_port), "--bind", "127.0.0.1", "--save", ""]
-            HELPERS.append(subprocess.Popen([*argv, "--appendonly", "no"], stdout=subprocess.DEVNULL))
-            for _ in range(100):  # until it listens
-                with socket.socket() as probe:
-                    if probe.connect_ex(("127.0.0.1", redis_port)) == 0:
-                        break
-                time.sleep(0.1)
-            redis_url = f"redis://127.0.0.1:{redis_port}/0"
+            redis_url = start_redis()
             results["backend"] = "redis"
         t_start = time.perf_counter()
         proc, port = start_server(data, args.workers, redis_url)
@@ -461,9 +486,7 @@ def main(argv: list[str] | None = None) -> dict:
         finally:
             proc.terminate()
             proc.wait(timeout=30)
-            for helper in reversed(HELPERS):
-                helper.terminate()
-                helper.wait(timeout=30)
+            stop_helpers()
 
     return _finish(results, args)
 
