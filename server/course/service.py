@@ -41,7 +41,7 @@ from server.core.settings import Settings
 from server.course.policy import AssignmentIn, Feedback, Policy, When
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns, Handed
-from server.jobs.service import Follower
+from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
 
@@ -422,6 +422,7 @@ class Course:
             followers = list(self._followers.get(student, ()))
         for f in followers:
             f.wake({"id": student})
+        wake_all(followers)
 
     # -- what a caller sees --------------------------------------------------------------------
 

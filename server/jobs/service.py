@@ -50,11 +50,9 @@ class Follower:
         self.row: dict | None = None
         self.woken = 0.0  # monotonic time of the last wake (a queued job's followers are woken every PLACE_EVERY)
 
-    def wake(self, row: dict | None) -> None:
-        """From the watcher's thread."""
-        self.row = row
-        self.woken = time.monotonic()
-        self.loop.call_soon_threadsafe(self.event.set)
+    def wake(self, row: dict | None, now: float | None = None) -> None:
+        """From the watcher's thread: its latest `row` (at `now`, monotonic); `wake_all` then sets its event."""
+        self.row, self.woken = row, time.monotonic() if now is None else now
 
     async def changed(self, timeout: float) -> dict | None:
         """The job's row once it changed, or None after `timeout` seconds without a change."""
@@ -64,6 +62,21 @@ class Follower:
             return None
         self.event.clear()
         return self.row
+
+
+def wake_all(followers: list[Follower]) -> None:
+    """Set the followers' events, each in its event loop: one call into each loop for all its followers (a
+    class's 500 streams woken by one change cost their loop one wake-up, not 500)."""
+    by_loop: dict[asyncio.AbstractEventLoop, list[asyncio.Event]] = {}
+    for f in followers:
+        by_loop.setdefault(f.loop, []).append(f.event)
+    for loop, events in by_loop.items():
+        loop.call_soon_threadsafe(_set_events, events)
+
+
+def _set_events(events: list[asyncio.Event]) -> None:
+    for event in events:
+        event.set()
 
 
 class JobWatch:
@@ -125,6 +138,7 @@ class JobWatch:
     def _round(self, followers: dict[str, set[Follower]]) -> None:
         rows = self.store.rows(followers)
         now, stopping = time.monotonic(), self.stopping()
+        woken = []
         for job_id, fs in followers.items():
             row = rows.get(job_id)
             changed = self._seen.get(job_id, False) != row
@@ -132,7 +146,9 @@ class JobWatch:
             for f in fs:
                 queued = row is not None and row["status"] == JobStatus.queued
                 if changed or stopping or f.row is None or (queued and now - f.woken >= PLACE_EVERY):
-                    f.wake(row)
+                    f.wake(row, now)
+                    woken.append(f)
+        wake_all(woken)
 
 
 class JobService:

@@ -269,6 +269,37 @@ def sse(event: str, data: dict) -> str:
     return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
 
 
+# a view's events as text, made once for all the streams it wakes (the job service shares one view of a row
+# among its followers: 250 streams on one render format its progress once, not 250 times): id of the view ->
+# (the view, kept so that its id stays its own, its texts); the oldest go past TEXTS_KEPT
+_TEXTS: dict[int, tuple[JobPublic, tuple]] = {}
+TEXTS_KEPT = 4096
+
+
+def _texts(job: JobPublic, job_id: str) -> tuple:
+    """(what the progress says, its `progress` event, the `preview` event or None, the `end` event or None)."""
+    kept = _TEXTS.get(id(job))
+    if kept is not None and kept[0] is job:
+        return kept[1]
+    p = job.progress
+    place = job.queue.model_dump(mode="json") if job.queue else None
+    at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0, json.dumps(place))
+    data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
+    data.update(queue=place, finished=job.finished)
+    preview = None
+    if job.preview:
+        base = f"/api/jobs/{job_id}/image"
+        shown = {"pass": job.preview, "spp": p.spp_done, "url": f"{base}?pass={job.preview}"}
+        shown["exr_url"] = f"{base}?format=exr&pass={job.preview}"
+        preview = sse("preview", shown)
+    end = sse("end", job.model_dump(mode="json")) if job.status.finished else None
+    texts = (at, sse("progress", data), preview, end)
+    _TEXTS[id(job)] = (job, texts)
+    while len(_TEXTS) > TEXTS_KEPT:
+        del _TEXTS[next(iter(_TEXTS))]
+    return texts
+
+
 async def _event_stream(jobs: JobService, job_id: str, request: Request) -> AsyncIterator[str]:
     yield "retry: 1000\n\n"
     last_progress, last_preview = None, 0
@@ -276,22 +307,15 @@ async def _event_stream(jobs: JobService, job_id: str, request: Request) -> Asyn
         if job is None:
             yield ": keep-alive\n\n"
             continue
-        p = job.progress
-        place = job.queue.model_dump(mode="json") if job.queue else None
-        now_at = (job.status, p.samples_done, p.passes_done, p.solve.shots if p.solve else 0, json.dumps(place))
-        if now_at != last_progress:
-            last_progress = now_at
-            data = dict(status=job.status.value, **p.model_dump(), elapsed=job.elapsed, eta=job.eta, rays=job.rays)
-            data.update(queue=place, finished=job.finished)
-            yield sse("progress", data)
-        if job.preview and job.preview != last_preview:
+        at, progress, preview, end = _texts(job, job_id)
+        if at != last_progress:
+            last_progress = at
+            yield progress
+        if preview is not None and job.preview != last_preview:
             last_preview = job.preview
-            base = f"/api/jobs/{job_id}/image"
-            data = {"pass": job.preview, "spp": p.spp_done, "url": f"{base}?pass={job.preview}"}
-            data["exr_url"] = f"{base}?format=exr&pass={job.preview}"
-            yield sse("preview", data)
-        if job.status.finished:
-            yield sse("end", job.model_dump(mode="json"))
+            yield preview
+        if end is not None:
+            yield end
             return
 
 

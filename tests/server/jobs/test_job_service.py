@@ -120,3 +120,47 @@ def test_job_service_one_view_of_a_row_for_all_its_followers(tmp_path):
     assert len({id(v) for v in views}) == 2 and views[0].id == queued["id"] and views[-1].id == running["id"]
     asyncio.run(jobs._view(dict(queued_row)))  # a row read again (the job changed): its own view
     assert made.count(queued["id"]) == 2
+
+
+def test_job_service_one_change_wakes_all_its_followers_in_one_call_into_their_loop(tmp_path):
+    """500 event streams on one job: the change of its row wakes all of them with one call into their event loop
+    (one wake-up of the loop from the watcher's thread, not 500), and each is handed the new row."""
+    jobs, _ = service(tmp_path)
+    row = submit(jobs)
+    watch = JobWatch(jobs.store, lambda: False)
+
+    async def run() -> list:
+        loop = asyncio.get_running_loop()
+        calls, threadsafe = [], loop.call_soon_threadsafe
+        loop.call_soon_threadsafe = lambda cb, *args, **kw: calls.append(cb) or threadsafe(cb, *args, **kw)
+        with contextlib.ExitStack() as stack:
+            followers = [stack.enter_context(watch.follow(row["id"])) for _ in range(500)]
+            for f in followers:
+                assert (await f.changed(5.0))["status"] == JobStatus.queued
+            before = len(calls)
+            jobs.store.cancel(row["id"])
+            for f in followers:
+                assert (await f.changed(5.0))["status"] == JobStatus.cancelled
+            return calls[before:]
+
+    try:
+        calls = asyncio.run(run())
+    finally:
+        watch.close()
+    assert len(calls) == 1, calls
+
+
+def test_job_service_a_view_s_event_texts_are_made_once_for_all_its_streams(tmp_path):
+    """The event stream's texts of one view (server/api/routes/jobs.py): its followers share the view, and the
+    second stream to send it gets the very texts the first made; another view of the row its own."""
+    from server.api.routes.jobs import _texts
+
+    jobs, _ = service(tmp_path)
+    row = submit(jobs)
+    view = jobs.public(jobs.store.get(row["id"]))
+    first = _texts(view, row["id"])
+    assert _texts(view, row["id"]) is first
+    assert first[1].startswith("event: progress\ndata: {") and first[2] is None and first[3] is None
+    jobs.store.cancel(row["id"])
+    ended = _texts(jobs.public(jobs.store.get(row["id"])), row["id"])
+    assert ended is not first and ended[3].startswith("event: end\ndata: {") and '"cancelled"' in ended[3]
