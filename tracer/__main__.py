@@ -23,6 +23,7 @@ import json  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from tracer.jsonpos import locate, positions  # noqa: E402
 from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene  # noqa: E402
 
 
@@ -64,15 +65,21 @@ def _overrides(data: dict, args) -> dict:
     return data
 
 
-def _print_errors(exc: SceneError, file=sys.stderr) -> None:
-    for e in exc.errors:
-        where = e["path"] or "(scene)"
-        print(f"error: {where}: {e['message']}", file=file)
-
-
-def _print_warnings(warnings, file=sys.stderr) -> None:
-    for w in warnings:
-        print(f"warning: {w['path'] or '(scene)'}: {w['message']}", file=file)
+def _print_problems(items: list[dict], kind: str = "error", scene: str | None = None, file=sys.stderr) -> None:
+    """A scene's errors (or warnings) one a line, `FILE:LINE:COL: error: PATH: MESSAGE`, each at its JSON path's
+    place in the scene file's text (tracer/jsonpos.py: a missing field at its object), as compilers write them
+    and as the page's editor marks them; without a file (or one that is not JSON) `error: PATH: MESSAGE`."""
+    text = found = None
+    if scene is not None and items:
+        try:
+            text = Path(scene).read_text()
+        except (OSError, UnicodeDecodeError):
+            text = None
+        found = positions(text) if text is not None else None
+    for e in items:
+        at = locate(text, e["path"], found) if found else None
+        where = f"{scene}:{at[0]}:{at[1]}: " if at else ""
+        print(f"{where}{kind}: {e['path'] or '(scene)'}: {e['message']}", file=file)
 
 
 def cmd_render(args) -> int:
@@ -81,7 +88,7 @@ def cmd_render(args) -> int:
     from tracer.render import load_kernels, render
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
-    _print_warnings(warnings)
+    _print_problems(warnings, "warning", args.scene)
     # render() solves a radiosity scene, with progress
     cs = compile_scene(scene, asset_dir=Path(args.assets), device=args.device)
     load_kernels(args.device, [cs.data.integrator])
@@ -148,9 +155,9 @@ def cmd_raytree(args) -> int:
 
 def cmd_validate(args) -> int:
     report = validate_scene(_read_json(args.scene), assets=args.assets)
-    _print_warnings(report["warnings"])
+    _print_problems(report["warnings"], "warning", args.scene)
     if not report["valid"]:
-        _print_errors(SceneError(report["errors"]))
+        _print_problems(report["errors"], "error", args.scene)
         return 1
     print(f"{args.scene}: valid")
     return 0
@@ -374,7 +381,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SceneError as exc:
-        _print_errors(exc)
+        _print_problems(exc.errors, "error", getattr(args, "scene", None))
         return 1
 
 
