@@ -126,6 +126,11 @@ def test_docs_the_service_serves_the_reference_as_a_page(client_without_workers)
     assert '<h2 id="how-a-pixel-is-computed">' in html and '<h3 id="camera-rays">' in html
     assert "<table>" in html and "<code>lookfrom</code>" in html and "&lt;!--" not in html
     assert not re.search(r"(src|href)=\"(https?:)?//", html), "the page loads nothing from other hosts"
+    # the page names the server it came from, not the default address the repository's text writes
+    base = str(client.base_url).rstrip("/")
+    assert f"{base}/reference/scene-format.md" in html and "127.0.0.1:8000" not in html
+    other = client.get("/reference/scene-format.md", headers={"host": "localhost:9123"}).text
+    assert "http://localhost:9123/reference/scene-format.md" in other
     assert client.get("/css/reference.css").status_code == 200
     listing = client.get("/reference/").text
     for name in ("scene-format.md", "service.md", "web.md", "grading.md"):
