@@ -201,7 +201,7 @@ def cmd_grade(args) -> int:
             print(f"error: assignment: {e['path'] or '(assignment)'}: {e['message']}", file=sys.stderr)
         return 1
     path = Path(args.submission)
-    out = Path(args.output)
+    out = Path(args.output) if args.output else default_output(path)
     batch = path.is_dir() or path.suffix.lower() == ".zip"
     try:
         if batch:
@@ -259,6 +259,15 @@ def cmd_grade(args) -> int:
 
 
 WORKER_LOG = "workers.log"  # a class's render workers log here, under OUT/.queue/
+
+
+def default_output(submission: Path) -> Path:
+    """`grade`'s folder without -o: beside what is graded, named after it (hw4/ and hw4.zip -> hw4-grades/),
+    never a folder of whatever directory the command runs in (a checkout's, say)."""
+    if submission.name in ("", ".", ".."):  # grading the folder one is in: its name
+        submission = submission.resolve()
+    stem = submission.name if submission.is_dir() else submission.stem
+    return submission.parent / f"{stem}-grades"
 
 
 def _device(name: str) -> str:
@@ -342,7 +351,12 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("grade", help="grade a scene, a student's image or a class against an assignment")
     g.add_argument("assignment", help="the assignment spec (JSON; docs/grading.md)")
     g.add_argument("submission", help="a scene (.json), an image (.png, .exr), or a class: a folder or a .zip")
-    g.add_argument("-o", "--output", default="grades", help="folder for the reports (default: grades)")
+    g.add_argument(
+        "-o",
+        "--output",
+        help="folder for the reports (default: beside the submission, named after it: hw4/ or hw4.zip -> "
+        "hw4-grades/, bob.json -> bob-grades/)",
+    )
     g.add_argument("--student", help="the student's name for one submission (default: the file name)")
     g.add_argument("--workers", type=int, default=2, help="a class: render worker processes (default 2)")
     g.add_argument("--threads", type=int, default=None, help="one submission: render threads")

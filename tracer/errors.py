@@ -72,9 +72,7 @@ SYNONYMS: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(("specular", "specular_color", "phong"), ("ks",)),
     **dict.fromkeys(("exponent", "phong_exponent", "specular_exponent", "shine", "n", "ns"), ("shininess",)),
     **dict.fromkeys(("reflect", "reflection", "reflective", "reflectivity", "mirror"), ("kr",)),
-    **dict.fromkeys(
-        ("transparency", "transparent", "transmission", "transmittance", "refraction", "refract"), ("kt",)
-    ),
+    **dict.fromkeys(("transparency", "transparent", "transmission", "transmittance", "refraction", "refract"), ("kt",)),
     **dict.fromkeys(("eta", "index", "refractive_index", "index_of_refraction", "ni"), ("ior",)),
     **dict.fromkeys(("emissive", "emit", "emittance", "emission_color"), ("emission", "radiance")),
     **dict.fromkeys(("glossiness", "roughness", "blur"), ("gloss",)),
