@@ -50,14 +50,12 @@ def main(argv: list[str] | None = None) -> None:
     except StartupError as exc:
         log.error("cannot start: %s", exc)
         raise SystemExit(1) from None
-    queue = f"Redis at {settings.redis_url}" if settings.redis_url else "embedded"
     log.info(
-        "serving on http://%s:%d (data in %s, %d worker(s), queue: %s)",
+        "serving on http://%s:%d (data in %s; %s)",
         settings.host,
         settings.port,
         settings.data_dir,
-        settings.workers,
-        queue,
+        settings.processes_text(),
     )
     app = create_app(settings)
     app.state.data_lock = lock

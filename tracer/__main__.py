@@ -23,6 +23,7 @@ import json  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from tracer.jsonpos import locate, positions  # noqa: E402
 from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene  # noqa: E402
 
 
@@ -64,15 +65,21 @@ def _overrides(data: dict, args) -> dict:
     return data
 
 
-def _print_errors(exc: SceneError, file=sys.stderr) -> None:
-    for e in exc.errors:
-        where = e["path"] or "(scene)"
-        print(f"error: {where}: {e['message']}", file=file)
-
-
-def _print_warnings(warnings, file=sys.stderr) -> None:
-    for w in warnings:
-        print(f"warning: {w['path'] or '(scene)'}: {w['message']}", file=file)
+def _print_problems(items: list[dict], kind: str = "error", scene: str | None = None, file=sys.stderr) -> None:
+    """A scene's errors (or warnings) one a line, `FILE:LINE:COL: error: PATH: MESSAGE`, each at its JSON path's
+    place in the scene file's text (tracer/jsonpos.py: a missing field at its object), as compilers write them
+    and as the page's editor marks them; without a file (or one that is not JSON) `error: PATH: MESSAGE`."""
+    text = found = None
+    if scene is not None and items:
+        try:
+            text = Path(scene).read_text()
+        except (OSError, UnicodeDecodeError):
+            text = None
+        found = positions(text) if text is not None else None
+    for e in items:
+        at = locate(text, e["path"], found) if found else None
+        where = f"{scene}:{at[0]}:{at[1]}: " if at else ""
+        print(f"{where}{kind}: {e['path'] or '(scene)'}: {e['message']}", file=file)
 
 
 def cmd_render(args) -> int:
@@ -81,7 +88,7 @@ def cmd_render(args) -> int:
     from tracer.render import load_kernels, render
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
-    _print_warnings(warnings)
+    _print_problems(warnings, "warning", args.scene)
     # render() solves a radiosity scene, with progress
     cs = compile_scene(scene, asset_dir=Path(args.assets), device=args.device)
     load_kernels(args.device, [cs.data.integrator])
@@ -148,9 +155,9 @@ def cmd_raytree(args) -> int:
 
 def cmd_validate(args) -> int:
     report = validate_scene(_read_json(args.scene), assets=args.assets)
-    _print_warnings(report["warnings"])
+    _print_problems(report["warnings"], "warning", args.scene)
     if not report["valid"]:
-        _print_errors(SceneError(report["errors"]))
+        _print_problems(report["errors"], "error", args.scene)
         return 1
     print(f"{args.scene}: valid")
     return 0
@@ -194,7 +201,7 @@ def cmd_grade(args) -> int:
             print(f"error: assignment: {e['path'] or '(assignment)'}: {e['message']}", file=sys.stderr)
         return 1
     path = Path(args.submission)
-    out = Path(args.output)
+    out = Path(args.output) if args.output else default_output(path)
     batch = path.is_dir() or path.suffix.lower() == ".zip"
     try:
         if batch:
@@ -252,6 +259,15 @@ def cmd_grade(args) -> int:
 
 
 WORKER_LOG = "workers.log"  # a class's render workers log here, under OUT/.queue/
+
+
+def default_output(submission: Path) -> Path:
+    """`grade`'s folder without -o: beside what is graded, named after it (hw4/ and hw4.zip -> hw4-grades/),
+    never a folder of whatever directory the command runs in (a checkout's, say)."""
+    if submission.name in ("", ".", ".."):  # grading the folder one is in: its name
+        submission = submission.resolve()
+    stem = submission.name if submission.is_dir() else submission.stem
+    return submission.parent / f"{stem}-grades"
 
 
 def _device(name: str) -> str:
@@ -335,7 +351,12 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("grade", help="grade a scene, a student's image or a class against an assignment")
     g.add_argument("assignment", help="the assignment spec (JSON; docs/grading.md)")
     g.add_argument("submission", help="a scene (.json), an image (.png, .exr), or a class: a folder or a .zip")
-    g.add_argument("-o", "--output", default="grades", help="folder for the reports (default: grades)")
+    g.add_argument(
+        "-o",
+        "--output",
+        help="folder for the reports (default: beside the submission, named after it: hw4/ or hw4.zip -> "
+        "hw4-grades/, bob.json -> bob-grades/)",
+    )
     g.add_argument("--student", help="the student's name for one submission (default: the file name)")
     g.add_argument("--workers", type=int, default=2, help="a class: render worker processes (default 2)")
     g.add_argument("--threads", type=int, default=None, help="one submission: render threads")
@@ -374,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SceneError as exc:
-        _print_errors(exc)
+        _print_problems(exc.errors, "error", getattr(args, "scene", None))
         return 1
 
 

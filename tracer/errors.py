@@ -62,9 +62,45 @@ def show_value(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+# Names other renderers, books and lectures give the scene format's fields (SCENE_FORMAT.md): an unknown
+# field among these is suggested the first of its fields that the object has ('colour' -> kd in a material,
+# intensity in a point light, color in fog).
+SYNONYMS: dict[str, tuple[str, ...]] = {
+    **dict.fromkeys(("colour", "color"), ("kd", "color", "radiance", "intensity", "irradiance")),
+    **dict.fromkeys(("albedo", "diffuse", "diffuse_color", "diffuse_colour", "base_color", "reflectance"), ("kd",)),
+    **dict.fromkeys(("ambient", "ambient_color"), ("ka",)),
+    **dict.fromkeys(("specular", "specular_color", "phong"), ("ks",)),
+    **dict.fromkeys(("exponent", "phong_exponent", "specular_exponent", "shine", "n", "ns"), ("shininess",)),
+    **dict.fromkeys(("reflect", "reflection", "reflective", "reflectivity", "mirror"), ("kr",)),
+    **dict.fromkeys(("transparency", "transparent", "transmission", "transmittance", "refraction", "refract"), ("kt",)),
+    **dict.fromkeys(("eta", "index", "refractive_index", "index_of_refraction", "ni"), ("ior",)),
+    **dict.fromkeys(("emissive", "emit", "emittance", "emission_color"), ("emission", "radiance")),
+    **dict.fromkeys(("glossiness", "roughness", "blur"), ("gloss",)),
+    **dict.fromkeys(("bump_map", "bumpmap", "normal_map"), ("bump",)),
+    **dict.fromkeys(("fov", "fovy", "field_of_view", "angle"), ("vfov",)),
+    **dict.fromkeys(("eye", "from", "origin", "camera_position"), ("lookfrom",)),
+    **dict.fromkeys(("target", "at", "to", "look_at"), ("lookat",)),
+    **dict.fromkeys(("up", "up_vector"), ("vup",)),
+    **dict.fromkeys(("aperture", "lens", "aperture_radius"), ("lens_radius",)),
+    **dict.fromkeys(("focal_distance", "focus", "focal_length"), ("focus_distance",)),
+    **dict.fromkeys(("samples", "samples_per_pixel", "spp_count"), ("spp",)),
+    **dict.fromkeys(("depth", "maxdepth", "bounces", "max_bounces", "recursion_depth"), ("max_depth",)),
+    **dict.fromkeys(("power", "strength", "brightness"), ("intensity", "radiance", "irradiance", "strength")),
+    **dict.fromkeys(("position", "pos", "location"), ("position", "center", "corner", "lookfrom")),
+    **dict.fromkeys(("centre",), ("center",)),
+    **dict.fromkeys(("dir",), ("direction",)),
+    **dict.fromkeys(("xres", "resolution_x"), ("width",)),
+    **dict.fromkeys(("yres", "resolution_y"), ("height",)),
+}
+
+
 def did_you_mean(word: Any, choices: list[str]) -> str:
-    """ "; did you mean 'x'?" for the closest of `choices`, or nothing."""
-    close = difflib.get_close_matches(str(word), choices, n=1)
+    """ "; did you mean 'x'?" for the closest of `choices` (by spelling, or as a synonym: SYNONYMS), or nothing."""
+    key = str(word).strip().lower()
+    known = next((c for c in SYNONYMS.get(key, ()) if c in choices), None)
+    close = [known] if known else difflib.get_close_matches(str(word), choices, n=1)
+    if not close and key != str(word):  # 'Kd', 'IOR'
+        close = difflib.get_close_matches(key, choices, n=1)
     return f"; did you mean '{close[0]}'?" if close else ""
 
 

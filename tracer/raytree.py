@@ -32,22 +32,35 @@ def _vec(v) -> list[float]:
     return [float(c) for c in v]
 
 
+def sample_count(scene: Scene) -> int:
+    """How many samples a pixel of the scene has, whose ray trees may be asked for: spp, or for the adaptive
+    sampler the points of its finest grid, (2^(max_level+1) + 1)^2."""
+    if scene.sampler.type == "adaptive":
+        return ((1 << (scene.sampler.max_level + 1)) + 1) ** 2
+    return scene.sampler.spp
+
+
+def pixel_sample_errors(x: int, y: int, sample: int, width: int, height: int, samples: int) -> list[dict]:
+    """The errors ({path, message}) of a pixel sample (x, y, sample) outside a film of width x height pixels
+    with `samples` samples each: POST /api/raytree checks them before it queues anything."""
+    errs = []
+    for key, v, n, what in (
+        ("x", x, width, "column"),
+        ("y", y, height, "row"),
+        ("sample", sample, samples, "sample index"),
+    ):
+        if not 0 <= v < n:
+            errs.append({"path": key, "message": f"must be a {what} in 0..{n - 1}"})
+    return errs
+
+
 def ray_tree(
     scene: Scene | CompiledScene, x: int, y: int, sample: int = 0, cap: int = DEFAULT_CAP, device: str = "cpu"
 ) -> dict:
     """The ray tree of sample `sample` of pixel (x, y) (x from the left, y from the top)."""
     cs = scene if isinstance(scene, CompiledScene) else compile_scene(scene, device=device)
     d = cs.data
-    errs = []
-    if not 0 <= x < d.width:
-        errs.append({"path": "x", "message": f"must be a column in 0..{d.width - 1}"})
-    if not 0 <= y < d.height:
-        errs.append({"path": "y", "message": f"must be a row in 0..{d.height - 1}"})
-    n_samples = d.spp
-    if cs.scene.sampler.type == "adaptive":  # a sample is a point of the fine grid, (G+1)^2 of them
-        n_samples = ((1 << (d.max_level + 1)) + 1) ** 2
-    if not 0 <= sample < n_samples:
-        errs.append({"path": "sample", "message": f"must be a sample index in 0..{n_samples - 1}"})
+    errs = pixel_sample_errors(x, y, sample, d.width, d.height, sample_count(cs.scene))
     if errs:
         raise SceneError(errs)
     if INTEGRATORS[d.integrator].prepass == "radiosity" and cs.radiosity is None:

@@ -38,6 +38,7 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
     """What POST /api/jobs and POST /api/raytree need of a valid scene (the scene's JSON text, its size and
     estimates), or its `errors`."""
     from tracer import estimate
+    from tracer.raytree import sample_count
 
     try:
         scene, warnings, data = _scene_of(body, limits, assets)
@@ -46,7 +47,8 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
     solve = estimate.solve_seconds(scene, threads, assets)
     return {
         "text": json.dumps(data), "warnings": warnings, "name": scene.name, "width": scene.film.width,
-        "height": scene.film.height, "spp": scene.sampler.spp, "integrator": scene.render.integrator,
+        "height": scene.film.height, "spp": scene.sampler.spp, "samples": sample_count(scene),
+        "integrator": scene.render.integrator,
         "seconds": estimate.seconds(scene, threads, assets, solve, limits), "solve_seconds": solve,
     }  # fmt: skip
 

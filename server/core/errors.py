@@ -105,8 +105,26 @@ LOCATIONS = ("body", "query", "path", "header")  # where FastAPI says a request'
 BODY_TYPE_ERRORS = ("model_attributes_type", "dict_type", "model_type")  # a body that is not an object
 
 
-def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]]:
-    """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body."""
+def is_json_type(content_type: str | None) -> bool:
+    """Does a Content-Type header say JSON (application/json, or a +json type), as FastAPI reads it?"""
+    kind = (content_type or "").split(";")[0].strip().lower()
+    return kind == "application/json" or (kind.startswith("application/") and kind.endswith("+json"))
+
+
+def not_an_object(content_type: str | None) -> str:
+    """The message of a body that did not arrive as a JSON object: its Content-Type is wrong (FastAPI reads a
+    body as JSON only when it says so), or the JSON is something else than an object."""
+    if content_type is None:
+        return "the request has no Content-Type header: expected 'Content-Type: application/json'"
+    if not is_json_type(content_type):
+        shown = content_type.split(";")[0].strip()[:100]
+        return f"the Content-Type is '{shown}', not JSON: expected 'Content-Type: application/json'"
+    return "the body must be a JSON object {...}"
+
+
+def translate_request_errors(exc: RequestValidationError, content_type: str | None = None) -> list[dict[str, str]]:
+    """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body (`content_type`:
+    the request's Content-Type header, which a body that is not an object may have wrong)."""
     out = []
     for err in exc.errors():
         loc = list(err.get("loc") or ())
@@ -120,7 +138,7 @@ def translate_request_errors(exc: RequestValidationError) -> list[dict[str, str]
         elif kind == "missing" and not loc:
             out.append({"path": "", "message": "a JSON object body is required"})
         elif kind in BODY_TYPE_ERRORS and not loc and where == "body":
-            out.append({"path": "", "message": "the body must be a JSON object (Content-Type: application/json)"})
+            out.append({"path": "", "message": not_an_object(content_type)})
         else:
             item = translate_error({**err, "loc": tuple(loc)})
             if where != "body" and item["path"]:
@@ -143,7 +161,7 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def request_errors(request: Request, exc: RequestValidationError):
-        return errors_response(422, translate_request_errors(exc))
+        return errors_response(422, translate_request_errors(exc, request.headers.get("content-type")))
 
     @app.exception_handler(StarletteHTTPException)
     async def http_errors(request: Request, exc: StarletteHTTPException):

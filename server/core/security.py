@@ -3,10 +3,12 @@
 - **Jobs belong to a token.** POST /api/jobs takes `Authorization: Bearer <token>`; without one it
   issues a fresh random token (`secrets.token_urlsafe(32)`) in the answer's `token`. The store keeps
   only the token's SHA-256 (the jobs' `owner` column). A job is read, streamed, cancelled or
-  downloaded only with the token that made it; any other caller gets the 404 of an unknown id, so ids
-  are not confirmed. A job with no owner (the server's grading renders, rows from before owners) is the
-  instructor's; a ray tree asked for without a token belongs to its client's address (server/core/clients.py,
-  which also caps what one address may do without a known identity).
+  downloaded only with the token that made it (or the instructor's); any other caller gets the 404 of an
+  unknown id, so ids are not confirmed. That holds where there is an instructor to tell apart: with
+  TRACER_INSTRUCTOR_TOKEN, or off loopback; on a loopback-only server without it everyone is the instructor.
+  A job with no owner (the server's grading renders, rows from before owners) is the instructor's; a ray
+  tree asked for without a token belongs to its client's address (server/core/clients.py, which also caps
+  what one address may do without a known identity).
 - **A read-only share token** of a job (POST /api/jobs/{id}/share, its owner only) reads that one job: its
   GET routes (the job, its events, image, AOVs, scene, radiosity), never a cancel, never another job. It is
   an HMAC of the job's id keyed by the owner's token hash, so the server keeps nothing more, it cannot be

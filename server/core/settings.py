@@ -201,6 +201,28 @@ class Settings(SceneLimits):
         """The scene limits, as the tracer's validators take them."""
         return Limits(**{name: getattr(self, name) for name in LIMIT_NAMES})
 
+    def processes_text(self) -> str:
+        """What runs beside the API, as /api/health lists it (`workers`, `checkers`), for the start-up log: the
+        render workers (embedded: `workers` general ones plus `interactive_workers` that take interactive work
+        only, none of either when `workers` is 0, as server/queue/embedded/pool.py starts them; with Redis, the
+        local worker hosts), the scene-checking processes, and the grading pool started at the first grading."""
+
+        def n(count: int, noun: str) -> str:
+            return f"{count} {noun}{'' if count == 1 else 'es' if noun.endswith('s') else 's'}"
+
+        if self.redis_url:
+            renders = f"{n(self.workers, 'local worker host')} on Redis at {self.redis_url}"
+        elif self.workers == 0:
+            renders = "no render worker (jobs wait in the queue)"
+        else:
+            only = f" ({self.interactive_workers} for interactive work only)" if self.interactive_workers else ""
+            renders = f"{n(self.workers + self.interactive_workers, 'render worker process')}{only}"
+        grading = self.grading_processes or os.cpu_count() or 1
+        return (
+            f"{renders}, {n(self.validate_processes, 'scene-checking process')}, "
+            f"a grading pool of {n(grading, 'process')} from the first grading run"
+        )
+
     def threads_per_worker(self) -> int:
         if self.render_threads:
             return self.render_threads

@@ -18,6 +18,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 from server.core.files import write_atomic
@@ -27,7 +28,7 @@ from server.grading.run import GradingRun
 from server.grading.store import GradingStore, Stage
 from server.jobs.lifecycle import JobStatus
 from server.jobs.service import JobService
-from tracer.grading import Grader, load_assignment
+from tracer.grading import AssignmentError, Grader, load_assignment
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +36,18 @@ STUDENT_FILES = {  # what GET /api/grade/{id}/students/{student}/{file} serves
     "render.png": "image/png", "reference.png": "image/png", "error_map.png": "image/png",
     "rejected.png": "image/png", "results.json": "application/json", "report.json": "application/json",
 }  # fmt: skip
+
+
+@lru_cache(maxsize=64)
+def max_scores(text: str, scene_points: float | None) -> dict[str, float | None]:
+    """A run's maximum per kind of submission: a scene's (the run's `max_score`) and an image's, the image
+    tests' points alone (validity and the requirements are a scene's); the image's None for a spec this version
+    no longer reads."""
+    try:
+        image = load_assignment(text)[0].max_score("image")
+    except AssignmentError:
+        image = None
+    return {"scene": scene_points, "image": image}
 
 
 @dataclass
@@ -197,6 +210,7 @@ class GradeRuns:
             "finished_at": row["finished_at"], "error": row["error"], "students": self.gs.students(run_id),
             "renders_done": progress["renders_done"], "renders_total": row["renders_total"],
             "graded": progress["stages"]["graded"], "max_score": row["max_score"],
+            "max_scores": max_scores(row["assignment"], row["max_score"]),
             "summary": json.loads(row["summary"]) if row["summary"] else None, "resumed": row["starts"] - 1,
             "open": self.gs.is_open(run_id),
         }  # fmt: skip

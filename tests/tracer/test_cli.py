@@ -124,6 +124,40 @@ def test_cli_validate_good_and_bad(tmp_path):
     assert p.returncode == 1 and "line 1" in p.stderr
 
 
+def test_cli_errors_name_the_file_line_and_column_of_their_path(tmp_path):
+    """Each error at its JSON path's place in the file, `FILE:LINE:COL: error: PATH: MESSAGE`: a member at its key
+    (as the page's editor marks it), an unknown field at its own key, a missing field at its object; for
+    validate, render and raytree alike, warnings too."""
+    text = """{
+  "camera": {"lookfrom": [0, 0, 3], "lookat": [0, 0, 0],
+             "vfov": -5},
+  "materials": {
+    "my glass": {"colour": 0.5, "kd": 0.5, "ior": 1.3}
+  },
+  "objects": [
+    {"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "my glass"},
+      {"type": "sphere", "center": [0, 0, 0], "material": "gls"}
+  ]
+}
+"""
+    f = tmp_path / "bad.json"
+    f.write_text(text)
+    want = [
+        f"{f}:3:14: error: camera.vfov: must be > 0",
+        f"{f}:5:18: error: materials[\"my glass\"].colour: unknown field 'colour'; did you mean 'kd'?",
+        f"{f}:9:47: error: objects[1].material: material 'gls' is not defined in 'materials' (defined: my glass)",
+        f"{f}:9:7: error: objects[1].radius: required field 'radius' is missing",
+    ]
+    for command in (["validate", f], ["render", f, "-o", tmp_path / "x.png"], ["raytree", f, 1, 1]):
+        p = run(*command, check=False)
+        assert p.returncode == 1 and p.stderr.splitlines() == want, (command, p.stderr)
+    text = text.replace('"vfov": -5', '"vfov": 40').replace('"colour": 0.5, ', "").replace('"gls"', '"my glass"')
+    f.write_text(text.replace('"material": "my glass"}\n', '"material": "my glass", "radius": 1}\n'))
+    p = run("validate", f)
+    opaque = "has no effect: the material is opaque (kt = 0)"
+    assert p.stderr.splitlines() == [f'{f}:5:29: warning: materials["my glass"].ior: {opaque}']
+
+
 def test_cli_validate_refuses_what_the_service_refuses(tmp_path, client_without_workers):
     """One table of limits (tracer/limits.py): a 4000 x 3000 film is past max_width and max_height for
     `validate` as for POST /api/validate, with the same errors, each naming its limit."""
@@ -139,7 +173,10 @@ def test_cli_validate_refuses_what_the_service_refuses(tmp_path, client_without_
     f.write_text(json.dumps(data))
     p = run("validate", f, check=False)
     assert p.returncode == 1
-    assert p.stderr.splitlines() == [f"error: {e['path']}: {e['message']}" for e in report["errors"]]
+    text = json.dumps(data)  # one line: each error at its key's column
+    at = {e["path"]: text.index(json.dumps(e["path"].split(".")[-1])) + 1 for e in report["errors"]}
+    want = [f"{f}:1:{at[e['path']]}: error: {e['path']}: {e['message']}" for e in report["errors"]]
+    assert p.stderr.splitlines() == want
 
 
 def test_cli_renders_radiosity(tmp_path):
@@ -184,8 +221,10 @@ def test_cli_validate_resolves_asset_files_like_render(tmp_path):
     scene["objects"].append({"type": "mesh", "file": "teapot.obj", "material": {"kd": 0.5}})
     f = tmp_path / "s.json"
     f.write_text(json.dumps(scene))
+    mesh_at = json.dumps(scene).rindex('"file"') + 1  # at its key
     error = (
-        f"error: objects[{len(scene['objects']) - 1}].file: asset file 'teapot.obj' not found in the asset folder "
+        f"{f}:1:{mesh_at}: error: objects[{len(scene['objects']) - 1}].file: asset file 'teapot.obj' not found in "
+        "the asset folder "
         "scenes/assets; copy it there, point the command line at the folder that holds it (--assets DIR), "
         "or embed the file in the scene as a data: URI"
     )

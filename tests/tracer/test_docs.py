@@ -94,6 +94,24 @@ def test_docs_users_are_never_sent_to_a_file_they_do_not_have():
             assert stale not in text, f"{path.relative_to(ROOT)} mentions {stale}"
 
 
+CLAIMS_OF_404 = re.compile(r"another token gets a 404|anyone else gets the (very )?404|another token's job alike", re.I)
+
+
+def test_docs_say_when_another_token_gets_a_404():
+    """ "Another token gets a 404" holds on a server with TRACER_INSTRUCTOR_TOKEN, or one not on loopback only:
+    on a loopback-only server without it everyone is the instructor (server/core/security.py, get_caller). Each
+    sentence that makes the claim states that condition itself."""
+    found = 0
+    for path in [ROOT / "README.md", *ROOT.glob("docs/*.md"), *ROOT.glob("web/**/*.js"), *ROOT.glob("web/*.html")]:
+        text = re.sub(r"\s+", " ", path.read_text(encoding="utf-8"))
+        for sentence in re.split(r"(?<=[.!?|])\s+(?=[A-Z*`(|])", text):
+            if CLAIMS_OF_404.search(sentence):
+                found += 1
+                where = f"{path.relative_to(ROOT)}: {sentence[:200]!r}"
+                assert "TRACER_INSTRUCTOR_TOKEN" in sentence and "loopback" in sentence, where
+    assert found >= 3  # README's, and the routes' and the tokens' sections of docs/service.md
+
+
 def test_docs_the_readme_links_the_reference():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert "](docs/scene-format.md)" in readme
@@ -121,6 +139,11 @@ def test_docs_the_service_serves_the_reference_as_a_page(client_without_workers)
     assert '<h2 id="how-a-pixel-is-computed">' in html and '<h3 id="camera-rays">' in html
     assert "<table>" in html and "<code>lookfrom</code>" in html and "&lt;!--" not in html
     assert not re.search(r"(src|href)=\"(https?:)?//", html), "the page loads nothing from other hosts"
+    # the page names the server it came from, not the default address the repository's text writes
+    base = str(client.base_url).rstrip("/")
+    assert f"{base}/reference/scene-format.md" in html and "127.0.0.1:8000" not in html
+    other = client.get("/reference/scene-format.md", headers={"host": "localhost:9123"}).text
+    assert "http://localhost:9123/reference/scene-format.md" in other
     assert client.get("/css/reference.css").status_code == 200
     listing = client.get("/reference/").text
     for name in ("scene-format.md", "service.md", "web.md", "grading.md"):

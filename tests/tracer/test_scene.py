@@ -188,6 +188,50 @@ def test_error_unknown_key_suggests_field_of_its_own_model():
     assert "did you mean" not in error["message"] and "allowed: type, material, name" in error["message"]
 
 
+SYNONYMS_SUGGESTED = [
+    # (where the unknown field is, the field written, the field suggested)
+    ("materials.m", "colour", "kd"),
+    ("materials.m", "Color", "kd"),
+    ("materials.m", "albedo", "kd"),
+    ("materials.m", "diffuse", "kd"),
+    ("materials.m", "specular", "ks"),
+    ("materials.m", "exponent", "shininess"),
+    ("materials.m", "mirror", "kr"),
+    ("materials.m", "reflect", "kr"),
+    ("materials.m", "transparency", "kt"),
+    ("materials.m", "refraction", "kt"),
+    ("materials.m", "eta", "ior"),
+    ("materials.m", "index", "ior"),
+    ("materials.m", "emissive", "emission"),
+    ("lights[0]", "colour", "intensity"),
+    ("lights[0]", "power", "intensity"),
+    ("fog", "colour", "color"),
+    ("camera", "fov", "vfov"),
+    ("camera", "eye", "lookfrom"),
+    ("camera", "up", "vup"),
+    ("sampler", "samples", "spp"),
+    ("render", "depth", "max_depth"),
+]
+
+
+@pytest.mark.parametrize(
+    ("where", "word", "field"), SYNONYMS_SUGGESTED, ids=[f"{w}.{k}" for w, k, _ in SYNONYMS_SUGGESTED]
+)
+def test_error_unknown_key_suggests_the_field_other_renderers_name_so(where, word, field):
+    """'colour' is not spelt like 'kd', but it is what a student means: a synonym is suggested, in the object
+    that has that field (a material's colour is kd, a point light's its intensity, fog's its color)."""
+    data = _scene(
+        materials={"m": {}}, lights=[{"type": "point", "position": [0, 1, 0]}], fog={}, sampler={}, render={},
+        objects=[{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}],
+    )  # fmt: skip
+    holder = data
+    for key in where.replace("[0]", ".0").split("."):
+        holder = holder[int(key)] if key.isdigit() else holder[key]
+    holder[word] = 0.5
+    (error,) = validate_scene(data)["errors"]
+    assert error == {"path": f"{where}.{word}", "message": f"unknown field '{word}'; did you mean '{field}'?"}
+
+
 def test_error_nan_and_infinity_from_python_values():
     data = _scene(fog={"density": math.inf}, ambient=[0, math.nan, 0])
     paths = [e["path"] for e in validate_scene(data)["errors"]]

@@ -149,6 +149,7 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
         "mean": "46 %",
         "min": "0 %",
         "max": "100 %",
+        "out-of": "13 (scene) · 7 (image)",  # an image earns its readability's and the image tests' points
         "graded": "6",
         "invalid": "3",
         "failed": "0",
@@ -196,6 +197,14 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert row_order(page) == sorted(EXPECTED)
     page.locator("#grade-results").scroll_into_view_if_needed()
     shot(page, "desktop-table")
+    # 1280 px wide: the whole table is in its box, the last column (rejected) included, no sideways scrolling
+    assert page.viewport_size["width"] == 1280
+    fit = page.evaluate(
+        """() => { const b = document.querySelector('.grade-table-box');
+            const last = document.querySelector('#grade-table thead th:last-child').getBoundingClientRect();
+            return [b.scrollWidth, b.clientWidth, last.right, b.getBoundingClientRect().right]; }"""
+    )
+    assert fit[0] <= fit[1] and fit[2] <= fit[3], fit
 
     # erin's detail, from the keyboard: focus the row, Enter
     page.focus("#grade-table tr[data-student=erin]")

@@ -257,6 +257,59 @@ def test_web_page_editor_marks_errors_at_their_line_and_keeps_unsaved_work(deskt
     page.wait_for_selector(".backdrop .mark .squiggle")
 
 
+def test_web_page_editor_names_the_example_wraps_its_messages_and_blanks_a_stale_form(desktop):
+    """A first visit: the Example menu names the example the editor holds (Whitted's). An inline error wraps
+    inside the visible width, right of the lines it spans (never cut at the panel's edge, never over the
+    text). While the JSON does not parse, the form shows no value of an older text, and says why."""
+    page = desktop.open().page
+    page.wait_for_selector("#validation-status[data-kind=ok]")
+    title = scene_dict("whitted")["name"]  # the menu's label of the example (GET /api/scenes: its name)
+    assert page.eval_on_selector("#example-select", "s => [s.value, s.options[s.selectedIndex].text]") == [
+        "whitted",
+        title,
+    ]
+
+    text = editor_text(page)
+    bad = text.replace('"type": "sphere"', '"type": "spher"', 1).replace('"width": 320', '"width": 32000', 1)
+    page.fill("#scene-text", bad)
+    line = line_of(bad, '"spher"')
+    page.wait_for_selector(f".backdrop .mark.error[data-line='{line}'] .msg")
+    page.click(f"#problems li:has-text('line {line}') button")  # scrolls the line into view
+    boxes = page.evaluate(
+        f"""() => {{
+            const box = (el) => el.getBoundingClientRect();
+            const mark = document.querySelector(".backdrop .mark[data-line='{line}']");
+            const msg = mark.querySelector(".msg"), ghost = mark.querySelector(".ghost");
+            return {{msg: box(msg), area: box(document.querySelector(".code-area")), text: msg.textContent,
+                     clip: getComputedStyle(msg).textOverflow, char: box(ghost).width / ghost.textContent.length}};
+        }}"""
+    )
+    msg, area = boxes["msg"], boxes["area"]
+    assert "unknown object type 'spher'; expected one of: sphere, plane" in boxes["text"]
+    assert boxes["clip"] != "ellipsis"
+    assert area["left"] < msg["left"] and msg["right"] <= area["right"] + 0.5, boxes  # inside the visible width
+    assert msg["height"] >= 2 * 20, boxes  # wrapped onto rows of the code's height (20 px)
+    spanned = bad.split("\n")[line - 1 : line - 1 + round(msg["height"] / 20)]
+    text_right = area["left"] + 10 + max(len(x) for x in spanned) * boxes["char"]  # the textarea's padding: 10 px
+    assert msg["left"] >= text_right - 0.5, (spanned, boxes)  # right of every line it spans: never over the code
+    desktop.shot("editor-error-wraps")
+
+    broken = bad.replace('"vfov": 40', '"vfov": 40,,', 1)
+    page.fill("#scene-text", broken)
+    page.wait_for_selector("#fs-film:disabled", state="attached")
+    shown = page.eval_on_selector_all(
+        "#fields-form input, #fields-form select",
+        "els => els.filter(e => e.type === 'checkbox' ? e.checked : e.value !== '').map(e => e.id || e.outerHTML)",
+    )
+    assert shown == [], shown  # not the width of 32000 nor any value of the text before the syntax error
+    assert "once the text parses" in page.inner_text("#fields-form .note.warn")
+    page.locator("#fields-form").scroll_into_view_if_needed()
+    desktop.shot("editor-syntax-error-form")
+    page.fill("#scene-text", bad)
+    page.wait_for_selector("#form-stale-note[hidden]", state="attached")
+    assert page.input_value("#fs-film .field[data-path='film.width'] input") == "32000"
+
+
 def test_web_page_form_controls_write_into_the_json(desktop):
     page = desktop.open().page
     set_scene(page, whitted())

@@ -139,10 +139,15 @@ def summary(reports: list[Report]) -> dict:
 
 def class_summary(assignment: str | None, rows: list[dict], scores: list[tuple[float, float]]) -> dict:
     """The summary from each student's row (`summary_row`) and exact (score, max_score): what `summary`
-    gives, for a service that keeps the rows rather than the reports."""
+    gives, for a service that keeps the rows rather than the reports. `max_scores`: the maximum of each kind
+    of submission in the class (a scene's, an image's: its image tests only)."""
     shares = [100.0 * score / top for score, top in scores if top > 0]
+    max_scores: dict[str, float] = {}
+    for row in rows:
+        max_scores[row["kind"]] = max(max_scores.get(row["kind"], 0.0), row["max_score"])
     stats = {
         "students": len(rows),
+        "max_scores": dict(sorted(max_scores.items(), key=lambda kv: kv[0] != "scene")),
         "mean_percent": round(sum(shares) / len(shares), 2) if shares else None,
         "min_percent": round(min(shares), 2) if shares else None,
         "max_percent": round(max(shares), 2) if shares else None,

@@ -70,7 +70,7 @@ class Report:
     def gradescope(self) -> dict:
         """Gradescope's autograder results.json: a test per requirement, with score and max_score."""
         lines = [f"{self.assignment}: {_round(self.score)} / {_round(self.max_score)} points ({self.status})"]
-        lines += [f"{e['path'] or '(scene)'}: {e['message']}" for e in self.errors]
+        lines += [f"{e['path'] or f'({self.kind})'}: {e['message']}" for e in self.errors]
         return {
             "score": _round(self.score),
             "output": "\n".join(lines),

@@ -212,11 +212,17 @@ class Assignment(_Model):
     reference: Reference | None = None
     image: ImageSettings = Field(default_factory=ImageSettings)
 
-    def max_score(self) -> float:
-        total = self.validity.points + sum(r.points for r in self.requirements)
-        if self.reference is not None:
-            total += sum(t.points for t in self.image_tests().values())
+    def max_score(self, kind: str = "scene") -> float:
+        """The most a submission of this kind can earn: a scene every test's points; an image (png, exr) its
+        validity's ("readable image") and the image tests' (the requirements are checks of a scene)."""
+        total = self.validity.points + sum(t.points for t in self.image_tests().values())
+        if kind == "scene":
+            total += sum(r.points for r in self.requirements)
         return total
+
+    def max_scores(self) -> dict[str, float]:
+        """{"scene": ..., "image": ...}: the maximum of each kind of submission (`max_score`)."""
+        return {kind: self.max_score(kind) for kind in ("scene", "image")}
 
     def image_tests(self) -> dict[str, BaseModel]:
         ref = self.reference

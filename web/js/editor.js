@@ -9,6 +9,8 @@ const KEY = "rt.editor.text";
 const NAME_KEY = "rt.editor.name";
 const LINE_HEIGHT = 20; // px, as .code in app.css
 const PAD = 8; // px, the textarea's padding
+const PAD_X = 10; // px, its left and right padding
+const MIN_MESSAGE_CHARS = 16; // a message narrower than this is cut to one row instead
 
 /** The workspace editor's text as it was last kept (another page of the site, an assignment's, hands it in). */
 export function keptText() {
@@ -40,7 +42,7 @@ export class SceneEditor {
     this.ta.addEventListener("scroll", () => this.syncScroll());
     this.ta.addEventListener("keydown", (e) => this.keydown(e));
     window.addEventListener("pagehide", () => this.save.flush());
-    new ResizeObserver(() => this.syncScroll()).observe(this.ta);
+    new ResizeObserver(() => this.drawMarks()).observe(this.ta); // messages wrap to the new width
   }
 
   get text() {
@@ -267,7 +269,9 @@ export class SceneEditor {
         ? [h("span", { class: "ghost" }, text.slice(0, col - 1)), h("span", { class: "ghost squiggle" }, text.slice(col - 1, col) || " "), h("span", { class: "ghost" }, text.slice(col))]
         : [h("span", { class: "ghost" }, text)];
       const message = ms.map((m) => m.message).join(" · ");
-      rows.push(h("div", { class: `mark ${severity}`, style: `top:${top(line)}`, dataset: { line } }, ...parts, h("span", { class: "msg" }, `  ◀ ${message}`)));
+      const msg = h("span", { class: "msg" }, `◀ ${message}`);
+      this.placeMessage(msg, lines, line);
+      rows.push(h("div", { class: `mark ${severity}`, style: `top:${top(line)}`, dataset: { line } }, ...parts, msg));
       gmarks.push(h("div", { class: `gmark ${severity}`, style: `top:${top(line)}`, title: message }, String(line)));
     }
     this.backdrop.replaceChildren(...rows);
@@ -275,10 +279,52 @@ export class SceneEditor {
     this.syncScroll();
   }
 
+  /** A mark's message wraps inside the visible width, in rows of the code's height, to the right of every line it
+   * spans, so it never covers the text; with no room for it there, one row cut with an ellipsis. */
+  placeMessage(msg, lines, line) {
+    const { code, text } = this.charWidths();
+    const width = (l) => (l ?? "").replace(/\t/g, "  ").length;
+    const view = this.ta.scrollLeft + this.ta.clientWidth - 2 * PAD_X; // px of text the visible width holds
+    const need = (msg.textContent.length + 1) * text; // px of the message on one row
+    let left = width(lines[line - 1]) + 2;
+    for (let i = 0; i < 8; i++) {
+      const rows = Math.ceil(need / Math.max(view - left * code, 1)) + 1; // one row spare: words wrap early
+      const next = Math.max(...lines.slice(line - 1, line - 1 + rows).map(width)) + 2;
+      if (next === left) break;
+      left = next;
+    }
+    if (view - left * code < MIN_MESSAGE_CHARS * text) {
+      left = width(lines[line - 1]) + 2;
+      msg.classList.add("clip");
+    }
+    msg.style.left = `${PAD_X + left * code}px`;
+    msg.style.width = `calc(var(--view-right) - ${PAD_X * 2 + left * code}px)`;
+  }
+
+  /** The width of a character of the code (monospace) and of a message (on average), in px. */
+  charWidths() {
+    if (!this.widths) {
+      const probe = (cls, s) => {
+        const el = h("span", { class: cls, style: "position:absolute;white-space:pre" }, s);
+        const row = h("div", { class: "mark", style: "visibility:hidden" }, el);
+        this.backdrop.append(row);
+        const w = el.getBoundingClientRect().width / s.length;
+        row.remove();
+        return w;
+      };
+      const sample = "unknown field 'colour'; did you mean 'kd'? must be a finite number";
+      this.widths = { code: probe("", "0".repeat(40)), text: probe("msg", sample) };
+      if (!this.widths.code) this.widths = null; // not laid out yet (hidden): measured at the next draw
+      return this.widths || { code: 8, text: 6.5 };
+    }
+    return this.widths;
+  }
+
   syncScroll() {
     const y = this.ta.scrollTop;
     const x = this.ta.scrollLeft;
     this.backdrop.style.transform = `translate(${-x}px, ${-y}px)`;
+    this.backdrop.style.setProperty("--view-right", `${x + this.ta.clientWidth}px`); // where a mark's message wraps
     this.gutter.style.transform = `translateY(${-y}px)`;
     this.gutterMarks.style.transform = `translateY(${-y}px)`;
   }

@@ -112,7 +112,11 @@ export class SceneFields {
       this.refresh(this.value, true);
     });
     this.materialNote = h("p", { class: "note" });
-    this.disabledNote = h("p", { class: "note warn", hidden: true }, "Fix the JSON syntax error first: the form reads and writes the text.");
+    this.disabledNote = h(
+      "p",
+      { class: "note warn", id: "form-stale-note", hidden: true },
+      "The JSON has a syntax error, so the form is blank: it reads and writes the text, and follows it again once the text parses.",
+    );
     this.form.replaceChildren(
       this.disabledNote,
       section("camera", "Camera"),
@@ -233,8 +237,9 @@ export class SceneFields {
   refresh(value, force = false) {
     const disabled = value === null || typeof value !== "object";
     this.disabledNote.hidden = !disabled;
+    this.form.classList.toggle("stale", disabled);
     for (const fs of $$("fieldset", this.form)) fs.disabled = disabled;
-    if (disabled) return;
+    if (disabled) return this.blank();
     if (!force && this.value && JSON.stringify(this.value) === JSON.stringify(value)) return;
     this.value = value;
     const sec = (k) => (value[k] && typeof value[k] === "object" ? value[k] : {});
@@ -275,6 +280,17 @@ export class SceneFields {
     this.lightSelect.value = String(this.lightIndex);
     const light = lights[this.lightIndex];
     this.fill("light", (light && LIGHT_FIELDS[light.type]) || [], ["lights", this.lightIndex], light || {}, part("light", light?.type));
+  }
+
+  /** While the text does not parse: no control shows a value of an older text (they would look current). */
+  blank() {
+    for (const input of $$("input", this.form)) {
+      if (input.type === "checkbox") input.checked = false;
+      else input.value = "";
+    }
+    for (const select of $$("select", this.form)) select.selectedIndex = -1;
+    this.materialNote.textContent = "";
+    this.value = null; // the next text that parses fills every control again
   }
 
   /** The schema came (or changed): rebuild every control with its rules. */

@@ -530,6 +530,7 @@ export class GradingPanel {
         stat("mean", percentText(stats.mean_percent), "mean"),
         stat("min", percentText(stats.min_percent), "min"),
         stat("max", percentText(stats.max_percent), "max"),
+        stats.max_scores ? stat("out of", Object.entries(stats.max_scores).map(([kind, n]) => `${pts(n)} (${kind})`).join(" · "), "out-of") : null,
         ...["graded", "invalid", "failed"].map((s) => stat(s, byStatus[s] ?? 0, s)),
       ),
       h("p", { class: "hint" }, "Click a student (or focus the row and press Enter) for their pictures and every test's output. A test's output is also its cell's tooltip."),

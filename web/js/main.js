@@ -159,9 +159,15 @@ async function pickPixel(view, x, y) {
 }
 
 let previousText = null;
+/** The Example menu names the example the editor holds (loaded, or restored from the last visit), else none. */
+function showExample(name) {
+  exampleSelect.value = examples.some((s) => s.name === name) ? name : "";
+}
+
 function loadText(text, name, show = true) {
   previousText = editor.text;
   editor.setText(text, name);
+  showExample(name);
   if (show) {
     go("");
     selectTab("tab-work");
@@ -361,7 +367,7 @@ async function start() {
     if (examples.some((s) => s.name === "whitted")) await loadExample("whitted", false);
     else editor.setText('{\n  "version": 1\n}\n');
     $("#load-note").replaceChildren();
-  }
+  } else showExample(editor.name);
   await schema;
   selectTab("tab-work");
   viewer.renderList();

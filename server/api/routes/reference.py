@@ -3,7 +3,9 @@ rendered on the server so the page's "Format reference" link works without inter
 
 GET /reference/ lists them; GET /reference/NAME.md is one, its headings with the anchors GitHub gives
 them (so links such as scene-format.md#camera-rays work both there and here). The documents are
-the repository's own trusted files: their HTML comments (the field-table markers) pass through.
+the repository's own trusted files: their HTML comments (the field-table markers) pass through. A
+document's links to the server's own pages name the address the request came to (`here`), not the default
+port the repository's text must write.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import re
 from functools import lru_cache
 from pathlib import Path
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 from markdown_it import MarkdownIt
 
@@ -90,8 +92,18 @@ def index() -> HTMLResponse:
     return HTMLResponse(PAGE.format(title="Reference", body=body))
 
 
+DEFAULT_BASE = re.compile(r"http://127\.0\.0\.1:8000(?=/)")  # a page of the server at its default address
+
+
+def here(body: str, request: Request) -> str:
+    """A document's links to pages of the server at its default address (`http://127.0.0.1:8000/reference/...`,
+    as the repository's files must write them) with the address this request reached it at instead."""
+    base = html.escape(str(request.base_url).rstrip("/"))
+    return DEFAULT_BASE.sub(lambda _: base, body)
+
+
 @router.get("/{name}.md", response_class=HTMLResponse)
-def document(name: str) -> HTMLResponse:
+def document(name: str, request: Request) -> HTMLResponse:
     path = _doc(name)
     title, body = _render(path, path.stat().st_mtime)
-    return HTMLResponse(PAGE.format(title=html.escape(title), body=body))
+    return HTMLResponse(PAGE.format(title=html.escape(title), body=here(body, request)))

@@ -24,6 +24,7 @@ from server.core.clients import address_owner
 from server.core.errors import ApiError
 from server.core.security import CallerDep
 from server.jobs.lifecycle import ANONYMOUS_PRIORITY, RAYTREE_PRIORITY
+from tracer.raytree import pixel_sample_errors
 from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
@@ -93,12 +94,8 @@ async def raytree(
         waiting = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
     with waiting or contextlib.nullcontext():
         found = await checks.summary(request, await request.body())
-        errors = [
-            {"path": k, "message": f"must be a {what} in 0..{n - 1}"}
-            for k, v, n, what in (("x", body.x, found["width"], "column"), ("y", body.y, found["height"], "row"))
-            if not 0 <= v < n
-        ]
-        if errors:
+        errors = pixel_sample_errors(body.x, body.y, body.sample, found["width"], found["height"], found["samples"])
+        if errors:  # before anything is queued: a job that could only fail is never made
             raise ApiError(422, errors)
         anonymous = caller.token is None and not caller.instructor
         return await jobs.raytree(

@@ -215,6 +215,24 @@ def test_api_errors_invalid_json_names_line_and_column(client):
 
 
 @pytest.mark.parametrize(
+    "ctype,message",
+    [
+        ("text/plain", "the Content-Type is 'text/plain', not JSON: expected 'Content-Type: application/json'"),
+        (None, "the request has no Content-Type header: expected 'Content-Type: application/json'"),
+        (JSON, "the body must be a JSON object {...}"),
+    ],
+    ids=["text/plain", "no content type", "json array"],
+)
+def test_api_errors_a_body_not_sent_as_json_names_its_content_type(client, ctype, message):
+    """A JSON object sent as text/plain (or with no Content-Type) is told that the Content-Type is wrong, not
+    that the body is not an object; a JSON array sent as JSON is told that it is not an object."""
+    body = with_scene(SCENE) if ctype != JSON else b"[1, 2]"
+    headers = {"content-type": ctype} if ctype else {}
+    for url in ("/api/jobs", "/api/validate", "/api/grade"):
+        assert check_error(client.post(url, content=body, headers=headers), 422) == [{"path": "", "message": message}]
+
+
+@pytest.mark.parametrize(
     "url,body",
     [
         ("/api/jobs", b'{"scene": {"name": "caf\xe9"}}'),  # Latin-1's é

@@ -84,6 +84,15 @@ def test_api_loopback_job_life_gives_the_cli_pixels(server, tmp_path):
     np.testing.assert_array_equal(np.asarray(Image.open(api_png)), np.asarray(Image.open(tmp_path / "cli.png")))
 
 
+def test_api_loopback_the_start_up_log_says_what_health_lists(server):
+    """ "serving on ..." names as many render workers and checking processes as /api/health lists."""
+    health = server.client.get("/api/health").json()
+    line = next(x for x in server.log_path.read_text(errors="replace").splitlines() if "serving on" in x)
+    workers, checkers = len(health["workers"]), len(health["checkers"])
+    assert f"{workers} render worker process{'es' if workers != 1 else ''}, " in line, line
+    assert f"{checkers} scene-checking processes" in line and "a grading pool of" in line, line
+
+
 def test_api_loopback_nan_reaches_the_validator_which_names_its_field(server):
     body = b'{"scene": {"camera": {"lookfrom": [0, 0, NaN], "lookat": [0, 0, -1]}}}'
     r = server.client.post("/api/validate", content=body, headers={"content-type": "application/json"})

@@ -54,6 +54,19 @@ def test_api_tools_raytree_needs_a_worker(client):
     assert bad.status_code == 422 and bad.json()["errors"][0]["path"] == "x"
 
 
+def test_api_tools_raytree_sample_out_of_range_is_refused_before_any_job(client):
+    """Sample 16 of a 16-spp scene (and a point of an adaptive grid past its last) is a 422 at `sample` before
+    anything is queued: no job is made to fail in a worker (health would count it as a failed job)."""
+    scene = small(scene_dict("whitted"), 32, 24, sampler={"type": "jittered", "spp": 16})
+    adaptive = small(scene_dict("whitted"), 32, 24, sampler={"type": "adaptive", "max_level": 1})
+    before = client.get("/api/health").json()["jobs"]
+    for sc, sample, last in ((scene, 16, 15), (scene, -1, 15), (adaptive, 25, 24)):
+        r = client.post("/api/raytree", json={"scene": sc, "x": 1, "y": 1, "sample": sample})
+        assert r.status_code == 422, r.text
+        assert r.json()["errors"] == [{"path": "sample", "message": f"must be a sample index in 0..{last}"}]
+    assert client.get("/api/health").json()["jobs"] == before
+
+
 def test_api_tools_api_docs_load_nothing_from_other_hosts(client):
     """Swagger UI comes from our own server, so the page's "API" link works offline; /redoc is off (ReDoc's
     bundle fetches its maker's logo from a CDN)."""

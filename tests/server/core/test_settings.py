@@ -75,3 +75,21 @@ def test_settings_a_bad_setting_stops_the_server_naming_it_as_given(tmp_path):
     for unsaid in ("short-secret", "pydantic", "validation error", "type=", "input_value"):
         assert unsaid not in r.stderr, unsaid
     assert not (tmp_path / "data").exists()  # nothing was made
+
+
+def test_settings_the_start_up_log_says_what_runs():
+    """The processes beside the API (`python -m server`'s "serving on" line): the render workers with the
+    interactive ones, none of those without general workers, the checking processes, the grading pool."""
+    from server.core.settings import Settings
+
+    assert Settings(workers=1, interactive_workers=1, validate_processes=2, grading_processes=4).processes_text() == (
+        "2 render worker processes (1 for interactive work only), 2 scene-checking processes, "
+        "a grading pool of 4 processes from the first grading run"
+    )
+    assert (
+        Settings(workers=0, validate_processes=1, grading_processes=1)
+        .processes_text()
+        .startswith("no render worker (jobs wait in the queue), 1 scene-checking process, a grading pool of 1 process")
+    )
+    redis = Settings(workers=3, redis_url="redis://cache:6379/0").processes_text()
+    assert redis.startswith("3 local worker hosts on Redis at redis://cache:6379/0, ")

@@ -480,6 +480,9 @@ def test_upload_the_repositorys_assignment_with_its_reference_file_beside_it(app
     assert r.status_code == 202, r.text
     state = finished(app, r.json()["url"])
     assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == {"grace": EXPECTED["grace"]}
+    # an image can earn its readability's and the image tests' points, 7 of the scene's 13
+    assert state["max_scores"] == {"scene": 13.0, "image": 7.0} and state["max_score"] == 13.0
+    assert state["summary"]["statistics"]["max_scores"] == {"image": 7.0}
     del parts["reference"]
     r = app.post("/api/grade/upload", files=parts)
     assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment.reference.scene", r.text

@@ -41,7 +41,7 @@ from tracer.grading import (
     read_zip,
     write_all,
 )
-from tracer.grading.batch import group_files
+from tracer.grading.batch import group_files, summary
 from tracer.grading.checks import run_check
 from tracer.grading.spec import Check
 from tracer.scene import load_scene
@@ -89,6 +89,19 @@ def test_grading_the_example_class_gives_the_exact_grades(graded):
         assert r.status == status, student
         assert r.score == sum(points)
     assert graded["alice"].max_score == 13 and graded["grace"].max_score == 7
+
+
+def test_grading_an_image_is_out_of_its_own_points_and_its_errors_are_the_image_s(graded):
+    """A scene can earn 13 points, an image 7 (readable, and the image tests: the requirements are checks of a
+    scene): the spec and the class summary say so per kind; an unreadable image's error is the image's in
+    results.json, not "(scene)"."""
+    assignment, _ = load_assignment(ASSIGNMENT)
+    assert assignment.max_scores() == {"scene": 13.0, "image": 7.0}
+    assert summary(list(graded.values()))["statistics"]["max_scores"] == {"scene": 13.0, "image": 7.0}
+    assert {r.kind: r.max_score for r in graded.values()} == {"scene": 13.0, "image": 7.0}
+    ivan = graded["ivan"]  # an image that cannot be read
+    assert ivan.kind == "image" and ivan.errors and not ivan.errors[0]["path"]
+    assert ivan.gradescope()["output"].splitlines()[1] == f"(image): {ivan.errors[0]['message']}"
 
 
 def test_grading_messages_say_why(graded):
@@ -621,6 +634,20 @@ def test_cli_grades_one_scene(tmp_path):
     assert p.stdout.splitlines()[0] == "bob: 6 / 13 = 46.2% (graded)"
     assert "FAIL an area light (0/1): failed: found 0 lights" in p.stdout
     assert json.loads((tmp_path / "bob" / "results.json").read_text())["score"] == 6.0
+
+
+def test_cli_writes_beside_the_submission_without_an_output_folder(tmp_path):
+    """Without -o the reports go beside what is graded, named after it (bob.json -> bob-grades/), not into
+    the directory the command runs in (a checkout's); git ignores both that and a ./grades/ folder."""
+    (tmp_path / "hw").mkdir()
+    (tmp_path / "hw" / "bob.json").write_bytes((CLASS / "bob.json").read_bytes())
+    p = run_cli(ASSIGNMENT, tmp_path / "hw" / "bob.json")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[-1] == f"report and pictures in {tmp_path / 'hw' / 'bob-grades' / 'bob'}/"
+    assert json.loads((tmp_path / "hw" / "bob-grades" / "bob" / "results.json").read_text())["score"] == 6.0
+    ignored = subprocess.run(["git", "check-ignore", "grades/x", "scenes/grading/class-grades/x"], cwd=ROOT,
+                             capture_output=True, text=True)  # fmt: skip
+    assert ignored.stdout.split() == ["grades/x", "scenes/grading/class-grades/x"], ignored
 
 
 def test_cli_grades_a_class_through_the_job_queue(tmp_path):
