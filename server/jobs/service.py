@@ -26,6 +26,7 @@ from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
+from tracer.raytree import pixel_sample_errors
 
 if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface
     from server.queue.base import JobQueue
@@ -323,11 +324,14 @@ class JobService:
     ) -> dict:
         """One pixel sample's ray tree (`pixel`: x, y, sample) of a scene checked in a checking process: a short
         job of the interactive lane, waited for (`queued` hears of its row first, in the submitting thread). Its
-        tree; or an ApiError: 503 when no worker takes interactive work (or the server stops, or the job failed
-        otherwise), 422 with the errors it ended with, 504 past TRACER_MAX_RAYTREE_SECONDS, 499 when the client
-        went away."""
+        tree; or an ApiError: 422 at x, y or sample outside the film or its samples (nothing queued), or with the
+        errors the job ended with; 503 when no worker takes interactive work, the server stops, or the job
+        failed otherwise; 504 past TRACER_MAX_RAYTREE_SECONDS; 499 when the client went away."""
         x, y, sample = pixel
         limit = self.settings.max_raytree_seconds
+        errors = pixel_sample_errors(x, y, sample, found["width"], found["height"], found["samples"])
+        if errors:  # before anything is queued: a job that could only fail is never made
+            raise ApiError(422, errors)
         if self.capacity(Lane.interactive) == 0:
             raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
 

@@ -24,7 +24,6 @@ from server.core.clients import address_owner
 from server.core.errors import ApiError
 from server.core.security import CallerDep
 from server.jobs.lifecycle import ANONYMOUS_PRIORITY, RAYTREE_PRIORITY
-from tracer.raytree import pixel_sample_errors
 from tracer.scene import scene_json_schema
 
 router = APIRouter(prefix="/api", tags=["tools"])
@@ -94,9 +93,6 @@ async def raytree(
         waiting = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
     with waiting or contextlib.nullcontext():
         found = await checks.summary(request, await request.body())
-        errors = pixel_sample_errors(body.x, body.y, body.sample, found["width"], found["height"], found["samples"])
-        if errors:  # before anything is queued: a job that could only fail is never made
-            raise ApiError(422, errors)
         anonymous = caller.token is None and not caller.instructor
         return await jobs.raytree(
             found, (body.x, body.y, body.sample), priority=ANONYMOUS_PRIORITY if anonymous else RAYTREE_PRIORITY,
