@@ -37,12 +37,13 @@ def _read_json(path: str) -> dict:
 
 
 def parse_json(text: str):
+    """The JSON text's value; a syntax error becomes a SceneError at its line and column (`at`, for the
+    file's FILE:LINE:COL prefix)."""
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise SceneError(
-            [{"path": "", "message": f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"}]
-        ) from exc
+        message = f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
+        raise SceneError([{"path": "", "message": message, "at": (exc.lineno, exc.colno)}]) from exc
 
 
 def _overrides(data: dict, args) -> dict:
@@ -77,8 +78,8 @@ def _print_problems(items: list[dict], kind: str = "error", scene: str | None = 
             text = None
         found = positions(text) if text is not None else None
     for e in items:
-        at = locate(text, e["path"], found) if found else None
-        where = f"{scene}:{at[0]}:{at[1]}: " if at else ""
+        at = e.get("at") or (locate(text, e["path"], found) if found else None)  # a syntax error brings its own
+        where = f"{scene}:{at[0]}:{at[1]}: " if at and scene is not None else ""
         print(f"{where}{kind}: {e['path'] or '(scene)'}: {e['message']}", file=file)
 
 

@@ -156,6 +156,9 @@ def test_cli_errors_name_the_file_line_and_column_of_their_path(tmp_path):
     p = run("validate", f)
     opaque = "has no effect: the material is opaque (kt = 0)"
     assert p.stderr.splitlines() == [f'{f}:5:29: warning: materials["my glass"].ior: {opaque}']
+    f.write_text('{"version": 1,\n "camera": {"vfov": 40,, }\n}')  # a syntax error: at its own line and column
+    p = run("validate", f, check=False)
+    assert p.returncode == 1 and p.stderr.splitlines()[0].startswith(f"{f}:2:24: error: (scene): invalid JSON at"), p
 
 
 def test_cli_validate_refuses_what_the_service_refuses(tmp_path, client_without_workers):
