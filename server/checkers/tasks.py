@@ -11,6 +11,7 @@ import threading
 import time
 from pathlib import Path
 
+from server.core.exits import exit_now
 from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger(__name__)
@@ -118,7 +119,7 @@ def checker_main(conn, nice: int) -> None:
         try:
             name, args = conn.recv()
         except (EOFError, OSError):
-            return
+            exit_now()  # its server closed the line: nothing of ours is left to keep
         try:
             answer = ("ok", TASKS[name](*args))
         except Exception as exc:  # a bug must answer the request (a 500 in the API), not end the process

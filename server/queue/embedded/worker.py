@@ -20,6 +20,7 @@ import os
 import signal
 import time
 
+from server.core.exits import exit_now
 from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.jobs.lifecycle import LANES, Stop, TryEnd
@@ -49,6 +50,7 @@ def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> No
     load_kernels()
     line.ready()
     Worker(settings, JobStore(settings.data_dir), line.stopping, lanes=tuple(lanes or LANES)).loop(line.wait)
+    exit_now()  # its job is back in the queue: seconds of the interpreter's teardown would only delay the server
 
 
 def load_kernels() -> None:
