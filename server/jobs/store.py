@@ -290,6 +290,12 @@ class JobStore:
             (key, JobStatus.done.value, device),
         )
 
+    def has_result(self, key: str) -> bool:
+        """Whether a render of result `key` is queued, running or done (on whatever device)."""
+        live = (QUEUED, RUNNING, JobStatus.done.value)
+        row = self.db.execute("SELECT 1 FROM jobs WHERE result_key = ? AND status IN (?, ?, ?) LIMIT 1", (key, *live))
+        return row.fetchone() is not None
+
     def create_answered(self, source: dict, link: Callable[[str], bool], *, name: str | None, priority: int,
                         warnings: list, lane: Lane, estimate: float | None, owner: str | None) -> dict | None:
         """A job done at once with the result of the done job `source` (same key): its row, as long as the

@@ -3,11 +3,23 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 
 import pytest
-from test_api_support import INSTRUCTOR, api_client, bearer, parse_sse, student_token, submit, tiny_scene, wait_finished
+from test_api_support import (
+    INSTRUCTOR,
+    api_client,
+    bearer,
+    parse_sse,
+    student_token,
+    submit,
+    tiny_scene,
+    wait_finished,
+    wait_for,
+)
 
+from server.jobs import lesson_panels
 from server.jobs.results import renderer_version, result_key
 
 
@@ -84,3 +96,19 @@ def test_results_key_is_the_canonical_scene_and_the_renderer(tmp_path):
     edited = renderer_version(sources, assets)
     (assets / "brick.png").write_bytes(b"png")
     assert len({before, edited, renderer_version(sources, assets)}) == 3
+
+
+def test_results_lesson_panels_rendered_ahead_answer_a_student_s_panel(answering, tmp_path):
+    scenes = [tiny_scene(seed=21), tiny_scene(seed=22)]
+    path = tmp_path / "panels.json"
+    path.write_text(json.dumps([{"lesson": "l", "index": i, "scene": s} for i, s in enumerate(scenes)]))
+    jobs = answering.app.state.jobs
+    assert lesson_panels.ahead(jobs, path) == 2
+    assert lesson_panels.ahead(jobs, path) == 0  # queued already: not twice
+    ahead = answering.get("/api/jobs", params={"scope": "all", "limit": 2}, headers=bearer(INSTRUCTOR)).json()["jobs"]
+    assert {j["name"] for j in ahead} == {"lesson l, panel 1", "lesson l, panel 2"}
+    assert {j["lane"] for j in ahead} == {"batch"}
+    store = answering.app.state.store  # (the instructor's jobs: the test's client is not their owner)
+    wait_for(lambda: all(store.get(j["id"])["status"] == "done" for j in ahead), 60, "the panels rendered ahead")
+    student = submit(answering, scenes[1])
+    assert student["status"] == "done" and student["name"] == scenes[1].get("name")
