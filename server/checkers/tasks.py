@@ -111,9 +111,11 @@ def checker_main(conn, nice: int) -> None:
         except OSError:
             pass
     threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    from tracer.assets import import_mesh_reader
     from tracer.samples import load_kernels
 
     load_kernels()
+    import_mesh_reader()  # a scene's mesh files are read here first (their triangles counted)
     conn.send("ready")
     while True:
         try:
