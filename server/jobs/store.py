@@ -296,8 +296,18 @@ class JobStore:
         row = self.db.execute("SELECT 1 FROM jobs WHERE result_key = ? AND status IN (?, ?, ?) LIMIT 1", (key, *live))
         return row.fetchone() is not None
 
-    def create_answered(self, source: dict, link: Callable[[str], bool], *, name: str | None, priority: int,
-                        warnings: list, lane: Lane, estimate: float | None, owner: str | None) -> dict | None:
+    def create_answered(
+        self,
+        source: dict,
+        link: Callable[[str], bool],
+        *,
+        name: str | None,
+        priority: int,
+        warnings: list,
+        lane: Lane,
+        estimate: float | None,
+        owner: str | None,
+    ) -> dict | None:
         """A job done at once with the result of the done job `source` (same key): its row, as long as the
         render took (an elapsed time that says what the render cost), once `link(new_id)` has put the files in
         its folder; None when it could not (the source's files have gone)."""
@@ -306,9 +316,9 @@ class JobStore:
             return None
         now = time.time()
         took = max(0.0, (source["finished_at"] or now) - (source["started_at"] or now))
-        copied = ("scene", "width", "height", "spp", "max_seconds", "samples_done", "samples_total", "passes_done",
-                  "spp_done", "rays", "preview", "errors", "solve", "host", "device", "kind", "params", "result_key")
-        fields = {c: source[c] for c in copied}
+        copied = "scene width height spp max_seconds samples_done samples_total passes_done spp_done rays preview"
+        copied += " errors solve host device kind params result_key"  # what the render made, as it made it
+        fields = {c: source[c] for c in copied.split()}
         fields.update(id=job_id, status=JobStatus.done.value, priority=priority, created_at=now, started_at=now - took,
                       finished_at=now, name=name, warnings=json.dumps(warnings), lane=Lane(lane).value,
                       estimate=estimate, owner=owner, answered_from=source["id"])  # fmt: skip
