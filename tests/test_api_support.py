@@ -176,7 +176,9 @@ class Server:
         self.token = student_token()
         self.client = httpx.Client(base_url=self.url, timeout=30, headers=bearer(self.token))
 
-    def start(self) -> Server:
+    def start(self, workers_ready: bool = True) -> Server:
+        """Start it and wait until it answers, and (`workers_ready`) until its workers are ready."""
+        self.workers_ready = workers_ready
         self.data_dir.mkdir(parents=True, exist_ok=True)
         self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
         cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
@@ -193,6 +195,8 @@ class Server:
             health = self.client.get("/api/health").json()
         except httpx.TransportError:
             return False
+        if not self.workers_ready:
+            return True
         return all(w["ready"] for w in health["workers"]) and len(health["workers"]) == self.workers
 
     def log_text(self) -> str:

@@ -169,7 +169,7 @@ class JobService:
         name = fields.pop("name", found["name"])
         if self.version is not None and fields.get("kind", JobKind.render) == JobKind.render:
             fields["result_key"] = result_key(found["text"], self.version)
-            answered = self.answer_again(fields["result_key"], name=name, **fields)
+            answered = self.answer_again(fields["result_key"], found["text"], name=name, **fields)
             if answered is not None:
                 return answered
         try:
@@ -185,9 +185,9 @@ class JobService:
                 message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
             raise ApiError(429, message, headers={"Retry-After": "5"}) from None
 
-    def answer_again(self, key: str, *, name: str | None, **fields) -> dict | None:
-        """A new job, done, with the files of the latest done render of result `key` (server/jobs/results.py),
-        for the fields' owner, lane and priority; None when there is none."""
+    def answer_again(self, key: str, scene: str, *, name: str | None, **fields) -> dict | None:
+        """A new job of `scene`, done, with the files of the latest done render of result `key`
+        (server/jobs/results.py), for the fields' owner, lane and priority; None when there is none."""
         source = self.store.done_result(key, DEVICE)
         if source is None:
             return None
@@ -196,8 +196,9 @@ class JobService:
             return link_files(self.store.job_dir(source["id"]), self.store.job_dir(job_id), (JobFile.snapshot.value,))
 
         return self.store.create_answered(
-            source, link, name=name, priority=fields.get("priority", 0), warnings=fields.get("warnings", []),
-            lane=fields.get("lane", Lane.interactive), estimate=fields.get("estimate"), owner=fields.get("owner"),
+            source, link, scene_json=scene, name=name, priority=fields.get("priority", 0),
+            warnings=fields.get("warnings", []), lane=fields.get("lane", Lane.interactive),
+            estimate=fields.get("estimate"), owner=fields.get("owner"),
         )  # fmt: skip
 
     def cancel(self, job_id: str) -> dict | None:

@@ -301,6 +301,7 @@ class JobStore:
         source: dict,
         link: Callable[[str], bool],
         *,
+        scene_json: str,
         name: str | None,
         priority: int,
         warnings: list,
@@ -308,20 +309,20 @@ class JobStore:
         estimate: float | None,
         owner: str | None,
     ) -> dict | None:
-        """A job done at once with the result of the done job `source` (same key): its row, as long as the
-        render took (an elapsed time that says what the render cost), once `link(new_id)` has put the files in
-        its folder; None when it could not (the source's files have gone)."""
+        """A job of `scene_json` done at once with the result of the done job `source` (same key): its row, as
+        long as the render took (an elapsed time that says what the render cost), once `link(new_id)` has put
+        the files in its folder; None when it could not (the source's files have gone)."""
         job_id = new_job_id()
         if not link(job_id):
             return None
         now = time.time()
         took = max(0.0, (source["finished_at"] or now) - (source["started_at"] or now))
-        copied = "scene width height spp max_seconds samples_done samples_total passes_done spp_done rays preview"
+        copied = "width height spp max_seconds samples_done samples_total passes_done spp_done rays preview"
         copied += " errors solve host device kind params result_key"  # what the render made, as it made it
         fields = {c: source[c] for c in copied.split()}
-        fields.update(id=job_id, status=JobStatus.done.value, priority=priority, created_at=now, started_at=now - took,
-                      finished_at=now, name=name, warnings=json.dumps(warnings), lane=Lane(lane).value,
-                      estimate=estimate, owner=owner, answered_from=source["id"])  # fmt: skip
+        fields.update(id=job_id, scene=scene_json, status=JobStatus.done.value, priority=priority, created_at=now,
+                      started_at=now - took, finished_at=now, name=name, warnings=json.dumps(warnings),
+                      lane=Lane(lane).value, estimate=estimate, owner=owner, answered_from=source["id"])  # fmt: skip
         with self._tx() as db:
             db.execute(f"INSERT INTO jobs ({', '.join(fields)}) VALUES ({', '.join('?' * len(fields))})",
                        tuple(fields.values()))  # fmt: skip

@@ -49,6 +49,7 @@ def test_results_a_done_render_answers_the_same_scene_of_another_token_at_once(a
     assert again["elapsed"] == pytest.approx(done["elapsed"], abs=1e-3)  # what the render cost, not 0
     assert answering.get(again["image_url"], headers=other).content == image
     assert answering.get(f"/api/jobs/{again['id']}/aov/rays.png", headers=other).content == rays
+    assert answering.get(f"/api/jobs/{again['id']}/scene", headers=other).json() == scene
     with answering.stream("GET", again["events_url"], headers=other) as stream:
         events = list(parse_sse(stream.iter_lines()))
     assert events[-1][0] == "end" and events[-1][1]["status"] == "done", events
