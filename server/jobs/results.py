@@ -11,7 +11,8 @@ The key is everything that changes pixels: the scene (its JSON, canonical: keys 
 setting are in it), the renderer (the text of every file of tracer/, and Warp's version) and the asset
 files a scene may name (their names, sizes and times). Only renders made on the CPU answer (a GPU's floats
 differ in the last bits). What is kept is bounded by the jobs themselves: a result lives as long as a done
-job has it, and the janitor removes old finished jobs (TRACER_KEEP_*); no other store grows.
+job has it, and the janitor removes finished jobs past TRACER_KEEP_FINISHED or TRACER_MAX_DATA_BYTES (a hard link
+is counted in full for each job: the cap errs on the safe side); no other store grows.
 """
 
 from __future__ import annotations
