@@ -10,6 +10,7 @@ import uvicorn
 from pydantic import ValidationError
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from server.core.exits import exit_now
 from server.core.settings import explain, load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.main import create_app, lock_data_dir
@@ -71,6 +72,7 @@ def main(argv: list[str] | None = None) -> None:
         pass
     if not server.started:
         raise SystemExit(3)  # uvicorn's own status when the app cannot start (the port taken, ...)
+    exit_now()  # stopped: jobs given back, workers and checkers gone, the data directory's lock let go
 
 
 class DeadlineProtocol(H11Protocol):

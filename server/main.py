@@ -36,6 +36,7 @@ from server.core.settings import Settings, load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.course.service import Course
 from server.grading.runs import GradeRuns
+from server.jobs import lesson_panels
 from server.jobs.janitor import Janitor
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
@@ -79,6 +80,8 @@ async def lifespan(app: FastAPI):
         previews = app.state.previews = Previews(settings, jobs, SCENES)
         if settings.previews_ahead:  # the examples' pictures, rendered by the workers before anyone asks
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
+        if settings.lessons_ahead and jobs.version is not None:  # the lessons' first pictures, answered from these
+            threading.Thread(target=lesson_panels.ahead, args=(jobs,), name="lessons-ahead", daemon=True).start()
         janitor = Janitor(settings, store)
         janitor.start()
         stack.callback(janitor.stop)

@@ -91,6 +91,7 @@ def proc_env(**extra) -> dict:
     env = {**os.environ, "TRACER_LOST_AFTER": str(LOST_AFTER), "TRACER_PREVIEW_INTERVAL": "0.2"}
     env["TRACER_SNAPSHOT_INTERVAL"] = "0"  # a snapshot of the film after every pass: a retry continues from it
     env["TRACER_PREVIEWS_AHEAD"] = "0"  # no example previews queued behind the test's own jobs
+    env["TRACER_ANSWER_AGAIN"] = env["TRACER_LESSONS_AHEAD"] = "0"  # each job rendered, none of the lessons' ahead
     env.update({k: str(v) for k, v in extra.items()})
     return env
 

@@ -76,6 +76,8 @@ def api_client(
 
     settings.setdefault("interactive_workers", 0)
     settings.setdefault("previews_ahead", False)  # no example previews queued behind the test's own jobs
+    settings.setdefault("answer_again", False)  # each job rendered (tests of the answers again turn it on)
+    settings.setdefault("lessons_ahead", False)  # no lesson panels queued behind the test's own jobs
     app = create_app(Settings(data_dir=data_dir, workers=workers, **settings))
     every = workers + settings["interactive_workers"] if workers else 0
     token = student_token() if token == "" else token
@@ -187,13 +189,16 @@ class Server:
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         quiet = {"TRACER_INTERACTIVE_WORKERS": "0", "TRACER_PREVIEWS_AHEAD": "0"}  # as api_client
+        quiet |= {"TRACER_ANSWER_AGAIN": "0", "TRACER_LESSONS_AHEAD": "0"}
         self.env = {**os.environ, **quiet, **(env or {})}
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
         self.proc: subprocess.Popen | None = None
         self.token = student_token()
         self.client = httpx.Client(base_url=self.url, timeout=30, headers=bearer(self.token))
 
-    def start(self) -> Server:
+    def start(self, workers_ready: bool = True) -> Server:
+        """Start it and wait until it answers, and (`workers_ready`) until its workers are ready."""
+        self.workers_ready = workers_ready
         self.data_dir.mkdir(parents=True, exist_ok=True)
         self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
         cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
@@ -210,6 +215,8 @@ class Server:
             health = self.client.get("/api/health").json()
         except httpx.TransportError:
             return False
+        if not self.workers_ready:
+            return True
         return all(w["ready"] for w in health["workers"]) and len(health["workers"]) == self.workers
 
     def log_text(self) -> str:

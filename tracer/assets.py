@@ -365,6 +365,13 @@ def _checked_gltf(raw: bytes, kind: str, what: str, max_triangles: int | None) -
     return _glb(tree, rest) if kind == "glb" else json.dumps(tree).encode()
 
 
+def import_mesh_reader() -> None:
+    """Import the mesh reader (trimesh, and the parts of scipy it takes) now: 0.8-1.5 s and 60 MB, paid by a
+    process's first scene with a mesh file otherwise (a render worker's, a checking process's: the texture
+    lesson's first panel waited 3 s for it, issue #25). The service's processes call it as they start."""
+    import trimesh  # noqa: F401
+
+
 def _parse_mesh(file: str, asset_dir: Path, max_triangles: int | None = None) -> MeshData:
     what, src, media = _source(file, asset_dir)
     if isinstance(src, Path):

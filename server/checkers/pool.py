@@ -157,6 +157,8 @@ class CheckPool:
                 checker.conn.close()  # the process reads end-of-file: it exits
         for checker in self.checkers:
             if checker.process is not None:
+                if checker.state == "starting":  # still loading (seconds on a loaded machine): nothing of it to keep
+                    checker.process.kill()
                 checker.process.join(timeout=5)
                 if checker.process.is_alive():
                     checker.process.kill()

@@ -11,6 +11,7 @@ import threading
 import time
 from pathlib import Path
 
+from server.core.exits import exit_now
 from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger(__name__)
@@ -112,15 +113,17 @@ def checker_main(conn, nice: int) -> None:
         except OSError:
             pass
     threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    from tracer.assets import import_mesh_reader
     from tracer.samples import load_kernels
 
     load_kernels()
+    import_mesh_reader()  # a scene's mesh files are read here first (their triangles counted)
     conn.send("ready")
     while True:
         try:
             name, args = conn.recv()
         except (EOFError, OSError):
-            return
+            exit_now()  # its server closed the line: nothing of ours is left to keep
         try:
             answer = ("ok", TASKS[name](*args))
         except Exception as exc:  # a bug must answer the request (a 500 in the API), not end the process

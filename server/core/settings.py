@@ -65,6 +65,16 @@ class Settings(SceneLimits):
         description="render the example scenes' previews at start-up, in the batch lane (off: each when first "
         "asked for)",
     )
+    answer_again: bool = Field(
+        True,
+        description="a render whose result a done render already has (the same scene, renderer and assets) is done "
+        "at once with that render's files (server/jobs/results.py)",
+    )
+    lessons_ahead: bool = Field(
+        True,
+        description="render the lessons' panels at their first controls at start-up, in the batch lane behind the "
+        "previews (server/jobs/lesson_panels.py); needs answer_again",
+    )
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")

@@ -24,6 +24,7 @@ from server.core.errors import ApiError
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.results import DEVICE, link_files, renderer_version, result_key
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
 from tracer.raytree import pixel_sample_errors
@@ -160,6 +161,7 @@ class JobService:
         self.watch = JobWatch(store, stopping)
         self._capacity: dict[Lane, tuple[float, int]] = {}
         self._views: dict[str, tuple] = {}  # job id -> (the row the watcher read, its view or the view coming)
+        self.version = renderer_version() if settings.answer_again else None  # what besides a scene makes pixels
 
     def close(self) -> None:
         self.watch.close()
@@ -179,10 +181,17 @@ class JobService:
 
     def submit_checked(self, found: dict, **fields) -> dict:
         """A client's job of a scene checked in a checking process (its summary: server/checkers/tasks.py);
-        429 when the queue, or the owner's share of it, is full."""
+        a render whose result a done render has is done at once (`answer_again`); 429 when the queue, or the
+        owner's share of it, is full."""
         fields.setdefault("max_queued_owner", self.settings.max_queued_per_token)
+        name = fields.pop("name", found["name"])
+        if self.version is not None and fields.get("kind", JobKind.render) == JobKind.render:
+            fields["result_key"] = result_key(found["text"], self.version)
+            answered = self.answer_again(fields["result_key"], found["text"], name=name, **fields)
+            if answered is not None:
+                return answered
         try:
-            return self.submit(found["text"], name=fields.pop("name", found["name"]), width=found["width"],
+            return self.submit(found["text"], name=name, width=found["width"],
                                height=found["height"], spp=found["spp"], **fields)  # fmt: skip
         except QueueFull as full:
             if full.args[1:] == ("owner",):
@@ -193,6 +202,22 @@ class JobService:
             else:
                 message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
             raise ApiError(429, message, headers={"Retry-After": "5"}) from None
+
+    def answer_again(self, key: str, scene: str, *, name: str | None, **fields) -> dict | None:
+        """A new job of `scene`, done, with the files of the latest done render of result `key`
+        (server/jobs/results.py), for the fields' owner, lane and priority; None when there is none."""
+        source = self.store.done_result(key, DEVICE)
+        if source is None:
+            return None
+
+        def link(job_id: str) -> bool:
+            return link_files(self.store.job_dir(source["id"]), self.store.job_dir(job_id), (JobFile.snapshot.value,))
+
+        return self.store.create_answered(
+            source, link, scene_json=scene, name=name, priority=fields.get("priority", 0),
+            warnings=fields.get("warnings", []), lane=fields.get("lane", Lane.interactive),
+            estimate=fields.get("estimate"), owner=fields.get("owner"),
+        )  # fmt: skip
 
     def cancel(self, job_id: str) -> dict | None:
         """Cancel a queued job, or ask a running one to stop (the store decides, in one transaction), and

@@ -80,7 +80,9 @@ CREATE TABLE IF NOT EXISTS jobs (
     params TEXT NOT NULL DEFAULT '{}',      -- a ray tree's {x, y, sample}
     estimate REAL,                          -- seconds the render was estimated to take on one worker
     snapshot INTEGER NOT NULL DEFAULT 0,    -- the pass of the film saved in the job's snapshot file (0: none)
-    owner TEXT                              -- SHA-256 (hex) of the token that made it; NULL: the instructor's
+    owner TEXT,                             -- SHA-256 (hex) of the token that made it; NULL: the instructor's
+    result_key TEXT,                        -- a render's pixels' key (server/jobs/results.py); NULL: not answered again
+    answered_from TEXT                      -- the done job whose files answered this one at submit (NULL: rendered)
 );
 """
 
@@ -168,6 +170,8 @@ class JobStore:
             ("estimate", "REAL"),
             ("snapshot", "INTEGER NOT NULL DEFAULT 0"),
             ("owner", "TEXT"),  # older rows: no owner, the instructor's (server/core/security.py)
+            ("result_key", "TEXT"),
+            ("answered_from", "TEXT"),
         )
         for name, decl in added:
             if name not in have:
@@ -175,6 +179,7 @@ class JobStore:
         self.db.execute("DROP INDEX IF EXISTS jobs_queue")  # the claim order: lane, priority, age
         self.db.execute("CREATE INDEX IF NOT EXISTS jobs_claim ON jobs (status, lane, priority DESC, created_at)")
         self.db.execute("CREATE INDEX IF NOT EXISTS jobs_owner ON jobs (owner, created_at)")  # a student's list
+        self.db.execute("CREATE INDEX IF NOT EXISTS jobs_result ON jobs (result_key, status)")  # a render again
 
     # -- connections --------------------------------------------------------------------------
 
@@ -252,6 +257,7 @@ class JobStore:
         samples_total: int | None = None,
         owner: str | None = None,
         max_queued_owner: int | None = None,
+        result_key: str | None = None,
     ) -> dict:
         """Queue a job (`owner`: its token's hash; None: the instructor's); raises QueueFull when `max_queued`
         jobs already wait, or `max_queued_owner` of the same owner."""
@@ -268,12 +274,58 @@ class JobStore:
                     raise QueueFull(waiting, "owner")
             db.execute(
                 "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
-                " samples_total, max_seconds, kind, lane, params, estimate, owner)"
-                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                " samples_total, max_seconds, kind, lane, params, estimate, owner, result_key)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                 (job_id, QUEUED, priority, time.time(), name, scene_json, json.dumps(warnings), width, height, spp,
                  total, max_seconds, JobKind(kind).value, Lane(lane).value, json.dumps(params or {}), estimate,
-                 owner),
+                 owner, result_key),
             )  # fmt: skip
+        return self.get(job_id)
+
+    def done_result(self, key: str, device: str) -> dict | None:
+        """The latest render done on `device` whose result has this key (server/jobs/results.py), or None."""
+        return self._one(
+            "SELECT * FROM jobs WHERE result_key = ? AND status = ? AND device = ? AND cancel_requested = 0"
+            " ORDER BY finished_at DESC LIMIT 1",
+            (key, JobStatus.done.value, device),
+        )
+
+    def has_result(self, key: str) -> bool:
+        """Whether a render of result `key` is queued, running or done (on whatever device)."""
+        live = (QUEUED, RUNNING, JobStatus.done.value)
+        row = self.db.execute("SELECT 1 FROM jobs WHERE result_key = ? AND status IN (?, ?, ?) LIMIT 1", (key, *live))
+        return row.fetchone() is not None
+
+    def create_answered(
+        self,
+        source: dict,
+        link: Callable[[str], bool],
+        *,
+        scene_json: str,
+        name: str | None,
+        priority: int,
+        warnings: list,
+        lane: Lane,
+        estimate: float | None,
+        owner: str | None,
+    ) -> dict | None:
+        """A job of `scene_json` done at once with the result of the done job `source` (same key): its row, as
+        long as the render took (an elapsed time that says what the render cost), once `link(new_id)` has put
+        the files in its folder; None when it could not (the source's files have gone)."""
+        job_id = new_job_id()
+        if not link(job_id):
+            return None
+        now = time.time()
+        took = max(0.0, (source["finished_at"] or now) - (source["started_at"] or now))
+        copied = "width height spp max_seconds samples_done samples_total passes_done spp_done rays preview"
+        copied += " errors solve host device kind params result_key"  # what the render made, as it made it
+        fields = {c: source[c] for c in copied.split()}
+        fields.update(id=job_id, scene=scene_json, status=JobStatus.done.value, priority=priority, created_at=now,
+                      started_at=now - took, finished_at=now, name=name, warnings=json.dumps(warnings),
+                      lane=Lane(lane).value, estimate=estimate, owner=owner, answered_from=source["id"])  # fmt: skip
+        with self._tx() as db:
+            db.execute(f"INSERT INTO jobs ({', '.join(fields)}) VALUES ({', '.join('?' * len(fields))})",
+                       tuple(fields.values()))  # fmt: skip
         return self.get(job_id)
 
     def get(self, job_id: str) -> dict | None:

@@ -74,6 +74,49 @@ export function panelImage(panel, kind = "picture") {
   return h("img", { class: kind === "picture" ? "lesson-picture" : "rays-map", alt, width, height });
 }
 
+/** The controls' first values of a lesson: {key: value}. */
+const firstValues = (lesson) => Object.fromEntries((lesson.controls || []).map((c) => [c.key, c.value]));
+
+/** The scene of panel `index` of `lesson` made from `example` (its example scene, a copy: changed here): the
+ * lesson's and the panel's changes and the controls' `values` (in that order), at lesson size; with the notes
+ * that say what changed, and its label. */
+export function panelScene(lesson, index, values, example) {
+  const panel = lesson.panels[index];
+  const s = example;
+  for (const [k, v] of Object.entries(lesson.set || {})) setPath(s, k, v);
+  if (lesson.edit) lesson.edit(s);
+  for (const [k, v] of Object.entries(panel.set || {})) setPath(s, k, v);
+  const notes = Object.entries(panel.set || {}).map(([key, v]) => `${key} = ${JSON.stringify(v)}`);
+  for (const c of lesson.controls || []) {
+    if (!touches(c, index)) continue;
+    if (c.apply) c.apply(s, values[c.key]);
+    else setPath(s, c.path, values[c.key]);
+    notes.push(controlNote(c, values[c.key]));
+  }
+  if (panel.edit) panel.edit(s);
+  if (panel.note) notes.push(panel.note);
+  const w = s.film?.width ?? 256;
+  const hh = s.film?.height ?? 256;
+  const k = Math.min(SIZE[0] / w, SIZE[1] / hh);
+  s.film = { ...(s.film || {}), width: Math.max(1, Math.round(w * k)), height: Math.max(1, Math.round(hh * k)) };
+  const label = typeof panel.label === "function" ? panel.label(s) : panel.label;
+  return { scene: s, notes, label };
+}
+
+/** Every lesson's panels at the controls' first values, as the page first renders them: [{lesson, index,
+ * scene}], each example read by `sceneOf(name)` (a fresh copy each call). The server renders these ahead
+ * (server/jobs/lesson_panels.py reads them from server/jobs/lesson_panels.json: `python -m bench.lessons --write-panels`). */
+export async function firstPanels(sceneOf) {
+  const out = [];
+  for (const lesson of LESSONS) {
+    for (let i = 0; i < lesson.panels.length; i++) {
+      const example = await sceneOf(lesson.panels[i].scene || lesson.scene);
+      out.push({ lesson: lesson.id, index: i, scene: panelScene(lesson, i, firstValues(lesson), example).scene });
+    }
+  }
+  return out;
+}
+
 export class Lessons {
   constructor(root, { openInWorkspace }) {
     this.root = root;
@@ -95,29 +138,11 @@ export class Lessons {
     return clone(this.scenes.get(name));
   }
 
-  /** The scene of panel `index`: its example, the lesson's and the panel's changes and the controls' values
-   * (in that order), at lesson size; with the notes that say what changed. */
+  /** The scene of panel `index` at the controls' `values`, ready to show (see panelScene). */
   async build(lesson, index, values) {
     const panel = lesson.panels[index];
-    const s = await this.scene(panel.scene || lesson.scene);
-    for (const [k, v] of Object.entries(lesson.set || {})) setPath(s, k, v);
-    if (lesson.edit) lesson.edit(s);
-    for (const [k, v] of Object.entries(panel.set || {})) setPath(s, k, v);
-    const notes = Object.entries(panel.set || {}).map(([key, v]) => `${key} = ${JSON.stringify(v)}`);
-    for (const c of lesson.controls || []) {
-      if (!touches(c, index)) continue;
-      if (c.apply) c.apply(s, values[c.key]);
-      else setPath(s, c.path, values[c.key]);
-      notes.push(controlNote(c, values[c.key]));
-    }
-    if (panel.edit) panel.edit(s);
-    if (panel.note) notes.push(panel.note);
-    const w = s.film?.width ?? 256;
-    const hh = s.film?.height ?? 256;
-    const k = Math.min(SIZE[0] / w, SIZE[1] / hh);
-    s.film = { ...(s.film || {}), width: Math.max(1, Math.round(w * k)), height: Math.max(1, Math.round(hh * k)) };
-    const label = typeof panel.label === "function" ? panel.label(s) : panel.label;
-    return { scene: s, notes, label, index, lesson: lesson.id, reveal: panel.reveal, status: "new" };
+    const example = await this.scene(panel.scene || lesson.scene);
+    return { ...panelScene(lesson, index, values, example), index, lesson: lesson.id, reveal: panel.reveal, status: "new" };
   }
 
   async run(id) {
@@ -127,7 +152,7 @@ export class Lessons {
     let run = this.runs.get(id);
     const fresh = !run;
     if (!run) {
-      run = { values: Object.fromEntries((lesson.controls || []).map((c) => [c.key, c.value])), panels: [], answered: false };
+      run = { values: firstValues(lesson), panels: [], answered: false };
       run.settle = debounce(() => this.rerender(lesson, run), SETTLE_MS);
       run.dirty = new Set();
       this.runs.set(id, run);

@@ -14,7 +14,8 @@ manager signal the whole process group), so such a signal never ends a worker no
 crash to restart it after. The server alone stops its workers: as soon as it is asked to stop
 (`stopping()`, set by its own signal handler) the supervisor restarts no worker and closes every
 worker's line; each gives its job back to the queue at its next look (within a band of rows) and
-exits, and `shutdown` kills those that have not within its timeout.
+exits, and `shutdown` kills those that have not within its timeout. A worker still starting (loading its
+kernels, not ready) has no job: it is killed at once rather than waited for.
 """
 
 from __future__ import annotations
@@ -79,7 +80,14 @@ class WorkerPool:
             self._closing.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
+        starting = [s for s in self.slots if s.process is not None and s.line is not None and not s.line.is_ready()]
         self._stop_workers()
+        for slot in starting:  # still loading its kernels (seconds on a loaded machine): it has no job to give back
+            slot.process.kill()
+            slot.process.join(timeout=5)
+            job_id = self.store.running_on(slot.process.pid)  # one claimed in the moment since it was asked
+            if job_id is not None:
+                self.store.requeue(job_id, slot.process.pid)
         deadline = time.monotonic() + timeout
         for slot in self.slots:
             p = slot.process

@@ -20,12 +20,14 @@ import os
 import signal
 import time
 
+from server.core.exits import exit_now
 from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.jobs.lifecycle import LANES, Stop, TryEnd
 from server.jobs.store import JobStore
 from server.queue.embedded.wakeup import WorkerEnd
 from server.queue.render_try import StoreChannel, Try, disk_full_error
+from tracer.assets import import_mesh_reader
 
 log = logging.getLogger(__name__)
 
@@ -47,8 +49,10 @@ def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> No
     except OSError:
         pass
     load_kernels()
+    import_mesh_reader()  # else a student's first job with a mesh file waits for it
     line.ready()
     Worker(settings, JobStore(settings.data_dir), line.stopping, lanes=tuple(lanes or LANES)).loop(line.wait)
+    exit_now()  # its job is back in the queue: seconds of the interpreter's teardown would only delay the server
 
 
 def load_kernels() -> None:

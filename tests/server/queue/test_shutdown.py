@@ -76,3 +76,24 @@ def test_shutdown_a_signal_to_the_group_gives_the_job_back_and_restarts_no_worke
         assert wait_finished(third.client, queued["id"], timeout=120)["status"] == "done"
         wait_for(lambda: job(third.client, running["id"])["status"] == "running", 120, "the long job to resume")
         assert third.client.delete(f"/api/jobs/{running['id']}").status_code == 202
+
+
+def test_shutdown_a_server_stopped_while_its_workers_start_keeps_its_queued_job(tmp_path):
+    """SIGTERM the moment the API answers, its worker still loading its kernels: the server exits (a worker
+    that is not ready is not waited for) and the job queued before is still queued, its try not counted."""
+    data = tmp_path / "data"
+    with Server(data, workers=0) as first:
+        queued = submit(first.client, long_scene(spp=4096))
+    server = Server(data, workers=1).start(workers_ready=False)
+    try:
+        server.proc.send_signal(signal.SIGTERM)
+        assert server.proc.wait(timeout=EXIT_BOUND) in (0, -signal.SIGTERM), server.log_text()
+    finally:
+        server.stop(signal.SIGKILL)
+        server.client.close()
+    log = server.log_text()
+    assert "Traceback" not in log and "while rendering job" not in log, log
+    with Server(data, workers=0) as again:
+        again.client.headers.update(first.client.headers)
+        back = job(again.client, queued["id"])
+        assert back["status"] == "queued" and back["attempts"] == 0 and back["error"] is None, back

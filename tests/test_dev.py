@@ -1,0 +1,85 @@
+"""./dev (the entry point of a fresh machine): pip runs on the first start and when pyproject.toml changes,
+never on a warm start; `serve` installs without the test extras, `test` with them (issue #25, item 7).
+
+The script runs from a copy in a temporary folder with a fake Python (`PYTHON`, and the .venv/bin/python its
+`-m venv` makes): each call writes its arguments to a log and does nothing else, so no real venv is touched
+and no package is downloaded. How long a warm start takes is a benchmark figure (BENCHMARKS.md), not a test."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+FAKE = """#!/usr/bin/env bash
+# a stand-in for Python (and ruff): logs its arguments; `-m venv DIR` makes DIR/bin/python and DIR/bin/ruff
+echo "$(basename "$0") $*" >>"$DEV_LOG"
+if [ "${1:-}" = -m ] && [ "${2:-}" = venv ]; then
+    mkdir -p "$3/bin"
+    cp "$0" "$3/bin/python"
+    cp "$0" "$3/bin/ruff"
+fi
+"""
+
+
+@pytest.fixture
+def dev(tmp_path):
+    """Run the copied ./dev with arguments: (its stderr, the fake commands it ran since the last run)."""
+    shutil.copy(ROOT / "dev", tmp_path / "dev")
+    shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
+    fake = tmp_path / "python3"
+    fake.write_text(FAKE)
+    fake.chmod(0o755)
+    log = tmp_path / "calls.log"
+    env = {**os.environ, "PYTHON": str(fake), "DEV_LOG": str(log)}
+
+    def run(*args: str) -> tuple[str, list[str]]:
+        log.write_text("")
+        done = subprocess.run([str(tmp_path / "dev"), *args], env=env, capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        return done.stderr, log.read_text().splitlines()
+
+    run.folder = tmp_path
+    return run
+
+
+def pip_installs(calls: list[str]) -> list[str]:
+    return [c for c in calls if " -m pip install -q -e " in c]
+
+
+def test_dev_serve_installs_once_without_the_test_extras(dev):
+    said, calls = dev("serve", "--port", "8123")
+    assert "dev: installing" in said and "first run, about a minute" in said, said
+    assert calls[0].endswith("-m venv .venv"), calls
+    assert pip_installs(calls) == ["python -m pip install -q -e ."], calls
+    assert calls[-1] == "python -m server --port 8123", calls
+
+    said, calls = dev("serve")  # warm: straight to the server
+    assert said == "" and pip_installs(calls) == [], calls
+    assert not any("-m pip" in c for c in calls) and calls[-1] == "python -m server", calls
+
+
+def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
+    dev("serve")
+    said, calls = dev("test", "-k", "nothing")  # serve's install lacks pytest and ruff: installed now
+    assert "[test] extras" in said, said
+    assert pip_installs(calls) == ["python -m pip install -q -e .[test]"], calls
+    assert calls[-2:] == ["ruff check .", "python -m pytest -k nothing"], calls
+    for cmd in ("test", "serve"):  # both warm now: the test extras serve too
+        _, calls = dev(cmd)
+        assert pip_installs(calls) == [], (cmd, calls)
+
+
+def test_dev_installs_again_when_pyproject_changes(dev):
+    dev("test")
+    pyproject: Path = dev.folder / "pyproject.toml"
+    pyproject.write_text(pyproject.read_text() + "\n# a new dependency, say\n")
+    said, calls = dev("serve")
+    assert "pyproject.toml changed" in said, said
+    assert pip_installs(calls) == ["python -m pip install -q -e .[test]"], calls  # what was there stays
+    _, calls = dev("serve")
+    assert pip_installs(calls) == [], calls
