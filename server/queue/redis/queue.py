@@ -55,6 +55,7 @@ DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive be
 # seconds a try that RQ says finished may stay without its last word (done, failed) before it is lost: its
 # events were sent to a Redis that died as it finished, while RQ wrote "finished" to the one that replaced it
 FINISHED_GRACE = 10.0
+WORKERS_SECONDS = 1.0  # how long the list of worker hosts read from Redis is kept (health, the lanes' capacity)
 
 
 class RedisQueue:
@@ -78,6 +79,7 @@ class RedisQueue:
         self.threads: list[threading.Thread] = []
         self.consumer = "api"  # one API per Redis: the same name after a restart finds what it had not acknowledged
         self.epoch: str | None = None
+        self._workers: tuple[float, list[dict]] | None = None  # (when, the worker hosts) as last read from Redis
         self.died_since: dict[str, float] = {}  # rq id -> when its render process was first seen dead
         self.hosts: list[subprocess.Popen | None] = [None] * settings.workers
         self.stats = {"events": 0, "stale": 0, "bytes": 0, "lost": 0}
@@ -158,6 +160,15 @@ class RedisQueue:
                     pass
 
     def workers(self) -> list[dict]:
+        """The worker hosts with a recent heartbeat, as read from Redis at most once in WORKERS_SECONDS (health is
+        asked often: by monitors, and by every page that shows the queue); each call gets its own dicts."""
+        now = self.clock()
+        kept = self._workers
+        if kept is None or not 0 <= now - kept[0] < WORKERS_SECONDS:
+            kept = self._workers = (now, self._read_workers())
+        return [dict(w) for w in kept[1]]
+
+    def _read_workers(self) -> list[dict]:
         """The worker hosts with a recent heartbeat (RQ's worker registry, and each host's description)."""
         out = []
         now = datetime.now(UTC)

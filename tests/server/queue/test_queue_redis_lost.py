@@ -1,6 +1,7 @@
-"""The Redis backend's monitor losing tries, on a real redis-server and a job store on disk, with the monitor's
-clock in the test's hand: a try whose RQ job says it finished, but whose last word (done, failed) never came, is
-lost after FINISHED_GRACE and queued again; a try still running is not."""
+"""The Redis backend on a real redis-server and a job store on disk, with its clock in the test's hand: the
+monitor losing tries (a try whose RQ job says it finished, but whose last word (done, failed) never came, is
+lost after FINISHED_GRACE and queued again; a try still running is not), and the worker hosts read from Redis
+at most once a second."""
 
 from __future__ import annotations
 
@@ -68,3 +69,23 @@ def test_queue_redis_a_try_still_running_is_not_lost(queue):
         clock.now += 10 * FINISHED_GRACE
     row = q.store.get(job_id)
     assert (row["status"], row["attempts"], row["lost"]) == (JobStatus.running, 1, 0)
+
+
+def test_queue_redis_the_worker_hosts_are_read_from_redis_once_a_second(queue):
+    """GET /api/health lists the worker hosts: 100 answers within a second read them from Redis once, each gets
+    dicts of its own (health blanks another token's job in them), and a second later they are read again."""
+    q, clock = queue
+    reads, read = [], q._read_workers
+    q._read_workers = lambda: reads.append(clock.now) or [{"name": "host-a", "job": "j1", "lanes": ["batch"]}]
+    seen = [q.workers() for _ in range(100)]
+    seen[0][0]["job"] = None
+    assert len(reads) == 1 and q.workers()[0]["job"] == "j1"
+    clock.now += 0.9
+    q.workers()
+    assert len(reads) == 1
+    clock.now += 0.2
+    q.workers()
+    assert len(reads) == 2
+    q._read_workers = read
+    clock.now += 2
+    assert q.workers() == []  # the real read: no host has registered with this Redis
