@@ -212,7 +212,10 @@ def rad_step(page, step: int) -> None:
 
 def test_web_page_editor_marks_errors_at_their_line_and_keeps_unsaved_work(desktop):
     page = desktop.open().page
-    page.select_option("#example-select", "whitted")
+    # the example's scene arrived before anything is typed (else it replaces the typing: a CI run typed first)
+    with page.expect_response(lambda r: r.url.endswith("/api/scenes/whitted")):
+        page.select_option("#example-select", "whitted")
+    page.wait_for_function("() => document.querySelector('#load-note').textContent.startsWith('Loaded whitted')")
     page.wait_for_selector("#validation-status[data-kind=ok]")
     assert json.loads(editor_text(page)) == scene_dict("whitted")
 

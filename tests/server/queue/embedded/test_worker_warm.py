@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from test_api_support import api_client
+from test_api_support import api_client, wait_for
 
 MARK = "/scipy/sparse/csgraph/"  # trimesh's graph module imports scipy.sparse.csgraph, a compiled library
 
@@ -17,11 +17,15 @@ def mapped(pid: int) -> str:
 
 
 def test_worker_warm_workers_and_checkers_hold_the_mesh_reader_once_ready(tmp_path):
-    with api_client(tmp_path / "data", workers=1) as client:
+    with api_client(tmp_path / "data", workers=1) as client:  # its render workers ready
         health = client.get("/api/health").json()
         pids = [w["pid"] for w in health["workers"]]
-        checkers = client.app.state.checks.info()
-        pids += [c["pid"] for c in checkers if c["pid"] is not None]
+
+        def checkers_ready() -> list[int] | None:  # they start beside the workers (a CI run met one "starting")
+            checkers = client.app.state.checks.info()
+            return [c["pid"] for c in checkers] if all(c["state"] != "starting" for c in checkers) else None
+
+        pids += wait_for(checkers_ready, 120, "the checking processes ready")
         assert len(pids) >= 2, health
         for pid in pids:
             assert MARK in mapped(pid), f"process {pid} has not imported the mesh reader"
