@@ -62,7 +62,7 @@ def show_value(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-# Names other renderers, books and lectures give the scene format's fields (SCENE_FORMAT.md): an unknown
+# Names other renderers, books and lectures give the scene format's fields (docs/scene-format.md): an unknown
 # field among these is suggested the first of its fields that the object has ('colour' -> kd in a material,
 # intensity in a point light, color in fog).
 SYNONYMS: dict[str, tuple[str, ...]] = {

@@ -84,8 +84,10 @@ def test_docs_ray_tree_tables_name_every_field_and_end(compiled_kernels):
 
 
 def test_docs_users_are_never_sent_to_a_file_they_do_not_have():
-    """README, docs, the page and the API's texts point to docs/scene-format.md, not ../shared."""
-    files = [ROOT / "README.md", *ROOT.glob("docs/*.md"), *ROOT.glob("web/**/*.*"), *ROOT.glob("server/**/*.py")]
+    """README, docs, the page, the API's texts and the code's comments point to docs/scene-format.md, not
+    ../shared."""
+    files = [ROOT / "README.md", *ROOT.glob("docs/*.md"), *ROOT.glob("web/**/*.*"), *ROOT.glob("server/**/*.py"),
+             *ROOT.glob("tracer/**/*.py"), *ROOT.glob("bench/*.py")]  # fmt: skip
     for path in files:
         if path.suffix in (".png", ".jpg"):
             continue

@@ -1,7 +1,7 @@
 """Two ray trees of one pixel sample, compared: the student's scene and the reference's, traced with the same
 settings and seed (so their eye rays are the same ray), and the first node where they differ, with why.
 
-A ray tree is the format of SCENE_FORMAT.md ("Ray tree"): a flat list of nodes, each with its `parent`.
+A ray tree is the format of docs/scene-format.md ("The ray tree"): a flat list of nodes, each with its `parent`.
 A node is located by its **path**: the child indices from the root, where a node's children are the nodes
 whose `parent` is its id, in the order of their ids (the tracer's depth-first order). [] is the eye ray,
 [0] its first child, [2, 0] the first child of its third.
