@@ -16,12 +16,16 @@ one job rendered), then measures
 
 `--validate-only` runs the last measure alone (after the warm-up and one finished job to GET).
 
-`--streams 50,100,200,500` measures open event streams instead (issue #24): while long renders keep the
-worker busy, N clients each hold GET /api/jobs/{id}/events open on a running render (read by one thread
-of this process, so that the server never waits on them); meanwhile one more client reads
-GET /api/jobs/{id} and /api/health in a loop: their p50 and p99, and the CPU the API process used
-(seconds of CPU per second: 1.0 is one core), for each N in turn. `--redis` runs it on the Redis backend:
-a redis-server, the API alone and `--workers` worker hosts (niced, as the embedded workers are), all here.
+`--streams 50,100,200,500` measures open event streams instead (issue #24): for each N, fresh long renders
+(one running on each worker, one queued), so that every N meets the same early passes, whose progress events
+come at their fastest (later passes have more samples, and their events come slower); N clients each hold
+GET /api/jobs/{id}/events open, half on the running render and half on the queued one (read by a process of
+their own, so that reading them never holds up the GETs timed here); meanwhile one more client reads
+GET /api/jobs/{id} and /api/health in a loop: their p50 and p99, the events the streams received per
+second, and the CPU the API process used (seconds of CPU per second: 1.0 is one core). `--redis` runs it on
+the Redis backend: a redis-server, the API alone and `--workers` worker hosts (niced, as the embedded workers
+are), all here; with `--api-cpus 0` the API runs on core 0 and everything else on the other cores, as if the
+worker hosts and the clients were machines of their own.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import argparse
 import http.client
 import json
 import math
+import multiprocessing
 import os
 import platform
 import selectors
@@ -44,6 +49,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 HELPERS: list[subprocess.Popen] = []  # redis-server and worker hosts of a --redis run, stopped at its end
+API_CPUS: list[int] = []  # --api-cpus: the cores the API runs on (everything else here runs on the others)
 SCENES = ROOT / "scenes"
 
 
@@ -121,6 +127,8 @@ def start_server(
     started beside it. `env`: more of the environment; `token`: the one its health is asked with."""
     port = port or free_port()
     cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(data_dir)]
+    if API_CPUS:  # --api-cpus: the API on cores of its own
+        cmd = ["taskset", "-c", ",".join(map(str, API_CPUS))] + cmd
     cmd += ["--workers", "0", "--redis", redis_url] if redis_url else ["--workers", str(workers)]
     log = open(data_dir.parent / "server.log", "ab")  # noqa: SIM115 (lives as long as the server)
     env = {**os.environ, **(env or {})}
@@ -337,54 +345,87 @@ def cpu_seconds(pid: int) -> float:
 
 
 class Streams:
-    """N event streams held open (raw sockets, read and dropped by one thread): GET /api/jobs/{id}/events."""
+    """N event streams held open (raw sockets, read and dropped by a process of their own, so that reading
+    them never holds up the GETs this process times): GET /api/jobs/{id}/events. `opened`, `bytes` and
+    `events` (per kind) are what that process has counted so far."""
+
+    KINDS = ("progress", "preview")
 
     def __init__(self, port: int, job_ids: list[str], n: int):
-        self.selector, self.socks, self.opened, self.bytes = selectors.DefaultSelector(), [], 0, 0
-        self.stop = threading.Event()
+        ctx = multiprocessing.get_context("fork")
+        self.counts = ctx.Array("q", 2 + len(self.KINDS), lock=False)  # opened, bytes, then each kind's events
+        self.stop = ctx.Event()
+        self.reader = ctx.Process(target=self._read, args=(port, job_ids, n), daemon=True)
+        self.reader.start()
+
+    @property
+    def opened(self) -> int:
+        return self.counts[0]
+
+    @property
+    def bytes(self) -> int:
+        return self.counts[1]
+
+    @property
+    def events(self) -> dict[str, int]:
+        return {kind: self.counts[2 + k] for k, kind in enumerate(self.KINDS)}
+
+    def _read(self, port: int, job_ids: list[str], n: int) -> None:
+        selector, counts = selectors.DefaultSelector(), self.counts
+        names = [b"event: " + kind.encode() + b"\n" for kind in self.KINDS]
         for k in range(n):
             s = socket.create_connection(("127.0.0.1", port))
             path = f"/api/jobs/{job_ids[k % len(job_ids)]}/events"
             s.sendall(f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nAccept: text/event-stream\r\n\r\n".encode())
             s.setblocking(False)
-            self.selector.register(s, selectors.EVENT_READ, {"head": b""})
-            self.socks.append(s)
-        self.reader = threading.Thread(target=self._read, daemon=True)
-        self.reader.start()
-
-    def _read(self) -> None:
+            selector.register(s, selectors.EVENT_READ, {"head": b"", "tail": b""})
         while not self.stop.is_set():
-            for key, _ in self.selector.select(timeout=0.2):
+            for key, _ in selector.select(timeout=0.2):
                 try:
                     data = key.fileobj.recv(65536)
                 except BlockingIOError:
                     continue
                 if not data:
-                    self.selector.unregister(key.fileobj)
+                    selector.unregister(key.fileobj)
                     continue
-                self.bytes += len(data)
+                counts[1] += len(data)
+                for k, name in enumerate(names):  # an event's name split between two reads is counted once
+                    counts[2 + k] += (key.data["tail"][-(len(name) - 1) :] + data).count(name)
+                key.data["tail"] = (key.data["tail"] + data)[-32:]
                 if key.data["head"] is not None:
                     key.data["head"] += data
                     if key.data["head"].startswith(b"HTTP/1.1 200"):
-                        self.opened += 1
+                        counts[0] += 1
                         key.data["head"] = None
+        for key in list(selector.get_map().values()):
+            key.fileobj.close()
 
     def close(self) -> None:
         self.stop.set()
-        self.reader.join()
-        for s in self.socks:
-            s.close()
+        self.reader.join(timeout=30)
 
 
-def stream_load(port: int, pid: int, probe: str, job_ids: list[str], n: int, seconds: float = 20.0) -> dict:
-    """`n` open event streams on the running renders `job_ids`; for `seconds`, one client alternates
-    GET /api/jobs/{probe} and GET /api/health: their latencies, and the API process's CPU meanwhile."""
-    streams = Streams(port, job_ids, n)
+def stream_load(port: int, pid: int, probe: str, scene: dict, workers: int, n: int, seconds: float = 20.0) -> dict:
+    """`n` open event streams on fresh renders of `scene` (one running on each worker and one queued: half of
+    the streams on each of the first and the last); for `seconds`, one client alternates GET /api/jobs/{probe}
+    and GET /api/health: their latencies, the events the streams received, and the API process's CPU meanwhile.
+    Fresh renders for each `n`, so that each measure meets the same passes (a pass has twice the samples of the
+    one before it: a render's bands, and so its progress events, come slower and slower)."""
+    api = Api(port)
+    renders = [api.json("POST", "/api/jobs", {"scene": scene})["id"] for _ in range(workers + 1)]
+    deadline = time.monotonic() + 180  # after the lesson panels the server renders ahead at its start
+    while api.json("GET", f"/api/jobs/{renders[0]}")["status"] != "running":
+        if time.monotonic() > deadline:
+            raise RuntimeError("the render followed did not start in time")
+        time.sleep(0.05)
+    followed = [renders[0], renders[-1]]  # a running render's stream, and a queued one's: both are followed
+    streams = Streams(port, followed, n)
     deadline = time.monotonic() + 30
     while streams.opened < n and time.monotonic() < deadline:
         time.sleep(0.1)
     time.sleep(1.0)  # the streams settled
-    api, gets, healths = Api(port), [], []
+    gets, healths = [], []
+    events0 = dict(streams.events)
     cpu0, t0 = cpu_seconds(pid), time.monotonic()
     while time.monotonic() - t0 < seconds:
         for path, out in ((f"/api/jobs/{probe}", gets), ("/api/health", healths)):
@@ -393,13 +434,21 @@ def stream_load(port: int, pid: int, probe: str, job_ids: list[str], n: int, sec
             out.append((time.perf_counter() - t) * 1000)
             assert status == 200, (path, status)
         time.sleep(0.01)
-    cores = (cpu_seconds(pid) - cpu0) / (time.monotonic() - t0)
-    api.close()
+    elapsed = time.monotonic() - t0
+    cores = (cpu_seconds(pid) - cpu0) / elapsed
+    events = {kind: round((streams.events[kind] - events0[kind]) / elapsed, 1) for kind in streams.events}
+    rendering = api.json("GET", f"/api/jobs/{renders[0]}")["status"] == "running"
     opened, received = streams.opened, streams.bytes
     streams.close()
+    for job_id in renders:
+        api.call("DELETE", f"/api/jobs/{job_id}")
+    for job_id in renders:  # the worker free again before the next measure
+        wait_done(api, job_id, timeout=60)
+    api.close()
     load = Path("/proc/loadavg").read_text().strip()
-    return {"streams": n, "opened": opened, "bytes": received, "get_ms": percentiles(gets),
-            "health_ms": percentiles(healths), "api_cores": cores, "load": load}  # fmt: skip
+    return {"streams": n, "opened": opened, "bytes": received, "events_per_s": events,
+            "get_ms": percentiles(gets), "health_ms": percentiles(healths), "api_cores": cores, "load": load,
+            "still_rendering": rendering}  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -412,7 +461,17 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--streams", help="only open event streams while rendering: their numbers, e.g. 50,100,200,500")
     p.add_argument("--seconds", type=float, default=20.0, help="seconds of GETs for each number of streams")
     p.add_argument("--redis", action="store_true", help="the Redis backend: a redis-server and worker hosts here")
+    p.add_argument("--api-cpus", help="the API on these cores (e.g. 0), and this benchmark, the workers and Redis on "
+                   "the others: as if the clients and the worker hosts were machines of their own")  # fmt: skip
     args = p.parse_args(argv)
+    if args.api_cpus:
+        if not args.redis:
+            p.error("--api-cpus needs --redis (the embedded backend's workers are the API's own processes)")
+        API_CPUS[:] = sorted({int(c) for c in args.api_cpus.split(",")})
+        others = set(os.sched_getaffinity(0)) - set(API_CPUS)
+        if not others:
+            p.error("--api-cpus: leave at least one core to the rest")
+        os.sched_setaffinity(0, others)  # inherited by the redis-server, the worker hosts and the stream reader
 
     cornell = json.loads((SCENES / "cornell.json").read_text())
     assert (cornell["film"]["width"], cornell["film"]["height"]) == (256, 256)
@@ -424,6 +483,8 @@ def main(argv: list[str] | None = None) -> dict:
         "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}",
     }
+    if API_CPUS:
+        results["api_cpus"] = API_CPUS
     with tempfile.TemporaryDirectory(prefix="bench-service-") as tmp:
         data = Path(tmp) / "data"
         redis_url = None
@@ -442,19 +503,10 @@ def main(argv: list[str] | None = None) -> dict:
                 api.close()
                 return _finish(results, args)
             if args.streams:
-                renders = [api.json("POST", "/api/jobs", {"scene": long})["id"] for _ in range(args.workers + 1)]
-                while api.json("GET", "/api/health")["jobs"]["running"] < args.workers:
-                    time.sleep(0.05)
-                running = [j for j in renders if api.json("GET", f"/api/jobs/{j}")["status"] == "running"]
-                followed = renders  # a running render's stream, and a queued one's: both are followed
                 results["stream_load"] = [
-                    stream_load(port, proc.pid, warm, followed, int(n), args.seconds) for n in args.streams.split(",")
+                    stream_load(port, proc.pid, warm, long, args.workers, int(n), args.seconds)
+                    for n in args.streams.split(",")
                 ]
-                results["still_rendering"] = all(
-                    api.json("GET", f"/api/jobs/{j}")["status"] == "running" for j in running
-                )
-                for job_id in renders:
-                    api.call("DELETE", f"/api/jobs/{job_id}")
                 api.close()
                 return _finish(results, args)
 
@@ -509,15 +561,19 @@ def report(r: dict) -> None:
             f"({d['n']} requests)"
         )
 
-    print(f"machine: {r['machine']}")
+    pinned = f"; the API on core(s) {r['api_cpus']}, the rest on the others" if r.get("api_cpus") else ""
+    print(f"machine: {r['machine']}{pinned}")
     print(f"server start (kernels cached) until workers ready: {r['server_start_s']:.2f} s")
     for load in r.get("stream_load", []):  # --streams
         print(f"{load['streams']} event streams open ({load['opened']} answered, {load['bytes']} bytes of events), "
               f"API {load['api_cores']:.2f} cores, load {load['load']}")  # fmt: skip
         print(f"  GET /api/jobs/{{id}}: {lat(load['get_ms'])}")
         print(f"  GET /api/health:    {lat(load['health_ms'])}")
+        rate = load["events_per_s"]
+        print(f"  events received per second, over all streams: {rate['progress']:g} progress, "
+              f"{rate['preview']:g} preview; the render still running at the end: "
+              f"{load['still_rendering']}")  # fmt: skip
     if "stream_load" in r:
-        print(f"renders still running at the end: {r['still_rendering']}")
         return
     if "first_preview_event_s" not in r:  # --validate-only
         _report_validations(r["validate_load"], lat)

@@ -1,6 +1,9 @@
 """Dependencies of the routes, as `Annotated` aliases: the settings, the job service (and its store), the job
 queue's interface, the scene checking processes, a job (the caller's own: server/core/security.py), and who asks
-for work from which address (the caps of anonymous clients: server/core/clients.py)."""
+for work from which address (the caps of anonymous clients: server/core/clients.py).
+
+Those that only look something up are `async def`: FastAPI runs a plain `def` dependency in its thread pool,
+a trip through another thread (and the interpreter's lock) for each, which a busy event loop makes slow."""
 
 from __future__ import annotations
 
@@ -21,27 +24,27 @@ from server.jobs.store import JobStore
 from server.queue.base import JobQueue
 
 
-def get_settings(request: Request) -> Settings:
+async def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
-def get_store(request: Request) -> JobStore:
+async def get_store(request: Request) -> JobStore:
     return request.app.state.store
 
 
-def get_queue(request: Request) -> JobQueue:
+async def get_queue(request: Request) -> JobQueue:
     return request.app.state.queue
 
 
-def get_jobs(request: Request) -> JobService:
+async def get_jobs(request: Request) -> JobService:
     return request.app.state.jobs
 
 
-def get_checks(request: Request) -> CheckPool:
+async def get_checks(request: Request) -> CheckPool:
     return request.app.state.checks
 
 
-def get_caps(request: Request) -> AddressCaps:
+async def get_caps(request: Request) -> AddressCaps:
     return request.app.state.caps
 
 

@@ -139,8 +139,9 @@ def bearer_token(request: Request) -> str | None:
     return value
 
 
-def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = None) -> Caller:
-    """The caller of a request (`_`: only so that /docs offers a field for the token)."""
+async def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = None) -> Caller:
+    """The caller of a request (`_`: only so that /docs offers a field for the token). `async`: it reads nothing
+    but the request (no trip through the thread pool, server/api/deps.py)."""
     token = bearer_token(request)
     settings: Settings = request.app.state.settings
     secret = instructor_token(settings)

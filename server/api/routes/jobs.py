@@ -138,7 +138,11 @@ def list_jobs(
 @router.get(
     "/{job_id}", summary="One job: status, place in the queue, progress, elapsed and ETA, rays", responses=NOT_FOUND
 )
-def get_job(job: JobDep, jobs: JobsDep) -> JobPublic:
+async def get_job(job: JobDep, jobs: JobsDep) -> JobPublic:
+    # the view of a running or ended job is made from its row alone, here; a queued one's place is a query, in a
+    # thread (each trip through the thread pool waits for the event loop, which 500 streams keep busy)
+    if job["status"] == JobStatus.queued:
+        return await anyio.to_thread.run_sync(jobs.public, job)
     return jobs.public(job)
 
 
@@ -308,14 +312,18 @@ async def _event_stream(jobs: JobService, job_id: str, request: Request) -> Asyn
             yield ": keep-alive\n\n"
             continue
         at, progress, preview, end = _texts(job, job_id)
+        out = []  # one write for all a change says (each write goes through the middlewares and h11)
         if at != last_progress:
             last_progress = at
-            yield progress
+            out.append(progress)
         if preview is not None and job.preview != last_preview:
             last_preview = job.preview
-            yield preview
+            out.append(preview)
         if end is not None:
-            yield end
+            out.append(end)
+        if out:
+            yield "".join(out)
+        if end is not None:
             return
 
 

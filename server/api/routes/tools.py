@@ -30,15 +30,20 @@ router = APIRouter(prefix="/api", tags=["tools"])
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
-def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep) -> Health:
+async def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, caller: CallerDep) -> Health:
     """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
-    workers = queue.workers()
-    if not caller.instructor:
-        for w in workers:
-            if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
-                w["job"] = None
-    return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers, checkers=checks.info(),
-                  jobs=store.counts())  # fmt: skip
+
+    def answer() -> Health:  # reads the database (and, on Redis, the worker hosts): in one trip to a thread
+        workers = queue.workers()
+        if not caller.instructor:
+            for w in workers:
+                if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
+                    w["job"] = None
+        return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers,
+                      checkers=checks.info(), jobs=store.counts())  # fmt: skip
+
+    # async, so that FastAPI checks the answer here rather than in a second trip through the thread pool
+    return await anyio.to_thread.run_sync(answer)
 
 
 @router.get("/schema", summary="The scene format's JSON Schema (for editors)")

@@ -84,7 +84,7 @@ def test_job_service_watch_reads_every_followed_job_in_one_query_and_wakes_only_
             reads = store.reads
             store.cancel(rows[7]["id"])  # one job changes
             await asyncio.sleep(0.35)
-            return store.reads - reads, [f.event.is_set() for f in followers]
+            return store.reads - reads, [f.pending for f in followers]
 
     try:
         reads, woken = asyncio.run(run())
@@ -164,3 +164,41 @@ def test_job_service_a_view_s_event_texts_are_made_once_for_all_its_streams(tmp_
     jobs.store.cancel(row["id"])
     ended = _texts(jobs.public(jobs.store.get(row["id"])), row["id"])
     assert ended is not first and ended[3].startswith("event: end\ndata: {") and '"cancelled"' in ended[3]
+
+
+def test_job_service_a_stream_asks_whether_its_client_left_at_most_once_a_second(tmp_path):
+    """A running render changes five times a second: its streams are handed each change, and ask `gone()` (the
+    client left?) at most once in WAKE seconds, not at each change (asking costs the event loop more than the
+    change's event; a stream's response learns of its client's leaving by itself). Failed before with one
+    question per change."""
+    from server.jobs import service as service_module
+
+    jobs, _ = service(tmp_path)
+    row = submit(jobs)
+    assert jobs.store.claim(pid=7)["id"] == row["id"]
+    asked, seen = [], []
+
+    async def gone() -> bool:
+        asked.append(1)
+        return False
+
+    async def run() -> None:
+        async def changes() -> None:
+            for k in range(1, 21):
+                await asyncio.to_thread(jobs.store.progress, row["id"], 7, samples_done=k)
+                await asyncio.sleep(0.03)
+            await asyncio.to_thread(jobs.store.finish, row["id"], 7, JobStatus.done)
+
+        task = asyncio.ensure_future(changes())
+        async for view in jobs.follow(row["id"], gone):
+            seen.append(view.progress.samples_done)
+        await task
+
+    service_module.WAKE, wake = 10.0, service_module.WAKE  # the whole test within one WAKE
+    try:
+        asyncio.run(run())
+    finally:
+        service_module.WAKE = wake
+        jobs.close()
+    assert len(set(seen)) >= 5 and seen[-1] == 20, seen  # handed the changes (the watcher looks every TICK)
+    assert len(asked) == 0, len(asked)
