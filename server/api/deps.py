@@ -7,9 +7,11 @@ a trip through another thread (and the interpreter's lock) for each, which a bus
 
 from __future__ import annotations
 
+import sqlite3
 from dataclasses import dataclass
 from typing import Annotated
 
+import anyio
 from fastapi import Depends, Path, Request
 
 from server.checkers.pool import CheckPool
@@ -56,16 +58,22 @@ JobsDep = Annotated[JobService, Depends(get_jobs)]
 CapsDep = Annotated[AddressCaps, Depends(get_caps)]
 
 
-def get_job(
+async def get_job(
     job_id: Annotated[str, Path(description="the job's id, as POST /api/jobs returned it")],
     store: StoreDep,
     caller: CallerDep,
     request: Request,
 ):
-    """The job's row, or 404 (ids that cannot be ours are refused before the database sees them). A job
-    of another token is the same 404 as an unknown id: ids are never confirmed. The job's share token
-    reads it (GET) and nothing more."""
-    row = store.get(job_id) if looks_like_job_id(job_id) else None
+    """The job's row without its scene, or 404 (ids that cannot be ours are refused before the database sees
+    them). A job of another token is the same 404 as an unknown id: ids are never confirmed. The job's share
+    token reads it (GET) and nothing more. Read here, in the event loop (a trip through the thread pool waits
+    for the loop twice, which a class's event streams keep busy), unless the read would wait for a lock."""
+    row = None
+    if looks_like_job_id(job_id):
+        try:
+            row = store.peek(job_id)
+        except sqlite3.OperationalError:
+            row = await anyio.to_thread.run_sync(store.peek, job_id, True)
     if row is None or not (caller.owns(row) or (request.method == "GET" and caller.shares(row))):
         raise ApiError(404, [{"path": "id", "message": f"no job with id '{job_id[:64]}'"}])
     return row

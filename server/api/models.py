@@ -113,6 +113,9 @@ class Health(BaseModel):
         "(while busy: read, validate, summary, samples), restarts",
     )
     jobs: dict[str, int] = Field(description="jobs by status")
+    followers: int = Field(
+        0, description="what follows a job now: open event streams, and requests that wait for a ray tree"
+    )
 
 
 class HandedIn(BaseModel):

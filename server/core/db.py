@@ -9,16 +9,17 @@ import threading
 from pathlib import Path
 
 
-def thread_connection(local: threading.local, db_path: Path) -> sqlite3.Connection:
+def thread_connection(local: threading.local, db_path: Path, busy_ms: int = 30000) -> sqlite3.Connection:
     """This thread's connection to the database, kept in `local` (a new one in another process: a connection
-    never crosses a fork): autocommit (transactions are `Transaction`s), WAL, waiting up to 30 s for a lock."""
+    never crosses a fork): autocommit (transactions are `Transaction`s), WAL, waiting up to `busy_ms` for a
+    lock (30 s; 0 for a read that must never wait, which raises sqlite3.OperationalError instead)."""
     conn = getattr(local, "conn", None)
     if conn is None or getattr(local, "pid", None) != os.getpid():
-        conn = sqlite3.connect(db_path, timeout=30, isolation_level=None, check_same_thread=True)
+        conn = sqlite3.connect(db_path, timeout=busy_ms / 1000, isolation_level=None, check_same_thread=True)
         conn.row_factory = sqlite3.Row
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=NORMAL")
-        conn.execute("PRAGMA busy_timeout=30000")
+        conn.execute(f"PRAGMA busy_timeout={int(busy_ms)}")
         local.conn, local.pid = conn, os.getpid()
     return conn
 

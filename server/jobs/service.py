@@ -35,6 +35,8 @@ if TYPE_CHECKING:  # the queue's backends import the jobs package; the service o
 TICK = 0.1  # seconds between two looks at the followed jobs' rows
 URGENT_TICK = 0.01  # ... while someone waits for a short job to end (a ray tree: a student clicked a pixel)
 PLACE_EVERY = 1.0  # seconds between two wakes of a queued job's followers (its place moves with other jobs)
+PROGRESS_EVERY = 0.5  # seconds between two wakes of a job's followers for its progress alone (the latest is kept)
+PROGRESS_FIELDS = frozenset({"samples_done", "samples_total", "passes_done", "spp_done", "rays", "solve"})
 CAPACITY_SECONDS = 1.0  # how long the queue's count of workers per lane is kept (Redis lists them from Redis)
 KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open)
 VIEWS_KEPT = 4096  # views of followed jobs' rows kept for their other followers (a class's jobs, and more)
@@ -103,13 +105,17 @@ def _set_all(followers: list[Follower]) -> None:
 class JobWatch:
     """One thread for all followers: while anyone follows a job, it reads the followed rows (without their
     scenes) in one query every TICK seconds (URGENT_TICK while an urgent follower waits), and wakes the
-    followers of each row that changed, and of each queued job every PLACE_EVERY seconds."""
+    followers of each row that changed, and of each queued job every PLACE_EVERY seconds. A change of progress
+    alone wakes them at most every PROGRESS_EVERY seconds, with the latest: a render writes its progress five
+    times a second, and each wake of a class's 250 streams on one job is 250 writes in a row on the event loop,
+    which every other request waits behind. A change of anything else (its status, a new image, its try) wakes
+    them at once."""
 
-    def __init__(self, store: JobStore, stopping: Callable[[], bool]):
-        self.store, self.stopping = store, stopping
+    def __init__(self, store: JobStore, stopping: Callable[[], bool], clock: Callable[[], float] = time.monotonic):
+        self.store, self.stopping, self.clock = store, stopping, clock
         self._lock = threading.Lock()
         self._followers: dict[str, set[Follower]] = {}
-        self._seen: dict[str, dict | None] = {}
+        self._sent: dict[str, tuple[dict | None, float]] = {}  # job id -> the row its followers were woken with, when
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self._closed = False
@@ -132,7 +138,12 @@ class JobWatch:
                     mine.discard(follower)
                     if not mine:
                         del self._followers[job_id]
-                        self._seen.pop(job_id, None)
+                        self._sent.pop(job_id, None)
+
+    def followers(self) -> int:
+        """How many follow a job now (event streams, waiting requests)."""
+        with self._lock:
+            return sum(len(fs) for fs in self._followers.values())
 
     def close(self) -> None:
         self._closed = True
@@ -158,18 +169,27 @@ class JobWatch:
 
     def _round(self, followers: dict[str, set[Follower]]) -> None:
         rows = self.store.rows(followers)
-        now, stopping = time.monotonic(), self.stopping()
+        now, stopping = self.clock(), self.stopping()
         woken = []
         for job_id, fs in followers.items():
             row = rows.get(job_id)
-            changed = self._seen.get(job_id, False) != row
-            self._seen[job_id] = row
+            sent, at = self._sent.get(job_id, (False, 0.0))
+            changed = sent != row and (stopping or now - at >= PROGRESS_EVERY or not _progress_only(sent, row))
+            if changed:
+                self._sent[job_id] = (row, now)
             for f in fs:
                 queued = row is not None and row["status"] == JobStatus.queued
                 if changed or stopping or f.row is None or (queued and now - f.woken >= PLACE_EVERY):
                     f.wake(row, now)
                     woken.append(f)
         wake_all(woken)
+
+
+def _progress_only(before: dict | None | bool, after: dict | None) -> bool:
+    """Whether two different rows of a job differ in its progress fields alone."""
+    if not isinstance(before, dict) or after is None or before.keys() != after.keys():
+        return False
+    return all(before[k] == after[k] for k in after if k not in PROGRESS_FIELDS)
 
 
 class JobService:
@@ -321,11 +341,13 @@ class JobService:
 
     # -- following and waiting ------------------------------------------------------------------
 
-    async def follow(self, job_id: str, gone: Callable[[], Awaitable[bool]]) -> AsyncIterator[JobPublic | None]:
+    async def follow(
+        self, job_id: str, gone: Callable[[], Awaitable[bool]] | None = None
+    ) -> AsyncIterator[JobPublic | None]:
         """The job's public view now and each time it changes, until it has ended (the last one yielded is
         finished), the server stops, or `gone()` says its client left; None after KEEPALIVE quiet seconds.
-        `gone()` is asked at most once in WAKE seconds (asking costs the loop more than a change's event: an event
-        stream's response also learns of its client's leaving by itself, and cancels this)."""
+        `gone()` is asked at most once in WAKE seconds; without it, the caller ends this when its client leaves
+        (an event stream's response does: see server/api/routes/jobs.py)."""
         with self.watch.follow(job_id) as follower:
             row = await anyio.to_thread.run_sync(self.store.get, job_id)
             quiet = asked = time.monotonic()
@@ -339,7 +361,7 @@ class JobService:
                     row = await follower.changed(WAKE)
                     if self.stopping():
                         return  # a stopping server ends its streams (the client reconnects to the next one)
-                    if time.monotonic() - asked >= WAKE:
+                    if gone is not None and time.monotonic() - asked >= WAKE:
                         asked = time.monotonic()
                         if await gone():
                             return

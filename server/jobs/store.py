@@ -151,6 +151,7 @@ class JobStore:
         self.jobs_dir = self.data_dir / "jobs"
         self.db_path = self.data_dir / "jobs.sqlite3"
         self._local = threading.local()
+        self._quick = threading.local()  # `peek`'s connections: they never wait for a lock
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
         self.db.executescript(SCHEMA)
         self._add_columns()
@@ -330,6 +331,16 @@ class JobStore:
 
     def get(self, job_id: str) -> dict | None:
         return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
+
+    def peek(self, job_id: str, wait: bool = False) -> dict | None:
+        """The job's row without its scene. Without `wait`, read without waiting: for the event loop's own
+        thread, where a trip through the thread pool costs more than the read (one row by its key; in WAL mode
+        no writer blocks a reader); raises sqlite3.OperationalError where it would have to wait for a lock
+        (the caller then reads with `wait`, in a thread)."""
+        conn = self.db if wait else thread_connection(self._quick, self.db_path, busy_ms=0)
+        columns = ", ".join(c for c in self._columns() if c != "scene")
+        row = conn.execute(f"SELECT {columns} FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        return dict(row) if row is not None else None
 
     def rows(self, ids: Iterable[str]) -> dict[str, dict]:
         """The rows of these jobs (those that exist) without their scenes, in one query per 500 ids: what the

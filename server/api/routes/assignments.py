@@ -369,7 +369,7 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
                     yield "event: end\ndata: {}\n\n"
                     return
                 while await follower.changed(1.0) is None:
-                    if stopping() or await request.is_disconnected():
+                    if stopping():  # a client that left: the response cancels this (server/api/routes/jobs.py)
                         return
                     if time.monotonic() - quiet > KEEPALIVE:
                         quiet = time.monotonic()

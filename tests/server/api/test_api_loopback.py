@@ -6,6 +6,7 @@ restarted with jobs queued and running, and 50 concurrent submissions.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -142,6 +143,23 @@ def test_api_loopback_cancel_running_then_queued(server):
         last = list(parse_sse(events.iter_lines()))[-1]
     assert last[0] == "end" and last[1]["status"] == "cancelled" and last[1]["preview"] >= 1
     assert http.get(last[1]["image_url"]).status_code == 200  # the last image is kept
+
+
+def test_api_loopback_a_stream_whose_client_left_is_followed_no_more(server):
+    """An event stream does not ask whether its client left (500 streams asking once a second took a tenth of
+    the event loop): the response notices the client's leaving and ends the stream. Health counts what follows
+    a job; three streams of a long render closed by their clients leave nothing following it."""
+    http = server.client
+    running = submit(http, long_scene(), priority=50)
+    with contextlib.ExitStack() as stack:
+        readers = []  # kept: a reader dropped closes its stream
+        for _ in range(3):
+            client = stack.enter_context(httpx.Client(base_url=server.url, timeout=120, headers=http.headers))
+            readers.append(parse_sse(stack.enter_context(client.stream("GET", running["events_url"])).iter_lines()))
+            assert next(readers[-1])[0] == "progress"
+        assert http.get("/api/health").json()["followers"] == 3
+    wait_for(lambda: http.get("/api/health").json()["followers"] == 0, 30, "the closed streams to be followed no more")
+    assert not job(http, running["id"])["finished"]  # ... while the job renders on, with changes to send
 
 
 def test_api_loopback_50_concurrent_submissions_all_complete(server):

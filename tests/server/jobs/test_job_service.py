@@ -195,10 +195,53 @@ def test_job_service_a_stream_asks_whether_its_client_left_at_most_once_a_second
         await task
 
     service_module.WAKE, wake = 10.0, service_module.WAKE  # the whole test within one WAKE
+    service_module.PROGRESS_EVERY, every = 0.0, service_module.PROGRESS_EVERY  # each change of progress its wake
     try:
         asyncio.run(run())
     finally:
-        service_module.WAKE = wake
+        service_module.WAKE, service_module.PROGRESS_EVERY = wake, every
         jobs.close()
     assert len(set(seen)) >= 5 and seen[-1] == 20, seen  # handed the changes (the watcher looks every TICK)
     assert len(asked) == 0, len(asked)
+
+
+def test_job_service_progress_alone_wakes_a_job_s_followers_at_most_every_progress_every(tmp_path):
+    """A render writes its progress five times a second; each wake of a class's streams on the job is a write
+    to each of them in a row on the event loop. Progress alone wakes the followers at most every PROGRESS_EVERY
+    seconds (of the watcher's clock), handing them the latest; a change of status wakes them at once. Failed
+    before with a wake at each change."""
+    from server.jobs.service import PROGRESS_EVERY, Follower
+
+    jobs, _ = service(tmp_path)
+    row = submit(jobs)
+    assert jobs.store.claim(pid=7)["id"] == row["id"]
+    now = [100.0]
+    watch = JobWatch(jobs.store, lambda: False, clock=lambda: now[0])
+
+    async def run() -> list:
+        follower = Follower(row["id"], urgent=False)
+        handed = []
+
+        def look(at: float, **progress) -> None:  # the job writes its progress, then the watcher looks at `at`
+            if progress:
+                assert jobs.store.progress(row["id"], 7, **progress)
+            now[0] = at
+            before = follower.row
+            watch._round({row["id"]: {follower}})
+            handed.append(None if follower.row is before else (follower.row["status"], follower.row["samples_done"]))
+
+        look(100.0)  # a new follower: handed the row
+        look(100.1, samples_done=1)  # progress within PROGRESS_EVERY of the last wake: not yet
+        look(100.0 + PROGRESS_EVERY / 2, samples_done=2)
+        look(100.0 + PROGRESS_EVERY, samples_done=3)  # due: the latest
+        look(100.0 + PROGRESS_EVERY + 0.01, samples_done=4)
+        jobs.store.finish(row["id"], 7, JobStatus.done)
+        look(100.0 + PROGRESS_EVERY + 0.02)  # a new status: at once, with the latest progress
+        look(100.0 + PROGRESS_EVERY + 0.03)  # nothing new
+        return handed
+
+    try:
+        handed = asyncio.run(run())
+    finally:
+        watch.close()
+    assert handed == [("running", 0), None, None, ("running", 3), None, ("done", 4), None], handed
