@@ -341,16 +341,13 @@ class JobService:
 
     # -- following and waiting ------------------------------------------------------------------
 
-    async def follow(
-        self, job_id: str, gone: Callable[[], Awaitable[bool]] | None = None
-    ) -> AsyncIterator[JobPublic | None]:
+    async def follow(self, job_id: str) -> AsyncIterator[JobPublic | None]:
         """The job's public view now and each time it changes, until it has ended (the last one yielded is
-        finished), the server stops, or `gone()` says its client left; None after KEEPALIVE quiet seconds.
-        `gone()` is asked at most once in WAKE seconds; without it, the caller ends this when its client leaves
-        (an event stream's response does: see server/api/routes/jobs.py)."""
+        finished) or the server stops; None after KEEPALIVE quiet seconds. It never asks whether its client left:
+        the caller ends it then (an event stream's response cancels it: see server/api/routes/jobs.py)."""
         with self.watch.follow(job_id) as follower:
             row = await anyio.to_thread.run_sync(self.store.get, job_id)
-            quiet = asked = time.monotonic()
+            quiet = time.monotonic()
             while row is not None:
                 job = await self._view(row)
                 yield job
@@ -361,10 +358,6 @@ class JobService:
                     row = await follower.changed(WAKE)
                     if self.stopping():
                         return  # a stopping server ends its streams (the client reconnects to the next one)
-                    if gone is not None and time.monotonic() - asked >= WAKE:
-                        asked = time.monotonic()
-                        if await gone():
-                            return
                     if row is None and time.monotonic() - quiet > KEEPALIVE:
                         quiet = time.monotonic()
                         yield None

@@ -338,14 +338,13 @@ class JobStore:
         no writer blocks a reader); raises sqlite3.OperationalError where it would have to wait for a lock
         (the caller then reads with `wait`, in a thread)."""
         conn = self.db if wait else thread_connection(self._quick, self.db_path, busy_ms=0)
-        columns = ", ".join(c for c in self._columns() if c != "scene")
-        row = conn.execute(f"SELECT {columns} FROM jobs WHERE id = ?", (job_id,)).fetchone()
+        row = conn.execute(f"SELECT {self._sceneless()} FROM jobs WHERE id = ?", (job_id,)).fetchone()
         return dict(row) if row is not None else None
 
     def rows(self, ids: Iterable[str]) -> dict[str, dict]:
         """The rows of these jobs (those that exist) without their scenes, in one query per 500 ids: what the
         job service's watcher compares from one look to the next (server/jobs/service.py)."""
-        return self._many(ids, ", ".join(c for c in self._columns() if c != "scene"))
+        return self._many(ids, self._sceneless())
 
     def states(self, ids: Iterable[str]) -> dict[str, dict]:
         """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at)."""
@@ -359,6 +358,10 @@ class JobStore:
             rows = self.db.execute(f"SELECT {columns} FROM jobs WHERE id IN ({', '.join('?' * len(part))})", part)
             out.update({r["id"]: dict(r) for r in rows})
         return out
+
+    def _sceneless(self) -> str:
+        """SQL: every column of a job's row but its scene."""
+        return ", ".join(c for c in self._columns() if c != "scene")
 
     def _columns(self) -> list[str]:
         if not hasattr(self, "_column_names"):
