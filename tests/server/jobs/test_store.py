@@ -241,3 +241,36 @@ def test_store_jobs_have_owners_and_an_older_table_gains_the_column(tmp_path):
     assert [r["id"] for r in store.list_jobs(owner="a" * 64)[0]] == [mine]
     assert store.list_jobs(owner="b" * 64) == ([], 0)
     assert {r["id"] for r in store.list_jobs()[0]} == {old, mine}
+
+
+def test_store_peek_reads_a_row_without_its_scene_and_never_waits_for_a_lock(tmp_path):
+    """`peek` is read in the API's event loop (GET /api/jobs/{id}): the row without its scene; where the
+    database is locked it raises at once instead of waiting (the route then reads in a thread), and `wait`
+    reads it once the lock is gone."""
+    import sqlite3
+    import time
+
+    store = JobStore(tmp_path)
+    job_id = add(store)
+    row = store.peek(job_id)
+    assert row["id"] == job_id and "scene" not in row and row["status"] == JobStatus.queued
+    assert store.peek("j" * len(job_id)) is None
+
+    for local in (store._local, store._quick):  # this thread's connections closed: the locker's is the only one
+        local.conn.close()
+        del local.conn
+    locker = sqlite3.connect(store.db_path, isolation_level=None)
+    locker.execute("PRAGMA locking_mode=EXCLUSIVE")  # a writer that keeps the whole file to itself
+    locker.execute("BEGIN EXCLUSIVE")
+    locker.execute("UPDATE jobs SET priority = 5 WHERE id = ?", (job_id,))
+    locker.execute("COMMIT")  # still held: exclusive locking mode keeps the lock after the commit
+    started = time.monotonic()
+    with pytest.raises(sqlite3.OperationalError):
+        store.peek(job_id)
+    assert time.monotonic() - started < 1.0  # at once, not after the store's 30 s busy timeout
+    got = []
+    reader = threading.Thread(target=lambda: got.append(store.peek(job_id, wait=True)))
+    reader.start()
+    locker.close()  # the lock goes with the connection
+    reader.join(timeout=30)
+    assert got and got[0]["priority"] == 5 and "scene" not in got[0]
