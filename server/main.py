@@ -27,7 +27,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from server.api.routes import assignments, grade, jobs, pages, reference, samples, scenes, tools
+from server.api.routes import assignments, courses, grade, jobs, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
@@ -163,6 +163,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(scenes.router)
     app.include_router(grade.router)
     app.include_router(assignments.router)
+    app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(pages.router)  # /assignments/{id} and /course: the course's pages of web/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")

@@ -36,10 +36,11 @@ from pathlib import Path
 
 from server.core.errors import ApiError
 from server.core.files import write_atomic
-from server.core.security import Caller, new_token, token_hash
+from server.core.security import Caller, require_instructor, token_hash
 from server.core.settings import Settings
+from server.course.people import ROLES, TokenMaker, Who, check_course_id, refuse_ta
 from server.course.policy import AssignmentIn, Feedback, Policy, When
-from server.course.store import CourseStore
+from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
@@ -47,6 +48,8 @@ from tracer.grading import Assignment, AssignmentError, Grader, load_assignment,
 
 log = logging.getLogger(__name__)
 
+ACTIONS = {"publish": "publish or edit an assignment", "roster": "change the roster or its links",
+           "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions"}  # fmt: skip
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
 IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
 VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
@@ -62,21 +65,11 @@ def iso(t: float | None) -> str | None:
     return None if t is None else datetime.fromtimestamp(t, UTC).isoformat().replace("+00:00", "Z")
 
 
-class Who:
-    """The caller as an assignment sees them: the instructor, or one student of its roster."""
-
-    def __init__(self, student: dict | None):
-        self.student = student
-
-    @property
-    def instructor(self) -> bool:
-        return self.student is None
-
-
 class Course:
     def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):
         self.settings, self.runs, self.clock = settings, runs, clock
-        self.store = CourseStore(settings.data_dir)
+        self.store = CourseStore(settings.data_dir, self.now())
+        self.tokens = TokenMaker(settings.data_dir / "keys")
         self.root = settings.data_dir / "course"
         self.root.mkdir(parents=True, exist_ok=True)
         self._specs: dict[tuple[str, int], Assignment] = {}  # a version's spec, parsed (versions never change)
@@ -140,12 +133,14 @@ class Course:
             handed.append(Handed(REFERENCE, "scene", "reference.json", scene))
         return self.runs.start(spec, handed, open_=True)["id"]
 
-    def publish(self, body: AssignmentIn) -> dict:
+    def publish(self, body: AssignmentIn, cid: str = DEFAULT_COURSE) -> dict:
+        """A new assignment of course `cid` (its roster: the course's members enrolled in every assignment)."""
+        self.course(cid)
         spec, policy = self._checked(body)
         aid = uuid.uuid4().hex
         run_id = self._open_run(spec)
         try:
-            self.store.create(aid, spec, policy, run_id, self.now())
+            self.store.create(aid, spec, policy, run_id, self.now(), cid)
         except BaseException:  # a full disk: the run ends (its reference is graded), no assignment is left
             self.runs.close(run_id)
             raise
@@ -170,6 +165,22 @@ class Course:
                 self._hand(sub)
         return self.store.assignment(aid)
 
+    def regrade(self, aid: str) -> dict:
+        """Every submission graded again: a new version with the same spec and policy, and its own run (the
+        earlier grades stay in their version's run)."""
+        a = self.assignment(aid)
+        spec = json.dumps(a["spec"])
+        run_id = self._open_run(spec)
+        try:
+            version = self.store.add_version(aid, spec, a["policy"], run_id, self.now())
+        except BaseException:
+            self.runs.close(run_id)
+            raise
+        for sub in self.store.regrade(aid, version, run_id):
+            self._hand(sub)
+        log.info("assignment %s regraded as version %d (grading run %s)", aid, version, run_id)
+        return self.store.assignment(aid)
+
     def assignment(self, aid: str) -> dict:
         a = self.store.assignment(aid) if len(aid) == 32 else None
         if a is None:
@@ -178,69 +189,200 @@ class Course:
 
     # -- who asks ------------------------------------------------------------------------------
 
+    def role(self, cid: str, caller: Caller) -> Who | None:
+        """The caller in course `cid`: a student of it (their member row; enrolment is the assignment's
+        question), one of its staff, or the server's admin; None for anyone else."""
+        mine = self.store.token(caller.owner) if caller.owner else None
+        if mine is not None and mine["course_id"] == cid:
+            if mine["kind"] == "student":
+                member = self.store.member(cid, mine["person"])
+                if member is not None:
+                    return Who(member, "student")
+            else:
+                staff = self.store.staff_member(cid, mine["person"])
+                if staff is not None:
+                    return Who(None, staff["role"], staff["person"])
+        if caller.instructor:
+            return Who(None, "admin")
+        return None
+
     def who(self, aid: str, caller: Caller) -> tuple[dict, Who]:
-        """The assignment and the caller: one of its students (by their token), or the instructor; anyone else
-        gets the 404 of an unknown assignment."""
+        """The assignment and the caller: one of its students (by their token), its course's staff, or the
+        admin; anyone else gets the 404 of an unknown assignment."""
         a = self.assignment(aid)
         student = self.store.by_token(aid, caller.owner) if caller.owner else None
-        if student is None and not caller.instructor:
+        if student is not None:
+            return a, Who(student, "student")
+        who = self.role(a["course_id"], caller)
+        if who is None or who.student is not None:  # a member not enrolled in this one: unknown to them
+            if caller.instructor:
+                return a, Who(None, "admin")
             raise not_found("assignment", aid)
-        return a, Who(student)
+        return a, who
 
-    # -- the roster ----------------------------------------------------------------------------
+    def staff(self, aid: str, caller: Caller, request, action: str = "follow") -> tuple[dict, Who]:
+        """The assignment for its course's staff (a TA only for what a TA may do: 403 otherwise); its students
+        get the 404 of an unknown id, anyone else 401 or 403 (require_instructor)."""
+        a = self.assignment(aid)
+        if caller.owner and self.store.by_token(aid, caller.owner) is not None:
+            raise not_found("assignment", aid)
+        who = self.role(a["course_id"], caller)
+        if who is None or who.student is not None:
+            require_instructor(caller, request)
+            who = Who(None, "admin")
+        if not who.may(action):
+            raise refuse_ta(ACTIONS.get(action, action))
+        return a, who
+
+    def course_staff(self, cid: str, caller: Caller, request, action: str = "follow") -> Who:
+        """The caller as staff of course `cid` (404 for an unknown course; 403 for a TA where an instructor
+        is needed; 401/403 for anyone else)."""
+        self.course(cid)
+        who = self.role(cid, caller)
+        if who is None or who.student is not None:
+            require_instructor(caller, request)
+            who = Who(None, "admin")
+        if not who.may(action):
+            raise refuse_ta(ACTIONS.get(action, action))
+        return who
+
+    # -- courses -------------------------------------------------------------------------------
+
+    def course(self, cid: str) -> dict:
+        c = self.store.course(cid) if isinstance(cid, str) and len(cid) <= 40 else None
+        if c is None:
+            raise ApiError(404, [{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
+        return c
+
+    def create_course(self, cid: str, name: str) -> dict:
+        check_course_id(cid)
+        if not self.store.add_course(cid, " ".join(name.split())[:200] or cid, self.now()):
+            raise ApiError(409, [{"path": "id", "message": f"there is a course '{cid}' already"}])
+        log.info("course %s created", cid)
+        return self.store.course(cid)
+
+    def course_view(self, cid: str, who: Who, base: str) -> dict:
+        """A course: its assignments (a student: those they are on the roster of, with links), its staff and the
+        size of its roster (its staff)."""
+        c = self.course(cid)
+        out = {"id": c["id"], "name": c["name"], "created_at": iso(c["created_at"]), "assignments": []}
+        for aid in self.store.assignments(cid):
+            a = self.store.assignment(aid)
+            if who.student is not None and self.store.student(aid, who.student["student"]) is None:
+                continue
+            out["assignments"].append(
+                {"id": aid, "name": a["spec"]["name"], "deadline": a["policy"]["deadline"],
+                 "version": a["version"], "url": f"/api/assignments/{aid}", "page": f"/assignments/{aid}"}
+            )  # fmt: skip
+        if who.student is not None:
+            s = who.student
+            out["you"] = {"id": s["student"], "name": s["name"], "role": "student"}
+        else:
+            out["you"] = {"role": who.role, "id": who.person}
+            out["staff"] = [
+                {"id": s["person"], "name": s["name"], "email": s["email"], "role": s["role"]}
+                for s in self.store.staff(cid)
+            ]
+            out["students"] = len(self.store.members(cid))
+        return out
+
+    # -- tokens and links ----------------------------------------------------------------------
+
+    def token_of(self, cid: str, kind: str, person: str, gen: int) -> str:
+        """Someone's current token (derived: people.py), its hash kept so that it opens their work."""
+        token = self.tokens.token(kind, cid, person, gen)
+        self.store.keep_token(cid, kind, person, token_hash(token), self.now())
+        return token
 
     def _link(self, base: str, aid: str, token: str) -> str:
         return f"{base.rstrip('/')}/assignments/{aid}#token={token}"
 
+    def course_link(self, base: str, cid: str, token: str, staff: bool = False) -> str:
+        page = "course" if staff else f"courses/{cid}"
+        return f"{base.rstrip('/')}/{page}#token={token}"
+
+    # -- the roster ----------------------------------------------------------------------------
+
     def roster(self, aid: str, text: str, base: str) -> list[dict]:
-        """The roster CSV (header id,name,email) -> each new student with their link and token (shown once);
-        students already on it keep theirs (token and link null: replace one with `new_link`)."""
-        self.assignment(aid)
+        """The roster CSV (header id,name,email) of one assignment -> each student with their link and token:
+        members of the assignment's course (added if new: one identity across the course's assignments),
+        enrolled in this assignment. A token is shown again each time (it is derived: the same link)."""
+        a = self.assignment(aid)
         rows = parse_roster(text)
-        tokens = {r["student"]: new_token() for r in rows}
-        for r in rows:
-            r["token_hash"] = token_hash(tokens[r["student"]])
-        added = set(self.store.add_students(aid, rows, self.now()))
-        out = []
-        for r in rows:
-            token = tokens[r["student"]] if r["student"] in added else None
-            out.append(
-                {
-                    "id": r["student"],
-                    "name": r["name"],
-                    "email": r["email"],
-                    "token": token,
-                    "link": self._link(base, aid, token) if token else None,
-                    "new": token is not None,
-                }
-            )
-        return out
+        added = set(self.store.add_members(a["course_id"], rows, self.now(), [aid]))
+        return [self._student_link(a["course_id"], r, base, aid, r["student"] in added) for r in rows]
+
+    def course_roster(self, cid: str, text: str, base: str) -> list[dict]:
+        """The course's roster CSV: each student a member enrolled in every assignment of the course (those
+        published later too), with their course link (the page that lists their assignments)."""
+        self.course(cid)
+        rows = [{**r, "every": 1} for r in parse_roster(text)]
+        added = set(self.store.add_members(cid, rows, self.now(), []))
+        return [self._student_link(cid, r, base, None, r["student"] in added) for r in rows]
+
+    def _student_link(self, cid: str, r: dict, base: str, aid: str | None, new: bool) -> dict:
+        member = self.store.member(cid, r["student"])
+        token = self.token_of(cid, "student", member["student"], member["gen"])
+        link = self._link(base, aid, token) if aid else self.course_link(base, cid, token)
+        return {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,
+                "link": link, "new": new}  # fmt: skip
+
+    def links(self, cid: str, base: str, aid: str | None = None) -> list[dict]:
+        """Every student's current link again (of one assignment, or the course's page): nothing changes."""
+        rows = self.store.students(aid) if aid else self.store.members(cid)
+        return [self._student_link(cid, r, base, aid, False) for r in rows]
 
     def new_link(self, aid: str, student: str, base: str, jobs: JobStore) -> dict:
-        """A fresh token for one student (the old one stops working); their workspace jobs move to it."""
-        self.assignment(aid)
+        """A fresh token for one student (every old one stops working, in every assignment of the course);
+        their workspace jobs move to it."""
+        a = self.assignment(aid)
         row = self.store.student(aid, student)
         if row is None:
             raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
-        token = new_token()
-        self.store.set_token(aid, student, token_hash(token))
-        jobs.give_owner(row["token_hash"], token_hash(token))
+        token = self._renew(a["course_id"], "student", student, jobs)
         return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
 
+    def _renew(self, cid: str, kind: str, person: str, jobs: JobStore) -> str:
+        old = self.store.token_hashes(cid, kind, person)
+        gen = self.store.next_gen(cid, kind, person)
+        token = self.token_of(cid, kind, person, gen)
+        for h in old:
+            jobs.give_owner(h, token_hash(token))
+        return token
+
     def join(self, aid: str, name: str, base: str) -> dict:
-        """An open assignment: anyone with its link joins by a name (marked self-declared)."""
+        """An open assignment: anyone with its link joins by a name (marked self-declared), a member of its
+        course on this assignment's roster only."""
         a = self.assignment(aid)
         if not a["policy"]["open"]:
             raise not_found("assignment", aid)
         shown = " ".join(name.split())
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
-        token = new_token()
-        self.store.add_students(
-            aid,
-            [{"student": sid, "name": shown, "email": "", "token_hash": token_hash(token), "self_declared": 1}],
-            self.now(),
+        self.store.add_members(
+            a["course_id"], [{"student": sid, "name": shown, "email": "", "self_declared": 1}], self.now(), [aid]
         )
+        token = self.token_of(a["course_id"], "student", sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
+
+    # -- staff ---------------------------------------------------------------------------------
+
+    def add_staff(self, cid: str, person: str, name: str, email: str, role: str, base: str) -> dict:
+        self.course(cid)
+        if not person or student_name(person) != person or len(person) > 80:
+            message = f"{person[:80]!r}: an id is 1 to 80 letters, digits, '.', '_' or '-' (no spaces)"
+            raise ApiError(422, [{"path": "id", "message": message}])
+        if role not in ROLES:
+            raise ApiError(422, [{"path": "role", "message": f"expected one of {', '.join(ROLES)}; got {role!r}"}])
+        self.store.add_staff(cid, {"person": person, "name": name or person, "email": email, "role": role}, self.now())
+        return self.staff_link(cid, person, base)
+
+    def staff_link(self, cid: str, person: str, base: str) -> dict:
+        s = self.store.staff_member(cid, person)
+        if s is None:
+            raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
+        token = self.token_of(cid, "staff", person, s["gen"])
+        return {"id": person, "name": s["name"], "email": s["email"], "role": s["role"], "token": token,
+                "link": self.course_link(base, cid, token, staff=True)}  # fmt: skip
 
     def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:
         a = self.assignment(aid)

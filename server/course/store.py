@@ -1,11 +1,18 @@
 """The course's tables, in the job store's database (DATA/jobs.sqlite3) beside the jobs and the grading runs.
 
-- `course_assignments`: one per published assignment: its current version.
+- `courses`: one per course (a department's server holds several); `default` holds what came from before
+  courses (server/core/migrations: assignments and their rosters moved into it, nothing lost).
+- `course_staff`: a course's instructors and TAs (`role`), each with a generation (`gen`) of their token.
+- `course_members`: the course's roster, enrolled once: one identity per student per course, across its
+  assignments and their workspace jobs (`lti_user`: the LMS's user, when they came from one; `every`: enrolled
+  in every assignment of the course, the ones published later too).
+- `course_tokens`: the SHA-256 of each token that names a member or a staff member of a course (the token
+  itself is never kept: it is derived from the data directory's secret, server/course/service.py).
+- `course_assignments`: one per published assignment, in a course: its current version.
 - `course_versions`: every version ever published (an edit adds one, the earlier ones are kept): the spec
   (its reference scene inline), the policy, and its open grading run (server/grading/: the run that grades
   every submission made under this version, sharing one reference mean and its noise baselines).
-- `course_students`: the roster (and those who joined an open assignment by name): the SHA-256 of each
-  one's token (the token itself is shown once and never kept), their extension if any.
+- `course_enrolments`: who is on an assignment's roster (members of its course), with their extension if any.
 - `course_submissions`: one per submission, written when its body is accepted (the API's clock): who, when,
   late or not, its file, the grading run it went to and whether it was handed to it yet (`handed`). Its
   grade is that run's row for it (grading_items, keyed by the submission's id), read, never copied.
@@ -17,16 +24,58 @@ from __future__ import annotations
 
 import json
 import sqlite3
+import threading
 from pathlib import Path
 
+from server.core import upgrade_courses
 from server.core.db import Tables
 from server.grading.store import GradingStore
 
+DEFAULT_COURSE = "default"  # the course of the assignments from before courses, and of those published without one
+
 SCHEMA = """
+CREATE TABLE IF NOT EXISTS courses (
+    id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
+    name TEXT NOT NULL,
+    created_at REAL NOT NULL              -- Unix time (s), the API's clock
+);
+CREATE TABLE IF NOT EXISTS course_staff (
+    course_id TEXT NOT NULL,
+    person TEXT NOT NULL,                 -- an id like a roster's
+    name TEXT NOT NULL,
+    email TEXT NOT NULL DEFAULT '',
+    role TEXT NOT NULL,                   -- instructor or ta
+    lti_user TEXT,                        -- '<platform id>:<sub>' when they came from an LMS launch
+    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation (a new link: + 1, the old one stops working)
+    created_at REAL NOT NULL,
+    PRIMARY KEY (course_id, person)
+);
+CREATE TABLE IF NOT EXISTS course_members (
+    course_id TEXT NOT NULL,
+    student TEXT NOT NULL,                -- the roster's id
+    name TEXT NOT NULL,
+    email TEXT NOT NULL DEFAULT '',
+    self_declared INTEGER NOT NULL DEFAULT 0, -- joined an open assignment by a name they typed
+    every INTEGER NOT NULL DEFAULT 0,     -- on every assignment's roster (the course's roster, an LMS's)
+    lti_user TEXT,                        -- '<platform id>:<sub>' when known to an LMS
+    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation
+    created_at REAL NOT NULL,
+    PRIMARY KEY (course_id, student)
+);
+CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);
+CREATE TABLE IF NOT EXISTS course_tokens (
+    token_hash TEXT PRIMARY KEY,          -- SHA-256 (hex) of a token: also the owner of its workspace jobs
+    course_id TEXT NOT NULL,
+    kind TEXT NOT NULL,                   -- student or staff
+    person TEXT NOT NULL,                 -- course_members.student or course_staff.person
+    created_at REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS course_tokens_person ON course_tokens (course_id, kind, person);
 CREATE TABLE IF NOT EXISTS course_assignments (
     id TEXT PRIMARY KEY,                  -- 32 hex digits (an open assignment's link carries it)
     version INTEGER NOT NULL,             -- the current version (1, 2, ...)
-    created_at REAL NOT NULL              -- Unix time (s), the API's clock
+    created_at REAL NOT NULL,             -- Unix time (s), the API's clock
+    course_id TEXT NOT NULL DEFAULT 'default'
 );
 CREATE TABLE IF NOT EXISTS course_versions (
     assignment_id TEXT NOT NULL,
@@ -37,13 +86,9 @@ CREATE TABLE IF NOT EXISTS course_versions (
     created_at REAL NOT NULL,
     PRIMARY KEY (assignment_id, version)
 );
-CREATE TABLE IF NOT EXISTS course_students (
+CREATE TABLE IF NOT EXISTS course_enrolments (
     assignment_id TEXT NOT NULL,
-    student TEXT NOT NULL,                -- the roster's id
-    name TEXT NOT NULL,
-    email TEXT NOT NULL DEFAULT '',
-    token_hash TEXT NOT NULL UNIQUE,      -- SHA-256 (hex) of their token: also the owner of their jobs
-    self_declared INTEGER NOT NULL DEFAULT 0, -- joined an open assignment by a name they typed
+    student TEXT NOT NULL,                -- course_members.student of the assignment's course
     deadline REAL,                        -- their extension (Unix time); NULL: the assignment's
     created_at REAL NOT NULL,
     PRIMARY KEY (assignment_id, student)
@@ -63,20 +108,46 @@ CREATE TABLE IF NOT EXISTS course_submissions (
 CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
 """
 
+# A roster student as the service reads one (an enrolment joined with its member): the columns of the
+# per-assignment roster of before courses, so that every rule reads a student as it did.
+STUDENT = (
+    "SELECT e.assignment_id, e.student, m.name, m.email, m.self_declared, e.deadline, e.created_at, m.course_id,"
+    " m.lti_user FROM course_enrolments e JOIN course_assignments a ON a.id = e.assignment_id"
+    " JOIN course_members m ON m.course_id = a.course_id AND m.student = e.student"
+)
+
 # a submission that holds an attempt: not (yet) found invalid or ungradable by its grading
 HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))"
 
 
 class CourseStore(Tables):
-    def __init__(self, data_dir: Path):
+    def __init__(self, data_dir: Path, now: float = 0.0):
         GradingStore(data_dir)  # the grading tables this store's queries join (created if new)
+        self.db_path = Path(data_dir) / "jobs.sqlite3"
+        self._local = threading.local()
+        with self._tx() as db:  # a database from before courses moves into the default course first
+            if upgrade_courses.needed(db):
+                upgrade_courses.apply(db, now)
         super().__init__(data_dir, SCHEMA)
+        self.db.execute(
+            "INSERT OR IGNORE INTO courses (id, name, created_at) VALUES (?, 'Default course', ?)",
+            (DEFAULT_COURSE, now),
+        )
 
     # -- assignments and their versions --------------------------------------------------------
 
-    def create(self, aid: str, spec: str, policy: dict, run_id: str, now: float) -> None:
+    def create(self, aid: str, spec: str, policy: dict, run_id: str, now: float, cid: str = DEFAULT_COURSE) -> None:
+        """A new assignment of course `cid`, its roster the members enrolled in every assignment of the course."""
         with self._tx() as db:
-            db.execute("INSERT INTO course_assignments (id, version, created_at) VALUES (?, 1, ?)", (aid, now))
+            db.execute(
+                "INSERT INTO course_assignments (id, version, created_at, course_id) VALUES (?, 1, ?, ?)",
+                (aid, now, cid),
+            )
+            db.execute(
+                "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at)"
+                " SELECT ?, student, ? FROM course_members WHERE course_id = ? AND every = 1",
+                (aid, now, cid),
+            )
             db.execute(
                 "INSERT INTO course_versions (assignment_id, version, spec, policy, run_id, created_at)"
                 " VALUES (?, 1, ?, ?, ?, ?)",
@@ -97,7 +168,7 @@ class CourseStore(Tables):
     def assignment(self, aid: str) -> dict | None:
         """The assignment with its current version's spec, policy and run (None if there is none)."""
         row = self.db.execute(
-            "SELECT a.id, a.version, a.created_at, v.spec, v.policy, v.run_id, v.created_at AS version_at"
+            "SELECT a.id, a.version, a.created_at, a.course_id, v.spec, v.policy, v.run_id, v.created_at AS version_at"
             " FROM course_assignments a JOIN course_versions v ON v.assignment_id = a.id AND v.version = a.version"
             " WHERE a.id = ?",
             (aid,),
@@ -112,62 +183,171 @@ class CourseStore(Tables):
         )
         return [_version(r) for r in rows]
 
-    def assignments(self) -> list[str]:
-        return [r[0] for r in self.db.execute("SELECT id FROM course_assignments ORDER BY created_at")]
+    def assignments(self, cid: str | None = None) -> list[str]:
+        """The ids of every assignment (or those of course `cid`), oldest first."""
+        if cid is None:
+            return [r[0] for r in self.db.execute("SELECT id FROM course_assignments ORDER BY created_at")]
+        rows = self.db.execute("SELECT id FROM course_assignments WHERE course_id = ? ORDER BY created_at", (cid,))
+        return [r[0] for r in rows]
 
-    # -- students ------------------------------------------------------------------------------
+    # -- courses and their staff ---------------------------------------------------------------
 
-    def students(self, aid: str) -> list[dict]:
-        rows = self.db.execute("SELECT * FROM course_students WHERE assignment_id = ? ORDER BY student", (aid,))
+    def add_course(self, cid: str, name: str, now: float) -> bool:
+        """A new course (False: the id is taken)."""
+        cur = self.db.execute("INSERT OR IGNORE INTO courses (id, name, created_at) VALUES (?, ?, ?)", (cid, name, now))
+        return cur.rowcount == 1
+
+    def course(self, cid: str) -> dict | None:
+        row = self.db.execute("SELECT * FROM courses WHERE id = ?", (cid,)).fetchone()
+        return dict(row) if row else None
+
+    def courses(self) -> list[dict]:
+        return [dict(r) for r in self.db.execute("SELECT * FROM courses ORDER BY created_at, id")]
+
+    def rename_course(self, cid: str, name: str) -> None:
+        self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
+
+    def add_staff(self, cid: str, row: dict, now: float) -> None:
+        """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated."""
+        self.db.execute(
+            "INSERT INTO course_staff (course_id, person, name, email, role, lti_user, created_at)"
+            " VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (course_id, person) DO UPDATE SET name = excluded.name,"
+            " email = excluded.email, role = excluded.role, lti_user = COALESCE(excluded.lti_user, lti_user)",
+            (cid, row["person"], row["name"], row.get("email", ""), row["role"], row.get("lti_user"), now),
+        )
+
+    def staff(self, cid: str) -> list[dict]:
+        rows = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? ORDER BY person", (cid,))
         return [dict(r) for r in rows]
 
-    def student(self, aid: str, student: str) -> dict | None:
+    def staff_member(self, cid: str, person: str) -> dict | None:
+        row = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? AND person = ?", (cid, person)).fetchone()
+        return dict(row) if row else None
+
+    def remove_staff(self, cid: str, person: str) -> bool:
+        with self._tx() as db:
+            cur = db.execute("DELETE FROM course_staff WHERE course_id = ? AND person = ?", (cid, person))
+            db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = 'staff' AND person = ?", (cid, person))
+        return cur.rowcount == 1
+
+    def by_lti(self, cid: str, kind: str, lti_user: str) -> dict | None:
+        """The member (kind student) or staff member of a course that an LMS knows by `lti_user`."""
+        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
         row = self.db.execute(
-            "SELECT * FROM course_students WHERE assignment_id = ? AND student = ?", (aid, student)
+            f"SELECT *, {key} AS person FROM {table} WHERE course_id = ? AND lti_user = ?", (cid, lti_user)
         ).fetchone()
         return dict(row) if row else None
 
-    def by_token(self, aid: str, token_hash: str) -> dict | None:
-        row = self.db.execute(
-            "SELECT * FROM course_students WHERE assignment_id = ? AND token_hash = ?", (aid, token_hash)
-        ).fetchone()
+    # -- tokens --------------------------------------------------------------------------------
+
+    def token(self, token_hash: str) -> dict | None:
+        """Whose token this is: {token_hash, course_id, kind, person}, or None."""
+        row = self.db.execute("SELECT * FROM course_tokens WHERE token_hash = ?", (token_hash,)).fetchone()
         return dict(row) if row else None
+
+    def keep_token(self, cid: str, kind: str, person: str, token_hash: str, now: float) -> None:
+        self.db.execute(
+            "INSERT OR IGNORE INTO course_tokens (token_hash, course_id, kind, person, created_at)"
+            " VALUES (?, ?, ?, ?, ?)",
+            (token_hash, cid, kind, person, now),
+        )
+
+    def token_hashes(self, cid: str, kind: str, person: str) -> list[str]:
+        rows = self.db.execute(
+            "SELECT token_hash FROM course_tokens WHERE course_id = ? AND kind = ? AND person = ?", (cid, kind, person)
+        )
+        return [r[0] for r in rows]
+
+    def next_gen(self, cid: str, kind: str, person: str) -> int:
+        """A new generation of someone's token: every token of theirs stops working. The new generation."""
+        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
+        with self._tx() as db:
+            db.execute(f"UPDATE {table} SET gen = gen + 1 WHERE course_id = ? AND {key} = ?", (cid, person))
+            db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = ? AND person = ?", (cid, kind, person))
+            return db.execute(f"SELECT gen FROM {table} WHERE course_id = ? AND {key} = ?", (cid, person)).fetchone()[0]
 
     def on_a_roster(self, token_hash: str) -> bool:
-        """Is this token's hash a student's of any assignment (a known identity: server/core/clients.py)?"""
-        row = self.db.execute("SELECT 1 FROM course_students WHERE token_hash = ? LIMIT 1", (token_hash,)).fetchone()
-        return row is not None
+        """Is this token's hash a member's or a staff member's (a known identity: server/core/clients.py)?"""
+        return self.token(token_hash) is not None
 
-    def add_students(self, aid: str, rows: list[dict], now: float) -> list[str]:
-        """The roster's new students (dicts: student, name, email, token_hash, self_declared), in one
-        transaction; those already on it keep their token (their name and email are updated). The ids added."""
+    # -- the course's members ------------------------------------------------------------------
+
+    def members(self, cid: str) -> list[dict]:
+        rows = self.db.execute("SELECT * FROM course_members WHERE course_id = ? ORDER BY student", (cid,))
+        return [dict(r) for r in rows]
+
+    def member(self, cid: str, student: str) -> dict | None:
+        row = self.db.execute(
+            "SELECT * FROM course_members WHERE course_id = ? AND student = ?", (cid, student)
+        ).fetchone()
+        return dict(row) if row else None
+
+    def add_members(self, cid: str, rows: list[dict], now: float, enrol: list[str]) -> list[str]:
+        """Members (dicts: student, name, email, self_declared, every, lti_user) in one transaction: a new one
+        added, one already there gets the name and email given (and `every` once set stays set); each enrolled in
+        the assignments `enrol` names (and, with `every`, in every assignment of the course). The ids added."""
         added = []
         with self._tx() as db:
             for r in rows:
                 cur = db.execute(
-                    "UPDATE course_students SET name = ?, email = ? WHERE assignment_id = ? AND student = ?",
-                    (r["name"], r["email"], aid, r["student"]),
+                    "UPDATE course_members SET name = ?, email = ?, every = MAX(every, ?),"
+                    " lti_user = COALESCE(?, lti_user) WHERE course_id = ? AND student = ?",
+                    (r["name"], r["email"], int(r.get("every", 0)), r.get("lti_user"), cid, r["student"]),
                 )
-                if cur.rowcount:
-                    continue
-                db.execute(
-                    "INSERT INTO course_students (assignment_id, student, name, email, token_hash, self_declared,"
-                    " created_at) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                    (aid, r["student"], r["name"], r["email"], r["token_hash"], int(r.get("self_declared", 0)), now),
-                )
-                added.append(r["student"])
+                if not cur.rowcount:
+                    db.execute(
+                        "INSERT INTO course_members (course_id, student, name, email, self_declared, every, lti_user,"
+                        " created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                        (cid, r["student"], r["name"], r["email"], int(r.get("self_declared", 0)),
+                         int(r.get("every", 0)), r.get("lti_user"), now),
+                    )  # fmt: skip
+                    added.append(r["student"])
+                aids = list(enrol)
+                if r.get("every"):
+                    aids += [a[0] for a in db.execute("SELECT id FROM course_assignments WHERE course_id = ?", (cid,))]
+                for aid in dict.fromkeys(aids):
+                    db.execute(
+                        "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
+                        (aid, r["student"], now),
+                    )
         return added
 
-    def set_token(self, aid: str, student: str, token_hash: str) -> bool:
-        cur = self.db.execute(
-            "UPDATE course_students SET token_hash = ? WHERE assignment_id = ? AND student = ?",
-            (token_hash, aid, student),
-        )
+    def remove_member(self, cid: str, student: str) -> bool:
+        """Off the course's rosters (their submissions are kept; their tokens stop working)."""
+        with self._tx() as db:
+            cur = db.execute("DELETE FROM course_members WHERE course_id = ? AND student = ?", (cid, student))
+            db.execute(
+                "DELETE FROM course_enrolments WHERE student = ? AND assignment_id IN"
+                " (SELECT id FROM course_assignments WHERE course_id = ?)",
+                (student, cid),
+            )
+            db.execute(
+                "DELETE FROM course_tokens WHERE course_id = ? AND kind = 'student' AND person = ?", (cid, student)
+            )
         return cur.rowcount == 1
+
+    # -- an assignment's roster (its enrolments) -----------------------------------------------
+
+    def students(self, aid: str) -> list[dict]:
+        return [dict(r) for r in self.db.execute(STUDENT + " WHERE e.assignment_id = ? ORDER BY e.student", (aid,))]
+
+    def student(self, aid: str, student: str) -> dict | None:
+        row = self.db.execute(STUDENT + " WHERE e.assignment_id = ? AND e.student = ?", (aid, student)).fetchone()
+        return dict(row) if row else None
+
+    def by_token(self, aid: str, token_hash: str) -> dict | None:
+        """The student of this assignment's roster whose token this is (a member of its course enrolled in it)."""
+        row = self.db.execute(
+            STUDENT + " JOIN course_tokens t ON t.course_id = m.course_id AND t.kind = 'student'"
+            " AND t.person = m.student WHERE e.assignment_id = ? AND t.token_hash = ?",
+            (aid, token_hash),
+        ).fetchone()
+        return dict(row) if row else None
 
     def extend(self, aid: str, student: str, deadline: float | None) -> bool:
         cur = self.db.execute(
-            "UPDATE course_students SET deadline = ? WHERE assignment_id = ? AND student = ?", (deadline, aid, student)
+            "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
+            (deadline, aid, student),
         )
         return cur.rowcount == 1
 

@@ -23,8 +23,10 @@ from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
 from server.course import compare
 from server.course import dashboard as course_board
+from server.course.people import Who
 from server.course.policy import AssignmentIn, Instant
-from server.course.service import Course, Who, iso, links_csv, not_found
+from server.course.service import Course, iso, links_csv
+from server.course.store import DEFAULT_COURSE
 from tracer.errors import pydantic_errors
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
@@ -59,13 +61,10 @@ def _base(request: Request) -> str:
     return str(request.base_url)
 
 
-def _instructor(course: Course, aid: str, caller: Caller, request: Request) -> dict:
-    """The assignment, for the instructor only: its students' tokens get the 404 of an unknown id (on a
-    server where everyone is the instructor too), anyone else 401 or 403."""
-    if caller.owner and course.store.by_token(aid, caller.owner) is not None:
-        raise not_found("assignment", aid)
-    require_instructor(caller, request)
-    return course.assignment(aid)
+def _instructor(course: Course, aid: str, caller: Caller, request: Request, action: str = "follow") -> dict:
+    """The assignment, for its course's staff only (a TA for what a TA may do, else 403): its students' tokens
+    get the 404 of an unknown id (on a server where everyone is the instructor too), anyone else 401 or 403."""
+    return course.staff(aid, caller, request, action)[0]
 
 
 async def _assignment_body(request: Request) -> AssignmentIn:
@@ -130,18 +129,34 @@ ASSIGNMENT_BODY = {  # for /docs: the route reads JSON or multipart itself (docs
 @router.post(
     "",
     status_code=201,
-    summary="Publish an assignment (the instructor's)",
+    summary="Publish an assignment (a course's instructor's)",
     responses=ERRORS,
     openapi_extra=ASSIGNMENT_BODY,
-    dependencies=[Depends(require_instructor)],
 )
-async def publish(request: Request, course: CourseDep, response: Response) -> dict:
+async def publish(
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    response: Response,
+    course_id: Annotated[
+        str | None,
+        Query(alias="course", description="the course (default: the staff token's own course, else 'default')"),
+    ] = None,
+) -> dict:
     """`{"spec": {...}, "deadline": "...", ...policy}` -> 201 with `id`. The spec's reference scene inline, or
     as a file name with the scene beside it (`reference`). Its reference renders start now."""
+    return await publish_in(request, course, caller, response, course_id)
+
+
+async def publish_in(request: Request, course: Course, caller: Caller, response: Response, cid: str | None) -> dict:
+    if cid is None:
+        mine = course.store.token(caller.owner) if caller.owner else None
+        cid = mine["course_id"] if mine is not None and mine["kind"] == "staff" else DEFAULT_COURSE
+    course.course_staff(cid, caller, request, "publish")
     body = await _assignment_body(request)
-    a = await run_in_threadpool(course.publish, body)
+    a = await run_in_threadpool(course.publish, body, cid)
     response.headers["Location"] = f"/api/assignments/{a['id']}"
-    return course.brief(a, Who(None), _base(request))
+    return course.brief(a, Who(), _base(request))
 
 
 @router.put(
@@ -157,20 +172,44 @@ async def edit(
     caller: CallerDep,
     regrade: Annotated[bool, Query(description="grade every submission again under it")] = False,
 ) -> dict:
-    _instructor(course, aid, caller, request)
+    _instructor(course, aid, caller, request, "publish")
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.edit, aid, body, regrade)
-    return course.brief(a, Who(None), _base(request))
+    return course.brief(a, Who(), _base(request))
 
 
-@router.get("", summary="Every assignment (the instructor's)", dependencies=[Depends(require_instructor)])
-def listing(course: CourseDep) -> dict:
+@router.post(
+    "/{aid}/regrade",
+    summary="Grade every submission again (a new version, the same spec and policy)",
+    responses=NOT_FOUND,
+)
+def regrade(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """For a course's instructors and TAs: after a grading fix, or a doubt; the earlier grades stay in their
+    version's run."""
+    _instructor(course, aid, caller, request, "regrade")
+    return course.brief(course.regrade(aid), Who(), _base(request))
+
+
+@router.get("", summary="Every assignment (the admin's), or a course's (its staff's)")
+def listing(
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    course_id: Annotated[str | None, Query(alias="course", description="only this course's")] = None,
+) -> dict:
+    mine = course.store.token(caller.owner) if caller.owner else None
+    if mine is not None and mine["kind"] == "staff" and course_id in (None, mine["course_id"]):
+        course_id = mine["course_id"]
+        course.course_staff(course_id, caller, request)
+    else:
+        require_instructor(caller, request)
     out = []
-    for aid in course.store.assignments():
+    for aid in course.store.assignments(course_id):
         a = course.store.assignment(aid)
         out.append(
             {
                 "id": aid,
+                "course": a["course_id"],
                 "name": a["spec"]["name"],
                 "version": a["version"],
                 "deadline": a["policy"]["deadline"],
@@ -196,7 +235,7 @@ def brief(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> d
 async def roster(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """200 with `students: [{id, name, email, link, token, new}]`: each new student's token is shown this once
     (kept hashed). `Accept: text/csv` answers the links as CSV (id,name,email,link) to mail out."""
-    _instructor(course, aid, caller, request)
+    _instructor(course, aid, caller, request, "roster")
     try:
         text = (await request.body()).decode("utf-8")
     except UnicodeDecodeError:
@@ -234,13 +273,13 @@ def roster_list(aid: str, request: Request, course: CourseDep, caller: CallerDep
     responses=NOT_FOUND,
 )
 def new_link(aid: str, student: str, request: Request, course: CourseDep, caller: CallerDep, store: StoreDep) -> dict:
-    _instructor(course, aid, caller, request)
+    _instructor(course, aid, caller, request, "roster")
     return course.new_link(aid, student, _base(request), store)
 
 
 @router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
 def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    _instructor(course, aid, caller, request)
+    _instructor(course, aid, caller, request, "extend")
     return course.extend(aid, body.student, body.deadline)
 
 

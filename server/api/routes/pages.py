@@ -24,3 +24,8 @@ def student_view(aid: str) -> FileResponse:  # the id is read by the page from i
 @router.get("/course")
 def instructor_view() -> FileResponse:
     return FileResponse(WEB / "course.html", media_type="text/html")
+
+
+@router.get("/courses/{cid}")
+def student_course_view(cid: str) -> FileResponse:  # a student's course page: their assignments (web/mycourse.html)
+    return FileResponse(WEB / "mycourse.html", media_type="text/html")

@@ -64,3 +64,47 @@ def test_course_an_extension_moves_the_deadline_and_the_late_cut_off_alike():
     assert Course.deadlines(a, ext) == (due + 3600, cut + 3600)
     a["policy"]["late_until"] = None
     assert Course.deadlines(a, ext) == (due + 3600, due + 3600)
+
+
+OLD_SCHEMA = """
+CREATE TABLE course_assignments (id TEXT PRIMARY KEY, version INTEGER NOT NULL, created_at REAL NOT NULL);
+CREATE TABLE course_students (
+    assignment_id TEXT NOT NULL, student TEXT NOT NULL, name TEXT NOT NULL, email TEXT NOT NULL DEFAULT '',
+    token_hash TEXT NOT NULL UNIQUE, self_declared INTEGER NOT NULL DEFAULT 0, deadline REAL,
+    created_at REAL NOT NULL, PRIMARY KEY (assignment_id, student));
+"""
+
+
+def test_course_data_from_before_courses_moves_into_the_default_course_nothing_lost(tmp_path):
+    """The roster of before courses (a token per student per assignment) -> the default course: each student
+    once (their latest name), every old token still opening its assignment, the extensions kept."""
+    import sqlite3
+
+    db = sqlite3.connect(tmp_path / "jobs.sqlite3")
+    db.executescript(OLD_SCHEMA)
+    a1, a2 = "1" * 32, "2" * 32
+    db.executemany("INSERT INTO course_assignments VALUES (?, 1, ?)", [(a1, 1.0), (a2, 2.0)])
+    db.executemany(
+        "INSERT INTO course_students VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+        [(a1, "ann", "Ann", "ann@x", "h-ann-1", 0, None, 10.0), (a1, "bo", "Bo", "", "h-bo-1", 0, 99.0, 11.0),
+         (a2, "ann", "Ann B.", "ann@y", "h-ann-2", 0, None, 20.0),
+         (a2, "joe-1a2b3c", "Joe", "", "h-joe", 1, None, 21.0)],
+    )  # fmt: skip
+    db.commit()
+    db.close()
+    store = CourseStore(tmp_path, now=50.0)
+    assert [c["id"] for c in store.courses()] == ["default"]
+    assert [(m["student"], m["name"], m["email"], m["self_declared"]) for m in store.members("default")] == [
+        ("ann", "Ann B.", "ann@y", 0), ("bo", "Bo", "", 0), ("joe-1a2b3c", "Joe", "", 1),
+    ]  # fmt: skip
+    assert [s["student"] for s in store.students(a1)] == ["ann", "bo"]  # each assignment's roster as it was
+    assert [s["student"] for s in store.students(a2)] == ["ann", "joe-1a2b3c"]
+    assert store.student(a1, "bo")["deadline"] == 99.0
+    assert store.by_token(a1, "h-ann-1")["student"] == "ann" and store.by_token(a2, "h-ann-2")["student"] == "ann"
+    assert store.by_token(a2, "h-ann-1")["student"] == "ann"  # one identity in the course now
+    assert store.by_token(a1, "h-joe") is None  # joined the open one only
+    assert store.assignment(a1) is None or store.assignment(a1)["course_id"] == "default"
+    tables = {r[0] for r in store.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    assert "course_students" not in tables
+    CourseStore(tmp_path, now=60.0)  # a second start changes nothing
+    assert len(store.members("default")) == 3

@@ -1,0 +1,199 @@
+"""Courses (docs/assignments.md, "Courses and staff"): the server's admin creates a course and its staff; a
+course's instructors enrol its roster once (one identity per student across the course's assignments) and
+publish assignments into it; its TAs follow it. A student's token reads the course's page (their assignments).
+The rules live in server/course/service.py and server/course/people.py."""
+
+from __future__ import annotations
+
+import json
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request, Response
+from pydantic import BaseModel, ConfigDict, Field
+from starlette.concurrency import run_in_threadpool
+
+from server.api.deps import StoreDep
+from server.api.models import ErrorResponse
+from server.api.routes.assignments import ASSIGNMENT_BODY, CourseDep, publish_in
+from server.core.errors import ApiError
+from server.core.security import CallerDep, require_instructor
+from server.course.people import ROLES, Who
+from server.course.service import links_csv
+
+router = APIRouter(prefix="/api/courses", tags=["courses"])
+ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
+NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such course (or not yours)"}}
+
+
+class CourseIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    id: str = Field(min_length=1, max_length=40, description="1 to 40 letters, digits, '-' or '_' (in its URLs)")
+    name: str = Field("", max_length=200, description="its name, as students see it")
+
+
+class StaffIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    id: str = Field(min_length=1, max_length=80, description="an id like a roster's (letters, digits, . _ -)")
+    name: str = Field("", max_length=200)
+    email: str = Field("", max_length=254)
+    role: str = Field(description=f"one of {', '.join(ROLES)}")
+
+
+def _base(request: Request) -> str:
+    return str(request.base_url)
+
+
+@router.post("", status_code=201, summary="Create a course (the server admin's)", responses=ERRORS)
+def create(body: CourseIn, request: Request, course: CourseDep, caller: CallerDep, response: Response) -> dict:
+    require_instructor(caller, request)
+    c = course.create_course(body.id, body.name)
+    response.headers["Location"] = f"/api/courses/{c['id']}"
+    return course.course_view(c["id"], Who(None, "admin"), _base(request))
+
+
+@router.get("", summary="The courses: every one (the admin), or the caller's own (staff, student)")
+def listing(request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    mine = course.store.token(caller.owner) if caller.owner else None
+    if mine is not None:
+        cids = [mine["course_id"]]
+    else:
+        require_instructor(caller, request)
+        cids = [c["id"] for c in course.store.courses()]
+    out = []
+    for cid in cids:
+        c = course.store.course(cid)
+        out.append(
+            {"id": cid, "name": c["name"], "assignments": len(course.store.assignments(cid)),
+             "students": len(course.store.members(cid)), "url": f"/api/courses/{cid}"}
+        )  # fmt: skip
+    return {"courses": out}
+
+
+@router.get("/{cid}", summary="A course: its assignments (a student: their own), its staff", responses=NOT_FOUND)
+def view(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course(cid)
+    who = course.role(cid, caller)
+    if who is None:
+        raise ApiError(404, [{"path": "course", "message": f"no course with id '{cid[:64]}'"}])
+    return course.course_view(cid, who, _base(request))
+
+
+@router.post(
+    "/{cid}/assignments",
+    status_code=201,
+    summary="Publish an assignment into this course (its instructors')",
+    responses={**ERRORS, **NOT_FOUND},
+    openapi_extra=ASSIGNMENT_BODY,
+)
+async def publish(cid: str, request: Request, course: CourseDep, caller: CallerDep, response: Response) -> dict:
+    return await publish_in(request, course, caller, response, cid)
+
+
+@router.post(
+    "/{cid}/roster",
+    summary="Enrol the course's roster once (text/csv: id,name,email): every assignment of the course",
+    responses={**ERRORS, **NOT_FOUND},
+    openapi_extra={"requestBody": {"required": True, "content": {"text/csv": {"schema": {"type": "string"}}}}},
+)
+async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
+    """200 with `students: [{id, name, email, link, token, new}]`: each student's link opens the course's page
+    (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
+    course.course_staff(cid, caller, request, "roster")
+    try:
+        text = (await request.body()).decode("utf-8")
+    except UnicodeDecodeError:
+        raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
+    students = await run_in_threadpool(course.course_roster, cid, text, _base(request))
+    return _students(students, request)
+
+
+@router.get("/{cid}/roster", summary="The course's roster (no tokens)", responses=NOT_FOUND)
+def roster_list(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course_staff(cid, caller, request)
+    return {
+        "students": [
+            {"id": m["student"], "name": m["name"], "email": m["email"], "self_declared": bool(m["self_declared"]),
+             "every_assignment": bool(m["every"]), "lms": m["lti_user"] is not None}
+            for m in course.store.members(cid)
+        ]
+    }  # fmt: skip
+
+
+@router.get("/{cid}/links", summary="Every student's link again (the course's instructors')", responses=NOT_FOUND)
+def links(
+    cid: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    assignment: Annotated[
+        str | None, Query(description="links to this assignment's page (default: the course's)")
+    ] = None,
+) -> Response:
+    """The links are derived, not stored: the same ones as the roster gave, until a student's link is replaced.
+    `Accept: text/csv` answers CSV (id,name,email,link)."""
+    course.course_staff(cid, caller, request, "roster")
+    if assignment is not None and course.assignment(assignment)["course_id"] != cid:
+        raise ApiError(404, [{"path": "assignment", "message": f"no assignment '{assignment[:64]}' in course '{cid}'"}])
+    return _students(course.links(cid, _base(request), assignment), request)
+
+
+@router.delete("/{cid}/students/{student}", summary="Take a student off the course's roster", responses=NOT_FOUND)
+def remove_student(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """Their tokens stop working; their submissions and grades are kept (and read again if they are enrolled
+    again)."""
+    course.course_staff(cid, caller, request, "roster")
+    if not course.store.remove_member(cid, student):
+        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
+    return {"id": student, "removed": True}
+
+
+@router.post("/{cid}/staff", status_code=201, summary="Add an instructor or a TA (shown their link)", responses=ERRORS)
+def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, caller: CallerDep) -> Response:
+    """The server admin or the course's instructors: `{id, name, email, role}` -> their token and link (the
+    /course page with the token), never cached."""
+    course.course_staff(cid, caller, request, "staff")
+    out = course.add_staff(cid, body.id, body.name, body.email, body.role, _base(request))
+    headers = {"Cache-Control": "no-store"}
+    return Response(json.dumps(out), status_code=201, media_type="application/json", headers=headers)
+
+
+@router.get("/{cid}/staff", summary="The course's staff (no tokens)", responses=NOT_FOUND)
+def staff(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course_staff(cid, caller, request)
+    return {"staff": course.course_view(cid, Who(), _base(request))["staff"]}
+
+
+@router.post("/{cid}/staff/{person}/link", summary="A staff member's link: the same, or new (?renew=true)")
+def staff_link(
+    cid: str,
+    person: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    store: StoreDep,
+    renew: Annotated[bool, Query(description="a new token: the old one stops working")] = False,
+) -> Response:
+    course.course_staff(cid, caller, request, "staff")
+    if renew and course.store.staff_member(cid, person) is not None:
+        course._renew(cid, "staff", person, store)
+    out = course.staff_link(cid, person, _base(request))
+    return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
+
+
+@router.delete("/{cid}/staff/{person}", summary="Remove a staff member (their token stops working)")
+def remove_staff(cid: str, person: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course_staff(cid, caller, request, "staff")
+    if not course.store.remove_staff(cid, person):
+        raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
+    return {"id": person, "removed": True}
+
+
+def _students(students: list[dict], request: Request) -> Response:
+    if "text/csv" in request.headers.get("accept", ""):
+        headers = {"Content-Disposition": 'attachment; filename="links.csv"', "Cache-Control": "no-store"}
+        return Response(links_csv(students), media_type="text/csv", headers=headers)
+    return Response(
+        json.dumps({"students": students}), media_type="application/json", headers={"Cache-Control": "no-store"}
+    )

@@ -1,0 +1,72 @@
+"""The upgrade to courses (issue #31): the data of a server from before courses moves into the `default`
+course, nothing lost. Plain SQL on one connection, inside the caller's transaction; it imports nothing of the
+course package (a migration is frozen: the tables as they were then, whatever the code says later).
+
+Before: assignments were global, each with its own roster (`course_students`: one token per student per
+assignment). After: each assignment is in a course (`course_assignments.course_id`, `default` for these),
+the course's roster holds each student once (`course_members`, the latest row's name and email), every token
+that worked still works (`course_tokens`: one row per old token, so each old link still opens its
+assignment, and its jobs keep their owner), and each assignment's roster is its enrolments
+(`course_enrolments`, with the extensions)."""
+
+from __future__ import annotations
+
+import sqlite3
+
+TABLES = """
+CREATE TABLE IF NOT EXISTS courses (
+    id TEXT PRIMARY KEY, name TEXT NOT NULL, created_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS course_staff (
+    course_id TEXT NOT NULL, person TEXT NOT NULL, name TEXT NOT NULL, email TEXT NOT NULL DEFAULT '',
+    role TEXT NOT NULL, lti_user TEXT, gen INTEGER NOT NULL DEFAULT 0, created_at REAL NOT NULL,
+    PRIMARY KEY (course_id, person)
+);
+CREATE TABLE IF NOT EXISTS course_members (
+    course_id TEXT NOT NULL, student TEXT NOT NULL, name TEXT NOT NULL, email TEXT NOT NULL DEFAULT '',
+    self_declared INTEGER NOT NULL DEFAULT 0, every INTEGER NOT NULL DEFAULT 0, lti_user TEXT,
+    gen INTEGER NOT NULL DEFAULT 0, created_at REAL NOT NULL, PRIMARY KEY (course_id, student)
+);
+CREATE TABLE IF NOT EXISTS course_tokens (
+    token_hash TEXT PRIMARY KEY, course_id TEXT NOT NULL, kind TEXT NOT NULL, person TEXT NOT NULL,
+    created_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS course_enrolments (
+    assignment_id TEXT NOT NULL, student TEXT NOT NULL, deadline REAL, created_at REAL NOT NULL,
+    PRIMARY KEY (assignment_id, student)
+);
+"""
+
+
+def needed(db: sqlite3.Connection) -> bool:
+    """Is this a database from before courses (assignments without a course)?"""
+    cols = [r[1] for r in db.execute("PRAGMA table_info(course_assignments)")]
+    return bool(cols) and "course_id" not in cols
+
+
+def apply(db: sqlite3.Connection, now: float) -> None:
+    """Move a database from before courses into the `default` course (inside the caller's transaction)."""
+    db.execute("ALTER TABLE course_assignments ADD COLUMN course_id TEXT NOT NULL DEFAULT 'default'")
+    for statement in TABLES.split(";"):
+        if statement.strip():
+            db.execute(statement)
+    db.execute("INSERT OR IGNORE INTO courses (id, name, created_at) VALUES ('default', 'Default course', ?)", (now,))
+    if not db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'course_students'").fetchone():
+        return
+    # each student once: the name and email of their latest roster row, their first row's time
+    db.execute(
+        "INSERT OR IGNORE INTO course_members (course_id, student, name, email, self_declared, every, gen, created_at)"
+        " SELECT 'default', s.student, s.name, s.email, s.self_declared, 0, 0,"
+        " (SELECT MIN(created_at) FROM course_students f WHERE f.student = s.student)"
+        " FROM course_students s WHERE s.rowid = (SELECT l.rowid FROM course_students l WHERE l.student = s.student"
+        " ORDER BY l.created_at DESC, l.rowid DESC LIMIT 1)"
+    )
+    db.execute(
+        "INSERT OR IGNORE INTO course_tokens (token_hash, course_id, kind, person, created_at)"
+        " SELECT token_hash, 'default', 'student', student, created_at FROM course_students"
+    )
+    db.execute(
+        "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, deadline, created_at)"
+        " SELECT assignment_id, student, deadline, created_at FROM course_students"
+    )
+    db.execute("DROP TABLE course_students")

@@ -1,0 +1,147 @@
+"""Courses and their people (server/course/people.py, server/api/routes/courses.py): the server's admin makes
+courses and their staff; an instructor publishes into their course and enrols its roster once; a TA follows
+the class but may not publish; two courses on one server cannot see each other's students. No render is
+needed (workers=0): publishing queues the reference's renders, which nothing here waits for."""
+
+from __future__ import annotations
+
+import json
+from datetime import UTC, datetime, timedelta
+
+import pytest
+from conftest import ROOT
+from test_api_support import INSTRUCTOR, bearer, course_client
+
+EXAMPLE = ROOT / "scenes" / "grading"
+T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
+ADMIN = bearer(INSTRUCTOR)
+
+
+def spec() -> dict:
+    a = json.loads((EXAMPLE / "assignment.json").read_text())
+    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+    return a
+
+
+def body(**policy) -> dict:
+    return {"spec": spec(), "deadline": (T0 + timedelta(days=2)).isoformat(), **policy}
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    with course_client(tmp_path_factory.mktemp("courses-data"), T0, workers=0) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def two(app):
+    """Courses cs101 and cs202, each with an instructor and cs101 with a TA: their tokens."""
+    for cid, name in (("cs101", "Rendering I"), ("cs202", "Rendering II")):
+        r = app.post("/api/courses", json={"id": cid, "name": name}, headers=ADMIN)
+        assert r.status_code == 201, r.text
+    people = {}
+    for cid, person, role in (
+        ("cs101", "prof-a", "instructor"),
+        ("cs101", "ta-1", "ta"),
+        ("cs202", "prof-b", "instructor"),
+    ):
+        r = app.post(
+            f"/api/courses/{cid}/staff", json={"id": person, "name": person.title(), "role": role}, headers=ADMIN
+        )
+        assert r.status_code == 201, r.text
+        assert r.headers["cache-control"] == "no-store" and r.json()["link"].endswith(
+            f"/course#token={r.json()['token']}"
+        )
+        people[person] = bearer(r.json()["token"])
+    return people
+
+
+def test_courses_the_admin_creates_courses_and_staff_and_no_one_else_does(app, two):
+    r = app.post("/api/courses", json={"id": "cs101", "name": "again"}, headers=ADMIN)
+    assert r.status_code == 409 and r.json()["errors"][0]["path"] == "id"
+    r = app.post("/api/courses", json={"id": "no spaces", "name": "x"}, headers=ADMIN)
+    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "id"
+    r = app.post("/api/courses", json={"id": "cs303", "name": "x"}, headers=two["prof-a"])
+    assert r.status_code == 401
+    r = app.post("/api/courses/cs101/staff", json={"id": "x", "role": "dean"}, headers=ADMIN)
+    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "role"
+    assert {c["id"] for c in app.get("/api/courses", headers=ADMIN).json()["courses"]} >= {"default", "cs101", "cs202"}
+    assert [c["id"] for c in app.get("/api/courses", headers=two["ta-1"]).json()["courses"]] == ["cs101"]
+
+
+def test_courses_an_instructor_publishes_into_their_course_and_a_ta_is_refused(app, two):
+    r = app.post("/api/assignments", json=body(), headers=two["prof-a"])
+    assert r.status_code == 201, r.text
+    aid = r.json()["id"]
+    assert app.get("/api/assignments", headers=two["prof-a"]).json()["assignments"][0]["course"] == "cs101"
+    r = app.post("/api/courses/cs101/assignments", json=body(), headers=two["ta-1"])
+    assert r.status_code == 403 and "TA may not publish" in r.json()["errors"][0]["message"]
+    r = app.put(f"/api/assignments/{aid}", json=body(), headers=two["ta-1"])
+    assert r.status_code == 403
+    r = app.post(f"/api/assignments/{aid}/roster", content="id,name,email\nz,Z,\n", headers=two["ta-1"])
+    assert r.status_code == 403 and "roster" in r.json()["errors"][0]["message"]
+    # what a TA may do: follow the class, extend, regrade
+    assert app.get(f"/api/assignments/{aid}/dashboard", headers=two["ta-1"]).status_code == 200
+    assert app.get(f"/api/assignments/{aid}/grades.csv", headers=two["ta-1"]).status_code == 200
+    r = app.post(f"/api/assignments/{aid}/regrade", headers=two["ta-1"])
+    assert r.status_code == 200 and r.json()["version"] == 2
+    # the other course's instructor cannot publish here, nor read it
+    r = app.post("/api/courses/cs101/assignments", json=body(), headers=two["prof-b"])
+    assert r.status_code == 401
+    assert app.get(f"/api/assignments/{aid}/dashboard", headers=two["prof-b"]).status_code in (401, 404)
+
+
+def test_courses_a_roster_enrolled_once_holds_across_assignments_with_one_token(app, two):
+    r = app.post(
+        "/api/courses/cs202/roster", content="id,name,email\nada,Ada,ada@x.edu\nbob,Bob,\n", headers=two["prof-b"]
+    )
+    assert r.status_code == 200, r.text
+    links = {s["id"]: s for s in r.json()["students"]}
+    assert links["ada"]["link"].endswith(f"/courses/cs202#token={links['ada']['token']}") and links["ada"]["new"]
+    first = app.post("/api/assignments?course=cs202", json=body(), headers=two["prof-b"]).json()["id"]
+    second = app.post("/api/courses/cs202/assignments", json=body(), headers=two["prof-b"]).json()["id"]
+    ada = bearer(links["ada"]["token"])
+    for aid in (first, second):  # on the roster of each, the assignment published after the roster too
+        r = app.get(f"/api/assignments/{aid}", headers=ada)
+        assert r.status_code == 200 and r.json()["student"]["id"] == "ada"
+        roster = app.get(f"/api/assignments/{aid}/roster", headers=two["prof-b"]).json()["students"]
+        assert [s["id"] for s in roster] == ["ada", "bob"]
+    mine = app.get("/api/courses/cs202", headers=ada).json()
+    assert mine["you"] == {"id": "ada", "name": "Ada", "role": "student"} and len(mine["assignments"]) == 2
+    assert "staff" not in mine
+    # the links again: the same tokens (derived), until one is replaced
+    again = {s["id"]: s["token"] for s in app.get("/api/courses/cs202/links", headers=two["prof-b"]).json()["students"]}
+    assert again == {k: v["token"] for k, v in links.items()}
+    r = app.post(f"/api/assignments/{first}/students/ada/link", headers=two["prof-b"])
+    assert r.status_code == 200 and r.json()["token"] != links["ada"]["token"]
+    assert app.get(f"/api/assignments/{second}", headers=ada).status_code == 404  # the old token: nowhere
+    assert app.get(f"/api/assignments/{second}", headers=bearer(r.json()["token"])).status_code == 200
+
+
+def test_courses_two_courses_on_one_server_cannot_see_each_other_s_students(app, two):
+    r = app.post("/api/courses/cs101/roster", content="id,name,email\ncyd,Cyd,\n", headers=two["prof-a"])
+    cyd = bearer(r.json()["students"][0]["token"])
+    theirs = app.post("/api/courses/cs202/assignments", json=body(), headers=two["prof-b"]).json()["id"]
+    assert app.get(f"/api/assignments/{theirs}", headers=cyd).status_code == 404
+    assert app.get("/api/courses/cs202", headers=cyd).status_code == 404
+    r = app.post(f"/api/assignments/{theirs}/submissions", json={"scene": {}}, headers=cyd)
+    assert r.status_code == 404
+    # the other course's staff see neither its roster nor its students' links
+    assert app.get("/api/courses/cs202/roster", headers=two["prof-a"]).status_code == 401
+    assert app.get("/api/courses/cs202/links", headers=two["ta-1"]).status_code == 401
+    assert "cyd" not in [
+        s["id"] for s in app.get("/api/courses/cs202/roster", headers=two["prof-b"]).json()["students"]
+    ]
+
+
+def test_courses_a_staff_link_renewed_stops_the_old_token(app, two):
+    r = app.post("/api/courses/cs101/staff", json={"id": "ta-2", "name": "Tee", "role": "ta"}, headers=two["prof-a"])
+    assert r.status_code == 201
+    old = bearer(r.json()["token"])
+    assert app.get("/api/courses/cs101", headers=old).json()["you"]["role"] == "ta"
+    r = app.post("/api/courses/cs101/staff/ta-2/link?renew=true", headers=two["prof-a"])
+    assert app.get("/api/courses/cs101", headers=old).status_code == 404
+    assert app.get("/api/courses/cs101", headers=bearer(r.json()["token"])).json()["you"]["role"] == "ta"
+    assert app.post("/api/courses/cs101/staff", json={"id": "x", "role": "ta"}, headers=two["ta-1"]).status_code == 403
+    assert app.delete("/api/courses/cs101/staff/ta-2", headers=two["prof-a"]).json()["removed"] is True
+    assert app.get("/api/courses/cs101", headers=bearer(r.json()["token"])).status_code == 404
