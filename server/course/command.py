@@ -4,14 +4,25 @@ HTTP API, standard library only (urllib), so it runs wherever the repository is 
     python -m server.course publish SPEC.json --deadline ISO [--late-until ISO] [--late-penalty F]
         [--max-submissions N] [--counts last|best] [--starter FILE] [--show-reference] [--feedback JSON]
         [--open] [--server URL] [--token T]
+        [--course C]
     python -m server.course roster ID roster.csv [--out links.csv]
     python -m server.course grades ID [--out grades.csv]
+    python -m server.course courses
+    python -m server.course course-create ID [--name NAME]
+    python -m server.course course-roster COURSE roster.csv [--out links.csv]
+    python -m server.course links COURSE [--assignment ID] [--out links.csv]
+    python -m server.course staff-add COURSE ID --role instructor|ta [--name N] [--email E]
 
 `publish` sends the spec as a multipart part, and its reference scene file beside it when the spec names
 one (`"reference": {"scene": "reference.json"}`, looked for next to the spec, as scenes/grading/ has it);
 it prints the assignment's id on the first line (`A=$(python -m server.course publish ... | head -1)`),
 then the brief's main facts. `roster` uploads the roster CSV and writes the links to mail out (each token
 is shown this once); `grades` writes grades.csv.
+
+Courses (docs/assignments.md, "Courses and staff"): `course-create` (the server admin's token) makes a course,
+`staff-add` adds an instructor or a TA and prints their link, `course-roster` enrols a course's roster once
+(every assignment of the course, those published later too), `links` writes every student's link again
+(links are derived, so they are the same until one is replaced), `publish --course` publishes into a course.
 
 The server is `--server` or TRACER_SERVER (default http://127.0.0.1:8000), the instructor's token
 `--token` or TRACER_INSTRUCTOR_TOKEN. What the server refuses is printed as its `path: message` lines
@@ -164,7 +175,8 @@ def describe(a: dict, server: str) -> list[str]:
 def publish(client: Client, args) -> int:
     fields, files = publish_parts(args)
     body, ctype = multipart(fields, files)
-    a = client.json("POST", "/api/assignments", body, ctype)
+    path = f"/api/courses/{args.course}/assignments" if args.course else "/api/assignments"
+    a = client.json("POST", path, body, ctype)
     print("\n".join(describe(a, client.server)))
     return 0
 
@@ -173,10 +185,47 @@ def roster(client: Client, args) -> int:
     text = read(Path(args.roster), "the roster, a CSV with the header id,name,email")
     links = client.call("POST", f"/api/assignments/{args.id}/roster", text, "text/csv", accept="text/csv")
     rows = list(csv.DictReader(io.StringIO(links.decode("utf-8"))))
-    new = sum(1 for row in rows if row.get("link"))
     write(args.out, links)
-    print(f"{len(rows)} student(s) on the roster, {new} new: their links (each token shown this once) "
-          f"{'in ' + args.out if args.out else 'above'}; the others keep theirs", file=sys.stderr)  # fmt: skip
+    print(f"{len(rows)} student(s) on the roster: their links {'in ' + args.out if args.out else 'above'} (the "
+          "same as before for those already on it)", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def course_roster(client: Client, args) -> int:
+    text = read(Path(args.roster), "the roster, a CSV with the header id,name,email")
+    links = client.call("POST", f"/api/courses/{args.course}/roster", text, "text/csv", accept="text/csv")
+    rows = list(csv.DictReader(io.StringIO(links.decode("utf-8"))))
+    write(args.out, links)
+    print(f"{len(rows)} student(s) enrolled in {args.course} (every assignment): their links "
+          f"{'in ' + args.out if args.out else 'above'}", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def links(client: Client, args) -> int:
+    query = f"?assignment={args.assignment}" if args.assignment else ""
+    write(args.out, client.call("GET", f"/api/courses/{args.course}/links{query}", accept="text/csv"))
+    return 0
+
+
+def courses(client: Client, args) -> int:
+    for c in client.json("GET", "/api/courses")["courses"]:
+        print(f"{c['id']}\t{c['name']}\t{c['assignments']} assignment(s)\t{c['students']} student(s)")
+    return 0
+
+
+def course_create(client: Client, args) -> int:
+    body = json.dumps({"id": args.id, "name": args.name or args.id}).encode()
+    c = client.json("POST", "/api/courses", body, "application/json")
+    print(c["id"])
+    return 0
+
+
+def staff_add(client: Client, args) -> int:
+    body = json.dumps({"id": args.id, "name": args.name or args.id, "email": args.email or "", "role": args.role})
+    s = client.json("POST", f"/api/courses/{args.course}/staff", body.encode(), "application/json")
+    print(s["link"])
+    print(f"{s['name']} is a{'n' if s['role'] == 'instructor' else ''} {s['role']} of {args.course}: send them the "
+          "link above (it carries their token)", file=sys.stderr)  # fmt: skip
     return 0
 
 
@@ -218,6 +267,7 @@ def parser() -> argparse.ArgumentParser:
     pub.add_argument("--show-reference", action="store_true", help="students may see the reference image")
     pub.add_argument("--feedback", help='when each test is shown, as JSON: \'{"tests": {"pixels": "never"}}\'')
     pub.add_argument("--open", action="store_true", help="anyone with the link may join by a name")
+    pub.add_argument("--course", help="the course to publish into (default: your staff token's, else 'default')")
     ros = sub.add_parser(
         "roster", parents=[common], help="upload the roster (id,name,email) and write the links to mail out"
     )
@@ -227,6 +277,24 @@ def parser() -> argparse.ArgumentParser:
     gra = sub.add_parser("grades", parents=[common], help="write the grades (one row per roster student)")
     gra.add_argument("id", help="the assignment's id")
     gra.add_argument("--out", help="the grades' CSV; default: standard output")
+    sub.add_parser("courses", parents=[common], help="list the courses (the admin: all; staff: their own)")
+    cc = sub.add_parser("course-create", parents=[common], help="create a course (the server admin's token)")
+    cc.add_argument("id", help="1 to 40 letters, digits, '-' or '_'")
+    cc.add_argument("--name", help="its name, as students see it")
+    cr = sub.add_parser("course-roster", parents=[common], help="enrol a course's roster once (every assignment)")
+    cr.add_argument("course", help="the course's id")
+    cr.add_argument("roster", help="the roster's CSV file (id,name,email)")
+    cr.add_argument("--out", help="the links' CSV (id,name,email,link); default: standard output")
+    li = sub.add_parser("links", parents=[common], help="every student's link again (the same until replaced)")
+    li.add_argument("course", help="the course's id")
+    li.add_argument("--assignment", help="links to this assignment's page (default: the course's page)")
+    li.add_argument("--out", help="the links' CSV; default: standard output")
+    st = sub.add_parser("staff-add", parents=[common], help="add an instructor or a TA to a course; prints their link")
+    st.add_argument("course", help="the course's id")
+    st.add_argument("id", help="their id (letters, digits, . _ -)")
+    st.add_argument("--role", required=True, choices=("instructor", "ta"))
+    st.add_argument("--name")
+    st.add_argument("--email")
     return p
 
 
@@ -234,7 +302,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     server = args.server or os.environ.get("TRACER_SERVER") or DEFAULT_SERVER
     client = Client(server, args.token or os.environ.get("TRACER_INSTRUCTOR_TOKEN") or None)
-    run = {"publish": publish, "roster": roster, "grades": grades}[args.command]
+    run = {"publish": publish, "roster": roster, "grades": grades, "courses": courses, "course-create": course_create,
+           "course-roster": course_roster, "links": links, "staff-add": staff_add}[args.command]  # fmt: skip
     try:
         return run(client, args)
     except Refused as e:

@@ -61,7 +61,7 @@ def refuse_ta(action: str) -> ApiError:
         403,
         [
             {
-                "path": "Authorization",
+                "path": "role",
                 "message": f"a TA may not {action}: the course's instructors may (a TA follows the class, "
                 "grants extensions and regrades)",
             }

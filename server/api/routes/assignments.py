@@ -520,7 +520,12 @@ def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep) 
     """Every roster student with their deadline (an extension marked), state (none, submitted, graded,
     invalid, failed), counting score, submissions and whether self-declared; and the class's counts, mean and
     median. One answer for the whole class, for a page that follows it while it submits."""
-    return course_board.dashboard(course, _instructor(course, aid, caller, request))
+    a = _instructor(course, aid, caller, request)
+    out = course_board.dashboard(course, a)
+    lms = getattr(request.app.state, "lms", None)
+    out["lms"] = lms.board(aid, a["course_id"]) if lms is not None else None
+    out["course"] = a["course_id"]
+    return out
 
 
 @router.get(

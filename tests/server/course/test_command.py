@@ -77,13 +77,13 @@ def test_command_publish_sends_the_spec_with_its_reference_file_and_the_policy(s
 def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_path):
     """The links' CSV has a working token for each student; a student submits grace's PNG with theirs; the
     grades' CSV has a row per roster student, the graded one with its score. Uploading the roster again
-    adds no one: the students keep their links (empty in the CSV)."""
+    adds no one: the students keep their links (the same ones in the CSV: tokens are derived)."""
     aid = published(server, capsys, "--starter", str(EXAMPLE / "class" / "alice.json"))
     (tmp_path / "roster.csv").write_text("id,name,email\ng1,Grace Hopper,grace@x.edu\nh2,Heidi,\n")
     links = tmp_path / "links.csv"
     code, out, err = cli(server, capsys, "roster", aid, str(tmp_path / "roster.csv"), "--out", str(links))
     assert code == 0, err
-    assert out == "" and "2 student(s) on the roster, 2 new" in err
+    assert out == "" and "2 student(s) on the roster: their links in" in err
     rows = list(csv.DictReader(io.StringIO(links.read_text())))
     assert [(r["id"], r["name"], r["email"]) for r in rows] == [
         ("g1", "Grace Hopper", "grace@x.edu"),
@@ -111,8 +111,8 @@ def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_
     assert code == 0 and out == out_csv.read_text()
 
     code, out, err = cli(server, capsys, "roster", aid, str(tmp_path / "roster.csv"))  # again, to standard output
-    assert code == 0 and "2 student(s) on the roster, 0 new" in err
-    assert [r["link"] for r in csv.DictReader(io.StringIO(out))] == ["", ""]
+    assert code == 0 and "2 student(s) on the roster: their links above" in err
+    assert [r["link"] for r in csv.DictReader(io.StringIO(out))] == [r["link"] for r in rows]
 
 
 def test_command_prints_the_server_s_errors_at_their_paths(server, capsys, tmp_path):
@@ -161,3 +161,31 @@ def test_command_names_a_missing_file_and_a_server_that_is_not_there(server, cap
     code = main(["grades", "f" * 32, "--server", nobody])
     err = capsys.readouterr().err
     assert code == 3 and err.startswith(f"cannot reach the server at {nobody}: ") and err.count("\n") == 1, err
+
+
+def test_command_courses_staff_and_a_course_roster(server, capsys, tmp_path):
+    """course-create, staff-add (the TA's link opens the course as a TA and cannot publish), course-roster (the
+    course's page links), publish --course (the students already enrolled are on it), links (the same again)."""
+    code, out, err = cli(server, capsys, "course-create", "gfx", "--name", "Computer Graphics")
+    assert (code, out) == (0, "gfx\n"), err
+    code, out, err = cli(server, capsys, "staff-add", "gfx", "tina", "--role", "ta", "--name", "Tina")
+    assert code == 0 and "Tina is a ta of gfx" in err, err
+    ta = out.strip().split("#token=")[1]
+    assert out.startswith(f"{server.url}/course#token=")
+    code, _, err = cli(server, capsys, "publish", str(EXAMPLE / "assignment.json"), "--deadline", DEADLINE,
+                       "--course", "gfx", token=ta)  # fmt: skip
+    assert code == 1 and err.startswith("role: a TA may not publish"), err
+    (tmp_path / "class.csv").write_text("id,name,email\nkim,Kim,kim@x.edu\n")
+    code, out, err = cli(server, capsys, "course-roster", "gfx", str(tmp_path / "class.csv"))
+    assert code == 0 and "1 student(s) enrolled in gfx" in err, err
+    link = next(csv.DictReader(io.StringIO(out)))["link"]
+    assert link.startswith(f"{server.url}/courses/gfx#token=")
+    aid = published(server, capsys, "--course", "gfx")
+    kim = bearer(link.split("#token=")[1])
+    assert server.client.get(f"/api/assignments/{aid}", headers=kim).json()["student"]["id"] == "kim"
+    code, out, err = cli(server, capsys, "links", "gfx", "--assignment", aid)
+    assert code == 0 and next(csv.DictReader(io.StringIO(out)))["link"] == link.replace(
+        "courses/gfx", f"assignments/{aid}"
+    )
+    code, out, _ = cli(server, capsys, "courses")
+    assert code == 0 and "gfx\tComputer Graphics\t1 assignment(s)\t1 student(s)" in out

@@ -10,6 +10,17 @@ import { Board } from "./instructor_board.js";
 import { course, say, tokenProblem, when } from "./instructor_util.js";
 
 const view = $("#course-view");
+
+// A staff link (/course#token=K, mailed by the admin, or /course#token=K&open=<id> from an LMS launch): the
+// token becomes this browser's instructor token, and the address keeps only the assignment to open.
+{
+  const params = new URLSearchParams(location.hash.slice(1));
+  if (params.get("token")) {
+    tokens.setInstructor(params.get("token"));
+    const open = params.get("open");
+    history.replaceState(null, "", location.pathname + location.search + (open ? `#${encodeURIComponent(open)}` : ""));
+  }
+}
 const access = $("#course-access-status");
 const tokenInput = $("#course-token");
 let board = null;
@@ -58,6 +69,9 @@ async function showList() {
       ),
     ),
   );
+  const courses = h("section", { class: "panel", "aria-labelledby": "h-courses", id: "courses" });
+  view.querySelector(".course-home").prepend(courses);
+  showCourses(courses).catch(() => courses.remove());
   try {
     const { assignments } = await course.list();
     accessOk(null);
@@ -68,7 +82,7 @@ async function showList() {
           "li",
           { dataset: { id: a.id } },
           h("a", { href: `#${a.id}` }, a.name),
-          h("span", { class: "muted" }, ` · due ${when(a.deadline)} · ${a.students} student${a.students === 1 ? "" : "s"} · version ${a.version}`),
+          h("span", { class: "muted" }, ` · ${a.course} · due ${when(a.deadline)} · ${a.students} student${a.students === 1 ? "" : "s"} · version ${a.version}`),
         ),
       ),
     );
@@ -76,6 +90,67 @@ async function showList() {
     accessOk(err);
     say(note, "error", `Could not list the assignments: ${err.message}`);
   }
+}
+
+/** The courses the token sees (the admin: every one, with forms for a new course and its staff; an instructor
+ * or a TA: theirs), and which one the publish form publishes into. */
+async function showCourses(panel) {
+  const { courses } = await course.courses();
+  const mine = courses.length === 1 ? await course.courseView(courses[0].id) : null;
+  const role = mine?.you?.role;
+  const pick = h("select", { id: "course-into", "aria-label": "Course to publish into" }, ...courses.map((c) => h("option", { value: c.id }, `${c.name} (${c.id})`)));
+  pick.addEventListener("change", () => (course.into = pick.value));
+  course.into = courses.length > 1 ? pick.value : null;
+  const items = courses.map((c) => h("li", { dataset: { id: c.id } }, h("strong", {}, c.name), h("span", { class: "muted" }, ` · ${c.id} · ${c.assignments} assignment${c.assignments === 1 ? "" : "s"} · ${c.students} student${c.students === 1 ? "" : "s"} on its roster`)));
+  const parts = [h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")), h("ul", { class: "course-list", id: "course-list" }, ...items)];
+  if (role && role !== "admin") parts.push(h("p", { class: "hint", id: "course-role" }, `You are ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}${role === "ta" ? ": you follow the class, grant extensions and regrade; publishing is the instructors'." : "."}`));
+  if (courses.length > 1) parts.push(h("p", {}, h("label", { for: "course-into" }, "Publish into "), pick));
+  if (!role || role === "admin" || role === "instructor") parts.push(staffForm(courses, role !== "instructor"));
+  panel.replaceChildren(...parts);
+}
+
+/** Add an instructor or a TA to a course (and, for the admin, make a course): their link is shown once here. */
+function staffForm(courses, admin) {
+  const out = h("p", { class: "hint", id: "staff-status", role: "status", "aria-live": "polite" });
+  const cid = h("select", { id: "staff-course" }, ...courses.map((c) => h("option", { value: c.id }, c.id)));
+  const pid = h("input", { id: "staff-id", required: true, maxlength: 80, autocomplete: "off" });
+  const name = h("input", { id: "staff-name", maxlength: 200, autocomplete: "off" });
+  const role = h("select", { id: "staff-role" }, h("option", { value: "ta" }, "TA"), h("option", { value: "instructor" }, "instructor"));
+  const form = h(
+    "form",
+    { class: "staff-form", id: "staff-form" },
+    h("h3", {}, "Add staff"),
+    h("label", { for: "staff-course" }, "Course"), cid,
+    h("label", { for: "staff-id" }, "Their id"), pid,
+    h("label", { for: "staff-name" }, "Name"), name,
+    h("label", { for: "staff-role" }, "Role"), role,
+    h("button", { type: "submit" }, "Add"),
+    out,
+  );
+  form.addEventListener("submit", async (e) => {
+    e.preventDefault();
+    try {
+      const s = await course.addStaff(cid.value, { id: pid.value.trim(), name: name.value.trim(), role: role.value });
+      out.replaceChildren(`${s.name} is ${s.role === "ta" ? "a TA" : "an instructor"} of ${cid.value}. Send them this link (it carries their token): `, h("code", { id: "staff-link" }, s.link));
+    } catch (err) {
+      out.textContent = `Not added: ${err.message}`;
+    }
+  });
+  if (!admin) return form;
+  const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_-]*" });
+  const nname = h("input", { id: "new-course-name", maxlength: 200, autocomplete: "off" });
+  const made = h("p", { class: "hint", role: "status", "aria-live": "polite" });
+  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("button", { type: "submit" }, "Create"), made);
+  create.addEventListener("submit", async (e) => {
+    e.preventDefault();
+    try {
+      await course.createCourse({ id: nid.value.trim(), name: nname.value.trim() });
+      showList();
+    } catch (err) {
+      made.textContent = `Not created: ${err.message}`;
+    }
+  });
+  return h("div", {}, create, form);
 }
 
 async function route() {

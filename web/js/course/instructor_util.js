@@ -8,8 +8,13 @@ export const AS = { as: "instructor" };
 const A = (aid) => `/api/assignments/${encodeURIComponent(aid)}`;
 
 export const course = {
+  into: null, // the course the publish form publishes into (null: the token's own, else the default one)
   list: () => request("GET", "/api/assignments", undefined, { ...AS, cache: "no-store" }),
-  publish: (form) => request("POST", "/api/assignments", form, AS),
+  publish: (form) => request("POST", course.into ? `/api/courses/${encodeURIComponent(course.into)}/assignments` : "/api/assignments", form, AS),
+  courses: () => request("GET", "/api/courses", undefined, { ...AS, cache: "no-store" }),
+  courseView: (cid) => request("GET", `/api/courses/${encodeURIComponent(cid)}`, undefined, { ...AS, cache: "no-store" }),
+  createCourse: (body) => request("POST", "/api/courses", body, AS),
+  addStaff: (cid, body) => request("POST", `/api/courses/${encodeURIComponent(cid)}/staff`, body, AS),
   edit: (aid, form, regrade) => request("PUT", `${A(aid)}${regrade ? "?regrade=true" : ""}`, form, AS),
   brief: (aid) => request("GET", A(aid), undefined, { ...AS, cache: "no-store" }),
   board: (aid) => request("GET", `${A(aid)}/dashboard`, undefined, { ...AS, cache: "no-store" }),

@@ -1,0 +1,643 @@
+"""The course in an LMS (LTI 1.3 Advantage, docs/lti.md): what a checked launch opens, the assignment an
+instructor picks for a link (Deep Linking 2.0), grades sent back (Assignment and Grade Services) and the roster
+read from the LMS (Names and Role Provisioning). The launch itself is checked in server/lti/ (signature, claims,
+nonce, state); this module is what a checked launch means to a course.
+
+- **A context is a course.** An LMS course (its `context`) is linked to one course here
+  (`course_lti_contexts`): by an admin (`python -m server.lti` / the API), or made at the first launch by one of
+  its instructors (its id from the context's label, its name the context's title). A student's launch into a
+  context that no instructor has opened yet is refused with a page that says so.
+- **People.** A launch's user is `<platform id>:<sub>` (`lti_user`). An LMS instructor or administrator is an
+  instructor of the course, a teaching assistant a TA, a learner a member of its roster, enrolled in every
+  assignment (as a course roster is). A roster row of the same email with no LMS user yet is the same person.
+  The launch answers with a redirect that carries the person's token in the fragment (never a cookie): the
+  student to their assignment's page, staff to /course. The token is the derived one (people.py), the same at
+  every launch, so a student's workspace jobs follow them.
+- **A link is an assignment.** A resource link made by Deep Linking carries `custom.assignment`; one made
+  otherwise is bound the first time an instructor launches it and picks one. `course_lti_links` keeps each
+  link's assignment and its AGS line item.
+- **Grades back** are rows first (`course_lti_scores`, durable): when a linked student's counting grade changes
+  and the policy shows the score to them (now, or after their cut-off), a row with the score is kept, then
+  posted by the poster thread; a platform that is down leaves the row pending, tried again later with a
+  growing wait (nothing is lost across restarts); the dashboard counts what is pending. Timestamps are strictly
+  increasing per user and line item, as the AGS specification requires.
+- **The roster from the LMS**: the NRPS memberships of a context, every page (`rel="next"`), as members and
+  staff of its course, at each staff launch and on demand; the dashboard then shows who has not submitted.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import logging
+import re
+import secrets
+import threading
+from collections.abc import Callable
+from datetime import UTC, datetime
+
+from fastapi import Request
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+
+from server.core.db import Tables
+from server.course.people import COURSE_ID
+from server.course.policy import Feedback, When
+from server.course.service import Course
+from tracer.grading import student_name
+
+log = logging.getLogger(__name__)
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS course_lti_contexts (
+    platform_id TEXT NOT NULL,            -- server/lti's platform row
+    context_id TEXT NOT NULL,             -- the LMS course's id
+    course_id TEXT NOT NULL,
+    title TEXT NOT NULL DEFAULT '',
+    memberships_url TEXT,                 -- its NRPS endpoint, from the latest launch that had one
+    synced_at REAL,                       -- the last roster read from it
+    created_at REAL NOT NULL,
+    PRIMARY KEY (platform_id, context_id)
+);
+CREATE TABLE IF NOT EXISTS course_lti_links (
+    platform_id TEXT NOT NULL,
+    resource_link_id TEXT NOT NULL,
+    assignment_id TEXT,                   -- NULL until an instructor picks one
+    lineitem TEXT,                        -- its AGS line item URL (grades go there)
+    course_id TEXT NOT NULL,
+    created_at REAL NOT NULL,
+    PRIMARY KEY (platform_id, resource_link_id)
+);
+CREATE TABLE IF NOT EXISTS course_lti_picks (
+    id TEXT PRIMARY KEY,                  -- a one-time secret in the picker's form
+    platform_id TEXT NOT NULL,
+    deployment_id TEXT NOT NULL,
+    course_id TEXT NOT NULL,
+    settings TEXT NOT NULL,               -- the deep_linking_settings claim (JSON); '' for a link to bind
+    resource_link_id TEXT,                -- a link to bind to the picked assignment (no deep linking)
+    expires REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS course_lti_scores (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    platform_id TEXT NOT NULL,
+    lineitem TEXT NOT NULL,
+    user_id TEXT NOT NULL,                -- the LMS's sub
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    score_given REAL NOT NULL,
+    score_max REAL NOT NULL,
+    timestamp REAL NOT NULL,              -- the score's time (strictly increasing per line item and user)
+    state TEXT NOT NULL,                  -- pending, sent, superseded (a newer score replaced it unsent)
+    tries INTEGER NOT NULL DEFAULT 0,
+    next_try REAL NOT NULL,
+    error TEXT,
+    created_at REAL NOT NULL,
+    sent_at REAL
+);
+CREATE INDEX IF NOT EXISTS course_lti_scores_due ON course_lti_scores (state, next_try);
+CREATE INDEX IF NOT EXISTS course_lti_scores_user ON course_lti_scores (lineitem, user_id, id);
+"""
+
+PICK_SECONDS = 600  # a picker's form is good this long
+RETRY_FIRST, RETRY_MAX = 30.0, 3600.0  # seconds: the wait after a failed post doubles from the first to the most
+POST_BATCH = 50  # scores posted per round of the poster
+SWEEP_SECONDS = 60.0  # how often the poster looks for scores released by a deadline
+STAFF = ("instructor", "ta")
+
+
+class LmsStore(Tables):
+    def __init__(self, data_dir):
+        super().__init__(data_dir, SCHEMA)
+
+    def context(self, platform_id: str, context_id: str) -> dict | None:
+        row = self.db.execute(
+            "SELECT * FROM course_lti_contexts WHERE platform_id = ? AND context_id = ?", (platform_id, context_id)
+        ).fetchone()
+        return dict(row) if row else None
+
+    def contexts(self, course_id: str) -> list[dict]:
+        rows = self.db.execute("SELECT * FROM course_lti_contexts WHERE course_id = ?", (course_id,))
+        return [dict(r) for r in rows]
+
+    def link_context(self, platform_id: str, context_id: str, course_id: str, title: str, now: float) -> None:
+        self.db.execute(
+            "INSERT INTO course_lti_contexts (platform_id, context_id, course_id, title, created_at)"
+            " VALUES (?, ?, ?, ?, ?) ON CONFLICT (platform_id, context_id)"
+            " DO UPDATE SET course_id = excluded.course_id",
+            (platform_id, context_id, course_id, title, now),
+        )
+
+    def set_memberships(self, platform_id: str, context_id: str, url: str | None, synced_at: float | None) -> None:
+        if url is not None:
+            self.db.execute(
+                "UPDATE course_lti_contexts SET memberships_url = ? WHERE platform_id = ? AND context_id = ?",
+                (url, platform_id, context_id),
+            )
+        if synced_at is not None:
+            self.db.execute(
+                "UPDATE course_lti_contexts SET synced_at = ? WHERE platform_id = ? AND context_id = ?",
+                (synced_at, platform_id, context_id),
+            )
+
+    def link(self, platform_id: str, link_id: str) -> dict | None:
+        row = self.db.execute(
+            "SELECT * FROM course_lti_links WHERE platform_id = ? AND resource_link_id = ?", (platform_id, link_id)
+        ).fetchone()
+        return dict(row) if row else None
+
+    def keep_link(self, platform_id, link_id, course_id, aid, lineitem, now) -> None:
+        self.db.execute(
+            "INSERT INTO course_lti_links (platform_id, resource_link_id, assignment_id, lineitem, course_id,"
+            " created_at) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (platform_id, resource_link_id) DO UPDATE SET"
+            " assignment_id = COALESCE(excluded.assignment_id, assignment_id),"
+            " lineitem = COALESCE(excluded.lineitem, lineitem)",
+            (platform_id, link_id, aid, lineitem, course_id, now),
+        )
+
+    def links(self, aid: str) -> list[dict]:
+        rows = self.db.execute("SELECT * FROM course_lti_links WHERE assignment_id = ?", (aid,))
+        return [dict(r) for r in rows]
+
+    def linked_assignments(self) -> list[str]:
+        rows = self.db.execute(
+            "SELECT DISTINCT assignment_id FROM course_lti_links"
+            " WHERE assignment_id IS NOT NULL AND lineitem IS NOT NULL"
+        )
+        return [r[0] for r in rows]
+
+    def new_pick(self, row: dict) -> str:
+        pid = secrets.token_urlsafe(24)
+        self.db.execute(
+            "INSERT INTO course_lti_picks (id, platform_id, deployment_id, course_id, settings, resource_link_id,"
+            " expires) VALUES (?, ?, ?, ?, ?, ?, ?)",
+            (pid, row["platform_id"], row["deployment_id"], row["course_id"], row["settings"],
+             row.get("resource_link_id"), row["expires"]),
+        )  # fmt: skip
+        return pid
+
+    def take_pick(self, pid: str, now: float) -> dict | None:
+        with self._tx() as db:
+            row = db.execute("SELECT * FROM course_lti_picks WHERE id = ?", (pid,)).fetchone()
+            db.execute("DELETE FROM course_lti_picks WHERE id = ? OR expires < ?", (pid, now))
+        return dict(row) if row and row["expires"] >= now else None
+
+    # -- scores --------------------------------------------------------------------------------
+
+    def last_score(self, lineitem: str, user_id: str) -> dict | None:
+        row = self.db.execute(
+            "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? AND state != 'superseded'"
+            " ORDER BY id DESC LIMIT 1",
+            (lineitem, user_id),
+        ).fetchone()
+        return dict(row) if row else None
+
+    def add_score(self, row: dict, now: float) -> bool:
+        """Keep a score to post, unless the latest one for its line item and user has the same numbers; an
+        unsent older one is superseded. Its timestamp comes after every earlier one's. True if kept."""
+        with self._tx() as db:
+            last = db.execute(
+                "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? ORDER BY id DESC LIMIT 1",
+                (row["lineitem"], row["user_id"]),
+            ).fetchone()
+            live = db.execute(
+                "SELECT score_given, score_max FROM course_lti_scores WHERE lineitem = ? AND user_id = ?"
+                " AND state != 'superseded' ORDER BY id DESC LIMIT 1",
+                (row["lineitem"], row["user_id"]),
+            ).fetchone()
+            if live is not None and (live[0], live[1]) == (row["score_given"], row["score_max"]):
+                return False
+            stamp = max(now, last["timestamp"] + 0.001) if last is not None else now
+            db.execute(
+                "UPDATE course_lti_scores SET state = 'superseded' WHERE lineitem = ? AND user_id = ?"
+                " AND state = 'pending'",
+                (row["lineitem"], row["user_id"]),
+            )
+            db.execute(
+                "INSERT INTO course_lti_scores (platform_id, lineitem, user_id, assignment_id, student, score_given,"
+                " score_max, timestamp, state, next_try, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'pending', ?, ?)",
+                (row["platform_id"], row["lineitem"], row["user_id"], row["assignment_id"], row["student"],
+                 row["score_given"], row["score_max"], stamp, now, now),
+            )  # fmt: skip
+        return True
+
+    def due(self, now: float, limit: int) -> list[dict]:
+        rows = self.db.execute(
+            "SELECT * FROM course_lti_scores WHERE state = 'pending' AND next_try <= ? ORDER BY id LIMIT ?",
+            (now, limit),
+        )
+        return [dict(r) for r in rows]
+
+    def sent(self, sid: int, now: float) -> None:
+        self.db.execute(
+            "UPDATE course_lti_scores SET state = 'sent', sent_at = ?, error = NULL WHERE id = ? AND state = 'pending'",
+            (now, sid),
+        )
+
+    def failed(self, sid: int, error: str, next_try: float) -> None:
+        self.db.execute(
+            "UPDATE course_lti_scores SET tries = tries + 1, error = ?, next_try = ? WHERE id = ?",
+            (error[:500], next_try, sid),
+        )
+
+    def scores(self, aid: str) -> dict:
+        """What the dashboard says of the grades sent back: counts by state and the latest error."""
+        counts = dict(
+            self.db.execute(
+                "SELECT state, COUNT(*) FROM course_lti_scores WHERE assignment_id = ? AND state != 'superseded'"
+                " GROUP BY state",
+                (aid,),
+            ).fetchall()
+        )
+        err = self.db.execute(
+            "SELECT error, next_try FROM course_lti_scores WHERE assignment_id = ? AND state = 'pending'"
+            " AND error IS NOT NULL ORDER BY id DESC LIMIT 1",
+            (aid,),
+        ).fetchone()
+        return {"pending": counts.get("pending", 0), "sent": counts.get("sent", 0), "error": err[0] if err else None,
+                "next_try": err[1] if err else None}  # fmt: skip
+
+
+def lti_user(platform: dict, sub: str) -> str:
+    return f"{platform['id']}:{sub}"
+
+
+def page(title: str, body: str, status: int = 200, extra_csp: str = "") -> HTMLResponse:
+    """A small page of the tool's own (the picker, a refusal), in the site's style."""
+    text = (
+        f'<!doctype html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f'<link rel="stylesheet" href="/css/app.css"></head><body><main class="lti-page">{body}</main></body></html>'
+    )
+    headers = {"Cache-Control": "no-store"}
+    if extra_csp:
+        headers["Content-Security-Policy"] = extra_csp
+    return HTMLResponse(text, status_code=status, headers=headers)
+
+
+def refused(title: str, message: str, status: int = 403) -> HTMLResponse:
+    return page(
+        title, f'<h1>{html.escape(title)}</h1><p class="message" data-kind="error">{html.escape(message)}</p>', status
+    )
+
+
+class Lms:
+    """The course's side of LTI: `launched` (the launch handler of server/lti), the picker, grades back and
+    the roster from the LMS. `services`: server/lti's ServiceClient (tokens, scores, memberships)."""
+
+    def __init__(self, course: Course, services, keys, platforms: Callable[[str], dict | None], clock=None):
+        self.course, self.services, self.keys, self.platforms = course, services, keys, platforms
+        self.store = LmsStore(course.settings.data_dir)
+        self.now = clock or course.now
+        self._wake = threading.Event()
+        self._changed: set[tuple[str, str]] = set()
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._swept = 0.0
+        course.runs.listeners.append(self._graded)
+
+    # -- the launch ----------------------------------------------------------------------------
+
+    async def launched(self, launch, request: Request) -> Response:
+        from starlette.concurrency import run_in_threadpool
+
+        return await run_in_threadpool(self.launch, launch, str(request.base_url))
+
+    def launch(self, launch, base: str) -> Response:
+        from server.lti.launch import course_role
+
+        role = course_role(launch.roles)
+        platform = launch.platform
+        if role is None:
+            message = ("The LMS says you are neither an instructor, a TA nor a student of this course (an observer "
+                       "or a guest): the tool opens for those only.")  # fmt: skip
+            return refused("Not a role of the course", message)
+        context = launch.context or {}
+        if not context.get("id"):
+            return refused("No course in the launch", "The launch names no LMS course (context): add the tool "
+                           "inside a course, not at the site's level.", 400)  # fmt: skip
+        cid = self.course_of(platform, context, role)
+        if cid is None:
+            return refused("This course is not set up yet", "No instructor of this course has opened the tool "
+                           "yet: your instructor opens it once from the LMS, then it opens for you too.")  # fmt: skip
+        if launch.nrps and launch.nrps.get("context_memberships_url"):
+            self.store.set_memberships(platform["id"], context["id"], launch.nrps["context_memberships_url"], None)
+        person, token = self.person(cid, platform, launch, role)
+        if role in STAFF and launch.nrps:
+            threading.Thread(target=self.sync_quietly, args=(cid,), name="lti-roster", daemon=True).start()
+        if launch.message_type == "LtiDeepLinkingRequest":
+            if role != "instructor":
+                return refused("Only an instructor picks", "Adding the tool to the course is an instructor's.")
+            return self.picker(cid, platform, launch.deployment_id, launch.deep_linking or {}, None, token, base)
+        link_id = (launch.resource_link or {}).get("id")
+        aid = (launch.custom or {}).get("assignment")
+        known = self.store.link(platform["id"], link_id) if link_id else None
+        if not aid and known is not None:
+            aid = known["assignment_id"]
+        if aid and (self.course.store.assignment(aid) or {}).get("course_id") != cid:
+            return refused("Not an assignment of this course", f"The link names assignment {aid[:40]!r}, which is "
+                           "not one of this course's: ask your instructor to pick it again.", 404)  # fmt: skip
+        lineitem = (launch.ags or {}).get("lineitem")
+        if link_id:
+            self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
+        if not aid:
+            if role != "instructor":
+                return refused("No assignment here yet", "Your instructor has not picked this link's assignment yet.")
+            return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
+        if role in STAFF:
+            return RedirectResponse(f"/course#token={token}&open={aid}", status_code=303)
+        self.course.store.add_members(cid, [], self.now(), [aid])
+        self._enrol(aid, person)
+        return RedirectResponse(f"/assignments/{aid}#token={token}", status_code=303)
+
+    def _enrol(self, aid: str, student: str) -> None:
+        with self.course.store._tx() as db:
+            db.execute(
+                "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
+                (aid, student, self.now()),
+            )
+
+    def course_of(self, platform: dict, context: dict, role: str) -> str | None:
+        """The course linked to the LMS course; made at an instructor's first launch."""
+        known = self.store.context(platform["id"], context["id"])
+        if known is not None:
+            return known["course_id"]
+        if role != "instructor":
+            return None
+        title = " ".join(str(context.get("title") or context.get("label") or "LMS course").split())[:200]
+        stem = re.sub(r"[^A-Za-z0-9_-]+", "-", str(context.get("label") or title)).strip("-_")[:30] or "lms"
+        cid = stem if COURSE_ID.fullmatch(stem) and self.course.store.course(stem) is None else None
+        while cid is None or not self.course.store.add_course(cid, title, self.now()):
+            cid = f"{stem[:30]}-{secrets.token_hex(3)}"
+        self.store.link_context(platform["id"], context["id"], cid, title, self.now())
+        log.info("course %s made for LMS course %r of platform %s", cid, title, platform["id"])
+        return cid
+
+    def person(self, cid: str, platform: dict, launch, role: str) -> tuple[str, str]:
+        """The launch's user as staff or a member of the course (made or updated): (their id, their token)."""
+        who = lti_user(platform, launch.sub)
+        name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
+        email = launch.email or ""
+        kind = "staff" if role in STAFF else "student"
+        known = self.course.store.by_lti(cid, kind, who)
+        if known is None and kind == "student" and email:
+            known = next((m for m in self.course.store.members(cid) if m["email"].lower() == email.lower()
+                          and not m["lti_user"]), None)  # fmt: skip
+        pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
+        if kind == "staff":
+            self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
+                                              "lti_user": who}, self.now())  # fmt: skip
+            gen = self.course.store.staff_member(cid, pid)["gen"]
+        else:
+            row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
+            self.course.store.add_members(cid, [row], self.now(), [])
+            gen = self.course.store.member(cid, pid)["gen"]
+        return pid, self.course.token_of(cid, kind, pid, gen)
+
+    def new_id(self, cid: str, kind: str, launch, email: str) -> str:
+        """A readable id for someone new: the LMS's SIS id, else their email's name, else their sub; made unique."""
+        lis = (getattr(launch, "claims", {}) or {}).get("https://purl.imsglobal.org/spec/lti/claim/lis") or {}
+        for candidate in (lis.get("person_sourcedid"), email.split("@")[0] if email else None, f"lti-{launch.sub}"):
+            stem = student_name(str(candidate or ""))[:60].strip("._")
+            if stem:
+                break
+        else:
+            stem = "lti"
+        taken = self.course.store.member if kind == "student" else self.course.store.staff_member
+        pid = stem
+        while taken(cid, pid) is not None:
+            pid = f"{stem[:60]}-{secrets.token_hex(2)}"
+        return pid
+
+    # -- the picker (Deep Linking 2.0, or binding a link) ---------------------------------------
+
+    def picker(self, cid, platform, deployment_id, settings, link_id, token, base) -> HTMLResponse:
+        pid = self.store.new_pick({"platform_id": platform["id"], "deployment_id": deployment_id or "",
+                                   "course_id": cid, "settings": json.dumps(settings) if settings else "",
+                                   "resource_link_id": link_id, "expires": self.now() + PICK_SECONDS})  # fmt: skip
+        items = []
+        for aid in self.course.store.assignments(cid):
+            a = self.course.store.assignment(aid)
+            items.append(
+                f'<li><button type="submit" name="assignment" value="{aid}">{html.escape(a["spec"]["name"])}</button>'
+                f' <span class="muted">due {html.escape(a["policy"]["deadline"])}</span></li>'
+            )
+        course_page = f"/course#token={token}"
+        if not items:
+            body = (
+                "<h1>No assignment to add yet</h1><p>Publish one in this course first, then add the tool again: "
+                f'<a href="{course_page}" target="_blank" rel="noopener">open the course page</a>.</p>'
+            )
+            return page("Pick an assignment", body)
+        what = "to add to the LMS course" if settings else "for this link"
+        body = (
+            f"<h1>Pick an assignment {what}</h1>"
+            f'<form method="post" action="/lti/pick"><input type="hidden" name="pick" value="{pid}">'
+            f'<ul class="course-list">{"".join(items)}</ul></form>'
+            f'<p class="hint">Or <a href="{course_page}" target="_blank" rel="noopener">open the course page</a> to '
+            "publish another.</p>"
+        )
+        return page("Pick an assignment", body)
+
+    def picked(self, pid: str, aid: str, base: str) -> Response:
+        """The picker's choice: a deep link's answer to the LMS (a signed LtiDeepLinkingResponse, posted back by
+        the browser), or a link bound to the assignment (then opened)."""
+        from server.lti.services import deep_link_response
+
+        pick = self.store.take_pick(pid, self.now())
+        if pick is None:
+            return refused("This choice has expired", "Pick again: open the tool from the LMS once more.", 400)
+        a = self.course.store.assignment(aid) if len(aid) == 32 else None
+        if a is None or a["course_id"] != pick["course_id"]:
+            return refused("Not an assignment of this course", "Pick one of the list.", 404)
+        platform = self.platforms(pick["platform_id"])
+        if platform is None:
+            return refused("The LMS is no longer registered", "Ask the server's admin.", 400)
+        if not pick["settings"]:
+            self.store.keep_link(pick["platform_id"], pick["resource_link_id"], pick["course_id"], aid, None,
+                                 self.now())  # fmt: skip
+            return page("Assignment picked", f"<h1>Picked: {html.escape(a['spec']['name'])}</h1><p>Launch the "
+                        "link again from the LMS to open it.</p>")  # fmt: skip
+        settings = json.loads(pick["settings"])
+        points = self.course.spec(aid, a["version"]).max_score()
+        item = {
+            "type": "ltiResourceLink",
+            "title": a["spec"]["name"],
+            "url": f"{base.rstrip('/')}/lti/launch",
+            "custom": {"assignment": aid},
+            "lineItem": {"scoreMaximum": points, "label": a["spec"]["name"], "resourceId": aid},
+        }
+        jwt = deep_link_response(self.keys, platform, pick["deployment_id"], settings, [item], self.now())
+        url = settings["deep_link_return_url"]
+        origin = re.match(r"https?://[^/]+", url)
+        csp = (f"default-src 'self'; script-src 'self'; form-action {origin.group(0) if origin else url}; "
+               "frame-ancestors *; base-uri 'none'; object-src 'none'")  # fmt: skip
+        body = (
+            f"<h1>Adding {html.escape(a['spec']['name'])}</h1>"
+            f'<form id="lti-return" method="post" action="{html.escape(url)}">'
+            f'<input type="hidden" name="JWT" value="{html.escape(jwt)}">'
+            '<button type="submit">Return to the LMS</button></form>'
+            '<script src="/js/lti_return.js"></script>'
+        )
+        return page("Return to the LMS", body, extra_csp=csp)
+
+    # -- grades back ---------------------------------------------------------------------------
+
+    def _graded(self, run_id: str, sid: str) -> None:
+        """From a grading run's thread: a submission's row moved: its student's grade is looked at again by the
+        poster (cheap here: the run's thread must not wait on an LMS)."""
+        if len(sid) != 32:
+            return
+        row = self.course.store.db.execute(
+            "SELECT assignment_id, student FROM course_submissions WHERE id = ?", (sid,)
+        ).fetchone()
+        if row is None:
+            return
+        with self._lock:
+            self._changed.add((row[0], row[1]))
+        self._wake.set()
+
+    def release(self, aid: str, student: str) -> bool:
+        """Keep the student's grade to send, if it is linked, theirs is graded and the policy shows the score
+        to them now. True if a new score was kept."""
+        a = self.course.store.assignment(aid)
+        member = self.course.store.member(a["course_id"], student) if a else None
+        if member is None or not member["lti_user"]:
+            return False
+        st = self.course.store.student(aid, student)
+        if st is None:
+            return False
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        when = feedback.score_when()
+        if when == When.never or (when == When.after_deadline and self.now() < self.course.deadlines(a, st)[1]):
+            return False
+        c = self.course.counting(a, self.course.submissions(a, student))
+        if c is None:
+            return False
+        penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
+        platform_id, sub = member["lti_user"].split(":", 1)
+        kept = False
+        for link in self.store.links(aid):
+            if link["platform_id"] != platform_id or not link["lineitem"]:
+                continue
+            row = {"platform_id": platform_id, "lineitem": link["lineitem"], "user_id": sub, "assignment_id": aid,
+                   "student": student, "score_given": round(c["score"] * (1 - penalty), 6),
+                   "score_max": c["max_score"]}  # fmt: skip
+            kept |= self.store.add_score(row, self.now())
+        return kept
+
+    def post_due(self) -> int:
+        """Post the scores that are due (one round); a failure leaves its row pending with a later try. The
+        number posted."""
+        from server.lti.services import score as score_json
+
+        posted = 0
+        for row in self.store.due(self.now(), POST_BATCH):
+            platform = self.platforms(row["platform_id"])
+            if platform is None:
+                self.store.failed(row["id"], "the platform is no longer registered", self.now() + RETRY_MAX)
+                continue
+            stamp = datetime.fromtimestamp(row["timestamp"], UTC).isoformat(timespec="milliseconds")
+            body = score_json(row["user_id"], row["score_given"], row["score_max"], stamp.replace("+00:00", "Z"))
+            try:
+                self.services.post_score(platform, row["lineitem"], body)
+            except Exception as e:  # noqa: BLE001 (a platform down, a refusal: kept, tried again later)
+                wait = min(RETRY_MAX, RETRY_FIRST * 2 ** min(row["tries"], 12))
+                self.store.failed(row["id"], str(e) or type(e).__name__, self.now() + wait)
+                log.warning(
+                    "grade for %s on %s not sent (%s); again in %.0f s", row["user_id"], row["lineitem"], e, wait
+                )
+                continue
+            self.store.sent(row["id"], self.now())
+            posted += 1
+        return posted
+
+    def sweep(self) -> int:
+        """Scores a deadline released (feedback after the deadline), and those changed since the last look."""
+        with self._lock:
+            changed, self._changed = self._changed, set()
+        kept = sum(self.release(aid, student) for aid, student in changed)
+        if self.now() - self._swept >= SWEEP_SECONDS:
+            self._swept = self.now()
+            for aid in self.store.linked_assignments():
+                a = self.course.store.assignment(aid)
+                if a is None:
+                    continue
+                for m in self.course.store.students(aid):
+                    if m["lti_user"]:
+                        kept += self.release(aid, m["student"])
+        return kept
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="lti-grades", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                self.sweep()
+                self.post_due()
+            except Exception:  # noqa: BLE001 (the poster carries on: its rows say what is left)
+                log.exception("grades back: a round failed")
+            self._wake.wait(5.0)
+            self._wake.clear()
+
+    # -- the roster from the LMS (NRPS) --------------------------------------------------------
+
+    def sync_quietly(self, cid: str) -> None:
+        try:
+            self.sync(cid)
+        except Exception as e:  # noqa: BLE001 (a launch does not wait for it; the dashboard shows the last sync)
+            log.warning("roster of course %s not read from the LMS: %s", cid, e)
+
+    def sync(self, cid: str) -> dict:
+        """Read the roster of each LMS course linked to `cid` (every page) into its members and staff."""
+        from server.lti.launch import course_role
+
+        added, seen = 0, 0
+        for ctx in self.store.contexts(cid):
+            platform = self.platforms(ctx["platform_id"])
+            if platform is None or not ctx["memberships_url"]:
+                continue
+            for m in self.services.members(platform, ctx["memberships_url"]):
+                if (m.get("status") or "Active") != "Active":
+                    continue
+                role = course_role(m.get("roles") or [])
+                if role not in ("student",):
+                    continue
+                seen += 1
+                who = f"{platform['id']}:{m['user_id']}"
+                if self.course.store.by_lti(cid, "student", who) is not None:
+                    continue
+                launch = _Member(m)
+                self.person(cid, platform, launch, "student")
+                added += 1
+            self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
+        return {"course": cid, "members": seen, "added": added}
+
+    def board(self, aid: str, cid: str) -> dict | None:
+        """What the dashboard shows of the LMS: None for a course that is in none."""
+        contexts = self.store.contexts(cid)
+        if not contexts:
+            return None
+        synced = [c["synced_at"] for c in contexts if c["synced_at"]]
+        return {"contexts": [c["title"] for c in contexts], "linked": bool(self.store.links(aid)),
+                "roster_synced_at": max(synced) if synced else None, "grades": self.store.scores(aid)}  # fmt: skip
+
+
+class _Member:
+    """An NRPS member as `person` reads a launch."""
+
+    def __init__(self, m: dict):
+        self.sub = m["user_id"]
+        self.name = m.get("name") or ""
+        self.given_name, self.family_name = m.get("given_name"), m.get("family_name")
+        self.email = m.get("email") or ""
+        self.claims = {
+            "https://purl.imsglobal.org/spec/lti/claim/lis": {"person_sourcedid": m.get("lis_person_sourcedid")}
+        }
