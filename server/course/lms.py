@@ -43,6 +43,9 @@ from server.core.db import Tables
 from server.course.people import COURSE_ID
 from server.course.policy import Feedback, When
 from server.course.service import Course
+from server.lti.roles import course_role
+from server.lti.services import deep_link_response
+from server.lti.services import score as score_json
 from tracer.grading import student_name
 
 log = logging.getLogger(__name__)
@@ -290,6 +293,7 @@ class Lms:
         self._wake = threading.Event()
         self._changed: set[tuple[str, str]] = set()
         self._lock = threading.Lock()
+        self._posting = threading.Lock()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._swept = 0.0
@@ -303,8 +307,6 @@ class Lms:
         return await run_in_threadpool(self.launch, launch, str(request.base_url))
 
     def launch(self, launch, base: str) -> Response:
-        from server.lti.launch import course_role
-
         role = course_role(launch.roles)
         platform = launch.platform
         if role is None:
@@ -441,8 +443,6 @@ class Lms:
     def picked(self, pid: str, aid: str, base: str) -> Response:
         """The picker's choice: a deep link's answer to the LMS (a signed LtiDeepLinkingResponse, posted back by
         the browser), or a link bound to the assignment (then opened)."""
-        from server.lti.services import deep_link_response
-
         pick = self.store.take_pick(pid, self.now())
         if pick is None:
             return refused("This choice has expired", "Pick again: open the tool from the LMS once more.", 400)
@@ -526,10 +526,12 @@ class Lms:
         return kept
 
     def post_due(self) -> int:
-        """Post the scores that are due (one round); a failure leaves its row pending with a later try. The
-        number posted."""
-        from server.lti.services import score as score_json
+        """Post the scores that are due (one round at a time); a failure leaves its row pending with a later
+        try. The number posted."""
+        with self._posting:
+            return self._post_due()
 
+    def _post_due(self) -> int:
         posted = 0
         for row in self.store.due(self.now(), POST_BATCH):
             platform = self.platforms(row["platform_id"])
@@ -597,8 +599,6 @@ class Lms:
 
     def sync(self, cid: str) -> dict:
         """Read the roster of each LMS course linked to `cid` (every page) into its members and staff."""
-        from server.lti.launch import course_role
-
         added, seen = 0, 0
         for ctx in self.store.contexts(cid):
             platform = self.platforms(ctx["platform_id"])
