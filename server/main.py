@@ -27,7 +27,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from server.api.routes import assignments, courses, grade, jobs, pages, reference, samples, scenes, tools
+from server.api.routes import assignments, courses, grade, jobs, lms, lti, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
@@ -35,6 +35,7 @@ from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import StartupError, check_data_dir
+from server.course.lms import Lms
 from server.course.service import Course
 from server.grading.runs import GradeRuns
 from server.jobs import lesson_panels
@@ -42,6 +43,7 @@ from server.jobs.janitor import Janitor
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
 from server.jobs.store import JobStore
+from server.lti.tool import LtiTool
 from server.queue.base import make_queue
 from server.queue.embedded.worker import load_kernels
 from tracer.samples import load_kernels as load_sample_kernels
@@ -78,6 +80,11 @@ async def lifespan(app: FastAPI):
         stack.callback(grade_runs.shutdown)
         course = app.state.course = Course(settings, grade_runs, lambda: app.state.clock())
         course.resume()  # submissions a stopped server accepted but had not handed to their grading run
+        lti = app.state.lti = LtiTool(settings.data_dir)  # LTI 1.3: keys, platforms, launches (server/lti/)
+        lms = app.state.lms = Lms(course, lti.services, lti.keys, lti.store.platform)  # what a launch opens
+        lti.handler = lms
+        lms.start()  # grades back to the LMS: the rows a stopped server left are posted too
+        stack.callback(lms.stop)
         previews = app.state.previews = Previews(settings, jobs, SCENES)
         if settings.previews_ahead:  # the examples' pictures, rendered by the workers before anyone asks
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
@@ -143,7 +150,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
-    app.state.course = None
+    app.state.course = app.state.lti = app.state.lms = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
@@ -156,7 +163,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         streamed={grade.UPLOAD: upload}, body_timeout=settings.body_timeout, budget=budget,
     )  # fmt: skip
     app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
-    app.add_middleware(SecurityHeaders)  # the outermost: every answer has its policy, nosniff, no framing
+    # the outermost: every answer has its policy, nosniff, no framing but by the registered LTI platforms
+    app.add_middleware(SecurityHeaders, frame_ancestors=lambda: app.state.lti.origins() if app.state.lti else [])
     app.include_router(jobs.router)
     app.include_router(tools.router)
     app.include_router(samples.router)
@@ -165,6 +173,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(assignments.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
+    app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms
+    app.include_router(lms.router)  # the course's side of LTI: /lti/pick, an LMS course's roster, grades back
     app.include_router(pages.router)  # /assignments/{id} and /course: the course's pages of web/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

@@ -23,8 +23,8 @@
   1..65535 (`host_name`): anything else names no host. A server listening on every address (0.0.0.0, ::)
   with no list accepts any Host, and warns at start-up.
 - **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
-  assets (and /docs its one inline script, by hash), no MIME sniffing, no framing, no referrer
-  to other sites.
+  assets (and /docs its one inline script, by hash), no MIME sniffing, no framing (but of the pages an LMS
+  shows, by the registered LTI platforms: `frame_ancestors`), no referrer to other sites.
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ import ipaddress
 import logging
 import re
 import secrets
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -295,11 +296,24 @@ def docs_policy(html: bytes) -> str:
     )
 
 
-class SecurityHeaders:
-    """ASGI middleware: every answer gets the content security policy and the headers above."""
+FRAMED_PREFIXES, FRAMED_PATHS = ("/lti/", "/assignments/"), ("/", "/course")  # the pages an LMS may frame
 
-    def __init__(self, app: ASGIApp):
-        self.app = app
+
+def framed_policy(origins: list[str]) -> str:
+    """POLICY for a page that the LTI platforms at `origins` may frame (and post forms to: a deep link's answer)."""
+    allowed = " ".join(origins)
+    return POLICY.replace("frame-ancestors 'none'", f"frame-ancestors 'self' {allowed}").replace(
+        "form-action 'self'", f"form-action 'self' {allowed}"
+    )
+
+
+class SecurityHeaders:
+    """ASGI middleware: every answer gets the content security policy and the headers above. `frame_ancestors`
+    (optional): the origins that may frame the pages an LMS shows (LTI, server/lti/): when it names some, those
+    pages get `frame-ancestors 'self' <origins>` and no X-Frame-Options."""
+
+    def __init__(self, app: ASGIApp, frame_ancestors: Callable[[], list[str]] | None = None):
+        self.app, self.frame_ancestors = app, frame_ancestors
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -308,10 +322,16 @@ class SecurityHeaders:
         if scope["path"] in DOCS_PATHS:
             await self._docs(scope, receive, send)
             return
+        policy, framed = POLICY, False
+        path = scope["path"]
+        if self.frame_ancestors and (path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES)):
+            origins = self.frame_ancestors()
+            if origins:
+                policy, framed = framed_policy(origins), True
 
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
-                message["headers"] = _with(message.get("headers") or [], POLICY)
+                message["headers"] = _with(message.get("headers") or [], policy, framed)
             await send(message)
 
         await self.app(scope, receive, send_with_headers)
@@ -335,8 +355,8 @@ class SecurityHeaders:
         await self.app(scope, receive, held)
 
 
-def _with(headers, policy: str) -> list:
-    have = {k.lower() for k, _ in headers}
+def _with(headers, policy: str, framed: bool = False) -> list:
+    have = {k.lower() for k, _ in headers} | ({b"x-frame-options"} if framed else set())
     out = list(headers) + [(k, v) for k, v in HEADERS if k not in have]
     if b"content-security-policy" not in have:
         out.append((b"content-security-policy", policy.encode()))

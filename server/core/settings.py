@@ -141,6 +141,13 @@ class Settings(SceneLimits):
         description="host names the server answers to (the Host header), comma-separated, besides the loopback "
         "names and the address it listens on; '.example.edu' names its subdomains too; '*': any",
     )
+    lti_leeway: Duration = Field(
+        60.0,
+        ge=0,
+        le=600,
+        description="LTI launches (server/lti/): seconds of clock difference allowed between a platform and this "
+        "server when checking an id_token's exp and iat",
+    )
 
     # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
     max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")

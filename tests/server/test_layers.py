@@ -17,10 +17,12 @@ LAYERS = {  # a package of server/ -> what of server/ its modules may import (a 
     "server.checkers": {"server.core"},  # the scene checking processes
     "server.queue": {"server.core", "server.jobs"},  # the interface, the render try, embedded/ and redis/
     "server.grading": {"server.core", "server.jobs"},  # grading runs, their store, uploads
-    "server.course": {"server.core", "server.jobs", "server.grading"},  # assignments, rosters, submissions, grades
+    "server.lti": {"server.core"},  # LTI 1.3: the tool's keys, platforms, launch checks, the Advantage services
+    # courses, their people, assignments, rosters, submissions, grades; what an LTI launch opens
+    "server.course": {"server.core", "server.jobs", "server.grading", "server.lti"},
     # the routes: the job service and its store, and the queue's interface only (never a backend)
     "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.course",
-                   "server.queue.base"},
+                   "server.lti", "server.queue.base"},
 }
 
 

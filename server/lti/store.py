@@ -1,0 +1,239 @@
+"""The LTI tables, in the data directory's database (DATA/jobs.sqlite3) beside the jobs and the course.
+
+- `lti_platforms`: one per registered platform (an LMS and the client id it gave this tool): its issuer, the
+  URLs of its OIDC auth request, access tokens and JWKS. A short hex `id` names it in the command and the API.
+- `lti_deployments`: the deployment ids a platform's launches may carry (one per place the tool is installed).
+- `lti_logins`: logins in flight: the OIDC `state` and `nonce` the tool made at /lti/login (256 random bits
+  each), taken once by the launch that comes back with them, and only within `max_age` seconds.
+- `lti_nonces`: the nonces of verified launches, so that an id_token is accepted once (kept until an hour
+  past its expiry, then pruned).
+
+Every write is one statement or one transaction (server/core/db.py); each thread has its own connection.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import re
+import secrets
+from pathlib import Path
+from urllib.parse import urlsplit
+
+from server.core.db import Tables
+from server.core.errors import ApiError
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS lti_platforms (
+    id TEXT PRIMARY KEY,                  -- 12 hex digits
+    issuer TEXT NOT NULL,                 -- the id_token's `iss` (Canvas: https://canvas.instructure.com)
+    client_id TEXT NOT NULL,              -- the id_token's `aud`: this tool at that platform
+    name TEXT NOT NULL DEFAULT '',
+    auth_url TEXT NOT NULL,               -- the OIDC authentication request's endpoint
+    token_url TEXT NOT NULL,              -- OAuth 2 access tokens (client credentials) for the services
+    jwks_url TEXT NOT NULL,               -- the platform's public keys
+    created_at REAL NOT NULL,             -- Unix time (s)
+    UNIQUE (issuer, client_id)
+);
+CREATE TABLE IF NOT EXISTS lti_deployments (
+    platform_id TEXT NOT NULL,
+    deployment_id TEXT NOT NULL,
+    PRIMARY KEY (platform_id, deployment_id)
+);
+CREATE TABLE IF NOT EXISTS lti_logins (
+    state TEXT PRIMARY KEY,               -- 256 random bits (base64url): the OIDC `state`
+    nonce TEXT NOT NULL,                  -- 256 random bits: the id_token must carry it
+    platform_id TEXT NOT NULL,
+    target_link_uri TEXT NOT NULL,
+    created_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS lti_nonces (
+    platform_id TEXT NOT NULL,
+    nonce TEXT NOT NULL,
+    exp REAL NOT NULL,                    -- the id_token's expiry: the row is pruned an hour after it
+    PRIMARY KEY (platform_id, nonce)
+);
+"""
+
+URL_FIELDS = ("issuer", "auth_url", "token_url", "jwks_url")
+HOST = re.compile(r"[a-z0-9_-]+(?:\.[a-z0-9_-]+)*\.?|[0-9a-f:.]+")  # a DNS name, IPv4, or IPv6 (unbracketed)
+MAX_TEXT = 2048  # characters of a URL, client id, deployment id or name
+LOGIN_KEEP = 3600  # seconds: logins never taken are pruned after this
+NONCE_KEEP = 3600  # seconds past a nonce's token's expiry that it is kept
+
+
+def loopback_host(host: str) -> bool:
+    name = host.strip("[]").lower().rstrip(".")
+    if name == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
+def url_problem(value: object) -> str | None:
+    """Why `value` is no URL a platform may have (None: it is one): https, or http on a loopback host only."""
+    if not isinstance(value, str) or not value:
+        return "expected a URL (https://...)"
+    if len(value) > MAX_TEXT or any(c.isspace() for c in value):
+        return f"expected a URL of at most {MAX_TEXT} characters without spaces"
+    try:
+        parts = urlsplit(value)
+        host = parts.hostname or ""
+        parts.port  # noqa: B018 (raises ValueError for a port that is not one)
+    except ValueError:
+        return f"expected a URL; got {value[:100]!r}"
+    if not HOST.fullmatch(host):
+        return f"expected a URL with a host name; got {value[:100]!r}"
+    if parts.scheme == "https":
+        return None
+    if parts.scheme == "http" and loopback_host(host):
+        return None
+    return f"expected an https:// URL (http:// only on 127.0.0.1, localhost or [::1]); got {value[:100]!r}"
+
+
+def text_problem(value: object, what: str) -> str | None:
+    if not isinstance(value, str) or not value.strip():
+        return f"expected {what}: a non-empty text"
+    if len(value) > MAX_TEXT:
+        return f"expected {what} of at most {MAX_TEXT} characters"
+    return None
+
+
+def check_platform(values: dict) -> None:
+    """ApiError(422) naming every field of a platform's registration that is wrong."""
+    errors = [{"path": f, "message": m} for f in URL_FIELDS if (m := url_problem(values.get(f)))]
+    if m := text_problem(values.get("client_id"), "the client id the platform gave this tool"):
+        errors.append({"path": "client_id", "message": m})
+    deployments = values.get("deployment_ids")
+    if not isinstance(deployments, list):
+        errors.append({"path": "deployment_ids", "message": "expected a list of deployment ids"})
+    else:
+        for i, d in enumerate(deployments):
+            if m := text_problem(d, "a deployment id"):
+                errors.append({"path": f"deployment_ids[{i}]", "message": m})
+    name = values.get("name", "")
+    if not isinstance(name, str) or len(name) > MAX_TEXT:
+        errors.append({"path": "name", "message": f"expected a text of at most {MAX_TEXT} characters"})
+    if errors:
+        raise ApiError(422, errors)
+
+
+class LtiStore(Tables):
+    def __init__(self, data_dir: Path):
+        super().__init__(data_dir, SCHEMA)
+
+    # -- platforms -------------------------------------------------------------------------------
+
+    def register(
+        self, issuer: str, client_id: str, auth_url: str, token_url: str, jwks_url: str,
+        deployment_ids: list[str], name: str = "", now: float = 0.0,
+    ) -> dict:  # fmt: skip
+        """The platform of (issuer, client_id), made or updated: its URLs and name, and its deployment ids
+        replaced by `deployment_ids` (ApiError 422 naming the field of a wrong value)."""
+        values = dict(issuer=issuer, client_id=client_id, auth_url=auth_url, token_url=token_url, jwks_url=jwks_url)
+        check_platform({**values, "deployment_ids": deployment_ids, "name": name})
+        with self._tx() as db:
+            row = db.execute(
+                "SELECT id FROM lti_platforms WHERE issuer = ? AND client_id = ?", (issuer, client_id)
+            ).fetchone()
+            pid = row["id"] if row else secrets.token_hex(6)
+            if row:
+                db.execute(
+                    "UPDATE lti_platforms SET auth_url = ?, token_url = ?, jwks_url = ?, name = ? WHERE id = ?",
+                    (auth_url, token_url, jwks_url, name, pid),
+                )
+            else:
+                db.execute(
+                    "INSERT INTO lti_platforms (id, issuer, client_id, name, auth_url, token_url, jwks_url, created_at)"
+                    " VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                    (pid, issuer, client_id, name, auth_url, token_url, jwks_url, now),
+                )
+            db.execute("DELETE FROM lti_deployments WHERE platform_id = ?", (pid,))
+            db.executemany(
+                "INSERT OR IGNORE INTO lti_deployments (platform_id, deployment_id) VALUES (?, ?)",
+                [(pid, d) for d in deployment_ids],
+            )
+        return self.platform(pid)
+
+    def add_deployment(self, platform_id: str, deployment_id: str) -> dict | None:
+        """The platform with one more deployment id (None: no such platform)."""
+        if m := text_problem(deployment_id, "a deployment id"):
+            raise ApiError(422, [{"path": "deployment_id", "message": m}])
+        with self._tx() as db:
+            if db.execute("SELECT 1 FROM lti_platforms WHERE id = ?", (platform_id,)).fetchone() is None:
+                return None
+            db.execute(
+                "INSERT OR IGNORE INTO lti_deployments (platform_id, deployment_id) VALUES (?, ?)",
+                (platform_id, deployment_id),
+            )
+        return self.platform(platform_id)
+
+    def platform(self, platform_id: str) -> dict | None:
+        row = self.db.execute("SELECT * FROM lti_platforms WHERE id = ?", (platform_id,)).fetchone()
+        return self._with_deployments(row) if row else None
+
+    def find(self, issuer: str, client_id: str | None = None) -> dict | None:
+        """The platform of `issuer` and `client_id`; without a client id, the only one of that issuer (None when
+        there are none or several)."""
+        if client_id is not None:
+            sql, args = "SELECT * FROM lti_platforms WHERE issuer = ? AND client_id = ?", (issuer, client_id)
+        else:
+            sql, args = "SELECT * FROM lti_platforms WHERE issuer = ? LIMIT 2", (issuer,)
+        rows = self.db.execute(sql, args).fetchall()
+        return self._with_deployments(rows[0]) if len(rows) == 1 else None
+
+    def platforms(self) -> list[dict]:
+        rows = self.db.execute("SELECT * FROM lti_platforms ORDER BY created_at, id").fetchall()
+        return [self._with_deployments(r) for r in rows]
+
+    def remove(self, platform_id: str) -> bool:
+        with self._tx() as db:
+            gone = db.execute("DELETE FROM lti_platforms WHERE id = ?", (platform_id,)).rowcount
+            for table in ("lti_deployments", "lti_logins", "lti_nonces"):
+                db.execute(f"DELETE FROM {table} WHERE platform_id = ?", (platform_id,))
+        return bool(gone)
+
+    def _with_deployments(self, row) -> dict:
+        out = dict(row)
+        rows = self.db.execute(
+            "SELECT deployment_id FROM lti_deployments WHERE platform_id = ? ORDER BY rowid", (out["id"],)
+        ).fetchall()
+        out["deployment_ids"] = [r["deployment_id"] for r in rows]
+        return out
+
+    # -- logins in flight --------------------------------------------------------------------------
+
+    def new_login(self, platform_id: str, target_link_uri: str, now: float) -> tuple[str, str]:
+        """A fresh (state, nonce) for a login to `platform_id`, kept with its time (old ones pruned)."""
+        state, nonce = secrets.token_urlsafe(32), secrets.token_urlsafe(32)
+        with self._tx() as db:
+            db.execute("DELETE FROM lti_logins WHERE created_at < ?", (now - LOGIN_KEEP,))
+            db.execute(
+                "INSERT INTO lti_logins (state, nonce, platform_id, target_link_uri, created_at)"
+                " VALUES (?, ?, ?, ?, ?)",
+                (state, nonce, platform_id, target_link_uri[:MAX_TEXT], now),
+            )
+        return state, nonce
+
+    def take_login(self, state: str, now: float, max_age: float = 600) -> dict | None:
+        """The login of `state`, deleted (a state is used once); None if unknown, used or older than `max_age` s."""
+        with self._tx() as db:
+            row = db.execute("SELECT * FROM lti_logins WHERE state = ?", (state,)).fetchone()
+            if row is None:
+                return None
+            db.execute("DELETE FROM lti_logins WHERE state = ?", (state,))
+        return dict(row) if now - row["created_at"] <= max_age else None
+
+    # -- nonces seen -------------------------------------------------------------------------------
+
+    def use_nonce(self, platform_id: str, nonce: str, exp: float, now: float) -> bool:
+        """True the first time a platform's `nonce` is used; False after (a replay). Rows of tokens that expired
+        more than NONCE_KEEP s ago are pruned."""
+        with self._tx() as db:
+            db.execute("DELETE FROM lti_nonces WHERE exp < ?", (now - NONCE_KEEP,))
+            added = db.execute(
+                "INSERT OR IGNORE INTO lti_nonces (platform_id, nonce, exp) VALUES (?, ?, ?)",
+                (platform_id, nonce, exp),
+            ).rowcount
+        return added == 1

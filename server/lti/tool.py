@@ -1,0 +1,62 @@
+"""The LTI tool as the app holds it (`app.state.lti`): its keys, its tables, the platforms' key sets, the
+service client, the launch handler, its clock, and the origins of the registered platforms (which may frame
+the tool's pages: server/core/security.py's `frame_ancestors`)."""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from urllib.parse import urlsplit
+
+from server.lti.handler import EchoHandler, LaunchHandler
+from server.lti.keys import ToolKeys
+from server.lti.launch import JwksCache
+from server.lti.services import ServiceClient
+from server.lti.store import LtiStore
+
+ORIGIN = re.compile(r"https?://(?:[a-z0-9._-]+|\[[0-9a-f:.]+\])(?::[0-9]{1,5})?")
+ORIGINS_TTL = 60.0  # seconds: platforms registered by the command line (another process) are seen this late
+
+
+def origin(url: str) -> str | None:
+    """scheme://host[:port] of `url`, or None when it is no plain web origin (nothing a CSP could misread)."""
+    try:
+        parts = urlsplit(url)
+        port = parts.port
+    except ValueError:
+        return None
+    host = parts.hostname or ""
+    host = f"[{host}]" if ":" in host else host
+    text = f"{parts.scheme}://{host}" + (f":{port}" if port else "")
+    return text if ORIGIN.fullmatch(text) else None
+
+
+class LtiTool:
+    def __init__(self, data_dir: Path, clock: Callable[[], float] = time.time):
+        self.keys = ToolKeys(Path(data_dir) / "lti")
+        self.store = LtiStore(data_dir)
+        self.jwks = JwksCache()
+        self.services = ServiceClient(self.keys)
+        self.handler: LaunchHandler = EchoHandler()
+        self.clock = clock  # Unix time: logins' ages, tokens' times
+        self._origins: tuple[float, list[str]] | None = None
+        self._lock = threading.Lock()
+
+    def origins(self) -> list[str]:
+        """The origins of the registered platforms' issuers and auth URLs (cached; `refresh` after a change)."""
+        with self._lock:
+            if self._origins is not None and time.monotonic() - self._origins[0] < ORIGINS_TTL:
+                return self._origins[1]
+        found = set()
+        for p in self.store.platforms():
+            found |= {o for o in (origin(p["issuer"]), origin(p["auth_url"])) if o}
+        with self._lock:
+            self._origins = (time.monotonic(), sorted(found))
+        return self._origins[1]
+
+    def refresh(self) -> None:
+        with self._lock:
+            self._origins = None

@@ -1,0 +1,390 @@
+"""A small LTI 1.3 platform (an LMS) for the tests, served for real on 127.0.0.1 by uvicorn in a thread.
+
+`Platform` has its own RSA key and serves what a tool talks to: its key set (`GET /jwks`, counted), the OIDC
+authentication request (`GET /auth`, recorded), access tokens (`POST /token`: the client assertion checked
+against the TOOL's key set), Assignment and Grade Services (line items per context, scores: recorded, with the
+strictly increasing timestamps Canvas and the specification require; `down` answers 503), Names and Role
+Provisioning (`GET /memberships/{context}`, paged by `?limit=`), and a deep-linking return URL that verifies the
+tool's answer. `launch_token` signs the id_token of a launch with every claim a real one carries; `do_launch`
+goes through the whole OIDC flow as a browser does.
+
+`LoopbackServer` runs any ASGI app this way (the tool's app too); both stop on leaving, also after a failure.
+"""
+
+from __future__ import annotations
+
+import secrets
+import socket
+import threading
+import time
+from urllib.parse import parse_qs, urlsplit
+
+import httpx
+import uvicorn
+from fastapi import FastAPI, Request
+from fastapi.responses import HTMLResponse, JSONResponse, Response
+from joserfc import jwt
+from joserfc.errors import JoseError
+from joserfc.jwk import KeySet, RSAKey
+
+LTI = "https://purl.imsglobal.org/spec/lti/claim/"
+DL = "https://purl.imsglobal.org/spec/lti-dl/claim/"
+AGS = "https://purl.imsglobal.org/spec/lti-ags/scope/"
+AGS_SCOPES = [AGS + "lineitem", AGS + "lineitem.readonly", AGS + "result.readonly", AGS + "score"]
+NRPS_SCOPE = "https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly"
+LINEITEMS_TYPE = "application/vnd.ims.lis.v2.lineitemcontainer+json"
+LINEITEM_TYPE = "application/vnd.ims.lis.v2.lineitem+json"
+MEMBERS_TYPE = "application/vnd.ims.lti-nrps.v2.membershipcontainer+json"
+LEARNER = "http://purl.imsglobal.org/vocab/lis/v2/membership#Learner"
+INSTRUCTOR = "http://purl.imsglobal.org/vocab/lis/v2/membership#Instructor"
+CONTEXT = {"id": "course-1", "label": "CS-R101", "title": "Rendering 101"}
+START_TIMEOUT = 30  # seconds a server may take to start (the tool's app loads its kernels from the cache)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def new_key() -> RSAKey:
+    key = RSAKey.generate_key(2048, {"alg": "RS256", "use": "sig"}, private=True)
+    key.ensure_kid()
+    return key
+
+
+class LoopbackServer:
+    """An ASGI app served by uvicorn on 127.0.0.1 (a free port) in a daemon thread; `url`; a context manager."""
+
+    def __init__(self, app, port: int | None = None):
+        self.app, self.port = app, port or free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning", lifespan="on")
+        self.server = uvicorn.Server(config)
+        self.thread: threading.Thread | None = None
+
+    def start(self) -> LoopbackServer:
+        self.thread = threading.Thread(target=self.server.run, name=f"uvicorn-{self.port}", daemon=True)
+        self.thread.start()
+        deadline = time.monotonic() + START_TIMEOUT
+        while not self.server.started:
+            assert self.thread.is_alive(), f"the server on {self.url} stopped while starting"
+            assert time.monotonic() < deadline, f"the server on {self.url} did not start in {START_TIMEOUT} s"
+            time.sleep(0.05)
+        return self
+
+    def stop(self) -> None:
+        if self.thread is not None:
+            self.server.should_exit = True
+            self.thread.join(timeout=30)
+            self.thread = None
+
+    def __enter__(self) -> LoopbackServer:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+class Platform:
+    """A test LMS on loopback. `tool_jwks_url` (the tool's key set) must be set before tokens are asked for."""
+
+    def __init__(self, client_id: str = "tool-client-1", deployment_id: str = "deployment-1", name: str = "Test LMS"):
+        self.port = free_port()
+        self.url = self.issuer = f"http://127.0.0.1:{self.port}"
+        self.client_id, self.deployment_id, self.name = client_id, deployment_id, name
+        self.key = new_key()
+        self.keys = [self.key]  # the published key set (a test may rotate)
+        self.tool_jwks_url: str | None = None
+        self.jwks_hits = 0  # GET /jwks
+        self.auth_requests: list[dict] = []  # GET /auth's query parameters
+        self.token_requests: list[dict] = []  # POST /token's forms (the granted scope added)
+        self.tokens: dict[str, set[str]] = {}  # access token -> its scopes
+        self.scores: list[dict] = []  # every score accepted, with its line item's id ("lineitem")
+        self.down = False  # the score endpoint answers 503
+        self.line_items: dict[str, dict] = {}  # id -> line item (its "context" key: the context's id)
+        self.members: dict[str, list[dict]] = {"course-1": [member(i) for i in range(5)]}
+        self.deep_links: list[dict] = []  # the content items of each verified deep-linking answer
+        self.last: dict = {}  # the last do_launch's state, nonce, id_token, cookie
+        self.line_items["li-1"] = {"id": f"{self.url}/lineitems/li-1", "label": "Ray trees", "scoreMaximum": 10,
+                                   "resourceLinkId": "link-1", "context": "course-1"}  # fmt: skip
+        self.server = LoopbackServer(self._app(), self.port)
+
+    # -- running ------------------------------------------------------------------------------------
+
+    def start(self) -> Platform:
+        self.server.start()
+        return self
+
+    def stop(self) -> None:
+        self.server.stop()
+
+    def __enter__(self) -> Platform:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+    @property
+    def auth_url(self) -> str:
+        return self.url + "/auth"
+
+    @property
+    def token_url(self) -> str:
+        return self.url + "/token"
+
+    @property
+    def jwks_url(self) -> str:
+        return self.url + "/jwks"
+
+    def registration(self) -> dict:
+        """The values a tool registers this platform with (LtiStore.register's keywords)."""
+        return dict(issuer=self.issuer, client_id=self.client_id, auth_url=self.auth_url, token_url=self.token_url,
+                    jwks_url=self.jwks_url, deployment_ids=[self.deployment_id], name=self.name)  # fmt: skip
+
+    # -- launches -------------------------------------------------------------------------------------
+
+    def launch_token(
+        self, *, nonce: str, sub: str = "student-1", roles: list[str] | None = None, context: dict | None = None,
+        resource_link: dict | None = None, message_type: str = "LtiResourceLinkRequest",
+        deployment_id: str | None = None, custom: dict | None = None, ags: bool = True, nrps: bool = True,
+        deep_linking: dict | None = None, overrides: dict | None = None, drop: list[str] | None = None,
+        key: RSAKey | None = None, kid: str | None = None, now: float | None = None,
+    ) -> str:  # fmt: skip
+        """An id_token as a platform signs it, with every claim a real launch carries; `overrides` replace or add
+        claims, `drop` removes some, `key` signs with another key (a bad signature), `kid` names another key."""
+        now = time.time() if now is None else now
+        context = CONTEXT if context is None else context
+        link = resource_link or {"id": "link-1", "title": "Ray trees", "description": "Whitted's ray trees"}
+        claims = {
+            "iss": self.issuer,
+            "aud": self.client_id,
+            "azp": self.client_id,
+            "sub": sub,
+            "exp": int(now) + 300,
+            "iat": int(now),
+            "nonce": nonce,
+            "name": "Ada Lovelace",
+            "given_name": "Ada",
+            "family_name": "Lovelace",
+            "email": "ada@example.edu",
+            LTI + "message_type": message_type,
+            LTI + "version": "1.3.0",
+            LTI + "deployment_id": deployment_id or self.deployment_id,
+            LTI + "target_link_uri": "https://tool.example.edu/lti/launch",
+            LTI + "roles": roles if roles is not None else [LEARNER],
+            LTI + "context": {**context, "type": ["http://purl.imsglobal.org/vocab/lis/v2/course#CourseOffering"]},
+            LTI + "custom": custom or {},
+            LTI + "launch_presentation": {"document_target": "iframe", "locale": "en"},
+            LTI + "tool_platform": {"guid": "test-lms", "name": self.name, "product_family_code": "test"},
+        }
+        if message_type == "LtiResourceLinkRequest":
+            claims[LTI + "resource_link"] = link
+        if deep_linking is not None or message_type == "LtiDeepLinkingRequest":
+            claims[DL + "deep_linking_settings"] = deep_linking or {
+                "deep_link_return_url": self.url + "/deep_link_return",
+                "accept_types": ["ltiResourceLink"],
+                "accept_presentation_document_targets": ["iframe", "window"],
+                "accept_multiple": True,
+                "data": "opaque-data-1",
+            }
+        if ags:
+            cid = context.get("id", "course-1")
+            claims["https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"] = {
+                "scope": AGS_SCOPES,
+                "lineitems": f"{self.url}/lineitems?context={cid}",
+                "lineitem": f"{self.url}/lineitems/li-1?context={cid}",
+            }
+        if nrps:
+            claims["https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"] = {
+                "context_memberships_url": f"{self.url}/memberships/{context.get('id', 'course-1')}",
+                "service_versions": ["2.0"],
+            }
+        claims |= overrides or {}
+        for name in drop or ():
+            claims.pop(name, None)
+        signer = key or self.key
+        header = {"alg": "RS256", "kid": kid or signer.kid, "typ": "JWT"}
+        return jwt.encode(header, claims, signer, algorithms=["RS256"])
+
+    def do_launch(
+        self, client: httpx.Client, tool_base: str, *, method: str = "GET", login: dict | None = None,
+        token: str | None = None, state: str | None = None, cookie: bool = True, **token_args,
+    ) -> httpx.Response:  # fmt: skip
+        """The OIDC flow as a browser goes through it: the tool's /lti/login (GET or POST), the redirect to this
+        platform's /auth (recorded; state and nonce read from it), then the id_token (`launch_token(**token_args)`,
+        or `token`) and the state (or `state`) posted to the tool's /lti/launch with the state's cookie (a browser
+        sends it: 127.0.0.1 is a secure context; `cookie=False`: blocked). The launch's response."""
+        params = {"iss": self.issuer, "login_hint": "user-hint-1", "target_link_uri": tool_base + "/lti/launch",
+                  "lti_message_hint": "message-hint-1", "client_id": self.client_id,
+                  "lti_deployment_id": self.deployment_id} | (login or {})  # fmt: skip
+        if method == "GET":
+            r = client.get(tool_base + "/lti/login", params=params)
+        else:
+            r = client.post(tool_base + "/lti/login", data=params)
+        assert r.status_code == 302, r.text
+        auth = client.get(r.headers["location"])
+        assert auth.status_code == 200, auth.text
+        query = self.auth_requests[-1]
+        jar = {c.split("=", 1)[0]: c.split("=", 1)[1].split(";", 1)[0] for c in r.headers.get_list("set-cookie")}
+        token = token or self.launch_token(nonce=query["nonce"], **token_args)
+        self.last = {"state": query["state"], "nonce": query["nonce"], "id_token": token, "cookies": jar}
+        headers = {"Cookie": "; ".join(f"{k}={v}" for k, v in jar.items())} if cookie and jar else {}
+        form = {"id_token": token, "state": state or query["state"]}
+        return client.post(query["redirect_uri"], data=form, headers=headers)
+
+    # -- the platform's app ------------------------------------------------------------------------------
+
+    def _app(self) -> FastAPI:
+        app = FastAPI()
+
+        @app.get("/jwks")
+        def jwks():
+            self.jwks_hits += 1
+            return {"keys": [k.as_dict(private=False) | {"alg": "RS256", "use": "sig"} for k in self.keys]}
+
+        @app.get("/auth")
+        def auth(request: Request):
+            query = dict(request.query_params)
+            self.auth_requests.append(query)
+            return {"received": query}
+
+        @app.post("/token")
+        async def token(request: Request):
+            form = dict(await request.form())
+            return self._token(form)
+
+        @app.get("/lineitems")
+        def line_items(request: Request, context: str = "course-1", resource_link_id: str | None = None):
+            if error := self._refused(request, AGS + "lineitem", AGS + "lineitem.readonly"):
+                return error
+            items = [i for i in self.line_items.values() if i["context"] == context]
+            items = [i for i in items if resource_link_id in (None, i.get("resourceLinkId"))]
+            return JSONResponse(
+                [public(i) for i in items], media_type="application/vnd.ims.lis.v2.lineitemcontainer+json"
+            )
+
+        @app.post("/lineitems")
+        async def new_line_item(request: Request, context: str = "course-1"):
+            if error := self._refused(request, AGS + "lineitem"):
+                return error
+            body = await request.json()
+            lid = "li-" + secrets.token_hex(4)
+            self.line_items[lid] = item = {**body, "id": f"{self.url}/lineitems/{lid}", "context": context}
+            return JSONResponse(public(item), status_code=201, media_type=LINEITEM_TYPE)
+
+        @app.get("/lineitems/{lid}")
+        def line_item(request: Request, lid: str):
+            if error := self._refused(request, AGS + "lineitem", AGS + "lineitem.readonly"):
+                return error
+            if lid not in self.line_items:
+                return JSONResponse({"error": "not found"}, status_code=404)
+            return JSONResponse(public(self.line_items[lid]), media_type=LINEITEM_TYPE)
+
+        @app.post("/lineitems/{lid}/scores")
+        async def scores(request: Request, lid: str):
+            if error := self._refused(request, AGS + "score"):
+                return error
+            if request.headers.get("content-type") != "application/vnd.ims.lis.v1.score+json":
+                return JSONResponse({"error": "unsupported content type"}, status_code=415)
+            if self.down:
+                return JSONResponse({"error": "down for maintenance"}, status_code=503)
+            if lid not in self.line_items:
+                return JSONResponse({"error": "not found"}, status_code=404)
+            score = await request.json()
+            before = [s for s in self.scores if s["lineitem"] == lid and s["userId"] == score.get("userId")]
+            if (
+                before and score.get("timestamp", "") <= before[-1]["timestamp"]
+            ):  # same format: text order is time order
+                return JSONResponse({"error": "timestamp not later than the last score's"}, status_code=409)
+            self.scores.append({**score, "lineitem": lid})
+            return Response(status_code=204)
+
+        @app.get("/memberships/{context}")
+        def memberships(request: Request, context: str, limit: int = 0, page: int = 0):
+            if error := self._refused(request, NRPS_SCOPE):
+                return error
+            everyone = self.members.get(context, [])
+            shown = everyone[page * limit : (page + 1) * limit] if limit else everyone
+            headers = {}
+            if limit and (page + 1) * limit < len(everyone):
+                headers["Link"] = f'<{self.url}/memberships/{context}?limit={limit}&page={page + 1}>; rel="next"'
+            body = {"id": str(request.url), "context": {"id": context}, "members": shown}
+            return JSONResponse(body, headers=headers, media_type=MEMBERS_TYPE)
+
+        @app.post("/deep_link_return")
+        async def deep_link_return(request: Request):
+            form = dict(await request.form())
+            claims = self._tool_jwt(str(form.get("JWT", "")))
+            assert claims["iss"] == self.client_id and claims["aud"] == self.issuer, claims
+            assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse", claims
+            assert claims[LTI + "deployment_id"] == self.deployment_id and claims[LTI + "version"] == "1.3.0"
+            self.deep_links.append(claims)
+            return HTMLResponse("<p>content items received</p>")
+
+        return app
+
+    def _tool_jwt(self, token: str) -> dict:
+        """The claims of a JWT the tool signed, verified with the tool's published key set (fetched now)."""
+        keys = KeySet.import_key_set(httpx.get(self.tool_jwks_url, timeout=5).json())
+        return jwt.decode(token, keys, algorithms=["RS256"]).claims
+
+    def _token(self, form: dict) -> JSONResponse:
+        def refuse(error: str, why: str) -> JSONResponse:
+            return JSONResponse(
+                {"error": error, "error_description": why}, status_code=401 if error == "invalid_client" else 400
+            )
+
+        if form.get("grant_type") != "client_credentials":
+            return refuse("unsupported_grant_type", "expected client_credentials")
+        if form.get("client_assertion_type") != "urn:ietf:params:oauth:client-assertion-type:jwt-bearer":
+            return refuse("invalid_request", "expected a JWT client assertion")
+        try:
+            claims = self._tool_jwt(str(form.get("client_assertion", "")))
+        except (JoseError, ValueError, httpx.HTTPError) as e:
+            return refuse("invalid_client", f"the client assertion does not verify: {e}")
+        aud = claims.get("aud")
+        if claims.get("iss") != self.client_id or claims.get("sub") != self.client_id:
+            return refuse("invalid_client", "iss and sub must be the client id")
+        if self.token_url not in ([aud] if isinstance(aud, str) else aud or []):
+            return refuse("invalid_client", "aud must be the token URL")
+        if not isinstance(claims.get("exp"), int) or claims["exp"] <= time.time() or not claims.get("jti"):
+            return refuse("invalid_client", "expired, or no jti")
+        scopes = set(str(form.get("scope", "")).split()) & {*AGS_SCOPES, NRPS_SCOPE}
+        token = secrets.token_urlsafe(24)
+        self.tokens[token] = scopes
+        self.token_requests.append({**form, "granted": sorted(scopes)})
+        return JSONResponse(
+            {"access_token": token, "token_type": "Bearer", "expires_in": 3600, "scope": " ".join(sorted(scopes))}
+        )
+
+    def _refused(self, request: Request, *scopes: str) -> JSONResponse | None:
+        """401 without a known bearer token, 403 when it has none of `scopes`; None when it may."""
+        scheme, _, token = request.headers.get("authorization", "").partition(" ")
+        if scheme.lower() != "bearer" or token not in self.tokens:
+            return JSONResponse({"error": "invalid_token"}, status_code=401)
+        if not self.tokens[token] & set(scopes):
+            return JSONResponse({"error": "insufficient_scope"}, status_code=403)
+        return None
+
+
+def member(i: int) -> dict:
+    """The i-th member of the test course: an instructor first, then students."""
+    return {
+        "status": "Active",
+        "name": f"Person {i}",
+        "given_name": "Person",
+        "family_name": str(i),
+        "email": f"person{i}@example.edu",
+        "user_id": f"user-{i}",
+        "lis_person_sourcedid": f"sis-{i}",
+        "roles": [INSTRUCTOR] if i == 0 else [LEARNER],
+    }
+
+
+def public(item: dict) -> dict:
+    return {k: v for k, v in item.items() if k != "context"}
+
+
+def query_of(url: str) -> dict:
+    return {k: v[0] for k, v in parse_qs(urlsplit(url).query).items()}

@@ -1,0 +1,214 @@
+"""Launches through the real OIDC flow, against the service on loopback and a test platform: the one that
+passes, and every one that must be refused, each refused with a page naming its check and nothing issued."""
+
+from __future__ import annotations
+
+import html
+import time
+
+import pytest
+from lti_platform import INSTRUCTOR, LTI, new_key
+from lti_support import platform, tool  # noqa: F401  (the fixtures)
+
+TA = "http://purl.imsglobal.org/vocab/lis/v2/membership/Instructor#TeachingAssistant"
+
+
+def check_of(r) -> str | None:
+    """The data-check of a refused launch's page (None on any other page)."""
+    text = r.text
+    at = text.find('data-check="')
+    return text[at + 12 : text.index('"', at + 12)] if at >= 0 else None
+
+
+def assert_refused(r, check: str, status: int = 400, words: str = "") -> None:
+    assert r.status_code == status, (r.status_code, r.text)
+    assert check_of(r) == check, r.text
+    assert "<h1>The launch was refused</h1>" in r.text and f"<strong>{check}</strong>: " in r.text
+    assert words in html.unescape(r.text), r.text
+    assert "set-cookie" not in r.headers  # no cookie, no session, no token
+    assert "location" not in r.headers and "token=" not in r.text and "authorization" not in r.headers
+
+
+def test_lti_launch_through_the_oidc_flow_opens_the_handler_page(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, roles=[INSTRUCTOR])
+    assert r.status_code == 200, r.text
+    assert "launched as instructor in Rendering 101" in r.text
+    auth = platform.auth_requests[-1]
+    assert {k: auth[k] for k in ("scope", "response_type", "response_mode", "prompt", "client_id")} == {
+        "scope": "openid", "response_type": "id_token", "response_mode": "form_post", "prompt": "none",
+        "client_id": platform.client_id,
+    }  # fmt: skip
+    assert auth["redirect_uri"] == tool.url + "/lti/launch"
+    assert (auth["login_hint"], auth["lti_message_hint"]) == ("user-hint-1", "message-hint-1")
+    assert len(auth["state"]) >= 43 and len(auth["nonce"]) >= 43  # 256 random bits each
+    assert platform.jwks_hits == 1
+
+
+def test_lti_launch_login_by_post_sets_the_state_cookie_and_works_without_it(tool, platform):  # noqa: F811
+    r = tool.client.post(tool.url + "/lti/login", data={"iss": platform.issuer, "login_hint": "u",
+                         "target_link_uri": tool.url + "/lti/launch", "client_id": platform.client_id})  # fmt: skip
+    assert r.status_code == 302 and r.headers["location"].startswith(platform.auth_url + "?")
+    cookie = r.headers["set-cookie"]
+    state = dict(p.split("=", 1) for p in r.headers["location"].split("?", 1)[1].split("&"))["state"]
+    assert cookie.startswith(f"lti_state_{state[:8]}={state};")
+    for attribute in ("Secure", "HttpOnly", "SameSite=None", "Path=/lti/", "Max-Age=600", "Partitioned"):
+        assert attribute in cookie
+    r = platform.do_launch(tool.client, tool.url, method="POST", cookie=False)  # third-party cookies blocked
+    assert r.status_code == 200 and "launched as student in Rendering 101" in r.text
+
+
+def test_lti_launch_of_a_teaching_assistant_with_the_principal_role_is_a_ta(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, roles=[INSTRUCTOR, TA])
+    assert r.status_code == 200 and "launched as ta in" in r.text
+
+
+def test_lti_launch_refused_with_another_key(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, key=new_key(), kid=platform.key.kid)
+    assert_refused(r, "signature", 401, "does not match")
+
+
+def test_lti_launch_refused_for_an_unknown_kid_after_one_refetch(tool, platform):  # noqa: F811
+    platform.do_launch(tool.client, tool.url)  # the key set is cached
+    assert platform.jwks_hits == 1
+    tool.lti.jwks.min_interval = 0  # (the cache's refetch interval is its own test's)
+    try:
+        r = platform.do_launch(tool.client, tool.url, key=new_key())
+    finally:
+        tool.lti.jwks.min_interval = 60.0
+    assert_refused(r, "kid", 401, "has no key")
+    assert platform.jwks_hits == 2  # fetched again exactly once
+
+
+def test_lti_launch_follows_a_rotated_key(tool, platform):  # noqa: F811
+    platform.do_launch(tool.client, tool.url)
+    platform.key = new_key()
+    platform.keys = [platform.key]
+    tool.lti.jwks.min_interval = 0
+    try:
+        r = platform.do_launch(tool.client, tool.url)
+    finally:
+        tool.lti.jwks.min_interval = 60.0
+    assert r.status_code == 200, r.text
+    assert platform.jwks_hits == 2
+
+
+def test_lti_launch_refused_when_expired(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, now=time.time() - 300 - 61)
+    assert_refused(r, "exp", 400, "this launch expired at")
+
+
+def test_lti_launch_refused_when_issued_in_the_future(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, now=time.time() + 61 + 5)
+    assert_refused(r, "iat", 400, "in the future")
+
+
+@pytest.mark.parametrize("skew", [-300 - 50, 50])
+def test_lti_launch_accepts_clock_skew_within_the_leeway(tool, platform, skew):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, now=time.time() + skew)
+    assert r.status_code == 200, r.text
+
+
+def test_lti_launch_refused_when_replayed_with_a_second_login(tool, platform):  # noqa: F811
+    assert platform.do_launch(tool.client, tool.url).status_code == 200
+    replayed = platform.last["id_token"]
+    r = platform.do_launch(tool.client, tool.url, token=replayed)
+    assert_refused(r, "nonce", 400, "nonce")
+
+
+def test_lti_launch_refused_when_the_nonce_was_used(tool, platform):  # noqa: F811
+    """The same id_token and nonce again (its login's row put back, as a replayed state would): the nonce is
+    seen already."""
+    assert platform.do_launch(tool.client, tool.url).status_code == 200
+    last = platform.last
+    state, _ = tool.lti.store.new_login(platform.registered["id"], "x", tool.lti.clock())
+    tool.lti.store.db.execute("UPDATE lti_logins SET nonce = ? WHERE state = ?", (last["nonce"], state))
+    r = tool.client.post(tool.url + "/lti/launch", data={"id_token": last["id_token"], "state": state})
+    assert_refused(r, "nonce", 400, "<strong>nonce</strong>: this launch was used already")
+
+
+def test_lti_launch_refused_when_its_state_comes_twice(tool, platform):  # noqa: F811
+    assert platform.do_launch(tool.client, tool.url).status_code == 200
+    last = platform.last
+    r = tool.client.post(tool.url + "/lti/launch", data={"id_token": last["id_token"], "state": last["state"]})
+    assert_refused(r, "state", 400, "used already")
+
+
+def test_lti_launch_refused_without_state(tool, platform):  # noqa: F811
+    r = tool.client.post(tool.url + "/lti/launch", data={"id_token": platform.launch_token(nonce="n")})
+    assert_refused(r, "state", 400, "no state")
+
+
+def test_lti_launch_refused_when_the_cookie_is_another_state(tool, platform):  # noqa: F811
+    first = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "u",
+                            "target_link_uri": "t", "client_id": platform.client_id})  # fmt: skip
+    state = first.headers["location"].split("state=")[1].split("&")[0]
+    nonce = first.headers["location"].split("nonce=")[1].split("&")[0]
+    headers = {"Cookie": f"lti_state_{state[:8]}=something-else"}
+    data = {"id_token": platform.launch_token(nonce=nonce), "state": state}
+    assert_refused(tool.client.post(tool.url + "/lti/launch", data=data, headers=headers), "state", 400, "browser")
+
+
+def test_lti_launch_refused_for_another_audience(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={"aud": "someone-else", "azp": "someone-else"})
+    assert_refused(r, "aud", 400, "someone-else")
+
+
+def test_lti_launch_refused_for_several_audiences_without_azp(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={"aud": [platform.client_id, "other"]}, drop=["azp"])
+    assert_refused(r, "azp", 400, "several audiences")
+
+
+def test_lti_launch_refused_for_an_azp_that_is_not_the_tool(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={"aud": [platform.client_id, "other"], "azp": "other"})
+    assert_refused(r, "azp", 400, "'other'")
+
+
+def test_lti_launch_refused_for_an_unknown_deployment(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, deployment_id="deployment-9")
+    assert_refused(r, "deployment_id", 400, "deployment-9")
+
+
+def test_lti_login_refused_for_an_unknown_deployment(tool, platform):  # noqa: F811
+    r = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "u",
+                        "target_link_uri": "t", "lti_deployment_id": "deployment-9"})  # fmt: skip
+    assert_refused(r, "deployment_id", 400, "deployment-9")
+
+
+def test_lti_launch_refused_for_another_message_type(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={LTI + "message_type": "LtiSubmissionReviewRequest"})
+    assert_refused(r, "message_type", 400, "LtiSubmissionReviewRequest")
+
+
+def test_lti_launch_refused_for_another_version(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={LTI + "version": "1.1"})
+    assert_refused(r, "version", 400, "expected '1.3.0'")
+
+
+def test_lti_launch_refused_without_a_resource_link_id(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={LTI + "resource_link": {"title": "no id"}})
+    assert_refused(r, "resource_link", 400)
+
+
+def test_lti_launch_refused_for_an_unknown_issuer(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, overrides={"iss": "https://lms.elsewhere.example"})
+    assert_refused(r, "iss", 400, "not a registered platform")
+
+
+def test_lti_login_refused_for_an_unknown_platform(tool, platform):  # noqa: F811
+    r = tool.client.get(tool.url + "/lti/login", params={"iss": "https://nobody.example", "login_hint": "u",
+                        "target_link_uri": "t"})  # fmt: skip
+    assert_refused(r, "platform", 400, "no platform is registered")
+
+
+def test_lti_launch_of_deep_linking_carries_its_settings(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, message_type="LtiDeepLinkingRequest")
+    assert r.status_code == 200 and "LtiDeepLinkingRequest" in r.text
+
+
+def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url)
+    policy = r.headers["content-security-policy"]
+    assert f"frame-ancestors 'self' {platform.issuer}" in policy and "x-frame-options" not in r.headers
+    api = tool.client.get("/api/health")
+    assert "frame-ancestors 'none'" in api.headers["content-security-policy"]
+    assert api.headers["x-frame-options"] == "DENY"
