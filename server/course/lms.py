@@ -398,12 +398,11 @@ class Lms:
     def new_id(self, cid: str, kind: str, launch, email: str) -> str:
         """A readable id for someone new: the LMS's SIS id, else their email's name, else their sub; made unique."""
         lis = (getattr(launch, "claims", {}) or {}).get("https://purl.imsglobal.org/spec/lti/claim/lis") or {}
+        stem = "lti"
         for candidate in (lis.get("person_sourcedid"), email.split("@")[0] if email else None, f"lti-{launch.sub}"):
-            stem = student_name(str(candidate or ""))[:60].strip("._")
-            if stem:
+            if candidate and student_name(str(candidate))[:60].strip("._"):
+                stem = student_name(str(candidate))[:60].strip("._")
                 break
-        else:
-            stem = "lti"
         taken = self.course.store.member if kind == "student" else self.course.store.staff_member
         pid = stem
         while taken(cid, pid) is not None:

@@ -1,0 +1,154 @@
+"""A course in an LMS, end to end (server/course/lms.py over server/lti/): a test platform on loopback
+(tests/lti_platform.py: its own keys, JWKS, token endpoint, AGS line items, NRPS) and the service on loopback
+(uvicorn, one render worker). The whole path with real signed JWTs: the instructor adds the tool by Deep
+Linking and picks an assignment, a student launches it and lands on the assignment with their token, submits,
+is graded, and the score goes back to the LMS; while the LMS is down the score waits (shown pending on the
+dashboard) and goes once it is back; the roster comes from NRPS page by page. The app's clock is a `Clock`
+(deadlines and retries follow it); the launches' own times are the platform's real ones."""
+
+from __future__ import annotations
+
+import json
+import re
+from datetime import UTC, datetime, timedelta
+
+import httpx
+import pytest
+from conftest import ROOT
+from lti_platform import INSTRUCTOR as LMS_INSTRUCTOR
+from lti_platform import LEARNER, LoopbackServer, Platform
+from test_api_support import INSTRUCTOR, Clock, bearer, wait_for
+
+from server.core.settings import Settings
+from server.course.lms import LmsStore
+from server.main import create_app
+
+EXAMPLE = ROOT / "scenes" / "grading"
+T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
+ADMIN = bearer(INSTRUCTOR)
+NRPS = "https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"
+
+
+@pytest.fixture(scope="module")
+def tool(tmp_path_factory):
+    data = tmp_path_factory.mktemp("lms") / "data"
+    data.mkdir()
+    settings = Settings(data_dir=data, workers=1, interactive_workers=0, validate_processes=1, previews_ahead=False,
+                        lessons_ahead=False, answer_again=False, instructor_token=INSTRUCTOR)  # fmt: skip
+    app = create_app(settings)
+    with LoopbackServer(app) as server, httpx.Client(base_url=server.url, timeout=60) as client:
+        app.state.clock = Clock(T0)
+        yield server.url, app, client
+
+
+@pytest.fixture(scope="module")
+def lms(tool):
+    """The platform registered, its course-1 linked to course gfx, and an assignment published in gfx."""
+    url, app, client = tool
+    with Platform() as p:
+        p.tool_jwks_url = url + "/lti/jwks"
+        r = client.post("/api/lti/platforms", json={**p.registration(), "deployment_ids": [p.deployment_id]},
+                        headers=ADMIN)  # fmt: skip
+        assert r.status_code == 201, r.text
+        pid = r.json()["id"]
+        assert client.post("/api/courses", json={"id": "gfx", "name": "Graphics"}, headers=ADMIN).status_code == 201
+        r = client.post("/api/courses/gfx/lms/contexts", json={"platform": pid, "context": "course-1"}, headers=ADMIN)
+        assert r.status_code == 201, r.text
+        spec = json.loads((EXAMPLE / "assignment.json").read_text())
+        spec["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
+        body = {"spec": spec, "deadline": (T0 + timedelta(days=2)).isoformat()}
+        r = client.post("/api/courses/gfx/assignments", json=body, headers=ADMIN)
+        assert r.status_code == 201, r.text
+        yield p, r.json()["id"]
+
+
+def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_was_down(tool, lms):
+    url, app, client = tool
+    p, aid = lms
+    # the instructor adds the tool: the picker lists the course's assignments
+    members = {"context_memberships_url": f"{p.url}/memberships/course-1?limit=2", "service_versions": ["2.0"]}
+    r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], message_type="LtiDeepLinkingRequest",
+                    overrides={NRPS: members})  # fmt: skip
+    assert r.status_code == 200 and "Pick an assignment" in r.text and aid in r.text, r.text
+    pick = re.search(r'name="pick" value="([^"]+)"', r.text)[1]
+    r = client.post("/lti/pick", data={"pick": pick, "assignment": aid})
+    assert r.status_code == 200, r.text
+    assert f'action="{p.url}/deep_link_return"' in r.text and "form-action" in r.headers["content-security-policy"]
+    jwt = re.search(r'name="JWT" value="([^"]+)"', r.text)[1]
+    assert httpx.post(p.url + "/deep_link_return", data={"JWT": jwt}).status_code == 200  # verified by the LMS
+    item = p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"][0]
+    assert item["custom"] == {"assignment": aid} and item["lineItem"]["scoreMaximum"] == 13
+    assert p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/data"] == "opaque-data-1"
+    assert client.post("/lti/pick", data={"pick": pick, "assignment": aid}).status_code == 400  # used once
+
+    # a student launches the link: their assignment, with their token in the fragment; the same at every launch
+    r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], custom={"assignment": aid})
+    assert r.status_code == 303, r.text
+    where, token = r.headers["location"].split("#token=")
+    assert where == f"/assignments/{aid}"
+    assert all("Max-Age=0" in c for c in r.headers.get_list("set-cookie"))  # no session cookie: only the state's, ended
+    again = p.do_launch(client, url, sub="student-7", roles=[LEARNER], custom={"assignment": aid})
+    assert again.headers["location"].split("#token=")[1] == token
+    brief = client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+    assert brief["student"] == {"id": "ada", "name": "Ada Lovelace", "self_declared": False}
+
+    # the LMS is down when the grade is made: the score waits, shown pending
+    p.down = True
+    scene = (EXAMPLE / "class" / "alice.json").read_text()
+    r = client.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=bearer(token))
+    assert r.status_code == 202, r.text
+    sub = r.headers["location"]
+    graded = wait_for(lambda: (s := client.get(sub, headers=bearer(token)).json())["status"] == "graded" and s,
+                      300, "the submission's grade", 0.5)  # fmt: skip
+    store = LmsStore(app.state.settings.data_dir)
+    wait_for(lambda: store.scores(aid)["error"], 60, "a failed post of the score", 0.2)
+    board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
+    assert board["lms"]["grades"]["pending"] == 1 and "503" in board["lms"]["grades"]["error"], board["lms"]
+    assert p.scores == []
+    # back: the next try (after its wait, on the app's clock) sends it
+    p.down = False
+    app.state.clock.now = T0 + timedelta(hours=2)
+    app.state.lms._wake.set()
+    wait_for(lambda: p.scores, 60, "the score at the LMS", 0.2)
+    (score,) = p.scores
+    assert score["userId"] == "student-7" and score["scoreGiven"] == pytest.approx(graded["score"])
+    assert score["scoreMaximum"] == 13 and score["lineitem"] == "li-1"
+    assert (score["activityProgress"], score["gradingProgress"]) == ("Completed", "FullyGraded")
+    board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
+    assert (board["lms"]["grades"]["pending"], board["lms"]["grades"]["sent"]) == (0, 1)
+
+
+def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who_has_not_submitted(tool, lms):
+    url, app, client = tool
+    p, aid = lms
+    members = {"context_memberships_url": f"{p.url}/memberships/course-1?limit=2", "service_versions": ["2.0"]}
+    r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], custom={"assignment": aid},
+                    overrides={NRPS: members})  # fmt: skip
+    assert r.status_code == 303 and r.headers["location"].startswith("/course#token=")
+    r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+    assert r.status_code == 200 and r.json()["members"] == 4, r.text  # 5 members on 3 pages, one the instructor
+    board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
+    states = {s["id"]: s["state"] for s in board["students"]}
+    assert {f"sis-{i}" for i in range(1, 5)} <= set(states) and all(states[f"sis-{i}"] == "none" for i in range(1, 5))
+    assert board["lms"]["roster_synced_at"] is not None
+    # the instructor's own launch made them the course's instructor
+    staff = client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]
+    assert [s["role"] for s in staff] == ["instructor"]
+
+
+def test_lms_a_student_of_a_course_no_instructor_opened_is_told_so(tool, lms):
+    url, app, client = tool
+    p, _ = lms
+    r = p.do_launch(client, url, sub="student-9", roles=[LEARNER], context={"id": "course-2", "title": "Other"})
+    assert r.status_code == 403 and "not set up yet" in r.text
+    assert all("Max-Age=0" in c for c in r.headers.get_list("set-cookie"))
+
+
+def test_lms_scores_keep_strictly_increasing_timestamps_and_a_newer_one_supersedes_an_unsent_one(tmp_path):
+    store = LmsStore(tmp_path)
+    row = {"platform_id": "p", "lineitem": "L", "user_id": "u", "assignment_id": "a", "student": "s",
+           "score_given": 5.0, "score_max": 13.0}  # fmt: skip
+    assert store.add_score(row, 100.0) and not store.add_score(row, 100.0)  # the same numbers: nothing new
+    assert store.add_score({**row, "score_given": 7.0}, 100.0)  # the same second: 1 ms later
+    due = store.due(100.0, 10)
+    assert [(d["score_given"], d["timestamp"]) for d in due] == [(7.0, 100.001)]
