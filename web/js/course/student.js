@@ -141,7 +141,15 @@ async function start() {
     ]);
     return;
   }
+  if (window.self !== window.top) framed(token);
   await open(token);
+}
+
+/** Inside an LMS's frame: the page works there with its token (no cookie needed); where the frame is too small
+ * or the browser keeps nothing for framed pages, the same page opens in a window of its own. */
+function framed(token) {
+  const link = h("a", { href: `${location.pathname}#token=${encodeURIComponent(token)}`, target: "_blank", rel: "noopener", id: "a-new-window" }, "Open in a new window");
+  document.querySelector("main")?.prepend(h("p", { class: "hint", id: "a-framed" }, "Opened from your course's LMS. ", link));
 }
 
 // a link followed while this page is open (only its fragment changes: no new page): start again with its token
