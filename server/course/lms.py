@@ -347,8 +347,7 @@ class Lms:
             return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
         if role in STAFF:
             return RedirectResponse(f"/course#token={token}&open={aid}", status_code=303)
-        self.course.store.add_members(cid, [], self.now(), [aid])
-        self._enrol(aid, person)
+        self._enrol(aid, person)  # a member enrolled on every assignment is on it already
         return RedirectResponse(f"/assignments/{aid}#token={token}", status_code=303)
 
     def _enrol(self, aid: str, student: str) -> None:

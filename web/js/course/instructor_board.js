@@ -250,8 +250,24 @@ export class Board {
       stat("late", "late", m.late),
       stat("mean", "mean", m.mean === null ? "–" : `${pts(m.mean)} / ${pts(d.max_points)}`),
       stat("median", "median", m.median === null ? "–" : `${pts(m.median)} / ${pts(d.max_points)}`),
+      ...(d.lms?.grades ? [stat("lms_pending", "grades to send to the LMS", d.lms.grades.pending), stat("lms_sent", "grades sent to the LMS", d.lms.grades.sent)] : []),
     );
+    this.renderLms();
     this.renderHistogram();
+  }
+
+  /** The course's LMS, when it has one: its roster's last reading, and why grades wait (the LMS's last answer). */
+  renderLms() {
+    const l = this.data.lms;
+    let note = this.stats.parentElement.querySelector("#lms-note");
+    if (!l) return note?.remove();
+    if (!note) {
+      note = h("p", { class: "hint", id: "lms-note", role: "status" });
+      this.stats.after(note);
+    }
+    const synced = l.roster_synced_at ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}` : "roster not read from the LMS yet";
+    const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; tried again ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
+    note.textContent = `In the LMS: ${l.contexts.join(", ")} (${synced}).${waiting}`;
   }
 
   /** The scores as a bar chart (SVG): tenths of the spec's points, the count over each bar, the mean and
