@@ -24,6 +24,7 @@ const view = $("#course-view");
 const access = $("#course-access-status");
 const tokenInput = $("#course-token");
 let board = null;
+let signedAs = null; // "Signed in as a TA of ..." once the token's course and role are known
 
 /** The address's assignment and student: /course#<id> is the dashboard, /course#<id>/<student> with that
  * student's detail open. */
@@ -42,7 +43,7 @@ function accessOk(err) {
   }
   tokenInput.removeAttribute("aria-invalid");
   if (!err) {
-    say(access, "ok", tokens.instructor() ? "Signed in as the instructor." : "This server has no instructor token and listens on loopback only: everyone who reaches it is the instructor (fine on your own machine; a class's server needs TRACER_INSTRUCTOR_TOKEN).");
+    say(access, "ok", signedAs || tokens.instructor() ? signedAs || "Signed in as the server's admin (the instructor token)." : "This server has no instructor token and listens on loopback only: everyone who reaches it is the instructor (fine on your own machine; a class's server needs TRACER_INSTRUCTOR_TOKEN).");
   }
   return !err;
 }
@@ -103,6 +104,11 @@ async function showCourses(panel) {
   course.into = courses.length > 1 ? pick.value : null;
   const items = courses.map((c) => h("li", { dataset: { id: c.id } }, h("strong", {}, c.name), h("span", { class: "muted" }, ` · ${c.id} · ${c.assignments} assignment${c.assignments === 1 ? "" : "s"} · ${c.students} student${c.students === 1 ? "" : "s"} on its roster`)));
   const parts = [h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")), h("ul", { class: "course-list", id: "course-list" }, ...items)];
+  if (role && role !== "admin") {
+    signedAs = `Signed in as ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}.`;
+    say(access, "ok", signedAs);
+  }
+  if (role === "ta") document.querySelector('[aria-labelledby="h-publish"]')?.remove(); // publishing is the instructors'
   if (role && role !== "admin") parts.push(h("p", { class: "hint", id: "course-role" }, `You are ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}${role === "ta" ? ": you follow the class, grant extensions and regrade; publishing is the instructors'." : "."}`));
   if (courses.length > 1) parts.push(h("p", {}, h("label", { for: "course-into" }, "Publish into "), pick));
   if (!role || role === "admin" || role === "instructor") parts.push(staffForm(courses, role !== "instructor"));
