@@ -17,6 +17,7 @@ nothing in the data directory is changed or removed:
 
 from __future__ import annotations
 
+import fcntl
 import os
 import sqlite3
 import tempfile
@@ -97,3 +98,17 @@ def check_database(data_dir: Path) -> None:
     if "jobs" not in tables and folders:
         state = "an empty file" if path.stat().st_size == 0 else "a database without the jobs table"
         raise StartupError(f"{path} is {state}: {orphans}")
+
+
+def lock_data_dir(data_dir: Path):
+    """One server per data directory: a second would take the first one's running jobs back. The lock is
+    held while the returned file is open (a restore takes it too: it refuses a directory a server uses)."""
+    lock = open(Path(data_dir) / "server.lock", "a")  # noqa: SIM115 (held open while the server runs)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise StartupError(
+            f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
+        ) from None
+    return lock
