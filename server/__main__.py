@@ -25,7 +25,6 @@ from server.core.exits import exit_now
 from server.core.migrations import migrate
 from server.core.settings import explain, load_settings
 from server.core.startup import StartupError, check_data_dir, lock_data_dir
-from server.main import create_app
 
 GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
 HEADER_BYTES = 16384  # a request's line and headers, at most (h11's own default, said here): 400 past it
@@ -78,6 +77,8 @@ def main(argv: list[str] | None = None) -> None:
         settings.data_dir,
         settings.processes_text(),
     )
+    from server.main import create_app  # here: the upkeep commands need none of the app (its imports take seconds)
+
     app = create_app(settings)
     app.state.data_lock = lock
     config = uvicorn.Config(
