@@ -1,6 +1,7 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
-At start-up (the lifespan) the app checks its data directory (server/core/startup.py), compiles the render
+At start-up (the lifespan) the app checks its data directory and takes its lock (server/core/startup.py), brings
+its database to this release's schema (server/core/migrations.py: a copy first, if it is older), compiles the render
 kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished (the course's assignments' among them,

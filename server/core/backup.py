@@ -135,6 +135,8 @@ def read_manifest(src: Path) -> dict:
         raise BackupError(
             f"{src} has no {MANIFEST}: not a backup, or one that did not finish (the manifest is written last)"
         ) from None
+    except (ValueError, OSError) as e:
+        raise BackupError(f"{src / MANIFEST} cannot be read ({e}): a damaged backup. Nothing was restored") from None
     wrong = []
     for rel, want in [(DB_NAME, manifest["database"])] + [(f"{FILES}/{k}", v) for k, v in manifest["files"].items()]:
         path = src / rel

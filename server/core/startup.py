@@ -13,6 +13,9 @@ nothing in the data directory is changed or removed:
   job folders: their rows are gone, and the janitor would remove the folders as orphans. The server
   refuses to start rather than drop them: a job's folder holds its images but not its scene or status,
   so the jobs cannot be adopted back from it.
+
+Then `lock_data_dir` takes the data directory's lock (DATA/server.lock): one server per data directory, and no
+restore into one a server uses.
 """
 
 from __future__ import annotations
