@@ -29,6 +29,7 @@ EXPECTED = json.loads((FIXTURE / "expected.json").read_text())
 TEACHER = bearer(EXPECTED["instructor"])
 VOLATILE = {"time_left", "late_time_left", "closed", "join"}  # as the fixture's script leaves them out
 T0 = datetime(2026, 12, 6, 9, 30, tzinfo=UTC)  # the tests' clock, for the names of the copies
+MOVED: set[str] = set()  # tables a migration empties or drops on purpose, their rows moved to others (say where)
 
 
 def unpack(where: Path) -> Path:
@@ -81,8 +82,8 @@ def test_migrations_todays_release_starts_with_every_job_and_grade(upgraded):
     assert len(copies) == 1, f"expected one copy made before the upgrade in {data / 'backups'}: {copies}"
     assert rows(copies[0]) == before  # the copy holds every row of the release's database
     after = rows(data / "jobs.sqlite3")
-    assert {t: n for t, n in after.items() if n < before.get(t, 0)} == {}, f"rows lost: {before} -> {after}"
-    assert set(before) <= set(after)
+    fewer = {t: n for t, n in before.items() if t not in MOVED and after.get(t, 0) < n}
+    assert fewer == {}, f"rows lost (tables with fewer rows than the release's): {before} -> {after}"
 
     for name, want in EXPECTED["jobs"].items():
         r = c.get(f"/api/jobs/{want['id']}", headers=bearer(want["token"]))
