@@ -1,19 +1,30 @@
-"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL] [--settings FILE]"""
+"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL] [--settings FILE]
+
+and the data directory's upkeep (docs/service.md, "Backups and upgrades"):
+
+    python -m server migrate [--data-dir DIR]            bring its database to this release's schema
+    python -m server backup DEST [--data-dir DIR]        a consistent copy, a server running or not
+    python -m server restore SRC [--data-dir DIR] [--force]   a backup back into an empty data directory
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
+import sys
+from pathlib import Path
 
 import h11
 import uvicorn
 from pydantic import ValidationError
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from server.core.backup import backup, restore
 from server.core.exits import exit_now
+from server.core.migrations import migrate
 from server.core.settings import explain, load_settings
-from server.core.startup import StartupError, check_data_dir
-from server.main import create_app, lock_data_dir
+from server.core.startup import StartupError, check_data_dir, lock_data_dir
 
 GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
 HEADER_BYTES = 16384  # a request's line and headers, at most (h11's own default, said here): 400 past it
@@ -21,7 +32,14 @@ log = logging.getLogger("server")
 TIMED_OUT = b"HTTP/1.1 408 Request Timeout\r\ncontent-length: 0\r\nconnection: close\r\n\r\n"
 
 
+UPKEEP = ("migrate", "backup", "restore")
+
+
 def main(argv: list[str] | None = None) -> None:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] in UPKEEP:
+        upkeep(argv)
+        return
     p = argparse.ArgumentParser(prog="server", description="Serve the ray tracing app, its API and render workers.")
     p.add_argument("--settings", help="a settings file of TRACER_*=value lines (default: $TRACER_SETTINGS_FILE)")
     p.add_argument("--host", help="address to listen on (default 127.0.0.1, or TRACER_HOST)")
@@ -48,6 +66,7 @@ def main(argv: list[str] | None = None) -> None:
     try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed
         check_data_dir(settings.data_dir)
         lock = lock_data_dir(settings.data_dir)
+        migrate(settings.data_dir)  # here, for a clear message if it cannot (the lifespan finds it done)
     except StartupError as exc:
         log.error("cannot start: %s", exc)
         raise SystemExit(1) from None
@@ -58,6 +77,8 @@ def main(argv: list[str] | None = None) -> None:
         settings.data_dir,
         settings.processes_text(),
     )
+    from server.main import create_app  # here: the upkeep commands need none of the app (its imports take seconds)
+
     app = create_app(settings)
     app.state.data_lock = lock
     config = uvicorn.Config(
@@ -73,6 +94,50 @@ def main(argv: list[str] | None = None) -> None:
     if not server.started:
         raise SystemExit(3)  # uvicorn's own status when the app cannot start (the port taken, ...)
     exit_now()  # stopped: jobs given back, workers and checkers gone, the data directory's lock let go
+
+
+def upkeep(argv: list[str]) -> None:
+    """`migrate`, `backup DEST`, `restore SRC`: one line of JSON on stdout (the report or the manifest's summary);
+    a problem is one message on stderr and exit status 1."""
+    p = argparse.ArgumentParser(prog=f"server {argv[0]}")
+    p.add_argument("--settings", help="a settings file of TRACER_*=value lines (default: $TRACER_SETTINGS_FILE)")
+    p.add_argument("--data-dir", help="the data directory (default ./data, or TRACER_DATA_DIR)")
+    if argv[0] == "backup":
+        p.add_argument("dest", type=Path, help="a new (or empty) folder for the backup")
+    if argv[0] == "restore":
+        p.add_argument("src", type=Path, help="a backup's folder (made by `python -m server backup`)")
+        p.add_argument("--force", action="store_true", help="replace what the data directory holds")
+    args = p.parse_args(argv[1:])
+    given = {"data_dir": args.data_dir} if args.data_dir else {}
+    try:
+        settings = load_settings(args.settings, **given)
+    except (ValidationError, FileNotFoundError) as exc:
+        p.error(str(exc))
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    data = settings.data_dir
+    try:
+        if argv[0] == "migrate":
+            check_data_dir(data)
+            lock = lock_data_dir(data)  # not under a running server (an older release may be serving it)
+            try:
+                r = migrate(data)
+            finally:
+                lock.close()
+            out = {"before": r.before, "after": r.after, "new": r.new, "applied": r.applied,
+                   "backup": str(r.backup) if r.backup else None}  # fmt: skip
+        elif argv[0] == "backup":
+            m = backup(data, args.dest)
+            out = {"backup": str(args.dest), "time": m["time"], "schema_version": m["schema_version"],
+                   "rows": sum(m["rows"].values()), "files": m["file_count"]}  # fmt: skip
+        else:
+            m = restore(args.src, data, force=args.force)
+            out = {"restored": str(args.src), "data_dir": str(data), "time": m["time"],
+                   "schema_version": m["schema_version"], "rows": sum(m["rows"].values()),
+                   "files": m["file_count"]}  # fmt: skip
+    except StartupError as exc:
+        log.error("%s: %s", argv[0], exc)
+        raise SystemExit(1) from None
+    sys.stdout.write(json.dumps(out) + "\n")
 
 
 class DeadlineProtocol(H11Protocol):

@@ -1,6 +1,7 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
-At start-up (the lifespan) the app checks its data directory (server/core/startup.py), compiles the render
+At start-up (the lifespan) the app checks its data directory and takes its lock (server/core/startup.py), brings
+its database to this release's schema (server/core/migrations.py: a copy first, if it is older), compiles the render
 kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished (the course's assignments' among them,
@@ -15,13 +16,11 @@ others without an instructor token or a list of host names.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import gc
 import logging
 import threading
 from contextlib import asynccontextmanager
 from datetime import UTC, datetime
-from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
@@ -31,10 +30,11 @@ from server.api.routes import assignments, courses, grade, jobs, lms, lti, pages
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
+from server.core.migrations import migrate
 from server.core.paths import SCENES, WEB
 from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
-from server.core.startup import StartupError, check_data_dir
+from server.core.startup import check_data_dir, lock_data_dir
 from server.course.lms import Lms
 from server.course.service import Course
 from server.grading.runs import GradeRuns
@@ -60,6 +60,11 @@ async def lifespan(app: FastAPI):
     if lock is None:
         check_data_dir(settings.data_dir)
         lock = lock_data_dir(settings.data_dir)
+    try:  # before any store opens the database: its schema brought to this release's (a backup first)
+        migrate(settings.data_dir, app.state.clock)
+    except BaseException:
+        lock.close()
+        raise
     load_kernels()  # before the workers start, so that they only read the cache
     load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in the checking processes
     log.info("render kernels ready")
@@ -116,19 +121,6 @@ class Stopping:
 
     def __call__(self) -> bool:
         return self.asked
-
-
-def lock_data_dir(data_dir: Path):
-    """One server per data directory: a second would take the first one's running jobs back."""
-    lock = open(data_dir / "server.lock", "a")  # noqa: SIM115 (held open while the server runs)
-    try:
-        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        lock.close()
-        raise StartupError(
-            f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
-        ) from None
-    return lock
 
 
 def utc_now() -> datetime:

@@ -13,10 +13,14 @@ nothing in the data directory is changed or removed:
   job folders: their rows are gone, and the janitor would remove the folders as orphans. The server
   refuses to start rather than drop them: a job's folder holds its images but not its scene or status,
   so the jobs cannot be adopted back from it.
+
+Then `lock_data_dir` takes the data directory's lock (DATA/server.lock): one server per data directory, and no
+restore into one a server uses.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import sqlite3
 import tempfile
@@ -97,3 +101,17 @@ def check_database(data_dir: Path) -> None:
     if "jobs" not in tables and folders:
         state = "an empty file" if path.stat().st_size == 0 else "a database without the jobs table"
         raise StartupError(f"{path} is {state}: {orphans}")
+
+
+def lock_data_dir(data_dir: Path):
+    """One server per data directory: a second would take the first one's running jobs back. The lock is
+    held while the returned file is open (a restore takes it too: it refuses a directory a server uses)."""
+    lock = open(Path(data_dir) / "server.lock", "a")  # noqa: SIM115 (held open while the server runs)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.close()
+        raise StartupError(
+            f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
+        ) from None
+    return lock

@@ -1,0 +1,201 @@
+"""Schema versions of the data directory's database (DATA/jobs.sqlite3), and the migrations between them.
+
+The version is SQLite's `PRAGMA user_version` of the database (0 in a database no release marked: the release
+of 2026-12-05 and earlier). `MIGRATIONS` is the ordered list of `Migration(number, name, apply)`; `LATEST` is the
+last one's number, the version this code reads and writes. `migrate(data_dir, clock)` brings a database to
+LATEST; the server runs it at start-up, after it took the data directory's lock and before any store opens the
+database (server/main.py's lifespan, and `python -m server` before it serves), and a deployer may run it by
+hand with `python -m server migrate` (server/__main__.py). Under an exclusive lock (`fcntl.flock` of
+DATA/migrate.lock: two processes starting at once migrate once, the second finds the work done), it:
+
+- leaves a new database (no file, or one without a table) to the stores, which make the current schema, and
+  marks it LATEST;
+- refuses a database newer than LATEST (a later release wrote it; this one cannot read it): run that release,
+  or restore the backup made before the upgrade;
+- for an older one, first makes a backup through SQLite's online backup API, DATA/backups/jobs-v{old}-{UTC
+  time}.sqlite3, then applies each later migration in its own transaction (BEGIN IMMEDIATE ... COMMIT, with
+  `user_version` set in the same transaction), logging each. A migration that fails is rolled back: the
+  database stays at the last good version, and the error names the backup.
+
+Adding a migration (a new table, a new column, rows moved from one table to another):
+1. write `def _m0002_name(db: sqlite3.Connection) -> None` below, plain SQL on `db` (inside its transaction
+   already: no BEGIN/COMMIT, and no `executescript`, which commits), importing nothing else of server/;
+2. append `Migration(2, "what it does", _m0002_name)` to MIGRATIONS (numbers go up by one; never renumber or
+   edit a released one: a database that ran it will not run it again);
+3. change the store's own schema too (its `CREATE TABLE IF NOT EXISTS`, which makes a new database): a new
+   column goes BOTH there (new databases) and in the migration (old ones). tests/server/core/test_migrations.py
+   catches a forgotten one: a migrated old database's schema (each table's columns, compared by name since
+   ALTER TABLE appends, and each index) must equal a fresh one's;
+4. a release that changes the schema checks in its own fixture (tests/fixtures/make_release_fixture.py) so
+   that the next one proves it loses nothing of it.
+
+The `jobs` table's columns added before versions existed are still added by JobStore when missing
+(server/jobs/store.py, `_add_columns`); the baseline below marks the schema of 2026-12-05 and changes nothing.
+
+Going back: a migrated database cannot be read by the release before it (it refuses a newer version). Stop the
+server, put the backup named in the log in place of DATA/jobs.sqlite3 (and remove jobs.sqlite3-wal and -shm),
+and start the older release (docs/service.md, "Backups and upgrades").
+"""
+
+from __future__ import annotations
+
+import fcntl
+import logging
+import sqlite3
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+from server.core.startup import DB_NAME, StartupError
+
+log = logging.getLogger("server.migrations")
+
+LOCK_NAME = "migrate.lock"  # DATA/migrate.lock: held while a process migrates
+BACKUPS = "backups"  # DATA/backups/: the copies made before each upgrade
+LOCK_WAIT = 600.0  # seconds a process waits for another one's migration before it gives up
+LOCK_POLL = 0.05  # seconds between two tries of the lock
+
+
+@dataclass(frozen=True)
+class Migration:
+    number: int  # the schema version it brings the database to
+    name: str  # what it does, for the log
+    apply: Callable[[sqlite3.Connection], None]  # plain SQL, inside the migration's transaction
+
+
+def _m0001_baseline(db: sqlite3.Connection) -> None:
+    """The schema of the release of 2026-12-05 (jobs, grading runs, assignments with per-assignment rosters), as
+    its stores make it: nothing to change, the version is marked."""
+
+
+MIGRATIONS: tuple[Migration, ...] = (Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),)
+LATEST = MIGRATIONS[-1].number
+
+
+class MigrationError(StartupError):
+    """The database cannot be brought to this release's schema: the message says why and what to do."""
+
+
+@dataclass
+class Report:
+    """What `migrate` did."""
+
+    before: int  # the version found
+    after: int  # the version left
+    new: bool = False  # a new database, marked LATEST
+    backup: Path | None = None  # the copy made before the first migration
+    applied: list[str] = field(default_factory=list)  # "N name" of each migration applied
+
+
+def utc_now() -> datetime:
+    return datetime.now(UTC)
+
+
+def schema_version(db: sqlite3.Connection) -> int:
+    return db.execute("PRAGMA user_version").fetchone()[0]
+
+
+def migrate(
+    data_dir: Path,
+    clock: Callable[[], datetime] = utc_now,
+    migrations: tuple[Migration, ...] = MIGRATIONS,
+    lock_wait: float = LOCK_WAIT,
+) -> Report:
+    """Bring DATA/jobs.sqlite3 to the last of `migrations` (see the module's docstring); MigrationError if it
+    cannot. `clock` names the backup; `lock_wait` bounds the wait for another process's migration (seconds)."""
+    data_dir = Path(data_dir)
+    latest = migrations[-1].number
+    with _exclusive(data_dir / LOCK_NAME, lock_wait):
+        db = sqlite3.connect(data_dir / DB_NAME, timeout=30, isolation_level=None)
+        try:
+            db.execute("PRAGMA journal_mode=WAL")  # as the stores open it
+            version = schema_version(db)
+            tables = db.execute("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]
+            if tables == 0:  # new: the stores make the current schema
+                db.execute(f"PRAGMA user_version = {latest}")
+                return Report(version, latest, new=True)
+            if version > latest:
+                raise MigrationError(
+                    f"the database {data_dir / DB_NAME} has schema version {version}, newer than this release's "
+                    f"{latest}: a later release wrote it, and this one cannot read it. Run that release again, or "
+                    f"restore the copy made before the upgrade (in {data_dir / BACKUPS}: jobs-v{latest}-*.sqlite3, "
+                    "see docs/service.md, Backups and upgrades). Nothing was changed"
+                )
+            report = Report(version, version)
+            if version == latest:
+                return report
+            report.backup = backup_database(db, data_dir / BACKUPS, f"jobs-v{version}-{_stamp(clock())}.sqlite3")
+            log.info("schema version %d, this release's %d: database copied to %s", version, latest, report.backup)
+            for m in migrations:
+                if m.number <= version:
+                    continue
+                _apply(db, m, report, data_dir)
+            return report
+        finally:
+            db.close()
+
+
+def _apply(db: sqlite3.Connection, m: Migration, report: Report, data_dir: Path) -> None:
+    started = time.monotonic()
+    db.execute("BEGIN IMMEDIATE")
+    try:
+        m.apply(db)
+        db.execute(f"PRAGMA user_version = {int(m.number)}")
+        db.execute("COMMIT")
+    except Exception as e:
+        if db.in_transaction:
+            db.execute("ROLLBACK")
+        raise MigrationError(
+            f"migration {m.number} ({m.name}) of {data_dir / DB_NAME} failed: {type(e).__name__}: {e}. The database "
+            f"stays at schema version {report.after}; the copy made before the upgrade is {report.backup}. Start "
+            "the release before this one, or put that copy back once the cause is fixed"
+        ) from e
+    report.after = m.number
+    report.applied.append(f"{m.number} {m.name}")
+    log.info("migration %d (%s) applied in %.2f s", m.number, m.name, time.monotonic() - started)
+
+
+def backup_database(src: sqlite3.Connection, folder: Path, name: str) -> Path:
+    """A consistent copy of the database of `src` (SQLite's online backup API: one read transaction, writers in
+    WAL mode go on) at folder/name, written whole under a temporary name first."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path, tmp = folder / name, folder / f".{name}.partial"
+    tmp.unlink(missing_ok=True)
+    dest = sqlite3.connect(tmp)
+    try:
+        src.backup(dest)
+    finally:
+        dest.close()
+    tmp.replace(path)
+    return path
+
+
+def _stamp(t: datetime) -> str:
+    return t.astimezone(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
+
+
+class _exclusive:
+    """`with`: an exclusive flock of `path`, tried every LOCK_POLL s for at most `wait` s (MigrationError past it)."""
+
+    def __init__(self, path: Path, wait: float):
+        self.path, self.wait = path, wait
+
+    def __enter__(self) -> None:
+        self.file = open(self.path, "a")  # noqa: SIM115 (closed on leaving)
+        for _ in range(max(1, int(self.wait / LOCK_POLL))):
+            try:
+                fcntl.flock(self.file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:
+                time.sleep(LOCK_POLL)
+        self.file.close()
+        raise MigrationError(
+            f"another process has been migrating {self.path.parent / DB_NAME} for {self.wait:.0f} s (it holds "
+            f"{self.path}): wait for it to end, or stop it"
+        )
+
+    def __exit__(self, *exc) -> None:
+        fcntl.flock(self.file, fcntl.LOCK_UN)
+        self.file.close()
