@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
+from server.core import migration_0002_courses
 from server.core.startup import DB_NAME, StartupError
 
 log = logging.getLogger("server.migrations")
@@ -70,7 +71,10 @@ def _m0001_baseline(db: sqlite3.Connection) -> None:
     its stores make it: nothing to change, the version is marked."""
 
 
-MIGRATIONS: tuple[Migration, ...] = (Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),)
+MIGRATIONS: tuple[Migration, ...] = (
+    Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
+    Migration(2, "courses: assignments and rosters into the default course", migration_0002_courses.apply),
+)
 LATEST = MIGRATIONS[-1].number
 
 

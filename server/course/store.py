@@ -24,10 +24,8 @@ from __future__ import annotations
 
 import json
 import sqlite3
-import threading
 from pathlib import Path
 
-from server.core import upgrade_courses
 from server.core.db import Tables
 from server.grading.store import GradingStore
 
@@ -123,12 +121,7 @@ HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))
 class CourseStore(Tables):
     def __init__(self, data_dir: Path, now: float = 0.0):
         GradingStore(data_dir)  # the grading tables this store's queries join (created if new)
-        self.db_path = Path(data_dir) / "jobs.sqlite3"
-        self._local = threading.local()
-        with self._tx() as db:  # a database from before courses moves into the default course first
-            if upgrade_courses.needed(db):
-                upgrade_courses.apply(db, now)
-        super().__init__(data_dir, SCHEMA)
+        super().__init__(data_dir, SCHEMA)  # (a database from before courses: server/core/migrations.py, 2)
         self.db.execute(
             "INSERT OR IGNORE INTO courses (id, name, created_at) VALUES (?, 'Default course', ?)",
             (DEFAULT_COURSE, now),

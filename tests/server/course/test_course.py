@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from server.core.errors import ApiError
+from server.core.migrations import migrate
 from server.course.service import Course, parse_roster
 from server.course.store import CourseStore
 from server.grading.store import GradingStore
@@ -92,6 +93,7 @@ def test_course_data_from_before_courses_moves_into_the_default_course_nothing_l
     )  # fmt: skip
     db.commit()
     db.close()
+    migrate(tmp_path)  # as a server's start does (version 0 -> the latest)
     store = CourseStore(tmp_path, now=50.0)
     assert [c["id"] for c in store.courses()] == ["default"]
     assert [(m["student"], m["name"], m["email"], m["self_declared"]) for m in store.members("default")] == [
@@ -106,5 +108,6 @@ def test_course_data_from_before_courses_moves_into_the_default_course_nothing_l
     assert store.assignment(a1) is None or store.assignment(a1)["course_id"] == "default"
     tables = {r[0] for r in store.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     assert "course_students" not in tables
+    migrate(tmp_path)
     CourseStore(tmp_path, now=60.0)  # a second start changes nothing
     assert len(store.members("default")) == 3

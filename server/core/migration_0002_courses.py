@@ -1,6 +1,7 @@
-"""The upgrade to courses (issue #31): the data of a server from before courses moves into the `default`
-course, nothing lost. Plain SQL on one connection, inside the caller's transaction; it imports nothing of the
-course package (a migration is frozen: the tables as they were then, whatever the code says later).
+"""Migration 2 (server/core/migrations.py), courses (issue #31): the data of a server from before courses moves
+into the `default` course, nothing lost. Plain SQL on one connection, inside the migration's transaction; it
+imports nothing of the course package (a migration is frozen: the tables as they were then, whatever the code
+says later).
 
 Before: assignments were global, each with its own roster (`course_students`: one token per student per
 assignment). After: each assignment is in a course (`course_assignments.course_id`, `default` for these),
@@ -35,17 +36,18 @@ CREATE TABLE IF NOT EXISTS course_enrolments (
     assignment_id TEXT NOT NULL, student TEXT NOT NULL, deadline REAL, created_at REAL NOT NULL,
     PRIMARY KEY (assignment_id, student)
 );
+CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);
+CREATE INDEX IF NOT EXISTS course_tokens_person ON course_tokens (course_id, kind, person)
 """
 
 
-def needed(db: sqlite3.Connection) -> bool:
-    """Is this a database from before courses (assignments without a course)?"""
+def apply(db: sqlite3.Connection) -> None:
+    """Move a database from before courses into the `default` course (inside the migration's transaction). A
+    database whose server never made an assignment has no course tables yet: its stores make them."""
     cols = [r[1] for r in db.execute("PRAGMA table_info(course_assignments)")]
-    return bool(cols) and "course_id" not in cols
-
-
-def apply(db: sqlite3.Connection, now: float) -> None:
-    """Move a database from before courses into the `default` course (inside the caller's transaction)."""
+    if not cols or "course_id" in cols:
+        return
+    now = db.execute("SELECT (julianday('now') - 2440587.5) * 86400.0").fetchone()[0]
     db.execute("ALTER TABLE course_assignments ADD COLUMN course_id TEXT NOT NULL DEFAULT 'default'")
     for statement in TABLES.split(";"):
         if statement.strip():
