@@ -18,9 +18,17 @@ LAYERS = {  # a package of server/ -> what of server/ its modules may import (a 
     "server.queue": {"server.core", "server.jobs"},  # the interface, the render try, embedded/ and redis/
     "server.grading": {"server.core", "server.jobs"},  # grading runs, their store, uploads
     "server.course": {"server.core", "server.jobs", "server.grading"},  # assignments, rosters, submissions, grades
+    "server.lti": {"server.core"},  # LTI 1.3: keys, platforms, launches, Advantage services
     # the routes: the job service and its store, and the queue's interface only (never a backend)
-    "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.course",
-                   "server.queue.base"},
+    "server.api": {
+        "server.core",
+        "server.jobs",
+        "server.checkers",
+        "server.grading",
+        "server.course",
+        "server.lti",
+        "server.queue.base",
+    },
 }
 
 
@@ -49,6 +57,8 @@ def test_layers_the_rule_catches_a_route_that_reaches_into_a_backend():
     assert not allowed("server.queue.embedded.worker", "server.api.models")
     assert not allowed("server.jobs.service", "server.queue.base")  # the service only calls the interface
     assert allowed("server.api.deps", "server.queue.base")
+    assert not allowed("server.lti.launch", "server.course.service")  # the course wires the handler, not lti
+    assert allowed("server.api.routes.lti", "server.lti.launch")
 
 
 def test_layers_the_service_has_no_import_cycle():
