@@ -57,6 +57,9 @@ class LtiTool:
             self._origins = (time.monotonic(), sorted(found))
         return self._origins[1]
 
+    def close(self) -> None:
+        self.services.http.close()
+
     def refresh(self) -> None:
         with self._lock:
             self._origins = None
