@@ -65,3 +65,22 @@ def test_lti_jwks_default_fetch_says_why_it_failed():
     with pytest.raises(LaunchError) as e:
         fetch_jwks("http://127.0.0.1:9/jwks")  # nothing listens on the discard port
     assert e.value.check == "jwks" and "could not be fetched" in e.value.message
+
+
+def test_lti_jwks_default_fetch_is_bounded_and_checks_the_answer():
+    from fastapi import FastAPI
+    from fastapi.responses import JSONResponse, Response
+    from lti_platform import LoopbackServer
+
+    key = new_key()
+    app = FastAPI()
+    app.get("/good")(lambda: {"keys": [key.as_dict(private=False)]})
+    app.get("/big")(lambda: {"keys": [], "padding": "x" * 70_000})
+    app.get("/error")(lambda: JSONResponse({"error": "no"}, status_code=500))
+    app.get("/text")(lambda: Response("not json", media_type="text/plain"))
+    with LoopbackServer(app) as server:
+        assert [k["kid"] for k in fetch_jwks(server.url + "/good")["keys"]] == [key.kid]
+        for path, words in (("/big", "too large"), ("/error", "HTTP 500"), ("/text", "not JSON")):
+            with pytest.raises(LaunchError) as e:
+                fetch_jwks(server.url + path)
+            assert e.value.check == "jwks" and words in e.value.message, e.value.message

@@ -212,3 +212,10 @@ def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):  #
     api = tool.client.get("/api/health")
     assert "frame-ancestors 'none'" in api.headers["content-security-policy"]
     assert api.headers["x-frame-options"] == "DENY"
+
+
+def test_lti_launch_refusal_page_escapes_what_the_token_says(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, deployment_id='<script>alert("x")</script>')
+    assert_refused(r, "deployment_id", 400, '<script>alert("x")</script>')
+    assert "<script>" not in r.text and "&lt;script&gt;" in r.text
+    assert '<html lang="en">' in r.text and '<link rel="stylesheet" href="/css/app.css">' in r.text
