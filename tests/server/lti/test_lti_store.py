@@ -72,3 +72,15 @@ def test_lti_store_a_nonce_is_used_once_and_pruned_after_its_expiry(tmp_path):
     assert store.use_nonce("q", "n1", exp=1000.0, now=950.0)  # another platform's
     store.use_nonce("p", "n2", exp=10_000.0, now=1000.0 + 3601)  # prunes n1
     assert store.db.execute("SELECT COUNT(*) FROM lti_nonces WHERE nonce = 'n1'").fetchone()[0] == 0
+
+
+def test_lti_store_origins_seen_are_kept_once_and_bounded(tmp_path):
+    store = LtiStore(tmp_path)
+    pid = store.register(**CANVAS, deployment_ids=["1"])["id"]
+    assert store.add_origin(pid, "https://school.example.edu", 1.0)
+    assert not store.add_origin(pid, "https://school.example.edu", 2.0)
+    for i in range(30):
+        store.add_origin(pid, f"https://s{i}.example.edu", 3.0)
+    assert len(store.origins_seen()) == 20 and "https://school.example.edu" in store.origins_seen()
+    store.remove(pid)
+    assert store.origins_seen() == []
