@@ -165,7 +165,7 @@ class ServiceClient:
         out, url = [], memberships_url
         for _ in range(max_pages):
             try:
-                response, data = get_json(self.http, url, MAX_BYTES, headers)
+                response, data = get_json(self.http, url, MAX_BYTES, headers, TIMEOUT)
             except httpx.HTTPError as e:
                 raise ServiceError(0, f"the members: no answer from {url} ({type(e).__name__}: {e})") from None
             except (TooLarge, ValueError) as e:
