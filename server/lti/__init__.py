@@ -7,6 +7,6 @@ the service inside a course, and the service sends grades back and reads the cou
 - `roles.py`     LIS/LTI role URIs -> the course's role (instructor, ta, student)
 - `services.py`  Advantage calls: access tokens, scores (AGS), line items, members (NRPS), deep-linking answers
 - `handler.py`   what a verified launch opens: the `LaunchHandler` protocol and the default `EchoHandler`
-- `pages.py`     the refused launch's HTML page
+- `pages.py`     the refused launch's HTML page, the deep-linking answer's form
 - `command.py`   python -m server.lti register|list|remove|show-tool
 """

@@ -107,3 +107,19 @@ def test_lti_services_deep_link_response_verified_by_the_platform(tool, platform
     (claims,) = platform.deep_links
     assert claims[DL + "content_items"] == items and claims[DL + "data"] == "opaque-data-1"
     assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse" and claims["exp"] - claims["iat"] == 600
+
+
+def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, platform):  # noqa: F811
+    import re
+
+    from server.lti.pages import deep_link_form
+
+    return_url = platform.url + "/deep_link_return"
+    jwt = deep_link_response(tool.lti.keys, platform.registered, platform.deployment_id, {}, [], 1e9)
+    html = deep_link_form(return_url, jwt, "Ray trees <1>").body.decode()
+    assert "Ray trees &lt;1&gt;" in html and "<script" not in html
+    action = re.search(r'<form method="post" action="([^"]+)">', html)[1]
+    value = re.search(r'name="JWT" value="([^"]+)"', html)[1]
+    assert (action, value) == (return_url, jwt)
+    assert httpx.post(action, data={"JWT": value}, timeout=10).status_code == 200
+    assert platform.deep_links[-1][DL + "content_items"] == []
