@@ -123,3 +123,11 @@ def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, plat
     assert (action, value) == (return_url, jwt)
     assert httpx.post(action, data={"JWT": value}, timeout=10).status_code == 200
     assert platform.deep_links[-1][DL + "content_items"] == []
+
+
+def test_lti_services_a_revoked_token_is_replaced_once(services, platform):  # noqa: F811
+    p, lineitem = platform.registered, f"{platform.url}/lineitems/li-1"
+    services.post_score(p, lineitem, score("student-1", 1, 10, 1.0))
+    platform.tokens.clear()  # the platform forgets every token it gave
+    services.post_score(p, lineitem, score("student-1", 2, 10, 2.0))
+    assert len(platform.token_requests) == 2 and len(platform.scores) == 2
