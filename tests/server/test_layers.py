@@ -20,15 +20,8 @@ LAYERS = {  # a package of server/ -> what of server/ its modules may import (a 
     "server.course": {"server.core", "server.jobs", "server.grading"},  # assignments, rosters, submissions, grades
     "server.lti": {"server.core"},  # LTI 1.3: keys, platforms, launches, Advantage services
     # the routes: the job service and its store, and the queue's interface only (never a backend)
-    "server.api": {
-        "server.core",
-        "server.jobs",
-        "server.checkers",
-        "server.grading",
-        "server.course",
-        "server.lti",
-        "server.queue.base",
-    },
+    "server.api": {"server.core", "server.jobs", "server.checkers", "server.grading", "server.course",
+                   "server.lti", "server.queue.base"},
 }
 
 
