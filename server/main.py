@@ -5,10 +5,11 @@ its database to this release's schema (server/core/migrations.py: a copy first, 
 kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
 opens the job store, puts back in the queue the jobs a dead server left running, starts the render
 workers, resumes the grading runs a stopped server left unfinished (the course's assignments' among them,
-with the submissions it had accepted but not handed to them: server/course/), and starts the janitor
-(which removes old finished jobs); at shutdown the grading runs stop where they are (their rows say where),
-the workers give their running jobs back to the queue (as soon as a stop signal arrives, with
-`python -m server`: see `Stopping`), and the checking processes end. Every request passes the host
+with the submissions it had accepted but not handed to them: server/course/), opens the LTI tool (server/lti/:
+its keys and the platforms that may launch it), and starts the janitor (which removes old finished jobs); at
+shutdown the grading runs stop where they are (their rows say where), the workers give their running jobs back
+to the queue (as soon as a stop signal arrives, with `python -m server`: see `Stopping`), and the checking
+processes end. Every request passes the host
 check and gets the security headers (server/core/security.py); the start-up log warns of a server open to
 others without an instructor token or a list of host names.
 """
@@ -86,6 +87,7 @@ async def lifespan(app: FastAPI):
         course = app.state.course = Course(settings, grade_runs, lambda: app.state.clock())
         course.resume()  # submissions a stopped server accepted but had not handed to their grading run
         lti = app.state.lti = LtiTool(settings.data_dir)  # LTI 1.3: keys, platforms, launches (server/lti/)
+        stack.callback(lti.close)
         lms = app.state.lms = Lms(course, lti.services, lti.keys, lti.store.platform)  # what a launch opens
         lti.handler = lms
         lms.start()  # grades back to the LMS: the rows a stopped server left are posted too

@@ -322,16 +322,14 @@ class SecurityHeaders:
         if scope["path"] in DOCS_PATHS:
             await self._docs(scope, receive, send)
             return
-        policy, framed = POLICY, False
         path = scope["path"]
-        if self.frame_ancestors and (path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES)):
-            origins = self.frame_ancestors()
-            if origins:
-                policy, framed = framed_policy(origins), True
+        may_frame = self.frame_ancestors and (path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES))
 
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
-                message["headers"] = _with(message.get("headers") or [], policy, framed)
+                origins = self.frame_ancestors() if may_frame else []  # as they are when the answer starts
+                policy = framed_policy(origins) if origins else POLICY
+                message["headers"] = _with(message.get("headers") or [], policy, bool(origins))
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

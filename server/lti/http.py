@@ -25,10 +25,13 @@ def read_bounded(response: httpx.Response, limit: int) -> bytes:
     return bytes(body)
 
 
-def get_json(client: httpx.Client, url: str, limit: int, headers: dict | None = None) -> tuple[httpx.Response, object]:
-    """GET `url` with `client`: the response (its body read, at most `limit` bytes) and its JSON (None when the
-    status is not 2xx). Raises httpx.HTTPError, TooLarge, or ValueError for a 2xx body that is not JSON."""
-    with client.stream("GET", url, headers=headers) as response:
+def get_json(
+    client: httpx.Client, url: str, limit: int, headers: dict | None = None, timeout: float = 10.0
+) -> tuple[httpx.Response, object]:
+    """GET `url` with `client`: the response (its body read, at most `limit` bytes, within `timeout` s for each
+    wait) and its JSON (None when the status is not 2xx). Raises httpx.HTTPError, TooLarge, or ValueError for a
+    2xx body that is not JSON."""
+    with client.stream("GET", url, headers=headers, timeout=timeout) as response:
         body = read_bounded(response, limit)
     if not response.is_success:
         return response, None

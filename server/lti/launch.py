@@ -92,7 +92,7 @@ def fetch_jwks(url: str) -> dict:
     """A platform's JWKS from `url` (httpx: 5 s, at most 64 KiB, JSON with "keys"); LaunchError("jwks") else."""
     try:
         with httpx.Client(timeout=JWKS_TIMEOUT, follow_redirects=False) as client:
-            response, data = get_json(client, url, JWKS_MAX_BYTES, {"Accept": "application/json"})
+            response, data = get_json(client, url, JWKS_MAX_BYTES, {"Accept": "application/json"}, JWKS_TIMEOUT)
     except httpx.HTTPError as e:
         raise LaunchError("jwks", f"the platform's key set at {url} could not be fetched ({e})") from None
     except TooLarge as e:
@@ -116,12 +116,15 @@ class JwksCache:
         self.fetch, self.min_interval, self.clock = fetch or fetch_jwks, min_interval, clock
         self._sets: dict[str, KeySet] = {}
         self._fetched: dict[str, float] = {}
+        self._locks: dict[str, threading.Lock] = {}  # one per URL: a slow platform holds up its own launches only
         self._lock = threading.Lock()
 
     def key_set(self, url: str, kid: str) -> KeySet:
         """The key set of `url` that has `kid` (LaunchError "kid" when even a fresh one has not, "jwks" when it
         cannot be had)."""
         with self._lock:
+            lock = self._locks.setdefault(url, threading.Lock())
+        with lock:
             cached = self._sets.get(url)
             if cached is not None and _has_kid(cached, kid):
                 return cached

@@ -44,3 +44,17 @@ def error_page(check: str, message: str, status: int = 400) -> HTMLResponse:
         "administrator of this server what it says.</p>"
     )
     return page("Launch refused", body, status, f' class="lti-refused" data-check="{escape(check, quote=True)}"')
+
+
+def deep_link_form(return_url: str, jwt: str, summary: str = "") -> HTMLResponse:
+    """The page that carries a deep-linking answer (services.deep_link_response's JWT) back to the platform: a
+    form posted to the settings' deep_link_return_url by the person's own click (no script: the site's policy
+    allows none inline; its form-action allows the platforms' origins, server/core/security.py)."""
+    body = (
+        "<h1>Add to the course</h1>\n"
+        f"<p>{escape(summary, quote=False)}</p>\n"
+        f'<form method="post" action="{escape(return_url, quote=True)}">\n'
+        f'<input type="hidden" name="JWT" value="{escape(jwt, quote=True)}">\n'
+        '<button type="submit">Add</button>\n</form>'
+    )
+    return page("Add to the course", body)

@@ -123,19 +123,31 @@ class ServiceClient:
     def _authorized(self, platform: dict, scope: str, headers: dict) -> dict:
         return {**headers, "Authorization": f"Bearer {self.access_token(platform, [scope])}"}
 
+    def _send(self, platform: dict, scope: str, method: str, url: str, what: str, headers: dict, **kwargs) -> object:
+        """`_call` with a bearer token for `scope`; a 401 (a token the platform no longer honours) drops the cached
+        token and tries once more with a new one."""
+        for attempt in (1, 2):
+            try:
+                return self._call(method, url, what, headers=self._authorized(platform, scope, headers), **kwargs)
+            except ServiceError as e:
+                if e.status != 401 or attempt == 2:
+                    raise
+                with self._lock:
+                    self._tokens.pop((platform["id"], (scope,)), None)
+        raise AssertionError("unreachable")
+
     # -- Assignment and Grade Services ------------------------------------------------------------------
 
     def post_score(self, platform: dict, lineitem_url: str, score: dict) -> None:
         """POST `score` (see `score()`) to the line item's scores (AGS 2.0 §3.4)."""
-        headers = self._authorized(platform, SCORE_SCOPE, {"Content-Type": SCORE_TYPE})
-        url = scores_url(lineitem_url)
-        self._call("POST", url, "the score", headers=headers, content=_json(score))
+        headers = {"Content-Type": SCORE_TYPE}
+        self._send(platform, SCORE_SCOPE, "POST", scores_url(lineitem_url), "the score", headers, content=_json(score))
 
     def line_items(self, platform: dict, lineitems_url: str, resource_link_id: str | None = None) -> list[dict]:
         """The line items of a context (those of one resource link when given)."""
         params = {"resource_link_id": resource_link_id} if resource_link_id else None
-        headers = self._authorized(platform, LINEITEM_SCOPE, {"Accept": LINEITEMS_TYPE})
-        data = self._call("GET", lineitems_url, "the line items", headers=headers, params=params)
+        headers = {"Accept": LINEITEMS_TYPE}
+        data = self._send(platform, LINEITEM_SCOPE, "GET", lineitems_url, "the line items", headers, params=params)
         if not isinstance(data, list):
             raise ServiceError(502, f"the line items: {lineitems_url} answered with no list of line items")
         return [item for item in data if isinstance(item, dict)]
@@ -149,8 +161,10 @@ class ServiceClient:
         item = {"label": label, "scoreMaximum": score_maximum}
         item |= {k: v for k, v in (("resourceLinkId", resource_link_id), ("tag", tag), ("resourceId", resource_id))
                  if v}  # fmt: skip
-        headers = self._authorized(platform, LINEITEM_SCOPE, {"Content-Type": LINEITEM_TYPE, "Accept": LINEITEM_TYPE})
-        data = self._call("POST", lineitems_url, "the new line item", headers=headers, content=_json(item))
+        headers = {"Content-Type": LINEITEM_TYPE, "Accept": LINEITEM_TYPE}
+        data = self._send(
+            platform, LINEITEM_SCOPE, "POST", lineitems_url, "the new line item", headers, content=_json(item)
+        )
         if not isinstance(data, dict) or not isinstance(data.get("id"), str):
             raise ServiceError(502, f"the new line item: {lineitems_url} answered without the item's id")
         return data
@@ -165,7 +179,7 @@ class ServiceClient:
         out, url = [], memberships_url
         for _ in range(max_pages):
             try:
-                response, data = get_json(self.http, url, MAX_BYTES, headers)
+                response, data = get_json(self.http, url, MAX_BYTES, headers, TIMEOUT)
             except httpx.HTTPError as e:
                 raise ServiceError(0, f"the members: no answer from {url} ({type(e).__name__}: {e})") from None
             except (TooLarge, ValueError) as e:

@@ -5,6 +5,9 @@
 - `lti_deployments`: the deployment ids a platform's launches may carry (one per place the tool is installed).
 - `lti_logins`: logins in flight: the OIDC `state` and `nonce` the tool made at /lti/login (256 random bits
   each), taken once by the launch that comes back with them, and only within `max_age` seconds.
+- `lti_origins`: the web origins a platform's verified launches named as their return URLs (a hosted Canvas
+  shows its courses at the school's own address, which its registration does not name): they may frame the
+  tool's pages too (at most MAX_ORIGINS per platform).
 - `lti_nonces`: the nonces of verified launches, so that an id_token is accepted once (kept until an hour
   past its expiry, then pruned).
 
@@ -46,6 +49,12 @@ CREATE TABLE IF NOT EXISTS lti_logins (
     target_link_uri TEXT NOT NULL,
     created_at REAL NOT NULL
 );
+CREATE TABLE IF NOT EXISTS lti_origins (
+    platform_id TEXT NOT NULL,
+    origin TEXT NOT NULL,                 -- scheme://host[:port] a verified launch named as its return URL's
+    seen_at REAL NOT NULL,
+    PRIMARY KEY (platform_id, origin)
+);
 CREATE TABLE IF NOT EXISTS lti_nonces (
     platform_id TEXT NOT NULL,
     nonce TEXT NOT NULL,
@@ -58,7 +67,10 @@ URL_FIELDS = ("issuer", "auth_url", "token_url", "jwks_url")
 HOST = re.compile(r"[a-z0-9_-]+(?:\.[a-z0-9_-]+)*\.?|[0-9a-f:.]+")  # a DNS name, IPv4, or IPv6 (unbracketed)
 MAX_TEXT = 2048  # characters of a URL, client id, deployment id or name
 LOGIN_KEEP = 3600  # seconds: logins never taken are pruned after this
-NONCE_KEEP = 3600  # seconds past a nonce's token's expiry that it is kept
+NONCE_KEEP = 3600
+MAX_ORIGINS = (
+    20  # origins learned from one platform's launches  # seconds past a nonce's token's expiry that it is kept
+)
 
 
 def loopback_host(host: str) -> bool:
@@ -190,7 +202,7 @@ class LtiStore(Tables):
     def remove(self, platform_id: str) -> bool:
         with self._tx() as db:
             gone = db.execute("DELETE FROM lti_platforms WHERE id = ?", (platform_id,)).rowcount
-            for table in ("lti_deployments", "lti_logins", "lti_nonces"):
+            for table in ("lti_deployments", "lti_logins", "lti_nonces", "lti_origins"):
                 db.execute(f"DELETE FROM {table} WHERE platform_id = ?", (platform_id,))
         return bool(gone)
 
@@ -237,3 +249,25 @@ class LtiStore(Tables):
                 (platform_id, nonce, exp),
             ).rowcount
         return added == 1
+
+    # -- origins seen in launches --------------------------------------------------------------------
+
+    def add_origin(self, platform_id: str, origin: str, now: float) -> bool:
+        """Keep an origin a verified launch of `platform_id` named; True when it is new (and was kept: at most
+        MAX_ORIGINS per platform)."""
+        with self._tx() as db:
+            if db.execute(
+                "SELECT 1 FROM lti_origins WHERE platform_id = ? AND origin = ?", (platform_id, origin)
+            ).fetchone():
+                return False
+            count = db.execute("SELECT COUNT(*) FROM lti_origins WHERE platform_id = ?", (platform_id,)).fetchone()[0]
+            if count >= MAX_ORIGINS:
+                return False
+            db.execute(
+                "INSERT INTO lti_origins (platform_id, origin, seen_at) VALUES (?, ?, ?)", (platform_id, origin, now)
+            )
+        return True
+
+    def origins_seen(self) -> list[str]:
+        rows = self.db.execute("SELECT DISTINCT origin FROM lti_origins ORDER BY origin").fetchall()
+        return [r["origin"] for r in rows]

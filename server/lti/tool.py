@@ -1,6 +1,7 @@
 """The LTI tool as the app holds it (`app.state.lti`): its keys, its tables, the platforms' key sets, the
-service client, the launch handler, its clock, and the origins of the registered platforms (which may frame
-the tool's pages: server/core/security.py's `frame_ancestors`)."""
+service client, the launch handler, its clock, and the origins that may frame the tool's pages
+(server/core/security.py's `frame_ancestors`): those of the registered platforms' issuers and auth URLs, and
+those their verified launches named as return URLs."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from urllib.parse import urlsplit
 
 from server.lti.handler import EchoHandler, LaunchHandler
 from server.lti.keys import ToolKeys
-from server.lti.launch import JwksCache
+from server.lti.launch import LTI, JwksCache, Launch
 from server.lti.services import ServiceClient
 from server.lti.store import LtiStore
 
@@ -50,12 +51,25 @@ class LtiTool:
         with self._lock:
             if self._origins is not None and time.monotonic() - self._origins[0] < ORIGINS_TTL:
                 return self._origins[1]
-        found = set()
+        found = {o for o in self.store.origins_seen() if ORIGIN.fullmatch(o)}
         for p in self.store.platforms():
             found |= {o for o in (origin(p["issuer"]), origin(p["auth_url"])) if o}
         with self._lock:
             self._origins = (time.monotonic(), sorted(found))
         return self._origins[1]
+
+    def learn_origins(self, launch: Launch) -> None:
+        """The origins of a verified launch's return URLs (launch_presentation's, deep linking's), kept so that
+        the platform's pages at that address may frame the tool (a hosted Canvas at the school's own domain)."""
+        urls = [(launch.claims.get(LTI + "launch_presentation") or {}).get("return_url")]
+        urls.append((launch.deep_linking or {}).get("deep_link_return_url"))
+        found = {o for u in urls if isinstance(u, str) and (o := origin(u))}
+        added = [o for o in sorted(found) if self.store.add_origin(launch.platform["id"], o, self.clock())]
+        if added:
+            self.refresh()
+
+    def close(self) -> None:
+        self.services.http.close()
 
     def refresh(self) -> None:
         with self._lock:

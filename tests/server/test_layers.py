@@ -51,6 +51,8 @@ def test_layers_the_rule_catches_a_route_that_reaches_into_a_backend():
     assert not allowed("server.queue.embedded.worker", "server.api.models")
     assert not allowed("server.jobs.service", "server.queue.base")  # the service only calls the interface
     assert allowed("server.api.deps", "server.queue.base")
+    assert not allowed("server.lti.launch", "server.course.service")  # the course wires the handler, not lti
+    assert allowed("server.api.routes.lti", "server.lti.launch")
 
 
 def test_layers_the_service_has_no_import_cycle():

@@ -121,6 +121,7 @@ async def lti_launch(request: Request, lti: LtiDep) -> Response:
         )  # fmt: skip
     except LaunchError as e:
         return refused(e)
+    await run_in_threadpool(lti.learn_origins, launch)  # before the answer's headers name who may frame it
     response = await lti.handler.launched(launch, request)
     response.headers.append(
         "set-cookie", f"{state_cookie(state)}=; Max-Age=0; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned"

@@ -212,3 +212,25 @@ def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):  #
     api = tool.client.get("/api/health")
     assert "frame-ancestors 'none'" in api.headers["content-security-policy"]
     assert api.headers["x-frame-options"] == "DENY"
+
+
+def test_lti_launch_refusal_page_escapes_what_the_token_says(tool, platform):  # noqa: F811
+    r = platform.do_launch(tool.client, tool.url, deployment_id='<script>alert("x")</script>')
+    assert_refused(r, "deployment_id", 400, '<script>alert("x")</script>')
+    assert "<script>" not in r.text and "&lt;script&gt;" in r.text
+    assert '<html lang="en">' in r.text and '<link rel="stylesheet" href="/css/app.css">' in r.text
+
+
+def test_lti_launch_return_url_origin_may_frame_the_tool(tool, platform):  # noqa: F811
+    """A hosted Canvas shows its courses at the school's address, which its registration does not name: the
+    origin of a verified launch's return URL may frame the tool, from that launch's own answer on."""
+    school = "https://school.example.edu"
+    presentation = {"document_target": "iframe", "return_url": school + "/courses/1/external_content/success"}
+    r = platform.do_launch(tool.client, tool.url, overrides={LTI + "launch_presentation": presentation})
+    assert r.status_code == 200, r.text
+    assert school in r.headers["content-security-policy"].split("frame-ancestors")[1].split(";")[0]
+    assert school in tool.client.get("/course").headers["content-security-policy"]
+    refused = platform.do_launch(tool.client, tool.url, overrides={"iss": "https://evil.example",
+                                 LTI + "launch_presentation": {"return_url": "https://evil.example/x"}})  # fmt: skip
+    assert check_of(refused) == "iss" and "evil.example" not in tool.client.get("/course").headers[
+        "content-security-policy"]  # fmt: skip

@@ -1,0 +1,156 @@
+"""python -m server.lti: the deployer's command line for LTI 1.3 (docs/lti.md). It works on the data directory's
+database directly (--data-dir, else TRACER_DATA_DIR or ./data), so it runs beside a running server (which sees a
+new platform within a minute, or at once when it is registered through POST /api/lti/platforms).
+
+    python -m server.lti register --issuer URL --client-id ID --auth-url URL --token-url URL --jwks-url URL
+        --deployment ID [--deployment ID2 ...] [--name NAME] [--data-dir DIR]
+    python -m server.lti list [--data-dir DIR]
+    python -m server.lti remove ID [--data-dir DIR]
+    python -m server.lti show-tool --base https://tool.example.edu
+
+`register` prints the platform's id on its first line, then what was registered; a wrong value is printed as
+`field: message` lines (exit 1). `show-tool` prints the values to paste into the LMS, then Canvas's developer
+key as JSON (everything after the line that starts with "Canvas developer key").
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from urllib.parse import urlsplit
+
+from server.core.errors import ApiError
+from server.lti.services import LINEITEM_READ_SCOPE, LINEITEM_SCOPE, NRPS_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE
+from server.lti.store import LtiStore, url_problem
+
+TITLE = "Ray tracing for teaching"
+DESCRIPTION = "Write scenes, watch them render, inspect ray trees; assignments graded and sent back to the course."
+CANVAS_HEADER = "Canvas developer key (Developer Keys > + LTI Key > Method: Paste JSON):"
+
+
+def tool_urls(base: str) -> dict[str, str]:
+    """The tool's URLs under `base` (its public https address)."""
+    base = base.rstrip("/")
+    return {
+        "login": base + "/lti/login",
+        "launch": base + "/lti/launch",
+        "jwks": base + "/lti/jwks",
+        "deep_linking": base + "/lti/launch",
+    }
+
+
+def canvas_key(base: str) -> dict:
+    """Canvas's developer key configuration (LTI 1.3), as pasted into "Method: Paste JSON"."""
+    urls = tool_urls(base)
+    launch = {"target_link_uri": urls["launch"]}
+    placements = [
+        {"placement": "course_navigation", "message_type": "LtiResourceLinkRequest", "text": TITLE, **launch},
+        {"placement": "assignment_selection", "message_type": "LtiDeepLinkingRequest", "text": TITLE, **launch},
+        {"placement": "link_selection", "message_type": "LtiDeepLinkingRequest", "text": TITLE, **launch},
+    ]
+    return {
+        "title": TITLE,
+        "description": DESCRIPTION,
+        "oidc_initiation_url": urls["login"],
+        "target_link_uri": urls["launch"],
+        "public_jwk_url": urls["jwks"],
+        "scopes": [LINEITEM_SCOPE, LINEITEM_READ_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE, NRPS_SCOPE],
+        "extensions": [
+            {
+                "platform": "canvas.instructure.com",
+                "domain": urlsplit(base).netloc,
+                "tool_id": "raytrace-edu",
+                "privacy_level": "public",
+                "settings": {"text": TITLE, "placements": placements},
+            }
+        ],
+        "custom_fields": {},
+    }
+
+
+def show_tool(base: str) -> str:
+    urls = tool_urls(base)
+    lines = [
+        f"Login URL (OpenID Connect initiation): {urls['login']}",
+        f"Launch URL (redirect URI, target link URI): {urls['launch']}",
+        f"Public keyset URL (JWKS): {urls['jwks']}",
+        f"Deep linking URL (content selection): {urls['deep_linking']}",
+        "(deep linking requests, LtiDeepLinkingRequest, come to the launch URL too)",
+        "",
+        CANVAS_HEADER,
+        json.dumps(canvas_key(base), indent=2),
+    ]
+    return "\n".join(lines)
+
+
+def describe(p: dict) -> str:
+    deployments = ", ".join(p["deployment_ids"]) or "none"
+    name = f" ({p['name']})" if p["name"] else ""
+    return f"{p['id']}  {p['issuer']}{name}  client id {p['client_id']}  deployments: {deployments}"
+
+
+def parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="python -m server.lti", description="LTI 1.3 platforms of this tool")
+    sub = ap.add_subparsers(dest="command", required=True)
+    reg = sub.add_parser("register", help="register (or update) a platform: an LMS and the client id it gave")
+    reg.add_argument("--issuer", required=True, help="the platform's issuer (Canvas: https://canvas.instructure.com)")
+    reg.add_argument("--client-id", required=True, help="the client id the platform gave this tool")
+    reg.add_argument("--auth-url", required=True, help="the platform's OIDC authentication request URL")
+    reg.add_argument("--token-url", required=True, help="the platform's access token URL")
+    reg.add_argument("--jwks-url", required=True, help="the platform's public keyset URL")
+    reg.add_argument("--deployment", action="append", default=[], help="a deployment id (repeat for several)")
+    reg.add_argument("--name", default="", help="a name to show")
+    ls = sub.add_parser("list", help="the registered platforms")
+    rm = sub.add_parser("remove", help="remove a platform")
+    rm.add_argument("id")
+    show = sub.add_parser("show-tool", help="the values to paste into the LMS")
+    show.add_argument("--base", required=True, help="the tool's public address: https://tool.example.edu")
+    for p in (reg, ls, rm):
+        p.add_argument("--data-dir", type=Path, default=None, help="the server's data directory (default: ./data)")
+    return ap
+
+
+def data_dir(given: Path | None) -> Path:
+    if given is not None:
+        return given
+    from server.core.settings import load_settings
+
+    return load_settings().data_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    if args.command == "show-tool":
+        if problem := url_problem(args.base):
+            print(f"--base: {problem}", file=sys.stderr)
+            return 1
+        print(show_tool(args.base))
+        return 0
+    folder = data_dir(args.data_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    store = LtiStore(folder)
+    if args.command == "list":
+        for p in store.platforms():
+            print(describe(p))
+        return 0
+    if args.command == "remove":
+        if not store.remove(args.id):
+            print(f"no platform {args.id!r} (python -m server.lti list shows them)", file=sys.stderr)
+            return 1
+        print(f"removed {args.id}")
+        return 0
+    try:
+        p = store.register(
+            issuer=args.issuer, client_id=args.client_id, auth_url=args.auth_url, token_url=args.token_url,
+            jwks_url=args.jwks_url, deployment_ids=args.deployment, name=args.name, now=time.time(),
+        )  # fmt: skip
+    except ApiError as e:
+        for err in e.errors:
+            print(f"{err['path']}: {err['message']}", file=sys.stderr)
+        return 1
+    print(p["id"])
+    print(describe(p))
+    return 0

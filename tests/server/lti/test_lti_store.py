@@ -1,0 +1,86 @@
+"""The LTI tables: platforms (validated URLs, upserts), one-time logins, nonces used once."""
+
+from __future__ import annotations
+
+import pytest
+
+from server.core.errors import ApiError
+from server.lti.store import LtiStore
+
+CANVAS = dict(
+    issuer="https://canvas.instructure.com", client_id="10000000000001",
+    auth_url="https://sso.canvaslms.com/api/lti/authorize_redirect",
+    token_url="https://sso.canvaslms.com/login/oauth2/token", jwks_url="https://sso.canvaslms.com/api/lti/security/jwks",
+)  # fmt: skip
+
+
+def test_lti_store_register_upserts_by_issuer_and_client_id(tmp_path):
+    store = LtiStore(tmp_path)
+    p = store.register(**CANVAS, deployment_ids=["1:abc"], name="Canvas", now=1.0)
+    assert len(p["id"]) == 12 and p["deployment_ids"] == ["1:abc"] and p["name"] == "Canvas"
+    again = store.register(**CANVAS, deployment_ids=["1:abc", "2:def"], now=2.0)
+    assert again["id"] == p["id"] and again["deployment_ids"] == ["1:abc", "2:def"]
+    assert store.find(CANVAS["issuer"], CANVAS["client_id"])["id"] == p["id"]
+    assert store.find(CANVAS["issuer"])["id"] == p["id"]  # the only one of that issuer
+    store.register(**{**CANVAS, "client_id": "other"}, deployment_ids=[], now=3.0)
+    assert store.find(CANVAS["issuer"]) is None  # two of that issuer: the client id must say which
+    assert store.add_deployment(p["id"], "3:ghi")["deployment_ids"] == ["1:abc", "2:def", "3:ghi"]
+    assert [x["client_id"] for x in store.platforms()] == [CANVAS["client_id"], "other"]
+    assert store.remove(p["id"]) and store.platform(p["id"]) is None and not store.remove(p["id"])
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("auth_url", "http://lms.example.edu/auth"), ("jwks_url", "ftp://x/jwks"), ("issuer", "not a url"),
+     ("token_url", "https:///no-host"), ("auth_url", "https://a;b.example/x")],
+)  # fmt: skip
+def test_lti_store_register_refuses_a_bad_url_naming_its_field(tmp_path, field, value):
+    with pytest.raises(ApiError) as e:
+        LtiStore(tmp_path).register(**{**CANVAS, field: value}, deployment_ids=["1"])
+    assert e.value.status == 422 and [x["path"] for x in e.value.errors] == [field]
+    assert "https://" in e.value.errors[0]["message"] or "URL" in e.value.errors[0]["message"]
+
+
+def test_lti_store_http_is_allowed_on_loopback_only(tmp_path):
+    store = LtiStore(tmp_path)
+    for host in ("127.0.0.1:8001", "localhost", "[::1]:9000", "127.9.9.9"):
+        urls = {k: f"http://{host}/{k}" for k in ("issuer", "auth_url", "token_url", "jwks_url")}
+        store.register(**urls, client_id="c", deployment_ids=["d"])
+    with pytest.raises(ApiError) as e:
+        store.register(**{**CANVAS, "client_id": " "}, deployment_ids=[""])
+    assert [x["path"] for x in e.value.errors] == ["client_id", "deployment_ids[0]"]
+
+
+def test_lti_store_a_login_is_taken_once_and_only_while_fresh(tmp_path):
+    store = LtiStore(tmp_path)
+    pid = store.register(**CANVAS, deployment_ids=["1"])["id"]
+    state, nonce = store.new_login(pid, "https://tool/lti/launch", now=100.0)
+    assert len(state) == len(nonce) == 43 and state != nonce  # 256 bits each, base64url
+    row = store.take_login(state, now=150.0)
+    assert (row["platform_id"], row["nonce"], row["target_link_uri"]) == (pid, nonce, "https://tool/lti/launch")
+    assert store.take_login(state, now=150.0) is None  # used
+    old, _ = store.new_login(pid, "t", now=100.0)
+    assert store.take_login(old, now=100.0 + 601) is None  # too old
+    assert store.take_login(old, now=100.0) is None  # and gone
+    assert store.take_login("unknown", now=100.0) is None
+
+
+def test_lti_store_a_nonce_is_used_once_and_pruned_after_its_expiry(tmp_path):
+    store = LtiStore(tmp_path)
+    assert store.use_nonce("p", "n1", exp=1000.0, now=900.0)
+    assert not store.use_nonce("p", "n1", exp=1000.0, now=950.0)  # a replay
+    assert store.use_nonce("q", "n1", exp=1000.0, now=950.0)  # another platform's
+    store.use_nonce("p", "n2", exp=10_000.0, now=1000.0 + 3601)  # prunes n1
+    assert store.db.execute("SELECT COUNT(*) FROM lti_nonces WHERE nonce = 'n1'").fetchone()[0] == 0
+
+
+def test_lti_store_origins_seen_are_kept_once_and_bounded(tmp_path):
+    store = LtiStore(tmp_path)
+    pid = store.register(**CANVAS, deployment_ids=["1"])["id"]
+    assert store.add_origin(pid, "https://school.example.edu", 1.0)
+    assert not store.add_origin(pid, "https://school.example.edu", 2.0)
+    for i in range(30):
+        store.add_origin(pid, f"https://s{i}.example.edu", 3.0)
+    assert len(store.origins_seen()) == 20 and "https://school.example.edu" in store.origins_seen()
+    store.remove(pid)
+    assert store.origins_seen() == []
