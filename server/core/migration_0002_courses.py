@@ -51,7 +51,7 @@ def apply(db: sqlite3.Connection) -> None:
     db.execute("ALTER TABLE course_assignments ADD COLUMN course_id TEXT NOT NULL DEFAULT 'default'")
     for statement in TABLES.split(";"):
         if statement.strip():
-            db.execute(statement)
+            db.execute(statement.strip())
     db.execute("INSERT OR IGNORE INTO courses (id, name, created_at) VALUES ('default', 'Default course', ?)", (now,))
     if not db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'course_students'").fetchone():
         return
