@@ -296,7 +296,8 @@ def docs_policy(html: bytes) -> str:
     )
 
 
-FRAMED_PREFIXES, FRAMED_PATHS = ("/lti/", "/assignments/"), ("/", "/course")  # the pages an LMS may frame
+FRAMED_PREFIXES = ("/lti/", "/assignments/", "/courses/")  # the pages an LMS may frame
+FRAMED_PATHS = ("/", "/course")
 
 
 def framed_policy(origins: list[str]) -> str:
