@@ -13,6 +13,8 @@ goes through the whole OIDC flow as a browser does.
 
 from __future__ import annotations
 
+import html
+import json
 import secrets
 import socket
 import threading
@@ -106,6 +108,7 @@ class Platform:
         self.members: dict[str, list[dict]] = {"course-1": [member(i) for i in range(5)]}
         self.deep_links: list[dict] = []  # the content items of each verified deep-linking answer
         self.last: dict = {}  # the last do_launch's state, nonce, id_token, cookie
+        self.auto_launch: dict | None = None  # launch_token's arguments: GET /auth answers a self-posting launch
         self.line_items["li-1"] = {"id": f"{self.url}/lineitems/li-1", "label": "Ray trees", "scoreMaximum": 10,
                                    "resourceLinkId": "link-1", "context": "course-1"}  # fmt: skip
         self.server = LoopbackServer(self._app(), self.port)
@@ -247,7 +250,39 @@ class Platform:
         def auth(request: Request):
             query = dict(request.query_params)
             self.auth_requests.append(query)
-            return {"received": query}
+            if self.auto_launch is None:
+                return {"received": query}
+            # as a browser meets a real platform: a form that posts the signed launch back at once
+            token = self.launch_token(nonce=query["nonce"], **self.auto_launch)
+            return HTMLResponse(
+                f'<form id="f" method="post" action="{query["redirect_uri"]}">'
+                f'<input type="hidden" name="id_token" value="{token}">'
+                f'<input type="hidden" name="state" value="{query["state"]}"></form>'
+                # posted at once, or once the course page lets it go (`hold`: a test does something in between)
+                "<script>const go = () => (window.parent.holdLaunch ? setTimeout(go, 50)"
+                ' : document.getElementById("f").submit()); go();</script>'
+            )
+
+        @app.get("/course-page")
+        def course_page(tool: str, login: str, tamper: int = 0, hold: int = 0):
+            """The platform's page of a course: the tool in a frame (its login URL), and LTI Platform Storage
+            for it (lti.put_data / lti.get_data by postMessage, from the tool's origin only; `tamper`: the state
+            read back is another one; `hold`: the authentication answer waits until `holdLaunch` is false)."""
+            script = (
+                f"const store = {{}}; window.storageLog = []; window.holdLaunch = {bool(hold).__str__().lower()};"
+                "window.addEventListener('message', (e) => {"
+                f"  if (e.origin !== {json.dumps(tool)} || !e.data || !e.data.subject) return;"
+                "  const m = e.data; window.storageLog.push(m.subject + ' ' + m.key);"
+                "  if (m.subject === 'lti.put_data') store[m.key] = m.value;"
+                f"  const value = m.subject === 'lti.get_data' && {int(tamper)} ? 'another' : store[m.key];"
+                "  e.source.postMessage({subject: m.subject + '.response', message_id: m.message_id, key: m.key,"
+                "                        value}, e.origin);"
+                "});"
+            )
+            return HTMLResponse(
+                f"<!doctype html><title>LMS course</title><script>{script}</script>"
+                f'<h1>Rendering 101</h1><iframe name="tool" src="{html.escape(login)}" width="1000" height="700"></iframe>'
+            )
 
         @app.post("/token")
         async def token(request: Request):

@@ -58,3 +58,32 @@ def deep_link_form(return_url: str, jwt: str, summary: str = "") -> HTMLResponse
         '<button type="submit">Add</button>\n</form>'
     )
     return page("Add to the course", body)
+
+
+def storage_put_page(target: str, origin: str, state: str, nonce: str, next_url: str) -> HTMLResponse:
+    """The login's page when the platform offers LTI Platform Storage: state and nonce put into the platform's
+    page (web/js/lti_storage.js), then on to the platform's authentication request."""
+    attrs = {"mode": "put", "target": target, "origin": origin, "state": state, "nonce": nonce, "next": next_url}
+    data = " ".join(f'data-{k}="{escape(v, quote=True)}"' for k, v in attrs.items())
+    body = (
+        f'<p id="lti-storage" {data}>Signing you in…</p>\n'
+        '<p id="lti-storage-status" class="message" role="status"></p>\n'
+        f'<noscript><p><a href="{escape(next_url, quote=True)}">Continue</a></p></noscript>\n'
+        '<script src="/js/lti_storage.js"></script>'
+    )
+    return page("Signing in", body)
+
+
+def storage_check_page(target: str, origin: str, state: str, continuation: str) -> HTMLResponse:
+    """The launch's page when its login put the state into the platform's storage and no cookie came back: the
+    state read there (web/js/lti_storage.js) must be this launch's before it opens (the form, POST /lti/continue)."""
+    attrs = {"mode": "get", "target": target, "origin": origin, "state": state}
+    data = " ".join(f'data-{k}="{escape(v, quote=True)}"' for k, v in attrs.items())
+    body = (
+        f'<p id="lti-storage" {data}>Checking the sign-in with your learning platform…</p>\n'
+        '<p id="lti-storage-status" class="message" role="status"></p>\n'
+        '<form id="lti-continue" method="post" action="/lti/continue" hidden>'
+        f'<input type="hidden" name="id" value="{escape(continuation, quote=True)}"></form>\n'
+        '<script src="/js/lti_storage.js"></script>'
+    )
+    return page("Checking the sign-in", body)

@@ -47,7 +47,8 @@ CREATE TABLE IF NOT EXISTS lti_logins (
     nonce TEXT NOT NULL,                  -- 256 random bits: the id_token must carry it
     platform_id TEXT NOT NULL,
     target_link_uri TEXT NOT NULL,
-    created_at REAL NOT NULL
+    created_at REAL NOT NULL,
+    storage_target TEXT                   -- LTI Platform Storage's frame, when the platform offered it
 );
 CREATE TABLE IF NOT EXISTS lti_origins (
     platform_id TEXT NOT NULL,
@@ -216,15 +217,18 @@ class LtiStore(Tables):
 
     # -- logins in flight --------------------------------------------------------------------------
 
-    def new_login(self, platform_id: str, target_link_uri: str, now: float) -> tuple[str, str]:
-        """A fresh (state, nonce) for a login to `platform_id`, kept with its time (old ones pruned)."""
+    def new_login(
+        self, platform_id: str, target_link_uri: str, now: float, storage_target: str | None = None
+    ) -> tuple[str, str]:
+        """A fresh (state, nonce) for a login to `platform_id`, kept with its time (old ones pruned), and the
+        platform's storage frame when it offered LTI Platform Storage (the launch then checks the state there)."""
         state, nonce = secrets.token_urlsafe(32), secrets.token_urlsafe(32)
         with self._tx() as db:
             db.execute("DELETE FROM lti_logins WHERE created_at < ?", (now - LOGIN_KEEP,))
             db.execute(
-                "INSERT INTO lti_logins (state, nonce, platform_id, target_link_uri, created_at)"
-                " VALUES (?, ?, ?, ?, ?)",
-                (state, nonce, platform_id, target_link_uri[:MAX_TEXT], now),
+                "INSERT INTO lti_logins (state, nonce, platform_id, target_link_uri, created_at, storage_target)"
+                " VALUES (?, ?, ?, ?, ?, ?)",
+                (state, nonce, platform_id, target_link_uri[:MAX_TEXT], now, storage_target),
             )
         return state, nonce
 

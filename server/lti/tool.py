@@ -6,6 +6,7 @@ those their verified launches named as return URLs."""
 from __future__ import annotations
 
 import re
+import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -19,6 +20,7 @@ from server.lti.services import ServiceClient
 from server.lti.store import LtiStore
 
 ORIGIN = re.compile(r"https?://(?:[a-z0-9._-]+|\[[0-9a-f:.]+\])(?::[0-9]{1,5})?")
+HOLD_SECONDS, MAX_HELD = 120.0, 10000  # a launch waits this long for its storage check; at most this many wait
 ORIGINS_TTL = 60.0  # seconds: platforms registered by the command line (another process) are seen this late
 
 
@@ -45,6 +47,7 @@ class LtiTool:
         self.clock = clock  # Unix time: logins' ages, tokens' times
         self._origins: tuple[float, list[str]] | None = None
         self._lock = threading.Lock()
+        self._held: dict[str, tuple[float, object]] = {}  # launches waiting for the platform storage's check
 
     def origins(self) -> list[str]:
         """The origins of the registered platforms' issuers and auth URLs (cached; `refresh` after a change)."""
@@ -70,6 +73,25 @@ class LtiTool:
 
     def close(self) -> None:
         self.services.http.close()
+
+    def hold(self, launch) -> str:
+        """Keep a checked launch for a moment (HOLD_SECONDS) while its page checks the state in the platform's
+        storage; the one-time id that opens it (`take`)."""
+        key = secrets.token_urlsafe(24)
+        now = time.monotonic()
+        with self._lock:
+            for k in [k for k, (t, _) in self._held.items() if t < now]:
+                del self._held[k]
+            if len(self._held) >= MAX_HELD:
+                self._held.pop(next(iter(self._held)))
+            self._held[key] = (now + HOLD_SECONDS, launch)
+        return key
+
+    def take(self, key: str):
+        """The launch held under `key`, once (None if unknown, taken or too old)."""
+        with self._lock:
+            held = self._held.pop(key, None)
+        return held[1] if held is not None and held[0] >= time.monotonic() else None
 
     def refresh(self) -> None:
         with self._lock:

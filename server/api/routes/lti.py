@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hmac
 import logging
+import re
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Request, Response
@@ -27,12 +28,13 @@ from starlette.concurrency import run_in_threadpool
 from server.core.errors import ApiError
 from server.core.security import require_instructor
 from server.lti.launch import LaunchError, auth_request_url, verify_launch
-from server.lti.pages import error_page
-from server.lti.tool import LtiTool
+from server.lti.pages import error_page, storage_check_page, storage_put_page
+from server.lti.tool import LtiTool, origin
 
 log = logging.getLogger("server.lti")
 router = APIRouter()
 STATE_AGE = 600  # seconds a login's state is good for (and its cookie's Max-Age)
+STORAGE_TARGET = re.compile(r"_parent|[A-Za-z0-9_-]{1,64}")  # Platform Storage's frame: the parent, or a name
 MAX_FIELD = 16384  # characters of a login's or launch's parameter (an id_token is a few KB)
 
 
@@ -84,12 +86,20 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
     deployment = p.get("lti_deployment_id")
     if deployment and deployment not in platform["deployment_ids"]:
         return refused(LaunchError("deployment_id", f"deployment '{deployment}' is not registered for {iss}"))
-    state, nonce = await run_in_threadpool(lti.store.new_login, platform["id"], target, lti.clock())
+    storage = p.get("lti_storage_target")
+    if storage is not None and not STORAGE_TARGET.fullmatch(storage):
+        return refused(LaunchError("login", "lti_storage_target is not a frame's name ('_parent' or a name)"))
+    platform_origin = origin(platform["auth_url"])
+    storage = storage if platform_origin else None
+    state, nonce = await run_in_threadpool(lti.store.new_login, platform["id"], target, lti.clock(), storage)
     url = auth_request_url(
         platform, login_hint=login_hint, lti_message_hint=p.get("lti_message_hint"), state=state, nonce=nonce,
         redirect_uri=str(request.url_for("lti_launch")), client_id=platform["client_id"],
     )  # fmt: skip
-    response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})
+    if storage:  # LTI Platform Storage: state and nonce kept in the platform's page too (no cookie needed)
+        response = storage_put_page(storage, platform_origin, state, nonce, url)
+    else:
+        response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})
     response.headers.append(
         "set-cookie",
         f"{state_cookie(state)}={state}; Max-Age={STATE_AGE}; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned",
@@ -122,11 +132,28 @@ async def lti_launch(request: Request, lti: LtiDep) -> Response:
     except LaunchError as e:
         return refused(e)
     await run_in_threadpool(lti.learn_origins, launch)  # before the answer's headers name who may frame it
-    response = await lti.handler.launched(launch, request)
+    platform_origin = origin(launch.platform["auth_url"])
+    if row.get("storage_target") and cookie is None and platform_origin:
+        # no cookie came back (the platform's frame keeps none), and the login put its state into the platform's
+        # storage: the launch opens once the page has read the same state there (POST /lti/continue)
+        response = storage_check_page(row["storage_target"], platform_origin, state, lti.hold(launch))
+    else:
+        response = await lti.handler.launched(launch, request)
     response.headers.append(
         "set-cookie", f"{state_cookie(state)}=; Max-Age=0; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned"
     )
     return response
+
+
+@router.post("/lti/continue", include_in_schema=False)
+async def lti_continue(request: Request, lti: LtiDep) -> Response:
+    """A launch checked against the platform's storage (web/js/lti_storage.js): opened now, once."""
+    form = await request.form(max_files=0, max_fields=4)
+    launch = lti.take(str(form.get("id") or "")[:64])
+    if launch is None:
+        message = "this sign-in was opened already, or waited too long: open the link again"
+        return refused(LaunchError("state", message))
+    return await lti.handler.launched(launch, request)
 
 
 # -- platforms (the server admin's) ------------------------------------------------------------------------
