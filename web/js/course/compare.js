@@ -38,7 +38,7 @@ export function nodeAt(model, path) {
 
 function side(name, title, tree, marked) {
   const model = treeModel(tree);
-  const box = h("div", { class: "compare-tree", tabindex: 0, "aria-label": `${title}: ${model.nodes.length} rays` });
+  const box = h("div", { class: "compare-tree", tabindex: 0, role: "group", "aria-label": `${title}: ${model.nodes.length} rays` });
   const section = h(
     "section",
     { class: "compare-side", dataset: { side: name } },
@@ -63,7 +63,8 @@ function mark(view, what) {
   if (!g) return null;
   g.classList.add("differs");
   view.box.querySelector(`g.rt-edge[data-id="${n.id}"]`)?.classList.add("differs");
-  g.setAttribute("aria-label", `${g.getAttribute("aria-label")} — the first difference (${what})`);
+  const svg = view.box.querySelector("svg"); // one image to a screen reader (diagram.js): its name says where
+  svg?.setAttribute("aria-label", `${svg.getAttribute("aria-label")}; ray ${n.id} is the first difference (${what})`);
   const w = Number(g.querySelector("rect.box")?.getAttribute("width")) || 0; // right-aligned: the edge comes in at the middle
   g.append(s("text", { class: "differs-tag", x: w, y: -5, "text-anchor": "end" }, "first difference"));
   return g;
