@@ -219,6 +219,13 @@ def test_axe_the_student_s_assignment_page(desktop, server, course):  # noqa: F8
     page.wait_for_selector("#a-sub-list li.a-sub[data-status=graded]")
     desktop.shot("axe-assignment", full_page=True)
     assert_accessible(page, "assignment")
+    # the two ray trees at a pixel of the difference map (web/js/course/compare.js)
+    img = page.locator("#a-sub-list img[data-picture='error_map.png']")
+    page.wait_for_function("(el) => el.complete && el.naturalWidth === 32", arg=img.element_handle())
+    img.click()
+    page.wait_for_selector("#compare section.compare-side")
+    desktop.shot("axe-assignment-compare", full_page=True)
+    assert_accessible(page, "assignment with two ray trees compared")
 
 
 # -- the reference ------------------------------------------------------------------------------------
