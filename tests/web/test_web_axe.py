@@ -26,7 +26,18 @@ import httpx
 import pytest
 from test_api_support import INSTRUCTOR, Server, bearer, wait_for
 from test_dashboard import good_scene, small_spec
-from test_web_page import DESKTOP, SHOTS, TEACHER, Page, browser, render, run_lesson, set_scene, whitted  # noqa: F401
+from test_web_page import (  # noqa: F401  (browser: a fixture)
+    DESKTOP,
+    SHOTS,
+    TEACHER,
+    Page,
+    browser,
+    radiosity_scene,
+    render,
+    run_lesson,
+    set_scene,
+    whitted,
+)
 
 TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa"]
 # and two rules outside those tags that the accessibility review ran (issue #32): an accessible name that
@@ -173,6 +184,24 @@ def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):  # noqa: 
     assert first.get_attribute("aria-expanded") == "false"
     page.keyboard.press("ArrowRight")
     assert first.get_attribute("aria-expanded") == "true"
+
+
+def test_axe_workspace_radiosity_panel_and_its_keys(desktop, server):  # noqa: F811
+    """The radiosity panel (a small two-pass Cornell box): no violation, and the arrow keys on the patch mesh
+    say a patch's numbers as hovering does."""
+    page = desktop.open().page
+    set_scene(page, radiosity_scene(32))
+    render(page)
+    page.wait_for_selector("#radiosity:not([hidden]) #rad-body:not([hidden])")
+    assert_accessible(page, "workspace with the radiosity panel")
+    page.focus("#rad-mesh")
+    page.keyboard.press("ArrowRight")
+    page.wait_for_function("() => document.querySelector('#rad-hover').textContent.includes('B = ')")
+    said = page.inner_text("#rad-hover")
+    page.keyboard.press("ArrowRight")
+    page.wait_for_function("(t) => document.querySelector('#rad-hover').textContent !== t", arg=said)
+    page.keyboard.press("Escape")
+    page.wait_for_function("() => document.querySelector('#rad-hover').textContent === ''")
 
 
 def test_axe_workspace_tabs(desktop, server):  # noqa: F811
