@@ -1,19 +1,22 @@
 """Accessibility (WCAG 2.1 AA) of every page, checked with axe-core in Debian's Chromium (Playwright).
 
-axe-core's rules tagged wcag2a, wcag2aa, wcag21a and wcag21aa run on each page in the states a person sees:
-the workspace after a render and a click on a pixel (the picture and the ray-tree views shown), its Lessons
-tab with one lesson open, its Examples and Grading tabs; /course with an assignment published and its
-dashboard filled by one graded submission; the student's assignment page with that submission; and the
+axe-core's rules tagged wcag2a, wcag2aa, wcag21a and wcag21aa (and two more, RULES) run on each page in the
+states a person sees: the workspace after a render and a click on a pixel (the picture and the ray-tree views
+shown), with a radiosity job's panel, its Lessons tab with one lesson open, its Examples and Grading tabs;
+/course with an assignment published and its dashboard filled by one graded submission; the student's
+assignment page with that submission and two ray trees compared at a pixel of its difference map; and the
 /reference/ pages (the index and scene-format.md). No violation of impact "serious" or "critical" may
 remain; the assertion lists each one with its rule, help text and first targets. axe-core's script is the
 one bundled in the `axe-playwright-python` package (the test extras): nothing is fetched at test time.
 
 The ray tree's text form (the list a screen reader follows) is read too: it names the eye ray and a shadow
-ray of a known pixel, with what each hit, its weight and the colour it carried back; and the rendered
-picture's description says the scene, its size, its samples and that it is done.
+ray of a known pixel, with what each hit, its weight and the colour it carried back, and the arrow keys walk
+it; the rendered picture's description says the scene, its size, its samples and that it is done; the
+radiosity mesh's patches are reached with the arrow keys.
 
-One server (one render worker) and one browser for the module; small renders (64 x 48, a 32 x 24
-assignment). About 40 s on a 2-core machine, most of it the lesson's renders and the grading.
+One server (one render worker) and one browser for the module; small renders (64 x 48, a 32 x 32 radiosity
+box, a 32 x 24 assignment). About 40 s on a 2-core machine shared with other work, most of it the renders,
+the lesson's and the grading.
 """
 
 from __future__ import annotations
@@ -126,6 +129,15 @@ def course(server):  # noqa: F811
 # -- the workspace ------------------------------------------------------------------------------------
 
 
+def render_shown(page) -> None:
+    """Render the editor's scene and wait until its final picture is the one shown: the description says it
+    is done once the last image is in place (a click before that would trace over the last preview's picture,
+    which the final one's arrival takes away)."""
+    render(page)
+    assert page.get_attribute("#stage", "data-status") == "done"
+    page.wait_for_function("() => document.querySelector('#render-img').alt.includes(', done.')")
+
+
 def click_pixel(page, x: int, y: int) -> None:
     img = page.locator("#render-img").bounding_box()
     w, h = SIZE
@@ -138,8 +150,7 @@ def test_axe_workspace_with_a_render_and_a_ray_tree(desktop, server):  # noqa: F
     assert_accessible(page, "workspace at first")
     scene = whitted(*SIZE, spp=4)
     set_scene(page, scene)
-    render(page)
-    assert page.get_attribute("#stage", "data-status") == "done"
+    render_shown(page)
     # the glass ball's pixel (test_web_page's (112, 70) of 160 x 120): eye, reflection, transmission, shadow rays
     x, y = 112 * SIZE[0] // 160, 70 * SIZE[1] // 120
     click_pixel(page, x, y)
@@ -156,7 +167,7 @@ def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):  # noqa: 
     page = desktop.open().page
     scene = whitted(*SIZE, spp=4)
     set_scene(page, scene)
-    render(page)
+    render_shown(page)
     x, y = 112 * SIZE[0] // 160, 70 * SIZE[1] // 120
     click_pixel(page, x, y)
     tree = httpx.post(f"{server.url}/api/raytree", json={"scene": scene, "x": x, "y": y, "sample": 0}, timeout=30)

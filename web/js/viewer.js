@@ -215,6 +215,7 @@ export class Viewer {
     else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
     else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
     if (job.status === "done") this.loadAovRanges(job.id);
+    this.view.ended = true;
     this.describe();
     this.onJob?.(this.view);
   }
@@ -301,7 +302,7 @@ export class Viewer {
     const p = job.progress || {};
     const spp = job.status === "done" ? p.spp_done ?? p.spp_total : p.spp_total;
     const samples = spp ? `, ${spp} sample${spp === 1 ? "" : "s"} per pixel` : "";
-    const status = job.finished ? job.status : "rendering, the picture refines as the passes finish";
+    const status = v.ended ? job.status : "rendering, the picture refines as the passes finish"; // ended: the last picture is in
     const aov = this.aov !== "image" ? ` The ${AOVS.find(([n]) => n === this.aov)?.[1] ?? this.aov} AOV.` : "";
     const alt = `Rendered picture of ${job.name || "the scene"}, ${job.width} × ${job.height} pixels${samples}, ${status}.${aov} Click a pixel, or use the arrow keys and Enter, to see its ray tree.`;
     if (this.el.img.alt !== alt) this.el.img.alt = alt;
