@@ -2,10 +2,10 @@
 
 axe-core's rules tagged wcag2a, wcag2aa, wcag21a and wcag21aa (and two more, RULES) run on each page in the
 states a person sees: the workspace after a render and a click on a pixel (the picture and the ray-tree views
-shown), with a radiosity job's panel, its Lessons tab with one lesson open, its Examples and Grading tabs;
-/course with an assignment published and its dashboard filled by one graded submission; the student's
-assignment page with that submission and two ray trees compared at a pixel of its difference map; and the
-/reference/ pages (the index and scene-format.md). No violation of impact "serious" or "critical" may
+shown), with a radiosity job's panel, its Lessons tab with one lesson open, its Examples tab, its Grading tab
+(empty, then the example class graded and a student's detail); /course with an assignment published and its
+dashboard filled by one graded submission; the student's assignment page with that submission and two ray
+trees compared at a pixel of its difference map; and the /reference/ pages (the index and scene-format.md). No violation of impact "serious" or "critical" may
 remain; the assertion lists each one with its rule, help text and first targets. axe-core's script is the
 one bundled in the `axe-playwright-python` package (the test extras): nothing is fetched at test time.
 
@@ -15,7 +15,7 @@ it; the rendered picture's description says the scene, its size, its samples and
 radiosity mesh's patches are reached with the arrow keys.
 
 One server (one render worker) and one browser for the module; small renders (64 x 48, a 32 x 32 radiosity
-box, a 32 x 24 assignment). About 40 s on a 2-core machine shared with other work, most of it the renders,
+box, a 32 x 24 assignment). About 45 s on a 2-core machine shared with other work, most of it the renders,
 the lesson's and the grading.
 """
 
@@ -29,6 +29,7 @@ import httpx
 import pytest
 from test_api_support import INSTRUCTOR, Server, bearer, wait_for
 from test_dashboard import good_scene, small_spec
+from test_web_grading import enter_token, load_example
 from test_web_page import (  # noqa: F401  (browser: a fixture)
     DESKTOP,
     SHOTS,
@@ -226,7 +227,16 @@ def test_axe_workspace_tabs(desktop, server):  # noqa: F811
     page.click("#tab-grading")
     page.wait_for_selector("#page-grading > *")
     assert_accessible(page, "grading")
+    # the example class graded (32 x 24 renders: a few seconds), its table and a student's detail
+    enter_token(page, INSTRUCTOR)
+    load_example(page)
+    page.click("#grade-start")
+    page.wait_for_selector("#grade-table", timeout=120_000)
+    assert_accessible(page, "grading with a class graded")
+    page.click("#grade-table tr[data-student=erin]")
+    page.wait_for_selector("#grade-detail:not([hidden])")
     desktop.shot("axe-grading", full_page=True)
+    assert_accessible(page, "grading with a student's detail")
 
 
 # -- the course ---------------------------------------------------------------------------------------
