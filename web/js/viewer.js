@@ -585,7 +585,7 @@ export class Viewer {
           h(
             "span",
             { class: "job-actions" },
-            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", onclick: () => this.loadSceneOf(job) }, "Edit"),
+            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", "aria-label": `Edit the scene of ${job.name || "this job"}`, onclick: () => this.loadSceneOf(job) }, "Edit"),
             h("button", { type: "button", class: "small", "aria-label": `Remove ${job.name || "job"} from my list`, title: "Remove from my list", onclick: () => this.forget(job.id) }, "×"),
           ),
         );
