@@ -240,6 +240,14 @@ def test_lesson_circle_of_confusion_of_a_clicked_point(desktop):
     text = page.inner_text(".coc-text")
     assert "in focus (green)" in text and float(page.get_attribute(".coc-text", "data-diameter")) < 1 < near, text
     desktop.shot("lesson-dof-coc", full_page=True)
+    # the keyboard does what the click does: the arrows move the lens (from the middle), Space clicks there
+    picture = page.locator(".lesson-panel >> nth=0").locator("img.lesson-picture")
+    w, h = picture.evaluate("i => [i.naturalWidth, i.naturalHeight]")
+    picture.focus()
+    page.keyboard.press("ArrowLeft")
+    page.keyboard.press(" ")
+    page.wait_for_function("(p) => document.querySelector('.coc-text').textContent.startsWith(p)",
+                           arg=f"Pixel ({w // 2 - 1}, {h // 2})")  # fmt: skip
 
 
 def test_lesson_radiosity_two_pass_shadows_are_clean(desktop, server):  # noqa: F811

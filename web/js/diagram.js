@@ -70,14 +70,8 @@ function swatchRow(x, y, items) {
 function nodeBox(n, p) {
   const key = styleKey(n);
   const st = RAY_STYLES[key];
-  const g = s("g", {
-    class: "rt-node",
-    transform: `translate(${p.x}, ${p.y})`,
-    tabindex: 0,
-    role: "button",
-    dataset: { id: n.id, kind: key, depth: n.depth },
-    "aria-label": `ray ${n.id}: ${n.kind}, depth ${n.depth}, ${hitName(n)}${n.end ? `, ${endWords(n, true)}` : ""}`,
-  });
+  // a picture for the eye and the mouse: the words and the keyboard are the list's (web/js/raylist.js)
+  const g = s("g", { class: "rt-node", transform: `translate(${p.x}, ${p.y})`, dataset: { id: n.id, kind: key, depth: n.depth } });
   g.append(s("rect", { class: "box", width: p.w, height: p.h, rx: 6 }));
   g.append(s("rect", { class: "head", width: p.w, height: 18, rx: 6, fill: st.colour }), s("rect", { width: p.w, height: 8, y: 10, fill: st.colour }));
   g.append(s("text", { class: "title", x: 7, y: 13 }, `#${n.id} ${n.kind} · depth ${n.depth}`));
@@ -101,11 +95,13 @@ function nodeBox(n, p) {
 
 /**
  * Draw the tree into `container`. Returns {highlight(id), setDepth(d), count}.
- * Hover or focus on a box calls onHover(id); a click calls onSelect(id).
+ * Hovering a box calls onHover(id); a click calls onSelect(id). The drawing is one image to a screen reader,
+ * named `label`: the rays in words are the list of web/js/raylist.js (or the caller's own text).
  */
-export function renderDiagram(container, model, { onHover, onSelect }) {
+export function renderDiagram(container, model, { onHover, onSelect, label = null }) {
   const { pos, width, height } = layout(model);
-  const svg = s("svg", { class: "rt-svg", width, height, viewBox: `0 0 ${width} ${height}`, role: "group", "aria-label": `ray tree diagram, ${model.nodes.length} rays` });
+  const name = label || `ray tree diagram, ${model.nodes.length} rays`;
+  const svg = s("svg", { class: "rt-svg", width, height, viewBox: `0 0 ${width} ${height}`, role: "img", "aria-label": name });
   const edges = s("g", { class: "edges" });
   const boxes = s("g", { class: "boxes" });
   const edgeOf = new Map();
@@ -135,15 +131,7 @@ export function renderDiagram(container, model, { onHover, onSelect }) {
     const box = nodeBox(n, p);
     box.addEventListener("mouseenter", () => onHover(n.id));
     box.addEventListener("mouseleave", () => onHover(null));
-    box.addEventListener("focus", () => onHover(n.id));
-    box.addEventListener("blur", () => onHover(null));
     box.addEventListener("click", () => onSelect(n.id));
-    box.addEventListener("keydown", (e) => {
-      if (e.key === "Enter" || e.key === " ") {
-        e.preventDefault();
-        onSelect(n.id);
-      }
-    });
     boxes.append(box);
     nodeOf.set(n.id, box);
   }

@@ -2,7 +2,7 @@
 // picture of the group at once, each pixel a square (nearest neighbour, never smoothed), and a full-size view
 // of the group, zoomable x1 to x8. Mouse: hover or drag a picture to move the lenses, click for the full-size
 // view. Keyboard: focus a picture, arrows move the lenses one pixel (Shift: 10), Enter opens the full-size view,
-// Escape hides the lenses or closes the view. A picture with a click of its own (class "clickable": the depth of
+// Escape hides the lenses or closes the view; on a picture with a click of its own, Space clicks at the lenses. A picture with a click of its own (class "clickable": the depth of
 // field lesson draws on the pictures) hides the lenses when clicked, until the pointer leaves it, so that they do
 // not cover what the click drew.
 import { h } from "./util.js";
@@ -25,7 +25,7 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
       img.tabIndex = 0;
       img.classList.add("inspectable");
       img.title = img.classList.contains("clickable")
-        ? "Hover to magnify every picture here at the same place; double-click (or Enter) for the full size"
+        ? "Hover to magnify every picture here at the same place; double-click (or Enter) for the full size; with the keyboard, Space clicks where the lens is"
         : "Hover to magnify every picture here at the same place; click (or Enter) for the full size";
       img.addEventListener("load", () => at && draw());
     }
@@ -111,6 +111,13 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
       const y = Math.min(img.naturalHeight - 1, Math.max(0, Math.floor(v * img.naturalHeight) + d[1]));
       at = [(x + 0.5) / img.naturalWidth, (y + 0.5) / img.naturalHeight];
       draw();
+    } else if (e.key === " " && img.classList.contains("clickable")) {
+      e.preventDefault(); // the picture's own click, at the lenses' pixel (WCAG 2.1.1: what the mouse does, the keys do)
+      const kept = at || [0.5, 0.5];
+      const r = img.getBoundingClientRect();
+      const c = contentBox(img);
+      img.dispatchEvent(new MouseEvent("click", { bubbles: true, clientX: r.left + c.left + kept[0] * c.width, clientY: r.top + c.top + kept[1] * c.height }));
+      at = kept; // the lenses hide (the click draws under them); the next arrow goes on from here
     } else if (e.key === "Enter" || e.key === " ") {
       e.preventDefault();
       openFull(shown(), img, labelOf);

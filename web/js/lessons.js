@@ -180,7 +180,7 @@ export class Lessons {
       grid.append(panel.el.root);
       this.paint(panel);
     }
-    if (lesson.coc) extra.append(run.cocText ?? (run.cocText = h("p", { class: "coc-text", role: "status" }, "Click a point of a picture for its circle of confusion.")));
+    if (lesson.coc) extra.append(run.cocText ?? (run.cocText = h("p", { class: "coc-text", role: "status" }, "Click a point of a picture for its circle of confusion (keyboard: focus a picture, the arrow keys move the lens, Space).")));
     this.showQuestion(lesson, run, question);
     if (fresh) await this.start(run.panels);
   }

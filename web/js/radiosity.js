@@ -145,6 +145,7 @@ export class RadiosityPanel {
     e.lines.addEventListener("change", () => this.draw());
     e.mesh.addEventListener("mousemove", (ev) => this.hover(ev));
     e.mesh.addEventListener("mouseleave", () => this.hover(null));
+    e.mesh.addEventListener("keydown", (ev) => this.patchKey(ev));
     e.curve.addEventListener("pointerdown", (ev) => {
       e.curve.setPointerCapture(ev.pointerId);
       this.curvePick(ev);
@@ -423,6 +424,20 @@ export class RadiosityPanel {
     const key = found ? (found.patch ? { patch: found.patch.index } : { light: found.light }) : null;
     if (JSON.stringify(key) === JSON.stringify(this.hovered)) return;
     this.hovered = key;
+    this.draw();
+  }
+
+  /** The keyboard's hover: the arrow keys go from patch to patch (and the lights) in the order they are
+   * drawn, Escape lets go; the numbers are said as the pointer's are (#rad-hover). */
+  patchKey(ev) {
+    const n = this.drawn.length;
+    if (!this.data || !n) return;
+    const move = { ArrowRight: 1, ArrowDown: 1, ArrowLeft: -1, ArrowUp: -1 }[ev.key];
+    if (!move && ev.key !== "Escape") return;
+    ev.preventDefault();
+    const keyOf = (it) => (it.patch ? { patch: it.patch.index } : { light: it.light });
+    const at = this.hovered ? this.drawn.findIndex((it) => JSON.stringify(keyOf(it)) === JSON.stringify(this.hovered)) : -1;
+    this.hovered = ev.key === "Escape" ? null : keyOf(this.drawn[at < 0 ? (move > 0 ? 0 : n - 1) : (at + move + n) % n]);
     this.draw();
   }
 

@@ -1,9 +1,10 @@
-// The ray tree of one pixel sample, shown three ways and linked: the diagram, the rays over the image,
-// and the 3D view. Hovering (or focusing) a ray anywhere highlights it everywhere and shows its numbers;
+// The ray tree of one pixel sample, shown four ways and linked: the diagram, the rays over the image,
+// the 3D view, and the tree in words (a list a screen reader follows and the keyboard walks: raylist.js). Hovering (or focusing) a ray anywhere highlights it everywhere and shows its numbers;
 // a click keeps it. The depth slider replays the tree one generation of rays at a time.
 import { api } from "./api.js";
 import { renderDiagram } from "./diagram.js";
 import { Overlay } from "./overlay.js";
+import { renderRayList } from "./raylist.js";
 import { RAY_STYLES, countRays, endWords, legend, styleKey } from "./rays.js";
 import { withDefaults } from "./schema.js";
 import { raySegments, sceneBounds } from "./shapes.js";
@@ -38,6 +39,8 @@ export class RayTreePanel {
       status: $("#rt-status"),
       details: $("#rt-details"),
       diagram: $("#rt-diagram"),
+      list: $("#rt-list"),
+      overlayCanvas: $("#rt-overlay"),
       body: $("#rt-body"),
       swatch: $("#rt-colour"),
     };
@@ -101,7 +104,7 @@ export class RayTreePanel {
     const maxDepth = Math.max(...nodes.map((n) => n.depth));
     const model = { tree, nodes, children, root, maxDepth, byId: new Map(nodes.map((n) => [n.id, n])) };
     this.model = model;
-    this.hovered = this.selected = null;
+    this.hovered = this.selected = this.focused = null;
     const { radius } = sceneBounds(view.scene);
     const segments = raySegments(tree, view.scene, Math.max(1, radius * 0.6));
     const kinds = {};
@@ -116,7 +119,14 @@ export class RayTreePanel {
       `${nodes.length} rays (${counts}). Sample colour ${rgb(tree.color)}${tree.filter_weight !== undefined && tree.filter_weight !== 1 ? ` × filter weight ${num(tree.filter_weight)}` : ""}${tree.time !== undefined ? `, time ${num(tree.time)}` : ""}.${tree.truncated ? " The tree was cut at 8192 rays." : ""}`,
     );
     this.el.body.hidden = false;
-    this.diagram = renderDiagram(this.el.diagram, model, { onHover: (id) => this.hover(id, false), onSelect: (id) => this.select(id) });
+    const where = `pixel (${tree.pixel[0]}, ${tree.pixel[1]}), sample ${tree.sample}`;
+    this.diagram = renderDiagram(this.el.diagram, model, {
+      onHover: (id) => this.hover(id, false),
+      onSelect: (id) => this.select(id),
+      label: `ray tree diagram of ${where}: ${nodes.length} rays (the tree in words, below, names each)`,
+    });
+    this.list = renderRayList(this.el.list, model, { label: `The ${nodes.length} rays of ${where}`, onFocus: (id) => this.focusRay(id), onSelect: (id) => this.select(id) });
+    this.el.overlayCanvas.setAttribute("aria-label", `the ${nodes.length} rays of ${where} drawn over the rendered image`);
     this.diagram.fit(this.el.fit.getAttribute("aria-pressed") === "true");
     this.overlay.set(imageUrl, { model, segments, basis: cameraBasis(view.scene.camera, view.width, view.height), pixel: [tree.pixel[0], tree.pixel[1]], width: view.width, height: view.height });
     this.view3d.setScene(view.scene, { width: view.width, height: view.height });
@@ -141,6 +151,7 @@ export class RayTreePanel {
     const shown = this.model.nodes.filter((n) => n.depth <= d).length;
     this.el.depthOut.textContent = `depth ≤ ${d} of ${this.model.maxDepth}: ${shown} of ${this.model.nodes.length} rays`;
     this.diagram.setDepth(d);
+    this.list.setDepth(d);
     this.overlay.setDepth(d);
     this.view3d.setDepth(d);
   }
@@ -175,14 +186,24 @@ export class RayTreePanel {
     this.link(scroll);
   }
 
+  /** The ray the keyboard is on in the tree in words (null: the list lost the focus): it wins over the mouse's
+   * hover, which a box scrolled under a resting pointer would otherwise take. */
+  focusRay(id) {
+    if (id === this.focused) return;
+    this.focused = id;
+    this.link(true);
+  }
+
   select(id) {
     this.selected = this.selected === id ? null : id;
     this.link(true);
   }
 
   link(scroll) {
-    const id = this.hovered ?? this.selected;
-    this.diagram.highlight(id, scroll && this.hovered !== null);
+    const id = this.focused ?? this.hovered ?? this.selected;
+    this.diagram.highlight(id, scroll && (this.focused ?? this.hovered) !== null);
+    this.list.highlight(id);
+    this.list.select(this.selected);
     this.overlay.highlight(id);
     this.view3d.highlight(id);
     this.details(id);

@@ -215,6 +215,8 @@ export class Viewer {
     else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
     else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
     if (job.status === "done") this.loadAovRanges(job.id);
+    this.view.ended = true;
+    this.describe();
     this.onJob?.(this.view);
   }
 
@@ -287,7 +289,23 @@ export class Viewer {
       this.layout();
     };
     img.src = this.blobUrl;
-    img.alt = `Render of ${this.view.job.name || "the scene"}${what === "aov" ? ` (${this.aov})` : ""}: click a pixel, or use the arrow keys and Enter, to see its ray tree`;
+    this.describe();
+  }
+
+  /** The picture's text alternative: what it is (the scene, its size, its samples, the job's status, the AOV
+   * shown) and how to choose a pixel. It changes when the job starts, ends or another AOV is shown, never
+   * with each pass (a screen reader would hear every change of a focused picture's name). */
+  describe() {
+    const v = this.view;
+    if (!v) return;
+    const job = v.job;
+    const p = job.progress || {};
+    const spp = job.status === "done" ? p.spp_done ?? p.spp_total : p.spp_total;
+    const samples = spp ? `, ${spp} sample${spp === 1 ? "" : "s"} per pixel` : "";
+    const status = v.ended ? job.status : "rendering, the picture refines as the passes finish"; // ended: the last picture is in
+    const aov = this.aov !== "image" ? ` The ${AOVS.find(([n]) => n === this.aov)?.[1] ?? this.aov} AOV.` : "";
+    const alt = `Rendered picture of ${job.name || "the scene"}, ${job.width} × ${job.height} pixels${samples}, ${status}.${aov} Click a pixel, or use the arrow keys and Enter, to see its ray tree.`;
+    if (this.el.img.alt !== alt) this.el.img.alt = alt;
   }
 
   clearImage() {
@@ -560,14 +578,14 @@ export class Viewer {
           { class: this.view && this.view.id === job.id ? "current" : "", dataset: { status: job.status, id: job.id } },
           h(
             "button",
-            { type: "button", class: "job-open", onclick: () => this.open(job.id), "aria-label": `Show job ${job.name || ""} (${job.status})` },
+            { type: "button", class: "job-open", onclick: () => this.open(job.id) }, // named by its text: the job's name, status and size (WCAG 2.5.3)
             thumb,
             h("span", { class: "job-text" }, h("strong", {}, job.name || "untitled"), h("span", {}, `${job.status} · ${job.width}×${job.height} · ${job.progress?.spp_total ?? "?"} spp · ${when}`)),
           ),
           h(
             "span",
             { class: "job-actions" },
-            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", onclick: () => this.loadSceneOf(job) }, "Edit"),
+            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", "aria-label": `Edit the scene of ${job.name || "this job"}`, onclick: () => this.loadSceneOf(job) }, "Edit"),
             h("button", { type: "button", class: "small", "aria-label": `Remove ${job.name || "job"} from my list`, title: "Remove from my list", onclick: () => this.forget(job.id) }, "×"),
           ),
         );

@@ -58,6 +58,23 @@ def _markdown() -> MarkdownIt:
                 token.attrSet("id", base if n == 0 else f"{base}-{n}")
 
     md.core.ruler.push("heading_ids", heading_ids)
+    default_fence = md.renderer.rules["fence"]
+    default_block = md.renderer.rules["code_block"]
+
+    def focusable(default):
+        """A code block may scroll sideways: it takes the keyboard's focus (so the arrow keys scroll it, WCAG
+        2.1.1) and is named as a group ("code, json"), which a screen reader announces on entering it."""
+
+        def render(tokens, idx, options, env) -> str:
+            lang = tokens[idx].info.strip().split(" ")[0] if tokens[idx].type == "fence" else ""
+            label = html.escape(f"code, {lang}" if lang else "code", quote=True)
+            out = default(tokens, idx, options, env)
+            return out.replace("<pre>", f'<pre tabindex="0" role="group" aria-label="{label}">', 1)
+
+        return render
+
+    md.renderer.rules["fence"] = focusable(default_fence)
+    md.renderer.rules["code_block"] = focusable(default_block)
     return md
 
 

@@ -9,6 +9,7 @@
 // the instructor's dashboard calls it with `as: "instructor"`.
 import { request } from "../api.js";
 import { renderDiagram } from "../diagram.js";
+import { renderRayList } from "../raylist.js";
 import { legend } from "../rays.js";
 import { cssColour, h, rgb, s } from "../util.js";
 
@@ -38,7 +39,7 @@ export function nodeAt(model, path) {
 
 function side(name, title, tree, marked) {
   const model = treeModel(tree);
-  const box = h("div", { class: "compare-tree", tabindex: 0, "aria-label": `${title}: ${model.nodes.length} rays` });
+  const box = h("div", { class: "compare-tree", tabindex: 0, role: "group", "aria-label": `${title}: ${model.nodes.length} rays` });
   const section = h(
     "section",
     { class: "compare-side", dataset: { side: name } },
@@ -52,7 +53,9 @@ function side(name, title, tree, marked) {
     ),
     box,
   );
-  return { section, box, model, marked };
+  const words = h("ul", { class: "rt-list" }); // the tree in words for a screen reader (raylist.js), closed at first
+  section.append(h("details", { class: "rt-text" }, h("summary", {}, "The tree in words"), words));
+  return { section, box, words, title, model, marked };
 }
 
 /** Mark the differing node of a drawn side (its box and the edge into it) and say so in its label. */
@@ -63,7 +66,8 @@ function mark(view, what) {
   if (!g) return null;
   g.classList.add("differs");
   view.box.querySelector(`g.rt-edge[data-id="${n.id}"]`)?.classList.add("differs");
-  g.setAttribute("aria-label", `${g.getAttribute("aria-label")} — the first difference (${what})`);
+  const svg = view.box.querySelector("svg"); // one image to a screen reader (diagram.js): its name says where
+  svg?.setAttribute("aria-label", `${svg.getAttribute("aria-label")}; ray ${n.id} is the first difference (${what})`);
   const w = Number(g.querySelector("rect.box")?.getAttribute("width")) || 0; // right-aligned: the edge comes in at the middle
   g.append(s("text", { class: "differs-tag", x: w, y: -5, "text-anchor": "end" }, "first difference"));
   return g;
@@ -109,6 +113,8 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   let first = null;
   for (const v of views) {
     renderDiagram(v.box, v.model, { onHover: () => {}, onSelect: () => {} }); // a still picture: no linked views here
+    renderRayList(v.words, v.model, { label: `${v.title}: ${v.model.nodes.length} rays`, onFocus: () => {}, onSelect: () => {} });
+    if (d && v.marked) v.words.querySelector(`[data-id="${v.marked.id}"] > .rt-li-text`)?.append(` The first difference: ${d.what}.`);
     const g = d ? mark(v, d.what) : null;
     if (g) {
       // the marked ray in view inside its own scrolling box (the page itself scrolls only as far as it must)
