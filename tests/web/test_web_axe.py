@@ -5,8 +5,9 @@ states a person sees: the workspace after a render and a click on a pixel (the p
 shown), with a radiosity job's panel, its Lessons tab with one lesson open, its Examples tab, its Grading tab
 (empty, then the example class graded and a student's detail); /course with an assignment published and its
 dashboard filled by one graded submission; the student's assignment page with that submission and two ray
-trees compared at a pixel of its difference map; and the /reference/ pages (the index and scene-format.md). No violation of impact "serious" or "critical" may
-remain; the assertion lists each one with its rule, help text and first targets. axe-core's script is the
+trees compared at a pixel of its difference map; the /reference/ pages (the index and scene-format.md); a
+student's course page, /course's courses panel and a refused LTI launch. No violation of impact "serious" or
+"critical" may remain; the assertion lists each one with its rule, help text and first targets. axe-core's script is the
 one bundled in the `axe-playwright-python` package (the test extras): nothing is fetched at test time.
 
 The ray tree's text form (the list a screen reader follows) is read too: it names the eye ray and a shadow
@@ -287,3 +288,35 @@ def test_axe_reference_pages(desktop, server, path):  # noqa: F811
     page.goto(f"{server.url}{path}")
     desktop.shot(f"axe-reference-{path.strip('/').replace('/', '-')}")
     assert_accessible(page, f"reference {path}")
+
+
+# -- courses and LTI ----------------------------------------------------------------------------------
+
+
+def test_axe_a_student_s_course_page_and_the_courses_panel(desktop, server):  # noqa: F811
+    """/courses/{id} (a course roster's link) and /course's courses panel with its forms (the admin's)."""
+    with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
+        assert c.post("/api/courses", json={"id": "axe101", "name": "Accessible Rendering"}).status_code == 201
+        r = c.post(
+            "/api/courses/axe101/roster", content="id,name,email\nann,Ann,\n", headers={"Content-Type": "text/csv"}
+        )
+        link = r.json()["students"][0]["link"]
+    page = desktop.page
+    page.goto(link)
+    page.wait_for_selector("#c-status[data-kind=ok]")
+    assert_accessible(page, "a student's course page")
+    desktop.allow.append(r"status of 401")
+    page.goto(f"{server.url}/course")
+    page.fill("#course-token", INSTRUCTOR)
+    page.dispatch_event("#course-token", "change")
+    page.wait_for_selector("#course-list li[data-id=axe101]")
+    page.wait_for_selector("#staff-form")
+    assert_accessible(page, "the courses panel")
+
+
+def test_axe_a_refused_lti_launch_page(desktop, server):  # noqa: F811
+    desktop.allow.append(r"status of 400")  # the refusal itself
+    page = desktop.page
+    page.goto(f"{server.url}/lti/login?iss=https://unknown.example.edu&login_hint=x&target_link_uri=x")
+    page.wait_for_selector("main[data-check=platform]")
+    assert_accessible(page, "a refused launch")
