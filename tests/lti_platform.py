@@ -281,7 +281,8 @@ class Platform:
             )
             return HTMLResponse(
                 f"<!doctype html><title>LMS course</title><script>{script}</script>"
-                f'<h1>Rendering 101</h1><iframe name="tool" src="{html.escape(login)}" width="1000" height="700"></iframe>'
+                f'<h1>Rendering 101</h1><iframe name="tool" src="{html.escape(login)}" width="1000"'
+                ' height="700"></iframe>'
             )
 
         @app.post("/token")

@@ -23,7 +23,7 @@ EXAMPLE = ROOT / "scenes" / "grading"
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory, browser):
+def setup(tmp_path_factory, browser):  # noqa: F811
     env = {"TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
     with Server(tmp_path_factory.mktemp("web-lti"), workers=0, env=env) as server, Platform() as p:
         p.tool_jwks_url = server.url + "/lti/jwks"
@@ -77,7 +77,9 @@ def where(page) -> str:
         return f"{f.url}: ({e})"
 
 
-def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_opens_the_assignment(setup, browser):
+def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_opens_the_assignment(
+    setup, browser  # noqa: F811
+):
     server, p, aid = setup
     p.auto_launch = {"sub": "student-7", "roles": [LEARNER], "custom": {"assignment": aid}}
     context = browser.new_context(viewport={"width": 1100, "height": 800})
@@ -101,7 +103,7 @@ def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_
     context.close()
 
 
-def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, browser):
+def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, browser):  # noqa: F811
     server, p, aid = setup
     p.auto_launch = {"sub": "student-8", "roles": [LEARNER], "custom": {"assignment": aid}}
     context = browser.new_context(viewport={"width": 1100, "height": 800})
