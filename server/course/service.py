@@ -43,6 +43,7 @@ from server.course.store import CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
+from tracer import spreadsheet
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
 
 log = logging.getLogger(__name__)
@@ -606,7 +607,7 @@ class Course:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
         when none was graded), max_score, late, submissions (all they made)."""
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
+        w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
         for st, c, score, n in self.final_grades(a):
             if c is None:
@@ -624,7 +625,7 @@ class Course:
         a score out of another maximum (an image: no requirements) is scaled to it: 3.5 of 7 is 6.5 of 13."""
         spec = self.spec(a["id"], a["version"])
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
+        w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["Student", "ID", "SIS User ID", "SIS Login ID", "Section", f"{spec.name} ({a['id'][:8]})"])
         points = spec.max_score()
         w.writerow(["Points Possible", "", "", "", "", _num(points)])
@@ -741,7 +742,7 @@ def parse_roster(text: str) -> list[dict]:
 
 def links_csv(students: list[dict]) -> str:
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
+    w = spreadsheet.writer(buf, lineterminator="\n")
     w.writerow(["id", "name", "email", "link"])
     for s in students:
         w.writerow([s["id"], s["name"], s["email"], s["link"] or ""])

