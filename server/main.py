@@ -32,7 +32,7 @@ from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
-from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
+from server.core.security import CrossSiteCheck, HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import StartupError, check_data_dir
 from server.course.service import Course
@@ -155,6 +155,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
         streamed={grade.UPLOAD: upload}, body_timeout=settings.body_timeout, budget=budget,
     )  # fmt: skip
+    app.add_middleware(CrossSiteCheck, served=served_hosts(settings))  # no page of another site changes anything
     app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
     app.add_middleware(SecurityHeaders)  # the outermost: every answer has its policy, nosniff, no framing
     app.include_router(jobs.router)

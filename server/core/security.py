@@ -22,6 +22,11 @@
   TRACER_ALLOWED_HOSTS. A Host is a name or a bracketed IPv6 literal, then at most a port of digits in
   1..65535 (`host_name`): anything else names no host. A server listening on every address (0.0.0.0, ::)
   with no list accepts any Host, and warns at start-up.
+- **Other sites** (`CrossSiteCheck`): a state-changing request (POST, PUT, PATCH, DELETE) that a page of another
+  site sent (`Sec-Fetch-Site: cross-site`, or an `Origin` that is neither the server's own, the request's scheme
+  and Host, nor a served host) is refused (403), on every server: without it, a page anyone opens could publish an
+  assignment on a loopback server that has no instructor token. Clients that send neither header (curl, Python)
+  pass; CROSS_SITE_PATHS (LTI's login and launch, which a learning platform posts from its own site) pass.
 - **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
   assets (and /docs its one inline script, by hash), no MIME sniffing, no framing, no referrer
   to other sites.
@@ -267,6 +272,67 @@ class HostCheck:
             await errors_response(400, [{"path": "Host", "message": message}])(scope, receive, send)
             return
         await self.app(scope, receive, send)
+
+
+# -- other sites ---------------------------------------------------------------------------------
+
+CROSS_SITE_PATHS = ("/lti/login", "/lti/launch")  # a learning platform posts here from its own site (LTI 1.3)
+STATE_CHANGING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+DEFAULT_PORTS = {"http": "80", "https": "443"}
+
+
+def origin_of(scheme: str, host: str) -> str:
+    """An origin as a browser writes it (`scheme://host[:port]`), in lower case and without the scheme's default
+    port, so that `http://localhost:80` and `http://localhost` compare equal."""
+    scheme, host = scheme.lower(), host.strip().lower()
+    name, colon, port = host.rpartition(":") if not host.endswith("]") else (host, "", "")
+    if colon and port == DEFAULT_PORTS.get(scheme):
+        host = name
+    return f"{scheme}://{host}"
+
+
+class CrossSiteCheck:
+    """ASGI middleware: 403 for a state-changing request (POST, PUT, PATCH, DELETE) that a page of another site
+    sent: its `Sec-Fetch-Site` is `cross-site`, or its `Origin` is neither this server's own origin (the request's
+    scheme and Host) nor a host the server serves. A browser sends these headers and a page cannot forge them; a
+    client without them (curl, Python) passes. The paths of CROSS_SITE_PATHS are posted to from another site by
+    design and pass."""
+
+    def __init__(self, app: ASGIApp, served: frozenset[str] | None):
+        self.app, self.served = app, served
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope["method"] not in STATE_CHANGING or _exempt(scope["path"]):
+            await self.app(scope, receive, send)
+            return
+        headers = {k: v.decode("latin-1") for k, v in scope.get("headers") or () if k in (b"origin", b"host",
+                   b"sec-fetch-site")}  # fmt: skip
+        origin, site = headers.get(b"origin"), headers.get(b"sec-fetch-site", "").strip().lower()
+        own = origin_of(scope.get("scheme", "http"), headers.get(b"host", ""))
+        if site != "cross-site" and (origin is None or self._ours(origin, own)):
+            await self.app(scope, receive, send)
+            return
+        shown = repr(origin[:100]) if origin is not None else "none"
+        why = "Sec-Fetch-Site says cross-site" if site == "cross-site" else f"it is not this server's ({own})"
+        message = (
+            f"the request's Origin header ({shown}) is another site's ({why}): a page of another site may not "
+            f"change anything here ({scope['method']} refused); send it from this server's own page, or without "
+            "a browser"
+        )
+        await errors_response(403, [{"path": "Origin", "message": message}])(scope, receive, send)
+
+    def _ours(self, origin: str, own: str) -> bool:
+        scheme, sep, host = origin.strip().partition("://")
+        if not sep or scheme.lower() not in DEFAULT_PORTS:
+            return False  # "null" (a sandboxed page, a file), or no origin a browser writes
+        if origin_of(scheme, host) == own:
+            return True
+        name = host_name(host)
+        return bool(name) and self.served is not None and host_allowed(name, self.served)
+
+
+def _exempt(path: str) -> bool:
+    return path.rstrip("/") in CROSS_SITE_PATHS
 
 
 # -- headers -------------------------------------------------------------------------------------

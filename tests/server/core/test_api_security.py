@@ -388,3 +388,58 @@ def test_api_security_the_api_docs_allow_their_one_inline_script_by_hash(client)
     assert "unsafe-inline" not in policy["script-src"] and policy["frame-ancestors"] == "'none'"
     assert r.headers["x-content-type-options"] == "nosniff"
     assert "token" in client.get("/openapi.json").json()["components"]["securitySchemes"]
+
+
+# -- other sites -----------------------------------------------------------------------------------
+
+EVIL = "http://evil.example"
+
+
+@pytest.fixture(scope="module")
+def own_machine(tmp_path_factory):
+    """A loopback server without an instructor token (everyone is the instructor), no workers."""
+    with api_client(tmp_path_factory.mktemp("own-machine"), workers=0, token=None) as c:
+        yield c
+
+
+def test_api_security_a_page_of_another_site_cannot_publish_on_a_loopback_server(own_machine):
+    """A page of another origin posted a multipart form that published an assignment on a loopback server without
+    an instructor token: now a state-changing request with a foreign Origin, or Sec-Fetch-Site: cross-site, is a
+    403 naming the Origin header, before the route reads anything."""
+    form = {"spec": ("spec.json", b"{}", "application/json"), "deadline": (None, "2030-01-01T00:00:00Z")}
+    r = own_machine.post("/api/assignments", files=form, headers={"Origin": EVIL})
+    assert r.status_code == 403, r.text
+    [error] = r.json()["errors"]
+    assert error["path"] == "Origin" and "'http://evil.example'" in error["message"], error
+    r = own_machine.post("/api/assignments", files=form, headers={"Sec-Fetch-Site": "cross-site"})
+    assert r.status_code == 403 and r.json()["errors"][0]["path"] == "Origin", r.text
+    for method in ("PUT", "PATCH", "DELETE"):
+        r = own_machine.request(method, f"/api/jobs/{'0' * 32}", headers={"Origin": "null"})
+        assert r.status_code == 403, (method, r.text)
+    r = own_machine.post("/api/validate", json={"scene": tiny_scene()}, headers={"Origin": "http://127.0.0.1.evil"})
+    assert r.status_code == 403, r.text
+
+
+def test_api_security_the_server_s_own_page_and_clients_without_a_browser_pass(own_machine):
+    """Same origin (scheme and Host, the default port or not), a served host's other port, same-site, and a
+    request with neither header (curl) reach the route; GET is never checked; LTI's login and launch, which a
+    learning platform posts from its own site, are exempt (no such route yet: the static files' 404 or 405, not
+    403)."""
+    scene = {"scene": tiny_scene()}
+    for headers in (
+        {},
+        {"Origin": "http://127.0.0.1", "Sec-Fetch-Site": "same-origin"},
+        {"Origin": "http://127.0.0.1:80"},
+        {"Origin": "http://localhost:5173", "Sec-Fetch-Site": "same-site"},
+    ):
+        r = own_machine.post("/api/validate", json=scene, headers=headers)
+        assert r.status_code == 200, (headers, r.text)
+    assert own_machine.get("/api/health", headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"}).status_code == 200
+    for path in ("/lti/login", "/lti/launch"):
+        r = own_machine.post(path, data={"id_token": "x"}, headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"})
+        assert r.status_code in (404, 405), (path, r.text)
+
+
+def test_api_security_a_foreign_origin_is_refused_on_a_server_with_an_instructor_token(client):
+    r = client.delete(f"/api/jobs/{'0' * 32}", headers={**TEACHER, "Origin": EVIL})
+    assert r.status_code == 403 and r.json()["errors"][0]["path"] == "Origin", r.text
