@@ -161,6 +161,12 @@ class Settings(SceneLimits):
     max_queued_per_token: int = Field(
         20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
     )
+    max_active_jobs_per_token: int = Field(
+        4,
+        ge=1,
+        description="renders of one token waiting or running at once, its fair share of the workers (the "
+        "instructor's are not counted): 429 past it",
+    )
     max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
     # The scene limits (max_width, ... max_solve_rays) are the rows of tracer/limits.py: see SceneLimits.
 

@@ -27,6 +27,14 @@ from server.jobs.store import JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
+STAFF_PRIORITY = (
+    "a priority above 0 is the instructor's: {} was lowered to 0 (the job runs by its lane, then first come, "
+    "first served)"
+)
+STAFF_LANE = (
+    "the interactive lane is for work estimated at most TRACER_INTERACTIVE_SECONDS ({1:g} s); this render is "
+    "estimated at {0:.0f} s, so it goes to the batch lane (only the instructor may move a job up)"
+)
 MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
@@ -51,8 +59,9 @@ NOT_FOUND = {
         413: {"model": ErrorResponse, "description": "request body too large"},
         429: {
             "model": ErrorResponse,
-            "description": "too many jobs in the queue, or new tokens or waiting jobs of one address "
-            "without a known identity",
+            "description": "too many jobs in the queue, a token's renders waiting or running past its share "
+            "(TRACER_MAX_ACTIVE_JOBS_PER_TOKEN), or new tokens or waiting jobs of one address without a known "
+            "identity",
         },
     },
 )
@@ -63,8 +72,11 @@ async def submit(
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
-    TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
-    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
+    TRACER_INTERACTIVE_SECONDS goes to the batch lane. `lane: batch` moves a job down; only the instructor may
+    move one up (`lane: interactive`) or give it a priority above 0: anyone else's is lowered (to the estimate's
+    lane, to 0), with a warning at `lane` or `priority`. A token other than the instructor's has at most
+    TRACER_MAX_ACTIVE_JOBS_PER_TOKEN renders waiting or running (its share of the workers): 429 past it. The job
+    comes back with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
     The scene is validated in a checking process (server/checkers/pool.py), as the worker will, its asset
     files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
 
@@ -83,16 +95,25 @@ async def submit(
             waiting = rooms.enter_context(taken)
         found = await checks.summary(request, await request.body())
         issued = new_token() if caller.token is None else None
+        settings = jobs.settings
 
         def queued() -> JobCreated:
             seconds = jobs.estimate(found)
+            lane = jobs.lane_for(seconds, body.lane, staff=caller.instructor)
+            priority, warnings = body.priority, list(found["warnings"])
+            if priority > 0 and not caller.instructor:  # staff's: a student's job is never put ahead of others'
+                priority = 0
+                warnings.append({"path": "priority", "message": STAFF_PRIORITY.format(body.priority)})
+            if body.lane is not None and lane is not body.lane:
+                warnings.append({"path": "lane", "message": STAFF_LANE.format(seconds, settings.interactive_seconds)})
             row = jobs.submit_checked(
                 found,
-                priority=body.priority,
-                warnings=found["warnings"],
+                priority=priority,
+                warnings=warnings,
                 estimate=seconds,
-                lane=jobs.lane_for(seconds, body.lane),
+                lane=lane,
                 owner=caller.owner or token_hash(issued),
+                max_active_owner=None if caller.instructor else settings.max_active_jobs_per_token,
             )
             for room in (new, waiting):
                 if room is not None:
