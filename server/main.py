@@ -29,7 +29,7 @@ from fastapi_offline import FastAPIOffline
 
 from server.api.routes import assignments, grade, jobs, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
-from server.core.clients import AddressCaps
+from server.core.clients import AddressCaps, StreamCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.paths import SCENES, WEB
 from server.core.security import CrossSiteCheck, HostCheck, SecurityHeaders, served_hosts, start_up_warnings
@@ -146,6 +146,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.course = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
+    app.state.streams = StreamCaps(settings, app.state.caps)  # event streams open per token and per address
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
     install_error_handlers(app)

@@ -8,11 +8,13 @@ a trip through another thread (and the interpreter's lock) for each, which a bus
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
 import anyio
 from fastapi import Depends, Path, Request
+from fastapi.responses import StreamingResponse
 
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
@@ -117,6 +119,33 @@ def get_client(request: Request, caller: CallerDep) -> Client:
 
 
 ClientDep = Annotated[Client, Depends(get_client)]
+
+
+# -- event streams ---------------------------------------------------------------------------------
+
+
+class CappedStream(StreamingResponse):
+    """An event stream that holds room under its client's caps of open streams (server/core/clients.py,
+    `StreamCaps`) and gives it back when it ends, however it ends (finished, the client gone, the server
+    stopping)."""
+
+    def __init__(self, content, release: Callable[[], None], **kwargs):
+        super().__init__(content, **kwargs)
+        self.release = release
+
+    async def __call__(self, scope, receive, send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            self.release()
+
+
+def stream_room(request: Request, caller: Caller) -> Callable[[], None]:
+    """Room for one more open event stream of this caller (their token and their address); 429 past a cap. The
+    instructor's streams are not counted. The answer gives it back: hand it to a `CappedStream`."""
+    if caller.instructor:
+        return lambda: None
+    return request.app.state.streams.open(caller.owner, request.client.host if request.client else None)
 
 
 def still_waiting(jobs: JobService):

@@ -10,6 +10,8 @@ for each request):
 - **Waiting work**: the jobs and ray trees of the address's anonymous callers waiting in the queue: at most
   TRACER_MAX_QUEUED_PER_ADDRESS. A token's own share (TRACER_MAX_QUEUED_PER_TOKEN) holds too, and a ray tree
   asked for without a token belongs to its address (`address_owner`), so its share is the address's.
+- **Open event streams** (`StreamCaps`, every caller but the instructor): TRACER_MAX_STREAMS_PER_TOKEN of one
+  token, TRACER_MAX_STREAMS_PER_ADDRESS of one address, and never more than half of TRACER_MAX_CONNECTIONS.
 - **Shared networks**: an address in TRACER_SHARED_NETWORKS (a class behind one NAT, a lab) stands for
   TRACER_SHARED_NETWORK_CLIENTS clients: its caps are that many times a single address's.
 
@@ -206,6 +208,72 @@ class AddressCaps:
             _expire(self._issued[key], since)
             if not self._issued[key]:
                 del self._issued[key]
+
+
+# -- open event streams ----------------------------------------------------------------------------
+
+
+class StreamCaps:
+    """Open event streams (a job's, a submission's) per token and per client address, so that one client cannot
+    take the connections the whole class shares (TRACER_MAX_CONNECTIONS): at most TRACER_MAX_STREAMS_PER_TOKEN of
+    one token, and TRACER_MAX_STREAMS_PER_ADDRESS of one address (times its clients in TRACER_SHARED_NETWORKS),
+    never more than half of TRACER_MAX_CONNECTIONS: the other half is kept for everyone else. The instructor's are
+    not counted (the routes ask for room only for others). Thread-safe; in memory, like the other caps."""
+
+    def __init__(self, settings: Settings, caps: AddressCaps):
+        self.settings, self.caps = settings, caps
+        self._lock = threading.Lock()
+        self._tokens: dict[str, int] = {}
+        self._addresses: dict[str, int] = {}
+
+    def address_cap(self, host: str | None) -> int:
+        reserve = max(1, self.settings.max_connections // 2)
+        return min(self.settings.max_streams_per_address * self.caps.clients(host), reserve)
+
+    def open(self, owner: str | None, host: str | None) -> Callable[[], None]:
+        """Room for one more open stream of this token (`owner`: its hash; None without one) and address; 429 past
+        either cap. The answer gives it back, once (call it when the stream ends)."""
+        key, per_token, per_address = address_key(host), self.settings.max_streams_per_token, self.address_cap(host)
+        with self._lock:
+            if owner is not None and self._tokens.get(owner, 0) >= per_token:
+                message = (
+                    f"this token already has {self._tokens[owner]} event streams open, the most one token may have "
+                    "(TRACER_MAX_STREAMS_PER_TOKEN): close a tab or a stream you no longer follow"
+                )
+                raise ApiError(429, [{"path": "Authorization", "message": message}], headers=STREAM_RETRY)
+            if self._addresses.get(key, 0) >= per_address:
+                message = (
+                    f"this address ({key}) already has {self._addresses[key]} event streams open, the most one "
+                    "address may have (TRACER_MAX_STREAMS_PER_ADDRESS; the other connections are kept for others): "
+                    "close a tab or a stream you no longer follow"
+                )
+                raise ApiError(429, [{"path": "", "message": message}], headers=STREAM_RETRY)
+            if owner is not None:
+                self._tokens[owner] = self._tokens.get(owner, 0) + 1
+            self._addresses[key] = self._addresses.get(key, 0) + 1
+        released = False
+
+        def release() -> None:
+            nonlocal released
+            with self._lock:
+                if released:
+                    return
+                released = True
+                for counts, k in ((self._tokens, owner), (self._addresses, key)):
+                    if k is not None and k in counts:
+                        counts[k] -= 1
+                        if counts[k] <= 0:
+                            del counts[k]
+
+        return release
+
+    def counts(self, owner: str | None, host: str | None) -> tuple[int, int]:
+        """The streams open now of this token and of this address (for tests and health)."""
+        with self._lock:
+            return self._tokens.get(owner or "", 0), self._addresses.get(address_key(host), 0)
+
+
+STREAM_RETRY = {"Retry-After": "10"}
 
 
 def _expire(times: deque[float], since: float) -> None:

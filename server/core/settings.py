@@ -194,6 +194,15 @@ class Settings(SceneLimits):
     max_connections: int = Field(
         2000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
     )
+    max_streams_per_token: int = Field(
+        16, ge=1, description="event streams one token may have open at once (the instructor's: any): 429 past it"
+    )
+    max_streams_per_address: int = Field(
+        64,
+        ge=1,
+        description="event streams one client address may have open at once (times TRACER_SHARED_NETWORK_CLIENTS "
+        "in TRACER_SHARED_NETWORKS; at most half of TRACER_MAX_CONNECTIONS, the rest kept for others): 429 past it",
+    )
     body_budget_bytes: ByteSize = Field(
         32_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
     )

@@ -17,7 +17,7 @@ from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import CapsDep, StoreDep
+from server.api.deps import CappedStream, CapsDep, StoreDep, stream_room
 from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
@@ -375,8 +375,12 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
                         quiet = time.monotonic()
                         yield ": keep-alive\n\n"
 
-    return StreamingResponse(
-        stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    release = stream_room(request, caller)  # 429 past the caller's open streams (server/core/clients.py)
+    return CappedStream(
+        stream(),
+        release,
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
     )
 
 

@@ -15,7 +15,17 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.api.deps import CapsDep, ChecksDep, ClientDep, JobDep, JobsDep, StoreDep, still_waiting
+from server.api.deps import (
+    CappedStream,
+    CapsDep,
+    ChecksDep,
+    ClientDep,
+    JobDep,
+    JobsDep,
+    StoreDep,
+    still_waiting,
+    stream_room,
+)
 from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
 from server.api.scene_route import scene_post
 from server.core.errors import ApiError
@@ -281,16 +291,23 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
     "/{job_id}/events",
     summary="Server-Sent Events: progress, preview (a new image), end",
     response_class=StreamingResponse,
-    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+    responses={
+        200: {"content": {"text/event-stream": {}}},
+        429: {"model": ErrorResponse, "description": "too many event streams open for one token or one address"},
+        **NOT_FOUND,
+    },
 )
-def events(job: JobDep, jobs: JobsDep, request: Request) -> StreamingResponse:
+def events(job: JobDep, jobs: JobsDep, caller: CallerDep, request: Request) -> StreamingResponse:
     """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
     eta, rays};
     `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes.
-    The stream is woken when the job's row changes (the job service's watcher): it never polls the store."""
+    The stream is woken when the job's row changes (the job service's watcher): it never polls the store.
+    One token, and one address, may have so many streams open (429 past TRACER_MAX_STREAMS_PER_TOKEN or
+    TRACER_MAX_STREAMS_PER_ADDRESS)."""
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    release = stream_room(request, caller)
     stream = _event_stream(jobs, job["id"], request)
-    return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
+    return CappedStream(stream, release, media_type="text/event-stream", headers=headers)
 
 
 def sse(event: str, data: dict) -> str:
