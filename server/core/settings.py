@@ -13,13 +13,69 @@ import re
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BeforeValidator, ByteSize, Field, SecretStr, ValidationError, create_model, field_validator
+from pydantic import (
+    BeforeValidator,
+    ByteSize,
+    Field,
+    SecretStr,
+    ValidationError,
+    create_model,
+    field_validator,
+    model_validator,
+)
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.limits import LIMITS, Limits
 from tracer.limits import NAMES as LIMIT_NAMES
 
 UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+MASK = "***"
+QUERY_PASSWORD = re.compile(r"(?i)([?&]password=)[^&#]*")
+
+
+def masked(url: str | None) -> str | None:
+    """A URL as it may be shown (logs, /api/health, errors): its password, in its user part or in its query
+    (`?password=`), replaced by ***. `redis://:s3cret@db:6379/0` -> `redis://:***@db:6379/0`."""
+    if not url:
+        return url
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        return _query_masked(url)
+    end = min((i for i in (rest.find(c) for c in "/?#") if i >= 0), default=len(rest))
+    netloc, tail = rest[:end], rest[end:]
+    userinfo, at, hostport = netloc.rpartition("@")
+    if at and ":" in userinfo:
+        netloc = f"{userinfo.partition(':')[0]}:{MASK}@{hostport}"
+    elif at and userinfo and scheme.lower().startswith("redis"):  # redis://secret@host: redis-py's password
+        netloc = f"{MASK}@{hostport}"
+    return f"{scheme}://{netloc}{_query_masked(tail)}"
+
+
+def _query_masked(text: str) -> str:
+    return QUERY_PASSWORD.sub(lambda m: m[1] + MASK, text)
+
+
+def secret_from_file(path: str | os.PathLike, name: str) -> str:
+    """A secret kept in a file (its first line, without surrounding white space), so that it is never on a
+    command line (where `ps` shows it) nor in the environment; a ValueError naming the setting `name`."""
+    try:
+        lines = Path(path).read_text().strip().splitlines()
+    except OSError as e:
+        raise ValueError(f"{name}: cannot read {path}: {e.strerror or e}") from None
+    if not lines or not lines[0].strip():
+        raise ValueError(f"{name}: the file {path} is empty")
+    return lines[0].strip()
+
+
+def redis_url_from(url: str | None, url_file: str | os.PathLike | None) -> str | None:
+    """The Redis URL given as itself (--redis, TRACER_REDIS_URL) or in a file (--redis-url-file,
+    TRACER_REDIS_URL_FILE): one of the two, never both."""
+    if url and url_file:
+        raise ValueError(
+            "the Redis URL is given twice: give either TRACER_REDIS_URL (--redis) or TRACER_REDIS_URL_FILE "
+            "(--redis-url-file), not both"
+        )
+    return secret_from_file(url_file, "TRACER_REDIS_URL_FILE") if url_file else url or None
 
 
 def _seconds(v):
@@ -109,6 +165,11 @@ class Settings(SceneLimits):
         None,
         description="Redis URL (redis://host:6379/0): jobs go to worker hosts (python -m server.worker) through "
         "RQ; unset: the embedded worker processes of this host",
+    )
+    redis_url_file: Path | None = Field(
+        None,
+        description="a file whose first line is the Redis URL (with its password), instead of TRACER_REDIS_URL: "
+        "never on a command line (ps shows those) nor in the environment",
     )
     lost_after: Duration = Field(
         15.0,
@@ -210,6 +271,17 @@ class Settings(SceneLimits):
         2.0, ge=0, description="seconds a large body waits for the budget before its request is answered 503"
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _redis_url_file(cls, data):
+        """TRACER_REDIS_URL_FILE: the URL read from the file, as if TRACER_REDIS_URL had been given."""
+        if isinstance(data, dict) and data.get("redis_url_file"):
+            url = redis_url_from(None, data["redis_url_file"])
+            if data.get("redis_url") not in (None, "", url):  # (settings passed on whole carry the URL read)
+                redis_url_from(data["redis_url"], data["redis_url_file"])  # both given: the error that says so
+            data = {**data, "redis_url": url}
+        return data
+
     @field_validator("instructor_token", mode="before")
     @classmethod
     def _token(cls, v):
@@ -236,7 +308,7 @@ class Settings(SceneLimits):
             return f"{count} {noun}{'' if count == 1 else 'es' if noun.endswith('s') else 's'}"
 
         if self.redis_url:
-            renders = f"{n(self.workers, 'local worker host')} on Redis at {self.redis_url}"
+            renders = f"{n(self.workers, 'local worker host')} on Redis at {masked(self.redis_url)}"
         elif self.workers == 0:
             renders = "no render worker (jobs wait in the queue)"
         else:
@@ -315,5 +387,5 @@ def explain(exc: ValidationError, flags: dict[str, str] | None = None) -> str:
         field = str(e["loc"][0]) if e["loc"] else ""
         name = (flags or {}).get(field) or f"TRACER_{field.upper()}"
         message = e["msg"].removeprefix("Value error, ")
-        lines.append(f"{name}: {message}")
+        lines.append(f"{name}: {message}" if field else message)  # a check of several settings names them
     return "; ".join(lines)
