@@ -370,6 +370,7 @@ def test_assignments_bad_submissions_and_sizes(app, spare, clock):
     assert r.status_code == 422 and "exactly one of 'scene' and 'image'" in r.text
     r = app.post(url, json={"image": "AAAA", "format": "jpg"}, headers=bearer(tok))
     assert r.status_code == 422 and r.json()["errors"][0]["path"] == "format"
+    assert r.json()["errors"][0]["message"].startswith("expected one of: png, exr; got"), r.json()  # not an empty list
     big = {"image": "A" * 2_100_000, "format": "png"}
     r = app.post(url, json=big, headers=bearer(tok))
     assert r.status_code == 413 and "TRACER_MAX_BODY_BYTES" in r.text
