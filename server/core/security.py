@@ -29,7 +29,8 @@
   pass; CROSS_SITE_PATHS (LTI's login and launch, which a learning platform posts from its own site) pass.
 - **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
   assets (and /docs its one inline script, by hash), no MIME sniffing, no framing, no referrer
-  to other sites.
+  to other sites; and `Cache-Control: no-store` on every /api answer (tokens, grades, students' work: none is
+  kept by a browser's cache or a proxy), whatever the route said.
 """
 
 from __future__ import annotations
@@ -341,6 +342,7 @@ POLICY = (
     "default-src 'self'; img-src 'self' blob: data:; object-src 'none'; base-uri 'self'; form-action 'self'; "
     "frame-ancestors 'none'"
 )
+NO_STORE = (b"cache-control", b"no-store")  # every /api answer's
 DOCS_PATHS = ("/docs", "/docs/oauth2-redirect")  # Swagger UI's pages: an inline script each, allowed by its hash
 INLINE_SCRIPT = re.compile(rb"<script>(.*?)</script>", re.S)
 HEADERS = [
@@ -375,9 +377,14 @@ class SecurityHeaders:
             await self._docs(scope, receive, send)
             return
 
+        api = scope["path"] == "/api" or scope["path"].startswith("/api/")
+
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
-                message["headers"] = _with(message.get("headers") or [], POLICY)
+                headers = message.get("headers") or []
+                if api:  # tokens, grades, students' work: never kept by a browser or a proxy
+                    headers = [(k, v) for k, v in headers if k.lower() != b"cache-control"] + [NO_STORE]
+                message["headers"] = _with(headers, POLICY)
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

@@ -443,3 +443,31 @@ def test_api_security_the_server_s_own_page_and_clients_without_a_browser_pass(o
 def test_api_security_a_foreign_origin_is_refused_on_a_server_with_an_instructor_token(client):
     r = client.delete(f"/api/jobs/{'0' * 32}", headers={**TEACHER, "Origin": EVIL})
     assert r.status_code == 403 and r.json()["errors"][0]["path"] == "Origin", r.text
+
+
+def test_api_security_no_api_answer_is_kept_in_a_cache(client):
+    """Every /api answer says `Cache-Control: no-store`, whatever its route said (a job's token, a student's work,
+    an error, an event stream, a scene's preview); the page and its assets may be cached."""
+    created = submit(client, tiny_scene())
+    assert created["token"] is None
+    with anonymous(client):
+        issued = client.post("/api/jobs", json={"scene": tiny_scene()})  # a new token in the answer
+    assert issued.status_code == 202 and issued.json()["token"], issued.text
+    answers = [
+        issued,
+        client.get(f"/api/jobs/{created['id']}"),
+        client.get(f"/api/jobs/{'0' * 22}"),  # 404
+        client.get("/api/jobs"),
+        client.get("/api/health"),
+        client.get("/api/schema"),
+        client.get("/api/scenes"),
+        client.get("/api/assignments", headers=TEACHER),
+    ]
+    for r in answers:
+        assert r.headers.get("cache-control") == "no-store", (r.request.url, r.status_code, r.headers)
+    with client.stream("GET", f"/api/jobs/{created['id']}/events") as r:
+        assert r.headers["cache-control"] == "no-store"
+    wait_finished(client, created["id"])
+    wait_status_as(client, issued.json()["id"], bearer(issued.json()["token"]))
+    for path in ("/", "/js/main.js"):
+        assert client.get(path).headers.get("cache-control") != "no-store", path
