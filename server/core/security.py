@@ -50,7 +50,7 @@ from fastapi.security import HTTPBearer
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from server.core.errors import ApiError, errors_response
-from server.core.settings import Settings
+from server.core.settings import MIN_TOKEN_LENGTH, STRONG_TOKEN, Settings, loopback_address, weak_token
 
 log = logging.getLogger("server")
 
@@ -80,13 +80,7 @@ def share_token(row: dict) -> str | None:
 
 def loopback_only(host: str) -> bool:
     """Does an address to listen on (python -m server --host) reach this machine only?"""
-    name = host.strip().strip("[]").lower().rstrip(".")
-    if name == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(name).is_loopback
-    except ValueError:
-        return False
+    return loopback_address(host)
 
 
 def instructor_token(settings: Settings) -> str | None:
@@ -190,6 +184,12 @@ def start_up_warnings(settings: Settings) -> list[str]:
         out.append(
             f"listening on {settings.host} (not loopback only) without TRACER_INSTRUCTOR_TOKEN: grading is "
             "refused and jobs without an owner (grading renders, older jobs) cannot be read; set it"
+        )
+    weak = weak_token(instructor_token(settings)) if instructor_token(settings) else None
+    if weak:  # (refused at start on any other address: server/core/settings.py)
+        out.append(
+            f"TRACER_INSTRUCTOR_TOKEN is weak ({weak}): it is accepted on loopback only; use at least "
+            f"{MIN_TOKEN_LENGTH} random characters before the server listens on another address ({STRONG_TOKEN})"
         )
     if served_hosts(settings) is None and not settings.allowed_hosts.strip():
         out.append(

@@ -8,6 +8,7 @@ by TRACER_SETTINGS_FILE). docs/service.md lists them.
 from __future__ import annotations
 
 import ipaddress
+import math
 import os
 import re
 from pathlib import Path
@@ -19,6 +20,7 @@ from pydantic import (
     Field,
     SecretStr,
     ValidationError,
+    ValidationInfo,
     create_model,
     field_validator,
     model_validator,
@@ -76,6 +78,34 @@ def redis_url_from(url: str | None, url_file: str | os.PathLike | None) -> str |
             "(--redis-url-file), not both"
         )
     return secret_from_file(url_file, "TRACER_REDIS_URL_FILE") if url_file else url or None
+
+
+MIN_TOKEN_LENGTH = 24  # the instructor's token: at least this many characters ...
+MIN_TOKEN_BITS = 96  # ... and about this many bits, by `token_bits`
+TOKEN_CLASSES = ("abcdefghijklmnopqrstuvwxyz", "ABCDEFGHIJKLMNOPQRSTUVWXYZ", "0123456789", "-._~+/=")
+
+
+def token_bits(text: str) -> float:
+    """A simple estimate of a token's strength: its length times log2 of the characters of the kinds it uses
+    (lower case, upper case, digits, -._~+/=), as if each were drawn at random from them; a token of fewer than 8
+    distinct characters (`aaaa...`, `abab...`) is drawn from no more than those."""
+    pool = sum(len(kind) for kind in TOKEN_CLASSES if any(c in kind for c in text))
+    if len(set(text)) < 8:
+        pool = min(pool, len(set(text)))
+    return len(text) * math.log2(pool) if pool > 1 else 0.0
+
+
+def weak_token(text: str) -> str | None:
+    """Why the instructor's token is too weak to guard a server others reach (None: strong enough)."""
+    if len(text) < MIN_TOKEN_LENGTH:
+        return f"it has {len(text)} characters, fewer than {MIN_TOKEN_LENGTH}"
+    bits = token_bits(text)
+    if bits < MIN_TOKEN_BITS:
+        return f"it is worth about {bits:.0f} bits, fewer than {MIN_TOKEN_BITS} (too few kinds of characters)"
+    return None
+
+
+STRONG_TOKEN = 'python -c "import secrets; print(secrets.token_urlsafe(32))" makes a strong one'
 
 
 def _seconds(v):
@@ -284,13 +314,22 @@ class Settings(SceneLimits):
 
     @field_validator("instructor_token", mode="before")
     @classmethod
-    def _token(cls, v):
+    def _token(cls, v, info: ValidationInfo):
         """An empty value is no token; any other must be one a client can send as a bearer token."""
         text = v.get_secret_value() if isinstance(v, SecretStr) else v
         if text is None or text == "":
             return None
         if not isinstance(text, str) or not re.fullmatch(r"[A-Za-z0-9._~+/=-]{16,512}", text):
             raise ValueError("the instructor token must be 16 to 512 letters, digits or -._~+/= (a bearer token)")
+        weak = weak_token(text)
+        host = info.data.get("host", "127.0.0.1")
+        if weak and not loopback_address(
+            host
+        ):  # guessed, it is every student's grade: refused (on loopback: a warning)
+            raise ValueError(
+                f"the instructor token is too weak for a server listening on {host} ({weak}): use at least "
+                f"{MIN_TOKEN_LENGTH} random characters; {STRONG_TOKEN}"
+            )
         return text
 
     @property
@@ -369,6 +408,15 @@ class Settings(SceneLimits):
                     f"expected networks such as 10.0.0.0/8 or 203.0.113.7, comma-separated; got {part[:80]!r}"
                 ) from None
         return v
+
+
+def loopback_address(host: str) -> bool:
+    """Does an address to listen on reach this machine only (server/core/security.py's `loopback_only`)?"""
+    name = host.strip().strip("[]").lower().rstrip(".")
+    try:
+        return name == "localhost" or ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
 
 
 def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -> Settings:

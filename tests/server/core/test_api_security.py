@@ -471,3 +471,36 @@ def test_api_security_no_api_answer_is_kept_in_a_cache(client):
     wait_status_as(client, issued.json()["id"], bearer(issued.json()["token"]))
     for path in ("/", "/js/main.js"):
         assert client.get(path).headers.get("cache-control") != "no-store", path
+
+
+def test_api_security_a_weak_instructor_token_is_refused_off_loopback_and_warned_on_it():
+    """An instructor token shorter than 24 characters, or worth fewer than about 96 bits, guards every student's
+    grade badly: a server listening beyond loopback refuses to start with it (naming the setting, never the
+    token), one on loopback warns at start-up."""
+    from server.core.security import start_up_warnings
+    from server.core.settings import token_bits
+
+    for weak in ("abcdefghijklmnop", "x" * 40, "ab" * 20, "0123456789" * 2 + "012"):
+        with pytest.raises(ValueError, match="instructor token is too weak for a server listening on 10.1.2.3"):
+            Settings(host="10.1.2.3", instructor_token=weak)
+        on_loopback = Settings(instructor_token=weak)
+        assert any("TRACER_INSTRUCTOR_TOKEN is weak" in w for w in start_up_warnings(on_loopback)), weak
+    assert token_bits("abcdefghijklmnopqrstuvwx") > 96 and token_bits("x" * 40) == 0
+    for strong in (INSTRUCTOR, student_token()):
+        settings = Settings(host="10.1.2.3", instructor_token=strong)
+        assert not any("is weak" in w for w in start_up_warnings(settings))
+
+
+def test_api_security_python_m_server_names_the_weak_token_without_showing_it(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": "weak-but-16-chars"}
+    argv = [sys.executable, "-m", "server", "--host", "10.1.2.3", "--data-dir", str(tmp_path / "data")]
+    r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert "TRACER_INSTRUCTOR_TOKEN: the instructor token is too weak" in r.stderr and "24" in r.stderr, r.stderr
+    assert "weak-but-16-chars" not in r.stderr
