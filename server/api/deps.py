@@ -95,6 +95,8 @@ class Client:
     caller: Caller
     address: str | None
     known: bool
+    capped: bool = True  # under its address's caps: anyone but the instructor and a roster's student (a joined
+    # identity, a name anyone may type, is known but capped)
 
 
 NO_TOKEN = (
@@ -109,13 +111,18 @@ NOT_ON_A_ROSTER = (
 
 
 def get_client(request: Request, caller: CallerDep) -> Client:
-    """The client asking for work; with TRACER_REQUIRE_IDENTITY, 401 unless their identity is known."""
+    """The client asking for work; with TRACER_REQUIRE_IDENTITY, 401 unless their identity is known (a refused
+    token counts against its address: server/core/clients.py)."""
     course = request.app.state.course
-    on_roster = caller.owner is not None and course is not None and course.store.on_a_roster(caller.owner)
-    known = caller.instructor or on_roster
+    listed = course.store.roster_kind(caller.owner) if caller.owner is not None and course is not None else None
+    known = caller.instructor or listed is not None
+    address = request.client.host if request.client else None
     if not known and request.app.state.settings.require_identity:
-        raise unauthorized(NO_TOKEN, "") if caller.token is None else unauthorized(NOT_ON_A_ROSTER)
-    return Client(caller, request.client.host if request.client else None, known)
+        if caller.token is None:
+            raise unauthorized(NO_TOKEN, "")
+        request.app.state.caps.auth_failed(address)  # a token where a known one is needed: counted
+        raise unauthorized(NOT_ON_A_ROSTER)
+    return Client(caller, address, known, capped=not (caller.instructor or listed == "roster"))
 
 
 ClientDep = Annotated[Client, Depends(get_client)]

@@ -144,6 +144,8 @@ async def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = N
     but the request (no trip through the thread pool, server/api/deps.py)."""
     token = bearer_token(request)
     settings: Settings = request.app.state.settings
+    if token is not None:  # an address that sent too many refused tokens waits (server/core/clients.py)
+        request.app.state.caps.auth_allowed(request.client.host if request.client else None)
     secret = instructor_token(settings)
     if secret is not None:
         instructor = token is not None and hmac.compare_digest(token.encode(), secret.encode())
@@ -168,6 +170,7 @@ def require_instructor(caller: CallerDep, request: Request) -> Caller:
         raise ApiError(403, [{"path": "Authorization", "message": message}])
     if caller.token is None:
         raise unauthorized("this needs the instructor's token: send 'Authorization: Bearer <token>'", "")
+    request.app.state.caps.auth_failed(request.client.host if request.client else None)  # counted per address
     raise unauthorized("this token is not the instructor's (TRACER_INSTRUCTOR_TOKEN)")
 
 

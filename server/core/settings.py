@@ -386,6 +386,26 @@ class Settings(SceneLimits):
     address_window: Duration = Field(
         3600.0, gt=0, le=7 * 86400, description="the sliding window of TRACER_MAX_NEW_TOKENS_PER_ADDRESS (90s, 30m, 1h)"
     )
+    max_joins_per_address: int = Field(
+        20,
+        ge=1,
+        description="joins of open assignments from one client address in any TRACER_ADDRESS_WINDOW: 429 past it",
+    )
+    max_joins_per_assignment: int = Field(
+        500, ge=1, description="students who joined one open assignment by a name (self-declared): 403 past it"
+    )
+    max_auth_failures: int = Field(
+        20,
+        ge=1,
+        description="refused tokens (not the instructor's, on no roster where one is needed) from one client "
+        "address in TRACER_AUTH_FAILURE_WINDOW, after which its requests with a token get 429",
+    )
+    auth_failure_window: Duration = Field(
+        600.0, gt=0, le=86400, description="the sliding window of TRACER_MAX_AUTH_FAILURES (90s, 10m, 1h)"
+    )
+    max_checks_per_minute: int = Field(
+        30, ge=1, description="checks of a submission (POST /api/assignments/{id}/check) of one token a minute: 429"
+    )
     shared_networks: str = Field(
         "",
         description="networks (CIDR, comma-separated: 203.0.113.7/32, 10.0.0.0/8) whose addresses each stand for "

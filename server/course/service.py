@@ -236,11 +236,14 @@ class Course:
         shown = " ".join(name.split())
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
         token = new_token()
-        self.store.add_students(
-            aid,
-            [{"student": sid, "name": shown, "email": "", "token_hash": token_hash(token), "self_declared": 1}],
-            self.now(),
-        )
+        row = {"student": sid, "name": shown, "email": "", "token_hash": token_hash(token)}
+        most = self.settings.max_joins_per_assignment
+        if not self.store.add_joined(aid, row, self.now(), most):
+            message = (
+                f"this open assignment already has {most} students who joined by a name, the most it takes "
+                "(TRACER_MAX_JOINS_PER_ASSIGNMENT): ask your instructor for a link of the roster"
+            )
+            raise ApiError(403, [{"path": "", "message": message}])
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
     def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:

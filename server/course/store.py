@@ -138,6 +138,30 @@ class CourseStore(Tables):
         row = self.db.execute("SELECT 1 FROM course_students WHERE token_hash = ? LIMIT 1", (token_hash,)).fetchone()
         return row is not None
 
+    def roster_kind(self, token_hash: str) -> str | None:
+        """How this token's hash is on some assignment's roster: "roster" (put there by an instructor, on any),
+        "joined" (only ever self-declared, by an open assignment's join), or None (on none)."""
+        row = self.db.execute(
+            "SELECT MIN(self_declared) FROM course_students WHERE token_hash = ?", (token_hash,)
+        ).fetchone()
+        return None if row is None or row[0] is None else "joined" if row[0] else "roster"
+
+    def add_joined(self, aid: str, row: dict, now: float, most: int) -> bool:
+        """A self-declared student (an open assignment's join), unless the assignment already has `most` of them:
+        counted and added in one transaction, so that joins at once cannot pass the cap."""
+        with self._tx() as db:
+            have = db.execute(
+                "SELECT COUNT(*) FROM course_students WHERE assignment_id = ? AND self_declared = 1", (aid,)
+            ).fetchone()[0]
+            if have >= most:
+                return False
+            db.execute(
+                "INSERT INTO course_students (assignment_id, student, name, email, token_hash, self_declared,"
+                " created_at) VALUES (?, ?, ?, ?, ?, 1, ?)",
+                (aid, row["student"], row["name"], row["email"], row["token_hash"], now),
+            )
+        return True
+
     def add_students(self, aid: str, rows: list[dict], now: float) -> list[str]:
         """The roster's new students (dicts: student, name, email, token_hash, self_declared), in one
         transaction; those already on it keep their token (their name and email are updated). The ids added."""

@@ -100,7 +100,7 @@ async def submit(
         if caller.token is None and not client.known:  # (known: on a loopback-only server with no instructor)
             new = rooms.enter_context(caps.new_token(client.address))
         waiting = None
-        if not client.known:
+        if client.capped:  # (a joined identity too: a name anyone may type)
             taken = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
             waiting = rooms.enter_context(taken)
         found = await checks.summary(request, await request.body())
@@ -138,6 +138,7 @@ async def submit(
 def list_jobs(
     jobs: JobsDep,
     caller: CallerDep,
+    request: Request,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
@@ -153,6 +154,8 @@ def list_jobs(
     """A student sees the jobs of their token (none without one); the instructor (TRACER_INSTRUCTOR_TOKEN,
     or anyone on a loopback-only server without one) every job, grading renders included."""
     if scope == "all" and not caller.instructor:
+        if caller.token is not None:  # a token that is not the instructor's: counted against the address
+            request.app.state.caps.auth_failed(request.client.host if request.client else None)
         raise unauthorized("listing every job needs the instructor's token (TRACER_INSTRUCTOR_TOKEN)", "")
     if scope == "mine" or not caller.instructor:
         if caller.owner is None:

@@ -550,3 +550,26 @@ def test_assignments_exports_never_carry_a_formula_a_student_typed(app, clock):
     assert names == {"'" + evil, "'+cmd|' /C calc'!A0", "'@SUM(A1)"}
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv", headers=TEACHER).text)))
     assert {row[0] for row in book[2:]} == names and book[1][-1] == "13"  # Points Possible: still a number
+
+
+def test_assignments_a_students_checks_are_so_many_a_minute(app, spare, clock):
+    """POST .../check of one token: TRACER_MAX_CHECKS_PER_MINUTE (3 here), then a 429 naming it with Retry-After;
+    another student's token and the instructor are not held; a minute later (the caps' injectable clock) the
+    token checks again."""
+    settings, caps = app.app.state.settings, app.app.state.caps
+    saved_cap, saved_clock = settings.max_checks_per_minute, caps.clock
+    settings.max_checks_per_minute, caps.clock = 3, Clock(5000.0)
+    try:
+        tok = roster(app, spare, [("c1", "Cee One", ""), ("c2", "Cee Two", "")])
+        url, body = f"/api/assignments/{spare}/check", {"scene": scene_text("carol")}  # broken JSON: quick
+        for _ in range(3):
+            assert app.post(url, json=body, headers=bearer(tok["c1"]["token"])).status_code == 200
+        r = app.post(url, json=body, headers=bearer(tok["c1"]["token"]))
+        assert r.status_code == 429, r.text
+        assert "TRACER_MAX_CHECKS_PER_MINUTE" in r.json()["errors"][0]["message"] and r.headers["retry-after"] == "60"
+        assert app.post(url, json=body, headers=bearer(tok["c2"]["token"])).status_code == 200
+        assert app.post(url, json=body).status_code == 200  # the instructor
+        caps.clock.now += 60
+        assert app.post(url, json=body, headers=bearer(tok["c1"]["token"])).status_code == 200
+    finally:
+        settings.max_checks_per_minute, caps.clock = saved_cap, saved_clock
