@@ -175,6 +175,7 @@ def follow(conn: http.client.HTTPConnection, aid: str, sub: Submission, headers:
 def start_service(args, procs: Procs, root: Path, token: str) -> tuple[Api, dict]:
     """The API (and Redis and the worker hosts); the API's client, and the processes by role."""
     env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": token, "TRACER_PREVIEWS_AHEAD": "0"}
+    env["TRACER_SHARED_NETWORKS"] = "127.0.0.1/32"  # the whole class follows its streams from this one address
     roles: dict = {"hosts": []}
     if args.backend == "redis":
         _, url = start_redis(procs)

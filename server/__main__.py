@@ -1,4 +1,5 @@
-"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL] [--settings FILE]
+"""python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL | --redis-url-file PATH]
+[--settings FILE]
 
 and the data directory's upkeep (docs/service.md, "Backups and upgrades"):
 
@@ -53,6 +54,12 @@ def main(argv: list[str] | None = None) -> None:
         dest="redis_url",
         help="Redis URL: jobs go to worker hosts (python -m server.worker --redis URL) through RQ "
         "(or TRACER_REDIS_URL); without it the workers are processes of this host",
+    )
+    p.add_argument(
+        "--redis-url-file",
+        metavar="PATH",
+        help="a file whose first line is the Redis URL, password included (or TRACER_REDIS_URL_FILE): unlike "
+        "--redis, never shown by ps",
     )
     args = p.parse_args(argv)
     given = {k: v for k, v in vars(args).items() if k != "settings" and v is not None}

@@ -29,11 +29,11 @@ from fastapi_offline import FastAPIOffline
 
 from server.api.routes import assignments, courses, grade, jobs, lms, lti, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
-from server.core.clients import AddressCaps
+from server.core.clients import AddressCaps, StreamCaps
 from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.migrations import migrate
 from server.core.paths import SCENES, WEB
-from server.core.security import HostCheck, SecurityHeaders, served_hosts, start_up_warnings
+from server.core.security import CrossSiteCheck, HostCheck, SecurityHeaders, served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import check_data_dir, lock_data_dir
 from server.course.lms import Lms
@@ -147,6 +147,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.course = app.state.lti = app.state.lms = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
+    app.state.streams = StreamCaps(settings, app.state.caps)  # event streams open per token and per address
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
     install_error_handlers(app)
@@ -156,6 +157,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
         streamed={grade.UPLOAD: upload}, body_timeout=settings.body_timeout, budget=budget,
     )  # fmt: skip
+    app.add_middleware(CrossSiteCheck, served=served_hosts(settings))  # no page of another site changes anything
     app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
     # the outermost: every answer has its policy, nosniff, no framing but by the registered LTI platforms
     app.add_middleware(SecurityHeaders, frame_ancestors=lambda: app.state.lti.origins() if app.state.lti else [])

@@ -78,6 +78,7 @@ def api_client(
     settings.setdefault("previews_ahead", False)  # no example previews queued behind the test's own jobs
     settings.setdefault("answer_again", False)  # each job rendered (tests of the answers again turn it on)
     settings.setdefault("lessons_ahead", False)  # no lesson panels queued behind the test's own jobs
+    settings.setdefault("max_auth_failures", 100_000)  # the tests' refused tokens, one address: tested on its own
     app = create_app(Settings(data_dir=data_dir, workers=workers, **settings))
     every = workers + settings["interactive_workers"] if workers else 0
     token = student_token() if token == "" else token
@@ -190,6 +191,7 @@ class Server:
         self.url = f"http://127.0.0.1:{self.port}"
         quiet = {"TRACER_INTERACTIVE_WORKERS": "0", "TRACER_PREVIEWS_AHEAD": "0"}  # as api_client
         quiet |= {"TRACER_ANSWER_AGAIN": "0", "TRACER_LESSONS_AHEAD": "0"}
+        quiet |= {"TRACER_MAX_AUTH_FAILURES": "100000"}  # the tests' refused tokens come from one address
         self.env = {**os.environ, **quiet, **(env or {})}
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
         self.proc: subprocess.Popen | None = None

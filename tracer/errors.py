@@ -240,6 +240,8 @@ def translate_error(err: dict, root: type[BaseModel] | None = None) -> dict[str,
         parts = [*parts, "type"]
     elif kind == "literal_error":
         choices = [str(c) for c in get_args(tp)] if get_origin(tp) is Literal else []
+        if not choices:  # no model to look the field up in (a route's body): pydantic's own list, "'png' or 'exr'"
+            choices = re.findall(r"'([^']*)'", str(ctx.get("expected", "")))
         given = err.get("input")
         message = f"expected one of: {', '.join(choices)}; got {show_value(given)}{did_you_mean(given, choices)}"
     elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge"))) == FLOAT32_MAX:

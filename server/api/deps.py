@@ -8,11 +8,13 @@ a trip through another thread (and the interpreter's lock) for each, which a bus
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
 
 import anyio
 from fastapi import Depends, Path, Request
+from fastapi.responses import StreamingResponse
 
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
@@ -93,6 +95,8 @@ class Client:
     caller: Caller
     address: str | None
     known: bool
+    capped: bool = True  # under its address's caps: anyone but the instructor and a roster's student (a joined
+    # identity, a name anyone may type, is known but capped)
 
 
 NO_TOKEN = (
@@ -107,16 +111,48 @@ NOT_ON_A_ROSTER = (
 
 
 def get_client(request: Request, caller: CallerDep) -> Client:
-    """The client asking for work; with TRACER_REQUIRE_IDENTITY, 401 unless their identity is known."""
+    """The client asking for work; with TRACER_REQUIRE_IDENTITY, 401 unless their identity is known (a refused
+    token counts against its address: server/core/clients.py)."""
     course = request.app.state.course
-    on_roster = caller.owner is not None and course is not None and course.store.on_a_roster(caller.owner)
-    known = caller.instructor or on_roster
+    listed = course.store.roster_kind(caller.owner) if caller.owner is not None and course is not None else None
+    known = caller.instructor or listed is not None
+    address = request.client.host if request.client else None
     if not known and request.app.state.settings.require_identity:
-        raise unauthorized(NO_TOKEN, "") if caller.token is None else unauthorized(NOT_ON_A_ROSTER)
-    return Client(caller, request.client.host if request.client else None, known)
+        if caller.token is None:
+            raise unauthorized(NO_TOKEN, "")
+        request.app.state.caps.auth_failed(address)  # a token where a known one is needed: counted
+        raise unauthorized(NOT_ON_A_ROSTER)
+    return Client(caller, address, known, capped=not (caller.instructor or listed == "roster"))
 
 
 ClientDep = Annotated[Client, Depends(get_client)]
+
+
+# -- event streams ---------------------------------------------------------------------------------
+
+
+class CappedStream(StreamingResponse):
+    """An event stream that holds room under its client's caps of open streams (server/core/clients.py,
+    `StreamCaps`) and gives it back when it ends, however it ends (finished, the client gone, the server
+    stopping)."""
+
+    def __init__(self, content, release: Callable[[], None], **kwargs):
+        super().__init__(content, **kwargs)
+        self.release = release
+
+    async def __call__(self, scope, receive, send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        finally:
+            self.release()
+
+
+def stream_room(request: Request, caller: Caller) -> Callable[[], None]:
+    """Room for one more open event stream of this caller (their token and their address); 429 past a cap. The
+    instructor's streams are not counted. The answer gives it back: hand it to a `CappedStream`."""
+    if caller.instructor:
+        return lambda: None
+    return request.app.state.streams.open(caller.owner, request.client.host if request.client else None)
 
 
 def still_waiting(jobs: JobService):

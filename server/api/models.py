@@ -50,11 +50,18 @@ class _SceneRequest(BaseModel):
 class JobCreate(_SceneRequest):
     EXAMPLE: ClassVar[str] = '{"scene": {...}, "priority": 0}'
 
-    priority: StrictInt = Field(0, ge=-100, le=100, description="higher runs first; then first come, first served")
+    priority: StrictInt = Field(
+        0,
+        ge=-100,
+        le=100,
+        description="higher runs first; then first come, first served. Above 0 is the instructor's: anyone else's "
+        "is lowered to 0, with a warning at `priority`",
+    )
     lane: Lane | None = Field(
         None,
-        description="interactive (taken first) or batch; null: interactive unless the render is estimated to take "
-        "longer than TRACER_INTERACTIVE_SECONDS",
+        description="batch: move the job down to the batch lane; interactive: the instructor's only (anyone else's "
+        "render estimated past TRACER_INTERACTIVE_SECONDS goes to the batch lane, with a warning at `lane`); null: "
+        "interactive unless the render is estimated to take longer than TRACER_INTERACTIVE_SECONDS",
     )
 
 

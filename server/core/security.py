@@ -22,9 +22,16 @@
   TRACER_ALLOWED_HOSTS. A Host is a name or a bracketed IPv6 literal, then at most a port of digits in
   1..65535 (`host_name`): anything else names no host. A server listening on every address (0.0.0.0, ::)
   with no list accepts any Host, and warns at start-up.
+- **Other sites** (`CrossSiteCheck`): a state-changing request (POST, PUT, PATCH, DELETE) that a page of another
+  site sent (`Sec-Fetch-Site: cross-site`, or an `Origin` that is neither the server's own, the request's scheme
+  and Host, nor a served host) is refused (403), on every server: without it, a page anyone opens could publish an
+  assignment on a loopback server that has no instructor token. Clients that send neither header (curl, Python)
+  pass; CROSS_SITE_PATHS (LTI's login and launch, which a learning platform posts from its own site) pass.
 - **Headers** (`SecurityHeaders`): a content security policy that lets the page load only its own
   assets (and /docs its one inline script, by hash), no MIME sniffing, no framing (but of the pages an LMS
-  shows, by the registered LTI platforms: `frame_ancestors`), no referrer to other sites.
+  shows, by the registered LTI platforms: `frame_ancestors`), no referrer to other sites; and
+  `Cache-Control: no-store` on every /api answer (tokens, grades, students' work: none is kept by a browser's
+  cache or a proxy), whatever the route said.
 """
 
 from __future__ import annotations
@@ -45,7 +52,7 @@ from fastapi.security import HTTPBearer
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from server.core.errors import ApiError, errors_response
-from server.core.settings import Settings
+from server.core.settings import MIN_TOKEN_LENGTH, STRONG_TOKEN, Settings, loopback_address, weak_token
 
 log = logging.getLogger("server")
 
@@ -75,13 +82,7 @@ def share_token(row: dict) -> str | None:
 
 def loopback_only(host: str) -> bool:
     """Does an address to listen on (python -m server --host) reach this machine only?"""
-    name = host.strip().strip("[]").lower().rstrip(".")
-    if name == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(name).is_loopback
-    except ValueError:
-        return False
+    return loopback_address(host)
 
 
 def instructor_token(settings: Settings) -> str | None:
@@ -145,6 +146,8 @@ async def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = N
     but the request (no trip through the thread pool, server/api/deps.py)."""
     token = bearer_token(request)
     settings: Settings = request.app.state.settings
+    if token is not None:  # an address that sent too many refused tokens waits (server/core/clients.py)
+        request.app.state.caps.auth_allowed(request.client.host if request.client else None)
     secret = instructor_token(settings)
     if secret is not None:
         instructor = token is not None and hmac.compare_digest(token.encode(), secret.encode())
@@ -169,6 +172,7 @@ def require_instructor(caller: CallerDep, request: Request) -> Caller:
         raise ApiError(403, [{"path": "Authorization", "message": message}])
     if caller.token is None:
         raise unauthorized("this needs the instructor's token: send 'Authorization: Bearer <token>'", "")
+    request.app.state.caps.auth_failed(request.client.host if request.client else None)  # counted per address
     raise unauthorized("this token is not the instructor's (TRACER_INSTRUCTOR_TOKEN)")
 
 
@@ -185,6 +189,12 @@ def start_up_warnings(settings: Settings) -> list[str]:
         out.append(
             f"listening on {settings.host} (not loopback only) without TRACER_INSTRUCTOR_TOKEN: grading is "
             "refused and jobs without an owner (grading renders, older jobs) cannot be read; set it"
+        )
+    weak = weak_token(instructor_token(settings)) if instructor_token(settings) else None
+    if weak:  # (refused at start on any other address: server/core/settings.py)
+        out.append(
+            f"TRACER_INSTRUCTOR_TOKEN is weak ({weak}): it is accepted on loopback only; use at least "
+            f"{MIN_TOKEN_LENGTH} random characters before the server listens on another address ({STRONG_TOKEN})"
         )
     if served_hosts(settings) is None and not settings.allowed_hosts.strip():
         out.append(
@@ -270,12 +280,74 @@ class HostCheck:
         await self.app(scope, receive, send)
 
 
+# -- other sites ---------------------------------------------------------------------------------
+
+CROSS_SITE_PATHS = ("/lti/login", "/lti/launch")  # a learning platform posts here from its own site (LTI 1.3)
+STATE_CHANGING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+DEFAULT_PORTS = {"http": "80", "https": "443"}
+
+
+def origin_of(scheme: str, host: str) -> str:
+    """An origin as a browser writes it (`scheme://host[:port]`), in lower case and without the scheme's default
+    port, so that `http://localhost:80` and `http://localhost` compare equal."""
+    scheme, host = scheme.lower(), host.strip().lower()
+    name, colon, port = host.rpartition(":") if not host.endswith("]") else (host, "", "")
+    if colon and port == DEFAULT_PORTS.get(scheme):
+        host = name
+    return f"{scheme}://{host}"
+
+
+class CrossSiteCheck:
+    """ASGI middleware: 403 for a state-changing request (POST, PUT, PATCH, DELETE) that a page of another site
+    sent: its `Sec-Fetch-Site` is `cross-site`, or its `Origin` is neither this server's own origin (the request's
+    scheme and Host) nor a host the server serves. A browser sends these headers and a page cannot forge them; a
+    client without them (curl, Python) passes. The paths of CROSS_SITE_PATHS are posted to from another site by
+    design and pass."""
+
+    def __init__(self, app: ASGIApp, served: frozenset[str] | None):
+        self.app, self.served = app, served
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or scope["method"] not in STATE_CHANGING or _exempt(scope["path"]):
+            await self.app(scope, receive, send)
+            return
+        headers = {k: v.decode("latin-1") for k, v in scope.get("headers") or () if k in (b"origin", b"host",
+                   b"sec-fetch-site")}  # fmt: skip
+        origin, site = headers.get(b"origin"), headers.get(b"sec-fetch-site", "").strip().lower()
+        own = origin_of(scope.get("scheme", "http"), headers.get(b"host", ""))
+        if site != "cross-site" and (origin is None or self._ours(origin, own)):
+            await self.app(scope, receive, send)
+            return
+        shown = repr(origin[:100]) if origin is not None else "none"
+        why = "Sec-Fetch-Site says cross-site" if site == "cross-site" else f"it is not this server's ({own})"
+        message = (
+            f"the request's Origin header ({shown}) is another site's ({why}): a page of another site may not "
+            f"change anything here ({scope['method']} refused); send it from this server's own page, or without "
+            "a browser"
+        )
+        await errors_response(403, [{"path": "Origin", "message": message}])(scope, receive, send)
+
+    def _ours(self, origin: str, own: str) -> bool:
+        scheme, sep, host = origin.strip().partition("://")
+        if not sep or scheme.lower() not in DEFAULT_PORTS:
+            return False  # "null" (a sandboxed page, a file), or no origin a browser writes
+        if origin_of(scheme, host) == own:
+            return True
+        name = host_name(host)
+        return bool(name) and self.served is not None and host_allowed(name, self.served)
+
+
+def _exempt(path: str) -> bool:
+    return path.rstrip("/") in CROSS_SITE_PATHS
+
+
 # -- headers -------------------------------------------------------------------------------------
 
 POLICY = (
     "default-src 'self'; img-src 'self' blob: data:; object-src 'none'; base-uri 'self'; form-action 'self'; "
     "frame-ancestors 'none'"
 )
+NO_STORE = (b"cache-control", b"no-store")  # every /api answer's
 DOCS_PATHS = ("/docs", "/docs/oauth2-redirect")  # Swagger UI's pages: an inline script each, allowed by its hash
 INLINE_SCRIPT = re.compile(rb"<script>(.*?)</script>", re.S)
 HEADERS = [
@@ -326,11 +398,16 @@ class SecurityHeaders:
         path = scope["path"]
         may_frame = self.frame_ancestors and (path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES))
 
+        api = scope["path"] == "/api" or scope["path"].startswith("/api/")
+
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
                 origins = self.frame_ancestors() if may_frame else []  # as they are when the answer starts
                 policy = framed_policy(origins) if origins else POLICY
-                message["headers"] = _with(message.get("headers") or [], policy, bool(origins))
+                headers = message.get("headers") or []
+                if api:  # tokens, grades, students' work: never kept by a browser or a proxy
+                    headers = [(k, v) for k, v in headers if k.lower() != b"cache-control"] + [NO_STORE]
+                message["headers"] = _with(headers, policy, bool(origins))
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

@@ -8,18 +8,104 @@ by TRACER_SETTINGS_FILE). docs/service.md lists them.
 from __future__ import annotations
 
 import ipaddress
+import math
 import os
 import re
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BeforeValidator, ByteSize, Field, SecretStr, ValidationError, create_model, field_validator
+from pydantic import (
+    BeforeValidator,
+    ByteSize,
+    Field,
+    SecretStr,
+    ValidationError,
+    ValidationInfo,
+    create_model,
+    field_validator,
+    model_validator,
+)
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from tracer.limits import LIMITS, Limits
 from tracer.limits import NAMES as LIMIT_NAMES
 
 UNITS = {"s": 1, "m": 60, "h": 3600, "d": 86400}
+MASK = "***"
+QUERY_PASSWORD = re.compile(r"(?i)([?&]password=)[^&#]*")
+
+
+def masked(url: str | None) -> str | None:
+    """A URL as it may be shown (logs, /api/health, errors): its password, in its user part or in its query
+    (`?password=`), replaced by ***. `redis://:s3cret@db:6379/0` -> `redis://:***@db:6379/0`."""
+    if not url:
+        return url
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        return _query_masked(url)
+    end = min((i for i in (rest.find(c) for c in "/?#") if i >= 0), default=len(rest))
+    netloc, tail = rest[:end], rest[end:]
+    userinfo, at, hostport = netloc.rpartition("@")
+    if at and ":" in userinfo:
+        netloc = f"{userinfo.partition(':')[0]}:{MASK}@{hostport}"
+    elif at and userinfo and scheme.lower().startswith("redis"):  # redis://secret@host: redis-py's password
+        netloc = f"{MASK}@{hostport}"
+    return f"{scheme}://{netloc}{_query_masked(tail)}"
+
+
+def _query_masked(text: str) -> str:
+    return QUERY_PASSWORD.sub(lambda m: m[1] + MASK, text)
+
+
+def secret_from_file(path: str | os.PathLike, name: str) -> str:
+    """A secret kept in a file (its first line, without surrounding white space), so that it is never on a
+    command line (where `ps` shows it) nor in the environment; a ValueError naming the setting `name`."""
+    try:
+        lines = Path(path).read_text().strip().splitlines()
+    except OSError as e:
+        raise ValueError(f"{name}: cannot read {path}: {e.strerror or e}") from None
+    if not lines or not lines[0].strip():
+        raise ValueError(f"{name}: the file {path} is empty")
+    return lines[0].strip()
+
+
+def redis_url_from(url: str | None, url_file: str | os.PathLike | None) -> str | None:
+    """The Redis URL given as itself (--redis, TRACER_REDIS_URL) or in a file (--redis-url-file,
+    TRACER_REDIS_URL_FILE): one of the two, never both."""
+    if url and url_file:
+        raise ValueError(
+            "the Redis URL is given twice: give either TRACER_REDIS_URL (--redis) or TRACER_REDIS_URL_FILE "
+            "(--redis-url-file), not both"
+        )
+    return secret_from_file(url_file, "TRACER_REDIS_URL_FILE") if url_file else url or None
+
+
+MIN_TOKEN_LENGTH = 24  # the instructor's token: at least this many characters ...
+MIN_TOKEN_BITS = 96  # ... and about this many bits, by `token_bits`
+TOKEN_CLASSES = ("abcdefghijklmnopqrstuvwxyz", "ABCDEFGHIJKLMNOPQRSTUVWXYZ", "0123456789", "-._~+/=")
+
+
+def token_bits(text: str) -> float:
+    """A simple estimate of a token's strength: its length times log2 of the characters of the kinds it uses
+    (lower case, upper case, digits, -._~+/=), as if each were drawn at random from them; a token of fewer than 8
+    distinct characters (`aaaa...`, `abab...`) is drawn from no more than those."""
+    pool = sum(len(kind) for kind in TOKEN_CLASSES if any(c in kind for c in text))
+    if len(set(text)) < 8:
+        pool = min(pool, len(set(text)))
+    return len(text) * math.log2(pool) if pool > 1 else 0.0
+
+
+def weak_token(text: str) -> str | None:
+    """Why the instructor's token is too weak to guard a server others reach (None: strong enough)."""
+    if len(text) < MIN_TOKEN_LENGTH:
+        return f"it has {len(text)} characters, fewer than {MIN_TOKEN_LENGTH}"
+    bits = token_bits(text)
+    if bits < MIN_TOKEN_BITS:
+        return f"it is worth about {bits:.0f} bits, fewer than {MIN_TOKEN_BITS} (too few kinds of characters)"
+    return None
+
+
+STRONG_TOKEN = 'python -c "import secrets; print(secrets.token_urlsafe(32))" makes a strong one'
 
 
 def _seconds(v):
@@ -110,6 +196,11 @@ class Settings(SceneLimits):
         description="Redis URL (redis://host:6379/0): jobs go to worker hosts (python -m server.worker) through "
         "RQ; unset: the embedded worker processes of this host",
     )
+    redis_url_file: Path | None = Field(
+        None,
+        description="a file whose first line is the Redis URL (with its password), instead of TRACER_REDIS_URL: "
+        "never on a command line (ps shows those) nor in the environment",
+    )
     lost_after: Duration = Field(
         15.0,
         ge=2,
@@ -168,6 +259,12 @@ class Settings(SceneLimits):
     max_queued_per_token: int = Field(
         20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
     )
+    max_active_jobs_per_token: int = Field(
+        4,
+        ge=1,
+        description="renders of one token waiting or running at once, its fair share of the workers (the "
+        "instructor's are not counted): 429 past it",
+    )
     max_job_seconds: float = Field(600.0, gt=0, description="seconds a job may render before it is stopped, failed")
     # The scene limits (max_width, ... max_solve_rays) are the rows of tracer/limits.py: see SceneLimits.
 
@@ -195,6 +292,15 @@ class Settings(SceneLimits):
     max_connections: int = Field(
         2000, ge=1, description="open connections and requests in progress (uvicorn's limit_concurrency): 503 past it"
     )
+    max_streams_per_token: int = Field(
+        16, ge=1, description="event streams one token may have open at once (the instructor's: any): 429 past it"
+    )
+    max_streams_per_address: int = Field(
+        64,
+        ge=1,
+        description="event streams one client address may have open at once (times TRACER_SHARED_NETWORK_CLIENTS "
+        "in TRACER_SHARED_NETWORKS; at most half of TRACER_MAX_CONNECTIONS, the rest kept for others): 429 past it",
+    )
     body_budget_bytes: ByteSize = Field(
         32_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
     )
@@ -202,15 +308,35 @@ class Settings(SceneLimits):
         2.0, ge=0, description="seconds a large body waits for the budget before its request is answered 503"
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _redis_url_file(cls, data):
+        """TRACER_REDIS_URL_FILE: the URL read from the file, as if TRACER_REDIS_URL had been given."""
+        if isinstance(data, dict) and data.get("redis_url_file"):
+            url = redis_url_from(None, data["redis_url_file"])
+            if data.get("redis_url") not in (None, "", url):  # (settings passed on whole carry the URL read)
+                redis_url_from(data["redis_url"], data["redis_url_file"])  # both given: the error that says so
+            data = {**data, "redis_url": url}
+        return data
+
     @field_validator("instructor_token", mode="before")
     @classmethod
-    def _token(cls, v):
+    def _token(cls, v, info: ValidationInfo):
         """An empty value is no token; any other must be one a client can send as a bearer token."""
         text = v.get_secret_value() if isinstance(v, SecretStr) else v
         if text is None or text == "":
             return None
         if not isinstance(text, str) or not re.fullmatch(r"[A-Za-z0-9._~+/=-]{16,512}", text):
             raise ValueError("the instructor token must be 16 to 512 letters, digits or -._~+/= (a bearer token)")
+        weak = weak_token(text)
+        host = info.data.get("host", "127.0.0.1")
+        if weak and not loopback_address(
+            host
+        ):  # guessed, it is every student's grade: refused (on loopback: a warning)
+            raise ValueError(
+                f"the instructor token is too weak for a server listening on {host} ({weak}): use at least "
+                f"{MIN_TOKEN_LENGTH} random characters; {STRONG_TOKEN}"
+            )
         return text
 
     @property
@@ -228,7 +354,7 @@ class Settings(SceneLimits):
             return f"{count} {noun}{'' if count == 1 else 'es' if noun.endswith('s') else 's'}"
 
         if self.redis_url:
-            renders = f"{n(self.workers, 'local worker host')} on Redis at {self.redis_url}"
+            renders = f"{n(self.workers, 'local worker host')} on Redis at {masked(self.redis_url)}"
         elif self.workers == 0:
             renders = "no render worker (jobs wait in the queue)"
         else:
@@ -267,6 +393,26 @@ class Settings(SceneLimits):
     address_window: Duration = Field(
         3600.0, gt=0, le=7 * 86400, description="the sliding window of TRACER_MAX_NEW_TOKENS_PER_ADDRESS (90s, 30m, 1h)"
     )
+    max_joins_per_address: int = Field(
+        20,
+        ge=1,
+        description="joins of open assignments from one client address in any TRACER_ADDRESS_WINDOW: 429 past it",
+    )
+    max_joins_per_assignment: int = Field(
+        500, ge=1, description="students who joined one open assignment by a name (self-declared): 403 past it"
+    )
+    max_auth_failures: int = Field(
+        20,
+        ge=1,
+        description="refused tokens (not the instructor's, on no roster where one is needed) from one client "
+        "address in TRACER_AUTH_FAILURE_WINDOW, after which its requests with a token get 429",
+    )
+    auth_failure_window: Duration = Field(
+        600.0, gt=0, le=86400, description="the sliding window of TRACER_MAX_AUTH_FAILURES (90s, 10m, 1h)"
+    )
+    max_checks_per_minute: int = Field(
+        30, ge=1, description="checks of a submission (POST /api/assignments/{id}/check) of one token a minute: 429"
+    )
     shared_networks: str = Field(
         "",
         description="networks (CIDR, comma-separated: 203.0.113.7/32, 10.0.0.0/8) whose addresses each stand for "
@@ -291,6 +437,15 @@ class Settings(SceneLimits):
         return v
 
 
+def loopback_address(host: str) -> bool:
+    """Does an address to listen on reach this machine only (server/core/security.py's `loopback_only`)?"""
+    name = host.strip().strip("[]").lower().rstrip(".")
+    try:
+        return name == "localhost" or ipaddress.ip_address(name).is_loopback
+    except ValueError:
+        return False
+
+
 def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -> Settings:
     """Settings from `overrides`, the environment and a settings file (argument or TRACER_SETTINGS_FILE)."""
     settings_file = settings_file or os.environ.get("TRACER_SETTINGS_FILE") or None
@@ -307,5 +462,5 @@ def explain(exc: ValidationError, flags: dict[str, str] | None = None) -> str:
         field = str(e["loc"][0]) if e["loc"] else ""
         name = (flags or {}).get(field) or f"TRACER_{field.upper()}"
         message = e["msg"].removeprefix("Value error, ")
-        lines.append(f"{name}: {message}")
+        lines.append(f"{name}: {message}" if field else message)  # a check of several settings names them
     return "; ".join(lines)

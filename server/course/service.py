@@ -44,6 +44,7 @@ from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
+from tracer import spreadsheet
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
 
 log = logging.getLogger(__name__)
@@ -358,9 +359,14 @@ class Course:
             raise not_found("assignment", aid)
         shown = " ".join(name.split())
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
-        self.store.add_members(
-            a["course_id"], [{"student": sid, "name": shown, "email": "", "self_declared": 1}], self.now(), [aid]
-        )
+        row = {"student": sid, "name": shown, "email": ""}
+        most = self.settings.max_joins_per_assignment
+        if not self.store.add_joined(aid, a["course_id"], row, self.now(), most):
+            message = (
+                f"this open assignment already has {most} students who joined by a name, the most it takes "
+                "(TRACER_MAX_JOINS_PER_ASSIGNMENT): ask your instructor for a link of the roster"
+            )
+            raise ApiError(403, [{"path": "", "message": message}])
         token = self.token_of(a["course_id"], "student", sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
@@ -748,7 +754,7 @@ class Course:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
         when none was graded), max_score, late, submissions (all they made)."""
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
+        w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
         for st, c, score, n in self.final_grades(a):
             if c is None:
@@ -766,7 +772,7 @@ class Course:
         a score out of another maximum (an image: no requirements) is scaled to it: 3.5 of 7 is 6.5 of 13."""
         spec = self.spec(a["id"], a["version"])
         buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
+        w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["Student", "ID", "SIS User ID", "SIS Login ID", "Section", f"{spec.name} ({a['id'][:8]})"])
         points = spec.max_score()
         w.writerow(["Points Possible", "", "", "", "", _num(points)])
@@ -883,7 +889,7 @@ def parse_roster(text: str) -> list[dict]:
 
 def links_csv(students: list[dict]) -> str:
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
+    w = spreadsheet.writer(buf, lineterminator="\n")
     w.writerow(["id", "name", "email", "link"])
     for s in students:
         w.writerow([s["id"], s["name"], s["email"], s["link"] or ""])

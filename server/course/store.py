@@ -275,6 +275,40 @@ class CourseStore(Tables):
         ).fetchone()
         return dict(row) if row else None
 
+    def roster_kind(self, token_hash: str) -> str | None:
+        """How this token's hash is known to a course: "roster" (a member an instructor or an LMS put there, or
+        staff), "joined" (a member who only joined an open assignment by a name), or None (unknown)."""
+        row = self.db.execute(
+            "SELECT t.kind, m.self_declared FROM course_tokens t LEFT JOIN course_members m ON t.kind = 'student'"
+            " AND m.course_id = t.course_id AND m.student = t.person WHERE t.token_hash = ?",
+            (token_hash,),
+        ).fetchone()
+        if row is None or (row["kind"] == "student" and row["self_declared"] is None):
+            return None
+        return "joined" if row["kind"] == "student" and row["self_declared"] else "roster"
+
+    def add_joined(self, aid: str, cid: str, row: dict, now: float, most: int) -> bool:
+        """A self-declared member on assignment `aid` (an open assignment's join), unless it already has `most` of
+        them: counted and added in one transaction, so that joins at once cannot pass the cap."""
+        with self._tx() as db:
+            have = db.execute(
+                "SELECT COUNT(*) FROM course_enrolments e JOIN course_members m ON m.course_id = ?"
+                " AND m.student = e.student WHERE e.assignment_id = ? AND m.self_declared = 1",
+                (cid, aid),
+            ).fetchone()[0]
+            if have >= most:
+                return False
+            db.execute(
+                "INSERT INTO course_members (course_id, student, name, email, self_declared, created_at)"
+                " VALUES (?, ?, ?, ?, 1, ?)",
+                (cid, row["student"], row["name"], row["email"], now),
+            )
+            db.execute(
+                "INSERT INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
+                (aid, row["student"], now),
+            )
+        return True
+
     def add_members(self, cid: str, rows: list[dict], now: float, enrol: list[str]) -> list[str]:
         """Members (dicts: student, name, email, self_declared, every, lti_user) in one transaction: a new one
         added, one already there gets the name and email given (and `every` once set stays set); each enrolled in

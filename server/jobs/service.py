@@ -40,6 +40,7 @@ PROGRESS_FIELDS = frozenset({"samples_done", "samples_total", "passes_done", "sp
 CAPACITY_SECONDS = 1.0  # how long the queue's count of workers per lane is kept (Redis lists them from Redis)
 KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open)
 VIEWS_KEPT = 4096  # views of followed jobs' rows kept for their other followers (a class's jobs, and more)
+ACTIVE_RETRY = 10  # seconds a client past its share of the workers is told to wait (Retry-After)
 WAKE = 1.0  # seconds a follower waits before it looks again whether its client or the server is going
 
 
@@ -238,6 +239,12 @@ class JobService:
                     f"you already have {full.args[0]} jobs waiting (TRACER_MAX_QUEUED_PER_TOKEN): wait for one to "
                     "start, or cancel one"
                 )
+            elif full.args[1:] == ("active",):
+                message = (
+                    f"you already have {full.args[0]} renders waiting or running, your share of the workers "
+                    "(TRACER_MAX_ACTIVE_JOBS_PER_TOKEN): wait for one to end, or cancel one"
+                )
+                raise ApiError(429, message, headers={"Retry-After": str(ACTIVE_RETRY)}) from None
             else:
                 message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
             raise ApiError(429, message, headers={"Retry-After": "5"}) from None
@@ -290,9 +297,14 @@ class JobService:
             raise ApiError(422, [{"path": "sampler.spp", "message": message}])
         return round(seconds, 3)
 
-    def lane_for(self, seconds: float, asked: Lane | None = None) -> Lane:
-        """The lane a render goes to: the one asked for, else by its estimate (TRACER_INTERACTIVE_SECONDS)."""
-        return asked or (Lane.interactive if seconds <= self.settings.interactive_seconds else Lane.batch)
+    def lane_for(self, seconds: float, asked: Lane | None = None, staff: bool = False) -> Lane:
+        """The lane a render goes to: by its estimate (TRACER_INTERACTIVE_SECONDS). A caller may move it down to
+        the batch lane; only staff (the instructor) may move it up: a student's long render asked for in the
+        interactive lane would hold the worker kept for everyone's short work."""
+        estimated = Lane.interactive if seconds <= self.settings.interactive_seconds else Lane.batch
+        if asked is Lane.batch or (asked is Lane.interactive and staff):
+            return asked
+        return estimated
 
     def solve_estimate(self, found: dict) -> float:
         """The radiosity solve's estimated seconds (a ray tree's worker refuses it past its limit, unless kept)."""

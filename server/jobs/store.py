@@ -142,7 +142,8 @@ def _end_try(outcome: str) -> _Sql:
 
 
 class QueueFull(Exception):
-    """The queue is full (`args`: the jobs waiting, and "owner" when it is the owner's share that is)."""
+    """The queue is full (`args`: the jobs waiting, and "owner" when it is the owner's share that is; or the owner's
+    renders waiting or running, and "active", when the owner has their fair share of the workers)."""
 
 
 class JobStore:
@@ -258,10 +259,12 @@ class JobStore:
         samples_total: int | None = None,
         owner: str | None = None,
         max_queued_owner: int | None = None,
+        max_active_owner: int | None = None,
         result_key: str | None = None,
     ) -> dict:
         """Queue a job (`owner`: its token's hash; None: the instructor's); raises QueueFull when `max_queued`
-        jobs already wait, or `max_queued_owner` of the same owner."""
+        jobs already wait, or `max_queued_owner` of the same owner, or (a render) `max_active_owner` renders of
+        the same owner wait or run."""
         job_id = new_job_id()
         total = samples_total if samples_total is not None else width * height * spp
         with self._tx() as db:
@@ -273,6 +276,13 @@ class JobStore:
                 waiting = mine.fetchone()[0]
                 if waiting >= max_queued_owner:
                     raise QueueFull(waiting, "owner")
+            if owner is not None and max_active_owner is not None and JobKind(kind) is JobKind.render:
+                active = db.execute(
+                    "SELECT COUNT(*) FROM jobs WHERE owner = ? AND kind = ? AND status IN (?, ?)",
+                    (owner, JobKind.render.value, QUEUED, RUNNING),
+                ).fetchone()[0]
+                if active >= max_active_owner:
+                    raise QueueFull(active, "active")
             db.execute(
                 "INSERT INTO jobs (id, status, priority, created_at, name, scene, warnings, width, height, spp,"
                 " samples_total, max_seconds, kind, lane, params, estimate, owner, result_key)"

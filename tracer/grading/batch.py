@@ -12,11 +12,11 @@ class: summary.csv and summary.json.
 
 from __future__ import annotations
 
-import csv
 import io
 import json
 from pathlib import Path, PurePosixPath
 
+from tracer import spreadsheet
 from tracer.grading.archive import MAX_FILE_BYTES, SUFFIXES, Caps, read_zip
 from tracer.grading.metrics import GradingError
 from tracer.grading.report import Report
@@ -162,10 +162,10 @@ def summary_csv(table: dict) -> str:
     for row in rows:
         columns += [c for c in row if c not in columns]
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
-    w.writeheader()
+    w = spreadsheet.writer(buf, lineterminator="\n")  # a student's name cannot start a formula
+    w.writerow(columns)
     for row in rows:
-        w.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in columns})
+        w.writerow(["" if row.get(k) is None else row.get(k) for k in columns])
     return buf.getvalue()
 
 

@@ -17,7 +17,7 @@ from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import CapsDep, StoreDep
+from server.api.deps import CappedStream, CapsDep, StoreDep, stream_room
 from server.api.models import ErrorResponse, HandedIn
 from server.core.errors import ApiError
 from server.core.security import Caller, CallerDep, require_instructor
@@ -297,11 +297,14 @@ def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, cal
 )
 def join(aid: str, body: JoinIn, request: Request, course: CourseDep, caps: CapsDep) -> dict:
     """Open assignments only: anyone with the link gets a token (shown once), marked self-declared. It is a new
-    token of the request's address, under TRACER_MAX_NEW_TOKENS_PER_ADDRESS (server/core/clients.py), counted
-    only when the join succeeds."""
-    with caps.new_token(request.client.host if request.client else None) as room:
+    token of the request's address, under TRACER_MAX_NEW_TOKENS_PER_ADDRESS and TRACER_MAX_JOINS_PER_ADDRESS
+    (server/core/clients.py), counted only when the join succeeds; an assignment takes at most
+    TRACER_MAX_JOINS_PER_ASSIGNMENT joined students (403 past it)."""
+    host = request.client.host if request.client else None
+    with caps.new_token(host) as room, caps.join(host) as joining:
         joined = course.join(aid, body.name, _base(request))
         room.keep()
+        joining.keep()
     return joined
 
 
@@ -332,13 +335,20 @@ def submit(
 @router.post(
     "/{aid}/check",
     summary="Check a scene or an image as the policy shows it now (no attempt)",
-    responses={**ERRORS, **NOT_FOUND},
+    responses={
+        **ERRORS,
+        **NOT_FOUND,
+        429: {"model": ErrorResponse, "description": "past TRACER_MAX_CHECKS_PER_MINUTE"},
+    },
 )
-def check(aid: str, body: SubmissionIn, course: CourseDep, caller: CallerDep) -> dict:
+def check(aid: str, body: SubmissionIn, course: CourseDep, caller: CallerDep, caps: CapsDep) -> dict:
     """The body of a submission -> `valid`, `tests` (validity and the requirements, each as the feedback
     policy shows it now), `errors` at their JSON paths, `warnings`, and the `image_tests` a submission would
-    also get. Nothing is kept and no attempt is used; it runs in seconds (no render)."""
+    also get. Nothing is kept and no attempt is used; it runs in seconds (no render). A student's token checks
+    at most TRACER_MAX_CHECKS_PER_MINUTE times a minute (429 past it)."""
     a, who = course.who(aid, caller)
+    if not who.instructor:
+        caps.check(caller.owner)
     kind, data = _submitted(body)
     return course.check(a, who, kind, data)
 
@@ -414,8 +424,12 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
                         quiet = time.monotonic()
                         yield ": keep-alive\n\n"
 
-    return StreamingResponse(
-        stream(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    release = stream_room(request, caller)  # 429 past the caller's open streams (server/core/clients.py)
+    return CappedStream(
+        stream(),
+        release,
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
     )
 
 

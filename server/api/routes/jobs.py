@@ -15,7 +15,17 @@ import anyio
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
-from server.api.deps import CapsDep, ChecksDep, ClientDep, JobDep, JobsDep, StoreDep, still_waiting
+from server.api.deps import (
+    CappedStream,
+    CapsDep,
+    ChecksDep,
+    ClientDep,
+    JobDep,
+    JobsDep,
+    StoreDep,
+    still_waiting,
+    stream_room,
+)
 from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
 from server.api.scene_route import scene_post
 from server.core.errors import ApiError
@@ -27,6 +37,14 @@ from server.jobs.store import JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
+STAFF_PRIORITY = (
+    "a priority above 0 is the instructor's: {} was lowered to 0 (the job runs by its lane, then first come, "
+    "first served)"
+)
+STAFF_LANE = (
+    "the interactive lane is for work estimated at most TRACER_INTERACTIVE_SECONDS ({1:g} s); this render is "
+    "estimated at {0:.0f} s, so it goes to the batch lane (only the instructor may move a job up)"
+)
 MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
@@ -51,8 +69,9 @@ NOT_FOUND = {
         413: {"model": ErrorResponse, "description": "request body too large"},
         429: {
             "model": ErrorResponse,
-            "description": "too many jobs in the queue, or new tokens or waiting jobs of one address "
-            "without a known identity",
+            "description": "too many jobs in the queue, a token's renders waiting or running past its share "
+            "(TRACER_MAX_ACTIVE_JOBS_PER_TOKEN), or new tokens or waiting jobs of one address without a known "
+            "identity",
         },
     },
 )
@@ -63,8 +82,11 @@ async def submit(
     """Validate the scene (422 with `errors: [{path, message}]`), queue it by lane, priority and age (202).
 
     A render estimated to take longer than the per-job limit is refused (422); one estimated past
-    TRACER_INTERACTIVE_SECONDS goes to the batch lane unless `lane` says otherwise. The job comes back
-    with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
+    TRACER_INTERACTIVE_SECONDS goes to the batch lane. `lane: batch` moves a job down; only the instructor may
+    move one up (`lane: interactive`) or give it a priority above 0: anyone else's is lowered (to the estimate's
+    lane, to 0), with a warning at `lane` or `priority`. A token other than the instructor's has at most
+    TRACER_MAX_ACTIVE_JOBS_PER_TOKEN renders waiting or running (its share of the workers): 429 past it. The job
+    comes back with the scene's `warnings`, its `estimate` and its place in the queue; follow it at `events_url`.
     The scene is validated in a checking process (server/checkers/pool.py), as the worker will, its asset
     files resolved in the asset folder (a mesh read and its triangles counted, an image's header read).
 
@@ -78,21 +100,30 @@ async def submit(
         if caller.token is None and not client.known:  # (known: on a loopback-only server with no instructor)
             new = rooms.enter_context(caps.new_token(client.address))
         waiting = None
-        if not client.known:
+        if client.capped:  # (a joined identity too: a name anyone may type)
             taken = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
             waiting = rooms.enter_context(taken)
         found = await checks.summary(request, await request.body())
         issued = new_token() if caller.token is None else None
+        settings = jobs.settings
 
         def queued() -> JobCreated:
             seconds = jobs.estimate(found)
+            lane = jobs.lane_for(seconds, body.lane, staff=caller.instructor)
+            priority, warnings = body.priority, list(found["warnings"])
+            if priority > 0 and not caller.instructor:  # staff's: a student's job is never put ahead of others'
+                priority = 0
+                warnings.append({"path": "priority", "message": STAFF_PRIORITY.format(body.priority)})
+            if body.lane is not None and lane is not body.lane:
+                warnings.append({"path": "lane", "message": STAFF_LANE.format(seconds, settings.interactive_seconds)})
             row = jobs.submit_checked(
                 found,
-                priority=body.priority,
-                warnings=found["warnings"],
+                priority=priority,
+                warnings=warnings,
                 estimate=seconds,
-                lane=jobs.lane_for(seconds, body.lane),
+                lane=lane,
                 owner=caller.owner or token_hash(issued),
+                max_active_owner=None if caller.instructor else settings.max_active_jobs_per_token,
             )
             for room in (new, waiting):
                 if room is not None:
@@ -107,6 +138,7 @@ async def submit(
 def list_jobs(
     jobs: JobsDep,
     caller: CallerDep,
+    request: Request,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
@@ -122,6 +154,8 @@ def list_jobs(
     """A student sees the jobs of their token (none without one); the instructor (TRACER_INSTRUCTOR_TOKEN,
     or anyone on a loopback-only server without one) every job, grading renders included."""
     if scope == "all" and not caller.instructor:
+        if caller.token is not None:  # a token that is not the instructor's: counted against the address
+            request.app.state.caps.auth_failed(request.client.host if request.client else None)
         raise unauthorized("listing every job needs the instructor's token (TRACER_INSTRUCTOR_TOKEN)", "")
     if scope == "mine" or not caller.instructor:
         if caller.owner is None:
@@ -260,16 +294,23 @@ def aov_image(job: JobDep, store: StoreDep, name: str) -> Response:
     "/{job_id}/events",
     summary="Server-Sent Events: progress, preview (a new image), end",
     response_class=StreamingResponse,
-    responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
+    responses={
+        200: {"content": {"text/event-stream": {}}},
+        429: {"model": ErrorResponse, "description": "too many event streams open for one token or one address"},
+        **NOT_FOUND,
+    },
 )
-def events(job: JobDep, jobs: JobsDep, request: Request) -> StreamingResponse:
+def events(job: JobDep, jobs: JobsDep, caller: CallerDep, request: Request) -> StreamingResponse:
     """`progress` {status, samples_done, samples_total, fraction, passes_done, spp_done, phase, solve, elapsed,
     eta, rays};
     `preview` {pass, spp, url, exr_url} when a new image is on disk; `end` {the job}, then the stream closes.
-    The stream is woken when the job's row changes (the job service's watcher): it never polls the store."""
+    The stream is woken when the job's row changes (the job service's watcher): it never polls the store.
+    One token, and one address, may have so many streams open (429 past TRACER_MAX_STREAMS_PER_TOKEN or
+    TRACER_MAX_STREAMS_PER_ADDRESS)."""
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    release = stream_room(request, caller)
     stream = _event_stream(jobs, job["id"], request)
-    return StreamingResponse(stream, media_type="text/event-stream", headers=headers)
+    return CappedStream(stream, release, media_type="text/event-stream", headers=headers)
 
 
 def sse(event: str, data: dict) -> str:

@@ -94,7 +94,7 @@ async def raytree(
     under the address's caps (server/core/clients.py) like any of its anonymous work."""
     caller = client.caller
     waiting = None
-    if not client.known:  # room under the address's cap, taken before the scene is checked
+    if client.capped:  # room under the address's cap, taken before the scene is checked
         waiting = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
     with waiting or contextlib.nullcontext():
         found = await checks.summary(request, await request.body())

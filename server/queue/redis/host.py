@@ -45,6 +45,7 @@ from rq.exceptions import StopRequested
 from rq.utils import now
 from rq.worker import WorkerStatus
 
+from server.core.settings import redis_url_from
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Stop, TryEnd
 from server.queue.redis import events as ev
@@ -353,7 +354,17 @@ def main(argv: list[str] | None = None) -> int:
         prog="server.worker",
         description="A worker host: render jobs from the API's Redis queue (python -m server --redis URL).",
     )
-    p.add_argument("--redis", required=True, metavar="URL", help="the Redis the API uses (redis://host:6379/0)")
+    p.add_argument(
+        "--redis",
+        metavar="URL",
+        help="the Redis the API uses (redis://host:6379/0), or TRACER_REDIS_URL; with a password, rather "
+        "--redis-url-file (a command line is shown by ps)",
+    )
+    p.add_argument(
+        "--redis-url-file",
+        metavar="PATH",
+        help="a file whose first line is the Redis URL, password included (or TRACER_REDIS_URL_FILE)",
+    )
     p.add_argument(
         "--device", default="cpu", type=device_arg, help="Warp device to render on: cpu (default), cuda:0, ..."
     )
@@ -379,13 +390,23 @@ def main(argv: list[str] | None = None) -> int:
         help="run each try in this process, not in a forked work horse (always so on a CUDA device)",
     )
     args = p.parse_args(argv)  # an unknown device: "warp has no device cuda:0 here; available: cpu", exit 2
+    try:  # the command line's, else the environment's; never both a URL and a file
+        url = redis_url_from(
+            args.redis or (None if args.redis_url_file else os.environ.get("TRACER_REDIS_URL")),
+            args.redis_url_file or (None if args.redis else os.environ.get("TRACER_REDIS_URL_FILE")),
+        )
+    except ValueError as e:
+        p.error(str(e))
+    if not url:
+        p.error("the Redis URL is missing: give --redis URL or --redis-url-file PATH (or TRACER_REDIS_URL, "
+                "TRACER_REDIS_URL_FILE)")  # fmt: skip
     device = args.device
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
     faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
     cuda = is_cuda(device)
     worker_class = InProcessWorker if cuda or args.no_fork else HostWorker  # CUDA must not be forked
     threads = 1 if cuda else args.threads or default_threads()
-    HOST.update(url=args.redis, device=device, threads=threads, cache=args.cache_dir)
+    HOST.update(url=url, device=device, threads=threads, cache=args.cache_dir)
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
     HOST["pid"] = os.getpid()  # a try run in another process runs in a forked work horse
     load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
@@ -399,7 +420,7 @@ def main(argv: list[str] | None = None) -> int:
             if stale is not None:  # a worker whose connection was lost: its death first, or the next is refused
                 stale.register_death()
                 stale = None
-            r = _redis(args.redis)
+            r = _redis(url)
             lost_after = float(r.hget(ev.CONFIG, "lost_after") or DEFAULT_LOST_AFTER)
             queues = [Queue(name, connection=r) for name in args.queues]
             worker = worker_class(queues, connection=r, name=HOST["name"], lost_after=lost_after)

@@ -40,7 +40,7 @@ from rq.registry import StartedJobRegistry
 
 from server.core.files import is_disk_full
 from server.core.paths import ROOT
-from server.core.settings import Settings
+from server.core.settings import Settings, masked
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane, TryEnd
 from server.jobs.store import Attempt, JobStore
@@ -102,7 +102,7 @@ class RedisQueue:
             self.threads.append(t)
         for slot in range(len(self.hosts)):
             self._start_host(slot)
-        log.info("job queue: Redis at %s (%d local worker host(s))", self.url, len(self.hosts))
+        log.info("job queue: Redis at %s (%d local worker host(s))", masked(self.url), len(self.hosts))
 
     def _hold_api_mark(self) -> None:
         """One API per Redis database (two would split the events between them): wait for the mark of a
@@ -429,10 +429,12 @@ class RedisQueue:
     # -- local worker hosts -------------------------------------------------------------------
 
     def _start_host(self, slot: int) -> None:
-        cmd = [sys.executable, "-m", "server.worker", "--redis", self.url, "--name", f"{os.uname().nodename}.api{slot}"]
+        cmd = [sys.executable, "-m", "server.worker", "--name", f"{os.uname().nodename}.api{slot}"]
         if self.settings.render_threads:
             cmd += ["--threads", str(self.settings.render_threads)]
-        self.hosts[slot] = subprocess.Popen(cmd, cwd=ROOT)
+        env = {k: v for k, v in os.environ.items() if k != "TRACER_REDIS_URL_FILE"}
+        env["TRACER_REDIS_URL"] = self.url  # in its environment, not on its command line (which ps shows)
+        self.hosts[slot] = subprocess.Popen(cmd, cwd=ROOT, env=env)
         log.info("started local worker host %d (pid %d)", slot, self.hosts[slot].pid)
 
     def _keep_hosts(self) -> None:

@@ -18,6 +18,7 @@ CAPS = {
     "TRACER_MAX_QUEUED_PER_ADDRESS": "4",
     "TRACER_SHARED_NETWORKS": "127.0.0.4/32",  # one address standing for a class of two
     "TRACER_SHARED_NETWORK_CLIENTS": "2",
+    "TRACER_MAX_JOINS_PER_ADDRESS": "2",
 }
 
 
@@ -153,3 +154,54 @@ def test_clients_a_host_header_with_anything_but_a_port_after_the_name_is_400(se
 def test_clients_a_host_header_with_a_port_is_served(server):
     for host in (f"127.0.0.1:{server.port}", "localhost:65535", "[::1]:1", "LOCALHOST.", "127.0.0.1"):
         assert server.client.get("/api/health", headers={"Host": host}).status_code == 200, host
+
+
+def open_assignment(server: Server, **policy) -> str:
+    """An open assignment of the repository's example (anyone with its link joins by a name)."""
+    import json
+
+    from conftest import ROOT
+
+    grading = ROOT / "scenes" / "grading"
+    spec = json.loads((grading / "assignment.json").read_text())
+    spec["reference"]["scene"] = json.loads((grading / "reference.json").read_text())
+    with client_at(server, "127.0.0.1", INSTRUCTOR) as teacher:
+        body = {"spec": spec, "deadline": "2030-01-01T00:00:00Z", "open": True, **policy}
+        r = teacher.post("/api/assignments", json=body)
+        assert r.status_code == 201, r.text
+        return r.json()["id"]
+
+
+def test_clients_a_joined_identity_counts_against_its_address(server, busy):
+    """A name anyone may type (an open assignment's join) is not a known identity for the address's cap: two joined
+    tokens of one address have its 4 waiting jobs between them, and the next is a 429 naming
+    TRACER_MAX_QUEUED_PER_ADDRESS; a roster's student at the same address is not held by it."""
+    aid = open_assignment(server)
+    with client_at(server, "127.0.0.7") as c:
+        a, b = (c.post(f"/api/assignments/{aid}/join", json={"name": n}).json()["token"] for n in ("Ann", "Bo"))
+        for token in (a, a, a, b):
+            r = c.post("/api/jobs", json={"scene": tiny_scene()}, headers=bearer(token))
+            assert r.status_code == 202, r.text
+        r = c.post("/api/jobs", json={"scene": tiny_scene()}, headers=bearer(b))
+        assert r.status_code == 429, r.text
+        assert "TRACER_MAX_QUEUED_PER_ADDRESS" in r.json()["errors"][0]["message"]
+        roster = c.post(
+            f"/api/assignments/{aid}/roster", content="id,name,email\nr1,Rita,\n",
+            headers={**TEACHER, "Content-Type": "text/csv"},
+        )  # fmt: skip
+        listed = roster.json()["students"][0]["token"]
+        r = c.post("/api/jobs", json={"scene": tiny_scene()}, headers=bearer(listed))
+        assert r.status_code == 202, r.text
+
+
+def test_clients_an_address_joins_so_many_times(server):
+    """Joins of one address: TRACER_MAX_JOINS_PER_ADDRESS (2 here) in the window, then a 429 naming it with
+    Retry-After; another address joins."""
+    aid = open_assignment(server)
+    with client_at(server, "127.0.0.8") as c, client_at(server, "127.0.0.9") as other:
+        for name in ("Cy", "Di"):
+            assert c.post(f"/api/assignments/{aid}/join", json={"name": name}).status_code == 200
+        r = c.post(f"/api/assignments/{aid}/join", json={"name": "Ed"})
+        assert r.status_code == 429, r.text
+        assert "TRACER_MAX_JOINS_PER_ADDRESS" in r.json()["errors"][0]["message"] and int(r.headers["retry-after"]) > 0
+        assert other.post(f"/api/assignments/{aid}/join", json={"name": "Flo"}).status_code == 200

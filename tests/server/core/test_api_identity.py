@@ -93,3 +93,44 @@ def test_identity_one_person_on_their_own_machine_is_under_no_cap(tmp_path):
         for _ in range(3):
             r = c.post("/api/jobs", json={"scene": tiny_scene()})
             assert r.status_code == 202 and r.json()["token"], r.text
+
+
+def test_identity_an_open_assignment_takes_so_many_joined_students(tmp_path):
+    """TRACER_MAX_JOINS_PER_ASSIGNMENT (2 here): the third join is a 403 naming it; another open assignment still
+    takes its own; a refused join costs the address no join."""
+    with api_client(
+        tmp_path / "data", workers=0, token=None, instructor_token=INSTRUCTOR, max_joins_per_assignment=2
+    ) as c:
+        full, other = publish(c, open=True), publish(c, open=True)
+        for name in ("Ann", "Bo"):
+            assert c.post(f"/api/assignments/{full}/join", json={"name": name}).status_code == 200
+        r = c.post(f"/api/assignments/{full}/join", json={"name": "Cy"})
+        assert r.status_code == 403, r.text
+        assert "TRACER_MAX_JOINS_PER_ASSIGNMENT" in r.json()["errors"][0]["message"]
+        assert c.post(f"/api/assignments/{other}/join", json={"name": "Cy"}).status_code == 200
+        assert c.app.state.caps.counts("testclient")[0] == 3  # the refused join's new token was given back
+
+
+def test_identity_refused_tokens_back_off_their_address(tmp_path):
+    """Failed authentication per address, on the caps' injectable clock: TRACER_MAX_AUTH_FAILURES (3 here) tokens
+    that are not the instructor's where the instructor's is needed, or on no roster where one is, and the address's
+    next requests with a token (the instructor's too) are a 429 naming the setting with Retry-After, until the
+    oldest failure leaves TRACER_AUTH_FAILURE_WINDOW; requests without a token still pass."""
+    from test_api_support import Clock
+
+    settings = dict(instructor_token=INSTRUCTOR, require_identity=True, max_auth_failures=3, auth_failure_window=60)
+    with api_client(tmp_path / "data", workers=0, token=None, **settings) as c:
+        c.app.state.caps.clock = clock = Clock(1000.0)
+        assert c.get("/api/grade/schema", headers=bearer(student_token())).status_code == 401
+        clock.now += 10
+        assert c.get("/api/jobs", params={"scope": "all"}, headers=bearer(student_token())).status_code == 401
+        assert c.post("/api/validate", json={"scene": tiny_scene()}, headers=bearer(student_token())).status_code == 401
+        for headers in (TEACHER, bearer(student_token())):
+            r = c.get("/api/grade/schema", headers=headers)
+            assert r.status_code == 429, r.text
+            [error] = r.json()["errors"]
+            assert error["path"] == "Authorization" and "TRACER_MAX_AUTH_FAILURES" in error["message"], error
+            assert r.headers["retry-after"] == "50"  # the first failure leaves the window in 50 s
+        assert c.get("/api/health").status_code == 200  # no token: not held
+        clock.now += 50
+        assert c.get("/api/grade/schema", headers=TEACHER).status_code == 200

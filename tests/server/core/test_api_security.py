@@ -388,3 +388,119 @@ def test_api_security_the_api_docs_allow_their_one_inline_script_by_hash(client)
     assert "unsafe-inline" not in policy["script-src"] and policy["frame-ancestors"] == "'none'"
     assert r.headers["x-content-type-options"] == "nosniff"
     assert "token" in client.get("/openapi.json").json()["components"]["securitySchemes"]
+
+
+# -- other sites -----------------------------------------------------------------------------------
+
+EVIL = "http://evil.example"
+
+
+@pytest.fixture(scope="module")
+def own_machine(tmp_path_factory):
+    """A loopback server without an instructor token (everyone is the instructor), no workers."""
+    with api_client(tmp_path_factory.mktemp("own-machine"), workers=0, token=None) as c:
+        yield c
+
+
+def test_api_security_a_page_of_another_site_cannot_publish_on_a_loopback_server(own_machine):
+    """A page of another origin posted a multipart form that published an assignment on a loopback server without
+    an instructor token: now a state-changing request with a foreign Origin, or Sec-Fetch-Site: cross-site, is a
+    403 naming the Origin header, before the route reads anything."""
+    form = {"spec": ("spec.json", b"{}", "application/json"), "deadline": (None, "2030-01-01T00:00:00Z")}
+    r = own_machine.post("/api/assignments", files=form, headers={"Origin": EVIL})
+    assert r.status_code == 403, r.text
+    [error] = r.json()["errors"]
+    assert error["path"] == "Origin" and "'http://evil.example'" in error["message"], error
+    r = own_machine.post("/api/assignments", files=form, headers={"Sec-Fetch-Site": "cross-site"})
+    assert r.status_code == 403 and r.json()["errors"][0]["path"] == "Origin", r.text
+    for method in ("PUT", "PATCH", "DELETE"):
+        r = own_machine.request(method, f"/api/jobs/{'0' * 32}", headers={"Origin": "null"})
+        assert r.status_code == 403, (method, r.text)
+    r = own_machine.post("/api/validate", json={"scene": tiny_scene()}, headers={"Origin": "http://127.0.0.1.evil"})
+    assert r.status_code == 403, r.text
+
+
+def test_api_security_the_server_s_own_page_and_clients_without_a_browser_pass(own_machine):
+    """Same origin (scheme and Host, the default port or not), a served host's other port, same-site, and a
+    request with neither header (curl) reach the route; GET is never checked; LTI's login and launch, which a
+    learning platform posts from its own site, are exempt (no such route yet: the static files' 404 or 405, not
+    403)."""
+    scene = {"scene": tiny_scene()}
+    for headers in (
+        {},
+        {"Origin": "http://127.0.0.1", "Sec-Fetch-Site": "same-origin"},
+        {"Origin": "http://127.0.0.1:80"},
+        {"Origin": "http://localhost:5173", "Sec-Fetch-Site": "same-site"},
+    ):
+        r = own_machine.post("/api/validate", json=scene, headers=headers)
+        assert r.status_code == 200, (headers, r.text)
+    assert own_machine.get("/api/health", headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"}).status_code == 200
+    for path in ("/lti/login", "/lti/launch"):
+        r = own_machine.post(path, data={"id_token": "x"}, headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"})
+        assert r.status_code in (404, 405), (path, r.text)
+
+
+def test_api_security_a_foreign_origin_is_refused_on_a_server_with_an_instructor_token(client):
+    r = client.delete(f"/api/jobs/{'0' * 32}", headers={**TEACHER, "Origin": EVIL})
+    assert r.status_code == 403 and r.json()["errors"][0]["path"] == "Origin", r.text
+
+
+def test_api_security_no_api_answer_is_kept_in_a_cache(client):
+    """Every /api answer says `Cache-Control: no-store`, whatever its route said (a job's token, a student's work,
+    an error, an event stream, a scene's preview); the page and its assets may be cached."""
+    created = submit(client, tiny_scene())
+    assert created["token"] is None
+    with anonymous(client):
+        issued = client.post("/api/jobs", json={"scene": tiny_scene()})  # a new token in the answer
+    assert issued.status_code == 202 and issued.json()["token"], issued.text
+    answers = [
+        issued,
+        client.get(f"/api/jobs/{created['id']}"),
+        client.get(f"/api/jobs/{'0' * 22}"),  # 404
+        client.get("/api/jobs"),
+        client.get("/api/health"),
+        client.get("/api/schema"),
+        client.get("/api/scenes"),
+        client.get("/api/assignments", headers=TEACHER),
+    ]
+    for r in answers:
+        assert r.headers.get("cache-control") == "no-store", (r.request.url, r.status_code, r.headers)
+    with client.stream("GET", f"/api/jobs/{created['id']}/events") as r:
+        assert r.headers["cache-control"] == "no-store"
+    wait_finished(client, created["id"])
+    wait_status_as(client, issued.json()["id"], bearer(issued.json()["token"]))
+    for path in ("/", "/js/main.js"):
+        assert client.get(path).headers.get("cache-control") != "no-store", path
+
+
+def test_api_security_a_weak_instructor_token_is_refused_off_loopback_and_warned_on_it():
+    """An instructor token shorter than 24 characters, or worth fewer than about 96 bits, guards every student's
+    grade badly: a server listening beyond loopback refuses to start with it (naming the setting, never the
+    token), one on loopback warns at start-up."""
+    from server.core.security import start_up_warnings
+    from server.core.settings import token_bits
+
+    for weak in ("abcdefghijklmnop", "x" * 40, "ab" * 20, "0123456789" * 2 + "012"):
+        with pytest.raises(ValueError, match="instructor token is too weak for a server listening on 10.1.2.3"):
+            Settings(host="10.1.2.3", instructor_token=weak)
+        on_loopback = Settings(instructor_token=weak)
+        assert any("TRACER_INSTRUCTOR_TOKEN is weak" in w for w in start_up_warnings(on_loopback)), weak
+    assert token_bits("abcdefghijklmnopqrstuvwx") > 96 and token_bits("x" * 40) == 0
+    for strong in (INSTRUCTOR, student_token()):
+        settings = Settings(host="10.1.2.3", instructor_token=strong)
+        assert not any("is weak" in w for w in start_up_warnings(settings))
+
+
+def test_api_security_python_m_server_names_the_weak_token_without_showing_it(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": "weak-but-16-chars"}
+    argv = [sys.executable, "-m", "server", "--host", "10.1.2.3", "--data-dir", str(tmp_path / "data")]
+    r = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert "TRACER_INSTRUCTOR_TOKEN: the instructor token is too weak" in r.stderr and "24" in r.stderr, r.stderr
+    assert "weak-but-16-chars" not in r.stderr

@@ -8,7 +8,7 @@ import pytest
 from pydantic import ValidationError
 from test_api_support import Clock
 
-from server.core.clients import AddressCaps, address_key, address_owner
+from server.core.clients import AddressCaps, StreamCaps, address_key, address_owner
 from server.core.errors import ApiError
 from server.core.security import token_hash
 from server.core.settings import Settings
@@ -105,3 +105,24 @@ def test_clients_settings_refuse_a_network_that_is_not_one():
         Settings(shared_networks="10.0.0.0/8, class-b")
     assert "shared_networks" in str(e.value) and "'class-b'" in str(e.value)
     assert Settings(shared_networks="10.0.0.0/8,192.168.1.7").shared_networks == "10.0.0.0/8,192.168.1.7"
+
+
+def test_clients_one_address_s_streams_leave_half_the_connections_to_others():
+    """An address's cap of open streams is at most half of TRACER_MAX_CONNECTIONS, a shared network's too; a
+    stream's room given back twice counts once."""
+    settings = Settings(
+        max_connections=10, max_streams_per_address=4, max_streams_per_token=100, shared_networks="10.9.0.0/16"
+    )
+    streams = StreamCaps(settings, AddressCaps(settings))
+    assert streams.address_cap("10.0.0.1") == 4 and streams.address_cap("10.9.1.1") == 5  # 4 x 300, kept to 5
+    held = [streams.open(None, "10.9.1.1") for _ in range(5)]
+    with pytest.raises(ApiError) as refused:
+        streams.open(None, "10.9.1.1")
+    assert refused.value.status == 429 and "TRACER_MAX_STREAMS_PER_ADDRESS" in str(refused.value.errors)
+    held[0]()
+    held[0]()  # once only
+    assert streams.counts(None, "10.9.1.1") == (0, 4)
+    streams.open(None, "10.9.1.1")
+    with pytest.raises(ApiError):
+        streams.open(token_hash("a token of sixteen+"), "10.9.1.1")
+    assert streams.counts(token_hash("a token of sixteen+"), "10.9.1.1") == (0, 5)  # a refusal holds nothing

@@ -93,3 +93,50 @@ def test_settings_the_start_up_log_says_what_runs():
     )
     redis = Settings(workers=3, redis_url="redis://cache:6379/0").processes_text()
     assert redis.startswith("3 local worker hosts on Redis at redis://cache:6379/0, ")
+
+
+@pytest.mark.parametrize(
+    ("url", "shown"),
+    [
+        ("redis://:s3cret-pw@db:6379/0", "redis://:***@db:6379/0"),
+        ("rediss://tracer:s3cret-pw@db.example.edu:6380/1", "rediss://tracer:***@db.example.edu:6380/1"),
+        ("redis://user:p@ss:w@db/0", "redis://user:***@db/0"),  # an @ in the password
+        ("redis://s3cret-pw@db/0", "redis://***@db/0"),  # redis-py reads a lone user part as a password too
+        ("redis://db:6379/0?password=s3cret-pw&db=1", "redis://db:6379/0?password=***&db=1"),
+        ("unix:///run/redis.sock?password=s3cret-pw", "unix:///run/redis.sock?password=***"),
+        ("redis://db:6379/0", "redis://db:6379/0"),
+        (None, None),
+    ],
+)
+def test_settings_a_url_is_shown_without_its_password(url, shown):
+    from server.core.settings import Settings, masked
+
+    assert masked(url) == shown
+    if url and url.startswith("redis"):
+        assert "s3cret" not in Settings(workers=1, redis_url=url).processes_text()
+
+
+def test_settings_the_redis_url_from_a_file(tmp_path, monkeypatch):
+    """TRACER_REDIS_URL_FILE (python -m server --redis-url-file): the URL is the file's first line, so that its
+    password is on no command line; the URL and the file both given, a missing or empty file: each refused, naming
+    the setting and never the URL. Settings passed on whole (to the workers) keep it."""
+    from pydantic import ValidationError
+
+    from server.core.settings import Settings, explain
+
+    secret = tmp_path / "redis-url"
+    secret.write_text("redis://:s3cret-pw@db:6379/0\n")
+    monkeypatch.setenv("TRACER_REDIS_URL_FILE", str(secret))
+    s = Settings()
+    assert s.redis_url == "redis://:s3cret-pw@db:6379/0"
+    assert Settings(**s.model_dump(mode="json")).redis_url == s.redis_url
+    for given, words in (
+        ({"redis_url": "redis://other:6379/0"}, "given twice"),
+        ({"redis_url_file": tmp_path / "missing"}, "TRACER_REDIS_URL_FILE: cannot read"),
+    ):
+        with pytest.raises(ValidationError) as refused:
+            Settings(**given)
+        assert words in explain(refused.value) and "s3cret" not in explain(refused.value)
+    (tmp_path / "empty").write_text("\n")
+    with pytest.raises(ValidationError, match="is empty"):
+        Settings(redis_url_file=tmp_path / "empty")

