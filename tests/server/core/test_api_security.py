@@ -423,8 +423,8 @@ def test_api_security_a_page_of_another_site_cannot_publish_on_a_loopback_server
 def test_api_security_the_server_s_own_page_and_clients_without_a_browser_pass(own_machine):
     """Same origin (scheme and Host, the default port or not), a served host's other port, same-site, and a
     request with neither header (curl) reach the route; GET is never checked; LTI's login and launch, which a
-    learning platform posts from its own site, are exempt (no such route yet: the static files' 404 or 405, not
-    403)."""
+    learning platform posts from its own site, are exempt (they answer their own refusal of a launch without a
+    platform or a state, 400, never the cross-site 403)."""
     scene = {"scene": tiny_scene()}
     for headers in (
         {},
@@ -437,7 +437,7 @@ def test_api_security_the_server_s_own_page_and_clients_without_a_browser_pass(o
     assert own_machine.get("/api/health", headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"}).status_code == 200
     for path in ("/lti/login", "/lti/launch"):
         r = own_machine.post(path, data={"id_token": "x"}, headers={"Origin": EVIL, "Sec-Fetch-Site": "cross-site"})
-        assert r.status_code in (404, 405), (path, r.text)
+        assert r.status_code == 400 and "The launch was refused" in r.text, (path, r.text)
 
 
 def test_api_security_a_foreign_origin_is_refused_on_a_server_with_an_instructor_token(client):
