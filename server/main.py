@@ -75,11 +75,16 @@ async def lifespan(app: FastAPI):
         checks.start()  # scene checks, off the event loop
         stack.callback(checks.shutdown)
         store = JobStore(settings.data_dir)
+        # the stores' connections (one per thread that used them) closed last of all: a pool's thread outlives
+        # the app, and each connection would keep two files open
+        stores = [store]
+        stack.callback(lambda: [s.close_connections() for s in stores])
         queue = make_queue(settings, store, app.state.stopping)
         jobs = JobService(settings, store, queue, app.state.stopping)
         app.state.store, app.state.queue, app.state.jobs = store, queue, jobs
         stack.callback(jobs.close)
         grade_runs = app.state.grade_runs = GradeRuns(settings, jobs)
+        stores.append(grade_runs.gs)
         queue.start()  # recovers the jobs a stopped server left, then takes jobs
         stack.callback(queue.shutdown)
         grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
@@ -89,6 +94,7 @@ async def lifespan(app: FastAPI):
         lti = app.state.lti = LtiTool(settings.data_dir)  # LTI 1.3: keys, platforms, launches (server/lti/)
         stack.callback(lti.close)
         lms = app.state.lms = Lms(course, lti.services, lti.keys, lti.store.platform)  # what a launch opens
+        stores += [course.store, lti.store, lms.store]
         lti.handler = lms
         lms.start()  # grades back to the LMS: the rows a stopped server left are posted too
         stack.callback(lms.stop)

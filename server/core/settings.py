@@ -260,7 +260,7 @@ class Settings(SceneLimits):
         20, ge=1, description="jobs of one token waiting in the queue (a student's share): 429 past it"
     )
     max_active_jobs_per_token: int = Field(
-        4,
+        16,  # a lesson renders up to 8 panels at once, and its student may have a render of their own going
         ge=1,
         description="renders of one token waiting or running at once, its fair share of the workers (the "
         "instructor's are not counted): 429 past it",

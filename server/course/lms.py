@@ -341,9 +341,11 @@ class Lms:
         lineitem = (launch.ags or {}).get("lineitem")
         if link_id:
             self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
-        if not aid:
-            if role != "instructor":
-                return refused("No assignment here yet", "Your instructor has not picked this link's assignment yet.")
+        if not aid:  # a course's navigation link, or an assignment link not bound yet
+            if role == "student":  # their course's page: the assignments they are on
+                return RedirectResponse(f"/courses/{cid}#token={token}", status_code=303)
+            if role == "ta":
+                return RedirectResponse(f"/course#token={token}", status_code=303)
             return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
         if role in STAFF:
             return RedirectResponse(f"/course#token={token}&open={aid}", status_code=303)

@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from server.core.db import Transaction, thread_connection
+from server.core.db import Transaction, close_all, thread_connection
 from server.core.files import write_atomic
 from server.core.ids import looks_like_job_id, new_job_id
 from server.jobs.files import JobFile
@@ -153,6 +153,7 @@ class JobStore:
         self.db_path = self.data_dir / "jobs.sqlite3"
         self._local = threading.local()
         self._quick = threading.local()  # `peek`'s connections: they never wait for a lock
+        self._opened: list = []  # every thread's connections (close)
         self.jobs_dir.mkdir(parents=True, exist_ok=True)
         self.db.executescript(SCHEMA)
         self._add_columns()
@@ -187,7 +188,11 @@ class JobStore:
 
     @property
     def db(self) -> sqlite3.Connection:
-        return thread_connection(self._local, self.db_path)
+        return thread_connection(self._local, self.db_path, opened=self._opened)
+
+    def close_connections(self) -> None:
+        """Every thread's connection closed (the app stops; the store is not used after)."""
+        close_all(self._opened)
 
     def _tx(self):
         return Transaction(self.db)
@@ -347,7 +352,7 @@ class JobStore:
         thread, where a trip through the thread pool costs more than the read (one row by its key; in WAL mode
         no writer blocks a reader); raises sqlite3.OperationalError where it would have to wait for a lock
         (the caller then reads with `wait`, in a thread)."""
-        conn = self.db if wait else thread_connection(self._quick, self.db_path, busy_ms=0)
+        conn = self.db if wait else thread_connection(self._quick, self.db_path, busy_ms=0, opened=self._opened)
         row = conn.execute(f"SELECT {self._sceneless()} FROM jobs WHERE id = ?", (job_id,)).fetchone()
         return dict(row) if row is not None else None
 

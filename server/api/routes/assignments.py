@@ -236,10 +236,7 @@ async def roster(aid: str, request: Request, course: CourseDep, caller: CallerDe
     """200 with `students: [{id, name, email, link, token, new}]`: each new student's token is shown this once
     (kept hashed). `Accept: text/csv` answers the links as CSV (id,name,email,link) to mail out."""
     _instructor(course, aid, caller, request, "roster")
-    try:
-        text = (await request.body()).decode("utf-8")
-    except UnicodeDecodeError:
-        raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
+    text = await roster_text(request)
     students = await run_in_threadpool(course.roster, aid, text, _base(request))
     if "text/csv" in request.headers.get("accept", ""):
         return _csv(links_csv(students), "links.csv")
@@ -507,6 +504,14 @@ def gradebook(aid: str, request: Request, course: CourseDep, caller: CallerDep) 
     """Canvas's gradebook columns (Student, ID, SIS User ID, SIS Login ID, Section, the assignment) and a
     Points Possible row: the roster's id is the SIS User ID, its email the SIS Login ID."""
     return _csv(course.gradebook_csv(_instructor(course, aid, caller, request)), "gradebook.csv")
+
+
+async def roster_text(request: Request) -> str:
+    """A roster upload's body as text (422 unless it is UTF-8)."""
+    try:
+        return (await request.body()).decode("utf-8")
+    except UnicodeDecodeError:
+        raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
 
 
 def _csv(text: str, filename: str) -> Response:

@@ -14,7 +14,7 @@ from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import StoreDep
 from server.api.models import ErrorResponse
-from server.api.routes.assignments import ASSIGNMENT_BODY, CourseDep, publish_in
+from server.api.routes.assignments import ASSIGNMENT_BODY, CourseDep, publish_in, roster_text
 from server.core.errors import ApiError
 from server.core.security import CallerDep, require_instructor
 from server.course.people import ROLES, Who
@@ -101,10 +101,7 @@ async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDe
     """200 with `students: [{id, name, email, link, token, new}]`: each student's link opens the course's page
     (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
     course.course_staff(cid, caller, request, "roster")
-    try:
-        text = (await request.body()).decode("utf-8")
-    except UnicodeDecodeError:
-        raise ApiError(422, [{"path": "", "message": "the roster must be UTF-8 text (CSV)"}]) from None
+    text = await roster_text(request)
     students = await run_in_threadpool(course.course_roster, cid, text, _base(request))
     return _students(students, request)
 

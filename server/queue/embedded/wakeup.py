@@ -76,8 +76,10 @@ class WorkerEnd:
 
     def wait(self, timeout: float) -> None:
         """Until the server wakes us or asks us to stop, at most `timeout` seconds."""
-        if not self._stop:
-            select.select([self.fd], [], [], timeout)
+        if not self._stop:  # poll, not select: the fd may be numbered past select's 1024 (a busy API's fork)
+            poller = select.poll()
+            poller.register(self.fd, select.POLLIN)
+            poller.poll(max(0, int(timeout * 1000)))
         self._drain()
 
     def stopping(self) -> bool:

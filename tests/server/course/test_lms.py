@@ -152,3 +152,21 @@ def test_lms_scores_keep_strictly_increasing_timestamps_and_a_newer_one_supersed
     assert store.add_score({**row, "score_given": 7.0}, 100.0)  # the same second: 1 ms later
     due = store.due(100.0, 10)
     assert [(d["score_given"], d["timestamp"]) for d in due] == [(7.0, 100.001)]
+
+
+def test_lms_a_link_with_no_assignment_opens_a_student_s_course_page_and_an_instructor_s_picker(tool, lms):
+    """A course navigation link (or an assignment link made without deep linking) names no assignment: the
+    student gets their course's page (the assignments they are on), the instructor the picker that binds it."""
+    url, app, client = tool
+    p, aid = lms
+    nav = {"id": "nav-1", "title": "Ray tracing"}
+    r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], resource_link=nav)
+    assert r.status_code == 303 and r.headers["location"].startswith("/courses/gfx#token="), r.text
+    token = r.headers["location"].split("#token=")[1]
+    assert [a["id"] for a in client.get("/api/courses/gfx", headers=bearer(token)).json()["assignments"]] == [aid]
+    r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], resource_link=nav)
+    assert r.status_code == 200 and "Pick an assignment for this link" in r.text
+    pick = re.search(r'name="pick" value="([^"]+)"', r.text)[1]
+    assert client.post("/lti/pick", data={"pick": pick, "assignment": aid}).status_code == 200
+    r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], resource_link=nav)  # bound now
+    assert r.headers["location"].startswith(f"/assignments/{aid}#token=")

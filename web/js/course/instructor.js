@@ -70,7 +70,7 @@ async function showList() {
       ),
     ),
   );
-  const courses = h("section", { class: "panel", "aria-labelledby": "h-courses", id: "courses" });
+  const courses = h("section", { class: "panel", "aria-labelledby": "h-courses", id: "courses" }, h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")));
   view.querySelector(".course-home").prepend(courses);
   showCourses(courses).catch(() => courses.remove());
   try {
