@@ -339,6 +339,9 @@ class Lms:
             return refused("Not an assignment of this course", f"The link names assignment {aid[:40]!r}, which is "
                            "not one of this course's: ask your instructor to pick it again.", 404)  # fmt: skip
         lineitem = (launch.ags or {}).get("lineitem")
+        if link_id and aid and not lineitem and (launch.ags or {}).get("lineitems"):
+            known_item = (known or {}).get("lineitem") if known and known["assignment_id"] == aid else None
+            lineitem = known_item or self.line_item(platform, launch.ags["lineitems"], link_id, aid)
         if link_id:
             self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
         if not aid:  # a course's navigation link, or an assignment link not bound yet
@@ -351,6 +354,22 @@ class Lms:
             return RedirectResponse(f"/course#token={token}&open={aid}", status_code=303)
         self._enrol(aid, person)  # a member enrolled on every assignment is on it already
         return RedirectResponse(f"/assignments/{aid}#token={token}", status_code=303)
+
+    def line_item(self, platform: dict, lineitems: str, link_id: str, aid: str) -> str | None:
+        """The gradebook column of a link whose launch names none (a link made without deep linking): the
+        platform's column of that link, else a new one of the assignment's points; None if the platform says
+        no (its grades then stay here, in grades.csv and the gradebook export)."""
+        try:
+            items = self.services.line_items(platform, lineitems, link_id)
+            if items:
+                return items[0]["id"]
+            a = self.course.store.assignment(aid)
+            points = self.course.spec(aid, a["version"]).max_score()
+            item = self.services.create_line_item(platform, lineitems, a["spec"]["name"], points, link_id, None, aid)
+            return item["id"]
+        except Exception as e:  # noqa: BLE001 (the launch opens all the same; the column is asked for next time)
+            log.warning("no gradebook column for link %s of platform %s: %s", link_id, platform["id"], e)
+            return None
 
     def _enrol(self, aid: str, student: str) -> None:
         with self.course.store._tx() as db:

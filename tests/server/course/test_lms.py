@@ -50,7 +50,7 @@ def lms(tool):
         r = client.post("/api/lti/platforms", json={**p.registration(), "deployment_ids": [p.deployment_id]},
                         headers=ADMIN)  # fmt: skip
         assert r.status_code == 201, r.text
-        pid = r.json()["id"]
+        pid = p.registered_id = r.json()["id"]
         assert client.post("/api/courses", json={"id": "gfx", "name": "Graphics"}, headers=ADMIN).status_code == 201
         r = client.post("/api/courses/gfx/lms/contexts", json={"platform": pid, "context": "course-1"}, headers=ADMIN)
         assert r.status_code == 201, r.text
@@ -170,3 +170,24 @@ def test_lms_a_link_with_no_assignment_opens_a_student_s_course_page_and_an_inst
     assert client.post("/lti/pick", data={"pick": pick, "assignment": aid}).status_code == 200
     r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], resource_link=nav)  # bound now
     assert r.headers["location"].startswith(f"/assignments/{aid}#token=")
+
+
+def test_lms_a_link_without_a_line_item_gets_a_gradebook_column_once(tool, lms):
+    """A launch whose AGS claim has `lineitems` but no `lineitem` (a link made without deep linking): the tool
+    asks for the link's column, makes one of the assignment's points when there is none, and keeps it."""
+    url, app, client = tool
+    p, aid = lms
+    ags = {"https://purl.imsglobal.org/spec/lti-ags/claim/endpoint": {
+        "scope": ["https://purl.imsglobal.org/spec/lti-ags/scope/lineitem",
+                  "https://purl.imsglobal.org/spec/lti-ags/scope/score"],
+        "lineitems": f"{p.url}/lineitems?context=course-1"}}  # fmt: skip
+    link = {"id": "link-2", "title": "HW 4 again"}
+    before = len(p.line_items)
+    for _ in range(2):
+        r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], resource_link=link,
+                        custom={"assignment": aid}, overrides=ags)  # fmt: skip
+        assert r.status_code == 303, r.text
+    made = [i for i in p.line_items.values() if i.get("resourceLinkId") == "link-2"]
+    assert len(p.line_items) == before + 1 and len(made) == 1  # made once, found again at the second launch
+    assert made[0]["scoreMaximum"] == 13 and made[0]["resourceId"] == aid
+    assert LmsStore(app.state.settings.data_dir).link(p.registered_id, "link-2")["lineitem"] == made[0]["id"]
