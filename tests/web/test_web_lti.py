@@ -15,6 +15,7 @@ from urllib.parse import urlencode
 import pytest
 from conftest import ROOT
 from lti_platform import LEARNER, Platform
+from playwright.sync_api import Error as PlaywrightError
 from test_api_support import INSTRUCTOR, Server, bearer, wait_for
 from test_web_page import SHOTS, browser  # noqa: F401, F811  (a fixture)
 
@@ -68,6 +69,15 @@ def tool_frame(page):
     return next((f for f in page.frames if f.name == "tool"), None)
 
 
+def shows(page, selector: str) -> bool:
+    """Does the tool's frame show `selector` now (False while it is between two pages)?"""
+    f = tool_frame(page)
+    try:
+        return bool(f and f.query_selector(selector))
+    except PlaywrightError:  # its page went away under the question (a navigation): not yet
+        return False
+
+
 def where(page) -> str:
     """What the tool's frame shows now (for a failure's message)."""
     f = tool_frame(page)
@@ -111,7 +121,7 @@ def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, 
     page.set_default_timeout(30_000)
     page.goto(course_page(server, p, tamper=1))
     without_cookies(page)
-    wait_for(lambda: (f := tool_frame(page)) and f.query_selector("main[data-check=state]"), 60, "the refusal")
+    wait_for(lambda: shows(page, "main[data-check=state]"), 60, "the refusal")
     frame = tool_frame(page)
     assert "/lti/launch" in frame.url and "state:" in frame.inner_text("#lti-storage-status")
     page.screenshot(path=str(Path(SHOTS) / "lti-framed-refused.png"))
