@@ -274,7 +274,8 @@ def test_api_jobs_events_of_a_finished_job_end_at_once(client):
 
 def test_api_jobs_every_example_scene_renders_as_the_library_does(client, settings, compiled_kernels):
     """Each example (every integrator and sampler), small, through the worker: the library's floats."""
-    settings.max_active_jobs_per_token = 100  # every example queued at once by one student
+    settings.max_active_jobs_per_token = 100  # every example (24) queued at once by one student
+    settings.max_queued_per_token = 100  # (20 waiting: passed only while the worker took them fast enough)
     from conftest import EXAMPLES, small
 
     from tracer.compile import compile_scene
