@@ -43,6 +43,7 @@ from server.core.db import Tables
 from server.course.people import COURSE_ID
 from server.course.policy import Feedback, When
 from server.course.service import Course
+from server.lti.pages import page as lti_page
 from server.lti.roles import course_role
 from server.lti.services import deep_link_response
 from server.lti.services import score as score_json
@@ -264,16 +265,12 @@ def lti_user(platform: dict, sub: str) -> str:
 
 
 def page(title: str, body: str, status: int = 200, extra_csp: str = "") -> HTMLResponse:
-    """A small page of the tool's own (the picker, a refusal), in the site's style."""
-    text = (
-        f'<!doctype html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
-        '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f'<link rel="stylesheet" href="/css/app.css"></head><body><main class="lti-page">{body}</main></body></html>'
-    )
-    headers = {"Cache-Control": "no-store"}
+    """A small page of the tool's own (the picker, a refusal): server/lti/pages.py's, with a policy of its own
+    when it posts a form to the LMS (`extra_csp`)."""
+    out = lti_page(title, body, status, ' class="lti-page"')
     if extra_csp:
-        headers["Content-Security-Policy"] = extra_csp
-    return HTMLResponse(text, status_code=status, headers=headers)
+        out.headers["Content-Security-Policy"] = extra_csp
+    return out
 
 
 def refused(title: str, message: str, status: int = 403) -> HTMLResponse:
@@ -372,11 +369,7 @@ class Lms:
             return None
 
     def _enrol(self, aid: str, student: str) -> None:
-        with self.course.store._tx() as db:
-            db.execute(
-                "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
-                (aid, student, self.now()),
-            )
+        self.course.store.enrol(aid, student, self.now())
 
     def course_of(self, platform: dict, context: dict, role: str) -> str | None:
         """The course linked to the LMS course; made at an instructor's first launch."""
@@ -506,13 +499,11 @@ class Lms:
         poster (cheap here: the run's thread must not wait on an LMS)."""
         if len(sid) != 32:
             return
-        row = self.course.store.db.execute(
-            "SELECT assignment_id, student FROM course_submissions WHERE id = ?", (sid,)
-        ).fetchone()
-        if row is None:
+        whose = self.course.store.submission_of(sid)
+        if whose is None:
             return
         with self._lock:
-            self._changed.add((row[0], row[1]))
+            self._changed.add(whose)
         self._wake.set()
 
     def release(self, aid: str, student: str) -> bool:

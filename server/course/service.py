@@ -340,10 +340,11 @@ class Course:
         row = self.store.student(aid, student)
         if row is None:
             raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
-        token = self._renew(a["course_id"], "student", student, jobs)
+        token = self.renew(a["course_id"], "student", student, jobs)
         return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
 
-    def _renew(self, cid: str, kind: str, person: str, jobs: JobStore) -> str:
+    def renew(self, cid: str, kind: str, person: str, jobs: JobStore) -> str:
+        """A new token for someone (every earlier one of theirs stops working); their workspace jobs move to it."""
         old = self.store.token_hashes(cid, kind, person)
         gen = self.store.next_gen(cid, kind, person)
         token = self.token_of(cid, kind, person, gen)

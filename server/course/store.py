@@ -371,6 +371,13 @@ class CourseStore(Tables):
         ).fetchone()
         return dict(row) if row else None
 
+    def enrol(self, aid: str, student: str, now: float) -> None:
+        """A member of the assignment's course on its roster (if not already)."""
+        self.db.execute(
+            "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
+            (aid, student, now),
+        )
+
     def extend(self, aid: str, student: str, deadline: float | None) -> bool:
         cur = self.db.execute(
             "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
@@ -444,6 +451,11 @@ class CourseStore(Tables):
         if student is not None:
             sql, args = sql + " AND s.student = ?", (aid, student)
         return [dict(r) for r in self.db.execute(sql + " ORDER BY s.accepted_at, s.rowid", args)]
+
+    def submission_of(self, sid: str) -> tuple[str, str] | None:
+        """(assignment, student) of a submission, by its id alone."""
+        row = self.db.execute("SELECT assignment_id, student FROM course_submissions WHERE id = ?", (sid,)).fetchone()
+        return (row[0], row[1]) if row else None
 
     def submission(self, aid: str, sid: str) -> dict | None:
         row = self.db.execute(

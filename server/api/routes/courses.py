@@ -174,7 +174,7 @@ def staff_link(
 ) -> Response:
     course.course_staff(cid, caller, request, "staff")
     if renew and course.store.staff_member(cid, person) is not None:
-        course._renew(cid, "staff", person, store)
+        course.renew(cid, "staff", person, store)
     out = course.staff_link(cid, person, _base(request))
     return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
 
