@@ -11,7 +11,9 @@ the scene). The route waits for the answer without holding the event loop, and
   started): the scene is refused as too costly to check;
 - a client that goes away while its scene is checked has the process doing it killed and replaced,
   so no CPU goes on burning for an answer nobody reads;
-- past `max_validate_waiting` requests waiting for a free process, a request is answered 429;
+- past `max_validate_waiting` requests waiting for a free process, or `max_validate_waiting_bytes` of their
+  bodies held while they wait, a request is answered 429 (a class of 300 submitting in the same second waits
+  here with a few megabytes of scenes: both are sized so that it is never refused, docs/service.md "Sizing");
 - requests wait in two lines, each first come first served: a small body's (under 64 KB, a student's
   scene) is served before a large one's, so that a class's small submissions pass a crowd of large
   validations (one of which takes a checker a fifth of a second) rather than waiting behind all of them.
@@ -89,6 +91,7 @@ class CheckPool:
         self._small: collections.deque = collections.deque()  # the same of small bodies' requests, served first
         self._lock = threading.Lock()
         self._closed = False
+        self._waiting_bytes = 0  # the bodies of the requests waiting in both lines
 
     # -- life
 
@@ -174,10 +177,12 @@ class CheckPool:
 
     # -- a task
 
-    async def _take(self, request: Request, small: bool = False) -> _Checker:
+    async def _take(self, request: Request, size: int = 0) -> _Checker:
         """An idle checker, marked busy; waits for one without polling, first come first served in its line
-        (`small`: a small body's, served first): a request takes a free checker only when nobody waits before
-        it (429 past max_validate_waiting waiting in both lines)."""
+        (a body of `size` bytes under THREAD_FROM is small: served first): a request takes a free checker only
+        when nobody waits before it (429 past max_validate_waiting waiting in both lines, or past
+        max_validate_waiting_bytes of their bodies)."""
+        small = size < THREAD_FROM
         waiter, line = None, self._small if small else self._waiters
         try:
             while True:
@@ -191,18 +196,23 @@ class CheckPool:
                         free.state = "busy"
                         if waiter is not None:
                             line.remove(waiter)
+                            self._waiting_bytes -= size
                             waiter = None
                         if any(c.state == "idle" for c in self.checkers):
                             self._wake()  # another one is free: the next in line takes it
                         return free
                     if waiter is None:
-                        if len(self._waiters) + len(self._small) >= self.settings.max_validate_waiting:
+                        full = len(self._waiters) + len(self._small) >= self.settings.max_validate_waiting
+                        heavy = self._waiting_bytes + size > self.settings.max_validate_waiting_bytes
+                        if full or heavy:
+                            setting = "TRACER_MAX_VALIDATE_WAITING" + ("" if full else "_BYTES")
                             raise ApiError(
-                                429, "too many scenes are being checked; try again later (TRACER_MAX_VALIDATE_WAITING)",
+                                429, f"too many scenes are being checked; try again later ({setting})",
                                 headers={"Retry-After": "2"},
                             )  # fmt: skip
                         waiter = (asyncio.get_running_loop(), asyncio.Event())
                         line.append(waiter)
+                        self._waiting_bytes += size
                         if free is not None:
                             self._wake()  # it goes before those woken for the free checker: it takes it
                     waiter[1].clear()
@@ -215,6 +225,7 @@ class CheckPool:
                 with self._lock:
                     head = self._head() is waiter
                     line.remove(waiter)
+                    self._waiting_bytes -= size
                     if head and any(c.state == "idle" for c in self.checkers):
                         self._wake()  # it was woken for a free checker: the next in line takes it
 
@@ -222,8 +233,8 @@ class CheckPool:
         """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
         limit (when `timed`) is stopped (422: the scene costs too much to check); one whose client went away
         is stopped too."""
-        small = bool(args) and isinstance(args[0], bytes) and len(args[0]) < THREAD_FROM
-        checker = await self._take(request, small)
+        size = len(args[0]) if args and isinstance(args[0], bytes) else 0
+        checker = await self._take(request, size)
         checker.task = task
         conn, process, answered = checker.conn, checker.process, False
         limit = self.settings.max_validate_seconds if timed else math.inf

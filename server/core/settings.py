@@ -279,7 +279,15 @@ class Settings(SceneLimits):
         10.0, gt=0, description="seconds of CPU one scene check may take; its process is stopped and replaced past it"
     )
     max_validate_waiting: int = Field(
-        256, ge=0, description="requests waiting for a free checking process (first come first served): 429 past it"
+        2000,  # a class of 1 000 submitting in the same second waits here a few seconds (docs/service.md, "Sizing")
+        ge=0,
+        description="requests waiting for a free checking process (first come first served): 429 past it",
+    )
+    max_validate_waiting_bytes: ByteSize = Field(
+        ByteSize(256_000_000),  # what the waiting requests' bodies hold in the API's memory: 128 of the largest
+        ge=0,
+        description="the bodies of the requests waiting for a free checking process, all together (bytes, or 100MB, "
+        "1GB): 429 past it",
     )
 
     # Connections and bodies in flight (issue #24, item 5): slow clients time out, bodies held have a budget.

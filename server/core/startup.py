@@ -115,3 +115,25 @@ def lock_data_dir(data_dir: Path):
             f"another server is using the data directory {data_dir}: stop it, or give this one another folder"
         ) from None
     return lock
+
+
+OWN_FILES = 512  # files the server holds open besides its connections: databases and their WAL, pipes, workers
+
+
+def raise_open_files(connections: int) -> tuple[int, int]:
+    """Raise this process's soft limit of open files towards its hard limit, enough for `connections` open
+    connections (TRACER_MAX_CONNECTIONS) and the server's own files: (the soft limit before, after).
+
+    A service manager starts a process with a soft limit of 1 024 (systemd's default, whatever its hard limit),
+    and each connection, event stream and the file a submission writes is one: a class of 1 000 following
+    their submissions got 500s ("too many open files") at that limit. As Go's runtime and nginx do, the soft
+    limit is raised, never past the hard one (raising that is the deployer's: LimitNOFILE=, docs/service.md)."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    want = connections + OWN_FILES
+    target = want if hard == resource.RLIM_INFINITY else min(max(want, soft), hard)
+    if soft != resource.RLIM_INFINITY and soft < target:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
+        return soft, target
+    return soft, soft

@@ -230,7 +230,7 @@ class CheckerLine:
         self.served: list[str] = []
 
     async def take(self, name: str) -> None:
-        await self.pool._take(self.Here(), small=name.startswith("small"))
+        await self.pool._take(self.Here(), size=100 if name.startswith("small") else 100_000)
         self.served.append(name)
 
     def free(self) -> None:
@@ -291,5 +291,35 @@ def test_checks_a_small_body_s_request_passes_the_line_of_large_ones(tmp_path):
                 await anyio.sleep(0.05)
             assert served == ["small 1", "small 2", "small 3", "large 1", "large 2", "large 3"]
             assert not pool._waiters and not pool._small
+
+    anyio.run(main)
+
+
+def test_checks_the_bodies_held_by_waiting_requests_are_bounded_in_bytes(tmp_path):
+    """CheckPool._take counts the bodies of the requests waiting (no processes, states set by hand): past
+    max_validate_waiting_bytes a request is answered 429 naming TRACER_MAX_VALIDATE_WAITING_BYTES, while a small
+    one still fits; the count goes back to 0 as they are served."""
+    import anyio
+
+    from server.core.errors import ApiError
+
+    line = CheckerLine(tmp_path)
+    line.pool.settings = line.pool.settings.model_copy(update={"max_validate_waiting_bytes": 150_000})
+    pool, served, take, free = line.pool, line.served, line.take, line.free
+
+    async def main() -> None:
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(take, "large 1")  # 100 000 bytes wait
+            await anyio.sleep(0.05)
+            with pytest.raises(ApiError) as refused:
+                await take("large 2")  # 200 000 > 150 000
+            assert refused.value.status == 429 and "TRACER_MAX_VALIDATE_WAITING_BYTES" in str(refused.value.errors)
+            tg.start_soon(take, "small 1")  # 100 100 bytes: it fits
+            await anyio.sleep(0.05)
+            assert pool._waiting_bytes == 100_100
+            for _ in range(2):
+                free()
+                await anyio.sleep(0.05)
+            assert served == ["small 1", "large 1"] and pool._waiting_bytes == 0
 
     anyio.run(main)

@@ -149,3 +149,49 @@ def test_startup_the_app_checks_too(tmp_path):
     (data / "jobs.sqlite3").write_bytes(os.urandom(4096))
     with pytest.raises(StartupError, match="is damaged"), TestClient(create_app(Settings(data_dir=data, workers=0))):
         pass
+
+
+def test_startup_raises_its_soft_open_files_limit_for_its_connections(tmp_path):
+    """Started as systemd starts a service (a soft limit of 1 024 open files under a high hard one), the server
+    raises its own soft limit to TRACER_MAX_CONNECTIONS and its own files (1 000 students following their
+    submissions got 500s at 1 024: bench/burst.py); and says so. A hard limit below that is kept, with a
+    warning naming LimitNOFILE."""
+    import resource
+
+    import httpx
+    from test_api_support import wait_for
+
+    from server.core.startup import OWN_FILES
+
+    def soft_limit(pid: int) -> int:
+        line = next(x for x in Path(f"/proc/{pid}/limits").read_text().splitlines() if x.startswith("Max open files"))
+        return int(line.split()[3])
+
+    need = 2000 + OWN_FILES  # the default TRACER_MAX_CONNECTIONS and the server's own
+    hard = resource.getrlimit(resource.RLIMIT_NOFILE)[1]
+    if hard != resource.RLIM_INFINITY and hard < need:
+        pytest.fail(f"this test needs a hard open-files limit of {need} or more; this machine's is {hard}")
+    for limits, want, says in (((1024, hard), need, f"soft limit raised from 1024 to {need}"),
+                               ((1024, 1500), 1500, "open files limited to 1500 (the hard limit)")):  # fmt: skip
+        port = free_port()
+        cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(tmp_path / f"d{port}"),
+               "--workers", "0"]  # fmt: skip
+        env = {**os.environ, "TRACER_INTERACTIVE_WORKERS": "0", "TRACER_PREVIEWS_AHEAD": "0"}
+        log = tmp_path / f"server-{port}.log"
+
+        def answers(port=port) -> bool:
+            try:
+                return httpx.get(f"http://127.0.0.1:{port}/api/health", timeout=5).status_code == 200
+            except httpx.TransportError:
+                return False
+
+        with open(log, "wb") as out:
+            as_systemd = lambda lim=limits: resource.setrlimit(resource.RLIMIT_NOFILE, lim)  # noqa: E731
+            proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=out, stderr=subprocess.STDOUT, preexec_fn=as_systemd)
+        try:
+            wait_for(answers, 120, "the server to answer", interval=0.2)
+            assert soft_limit(proc.pid) == want
+            assert says in log.read_text()
+        finally:
+            proc.terminate()
+            proc.wait(timeout=60)
