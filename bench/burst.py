@@ -32,6 +32,7 @@ import json
 import os
 import platform
 import secrets
+import shutil
 import sys
 import tempfile
 import threading
@@ -206,10 +207,17 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--follow", action="store_true", help="follow every submission to its final status")
     p.add_argument("--timeout", type=float, default=1800.0, help="seconds to wait for the clients")
     p.add_argument("--json", help="write the results as JSON here")
+    p.add_argument("--logs", type=Path, help="keep the servers' logs in this folder")
     args = p.parse_args(argv)
     print(f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}", flush=True)
     with tempfile.TemporaryDirectory(prefix="bench-burst-") as tmp:
-        result = run(args, Path(tmp))
+        try:
+            result = run(args, Path(tmp))
+        finally:
+            if args.logs:  # the servers' logs, kept
+                args.logs.mkdir(parents=True, exist_ok=True)
+                for log in Path(tmp).glob("*.log"):
+                    shutil.copy(log, args.logs / log.name)
     print(json.dumps(result, indent=2))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")

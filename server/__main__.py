@@ -25,7 +25,14 @@ from server.core.backup import backup, restore
 from server.core.exits import exit_now
 from server.core.migrations import migrate
 from server.core.settings import explain, load_settings
-from server.core.startup import OWN_FILES, StartupError, check_data_dir, lock_data_dir, raise_open_files
+from server.core.startup import (
+    FILES_PER_CONNECTION,
+    OWN_FILES,
+    StartupError,
+    check_data_dir,
+    lock_data_dir,
+    raise_open_files,
+)
 
 GRACEFUL_SECONDS = 5  # a stopping server waits this long at most for its open connections (event streams end at once)
 HEADER_BYTES = 16384  # a request's line and headers, at most (h11's own default, said here): 400 past it
@@ -77,11 +84,12 @@ def main(argv: list[str] | None = None) -> None:
     except StartupError as exc:
         log.error("cannot start: %s", exc)
         raise SystemExit(1) from None
-    before, after = raise_open_files(settings.max_connections)
-    if after < settings.max_connections + OWN_FILES:
-        log.warning("open files limited to %d (the hard limit): fewer than TRACER_MAX_CONNECTIONS=%d and the "
-                    "server's own; raise it (systemd: LimitNOFILE=%d)", after, settings.max_connections,
-                    settings.max_connections + OWN_FILES)  # fmt: skip
+    before, after, connections = raise_open_files(settings.max_connections)
+    if connections < settings.max_connections:
+        want = settings.max_connections * FILES_PER_CONNECTION + OWN_FILES
+        log.warning("open files limited to %d (the hard limit): room for %d connections at once, not "
+                    "TRACER_MAX_CONNECTIONS=%d (503 past them); raise it to %d (systemd: LimitNOFILE=)", after,
+                    connections, settings.max_connections, want)  # fmt: skip
     elif after != before:
         log.info("open files: soft limit raised from %d to %d for TRACER_MAX_CONNECTIONS", before, after)
     log.info(
@@ -98,7 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     config = uvicorn.Config(
         app, host=settings.host, port=settings.port, log_level="info", timeout_graceful_shutdown=GRACEFUL_SECONDS,
         http=deadline_protocol(settings.header_timeout, settings.body_timeout),
-        limit_concurrency=settings.max_connections, h11_max_incomplete_event_size=HEADER_BYTES,
+        limit_concurrency=connections, h11_max_incomplete_event_size=HEADER_BYTES,
     )  # fmt: skip
     server = StoppingServer(config, app.state.stopping)
     try:

@@ -118,22 +118,26 @@ def lock_data_dir(data_dir: Path):
 
 
 OWN_FILES = 512  # files the server holds open besides its connections: databases and their WAL, pipes, workers
+FILES_PER_CONNECTION = 2  # its socket, and a file its request may write (a submission, a job's scene)
 
 
-def raise_open_files(connections: int) -> tuple[int, int]:
+def raise_open_files(connections: int) -> tuple[int, int, int]:
     """Raise this process's soft limit of open files towards its hard limit, enough for `connections` open
-    connections (TRACER_MAX_CONNECTIONS) and the server's own files: (the soft limit before, after).
+    connections (TRACER_MAX_CONNECTIONS) and the server's own files: (the soft limit before, after, the
+    connections it leaves room for: `connections`, or fewer where the hard limit is too low).
 
     A service manager starts a process with a soft limit of 1 024 (systemd's default, whatever its hard limit),
-    and each connection, event stream and the file a submission writes is one: a class of 1 000 following
-    their submissions got 500s ("too many open files") at that limit. As Go's runtime and nginx do, the soft
-    limit is raised, never past the hard one (raising that is the deployer's: LimitNOFILE=, docs/service.md)."""
+    and each connection, event stream and file a request writes takes one: a class of 1 000 submitting at once
+    got 210 answers 500 ("too many open files") at that limit. As Go's runtime and nginx do, the soft limit is
+    raised, never past the hard one (raising that is the deployer's: LimitNOFILE=, docs/service.md); below
+    it, the server takes fewer connections at once (503 past them, which a client may retry) rather than fail
+    the requests it took."""
     import resource
 
     soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-    want = connections + OWN_FILES
-    target = want if hard == resource.RLIM_INFINITY else min(max(want, soft), hard)
-    if soft != resource.RLIM_INFINITY and soft < target:
-        resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
-        return soft, target
-    return soft, soft
+    want = connections * FILES_PER_CONNECTION + OWN_FILES
+    if soft == resource.RLIM_INFINITY or soft >= want:
+        return soft, soft, connections
+    target = want if hard == resource.RLIM_INFINITY else min(want, hard)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
+    return soft, target, min(connections, max(1, (target - OWN_FILES) // FILES_PER_CONNECTION))
