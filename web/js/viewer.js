@@ -327,7 +327,9 @@ export class Viewer {
     const img = this.el.img;
     if (!v || img.hidden) return;
     const box = this.el.stage.getBoundingClientRect();
-    const maxH = Math.max(160, Math.min(window.innerHeight * 0.62, 720));
+    // the share of the window's height the picture may take (app.css: less where a ray tree shares its column)
+    const share = Number.parseFloat(getComputedStyle(this.el.stage).getPropertyValue("--stage-share")) || 0.62;
+    const maxH = Math.max(160, Math.min(window.innerHeight * share, 720));
     const scale = Math.min(box.width / v.width, maxH / v.height);
     img.style.width = `${Math.max(1, Math.floor(v.width * scale))}px`;
     img.style.height = `${Math.max(1, Math.floor(v.height * scale))}px`;
