@@ -39,3 +39,70 @@ def test_web_workspace_a_pixel_click_keeps_the_picture_and_its_tree_in_view(desk
     assert 0 <= tree["top"] and root["bottom"] <= h and min(tree["bottom"], h) - tree["top"] >= 150, boxes
     width = page.evaluate("() => document.documentElement.scrollWidth")
     assert width <= DESKTOP["width"], f"the page is {width} px wide at {DESKTOP['width']} px"
+
+
+def test_web_workspace_render_is_the_tab_stop_after_the_scene_text(desktop):  # noqa: F811
+    """From the top of the page Tab reaches the scene text, and the next Tab is Render (it was the 49th stop,
+    after every field of the form)."""
+    page = desktop.open().page
+    reached = []
+    for _ in range(30):
+        page.keyboard.press("Tab")
+        reached.append(page.evaluate("() => document.activeElement.id || document.activeElement.tagName"))
+        if reached[-1] == "btn-render":
+            break
+    assert reached[-1] == "btn-render", reached
+    assert len(reached) <= 15 and reached[-2] == "scene-text", reached
+    outline = page.evaluate("() => getComputedStyle(document.activeElement).outlineStyle")
+    assert outline != "none"
+    page.keyboard.press("Enter")  # the focused Render renders the editor's scene
+    page.wait_for_function("() => document.querySelector('#stage').dataset.job", timeout=60_000)
+
+
+def menu(page) -> str:
+    return page.input_value("#example-select")
+
+
+def test_web_workspace_the_example_menu_follows_the_text(desktop):  # noqa: F811
+    page = desktop.open().page
+    page.wait_for_selector("#validation-status[data-kind=ok]")
+    assert menu(page) == "whitted"
+    whitted_text = page.input_value("#scene-text")
+    page.fill("#scene-text", whitted_text.replace('"vfov": 40', '"vfov": 41', 1))  # an edit of the example
+    assert menu(page) == "whitted"
+    cornell = scene_dict("cornell")
+    page.fill("#scene-text", json.dumps(cornell, indent=2))  # other text pasted over it
+    page.wait_for_function("() => document.querySelector('#example-select').value === ''")
+    page.reload()  # the editor keeps the text; the menu does not name the example it came from
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    assert json.loads(page.input_value("#scene-text"))["name"] == cornell["name"] and menu(page) == ""
+    page.select_option("#example-select", "whitted")
+    page.wait_for_function("() => JSON.parse(document.querySelector('#scene-text').value).name.startsWith('Whitted')")
+    assert menu(page) == "whitted"
+    page.fill("#scene-text", "{ not a scene")  # typed text that is no scene
+    page.wait_for_function("() => document.querySelector('#example-select').value === ''")
+
+
+RESIZE_LOOP = """() => new Promise((done) => {
+    let seen = false;
+    window.addEventListener("error", (e) => { if (/ResizeObserver loop/.test(e.message)) seen = true; });
+    const box = Object.assign(document.createElement("div"), { id: "ro-loop" });
+    document.body.append(box);
+    let n = 0;
+    const ro = new ResizeObserver(() => { if (n++ < 4) box.style.height = `${10 + n}px`; });  // resizes what it watches
+    ro.observe(box);
+    setTimeout(() => { ro.disconnect(); box.remove(); done(seen); }, 300);
+})"""
+
+
+def test_web_workspace_the_resize_observer_notice_is_no_error(desktop):  # noqa: F811
+    """The browser's "ResizeObserver loop completed with undelivered notifications" (a notice: the rest is
+    delivered in the next frame) leaves the banner hidden; a real error still shows it."""
+    desktop.allow += [r"ResizeObserver loop", r"a real error"]
+    page = desktop.open().page
+    assert page.evaluate(RESIZE_LOOP), "the browser raised no ResizeObserver notice: the test proves nothing"
+    page.wait_for_timeout(100)
+    assert page.is_hidden("#banner"), page.inner_text("#banner")
+    page.evaluate("() => setTimeout(() => { throw new Error('a real error'); })")
+    page.wait_for_selector("#banner:not([hidden])")
+    assert "a real error" in page.inner_text("#banner")
