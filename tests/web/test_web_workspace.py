@@ -10,8 +10,12 @@ from conftest import scene_dict
 from test_web_page import DESKTOP, browser, desktop, render, server, set_scene, whitted  # noqa: F401  (fixtures)
 
 SETTLED = """() => new Promise((done) => {
-    let last = -1, same = 0;
-    const look = () => { same = scrollY === last ? same + 1 : 0; last = scrollY; same >= 5 ? done(scrollY) : requestAnimationFrame(look); };
+    let last = -1, same = 0, frames = 0;  // five frames without a move (a smooth scroll ends), at most 600
+    const look = () => {
+        same = scrollY === last ? same + 1 : 0;
+        last = scrollY;
+        same >= 5 || ++frames > 600 ? done(scrollY) : requestAnimationFrame(look);
+    };
     look();
 })"""
 BOXES = """() => Object.fromEntries(['#render-img', '#rt-diagram', '#rt-diagram .rt-node'].map((sel) => {
