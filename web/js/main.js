@@ -357,10 +357,15 @@ let lessons = null;
 async function start() {
   showWorkingOn($("#working-on")); // opened from an assignment's "Start": the way back to it
   lessons = new Lessons($("#page-lessons"), {
-    openInWorkspace: async (scene, job, label) => {
+    openInWorkspace: async (scene, job, label, marks = []) => {
       loadText(formatJSON(scene), label);
       viewer.remember(job);
       await viewer.show(job, scene, JSON.stringify(scene));
+      const [mark] = marks; // the pixel the lesson asks about, marked on the picture here as on the lesson's
+      if (mark) {
+        viewer.markPixel(mark.x, mark.y, `The lesson's pixel (${mark.x}, ${mark.y}) is marked`);
+        $("#stage").scrollIntoView({ block: "nearest" });
+      }
     },
   });
   // a lesson chosen from the list gets its own address (the lesson itself runs from its button)

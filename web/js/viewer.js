@@ -141,6 +141,7 @@ export class Viewer {
     this.previews = 0;
     this.runningPreviews = 0;
     this.cursor = null;
+    delete this.el.marker.dataset.kind;
     this.aov = "image";
     this.latestImage = null;
     this.el.img.dataset.previews = "0";
@@ -364,8 +365,21 @@ export class Viewer {
     }
   }
 
+  /** Mark pixel (x, y) of the picture shown, as a lesson asks the student to click it: the keyboard's cursor
+   * starts there too (Enter on the picture picks it). */
+  markPixel(x, y, why) {
+    if (!this.view) return;
+    this.cursor = [Math.min(this.view.width - 1, x), Math.min(this.view.height - 1, y)];
+    this.el.marker.dataset.kind = "lesson";
+    this.el.marker.title = why;
+    this.drawMarker();
+    this.message("info", `${why}: click it on the picture (or press Enter on the picture) to see its ray tree.`);
+  }
+
   pick(x, y) {
     this.cursor = [x, y];
+    delete this.el.marker.dataset.kind;
+    this.el.marker.removeAttribute("title");
     this.drawMarker();
     this.onPick(this.view, x, y);
   }
