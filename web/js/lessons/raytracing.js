@@ -33,7 +33,7 @@ export const RAY_TRACING = [
       s.materials.ball = { kd: [0.2, 0.35, 0.8], ks: 0.5, shininess: 64 };
       s.lights = [{ type: "point", position: [-3, 5, 4], intensity: 60 }];
     },
-    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time: the left one has only the ambient term, on the floor as on the ball (no light, no shadow). The sliders change the ball's coefficients in the pictures that have their term (kd from the middle one on, ks and n on the right), and the light's attenuation, which shows best on the floor.",
+    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time: the left one has only the ambient term, on the floor as on the ball (no surface takes the light in: no shading, no shadow). The sliders change the ball's coefficients in the pictures that have their term (kd from the middle one on, ks and n on the right), and the light's attenuation, which shows best on the floor.",
     more: [reference("the local term", "the-local-term"), reference("materials", "materials"), reference("the point light's attenuation", "point-light")],
     controls: [
       { key: "ka", label: "ka (ambient)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.3, apply: (s, v) => (s.materials.ball.ka = v), note: (v) => `ka = ${v}` },
