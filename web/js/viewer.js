@@ -141,7 +141,8 @@ export class Viewer {
     this.previews = 0;
     this.runningPreviews = 0;
     this.cursor = null;
-    delete this.el.marker.dataset.kind;
+    delete this.el.marker.dataset.kind; // a lesson's mark belongs to the job it was made on
+    this.el.marker.removeAttribute("title");
     this.aov = "image";
     this.latestImage = null;
     this.el.img.dataset.previews = "0";
