@@ -16,8 +16,8 @@ HTTP API, standard library only (urllib), so it runs wherever the repository is 
 `publish` sends the spec as a multipart part, and its reference scene file beside it when the spec names
 one (`"reference": {"scene": "reference.json"}`, looked for next to the spec, as scenes/grading/ has it);
 it prints the assignment's id on the first line (`A=$(python -m server.course publish ... | head -1)`),
-then the brief's main facts. `roster` uploads the roster CSV and writes the links to mail out (each token
-is shown this once); `grades` writes grades.csv.
+then the brief's main facts and, last, the address of its page (/assignments/{id}). `roster` uploads the
+roster CSV and writes the links to mail out (`links` writes them again); `grades` writes grades.csv.
 
 Courses (docs/assignments.md, "Courses and staff"): `course-create` (the server admin's token) makes a course,
 `staff-add` adds an instructor or a TA and prints their link, `course-roster` enrols a course's roster once
@@ -151,7 +151,7 @@ def publish_parts(args) -> tuple[dict[str, str], dict[str, tuple[str, bytes]]]:
 
 
 def describe(a: dict, server: str) -> list[str]:
-    """The brief's main facts, a line each, after the id."""
+    """The brief's main facts, a line each, after the id; the brief's page (not its API) last."""
     p = a.get("policy", {})
     lines = [a["id"], f"  {a['name']} (version {a['version']})", f"  deadline: {a['deadline']}"]
     if a.get("late_until"):
@@ -168,7 +168,7 @@ def describe(a: dict, server: str) -> list[str]:
     if ref:
         score = f" {ref['score']:g} / {ref['max_score']:g}" if ref.get("score") is not None else ""
         lines.append(f"  the reference scene's grade: {ref['status']}{score}")
-    lines.append(f"  {server}/api/assignments/{a['id']}")
+    lines.append(f"  the brief's page: {server.rstrip('/')}/assignments/{a['id']}")  # what students open
     return lines
 
 

@@ -16,7 +16,7 @@ from datetime import UTC, datetime, timedelta
 
 import httpx
 from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_web_page import TEACHER, browser, desktop, phone, server  # noqa: F401  (fixtures)
+from test_web_page import DESKTOP, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
 
 W, H = 48, 36
 REFERENCE = {
@@ -178,3 +178,54 @@ def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, ph
     seen = p.evaluate(VISIBLE, "student")
     assert seen["inBox"], seen
     phone.shot("compare-phone", full_page=True)
+
+
+def test_web_compare_on_the_instructor_s_dashboard_in_the_instructor_s_words(browser, server):  # noqa: F811
+    """/course#<aid>/<student>: a click on the difference map of a graded scene shows the two trees styled as on
+    the student's page (compare.css), within the page's width at 1280, about the student ("The student's eye
+    ray"), never to them ("Your")."""
+    sub = graded_submission(server)
+    p = Page(browser, server, DESKTOP)
+    p.allow.append(r"status of 401")  # the first load, before the token is in this browser's storage
+    try:
+        page = p.page
+        page.goto(f"{server.url}/course")
+        page.evaluate("(t) => localStorage.setItem('rt.instructor', JSON.stringify(t))", INSTRUCTOR)
+        page.goto(f"{server.url}/course#{sub['aid']}/s1")
+        page.wait_for_function(
+            """() => { const i = document.querySelector('#student-detail .grade-fig[data-picture=error_map] img');
+                       return i && i.complete && i.naturalWidth > 0; }"""
+        )
+        img = page.locator("#student-detail .grade-fig[data-picture=error_map] img")
+        img.scroll_into_view_if_needed()
+        box = img.bounding_box()
+        x, y = W // 2, H // 2 - 2  # on the ball: blue against red
+        page.mouse.click(box["x"] + (x + 0.5) * box["width"] / W, box["y"] + (y + 0.5) * box["height"] / H)
+        page.wait_for_selector("#student-detail .compare section.compare-side[data-side=reference] g.rt-node.differs")
+        seen = page.evaluate(
+            """() => {
+                const root = document.querySelector('#student-detail .compare');
+                const marked = root.querySelector('g.rt-node.differs .box');
+                return {
+                    titles: [...root.querySelectorAll('section.compare-side h3')].map((h) => h.textContent),
+                    message: root.querySelector('.compare-message').textContent,
+                    text: root.textContent,
+                    overflow: getComputedStyle(root.querySelector('.compare-tree')).overflowX,
+                    stroke: getComputedStyle(marked).stroke,
+                    tops: [...root.querySelectorAll('section.compare-side')].map((s) => s.getBoundingClientRect().top),
+                    width: document.documentElement.scrollWidth,
+                };
+            }"""
+        )
+        assert seen["titles"] == ["The student's ray tree", "The reference's"], seen
+        assert seen["message"].startswith("Where the student's eye ray hits red ball"), seen["message"]
+        assert "(the student's against the reference's)" in seen["message"]
+        assert not re.search(r"\b[Yy]our", seen["text"]), seen["text"]
+        assert seen["overflow"] == "auto" and seen["stroke"] == "rgb(255, 77, 109)", seen  # compare.css applies
+        assert seen["tops"][0] == seen["tops"][1], seen  # side by side
+        assert seen["width"] <= DESKTOP["width"], f"the page is {seen['width']} px wide at {DESKTOP['width']}"
+        page.locator("#student-detail .compare").scroll_into_view_if_needed()
+        p.shot("compare-instructor-dashboard")
+    finally:
+        p.context.close()
+    assert p.unexpected_errors() == []

@@ -135,7 +135,7 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     roster_text = "id,name,email\n" + "".join(f'{i},"{n}",{e}\n' for i, n, e in ROSTER)
     page.set_input_files("#roster-file", write(tmp_path, "roster.csv", roster_text))
     page.wait_for_selector("#links-download")
-    assert "shown this once" in page.text_content("#links-box")
+    assert "Download the links now" in page.text_content("#links-box")
     name, text = download(page, "#links-download")
     assert name == "links-roster.csv"
     links = list(csv.DictReader(io.StringIO(text)))
@@ -365,3 +365,56 @@ def test_web_course_on_loopback_without_a_token_everyone_is_the_instructor(brows
         finally:
             p.context.close()
         assert p.unexpected_errors() == []
+
+
+def test_web_course_links_again_and_re_issued(browser, server, tmp_path):  # noqa: F811
+    """The links shown after an upload are not lost with the page: "Download links again" gives the same links
+    (GET /api/courses/{cid}/links: they still work); "Re-issue all…" asks first, saying the old links stop
+    working, and a dismissed question changes nothing; accepted, every student gets a new link and the old ones
+    are refused."""
+    deadline = "2099-12-08T23:59:00Z"
+    r = httpx.post(f"{server.url}/api/assignments", json={"spec": small_spec(inline=True), "deadline": deadline},
+                   headers=TEACHER, timeout=30)  # fmt: skip
+    assert r.status_code == 201, r.text
+    aid = r.json()["id"]
+    roster = "id,name,email\nr1,Rae One,r1@x.edu\nr2,Rex Two,\n"
+    r = httpx.post(f"{server.url}/api/assignments/{aid}/roster", content=roster,
+                   headers={**TEACHER, "Content-Type": "text/csv"}, timeout=30)  # fmt: skip
+    sent = {st["id"]: st["link"] for st in r.json()["students"]}
+    p = open_course(browser, server, tmp_path)  # a new page: the links of the upload are not on it
+    page = p.page
+    page.goto(f"{server.url}/course#{aid}")
+    page.wait_for_function("() => document.querySelectorAll('#roster-rows tr[data-student]').length === 2")
+    assert page.is_hidden("#links-box")
+
+    name, text = download(page, "#links-again")
+    again = {row["id"]: row["link"] for row in csv.DictReader(io.StringIO(text))}
+    assert name == "links-again.csv" and again == sent
+    assert "They still work" in page.text_content("#links-box")
+    p.shot("course-links-again")
+
+    asked = []
+    page.once("dialog", lambda d: (asked.append(d.message), d.dismiss()))
+    page.click("#links-reissue")
+    assert asked and "stop working" in asked[0] and "Re-issue all 2 links" in asked[0], asked
+    token = {sid: urlparse(link).fragment.removeprefix("token=") for sid, link in sent.items()}
+
+    def brief(t: str) -> httpx.Response:
+        return httpx.get(f"{server.url}/api/assignments/{aid}", headers=bearer(t), timeout=30)
+
+    assert all(brief(t).status_code == 200 for t in token.values())  # dismissed: nothing changed
+
+    page.once("dialog", lambda d: d.accept())
+    page.click("#links-reissue")
+    page.wait_for_function("() => document.querySelector('#roster-status').dataset.kind === 'ok'")
+    name, text = download(page, "#links-download")
+    fresh = {
+        row["id"]: urlparse(row["link"]).fragment.removeprefix("token=") for row in csv.DictReader(io.StringIO(text))
+    }
+    assert name == "links-reissued.csv" and set(fresh) == {"r1", "r2"}
+    assert all(brief(t).status_code == 404 for t in token.values())
+    assert all(brief(t).status_code == 200 for t in fresh.values())
+    assert "no longer work" in page.text_content("#links-box")
+    p.shot("course-links-reissued")
+    p.context.close()
+    assert p.unexpected_errors() == []

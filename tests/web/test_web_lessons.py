@@ -19,7 +19,7 @@ import pytest
 from conftest import ROOT
 from PIL import Image
 from test_api_support import wait_finished
-from test_web_page import DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (the fixtures)
+from test_web_page import DESKTOP, PHONE, TEACHER, Page, browser, phone, server  # noqa: F401  (the fixtures)
 
 JS = ROOT / "web" / "js"
 
@@ -347,8 +347,7 @@ def test_lesson_phong_captions_one_change_a_line(desktop):
         assert tops == sorted(set(tops)), (i, notes, tops)  # each on a line of its own
     assert page.locator(".lesson-panel >> nth=0").locator(".panel-notes").inner_text().splitlines() == [
         "ka = 0.3",
-        "attenuation = [0,0,1]",
-        "kd = ks = 0",
+        "kd = ks = 0 everywhere (each ka kept)",
     ]
     desktop.shot("lesson-phong-captions")
 
@@ -435,3 +434,106 @@ def test_lesson_noise_errors_against_the_references(desktop, server):  # noqa: F
     assert all(more[i] < errors[i] for i in (0, 1, 2, 4, 5, 6)), (errors, more)
     assert more[2] < more[1] < more[0], more
     desktop.shot("lesson-noise-64", full_page=True)
+
+
+def job_scene(server, page, panel: int) -> dict:  # noqa: F811
+    job = page.get_attribute(f".lesson-panel >> nth={panel}", "data-job")
+    return httpx.get(f"{server.url}/api/jobs/{job}/scene", headers=TEACHER, timeout=30).json()
+
+
+def test_lesson_shadows_one_box_only_the_light_changes(desktop, server):  # noqa: F811
+    """The three shadow pictures are one scene: the left one's square ceiling light is a point light at its
+    centre (as bright straight down), the right two differ only in their shadow rays per point."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "shadows")
+    pictures_loaded(page)
+    scenes = [job_scene(server, page, i) for i in range(3)]
+    lights = [s.pop("lights") for s in scenes]
+    samples = [s["render"].pop("light_samples", None) for s in scenes]
+    assert scenes[0] == scenes[1] == scenes[2], "the pictures are of different scenes"
+    assert lights[1] == lights[2] and [light["type"] for light in lights[1]] == ["quad"]
+    (quad,), (point,) = lights[1], lights[0]
+    centre = np.add(quad["corner"], np.add(quad["edge1"], quad["edge2"]) / 2)
+    assert point["type"] == "point" and np.allclose(point["position"], centre - [0, 0.01, 0])
+    area = np.linalg.norm(np.cross(quad["edge1"], quad["edge2"]))
+    assert np.allclose(point["intensity"], np.multiply(quad["radiance"], area))  # radiance * area, straight down
+    assert samples[1] == 1 and samples[2] == 16
+    floor = [job_png(server, page.get_attribute(f".lesson-panel >> nth={i}", "data-job"))[-12:, 50:70].mean()
+             for i in range(3)]  # fmt: skip
+    assert abs(floor[0] - floor[2]) < 0.15 * floor[2], floor  # the floor under the light: lit alike
+    desktop.shot("lesson-shadows-one-box", full_page=True)
+
+
+def test_lesson_phong_ambient_only_has_no_light_anywhere(desktop, server):  # noqa: F811
+    """The ambient picture shows ka·Ia alone: every surface is one flat colour (no lit floor, no cast shadow)."""
+    page = desktop.open("#lessons").page
+    open_lesson(page, "phong")
+    pictures_loaded(page)
+    scene = job_scene(server, page, 0)
+    assert all(m.get("kd") == 0 and m.get("ks", 0) == 0 and "ka" in m for m in scene["materials"].values())
+    png = job_png(server, page.get_attribute(".lesson-panel >> nth=0", "data-job"))
+    lit = job_png(server, page.get_attribute(".lesson-panel >> nth=1", "data-job"))
+    rows = slice(png.shape[0] - 20, png.shape[0])  # the floor in front of the ball: flat, where light varies
+    assert np.ptp(png[rows], axis=(0, 1)).max() <= 2, np.ptp(png[rows], axis=(0, 1))
+    assert np.ptp(lit[rows], axis=(0, 1)).max() > 10  # the diffuse picture's floor is lit (it would fail the above)
+    desktop.shot("lesson-phong-ambient-only", full_page=True)
+
+
+def test_lesson_ray_tree_pixel_is_marked_in_the_workspace(desktop):
+    """ "Open it in the workspace and click the marked pixel": the workspace's picture marks the question's pixel
+    (the keyboard's cursor starts there: Enter shows its tree)."""
+    page = desktop.open("#lessons").page
+    page.click(".lesson-button[data-lesson=raytree-stop]")
+    page.wait_for_selector(".lesson-panel >> nth=0 >> .lesson-mark", timeout=60_000)
+    mark = page.locator(".lesson-panel >> nth=0 >> .lesson-mark")
+    x, y = int(mark.get_attribute("data-x")), int(mark.get_attribute("data-y"))
+    open_lesson(page, "raytree-stop")
+    page.locator(".lesson-panel >> nth=0").get_by_role("button", name="Open in workspace").click()
+    page.wait_for_selector("#page-work:not([hidden]) #stage-marker[data-kind=lesson]:not([hidden])")
+    page.wait_for_function("() => document.querySelector('#render-img').complete")
+    at = page.evaluate(
+        """() => { const m = document.querySelector('#stage-marker').getBoundingClientRect();
+                   const i = document.querySelector('#render-img').getBoundingClientRect();
+                   const w = document.querySelector('#render-img').naturalWidth;
+                   const h = document.querySelector('#render-img').naturalHeight;
+                   return [Math.floor((m.left + m.width / 2 - i.left) / i.width * w),
+                           Math.floor((m.top + m.height / 2 - i.top) / i.height * h),
+                           m.top >= 0 && m.bottom <= innerHeight]; }"""
+    )
+    assert at == [x, y, True], at
+    assert f"pixel ({x}, {y}) is marked" in page.inner_text("#viewer-message")
+    desktop.shot("lesson-raytree-marked-in-workspace")
+    page.focus("#render-img")
+    page.keyboard.press("Enter")
+    page.wait_for_function(f"() => document.querySelector('#rt-pixel').textContent === 'pixel ({x}, {y})'")
+    page.wait_for_selector("#rt-diagram .rt-node")
+    assert page.get_attribute("#stage-marker", "data-kind") is None  # picked: the usual marker
+
+
+def test_lesson_on_a_phone_comes_before_the_list_and_its_tree_is_readable(phone):  # noqa: F811
+    page = phone.open("#lessons/raytree-stop").page
+    page.wait_for_selector(".lesson-panel >> nth=0 >> .lesson-mark", timeout=90_000)
+    tops = page.evaluate(
+        """() => ['#lesson-stage', '.lesson-nav', '#lesson-stage h2']
+            .map((s) => document.querySelector(s).getBoundingClientRect().top)"""
+    )
+    assert tops[0] < tops[1] and tops[2] < PHONE["height"], tops  # the lesson, its title in view; the list under it
+    phone.shot("lesson-phone-first")
+    page.wait_for_function(
+        "() => [...document.querySelectorAll('.lesson-panel')].every(p => p.dataset.status === 'done')", timeout=90_000
+    )
+    page.locator(".lesson-panel >> nth=0").get_by_role("button", name="Open in workspace").click()
+    page.wait_for_selector("#stage-marker[data-kind=lesson]:not([hidden])")
+    page.focus("#render-img")
+    page.keyboard.press("Enter")
+    page.wait_for_selector("#rt-diagram .rt-node")
+    assert page.get_attribute("#rt-fit", "aria-pressed") == "false"
+    seen = page.evaluate(
+        """() => { const d = document.querySelector('#rt-diagram');
+                   const t = d.querySelector('.rt-node text').getBoundingClientRect();
+                   return { scale: d.dataset.scale, text: t.height, scrolls: d.scrollWidth > d.clientWidth,
+                            page: document.documentElement.scrollWidth }; }"""
+    )
+    assert seen["scale"] == "1" and seen["text"] >= 10 and seen["page"] <= PHONE["width"], seen
+    page.locator("#rt-diagram").scroll_into_view_if_needed()
+    phone.shot("lesson-phone-raytree")

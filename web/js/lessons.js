@@ -274,7 +274,8 @@ export class Lessons {
     const title = h("strong", {});
     const notes = h("ul", { class: "panel-notes", "aria-label": "what changed" });
     const el = { img, state, bar, info, title, notes, panel };
-    const open = h("button", { type: "button", class: "small", disabled: true, onclick: () => this.openInWorkspace(el.panel.scene, el.panel.job, el.panel.label) }, "Open in workspace");
+    const marks = () => (run.marks || []).filter((m) => m.panel === panel.index); // the question's pixel, if on this one
+    const open = h("button", { type: "button", class: "small", disabled: true, onclick: () => this.openInWorkspace(el.panel.scene, el.panel.job, el.panel.label, marks()) }, "Open in workspace");
     const rays = h("button", { type: "button", class: "small", disabled: true, "aria-pressed": "false" }, "Rays / pixel");
     rays.addEventListener("click", () => {
       const on = rays.getAttribute("aria-pressed") !== "true";

@@ -10,7 +10,7 @@ import { decodeScene, encodeScene, MAX_LINK } from "./share.js";
 import { RadiosityPanel } from "./radiosity.js";
 import { RayTreePanel } from "./raytree.js";
 import { loadSchema } from "./schema.js";
-import { $, $$, download, h } from "./util.js";
+import { $, $$, benignError, download, h } from "./util.js";
 import { copyText, Viewer } from "./viewer.js";
 import { identityJobs, showWorkingOn } from "./course/working.js";
 
@@ -23,7 +23,7 @@ function notify(text, kind = "error", action = null) {
   parts.push(h("button", { type: "button", class: "close", "aria-label": "Dismiss", onclick: () => (banner.hidden = true) }, "×"));
   banner.replaceChildren(...parts);
 }
-window.addEventListener("error", (e) => notify(`Something went wrong on this page: ${e.message}`));
+window.addEventListener("error", (e) => benignError(e) || notify(`Something went wrong on this page: ${e.message}`));
 window.addEventListener("unhandledrejection", (e) => notify(`Something went wrong on this page: ${e.reason?.message || e.reason}`));
 
 // -- tabs, and the address: each tab and lesson has its own (#lessons/bounces), so Back and Forward work -------
@@ -106,6 +106,7 @@ let fields = null;
 const editor = new SceneEditor($("#editor-panel"), {
   onChange: (state) => {
     fields?.refresh(state.value);
+    followExample(state.value);
     if (state.value) $("#scene-description").textContent = typeof state.value.description === "string" ? state.value.description : "";
   },
   onRender: () => viewer.submit(),
@@ -154,14 +155,29 @@ async function pickPixel(view, x, y) {
   }
   const first = $("#raytree").hidden;
   const shown = raytree.show(view, viewer.image(), x, y);
-  if (first || $("#raytree").getBoundingClientRect().top > window.innerHeight) $("#raytree").scrollIntoView({ behavior: "smooth", block: "start" });
+  viewer.layout(); // a smaller picture where the tree shares its column (app.css)
+  const tree = $("#raytree").getBoundingClientRect();
+  if (first || tree.top > window.innerHeight - 160) {
+    // the tree under the picture (a wide window): the picture at the top, the tree below it; else the tree itself
+    const beside = Math.abs(tree.left - $("#stage").getBoundingClientRect().left) < 40;
+    (beside ? $("#stage") : $("#raytree")).scrollIntoView({ behavior: "smooth", block: "start" });
+  }
   await shown;
 }
 
 let previousText = null;
+let exampleName = null; // the example the editor's text came from (loaded, or restored from the last visit)
 /** The Example menu names the example the editor holds (loaded, or restored from the last visit), else none. */
 function showExample(name) {
-  exampleSelect.value = examples.some((s) => s.name === name) ? name : "";
+  exampleName = name;
+  followExample(editor.parseNow().value);
+}
+
+/** The menu follows the text: it names the example while the text is that scene (as loaded, or edited and still
+ * called by the example's name); other text, typed or pasted (or text that does not parse), resets it. */
+function followExample(value) {
+  const example = examples.find((s) => s.name === exampleName);
+  exampleSelect.value = example && value && value.name === example.title ? example.name : "";
 }
 
 function loadText(text, name, show = true) {
@@ -341,10 +357,15 @@ let lessons = null;
 async function start() {
   showWorkingOn($("#working-on")); // opened from an assignment's "Start": the way back to it
   lessons = new Lessons($("#page-lessons"), {
-    openInWorkspace: async (scene, job, label) => {
+    openInWorkspace: async (scene, job, label, marks = []) => {
       loadText(formatJSON(scene), label);
       viewer.remember(job);
       await viewer.show(job, scene, JSON.stringify(scene));
+      const [mark] = marks; // the pixel the lesson asks about, marked on the picture here as on the lesson's
+      if (mark) {
+        viewer.markPixel(mark.x, mark.y, `The lesson's pixel (${mark.x}, ${mark.y}) is marked`);
+        $("#stage").scrollIntoView({ block: "nearest" });
+      }
     },
   });
   // a lesson chosen from the list gets its own address (the lesson itself runs from its button)

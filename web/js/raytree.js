@@ -54,6 +54,8 @@ export class RayTreePanel {
     this.el.depth.addEventListener("input", () => this.setDepth(Number(this.el.depth.value)));
     this.el.play.addEventListener("click", () => this.replay());
     this.el.sample.addEventListener("change", () => this.reload());
+    // a phone: the boxes at their own size, scrolled (fitted into 360 px, a tree's words are too small to read)
+    if (window.matchMedia("(max-width: 820px)").matches) this.el.fit.setAttribute("aria-pressed", "false");
     window.addEventListener("resize", () => this.el.fit.getAttribute("aria-pressed") === "true" && this.diagram?.fit(true));
     this.el.fit.addEventListener("click", () => {
       const on = this.el.fit.getAttribute("aria-pressed") !== "true";

@@ -141,6 +141,8 @@ export class Viewer {
     this.previews = 0;
     this.runningPreviews = 0;
     this.cursor = null;
+    delete this.el.marker.dataset.kind; // a lesson's mark belongs to the job it was made on
+    this.el.marker.removeAttribute("title");
     this.aov = "image";
     this.latestImage = null;
     this.el.img.dataset.previews = "0";
@@ -327,7 +329,9 @@ export class Viewer {
     const img = this.el.img;
     if (!v || img.hidden) return;
     const box = this.el.stage.getBoundingClientRect();
-    const maxH = Math.max(160, Math.min(window.innerHeight * 0.62, 720));
+    // the share of the window's height the picture may take (app.css: less where a ray tree shares its column)
+    const share = Number.parseFloat(getComputedStyle(this.el.stage).getPropertyValue("--stage-share")) || 0.62;
+    const maxH = Math.max(160, Math.min(window.innerHeight * share, 720));
     const scale = Math.min(box.width / v.width, maxH / v.height);
     img.style.width = `${Math.max(1, Math.floor(v.width * scale))}px`;
     img.style.height = `${Math.max(1, Math.floor(v.height * scale))}px`;
@@ -362,8 +366,21 @@ export class Viewer {
     }
   }
 
+  /** Mark pixel (x, y) of the picture shown, as a lesson asks the student to click it: the keyboard's cursor
+   * starts there too (Enter on the picture picks it). */
+  markPixel(x, y, why) {
+    if (!this.view) return;
+    this.cursor = [Math.min(this.view.width - 1, x), Math.min(this.view.height - 1, y)];
+    this.el.marker.dataset.kind = "lesson";
+    this.el.marker.title = why;
+    this.drawMarker();
+    this.message("info", `${why}: click it on the picture (or press Enter on the picture) to see its ray tree.`);
+  }
+
   pick(x, y) {
     this.cursor = [x, y];
+    delete this.el.marker.dataset.kind;
+    this.el.marker.removeAttribute("title");
     this.drawMarker();
     this.onPick(this.view, x, y);
   }

@@ -65,7 +65,9 @@ def test_command_publish_sends_the_spec_with_its_reference_file_and_the_policy(s
     assert "13 points: validity 1; requirements: a glass object 2, an area light 1" in text
     assert "image tests: flip 2, ssim 1, psnr 1, pixels 2" in text
     assert "submissions: at most 3, the best counts; reference image shown: yes; open: no" in text
-    assert lines[-1] == f"  {server.url}/api/assignments/{aid}"
+    assert lines[-1] == f"  the brief's page: {server.url}/assignments/{aid}"  # the page a student opens
+    page = server.client.get(f"/assignments/{aid}")
+    assert page.status_code == 200 and "text/html" in page.headers["content-type"]
 
     a = server.client.get(f"/api/assignments/{aid}", headers=bearer(INSTRUCTOR)).json()
     assert a["spec"]["reference"]["scene"] == json.loads((EXAMPLE / "reference.json").read_text())  # the file, inline

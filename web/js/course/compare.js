@@ -6,17 +6,32 @@
 // at a pixel") answers {student, reference, difference: null | {student: path, reference: path, what, message,
 // nodes: {student: id, reference: id}}}. A path is the child indices from the eye ray, children in id order.
 // The student's page imports this module when the difference map is clicked (and links /css/compare.css);
-// the instructor's dashboard calls it with `as: "instructor"`.
+// the instructor's dashboard (web/course.html links compare.css too) calls it with `as: "instructor"`: the same
+// view of the student's tree, titled and worded for the instructor ("The student's eye ray…").
 import { request } from "../api.js";
 import { renderDiagram } from "../diagram.js";
 import { renderRayList } from "../raylist.js";
 import { legend } from "../rays.js";
 import { cssColour, h, rgb, s } from "../util.js";
 
-const SIDES = [
-  ["student", "Your ray tree"],
-  ["reference", "The reference's"],
-];
+/** The two sides, titled for the reader: the student themselves, or their instructor (`as`). */
+const SIDES = {
+  student: [
+    ["student", "Your ray tree"],
+    ["reference", "The reference's"],
+  ],
+  instructor: [
+    ["student", "The student's ray tree"],
+    ["reference", "The reference's"],
+  ],
+};
+
+/** The server's sentence (tracer/grading/treediff.py) speaks to the student ("Your eye ray hits…"): for their
+ * instructor, the same sentence about the student ("The student's eye ray hits…"). */
+export function inWordsOf(as, message) {
+  if (as !== "instructor") return message;
+  return message.replace(/\bYour\b/g, "The student's").replace(/\byours\b/g, "the student's").replace(/\byour\b/g, "the student's");
+}
 
 /** The diagram's model of a tree (diagram.js): its nodes, each node's children in id order, the root. */
 export function treeModel(tree) {
@@ -80,7 +95,8 @@ function mark(view, what) {
  */
 export async function showCompare(container, { aid, sid, x, y, sample = null, as = "student", token }) {
   const root = h("div", { class: "compare", dataset: { x, y } });
-  const status = h("p", { class: "compare-status", role: "status" }, `Tracing your ray tree and the reference's at pixel (${x}, ${y})…`);
+  const whose = as === "instructor" ? "the student's" : "your";
+  const status = h("p", { class: "compare-status", role: "status" }, `Tracing ${whose} ray tree and the reference's at pixel (${x}, ${y})…`);
   root.append(status);
   container.replaceChildren(root);
   const query = new URLSearchParams({ x: String(x), y: String(y) });
@@ -97,9 +113,9 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   const head = h(
     "p",
     { class: "compare-message", dataset: { what: d ? d.what : "none" } },
-    d ? d.message : "The two ray trees agree at this pixel sample: every ray hits the same, with the same weights and terms. Try another pixel of the difference map.",
+    d ? inWordsOf(as, d.message) : "The two ray trees agree at this pixel sample: every ray hits the same, with the same weights and terms. Try another pixel of the difference map.",
   );
-  const views = SIDES.map(([name, title]) => {
+  const views = (SIDES[as] || SIDES.student).map(([name, title]) => {
     const tree = answer[name];
     const marked = d ? nodeAt(treeModel(tree), d[name]) : null;
     return side(name, title, tree, marked);

@@ -121,9 +121,15 @@ export class Board {
       h("div", { class: "panel-head" }, h("h2", { id: "h-roster" }, "Roster and links")),
       h("label", { for: "roster-file", class: "grade-label" }, "Upload the roster (CSV with the header id,name,email)"),
       this.rosterInput,
-      h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Each link is shown once: download the links right after the upload."),
+      h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Download the links after the upload; they can be downloaded again at any time."),
       this.rosterErrors,
       this.rosterStatus,
+      h(
+        "div",
+        { class: "links-again" },
+        h("button", { type: "button", id: "links-again", onclick: () => this.linksAgain() }, "Download links again"),
+        h("button", { type: "button", id: "links-reissue", onclick: () => this.reissueAll() }, "Re-issue all…"),
+      ),
       this.linksBox,
     );
 
@@ -445,16 +451,61 @@ export class Board {
     }
   }
 
-  /** The new students' links as a CSV to mail out (id,name,email,link): the tokens are shown this once. */
-  showLinks(students, name) {
+  /** Every roster student's link again (GET /api/courses/{cid}/links: the tokens are derived, so these are the
+   * links already sent, still working), as the CSV to mail out. */
+  async linksAgain() {
+    say(this.rosterStatus, "busy", "Asking for the links…");
+    try {
+      const cid = this.data?.course || (await course.board(this.aid)).course;
+      const { students } = await course.links(cid, this.aid);
+      say(this.rosterStatus, "ok", `${students.length} link${students.length === 1 ? "" : "s"}: the ones already sent (they keep working).`);
+      this.showLinks(students, "links-again.csv", "again");
+      if (students.length) $("#links-download", this.linksBox).click();
+    } catch (err) {
+      say(this.rosterStatus, "error", `Could not get the links: ${err.message}`);
+    }
+  }
+
+  /** A new link for every roster student, one after the other: each old link stops working (in every assignment
+   * of the course), so this asks first. Then the new links, as the CSV to mail out. */
+  async reissueAll() {
+    const students = this.data?.students || [];
+    if (!students.length) {
+      say(this.rosterStatus, "error", "No students on the roster yet: upload it first.");
+      return;
+    }
+    const n = students.length;
+    if (!confirm(`Re-issue all ${n} links? Every student gets a new link, and the links sent before stop working at once (in every assignment of the course ${this.data.course}): mail the new ones out.`)) return;
+    const fresh = [];
+    try {
+      for (const st of students) {
+        say(this.rosterStatus, "busy", `Re-issuing the links… ${fresh.length} of ${n}`);
+        const r = await course.newLink(this.aid, st.id);
+        fresh.push({ id: st.id, name: st.name, email: st.email || "", link: r.link });
+      }
+      say(this.rosterStatus, "ok", `${n} new links: the old ones no longer work.`);
+    } catch (err) {
+      say(this.rosterStatus, "error", `Re-issued ${fresh.length} of ${n} links, then: ${err.message}. Those ${fresh.length} are below; the others keep their links.`);
+    }
+    this.showLinks(fresh, "links-reissued.csv", "reissued");
+  }
+
+  /** Links as a CSV to mail out (id,name,email,link): the new students' after an upload, every student's again
+   * (`why` "again"), or the re-issued ones ("reissued"). */
+  showLinks(students, name, why = "new") {
     if (!students.length) {
       this.linksBox.hidden = true;
       return;
     }
     const text = csvText([["id", "name", "email", "link"], ...students.map((st) => [st.id, st.name, st.email, st.link])]);
     const button = h("button", { type: "button", class: "primary", id: "links-download", onclick: () => download(name, new Blob([text], { type: "text/csv" })) }, `Download ${name} (${students.length} link${students.length > 1 ? "s" : ""})`);
+    const said = {
+      new: [h("strong", {}, "Download the links now. "), "Each link carries its student's secret token: mail each student theirs. If this page is left, \u201cDownload links again\u201d gives the same links. A lost link can be replaced (in the student's detail), which ends the old one."],
+      again: [h("strong", {}, "The same links as before. "), "They still work: nothing changed for the students."],
+      reissued: [h("strong", {}, "New links: mail them out. "), "The links sent before no longer work."],
+    }[why];
     this.linksBox.replaceChildren(
-      h("p", { class: "message", dataset: { kind: "warn" } }, h("strong", {}, "Download the links now. "), "Each link carries its student's secret token and is shown this once: the server keeps only a hash of it. A lost link can be replaced (in the student's detail), which ends the old one."),
+      h("p", { class: "message", dataset: { kind: why === "again" ? "info" : "warn" } }, ...said),
       button,
       h("details", {}, h("summary", {}, "The links"), h("ul", { class: "links-list" }, students.map((st) => h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, h("code", {}, st.link))))),
     );

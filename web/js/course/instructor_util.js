@@ -22,6 +22,7 @@ export const course = {
   extend: (aid, student, deadline) => request("POST", `${A(aid)}/extensions`, { student, deadline }, AS),
   newLink: (aid, student) => request("POST", `${A(aid)}/students/${encodeURIComponent(student)}/link`, undefined, AS),
   roster: (aid, text) => postCsv(`${A(aid)}/roster`, text),
+  links: (cid, aid) => request("GET", `/api/courses/${encodeURIComponent(cid)}/links?assignment=${encodeURIComponent(aid)}`, undefined, { ...AS, cache: "no-store" }),
   url: A,
 };
 

@@ -6,7 +6,7 @@
 import { ApiError } from "../api.js";
 import { encodeScene, MAX_LINK } from "../share.js";
 import { formatJSON } from "../jsonpos.js";
-import { $, h, store } from "../util.js";
+import { $, benignError, h, store } from "../util.js";
 import { scoreWhen, showBrief } from "./brief.js";
 import { HandIn } from "./handin.js";
 import { assignmentId, forget, join, keep, linkToken, studentApi } from "./session.js";
@@ -19,7 +19,7 @@ function say(kind, ...content) {
   status.dataset.kind = kind;
   status.replaceChildren(...content);
 }
-window.addEventListener("error", (e) => say("error", `Something went wrong on this page: ${e.message}`));
+window.addEventListener("error", (e) => benignError(e) || say("error", `Something went wrong on this page: ${e.message}`));
 window.addEventListener("unhandledrejection", (e) => say("error", `Something went wrong on this page: ${e.reason?.message || e.reason}`));
 
 const aid = assignmentId();

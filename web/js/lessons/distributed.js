@@ -1,6 +1,19 @@
 // The lessons on distributed ray tracing: glossy reflection, soft shadows, depth of field.
 import { eachMaterial, reference, values } from "./helpers.js";
 
+/** The scene's square ceiling light (a quad) as a point light at its centre, a little below it, as bright
+ * straight down: a small area light acts as a point light of intensity radiance · area · cos θ
+ * (docs/scene-format.md), so the two light the floor under them alike and only the shadows' edges differ. */
+function pointLight(s) {
+  const q = s.lights.find((l) => l.type === "quad");
+  const centre = q.corner.map((c, k) => c + (q.edge1[k] + q.edge2[k]) / 2);
+  const cross = [q.edge1[1] * q.edge2[2] - q.edge1[2] * q.edge2[1], q.edge1[2] * q.edge2[0] - q.edge1[0] * q.edge2[2], q.edge1[0] * q.edge2[1] - q.edge1[1] * q.edge2[0]];
+  const area = Math.hypot(...cross);
+  const down = cross.map((c) => (0.01 * c) / area); // 1 cm along the side it emits on
+  const radiance = Array.isArray(q.radiance) ? q.radiance : [q.radiance, q.radiance, q.radiance];
+  s.lights = s.lights.map((l) => (l === q ? { type: "point", position: centre.map((c, k) => c + down[k]), intensity: radiance.map((r) => r * area) } : l));
+}
+
 export const DISTRIBUTED = [
   {
     id: "glossy",
@@ -27,14 +40,15 @@ export const DISTRIBUTED = [
   {
     id: "shadows",
     title: "Hard vs soft shadows",
+    scene: "cornell_whitted_area",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
-    text: "A point light casts hard shadows: a point is lit or not. An area light is sampled with light_samples shadow rays to random points of the light per shading point: the fraction that reaches the light makes the penumbra. Fewer rays, more noise; more rays, less noise (and more shadow rays to pay for). The penumbra is widest where the shadow is far from the object that casts it.",
+    text: "The same box in the three pictures. On the left, the ceiling's square light is a point light at its centre, as bright straight down: it casts hard shadows, as a point is lit or not. An area light is sampled with light_samples shadow rays to random points of the light per shading point: the fraction that reaches the light makes the penumbra. Fewer rays, more noise; more rays, less noise (and more shadow rays to pay for). The penumbra is widest where the shadow is far from the object that casts it.",
     more: [reference("area lights", "area-lights"), reference("shadow rays", "shadow-rays")],
     controls: [{ key: "light", label: "shadow rays per point (right)", kind: "range", min: 1, max: 32, step: 1, value: 16, panels: [2], path: "render.light_samples" }],
     panels: [
-      { label: "point light: hard shadows", scene: "cornell" },
-      { label: "area light, 1 shadow ray", scene: "cornell_whitted_area", set: { "render.light_samples": 1 } },
-      { label: (s) => `area light, ${s.render.light_samples} shadow rays`, scene: "cornell_whitted_area" },
+      { label: "point light: hard shadows", edit: pointLight, note: "the square light → a point light at its centre" },
+      { label: "area light, 1 shadow ray", set: { "render.light_samples": 1 } },
+      { label: (s) => `area light, ${s.render.light_samples} shadow rays` },
     ],
     question: {
       prompt: "Where is the penumbra of a block's shadow widest?",

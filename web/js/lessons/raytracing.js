@@ -1,6 +1,6 @@
 // The lessons on Whitted's ray tracing: the ray tree and where it is cut, the Phong terms, bounces.
 import { api } from "../api.js";
-import { reference, values } from "./helpers.js";
+import { eachMaterial, reference, values } from "./helpers.js";
 
 const GLASS_PIXEL = [110, 70]; // on the glass ball of `whitted` at 160 x 120 (the lessons' size)
 const QUESTION_DEPTH = 3; // the ray tree question's max_depth, where the left picture's slider starts
@@ -33,7 +33,7 @@ export const RAY_TRACING = [
       s.materials.ball = { kd: [0.2, 0.35, 0.8], ks: 0.5, shininess: 64 };
       s.lights = [{ type: "point", position: [-3, 5, 4], intensity: 60 }];
     },
-    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time; the sliders change the ball's coefficients in the pictures that have their term (kd from the middle one on, ks and n on the right), and the light's attenuation, which shows best on the floor.",
+    text: "The local shading of a hit: I = ka·Ia + f_att·Ip·(kd cos θ + ks cosⁿ φ), with θ between the normal and the light, φ between the mirror direction of the light and the eye, and f_att = 1 / (c1 + c2 d + c3 d²) dimming the point light with its distance d. The three pictures add the terms one at a time: the left one has only the ambient term, on the floor as on the ball (no surface takes the light in: no shading, no shadow). The sliders change the ball's coefficients in the pictures that have their term (kd from the middle one on, ks and n on the right), and the light's attenuation, which shows best on the floor.",
     more: [reference("the local term", "the-local-term"), reference("materials", "materials"), reference("the point light's attenuation", "point-light")],
     controls: [
       { key: "ka", label: "ka (ambient)", kind: "range", min: 0, max: 1, step: 0.05, value: 0.3, apply: (s, v) => (s.materials.ball.ka = v), note: (v) => `ka = ${v}` },
@@ -50,12 +50,14 @@ export const RAY_TRACING = [
           [[50, 0, 0], "1 / 50 (constant)"],
         ],
         value: [0, 0, 1],
+        panels: [1, 2], // the light's fall-off: nothing to change where no light is taken in
         apply: (s, v) => (s.lights[0].attenuation = v),
         note: (v) => `attenuation = ${JSON.stringify(v)}`,
       },
     ],
     panels: [
-      { label: "ambient only: ka·Ia", edit: (s) => Object.assign(s.materials.ball, { kd: 0, ks: 0 }), note: "kd = ks = 0" },
+      // every surface (the floor too: no light on it, no shadow), each keeping its ka (by default its kd)
+      { label: "ambient only: ka·Ia", edit: (s) => eachMaterial(s, (m) => Object.assign(m, { ka: m.ka ?? m.kd, kd: 0, ks: 0 })), note: "kd = ks = 0 everywhere (each ka kept)" },
       { label: "+ diffuse: f_att·Ip·kd cos θ", edit: (s) => Object.assign(s.materials.ball, { ks: 0 }), note: "ks = 0" },
       { label: "+ specular: f_att·Ip·ks cosⁿ φ (Phong)" },
     ],
