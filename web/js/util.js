@@ -90,13 +90,13 @@ export function debounce(fn, ms) {
   return wrapped;
 }
 
-/** localStorage that never throws (private windows, full quota): the page works without it. */
 /** Is a window "error" event the browser's note that a ResizeObserver's callback changed the layout it watches
  * (the rest is delivered in the next frame, as the specification says): a notice, not an error of the page. */
 export function benignError(e) {
   return /^ResizeObserver loop (completed with undelivered notifications|limit exceeded)/.test(e?.message || "");
 }
 
+/** localStorage that never throws (private windows, full quota): the page works without it. */
 export const store = {
   get(key, fallback = null) {
     try {
