@@ -636,7 +636,8 @@ class Lms:
         if not contexts:
             return None
         synced = [c["synced_at"] for c in contexts if c["synced_at"]]
-        return {"contexts": [c["title"] for c in contexts], "linked": bool(self.store.links(aid)),
+        names = [c["title"] or c["context_id"] for c in contexts]  # one the admin linked has no title until a launch
+        return {"contexts": names, "linked": bool(self.store.links(aid)),
                 "roster_synced_at": max(synced) if synced else None, "grades": self.store.scores(aid)}  # fmt: skip
 
 

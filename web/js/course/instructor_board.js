@@ -272,7 +272,7 @@ export class Board {
       this.stats.after(note);
     }
     const synced = l.roster_synced_at ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}` : "roster not read from the LMS yet";
-    const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; tried again ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
+    const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; the next try: ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
     note.textContent = `In the LMS: ${l.contexts.join(", ")} (${synced}).${waiting}`;
   }
 

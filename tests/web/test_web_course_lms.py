@@ -1,0 +1,64 @@
+"""The dashboard's LMS line in Chromium (issue #31's grades back): the course linked to a test LMS
+(tests/lti_platform.py, test_lms.py's fixtures), a student's launch and graded submission while the LMS is down;
+/course shows the grade waiting with the LMS's answer, then, the LMS back and the score sent, the grade sent and
+no waiting line. Screenshots go to $WEB_SHOTS (course-lms-*.png)."""
+
+from __future__ import annotations
+
+from datetime import timedelta
+
+from test_api_support import INSTRUCTOR, bearer, wait_for
+from lti_platform import LEARNER
+from test_lms import EXAMPLE, T0, lms, tool  # noqa: F401  (fixtures)
+from test_web_page import CSP_WATCH, DESKTOP, SHOTS, browser  # noqa: F401  (fixtures)
+
+from server.course.lms import LmsStore
+
+
+def stat(page, name: str) -> str:
+    return page.locator(f"[data-stat={name}] .value, #stat-{name}").first.inner_text().strip()
+
+
+def test_web_course_lms_the_dashboard_says_grades_wait_for_the_lms_and_then_that_they_were_sent(tool, lms, browser):  # noqa: F811
+    url, app, client = tool
+    p, aid = lms
+    r = p.do_launch(client, url, sub="student-9", roles=[LEARNER], custom={"assignment": aid})
+    token = r.headers["location"].split("#token=")[1]
+    p.down = True
+    scene = (EXAMPLE / "class" / "alice.json").read_text()
+    r = client.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=bearer(token))
+    assert r.status_code == 202, r.text
+    sub = r.headers["location"]
+    wait_for(lambda: client.get(sub, headers=bearer(token)).json()["status"] == "graded", 300, "the grade", 0.5)
+    store = LmsStore(app.state.settings.data_dir)
+    wait_for(lambda: store.scores(aid)["error"], 60, "a failed post of the score", 0.2)
+
+    context = browser.new_context(viewport=DESKTOP)
+    context.add_init_script(CSP_WATCH)
+    errors: list[str] = []
+    try:
+        page = context.new_page()
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(f"{url}/course#token={INSTRUCTOR}&open={aid}")
+        page.wait_for_selector("#lms-note")
+        note = page.locator("#lms-note")
+        wait_for(lambda: "Grades wait" in note.inner_text() or page.wait_for_timeout(50), 30, "the waiting line")
+        text = note.inner_text()
+        assert "In the LMS: course-1 (" in text and "503" in text and "the next try:" in text, text
+        board = page.locator("#lms-note").locator("xpath=..")
+        assert "grades to send to the LMS" in board.inner_text() and "1" in board.inner_text()
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(SHOTS / "course-lms-waiting.png"), full_page=True)
+
+        p.down = False
+        app.state.clock.now = T0 + timedelta(hours=3)
+        app.state.lms._wake.set()
+        wait_for(lambda: any(s["userId"] == "student-9" for s in p.scores), 60, "the score at the LMS", 0.2)
+        page.reload()
+        page.wait_for_selector("#lms-note")
+        wait_for(lambda: "Grades wait" not in page.locator("#lms-note").inner_text() or page.wait_for_timeout(50),
+                 30, "the waiting line gone")  # fmt: skip
+        page.screenshot(path=str(SHOTS / "course-lms-sent.png"), full_page=True)
+        assert not errors, errors
+    finally:
+        context.close()
