@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from datetime import timedelta
 
-from test_api_support import INSTRUCTOR, bearer, wait_for
 from lti_platform import LEARNER
+from test_api_support import INSTRUCTOR, bearer, wait_for
 from test_lms import EXAMPLE, T0, lms, tool  # noqa: F401  (fixtures)
 from test_web_page import CSP_WATCH, DESKTOP, SHOTS, browser  # noqa: F401  (fixtures)
 
