@@ -10,7 +10,7 @@ its keys and the platforms that may launch it), and starts the janitor (which re
 shutdown the grading runs stop where they are (their rows say where), the workers give their running jobs back
 to the queue (as soon as a stop signal arrives, with `python -m server`: see `Stopping`), and the checking
 processes end. Every request passes the host
-check and gets the security headers (server/core/security.py); the start-up log warns of a server open to
+check and gets the security headers (server/api/middleware.py); the start-up log warns of a server open to
 others without an instructor token or a list of host names.
 """
 
@@ -27,13 +27,15 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
+from server.api.errors import SafeJSONResponse, install_error_handlers
+from server.api.gate import BodyBudget, RequestGate
+from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
 from server.api.routes import assignments, courses, grade, jobs, lms, lti, pages, reference, samples, scenes, tools
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps, StreamCaps
-from server.core.errors import BodyBudget, RequestGate, SafeJSONResponse, install_error_handlers
 from server.core.migrations import migrate
 from server.core.paths import SCENES, WEB
-from server.core.security import CrossSiteCheck, HostCheck, SecurityHeaders, served_hosts, start_up_warnings
+from server.core.security import served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import check_data_dir, lock_data_dir
 from server.course.lms import Lms

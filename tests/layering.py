@@ -1,6 +1,8 @@
 """The import graph of a package of this repository, read from its sources (nothing is imported): what each
-module imports, at the top or inside a function (a lazy import is still a dependency), less the imports
-made only for type checkers (`if TYPE_CHECKING:`); and the import cycles in it (Tarjan)."""
+module imports, at the top or inside a function (a lazy import is still a dependency), and the imports made only
+for type checkers (`if TYPE_CHECKING:`) as well unless `typing=False`: a cycle that only a type-only import
+closes is still two modules that cannot be read or changed apart (it hid grading's run <-> runs); and the import
+cycles in it (Tarjan)."""
 
 from __future__ import annotations
 
@@ -29,13 +31,14 @@ def _typing_only(tree: ast.AST) -> set[int]:
     return out
 
 
-def imports_of(name: str, known: dict[str, Path]) -> set[str]:
+def imports_of(name: str, known: dict[str, Path], typing: bool = True) -> set[str]:
     """Every module `name` imports: `from tracer.kinds import End` names the module, `from tracer.integrators
-    import record` the submodule alone (a package's __init__ runs first in any case)."""
+    import record` the submodule alone (a package's __init__ runs first in any case). `typing=False`: only those
+    imported at run time (not under `if TYPE_CHECKING:`)."""
     path = known[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     tree = ast.parse(path.read_text(), str(path))
-    skip = _typing_only(tree)
+    skip = set() if typing else _typing_only(tree)
     out = set()
     for node in ast.walk(tree):
         if id(node) in skip:
@@ -52,10 +55,10 @@ def imports_of(name: str, known: dict[str, Path]) -> set[str]:
     return out
 
 
-def graph(package: str) -> dict[str, set[str]]:
-    """Edges between the package's own modules."""
+def graph(package: str, typing: bool = True) -> dict[str, set[str]]:
+    """Edges between the package's own modules (`typing=False`: those of run-time imports only)."""
     known = modules(package)
-    return {m: {i for i in imports_of(m, known) if i in known and i != m} for m in known}
+    return {m: {i for i in imports_of(m, known, typing) if i in known and i != m} for m in known}
 
 
 def cycles(edges: dict[str, set[str]]) -> list[list[str]]:

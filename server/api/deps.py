@@ -1,6 +1,8 @@
-"""Dependencies of the routes, as `Annotated` aliases: the settings, the job service (and its store), the job
-queue's interface, the scene checking processes, a job (the caller's own: server/core/security.py), and who asks
-for work from which address (the caps of anonymous clients: server/core/clients.py).
+"""Dependencies of the routes, as `Annotated` aliases, in this one place: the settings, the job service (and its
+store), the job queue's interface, the scene checking processes, the course, the LTI tool and the LMS, who calls
+(`CallerDep`) and whether they are the instructor (`InstructorDep`, `require_instructor`; the rules are
+server/core/security.py's), a job (the caller's own), and who asks for work from which address (the caps of
+anonymous clients: server/core/clients.py).
 
 Those that only look something up are `async def`: FastAPI runs a plain `def` dependency in its thread pool,
 a trip through another thread (and the interpreter's lock) for each, which a busy event loop makes slow."""
@@ -14,17 +16,22 @@ from typing import Annotated
 
 import anyio
 from fastapi import Depends, Path, Request
-from fastapi.responses import StreamingResponse
+from fastapi.security import HTTPBearer
 
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps
-from server.core.errors import ApiError
+from server.core.errors import NotFound, Unavailable
 from server.core.ids import looks_like_job_id
-from server.core.security import Caller, CallerDep, unauthorized
+from server.core.security import Caller, check_instructor, is_instructor, parse_bearer, token_hash, unauthorized
 from server.core.settings import Settings
+from server.course.lms import Lms
+from server.course.service import Course
+from server.grading.runs import GradeRuns
 from server.jobs.lifecycle import JobStatus
+from server.jobs.previews import Previews
 from server.jobs.service import JobService
 from server.jobs.store import JobStore
+from server.lti.tool import LtiTool
 from server.queue.base import JobQueue
 
 
@@ -52,12 +59,96 @@ async def get_caps(request: Request) -> AddressCaps:
     return request.app.state.caps
 
 
+async def get_course(request: Request) -> Course:
+    return request.app.state.course
+
+
+async def get_lti(request: Request) -> LtiTool:
+    return request.app.state.lti
+
+
+async def get_runs(request: Request) -> GradeRuns:
+    return request.app.state.grade_runs
+
+
+async def get_previews(request: Request) -> Previews:
+    return request.app.state.previews
+
+
+async def get_stopping(request: Request) -> Callable[[], bool]:
+    """Whether the server has been asked to stop (server/main.py's `Stopping`): an event stream ends then."""
+    return request.app.state.stopping
+
+
+async def find_lms(request: Request) -> Lms | None:
+    """The course's side of LTI, None where it is not running."""
+    return getattr(request.app.state, "lms", None)
+
+
+def get_lms(request: Request) -> Lms:
+    """The course's side of LTI; 503 where it is not running. Called by its routes after their own checks (a
+    caller refused, an unknown course: those answers come first), so it is no dependency."""
+    lms = getattr(request.app.state, "lms", None)
+    if lms is None:
+        raise Unavailable.at("", "LTI is not running on this server")
+    return lms
+
+
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 StoreDep = Annotated[JobStore, Depends(get_store)]
 QueueDep = Annotated[JobQueue, Depends(get_queue)]
 ChecksDep = Annotated[CheckPool, Depends(get_checks)]
 JobsDep = Annotated[JobService, Depends(get_jobs)]
 CapsDep = Annotated[AddressCaps, Depends(get_caps)]
+CourseDep = Annotated[Course, Depends(get_course)]
+LtiDep = Annotated[LtiTool, Depends(get_lti)]
+MaybeLmsDep = Annotated[Lms | None, Depends(find_lms)]
+RunsDep = Annotated[GradeRuns, Depends(get_runs)]
+PreviewsDep = Annotated[Previews, Depends(get_previews)]
+StoppingDep = Annotated[Callable[[], bool], Depends(get_stopping)]
+
+
+# -- who calls -------------------------------------------------------------------------------------
+
+bearer = HTTPBearer(
+    auto_error=False,
+    scheme_name="token",
+    description="A job's token (POST /api/jobs issues one when none is sent), or the instructor's "
+    "(TRACER_INSTRUCTOR_TOKEN) for grading and every job.",
+)
+
+
+def client_address(request: Request) -> str | None:
+    """The address the request came from (None where the server cannot say): what the caps of anonymous clients
+    count by (server/core/clients.py)."""
+    return request.client.host if request.client else None
+
+
+async def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = None) -> Caller:
+    """The caller of a request (`_`: only so that /docs offers a field for the token). `async`: it reads nothing
+    but the request (no trip through the thread pool)."""
+    token = parse_bearer(request.headers.get("authorization"))
+    if token is not None:  # an address that sent too many refused tokens waits (server/core/clients.py)
+        request.app.state.caps.auth_allowed(client_address(request))
+    return Caller(token, token_hash(token) if token else None, is_instructor(token, request.app.state.settings))
+
+
+CallerDep = Annotated[Caller, Depends(get_caller)]
+
+
+def instructor_check(request: Request) -> Callable[[Caller], Caller]:
+    """`check_instructor` for this request's server, a refused token counted against its address: what the course
+    service is handed to decide about a caller who is none of a course's staff (`Course.staff`)."""
+    caps, address = request.app.state.caps, client_address(request)
+    return lambda caller: check_instructor(caller, request.app.state.settings, lambda: caps.auth_failed(address))
+
+
+def require_instructor(caller: CallerDep, request: Request) -> Caller:
+    """401 unless the caller is the instructor (403 on a server that has no instructor)."""
+    return instructor_check(request)(caller)
+
+
+InstructorDep = Annotated[Caller, Depends(require_instructor)]
 
 
 async def get_job(
@@ -77,7 +168,7 @@ async def get_job(
         except sqlite3.OperationalError:
             row = await anyio.to_thread.run_sync(store.peek, job_id, True)
     if row is None or not (caller.owns(row) or (request.method == "GET" and caller.shares(row))):
-        raise ApiError(404, [{"path": "id", "message": f"no job with id '{job_id[:64]}'"}])
+        raise NotFound.at("id", f"no job with id '{job_id[:64]}'")
     return row
 
 
@@ -116,7 +207,7 @@ def get_client(request: Request, caller: CallerDep) -> Client:
     course = request.app.state.course
     listed = course.store.roster_kind(caller.owner) if caller.owner is not None and course is not None else None
     known = caller.instructor or listed is not None
-    address = request.client.host if request.client else None
+    address = client_address(request)
     if not known and request.app.state.settings.require_identity:
         if caller.token is None:
             raise unauthorized(NO_TOKEN, "")
@@ -126,33 +217,6 @@ def get_client(request: Request, caller: CallerDep) -> Client:
 
 
 ClientDep = Annotated[Client, Depends(get_client)]
-
-
-# -- event streams ---------------------------------------------------------------------------------
-
-
-class CappedStream(StreamingResponse):
-    """An event stream that holds room under its client's caps of open streams (server/core/clients.py,
-    `StreamCaps`) and gives it back when it ends, however it ends (finished, the client gone, the server
-    stopping)."""
-
-    def __init__(self, content, release: Callable[[], None], **kwargs):
-        super().__init__(content, **kwargs)
-        self.release = release
-
-    async def __call__(self, scope, receive, send) -> None:
-        try:
-            await super().__call__(scope, receive, send)
-        finally:
-            self.release()
-
-
-def stream_room(request: Request, caller: Caller) -> Callable[[], None]:
-    """Room for one more open event stream of this caller (their token and their address); 429 past a cap. The
-    instructor's streams are not counted. The answer gives it back: hand it to a `CappedStream`."""
-    if caller.instructor:
-        return lambda: None
-    return request.app.state.streams.open(caller.owner, request.client.host if request.client else None)
 
 
 def still_waiting(jobs: JobService):

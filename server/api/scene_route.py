@@ -6,8 +6,9 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException, Request, Response
 from fastapi.routing import APIRoute
 
+from server.api.errors import headers_of, status_of
 from server.checkers.tasks import loaded, read
-from server.core.errors import ApiError
+from server.core.errors import DomainError
 
 READ_HERE = 65536  # bytes: a request body smaller than this is parsed in the API process (in well under 1 ms)
 
@@ -25,9 +26,9 @@ class SceneRequest(Request):
                 self._json = loaded(read(body), body)
             else:
                 try:
-                    self._json = await self.app.state.checks.read(self, body)
-                except ApiError as exc:  # FastAPI would answer anything else raised here with a 400
-                    raise HTTPException(exc.status, exc.errors[0]["message"], exc.headers) from None
+                    self._json = await self.app.state.checks.read(self.is_disconnected, body)
+                except DomainError as exc:  # FastAPI would answer anything else raised here with a 400
+                    raise HTTPException(status_of(exc), exc.errors[0]["message"], headers_of(exc)) from None
         return self._json
 
 

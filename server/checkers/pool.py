@@ -32,14 +32,14 @@ import multiprocessing as mp
 import os
 import threading
 import time
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 
 import anyio
-from fastapi import Request
 
 from server.checkers.tasks import checker_main, loaded
-from server.core.errors import THREAD_FROM, ApiError
-from server.core.settings import Settings
+from server.core.errors import ClientGone, Invalid, TooMany, Unavailable
+from server.core.settings import THREAD_FROM, Settings
 from tracer.scene import ASSET_DIR
 
 log = logging.getLogger(__name__)
@@ -47,6 +47,7 @@ log = logging.getLogger(__name__)
 CLIENT_CHECK = 0.05  # seconds between two looks at whether the client is still there, while its scene is checked
 WAIT_CHECK = 0.5  # seconds between a waiting request's looks at whether its client is still there
 START_TIMEOUT = 120.0  # seconds a new process may take to load what it needs
+Gone = Callable[[], Awaitable[bool]]  # has the client gone away? (the route's request.is_disconnected)
 
 
 class _Clock:
@@ -177,7 +178,7 @@ class CheckPool:
 
     # -- a task
 
-    async def _take(self, request: Request, size: int = 0) -> _Checker:
+    async def _take(self, gone: Gone, size: int = 0) -> _Checker:
         """An idle checker, marked busy; waits for one without polling, first come first served in its line
         (a body of `size` bytes under THREAD_FROM is small: served first): a request takes a free checker only
         when nobody waits before it (429 past max_validate_waiting waiting in both lines, or past
@@ -206,10 +207,9 @@ class CheckPool:
                         heavy = self._waiting_bytes + size > self.settings.max_validate_waiting_bytes
                         if full or heavy:
                             setting = "TRACER_MAX_VALIDATE_WAITING" + ("" if full else "_BYTES")
-                            raise ApiError(
-                                429, f"too many scenes are being checked; try again later ({setting})",
-                                headers={"Retry-After": "2"},
-                            )  # fmt: skip
+                            raise TooMany(
+                                f"too many scenes are being checked; try again later ({setting})", retry_after=2
+                            )
                         waiter = (asyncio.get_running_loop(), asyncio.Event())
                         line.append(waiter)
                         self._waiting_bytes += size
@@ -218,8 +218,8 @@ class CheckPool:
                     waiter[1].clear()
                 with anyio.move_on_after(WAIT_CHECK):
                     await waiter[1].wait()
-                if await request.is_disconnected():
-                    raise ApiError(499, "the client went away")
+                if await gone():
+                    raise ClientGone("the client went away")
         finally:
             if waiter is not None:  # gone while waiting (the client left, or a 429 of someone's): out of the line
                 with self._lock:
@@ -229,12 +229,12 @@ class CheckPool:
                     if head and any(c.state == "idle" for c in self.checkers):
                         self._wake()  # it was woken for a free checker: the next in line takes it
 
-    async def run(self, request: Request, task: str, *args, timed: bool = True):
+    async def run(self, gone: Gone, task: str, *args, timed: bool = True):
         """The answer of `task` (a name of TASKS) run with `args` in a checking process. A task past the time
         limit (when `timed`) is stopped (422: the scene costs too much to check); one whose client went away
         is stopped too."""
         size = len(args[0]) if args and isinstance(args[0], bytes) else 0
-        checker = await self._take(request, size)
+        checker = await self._take(gone, size)
         checker.task = task
         conn, process, answered = checker.conn, checker.process, False
         limit = self.settings.max_validate_seconds if timed else math.inf
@@ -245,20 +245,20 @@ class CheckPool:
                 with anyio.move_on_after(CLIENT_CHECK):
                     await anyio.wait_readable(conn.fileno())  # the answer (or the process's end) is there
                     break
-                if await request.is_disconnected():
+                if await gone():
                     log.info("scene check stopped: the client went away")
-                    raise ApiError(499, "the client went away")
+                    raise ClientGone("the client went away")
                 if spent() >= limit:
                     log.warning("scene check stopped after %g s (TRACER_MAX_VALIDATE_SECONDS)", limit)
                     message = (
                         f"checking the scene took longer than the limit of {limit:g} s (TRACER_MAX_VALIDATE_SECONDS): "
                         "it is too large to check; make it smaller"
                     )
-                    raise ApiError(422, [{"path": "", "message": message}])
+                    raise Invalid([{"path": "", "message": message}])
             kind, value = await anyio.to_thread.run_sync(conn.recv)
             answered = True
         except (EOFError, OSError):
-            raise ApiError(503, "the scene's checking process died; try again") from None
+            raise Unavailable("the scene's checking process died; try again") from None
         finally:
             with self._lock:
                 checker.task = None
@@ -272,24 +272,24 @@ class CheckPool:
             raise RuntimeError(f"scene check {task} failed in its process: {value}")
         return value
 
-    async def read(self, request: Request, body: bytes):
+    async def read(self, gone: Gone, body: bytes):
         """The request's JSON as the route's model reads it, its scene's content left out (`read`); raises
         what json.loads would have raised here, so the answer to a body that is not JSON is the same."""
-        return loaded(await self.run(request, "read", body, timed=False), body)  # bounded by the body's size
+        return loaded(await self.run(gone, "read", body, timed=False), body)  # bounded by the body's size
 
-    async def validate(self, request: Request, body: bytes) -> dict:
-        return await self.run(request, "validate", body, self.settings.limits, ASSET_DIR)
+    async def validate(self, gone: Gone, body: bytes) -> dict:
+        return await self.run(gone, "validate", body, self.settings.limits, ASSET_DIR)
 
-    async def summary(self, request: Request, body: bytes) -> dict:
+    async def summary(self, gone: Gone, body: bytes) -> dict:
         """The scene's summary (`summary`); 422 with its errors when it is not valid."""
-        found = await self.run(request, "summary", body, self.settings.limits, ASSET_DIR,
+        found = await self.run(gone, "summary", body, self.settings.limits, ASSET_DIR,
                                self.settings.threads_per_worker())  # fmt: skip
         if "errors" in found:
-            raise ApiError(422, found["errors"])
+            raise Invalid(found["errors"])
         return found
 
-    async def samples(self, request: Request, body: bytes, x: int, y: int) -> dict:
-        found = await self.run(request, "samples", body, self.settings.limits, ASSET_DIR, x, y)
+    async def samples(self, gone: Gone, body: bytes, x: int, y: int) -> dict:
+        found = await self.run(gone, "samples", body, self.settings.limits, ASSET_DIR, x, y)
         if "errors" in found:
-            raise ApiError(422, found["errors"])
+            raise Invalid(found["errors"])
         return found["samples"]

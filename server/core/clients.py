@@ -43,7 +43,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from server.core.errors import ApiError
+from server.core.errors import TooMany
 from server.core.security import token_hash
 from server.core.settings import Settings
 
@@ -145,9 +145,7 @@ class AddressCaps:
                     f"most it may have (TRACER_MAX_NEW_TOKENS_PER_ADDRESS): keep using the token you were given "
                     f"(the page keeps it), or try again in {retry} s"
                 )
-                raise ApiError(
-                    429, [{"path": "Authorization", "message": message}], headers={"Retry-After": str(retry)}
-                )
+                raise TooMany([{"path": "Authorization", "message": message}], retry_after=retry)
             times.append(now)
 
         def release(_: str | None, kept: bool) -> None:
@@ -188,7 +186,7 @@ class AddressCaps:
                     "identity, the most it may have (TRACER_MAX_QUEUED_PER_ADDRESS): wait for one to start, or "
                     "open your assignment's link to work with your own token"
                 )
-                raise ApiError(429, [{"path": "", "message": message}], headers={"Retry-After": "5"})
+                raise TooMany([{"path": "", "message": message}], retry_after=5)
             entry.taken += 1
 
         def release(job_id: str | None, kept: bool) -> None:
@@ -216,7 +214,7 @@ class AddressCaps:
                 f"{_duration(self.settings.address_window)}, the most it may (TRACER_MAX_JOINS_PER_ADDRESS): keep "
                 f"the link you were given, or try again in {retry} s"
             )
-            raise ApiError(429, [{"path": "", "message": message}], headers={"Retry-After": str(retry)})
+            raise TooMany([{"path": "", "message": message}], retry_after=retry)
         return Room(lambda _, kept: None if kept else self._joins.give_back(key, at))
 
     def auth_failed(self, host: str | None) -> None:
@@ -236,7 +234,7 @@ class AddressCaps:
             f"{_duration(self.settings.auth_failure_window)} (TRACER_MAX_AUTH_FAILURES): its requests with a token "
             f"are refused for {retry} s; check the token you send (your assignment's link carries yours)"
         )
-        raise ApiError(429, [{"path": "Authorization", "message": message}], headers={"Retry-After": str(retry)})
+        raise TooMany([{"path": "Authorization", "message": message}], retry_after=retry)
 
     def check(self, owner: str) -> None:
         """One check of a submission (POST /api/assignments/{aid}/check) by this token; 429 past
@@ -247,7 +245,7 @@ class AddressCaps:
                 f"this token checked {self._checks.count(owner)} times in the last minute, the most it may "
                 f"(TRACER_MAX_CHECKS_PER_MINUTE): try again in {retry} s"
             )
-            raise ApiError(429, [{"path": "", "message": message}], headers={"Retry-After": str(retry)})
+            raise TooMany([{"path": "", "message": message}], retry_after=retry)
 
     def counts(self, host: str | None) -> tuple[int, int]:
         """The address's new tokens in the window, and its waiting jobs as last counted (for tests and logs)."""
@@ -358,14 +356,14 @@ class StreamCaps:
                     f"this token already has {self._tokens[owner]} event streams open, the most one token may have "
                     "(TRACER_MAX_STREAMS_PER_TOKEN): close a tab or a stream you no longer follow"
                 )
-                raise ApiError(429, [{"path": "Authorization", "message": message}], headers=STREAM_RETRY)
+                raise TooMany([{"path": "Authorization", "message": message}], retry_after=STREAM_RETRY)
             if self._addresses.get(key, 0) >= per_address:
                 message = (
                     f"this address ({key}) already has {self._addresses[key]} event streams open, the most one "
                     "address may have (TRACER_MAX_STREAMS_PER_ADDRESS; the other connections are kept for others): "
                     "close a tab or a stream you no longer follow"
                 )
-                raise ApiError(429, [{"path": "", "message": message}], headers=STREAM_RETRY)
+                raise TooMany([{"path": "", "message": message}], retry_after=STREAM_RETRY)
             if owner is not None:
                 self._tokens[owner] = self._tokens.get(owner, 0) + 1
             self._addresses[key] = self._addresses.get(key, 0) + 1
@@ -391,7 +389,7 @@ class StreamCaps:
             return self._tokens.get(owner or "", 0), self._addresses.get(address_key(host), 0)
 
 
-STREAM_RETRY = {"Retry-After": "10"}
+STREAM_RETRY = 10
 
 
 def _expire(times: deque[float], since: float) -> None:

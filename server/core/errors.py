@@ -1,46 +1,19 @@
-"""Every error answer has one shape, `{"errors": [{"path", "message"}]}`, and no error is ever a 500 by accident.
+"""What the services refuse, and why, in their own words: domain errors, no HTTP in them.
 
-- `ApiError` is raised by routes with a status and error items;
-- request validation errors (pydantic) are translated to JSON paths of the request body;
-- a full disk (the job store's or a file's write) is 507 Insufficient Storage, whatever route met it;
-- `SafeJSONResponse` is the app's response class: NaN and Infinity become null, so echoing a bad
-  value can never crash the serialisation of its own error message;
-- `RequestGate` (ASGI middleware) answers 413 past the body size limit (by Content-Length and by
-  the bytes actually streamed) and 400 for JSON nested deeper than the depth limit, before any
-  parser or validator sees the body; an upload (a class's files) streams through it with its own limit.
-  A body must arrive in time (408), and the large bodies held at once, all requests together, have a
-  budget (`BodyBudget`: a request waits briefly for it, then gets 503 with Retry-After); a small body
-  never waits for it, so a student's small request passes a crowd of large ones.
+Every refusal carries error items, `[{"path", "message"}]` (the JSON path of what is wrong, "" for the whole
+request), the one error shape of the service. The kind says what went wrong; server/api/errors.py alone turns
+each kind into its answer (a status, `{"errors": [...]}`, Retry-After or a challenge where they apply), so the
+course, grading, the jobs and the checkers raise these and never build a response:
+
+    Invalid 422, BadRequest 400, Unauthorized 401, Forbidden 403, NotFound 404, Conflict 409, TooLarge 413,
+    Unsupported 415, TooMany 429, ClientGone 499, Unavailable 503, TookTooLong 504
 """
 
 from __future__ import annotations
 
-import asyncio
-import json
-import logging
-import math
-import re
-import sqlite3
-import time
-from typing import Any
-
-import anyio
-import numpy as np
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
-from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from server.core.files import is_disk_full
-from tracer.errors import translate_error
-
-log = logging.getLogger("server")
-DISK_FULL = (
-    "the server's disk is full: nothing of this request was kept; try again later (the server's log says so "
-    "to its administrator)"
-)
+Items = list[dict[str, str]]
 
 
 class ErrorItem(BaseModel):
@@ -48,364 +21,69 @@ class ErrorItem(BaseModel):
     message: str
 
 
-def sanitise(value: Any) -> Any:
-    """A copy of `value` that JSON can carry: non-finite floats -> None, tuples -> lists, bytes -> text."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {str(k): sanitise(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [sanitise(v) for v in value]
-    if isinstance(value, bytes):
-        return value.decode("utf-8", errors="replace")
-    return value
+class DomainError(Exception):
+    """A refusal: its error items (a plain message is one item at the path ""), and `retry_after` (seconds) where
+    asking again later may work."""
 
-
-class SafeJSONResponse(JSONResponse):
-    """JSON that never fails on NaN or Infinity (they become null)."""
-
-    def render(self, content: Any) -> bytes:
-        return json.dumps(sanitise(content), ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode()
-
-
-class ApiError(Exception):
-    """An answer with a 4xx status and error items."""
-
-    def __init__(self, status: int, errors: list[dict[str, str]] | str, headers: dict[str, str] | None = None):
-        self.status = status
+    def __init__(self, errors: Items | str, retry_after: int | None = None):
         self.errors = [{"path": "", "message": errors}] if isinstance(errors, str) else list(errors)
-        self.headers = headers
-        super().__init__(f"{status}: {self.errors}")
+        self.retry_after = retry_after
+        super().__init__(f"{type(self).__name__}: {self.errors}")
+
+    @classmethod
+    def at(cls, path: str, message: str, **kwargs) -> DomainError:
+        """One error at one path: `NotFound.at("id", "no job with id ...")`."""
+        return cls([{"path": path, "message": message}], **kwargs)
 
 
-def errors_response(status: int, errors: list[dict[str, str]], headers: dict[str, str] | None = None):
-    items = [{"path": str(e.get("path", "")), "message": str(e.get("message", ""))} for e in errors]
-    return SafeJSONResponse({"errors": items}, status_code=status, headers=headers)
+class Invalid(DomainError):
+    """A value that is wrong (a scene, a field, a pixel outside the film), named at its path."""
 
 
-def _line_col(doc: Any, pos: int) -> str:
-    if isinstance(doc, bytes | bytearray):
-        doc = doc.decode("utf-8", errors="replace")
-    if not isinstance(doc, str) or not 0 <= pos <= len(doc):
-        return f"character {pos}"
-    line = doc.count("\n", 0, pos) + 1
-    col = pos - (doc.rfind("\n", 0, pos) + 1) + 1
-    return f"line {line}, column {col}"
+class BadRequest(DomainError):
+    """A request that is malformed as a whole (not a value in it)."""
 
 
-# ---------------------------------------------------------------------------------------------
-# pydantic's errors about a request -> {path, message}.
-#
-# The request's own part is here: where an error is (the body, or a query, path or header parameter)
-# and errors of the body as a whole (not JSON, not an object). An error at a field is worded by the
-# library's one translator (tracer/errors.py), in the words of a scene's errors; a request's model is
-# not in FastAPI's error, so it translates without one.
+class Unauthorized(DomainError):
+    """No identity, or a token that is not the one needed. `challenge`: the bearer scheme's error code
+    ("invalid_token", "invalid_request"; "" for none), which the answer's WWW-Authenticate names."""
 
-LOCATIONS = ("body", "query", "path", "header")  # where FastAPI says a request's error is
-BODY_TYPE_ERRORS = ("model_attributes_type", "dict_type", "model_type")  # a body that is not an object
+    def __init__(self, errors: Items | str, challenge: str = "invalid_token"):
+        super().__init__(errors)
+        self.challenge = challenge
 
 
-def is_json_type(content_type: str | None) -> bool:
-    """Does a Content-Type header say JSON (application/json, or a +json type), as FastAPI reads it?"""
-    kind = (content_type or "").split(";")[0].strip().lower()
-    return kind == "application/json" or (kind.startswith("application/") and kind.endswith("+json"))
+class Forbidden(DomainError):
+    """Known, but not allowed: a TA where an instructor is needed, a deadline passed, no attempts left."""
 
 
-def not_an_object(content_type: str | None) -> str:
-    """The message of a body that did not arrive as a JSON object: its Content-Type is wrong (FastAPI reads a
-    body as JSON only when it says so), or the JSON is something else than an object."""
-    if content_type is None:
-        return "the request has no Content-Type header: expected 'Content-Type: application/json'"
-    if not is_json_type(content_type):
-        shown = content_type.split(";")[0].strip()[:100]
-        return f"the Content-Type is '{shown}', not JSON: expected 'Content-Type: application/json'"
-    return "the body must be a JSON object {...}"
+class NotFound(DomainError):
+    """Unknown, or not the caller's (the same refusal: ids are never confirmed)."""
 
 
-def translate_request_errors(exc: RequestValidationError, content_type: str | None = None) -> list[dict[str, str]]:
-    """pydantic's errors about a request -> [{path, message}] with JSON paths inside the body (`content_type`:
-    the request's Content-Type header, which a body that is not an object may have wrong)."""
-    out = []
-    for err in exc.errors():
-        loc = list(err.get("loc") or ())
-        where = loc.pop(0) if loc and loc[0] in LOCATIONS else "body"
-        kind = err.get("type", "")
-        if kind == "json_invalid":
-            pos = loc[0] if loc and isinstance(loc[0], int) else 0
-            error = (err.get("ctx") or {}).get("error", "decode error")
-            message = f"invalid JSON at {_line_col(getattr(exc, 'body', None), pos)}: {error}"
-            out.append({"path": "", "message": message})
-        elif kind == "missing" and not loc:
-            out.append({"path": "", "message": "a JSON object body is required"})
-        elif kind in BODY_TYPE_ERRORS and not loc and where == "body":
-            out.append({"path": "", "message": not_an_object(content_type)})
-        else:
-            item = translate_error({**err, "loc": tuple(loc)})
-            if where != "body" and item["path"]:
-                item["message"] += f" (in the {where} parameter '{item['path']}')"
-            out.append(item)
-    return out or [{"path": "", "message": "invalid request"}]
+class Conflict(DomainError):
+    """The state does not allow it (a course id taken; an image asked for its scene)."""
 
 
-def not_text(exc: UnicodeDecodeError) -> str:
-    """The message of a JSON body that is not UTF-8: the first byte that is not, by its offset in the body."""
-    where = f"byte 0x{exc.object[exc.start]:02x} at offset {exc.start}" if exc.start < len(exc.object) else "its end"
-    encoding = "UTF-8" if exc.encoding.replace("-", "").lower() == "utf8" else exc.encoding.upper()
-    return f"the body is not {encoding} text: {where} ({exc.reason}); JSON must be sent as UTF-8"
+class TooLarge(DomainError):
+    """A part of a request past its size limit."""
 
 
-def install_error_handlers(app: FastAPI) -> None:
-    @app.exception_handler(ApiError)
-    async def api_error(request: Request, exc: ApiError):
-        return errors_response(exc.status, exc.errors, exc.headers)
-
-    @app.exception_handler(RequestValidationError)
-    async def request_errors(request: Request, exc: RequestValidationError):
-        return errors_response(422, translate_request_errors(exc, request.headers.get("content-type")))
-
-    @app.exception_handler(StarletteHTTPException)
-    async def http_errors(request: Request, exc: StarletteHTTPException):
-        detail = exc.detail if isinstance(exc.detail, str) else json.dumps(sanitise(exc.detail))
-        if exc.status_code == 400 and detail == "There was an error parsing the body":
-            cause = exc.__cause__  # what json.loads raised (FastAPI's `raise ... from`)
-            if isinstance(cause, UnicodeDecodeError):
-                detail = not_text(cause)
-            else:
-                detail = "the body could not be parsed as JSON (a number too long, or nesting too deep)"
-        return errors_response(exc.status_code, [{"path": "", "message": detail}], getattr(exc, "headers", None))
-
-    @app.exception_handler(OSError)
-    @app.exception_handler(sqlite3.Error)
-    async def storage_error(request: Request, exc: Exception):
-        """A full disk is 507, with nothing of the request kept (the job store's writes are transactions, its
-        files are written whole or not at all); any other storage error is the 500 of a bug."""
-        if is_disk_full(exc):
-            log.warning("%s %s: the data directory's disk is full (%s)", request.method, request.url.path, exc)
-            return errors_response(507, [{"path": "", "message": DISK_FULL}], {"Retry-After": "60"})
-        return await crashed(request, exc)
-
-    @app.exception_handler(Exception)
-    async def crashed(request: Request, exc: Exception):
-        log.exception("unhandled error in %s %s", request.method, request.url.path)
-        return errors_response(500, [{"path": "", "message": "internal error (logged on the server)"}])
+class Unsupported(DomainError):
+    """A body of a kind the route does not read (not multipart where a class is uploaded)."""
 
 
-# ---------------------------------------------------------------------------------------------
-# The request gate: body size and JSON depth, checked before anything parses the body.
-
-_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"')
-THREAD_FROM = 65536  # bytes: a body this large has its depth found in a thread, off the event loop
-_NOT_BRACKETS = bytes(c for c in range(256) if c not in b"[]{}")
+class TooMany(DomainError):
+    """Past a cap (the queue, an address's share, a token's streams): `retry_after` seconds says when to ask again."""
 
 
-def json_depth(body: bytes) -> int:
-    """The deepest nesting of arrays and objects in JSON text (brackets inside strings ignored): in array
-    operations that let other threads run (`_depth_of_arrays`), or, for text those do not read as JSON
-    reads it (a string left open, a backslash outside strings), by stripping strings with a regular
-    expression, as `_depth_by_regex` did first."""
-    depth = _depth_of_arrays(body)
-    return _depth_by_regex(body) if depth is None else depth
+class ClientGone(DomainError):
+    """The client went away while its request waited: nobody reads the answer (nginx's 499)."""
 
 
-def _depth_by_regex(body: bytes) -> int:
-    brackets = _STRING.sub(b"", body).translate(None, _NOT_BRACKETS)
-    if not brackets:
-        return 0
-    b = np.frombuffer(brackets, dtype=np.uint8)
-    steps = np.where((b == ord("[")) | (b == ord("{")), 1, -1)
-    return int(np.cumsum(steps).max())
+class Unavailable(DomainError):
+    """The service cannot do it now (no worker for the lane, a checking process died, stopping)."""
 
 
-def _depth_of_arrays(body: bytes) -> int | None:
-    """`json_depth` with numpy alone (which releases the interpreter lock, so the event loop goes on while a
-    thread reads a large body), or None where that could differ from `_depth_by_regex`: every string must
-    close and no backslash may stand outside one, as in JSON. Arrays of one byte per byte of the body,
-    and of one number per backslash or bracket."""
-    b = np.frombuffer(body, dtype=np.uint8)
-    if not b.size:
-        return 0
-    backslash, quote = b == ord("\\"), b == ord('"')
-    slashes = np.flatnonzero(backslash)
-    if slashes.size:  # the byte after an odd run of backslashes is escaped
-        breaks = np.flatnonzero(np.diff(slashes) != 1)
-        first, last = slashes[np.r_[0, breaks + 1]], slashes[np.r_[breaks, slashes.size - 1]]
-        after = last[((last - first) % 2 == 0) & (last + 1 < b.size)] + 1
-        quote[after] = False
-    inside = np.bitwise_xor.accumulate(quote.view(np.uint8)).view(bool)  # from an opening quote to its closing one
-    if inside[-1]:
-        return None  # a string left open
-    if slashes.size and not inside[slashes].all():
-        return None  # a backslash outside strings
-    at = np.flatnonzero(((b == ord("[")) | (b == ord("{")) | (b == ord("]")) | (b == ord("}"))) & ~inside)
-    if not at.size:
-        return 0
-    opening = (b[at] == ord("[")) | (b[at] == ord("{"))
-    return int(np.cumsum(np.where(opening, 1, -1), dtype=np.int64).max())
-
-
-MIN_BODY_RATE = 100_000  # bytes/s: past its first body_timeout seconds, a streamed body must average this
-
-
-class BodyBudget:
-    """Bytes of large request bodies held at once, all requests together (`budget`; 0: no budget). A body
-    takes its share before it is read and gives it back when its request has been answered; one that
-    cannot have it within `wait` seconds is refused. One body may always be held, whatever its size.
-    Used on the event loop only."""
-
-    def __init__(self, budget: int, wait: float):
-        self.budget, self.wait, self.held = int(budget), float(wait), 0
-        self._freed: list[asyncio.Event] = []
-
-    async def take(self, size: int) -> bool:
-        if not self.budget:
-            return True
-        deadline = time.monotonic() + self.wait
-        while self.held and self.held + size > self.budget:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return False
-            freed = asyncio.Event()
-            self._freed.append(freed)
-            with anyio.move_on_after(left):
-                await freed.wait()
-        self.held += size
-        return True
-
-    def give_back(self, size: int) -> None:
-        if not self.budget:
-            return
-        self.held -= size
-        freed, self._freed = self._freed, []
-        for event in freed:
-            event.set()
-
-
-class RequestGate:
-    """ASGI middleware: 413 past `max_bytes`, 400 past `max_depth` levels of JSON nesting, 408 for a body
-    that has not arrived `body_timeout` seconds after its headers, 503 (with Retry-After) when the large
-    bodies held at once are over `budget` (a BodyBudget) for longer than its wait. A body of less than
-    THREAD_FROM bytes never waits for the budget.
-
-    `streamed` names routes whose bodies are not JSON and are read as a stream by the route itself
-    (a class's upload), each with its own limit (bytes, and the settings that make it): their bodies
-    pass through unbuffered, counted, and the request fails with 413 as soon as it is past the limit,
-    or with 408 when it arrives slower than MIN_BODY_RATE on average after its first `body_timeout` s."""
-
-    def __init__(
-        self, app: ASGIApp, max_bytes: int, max_depth: int, streamed: dict[str, tuple[int, str]] | None = None,
-        body_timeout: float = 30.0, budget: BodyBudget | None = None,
-    ):  # fmt: skip
-        self.app, self.max_bytes, self.max_depth = app, max_bytes, max_depth
-        self.streamed = streamed or {}
-        self.body_timeout, self.budget = body_timeout, budget or BodyBudget(0, 0)
-
-    def _timed_out(self) -> JSONResponse:
-        msg = f"the request body did not arrive within {self.body_timeout:g} s (TRACER_BODY_TIMEOUT)"
-        return errors_response(408, [{"path": "", "message": msg}], {"Connection": "close"})
-
-    def _busy(self) -> JSONResponse:
-        msg = (
-            "the server holds too many large request bodies at the moment (TRACER_BODY_BUDGET_BYTES); "
-            "try again in a few seconds"
-        )
-        return errors_response(503, [{"path": "", "message": msg}], {"Retry-After": "2"})
-
-    def _too_large(self, limit: int | None = None, name: str = "TRACER_MAX_BODY_BYTES") -> JSONResponse:
-        msg = f"request body larger than {limit or self.max_bytes} bytes ({name})"
-        return errors_response(413, [{"path": "", "message": msg}])
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
-            await self.app(scope, receive, send)
-            return
-        headers = dict(scope.get("headers") or [])
-        length = headers.get(b"content-length")
-        limit, name = self.streamed.get(scope["path"], (self.max_bytes, "TRACER_MAX_BODY_BYTES"))
-        if length is not None:
-            try:
-                declared = int(length)
-            except ValueError:
-                await errors_response(400, [{"path": "", "message": "invalid Content-Length"}])(scope, receive, send)
-                return
-            if declared > limit:
-                await self._too_large(limit, name)(scope, receive, send)
-                return
-        if scope["path"] in self.streamed:
-            await self.app(scope, _counted(receive, limit, name, self.body_timeout), send)
-            return
-        share = 0  # of the budget: a large declared body takes its size, one of unknown size the most a body may be
-        if length is not None and declared >= THREAD_FROM:
-            share = declared
-            if not await self.budget.take(share):
-                await self._busy()(scope, receive, send)
-                return
-        held = [share]  # the shares this request holds (a body of unknown size takes one as it grows)
-        try:
-            await self._gated(scope, receive, send, held)
-        finally:
-            self.budget.give_back(sum(held))
-
-    async def _gated(self, scope: Scope, receive: Receive, send: Send, held: list[int]) -> None:
-        """Read the whole body (it is bounded, in size and in time), then check it and replay it to the app."""
-        chunks, size = [], 0
-        with anyio.move_on_after(self.body_timeout) as reading:
-            while True:
-                message = await receive()
-                if message["type"] == "http.disconnect":
-                    return
-                chunk = message.get("body", b"")
-                size += len(chunk)
-                if size > self.max_bytes:
-                    await self._too_large()(scope, receive, send)
-                    return
-                if size >= THREAD_FROM and not any(held):  # a large body of unknown size (chunked)
-                    if not await self.budget.take(self.max_bytes):
-                        await self._busy()(scope, receive, send)
-                        return
-                    held.append(self.max_bytes)
-                chunks.append(chunk)
-                if not message.get("more_body", False):
-                    break
-        if reading.cancelled_caught:
-            await self._timed_out()(scope, receive, send)
-            return
-        body = b"".join(chunks)
-        depth = json_depth(body) if size < THREAD_FROM else await anyio.to_thread.run_sync(json_depth, body)
-        if depth > self.max_depth:
-            msg = f"JSON nested {depth} levels deep; at most {self.max_depth} (TRACER_MAX_JSON_DEPTH)"
-            await errors_response(400, [{"path": "", "message": msg}])(scope, receive, send)
-            return
-        replayed = False
-
-        async def replay() -> Message:
-            nonlocal replayed
-            if not replayed:
-                replayed = True
-                return {"type": "http.request", "body": body, "more_body": False}
-            return await receive()
-
-        await self.app(scope, replay, send)
-
-
-def _counted(receive: Receive, limit: int, name: str, body_timeout: float = 30.0) -> Receive:
-    """`receive`, counting the body's bytes: past `limit` it raises ApiError(413) into the route reading it, and
-    ApiError(408) once the body arrives slower than its deadline: `body_timeout` seconds from its start plus
-    a second per MIN_BODY_RATE bytes received."""
-    seen, start = 0, time.monotonic()
-
-    async def counted() -> Message:
-        nonlocal seen
-        left = start + body_timeout + seen / MIN_BODY_RATE - time.monotonic()
-        with anyio.move_on_after(max(0.0, left)) as waiting:
-            message = await receive()
-        if waiting.cancelled_caught:
-            msg = f"the request body arrives too slowly (at most {body_timeout:g} s, TRACER_BODY_TIMEOUT, then "
-            msg += f"{MIN_BODY_RATE} bytes per second)"
-            raise ApiError(408, [{"path": "", "message": msg}], {"Connection": "close"})
-        if message["type"] == "http.request":
-            seen += len(message.get("body", b""))
-            if seen > limit:
-                raise ApiError(413, [{"path": "", "message": f"request body larger than {limit} bytes ({name})"}])
-        return message
-
-    return counted
+class TookTooLong(DomainError):
+    """The work did not end within its time limit (a ray tree past TRACER_MAX_RAYTREE_SECONDS)."""

@@ -24,7 +24,7 @@ from collections.abc import Awaitable, Callable
 
 import anyio
 
-from server.core.errors import ApiError
+from server.core.errors import Conflict, Forbidden, Invalid, NotFound, Unavailable
 from server.core.security import Caller
 from server.course.policy import Feedback, When
 from server.course.service import Course, Who, iso
@@ -34,10 +34,6 @@ from tracer.grading import tasks
 from tracer.grading.treediff import first_difference
 
 Check = Callable[[bytes], Awaitable[dict]]  # a scene request's body -> its summary (the checking processes'), or 422
-
-
-def _no(status: int, path: str, message: str) -> ApiError:
-    return ApiError(status, [{"path": path, "message": message}])
 
 
 def allowed(course: Course, a: dict, sub: dict, who: Who) -> None:
@@ -66,7 +62,7 @@ def allowed(course: Course, a: dict, sub: dict, who: Who) -> None:
             f"the ray trees at a pixel show the reference's scene: they are shown with the image tests' feedback "
             f"({names}), after your deadline, from {iso(cut)}"
         )
-    raise _no(403, "sid", message)
+    raise Forbidden.at("sid", message)
 
 
 def as_graded(course: Course, a: dict, sub: dict) -> tuple[dict, dict, tuple[int, int]]:
@@ -74,24 +70,24 @@ def as_graded(course: Course, a: dict, sub: dict) -> tuple[dict, dict, tuple[int
     409 for an image, or a submission not graded (yet)."""
     sid = sub["id"]
     if sub["kind"] != "scene":
-        raise _no(409, "sid", f"submission '{sid}' is an image ({sub['kind'].upper()}): there is no scene to trace; "
+        raise Conflict.at("sid", f"submission '{sid}' is an image ({sub['kind'].upper()}): there is no scene to trace; "
                   "ray trees are compared for scene submissions")  # fmt: skip
     item = course.runs.item(sub["run_id"], sid)
     stage = (item or {}).get("stage")
     if item is None or stage != "graded":
         state = "queued" if stage in (None, "submitted") else "being graded"
-        raise _no(409, "sid", f"submission '{sid}' is {state}: its ray trees can be compared once it is graded")
+        raise Conflict.at("sid", f"submission '{sid}' is {state}: its ray trees can be compared once it is graded")
     prepared = item.get("prepared") or {}
     job, key, size = prepared.get("job"), prepared.get("key"), prepared.get("size")
     if item["status"] == "invalid":
-        raise _no(409, "sid", f"submission '{sid}' is invalid (its scene has errors): there is no render to compare")
+        raise Conflict.at("sid", f"submission '{sid}' is invalid (its scene has errors): there is no render to compare")
     if job is None or key is None or size is None:
         why = (item.get("report") or {}).get("metrics", {}).get("problem") or "it has no render"
-        raise _no(409, "sid", f"submission '{sid}' was not rendered ({why}): there is no render to compare")
+        raise Conflict.at("sid", f"submission '{sid}' was not rendered ({why}): there is no render to compare")
     version = next(v for v in course.store.versions(a["id"]) if v["version"] == sub["version"])
     grader = tasks.grader(json.dumps(version["spec"]))
     if grader.reference is None:
-        raise _no(409, "sid", "this assignment has no reference scene to compare with")
+        raise Conflict.at("sid", "this assignment has no reference scene to compare with")
     reference = json.loads(json.dumps(grader.reference.scene))
     reference.setdefault("sampler", {}).update(type=key[0], spp=key[1])  # as its noise baseline is rendered
     reference.setdefault("render", {})["light_samples"] = key[2]  # its seed is the student's: render.seed of both
@@ -108,7 +104,7 @@ def in_range(x: int, y: int, sample: int, size: tuple[int, int]) -> None:
     if sample < 0:
         errors.append({"path": "sample", "message": "must be a sample index, 0 or more"})
     if errors:
-        raise ApiError(422, errors)
+        raise Invalid(errors)
 
 
 async def trace(
@@ -145,7 +141,7 @@ async def raytrees(
     a, who = await anyio.to_thread.run_sync(course.who, aid, caller)
     sub = await anyio.to_thread.run_sync(course.submission, a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
-        raise _no(404, "sid", f"no submission with id '{sid[:64]}'")
+        raise NotFound.at("sid", f"no submission with id '{sid[:64]}'")
     if sub["kind"] != "scene":
         as_graded(course, a, sub)  # its 409: an image has no scene (before the policy: it never will)
     allowed(course, a, sub, who)
@@ -155,11 +151,9 @@ async def raytrees(
     student = await trace(jobs, check, mine, x, y, sample, caller.owner, f"ray tree {where}", gone)
     try:
         reference = await trace(jobs, check, theirs, x, y, sample, None, f"reference ray tree {where}", gone)
-    except ApiError as e:
-        if e.status != 422:
-            raise
+    except Invalid as e:
         # the reference scene is the instructor's: a student is told what failed, not its paths
         message = "; ".join(err["message"] for err in e.errors) if who.instructor else "it could not be traced"
-        raise _no(503, "", f"the reference's ray tree could not be traced: {message}") from None
+        raise Unavailable.at("", f"the reference's ray tree could not be traced: {message}") from None
     return {"x": x, "y": y, "sample": sample, "student": student, "reference": reference,
             "difference": first_difference(student, reference)}  # fmt: skip

@@ -36,9 +36,7 @@ import threading
 from collections.abc import Callable
 from datetime import UTC, datetime
 
-from fastapi import Request
-from fastapi.responses import HTMLResponse, RedirectResponse, Response
-
+from server.core.answers import Answer, Page, Redirect
 from server.core.db import Tables
 from server.course.people import COURSE_ID
 from server.course.policy import Feedback, When
@@ -264,7 +262,7 @@ def lti_user(platform: dict, sub: str) -> str:
     return f"{platform['id']}:{sub}"
 
 
-def page(title: str, body: str, status: int = 200, extra_csp: str = "") -> HTMLResponse:
+def page(title: str, body: str, status: int = 200, extra_csp: str = "") -> Page:
     """A small page of the tool's own (the picker, a refusal): server/lti/pages.py's, with a policy of its own
     when it posts a form to the LMS (`extra_csp`)."""
     out = lti_page(title, body, status, ' class="lti-page"')
@@ -273,7 +271,7 @@ def page(title: str, body: str, status: int = 200, extra_csp: str = "") -> HTMLR
     return out
 
 
-def refused(title: str, message: str, status: int = 403) -> HTMLResponse:
+def refused(title: str, message: str, status: int = 403) -> Page:
     return page(
         title, f'<h1>{html.escape(title)}</h1><p class="message" data-kind="error">{html.escape(message)}</p>', status
     )
@@ -298,12 +296,11 @@ class Lms:
 
     # -- the launch ----------------------------------------------------------------------------
 
-    async def launched(self, launch, request: Request) -> Response:
-        from starlette.concurrency import run_in_threadpool
+    def launched(self, launch, base: str) -> Answer:
+        """server/lti's launch handler (called in a thread: it reads and writes the course's tables)."""
+        return self.launch(launch, base)
 
-        return await run_in_threadpool(self.launch, launch, str(request.base_url))
-
-    def launch(self, launch, base: str) -> Response:
+    def launch(self, launch, base: str) -> Answer:
         role = course_role(launch.roles)
         platform = launch.platform
         if role is None:
@@ -343,14 +340,14 @@ class Lms:
             self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
         if not aid:  # a course's navigation link, or an assignment link not bound yet
             if role == "student":  # their course's page: the assignments they are on
-                return RedirectResponse(f"/courses/{cid}#token={token}", status_code=303)
+                return Redirect(f"/courses/{cid}#token={token}")
             if role == "ta":
-                return RedirectResponse(f"/course#token={token}", status_code=303)
+                return Redirect(f"/course#token={token}")
             return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
         if role in STAFF:
-            return RedirectResponse(f"/course#token={token}&open={aid}", status_code=303)
+            return Redirect(f"/course#token={token}&open={aid}")
         self._enrol(aid, person)  # a member enrolled on every assignment is on it already
-        return RedirectResponse(f"/assignments/{aid}#token={token}", status_code=303)
+        return Redirect(f"/assignments/{aid}#token={token}")
 
     def line_item(self, platform: dict, lineitems: str, link_id: str, aid: str) -> str | None:
         """The gradebook column of a link whose launch names none (a link made without deep linking): the
@@ -424,7 +421,7 @@ class Lms:
 
     # -- the picker (Deep Linking 2.0, or binding a link) ---------------------------------------
 
-    def picker(self, cid, platform, deployment_id, settings, link_id, token, base) -> HTMLResponse:
+    def picker(self, cid, platform, deployment_id, settings, link_id, token, base) -> Page:
         pid = self.store.new_pick({"platform_id": platform["id"], "deployment_id": deployment_id or "",
                                    "course_id": cid, "settings": json.dumps(settings) if settings else "",
                                    "resource_link_id": link_id, "expires": self.now() + PICK_SECONDS})  # fmt: skip
@@ -452,7 +449,7 @@ class Lms:
         )
         return page("Pick an assignment", body)
 
-    def picked(self, pid: str, aid: str, base: str) -> Response:
+    def picked(self, pid: str, aid: str, base: str) -> Answer:
         """The picker's choice: a deep link's answer to the LMS (a signed LtiDeepLinkingResponse, posted back by
         the browser), or a link bound to the assignment (then opened)."""
         pick = self.store.take_pick(pid, self.now())

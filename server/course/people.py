@@ -24,7 +24,7 @@ import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
-from server.core.errors import ApiError
+from server.core.errors import Forbidden, Invalid
 
 ROLES = ("instructor", "ta")  # a course's staff
 STAFF_ROLES = ("admin", *ROLES)
@@ -56,9 +56,8 @@ class Who:
         return True
 
 
-def refuse_ta(action: str) -> ApiError:
-    return ApiError(
-        403,
+def refuse_ta(action: str) -> Forbidden:
+    return Forbidden(
         [
             {
                 "path": "role",
@@ -71,7 +70,7 @@ def refuse_ta(action: str) -> ApiError:
 
 def check_course_id(cid: str, path: str = "id") -> str:
     if not COURSE_ID.fullmatch(cid or ""):
-        raise ApiError(422, [{"path": path, "message": f"{(cid or '')[:60]!r}: a course id is {COURSE_ID_WORDS}"}])
+        raise Invalid([{"path": path, "message": f"{(cid or '')[:60]!r}: a course id is {COURSE_ID_WORDS}"}])
     return cid
 
 

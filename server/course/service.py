@@ -34,9 +34,9 @@ from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
-from server.core.errors import ApiError
+from server.core.errors import Conflict, Forbidden, Invalid, NotFound, TooMany, Unavailable
 from server.core.files import write_atomic
-from server.core.security import Caller, require_instructor, token_hash
+from server.core.security import Caller, token_hash
 from server.core.settings import Settings
 from server.course.people import ROLES, TokenMaker, Who, check_course_id, refuse_ta
 from server.course.policy import AssignmentIn, Feedback, Policy, When
@@ -55,11 +55,14 @@ REFERENCE = "reference"  # the reference scene's row in a version's grading run 
 IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
 VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
 SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
+# whether a caller who is none of a course's staff may act as the admin (the instructor); raises if not. The routes
+# hand in server/core/security.check_instructor for their server and their caller's address
+Check = Callable[[Caller], object]
 CHECK_SECONDS = 30  # a check waits this long for a grading process (they are busy with a deadline's burst)
 
 
-def not_found(what: str, key: str) -> ApiError:
-    return ApiError(404, [{"path": "id", "message": f"no {what} with id '{key[:64]}'"}])
+def not_found(what: str, key: str) -> NotFound:
+    return NotFound([{"path": "id", "message": f"no {what} with id '{key[:64]}'"}])
 
 
 def iso(t: float | None) -> str | None:
@@ -89,35 +92,33 @@ class Course:
         ref = spec.get("reference")
         if body.reference is not None:
             if not isinstance(ref, dict):
-                raise ApiError(422, [{"path": "reference", "message": "the spec has no 'reference' for this scene"}])
+                raise Invalid([{"path": "reference", "message": "the spec has no 'reference' for this scene"}])
             ref["scene"] = body.reference
         elif isinstance(ref, dict) and isinstance(ref.get("scene"), str):
             message = (
                 f"the reference scene is a file name ({ref['scene'][:80]!r}): send the scene inline, or beside the "
                 "spec as 'reference' (a JSON field, or a multipart part)"
             )
-            raise ApiError(422, [{"path": "spec.reference.scene", "message": message}])
+            raise Invalid([{"path": "spec.reference.scene", "message": message}])
         try:
             assignment, _ = load_assignment(spec)
             Grader(assignment, None)  # the reference scene validates
         except AssignmentError as e:
-            raise ApiError(
-                422,
+            raise Invalid(
                 [{"path": "spec" + ("." + x["path"] if x["path"] else ""), "message": x["message"]} for x in e.errors],
             ) from None
         keys = test_keys(assignment)
         unknown = [k for k in body.feedback.tests if k not in keys]
         if unknown:
             message = f"no test named {unknown[0]!r} in the spec; the tests: {', '.join(keys)}"
-            raise ApiError(422, [{"path": f"feedback.tests.{unknown[0]}", "message": message}])
+            raise Invalid([{"path": f"feedback.tests.{unknown[0]}", "message": message}])
         if body.starter is not None:
             from tracer.scene import SceneError, load_scene
 
             try:
                 load_scene(body.starter, assignment.limits.scene_limits())
             except SceneError as e:
-                raise ApiError(
-                    422,
+                raise Invalid(
                     [
                         {"path": "starter" + ("." + x["path"] if x["path"] else ""), "message": x["message"]}
                         for x in e.errors
@@ -221,27 +222,27 @@ class Course:
             raise not_found("assignment", aid)
         return a, who
 
-    def staff(self, aid: str, caller: Caller, request, action: str = "follow") -> tuple[dict, Who]:
+    def staff(self, aid: str, caller: Caller, instructor: Check, action: str = "follow") -> tuple[dict, Who]:
         """The assignment for its course's staff (a TA only for what a TA may do: 403 otherwise); its students
-        get the 404 of an unknown id, anyone else 401 or 403 (require_instructor)."""
+        get the 404 of an unknown id, anyone else what `instructor` says (401 or 403: check_instructor)."""
         a = self.assignment(aid)
         if caller.owner and self.store.by_token(aid, caller.owner) is not None:
             raise not_found("assignment", aid)
         who = self.role(a["course_id"], caller)
         if who is None or who.student is not None:
-            require_instructor(caller, request)
+            instructor(caller)
             who = Who(None, "admin")
         if not who.may(action):
             raise refuse_ta(ACTIONS.get(action, action))
         return a, who
 
-    def course_staff(self, cid: str, caller: Caller, request, action: str = "follow") -> Who:
+    def course_staff(self, cid: str, caller: Caller, instructor: Check, action: str = "follow") -> Who:
         """The caller as staff of course `cid` (404 for an unknown course; 403 for a TA where an instructor
         is needed; 401/403 for anyone else)."""
         self.course(cid)
         who = self.role(cid, caller)
         if who is None or who.student is not None:
-            require_instructor(caller, request)
+            instructor(caller)
             who = Who(None, "admin")
         if not who.may(action):
             raise refuse_ta(ACTIONS.get(action, action))
@@ -252,13 +253,13 @@ class Course:
     def course(self, cid: str) -> dict:
         c = self.store.course(cid) if isinstance(cid, str) and len(cid) <= 40 else None
         if c is None:
-            raise ApiError(404, [{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
+            raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
         return c
 
     def create_course(self, cid: str, name: str) -> dict:
         check_course_id(cid)
         if not self.store.add_course(cid, " ".join(name.split())[:200] or cid, self.now()):
-            raise ApiError(409, [{"path": "id", "message": f"there is a course '{cid}' already"}])
+            raise Conflict([{"path": "id", "message": f"there is a course '{cid}' already"}])
         log.info("course %s created", cid)
         return self.store.course(cid)
 
@@ -339,7 +340,7 @@ class Course:
         a = self.assignment(aid)
         row = self.store.student(aid, student)
         if row is None:
-            raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
+            raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         token = self.renew(a["course_id"], "student", student, jobs)
         return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
 
@@ -367,7 +368,7 @@ class Course:
                 f"this open assignment already has {most} students who joined by a name, the most it takes "
                 "(TRACER_MAX_JOINS_PER_ASSIGNMENT): ask your instructor for a link of the roster"
             )
-            raise ApiError(403, [{"path": "", "message": message}])
+            raise Forbidden([{"path": "", "message": message}])
         token = self.token_of(a["course_id"], "student", sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
@@ -377,16 +378,16 @@ class Course:
         self.course(cid)
         if not person or student_name(person) != person or len(person) > 80:
             message = f"{person[:80]!r}: an id is 1 to 80 letters, digits, '.', '_' or '-' (no spaces)"
-            raise ApiError(422, [{"path": "id", "message": message}])
+            raise Invalid([{"path": "id", "message": message}])
         if role not in ROLES:
-            raise ApiError(422, [{"path": "role", "message": f"expected one of {', '.join(ROLES)}; got {role!r}"}])
+            raise Invalid([{"path": "role", "message": f"expected one of {', '.join(ROLES)}; got {role!r}"}])
         self.store.add_staff(cid, {"person": person, "name": name or person, "email": email, "role": role}, self.now())
         return self.staff_link(cid, person, base)
 
     def staff_link(self, cid: str, person: str, base: str) -> dict:
         s = self.store.staff_member(cid, person)
         if s is None:
-            raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
+            raise NotFound([{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
         token = self.token_of(cid, "staff", person, s["gen"])
         return {"id": person, "name": s["name"], "email": s["email"], "role": s["role"], "token": token,
                 "link": self.course_link(base, cid, token, staff=True)}  # fmt: skip
@@ -394,7 +395,7 @@ class Course:
     def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:
         a = self.assignment(aid)
         if not self.store.extend(aid, student, deadline.timestamp() if deadline else None):
-            raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
+            raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         row = self.store.student(aid, student)
         due, cut = self.deadlines(a, row)
         return {"id": student, "deadline": iso(due), "late_until": iso(cut)}
@@ -424,8 +425,7 @@ class Course:
     def submit(self, a: dict, who: Who, kind: str, data: bytes, accepted: float) -> dict:
         """Keep the submission (its file, then its row: acknowledged), then hand it to the grading run."""
         if who.instructor:
-            raise ApiError(
-                403,
+            raise Forbidden(
                 [
                     {
                         "path": "Authorization",
@@ -438,7 +438,7 @@ class Course:
         if accepted > cut:
             late = f"; late submissions were taken until {iso(cut)}" if cut > due else ""
             message = f"the deadline was {iso(due)}{late}; this submission came at {iso(accepted)}"
-            raise ApiError(403, [{"path": "deadline", "message": message}])
+            raise Forbidden([{"path": "deadline", "message": message}])
         sid = uuid.uuid4().hex
         rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
         path = self.root / rel
@@ -460,12 +460,12 @@ class Course:
             path.unlink(missing_ok=True)
             if refused == "hour":
                 message = f"at most {cap} submissions per hour (TRACER_MAX_SUBMISSIONS_PER_HOUR); try again later"
-                raise ApiError(429, [{"path": "", "message": message}], headers={"Retry-After": "600"})
+                raise TooMany([{"path": "", "message": message}], retry_after=600)
             message = (
                 f"no submissions left: {a['policy']['max_submissions']} used (an invalid or ungradable "
                 "submission costs none)"
             )
-            raise ApiError(403, [{"path": "max_submissions", "message": message}])
+            raise Forbidden([{"path": "max_submissions", "message": message}])
         try:
             self._hand(sub)
         except BaseException:  # a full disk: nothing of it is kept (the client was not told it was taken)
@@ -488,8 +488,8 @@ class Course:
             )
             result = future.result(timeout=CHECK_SECONDS)
         except (BrokenProcessPool, TimeoutError):
-            raise ApiError(
-                503, [{"path": "", "message": "the check could not run now; try again"}], headers={"Retry-After": "5"}
+            raise Unavailable(
+                [{"path": "", "message": "the check could not run now; try again"}], retry_after=5
             ) from None
         finally:
             path.unlink(missing_ok=True)
@@ -848,10 +848,10 @@ def parse_roster(text: str) -> list[dict]:
     try:
         header = next(reader, None)
     except csv.Error as e:
-        raise ApiError(422, [{"path": "line 1", "message": f"not CSV: {e}"}]) from None
+        raise Invalid([{"path": "line 1", "message": f"not CSV: {e}"}]) from None
     if header is None or [h.strip().lower() for h in header] != ["id", "name", "email"]:
         got = ",".join(header or [])[:120]
-        raise ApiError(422, [{"path": "line 1", "message": f"expected the header 'id,name,email'; got {got!r}"}])
+        raise Invalid([{"path": "line 1", "message": f"expected the header 'id,name,email'; got {got!r}"}])
     rows, seen, errors = [], {}, []
     try:
         for line, fields in enumerate(reader, start=2):
@@ -882,9 +882,9 @@ def parse_roster(text: str) -> list[dict]:
     except csv.Error as e:
         errors.append({"path": f"line {reader.line_num}", "message": f"not CSV: {e}"})
     if errors:
-        raise ApiError(422, errors[:20])
+        raise Invalid(errors[:20])
     if not rows:
-        raise ApiError(422, [{"path": "line 2", "message": "no students under the header"}])
+        raise Invalid([{"path": "line 2", "message": "no students under the header"}])
     return rows
 
 

@@ -27,23 +27,25 @@ import json
 import logging
 import os
 import shutil
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING
+from pathlib import Path
 
+from server.core.settings import Settings
+from server.grading.pool import GradingPool
 from server.grading.renders import capped, job_outcome
-from server.grading.store import RenderStatus, Stage
+from server.grading.store import GradingStore, RenderStatus, Stage
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane
+from server.jobs.service import JobService
 from tracer.grading import Grader, Prepared, RenderJob, Report, Submission, load_assignment, tasks
 from tracer.grading.batch import class_summary, summary_row, write_report, write_summary
 from tracer.grading.imagetests import finish_report
 from tracer.scene import Limits, SceneError, load_scene
-
-if TYPE_CHECKING:
-    from server.grading.runs import GradeRuns
 
 log = logging.getLogger(__name__)
 
@@ -69,12 +71,27 @@ def _encoding(it: dict) -> str:
     return it["_enc"]
 
 
+@dataclass(frozen=True)
+class RunContext:
+    """What a run needs of the service around it, handed in by GradeRuns (server/grading/runs.py), which this
+    module never imports: the runs start their runs, a run only reports back through these."""
+
+    settings: Settings
+    gs: GradingStore  # the runs' rows
+    jobs: JobService  # the render jobs (and their store's files)
+    pool: GradingPool  # the grading processes
+    root: Path  # <data_dir>/grades: a run's folder is root/<id>
+    stopping: threading.Event  # set when the server stops: the run stops where it is (its rows say where)
+    wake: Callable[[str], threading.Event]  # an open run's event, set when a student is added (GradeRuns.add)
+    item_changed: Callable[[str, str], None]  # (run, student): a student's row moved; the listeners are told
+
+
 class GradingRun:
-    def __init__(self, runs: GradeRuns, run_id: str):
-        self.runs, self.id = runs, run_id
-        self.gs, self.service, self.settings, self.pool = runs.gs, runs.jobs, runs.settings, runs.pool
-        self.store = runs.jobs.store  # the render jobs' files
-        self.folder = runs.root / run_id
+    def __init__(self, context: RunContext, run_id: str):
+        self.context, self.id = context, run_id
+        self.gs, self.service, self.settings, self.pool = context.gs, context.jobs, context.settings, context.pool
+        self.store = context.jobs.store  # the render jobs' files
+        self.folder = context.root / run_id
         self.flight: dict[Future, tuple[tuple, bool]] = {}  # future -> (task, submitted alone)
         self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
         self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
@@ -105,7 +122,7 @@ class GradingRun:
         open run (an assignment's version) waits for more students while it is open: `GradeRuns.add` wakes it."""
         if self.grader.reference is not None:
             self._queue_render(MEAN)
-        stopping, woken = self.runs.stopping, self.runs.wake(self.id)
+        stopping, woken = self.context.stopping, self.context.wake(self.id)
         while not stopping.is_set():
             if woken.is_set():
                 woken.clear()
@@ -234,7 +251,7 @@ class GradingRun:
                 render = {"error": error} if error else {"image": f"renders/{job_id}.exr", "spp": spp, "seconds": took}
                 self.items[name].update(stage=Stage.rendered, render=render)
                 self.gs.update_item(self.id, name, stage=Stage.rendered, render=render)
-                self.runs.item_changed(self.id, name)
+                self.context.item_changed(self.id, name)
 
     def _take(self, job_id: str, variance: bool) -> None:
         """A finished job's image (and the reference's variance) into the run's folder: a hard link
@@ -384,7 +401,7 @@ class GradingRun:
         it.update(prepared=p, stage=stage)
         it.pop("_key", None)
         self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
-        self.runs.item_changed(self.id, student)
+        self.context.item_changed(self.id, student)
         if _key(it) is not None:
             self._queue_render(_key(it))
         if p["job"] is not None:
@@ -401,7 +418,7 @@ class GradingRun:
                       row=row, metrics_seconds=result["seconds"])  # fmt: skip
         self.items[student].update(fields)
         self.gs.update_item(self.id, student, **fields)
-        self.runs.item_changed(self.id, student)
+        self.context.item_changed(self.id, student)
 
     def _failed(self, task: tuple, message: str) -> None:
         """A task that could not be done: its student (or those of a baseline) is told why, and the run goes on."""

@@ -24,7 +24,7 @@ from pathlib import Path
 from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
-from server.grading.run import GradingRun
+from server.grading.run import GradingRun, RunContext
 from server.grading.store import GradingStore, Stage
 from server.jobs.lifecycle import JobStatus
 from server.jobs.service import JobService
@@ -87,6 +87,8 @@ class GradeRuns:
         self._wakes: dict[str, threading.Event] = {}  # an open run's: set when a student is added
         self._wakes_lock = threading.Lock()
         self.listeners: list[Callable[[str, str], None]] = []  # told (run, student) when a student's stage moves
+        self.context = RunContext(settings, self.gs, jobs, self.pool, self.root, self.stopping, self.wake,
+                                  self.item_changed)  # fmt: skip
         self._import_legacy()
 
     # -- starting, resuming, stopping
@@ -178,7 +180,7 @@ class GradeRuns:
         return ids
 
     def _spawn(self, run_id: str) -> None:
-        run = GradingRun(self, run_id)
+        run = GradingRun(self.context, run_id)
         thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
         self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
         self.threads[run_id] = thread

@@ -12,12 +12,13 @@ The parts:
 Each file part goes straight to a file in the upload's staging folder (on the data directory's disk,
 so the run can take the files by renaming them), counted as it is written: the `files` parts against
 TRACER_MAX_CLASS_ENTRIES and TRACER_MAX_CLASS_BYTES, each one against the per-file cap. The request as
-a whole is bounded before it is read by the request gate (server/core/errors.py).
+a whole is bounded before it is read by the request gate (server/api/gate.py).
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -25,9 +26,8 @@ from urllib.parse import unquote
 
 from python_multipart.exceptions import FormParserError
 from python_multipart.multipart import MultipartParser, parse_options_header
-from starlette.requests import Request
 
-from server.core.errors import ApiError
+from server.core.errors import DomainError, Invalid, TooLarge, Unsupported
 from tracer.grading import Caps
 
 PARTS = ("assignment", "reference", "class", "files")
@@ -46,8 +46,8 @@ class Upload:
     seen: set[str] = field(default_factory=set)  # the parts given
 
 
-def _refuse(path: str, message: str, status: int = 422) -> ApiError:
-    return ApiError(status, [{"path": path, "message": message}])
+def _refuse(path: str, message: str, kind: type[DomainError] = Invalid) -> DomainError:
+    return kind.at(path, message)
 
 
 def _filename(disposition: bytes, options: dict) -> str | None:
@@ -131,7 +131,7 @@ class _Parts:
         self.size += n
         if self.out is None:
             if self.size > self.max_assignment:
-                raise _refuse(self.name, f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", 413)
+                raise _refuse(self.name, f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", TooLarge)
             held = self.upload.reference if self.name == "reference" else self.upload.assignment
             held += data[start:end]
             return
@@ -154,15 +154,18 @@ class _Parts:
         self.end()
 
 
-async def receive(request: Request, staging: Path, caps: Caps, max_assignment: int) -> Upload:
-    """Parse the request's multipart body as it arrives, its files into `staging` (which must exist)."""
-    kind, params = parse_options_header(request.headers.get("content-type", ""))
+async def receive(
+    content_type: str, body: AsyncIterator[bytes], staging: Path, caps: Caps, max_assignment: int
+) -> Upload:
+    """Parse a multipart body (its Content-Type header, its chunks as they arrive), its files into `staging`
+    (which must exist)."""
+    kind, params = parse_options_header(content_type)
     if kind != b"multipart/form-data" or b"boundary" not in params:
-        raise _refuse("", "expected a multipart/form-data body (parts: assignment, then class or files)", 415)
+        raise _refuse("", "expected a multipart/form-data body (parts: assignment, then class or files)", Unsupported)
     parts = _Parts(staging, caps, max_assignment)
     try:
         parser = MultipartParser(params[b"boundary"], parts.callbacks())
-        async for chunk in request.stream():
+        async for chunk in body:
             parser.write(chunk)
         parser.finalize()
     except FormParserError as e:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import anyio
 
-from server.core.errors import ApiError
+from server.core.errors import ClientGone, Invalid, TookTooLong, TooMany, Unavailable
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
@@ -244,10 +244,10 @@ class JobService:
                     f"you already have {full.args[0]} renders waiting or running, your share of the workers "
                     "(TRACER_MAX_ACTIVE_JOBS_PER_TOKEN): wait for one to end, or cancel one"
                 )
-                raise ApiError(429, message, headers={"Retry-After": str(ACTIVE_RETRY)}) from None
+                raise TooMany(message, retry_after=ACTIVE_RETRY) from None
             else:
                 message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
-            raise ApiError(429, message, headers={"Retry-After": "5"}) from None
+            raise TooMany(message, retry_after=5) from None
 
     def answer_again(self, key: str, scene: str, *, name: str | None, **fields) -> dict | None:
         """A new job of `scene`, done, with the files of the latest done render of result `key`
@@ -288,13 +288,13 @@ class JobService:
                     f"its radiosity solve would take about {solve:.0f} s here, past the limit of {limit:g} s per "
                     "job (TRACER_MAX_JOB_SECONDS): use a larger patch_size, fewer rays or a larger threshold"
                 )
-                raise ApiError(422, [{"path": "render.radiosity", "message": message}])
+                raise Invalid([{"path": "render.radiosity", "message": message}])
             work = f"{found['width']} x {found['height']} pixels x {found['spp']} samples"
             message = (
                 f"this render would take about {seconds:.0f} s here ({work}, {found['integrator']}), past the "
                 f"limit of {limit:g} s per job (TRACER_MAX_JOB_SECONDS): use fewer pixels or samples"
             )
-            raise ApiError(422, [{"path": "sampler.spp", "message": message}])
+            raise Invalid([{"path": "sampler.spp", "message": message}])
         return round(seconds, 3)
 
     def lane_for(self, seconds: float, asked: Lane | None = None, staff: bool = False) -> Lane:
@@ -401,16 +401,17 @@ class JobService:
     ) -> dict:
         """One pixel sample's ray tree (`pixel`: x, y, sample) of a scene checked in a checking process: a short
         job of the interactive lane, waited for (`queued` hears of its row first, in the submitting thread). Its
-        tree; or an ApiError: 422 at x, y or sample outside the film or its samples (nothing queued), or with the
-        errors the job ended with; 503 when no worker takes interactive work, the server stops, or the job
-        failed otherwise; 504 past TRACER_MAX_RAYTREE_SECONDS; 499 when the client went away."""
+        tree; or a domain error (server/core/errors.py): Invalid at x, y or sample outside the film or its samples
+        (nothing queued), or with the errors the job ended with; Unavailable when no worker takes interactive work,
+        the server stops, or the job failed otherwise; TookTooLong past TRACER_MAX_RAYTREE_SECONDS; ClientGone
+        when the client went away."""
         x, y, sample = pixel
         limit = self.settings.max_raytree_seconds
         errors = pixel_sample_errors(x, y, sample, found["width"], found["height"], found["samples"])
         if errors:  # before anything is queued: a job that could only fail is never made
-            raise ApiError(422, errors)
+            raise Invalid(errors)
         if self.capacity(Lane.interactive) == 0:
-            raise ApiError(503, "no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
+            raise Unavailable("no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
 
         def submit() -> dict:
             params = {"x": x, "y": y, "sample": sample, "solve_seconds": self.solve_estimate(found)}
@@ -426,17 +427,17 @@ class JobService:
         if ended is None:
             await anyio.to_thread.run_sync(self.cancel, row["id"])
             if self.stopping():
-                raise ApiError(503, "the server is stopping: ask again once it is back", headers={"Retry-After": "5"})
+                raise Unavailable("the server is stopping: ask again once it is back", retry_after=5)
             if await gone():
-                raise ApiError(499, "the client went away")
-            raise ApiError(504, f"the ray tree took longer than {limit:g} s")
+                raise ClientGone("the client went away")
+            raise TookTooLong(f"the ray tree took longer than {limit:g} s")
         if ended["status"] == JobStatus.done:
             tree = self.store.job_file(ended["id"], JobFile.raytree)
             return json.loads(await anyio.to_thread.run_sync(tree.read_text))
         errors = json.loads(ended["errors"] or "[]")
         if errors:
-            raise ApiError(422, errors)
-        raise ApiError(503, ended["error"] or f"the ray tree's job was {ended['status']}")
+            raise Invalid(errors)
+        raise Unavailable(ended["error"] or f"the ray tree's job was {ended['status']}")
 
     def states(self, ids: Iterable[str]) -> dict[str, dict]:
         """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at), for

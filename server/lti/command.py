@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 from urllib.parse import urlsplit
 
-from server.core.errors import ApiError
+from server.core.errors import DomainError
 from server.lti.services import LINEITEM_READ_SCOPE, LINEITEM_SCOPE, NRPS_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE
 from server.lti.store import LtiStore, url_problem
 
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
             issuer=args.issuer, client_id=args.client_id, auth_url=args.auth_url, token_url=args.token_url,
             jwks_url=args.jwks_url, deployment_ids=args.deployment, name=args.name, now=time.time(),
         )  # fmt: skip
-    except ApiError as e:
+    except DomainError as e:
         for err in e.errors:
             print(f"{err['path']}: {err['message']}", file=sys.stderr)
         return 1

@@ -6,23 +6,22 @@ from __future__ import annotations
 from html import escape
 from typing import Protocol
 
-from starlette.requests import Request
-from starlette.responses import Response
-
+from server.core.answers import Answer
 from server.lti.launch import Launch
 from server.lti.pages import page
 
 
 class LaunchHandler(Protocol):
-    async def launched(self, launch: Launch, request: Request) -> Response:
-        """The answer to a verified launch (its page, or a redirect to it)."""
+    def launched(self, launch: Launch, base: str) -> Answer:
+        """The answer to a verified launch (its page, or a redirect to it); `base` the server's URL as the request
+        named it. Called in a thread (it may read and write the database)."""
         ...
 
 
 class EchoHandler:
     """The default handler: "launched as <role> in <context title>", and what the launch offers."""
 
-    async def launched(self, launch: Launch, request: Request) -> Response:
+    def launched(self, launch: Launch, base: str) -> Answer:
         role = launch.course_role or "no course role"
         where = (launch.context or {}).get("title") or (launch.context or {}).get("id") or "no course"
         services = [name for name, there in (("grades", launch.ags), ("members", launch.nrps)) if there]

@@ -1,4 +1,5 @@
-"""The LTI pages' HTML: a refused launch (which check failed, in plain words) and the default handler's page.
+"""The LTI pages' HTML: a refused launch (which check failed, in plain words) and the default handler's page, as
+plain `Page`s (server/api makes the responses).
 
 Small and self-contained, with the site's stylesheet; every value is escaped. A refused launch's page names its
 check twice: for a person (`<strong>nonce</strong>: this launch was used already`) and for tests and support
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 from html import escape
 
-from starlette.responses import HTMLResponse
+from server.core.answers import Page
 
 TEMPLATE = """<!doctype html>
 <html lang="en">
@@ -29,13 +30,13 @@ TEMPLATE = """<!doctype html>
 """
 
 
-def page(title: str, body_html: str, status: int = 200, attrs: str = "") -> HTMLResponse:
+def page(title: str, body_html: str, status: int = 200, attrs: str = "") -> Page:
     """A small page: `title` (text, escaped here) and `body_html` (HTML, escaped by the caller)."""
     html = TEMPLATE.format(title=escape(title), attrs=attrs, body=body_html)
-    return HTMLResponse(html, status_code=status, headers={"Cache-Control": "no-store"})
+    return Page(html, status)
 
 
-def error_page(check: str, message: str, status: int = 400) -> HTMLResponse:
+def error_page(check: str, message: str, status: int = 400) -> Page:
     """The page of a refused launch or login: `check` the failed check's name, `message` what went wrong."""
     body = (
         "<h1>The launch was refused</h1>\n"
@@ -46,7 +47,7 @@ def error_page(check: str, message: str, status: int = 400) -> HTMLResponse:
     return page("Launch refused", body, status, f' class="lti-refused" data-check="{escape(check, quote=True)}"')
 
 
-def deep_link_form(return_url: str, jwt: str, summary: str = "") -> HTMLResponse:
+def deep_link_form(return_url: str, jwt: str, summary: str = "") -> Page:
     """The page that carries a deep-linking answer (services.deep_link_response's JWT) back to the platform: a
     form posted to the settings' deep_link_return_url by the person's own click (no script: the site's policy
     allows none inline; its form-action allows the platforms' origins, server/core/security.py)."""
@@ -60,7 +61,7 @@ def deep_link_form(return_url: str, jwt: str, summary: str = "") -> HTMLResponse
     return page("Add to the course", body)
 
 
-def storage_put_page(target: str, origin: str, state: str, nonce: str, next_url: str) -> HTMLResponse:
+def storage_put_page(target: str, origin: str, state: str, nonce: str, next_url: str) -> Page:
     """The login's page when the platform offers LTI Platform Storage: state and nonce put into the platform's
     page (web/js/lti_storage.js), then on to the platform's authentication request."""
     attrs = {"mode": "put", "target": target, "origin": origin, "state": state, "nonce": nonce, "next": next_url}
@@ -74,7 +75,7 @@ def storage_put_page(target: str, origin: str, state: str, nonce: str, next_url:
     return page("Signing in", body)
 
 
-def storage_check_page(target: str, origin: str, state: str, continuation: str) -> HTMLResponse:
+def storage_check_page(target: str, origin: str, state: str, continuation: str) -> Page:
     """The launch's page when its login put the state into the platform's storage and no cookie came back: the
     state read there (web/js/lti_storage.js) must be this launch's before it opens (the form, POST /lti/continue)."""
     attrs = {"mode": "get", "target": target, "origin": origin, "state": state}

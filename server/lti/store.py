@@ -23,7 +23,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from server.core.db import Tables
-from server.core.errors import ApiError
+from server.core.errors import Invalid
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS lti_platforms (
@@ -114,7 +114,7 @@ def text_problem(value: object, what: str) -> str | None:
 
 
 def check_platform(values: dict) -> None:
-    """ApiError(422) naming every field of a platform's registration that is wrong."""
+    """Invalid (422) naming every field of a platform's registration that is wrong."""
     errors = [{"path": f, "message": m} for f in URL_FIELDS if (m := url_problem(values.get(f)))]
     if m := text_problem(values.get("client_id"), "the client id the platform gave this tool"):
         errors.append({"path": "client_id", "message": m})
@@ -129,7 +129,7 @@ def check_platform(values: dict) -> None:
     if not isinstance(name, str) or len(name) > MAX_TEXT:
         errors.append({"path": "name", "message": f"expected a text of at most {MAX_TEXT} characters"})
     if errors:
-        raise ApiError(422, errors)
+        raise Invalid(errors)
 
 
 class LtiStore(Tables):
@@ -143,7 +143,7 @@ class LtiStore(Tables):
         deployment_ids: list[str], name: str = "", now: float = 0.0,
     ) -> dict:  # fmt: skip
         """The platform of (issuer, client_id), made or updated: its URLs and name, and its deployment ids
-        replaced by `deployment_ids` (ApiError 422 naming the field of a wrong value)."""
+        replaced by `deployment_ids` (Invalid, 422, naming the field of a wrong value)."""
         values = dict(issuer=issuer, client_id=client_id, auth_url=auth_url, token_url=token_url, jwks_url=jwks_url)
         check_platform({**values, "deployment_ids": deployment_ids, "name": name})
         with self._tx() as db:
@@ -172,7 +172,7 @@ class LtiStore(Tables):
     def add_deployment(self, platform_id: str, deployment_id: str) -> dict | None:
         """The platform with one more deployment id (None: no such platform)."""
         if m := text_problem(deployment_id, "a deployment id"):
-            raise ApiError(422, [{"path": "deployment_id", "message": m}])
+            raise Invalid([{"path": "deployment_id", "message": m}])
         with self._tx() as db:
             if db.execute("SELECT 1 FROM lti_platforms WHERE id = ?", (platform_id,)).fetchone() is None:
                 return None

@@ -12,15 +12,28 @@ import time
 from collections.abc import AsyncIterator
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import CappedStream, CapsDep, StoreDep, stream_room
+from server.api.deps import (
+    CallerDep,
+    CapsDep,
+    ChecksDep,
+    CourseDep,
+    JobsDep,
+    MaybeLmsDep,
+    StoppingDep,
+    StoreDep,
+    client_address,
+    instructor_check,
+    require_instructor,
+)
+from server.api.errors import ApiError
 from server.api.models import ErrorResponse, HandedIn
-from server.core.errors import ApiError
-from server.core.security import Caller, CallerDep, require_instructor
+from server.api.streams import KEEP_ALIVE, event_stream, sse
+from server.core.security import Caller
 from server.course import compare
 from server.course import dashboard as course_board
 from server.course.people import Who
@@ -32,13 +45,6 @@ from tracer.errors import pydantic_errors
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such assignment (or not yours)"}}
-
-
-def get_course(request: Request) -> Course:
-    return request.app.state.course
-
-
-CourseDep = Annotated[Course, Depends(get_course)]
 
 
 SubmissionIn = HandedIn  # POST /api/assignments/{id}/submissions and /check
@@ -64,7 +70,7 @@ def _base(request: Request) -> str:
 def _instructor(course: Course, aid: str, caller: Caller, request: Request, action: str = "follow") -> dict:
     """The assignment, for its course's staff only (a TA for what a TA may do, else 403): its students' tokens
     get the 404 of an unknown id (on a server where everyone is the instructor too), anyone else 401 or 403."""
-    return course.staff(aid, caller, request, action)[0]
+    return course.staff(aid, caller, instructor_check(request), action)[0]
 
 
 async def _assignment_body(request: Request) -> AssignmentIn:
@@ -152,7 +158,7 @@ async def publish_in(request: Request, course: Course, caller: Caller, response:
     if cid is None:
         mine = course.store.token(caller.owner) if caller.owner else None
         cid = mine["course_id"] if mine is not None and mine["kind"] == "staff" else DEFAULT_COURSE
-    course.course_staff(cid, caller, request, "publish")
+    course.course_staff(cid, caller, instructor_check(request), "publish")
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.publish, body, cid)
     response.headers["Location"] = f"/api/assignments/{a['id']}"
@@ -200,7 +206,7 @@ def listing(
     mine = course.store.token(caller.owner) if caller.owner else None
     if mine is not None and mine["kind"] == "staff" and course_id in (None, mine["course_id"]):
         course_id = mine["course_id"]
-        course.course_staff(course_id, caller, request)
+        course.course_staff(course_id, caller, instructor_check(request))
     else:
         require_instructor(caller, request)
     out = []
@@ -297,7 +303,7 @@ def join(aid: str, body: JoinIn, request: Request, course: CourseDep, caps: Caps
     token of the request's address, under TRACER_MAX_NEW_TOKENS_PER_ADDRESS and TRACER_MAX_JOINS_PER_ADDRESS
     (server/core/clients.py), counted only when the join succeeds; an assignment takes at most
     TRACER_MAX_JOINS_PER_ASSIGNMENT joined students (403 past it)."""
-    host = request.client.host if request.client else None
+    host = client_address(request)
     with caps.new_token(host) as room, caps.join(host) as joining:
         joined = course.join(aid, body.name, _base(request))
         room.keep()
@@ -392,7 +398,9 @@ KEEPALIVE = 15.0  # seconds of quiet after which a comment keeps the stream open
     response_class=StreamingResponse,
     responses={200: {"content": {"text/event-stream": {}}}, **NOT_FOUND},
 )
-async def submission_events(aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep):
+async def submission_events(
+    aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep, stopping: StoppingDep
+):
     """`submission` {the submission as GET .../submissions/{sid} shows it} now and each time its grade moves
     (queued, grading, then graded, invalid or failed), then `end`, and the stream closes. Woken by the
     grading run when the submission's row changes: it never polls the store."""
@@ -400,34 +408,26 @@ async def submission_events(aid: str, sid: str, request: Request, course: Course
     sub = await run_in_threadpool(course.submission, a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])
-    stopping = request.app.state.stopping
 
-    async def stream() -> AsyncIterator[str]:
-        yield "retry: 1000\n\n"
+    async def events() -> AsyncIterator[str]:
         last, quiet = None, time.monotonic()
         with course.follow(sid) as follower:
             while True:
                 view = await run_in_threadpool(lambda: course.view_one(a, course.submission(a, sid), who))
                 if view != last:
                     last = view
-                    yield f"event: submission\ndata: {json.dumps(view, separators=(',', ':'))}\n\n"
+                    yield sse("submission", view)
                 if view["status"] in FINAL:
-                    yield "event: end\ndata: {}\n\n"
+                    yield sse("end", {})
                     return
                 while await follower.changed(1.0) is None:
                     if stopping():  # a client that left: the response cancels this (server/api/routes/jobs.py)
                         return
                     if time.monotonic() - quiet > KEEPALIVE:
                         quiet = time.monotonic()
-                        yield ": keep-alive\n\n"
+                        yield KEEP_ALIVE
 
-    release = stream_room(request, caller)  # 429 past the caller's open streams (server/core/clients.py)
-    return CappedStream(
-        stream(),
-        release,
-        media_type="text/event-stream",
-        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
-    )
+    return event_stream(request, caller, events())  # 429 past the caller's open streams (server/core/clients.py)
 
 
 @router.get(
@@ -465,6 +465,8 @@ async def submission_raytree(
     request: Request,
     course: CourseDep,
     caller: CallerDep,
+    jobs: JobsDep,
+    checks: ChecksDep,
     x: Annotated[int, Query(ge=-INT32, le=INT32, description="a column of the graded image (render.png)")],
     y: Annotated[int, Query(ge=-INT32, le=INT32, description="a row of the graded image, from the top")],
     sample: Annotated[int, Query(ge=-INT32, le=INT32, description="the sample index within the pixel")] = 0,
@@ -473,9 +475,8 @@ async def submission_raytree(
     /api/raytree), traced by workers as the grader rendered the scenes (server/course/compare.py), and the first
     node where they differ, `{student: path, reference: path, what, message, nodes}` (a path: child indices from
     the eye ray), or null. Shown when the image tests' pictures are (the feedback policy); the instructor's always."""
-    state = request.app.state
     return await compare.raytrees(
-        course, state.jobs, lambda body: state.checks.summary(request, body), caller, aid, sid,
+        course, jobs, lambda body: checks.summary(request.is_disconnected, body), caller, aid, sid,
         x, y, sample, request.is_disconnected,
     )  # fmt: skip
 
@@ -535,13 +536,12 @@ def reference_png(aid: str, course: CourseDep, caller: CallerDep) -> Response:
 @router.get(
     "/{aid}/dashboard", summary="The roster with each student's state and score (the instructor's)", responses=NOT_FOUND
 )
-def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep, lms: MaybeLmsDep) -> dict:
     """Every roster student with their deadline (an extension marked), state (none, submitted, graded,
     invalid, failed), counting score, submissions and whether self-declared; and the class's counts, mean and
     median. One answer for the whole class, for a page that follows it while it submits."""
     a = _instructor(course, aid, caller, request)
     out = course_board.dashboard(course, a)
-    lms = getattr(request.app.state, "lms", None)
     out["lms"] = lms.board(aid, a["course_id"]) if lms is not None else None
     out["course"] = a["course_id"]
     return out

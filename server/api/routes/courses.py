@@ -12,11 +12,10 @@ from fastapi import APIRouter, Query, Request, Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import StoreDep
+from server.api.deps import CallerDep, CourseDep, StoreDep, instructor_check, require_instructor
+from server.api.errors import ApiError
 from server.api.models import ErrorResponse
-from server.api.routes.assignments import ASSIGNMENT_BODY, CourseDep, publish_in, roster_text
-from server.core.errors import ApiError
-from server.core.security import CallerDep, require_instructor
+from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in, roster_text
 from server.course.people import ROLES, Who
 from server.course.service import links_csv
 
@@ -100,7 +99,7 @@ async def publish(cid: str, request: Request, course: CourseDep, caller: CallerD
 async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """200 with `students: [{id, name, email, link, token, new}]`: each student's link opens the course's page
     (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
-    course.course_staff(cid, caller, request, "roster")
+    course.course_staff(cid, caller, instructor_check(request), "roster")
     text = await roster_text(request)
     students = await run_in_threadpool(course.course_roster, cid, text, _base(request))
     return _students(students, request)
@@ -108,7 +107,7 @@ async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDe
 
 @router.get("/{cid}/roster", summary="The course's roster (no tokens)", responses=NOT_FOUND)
 def roster_list(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, request)
+    course.course_staff(cid, caller, instructor_check(request))
     return {
         "students": [
             {"id": m["student"], "name": m["name"], "email": m["email"], "self_declared": bool(m["self_declared"]),
@@ -130,7 +129,7 @@ def links(
 ) -> Response:
     """The links are derived, not stored: the same ones as the roster gave, until a student's link is replaced.
     `Accept: text/csv` answers CSV (id,name,email,link)."""
-    course.course_staff(cid, caller, request, "roster")
+    course.course_staff(cid, caller, instructor_check(request), "roster")
     if assignment is not None and course.assignment(assignment)["course_id"] != cid:
         raise ApiError(404, [{"path": "assignment", "message": f"no assignment '{assignment[:64]}' in course '{cid}'"}])
     return _students(course.links(cid, _base(request), assignment), request)
@@ -140,7 +139,7 @@ def links(
 def remove_student(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     """Their tokens stop working; their submissions and grades are kept (and read again if they are enrolled
     again)."""
-    course.course_staff(cid, caller, request, "roster")
+    course.course_staff(cid, caller, instructor_check(request), "roster")
     if not course.store.remove_member(cid, student):
         raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
     return {"id": student, "removed": True}
@@ -150,7 +149,7 @@ def remove_student(cid: str, student: str, request: Request, course: CourseDep, 
 def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """The server admin or the course's instructors: `{id, name, email, role}` -> their token and link (the
     /course page with the token), never cached."""
-    course.course_staff(cid, caller, request, "staff")
+    course.course_staff(cid, caller, instructor_check(request), "staff")
     out = course.add_staff(cid, body.id, body.name, body.email, body.role, _base(request))
     headers = {"Cache-Control": "no-store"}
     return Response(json.dumps(out), status_code=201, media_type="application/json", headers=headers)
@@ -158,7 +157,7 @@ def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, call
 
 @router.get("/{cid}/staff", summary="The course's staff (no tokens)", responses=NOT_FOUND)
 def staff(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, request)
+    course.course_staff(cid, caller, instructor_check(request))
     return {"staff": course.course_view(cid, Who(), _base(request))["staff"]}
 
 
@@ -172,7 +171,7 @@ def staff_link(
     store: StoreDep,
     renew: Annotated[bool, Query(description="a new token: the old one stops working")] = False,
 ) -> Response:
-    course.course_staff(cid, caller, request, "staff")
+    course.course_staff(cid, caller, instructor_check(request), "staff")
     if renew and course.store.staff_member(cid, person) is not None:
         course.renew(cid, "staff", person, store)
     out = course.staff_link(cid, person, _base(request))
@@ -181,7 +180,7 @@ def staff_link(
 
 @router.delete("/{cid}/staff/{person}", summary="Remove a staff member (their token stops working)")
 def remove_staff(cid: str, person: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, request, "staff")
+    course.course_staff(cid, caller, instructor_check(request), "staff")
     if not course.store.remove_staff(cid, person):
         raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
     return {"id": person, "removed": True}

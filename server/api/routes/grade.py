@@ -15,11 +15,11 @@ from fastapi import APIRouter, Depends, Request, Response
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from starlette.concurrency import run_in_threadpool
 
-from server.api.deps import SettingsDep
+from server.api.deps import RunsDep, SettingsDep, require_instructor
+from server.api.errors import ApiError
+from server.api.gate import json_depth
 from server.api.models import ErrorResponse, HandedIn
-from server.core.errors import ApiError, json_depth
 from server.core.paths import ROOT
-from server.core.security import require_instructor
 from server.core.settings import Settings
 from server.grading.runs import STUDENT_FILES, GradeRuns, Handed
 from server.grading.uploads import Upload, receive
@@ -88,13 +88,6 @@ class StudentsIn(BaseModel):
     files: list[Annotated[str, Field(max_length=1000)]] = Field(
         max_length=MAX_FILES, description='file names, as the instructor picked them ("Zoë O\'Brien.json")'
     )
-
-
-def get_runs(request: Request) -> GradeRuns:
-    return request.app.state.grade_runs
-
-
-RunsDep = Annotated[GradeRuns, Depends(get_runs)]
 
 
 def _b64(text: str, where: str) -> bytes:
@@ -188,7 +181,8 @@ async def upload(request: Request, runs: RunsDep, settings: SettingsDep, respons
     caps = class_caps(settings)
     staging = runs.staging()
     try:
-        up = await receive(request, staging, caps, settings.max_body_bytes)
+        kind = request.headers.get("content-type", "")
+        up = await receive(kind, request.stream(), staging, caps, settings.max_body_bytes)
         assignment = _assignment(up.assignment, settings)
         if up.reference is not None:  # the reference scene beside an assignment that names it as a file
             reference = _assignment(up.reference, settings, "reference", "the reference scene")

@@ -16,20 +16,21 @@ from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
 
 from server.api.deps import (
-    CappedStream,
+    CallerDep,
     CapsDep,
     ChecksDep,
     ClientDep,
     JobDep,
     JobsDep,
     StoreDep,
+    client_address,
     still_waiting,
-    stream_room,
 )
+from server.api.errors import ApiError
 from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
 from server.api.scene_route import scene_post
-from server.core.errors import ApiError
-from server.core.security import CallerDep, new_token, share_token, token_hash, unauthorized
+from server.api.streams import KEEP_ALIVE, event_stream, sse
+from server.core.security import new_token, share_token, token_hash, unauthorized
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import JobKind, JobStatus
 from server.jobs.service import JobService
@@ -103,7 +104,7 @@ async def submit(
         if client.capped:  # (a joined identity too: a name anyone may type)
             taken = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
             waiting = rooms.enter_context(taken)
-        found = await checks.summary(request, await request.body())
+        found = await checks.summary(request.is_disconnected, await request.body())
         issued = new_token() if caller.token is None else None
         settings = jobs.settings
 
@@ -138,6 +139,7 @@ async def submit(
 def list_jobs(
     jobs: JobsDep,
     caller: CallerDep,
+    caps: CapsDep,
     request: Request,
     status: Annotated[JobStatus | None, Query(description="only jobs with this status")] = None,
     kind: Annotated[JobKind | None, Query(description="only jobs of this kind (default render)")] = JobKind.render,
@@ -155,7 +157,7 @@ def list_jobs(
     or anyone on a loopback-only server without one) every job, grading renders included."""
     if scope == "all" and not caller.instructor:
         if caller.token is not None:  # a token that is not the instructor's: counted against the address
-            request.app.state.caps.auth_failed(request.client.host if request.client else None)
+            caps.auth_failed(client_address(request))
         raise unauthorized("listing every job needs the instructor's token (TRACER_INSTRUCTOR_TOKEN)", "")
     if scope == "mine" or not caller.instructor:
         if caller.owner is None:
@@ -307,14 +309,7 @@ def events(job: JobDep, jobs: JobsDep, caller: CallerDep, request: Request) -> S
     The stream is woken when the job's row changes (the job service's watcher): it never polls the store.
     One token, and one address, may have so many streams open (429 past TRACER_MAX_STREAMS_PER_TOKEN or
     TRACER_MAX_STREAMS_PER_ADDRESS)."""
-    headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
-    release = stream_room(request, caller)
-    stream = _event_stream(jobs, job["id"], request)
-    return CappedStream(stream, release, media_type="text/event-stream", headers=headers)
-
-
-def sse(event: str, data: dict) -> str:
-    return f"event: {event}\ndata: {json.dumps(data, separators=(',', ':'))}\n\n"
+    return event_stream(request, caller, _events(jobs, job["id"]))
 
 
 # a view's events as text, made once for all the streams it wakes (the job service shares one view of a row
@@ -348,15 +343,14 @@ def _texts(job: JobPublic, job_id: str) -> tuple:
     return texts
 
 
-async def _event_stream(jobs: JobService, job_id: str, request: Request) -> AsyncIterator[str]:
-    yield "retry: 1000\n\n"
+async def _events(jobs: JobService, job_id: str) -> AsyncIterator[str]:
     last_progress, last_preview = None, 0
     # no question whether the client left: Starlette's StreamingResponse listens for the disconnect itself and
     # cancels this stream (uvicorn says ASGI 2.3), or its next write fails (2.4: at the latest the keep-alive's);
     # Request.is_disconnected once a second from each of 500 streams took a tenth of the event loop's time
     async for job in jobs.follow(job_id):
         if job is None:
-            yield ": keep-alive\n\n"
+            yield KEEP_ALIVE
             continue
         at, progress, preview, end = _texts(job, job_id)
         out = []  # one write for all a change says (each write goes through the middlewares and h11)

@@ -11,19 +11,11 @@ from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
-from server.api.routes.assignments import CourseDep
-from server.core.errors import ApiError
-from server.core.security import CallerDep, require_instructor
-from server.course.lms import Lms
+from server.api.answers import respond
+from server.api.deps import CallerDep, CourseDep, LtiDep, get_lms, instructor_check, require_instructor
+from server.api.errors import ApiError
 
 router = APIRouter(tags=["lti"])
-
-
-def get_lms(request: Request) -> Lms:
-    lms = getattr(request.app.state, "lms", None)
-    if lms is None:
-        raise ApiError(503, [{"path": "", "message": "LTI is not running on this server"}])
-    return lms
 
 
 @router.post("/lti/pick", include_in_schema=False)
@@ -32,7 +24,7 @@ async def pick(
 ) -> Response:
     """The picker's form (a one-time secret and the assignment picked)."""
     lms = get_lms(request)
-    return await run_in_threadpool(lms.picked, pick, assignment, str(request.base_url))
+    return respond(await run_in_threadpool(lms.picked, pick, assignment, str(request.base_url)))
 
 
 class ContextIn(BaseModel):
@@ -44,13 +36,15 @@ class ContextIn(BaseModel):
 
 
 @router.post("/api/courses/{cid}/lms/contexts", status_code=201, summary="Link an LMS course to this course (admin)")
-def link_context(cid: str, body: ContextIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+def link_context(
+    cid: str, body: ContextIn, request: Request, course: CourseDep, caller: CallerDep, lti: LtiDep
+) -> dict:
     """For an LMS course whose launches should open an existing course (the default one, say) rather than a new
     one made at its instructor's first launch."""
     require_instructor(caller, request)
     course.course(cid)
     lms = get_lms(request)
-    if request.app.state.lti.store.platform(body.platform) is None:
+    if lti.store.platform(body.platform) is None:
         raise ApiError(422, [{"path": "platform", "message": f"no registered platform '{body.platform[:64]}'"}])
     lms.store.link_context(body.platform, body.context, cid, body.title, course.now())
     return {"course": cid, "platform": body.platform, "context": body.context}
@@ -58,7 +52,7 @@ def link_context(cid: str, body: ContextIn, request: Request, course: CourseDep,
 
 @router.post("/api/courses/{cid}/lms/sync", summary="Read the course's roster from its LMS now (NRPS)")
 async def sync(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, request)
+    course.course_staff(cid, caller, instructor_check(request))
     lms = get_lms(request)
     try:
         return await run_in_threadpool(lms.sync, cid)
@@ -68,5 +62,5 @@ async def sync(cid: str, request: Request, course: CourseDep, caller: CallerDep)
 
 @router.get("/api/assignments/{aid}/lms", summary="The grades sent back to the LMS: pending, sent, the last error")
 def grades_back(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    a, _ = course.staff(aid, caller, request)
+    a, _ = course.staff(aid, caller, instructor_check(request))
     return get_lms(request).board(aid, a["course_id"]) or {"contexts": [], "linked": False, "grades": None}

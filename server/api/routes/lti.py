@@ -18,31 +18,24 @@ from __future__ import annotations
 import hmac
 import logging
 import re
-from typing import Annotated
 
 from fastapi import APIRouter, Depends, Request, Response
 from fastapi.responses import JSONResponse, RedirectResponse
 from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 
-from server.core.errors import ApiError
-from server.core.security import require_instructor
+from server.api.answers import respond
+from server.api.deps import LtiDep, SettingsDep, require_instructor
+from server.api.errors import ApiError
 from server.lti.launch import LaunchError, auth_request_url, verify_launch
 from server.lti.pages import error_page, storage_check_page, storage_put_page
-from server.lti.tool import LtiTool, origin
+from server.lti.tool import origin
 
 log = logging.getLogger("server.lti")
 router = APIRouter()
 STATE_AGE = 600  # seconds a login's state is good for (and its cookie's Max-Age)
 STORAGE_TARGET = re.compile(r"_parent|[A-Za-z0-9_-]{1,64}")  # Platform Storage's frame: the parent, or a name
 MAX_FIELD = 16384  # characters of a login's or launch's parameter (an id_token is a few KB)
-
-
-async def get_lti(request: Request) -> LtiTool:
-    return request.app.state.lti
-
-
-LtiDep = Annotated[LtiTool, Depends(get_lti)]
 
 
 def state_cookie(state: str) -> str:
@@ -60,7 +53,7 @@ async def _params(request: Request) -> dict[str, str]:
 
 def refused(error: LaunchError) -> Response:
     log.info("LTI launch refused: %s", error)
-    return error_page(error.check, error.message, error.status)
+    return respond(error_page(error.check, error.message, error.status))
 
 
 # -- the launch ----------------------------------------------------------------------------------------
@@ -97,7 +90,7 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
         redirect_uri=str(request.url_for("lti_launch")), client_id=platform["client_id"],
     )  # fmt: skip
     if storage:  # LTI Platform Storage: state and nonce kept in the platform's page too (no cookie needed)
-        response = storage_put_page(storage, platform_origin, state, nonce, url)
+        response = respond(storage_put_page(storage, platform_origin, state, nonce, url))
     else:
         response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})
     response.headers.append(
@@ -108,7 +101,7 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
 
 
 @router.post("/lti/launch", include_in_schema=False, name="lti_launch")
-async def lti_launch(request: Request, lti: LtiDep) -> Response:
+async def lti_launch(request: Request, lti: LtiDep, settings: SettingsDep) -> Response:
     p = await _params(request)
     if p.get("error"):  # the platform's OIDC error answer (login_required, ...)
         why = p.get("error_description") or p["error"]
@@ -127,7 +120,7 @@ async def lti_launch(request: Request, lti: LtiDep) -> Response:
     try:
         launch = await run_in_threadpool(
             verify_launch, p.get("id_token", ""), store=lti.store, jwks=lti.jwks, state_row=row, now=now,
-            leeway=request.app.state.settings.lti_leeway,
+            leeway=settings.lti_leeway,
         )  # fmt: skip
     except LaunchError as e:
         return refused(e)
@@ -136,9 +129,9 @@ async def lti_launch(request: Request, lti: LtiDep) -> Response:
     if row.get("storage_target") and cookie is None and platform_origin:
         # no cookie came back (the platform's frame keeps none), and the login put its state into the platform's
         # storage: the launch opens once the page has read the same state there (POST /lti/continue)
-        response = storage_check_page(row["storage_target"], platform_origin, state, lti.hold(launch))
+        response = respond(storage_check_page(row["storage_target"], platform_origin, state, lti.hold(launch)))
     else:
-        response = await lti.handler.launched(launch, request)
+        response = respond(await run_in_threadpool(lti.handler.launched, launch, str(request.base_url)))
     response.headers.append(
         "set-cookie", f"{state_cookie(state)}=; Max-Age=0; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned"
     )
@@ -153,7 +146,7 @@ async def lti_continue(request: Request, lti: LtiDep) -> Response:
     if launch is None:
         message = "this sign-in was opened already, or waited too long: open the link again"
         return refused(LaunchError("state", message))
-    return await lti.handler.launched(launch, request)
+    return respond(await run_in_threadpool(lti.handler.launched, launch, str(request.base_url)))
 
 
 # -- platforms (the server admin's) ------------------------------------------------------------------------

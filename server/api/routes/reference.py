@@ -19,7 +19,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 from markdown_it import MarkdownIt
 
-from server.core.errors import ApiError
+from server.api.errors import ApiError
 from server.core.paths import DOCS
 from tracer.docs import slug
 

@@ -37,4 +37,4 @@ async def samples(body: SamplesRequest, checks: ChecksDep, request: Request) -> 
     "Sample positions"). The adaptive sampler lists every point of its grid levels, whether this
     pixel's subdivision traced it, and the cells it visited. Computed in a checking process
     (server/checkers/pool.py), never in the API process."""
-    return await checks.samples(request, await request.body(), body.x, body.y)
+    return await checks.samples(request.is_disconnected, await request.body(), body.x, body.y)

@@ -8,10 +8,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter
 from fastapi.responses import FileResponse
 
-from server.core.errors import ApiError
+from server.api.deps import PreviewsDep
+from server.api.errors import ApiError
 from server.core.paths import SCENES
 
 router = APIRouter(prefix="/api/scenes", tags=["scenes"])
@@ -25,8 +26,7 @@ def _path(name: str) -> Path:
 
 
 @router.get("", summary="The example scenes, one per lecture topic, and the state of their previews")
-def list_scenes(request: Request) -> list[dict]:
-    previews = request.app.state.previews
+def list_scenes(previews: PreviewsDep) -> list[dict]:
     out = []
     for p in sorted(SCENES.glob("*.json")):
         data = json.loads(p.read_text())
@@ -43,11 +43,10 @@ def get_scene(name: str) -> dict:
 
 
 @router.post("/{name}/preview", status_code=202, summary="Ask for an example's preview: queued unless it is made")
-def ask_preview(name: str, request: Request) -> dict:
+def ask_preview(name: str, previews: PreviewsDep) -> dict:
     """The preview's state (as in GET /api/scenes), its render queued first when nothing made or queued it
     (a server that does not render the previews ahead)."""
     _path(name)
-    previews = request.app.state.previews
     previews.ensure(name)
     return previews.state(name)
 
@@ -58,9 +57,8 @@ def ask_preview(name: str, request: Request) -> dict:
     response_class=FileResponse,
     responses={200: {"content": {"image/png": {}}}, 503: {"description": "not rendered yet (Retry-After)"}},
 )
-def preview(name: str, request: Request) -> FileResponse:
+def preview(name: str, previews: PreviewsDep) -> FileResponse:
     _path(name)
-    previews = request.app.state.previews
     png = previews.file(name)
     if png is None:
         previews.ensure(name)  # queued now when the server did not render previews ahead

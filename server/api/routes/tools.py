@@ -8,6 +8,7 @@ import anyio
 from fastapi import APIRouter, Depends, Request
 
 from server.api.deps import (
+    CallerDep,
     CapsDep,
     ChecksDep,
     ClientDep,
@@ -21,8 +22,7 @@ from server.api.deps import (
 from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
 from server.api.scene_route import scene_post
 from server.core.clients import address_owner
-from server.core.errors import ApiError
-from server.core.security import CallerDep
+from server.core.errors import Invalid
 from server.jobs.lifecycle import ANONYMOUS_PRIORITY, RAYTREE_PRIORITY
 from tracer.scene import scene_json_schema
 
@@ -63,10 +63,8 @@ async def validate(body: ValidateRequest, checks: ChecksDep, request: Request) -
     and the asset files are all checked (in a checking process, server/checkers/pool.py: a scene that takes
     longer than TRACER_MAX_VALIDATE_SECONDS to check is not valid)."""
     try:
-        return await checks.validate(request, await request.body())
-    except ApiError as exc:
-        if exc.status != 422:
-            raise
+        return await checks.validate(request.is_disconnected, await request.body())
+    except Invalid as exc:
         return {"valid": False, "errors": exc.errors, "warnings": []}
 
 
@@ -97,7 +95,7 @@ async def raytree(
     if client.capped:  # room under the address's cap, taken before the scene is checked
         waiting = await anyio.to_thread.run_sync(caps.waiting, client.address, still_waiting(jobs))
     with waiting or contextlib.nullcontext():
-        found = await checks.summary(request, await request.body())
+        found = await checks.summary(request.is_disconnected, await request.body())
         anonymous = caller.token is None and not caller.instructor
         return await jobs.raytree(
             found, (body.x, body.y, body.sample), priority=ANONYMOUS_PRIORITY if anonymous else RAYTREE_PRIORITY,

@@ -216,9 +216,9 @@ class CheckerLine:
     """A CheckPool of one checker and no processes, its checker busy: `take(name)` waits in its line (a small
     body's when the name starts with "small") and records the name once served; `free()` frees the checker."""
 
-    class Here:  # a request whose client stays
-        async def is_disconnected(self) -> bool:
-            return False
+    @staticmethod
+    async def stays() -> bool:  # the client never goes away
+        return False
 
     def __init__(self, tmp_path):
         from server.checkers.pool import CheckPool
@@ -230,7 +230,7 @@ class CheckerLine:
         self.served: list[str] = []
 
     async def take(self, name: str) -> None:
-        await self.pool._take(self.Here(), size=100 if name.startswith("small") else 100_000)
+        await self.pool._take(self.stays, size=100 if name.startswith("small") else 100_000)
         self.served.append(name)
 
     def free(self) -> None:
@@ -301,7 +301,7 @@ def test_checks_the_bodies_held_by_waiting_requests_are_bounded_in_bytes(tmp_pat
     one still fits; the count goes back to 0 as they are served."""
     import anyio
 
-    from server.core.errors import ApiError
+    from server.core.errors import TooMany
 
     line = CheckerLine(tmp_path)
     line.pool.settings = line.pool.settings.model_copy(update={"max_validate_waiting_bytes": 150_000})
@@ -311,9 +311,9 @@ def test_checks_the_bodies_held_by_waiting_requests_are_bounded_in_bytes(tmp_pat
         async with anyio.create_task_group() as tg:
             tg.start_soon(take, "large 1")  # 100 000 bytes wait
             await anyio.sleep(0.05)
-            with pytest.raises(ApiError) as refused:
+            with pytest.raises(TooMany) as refused:
                 await take("large 2")  # 200 000 > 150 000
-            assert refused.value.status == 429 and "TRACER_MAX_VALIDATE_WAITING_BYTES" in str(refused.value.errors)
+            assert refused.value.retry_after == 2 and "TRACER_MAX_VALIDATE_WAITING_BYTES" in str(refused.value.errors)
             tg.start_soon(take, "small 1")  # 100 100 bytes: it fits
             await anyio.sleep(0.05)
             assert pool._waiting_bytes == 100_100

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from server.core.errors import ApiError
+from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.service import Course, parse_roster
 from server.course.store import CourseStore
@@ -52,7 +52,7 @@ def test_course_roster_rows_and_errors():
     rows = parse_roster('\ufeffID, Name ,Email\ns1,Zoë O\'Brien,z@x.edu\n\ns2,"Doe, Jane",\n')
     assert rows == [{"student": "s1", "name": "Zoë O'Brien", "email": "z@x.edu"},
                     {"student": "s2", "name": "Doe, Jane", "email": ""}]  # fmt: skip
-    with pytest.raises(ApiError) as e:
+    with pytest.raises(Invalid) as e:
         parse_roster("id,name,email\n.x,X,\n")
     assert e.value.errors[0]["path"] == "line 2.id"
 

@@ -1,4 +1,4 @@
-"""Who may frame which page (server/core/security.py's SecurityHeaders with `frame_ancestors`): the registered
+"""Who may frame which page (server/api/middleware.py's SecurityHeaders with `frame_ancestors`): the registered
 platforms' origins may frame the pages an LMS shows, no one else any page, and no one at all without platforms."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
-from server.core.security import SecurityHeaders
+from server.api.middleware import SecurityHeaders
 from server.lti.tool import origin
 
 

@@ -116,7 +116,7 @@ def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, plat
 
     return_url = platform.url + "/deep_link_return"
     jwt = deep_link_response(tool.lti.keys, platform.registered, platform.deployment_id, {}, [], 1e9)
-    html = deep_link_form(return_url, jwt, "Ray trees <1>").body.decode()
+    html = deep_link_form(return_url, jwt, "Ray trees <1>").html
     assert "Ray trees &lt;1&gt;" in html and "<script" not in html
     action = re.search(r'<form method="post" action="([^"]+)">', html)[1]
     value = re.search(r'name="JWT" value="([^"]+)"', html)[1]

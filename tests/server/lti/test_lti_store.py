@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from server.core.errors import ApiError
+from server.core.errors import Invalid
 from server.lti.store import LtiStore
 
 CANVAS = dict(
@@ -35,9 +35,9 @@ def test_lti_store_register_upserts_by_issuer_and_client_id(tmp_path):
      ("token_url", "https:///no-host"), ("auth_url", "https://a;b.example/x")],
 )  # fmt: skip
 def test_lti_store_register_refuses_a_bad_url_naming_its_field(tmp_path, field, value):
-    with pytest.raises(ApiError) as e:
+    with pytest.raises(Invalid) as e:
         LtiStore(tmp_path).register(**{**CANVAS, field: value}, deployment_ids=["1"])
-    assert e.value.status == 422 and [x["path"] for x in e.value.errors] == [field]
+    assert isinstance(e.value, Invalid) and [x["path"] for x in e.value.errors] == [field]
     assert "https://" in e.value.errors[0]["message"] or "URL" in e.value.errors[0]["message"]
 
 
@@ -46,7 +46,7 @@ def test_lti_store_http_is_allowed_on_loopback_only(tmp_path):
     for host in ("127.0.0.1:8001", "localhost", "[::1]:9000", "127.9.9.9"):
         urls = {k: f"http://{host}/{k}" for k in ("issuer", "auth_url", "token_url", "jwks_url")}
         store.register(**urls, client_id="c", deployment_ids=["d"])
-    with pytest.raises(ApiError) as e:
+    with pytest.raises(Invalid) as e:
         store.register(**{**CANVAS, "client_id": " "}, deployment_ids=[""])
     assert [x["path"] for x in e.value.errors] == ["client_id", "deployment_ids[0]"]
 
