@@ -30,7 +30,7 @@ def _typing_only(tree: ast.AST) -> set[int]:
 
 
 def imports_of(name: str, known: dict[str, Path]) -> set[str]:
-    """Every module `name` imports: `from tracer.kinds import End` names the module, `from tracer.integrators
+    """Every module `name` imports: `from tracer.kernels.kinds import End` names the module, `from tracer.integrators
     import record` the submodule alone (a package's __init__ runs first in any case)."""
     path = known[name]
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]

@@ -10,7 +10,7 @@ radiosity job's solution.
 
 A try stops early when its channel says the job is cancelled or no longer this try's, when it runs
 past its time limit, or when its host shuts down (the job goes back to the queue). The check runs
-before each pass and, during a pass, after each launch (tracer/render.py cuts a pass into launches of
+before each pass and, during a pass, after each launch (tracer/rendering/progressive.py cuts a pass into launches of
 about a quarter of a second, none past a bound on its rays), so a long pass is cut short too, within
 about a second: the band callback raises `Stopped`, and the image of the last finished pass is the one
 kept. A ray tree is one launch of one sample, whose rays the scene's bound on a tree keeps few.
@@ -134,7 +134,7 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
     albedo: kd after texturing (sRGB like the image); variance: the mean of the RGB variance as a heat map."""
     import numpy as np
 
-    from tracer.film import heat_map, png_bytes
+    from tracer.rendering.film import heat_map, png_bytes
 
     out: dict[str, bytes] = {}
     ranges: dict[str, list[float]] = {}
@@ -169,11 +169,11 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
 
 
 def exr_bytes(image, layers: dict | None = None) -> bytes:
-    """An EXR file's bytes (tracer.film.write_exr writes files: through a temporary one)."""
+    """An EXR file's bytes (tracer.rendering.film.write_exr writes files: through a temporary one)."""
     import tempfile
     from pathlib import Path
 
-    from tracer.film import write_exr
+    from tracer.rendering.film import write_exr
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "image.exr"
@@ -223,7 +223,7 @@ class Try:
 
     def _scene(self):
         """The job's scene, validated and compiled; None (the job failed, with its errors) if it is not."""
-        from tracer.compile import compile_scene
+        from tracer.rendering.compile import compile_scene
         from tracer.scene import SceneError, load_scene
 
         try:
@@ -242,7 +242,7 @@ class Try:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
         the cache after the first click)."""
         from tracer import radiosity
-        from tracer.raytree import ray_tree
+        from tracer.rendering.raytree import ray_tree
         from tracer.scene import SceneError
 
         compiled = self._scene()
@@ -304,7 +304,7 @@ class Try:
 
     def _resume_from(self) -> dict | None:
         """The film of an earlier try of this job, if it left one the row knows of (else from the start)."""
-        from tracer.render import snapshot_from
+        from tracer.rendering.progressive import snapshot_from
 
         want = int(self.job.get("snapshot") or 0)
         data = self.channel.snapshot() if want else None
@@ -318,8 +318,8 @@ class Try:
         return snap if snap["passes"] == want else None
 
     def _render(self) -> str:
-        from tracer.film import png_bytes
-        from tracer.render import render, snapshot_bytes
+        from tracer.rendering.film import png_bytes
+        from tracer.rendering.progressive import render, snapshot_bytes
 
         job, channel = self.job, self.channel
         deadline = time.time() + job["max_seconds"]
@@ -430,7 +430,7 @@ class Try:
     def _save_aovs(self, aovs: dict, pictures: bool = True) -> None:
         """The AOV pictures of a finished render (unless `pictures` is False: a grading render, whose
         pictures nobody looks at), and their floats, beside its image (before the job is marked done)."""
-        from tracer.film import aov_layers
+        from tracer.rendering.film import aov_layers
 
         try:
             if pictures:

@@ -27,12 +27,12 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
-from tracer.kinds import Shooter
-from tracer.parallel import BandLauncher, default_threads
+from tracer.kernels.kinds import Shooter
 from tracer.radiosity.kernels import TARGET_LIGHT, direct, shoot
 from tracer.radiosity.patches import Patches, build_patches, check_limits, patch_index
+from tracer.rendering.compile import CompiledScene, compile_scene
+from tracer.rendering.parallel import BandLauncher, default_threads
 from tracer.scene import AREA_LIGHTS, Scene
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side

@@ -22,13 +22,9 @@ from tracer.assets import (  # noqa: F401 (load_mesh_file: re-exported)
     load_image,
     load_mesh_file,
 )
-from tracer.film import filter_tables
-from tracer.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
-from tracer.lights import light_data, light_shape
-from tracer.meshing import apply as _apply
-from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.compile's before)
-from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
-from tracer.structs import (
+from tracer.kernels.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
+from tracer.kernels.lights import light_data, light_shape
+from tracer.kernels.structs import (
     FACE_SMOOTH,
     FACE_UV,
     CameraData,
@@ -40,6 +36,10 @@ from tracer.structs import (
     unit,
     vec3,
 )
+from tracer.meshing import apply as _apply
+from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.rendering.compile's before)
+from tracer.rendering.film import filter_tables
+from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
 
 
 @dataclass
