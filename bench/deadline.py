@@ -490,7 +490,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if args.kill_host and (args.backend != "redis" or args.hosts < 2):
         p.error("--kill-host needs --backend redis and at least 2 --hosts (one to carry on)")
     args.lead = args.lead or args.window + (20.0 if args.quick else 45.0)
-    from tracer.render import load_kernels
+    from tracer.rendering.progressive import load_kernels
 
     load_kernels()  # the images of the class are rendered here
     print(f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "

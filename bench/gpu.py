@@ -87,7 +87,7 @@ def compare(a, b) -> dict:
 
 def timed(cs, device: str, repeat: int, **kw):
     """A warm-up render, then the best of `repeat`: (result, seconds)."""
-    from tracer.render import render
+    from tracer.rendering.progressive import render
 
     render(cs, device=device, **kw)
     best, result = float("inf"), None
@@ -101,11 +101,11 @@ def timed(cs, device: str, repeat: int, **kw):
 def part_renders(args, report: Report) -> dict:
     import numpy as np
 
-    from tracer.compile import compile_scene
     from tracer.grading.metrics import pixel_test
-    from tracer.parallel import default_threads, is_cuda
-    from tracer.raytree import ray_tree
-    from tracer.render import Renderer, load_kernels, render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.parallel import default_threads, is_cuda
+    from tracer.rendering.progressive import Renderer, load_kernels, render
+    from tracer.rendering.raytree import ray_tree
     from tracer.scene import load_scene
 
     dev = args.device
@@ -179,7 +179,7 @@ def part_host(args, report: Report, images: dict, logs: Path) -> dict:
     import redis
 
     from bench.cluster import Procs, wait
-    from tracer.film import read_exr
+    from tracer.rendering.film import read_exr
 
     server = shutil.which("redis-server") or "/usr/bin/redis-server"
     procs = Procs(logs)
@@ -269,7 +269,7 @@ def main() -> int:
     if gone:
         print(f"cannot render: missing {', '.join(gone)}", file=sys.stderr)
         return 2
-    from tracer.parallel import DeviceError, check_device
+    from tracer.rendering.parallel import DeviceError, check_device
 
     try:
         args.device = check_device(args.device)

@@ -48,8 +48,8 @@ def assignment() -> dict:
 
 
 def render(scene: dict):
-    from tracer.compile import compile_scene
-    from tracer.render import render as run
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.progressive import render as run
     from tracer.scene import load_scene
 
     return run(compile_scene(load_scene(scene)[0])).image
@@ -65,7 +65,7 @@ def submission_file(i: int, base: str) -> tuple[str, bytes]:
     name in a class's zip, its bytes). bench/deadline.py submits them one by one."""
     import numpy as np
 
-    from tracer.film import png_bytes
+    from tracer.rendering.film import png_bytes
 
     names = class_names()
     who = f"{base}_{i:03d}"
@@ -227,7 +227,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--runs", type=int, default=1, help="times the class is graded (a fresh server each)")
     p.add_argument("--keep", type=Path, help="keep the data directories and logs here")
     args = p.parse_args(argv)
-    from tracer.render import load_kernels
+    from tracer.rendering.progressive import load_kernels
 
     load_kernels()
     t = time.perf_counter()

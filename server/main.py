@@ -49,7 +49,7 @@ from server.jobs.store import JobStore
 from server.lti.tool import LtiTool
 from server.queue.base import make_queue
 from server.queue.embedded.worker import load_kernels
-from tracer.samples import load_kernels as load_sample_kernels
+from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
 
 log = logging.getLogger("server")
 

@@ -44,7 +44,7 @@ def small(data: dict, width: int = 32, height: int = 24, **sections) -> dict:
 @pytest.fixture(scope="session")
 def compiled_kernels():
     """Compile (or load from cache) the renderer's kernels once per test session."""
-    from tracer.render import load_kernels
+    from tracer.rendering.progressive import load_kernels
 
     load_kernels("cpu")
     return True

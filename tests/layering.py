@@ -32,7 +32,7 @@ def _typing_only(tree: ast.AST) -> set[int]:
 
 
 def imports_of(name: str, known: dict[str, Path], typing: bool = True) -> set[str]:
-    """Every module `name` imports: `from tracer.kinds import End` names the module, `from tracer.integrators
+    """Every module `name` imports: `from tracer.kernels.kinds import End` names the module, `from tracer.integrators
     import record` the submodule alone (a package's __init__ runs first in any case). `typing=False`: only those
     imported at run time (not under `if TYPE_CHECKING:`)."""
     path = known[name]

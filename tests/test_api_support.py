@@ -138,7 +138,7 @@ def wait_finished(client, job_id: str, timeout: float = 60) -> dict:
 
 def exr_of(client, job_id: str) -> np.ndarray:
     """The job's latest image as linear floats, through GET .../image?format=exr."""
-    from tracer.film import read_exr
+    from tracer.rendering.film import read_exr
 
     r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
     assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"

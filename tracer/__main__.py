@@ -23,8 +23,8 @@ import json  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from tracer.jsonpos import locate, positions  # noqa: E402
 from tracer.scene import ASSET_DIR, SceneError, load_scene, validate_scene  # noqa: E402
+from tracer.tools.jsonpos import locate, positions  # noqa: E402
 
 
 def _read_json(path: str) -> dict:
@@ -68,7 +68,7 @@ def _overrides(data: dict, args) -> dict:
 
 def _print_problems(items: list[dict], kind: str = "error", scene: str | None = None, file=sys.stderr) -> None:
     """A scene's errors (or warnings) one a line, `FILE:LINE:COL: error: PATH: MESSAGE`, each at its JSON path's
-    place in the scene file's text (tracer/jsonpos.py: a missing field at its object), as compilers write them
+    place in the scene file's text (tracer/tools/jsonpos.py: a missing field at its object), as compilers write them
     and as the page's editor marks them; without a file (or one that is not JSON) `error: PATH: MESSAGE`."""
     text = found = None
     if scene is not None and items:
@@ -84,9 +84,9 @@ def _print_problems(items: list[dict], kind: str = "error", scene: str | None = 
 
 
 def cmd_render(args) -> int:
-    from tracer.compile import compile_scene
-    from tracer.film import aov_layers, write_exr, write_png
-    from tracer.render import load_kernels, render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.film import aov_layers, write_exr, write_png
+    from tracer.rendering.progressive import load_kernels, render
 
     scene, warnings = load_scene(_overrides(_read_json(args.scene), args), assets=args.assets)
     _print_problems(warnings, "warning", args.scene)
@@ -138,14 +138,14 @@ def cmd_render(args) -> int:
 
 
 def cmd_raytree(args) -> int:
-    from tracer.raytree import ray_tree
+    from tracer.rendering.raytree import ray_tree
 
     scene, warnings = load_scene(_read_json(args.scene), assets=args.assets)
-    from tracer.compile import compile_scene
+    from tracer.rendering.compile import compile_scene
 
     tree = ray_tree(compile_scene(scene, asset_dir=Path(args.assets)), args.x, args.y, args.sample)
     if args.text:
-        from tracer.raytree import tree_text
+        from tracer.rendering.raytree import tree_text
 
         sys.stdout.write(tree_text(tree))
         return 0
@@ -165,7 +165,7 @@ def cmd_validate(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from tracer.bench import main as bench_main
+    from tracer.tools.bench import main as bench_main
 
     started()
     return bench_main(args)
@@ -177,7 +177,7 @@ def _percent_text(p: float) -> str:
 
 
 def cmd_docs(args) -> int:
-    from tracer.docs import main as docs_main
+    from tracer.tools.scene_docs import main as docs_main
 
     return docs_main(check=args.check, path=Path(args.file))
 
@@ -273,7 +273,7 @@ def default_output(submission: Path) -> Path:
 
 def _device(name: str) -> str:
     """--device: Warp's name of the device, or a usage error naming the devices there are."""
-    from tracer.parallel import device_arg
+    from tracer.rendering.parallel import device_arg
 
     return device_arg(name)
 
@@ -364,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--json", action="store_true", help="print the report (a class: the summary) as JSON")
     g.set_defaults(func=cmd_grade)
 
-    from tracer.docs import DOC
+    from tracer.tools.scene_docs import DOC
 
     d = sub.add_parser("docs", help="write the field tables of the scene format reference from the models")
     d.add_argument("--check", action="store_true", help="only say whether they are up to date (exit 1 if not)")

@@ -5,7 +5,7 @@ max_width)"), the same through the command line, the service and grading. One li
 kernels keep instead: `max_tree_rays`, the rays of one pixel sample's ray tree (Whitted's tree doubles with
 each level where a material both reflects and transmits: with max_depth 64 and min_weight 0 nothing else
 ends it). A ray past it is not traced, the same in the image and in the ray tree, which shows the cut as
-the end reason `max_tree_rays`; tracer/estimate.py counts a sample's rays up to it. The table below is the
+the end reason `max_tree_rays`; tracer/rendering/estimate.py counts a sample's rays up to it. The table below is the
 one definition of the limits (name, default, what is counted):
 
 - `Limits`, the dataclass the validators read (tracer/scene/), is made from it, its defaults the table's;

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tracer.compile import compile_scene
-from tracer.film import write_exr, write_png
-from tracer.render import render
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.film import write_exr, write_png
+from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 
 HERE = Path(__file__).resolve().parent

@@ -38,8 +38,8 @@ def validate(body: bytes, limits: Limits, assets: Path) -> dict:
 def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
     """What POST /api/jobs and POST /api/raytree need of a valid scene (the scene's JSON text, its size and
     estimates), or its `errors`."""
-    from tracer import estimate
-    from tracer.raytree import sample_count
+    from tracer.rendering import estimate
+    from tracer.rendering.raytree import sample_count
 
     try:
         scene, warnings, data = _scene_of(body, limits, assets)
@@ -56,8 +56,8 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
 
 def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
     """POST /api/samples's answer, or its `errors`."""
-    from tracer.compile import compile_scene
-    from tracer.samples import pixel_samples
+    from tracer.rendering.compile import compile_scene
+    from tracer.tools.pixel_samples import pixel_samples
 
     try:
         scene, _, _ = _scene_of(body, limits, assets)
@@ -114,7 +114,7 @@ def checker_main(conn, nice: int) -> None:
             pass
     threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
     from tracer.assets import import_mesh_reader
-    from tracer.samples import load_kernels
+    from tracer.tools.pixel_samples import load_kernels
 
     load_kernels()
     import_mesh_reader()  # a scene's mesh files are read here first (their triangles counted)

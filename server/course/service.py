@@ -44,8 +44,8 @@ from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
-from tracer import spreadsheet
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
+from tracer.tools import spreadsheet
 
 log = logging.getLogger(__name__)
 

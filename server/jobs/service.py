@@ -27,7 +27,7 @@ from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.results import DEVICE, link_files, renderer_version, result_key
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
-from tracer.raytree import pixel_sample_errors
+from tracer.rendering.raytree import pixel_sample_errors
 
 if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface
     from server.queue.base import JobQueue
@@ -276,7 +276,7 @@ class JobService:
     # -- the estimate ---------------------------------------------------------------------------
 
     def estimate(self, found: dict) -> float:
-        """The render's estimated seconds on one worker (tracer/estimate.py, in the scene's summary; scaled by
+        """The render's estimated seconds on one worker (tracer/rendering/estimate.py, in the scene's summary; scaled by
         how long finished renders took against their estimates); 422 when past the per-job limit, so it is
         never accepted to fail later (at render.radiosity when the radiosity solve alone is past it)."""
         pace = self.store.pace()

@@ -10,7 +10,7 @@ radiosity job's solution.
 
 A try stops early when its channel says the job is cancelled or no longer this try's, when it runs
 past its time limit, or when its host shuts down (the job goes back to the queue). The check runs
-before each pass and, during a pass, after each launch (tracer/render.py cuts a pass into launches of
+before each pass and, during a pass, after each launch (tracer/rendering/progressive.py cuts a pass into launches of
 about a quarter of a second, none past a bound on its rays), so a long pass is cut short too, within
 about a second: the band callback raises `Stopped`, and the image of the last finished pass is the one
 kept. A ray tree is one launch of one sample, whose rays the scene's bound on a tree keeps few.
@@ -125,6 +125,93 @@ class _Pass:
     samples: int  # progress units done when it was taken
 
 
+class _Watch:
+    """A render try's state between the renderer's callbacks: when to stop (`reason_to_stop`, looked at by
+    `cancel` before each pass and by `on_band` after each band), progress reports, the previews published
+    (`publish`), snapshots of the film, and giving way to interactive work (a batch render, `on_pass`)."""
+
+    def __init__(self, try_: Try, scene, cs, deadline: float):
+        self.job, self.channel, self.stopping = try_.job, try_.channel, try_.stopping
+        self.preview_interval, self.snapshot_interval = try_.preview_interval, try_.snapshot_interval
+        self.scene, self.cs, self.deadline = scene, cs, deadline
+        self.exposure = scene.film.exposure
+        self.last: _Pass | None = None  # the latest finished pass
+        self.published = 0  # number of the pass whose image is on disk
+        self.clock = {"check": 0.0, "progress": 0.0, "preview": 0.0, "snapshot": time.monotonic()}
+        self.done = {"samples": 0, "total": self.job["samples_total"]}  # the renderer's latest progress
+        self.batch = self.job.get("lane") == Lane.batch
+        params = self.job.get("params") or {}
+        params = json.loads(params) if isinstance(params, str) else params
+        self.lean = params.get("outputs") == "floats"  # grading: only the final image and its floats
+        self.stop_reason: Stop | None = None
+
+    def reason_to_stop(self) -> Stop | None:
+        if self.stopping():
+            return Stop.shutdown
+        if time.time() > self.deadline:
+            return Stop.timeout
+        return self.channel.stop_reason()
+
+    def publish(self, p: _Pass) -> None:
+        """The pass's image on disk: PNG (with the scene's exposure) and EXR."""
+        from tracer.rendering.film import png_bytes
+
+        self.channel.save(JobFile.image_png, png_bytes(p.image, self.exposure))
+        self.channel.save(JobFile.image_exr, exr_bytes(p.image))
+        self.published = p.number
+        self.clock["preview"] = time.monotonic()
+
+    def on_band(self, pr) -> None:
+        """After each band of a pass, and after each shot of a radiosity solve: progress, and the stop check."""
+        clock = self.clock
+        self.done.update(samples=pr.samples_done, total=pr.samples_total)
+        now = time.monotonic()
+        if pr.phase == "radiosity" and (now - clock["progress"] >= PROGRESS_INTERVAL or pr.solve["fraction"] >= 1):
+            clock["progress"] = now
+            self.channel.progress(solve=pr.solve)
+        elif pr.phase != "radiosity" and now - clock["progress"] >= PROGRESS_INTERVAL:
+            clock["progress"] = now
+            self.channel.progress(samples_done=pr.samples_done, samples_total=pr.samples_total)
+        if now - clock["check"] >= CHECK_INTERVAL:
+            clock["check"] = now
+            reason = self.reason_to_stop()
+            if reason:
+                raise Stopped(reason)
+
+    def on_pass(self, pr) -> None:
+        """After each pass: a preview when one is due, progress, a snapshot now and then; a batch render gives
+        way here when the channel asks it to."""
+        from tracer.rendering.progressive import snapshot_bytes
+
+        channel, clock, done = self.channel, self.clock, self.done
+        self.last = last = _Pass(pr.image, pr.passes_done, pr.spp_done, pr.rays, done["samples"])
+        due = pr.passes_done == 1 or time.monotonic() - clock["preview"] >= self.preview_interval
+        final = done["samples"] >= done["total"]
+        if due and not final and not self.lean:  # the final image is published by Try._done
+            self.publish(last)
+        fields = dict(samples_done=done["samples"], samples_total=done["total"], passes_done=pr.passes_done)
+        fields.update(spp_done=pr.spp_done, rays=pr.rays, preview=self.published)
+        if not final and time.monotonic() - clock["snapshot"] >= self.snapshot_interval:
+            channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))  # a later try continues from here
+            fields["snapshot"] = pr.passes_done
+            clock["snapshot"] = time.monotonic()
+        channel.progress(**fields)
+        if self.batch and not final and channel.should_yield():
+            if self.published != last.number:
+                self.publish(last)
+            channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))
+            raise Stopped(Stop.give_way)
+
+    def cancel(self) -> bool:
+        """Before each pass, and before each shot of a radiosity solve: whether to stop (the reason kept)."""
+        solving = self.scene.render.integrator_info.prepass == "radiosity" and self.cs.radiosity is None
+        if solving and time.monotonic() - self.clock["check"] < CHECK_INTERVAL:
+            return False  # a solve's shots come every few ms: look at the channel every CHECK_INTERVAL
+        self.clock["check"] = time.monotonic()
+        self.stop_reason = self.reason_to_stop()
+        return self.stop_reason is not None
+
+
 def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
     """The renderer's AOVs as PNGs for the page, and each one's [min, max] (the legend of its colours).
 
@@ -134,7 +221,7 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
     albedo: kd after texturing (sRGB like the image); variance: the mean of the RGB variance as a heat map."""
     import numpy as np
 
-    from tracer.film import heat_map, png_bytes
+    from tracer.rendering.film import heat_map, png_bytes
 
     out: dict[str, bytes] = {}
     ranges: dict[str, list[float]] = {}
@@ -169,11 +256,11 @@ def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
 
 
 def exr_bytes(image, layers: dict | None = None) -> bytes:
-    """An EXR file's bytes (tracer.film.write_exr writes files: through a temporary one)."""
+    """An EXR file's bytes (tracer.rendering.film.write_exr writes files: through a temporary one)."""
     import tempfile
     from pathlib import Path
 
-    from tracer.film import write_exr
+    from tracer.rendering.film import write_exr
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "image.exr"
@@ -223,7 +310,7 @@ class Try:
 
     def _scene(self):
         """The job's scene, validated and compiled; None (the job failed, with its errors) if it is not."""
-        from tracer.compile import compile_scene
+        from tracer.rendering.compile import compile_scene
         from tracer.scene import SceneError, load_scene
 
         try:
@@ -242,7 +329,7 @@ class Try:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
         the cache after the first click)."""
         from tracer import radiosity
-        from tracer.raytree import ray_tree
+        from tracer.rendering.raytree import ray_tree
         from tracer.scene import SceneError
 
         compiled = self._scene()
@@ -304,7 +391,7 @@ class Try:
 
     def _resume_from(self) -> dict | None:
         """The film of an earlier try of this job, if it left one the row knows of (else from the start)."""
-        from tracer.render import snapshot_from
+        from tracer.rendering.progressive import snapshot_from
 
         want = int(self.job.get("snapshot") or 0)
         data = self.channel.snapshot() if want else None
@@ -318,119 +405,59 @@ class Try:
         return snap if snap["passes"] == want else None
 
     def _render(self) -> str:
-        from tracer.film import png_bytes
-        from tracer.render import render, snapshot_bytes
+        """A render: the scene compiled, then the renderer's passes (continuing from an earlier try's film
+        when there is one) with a _Watch over them; the try ends done, giving way, or stopped."""
+        from tracer.rendering.progressive import render
 
-        job, channel = self.job, self.channel
-        deadline = time.time() + job["max_seconds"]
+        deadline = time.time() + self.job["max_seconds"]  # the compile counts too
         compiled = self._scene()
         if compiled is None:
             return TryEnd.failed
-        scene, compiled = compiled
-        exposure = scene.film.exposure
-        last: _Pass | None = None  # the latest finished pass
-        published = 0  # number of the pass whose image is on disk
-        clock = {"check": 0.0, "progress": 0.0, "preview": 0.0, "snapshot": time.monotonic()}
-        done = {"samples": 0, "total": job["samples_total"]}  # the renderer's latest progress
-        batch = job.get("lane") == Lane.batch
-        params = job.get("params") or {}
-        params = json.loads(params) if isinstance(params, str) else params
-        lean = params.get("outputs") == "floats"  # grading: only the final image and its floats
+        scene, cs = compiled
+        watch = _Watch(self, scene, cs, deadline)
         resume = self._resume_from()
         if resume is not None:
-            published = int(job.get("preview") or 0)
-            log.info("job %s: continuing from pass %d", job["id"], resume["passes"])
-
-        def reason_to_stop() -> str | None:
-            if self.stopping():
-                return Stop.shutdown
-            if time.time() > deadline:
-                return Stop.timeout
-            return channel.stop_reason()
-
-        def publish(p: _Pass) -> None:
-            nonlocal published
-            channel.save(JobFile.image_png, png_bytes(p.image, exposure))
-            channel.save(JobFile.image_exr, exr_bytes(p.image))
-            published = p.number
-            clock["preview"] = time.monotonic()
-
-        def on_band(pr) -> None:  # after each band of a pass, and after each shot of a radiosity solve
-            done.update(samples=pr.samples_done, total=pr.samples_total)
-            now = time.monotonic()
-            if pr.phase == "radiosity" and (now - clock["progress"] >= PROGRESS_INTERVAL or pr.solve["fraction"] >= 1):
-                clock["progress"] = now
-                channel.progress(solve=pr.solve)
-            elif pr.phase != "radiosity" and now - clock["progress"] >= PROGRESS_INTERVAL:
-                clock["progress"] = now
-                channel.progress(samples_done=pr.samples_done, samples_total=pr.samples_total)
-            if now - clock["check"] >= CHECK_INTERVAL:
-                clock["check"] = now
-                reason = reason_to_stop()
-                if reason:
-                    raise Stopped(reason)
-
-        def on_pass(pr) -> None:
-            nonlocal last
-            last = _Pass(pr.image, pr.passes_done, pr.spp_done, pr.rays, done["samples"])
-            due = pr.passes_done == 1 or time.monotonic() - clock["preview"] >= self.preview_interval
-            final = done["samples"] >= done["total"]
-            if due and not final and not lean:  # the final image is published below
-                publish(last)
-            fields = dict(samples_done=done["samples"], samples_total=done["total"], passes_done=pr.passes_done)
-            fields.update(spp_done=pr.spp_done, rays=pr.rays, preview=published)
-            if not final and time.monotonic() - clock["snapshot"] >= self.snapshot_interval:
-                channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))  # a later try continues from here
-                fields["snapshot"] = pr.passes_done
-                clock["snapshot"] = time.monotonic()
-            channel.progress(**fields)
-            if batch and not final and channel.should_yield():
-                if published != last.number:
-                    publish(last)
-                channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))
-                raise Stopped(Stop.give_way)
-
-        stop_reason = None
-
-        def cancel() -> bool:  # before each pass, and before each shot of a radiosity solve
-            nonlocal stop_reason
-            solving = scene.render.integrator_info.prepass == "radiosity" and compiled.radiosity is None
-            if solving and time.monotonic() - clock["check"] < CHECK_INTERVAL:
-                return False  # a solve's shots come every few ms: look at the channel every CHECK_INTERVAL
-            clock["check"] = time.monotonic()
-            stop_reason = reason_to_stop()
-            return stop_reason is not None
-
+            watch.published = int(self.job.get("preview") or 0)
+            log.info("job %s: continuing from pass %d", self.job["id"], resume["passes"])
         try:
             result = render(
-                compiled, threads=self.threads, progress=on_band, cancel=cancel, on_pass=on_pass, device=self.device,
-                radiosity_cache=self.cache, resume=resume,
+                cs, threads=self.threads, progress=watch.on_band, cancel=watch.cancel, on_pass=watch.on_pass,
+                device=self.device, radiosity_cache=self.cache, resume=resume,
             )  # fmt: skip
             if not result.cancelled:
-                final = _Pass(result.image, last.number if last else 1, result.spp, result.rays, done["total"])
-                publish(final)
-                self._save_aovs(result.aovs, pictures=not lean)
-                if compiled.radiosity is not None:
-                    self._save_radiosity(compiled.radiosity)
-                solved = {"solve": {**result.solve, "fraction": 1.0}} if result.solve else {}
-                channel.finish(
-                    JobStatus.done, samples_done=done["total"], samples_total=done["total"],
-                    passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number, **solved,
-                )  # fmt: skip
-                log.info("job %s: done, %s", job["id"], result.stats_line())
-                return TryEnd.done
+                return self._done(watch, cs, result)
         except Stopped as stop:
-            stop_reason = stop.reason
-        if stop_reason is Stop.give_way:
-            channel.give_back(TryEnd.gave_way, snapshot=last.number, preview=published)
-            log.info("job %s: gave way to interactive work after pass %d", job["id"], last.number)
-            return TryEnd.gave_way
-        return self._stopped(stop_reason, last, published, publish)
+            watch.stop_reason = stop.reason
+        if watch.stop_reason is Stop.give_way:
+            return self._gave_way(watch)
+        return self._stopped(watch.stop_reason, watch.last, watch.published, watch.publish)
+
+    def _done(self, watch: _Watch, cs, result) -> str:
+        """A finished render: its final image, AOVs and radiosity solution saved, then the job done."""
+        done = watch.done
+        final = _Pass(result.image, watch.last.number if watch.last else 1, result.spp, result.rays, done["total"])
+        watch.publish(final)
+        self._save_aovs(result.aovs, pictures=not watch.lean)
+        if cs.radiosity is not None:
+            self._save_radiosity(cs.radiosity)
+        solved = {"solve": {**result.solve, "fraction": 1.0}} if result.solve else {}
+        self.channel.finish(
+            JobStatus.done, samples_done=done["total"], samples_total=done["total"],
+            passes_done=final.number, spp_done=result.spp, rays=result.rays, preview=final.number, **solved,
+        )  # fmt: skip
+        log.info("job %s: done, %s", self.job["id"], result.stats_line())
+        return TryEnd.done
+
+    def _gave_way(self, watch: _Watch) -> str:
+        """A batch render that gave way to interactive work: back in the queue, to continue from its snapshot."""
+        self.channel.give_back(TryEnd.gave_way, snapshot=watch.last.number, preview=watch.published)
+        log.info("job %s: gave way to interactive work after pass %d", self.job["id"], watch.last.number)
+        return TryEnd.gave_way
 
     def _save_aovs(self, aovs: dict, pictures: bool = True) -> None:
         """The AOV pictures of a finished render (unless `pictures` is False: a grading render, whose
         pictures nobody looks at), and their floats, beside its image (before the job is marked done)."""
-        from tracer.film import aov_layers
+        from tracer.rendering.film import aov_layers
 
         try:
             if pictures:

@@ -9,8 +9,8 @@ import math
 import numpy as np
 from numpy.testing import assert_allclose
 
-from tracer.raytree import ray_tree
-from tracer.render import render
+from tracer.rendering.progressive import render
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene
 
 

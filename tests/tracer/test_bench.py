@@ -1,4 +1,4 @@
-"""The benchmark's comparison with Mitsuba 3 (tracer/bench_mitsuba.py): the scene it writes for Mitsuba,
+"""The benchmark's comparison with Mitsuba 3 (tracer/tools/bench_mitsuba.py): the scene it writes for Mitsuba,
 our renderer timed as a whole process, and the samples our renderer needs to reach a given RMSE.
 Mitsuba itself is an optional dependency of the benchmark, never of the tests: nothing here runs it."""
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from conftest import SCENES
 
-from tracer import bench_mitsuba
-from tracer.bench import cornell_data
 from tracer.scene import load_scene
+from tracer.tools import bench_mitsuba
+from tracer.tools.bench import cornell_data
 
 
 def test_bench_spp_to_reach_interpolates_on_log_log_axes():
@@ -75,7 +75,7 @@ def test_bench_mitsuba_scene_names_what_it_cannot_convert(tmp_path):
 def test_bench_times_our_renderer_as_a_whole_process(tmp_path):
     """`python -m tracer render` in a process of its own: its wall and CPU time, the render's seconds
     from its last line, and its image from the EXR, the same as rendering in this process."""
-    from tracer.render import render
+    from tracer.rendering.progressive import render
 
     data = cornell_data(16, 4)
     scene_file = tmp_path / "scene.json"

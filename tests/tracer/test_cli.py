@@ -9,7 +9,7 @@ from conftest import ROOT, SCENES, scene_dict, small
 from PIL import Image
 from test_assets import obj_grid
 
-from tracer.film import read_exr
+from tracer.rendering.film import read_exr
 
 
 def run(*args, check=True):
@@ -46,7 +46,7 @@ def test_cli_render_png_exr_and_statistics(tmp_path):
     lin = read_exr(exr)
     assert lin.shape == (30, 40, 3) and lin.dtype == np.float32
     # the PNG is the sRGB encoding of the EXR (exposure 0)
-    from tracer.film import to_srgb8
+    from tracer.rendering.film import to_srgb8
 
     assert np.array_equal(to_srgb8(lin), png)
 

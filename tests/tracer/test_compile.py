@@ -8,8 +8,8 @@ import pytest
 from numpy.testing import assert_allclose
 from test_assets import no_repr
 
-from tracer.compile import box_faces, compile_scene, transform_matrix
-from tracer.raytree import ray_tree
+from tracer.rendering.compile import box_faces, compile_scene, transform_matrix
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import ASSET_DIR, SceneError, Transform, load_scene
 
 

@@ -22,11 +22,11 @@ from conftest import ROOT, scene_dict, small
 from queue_support import LOST_AFTER, Api, Process, RedisServer
 from test_api_support import job, submit, tiny_scene, wait_finished, wait_for
 
-import tracer.render as render_module
-from tracer.compile import compile_scene
-from tracer.film import read_exr
-from tracer.parallel import DeviceError, check_device
-from tracer.render import BAND_PIXELS, Renderer, band_size, pass_schedule, render
+import tracer.rendering.progressive as render_module
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.film import read_exr
+from tracer.rendering.parallel import DeviceError, check_device
+from tracer.rendering.progressive import BAND_PIXELS, Renderer, band_size, pass_schedule, render
 from tracer.scene import load_scene
 
 NO_DEVICE = "warp has no device cuda:99 here; available: cpu"  # then ", cuda:0" on a machine with a GPU

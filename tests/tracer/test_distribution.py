@@ -14,19 +14,19 @@ import warp as wp
 from conftest import SCENES, small
 from numpy.testing import assert_allclose
 
-from tracer.compile import compile_scene
-from tracer.lights import light_data, sample_area_light
-from tracer.raytree import ray_tree
-from tracer.render import render
-from tracer.sampling import (
+from tracer.kernels.lights import light_data, sample_area_light
+from tracer.kernels.sampling import (
     concentric_disk,
     rng_start,
     sample_cone,
     sample_cos_lobe,
     sample_cosine_hemisphere,
 )
+from tracer.kernels.structs import LightData
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.progressive import render
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import Limits, load_scene
-from tracer.structs import LightData
 
 N = 200_000
 CHI2_63 = 103.4  # 99.9% quantile of chi-square with 63 degrees of freedom

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from conftest import ROOT, scene_dict, small
 
-from tracer import docs
+from tracer.tools import scene_docs as docs
 
 REFERENCE = ROOT / "docs" / "scene-format.md"
 
@@ -63,8 +63,8 @@ def test_docs_the_complete_example_is_a_valid_scene_without_warnings():
 
 def test_docs_ray_tree_tables_name_every_field_and_end(compiled_kernels):
     """Every key of a real tree (and every end reason) has a row, and every row is a real key."""
-    from tracer.kinds import End
-    from tracer.raytree import ray_tree
+    from tracer.kernels.kinds import End
+    from tracer.rendering.raytree import ray_tree
     from tracer.scene import load_scene
 
     scene, _ = load_scene(small(scene_dict("whitted"), 48, 36))

@@ -1,4 +1,4 @@
-"""The cost estimate (tracer/estimate.py) against the rays the renderer counts: it errs on the long side, and
+"""The cost estimate (tracer/rendering/estimate.py) against the rays the renderer counts: it errs on the long side, and
 counts a ray tree up to the bound the kernel keeps (issue 24: a glass ball in a box of mirrors, max_depth 64,
 min_weight 0, was estimated at 0.068 s and never ended; the adaptive sampler with threshold 0 and max_level 8
 at 32 x 32 was estimated at 0.12 s and took 4.2 s)."""
@@ -8,10 +8,10 @@ import json
 import pytest
 from conftest import EXAMPLES, ROOT, scene_dict, small
 
-from tracer import estimate
 from tracer.integrators.adaptive import kept_points
 from tracer.limits import Limits
-from tracer.render import render
+from tracer.rendering import estimate
+from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 
 MIRROR_BOX = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())

@@ -1,4 +1,4 @@
-"""The film (tracer/film.py): the reconstruction filters' sampling tables, sRGB encoding, EXR files.
+"""The film (tracer/rendering/film.py): the reconstruction filters' sampling tables, sRGB encoding, EXR files.
 
 The filters' importance sampling itself (offsets following |f|, negative weights) is checked through the
 kernel in test_sampling.py; here, the tables it reads."""
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from tracer.film import FILTER_TABLE, filter_1d, filter_tables, read_exr, srgb_encode, to_srgb8, write_exr
+from tracer.rendering.film import FILTER_TABLE, filter_1d, filter_tables, read_exr, srgb_encode, to_srgb8, write_exr
 
 FILTERS = [("box", 0.5), ("box", 1.0), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)]
 

@@ -6,9 +6,9 @@ import numpy as np
 import warp as wp
 from numpy.testing import assert_allclose
 
-import tracer.kinds  # noqa: F401  (initialise Warp)
-from tracer.geometry import intersect_disk, intersect_parallelogram, intersect_plane, intersect_sphere
-from tracer.materials import fresnel_dielectric, phong_terms, reflect, refract
+import tracer.kernels.kinds  # noqa: F401  (initialise Warp)
+from tracer.kernels.geometry import intersect_disk, intersect_parallelogram, intersect_plane, intersect_sphere
+from tracer.kernels.materials import fresnel_dielectric, phong_terms, reflect, refract
 
 
 @wp.kernel

@@ -5,9 +5,9 @@ import pytest
 from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 
-from tracer.compile import compile_scene
-from tracer.raytree import ray_tree
-from tracer.render import Renderer, render
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.progressive import Renderer, render
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene, validate_scene
 
 N = 2  # instants

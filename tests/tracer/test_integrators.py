@@ -13,7 +13,7 @@ from conftest import ROOT
 from tracer.errors import SceneError
 from tracer.grading.spec import RenderOverrides
 from tracer.integrators import INTEGRATORS, NAMES, dispatch
-from tracer.kinds import Integrator
+from tracer.kernels.kinds import Integrator
 from tracer.scene import RenderSettings, load_scene, scene_json_schema
 
 

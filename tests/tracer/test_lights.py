@@ -1,4 +1,4 @@
-"""Lights (tracer/lights.py): kinds from the scene format's light types, their LightData, the area lights'
+"""Lights (tracer/kernels/lights.py): kinds from the scene format's light types, their LightData, the area lights'
 own shapes. Their sampling and radiometry are tested in test_distribution.py (chi-square of the sampled
 points, irradiance against Lambert's formula) and test_analytic.py."""
 
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from tracer.compile import compile_scene
 from tracer.grading.spec import PRESETS
-from tracer.kinds import Shape
-from tracer.lights import LightKind, light_data, light_shape
+from tracer.kernels.kinds import Shape
+from tracer.kernels.lights import LightKind, light_data, light_shape
+from tracer.rendering.compile import compile_scene
 from tracer.scene import AREA_LIGHT_TYPES, LIGHT_TYPES, load_scene
 
 LIGHTS = {

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from conftest import scene_dict, small
 
-from tracer.compile import compile_scene
-from tracer.kinds import RadDisplay
-from tracer.parallel import ITEMS_PER_BAND
+from tracer.kernels.kinds import RadDisplay
 from tracer.radiosity import attach, build_patches, solve
-from tracer.raytree import ray_tree
-from tracer.render import render
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.parallel import ITEMS_PER_BAND
+from tracer.rendering.progressive import render
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene
 
 
@@ -469,7 +469,7 @@ def test_radiosity_rays_times_steps_past_the_limit_are_refused():
 
 PACKAGE_MODULES = """
 import json, sys
-import tracer.render, tracer.raytree, tracer.integrators.whitted
+import tracer.rendering.progressive, tracer.rendering.raytree, tracer.integrators.whitted
 print(json.dumps(sorted(m for m in sys.modules if m.startswith("tracer.radiosity"))))
 """
 

@@ -8,11 +8,11 @@ import re
 import numpy as np
 from conftest import ROOT
 
-from tracer.compile import compile_scene
-from tracer.kinds import End
+from tracer.kernels.kinds import End
 from tracer.limits import Limits
-from tracer.raytree import END_WORDS, ray_tree, tree_text
-from tracer.render import render
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.progressive import render
+from tracer.rendering.raytree import END_WORDS, ray_tree, tree_text
 from tracer.scene import load_scene
 
 MIRROR_BOX = ROOT / "tests" / "tracer" / "mirror_box.json"

@@ -6,12 +6,12 @@ import warp as wp
 from conftest import EXAMPLES, scene_dict, small
 from numpy.testing import assert_allclose
 
-from tracer.compile import compile_scene
 from tracer.integrators import adaptive
-from tracer.raytree import ray_tree
-from tracer.render import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
-from tracer.samples import adaptive_count, adaptive_levels
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.progressive import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene
+from tracer.tools.pixel_samples import adaptive_count, adaptive_levels
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
@@ -311,7 +311,7 @@ def test_render_a_long_pass_is_cut_into_launches_a_cancel_can_stop_between(monke
 
     from conftest import ROOT
 
-    import tracer.render as render_module
+    import tracer.rendering.progressive as render_module
 
     box = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
     cs = compile_scene(load_scene(small(box, 16, 16))[0])
@@ -339,7 +339,7 @@ def test_render_a_long_pass_is_cut_into_launches_a_cancel_can_stop_between(monke
 def test_render_bit_identical_for_any_cut_of_a_pass_into_launches(name, monkeypatch):
     """Launches of a few pixels, or of a few of a pixel's samples, one pixel after the other: the same
     image, the same rays, bit for bit, as whole bands."""
-    import tracer.render as render_module
+    import tracer.rendering.progressive as render_module
 
     sampler = {} if name == "antialias_adaptive" else {"sampler": {"type": "jittered", "spp": 9}}
     cs = compile_scene(load_scene(small(scene_dict(name), 40, 30, **sampler))[0])

@@ -1,16 +1,16 @@
-"""tracer/samples.py: one pixel's sample positions are the renderer's, checked against its eye rays."""
+"""tracer/tools/pixel_samples.py: one pixel's sample positions are the renderer's, checked against its eye rays."""
 
 import numpy as np
 import pytest
 from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 
-from tracer.compile import compile_scene
-from tracer.kinds import RayKind
-from tracer.raytree import ray_tree
-from tracer.render import Renderer
-from tracer.samples import adaptive_count, adaptive_levels, load_kernels, pixel_samples
+from tracer.kernels.kinds import RayKind
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.progressive import Renderer
+from tracer.rendering.raytree import ray_tree
 from tracer.scene import Sampler, SceneError, load_scene, scene_json_schema
+from tracer.tools.pixel_samples import adaptive_count, adaptive_levels, load_kernels, pixel_samples
 
 # film positions recovered from float32 eye-ray directions: a few 1e-5 pixel at these sizes
 FILM_TOL = 1e-4
@@ -27,7 +27,7 @@ def compiled(sampler: dict, width: int = 37, height: int = 23, **sections):
 
 
 def film_point(cs, node: dict) -> np.ndarray:
-    """The film point (fx, fy) a pinhole eye ray passes through (tracer/camera.py inverted)."""
+    """The film point (fx, fy) a pinhole eye ray passes through (tracer/kernels/camera.py inverted)."""
     cam, d = cs.data.camera, np.asarray(node["direction"], dtype=np.float64)
     forward, right, up = (np.asarray(v, dtype=np.float64) for v in (cam.forward, cam.right, cam.up))
     t = d / d.dot(forward)

@@ -1,4 +1,4 @@
-"""CSV cells a spreadsheet opens without running them (tracer/spreadsheet.py; OWASP's CSV injection advice)."""
+"""CSV cells a spreadsheet opens without running them (tracer/tools/spreadsheet.py; OWASP's CSV injection advice)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import io
 
 import pytest
 
-from tracer import spreadsheet
 from tracer.grading import summary_csv
+from tracer.tools import spreadsheet
 
 
 @pytest.mark.parametrize(

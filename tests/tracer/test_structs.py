@@ -1,4 +1,4 @@
-"""The kernels' shared data types (tracer/structs.py) and the shape of the package they make possible:
+"""The kernels' shared data types (tracer/kernels/structs.py) and the shape of the package they make possible:
 no import cycle anywhere under tracer/, and the library never imports the service."""
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def test_structs_the_library_never_imports_the_service():
 
 def test_structs_depend_on_nothing_of_the_renderer():
     """Everything else imports the kernels' data types; they import only Warp's initialisation."""
-    assert graph()["tracer.structs"] == {"tracer.wpinit"}
+    assert graph()["tracer.kernels.structs"] == {"tracer.kernels.wpinit"}
 
 
 def test_structs_every_module_imports_in_a_fresh_interpreter():
@@ -56,7 +56,7 @@ def test_structs_go_to_inlined_helpers_only():
     import importlib
 
     from tracer.integrators.common import max3
-    from tracer.structs import SceneData
+    from tracer.kernels.structs import SceneData
 
     function, struct = type(max3), type(SceneData)
     copied = []

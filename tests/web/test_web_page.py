@@ -759,12 +759,15 @@ def test_web_page_sampler_pictures_draw_the_server_s_positions(desktop):
 
 
 def test_web_page_viewer_and_lessons_follow_jobs_the_same_way(desktop):
-    """One followJob (web/js/jobs.js) follows jobs for the viewer and the lessons: a stream that keeps dropping
-    is retried MAX_FAILURES (8) times by both, then given up with a message. It reads the stream with fetch
-    (an EventSource cannot send the job's token)."""
+    """One followJob (web/js/jobs.js, on api.js's followEvents) follows jobs for the viewer and the lessons: a
+    stream that keeps dropping is retried MAX_FAILURES (8) times by both, then given up with a message. It reads
+    the stream with fetch (an EventSource cannot send the job's token), in api.js alone."""
     web = ROOT / "web" / "js"
     assert [p.name for p in web.glob("*.js") if "EventSource(" in p.read_text()] == []
     assert [p.name for p in web.glob("*.js") if "eventsUrl(" in p.read_text() and p.name != "api.js"] == ["jobs.js"]
+    # api.js is the one HTTP client of every page: no other module fetches, or reads an event stream itself
+    others = [p for p in sorted(web.rglob("*.js")) if p.name != "api.js"] + sorted((ROOT / "web").glob("*.html"))
+    assert [p.name for p in others if "fetch(" in p.read_text() or "text/event-stream" in p.read_text()] == []
     for user in ("viewer.js", "lessons.js"):
         assert 'import { followJob } from "./jobs.js";' in (web / user).read_text(), user
 

@@ -16,11 +16,11 @@ import io
 import json
 from pathlib import Path, PurePosixPath
 
-from tracer import spreadsheet
 from tracer.grading.archive import MAX_FILE_BYTES, SUFFIXES, Caps, read_zip
 from tracer.grading.metrics import GradingError
 from tracer.grading.report import Report
 from tracer.grading.submission import Submission, student_name
+from tracer.tools import spreadsheet
 
 MAX_FILES = 2000  # files of a class read from a folder (and kept from a zip) by the CLI
 

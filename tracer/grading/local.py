@@ -43,7 +43,7 @@ def _worker_main(conn, threads: int | None, log_path: str | None) -> None:
         os.dup2(fd, 2)
         os.close(fd)
     logging.basicConfig(level=logging.INFO, format=LOG_FORMAT)
-    from tracer.render import load_kernels
+    from tracer.rendering.progressive import load_kernels
 
     load_kernels()  # from Warp's cache: the parent compiled them
     renderer = InlineRenderer(threads)
@@ -125,7 +125,7 @@ class LocalRenderer:
         self.failed_starts = 0
 
     def __enter__(self) -> LocalRenderer:
-        from tracer.render import load_kernels
+        from tracer.rendering.progressive import load_kernels
 
         load_kernels()  # compile once here, so the workers only read Warp's cache
         if self.log_path is not None:

@@ -27,7 +27,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from tracer.film import srgb_encode
+from tracer.rendering.film import srgb_encode
 
 PSNR_CAP = 100.0  # dB reported for identical images (PSNR is infinite there)
 FLOOR = 1e-4  # smallest standard deviation of a pixel difference (float noise of linear radiance)
@@ -132,7 +132,7 @@ class Encoding:
     def store(self, linear: np.ndarray, exposure: float = 0.0) -> np.ndarray:
         """What a file of this kind holds for this radiance: for a PNG its displayed values rounded to
         its steps, for a half-float EXR the radiance rounded to half floats, else the radiance."""
-        if self.format == "png":  # the arithmetic of tracer.film.to_srgb8, with 2^bits - 1 steps
+        if self.format == "png":  # the arithmetic of tracer.rendering.film.to_srgb8, with 2^bits - 1 steps
             top = 2**self.bits - 1
             scaled = np.nan_to_num(linear, nan=0.0, posinf=1.0, neginf=0.0) * (2.0**exposure)
             codes = np.round(srgb_encode(scaled) * float(top))

@@ -57,8 +57,8 @@ class InlineRenderer:
         return [self.one(job) for job in jobs]
 
     def one(self, job: RenderJob) -> Rendered:
-        from tracer.compile import compile_scene
-        from tracer.render import render
+        from tracer.rendering.compile import compile_scene
+        from tracer.rendering.progressive import render
 
         start = time.monotonic()
         try:

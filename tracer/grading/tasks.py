@@ -45,7 +45,7 @@ def grader(assignment: str) -> Grader:
 
 @functools.lru_cache(maxsize=8)
 def _exr(path: str) -> np.ndarray:
-    from tracer.film import read_exr
+    from tracer.rendering.film import read_exr
 
     return read_exr(Path(path))
 
@@ -64,7 +64,7 @@ def reference_images(assignment: str, reference: dict) -> ReferenceImages | None
 
 def rendered(render: dict | None) -> Rendered | None:
     """{"image": path, "spp": n, "seconds": s} or {"error": why} (None: no render) -> a Rendered."""
-    from tracer.film import read_exr
+    from tracer.rendering.film import read_exr
 
     if render is None:
         return None

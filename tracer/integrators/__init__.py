@@ -10,7 +10,7 @@ for integrators that keep pending rays; and the ray-tree record (record = 1: wri
 rec, record.py). dispatch.py wraps each `trace` in the render kernels.
 
 `INTEGRATORS` is the only list of them: the scene format's `render.integrator` values, the
-assignment spec's, the `Integrator` enum of tracer/kinds.py, the kernel table of dispatch.py and the
+assignment spec's, the `Integrator` enum of tracer/kernels/kinds.py, the kernel table of dispatch.py and the
 JSON Schema's `x-integrators` all come from it. What else differs between integrators is a column of
 the table too: what must be solved before the render (`prepass`) and how the render's cost is estimated
 (`cost`), so no code outside this table names an integrator. A new integrator is a module with a `trace`
@@ -24,8 +24,8 @@ class IntegratorInfo(NamedTuple):
     name: str  # the scene's render.integrator
     kernels: str  # the module under tracer/integrators/ whose `trace` its kernels run
     description: str  # one line, for the JSON Schema and the docs
-    prepass: str | None  # what is solved before the render: "radiosity" (tracer/radiosity.py), or None
-    cost: str  # how tracer/estimate.py counts a pixel sample's rays: "tree" (a ray tree's nodes), "path" (bounces)
+    prepass: str | None  # what is solved before the render: "radiosity" (tracer/radiosity/), or None
+    cost: str  # how tracer/rendering/estimate.py counts a sample's rays: "tree" (a ray tree's nodes), "path" (bounces)
 
 
 INTEGRATORS = (

@@ -14,7 +14,7 @@ level L is new (a level-L cell's corners are its parent's corners, centre and ed
 pass keeps the colours of the points it used, per pixel, in a slot of `AdaptiveKeep.next` (points
 numbered level by level, see point_slot), and the next pass reads them from there (its `prev`) and
 traces only the points of its own level: over all passes, each point once. The slots are the
-render's to give (tracer/render.py, within ADAPTIVE_KEEP_BYTES); a pixel without a slot of the
+render's to give (tracer/rendering/progressive.py, within ADAPTIVE_KEEP_BYTES); a pixel without a slot of the
 pass before is traced from level 0, as a single pass is.
 
 `make_adaptive(trace_outlined, module)` makes the sampler's kernel, `render_adaptive`, for one
@@ -27,8 +27,8 @@ import warp as wp
 from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.pixel import FilmBuffers, band_pixel, eye_ray
 from tracer.integrators.record import TreeRecord
-from tracer.sampling import pixel_key, rng_start
-from tracer.structs import SceneData
+from tracer.kernels.sampling import pixel_key, rng_start
+from tracer.kernels.structs import SceneData
 
 ADAPTIVE_STACK = 32  # cells pending at once: 3 more per level of subdivision (max_level <= 8 in the scene format)
 vec_cells = wp.types.vector(length=ADAPTIVE_STACK, dtype=wp.int32)

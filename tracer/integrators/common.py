@@ -1,16 +1,16 @@
 """What every integrator shares: the interface's types (SampleOut, Stack), the surface at a hit made
 ready for shading, spawn offsets, the reflection and transmission weights, fog and the background.
 
-Every @wp.func here that takes a struct is inlined: Warp passes structs by value (tracer/structs.py).
+Every @wp.func here that takes a struct is inlined: Warp passes structs by value (tracer/kernels/structs.py).
 """
 
 import warp as wp
 
-from tracer.geometry import Hit
-from tracer.kinds import BUMP_NONE, RAY_OFFSET, TEX_NONE
-from tracer.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
-from tracer.sampling import sample_cos_lobe, to_world
-from tracer.structs import MaterialData, SceneData
+from tracer.kernels.geometry import Hit
+from tracer.kernels.kinds import BUMP_NONE, RAY_OFFSET, TEX_NONE
+from tracer.kernels.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
+from tracer.kernels.sampling import sample_cos_lobe, to_world
+from tracer.kernels.structs import MaterialData, SceneData
 
 
 @wp.struct

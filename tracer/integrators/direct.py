@@ -2,7 +2,7 @@
 
 A point, spot or directional light gets one shadow ray where it can contribute (N.L > 0, inside a
 spot's cone). An area light gets `light_samples` rays towards stratified points of its surface,
-each carrying an equal share of its E (lights.py). A shadow ray starts at hit + 1e-4 N, N the
+each carrying an equal share of its E (tracer/kernels/lights.py). A shadow ray starts at hit + 1e-4 N, N the
 geometric normal turned to the light's side, and is blocked by any surface before the light (an
 area light's own surface does not shadow itself). Each unblocked ray adds E cos(theta) f, split
 into its diffuse and specular parts so the ray tree can show them.
@@ -15,14 +15,14 @@ importance sampling against its BSDF sampling (Veach & Guibas 1995).
 
 import warp as wp
 
-from tracer.geometry import Hit, closest_hit, intersect_shape, occluded
 from tracer.integrators.common import Surface, offset_origin
 from tracer.integrators.record import TreeRecord, record_shadow
-from tracer.kinds import T_FAR
-from tracer.lights import is_area_light, light_at, sample_area_light
-from tracer.materials import phong_terms
-from tracer.sampling import phong_lobes_pdf, power_heuristic, sample_2d, stratum
-from tracer.structs import LightData, SceneData
+from tracer.kernels.geometry import Hit, closest_hit, intersect_shape, occluded
+from tracer.kernels.kinds import T_FAR
+from tracer.kernels.lights import is_area_light, light_at, sample_area_light
+from tracer.kernels.materials import phong_terms
+from tracer.kernels.sampling import phong_lobes_pdf, power_heuristic, sample_2d, stratum
+from tracer.kernels.structs import LightData, SceneData
 
 STRATIFIED = wp.constant(-1)  # direct_light's `dim` for jittered strata drawn from its rng (whitted; no MIS)
 

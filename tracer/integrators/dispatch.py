@@ -21,8 +21,8 @@ from tracer.integrators.adaptive import make_adaptive
 from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.pixel import FilmBuffers, band_pixel, eye_ray, pixel_sample
 from tracer.integrators.record import TreeRecord
-from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
-from tracer.structs import SceneData
+from tracer.kernels.kinds import SAMPLER_ADAPTIVE, Integrator
+from tracer.kernels.structs import SceneData
 
 __all__ = ["KERNELS", "KERNEL_MODULES", "FilmBuffers", "kernel_modules", "make_kernels"]
 

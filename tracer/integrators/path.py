@@ -23,7 +23,6 @@ one a shadow ray), so max_depth 1 is direct light only, exactly as in the `whitt
 
 import warp as wp
 
-from tracer.geometry import Hit, closest_hit
 from tracer.integrators.common import (
     SampleOut,
     Stack,
@@ -39,10 +38,19 @@ from tracer.integrators.common import (
 )
 from tracer.integrators.direct import direct_light
 from tracer.integrators.record import TreeRecord, begin_node, record_end, record_hit, record_miss, record_terms
-from tracer.kinds import END_ABSORBED, END_MAX_DEPTH, RAY_EYE, RAY_REFLECTION, RAY_SHADOW, RAY_TRANSMISSION, T_FAR
-from tracer.lights import area_light_pdf
-from tracer.materials import phong_terms, reflect
-from tracer.sampling import (
+from tracer.kernels.geometry import Hit, closest_hit
+from tracer.kernels.kinds import (
+    END_ABSORBED,
+    END_MAX_DEPTH,
+    RAY_EYE,
+    RAY_REFLECTION,
+    RAY_SHADOW,
+    RAY_TRANSMISSION,
+    T_FAR,
+)
+from tracer.kernels.lights import area_light_pdf
+from tracer.kernels.materials import phong_terms, reflect
+from tracer.kernels.sampling import (
     phong_lobes_pdf,
     power_heuristic,
     sample_2d,
@@ -50,7 +58,7 @@ from tracer.sampling import (
     sample_cosine_hemisphere,
     to_world,
 )
-from tracer.structs import SceneData
+from tracer.kernels.structs import SceneData
 
 RR_DEPTH = wp.constant(5)  # Russian roulette from this depth on
 RR_MAX_SURVIVAL = wp.constant(0.95)  # a path survives the roulette with probability min(this, max(throughput))

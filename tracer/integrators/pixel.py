@@ -4,9 +4,9 @@ and the film's running sums that the render kernels add it to (dispatch.py, adap
 
 import warp as wp
 
-from tracer.camera import camera_ray, shutter_time
-from tracer.kinds import SAMPLER_LOWDISCREPANCY
-from tracer.sampling import (
+from tracer.kernels.camera import camera_ray, shutter_time
+from tracer.kernels.kinds import SAMPLER_LOWDISCREPANCY
+from tracer.kernels.sampling import (
     DIM_LENS,
     DIM_TIME,
     film_offset,
@@ -16,7 +16,7 @@ from tracer.sampling import (
     rng_start,
     sobol_2d,
 )
-from tracer.structs import SceneData
+from tracer.kernels.structs import SceneData
 
 
 @wp.struct

@@ -1,15 +1,15 @@
 """The ray-tree record: where an integrator's `trace` writes each ray as a node when asked.
 
 The image kernels pass a record with cap 0 and record = 0, so the same @wp.func code makes the
-image and the tree; tracer/raytree.py decodes the arrays into the JSON of docs/scene-format.md.
+image and the tree; tracer/rendering/raytree.py decodes the arrays into the JSON of docs/scene-format.md.
 Every writer but `begin_node` does nothing for node -1 (not recorded, or past the cap), so an
 integrator calls them unconditionally and never touches the layout.
 """
 
 import warp as wp
 
-from tracer.geometry import Hit
-from tracer.kinds import END_ABSORBED, END_LIGHT, END_MISS, END_NONE, RAY_SHADOW
+from tracer.kernels.geometry import Hit
+from tracer.kernels.kinds import END_ABSORBED, END_LIGHT, END_MISS, END_NONE, RAY_SHADOW
 
 # Node record layout: integers, vectors and floats per node.
 I_KIND, I_DEPTH, I_PARENT, I_HIT, I_OBJ, I_MAT, I_FRONT, I_LIGHT, I_OCCLUDED, I_END = range(10)

@@ -25,7 +25,6 @@ With `record` = 1 the same code writes each ray as a node of the ray tree (recor
 
 import warp as wp
 
-from tracer.geometry import closest_hit
 from tracer.integrators.common import (
     SampleOut,
     Stack,
@@ -47,7 +46,8 @@ from tracer.integrators.record import (
     record_miss,
     record_terms,
 )
-from tracer.kinds import (
+from tracer.kernels.geometry import closest_hit
+from tracer.kernels.kinds import (
     END_ABSORBED,
     END_MAX_DEPTH,
     END_MAX_TREE_RAYS,
@@ -60,9 +60,9 @@ from tracer.kinds import (
     RAY_TRANSMISSION,
     T_FAR,
 )
-from tracer.materials import reflect
+from tracer.kernels.materials import reflect
+from tracer.kernels.structs import SceneData
 from tracer.radiosity.lookup import radiosity_ambient
-from tracer.structs import SceneData
 
 
 @wp.func(inline=True)

@@ -1,7 +1,7 @@
 """Radiosity by progressive refinement with ray-cast form factors (Goral et al. 1984; Cohen et al. 1988).
 
 Every surface is cut into patches (`patches.py`); the patch (or light) with the most unshot power shoots
-it, its form factors estimated by casting rays (`solver.py`, the rays in `kernels.py`); the solution is
+it, its form factors estimated by casting rays (`solver.py`, the rays in `form_factors.py`); the solution is
 made ready for the image (`display.py`: corner values for the smooth display, `attach`) and kept on disk
 by content (`cache.py`). The integrators read it at a hit through `lookup.py`'s @wp.func alone, so an
 integrator's kernels need nothing else of this package.
@@ -31,7 +31,7 @@ PUBLIC = {
         "triangles",
     ),
     "tracer.radiosity.lookup": ("SPHERE_REACH", "patch_at", "radiosity_ambient", "radiosity_at", "safe_div"),
-    "tracer.radiosity.kernels": ("TARGET_ESCAPED", "TARGET_LIGHT", "direct", "shoot"),
+    "tracer.radiosity.form_factors": ("TARGET_ESCAPED", "TARGET_LIGHT", "direct", "shoot"),
     "tracer.radiosity.solver": ("LIGHT_RAYS_PER_PATCH", "SNAPSHOT_EVERY_STEP", "Solution", "solve"),
     "tracer.radiosity.display": ("attach", "corner_values"),
     "tracer.radiosity.cache": ("PATCH_FIELDS", "SolutionCache"),

@@ -6,9 +6,9 @@ Units: radiosity B is exitance, W/m^2; the radiance a diffuse patch sends out is
 
 import warp as wp
 
-from tracer.geometry import PI
-from tracer.kinds import PATCHES_DISK, PATCHES_FLAT, PATCHES_NONE, PATCHES_SPHERE, RAD_FLAT, RAD_TWO_PASS
-from tracer.structs import PatchIndex, RadiosityData
+from tracer.kernels.geometry import PI
+from tracer.kernels.kinds import PATCHES_DISK, PATCHES_FLAT, PATCHES_NONE, PATCHES_SPHERE, RAD_FLAT, RAD_TWO_PASS
+from tracer.kernels.structs import PatchIndex, RadiosityData
 
 SPHERE_REACH = wp.constant(1.001)  # a ray from a sphere's centre to its facets (inscribed) goes this far, in radii
 

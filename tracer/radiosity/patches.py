@@ -20,10 +20,10 @@ import numpy as np
 import warp as wp
 
 from tracer import meshing
-from tracer.compile import CompiledScene
-from tracer.kinds import PatchKind, Texture
+from tracer.kernels.kinds import PatchKind, Texture
+from tracer.kernels.structs import PatchIndex
+from tracer.rendering.compile import CompiledScene
 from tracer.scene import SceneError
-from tracer.structs import PatchIndex
 
 SPHERE_MIN_SEGMENTS = meshing.SPHERE_MIN_SEGMENTS  # a sphere's net: at least this many triangles around, and rows
 DISK_MIN_SECTORS = meshing.DISK_MIN_SECTORS  # a disk's rings have at least this many sectors

@@ -1,7 +1,7 @@
 """Progressive refinement (Cohen et al. 1988): the patch (or light) with the most unshot power shoots it.
 
 The form factors from the shooter to everything else are estimated by casting rays (Malley's method,
-kernels.py): `rays` points uniformly on the shooter, cosine-weighted directions about its normal, each
+form_factors.py): `rays` points uniformly on the shooter, cosine-weighted directions about its normal, each
 carrying an equal share of the power to the first surface it meets. A patch that receives power P keeps
 rho P in its radiosity and unshot power, and absorbs (1 - rho) P; area lights are black and absorb what
 reaches them; rays that leave the scene (or the meshed part of a plane) take their power out of the
@@ -27,12 +27,12 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
-from tracer.kinds import Shooter
-from tracer.parallel import BandLauncher, default_threads
-from tracer.radiosity.kernels import TARGET_LIGHT, direct, shoot
+from tracer.kernels.kinds import Shooter
+from tracer.radiosity.form_factors import TARGET_LIGHT, direct, shoot
 from tracer.radiosity.patches import Patches, build_patches, check_limits, patch_index
+from tracer.rendering.compile import CompiledScene, compile_scene
+from tracer.rendering.parallel import BandLauncher, default_threads
 from tracer.scene import AREA_LIGHTS, Scene
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side

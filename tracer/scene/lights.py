@@ -1,5 +1,5 @@
 """Light sources: point, directional and spot lights (invisible to rays), and the area lights (quad,
-disk, sphere), which have a surface: visible, and sampled over their area (tracer/lights.py)."""
+disk, sphere), which have a surface: visible, and sampled over their area (tracer/kernels/lights.py)."""
 
 from typing import Annotated, Any, Literal, get_args
 

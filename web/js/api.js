@@ -1,5 +1,7 @@
-// The HTTP API (docs/service.md) as promises. Every failure becomes an ApiError with a message a
-// student can read: the server's `{"errors": [{path, message}]}`, or "the server is not answering".
+// The HTTP API (docs/service.md) as promises, and the page's one HTTP client: every request of every page
+// (the workspace, lessons, grading, the course pages) goes through `request` here, and every event stream
+// (a job's, a submission's) is followed by `followEvents`. Every failure becomes an ApiError with a message
+// a student can read: the server's `{"errors": [{path, message}]}`, or "the server is not answering".
 //
 // Every request carries this browser's token (`Authorization: Bearer`): the server issues it with the
 // first job (POST /api/jobs answers it in `token`), the page keeps it in localStorage, and only that
@@ -42,6 +44,12 @@ export function authHeaders(as = "student", url = "") {
   return token ? { authorization: `Bearer ${token}` } : {};
 }
 
+/** The Authorization header of a request to `url`: `token`'s when one is given (null: none), else `as`'s. */
+function authFor(url, as, token) {
+  if (token === undefined) return authHeaders(as, url);
+  return token ? { authorization: `Bearer ${token}` } : {};
+}
+
 export class ApiError extends Error {
   constructor(status, errors, message) {
     super(message || errors.map((e) => (e.path ? `${e.path}: ${e.message}` : e.message)).join("; "));
@@ -52,14 +60,14 @@ export class ApiError extends Error {
 
 /** One request: the parsed JSON answer, or an ApiError (the grading view uses it too, `as: "instructor"`).
  * `raw`: the Response itself when it is OK. `token`: this token instead of `as`'s (an assignment's page
- * sends its own link's token; null sends none). */
-export async function request(method, url, body, { raw = false, signal, as = "student", cache, token } = {}) {
-  const headers = token === undefined ? authHeaders(as, url) : token ? { authorization: `Bearer ${token}` } : {};
-  const init = { method, signal, cache, headers };
+ * sends its own link's token; null sends none). `type`: the content type of a text body (a roster's
+ * "text/csv"; JSON otherwise). */
+export async function request(method, url, body, { raw = false, signal, as = "student", cache, token, type = "application/json" } = {}) {
+  const init = { method, signal, cache, headers: authFor(url, as, token) };
   if (body instanceof FormData) {
     init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
   } else if (body !== undefined) {
-    init.headers["content-type"] = "application/json";
+    init.headers["content-type"] = type;
     init.body = typeof body === "string" ? body : JSON.stringify(body);
   }
   let res;
@@ -132,6 +140,118 @@ export async function openFile(url, { as = "student" } = {}) {
   const href = URL.createObjectURL(data);
   window.open(href, "_blank", "noopener");
   setTimeout(() => URL.revokeObjectURL(href), 60_000);
+}
+
+export const MAX_DROPS = 8; // drops in a row without news, after which a stream is given up
+const RETRY_MS = 1000; // until the stream says otherwise (`retry:`)
+
+/** Follow the Server-Sent Events at `url` (a job's, a submission's) until its `end` event or close(). The
+ * stream is read with fetch, not EventSource: only fetch sends the token (`as`'s, or `token`'s, as in
+ * `request`). Each event calls onEvent(event, data) with its JSON data; `end` closes the stream first. The
+ * events named in `news` show the stream alive: each resets the count of drops. A dropped connection (the
+ * server not answering, an answer other than 200, a stream that stops without `end`) is tried again after
+ * the server's `retry` time, as EventSource would, with onDrop(drops); after MAX_DROPS drops in a row the
+ * stream is given up: onGiveUp(). A 404 (not this token's, or gone: no retry brings it back) ends it at
+ * once: onMissing() (onGiveUp when not given). Returns {close(), done}: `done` resolves once it ended, was
+ * given up, or close() was called. */
+export function followEvents(url, { as = "student", token, news = [], onEvent, onDrop, onGiveUp, onMissing = onGiveUp } = {}) {
+  let drops = 0;
+  let open = true;
+  let retry = RETRY_MS;
+  let abort = null;
+  let timer = null;
+  let finish;
+  const done = new Promise((resolve) => (finish = resolve));
+  const close = () => {
+    if (!open) return;
+    open = false;
+    clearTimeout(timer);
+    abort?.abort();
+    finish();
+  };
+  const giveUp = (then) => {
+    if (!open) return;
+    close();
+    then?.();
+  };
+  const dropped = () => {
+    if (!open) return;
+    drops++;
+    if (drops >= MAX_DROPS) giveUp(onGiveUp);
+    else {
+      onDrop?.(drops);
+      timer = setTimeout(connect, retry);
+    }
+  };
+  const dispatch = (event, text) => {
+    if (!open) return;
+    const data = JSON.parse(text);
+    if (news.includes(event)) drops = 0;
+    if (event === "end") close();
+    onEvent?.(event, data);
+  };
+
+  async function connect() {
+    if (!open) return;
+    abort = new AbortController();
+    let res;
+    try {
+      res = await fetch(url, { headers: { accept: "text/event-stream", ...authFor(url, as, token) }, cache: "no-store", signal: abort.signal });
+    } catch {
+      dropped();
+      return;
+    }
+    if (res.status === 404) {
+      giveUp(onMissing);
+      return;
+    }
+    if (!res.ok || !res.body) {
+      dropped();
+      return;
+    }
+    try {
+      await readEvents(res.body, dispatch, (ms) => (retry = ms));
+    } catch {
+      // the connection broke in the middle of the stream
+    }
+    dropped(); // the stream ended without `end` (nothing happens once it has ended: close() ran)
+  }
+
+  connect();
+  return { close, done };
+}
+
+/** Read a text/event-stream body: `dispatch(event, data)` for each event, `setRetry(ms)` for `retry:`
+ * (comments and ids ignored), as the EventSource specification parses it. */
+async function readEvents(body, dispatch, setRetry) {
+  const reader = body.pipeThrough(new TextDecoderStream()).getReader();
+  let buffer = "";
+  let event = "message";
+  let data = [];
+  for (;;) {
+    const { value, done } = await reader.read();
+    if (done) return;
+    buffer += value;
+    const lines = buffer.split("\n");
+    buffer = lines.pop(); // an unfinished line waits for the rest
+    for (const raw of lines) {
+      const line = raw.endsWith("\r") ? raw.slice(0, -1) : raw;
+      if (line === "") {
+        if (data.length) dispatch(event, data.join("\n"));
+        event = "message";
+        data = [];
+        continue;
+      }
+      if (line.startsWith(":")) continue;
+      const colon = line.indexOf(":");
+      const field = colon < 0 ? line : line.slice(0, colon);
+      let text = colon < 0 ? "" : line.slice(colon + 1);
+      if (text.startsWith(" ")) text = text.slice(1);
+      if (field === "event") event = text;
+      else if (field === "data") data.push(text);
+      else if (field === "retry" && /^\d+$/.test(text)) setRetry(Number(text));
+    }
+  }
 }
 
 let issuing = null; // the first submission without a token: the others wait for the token it brings

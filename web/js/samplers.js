@@ -1,4 +1,4 @@
-// One pixel's samples drawn large, where the renderer puts them. POST /api/samples (tracer/samples.py) gives
+// One pixel's samples drawn large, where the renderer puts them. POST /api/samples (tracer/tools/pixel_samples.py) gives
 // each sample's film position inside the pixel, computed by the renderer's own sampling code for the
 // scene, the pixel and the seed: the grid's cell centres, one random point per jittered cell, uniform random
 // points, the successive points of a pixel's low-discrepancy sequence, and for the adaptive sampler the

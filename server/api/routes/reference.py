@@ -21,7 +21,7 @@ from markdown_it import MarkdownIt
 
 from server.api.errors import ApiError
 from server.core.paths import DOCS
-from tracer.docs import slug
+from tracer.tools.scene_docs import slug
 
 router = APIRouter(prefix="/reference", tags=["reference"], include_in_schema=False)
 

@@ -57,7 +57,7 @@ def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> No
 
 def load_kernels() -> None:
     """Compile (or load from Warp's disk cache) the render kernels, once per process."""
-    from tracer.render import load_kernels as load
+    from tracer.rendering.progressive import load_kernels as load
 
     load("cpu")
 

@@ -13,8 +13,8 @@ from server.jobs.files import AOV_NAMES
 
 
 def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
-    from tracer.compile import compile_scene
-    from tracer.render import render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 
     scene = tiny_scene(24, spp=4, seed=3)
@@ -136,7 +136,7 @@ def test_api_aov_data_pictures_keep_their_values():
     """depth and normal are data, not radiance: written through png_bytes(srgb=False), each byte round(255 v)
     (depth as grey); albedo goes through the sRGB curve like the image."""
     from server.queue.render_try import aov_pictures
-    from tracer.film import to_srgb8
+    from tracer.rendering.film import to_srgb8
 
     normal = np.array([[[1.0, 0.0, -1.0], [0.2, -0.6, 0.5]]], dtype=np.float32)  # (1, 2, 3)
     depth = np.array([[2.0, 0.0]], dtype=np.float32)  # one hit, one miss

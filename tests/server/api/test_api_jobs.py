@@ -37,9 +37,9 @@ def busy(client):
 
 
 def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
-    from tracer.compile import compile_scene
-    from tracer.film import png_bytes
-    from tracer.render import render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.film import png_bytes
+    from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 
     scene = tiny_scene(32, spp=16, seed=7)
@@ -278,8 +278,8 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, settin
     settings.max_queued_per_token = 100  # (20 waiting: passed only while the worker took them fast enough)
     from conftest import EXAMPLES, small
 
-    from tracer.compile import compile_scene
-    from tracer.render import render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 
     scenes = {p.stem: small(json.loads(p.read_text()), 24, 18) for p in EXAMPLES}
@@ -294,7 +294,7 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, settin
 
 
 def test_api_jobs_raytree_is_a_worker_job_that_matches_the_library(client):
-    from tracer.raytree import ray_tree
+    from tracer.rendering.raytree import ray_tree
     from tracer.scene import load_scene
 
     scene = small(scene_dict("whitted"), 32, 24)

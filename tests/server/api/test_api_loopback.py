@@ -33,7 +33,7 @@ from test_api_support import (
     wait_status,
 )
 
-from tracer.film import read_exr
+from tracer.rendering.film import read_exr
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 from test_samples import FILM_TOL, film_point
 
-from tracer.compile import compile_scene
+from tracer.rendering.compile import compile_scene
 from tracer.scene import load_scene
 
 # `client` (tests/conftest.py): the app with a render worker, which traces the ray trees compared with.

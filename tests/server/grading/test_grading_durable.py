@@ -137,7 +137,7 @@ def test_grading_tasks_in_another_process_give_the_in_process_reports(tmp_path):
     """prepare_submission, measure_baseline and grade_metrics take plain data (JSON text, dicts, paths to
     EXR files) in a spawned process and give what Grader.grade gives in process, bit for bit: every test's
     points and words, the metrics, and the pictures."""
-    from tracer.film import write_exr
+    from tracer.rendering.film import write_exr
 
     text = assignment_text()
     spec, _ = load_assignment(text)

@@ -14,7 +14,7 @@ import pytest
 from conftest import ROOT, scene_dict, small
 from test_api_support import api_client, exr_of, submit, wait_for, wait_status
 
-from tracer.render import render
+from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 
 

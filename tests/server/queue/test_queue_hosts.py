@@ -27,7 +27,7 @@ from hosts import Cluster
 from queue_support import LOST_AFTER, api_argv, proc_env, redis_argv, worker_argv
 from test_api_support import bearer, student_token, wait_for
 
-from tracer.film import read_exr
+from tracer.rendering.film import read_exr
 
 PORT = 8000
 

@@ -13,7 +13,7 @@ from conftest import ROOT, scene_dict, small
 from queue_support import Api, Process, RedisServer, proc_env, worker_argv
 from test_api_support import long_scene, parse_sse, wait_for
 
-from tracer.film import read_exr
+from tracer.rendering.film import read_exr
 
 
 @pytest.fixture(scope="module")

@@ -280,8 +280,8 @@ OWN_SEED = 777  # "the student's" seed: not the reference's (1000003), the basel
 
 
 def render_linear(scene: dict) -> np.ndarray:
-    from tracer.compile import compile_scene
-    from tracer.render import render
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.progressive import render
 
     return render(compile_scene(load_scene(scene)[0])).image
 
@@ -331,8 +331,8 @@ def png16_bytes(codes: np.ndarray) -> bytes:
 
 
 def srgb16(image: np.ndarray) -> np.ndarray:
-    """Linear radiance -> 16-bit sRGB codes (exposure 0), the arithmetic of tracer.film.to_srgb8."""
-    from tracer.film import srgb_encode
+    """Linear radiance -> 16-bit sRGB codes (exposure 0), the arithmetic of tracer.rendering.film.to_srgb8."""
+    from tracer.rendering.film import srgb_encode
 
     return np.round(srgb_encode(np.nan_to_num(image, nan=0.0, posinf=1.0, neginf=0.0)) * 65535.0).astype(np.uint16)
 
@@ -342,7 +342,7 @@ def own_images():
     """Students' own images of the reference scene: right (another seed, 16 spp as image.spp says) and
     wrong (erin's changes: a grey cube, a blue ball), and the noise baseline's own render, each stored as
     the format says. All graded at once, against one reference."""
-    from tracer.film import png_bytes
+    from tracer.rendering.film import png_bytes
 
     reference = json.loads((EXAMPLE / "reference.json").read_text())
     right = copy.deepcopy(reference)
@@ -405,7 +405,7 @@ def test_own_images_an_exr_is_compared_as_linear_radiance(own_images):
     """The correct EXR is as close to the reference as the float baseline, and its z test has no 8-bit
     term: radiance 0.001 too bright (less than half an 8-bit step at these values) is rejected where
     the reference has no noise (the sky: a quarter of the picture), while as a PNG the steps hide it."""
-    from tracer.film import png_bytes
+    from tracer.rendering.film import png_bytes
 
     reports, images, _ = own_images
     exr = reports["right_exr"].metrics

@@ -1,7 +1,7 @@
 // What the instructor's course page (web/course.html) shares between its parts: the requests (each with the
 // instructor's token, `as: "instructor"`), times between the server's ISO 8601 and the browser's
 // datetime-local inputs, and the server's errors shown at the field they name.
-import { ApiError, authHeaders, request } from "../api.js";
+import { ApiError, request } from "../api.js";
 import { h, num } from "../util.js";
 
 export const AS = { as: "instructor" };
@@ -21,23 +21,10 @@ export const course = {
   student: (aid, sid) => request("GET", `${A(aid)}/students/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
   extend: (aid, student, deadline) => request("POST", `${A(aid)}/extensions`, { student, deadline }, AS),
   newLink: (aid, student) => request("POST", `${A(aid)}/students/${encodeURIComponent(student)}/link`, undefined, AS),
-  roster: (aid, text) => postCsv(`${A(aid)}/roster`, text),
+  roster: (aid, text) => request("POST", `${A(aid)}/roster`, text, { ...AS, type: "text/csv" }), // a CSV body
   links: (cid, aid) => request("GET", `/api/courses/${encodeURIComponent(cid)}/links?assignment=${encodeURIComponent(aid)}`, undefined, { ...AS, cache: "no-store" }),
   url: A,
 };
-
-/** POST a CSV body (the roster): the JSON answer, or an ApiError as `request` gives. */
-async function postCsv(url, text) {
-  let res;
-  try {
-    res = await fetch(url, { method: "POST", body: text, headers: { ...authHeaders("instructor"), "content-type": "text/csv", accept: "application/json" } });
-  } catch {
-    throw new ApiError(0, [{ path: "", message: "the server is not answering (is it running?)" }]);
-  }
-  const data = await res.json().catch(() => null);
-  if (!res.ok) throw new ApiError(res.status, data?.errors?.length ? data.errors : [{ path: "", message: `the server answered ${res.status}` }]);
-  return data;
-}
 
 /** Why the server refused for want of the instructor's token (401, 403), or null. */
 export function tokenProblem(err, hasToken) {

@@ -1,61 +1,29 @@
 // "Your submissions": each with its time, late mark, status, score, whether it costs an attempt and whether it
 // is the one that counts, and its feedback. A submission not yet graded is followed live through its event
-// stream (GET .../submissions/{sid}/events, read with fetch: only fetch sends the token), so its row moves from
-// queued to grading to graded (or invalid, failed) without a reload.
-import { readEvents } from "../jobs.js";
+// stream (GET .../submissions/{sid}/events, api.js's `followEvents` with the page's token), so its row moves
+// from queued to grading to graded (or invalid, failed) without a reload.
+import { followEvents } from "../api.js";
 import { h } from "../util.js";
 import { localTime, pts } from "./brief.js";
 import { showFeedback } from "./feedback.js";
 
 const FINAL = new Set(["graded", "invalid", "failed"]);
 const STATUS = { queued: "queued", grading: "grading", graded: "graded", invalid: "invalid", failed: "could not be graded" };
-const MAX_DROPS = 8;
 
-/** Follow one submission until its grade is final: onView(view) for each `submission` event, onEnd() once. */
+/** Follow one submission until its grade is final: onView(view) for each `submission` event, onEnd() once
+ * (at its end, or when the stream is given up: the list read again shows where it stands). A 404 (not this
+ * token's: a replaced link) just stops. */
 export function followSubmission(url, token, { onView, onEnd }) {
-  let open = true;
-  let abort = null;
-  let drops = 0;
-  let retry = 1000;
-  const close = () => {
-    open = false;
-    abort?.abort();
-  };
-  const connect = async () => {
-    if (!open) return;
-    abort = new AbortController();
-    let ended = false;
-    try {
-      const res = await fetch(url, { headers: { accept: "text/event-stream", authorization: `Bearer ${token}` }, cache: "no-store", signal: abort.signal });
-      if (res.status === 404) return close(); // not this token's (a replaced link): no retry brings it back
-      if (res.ok && res.body) {
-        await readEvents(
-          res.body,
-          (event, text) => {
-            if (!open) return;
-            if (event === "submission") {
-              drops = 0;
-              onView(JSON.parse(text));
-            } else if (event === "end") {
-              ended = true;
-              close();
-              onEnd?.();
-            }
-          },
-          (ms) => (retry = ms),
-        );
-      }
-    } catch {
-      // dropped: tried again below
-    }
-    if (open && !ended && ++drops < MAX_DROPS) setTimeout(connect, retry);
-    else if (open && !ended) {
-      close();
-      onEnd?.(); // given up: the list read again shows where it stands
-    }
-  };
-  connect();
-  return { close };
+  return followEvents(url, {
+    token,
+    news: ["submission"],
+    onEvent(event, data) {
+      if (event === "submission") onView(data);
+      else if (event === "end") onEnd?.();
+    },
+    onGiveUp: () => onEnd?.(),
+    onMissing: () => {},
+  });
 }
 
 export class SubmissionList {

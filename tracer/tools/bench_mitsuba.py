@@ -8,7 +8,7 @@ docs/scene-format.md). Our `random` sampler is Mitsuba's `independent`, `jittere
 
 `compare` times both as whole processes, as a user waits for them (start-up, scene loading, JIT or
 kernel loading, the render, the image written): `python -m tracer render` and, for each Mitsuba
-variant, tracer/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours, ...), so that the
+variant, tracer/tools/mitsuba_child.py, in turns (ours, llvm_ad_rgb, scalar_rgb, ours, ...), so that the
 machine's other load falls on all of them alike; medians of the rounds, wall and CPU time (user +
 sys). Mitsuba runs under the interpreter `python` (its own virtual environment, if it is not
 installed beside the tracer). Quality: the RMSE of the images against a reference (Mitsuba's
@@ -76,7 +76,7 @@ def _quad_obj(path: Path, quads: list) -> None:
 def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
     """A Mitsuba scene dict equivalent to `scene` (quads, boxes, quad lights, diffuse kd only), as plain
     JSON: the sensor's transform is given by its look-at parameters (`look_at`), which
-    tracer/mitsuba_child.py turns into Mitsuba's transform. The meshes are written into `folder`."""
+    tracer/tools/mitsuba_child.py turns into Mitsuba's transform. The meshes are written into `folder`."""
     c = scene.camera
     if scene.sampler.type not in SAMPLERS:
         raise ValueError(f"sampler.type: only {', '.join(SAMPLERS)} have a Mitsuba sampler, not {scene.sampler.type}")
@@ -133,7 +133,7 @@ def scene_dict(scene: Scene, spp: int, folder: Path) -> dict:
 
 
 def write_spec(scene: Scene, spp: int, folder: Path) -> Path:
-    """The scene for tracer/mitsuba_child.py: its meshes and SPEC.json in `folder`."""
+    """The scene for tracer/tools/mitsuba_child.py: its meshes and SPEC.json in `folder`."""
     path = folder / "mitsuba_scene.json"
     path.write_text(json.dumps(scene_dict(scene, spp, folder)))
     return path
@@ -165,12 +165,12 @@ def run_ours(
     """One render by our command line as a whole process (`python -m tracer render`): wall and CPU
     seconds, the render's own seconds (its last line), and the image (its EXR). `tree`: the checkout
     whose tracer runs (another commit's, to compare), by default this one."""
-    from tracer.film import read_exr
+    from tracer.rendering.film import read_exr
 
     cmd = [sys.executable, "-m", "tracer", "render", str(scene_file), "-o", str(out.with_suffix(".png"))]
     cmd += ["--exr", str(out.with_suffix(".exr")), "-q"] + (["--threads", str(threads)] if threads else [])
     cmd += ["--seed", str(seed)] if seed is not None else []
-    res, wall, cpu = _timed(cmd, cwd=tree or str(Path(__file__).resolve().parent.parent))
+    res, wall, cpu = _timed(cmd, cwd=tree or str(Path(__file__).resolve().parents[2]))
     # "OUT.png: 256x256, 64 spp, 1.23 s, ... rays ...": the render's seconds follow the spp
     seconds = float(res.stdout.strip().splitlines()[-1].split(" spp, ")[1].split(" s,")[0])
     return {"wall": wall, "cpu": cpu, "render_s": seconds, "image": read_exr(out.with_suffix(".exr"))}
@@ -251,7 +251,7 @@ def compare(
     (llvm_ad_rgb when there). `baseline`: another checkout of the
     tracer (the commit before a change), timed in the same turns as "baseline". Prints as it goes;
     returns every number."""
-    from tracer.render import render
+    from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 
     scene, _ = load_scene(data)
@@ -355,7 +355,7 @@ def better_sampling(
     samples, in alternating rounds. Also the samples (and the time they take, from the whole process's
     fixed cost and render time) we need to reach each of those samplers' RMSE, and each RMSE over the
     `inside` pixels only (`interior`). Returns every number; prints as it goes."""
-    from tracer.render import render
+    from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 
     spp = data["sampler"]["spp"]

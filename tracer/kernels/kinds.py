@@ -3,15 +3,15 @@
 Each kind is a Python ``IntEnum`` (for the compiler, the ray-tree JSON and tests) mirrored by
 ``wp.constant`` values (for kernels), so no kernel ever compares against a magic number. Two kinds
 are derived from tables elsewhere: `Integrator` from tracer/integrators/__init__.py, and the light
-kinds (tracer/lights.py) from the scene format's light types.
+kinds (tracer/kernels/lights.py) from the scene format's light types.
 """
 
 from enum import IntEnum
 
 import warp as wp
 
-from tracer import wpinit  # noqa: F401  (initialise Warp once)
 from tracer.integrators import INTEGRATORS
+from tracer.kernels import wpinit  # noqa: F401  (initialise Warp once)
 
 
 class Shape(IntEnum):

@@ -17,12 +17,12 @@ import platform
 import sys
 from pathlib import Path
 
-from tracer.compile import compile_scene
-from tracer.parallel import default_threads
-from tracer.render import render
+from tracer.rendering.compile import compile_scene
+from tracer.rendering.parallel import default_threads
+from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
 KINDS = ("eye", "shadow", "reflection", "transmission")
 SECTIONS = ("scenes", "cornell", "radiosity", "scaling")  # --only picks some of them
 
@@ -129,8 +129,8 @@ def cornell_data(size: int, spp: int) -> dict:
 
 def cornell(args, threads: int) -> dict:
     """The path-traced Cornell box at 256x256 and 512x512, 64 spp (on one thread and on every core); with
-    --mitsuba, the whole-process comparison with Mitsuba 3 (tracer/bench_mitsuba.py)."""
-    from tracer import bench_mitsuba
+    --mitsuba, the whole-process comparison with Mitsuba 3 (tracer/tools/bench_mitsuba.py)."""
+    from tracer.tools import bench_mitsuba
 
     out = {}
     spp = 4 if args.quick else 64

@@ -2,7 +2,7 @@
 so parallel work is launched in bands, one Python thread per core. A CUDA device: one launch runs
 every item at once, so the work is launched whole (bands would starve the GPU), from one thread.
 
-render.py hands bands of pixels to its threads as they come free (with progress after each band);
+progressive.py hands bands of pixels to its threads as they come free (with progress after each band);
 `BandLauncher` cuts n independent items (the rays of a radiosity shot) into one band per thread.
 `check_device` turns a device name from a command line into Warp's, or says which ones there are.
 """
@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
 
-from tracer import wpinit  # noqa: F401  (initialise Warp once, quietly)
+from tracer.kernels import wpinit  # noqa: F401  (initialise Warp once, quietly)
 
 ITEMS_PER_BAND = 1024  # fewer than twice this many items run in one band (threads cost more than they save)
 

@@ -21,11 +21,11 @@ from enum import IntEnum
 import numpy as np
 import warp as wp
 
-from tracer.geometry import PI, basis, intersect_sphere
-from tracer.kinds import T_FAR, Shape
-from tracer.sampling import concentric_disk, sample_cone, to_world
+from tracer.kernels.geometry import PI, basis, intersect_sphere
+from tracer.kernels.kinds import T_FAR, Shape
+from tracer.kernels.sampling import concentric_disk, sample_cone, to_world
+from tracer.kernels.structs import LightData, unit, vec3
 from tracer.scene import LIGHT_TYPES
-from tracer.structs import LightData, unit, vec3
 
 # The scene format's light types, numbered in its order (LightData.kind).
 LightKind = IntEnum("LightKind", [(t.upper(), k) for k, t in enumerate(LIGHT_TYPES)], module=__name__)

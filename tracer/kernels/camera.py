@@ -10,8 +10,8 @@ plane stay sharp, others blur in proportion to the aperture.
 
 import warp as wp
 
-from tracer.sampling import concentric_disk
-from tracer.structs import CameraData
+from tracer.kernels.sampling import concentric_disk
+from tracer.kernels.structs import CameraData
 
 
 @wp.func(inline=True)

@@ -8,9 +8,9 @@ E cos(theta) f; the two parts are returned separately so the ray tree can show t
 
 import warp as wp
 
-from tracer.geometry import PI
-from tracer.kinds import BUMP_IMAGE, BUMP_NOISE, TEX_CHECKER, TEX_IMAGE
-from tracer.structs import MaterialData, SceneData
+from tracer.kernels.geometry import PI
+from tracer.kernels.kinds import BUMP_IMAGE, BUMP_NOISE, TEX_CHECKER, TEX_IMAGE
+from tracer.kernels.structs import MaterialData, SceneData
 
 NOISE_SEED = wp.constant(wp.uint32(1234567))
 NOISE_STEP = wp.constant(1.0e-3)  # central differences of the noise bump's height, in noise cells

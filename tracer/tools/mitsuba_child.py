@@ -1,6 +1,6 @@
-"""One Mitsuba 3 render as a whole process, for `python -m tracer bench --mitsuba` (tracer/bench_mitsuba.py).
+"""One Mitsuba 3 render as a whole process, for `python -m tracer bench --mitsuba` (tracer/tools/bench_mitsuba.py).
 
-    PYTHON tracer/mitsuba_child.py SPEC.json VARIANT SPP OUT.npy [--seed S] [--threads T]
+    PYTHON tracer/tools/mitsuba_child.py SPEC.json VARIANT SPP OUT.npy [--seed S] [--threads T]
 
 Run by its path with any interpreter that has `mitsuba` (it imports nothing of the tracer, so Mitsuba may
 live in a virtual environment of its own). SPEC.json is the scene as `bench_mitsuba.write_spec` wrote it:

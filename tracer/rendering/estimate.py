@@ -65,8 +65,8 @@ def tree_levels(scene: Scene) -> int:
 def most_rays_per_sample(scene: Scene, max_tree_rays: int | None = None) -> int:
     """The most rays one pixel sample can trace: every ray its tree could have (two children a ray where a
     material reflects and transmits, over tree_levels), at most `max_tree_rays`, times one plus the shadow
-    rays at each hit; a path's bounces, each with its shadow rays and one more. tracer/render.py sizes its
-    launches by it."""
+    rays at each hit; a path's bounces, each with its shadow rays and one more. tracer/rendering/progressive.py
+    sizes its launches by it."""
     r = scene.render
     bound = Limits().max_tree_rays if max_tree_rays is None else max_tree_rays
     shadow = sum(r.light_samples if isinstance(light, AREA_LIGHTS) else 1 for light in scene.lights)

@@ -8,8 +8,8 @@ normal by the caller (docs/scene-format.md, "Where spawned rays start"), so no e
 
 import warp as wp
 
-from tracer.kinds import BUMP_NONE, SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE, TEX_NONE
-from tracer.structs import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
+from tracer.kernels.kinds import BUMP_NONE, SHAPE_BOX, SHAPE_DISK, SHAPE_PLANE, SHAPE_QUAD, SHAPE_SPHERE, TEX_NONE
+from tracer.kernels.structs import FACE_SMOOTH, FACE_UV, SceneData, ShapeData
 
 PI = wp.constant(3.14159265358979323846)
 

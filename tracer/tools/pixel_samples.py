@@ -20,15 +20,15 @@ import math
 import numpy as np
 import warp as wp
 
-from tracer.compile import CompiledScene
-from tracer.film import to_srgb8
 from tracer.integrators import dispatch
-from tracer.kinds import SAMPLER_ADAPTIVE, Integrator
-from tracer.render import load_kernels as load_render_kernels
-from tracer.render import make_record, make_stack
-from tracer.sampling import film_offset, film_uniforms, filter_offset, pixel_key, rng_start
+from tracer.kernels.kinds import SAMPLER_ADAPTIVE, Integrator
+from tracer.kernels.sampling import film_offset, film_uniforms, filter_offset, pixel_key, rng_start
+from tracer.kernels.structs import SceneData
+from tracer.rendering.compile import CompiledScene
+from tracer.rendering.film import to_srgb8
+from tracer.rendering.progressive import load_kernels as load_render_kernels
+from tracer.rendering.progressive import make_record, make_stack
 from tracer.scene import SceneError
-from tracer.structs import SceneData
 
 MODULE = "tracer_samples"
 MAX_SAMPLES = 16384  # positions listed per pixel at most: spp <= 16384, adaptive max_level <= 6

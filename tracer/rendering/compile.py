@@ -22,13 +22,9 @@ from tracer.assets import (  # noqa: F401 (load_mesh_file: re-exported)
     load_image,
     load_mesh_file,
 )
-from tracer.film import filter_tables
-from tracer.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
-from tracer.lights import light_data, light_shape
-from tracer.meshing import apply as _apply
-from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.compile's before)
-from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
-from tracer.structs import (
+from tracer.kernels.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
+from tracer.kernels.lights import light_data, light_shape
+from tracer.kernels.structs import (
     FACE_SMOOTH,
     FACE_UV,
     CameraData,
@@ -40,6 +36,10 @@ from tracer.structs import (
     unit,
     vec3,
 )
+from tracer.meshing import apply as _apply
+from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.rendering.compile's before)
+from tracer.rendering.film import filter_tables
+from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
 
 
 @dataclass
@@ -166,24 +166,67 @@ def compile_scene(
     The kernels bound each pixel sample's ray tree by `limits.max_tree_rays`.
 
     Flattening only: a radiosity scene's solution is solved by `tracer.radiosity.attach`, which
-    render() runs as a phase with progress and ray_tree() runs when it needs it."""
-    images = _Images(Path(asset_dir), limits or Limits())
-    mat_names = list(scene.materials)
-    mat_index = {n: i for i, n in enumerate(mat_names)}
-    mats = [_material(m, json_path(("materials", n)), images) for n, m in scene.materials.items()]
+    render() runs as a phase with progress and ray_tree() runs when it needs it.
 
-    def material_of(i, obj) -> int:
-        if isinstance(obj.material, str):
-            return mat_index[obj.material]
-        mats.append(_material(obj.material, f"objects[{i}].material", images))
-        mat_names.append(f"objects[{i}].material")
-        return len(mats) - 1
+    The steps: the scene's materials, its objects (shapes and triangle groups), its lights (an area light
+    also a shape), the shapes put in the kernels' order; then the Warp arrays: shapes, triangles,
+    materials, lights and textures, and the scalars of the render's settings."""
+    flat = _Flat(_Images(Path(asset_dir), limits or Limits()))
+    flat.add_materials(scene)
+    flat.add_objects(scene, Path(asset_dir))
+    flat.add_lights(scene)
+    flat.quads_first()
+    data = SceneData()
+    data.camera = _camera(scene)
+    _fill_shapes(data, flat, device)
+    keep, ntri = _compile_triangles(data, flat.groups, device)
+    _fill_materials_lights(data, flat, device)
+    _fill_textures(data, flat.images, device)
+    _fill_settings(data, scene, flat.images.limits, device)
+    return CompiledScene(
+        scene=scene,
+        data=data,
+        object_names=[o.name for o in scene.objects],
+        material_names=flat.mat_names,
+        num_triangles=ntri,
+        num_shapes=data.num_shapes,
+        keep=keep,
+        limits=flat.images.limits,
+    )
 
-    shapes: list[ShapeData] = []
+
+@dataclass
+class _Flat:
+    """What compile_scene gathers before any Warp array is made: materials (the scene's named ones, then
+    each inline one and each area light's, as met), shapes, triangle groups, and lights."""
+
+    images: _Images
+    mats: list[MaterialData] = field(default_factory=list)
+    mat_names: list[str] = field(default_factory=list)
+    mat_index: dict[str, int] = field(default_factory=dict)  # a named material's index in `mats`
+    shapes: list[ShapeData] = field(default_factory=list)
     # triangle groups: 0 = every static triangle; then one group per moving object (own BVH, own velocity)
-    groups: list[dict] = [{"velocity": (0.0, 0.0, 0.0), "parts": []}]
+    groups: list[dict] = field(default_factory=lambda: [{"velocity": (0.0, 0.0, 0.0), "parts": []}])
+    lights: list[LightData] = field(default_factory=list)
 
-    def shape(kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0), light=-1, xf=None):
+    def add_materials(self, scene: Scene) -> None:
+        """The scene's named materials, in their order."""
+        self.mat_names = list(scene.materials)
+        self.mat_index = {n: i for i, n in enumerate(self.mat_names)}
+        self.mats = [_material(m, json_path(("materials", n)), self.images) for n, m in scene.materials.items()]
+
+    def material_of(self, i: int, obj) -> int:
+        """Object i's material: a named one's index, or its inline material added."""
+        if isinstance(obj.material, str):
+            return self.mat_index[obj.material]
+        self.mats.append(_material(obj.material, f"objects[{i}].material", self.images))
+        self.mat_names.append(f"objects[{i}].material")
+        return len(self.mats) - 1
+
+    def shape(self, kind, i, m, p0=(0, 0, 0), p1=(0, 0, 0), p2=(0, 0, 0), radius=0.0, velocity=(0, 0, 0), light=-1,
+              xf=None) -> None:  # fmt: skip
+        """One analytic shape of object i (-1 - k for light k) with material m; a quad's plane normal and
+        edge coordinates' vectors precomputed."""
         s = ShapeData()
         s.xf = wp.mat33(*np.asarray(np.eye(3) if xf is None else xf, dtype=np.float64).reshape(-1).tolist())
         s.kind, s.obj, s.mat, s.light = int(kind), i, m, light
@@ -191,71 +234,86 @@ def compile_scene(
         m = np.cross(p1, p2) if kind == Shape.QUAD else np.zeros(3)
         w = m / max(float(np.dot(m, m)), 1e-300)
         s.n, s.w, s.w2 = vec3(m / max(float(np.linalg.norm(m)), 1e-300)), vec3(np.cross(p2, w)), vec3(np.cross(w, p1))
-        shapes.append(s)
+        self.shapes.append(s)
 
-    def triangles(i, m, v, f, velocity, uv=None, smooth=False):
+    def triangles(self, i, m, v, f, velocity, uv=None, smooth=False) -> None:
+        """Object i's triangles: into the static group, or a group of their own when they move."""
         part = (i, m, np.asarray(v, np.float64), np.asarray(f, np.int64), uv, smooth)
         if any(c != 0 for c in velocity):
-            groups.append({"velocity": tuple(velocity), "parts": [part]})
+            self.groups.append({"velocity": tuple(velocity), "parts": [part]})
         else:
-            groups[0]["parts"].append(part)
+            self.groups[0]["parts"].append(part)
 
-    for i, obj in enumerate(scene.objects):
-        m = material_of(i, obj)
-        t, vel = obj.type, obj.velocity
-        if t == "sphere":
-            shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
-        elif t == "plane":
-            shape(Shape.PLANE, i, m, p0=obj.point, p1=unit(obj.normal), velocity=vel)
-        elif t == "quad":
-            shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
-        elif t == "disk":
-            shape(Shape.DISK, i, m, p0=obj.center, p1=unit(obj.normal), radius=obj.radius, velocity=vel)
-        elif t == "box":  # one slab test in the box's own coordinates
-            fwd = transform_matrix(obj.transform)
-            inv = np.linalg.inv(fwd[:3, :3])
-            shape(Shape.BOX, i, m, p0=obj.min, p1=obj.max, p2=-inv @ fwd[:3, 3], velocity=vel, xf=inv)
-        elif t == "triangle":
-            triangles(i, m, obj.vertices, [[0, 1, 2]], vel)
-        elif t == "mesh":
-            if obj.file is not None:
-                v, f, uv = load_mesh_file(obj.file, f"objects[{i}].file", Path(asset_dir))
-            else:
-                v, f, uv = np.asarray(obj.vertices, float), np.asarray(obj.faces, np.int64), None
-            triangles(i, m, _apply(transform_matrix(obj.transform), v), f, vel, uv, obj.smooth)
+    def add_objects(self, scene: Scene, asset_dir: Path) -> None:
+        """Every object: an analytic shape, or triangles (a mesh file read from `asset_dir`)."""
+        for i, obj in enumerate(scene.objects):
+            m = self.material_of(i, obj)
+            t, vel = obj.type, obj.velocity
+            if t == "sphere":
+                self.shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
+            elif t == "plane":
+                self.shape(Shape.PLANE, i, m, p0=obj.point, p1=unit(obj.normal), velocity=vel)
+            elif t == "quad":
+                self.shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
+            elif t == "disk":
+                self.shape(Shape.DISK, i, m, p0=obj.center, p1=unit(obj.normal), radius=obj.radius, velocity=vel)
+            elif t == "box":  # one slab test in the box's own coordinates
+                fwd = transform_matrix(obj.transform)
+                inv = np.linalg.inv(fwd[:3, :3])
+                self.shape(Shape.BOX, i, m, p0=obj.min, p1=obj.max, p2=-inv @ fwd[:3, 3], velocity=vel, xf=inv)
+            elif t == "triangle":
+                self.triangles(i, m, obj.vertices, [[0, 1, 2]], vel)
+            elif t == "mesh":
+                if obj.file is not None:
+                    v, f, uv = load_mesh_file(obj.file, f"objects[{i}].file", asset_dir)
+                else:
+                    v, f, uv = np.asarray(obj.vertices, float), np.asarray(obj.faces, np.int64), None
+                self.triangles(i, m, _apply(transform_matrix(obj.transform), v), f, vel, uv, obj.smooth)
 
-    lights = []
-    for k, light in enumerate(scene.lights):
-        lights.append(light_data(light))
-        if isinstance(light, AREA_LIGHTS):  # visible: a shape of its own, emitting its radiance
-            mats.append(_light_material(light))
-            mat_names.append(f"lights[{k}]")
-            kind, where = light_shape(light)
-            shape(kind, -1 - k, len(mats) - 1, light=k, **where)
-            lights[-1].shape = len(shapes) - 1
+    def add_lights(self, scene: Scene) -> None:
+        """Every light's LightData; an area light is visible too: a shape of its own, emitting its radiance."""
+        for k, light in enumerate(scene.lights):
+            self.lights.append(light_data(light))
+            if isinstance(light, AREA_LIGHTS):
+                self.mats.append(_light_material(light))
+                self.mat_names.append(f"lights[{k}]")
+                kind, where = light_shape(light)
+                self.shape(kind, -1 - k, len(self.mats) - 1, light=k, **where)
+                self.lights[-1].shape = len(self.shapes) - 1
 
-    # quads first (their own loop in the intersection tests, without the dispatch over kinds), the rest
-    # in the scene's order; an area light's shape index follows its shape
-    order = sorted(range(len(shapes)), key=lambda k: shapes[k].kind != int(Shape.QUAD))
-    where = {old: new for new, old in enumerate(order)}
-    shapes = [shapes[k] for k in order]
-    for ld in lights:
-        if ld.shape >= 0:
-            ld.shape = where[ld.shape]
-    data = SceneData()
-    data.camera = _camera(scene)
+    def quads_first(self) -> None:
+        """Quads first (their own loop in the intersection tests, without the dispatch over kinds), the rest
+        in the scene's order; an area light's shape index follows its shape."""
+        order = sorted(range(len(self.shapes)), key=lambda k: self.shapes[k].kind != int(Shape.QUAD))
+        where = {old: new for new, old in enumerate(order)}
+        self.shapes = [self.shapes[k] for k in order]
+        for ld in self.lights:
+            if ld.shape >= 0:
+                ld.shape = where[ld.shape]
+
+
+def _fill_shapes(data: SceneData, flat: _Flat, device: str) -> None:
+    """The analytic shapes' array and counts (one placeholder sphere when there are none)."""
+    shapes = flat.shapes
     data.num_shapes = len(shapes)
     data.num_quads = sum(1 for s in shapes if s.kind == int(Shape.QUAD))
     data.shapes_move = int(any(s.velocity[0] != 0 or s.velocity[1] != 0 or s.velocity[2] != 0 for s in shapes))
     if not shapes:  # kernels index nothing when num_shapes == 0, but the array must exist
-        shape(Shape.SPHERE, -1, 0, radius=1.0)
-    data.shapes = wp.array(shapes, dtype=ShapeData, device=device)
-    keep, ntri = _compile_triangles(data, groups, device)
-    if not mats:
-        mats.append(MaterialData())
-    data.materials = wp.array(mats, dtype=MaterialData, device=device)
-    data.num_lights = len(lights)
-    data.lights = wp.array(lights or [LightData()], dtype=LightData, device=device)
+        flat.shape(Shape.SPHERE, -1, 0, radius=1.0)
+    data.shapes = wp.array(flat.shapes, dtype=ShapeData, device=device)
+
+
+def _fill_materials_lights(data: SceneData, flat: _Flat, device: str) -> None:
+    """The materials' and lights' arrays (a default entry in an empty one: the array must exist)."""
+    if not flat.mats:
+        flat.mats.append(MaterialData())
+    data.materials = wp.array(flat.mats, dtype=MaterialData, device=device)
+    data.num_lights = len(flat.lights)
+    data.lights = wp.array(flat.lights or [LightData()], dtype=LightData, device=device)
+
+
+def _fill_textures(data: SceneData, images: _Images, device: str) -> None:
+    """Every texture image's linear RGB in one array, and each one's (offset, width, height)."""
     if images.pixels:
         pixels = images.pixels[0] if len(images.pixels) == 1 else np.concatenate(images.pixels)
         data.tex_pixels = wp.array(pixels, dtype=wp.vec3, device=device)
@@ -263,12 +321,17 @@ def compile_scene(
     else:
         data.tex_pixels = wp.zeros(1, dtype=wp.vec3, device=device)
         data.tex_info = wp.zeros(1, dtype=wp.vec3i, device=device)
+
+
+def _fill_settings(data: SceneData, scene: Scene, limits: Limits, device: str) -> None:
+    """The scalars: background, ambient and fog; the integrator and its bounds; the film, the sampler and
+    the reconstruction filter's tables; the seed; no radiosity solution yet."""
     data.background, data.ambient = vec3(scene.background), vec3(scene.ambient)
     data.fog_density, data.fog_color = float(scene.fog.density), vec3(scene.fog.color)
     r = scene.render
     data.integrator = int(Integrator[r.integrator.upper()])
     data.max_depth, data.min_weight, data.light_samples = int(r.max_depth), float(r.min_weight), int(r.light_samples)
-    data.max_tree_rays = int(images.limits.max_tree_rays)
+    data.max_tree_rays = int(limits.max_tree_rays)
     data.width, data.height = int(scene.film.width), int(scene.film.height)
     sm = scene.sampler
     data.spp, data.sampler = int(sm.spp), int(SamplerKind[sm.type.upper()])
@@ -281,16 +344,6 @@ def compile_scene(
     data.filter_norm = norm
     data.seed = int(r.seed)
     data.rad = inactive_radiosity(device)
-    return CompiledScene(
-        scene=scene,
-        data=data,
-        object_names=[o.name for o in scene.objects],
-        material_names=mat_names,
-        num_triangles=ntri,
-        num_shapes=data.num_shapes,
-        keep=keep,
-        limits=images.limits,
-    )
 
 
 def _compile_triangles(data: SceneData, groups: list[dict], device: str) -> tuple[list, int]:

@@ -9,9 +9,9 @@ with chosen values.
 
 import warp as wp
 
-from tracer.geometry import PI, basis
-from tracer.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_LOWDISCREPANCY, SAMPLER_RANDOM
-from tracer.structs import SceneData
+from tracer.kernels.geometry import PI, basis
+from tracer.kernels.kinds import FILTER_BOX, SAMPLER_CENTER, SAMPLER_GRID, SAMPLER_LOWDISCREPANCY, SAMPLER_RANDOM
+from tracer.kernels.structs import SceneData
 
 INV_PI = wp.constant(1.0 / 3.14159265358979323846)  # a product where a quotient would wait for the divider
 PCG_MUL = wp.constant(wp.uint32(747796405))

@@ -10,12 +10,12 @@ band of rays per thread); every ray writes the patch it reached, and the patches
 
 import warp as wp
 
-from tracer.geometry import closest_hit
-from tracer.kinds import RAY_OFFSET, SHOOT_PATCH, T_FAR
-from tracer.lights import light_at, surface_point
+from tracer.kernels.geometry import closest_hit
+from tracer.kernels.kinds import RAY_OFFSET, SHOOT_PATCH, T_FAR
+from tracer.kernels.lights import light_at, surface_point
+from tracer.kernels.sampling import rng_start, sample_cosine_hemisphere, to_world
+from tracer.kernels.structs import PatchIndex, SceneData
 from tracer.radiosity.lookup import patch_at
-from tracer.sampling import rng_start, sample_cosine_hemisphere, to_world
-from tracer.structs import PatchIndex, SceneData
 
 TARGET_ESCAPED = wp.constant(-1)  # a ray that left the scene (or reached a surface that has no patches)
 TARGET_LIGHT = wp.constant(-2)  # a ray that ended on an area light (black: absorbed)

@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 import warp as wp
 
-from tracer import estimate
-from tracer.compile import CompiledScene, compile_scene
 from tracer.errors import Cancelled
 from tracer.integrators import INTEGRATORS, adaptive, dispatch, record
 from tracer.integrators.common import Stack
-from tracer.kinds import Integrator, RayKind, SamplerKind
-from tracer.parallel import default_threads, is_cuda, thread_pool
+from tracer.kernels.kinds import Integrator, RayKind, SamplerKind
+from tracer.rendering import estimate
+from tracer.rendering.compile import CompiledScene, compile_scene
+from tracer.rendering.parallel import default_threads, is_cuda, thread_pool
 from tracer.scene import Scene
 
 if TYPE_CHECKING:

@@ -24,7 +24,7 @@ from pydantic import BaseModel
 from tracer import scene as S
 from tracer.errors import FLOAT32_MAX
 
-DOC = Path(__file__).resolve().parent.parent / "docs" / "scene-format.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "scene-format.md"
 BLOCK = re.compile(r"(<!-- fields: (\w+) -->\n)(.*?)(<!-- end fields -->)", re.S)
 HEADING = re.compile(r"^(#{1,6}) (.+)$", re.M)
 OBJECT = "Object"  # the fields every object has (tracer.scene._Object)

@@ -1,7 +1,7 @@
 """The data the kernels share: one ``@wp.struct`` per concept, and ``SceneData`` holding them all.
 
 These are the interfaces between the modules (as pbrt-v4 keeps its interfaces apart from their
-implementations): tracer/compile.py fills them from the scene's models, and the @wp.func code of
+implementations): tracer/rendering/compile.py fills them from the scene's models, and the @wp.func code of
 geometry, lights, materials, sampling, camera, the integrators and the radiosity solver reads them.
 This module imports nothing of the renderer but its named kinds' Warp initialisation, so every other
 module can import it.
@@ -13,7 +13,7 @@ are inlined (``@wp.func(inline=True)``), or each call would copy it (BENCHMARKS.
 import numpy as np
 import warp as wp
 
-from tracer import wpinit  # noqa: F401  (initialise Warp once)
+from tracer.kernels import wpinit  # noqa: F401  (initialise Warp once)
 
 
 @wp.struct
@@ -76,7 +76,7 @@ class MaterialData:
 
 @wp.struct
 class LightData:
-    kind: int  # LightKind (tracer/lights.py)
+    kind: int  # LightKind (tracer/kernels/lights.py)
     position: wp.vec3  # point/spot position
     direction: wp.vec3  # directional: the way light travels; spot: the axis (unit)
     intensity: wp.vec3  # W/sr (point, spot) or W/m^2 irradiance (directional)
@@ -146,7 +146,7 @@ class SceneData:
     ambient: wp.vec3  # I_a
     fog_density: float  # per world unit; 0 = no fog
     fog_color: wp.vec3
-    integrator: int  # Integrator (tracer/kinds.py)
+    integrator: int  # Integrator (tracer/kernels/kinds.py)
     max_depth: int  # bounces; 1 = ray casting
     min_weight: float
     max_tree_rays: int  # eye, reflection and transmission rays of one pixel sample's tree, at most (limits.py)
