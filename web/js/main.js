@@ -1,6 +1,7 @@
 // The page: four tabs (workspace, lessons, examples, grading) and the wiring between the editor, the form, the
 // viewer and the ray tree. Any unexpected error shows a message in the banner, never a blank page.
 import { api, useShareToken } from "./api.js";
+import { BuildPanel } from "./build.js";
 import { SceneEditor } from "./editor.js";
 import { SceneFields } from "./fields.js";
 import { formatJSON } from "./jsonpos.js";
@@ -103,14 +104,24 @@ window.addEventListener("popstate", () => route());
 
 const fieldsForm = $("#fields-form");
 let fields = null;
+let build = null;
 const editor = new SceneEditor($("#editor-panel"), {
   onChange: (state) => {
     fields?.refresh(state.value);
+    build?.refresh(state.value);
     if (state.value) $("#scene-description").textContent = typeof state.value.description === "string" ? state.value.description : "";
   },
   onRender: () => viewer.submit(),
+  onHistory: (canUndo, canRedo) => {
+    $("#btn-undo").disabled = !canUndo;
+    $("#btn-redo").disabled = !canRedo;
+  },
 });
 fields = new SceneFields(fieldsForm, editor);
+$("#btn-undo").addEventListener("click", () => editor.undo());
+$("#btn-redo").addEventListener("click", () => editor.redo());
+// the Build panel's pick shows the same object (its material) or light in the form
+build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), notify });
 if (window.matchMedia("(max-width: 820px)").matches) $("details.fields").open = false; // a phone: the viewer comes sooner
 
 const viewer = new Viewer({
@@ -146,6 +157,8 @@ const raytree = new RayTreePanel({
 });
 
 async function pickPixel(view, x, y) {
+  // the picture picks what its pixel shows for the Build panel (the editor's scene, through this picture's film)
+  build.pickPixel(x, y, view.width, view.height);
   try {
     await viewer.sceneOf(view);
   } catch (err) {
