@@ -68,8 +68,9 @@ const LIGHTS = {
 
 export class BuildPanel {
   /** root: the element to build into; editor: the SceneEditor; onPicked(of): the form shows the same object. */
-  constructor(root, editor, { onPicked = () => {}, notify = () => {} } = {}) {
+  constructor(root, editor, { onPicked = () => {}, onLoad = (text, name) => editor.setText(text, name), notify = () => {} } = {}) {
     this.root = root;
+    this.onLoad = onLoad; // (text, name): a template replaces the text (main.js: as an example or a file does)
     this.editor = editor;
     this.onPicked = onPicked;
     this.notify = notify;
@@ -98,6 +99,7 @@ export class BuildPanel {
       "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move or scale it",
       "aria-describedby": "build-keys",
     });
+    const box = h("div", { class: "canvas-box" }, this.canvas); // the view sizes itself to its box
     this.view = new BuildView(this.canvas, { onPick: (of) => this.pick(of), onEdit: (writes, what) => this.write(writes, what) });
     this.status = h("p", { id: "build-status", role: "status", "aria-live": "polite" }, "Nothing picked: click a shape in the 3D view or in the rendered picture.");
     this.pickedMaterial = h("select", { id: "build-picked-material", disabled: true });
@@ -121,7 +123,7 @@ export class BuildPanel {
         h("span", { class: "build-head" }, "Light"),
         ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
       ),
-      h("figure", { class: "build-fig" }, h("div", { class: "canvas-box" }, this.canvas), h("figcaption", { id: "build-keys", class: "hint" },
+      h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
         "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the floor's plane, the round knob to scale; drag elsewhere to orbit. ",
         "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
@@ -214,7 +216,7 @@ export class BuildPanel {
       if (!r.ok) throw new Error(`HTTP ${r.status}`);
       const scene = await r.json();
       this.picked = null;
-      this.editor.setText(formatJSON(scene), file);
+      this.onLoad(formatJSON(scene), TEMPLATES.find((t) => t.file === file).label);
       this.say(`New scene: ${TEMPLATES.find((t) => t.file === file).label}. Undo brings the previous scene back.`);
     } catch (err) {
       this.notify(`Could not load the template ${file}: ${err.message}.`);
@@ -228,7 +230,9 @@ export class BuildPanel {
     const obj = OBJECTS[type][1](this.value, name);
     const index = Array.isArray(this.value.objects) ? this.value.objects.length : 0;
     const ok = this.change((text) => appendItem(makeMaterial ? makeMaterial(text).text : text, ["objects"], obj), `add a ${type}`);
-    if (ok) this.pickAfter(["objects", index], `Added ${type} ${index} (material ${name}).`);
+    if (!ok) return;
+    this.material.value = name; // a preset is the scene's own material from now on: the next object gets the same
+    this.pickAfter(["objects", index], `Added ${type} ${index} (material ${name}).`);
   }
 
   addLight(type) {

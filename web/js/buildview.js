@@ -4,7 +4,7 @@
 // handle is dragged only the drawing follows; letting go writes the move into the JSON as one step of the
 // editor's history. Keys (the canvas focused): arrows move x and z, Page Up and Page Down move y, [ and ]
 // scale, Shift+arrows orbit, + and - zoom, N and L pick the next object and light, Escape lets go.
-import { anchorOf, itemAt, moveWrites, scaleWrites, stage } from "./edits.js";
+import { anchorOf, firstHit, itemAt, moveWrites, scaleWrites, stage } from "./edits.js";
 import { sceneLines } from "./shapes.js";
 import { clone } from "./util.js";
 import { add, dot, mul, normalize, sub } from "./vec.js";
@@ -82,7 +82,10 @@ export class BuildView extends View3D {
     c.dataset.picked = this.picked ? this.picked.join(".") : "";
     const hs = this.scene && this.picked ? this.handles() : null;
     c.dataset.handles = hs ? "true" : "false";
-    if (!hs) return;
+    if (!hs) {
+      c.dataset.handleAt = c.dataset.handleTips = c.dataset.knob = "";
+      return;
+    }
     const ctx = c.getContext("2d");
     ctx.save();
     // the picked item's lines, drawn again on top, thick
@@ -220,16 +223,27 @@ export class BuildView extends View3D {
     }
     const p = this.pointers.get(e.pointerId);
     this.pointers.delete(e.pointerId);
-    if (p && Math.hypot(e.clientX - p.x0, e.clientY - p.y0) < 4 && this.pointers.size === 0) this.onPick(this.lineAt(this.local(e)));
+    if (p && Math.hypot(e.clientX - p.x0, e.clientY - p.y0) < 4 && this.pointers.size === 0) this.onPick(this.shapeAt(this.local(e)));
+  }
+
+  /** What a click at canvas point m picks: a light drawn within 8 px (a point light is only its star), else the
+   * surface the view's ray through m meets first (inside a sphere's outline, not only on its lines), else the
+   * object drawn nearest within 8 px; null for empty space. */
+  shapeAt(m) {
+    const light = this.lineAt(m, (of) => of[0] === "lights");
+    if (light) return light;
+    const { eye, forward, right, up, f, w, h } = this.cam;
+    const dir = normalize(add(mul(forward, f), add(mul(right, m[0] - w / 2), mul(up, h / 2 - m[1]))));
+    return firstHit(this.scene, eye, dir)?.of || this.lineAt(m);
   }
 
   /** The object or light whose lines pass nearest canvas point m (within 8 px), or null. */
-  lineAt(m) {
+  lineAt(m, wanted = () => true) {
     let best = null;
     let bestD = 8;
     const near = Math.max(1e-3, this.radius * 1e-3);
     for (const line of this.lines) {
-      if (!line.of) continue;
+      if (!line.of || !wanted(line.of)) continue;
       for (let i = 1; i < line.pts.length; i++) {
         const [p, q] = [line.pts[i - 1], line.pts[i]];
         if (dot(sub(p, this.cam.eye), this.cam.forward) < near || dot(sub(q, this.cam.eye), this.cam.forward) < near) continue;
@@ -260,7 +274,7 @@ export class BuildView extends View3D {
       this.onPick(null);
       return;
     }
-    const step = 0.1 * stage(this.scene).scale;
+    const { step } = stage(this.scene);
     const moves = { ArrowLeft: [-step, 0, 0], ArrowRight: [step, 0, 0], ArrowUp: [0, 0, -step], ArrowDown: [0, 0, step], PageUp: [0, step, 0], PageDown: [0, -step, 0] };
     let writes = null;
     let what = "move";

@@ -227,11 +227,15 @@ function hit(x, o, d) {
  * ["objects", i] or ["lights", i] (area lights are visible), or null. The pinhole ray, as the renderer's. */
 export function pickAt(scene, fx, fy, width, height) {
   const b = cameraBasis(scene.camera, width, height);
-  const d = pixelDirection(b, fx, fy);
+  return firstHit(scene, b.from, pixelDirection(b, fx, fy));
+}
+
+/** The object or area light the ray (o, unit d) meets first: {of, t}, or null. */
+export function firstHit(scene, o, d) {
   let best = null;
   for (const key of ["objects", "lights"])
     (Array.isArray(scene[key]) ? scene[key] : []).forEach((x, i) => {
-      const t = x && typeof x === "object" ? hit(x, b.from, d) : null;
+      const t = x && typeof x === "object" ? hit(x, o, d) : null;
       if (t !== null && (!best || t < best.t)) best = { of: [key, i], t };
     });
   return best;
@@ -247,7 +251,14 @@ export function stage(scene) {
   const up = normalize(isVec(cam.vup) ? cam.vup : [0, 1, 0]);
   const forward = normalize(sub(at, from));
   const right = normalize(cross(forward, up));
-  return { at, up, right, toward: mul(forward, -1), scale: Math.max(0.05, length(sub(at, from)) / 6.5) };
+  const scale = Math.max(0.05, length(sub(at, from)) / 6.5);
+  return { at, up, right, toward: mul(forward, -1), scale, step: nice(0.1 * scale) };
+}
+
+/** The round number (1, 2 or 5 times a power of ten) nearest x: a key's step that adds up to round positions. */
+function nice(x) {
+  const p = 10 ** Math.floor(Math.log10(x));
+  return [1, 2, 5, 10].map((k) => k * p).reduce((a, b) => (Math.abs(b - x) < Math.abs(a - x) ? b : a));
 }
 
 /** The height (along up) of the highest floor below what the camera looks at: a plane or a quad facing up. */

@@ -121,7 +121,7 @@ fields = new SceneFields(fieldsForm, editor);
 $("#btn-undo").addEventListener("click", () => editor.undo());
 $("#btn-redo").addEventListener("click", () => editor.redo());
 // the Build panel's pick shows the same object (its material) or light in the form
-build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), notify });
+build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), onLoad: (text, name) => loadText(text, name, false), notify });
 if (window.matchMedia("(max-width: 820px)").matches) $("details.fields").open = false; // a phone: the viewer comes sooner
 
 const viewer = new Viewer({
