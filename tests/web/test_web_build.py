@@ -129,7 +129,8 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
 def test_web_build_warns_on_a_grey_half_opaque_glass_and_not_on_the_preset(desktop):  # noqa: F811
     page = desktop.open().page
     new_scene(page, "empty_room")
-    page.click("#build-add-sphere")  # with the scene's "white"
+    page.click("#build-add-sphere")
+    assert scene(page)["objects"][0]["material"] == "white"  # the scene's first material, until another is chosen
     # the first try, typed into the material: a grey, half-opaque ball, and now a warning says so
     text = editor_text(page).replace('"white": {"kd": 0.8}', '"white": {"kt": 1, "ior": 1.5}')
     assert text != editor_text(page)

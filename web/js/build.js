@@ -92,6 +92,7 @@ export class BuildPanel {
     this.template = h("select", { id: "build-template" }, h("option", { value: "" }, "Start from…"), ...TEMPLATES.map((t) => h("option", { value: t.file }, t.label)));
     this.template.addEventListener("change", () => this.newScene(this.template.value));
     this.material = h("select", { id: "build-material", "aria-describedby": "build-material-help" });
+    this.material.addEventListener("change", () => (this.chosen = this.material.value));
     this.canvas = h("canvas", {
       id: "build-3d",
       tabindex: "0",
@@ -175,7 +176,9 @@ export class BuildPanel {
       ...names.map((n) => h("option", { value: n, selected: n === keep }, n)),
       ...presets.map(([key, p]) => h("option", { value: `preset:${key}`, selected: `preset:${key}` === keep }, `${p.label} (new)`)),
     ];
-    const keepMaterial = this.material.value || names[0];
+    // the student's last choice while the scene has it, else the scene's first material, else a preset
+    const chosen = this.chosen && (names.includes(this.chosen) || this.chosen.startsWith("preset:")) ? this.chosen : null;
+    const keepMaterial = chosen || names[0] || "preset:diffuse";
     this.material.replaceChildren(...options(keepMaterial));
     const obj = this.picked?.[0] === "objects" ? itemAt(this.value, this.picked) : null;
     this.pickedMaterial.replaceChildren(...(obj && typeof obj.material === "object" ? [h("option", { value: "", selected: true }, "(inline)")] : []), ...options(obj?.material));
@@ -231,7 +234,7 @@ export class BuildPanel {
     const index = Array.isArray(this.value.objects) ? this.value.objects.length : 0;
     const ok = this.change((text) => appendItem(makeMaterial ? makeMaterial(text).text : text, ["objects"], obj), `add a ${type}`);
     if (!ok) return;
-    this.material.value = name; // a preset is the scene's own material from now on: the next object gets the same
+    this.chosen = this.material.value = name; // a preset is the scene's own material from now on: the next object gets the same
     this.pickAfter(["objects", index], `Added ${type} ${index} (material ${name}).`);
   }
 
@@ -254,7 +257,7 @@ export class BuildPanel {
     const [name, make] = this.materialFor(`preset:${key}`);
     if (!make) return this.say(`The scene has the material ${name} already.`);
     if (this.change(make, `add the material ${name}`)) this.say(`Added the material ${name}: pick it for an object, or for the next one added.`);
-    this.material.value = name;
+    this.chosen = this.material.value = name;
   }
 
   removeMaterial(name) {
