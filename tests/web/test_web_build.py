@@ -35,7 +35,8 @@ def problems(page) -> list[str]:
 
 def new_scene(page, template: str) -> None:
     page.select_option("#build-template", template)
-    page.wait_for_function("(t) => document.querySelector('#scene-text').value.includes(t)", arg='"objects": []' if template == "empty_room" else '"name"')
+    want = '"objects": []' if template == "empty_room" else '"name"'
+    page.wait_for_function("(t) => document.querySelector('#scene-text').value.includes(t)", arg=want)
 
 
 def drag(page, frm: tuple[float, float], to: tuple[float, float]) -> None:
@@ -69,7 +70,8 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
     s = scene(page)
     assert len(s["objects"]) == 1
     floor = s["objects"][0]
-    assert floor["type"] == "plane" and floor["point"][1] == 0 and floor["normal"] == [0, 1, 0] and floor["material"] == "white"
+    assert floor["type"] == "plane" and floor["point"][1] == 0 and floor["normal"] == [0, 1, 0]
+    assert floor["material"] == "white"
 
     page.click("#build-add-sphere")
     page.select_option("#build-material", "red")
@@ -78,7 +80,7 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
     a, b = s["objects"][1], s["objects"][2]
     assert a["type"] == b["type"] == "sphere" and a["material"] == "white" and b["material"] == "red"
     assert a["center"][1] == a["radius"]  # resting on the floor
-    gap = sum((p - q) ** 2 for p, q in zip(a["center"], b["center"])) ** 0.5
+    gap = sum((p - q) ** 2 for p, q in zip(a["center"], b["center"], strict=True)) ** 0.5
     assert gap >= a["radius"] + b["radius"]  # side by side, not inside each other
 
     page.select_option("#build-material", "preset:glass")
@@ -231,7 +233,8 @@ def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
     page.keyboard.press("PageUp")
     page.keyboard.press("]")
     after = scene(page)["objects"][1]
-    assert after["center"] == [round(before["center"][0] + 0.1, 3), round(before["center"][1] + 0.1, 3), before["center"][2]]
+    x, y, z = before["center"]
+    assert after["center"] == [round(x + 0.1, 3), round(y + 0.1, 3), z]
     assert after["radius"] == round(before["radius"] * 1.1, 3)
     page.keyboard.press("Control+z")  # one key, one step
     assert scene(page)["objects"][1]["radius"] == before["radius"]
@@ -275,7 +278,10 @@ def test_web_build_undo_of_typing_and_of_the_form(desktop):  # noqa: F811
 
 def test_web_build_jsonpos_append_and_remove_keep_the_rest_of_the_text(desktop):  # noqa: F811
     page = desktop.open().page
-    text = '{\n  "objects": [\n    {"type": "sphere"},\n    {"type": "plane"}\n  ],\n  "lights": [],\n  "m": {"a": 1, "b": 2}\n}\n'
+    text = (
+        '{\n  "objects": [\n    {"type": "sphere"},\n    {"type": "plane"}\n  ],\n'
+        '  "lights": [],\n  "m": {"a": 1, "b": 2}\n}\n'
+    )
     out = page.evaluate(
         """async (t) => {
             const j = await import('/js/jsonpos.js');
@@ -291,7 +297,8 @@ def test_web_build_jsonpos_append_and_remove_keep_the_rest_of_the_text(desktop):
     assert out["a"].split("\n")[2:5] == ['    {"type": "sphere"},', '    {"type": "plane"},', '    {"type": "box"}']
     assert '"lights": [\n    {"type": "point"}\n  ]' in out["b"]
     assert json.loads(out["c"])["extra"] == [1]
-    assert json.loads(out["r0"])["objects"] == [{"type": "plane"}] and '  "objects": [\n    {"type": "plane"}\n  ]' in out["r0"]
+    assert json.loads(out["r0"])["objects"] == [{"type": "plane"}]
+    assert '  "objects": [\n    {"type": "plane"}\n  ]' in out["r0"]
     assert json.loads(out["r1"])["objects"] == [{"type": "sphere"}]
     assert json.loads(out["ma"])["m"] == {"b": 2} and json.loads(out["mb"])["m"] == {"a": 1}
     assert '"objects": [],' in out["all"]

@@ -54,8 +54,8 @@ def _transparency_warnings(m: Material, at: list, warn) -> None:
     # what leaves a surface per unit arriving: kd (diffuse albedo) plus the mirror and transmission weights;
     # with Fresnel those two are R·kr and (1 - R)·kt, at most max(kr, kt). The Phong highlight (ks) stands for
     # the mirror image of the point lights and is left out.
-    spec = [max(r, t) if m.fresnel else r + t for r, t in zip(m.kr, m.kt)]
-    total = [d + s for d, s in zip(m.kd, spec)]
+    spec = [max(r, t) if m.fresnel else r + t for r, t in zip(m.kr, m.kt, strict=True)]
+    total = [d + s for d, s in zip(m.kd, spec, strict=True)]
     if max(total) > 1 + 1e-6 and max(m.kd) <= 1 and not (transmits and any(m.kd)):
         terms = "kd + max(kr, kt)" if m.fresnel else "kd + kr + kt"
         warn(at, f"{terms} = {max(total):g} > 1: reflects more light than arrives (not energy conserving)")

@@ -129,7 +129,7 @@ export class BuildPanel {
         "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
-        h("label", { class: "inline" }, "material ", this.pickedMaterial),
+        (this.pickedMaterialLabel = h("label", { class: "inline", hidden: true }, "material ", this.pickedMaterial)),
         this.removeButton),
       h(
         "div",
@@ -331,6 +331,7 @@ export class BuildPanel {
     this.removeButton.disabled = !item;
     this.removeButton.textContent = item ? `Remove ${this.picked[0] === "objects" ? "object" : "light"} ${this.picked[1]}` : "Remove";
     this.pickedMaterial.disabled = !item || this.picked[0] !== "objects";
+    this.pickedMaterialLabel.hidden = this.pickedMaterial.disabled; // a light has no material
     this.root.dataset.picked = item ? this.picked.join(".") : "";
     if (announce) this.say(item ? `Picked ${this.describe(this.picked)}.` : "Nothing picked: click a shape in the 3D view or in the rendered picture.");
   }

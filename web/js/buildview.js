@@ -57,6 +57,10 @@ export class BuildView extends View3D {
   setScene(scene, film) {
     this.film = film;
     super.setScene(scene, film);
+    // farther out than the ray tree's view: the lights over the scene (where the Build panel puts them) show too
+    this.home.dist *= 1.6;
+    this.orbit = { ...this.home };
+    this.draw();
   }
 
   setPicked(of) {
