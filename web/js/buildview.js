@@ -64,8 +64,22 @@ export class BuildView extends View3D {
   }
 
   setPicked(of) {
+    const changed = JSON.stringify(of) !== JSON.stringify(this.picked);
     this.picked = of;
     this.draw();
+    if (changed) this.bringIntoView();
+  }
+
+  /** A newly picked item outside the drawing (a light high over the scene): zoom out until its handles show. */
+  bringIntoView() {
+    const p = anchorOf(itemAt(this.scene, this.picked));
+    for (let k = 0; p && this.cam && k < 8; k++) {
+      const [x, y] = this.project(this.cam, p);
+      const inside = dot(sub(p, this.cam.eye), this.cam.forward) > 0 && x > 40 && x < this.cam.w - 40 && y > 40 && y < this.cam.h - 40;
+      if (inside) return;
+      this.orbit.dist *= 1.25;
+      this.draw();
+    }
   }
 
   /** The handles of the picked item in canvas pixels: {a (centre), tips: [{axis, p}], knob} or null. */
