@@ -58,7 +58,7 @@ export class BuildView extends View3D {
     this.film = film;
     super.setScene(scene, film);
     // farther out than the ray tree's view: the lights over the scene (where the Build panel puts them) show too
-    this.home.dist *= 1.6;
+    this.home.dist *= 1.2;
     this.orbit = { ...this.home };
     this.draw();
   }
