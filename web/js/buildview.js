@@ -45,9 +45,14 @@ export class BuildView extends View3D {
     this.drag = null;
   }
 
-  /** Follow the editor's scene; the orbit stays where the student turned it (only the first scene frames it). */
+  /** Follow the editor's scene; the orbit stays where the student turned it while the scene's camera stays. */
   update(scene, film) {
-    if (!this.scene) return this.setScene(scene, film);
+    // a new scene (another camera: a template, an example, a file) is framed anew
+    const camera = JSON.stringify([scene.camera?.lookfrom, scene.camera?.lookat]);
+    if (!this.scene || camera !== this.framed) {
+      this.framed = camera;
+      return this.setScene(scene, film);
+    }
     this.scene = scene;
     this.film = film;
     this.lines = sceneLines(scene, film);
