@@ -213,6 +213,11 @@ def test_web_build_pick_an_object_by_clicking_the_picture(desktop):  # noqa: F81
     page.click("#btn-redo")
     assert scene(page)["objects"][3]["center"] == moved
 
+    # the editor's camera is no longer the picture's: the pick says it may not be what the picture shows
+    page.fill("#scene-text", editor_text(page).replace('"vfov": 40', '"vfov": 60'))
+    click_picture(page, None, "")
+    page.wait_for_function("() => document.querySelector('#build-status').textContent.includes('another camera')")
+
 
 def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
     page = desktop.open().page

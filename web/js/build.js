@@ -300,7 +300,6 @@ export class BuildPanel {
 
   /** After an add: pick the new one once the text has it (the editor's change reaches refresh first). */
   pickAfter(of, message) {
-    this.picked = of;
     this.pick(of);
     this.say(message);
   }

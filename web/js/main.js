@@ -165,6 +165,10 @@ async function pickPixel(view, x, y) {
     raytree.status("error", `Could not load the job's scene: ${err.message}.`);
     return;
   }
+  const camera = (s) => JSON.stringify([s?.camera?.lookfrom, s?.camera?.lookat, s?.camera?.vup ?? [0, 1, 0], s?.camera?.vfov]);
+  if (view.scene && camera(view.scene) !== camera(editor.parseNow().value)) {
+    build.say("This picture was rendered with another camera than the editor's: the pick follows the editor's camera, so it may not be what the picture shows there. Render again to pick in the picture.", true);
+  }
   const first = $("#raytree").hidden;
   const shown = raytree.show(view, viewer.image(), x, y);
   if (first || $("#raytree").getBoundingClientRect().top > window.innerHeight) $("#raytree").scrollIntoView({ behavior: "smooth", block: "start" });
