@@ -125,7 +125,7 @@ export class BuildPanel {
         ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
       ),
       h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
-        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the floor's plane, the round knob to scale; drag elsewhere to orbit. ",
+        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale; drag elsewhere to orbit. ",
         "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
@@ -135,9 +135,9 @@ export class BuildPanel {
         "div",
         { class: "build-row", role: "group", "aria-label": "Materials" },
         h("label", { class: "inline" }, "Add material ", this.preset),
-        button("Add", () => this.addMaterial(this.preset.value), { id: "build-add-material" }),
+        button("Add", () => this.addMaterial(this.preset.value), { id: "build-add-material", "aria-label": "Add the preset material" }),
         h("label", { class: "inline" }, "Remove material ", this.materials),
-        button("Remove", () => this.removeMaterial(this.materials.value), { id: "build-remove-material" }),
+        button("Remove", () => this.removeMaterial(this.materials.value), { id: "build-remove-material", "aria-label": "Remove the chosen material" }),
       ),
     );
     // Ctrl+Z anywhere in the panel (the 3D view included) is the editor's undo
