@@ -33,10 +33,17 @@ def problems(page) -> list[str]:
     return page.eval_on_selector_all("#problems li", "els => els.map(e => e.innerText)")
 
 
+NAMES = {
+    "empty_room": '"name": "Empty room",',
+    "cornell_box": '"name": "Cornell box",',
+    "whitted": '"name": "Whitted\'s scene",',
+}
+
+
 def new_scene(page, template: str) -> None:
+    """Start from a template; wait until the editor holds it (the example opened at first is Whitted's too)."""
     page.select_option("#build-template", template)
-    want = '"objects": []' if template == "empty_room" else '"name"'
-    page.wait_for_function("(t) => document.querySelector('#scene-text').value.includes(t)", arg=want)
+    page.wait_for_function("(t) => document.querySelector('#scene-text').value.includes(t)", arg=NAMES[template])
 
 
 def drag(page, frm: tuple[float, float], to: tuple[float, float]) -> None:
