@@ -261,6 +261,32 @@ def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
     desktop.shot("build-3d-keys")
 
 
+def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):  # noqa: F811
+    """The other handles, with the mouse: the knob scales about the centre, the square moves on the horizontal
+    plane (y kept); each drag one step."""
+    page = desktop.open().page
+    new_scene(page, "whitted")
+    page.focus("#build-3d")
+    for _ in range(3):
+        page.keyboard.press("n")  # the glass ball
+    assert page.get_attribute("#build", "data-picked") == "objects.2"
+    before = scene(page)["objects"][2]
+    at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
+    knob = [float(v) for v in page.get_attribute("#build-3d", "data-knob").split(",")]
+    drag(page, knob, (at[0] + (knob[0] - at[0]) * 1.5, at[1] + (knob[1] - at[1]) * 1.5))  # half as far again
+    after = scene(page)["objects"][2]
+    assert after["center"] == before["center"] and abs(after["radius"] - 1.5 * before["radius"]) < 0.05, after
+    at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
+    drag(page, at, (at[0] - 40, at[1] + 20))
+    moved = scene(page)["objects"][2]
+    assert moved["center"][1] == before["center"][1] and moved["radius"] == after["radius"]
+    assert moved["center"] != before["center"]
+    page.keyboard.press("Control+z")
+    assert scene(page)["objects"][2] == after
+    page.keyboard.press("Control+z")
+    assert scene(page)["objects"][2] == before
+
+
 def test_web_build_undo_of_typing_and_of_the_form(desktop):  # noqa: F811
     page = desktop.open().page
     new_scene(page, "empty_room")
