@@ -287,6 +287,36 @@ def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):  # no
     assert scene(page)["objects"][2] == before
 
 
+def test_web_build_move_and_scale_an_area_light_with_its_handles(desktop):  # noqa: F811
+    page = desktop.open().page
+    new_scene(page, "cornell_box")
+    page.focus("#build-3d")
+    page.keyboard.press("l")
+    assert page.get_attribute("#build", "data-picked") == "lights.0"
+    before = scene(page)["lights"][0]
+    x0, y0 = handle(page, "x")
+    at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
+    drag(page, (x0, y0), (x0 + (x0 - at[0]), y0 + (y0 - at[1])))  # as far again along x
+    moved = scene(page)["lights"][0]
+    assert moved["corner"][0] > before["corner"][0] + 0.05 and moved["corner"][1:] == before["corner"][1:], moved
+    assert moved["edge1"] == before["edge1"] and moved["edge2"] == before["edge2"]
+    desktop.shot("build-area-light-moved")
+    at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
+    knob = [float(v) for v in page.get_attribute("#build-3d", "data-knob").split(",")]
+    drag(page, knob, (at[0] + (knob[0] - at[0]) * 0.5, at[1] + (knob[1] - at[1]) * 0.5))  # half the size
+    small = scene(page)["lights"][0]
+    assert (
+        abs(small["edge1"][0] - before["edge1"][0] / 2) < 0.02
+        and abs(small["edge2"][2] - before["edge2"][2] / 2) < 0.02
+    )
+    centre = [c + (a + b) / 2 for c, a, b in zip(small["corner"], small["edge1"], small["edge2"], strict=True)]
+    was = [c + (a + b) / 2 for c, a, b in zip(moved["corner"], moved["edge1"], moved["edge2"], strict=True)]
+    assert all(abs(p - q) < 0.002 for p, q in zip(centre, was, strict=True))  # about its centre
+    page.click("#btn-undo")
+    page.click("#btn-undo")
+    assert scene(page)["lights"][0] == before
+
+
 def test_web_build_undo_of_typing_and_of_the_form(desktop):  # noqa: F811
     page = desktop.open().page
     new_scene(page, "empty_room")
