@@ -100,7 +100,7 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
     page.click("#build-light-quad")
     s = scene(page)
     light = s["lights"][1]
-    assert light["type"] == "quad" and light["radiance"] == 10
+    assert light["type"] == "quad" and light["radiance"] == 16
     assert light["corner"][1] > 2  # above the balls
     e1, e2 = light["edge1"], light["edge2"]
     assert e1[2] * e2[0] - e1[0] * e2[2] < 0  # (edge1 x edge2).y: it shines down

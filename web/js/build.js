@@ -5,7 +5,7 @@
 // Templates and material presets are static JSON files under web/templates/ (the presets are checked by
 // tests/tracer/test_scene.py to give no warning).
 import { BuildView } from "./buildview.js";
-import { floorHeight, freeSpot, itemAt, pickAt, stage } from "./edits.js";
+import { floorAndCeiling, freeSpot, itemAt, pickAt, stage } from "./edits.js";
 import { appendItem, formatJSON, removeAt, setValue } from "./jsonpos.js";
 import { $, h } from "./util.js";
 import { add, dot, mul, sub } from "./vec.js";
@@ -33,7 +33,8 @@ const OBJECTS = {
   }],
   box: ["Box", (scene, material) => {
     const s = 0.45 * stage(scene).scale;
-    const c = freeSpot(scene, s);
+    const c = freeSpot(scene, s * Math.sqrt(3)); // its corners reach that far
+    c[1] = r3(c[1] - s * (Math.sqrt(3) - 1)); // and it stands on the floor
     return { type: "box", min: v3(sub(c, [s, s, s])), max: v3(add(c, [s, s, s])), material };
   }],
   quad: ["Panel (quad)", (scene, material) => {
@@ -44,26 +45,31 @@ const OBJECTS = {
   }],
 };
 
-/** Where a light over the scene goes: above what the camera looks at (or the floor), a little towards the camera. */
-function overhead(scene, k = 1) {
-  const { at, up, toward, scale } = stage(scene);
-  const floor = floorHeight(scene);
-  const base = floor === null ? at : add(at, mul(up, floor - dot(at, up)));
-  return add(base, add(mul(up, 3 * scale * k), mul(toward, 0.5 * scale)));
+/** Where a light over the scene goes: 4 scene units over the floor (or over what the camera looks at), out of
+the picture above it, or just under the ceiling when there is one (a Cornell box's). */
+function overhead(scene) {
+  const { at, up, scale } = stage(scene);
+  const { floor, ceiling } = floorAndCeiling(scene);
+  const height = ceiling !== null ? ceiling - 0.02 * scale : (floor ?? dot(at, up)) + 4 * scale;
+  return add(at, mul(up, height - dot(at, up)));
 }
 
 const LIGHTS = {
   point: ["Point light", (scene) => {
     const { right, scale } = stage(scene);
-    return { type: "point", position: v3(add(overhead(scene), mul(right, 1.5 * scale))), intensity: r3(25 * scale * scale) };
+    return { type: "point", position: v3(add(overhead(scene), mul(right, 0.5 * scale))), intensity: r3(10 * scale * scale) };
   }],
   quad: ["Area light (quad)", (scene) => {
     const { right, toward, scale } = stage(scene);
     const s = scale;
     // edge1 x edge2 = right x toward points down: the light shines on the scene
-    return { type: "quad", corner: v3(sub(overhead(scene), mul(add(right, toward), s / 2))), edge1: v3(mul(right, s)), edge2: v3(mul(toward, s)), radiance: 10 };
+    return { type: "quad", corner: v3(sub(overhead(scene), mul(add(right, toward), s / 2))), edge1: v3(mul(right, s)), edge2: v3(mul(toward, s)), radiance: 16 };
   }],
-  sphere: ["Sphere light", (scene) => ({ type: "sphere", center: v3(overhead(scene)), radius: r3(0.2 * stage(scene).scale), radiance: 80 })],
+  sphere: ["Sphere light", (scene) => {
+    const { up, scale } = stage(scene);
+    const r = 0.2 * scale; // its whole ball under a ceiling
+    return { type: "sphere", center: v3(sub(overhead(scene), mul(up, r + 0.02 * scale))), radius: r3(r), radiance: 120 };
+  }],
 };
 
 export class BuildPanel {

@@ -261,31 +261,68 @@ function nice(x) {
   return [1, 2, 5, 10].map((k) => k * p).reduce((a, b) => (Math.abs(b - x) < Math.abs(a - x) ? b : a));
 }
 
-/** The height (along up) of the highest floor below what the camera looks at: a plane or a quad facing up. */
-export function floorHeight(scene) {
+/** The heights (along up) of the highest floor below what the camera looks at and of the lowest ceiling above
+it: planes and quads facing up or down (a Cornell box's floor and ceiling); null where there is none. */
+export function floorAndCeiling(scene) {
   const { at, up } = stage(scene);
-  let best = null;
+  const eye = dot(at, up);
+  let floor = null;
+  let ceiling = null;
   for (const o of Array.isArray(scene.objects) ? scene.objects : []) {
     const p = o?.type === "plane" ? o.point : o?.type === "quad" ? o.corner : null;
     const n = o?.type === "plane" ? o.normal : o?.type === "quad" && isVec(o.edge1) && isVec(o.edge2) ? cross(o.edge1, o.edge2) : null;
     if (!isVec(p) || !isVec(n) || Math.abs(dot(normalize(n), up)) < 0.9) continue;
     const y = dot(p, up);
-    if (y < dot(at, up) && (best === null || y > best)) best = y;
+    if (y < eye && (floor === null || y > floor)) floor = y;
+    if (y > eye && (ceiling === null || y < ceiling)) ceiling = y;
   }
-  return best;
+  return { floor, ceiling };
 }
 
-/** A place for a new sphere of radius r: on the floor (or at the look-at point), beside the spheres already
- * there rather than inside them, stepping right and left of the camera's view. */
+export const floorHeight = (scene) => floorAndCeiling(scene).floor;
+
+/** How far from its anchor an object reaches (a bounding sphere's radius), for keeping new things apart. */
+function reach(o) {
+  switch (o?.type) {
+    case "sphere":
+    case "disk":
+      return Number.isFinite(o.radius) ? o.radius : null;
+    case "box":
+      return isVec(o.min) && isVec(o.max) ? length(sub(o.max, o.min)) / 2 : null;
+    case "quad":
+      return isVec(o.edge1) && isVec(o.edge2) ? Math.max(length(add(o.edge1, o.edge2)), length(sub(o.edge1, o.edge2))) / 2 : null;
+    default:
+      return null; // planes (infinite), meshes and triangles: not in the way of a new thing
+  }
+}
+
+/** A place for a new thing that reaches r from its centre: on the floor (or at the look-at point), near the middle
+of the view but clear of what is already there (spheres, boxes, panels about its size; a wall or a large platform
+is scenery to stand in, not a neighbour) and on the inner side of the walls (upright planes and large quads, a
+Cornell box's): the nearest free spot of a grid in the floor's plane, side to side first, then in depth. */
 export function freeSpot(scene, r) {
-  const { at, up, right } = stage(scene);
+  const { at, up, right, toward, scale } = stage(scene);
   const floor = floorHeight(scene);
   const base = floor === null ? at : add(at, mul(up, floor + r - dot(at, up)));
-  const spheres = (Array.isArray(scene.objects) ? scene.objects : []).filter((o) => o?.type === "sphere" && isVec(o.center));
-  for (let k = 0; k < 12; k++) {
-    const side = k === 0 ? 0 : (k % 2 ? -1 : 1) * Math.ceil(k / 2);
-    const p = add(base, mul(right, side * 2.4 * r));
-    if (spheres.every((s) => length(sub(s.center, p)) >= s.radius + r)) return v3(p);
+  const objects = Array.isArray(scene.objects) ? scene.objects : [];
+  const taken = objects.map((o) => [anchorOf(o), reach(o)]).filter(([c, k]) => c && k !== null && k <= 1.5 * scale);
+  const walls = [];
+  for (const o of objects) {
+    const p = o?.type === "plane" ? o.point : o?.type === "quad" && (reach(o) ?? 0) > 1.5 * scale ? o.corner : null;
+    const n = o?.type === "plane" ? o.normal : o?.type === "quad" ? cross(o.edge1, o.edge2) : null;
+    if (!isVec(p) || !isVec(n) || Math.abs(dot(normalize(n), up)) > 0.1) continue;
+    const side = Math.sign(dot(sub(at, p), n)) || 1; // the wall's side where the camera looks
+    walls.push({ p, n: mul(normalize(n), side) });
+  }
+  const free = (q) => taken.every(([c, k]) => length(sub(c, q)) >= k + r) && walls.every(({ p, n }) => dot(sub(q, p), n) >= r);
+  const depth = normalize(sub(toward, mul(up, dot(toward, up)))); // towards the camera, along the floor
+  const d = 0.5 * r;
+  const spots = [];
+  for (let i = -16; i <= 16; i++) for (let j = -8; j <= 8; j++) spots.push([i, j, Math.hypot(i, 2 * j)]);
+  spots.sort((a, b) => a[2] - b[2]);
+  for (const [i, j] of spots) {
+    const q = add(base, add(mul(right, i * d), mul(depth, -j * d)));
+    if (free(q)) return v3(q);
   }
   return v3(base);
 }
