@@ -1,9 +1,12 @@
-"""Renders of every example scene, determinism, and the ray tree against the image."""
+"""Renders of every example scene (and of the page's new-scene templates), determinism, and the ray tree
+against the image."""
+
+import json
 
 import numpy as np
 import pytest
 import warp as wp
-from conftest import EXAMPLES, scene_dict, small
+from conftest import EXAMPLES, ROOT, scene_dict, small
 from numpy.testing import assert_allclose
 
 from tracer.integrators import adaptive
@@ -350,3 +353,21 @@ def test_render_bit_identical_for_any_cut_of_a_pass_into_launches(name, monkeypa
         for threads in (1, 2):
             cut = render(cs, threads=threads)
             assert np.array_equal(cut.image, whole.image) and cut.rays == whole.rays
+
+
+TEMPLATES = sorted(p for p in (ROOT / "web" / "templates").glob("*.json") if p.stem != "materials")
+
+
+@pytest.mark.parametrize("path", TEMPLATES, ids=[p.stem for p in TEMPLATES])
+def test_render_every_new_scene_template(path):
+    """The page's "New scene" templates (web/templates/) are valid without a warning and render: the empty room
+    is its sky alone (nothing in it yet), the others show their walls, balls and light."""
+    data = json.loads(path.read_text())
+    scene, warnings = load_scene(small(data, 40, 30, sampler={"type": "jittered", "spp": 4}))
+    assert warnings == []
+    img = render(scene, threads=2).image
+    assert np.isfinite(img).all() and img.mean() > 0.02, "the template renders (almost) black"
+    if path.stem == "empty_room":
+        assert data["objects"] == [] and data["lights"], "an empty room: a light, no objects"
+    else:
+        assert img.std() > 0.05, "the template renders a flat colour"

@@ -671,14 +671,68 @@ def test_warning_setting_without_effect(changes, path, message):
             "lights": [{"type": "disk", "center": [0, 2, 0], "normal": [0, -1, 0], "radius": 1}],
         },
         {"fog": {"density": 0.1, "color": 0.2}},
-        {"materials": {"m": {"kt": [0, 0, 0.5], "ior": 1.3, "fresnel": True, "gloss": 50}}},
-        {"materials": {"m": {"kr": 0.5, "fresnel": True, "gloss": 50, "kd": 1}}},
+        {"materials": {"m": {"kd": 0, "kr": [0, 0, 0.5], "kt": [0, 0, 0.5], "ior": 1.3, "fresnel": True, "gloss": 50}}},
+        {"materials": {"m": {"kr": 0.5, "fresnel": True, "gloss": 50, "kd": 0.5}}},
         {"camera": {**MINIMAL["camera"], "focus_distance": None}},
     ],
 )
 def test_warning_not_given_when_the_setting_has_an_effect(changes):
     _, warnings = load_scene(_scene(**{"materials": {"m": {}}, **changes}))
     assert warnings == []
+
+
+# ---------------------------------------------------------------------------------------------
+# Warnings: materials that render something other than what they were meant to be.
+
+# the page's material presets (what "Add material" writes): none of them warns, and each is what its name says
+PRESETS = json.loads((ROOT / "web" / "templates" / "materials.json").read_text())
+
+
+def test_material_presets_are_the_sensible_ones():
+    assert set(PRESETS) >= {"diffuse", "plastic", "mirror", "metal", "glass"}
+    glass = PRESETS["glass"]["material"]
+    assert glass["kd"] == 0 and glass["kr"] == glass["kt"] == 1 and glass["fresnel"] is True and glass["ior"] > 1
+    assert PRESETS["mirror"]["material"].get("kt", 0) == 0 and PRESETS["mirror"]["material"]["kr"] >= 0.8
+    assert PRESETS["plastic"]["material"]["ks"] > 0 and PRESETS["plastic"]["material"].get("kr", 0) == 0
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_material_presets_give_no_warning(name):
+    _, warnings = load_scene(_scene(materials={"m": PRESETS[name]["material"]}, objects=[SPHERE]))
+    assert warnings == []
+
+
+MATERIAL_WARNINGS = [
+    # the first try: kt with the default kd 0.5 renders a grey, half-opaque ball
+    ({"kt": 1, "ior": 1.5}, {"materials.m.kd": "half-opaque", "materials.m.kt": "without Fresnel"}),
+    ({"kd": 0.3, "kr": 1, "kt": 1, "fresnel": True}, {"materials.m.kd": "half-opaque"}),
+    ({"kd": 0, "kr": 0.1, "kt": 0.9}, {"materials.m.kt": "without Fresnel"}),
+    ({"kd": 0, "kr": 1, "kt": 1, "ior": 1, "fresnel": True}, {"materials.m.ior": "nothing refracts"}),
+    ({"kd": 0, "kt": 1, "fresnel": True}, {"materials.m.kr": "lost"}),
+    ({"kd": 0.6, "kr": 0.6}, {"materials.m": "kd + kr + kt = 1.2 > 1"}),
+    ({"kd": 0.5, "kr": 0.8, "kt": 0.8, "fresnel": True}, {"materials.m.kd": "half-opaque"}),
+    ({"kd": [0.2, 0.2, 0.5], "kr": [0.7, 0.7, 0.7]}, {"materials.m": "= 1.2 > 1"}),
+]
+
+
+@pytest.mark.parametrize(("material", "want"), MATERIAL_WARNINGS, ids=[str(m[0]) for m in MATERIAL_WARNINGS])
+def test_material_warning_for_a_combination(material, want):
+    _, warnings = load_scene(_scene(materials={"m": material}, objects=[SPHERE]))
+    got = {w["path"]: w["message"] for w in warnings}
+    assert set(got) == set(want), got
+    for path, words in want.items():
+        assert words in got[path], got[path]
+
+
+def test_material_warning_names_the_default_kd():
+    _, warnings = load_scene(_scene(materials={"m": {"kt": 1, "ior": 1.5}}, objects=[SPHERE]))
+    kd = next(w for w in warnings if w["path"] == "materials.m.kd")
+    assert kd["message"].startswith("is 0.5 (the default) while kt = 1")
+
+
+def test_material_warning_of_an_inline_material():
+    _, warnings = load_scene(_scene(objects=[{**SPHERE, "material": {"kt": 1}}]))
+    assert {w["path"] for w in warnings} == {"objects[0].material.kd", "objects[0].material.kt"}
 
 
 def test_warnings_of_the_format_example():

@@ -217,6 +217,24 @@ def test_axe_workspace_radiosity_panel_and_its_keys(desktop, server):  # noqa: F
     page.wait_for_function("() => document.querySelector('#rad-hover').textContent === ''")
 
 
+def test_axe_workspace_build_panel_with_a_pick(desktop, server):  # noqa: F811
+    """The Build panel with an object picked (its handles, material menu and Remove): no violation, and its keys
+    reach the pick and the move as the mouse does."""
+    page = desktop.open().page
+    page.select_option("#build-template", "empty_room")
+    page.wait_for_function("() => document.querySelector('#scene-text').value.includes('\"objects\": []')")
+    page.click("#build-add-sphere")
+    page.click("#build-light-quad")
+    page.focus("#build-3d")
+    page.keyboard.press("n")
+    assert page.get_attribute("#build", "data-picked") == "objects.0"
+    page.keyboard.press("ArrowRight")
+    assert "Moved object 0" in page.inner_text("#build-status")
+    page.locator("#build-details").scroll_into_view_if_needed()
+    desktop.shot("axe-workspace-build", full_page=True)
+    assert_accessible(page, "workspace build panel", "#editor-panel")
+
+
 def test_axe_workspace_tabs(desktop, server):  # noqa: F811
     page = desktop.open("#lessons").page
     run_lesson(page, "bounces", 3)

@@ -17,6 +17,48 @@ def _material_warnings(m: Material, at: list, warn) -> None:
         warn([*at, "gloss"], "has no effect: the material neither reflects nor transmits (kr = kt = 0)")
     if max(m.kd) > 1:
         warn([*at, "kd"], "a component > 1 reflects more light than arrives (not energy conserving)")
+    _transparency_warnings(m, at, warn)
+
+
+def _num(v: tuple) -> str:
+    """An RGB triple as the student would write it: one number when its three are equal."""
+    return f"{v[0]:g}" if v[0] == v[1] == v[2] else "[" + ", ".join(f"{x:g}" for x in v) + "]"
+
+
+def _transparency_warnings(m: Material, at: list, warn) -> None:
+    """Combinations that render something other than the glass, mirror or plastic they were meant to be
+    (a first `{"kt": 1, "ior": 1.5}` keeps the default kd 0.5 and comes out a grey, half-opaque ball)."""
+    transmits = any(m.kt)
+    if transmits and any(m.kd):
+        given = "" if "kd" in m.model_fields_set else " (the default)"
+        warn(
+            [*at, "kd"],
+            f"is {_num(m.kd)}{given} while kt = {_num(m.kt)}: the surface is partly diffuse and partly transparent, "
+            "so it renders as a grey, half-opaque body, not as glass; clear glass has kd = 0 "
+            '(the glass preset: {"kd": 0, "kr": 1, "kt": 1, "ior": 1.5, "fresnel": true})',
+        )
+    if transmits and not m.fresnel:
+        warn(
+            [*at, "kt"],
+            "transmits without Fresnel: the same share passes at every angle and nothing is reflected at grazing "
+            'angles as real glass does; set "fresnel": true and kr = kt for glass',
+        )
+    if transmits and m.fresnel and m.ior == 1:
+        warn([*at, "ior"], "is 1: nothing refracts and Fresnel reflects nothing (R = 0); glass is about 1.5")
+    if transmits and m.fresnel and not any(m.kr):
+        warn(
+            [*at, "kr"],
+            "is 0 with Fresnel and kt > 0: the reflected share R is weighted by kr and lost (the body looks dark "
+            "at grazing angles and under total internal reflection); glass has kr = kt",
+        )
+    # what leaves a surface per unit arriving: kd (diffuse albedo) plus the mirror and transmission weights;
+    # with Fresnel those two are R·kr and (1 - R)·kt, at most max(kr, kt). The Phong highlight (ks) stands for
+    # the mirror image of the point lights and is left out.
+    spec = [max(r, t) if m.fresnel else r + t for r, t in zip(m.kr, m.kt, strict=True)]
+    total = [d + s for d, s in zip(m.kd, spec, strict=True)]
+    if max(total) > 1 + 1e-6 and max(m.kd) <= 1 and not (transmits and any(m.kd)):
+        terms = "kd + max(kr, kt)" if m.fresnel else "kd + kr + kt"
+        warn(at, f"{terms} = {max(total):g} > 1: reflects more light than arrives (not energy conserving)")
 
 
 def _warnings(scene: Scene) -> list[dict[str, str]]:

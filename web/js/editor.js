@@ -1,6 +1,9 @@
 // The scene editor: a plain textarea with a line-number gutter, error marks drawn behind the text at
 // their line (with their message), a list of problems, live validation against POST /api/validate, and
 // the text kept in localStorage so unsaved work survives a reload.
+// Undo and redo are the editor's own (Ctrl+Z, Ctrl+Shift+Z or Ctrl+Y, and the Undo and Redo buttons): a textarea
+// forgets its native history when a script sets its text, and the form, the Build panel and the 3D view's handles
+// all write into the text. Each of their writes is one step; typing is one step per pause.
 import { ApiError, api } from "./api.js";
 import { lineIndex, locate, nodeLine, parse, pathString, setValue } from "./jsonpos.js";
 import { $, debounce, h, store } from "./util.js";
@@ -11,6 +14,8 @@ const LINE_HEIGHT = 20; // px, as .code in app.css
 const PAD = 8; // px, the textarea's padding
 const PAD_X = 10; // px, its left and right padding
 const MIN_MESSAGE_CHARS = 16; // a message narrower than this is cut to one row instead
+const HISTORY = 200; // steps kept for undo
+const TYPING_PAUSE = 1000; // ms: keystrokes closer than this are one step of the history
 
 /** The workspace editor's text as it was last kept (another page of the site, an assignment's, hands it in). */
 export function keptText() {
@@ -20,7 +25,7 @@ export function keptText() {
 
 export class SceneEditor {
   /** root: the element holding .code, #problems, #validation-status. */
-  constructor(root, { onChange = () => {}, onRender = () => {} } = {}) {
+  constructor(root, { onChange = () => {}, onRender = () => {}, onHistory = () => {} } = {}) {
     this.root = root;
     this.ta = $("textarea", root);
     this.gutter = $(".gutter-nums", root);
@@ -30,6 +35,10 @@ export class SceneEditor {
     this.status = $("#validation-status", root);
     this.onChange = onChange;
     this.onRender = onRender;
+    this.onHistory = onHistory; // (canUndo, canRedo): the buttons follow
+    this.past = []; // [{text, sel}] before each step, the latest last
+    this.future = []; // steps undone, the next redo last
+    this.typing = 0; // when the student last typed (a pause starts a new step)
     this.state = { text: "", value: null, nodes: null, where: null, syntax: null, valid: null, errors: [], warnings: [] };
     this.marks = []; // [{line, col?, severity, message, path?}]
     this.flash = null; // {line, until}: the line a form control just wrote
@@ -38,6 +47,7 @@ export class SceneEditor {
     this.abort = null;
     this.scheduleValidate = debounce(() => this.validate(), 300);
     this.save = debounce(() => store.set(KEY, this.ta.value), 300);
+    this.ta.addEventListener("beforeinput", (e) => this.beforeInput(e));
     this.ta.addEventListener("input", () => this.changed());
     this.ta.addEventListener("scroll", () => this.syncScroll());
     this.ta.addEventListener("keydown", (e) => this.keydown(e));
@@ -62,8 +72,9 @@ export class SceneEditor {
     return true;
   }
 
-  /** Replace the whole text (an example, a file, a lesson's variant). */
+  /** Replace the whole text (an example, a file, a lesson's variant): one step of the history. */
   setText(text, name = null) {
+    this.record();
     this.ta.value = text;
     if (name) store.set(NAME_KEY, name);
     this.ta.scrollTop = 0;
@@ -73,14 +84,22 @@ export class SceneEditor {
 
   /** Write one value into the JSON text (form controls): only that value's characters change. */
   setField(parts, value) {
+    return this.edit((text) => setValue(text, parts, value), `write ${pathString(parts)}`);
+  }
+
+  /** One change of the text, one step of the history: `change(text)` returns {text, start} (jsonpos.js's
+   * setValue, appendItem, removeAt, or several of them in a row); `what` names it in an error message. */
+  edit(change, what = "change the scene") {
     const old = this.ta.value;
     let result;
     try {
-      result = setValue(old, parts, value);
+      result = change(old);
     } catch (err) {
-      this.setStatus("error", `Could not write ${pathString(parts)}: ${err.message}`);
+      this.setStatus("error", `Could not ${what}: ${err.message}`);
       return false;
     }
+    if (result.text === old) return true;
+    this.record();
     // replace only the changed span, so the textarea keeps its scroll and selection elsewhere
     const next = result.text;
     let a = 0;
@@ -92,6 +111,69 @@ export class SceneEditor {
     setTimeout(() => this.drawMarks(), 1600);
     this.changed();
     return true;
+  }
+
+  // -- history ------------------------------------------------------------------------------------
+
+  /** Keep the text as it is now as a step to go back to (before a change). */
+  record() {
+    const text = this.ta.value;
+    this.typing = 0;
+    if (text.trim() && this.past.at(-1)?.text !== text) this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
+    if (this.past.length > HISTORY) this.past.shift();
+    this.future = [];
+    this.onHistory(this.canUndo, this.canRedo);
+  }
+
+  get canUndo() {
+    return this.past.length > 0;
+  }
+
+  get canRedo() {
+    return this.future.length > 0;
+  }
+
+  /** Go back one step (true), or say there is none (false). */
+  undo() {
+    return this.travel(this.past, this.future, "Nothing to undo.");
+  }
+
+  redo() {
+    return this.travel(this.future, this.past, "Nothing to redo.");
+  }
+
+  travel(from, to, none) {
+    const step = from.pop();
+    if (!step) {
+      this.setStatus("warn", none);
+      return false;
+    }
+    to.push({ text: this.ta.value, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
+    this.typing = 0;
+    const top = this.ta.scrollTop;
+    this.ta.value = step.text;
+    this.ta.setSelectionRange(...step.sel);
+    this.ta.scrollTop = top;
+    this.changed();
+    this.onHistory(this.canUndo, this.canRedo);
+    return true;
+  }
+
+  /** Typing: a new step after a pause; the browser's own undo (its menu, a gesture) goes to ours. */
+  beforeInput(e) {
+    if (e.inputType === "historyUndo" || e.inputType === "historyRedo") {
+      e.preventDefault();
+      if (e.inputType === "historyUndo") this.undo();
+      else this.redo();
+      return;
+    }
+    this.noteTyping();
+  }
+
+  noteTyping() {
+    const now = performance.now();
+    if (now - this.typing > TYPING_PAUSE) this.record();
+    this.typing = now;
   }
 
   changed(now = false) {
@@ -330,6 +412,13 @@ export class SceneEditor {
   }
 
   keydown(e) {
+    const key = e.key.toLowerCase();
+    if ((e.ctrlKey || e.metaKey) && !e.altKey && (key === "z" || key === "y")) {
+      e.preventDefault();
+      if (key === "y" || e.shiftKey) this.redo();
+      else this.undo();
+      return;
+    }
     if ((e.ctrlKey || e.metaKey) && e.key === "Enter") {
       e.preventDefault();
       this.onRender();
@@ -344,6 +433,7 @@ export class SceneEditor {
       const before = t.slice(lineStart, pos).trimEnd();
       const extra = before.endsWith("{") || before.endsWith("[") ? "  " : "";
       e.preventDefault();
+      this.noteTyping(); // execCommand sends no beforeinput
       const insert = "\n" + indent + extra;
       if (!document.execCommand || !document.execCommand("insertText", false, insert)) {
         this.ta.setRangeText(insert, pos, this.ta.selectionEnd, "end");

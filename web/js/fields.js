@@ -299,6 +299,14 @@ export class SceneFields {
     if (this.value) this.refresh(this.value, true);
   }
 
+  /** Follow the Build panel's pick: the material of object `index`, or light `index` (no focus taken). */
+  show(list, index) {
+    if (!this.value) return;
+    if (list === "objects") this.objectIndex = index;
+    else this.lightIndex = index;
+    this.refresh(this.value, true);
+  }
+
   /** Show the material of object `index` (the ray tree's "edit this material"). */
   selectObject(index) {
     if (!this.value) return;

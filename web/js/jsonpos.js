@@ -296,3 +296,61 @@ export function formatJSON(value, indent = "") {
   const inner = indent + "  ";
   return `{\n${keys.map((k) => `${inner}${JSON.stringify(k)}: ${formatJSON(value[k], inner)}`).join(",\n")}\n${indent}}`;
 }
+
+/**
+ * Append `newValue` to the array at `parts` (an array made there when it is missing), on a line of its own
+ * indented like the items before it (on the same line when they share the array's line). The rest of the
+ * text stays as it was. Returns {text, start, end} like setValue.
+ */
+export function appendItem(text, parts, newValue) {
+  const { nodes } = parse(text);
+  const node = nodes.get(pathString(parts));
+  if (!node) {
+    const made = setValue(text, parts, []);
+    return appendItem(made.text, parts, newValue);
+  }
+  if (node.type !== "array") throw new Error(`${pathString(parts)} is not an array`);
+  if (node.count === 0) {
+    const ind = indentAt(text, node.keyStart >= 0 ? node.keyStart : node.start);
+    const inner = ind + "  ";
+    const insert = `[\n${inner}${formatJSON(newValue, inner)}\n${ind}]`;
+    return { text: text.slice(0, node.start) + insert + text.slice(node.end), start: node.start + 2 + inner.length, end: node.start + insert.length };
+  }
+  const last = nodes.get(pathString([...parts, node.count - 1]));
+  const lastLineStart = text.lastIndexOf("\n", last.start - 1) + 1;
+  if (lastLineStart <= node.start) return splice(text, node.lastEnd, node.lastEnd, `, ${inlineJSON(newValue)}`);
+  const ind = indentAt(text, last.start);
+  const insert = `,\n${ind}${formatJSON(newValue, ind)}`;
+  return { text: text.slice(0, node.lastEnd) + insert + text.slice(node.lastEnd), start: node.lastEnd + 2 + ind.length, end: node.lastEnd + insert.length };
+}
+
+/**
+ * Remove the value at `parts`: an array item or an object's member (its key with it), with the comma and
+ * the line break that separated it from a neighbour. Returns {text, start, end}: `start` where it was.
+ */
+export function removeAt(text, parts) {
+  if (!parts.length) throw new Error("cannot remove the whole scene");
+  const { nodes } = parse(text);
+  const node = nodes.get(pathString(parts));
+  if (!node) throw new Error(`there is no ${pathString(parts)} to remove`);
+  const parent = nodes.get(pathString(parts.slice(0, -1)));
+  const from = node.keyStart >= 0 ? node.keyStart : node.start;
+  const isWs = (c) => c === " " || c === "\t" || c === "\n" || c === "\r";
+  if (parent.count === 1) {
+    const empty = parent.type === "array" ? "[]" : "{}";
+    return { text: text.slice(0, parent.start) + empty + text.slice(parent.end), start: parent.start, end: parent.start + 2 };
+  }
+  let j = node.end;
+  while (j < text.length && isWs(text[j])) j++;
+  if (text[j] === ",") {
+    // a neighbour follows: remove up to it, so it takes this one's place (and its indentation)
+    j++;
+    while (j < text.length && isWs(text[j])) j++;
+    return { text: text.slice(0, from) + text.slice(j), start: from, end: from };
+  }
+  // the last one: remove from the end of the one before (its comma included)
+  let k = from - 1;
+  while (k > parent.start && isWs(text[k])) k--;
+  if (text[k] !== ",") throw new Error(`cannot remove ${pathString(parts)}: no comma before it`);
+  return { text: text.slice(0, k) + text.slice(node.end), start: k, end: k };
+}

@@ -1,6 +1,7 @@
 // The page: four tabs (workspace, lessons, examples, grading) and the wiring between the editor, the form, the
 // viewer and the ray tree. Any unexpected error shows a message in the banner, never a blank page.
 import { api, useShareToken } from "./api.js";
+import { BuildPanel } from "./build.js";
 import { SceneEditor } from "./editor.js";
 import { SceneFields } from "./fields.js";
 import { formatJSON } from "./jsonpos.js";
@@ -103,15 +104,25 @@ window.addEventListener("popstate", () => route());
 
 const fieldsForm = $("#fields-form");
 let fields = null;
+let build = null;
 const editor = new SceneEditor($("#editor-panel"), {
   onChange: (state) => {
     fields?.refresh(state.value);
     followExample(state.value);
+    build?.refresh(state.value);
     if (state.value) $("#scene-description").textContent = typeof state.value.description === "string" ? state.value.description : "";
   },
   onRender: () => viewer.submit(),
+  onHistory: (canUndo, canRedo) => {
+    $("#btn-undo").disabled = !canUndo;
+    $("#btn-redo").disabled = !canRedo;
+  },
 });
 fields = new SceneFields(fieldsForm, editor);
+$("#btn-undo").addEventListener("click", () => editor.undo());
+$("#btn-redo").addEventListener("click", () => editor.redo());
+// the Build panel's pick shows the same object (its material) or light in the form
+build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), onLoad: (text, name) => loadText(text, name, false), notify });
 if (window.matchMedia("(max-width: 820px)").matches) $("details.fields").open = false; // a phone: the viewer comes sooner
 
 const viewer = new Viewer({
@@ -147,11 +158,17 @@ const raytree = new RayTreePanel({
 });
 
 async function pickPixel(view, x, y) {
+  // the picture picks what its pixel shows for the Build panel (the editor's scene, through this picture's film)
+  build.pickPixel(x, y, view.width, view.height);
   try {
     await viewer.sceneOf(view);
   } catch (err) {
     raytree.status("error", `Could not load the job's scene: ${err.message}.`);
     return;
+  }
+  const camera = (s) => JSON.stringify([s?.camera?.lookfrom, s?.camera?.lookat, s?.camera?.vup ?? [0, 1, 0], s?.camera?.vfov]);
+  if (view.scene && camera(view.scene) !== camera(editor.parseNow().value)) {
+    build.say("This picture was rendered with another camera than the editor's: the pick follows the editor's camera, so it may not be what the picture shows there. Render again to pick in the picture.", true);
   }
   const first = $("#raytree").hidden;
   const shown = raytree.show(view, viewer.image(), x, y);

@@ -114,6 +114,7 @@ export function sceneLines(scene, film) {
   const out = [];
   const push = (pts, colour, group, extra = {}) => out.push({ pts, colour, group, width: 1.2, dash: [], ...extra });
   (scene.objects || []).forEach((o, i) => {
+    const first = out.length; // the lines from here on are this object's (`of`: what a click on them picks)
     const colour = objectColour(material(scene, o.material));
     const label = o.name || `${o.type} ${i}`;
     try {
@@ -191,8 +192,10 @@ export function sceneLines(scene, film) {
     } catch {
       // a half-typed object (a missing field) is simply not drawn
     }
+    for (let k = first; k < out.length; k++) out[k].of = ["objects", i];
   });
   (scene.lights || []).forEach((l, i) => {
+    const first = out.length;
     const label = `light ${i} (${l.type})`;
     try {
       const star = (p, r) => {
@@ -252,6 +255,7 @@ export function sceneLines(scene, film) {
     } catch {
       // not drawn until it is complete
     }
+    for (let k = first; k < out.length; k++) out[k].of = ["lights", i];
   });
   try {
     const cam = scene.camera;

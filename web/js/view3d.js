@@ -104,6 +104,7 @@ export class View3D {
     const hgt = Math.max(220, Math.min(Math.floor(w * 0.75), Math.floor(window.innerHeight * 0.55)));
     const ctx = fitCanvas(c, w, hgt);
     const cam = this.camera(w, hgt);
+    this.cam = cam; // the last drawing's projection (the build view's handles are found with it)
     const near = Math.max(1e-3, this.radius * 1e-3);
     const seg = (p, q) => {
       const cl = clipNear(p, q, cam.eye, cam.forward, near);
