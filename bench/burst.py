@@ -40,7 +40,7 @@ import time
 from pathlib import Path
 
 from bench.cluster import Procs, start_api, start_redis, wait
-from bench.deadline import FINAL, pct, publish, roster_csv
+from bench.deadline import FINAL, follow, pct, publish, roster_csv
 from bench.grading import class_names, submission_file
 from bench.service import Api
 from server.course import command
@@ -77,8 +77,9 @@ class Student(threading.Thread):
         self.ok = 200 if what == "validate" else 202
         self.k, self.port, self.aid, self.token, self.body = k, port, aid, token, body
         self.source, self.barrier, self.follow = source, barrier, follow
-        self.code = self.latency = self.final = self.status = self.error = None
-        self.sent = None
+        self.code = self.latency = self.final = self.status = self.error = self.sid = self.score = None
+        self.sent = self.wall = None
+        self.statuses: list[str] = []  # what its event stream showed (bench.deadline's `follow` fills these)
 
     def run(self) -> None:
         headers = {"Authorization": f"Bearer {self.token}", "Content-Type": "application/json"}
@@ -86,7 +87,7 @@ class Student(threading.Thread):
         try:
             conn.connect()
             self.barrier.wait(timeout=120)
-            self.sent = time.perf_counter()
+            self.sent, self.wall = time.perf_counter(), time.time()
             conn.request("POST", self.path, body=self.body, headers=headers)
             r = conn.getresponse()
             data = r.read()
@@ -95,31 +96,13 @@ class Student(threading.Thread):
                 self.error = f"{r.status} {data[:160]!r}"
                 return
             if self.follow and self.ok == 202 and "/submissions" in self.path:
-                self._follow(conn, json.loads(data)["id"], headers)
+                self.sid = json.loads(data)["id"]
+                if not follow(conn, self.aid, self, headers) and self.error is None:
+                    self.error = "its event stream ended before a final status"
         except (OSError, http.client.HTTPException, threading.BrokenBarrierError) as e:
             self.error = f"{type(e).__name__}: {e}"
         finally:
             conn.close()
-
-    def _follow(self, conn, sid: str, headers: dict) -> None:
-        conn.request("GET", f"/api/assignments/{self.aid}/submissions/{sid}/events", headers=headers)
-        r = conn.getresponse()
-        if r.status != 200:
-            self.error = f"events: {r.status}"
-            return
-        event = None
-        while self.final is None:
-            line = r.readline()
-            if not line:
-                self.error = "its event stream ended before a final status"
-                return
-            line = line.decode().rstrip("\r\n")
-            if line.startswith("event:"):
-                event = line.split(":", 1)[1].strip()
-            elif line.startswith("data:") and event == "submission":
-                view = json.loads(line.split(":", 1)[1])
-                if view["status"] in FINAL:
-                    self.final, self.status = time.perf_counter() - self.sent, view["status"]
 
 
 def run(args, root: Path) -> dict:
@@ -165,8 +148,8 @@ def run(args, root: Path) -> dict:
             c.join(timeout=max(1.0, t0 + args.timeout - time.perf_counter()))
         took = time.perf_counter() - t0
         codes = collections.Counter(str(c.code) for c in clients)
-        errors = collections.Counter(c.error.split(" ", 1)[0] + " " + c.error[:120] for c in clients if c.error)
-        finals = [c.final for c in clients if c.final is not None]
+        errors = collections.Counter(c.error[:120] for c in clients if c.error)
+        finals = [c.final - c.wall for c in clients if c.final is not None]  # follow's time.time() at the grade
         teacher.close()
         return {
             "students": args.students,
