@@ -38,7 +38,7 @@ export class SceneEditor {
     this.onHistory = onHistory; // (canUndo, canRedo): the buttons follow
     this.past = []; // [{text, sel}] before each step, the latest last
     this.future = []; // steps undone, the next redo last
-    this.typing = 0; // when the student last typed (a pause starts a new step)
+    this.typing = -Infinity; // when the student last typed (a pause starts a new step; -Infinity: none since the last step)
     this.state = { text: "", value: null, nodes: null, where: null, syntax: null, valid: null, errors: [], warnings: [] };
     this.marks = []; // [{line, col?, severity, message, path?}]
     this.flash = null; // {line, until}: the line a form control just wrote
@@ -118,7 +118,7 @@ export class SceneEditor {
   /** Keep the text as it is now as a step to go back to (before a change). */
   record() {
     const text = this.ta.value;
-    this.typing = 0;
+    this.typing = -Infinity;
     if (text.trim() && this.past.at(-1)?.text !== text) this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
     if (this.past.length > HISTORY) this.past.shift();
     this.future = [];
@@ -149,7 +149,7 @@ export class SceneEditor {
       return false;
     }
     to.push({ text: this.ta.value, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
-    this.typing = 0;
+    this.typing = -Infinity;
     const top = this.ta.scrollTop;
     this.ta.value = step.text;
     this.ta.setSelectionRange(...step.sel);
