@@ -130,9 +130,29 @@ def links(
     """The links are derived, not stored: the same ones as the roster gave, until a student's link is replaced.
     `Accept: text/csv` answers CSV (id,name,email,link)."""
     course.course_staff(cid, caller, instructor_check(request), "roster")
-    if assignment is not None and course.assignment(assignment)["course_id"] != cid:
-        raise ApiError(404, [{"path": "assignment", "message": f"no assignment '{assignment[:64]}' in course '{cid}'"}])
+    _of_course(course, cid, assignment)
     return _students(course.links(cid, _base(request), assignment), request)
+
+
+@router.post(
+    "/{cid}/links/renew", summary="A new link for every student (the old ones stop working)", responses=NOT_FOUND
+)
+def renew_links(
+    cid: str,
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    store: StoreDep,
+    assignment: Annotated[
+        str | None, Query(description="only this assignment's roster, with links to its page (default: the course's)")
+    ] = None,
+) -> Response:
+    """Re-issue all at once: each student gets a new token (every earlier one stops working, in every assignment
+    of the course; their workspace jobs move to it). The new links, as `GET /links` gives them (`Accept: text/csv`
+    for CSV), `new` true."""
+    course.course_staff(cid, caller, instructor_check(request), "roster")
+    _of_course(course, cid, assignment)
+    return _students(course.renew_links(cid, _base(request), store, assignment), request)
 
 
 @router.delete("/{cid}/students/{student}", summary="Take a student off the course's roster", responses=NOT_FOUND)
@@ -184,6 +204,12 @@ def remove_staff(cid: str, person: str, request: Request, course: CourseDep, cal
     if not course.store.remove_staff(cid, person):
         raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
     return {"id": person, "removed": True}
+
+
+def _of_course(course, cid: str, assignment: str | None) -> None:
+    """A 404 unless `assignment` (when given) is one of the course's."""
+    if assignment is not None and course.assignment(assignment)["course_id"] != cid:
+        raise ApiError(404, [{"path": "assignment", "message": f"no assignment '{assignment[:64]}' in course '{cid}'"}])
 
 
 def _students(students: list[dict], request: Request) -> Response:

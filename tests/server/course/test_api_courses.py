@@ -145,3 +145,37 @@ def test_courses_a_staff_link_renewed_stops_the_old_token(app, two):
     assert app.post("/api/courses/cs101/staff", json={"id": "x", "role": "ta"}, headers=two["ta-1"]).status_code == 403
     assert app.delete("/api/courses/cs101/staff/ta-2", headers=two["prof-a"]).json()["removed"] is True
     assert app.get("/api/courses/cs101", headers=bearer(r.json()["token"])).status_code == 404
+
+
+def test_courses_re_issue_all_links_at_once(app, two):
+    """POST /api/courses/{id}/links/renew: every student a new link in one request (an assignment's roster only,
+    with ?assignment=); the old links stop in every assignment of the course, the others' keep working; a TA may
+    not; an assignment of another course is a 404."""
+    r = app.post("/api/courses/cs101/roster", content="id,name,email\nre1,Rae,\nre2,Rex,\n", headers=two["prof-a"])
+    old = {s["id"]: s["token"] for s in r.json()["students"] if s["id"] in ("re1", "re2")}
+    aid = app.post("/api/courses/cs101/assignments", json=body(), headers=two["prof-a"]).json()["id"]
+    theirs = app.post("/api/courses/cs202/assignments", json=body(), headers=two["prof-b"]).json()["id"]
+    assert app.post("/api/courses/cs101/links/renew", headers=two["ta-1"]).status_code == 403
+    r = app.post(f"/api/courses/cs101/links/renew?assignment={theirs}", headers=two["prof-a"])
+    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "assignment"
+    assert all(app.get(f"/api/assignments/{aid}", headers=bearer(t)).status_code == 200 for t in old.values())
+
+    r = app.post(f"/api/courses/cs101/links/renew?assignment={aid}", headers=two["prof-a"])
+    assert r.status_code == 200 and r.headers["cache-control"] == "no-store", r.text
+    fresh = {s["id"]: s for s in r.json()["students"]}
+    assert {"re1", "re2"} <= set(fresh) and all(s["new"] for s in fresh.values())
+    for sid, token in old.items():
+        assert fresh[sid]["token"] != token and fresh[sid]["link"].endswith(
+            f"/assignments/{aid}#token={fresh[sid]['token']}"
+        )
+        assert app.get(f"/api/assignments/{aid}", headers=bearer(token)).status_code == 404
+        assert app.get("/api/courses/cs101", headers=bearer(token)).status_code == 404
+        assert app.get(f"/api/assignments/{aid}", headers=bearer(fresh[sid]["token"])).status_code == 200
+    # the links again are the new ones; as CSV too
+    again = app.get(f"/api/courses/cs101/links?assignment={aid}", headers=two["prof-a"]).json()["students"]
+    assert {s["id"]: s["token"] for s in again} == {k: v["token"] for k, v in fresh.items()}
+    r = app.post("/api/courses/cs101/links/renew", headers={**two["prof-a"], "Accept": "text/csv"})
+    assert r.status_code == 200 and r.text.startswith("id,name,email,link\n")
+    assert "re1,Rae,," in r.text and f"#token={fresh['re1']['token']}" not in r.text
+    other = app.get("/api/courses/cs202/links", headers=two["prof-b"]).json()["students"]
+    assert all(app.get("/api/courses/cs202", headers=bearer(s["token"])).status_code == 200 for s in other)

@@ -466,8 +466,9 @@ export class Board {
     }
   }
 
-  /** A new link for every roster student, one after the other: each old link stops working (in every assignment
-   * of the course), so this asks first. Then the new links, as the CSV to mail out. */
+  /** A new link for every roster student, in one request (POST /api/courses/{cid}/links/renew): each old link
+   * stops working (in every assignment of the course), so this asks first. Then the new links, as the CSV to mail
+   * out. */
   async reissueAll() {
     const students = this.data?.students || [];
     if (!students.length) {
@@ -476,18 +477,14 @@ export class Board {
     }
     const n = students.length;
     if (!confirm(`Re-issue all ${n} links? Every student gets a new link, and the links sent before stop working at once (in every assignment of the course ${this.data.course}): mail the new ones out.`)) return;
-    const fresh = [];
+    say(this.rosterStatus, "busy", `Re-issuing ${n} links…`);
     try {
-      for (const st of students) {
-        say(this.rosterStatus, "busy", `Re-issuing the links… ${fresh.length} of ${n}`);
-        const r = await course.newLink(this.aid, st.id);
-        fresh.push({ id: st.id, name: st.name, email: st.email || "", link: r.link });
-      }
-      say(this.rosterStatus, "ok", `${n} new links: the old ones no longer work.`);
+      const { students: fresh } = await course.renewLinks(this.data.course, this.aid);
+      say(this.rosterStatus, "ok", `${fresh.length} new links: the old ones no longer work.`);
+      this.showLinks(fresh, "links-reissued.csv", "reissued");
     } catch (err) {
-      say(this.rosterStatus, "error", `Re-issued ${fresh.length} of ${n} links, then: ${err.message}. Those ${fresh.length} are below; the others keep their links.`);
+      say(this.rosterStatus, "error", `Could not re-issue the links: ${err.message}. The links sent before still work.`);
     }
-    this.showLinks(fresh, "links-reissued.csv", "reissued");
   }
 
   /** Links as a CSV to mail out (id,name,email,link): the new students' after an upload, every student's again

@@ -22,6 +22,7 @@ export const course = {
   extend: (aid, student, deadline) => request("POST", `${A(aid)}/extensions`, { student, deadline }, AS),
   newLink: (aid, student) => request("POST", `${A(aid)}/students/${encodeURIComponent(student)}/link`, undefined, AS),
   roster: (aid, text) => request("POST", `${A(aid)}/roster`, text, { ...AS, type: "text/csv" }), // a CSV body
+  renewLinks: (cid, aid) => request("POST", `/api/courses/${encodeURIComponent(cid)}/links/renew?assignment=${encodeURIComponent(aid)}`, undefined, AS),
   links: (cid, aid) => request("GET", `/api/courses/${encodeURIComponent(cid)}/links?assignment=${encodeURIComponent(aid)}`, undefined, { ...AS, cache: "no-store" }),
   url: A,
 };
