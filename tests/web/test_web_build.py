@@ -370,3 +370,35 @@ def test_web_build_jsonpos_append_and_remove_keep_the_rest_of_the_text(desktop):
     assert json.loads(out["r1"])["objects"] == [{"type": "sphere"}]
     assert json.loads(out["ma"])["m"] == {"b": 2} and json.loads(out["mb"])["m"] == {"a": 1}
     assert '"objects": [],' in out["all"]
+
+
+def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
+    """A spot light added from the panel points at what the camera looks at; dragging its orange knob turns it
+    (one step of the history), the cone drawn follows, and the scene stays valid."""
+    page = desktop.open().page
+    new_scene(page, "empty_room")
+    page.select_option("#build-material", "white")
+    page.click("#build-add-plane")
+    page.click("#build-add-sphere")
+    page.click("#build-light-spot")
+    s = scene(page)
+    spot = s["lights"][-1]
+    assert page.get_attribute("#build", "data-picked") == f"lights.{len(s['lights']) - 1}"
+    assert spot["type"] == "spot" and spot["cutoff"] == 30 and "light_samples" not in s.get("render", {})
+    at, pos = s["camera"]["lookat"], spot["position"]
+    to_at = [a - p for a, p in zip(at, pos, strict=True)]
+    n = sum(c * c for c in to_at) ** 0.5
+    assert all(abs(d - c / n) < 0.002 for d, c in zip(spot["direction"], to_at, strict=True)), spot
+    assert settled(page) == "ok", problems(page)
+    text_before = editor_text(page)
+
+    aim = [float(v) for v in page.get_attribute("#build-3d", "data-aim").split(",")]
+    drag(page, aim, (aim[0] + 70, aim[1]))  # to the right on the screen: the beam turns towards +x
+    turned = scene(page)["lights"][-1]
+    assert turned["position"] == spot["position"] and turned["cutoff"] == spot["cutoff"]
+    assert turned["direction"][0] > spot["direction"][0] + 0.1, (spot, turned)
+    assert abs(sum(c * c for c in turned["direction"]) - 1) < 0.01  # a unit vector, as a student writes one
+    assert "Aimed light" in page.text_content("#build-status")
+    desktop.shot("build-spot-aimed")
+    page.click("#btn-undo")
+    assert editor_text(page) == text_before

@@ -9,7 +9,7 @@ import { BuildView } from "./buildview.js";
 import { floorAndCeiling, freeSpot, itemAt, pickAt, stage } from "./edits.js";
 import { appendItem, formatJSON, removeAt, setValue } from "./jsonpos.js";
 import { $, h } from "./util.js";
-import { add, dot, mul, sub } from "./vec.js";
+import { add, dot, mul, normalize, sub } from "./vec.js";
 
 export const TEMPLATES = [
   { file: "empty_room", label: "Empty room (a camera and a light)" },
@@ -59,6 +59,12 @@ const LIGHTS = {
   point: ["Point light", (scene) => {
     const { right, scale } = stage(scene);
     return { type: "point", position: v3(add(overhead(scene), mul(right, 0.5 * scale))), intensity: r3(10 * scale * scale) };
+  }],
+  spot: ["Spot light", (scene) => {
+    const { at, right, scale } = stage(scene);
+    const position = v3(add(overhead(scene), mul(right, -0.5 * scale)));
+    // aimed at what the camera looks at (its round knob in the 3D view turns it)
+    return { type: "spot", position, direction: v3(normalize(sub(at, position))), intensity: r3(20 * scale * scale), cutoff: 30, falloff: 2 };
   }],
   quad: ["Area light (quad)", (scene) => {
     const { right, toward, scale } = stage(scene);
@@ -131,7 +137,7 @@ export class BuildPanel {
         ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
       ),
       h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
-        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale; drag elsewhere to orbit. ",
+        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
         "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
@@ -203,7 +209,7 @@ export class BuildPanel {
   write(writes, what) {
     const label = this.describe(this.picked);
     const ok = this.change((text) => writes.reduce((r, [parts, v]) => setValue(r.text, parts, v), { text }), `${what} ${label}`);
-    if (ok) this.say(`${what === "scale" ? "Scaled" : "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
+    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
   }
 
   /** A material choice -> [the name to write, the preset's write to make first or null]. */
@@ -246,7 +252,7 @@ export class BuildPanel {
     if (!this.usable()) return;
     const light = LIGHTS[type][1](this.value);
     const index = Array.isArray(this.value.lights) ? this.value.lights.length : 0;
-    const area = type !== "point";
+    const area = type !== "point" && type !== "spot"; // lights with a size
     const samples = this.value.render?.light_samples;
     const ok = this.change((text) => {
       const r = appendItem(text, ["lights"], light);

@@ -1,6 +1,7 @@
 // The Build panel's 3D view: the scene's wireframe (view3d.js) with the picked object or light and its handles.
 // Click a shape to pick it. Drag an arrow to move along that axis (x red, y green, z blue), the centre square to
-// move on the horizontal plane, the round knob to scale about the centre; elsewhere a drag orbits. While a
+// move on the horizontal plane, the round knob to scale about the centre, a spot light's orange knob (at the end
+// of its beam's axis) to aim it; elsewhere a drag orbits. While a
 // handle is dragged only the drawing follows; letting go writes the move into the JSON as one step of the
 // editor's history. Keys (the canvas focused): arrows move x and z, Page Up and Page Down move y, [ and ]
 // scale, Shift+arrows orbit, + and - zoom, N and L pick the next object and light, Escape lets go.
@@ -17,6 +18,8 @@ const AXES = [
 ];
 const GRAB = 12; // px: how near the pointer must be to a handle to take it
 const KNOB = [34, 34]; // px from the centre: the scale knob
+const AIM = "#ff9f1c"; // a spot light's aim knob and beam
+const r3 = (x) => Math.round(x * 1000) / 1000;
 
 /** Set a value at a JSON path of a plain object, making the missing objects on the way. */
 function setPath(obj, parts, v) {
@@ -87,7 +90,8 @@ export class BuildView extends View3D {
     }
   }
 
-  /** The handles of the picked item in canvas pixels: {a (centre), tips: [{axis, p}], knob} or null. */
+  /** The handles of the picked item in canvas pixels: {a (centre), tips: [{axis, p}], knob, aim} or null (aim: a
+   * spot light's knob, `aimAt` its point in the scene, on the beam's axis). */
   handles() {
     const item = itemAt(this.shown || this.scene, this.picked);
     const p = anchorOf(item);
@@ -96,7 +100,10 @@ export class BuildView extends View3D {
     const a = this.project(this.cam, p);
     const tips = AXES.map((axis) => ({ axis, p: this.project(this.cam, add(p, mul(axis.dir, L))) }));
     const knob = scaleWrites(item, [], 1) ? [a[0] + KNOB[0], a[1] + KNOB[1]] : null;
-    return { at: p, a, tips, knob, L };
+    const axis = item.type === "spot" && Array.isArray(item.direction) ? normalize(item.direction) : null;
+    const aimAt = axis && axis.every(Number.isFinite) ? add(p, mul(axis, L * 1.6)) : null;
+    const aim = aimAt && dot(sub(aimAt, this.cam.eye), this.cam.forward) > 0 ? this.project(this.cam, aimAt) : null;
+    return { at: p, a, tips, knob, L, aim, aimAt };
   }
 
   draw() {
@@ -106,7 +113,7 @@ export class BuildView extends View3D {
     const hs = this.scene && this.picked ? this.handles() : null;
     c.dataset.handles = hs ? "true" : "false";
     if (!hs) {
-      c.dataset.handleAt = c.dataset.handleTips = c.dataset.knob = "";
+      c.dataset.handleAt = c.dataset.handleTips = c.dataset.knob = c.dataset.aim = "";
       return;
     }
     const ctx = c.getContext("2d");
@@ -155,11 +162,24 @@ export class BuildView extends View3D {
       ctx.arc(hs.knob[0], hs.knob[1], 7, 0, 2 * Math.PI);
       ctx.fill();
     }
+    if (hs.aim) {
+      ctx.strokeStyle = AIM;
+      ctx.fillStyle = AIM;
+      ctx.lineWidth = 2;
+      ctx.beginPath();
+      ctx.moveTo(...hs.a);
+      ctx.lineTo(...hs.aim);
+      ctx.stroke();
+      ctx.beginPath();
+      ctx.arc(hs.aim[0], hs.aim[1], 7, 0, 2 * Math.PI);
+      ctx.fill();
+    }
     ctx.restore();
     // where the handles are, for tests and for anyone scripting the page
     c.dataset.handleAt = hs.a.map(Math.round).join(",");
     c.dataset.handleTips = hs.tips.map((t) => `${t.axis.name}:${t.p.map(Math.round).join(",")}`).join(" ");
     c.dataset.knob = hs.knob ? hs.knob.map(Math.round).join(",") : "";
+    c.dataset.aim = hs.aim ? hs.aim.map(Math.round).join(",") : "";
   }
 
   local(e) {
@@ -167,10 +187,11 @@ export class BuildView extends View3D {
     return [e.clientX - r.left, e.clientY - r.top];
   }
 
-  /** Which handle is under the canvas point m: "x", "y", "z", "plane", "scale" or null. */
+  /** Which handle is under the canvas point m: "x", "y", "z", "plane", "scale", "aim" or null. */
   handleAt(m) {
     const hs = this.picked ? this.handles() : null;
     if (!hs) return null;
+    if (hs.aim && Math.hypot(m[0] - hs.aim[0], m[1] - hs.aim[1]) < GRAB) return { kind: "aim", hs };
     if (hs.knob && Math.hypot(m[0] - hs.knob[0], m[1] - hs.knob[1]) < GRAB) return { kind: "scale", hs };
     for (const { axis, p } of hs.tips) if (Math.hypot(m[0] - p[0], m[1] - p[1]) < GRAB) return { kind: axis.name, hs };
     if (Math.abs(m[0] - hs.a[0]) < GRAB && Math.abs(m[1] - hs.a[1]) < GRAB) return { kind: "plane", hs };
@@ -178,11 +199,11 @@ export class BuildView extends View3D {
     return null;
   }
 
-  /** The point of the horizontal plane through p under canvas point m (for the centre square's drag). */
-  onPlane(m, p) {
+  /** The point of the plane through p with normal n (default: the horizontal plane, for the centre square's
+   * drag) under canvas point m. */
+  onPlane(m, p, n = this.frameUp) {
     const { eye, forward, right, up, f, w, h } = this.cam;
     const dir = normalize(add(mul(forward, f), add(mul(right, m[0] - w / 2), mul(up, h / 2 - m[1]))));
-    const n = this.frameUp;
     const den = dot(dir, n);
     if (Math.abs(den) < 1e-6) return null;
     const t = dot(sub(p, eye), n) / den;
@@ -202,6 +223,13 @@ export class BuildView extends View3D {
   /** The writes a drag to canvas point m means. */
   dragWrites(m) {
     const { kind, hs, m0, item, base } = this.drag;
+    if (kind === "aim") {
+      // the knob follows the pointer on the plane facing the view through it; the beam points at the knob
+      const q = this.onPlane(m, hs.aimAt, this.cam.forward);
+      const d = q && sub(q, hs.at);
+      if (!d || Math.hypot(...d) < 1e-6) return null;
+      return [[[...base, "direction"], normalize(d).map(r3)]];
+    }
     if (kind === "scale") {
       const r0 = Math.hypot(m0[0] - hs.a[0], m0[1] - hs.a[1]);
       const k = Math.max(0.05, Math.min(20, Math.hypot(m[0] - hs.a[0], m[1] - hs.a[1]) / Math.max(r0, 1)));
@@ -240,7 +268,7 @@ export class BuildView extends View3D {
       const { writes, kind } = this.drag;
       this.drag = null;
       this.shown = null;
-      if (writes) this.onEdit(writes, kind === "scale" ? "scale" : "move");
+      if (writes) this.onEdit(writes, { scale: "scale", aim: "aim" }[kind] || "move");
       else this.draw();
       return;
     }
