@@ -402,3 +402,24 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
     desktop.shot("build-spot-aimed")
     page.click("#btn-undo")
     assert editor_text(page) == text_before
+
+
+def test_web_build_a_rotated_box_is_picked_where_it_is_drawn(desktop):  # noqa: F811
+    """edits.js's firstHit in the browser: a box turned 45 degrees about z is a diamond seen along z; a ray by its
+    bounds' corner (inside the axis-aligned bounds of its corners) misses it, a ray through it meets its front
+    face at the right distance, and a moved and scaled box is met where its transform puts it."""
+    page = desktop.open().page
+    out = page.evaluate(
+        """async () => {
+            const e = await import('/js/edits.js');
+            const box = (transform) => ({objects: [{type: "box", min: [-1, -1, -1], max: [1, 1, 1], transform}]});
+            const t = (scene, o) => e.firstHit(scene, o, [0, 0, -1])?.t ?? null;
+            const turned = box({rotate: [0, 0, 45]});
+            const moved = box({translate: [3, 0, 0], scale: 2});
+            return {corner: t(turned, [1.2, 1.2, 5]), centre: t(turned, [0, 0, 5]), edge: t(turned, [0.6, 0.6, 5]),
+                    moved: t(moved, [4.5, 0, 10]), beside: t(moved, [5.5, 0, 10])};
+        }"""
+    )
+    assert out["corner"] is None and out["beside"] is None, out
+    assert abs(out["centre"] - 4) < 1e-9 and abs(out["edge"] - 4) < 1e-9, out
+    assert abs(out["moved"] - 8) < 1e-9, out

@@ -165,21 +165,33 @@ function hitTriangle([a, b, c], o, d) {
   return u >= 0 && v >= 0 && u + v <= 1 && t > 1e-6 ? t : null;
 }
 
-/** A box's slabs; a rotated box is approximated by the bounds of its corners (close enough to pick it). */
+/** The inverse of a 3x3 matrix (rows), or null when it has none. */
+function inverse3(a) {
+  const c = [cross(a[1], a[2]), cross(a[2], a[0]), cross(a[0], a[1])]; // columns of the adjugate
+  const det = dot(a[0], c[0]);
+  if (Math.abs(det) < 1e-15) return null;
+  return [0, 1, 2].map((i) => [c[0][i] / det, c[1][i] / det, c[2][i] / det]);
+}
+
+const times = (m, v) => [dot(m[0], v), dot(m[1], v), dot(m[2], v)];
+
+/** A box's slabs, in the box's own frame when it has a transform (the ray taken through the inverse of its
+ * matrix: the same t along it, since the map is affine), so a rotated box is picked where it is drawn. */
 function hitBox(o, orig, d) {
   const m = transformMatrix(o.transform);
-  const pts = [];
-  for (let i = 0; i < 8; i++) pts.push(applyPoint(m, [i & 1 ? o.max[0] : o.min[0], i & 2 ? o.max[1] : o.min[1], i & 4 ? o.max[2] : o.min[2]]));
+  const inv = inverse3(m.slice(0, 3).map((row) => row.slice(0, 3)));
+  if (!inv) return null;
+  const lo = times(inv, sub(orig, [m[0][3], m[1][3], m[2][3]]));
+  const ld = times(inv, d);
   let near = -Infinity;
   let far = Infinity;
   for (let k = 0; k < 3; k++) {
-    const lo = Math.min(...pts.map((p) => p[k]));
-    const hi = Math.max(...pts.map((p) => p[k]));
-    if (Math.abs(d[k]) < 1e-12) {
-      if (orig[k] < lo || orig[k] > hi) return null;
+    const [a, b] = [Math.min(o.min[k], o.max[k]), Math.max(o.min[k], o.max[k])];
+    if (Math.abs(ld[k]) < 1e-12) {
+      if (lo[k] < a || lo[k] > b) return null;
       continue;
     }
-    const [t1, t2] = [(lo - orig[k]) / d[k], (hi - orig[k]) / d[k]].sort((x, y) => x - y);
+    const [t1, t2] = [(a - lo[k]) / ld[k], (b - lo[k]) / ld[k]].sort((x, y) => x - y);
     near = Math.max(near, t1);
     far = Math.min(far, t2);
   }
