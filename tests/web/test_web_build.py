@@ -226,6 +226,36 @@ def test_web_build_pick_an_object_by_clicking_the_picture(desktop):  # noqa: F81
     page.wait_for_function("() => document.querySelector('#build-status').textContent.includes('another camera')")
 
 
+def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):  # noqa: F811
+    """A mesh read from a file (its triangles are the server's alone): clicking it in the picture picks it, from
+    the eye ray's hit in the pixel's ray tree; the floor beside it is still picked by the page at once."""
+    page = desktop.open().page
+    page.select_option("#example-select", "meshes")
+    page.wait_for_function("() => document.querySelector('#scene-text').value.includes('torus.obj')")
+    s = scene(page)
+    assert s["objects"][3]["file"] == "torus.obj" and s["film"] == {"width": 320, "height": 240}
+    render(page)
+    page.wait_for_function("() => document.querySelector('#render-img').naturalWidth > 0")
+
+    def click(x: int, y: int) -> None:  # pixel (x, y) of the 320 x 240 picture
+        page.evaluate(
+            """([x, y]) => {
+                const img = document.querySelector('#render-img');
+                const r = img.getBoundingClientRect();
+                const at = [r.left + (x + 0.5) / 320 * r.width, r.top + (y + 0.5) / 240 * r.height];
+                img.dispatchEvent(new MouseEvent('click', {clientX: at[0], clientY: at[1], bubbles: true}));
+            }""",
+            [x, y],
+        )
+
+    click(200, 120)  # the torus (python -m tracer raytree scenes/meshes.json 200 120: object 3)
+    page.wait_for_function("() => document.querySelector('#build').dataset.picked === 'objects.3'")
+    assert "torus" in page.inner_text("#build-status")
+    click(160, 230)  # the floor, near the bottom
+    page.wait_for_function("() => document.querySelector('#build').dataset.picked === 'objects.0'")
+    page.wait_for_function("() => !document.querySelector('#rt-pixel').textContent.includes('200')")
+
+
 def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
     page = desktop.open().page
     new_scene(page, "whitted")

@@ -325,7 +325,18 @@ export class BuildPanel {
     }
     this.pick(found?.of || null);
     if (!found) this.say(`Nothing at pixel (${x}, ${y}): the eye ray leaves the scene.`);
-    return found?.of || null;
+    return found;
+  }
+
+  /** The pixel's ray tree came back from the server (for the scene in the editor): a mesh read from a file, whose
+   * triangles the page does not have, is picked from its eye ray's hit when it is nearer than what the page met
+   * (`found`: pickPixel's answer). */
+  pickFromTree(tree, found) {
+    const eye = tree?.nodes?.find((n) => n.parent === null || n.parent === undefined);
+    const i = eye?.hit?.object;
+    const o = Number.isInteger(i) ? this.value?.objects?.[i] : null;
+    if (!o || o.type !== "mesh" || !o.file || (found && !(eye.t < found.t))) return;
+    this.pick(["objects", i]);
   }
 
   describe(of) {

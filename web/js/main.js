@@ -159,7 +159,7 @@ const raytree = new RayTreePanel({
 
 async function pickPixel(view, x, y) {
   // the picture picks what its pixel shows for the Build panel (the editor's scene, through this picture's film)
-  build.pickPixel(x, y, view.width, view.height);
+  const found = build.pickPixel(x, y, view.width, view.height);
   try {
     await viewer.sceneOf(view);
   } catch (err) {
@@ -173,13 +173,15 @@ async function pickPixel(view, x, y) {
   const first = $("#raytree").hidden;
   const shown = raytree.show(view, viewer.image(), x, y);
   viewer.layout(); // a smaller picture where the tree shares its column (app.css)
-  const tree = $("#raytree").getBoundingClientRect();
-  if (first || tree.top > window.innerHeight - 160) {
+  const box = $("#raytree").getBoundingClientRect();
+  if (first || box.top > window.innerHeight - 160) {
     // the tree under the picture (a wide window): the picture at the top, the tree below it; else the tree itself
-    const beside = Math.abs(tree.left - $("#stage").getBoundingClientRect().left) < 40;
+    const beside = Math.abs(box.left - $("#stage").getBoundingClientRect().left) < 40;
     (beside ? $("#stage") : $("#raytree")).scrollIntoView({ behavior: "smooth", block: "start" });
   }
-  await shown;
+  const tree = await shown;
+  // a mesh file's triangles are the server's alone: its ray tree says what the pixel shows (the editor's scene)
+  if (tree && JSON.stringify(view.scene) === JSON.stringify(editor.parseNow().value)) build.pickFromTree(tree, found);
 }
 
 let previousText = null;

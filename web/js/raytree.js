@@ -64,7 +64,8 @@ export class RayTreePanel {
     });
   }
 
-  /** view: the viewer's {id, scene, sceneText, width, height}; imageUrl: what the overlay draws on. */
+  /** view: the viewer's {id, scene, sceneText, width, height}; imageUrl: what the overlay draws on. The tree
+   * shown, or null (an error, or a later click came first). */
   async show(view, imageUrl, x, y, sample = null) {
     const { count, centre } = sampleCount(view.scene);
     if (sample === null) sample = this.request && this.request.view.id === view.id ? Math.min(Number(this.el.sample.value) || 0, count - 1) : centre;
@@ -81,10 +82,11 @@ export class RayTreePanel {
       tree = await api.raytree(view.sceneText, x, y, sample);
     } catch (err) {
       if (seq === this.seq) this.status("error", `Could not get the ray tree: ${err.message}.`);
-      return;
+      return null;
     }
-    if (seq !== this.seq) return;
+    if (seq !== this.seq) return null;
     this.present(tree, view, imageUrl);
+    return tree;
   }
 
   reload() {
