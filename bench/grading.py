@@ -142,7 +142,7 @@ def tree_cpu(pid: int, waited: bool = False) -> dict[int, float]:
             fields = stat.read_text().rsplit(")", 1)[1].split()
         except OSError:
             continue
-        ticks = sum(int(f) for f in fields[11:15 if waited else 13])
+        ticks = sum(int(f) for f in fields[11 : 15 if waited else 13])
         stats[int(stat.parent.name)] = (int(fields[1]), ticks / tick)
     out, todo = {}, [pid]
     while todo:

@@ -226,7 +226,7 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert flip_test.get_attribute("data-status") == "failed"
     assert "failed" in flip_test.text_content() and "0 / 2" in flip_test.text_content()
     assert "the noise baseline" in flip_test.text_content()
-    caption = page.text_content('#grade-detail .grade-fig[data-picture=rejected] figcaption')
+    caption = page.text_content("#grade-detail .grade-fig[data-picture=rejected] figcaption")
     assert caption.startswith("rejected pixels: red where they differ beyond noise")  # the grader's caption
     glass_out = page.text_content('#grade-detail-tests li[data-test="a glass object"] pre')  # multi-line: <pre>
     assert glass_out.startswith("passed: found 1 materials") and "\n" in glass_out

@@ -88,7 +88,8 @@ def where(page) -> str:
 
 
 def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_opens_the_assignment(
-    setup, browser  # noqa: F811
+    setup,
+    browser,  # noqa: F811
 ):
     server, p, aid = setup
     p.auto_launch = {"sub": "student-7", "roles": [LEARNER], "custom": {"assignment": aid}}
