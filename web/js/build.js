@@ -61,9 +61,11 @@ const LIGHTS = {
     return { type: "point", position: v3(add(overhead(scene), mul(right, 0.5 * scale))), intensity: r3(10 * scale * scale) };
   }],
   spot: ["Spot light", (scene) => {
-    const { at, right, scale } = stage(scene);
-    const position = v3(add(overhead(scene), mul(right, -0.5 * scale)));
-    // aimed at what the camera looks at (its round knob in the 3D view turns it)
+    const { at, right, up, toward, scale } = stage(scene);
+    // over the scene to the left and a little lower, clear of an area light added overhead (which would block
+    // its shadow rays), and inside a Cornell box's walls; aimed at what the camera looks at (its knob turns it)
+    const aside = add(mul(right, -1.2 * scale), add(mul(toward, 0.6 * scale), mul(up, -0.15 * scale)));
+    const position = v3(add(overhead(scene), aside));
     return { type: "spot", position, direction: v3(normalize(sub(at, position))), intensity: r3(20 * scale * scale), cutoff: 30, falloff: 2 };
   }],
   quad: ["Area light (quad)", (scene) => {
