@@ -331,16 +331,19 @@ class Course:
 
     def links(self, cid: str, base: str, aid: str | None = None) -> list[dict]:
         """Every student's current link again (of one assignment, or the course's page): nothing changes."""
-        rows = self.store.students(aid) if aid else self.store.members(cid)
-        return [self._student_link(cid, r, base, aid, False) for r in rows]
+        return [self._student_link(cid, r, base, aid, False) for r in self._roster(cid, aid)]
 
     def renew_links(self, cid: str, base: str, jobs: JobStore, aid: str | None = None) -> list[dict]:
         """A new link for every student of the course (or of one assignment's roster), in one request: every
         link sent before stops working, in every assignment of the course; their workspace jobs move."""
-        rows = self.store.students(aid) if aid else self.store.members(cid)
+        rows = self._roster(cid, aid)
         for r in rows:
             self.renew(cid, "student", r["student"], jobs)
         return [self._student_link(cid, r, base, aid, True) for r in rows]
+
+    def _roster(self, cid: str, aid: str | None) -> list[dict]:
+        """One assignment's students, or the course's."""
+        return self.store.students(aid) if aid else self.store.members(cid)
 
     def new_link(self, aid: str, student: str, base: str, jobs: JobStore) -> dict:
         """A fresh token for one student (every old one stops working, in every assignment of the course);

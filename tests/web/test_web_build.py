@@ -253,7 +253,12 @@ def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):  # noqa: F
     assert "torus" in page.inner_text("#build-status")
     click(160, 230)  # the floor, near the bottom
     page.wait_for_function("() => document.querySelector('#build').dataset.picked === 'objects.0'")
-    page.wait_for_function("() => !document.querySelector('#rt-pixel').textContent.includes('200')")
+    # its ray tree in (the floor is no mesh file): the pick stays
+    page.wait_for_function(
+        "() => document.querySelector('#rt-pixel').textContent.includes('(160, 230)')"
+        " && document.querySelector('#rt-status').dataset.kind === 'ok'"
+    )
+    assert page.get_attribute("#build", "data-picked") == "objects.0"
 
 
 def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811

@@ -6,7 +6,7 @@
 // tests/tracer/test_scene.py to give no warning).
 import { request } from "./api.js";
 import { BuildView } from "./buildview.js";
-import { floorAndCeiling, freeSpot, itemAt, pickAt, stage } from "./edits.js";
+import { floorAndCeiling, freeSpot, itemAt, pickAt, r3, stage, v3 } from "./edits.js";
 import { appendItem, formatJSON, removeAt, setValue } from "./jsonpos.js";
 import { $, h } from "./util.js";
 import { add, dot, mul, normalize, sub } from "./vec.js";
@@ -17,8 +17,6 @@ export const TEMPLATES = [
   { file: "whitted", label: "Whitted's scene (mirror and glass balls)" },
 ];
 
-const r3 = (x) => Math.round(x * 1000) / 1000;
-const v3 = (v) => v.map(r3);
 const same = (a, b) => JSON.stringify(a) === JSON.stringify(b);
 
 /** New objects, each placed from the scene's camera and floor (edits.js): {type: [label, make(scene, material)]}. */

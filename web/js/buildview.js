@@ -5,7 +5,7 @@
 // handle is dragged only the drawing follows; letting go writes the move into the JSON as one step of the
 // editor's history. Keys (the canvas focused): arrows move x and z, Page Up and Page Down move y, [ and ]
 // scale, Shift+arrows orbit, + and - zoom, N and L pick the next object and light, Escape lets go.
-import { anchorOf, firstHit, itemAt, moveWrites, scaleWrites, stage } from "./edits.js";
+import { anchorOf, firstHit, itemAt, moveWrites, r3, scaleWrites, stage } from "./edits.js";
 import { sceneLines } from "./shapes.js";
 import { clone } from "./util.js";
 import { add, dot, mul, normalize, sub } from "./vec.js";
@@ -19,7 +19,6 @@ const AXES = [
 const GRAB = 12; // px: how near the pointer must be to a handle to take it
 const KNOB = [34, 34]; // px from the centre: the scale knob
 const AIM = "#ff9f1c"; // a spot light's aim knob and beam
-const r3 = (x) => Math.round(x * 1000) / 1000;
 
 /** Set a value at a JSON path of a plain object, making the missing objects on the way. */
 function setPath(obj, parts, v) {

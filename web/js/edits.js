@@ -4,8 +4,8 @@
 // Fields as in docs/scene-format.md: a sphere's `center`, a plane's `point`, a quad's `corner` and edges, ...
 import { add, applyPoint, cameraBasis, cross, dot, length, mul, normalize, pixelDirection, sub, transformMatrix } from "./vec.js";
 
-const r3 = (x) => Math.round(x * 1000) / 1000; // what a student would type: millimetres in a scene of metres
-const v3 = (v) => v.map(r3);
+export const r3 = (x) => Math.round(x * 1000) / 1000; // what a student would type: millimetres in a scene of metres
+export const v3 = (v) => v.map(r3);
 const centroid = (pts) => mul(pts.reduce(add, [0, 0, 0]), 1 / pts.length);
 const isVec = (v) => Array.isArray(v) && v.length === 3 && v.every(Number.isFinite);
 

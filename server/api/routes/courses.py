@@ -117,15 +117,19 @@ def roster_list(cid: str, request: Request, course: CourseDep, caller: CallerDep
     }  # fmt: skip
 
 
+# ?assignment= of the links routes
+OneAssignment = Annotated[
+    str | None, Query(description="only this assignment's roster, with links to its page (default: the course's)")
+]
+
+
 @router.get("/{cid}/links", summary="Every student's link again (the course's instructors')", responses=NOT_FOUND)
 def links(
     cid: str,
     request: Request,
     course: CourseDep,
     caller: CallerDep,
-    assignment: Annotated[
-        str | None, Query(description="links to this assignment's page (default: the course's)")
-    ] = None,
+    assignment: OneAssignment = None,
 ) -> Response:
     """The links are derived, not stored: the same ones as the roster gave, until a student's link is replaced.
     `Accept: text/csv` answers CSV (id,name,email,link)."""
@@ -143,9 +147,7 @@ def renew_links(
     course: CourseDep,
     caller: CallerDep,
     store: StoreDep,
-    assignment: Annotated[
-        str | None, Query(description="only this assignment's roster, with links to its page (default: the course's)")
-    ] = None,
+    assignment: OneAssignment = None,
 ) -> Response:
     """Re-issue all at once: each student gets a new token (every earlier one stops working, in every assignment
     of the course; their workspace jobs move to it). The new links, as `GET /links` gives them (`Accept: text/csv`
