@@ -277,7 +277,8 @@ export class Viewer {
     if (what === "image") this.imageBlobUrl = this.blobUrl;
     const img = this.el.img;
     img.onload = () => {
-      if (old && old !== this.imageBlobUrl) URL.revokeObjectURL(old);
+      // later, not now: a ray tree asked a moment ago may still be loading the old picture into its overlay
+      if (old && old !== this.imageBlobUrl) setTimeout(() => URL.revokeObjectURL(old), 10_000);
       if (what === "image") {
         this.previews++;
         img.dataset.previews = String(this.previews);
