@@ -6,6 +6,7 @@ whose work horses run in groups of their own: `hosts.Cluster.kill_host` kills a 
 
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import shutil
@@ -81,7 +82,10 @@ def api_argv(data_dir: Path, port: int, redis_url: str, host: str = "127.0.0.1",
 def worker_argv(redis_url: str, name: str, threads: int = 1, cache_dir: str | None = None) -> list[str]:
     """A worker host's command line; its radiosity cache in a fresh folder unless given (the tests must not
     find solutions of an earlier run)."""
-    cache = cache_dir or tempfile.mkdtemp(prefix="radiosity-cache-")
+    cache = cache_dir
+    if cache is None:  # removed when the test session ends (these folders used to stay in /tmp, 80 a run)
+        cache = tempfile.mkdtemp(prefix="radiosity-cache-")
+        atexit.register(shutil.rmtree, cache, True)
     argv = [sys.executable, "-m", "server.worker", "--redis", redis_url, "--threads", str(threads), "--name", name]
     return [*argv, "--cache-dir", cache]
 

@@ -127,8 +127,13 @@ def job(client, job_id: str) -> dict:
 
 
 def wait_status(client, job_id: str, statuses: set[str], timeout: float = 60) -> dict:
-    """The job, once its status is one of `statuses`."""
-    return wait_for(lambda: (j := job(client, job_id))["status"] in statuses and j, timeout, f"job in {statuses}")
+    """The job, once its status is one of `statuses`; a job that ended in another fails at once (a status it
+    passed through between two polls will not come back)."""
+    j = wait_for(
+        lambda: ((j := job(client, job_id))["status"] in statuses or j["finished"]) and j, timeout, f"job in {statuses}"
+    )
+    assert j["status"] in statuses, f"job {job_id} ended ({j['status']}) before it was seen in {statuses}: {j}"
+    return j
 
 
 def wait_finished(client, job_id: str, timeout: float = 60) -> dict:

@@ -110,9 +110,12 @@ def test_queue_redis_api_restart_loses_nothing(redis_server, tmp_path):
     host = Process(worker_argv(url, "host-r"), tmp_path / "host-r.log").start()
     try:
         api.wait_hosts(1)
-        scene = small(scene_dict("whitted"), 64, 48, sampler={"type": "jittered", "spp": 256})
+        # about 2.5 s on one thread here: long enough to be seen running between two polls on any machine (at
+        # 256 samples, 0.65 s, a loaded CI's polls once missed it and waited for a status that had come and gone)
+        scene = small(scene_dict("whitted"), 64, 48, sampler={"type": "jittered", "spp": 1024})
         job = api.submit(scene)
-        api.wait(job["id"], lambda j: j["status"] == "running", "the job to start")
+        seen = api.wait(job["id"], lambda j: j["status"] == "running" or j["finished"], "the job to start")
+        assert seen["status"] == "running", f"the job ended before it was seen running: {seen}"
         api.stop()
         redis = redis_server.client(1)
         key = f"rq:job:{job['id']}-try1"
