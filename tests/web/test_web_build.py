@@ -8,6 +8,7 @@ things, the editor's undo and redo of typing and of form writes, and jsonpos.js'
 from __future__ import annotations
 
 import json
+import math
 
 from test_web_page import DESKTOP, Page, browser, desktop, editor_text, render, server  # noqa: F401  (fixtures)
 
@@ -436,6 +437,39 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
     assert "Aimed light" in page.text_content("#build-status")
     desktop.shot("build-spot-aimed")
     page.click("#btn-undo")
+    assert editor_text(page) == text_before
+
+    # the same from the keyboard: D turns the beam 5 degrees (to the right seen from above the default camera),
+    # W tilts it up; each press is a step of its own; tilting stops 5 degrees short of straight up
+    def beam() -> list[float]:
+        return scene(page)["lights"][-1]["direction"]
+
+    def angle(a, b) -> float:
+        return math.degrees(math.acos(max(-1.0, min(1.0, sum(x * y for x, y in zip(a, b, strict=True))))))
+
+    page.focus("#build-3d")
+    page.keyboard.press("d")
+    turned = beam()
+
+    def heading(d) -> float:  # degrees about the vertical, seen from above
+        return math.degrees(math.atan2(d[0], -d[2]))
+
+    assert abs(turned[1] - spot["direction"][1]) < 0.002, turned  # the same slope
+    assert abs(heading(turned) - heading(spot["direction"]) - 5) < 0.5, (spot, turned)
+    assert "Aimed light" in page.text_content("#build-status")
+    page.keyboard.press("w")
+    tilted = beam()
+    assert tilted[1] > turned[1] and abs(angle(tilted, turned) - 5) < 0.3, tilted
+    steps, last = 2, tilted
+    for _ in range(36):  # from about 66 degrees down to 85 up is 31 presses; the last ones change nothing
+        page.keyboard.press("w")
+        now = beam()
+        steps, last = steps + (now != last), now
+    assert abs(math.degrees(math.asin(last[1])) - 85) < 0.3, last  # 5 degrees short of straight up
+    assert 25 < steps < 38, steps
+    assert settled(page) == "ok", problems(page)
+    for _ in range(steps):  # one step of the history for each press that turned the beam
+        page.keyboard.press("Control+z")
     assert editor_text(page) == text_before
 
 

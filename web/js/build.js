@@ -138,7 +138,7 @@ export class BuildPanel {
       ),
       h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
         "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
-        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
+        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
         (this.pickedMaterialLabel = h("label", { class: "inline", hidden: true }, "material ", this.pickedMaterial)),

@@ -4,8 +4,9 @@
 // of its beam's axis) to aim it; elsewhere a drag orbits. While a
 // handle is dragged only the drawing follows; letting go writes the move into the JSON as one step of the
 // editor's history. Keys (the canvas focused): arrows move x and z, Page Up and Page Down move y, [ and ]
-// scale, Shift+arrows orbit, + and - zoom, N and L pick the next object and light, Escape lets go.
-import { anchorOf, firstHit, itemAt, moveWrites, r3, scaleWrites, stage } from "./edits.js";
+// scale, A and D turn a spot or directional light's beam and W and S tilt it (5 degrees), Shift+arrows orbit,
+// + and - zoom, N and L pick the next object and light, Escape lets go.
+import { aimWrites, anchorOf, firstHit, itemAt, moveWrites, r3, scaleWrites, stage } from "./edits.js";
 import { sceneLines } from "./shapes.js";
 import { clone } from "./util.js";
 import { add, dot, mul, normalize, sub } from "./vec.js";
@@ -19,6 +20,7 @@ const AXES = [
 const GRAB = 12; // px: how near the pointer must be to a handle to take it
 const KNOB = [34, 34]; // px from the centre: the scale knob
 const AIM = "#ff9f1c"; // a spot light's aim knob and beam
+const AIM_STEP = 5; // degrees: one press of A, D (turn) or W, S (tilt) on a light with a direction
 
 /** Set a value at a JSON path of a plain object, making the missing objects on the way. */
 function setPath(obj, parts, v) {
@@ -328,8 +330,12 @@ export class BuildView extends View3D {
     const moves = { ArrowLeft: [-step, 0, 0], ArrowRight: [step, 0, 0], ArrowUp: [0, 0, -step], ArrowDown: [0, 0, step], PageUp: [0, step, 0], PageDown: [0, -step, 0] };
     let writes = null;
     let what = "move";
+    const aims = { a: [AIM_STEP, 0], d: [-AIM_STEP, 0], w: [0, AIM_STEP], s: [0, -AIM_STEP] }[e.key.toLowerCase()];
     if (moves[e.key]) writes = moveWrites(item, this.picked, moves[e.key]);
-    else if (e.key === "[" || e.key === "]") {
+    else if (aims && aimWrites(item, this.picked, 0, 0)) {
+      writes = aimWrites(item, this.picked, aims[0], aims[1], this.frameUp);
+      what = "aim";
+    } else if (e.key === "[" || e.key === "]") {
       writes = scaleWrites(item, this.picked, e.key === "]" ? 1.1 : 1 / 1.1);
       what = "scale";
     } else return super.key(e);

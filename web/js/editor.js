@@ -154,7 +154,9 @@ export class SceneEditor {
     this.ta.value = step.text;
     this.ta.setSelectionRange(...step.sel);
     this.ta.scrollTop = top;
-    this.changed();
+    // the form, the Build panel and its 3D view follow at once: a key pressed right after Ctrl+Z (an arrow that
+    // moves the picked sphere) must start from the text it brought back, not from the step it undid
+    this.changed(true);
     this.onHistory(this.canUndo, this.canRedo);
     return true;
   }

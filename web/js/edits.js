@@ -81,6 +81,28 @@ export function moveWrites(o, base, d) {
   }
 }
 
+/** Rotate v about the unit axis u by `a` radians (Rodrigues). */
+const turn = (v, u, a) => add(add(mul(v, Math.cos(a)), mul(cross(u, v), Math.sin(a))), mul(u, dot(u, v) * (1 - Math.cos(a))));
+
+/** The writes that aim a light with a `direction` (spot, directional): turned `yaw` degrees about `up` (the
+ * scene's vertical) and tilted `pitch` degrees towards it; null for a light without one. A tilt stops 5 degrees
+ * short of straight up or down (past it, the beam would flip over and "left" would become "right"). */
+export function aimWrites(o, base, yaw, pitch, up = [0, 1, 0]) {
+  if (!o || !isVec(o.direction) || length(o.direction) === 0) return null;
+  const u = normalize(up);
+  let d = turn(normalize(o.direction), u, (yaw * Math.PI) / 180);
+  if (pitch) {
+    // the tilt's axis is horizontal, across the beam; a beam straight up or down tilts along z
+    let side = cross(d, u);
+    if (length(side) < 1e-6) side = cross(d, Math.abs(u[2]) < 0.9 ? [0, 0, 1] : [1, 0, 0]);
+    const now = Math.asin(Math.max(-1, Math.min(1, dot(d, u))));
+    const limit = (85 * Math.PI) / 180;
+    const want = Math.max(Math.min(now, -limit), Math.min(Math.max(now, limit), now + (pitch * Math.PI) / 180));
+    d = turn(d, normalize(side), want - now);
+  }
+  return [[[...base, "direction"], v3(normalize(d))]];
+}
+
 /** The writes that scale `o` by k about its anchor; null for what has no size (a plane, a point light). */
 export function scaleWrites(o, base, k) {
   const at = (key) => [...base, key];
