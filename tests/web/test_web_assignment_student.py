@@ -113,7 +113,7 @@ class Student:
         self.context = browser.new_context(viewport=DESKTOP, timezone_id=TIMEZONE)
         self.context.add_init_script(CSP_WATCH)
         self.page = self.context.new_page()
-        self.page.set_default_timeout(30_000)
+        self.page.set_default_timeout(60_000)
         self.server = server
         self.errors: list[str] = []
         self.allow = list(allow)

@@ -43,7 +43,7 @@ class CoursePage(Page):
         self.context.close()
         self.context = browser.new_context(viewport=viewport, timezone_id=ZONE, accept_downloads=True)
         self.page = self.context.new_page()
-        self.page.set_default_timeout(30_000)
+        self.page.set_default_timeout(60_000)
         self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
         self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
         self.context.add_init_script(CSP_WATCH)

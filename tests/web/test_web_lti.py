@@ -95,7 +95,7 @@ def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_
     p.auto_launch = {"sub": "student-7", "roles": [LEARNER], "custom": {"assignment": aid}}
     context = browser.new_context(viewport={"width": 1100, "height": 800})
     page = context.new_page()
-    page.set_default_timeout(30_000)
+    page.set_default_timeout(60_000)
     page.goto(course_page(server, p))
     without_cookies(page)
     try:
@@ -119,7 +119,7 @@ def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, 
     p.auto_launch = {"sub": "student-8", "roles": [LEARNER], "custom": {"assignment": aid}}
     context = browser.new_context(viewport={"width": 1100, "height": 800})
     page = context.new_page()
-    page.set_default_timeout(30_000)
+    page.set_default_timeout(60_000)
     page.goto(course_page(server, p, tamper=1))
     without_cookies(page)
     wait_for(lambda: shows(page, "main[data-check=state]"), 60, "the refusal")

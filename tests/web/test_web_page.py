@@ -71,7 +71,7 @@ class Page:
     def __init__(self, browser, server, viewport):
         self.context = browser.new_context(viewport=viewport)
         self.page = self.context.new_page()
-        self.page.set_default_timeout(30_000)
+        self.page.set_default_timeout(60_000)
         self.server = server
         self.errors: list[str] = []
         self.allow: list[str] = []

@@ -17,8 +17,9 @@ import httpx
 from conftest import ROOT
 from test_api_support import INSTRUCTOR, Server, bearer, tiny_scene, wait_for
 
-SUBMITS = 300  # jobs the background thread submits at most, one after another, until the backup has ended
-BEFORE_BACKUP = 4  # jobs submitted (and some rendered) before the backup starts
+SUBMITS = 3000  # jobs the background thread submits at most, until the backup has ended (about 60 s of them)
+BEFORE_BACKUP = 4  # jobs submitted (and one rendered) before the backup starts
+PACE = 0.02  # seconds between two submissions once the backup has started (an Event's wait: stop ends it at once)
 
 
 def command(*args: str) -> subprocess.CompletedProcess:
@@ -35,16 +36,22 @@ def query(db_path: Path, sql: str) -> list[tuple]:
 
 
 class Submitter(threading.Thread):
-    """Submits tiny jobs as the instructor, one after another, until `stop` is set (SUBMITS at most)."""
+    """Submits tiny jobs as the instructor: BEFORE_BACKUP at once, then, from `go`, one every PACE seconds
+    until `stop` is set (SUBMITS at most). Paced, so that jobs still arrive however long the backup takes
+    (unpaced, a fast machine could reach the cap before a slow backup's snapshot)."""
 
     def __init__(self, url: str):
         super().__init__(name="submitter", daemon=True)
-        self.url, self.ids, self.errors, self.stop = url, [], [], threading.Event()
+        self.url, self.ids, self.errors = url, [], []
+        self.go, self.stop = threading.Event(), threading.Event()
 
     def run(self) -> None:
         with httpx.Client(base_url=self.url, timeout=60, headers=bearer(INSTRUCTOR)) as c:
             for i in range(SUBMITS):
-                if self.stop.is_set():
+                if i == BEFORE_BACKUP and not self.go.wait(300):
+                    self.errors.append("the test never said go")
+                    return
+                if self.stop.is_set() or (i > BEFORE_BACKUP and self.stop.wait(PACE)):
                     return
                 r = c.post("/api/jobs", json={"scene": tiny_scene(seed=i)})
                 if r.status_code != 202:
@@ -62,6 +69,11 @@ def test_backup_of_a_live_server_restored_and_served(tmp_path):
         submitter = Submitter(server.url)
         submitter.start()
         wait_for(lambda: len(submitter.ids) >= BEFORE_BACKUP or submitter.errors, 120, "the first jobs")
+        assert submitter.errors == [], submitter.errors
+        # one rendered before the backup starts (its image is among the files), whatever the machine's speed
+        first = f"/api/jobs/{submitter.ids[0]}"
+        wait_for(lambda: server.client.get(first, headers=bearer(INSTRUCTOR)).json()["finished"], 120, "a job rendered")
+        submitter.go.set()
         out = command("backup", str(dest), "--data-dir", str(data))
         submitter.stop.set()
         submitter.join(timeout=120)
