@@ -447,12 +447,12 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
     def angle(a, b) -> float:
         return math.degrees(math.acos(max(-1.0, min(1.0, sum(x * y for x, y in zip(a, b, strict=True))))))
 
+    def heading(d) -> float:  # degrees about the vertical, seen from above
+        return math.degrees(math.atan2(d[0], -d[2]))
+
     page.focus("#build-3d")
     page.keyboard.press("d")
     turned = beam()
-
-    def heading(d) -> float:  # degrees about the vertical, seen from above
-        return math.degrees(math.atan2(d[0], -d[2]))
 
     assert abs(turned[1] - spot["direction"][1]) < 0.002, turned  # the same slope
     assert abs(heading(turned) - heading(spot["direction"]) - 5) < 0.5, (spot, turned)

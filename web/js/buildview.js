@@ -330,10 +330,11 @@ export class BuildView extends View3D {
     const moves = { ArrowLeft: [-step, 0, 0], ArrowRight: [step, 0, 0], ArrowUp: [0, 0, -step], ArrowDown: [0, 0, step], PageUp: [0, step, 0], PageDown: [0, -step, 0] };
     let writes = null;
     let what = "move";
-    const aims = { a: [AIM_STEP, 0], d: [-AIM_STEP, 0], w: [0, AIM_STEP], s: [0, -AIM_STEP] }[e.key.toLowerCase()];
+    const aim = { a: [AIM_STEP, 0], d: [-AIM_STEP, 0], w: [0, AIM_STEP], s: [0, -AIM_STEP] }[e.key.toLowerCase()];
+    const aimed = aim && aimWrites(item, this.picked, aim[0], aim[1], this.frameUp); // null: no direction to aim
     if (moves[e.key]) writes = moveWrites(item, this.picked, moves[e.key]);
-    else if (aims && aimWrites(item, this.picked, 0, 0)) {
-      writes = aimWrites(item, this.picked, aims[0], aims[1], this.frameUp);
+    else if (aimed) {
+      writes = aimed;
       what = "aim";
     } else if (e.key === "[" || e.key === "]") {
       writes = scaleWrites(item, this.picked, e.key === "]" ? 1.1 : 1 / 1.1);
