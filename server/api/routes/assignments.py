@@ -559,6 +559,7 @@ def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep, 
     median. One answer for the whole class, for a page that follows it while it submits."""
     a = _instructor(course, aid, caller, request)
     out = course_board.dashboard(course, a)
+    out["tree_whats"] = owntrees.whats(course, a)  # own tracers: the class's first differences by `what`
     out["lms"] = lms.board(aid, a["course_id"]) if lms is not None else None
     out["course"] = a["course_id"]
     return out

@@ -47,3 +47,13 @@ async def trees(
         course, jobs, lambda b: checks.summary(request.is_disconnected, b), tree_cache(request), caller, aid, sid,
         body, settings.max_tree_log_trees, request.is_disconnected,
     )  # fmt: skip
+
+
+@router.get(
+    "/{aid}/submissions/{sid}/trees",
+    summary="The latest tree log comparison of a submission (its student's, or the staff's view of it)",
+    responses={404: {"model": ErrorResponse, "description": "no such submission, or no log compared yet"}},
+)
+async def latest_trees(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict:
+    """The answer of the last POST to .../trees for this submission, as it was given."""
+    return await owntrees.latest(course, caller, aid, sid)
