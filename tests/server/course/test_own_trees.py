@@ -216,7 +216,7 @@ def test_own_trees_who_may_and_when(app, graded, ex, tmp_path):
     r = post_trees(app, graded, graded["scene"], log, graded["tok"]["s2"])
     assert r.status_code == 409 and "scene" in r.json()["errors"][0]["message"], r.text
     # an assignment that shows the image tests only after the deadline: no trees and no probes yet
-    aid = publish(app, feedback={"default": "always", "tests": {"flip": "after_deadline"}})
+    aid = publish(app, feedback={"default": "now", "tests": {"flip": "after_deadline"}})
     tok = roster(app, aid, "s3")
     sid = submit(app, aid, tok["s3"], {"image": png_of(rendered()), "format": "png"})
     url = f"/api/assignments/{aid}/submissions/{sid}/trees"
