@@ -52,6 +52,7 @@ from server.core.security import served_hosts, start_up_warnings
 from server.core.settings import Settings, load_settings
 from server.core.startup import check_data_dir, lock_data_dir
 from server.course.lms import Lms
+from server.course.owntrees import TreeCache
 from server.course.service import Course
 from server.grading.runs import GradeRuns
 from server.jobs import lesson_panels
@@ -167,6 +168,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
     app.state.course = app.state.lti = app.state.lms = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
+    app.state.tree_cache = TreeCache()  # the reference's trees that own tracers' logs are compared with
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
     app.state.streams = StreamCaps(settings, app.state.caps)  # event streams open per token and per address
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)

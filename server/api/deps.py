@@ -25,6 +25,7 @@ from server.core.ids import looks_like_job_id
 from server.core.security import Caller, check_instructor, is_instructor, parse_bearer, token_hash, unauthorized
 from server.core.settings import Settings
 from server.course.lms import Lms
+from server.course.owntrees import TreeCache
 from server.course.service import Course
 from server.grading.runs import GradeRuns
 from server.jobs.lifecycle import JobStatus
@@ -61,6 +62,10 @@ async def get_caps(request: Request) -> AddressCaps:
 
 async def get_course(request: Request) -> Course:
     return request.app.state.course
+
+
+async def get_tree_cache(request: Request) -> TreeCache:
+    return request.app.state.tree_cache
 
 
 async def get_lti(request: Request) -> LtiTool:
@@ -101,6 +106,7 @@ ChecksDep = Annotated[CheckPool, Depends(get_checks)]
 JobsDep = Annotated[JobService, Depends(get_jobs)]
 CapsDep = Annotated[AddressCaps, Depends(get_caps)]
 CourseDep = Annotated[Course, Depends(get_course)]
+TreeCacheDep = Annotated[TreeCache, Depends(get_tree_cache)]  # the reference's trees of own tracers' logs
 LtiDep = Annotated[LtiTool, Depends(get_lti)]
 MaybeLmsDep = Annotated[Lms | None, Depends(find_lms)]
 RunsDep = Annotated[GradeRuns, Depends(get_runs)]

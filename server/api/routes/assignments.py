@@ -27,13 +27,13 @@ from server.api.deps import (
     SettingsDep,
     StoppingDep,
     StoreDep,
+    TreeCacheDep,
     client_address,
     instructor_check,
     require_instructor,
 )
 from server.api.errors import ApiError
 from server.api.models import CheckIn, ErrorResponse, HandedIn
-from server.api.routes import own_trees
 from server.api.streams import KEEP_ALIVE, event_stream, sse
 from server.core.security import Caller
 from server.course import compare, owntrees
@@ -348,7 +348,7 @@ def submit(
 )
 async def check(
     aid: str, body: CheckIn, request: Request, course: CourseDep, caller: CallerDep, caps: CapsDep, jobs: JobsDep,
-    checks: ChecksDep, settings: SettingsDep,
+    checks: ChecksDep, settings: SettingsDep, cache: TreeCacheDep,
 ) -> dict:  # fmt: skip
     """The body of a submission -> `valid`, `tests` (validity and the requirements, each as the feedback
     policy shows it now), `errors` at their JSON paths, `warnings`, and the `image_tests` a submission would
@@ -367,7 +367,7 @@ async def check(
     if body.trees is not None:
         await run_in_threadpool(compare.allowed, course, a, {"version": a["version"]}, who)
         out["trees"] = await owntrees.check_log(
-            course, jobs, lambda b: checks.summary(request.is_disconnected, b), own_trees.tree_cache(request), a,
+            course, jobs, lambda b: checks.summary(request.is_disconnected, b), cache, a,
             who, body.trees, settings.max_tree_log_trees, request.is_disconnected,
         )  # fmt: skip
     return out

@@ -7,20 +7,12 @@ import re
 
 from fastapi import APIRouter, Request
 
-from server.api.deps import CallerDep, ChecksDep, CourseDep, JobsDep, SettingsDep
+from server.api.deps import CallerDep, ChecksDep, CourseDep, JobsDep, SettingsDep, TreeCacheDep
 from server.api.models import ErrorResponse
 from server.course import owntrees
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
 TREES_PATH = re.compile(r"/api/assignments/[^/]+/submissions/[^/]+/trees")  # its body limit (server/main.py)
-
-
-def tree_cache(request: Request) -> owntrees.TreeCache:
-    """The app's cache of the reference's trees (made on first use)."""
-    state = request.app.state
-    if getattr(state, "tree_cache", None) is None:
-        state.tree_cache = owntrees.TreeCache()
-    return state.tree_cache
 
 
 @router.post(
@@ -37,14 +29,14 @@ def tree_cache(request: Request) -> owntrees.TreeCache:
 )
 async def trees(
     aid: str, sid: str, request: Request, course: CourseDep, caller: CallerDep, jobs: JobsDep, checks: ChecksDep,
-    settings: SettingsDep,
+    settings: SettingsDep, cache: TreeCacheDep,
 ) -> dict:  # fmt: skip
     """The body is the tree log, `{"trees": [{"pixel": [x, y], "nodes": [...]}, ...]}`; the answer gives each
     tree `{pixel, matches, differences: [{what, message, student, reference}], student, reference}`: the first
     difference first, `student` and `reference` the nodes' ids (null where that tree has no such ray)."""
     body = await request.body()
     return await owntrees.compare_log(
-        course, jobs, lambda b: checks.summary(request.is_disconnected, b), tree_cache(request), caller, aid, sid,
+        course, jobs, lambda b: checks.summary(request.is_disconnected, b), cache, caller, aid, sid,
         body, settings.max_tree_log_trees, request.is_disconnected,
     )  # fmt: skip
 
