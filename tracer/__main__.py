@@ -8,6 +8,8 @@ python -m tracer validate SCENE.json [--assets DIR]
 python -m tracer bench [--quick] [--mitsuba [--mitsuba-python PY] [--rounds N]] [--only SECTIONS]
 python -m tracer grade ASSIGNMENT.json SUBMISSION [-o OUT] [--workers N] [--json]
     SUBMISSION: a scene (.json), a student's image (.png/.exr), or a class (a folder or a .zip)
+python -m tracer explain ASSIGNMENT_OR_SCENE --image MINE.png [--trees MINE.json] [--json]
+    a student's own tracer: the probe pixels of their image, and each logged ray tree against the reference's
 python -m tracer docs [--check]     the field tables of docs/scene-format.md, from tracer/scene/
 """
 
@@ -259,6 +261,45 @@ def cmd_grade(args) -> int:
     return 0
 
 
+def cmd_explain(args) -> int:
+    from tracer.grading import AssignmentError, GradingError, owntracer
+    from tracer.grading.submission import decode_image
+
+    image_path = Path(args.image)
+    kind = {".png": "png", ".exr": "exr"}.get(image_path.suffix.lower(), "png")
+    try:
+        shown, encoding = decode_image(image_path.read_bytes(), kind)
+        trees = Path(args.trees).read_bytes() if args.trees else None
+    except (GradingError, OSError) as exc:
+        print(f"error: {getattr(exc, 'filename', None) or image_path}: {getattr(exc, 'strerror', None) or exc}",
+              file=sys.stderr)  # fmt: skip
+        return 1
+    try:
+        started()
+        ref = owntracer.load_reference(Path(args.source), args.threads)
+        if encoding.linear:
+            from tracer.grading import metrics
+
+            shown = metrics.display(shown, float(ref.scene.get("film", {}).get("exposure", 0.0)))
+        result = owntracer.explain(ref, shown, trees)
+    except AssignmentError as exc:
+        for e in exc.errors:
+            print(f"error: assignment: {e['path'] or '(assignment)'}: {e['message']}", file=sys.stderr)
+        return 1
+    except GradingError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except SceneError as exc:
+        _print_problems(exc.errors, "error", args.trees if trees is not None else args.source)
+        return 1
+    if args.json:
+        json.dump(result, sys.stdout)
+        print()
+    else:
+        sys.stdout.write(owntracer.text(result))
+    return 0 if all(a["matches"] for a in result["trees"]) else 2
+
+
 WORKER_LOG = "workers.log"  # a class's render workers log here, under OUT/.queue/
 
 
@@ -363,6 +404,18 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--threads", type=int, default=None, help="one submission: render threads")
     g.add_argument("--json", action="store_true", help="print the report (a class: the summary) as JSON")
     g.set_defaults(func=cmd_grade)
+
+    e = sub.add_parser(
+        "explain",
+        help="your own tracer: the probe pixels of your image against the reference and, with a tree log, where "
+        "your ray trees first differ from the reference's (docs/own-tracer.md)",
+    )
+    e.add_argument("source", help="the assignment (JSON with a reference) or the reference scene")
+    e.add_argument("--image", required=True, help="your tracer's image of it (.png, or .exr)")
+    e.add_argument("--trees", help="your tree log (JSON) of the probe pixels")
+    e.add_argument("--threads", type=int, default=None, help="threads of the reference's render")
+    e.add_argument("--json", action="store_true", help="print the probes and the answers as JSON")
+    e.set_defaults(func=cmd_explain)
 
     from tracer.tools.scene_docs import DOC
 

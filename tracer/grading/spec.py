@@ -182,6 +182,14 @@ class PixelTest(_Model):
     max_fraction: float = Field(0.01, ge=0, le=1, description="Pass: at most this share of pixels rejected.")
 
 
+class ProbeSpec(_Model):
+    """A pixel the instructor wants every student's tree log to show (docs/own-tracer.md)."""
+
+    x: int = Field(ge=0, description="Column, from the left.")
+    y: int = Field(ge=0, description="Row, from the top.")
+    why: str | None = Field(None, max_length=200, description="Shown to the student: what this pixel shows.")
+
+
 class Reference(_Model):
     """The picture the submissions should match: a scene, rendered by us."""
 
@@ -192,6 +200,8 @@ class Reference(_Model):
     ssim: SsimTest | None = None
     psnr: PsnrTest | None = None
     pixels: PixelTest | None = None
+    probes: list[ProbeSpec] = Field(default_factory=list, max_length=16, description="Pixels every student's "
+                                    "tree log should show, beside the probes found in their error map.")  # fmt: skip
 
 
 class ImageSettings(_Model):
