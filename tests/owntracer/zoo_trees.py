@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import math
 
-# Where a bug shows: more than float noise, less than the 1e-4 spawn offset is not a difference.
+# Where a bug shows: more than float noise; the 1e-4 spawn offset and what it moves downstream (a hit point, the
+# normal there) are not a difference.
 POSITION = 1e-3  # world units: origins, hit points, distances t differ by at most this ...
 POSITION_REL = 1e-4  # ... plus this share of their size (a float32 tracer's far hits near the horizon)
-DIRECTION = 1e-4  # unit vectors: directions, normals (component-wise)
+DIRECTION = 1e-3  # unit vectors: directions, normals (component-wise)
 RELATIVE = 1e-3  # colours: weights, radiance, terms differ by at most this share of the larger ...
 ABSOLUTE = 1e-5  # ... plus this
 
