@@ -7,11 +7,13 @@ where rays graze a surface (a silhouette, a far hit near the horizon) and in sha
 
 from __future__ import annotations
 
+import io
 import math
 
 import numpy as np
 import pytest
-from zoo_tracer import BUGS, ZOO_SCENE, bug_pixels, srgb8, zoo_render, zoo_scene
+from PIL import Image
+from zoo_tracer import BUGS, ZOO_SCENE, bug_pixels, png_bytes, srgb8, zoo_render, zoo_scene
 from zoo_trees import tree_difference
 
 # The picture: |student - renderer| <= ABS + REL |renderer| per channel, at all pixels but OUTLIERS of them
@@ -74,6 +76,8 @@ def test_zoo_tracer_image_equals_the_renderers(reference):
     levels = np.abs(picture.astype(int) - to_srgb8(ref).astype(int)).max(axis=2)
     assert (levels > 1).sum() <= OUTLIERS * levels.size
     assert np.array_equal(picture, srgb8(image))
+    assert np.array_equal(srgb8(image, 1.5), to_srgb8(image, 1.5)), "exposure: 2^1.5 before the clamp"
+    assert np.array_equal(np.asarray(Image.open(io.BytesIO(png_bytes(image)))), picture)
 
 
 def test_zoo_tracer_trees_equal_the_renderers(reference):
