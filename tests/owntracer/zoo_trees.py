@@ -39,13 +39,20 @@ def _children(nodes: list[dict]) -> dict:
 
 
 def node_difference(
-    a: dict, b: dict, position=POSITION, direction=DIRECTION, rel=RELATIVE, abs_=ABSOLUTE, radiance=True
+    a: dict,
+    b: dict,
+    position=POSITION,
+    position_rel=POSITION_REL,
+    direction=DIRECTION,
+    rel=RELATIVE,
+    abs_=ABSOLUTE,
+    radiance=True,
 ):
     """What differs between two nodes (their own fields, not their children; `radiance` False: all but
     what the ray carries back, which its subtree sets), or None."""
 
     def near(u, v):
-        return _close(u, v, POSITION_REL, position)
+        return _close(u, v, position_rel, position)
 
     if a["kind"] != b["kind"]:
         return f"kind {a['kind']} != {b['kind']}"
