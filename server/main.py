@@ -30,7 +30,20 @@ from fastapi_offline import FastAPIOffline
 from server.api.errors import SafeJSONResponse, install_error_handlers
 from server.api.gate import BodyBudget, RequestGate
 from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
-from server.api.routes import assignments, courses, grade, jobs, lms, lti, pages, reference, samples, scenes, tools
+from server.api.routes import (
+    assignments,
+    courses,
+    grade,
+    jobs,
+    lms,
+    lti,
+    own_trees,
+    pages,
+    reference,
+    samples,
+    scenes,
+    tools,
+)  # fmt: skip
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps, StreamCaps
 from server.core.migrations import migrate
@@ -164,6 +177,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(
         RequestGate, max_bytes=settings.max_body_bytes, max_depth=settings.max_json_depth,
         streamed={grade.UPLOAD: upload}, body_timeout=settings.body_timeout, budget=budget,
+        larger=[(own_trees.TREES_PATH, int(settings.max_tree_log_bytes), "TRACER_MAX_TREE_LOG_BYTES")],
     )  # fmt: skip
     app.add_middleware(CrossSiteCheck, served=served_hosts(settings))  # no page of another site changes anything
     app.add_middleware(HostCheck, served=served_hosts(settings))  # a foreign Host gets nothing but a 400
@@ -175,6 +189,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(scenes.router)
     app.include_router(grade.router)
     app.include_router(assignments.router)
+    app.include_router(own_trees.router)  # a student tracer's tree log, compared (docs/own-tracer.md)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

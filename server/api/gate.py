@@ -120,9 +120,11 @@ class RequestGate:
     def __init__(
         self, app: ASGIApp, max_bytes: int, max_depth: int, streamed: dict[str, tuple[int, str]] | None = None,
         body_timeout: float = 30.0, budget: BodyBudget | None = None,
+        larger: list[tuple[re.Pattern, int, str]] | None = None,
     ):  # fmt: skip
         self.app, self.max_bytes, self.max_depth = app, max_bytes, max_depth
         self.streamed = streamed or {}
+        self.larger = larger or []  # JSON routes (a path pattern) with a limit of their own above max_bytes
         self.body_timeout, self.budget = body_timeout, budget or BodyBudget(0, 0)
 
     def _timed_out(self) -> JSONResponse:
@@ -147,6 +149,9 @@ class RequestGate:
         headers = dict(scope.get("headers") or [])
         length = headers.get(b"content-length")
         limit, name = self.streamed.get(scope["path"], (self.max_bytes, "TRACER_MAX_BODY_BYTES"))
+        for pattern, most, setting in self.larger:
+            if pattern.fullmatch(scope["path"]):
+                limit, name = most, setting
         if length is not None:
             try:
                 declared = int(length)
@@ -167,11 +172,11 @@ class RequestGate:
                 return
         held = [share]  # the shares this request holds (a body of unknown size takes one as it grows)
         try:
-            await self._gated(scope, receive, send, held)
+            await self._gated(scope, receive, send, held, limit, name)
         finally:
             self.budget.give_back(sum(held))
 
-    async def _gated(self, scope: Scope, receive: Receive, send: Send, held: list[int]) -> None:
+    async def _gated(self, scope: Scope, receive: Receive, send: Send, held: list[int], limit: int, name: str) -> None:
         """Read the whole body (it is bounded, in size and in time), then check it and replay it to the app."""
         chunks, size = [], 0
         with anyio.move_on_after(self.body_timeout) as reading:
@@ -181,14 +186,14 @@ class RequestGate:
                     return
                 chunk = message.get("body", b"")
                 size += len(chunk)
-                if size > self.max_bytes:
-                    await self._too_large()(scope, receive, send)
+                if size > limit:
+                    await self._too_large(limit, name)(scope, receive, send)
                     return
                 if size >= THREAD_FROM and not any(held):  # a large body of unknown size (chunked)
-                    if not await self.budget.take(self.max_bytes):
+                    if not await self.budget.take(limit):
                         await self._busy()(scope, receive, send)
                         return
-                    held.append(self.max_bytes)
+                    held.append(limit)
                 chunks.append(chunk)
                 if not message.get("more_body", False):
                     break

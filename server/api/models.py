@@ -140,3 +140,11 @@ class HandedIn(BaseModel):
         if (self.scene is None) == (self.image is None):
             raise ValueError("give exactly one of 'scene' and 'image'")
         return self
+
+
+class CheckIn(HandedIn):
+    """What the check takes: a submission's body, and with an image, the tree log of your own tracer."""
+
+    trees: dict[str, Any] | None = Field(
+        None, description="your tracer's tree log (docs/own-tracer.md): each tree compared with the reference's"
+    )

@@ -246,6 +246,10 @@ class Settings(SceneLimits):
     # Limits, each answered with a 4xx (or, for seconds per job, the job failed with that reason).
     max_body_bytes: int = Field(2_000_000, ge=1024, description="request body size (bytes): 413 past it")
     max_json_depth: int = Field(64, ge=4, description="nesting of JSON arrays and objects in a request body")
+    max_tree_log_bytes: int = Field(
+        4_000_000, ge=1024, description="a student tracer's tree log (POST .../submissions/{sid}/trees): 413 past it"
+    )
+    max_tree_log_trees: int = Field(64, ge=1, le=64, description="trees in one tree log: 422 past it")
     max_class_entries: int = Field(
         5000, ge=1, description="entries of a class's zip (files and folders), or files uploaded for a class"
     )

@@ -726,7 +726,21 @@ class Course:
         out = {"tests": tests, "errors": report.get("errors", []), "warnings": report.get("warnings", [])}
         if not hidden_image and report.get("metrics"):
             out["metrics"] = report["metrics"]
+        probes = (report.get("metrics") or {}).get("probes")
+        if probes is not None and not hidden_image:  # shown with the error map (docs/own-tracer.md)
+            out["probes"] = probes
+        elif probes is not None:
+            out["probes_hidden"] = (
+                "the probe pixels are shown with the error map: "
+                + ("never, for this assignment" if self._image_feedback_never(a, feedback)
+                   else f"after your deadline, from {iso(self.deadlines(a, who.student)[1])}" if who.student
+                   else "after the deadline")
+            )  # fmt: skip
         return out
+
+    def _image_feedback_never(self, a: dict, feedback: Feedback) -> bool:
+        tests = self.spec(a["id"], a["version"]).image_tests()
+        return any(feedback.tests.get(k, feedback.default) == When.never for k in tests)
 
     def counting(self, a: dict, subs: list[dict]) -> dict | None:
         """The submission that is the grade: the last graded one, or the best (by the share of its points

@@ -104,22 +104,23 @@ class Explainer:
     answers = ex.compare(log, image)   # one answer per logged tree (the contract's shape)
     """
 
-    def __init__(self, scene: dict, reference_image: np.ndarray | None = None, device: str = "cpu"):
+    def __init__(self, scene: dict, reference_shown: np.ndarray | None = None, device: str | None = "cpu"):
         """`scene`: the reference scene (a dict of the scene format, the assignment's settings applied);
-        `reference_image`: its linear mean (H, W, 3), when there is one, for the `encoding` check."""
-        from tracer.rendering.compile import compile_scene
+        `reference_shown`: its picture as shown (H, W, 3, sRGB floats in [0, 1]), when there is one, for the
+        `encoding` check; `device`: where its trees are traced (None: they are handed to `compare`, traced
+        elsewhere from `centre_scene(scene)`, as the service's workers do)."""
         from tracer.scene import load_scene
 
-        data = copy.deepcopy(scene)
-        data.setdefault("sampler", {}).update(type="center", spp=1)
-        data.setdefault("render", {})["integrator"] = "whitted"
-        data.setdefault("camera", {})["lens_radius"] = 0.0
-        self.scene, _ = load_scene(data)
-        self.cs = compile_scene(self.scene, device=device)
+        self.scene, _ = load_scene(centre_scene(scene))
+        self.cs = None
+        if device is not None:
+            from tracer.rendering.compile import compile_scene
+
+            self.cs = compile_scene(self.scene, device=device)
         self.device = device
         self.width, self.height = self.scene.film.width, self.scene.film.height
         self.exposure = float(self.scene.film.exposure)
-        self.reference_image = reference_image
+        self.reference_shown = reference_shown
         cam = self.scene.camera
         self.lookfrom = _v(cam.lookfrom)
         self.scale = max(1.0, float(np.linalg.norm(_v(cam.lookat) - self.lookfrom)))
@@ -135,6 +136,8 @@ class Explainer:
         from tracer.rendering.raytree import ray_tree
 
         if (x, y) not in self._trees:
+            if self.cs is None:
+                raise LookupError(f"no reference tree at ({x}, {y}) was handed over")
             self._trees[x, y] = ray_tree(self.cs, x, y, 0, device=self.device)
         return self._trees[x, y]
 
@@ -158,10 +161,14 @@ class Explainer:
 
     # -- the comparison
 
-    def compare(self, log: TreeLog | dict | bytes | str, image: np.ndarray | None = None) -> list[dict]:
+    def compare(
+        self, log: TreeLog | dict | bytes | str, image: np.ndarray | None = None, trees: dict | None = None
+    ) -> list[dict]:
         """Each logged tree against the reference's at its pixel: {pixel, matches, differences: [{what, message,
         student: node id, reference: node id}], student: the logged tree, reference: the reference's tree}.
-        `image`: the student's picture as shown (H, W, 3), floats in [0, 1] (sRGB) or uint8, for `encoding`."""
+        `image`: the student's picture as shown (H, W, 3), floats in [0, 1] (sRGB) or uint8, for `encoding`;
+        `trees`: the reference's trees traced elsewhere, by (x, y)."""
+        self._trees.update(trees or {})
         if not isinstance(log, TreeLog):
             log = parse(log, self.width, self.height)
         if image is not None and image.dtype == np.uint8:
@@ -196,8 +203,8 @@ class Explainer:
         expected = _srgb(color * 2.0**self.exposure)
         if np.all(np.abs(shown - expected) <= PIXEL):
             return
-        if self.reference_image is not None:  # a supersampled pixel: the reference's own mean there
-            mean = _srgb(_v(self.reference_image[y, x]) * 2.0**self.exposure)
+        if self.reference_shown is not None and self.reference_shown.shape[:2] == image.shape[:2]:
+            mean = _v(self.reference_shown[y, x, :3])  # a supersampled pixel: the reference's own there
             if np.all(np.abs(shown - mean) <= PIXEL + 0.02):
                 return
         scaled = np.clip(color * 2.0**self.exposure, 0, 1)
@@ -217,6 +224,16 @@ class Explainer:
             s,
             r,
         )
+
+
+def centre_scene(scene: dict) -> dict:
+    """The reference scene as its centre-ray trees are traced: Whitted, one ray through each pixel's centre, a
+    pinhole (its max_depth, min_weight, lights and film as they are)."""
+    data = copy.deepcopy(scene)
+    data["sampler"] = {"type": "center", "spp": 1}
+    data.setdefault("render", {})["integrator"] = "whitted"
+    data.setdefault("camera", {})["lens_radius"] = 0.0
+    return data
 
 
 def _children(nodes: Iterable[dict]) -> dict[int, list[dict]]:

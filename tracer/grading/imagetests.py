@@ -122,7 +122,20 @@ def finish_report(
     for name, t in tests.items():
         report.tests.append(_image_test(name, t, m, base, spp, p.sub.kind))
     _pictures(report, ref, m, base, _alpha(assignment), spp)
+    _probes(report, assignment, ref, m)
     return report
+
+
+def _probes(report: Report, assignment: Assignment, ref: ReferenceImages, m: dict) -> None:
+    """The probe pixels (probes.py): where the picture differs most, one per region of the error map, and the
+    assignment's own; a student with their own tracer logs the ray trees there (docs/own-tracer.md)."""
+    from tracer.grading.probes import find, flip_error
+
+    listed = [p.model_dump() for p in assignment.reference.probes] if assignment.reference else []
+    error = flip_error(metrics.display(ref.mean, ref.exposure), m["_shown"])
+    report.metrics["probes"] = [
+        p.to_json() for p in find(error, listed) if p.x < error.shape[1] and p.y < error.shape[0]
+    ]
 
 
 # -- the words: each image test's output, for a student in a first graphics course

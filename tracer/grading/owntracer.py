@@ -67,7 +67,8 @@ def explain(ref: Reference, shown: np.ndarray, trees: bytes | None) -> dict:
     probes = probes_of(ref, shown)
     out: dict = {"probes": [p.to_json() for p in probes], "trees": []}
     if trees is not None:
-        ex = Explainer(ref.scene, ref.mean)
+        exposure = float(ref.scene.get("film", {}).get("exposure", 0.0))
+        ex = Explainer(ref.scene, metrics.display(ref.mean, exposure))
         out["trees"] = ex.compare(trees, shown)
     return out
 

@@ -75,12 +75,12 @@ class TreeLog(_Model):
     trees: list[LoggedTree] = Field(min_length=1, max_length=MAX_TREES)
 
 
-def _structure(log: TreeLog, width: int | None, height: int | None) -> list[dict]:
+def _structure(trees: list[tuple[int, LoggedTree]], width: int | None, height: int | None) -> list[dict]:
     """The errors pydantic cannot see: pixels in the image and once each, ids once each, one eye ray at the
     root, every parent a ray of the same tree, no cycle, nothing below a shadow ray."""
     errors: list[dict] = []
     seen: dict[tuple[int, int], int] = {}
-    for i, tree in enumerate(log.trees):
+    for i, tree in trees:
         at = f"trees[{i}]"
         x, y = tree.pixel
         if width is not None and height is not None and not (x < width and y < height):
@@ -156,14 +156,20 @@ def parse(data: bytes | str | dict | Any, width: int | None = None, height: int 
     if len(data["trees"]) > MAX_TREES:
         raise SceneError([{"path": "trees", "message": f"at most {MAX_TREES} trees in one log, got "
                            f"{len(data['trees'])}"}])  # fmt: skip
-    try:
-        log = TreeLog.model_validate(data)
-    except ValidationError as e:
-        raise SceneError(pydantic_errors(e, TreeLog)) from None
-    errors = _structure(log, width, height)
+    errors: list[dict] = []
+    trees: list[tuple[int, LoggedTree]] = []
+    if not data["trees"]:
+        errors.append({"path": "trees", "message": "must list at least one tree"})
+    for i, raw in enumerate(data["trees"]):  # each tree on its own, so that every error is said at once
+        try:
+            trees.append((i, LoggedTree.model_validate(raw)))
+        except ValidationError as e:
+            errors += [{"path": f"trees[{i}]" + (f".{x['path']}" if x["path"] and not x["path"].startswith("[")
+                        else x["path"]), "message": x["message"]} for x in pydantic_errors(e, LoggedTree)]  # fmt: skip
+    errors += _structure(trees, width, height)
     if errors:
         raise SceneError(errors)
-    return log
+    return TreeLog.model_construct(trees=[t for _, t in trees])
 
 
 def validate(obj: Any, width: int | None = None, height: int | None = None) -> list[dict]:

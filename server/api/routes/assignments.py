@@ -24,6 +24,7 @@ from server.api.deps import (
     CourseDep,
     JobsDep,
     MaybeLmsDep,
+    SettingsDep,
     StoppingDep,
     StoreDep,
     client_address,
@@ -31,10 +32,11 @@ from server.api.deps import (
     require_instructor,
 )
 from server.api.errors import ApiError
-from server.api.models import ErrorResponse, HandedIn
+from server.api.models import CheckIn, ErrorResponse, HandedIn
+from server.api.routes import own_trees
 from server.api.streams import KEEP_ALIVE, event_stream, sse
 from server.core.security import Caller
-from server.course import compare
+from server.course import compare, owntrees
 from server.course import dashboard as course_board
 from server.course.people import Who
 from server.course.policy import AssignmentIn, Instant
@@ -344,16 +346,31 @@ def submit(
         429: {"model": ErrorResponse, "description": "past TRACER_MAX_CHECKS_PER_MINUTE"},
     },
 )
-def check(aid: str, body: SubmissionIn, course: CourseDep, caller: CallerDep, caps: CapsDep) -> dict:
+async def check(
+    aid: str, body: CheckIn, request: Request, course: CourseDep, caller: CallerDep, caps: CapsDep, jobs: JobsDep,
+    checks: ChecksDep, settings: SettingsDep,
+) -> dict:  # fmt: skip
     """The body of a submission -> `valid`, `tests` (validity and the requirements, each as the feedback
     policy shows it now), `errors` at their JSON paths, `warnings`, and the `image_tests` a submission would
     also get. Nothing is kept and no attempt is used; it runs in seconds (no render). A student's token checks
-    at most TRACER_MAX_CHECKS_PER_MINUTE times a minute (429 past it)."""
-    a, who = course.who(aid, caller)
+    at most TRACER_MAX_CHECKS_PER_MINUTE times a minute (429 past it). With an image, `trees` (a tree log of
+    your own tracer, docs/own-tracer.md) gives `trees`: each compared with the reference's, when the policy
+    shows the error map now."""
+    a, who = await run_in_threadpool(course.who, aid, caller)
     if not who.instructor:
         caps.check(caller.owner)
     kind, data = _submitted(body)
-    return course.check(a, who, kind, data)
+    if body.trees is not None and kind == "scene":
+        raise ApiError(422, [{"path": "trees", "message": "a tree log goes with an image from your own tracer, "
+                              "not with a scene (the service traces a scene's trees itself)"}])  # fmt: skip
+    out = await run_in_threadpool(course.check, a, who, kind, data)
+    if body.trees is not None:
+        await run_in_threadpool(compare.allowed, course, a, {"version": a["version"]}, who)
+        out["trees"] = await owntrees.check_log(
+            course, jobs, lambda b: checks.summary(request.is_disconnected, b), own_trees.tree_cache(request), a,
+            who, body.trees, settings.max_tree_log_trees, request.is_disconnected,
+        )  # fmt: skip
+    return out
 
 
 def _submitted(body: SubmissionIn) -> tuple[str, bytes]:
@@ -542,6 +559,7 @@ def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep, 
     median. One answer for the whole class, for a page that follows it while it submits."""
     a = _instructor(course, aid, caller, request)
     out = course_board.dashboard(course, a)
+    out["tree_whats"] = owntrees.whats(course, a)  # own tracers: the class's first differences by `what`
     out["lms"] = lms.board(aid, a["course_id"]) if lms is not None else None
     out["course"] = a["course_id"]
     return out
