@@ -21,7 +21,9 @@ At each pair, in this order (the order in which a cause shows itself first):
 7. what it carries back (`shading`);
 8. at the root, when the whole tree agrees: the image's pixel against the tree's colour (`encoding`).
 A difference in a ray's direction or hit ends the walk below that ray (what follows would differ anyway); the
-walk goes on in the other branches, so one pixel can show several differences, the first one first.
+walk goes on in the other branches, so one pixel can show several differences, the first one first. A ray that
+grazes a surface hits it where a turn of its direction within float noise moves the hit far along the surface:
+such a hit agrees within that distance, and what follows from it is not compared.
 """
 
 from __future__ import annotations
@@ -423,7 +425,11 @@ def _hit(walk: _Walk, s: dict, r: dict) -> bool:
         walk.add("hit", f"Your {ray} {mine}; the reference's {theirs}.", s, r)
         return False
     same = _same_object(ex, s.get("hit"), r.get("hit"))
-    if same is False or abs(ts - tr) > ex.position + 1e-3 * tr:
+    # a ray that grazes a surface meets it much further on for a tiny turn of its direction: the same object's
+    # hit agrees within the distance its direction's noise (RAY_ANGLE) moves it along the surface
+    graze = abs(float(np.dot(_unit(r["direction"]), _unit((r.get("hit") or {}).get("normal") or [0, 0, 1]))))
+    slack = tr * (1e-3 + (RAY_ANGLE / max(graze, 1e-3) if same is not False and s["kind"] != "eye" else 0.0))
+    if same is False or abs(ts - tr) > ex.position + slack:
         mine = f"hits {_object_words(ex, s.get('hit'))} at t = {ts:.4g}"
         theirs = f"hits {_object_words(ex, r.get('hit'))} at t = {tr:.4g}"
         text = f"Your {ray} {mine}; the reference's {theirs}."
@@ -436,6 +442,8 @@ def _hit(walk: _Walk, s: dict, r: dict) -> bool:
         walk.add("hit", text, s, r)
         return False
     hs, hr = s.get("hit") or {}, r.get("hit") or {}
+    if abs(ts - tr) > ex.position + 1e-3 * tr:
+        return False  # a grazing hit, the same within its direction's noise: what follows from it is not compared
     if hs.get("point") is not None and np.linalg.norm(_v(hs["point"]) - _v(hr["point"])) > ex.position + 1e-3 * tr:
         walk.add("hit", f"Your {ray} hits at {_p(hs['point'])}; the reference's at {_p(hr['point'])} "
                  f"(t = {tr:.4g}): the hit point is origin + t x direction.", s, r)  # fmt: skip
@@ -462,12 +470,13 @@ def _shadow(walk: _Walk, s: dict, r: dict) -> bool:
     parent = walk.reference.get(r["parent"])
     where = f" from {_object_words(ex, parent['hit'])} at {_p(parent['hit']['point'])}" if parent else ""
     light = f"light {r.get('light')}"
-    if blocked_s == blocked_r:
+    t = s.get("t")
+    own = parent is not None and _same_object(ex, s.get("hit"), parent.get("hit")) is not False
+    acne = blocked_s and t is not None and t < ex.acne and own
+    if blocked_s == blocked_r and not (acne and (r.get("t") or 0.0) >= ex.acne):
         return True
     if blocked_s:
-        t = s.get("t")
-        own = parent is not None and _same_object(ex, s.get("hit"), parent.get("hit")) is not False
-        if t is not None and t < ex.acne and own:
+        if acne:
             walk.add("shadow_acne", f"Your shadow ray{where} is blocked at t = {t:.2g} by "
                      f"{_object_words(ex, s.get('hit') or parent['hit'])}, the surface it leaves: shadow acne. Offset "
                      "its origin along the normal (hit + 1e-4 N, N turned towards the light), or the ray meets its own"
@@ -641,10 +650,22 @@ def _secondary(walk: _Walk, s: dict, r: dict, depth: int) -> None:
                     text += ": kr = kt = 0 there"
                 walk.add("extra_ray", text + ".", a, r)
                 continue
-            if a.get("weight") is not None and not _close(a["weight"], b["weight"]) and _direction_ok(a, b):
+            # Fresnel's R turns fast at grazing incidence: the weights agree within what the normal's noise makes
+            cos_i = abs(float(np.dot(_unit(r["direction"]), _unit(r["hit"]["normal"]))))
+            rel = RELATIVE + RAY_ANGLE / max(cos_i, 1e-3)
+            if a.get("weight") is not None and not _close(*_ks(s, a, r, b), rel) and _direction_ok(a, b):
                 walk.add("fresnel", _weight_words(walk, a, b, r), a, b)
                 continue
             _pair(walk, a, b, depth + 1)
+
+
+def _ks(s: dict, a: dict, r: dict, b: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The children's own K's (weight / parent's weight), where both parents' weights are known and not 0, so
+    that a difference is found at the ray whose K differs; else their weights (the products from the eye)."""
+    ws, wr = s.get("weight"), r.get("weight")
+    if ws is None or wr is None or min(ws) <= 0 or min(wr) <= 0:
+        return _v(a["weight"]), _v(b["weight"])
+    return _v(a["weight"]) / _v(ws), _v(b["weight"]) / _v(wr)
 
 
 def _direction_ok(a: dict, b: dict) -> bool:
