@@ -316,3 +316,48 @@ def test_probes_one_per_region_ranked_by_summed_error():
     assert len(spread) == 4 and all(
         max(abs(a.x - b.x), abs(a.y - b.y)) >= 6 for i, a in enumerate(spread) for b in spread[i + 1 :]
     )
+
+
+def test_explain_the_command_line_prints_probes_and_the_diagnosis(ex, tmp_path, capsys):
+    """python -m tracer explain SCENE --image PNG [--trees LOG]: probes; a right log (exit 0), a log with the eye
+    ray through the pixel's corner (exit 2, `eye_ray` with what to fix), a broken log (exit 1, its line and
+    column), --json."""
+    from PIL import Image
+
+    from tracer.__main__ import main
+    from tracer.rendering.compile import compile_scene
+    from tracer.rendering.film import to_srgb8
+    from tracer.rendering.progressive import render
+    from tracer.scene import load_scene
+
+    jittered = dict(SCENE, sampler={"type": "jittered", "spp": 4})
+    scene_path = tmp_path / "scene.json"
+    scene_path.write_text(json.dumps(jittered))
+    image = render(compile_scene(load_scene(jittered)[0])).image  # the reference as the command renders it
+    wrong = image.copy()
+    wrong[30:40, 10:20] = 0  # a black square over the floor
+    Image.fromarray(to_srgb8(wrong)).save(tmp_path / "mine.png")
+    right_log = {"trees": [logged(ex.reference_tree(40, 35)), logged(ex.reference_tree(50, 10))]}
+    (tmp_path / "right.json").write_text(json.dumps(right_log))
+    args = [str(scene_path), "--image", str(tmp_path / "mine.png")]
+    assert main(["explain", *args]) == 0
+    out = capsys.readouterr().out
+    assert "probes (" in out and "largest region" in out, out
+    probes_said = [tuple(int(c) for c in line.split(":")[0].strip(" ()").split(", ")) for line in out.splitlines()
+                   if line.startswith("  (")]  # fmt: skip
+    assert probes_said and all(8 <= x < 22 and 28 <= y < 42 for x, y in probes_said), probes_said
+    assert main(["explain", *args, "--trees", str(tmp_path / "right.json")]) == 0
+    assert "pixel (40, 35): your tree matches" in capsys.readouterr().out
+    bad = copy.deepcopy(right_log)
+    forward, right, up, h, aspect = ex.camera_frame()
+    bad["trees"][1]["nodes"][0]["direction"] = list(forward + (2 * 50 / ex.width - 1) * h * aspect * right
+                                                    + (1 - 2 * 10 / ex.height) * h * up)  # fmt: skip
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    assert main(["explain", *args, "--trees", str(tmp_path / "bad.json"), "--json"]) == 2
+    result = json.loads(capsys.readouterr().out)
+    assert result["trees"][0]["matches"] and not result["trees"][1]["matches"]
+    assert result["trees"][1]["differences"][0]["what"] == "eye_ray"
+    (tmp_path / "broken.json").write_text('{"trees": [\n  {"pixel": [1, 2], "nodes": [{"id": 0}]}]}')
+    assert main(["explain", *args, "--trees", str(tmp_path / "broken.json")]) == 1
+    err = capsys.readouterr().err
+    assert "broken.json:2:" in err and "trees[0].nodes[0].parent" in err, err
