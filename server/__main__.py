@@ -23,6 +23,7 @@ from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from server.core.backup import backup, restore
 from server.core.exits import exit_now
+from server.core.files import private_files
 from server.core.migrations import migrate
 from server.core.settings import explain, load_settings
 from server.core.startup import (
@@ -136,6 +137,7 @@ def upkeep(argv: list[str]) -> None:
     except (ValidationError, FileNotFoundError) as exc:
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    private_files()  # a backup, a restore: the server user's alone, as the data directory (0700, 0600)
     data = settings.data_dir
     try:
         if argv[0] == "migrate":

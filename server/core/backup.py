@@ -74,7 +74,7 @@ def backup(data_dir: Path, dest: Path, clock: Callable[[], datetime] = utc_now) 
         raise BackupError(f"{data_dir} holds no {DB_NAME}: is it a data directory (--data-dir, TRACER_DATA_DIR)?")
     if dest.exists() and (not dest.is_dir() or any(dest.iterdir())):
         raise BackupError(f"{dest} is not an empty folder: give a new one (a backup never overwrites another)")
-    dest.mkdir(parents=True, exist_ok=True)
+    dest.mkdir(mode=0o700, parents=True, exist_ok=True)
     taken = clock().astimezone(UTC)
     src = sqlite3.connect(f"file:{db_path}?mode=rw", uri=True, timeout=30, isolation_level=None)
     try:
@@ -92,7 +92,7 @@ def backup(data_dir: Path, dest: Path, clock: Callable[[], datetime] = utc_now) 
         target = dest / FILES / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
-            shutil.copy2(data_dir / rel, target)
+            _copy(data_dir / rel, target)
         except FileNotFoundError:  # removed since it was listed (the janitor, a replaced preview)
             continue
         files[rel.as_posix()] = {"bytes": target.stat().st_size, "sha256": sha256(target)}
@@ -119,6 +119,14 @@ def _files(data_dir: Path) -> list[Path]:
         dirs[:] = sorted(d for d in dirs if not _skipped(here / d))
         out += [here / n for n in sorted(names) if not _skipped(here / n) and not os.path.islink(Path(root) / n)]
     return out
+
+
+def _copy(src: Path, dst: Path) -> None:
+    """`src`'s bytes and times at `dst`, private (0600) whatever `src`'s mode (an earlier release made 0644)."""
+    shutil.copyfile(src, dst)
+    st = os.stat(src)
+    os.utime(dst, ns=(st.st_atime_ns, st.st_mtime_ns))
+    os.chmod(dst, 0o600)
 
 
 def table_rows(db: sqlite3.Connection) -> dict[str, int]:
@@ -171,9 +179,9 @@ def restore(src: Path, data_dir: Path, force: bool = False) -> dict:
         for rel in manifest["files"]:
             target = data_dir / rel
             target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src / FILES / rel, target)
+            _copy(src / FILES / rel, target)
         tmp = data_dir / f".{DB_NAME}.restoring"
-        shutil.copy2(src / DB_NAME, tmp)
+        _copy(src / DB_NAME, tmp)
         tmp.replace(data_dir / DB_NAME)  # last: a data directory with a database is a whole one
         db = sqlite3.connect(data_dir / DB_NAME, isolation_level=None)
         try:
