@@ -32,6 +32,7 @@ from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
+from server.core.files import is_disk_full
 from server.core.migrations import BACKUPS, LOCK_NAME, backup_database, schema_version
 from server.core.startup import DB_NAME, StartupError, lock_data_dir
 
@@ -72,9 +73,42 @@ def backup(data_dir: Path, dest: Path, clock: Callable[[], datetime] = utc_now) 
     db_path = data_dir / DB_NAME
     if not db_path.is_file():
         raise BackupError(f"{data_dir} holds no {DB_NAME}: is it a data directory (--data-dir, TRACER_DATA_DIR)?")
+    for leftover in dest.glob(".*.partial") if dest.is_dir() else ():  # a killed backup's half-written files
+        leftover.unlink(missing_ok=True)
     if dest.exists() and (not dest.is_dir() or any(dest.iterdir())):
         raise BackupError(f"{dest} is not an empty folder: give a new one (a backup never overwrites another)")
+    made = not dest.exists()
     dest.mkdir(mode=0o700, parents=True, exist_ok=True)
+    try:
+        return _backup(data_dir, dest, clock)
+    except BaseException as e:  # nothing is left behind: the same command can be run again
+        if made:
+            shutil.rmtree(dest, ignore_errors=True)
+        else:
+            for p in list(dest.iterdir()):
+                shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink()
+        if isinstance(e, (OSError, sqlite3.Error)) and is_disk_full(e):
+            raise BackupError(
+                f"the disk of {dest} is full ({e}): nothing of the backup was left there; free space (the backup "
+                f"needs about {_size(data_dir)} bytes) and run the same command again"
+            ) from None
+        raise
+
+
+def _size(data_dir: Path) -> int:
+    """Bytes of what a backup of `data_dir` copies (about: the database's size with its WAL, and the files)."""
+    total = 0
+    for root, _, names in os.walk(data_dir):
+        for n in names:
+            try:
+                total += os.lstat(os.path.join(root, n)).st_size
+            except FileNotFoundError:
+                pass
+    return total
+
+
+def _backup(data_dir: Path, dest: Path, clock: Callable[[], datetime]) -> dict:
+    db_path = data_dir / DB_NAME
     taken = clock().astimezone(UTC)
     src = sqlite3.connect(f"file:{db_path}?mode=rw", uri=True, timeout=30, isolation_level=None)
     try:
