@@ -431,9 +431,6 @@ class CourseStore(Tables):
             (aid, student),
         ).fetchone()[0]
 
-    def remove_submission(self, sid: str) -> None:
-        self.db.execute("DELETE FROM course_submissions WHERE id = ?", (sid,))
-
     def handed(self, sid: str, run_id: str) -> None:
         """Its row is in `run_id` (unless a regrade moved it to another run meanwhile: then it is handed again)."""
         self.db.execute("UPDATE course_submissions SET handed = 1 WHERE id = ? AND run_id = ?", (sid, run_id))
