@@ -106,6 +106,7 @@ class GradingRun:
         self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
         self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
         self.render_jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
+        self.waited = False  # it met a full disk, and has not gone through a round of its loop since
 
     def run(self) -> None:
         """The run to its end, or until the server stops. A full disk is waited out (the module's docstring); a
@@ -136,11 +137,11 @@ class GradingRun:
         SPACE_RETRY seconds, the server stopping), then the run is taken up again from its rows."""
         log.warning("grading run %s: the disk is full (%s); it waits for space, and goes on from where its rows "
                     "say once there is some", self.id, exc)  # fmt: skip
-        self.context.waiting_space(self.id, f"{exc}")
+        self.context.waiting_space(self.id, f"{exc}")  # (since the first time: kept until a round goes through)
+        self.waited = True
         woken = self.context.wake(self.id)
         woken.wait(SPACE_RETRY)
         woken.clear()
-        self.context.waiting_space(self.id, None)
 
     def _fresh(self) -> None:
         """Nothing in flight (a run taken up again after a full disk: the tasks it had in flight are done again;
@@ -170,6 +171,9 @@ class GradingRun:
                 self._newcomers()
             self._poll_jobs()
             self._schedule()
+            if self.waited:  # a round went through: no longer waiting for space
+                self.waited = False
+                self.context.waiting_space(self.id, None)
             if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
                 if not self.open:
                     return True
