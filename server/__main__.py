@@ -4,6 +4,7 @@
 and the data directory's upkeep (docs/service.md, "Backups and upgrades"):
 
     python -m server migrate [--data-dir DIR]            bring its database to this release's schema
+    python -m server migrate --dry-run [--data-dir DIR]  what `migrate` would do, and about how long it takes
     python -m server backup DEST [--data-dir DIR]        a consistent copy, a server running or not
     python -m server restore SRC [--data-dir DIR] [--force]   a backup back into an empty data directory
 """
@@ -23,7 +24,8 @@ from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from server.core.backup import backup, restore
 from server.core.exits import exit_now
-from server.core.migrations import migrate
+from server.core.files import private_files
+from server.core.migrations import migrate, plan
 from server.core.settings import explain, load_settings
 from server.core.startup import (
     FILES_PER_CONNECTION,
@@ -124,6 +126,8 @@ def upkeep(argv: list[str]) -> None:
     p = argparse.ArgumentParser(prog=f"server {argv[0]}")
     p.add_argument("--settings", help="a settings file of TRACER_*=value lines (default: $TRACER_SETTINGS_FILE)")
     p.add_argument("--data-dir", help="the data directory (default ./data, or TRACER_DATA_DIR)")
+    if argv[0] == "migrate":
+        p.add_argument("--dry-run", action="store_true", help="say what it would do and an estimate; change nothing")
     if argv[0] == "backup":
         p.add_argument("dest", type=Path, help="a new (or empty) folder for the backup")
     if argv[0] == "restore":
@@ -136,9 +140,15 @@ def upkeep(argv: list[str]) -> None:
     except (ValidationError, FileNotFoundError) as exc:
         p.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    private_files()  # a backup, a restore: the server user's alone, as the data directory (0700, 0600)
     data = settings.data_dir
     try:
-        if argv[0] == "migrate":
+        if argv[0] == "migrate" and args.dry_run:
+            out = plan(data)
+            for step in out["steps"]:
+                log.info("migrate --dry-run: %s", step)
+            log.info("migrate --dry-run: about %.0f s in all; nothing was changed", out["estimate_s"])
+        elif argv[0] == "migrate":
             check_data_dir(data)
             lock = lock_data_dir(data)  # not under a running server (an older release may be serving it)
             try:

@@ -119,7 +119,7 @@ async def lifespan(app: FastAPI):
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
         if settings.lessons_ahead and jobs.version is not None:  # the lessons' first pictures, answered from these
             threading.Thread(target=lesson_panels.ahead, args=(jobs,), name="lessons-ahead", daemon=True).start()
-        janitor = Janitor(settings, store)
+        janitor = Janitor(settings, store, chores=(grade_runs.retry,))  # a run waiting for space tries again
         janitor.start()
         stack.callback(janitor.stop)
         stack.callback(app.state.stopping.set)  # (already set if a signal stopped the server)

@@ -123,6 +123,11 @@ class Health(BaseModel):
     followers: int = Field(
         0, description="what follows a job now: open event streams, and requests that wait for a ray tree"
     )
+    grading: dict[str, float | int | None] = Field(
+        default_factory=dict,
+        description="grading runs: waiting_for_space, how many wait for space on the disk (each goes on once there "
+        "is some: the janitor's round or a new submission wakes it), and since when (Unix time; null if none)",
+    )
 
 
 class HandedIn(BaseModel):

@@ -32,6 +32,7 @@ from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
 
+from server.core.files import is_disk_full
 from server.core.migrations import BACKUPS, LOCK_NAME, backup_database, schema_version
 from server.core.startup import DB_NAME, StartupError, lock_data_dir
 
@@ -72,9 +73,42 @@ def backup(data_dir: Path, dest: Path, clock: Callable[[], datetime] = utc_now) 
     db_path = data_dir / DB_NAME
     if not db_path.is_file():
         raise BackupError(f"{data_dir} holds no {DB_NAME}: is it a data directory (--data-dir, TRACER_DATA_DIR)?")
+    for leftover in dest.glob(".*.partial") if dest.is_dir() else ():  # a killed backup's half-written files
+        leftover.unlink(missing_ok=True)
     if dest.exists() and (not dest.is_dir() or any(dest.iterdir())):
         raise BackupError(f"{dest} is not an empty folder: give a new one (a backup never overwrites another)")
-    dest.mkdir(parents=True, exist_ok=True)
+    made = not dest.exists()
+    dest.mkdir(mode=0o700, parents=True, exist_ok=True)
+    try:
+        return _backup(data_dir, dest, clock)
+    except BaseException as e:  # nothing is left behind: the same command can be run again
+        if made:
+            shutil.rmtree(dest, ignore_errors=True)
+        else:
+            for p in list(dest.iterdir()):
+                shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink()
+        if isinstance(e, (OSError, sqlite3.Error)) and is_disk_full(e):
+            raise BackupError(
+                f"the disk of {dest} is full ({e}): nothing of the backup was left there; free space (the backup "
+                f"needs about {_size(data_dir)} bytes) and run the same command again"
+            ) from None
+        raise
+
+
+def _size(data_dir: Path) -> int:
+    """Bytes of what a backup of `data_dir` copies (about: the database's size with its WAL, and the files)."""
+    total = 0
+    for root, _, names in os.walk(data_dir):
+        for n in names:
+            try:
+                total += os.lstat(os.path.join(root, n)).st_size
+            except FileNotFoundError:
+                pass
+    return total
+
+
+def _backup(data_dir: Path, dest: Path, clock: Callable[[], datetime]) -> dict:
+    db_path = data_dir / DB_NAME
     taken = clock().astimezone(UTC)
     src = sqlite3.connect(f"file:{db_path}?mode=rw", uri=True, timeout=30, isolation_level=None)
     try:
@@ -92,7 +126,7 @@ def backup(data_dir: Path, dest: Path, clock: Callable[[], datetime] = utc_now) 
         target = dest / FILES / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         try:
-            shutil.copy2(data_dir / rel, target)
+            _copy(data_dir / rel, target)
         except FileNotFoundError:  # removed since it was listed (the janitor, a replaced preview)
             continue
         files[rel.as_posix()] = {"bytes": target.stat().st_size, "sha256": sha256(target)}
@@ -119,6 +153,14 @@ def _files(data_dir: Path) -> list[Path]:
         dirs[:] = sorted(d for d in dirs if not _skipped(here / d))
         out += [here / n for n in sorted(names) if not _skipped(here / n) and not os.path.islink(Path(root) / n)]
     return out
+
+
+def _copy(src: Path, dst: Path) -> None:
+    """`src`'s bytes and times at `dst`, private (0600) whatever `src`'s mode (an earlier release made 0644)."""
+    shutil.copyfile(src, dst)
+    st = os.stat(src)
+    os.utime(dst, ns=(st.st_atime_ns, st.st_mtime_ns))
+    os.chmod(dst, 0o600)
 
 
 def table_rows(db: sqlite3.Connection) -> dict[str, int]:
@@ -171,9 +213,9 @@ def restore(src: Path, data_dir: Path, force: bool = False) -> dict:
         for rel in manifest["files"]:
             target = data_dir / rel
             target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(src / FILES / rel, target)
+            _copy(src / FILES / rel, target)
         tmp = data_dir / f".{DB_NAME}.restoring"
-        shutil.copy2(src / DB_NAME, tmp)
+        _copy(src / DB_NAME, tmp)
         tmp.replace(data_dir / DB_NAME)  # last: a data directory with a database is a whole one
         db = sqlite3.connect(data_dir / DB_NAME, isolation_level=None)
         try:

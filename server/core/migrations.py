@@ -15,7 +15,16 @@ DATA/migrate.lock: two processes starting at once migrate once, the second finds
 - for an older one, first makes a backup through SQLite's online backup API, DATA/backups/jobs-v{old}-{UTC
   time}.sqlite3, then applies each later migration in its own transaction (BEGIN IMMEDIATE ... COMMIT, with
   `user_version` set in the same transaction), logging each. A migration that fails is rolled back: the
-  database stays at the last good version, and the error names the backup.
+  database stays at the last good version, and the error names the backup. The copies of earlier upgrades
+  are pruned: the last KEEP_COPIES stay. A copy the disk has no room for is a MigrationError with nothing
+  left behind (and nothing migrated): free space and start again;
+- first of all, removes the hidden `.*.partial` files a killed copy left in DATA/backups/ (and a killed
+  restore's `.jobs.sqlite3.restoring`).
+
+Every migration is linear in the rows it moves (set-based statements, never a subquery per row; an index
+where a statement looks rows up): bench/migrate.py measures an upgrade of 300 000 roster rows and 1 000 000
+jobs (BENCHMARKS.md), and `plan` (`python -m server migrate --dry-run`) says what `migrate` would do and
+about how long it would take, from the rows each migration moves (`Migration.rows`) and the database's size.
 
 Adding a migration (a new table, a new column, rows moved from one table to another):
 1. write `def _m0002_name(db: sqlite3.Connection) -> None` below, plain SQL on `db` (inside its transaction
@@ -49,6 +58,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from server.core import migration_0002_courses
+from server.core.files import is_disk_full
 from server.core.startup import DB_NAME, StartupError
 
 log = logging.getLogger("server.migrations")
@@ -57,6 +67,11 @@ LOCK_NAME = "migrate.lock"  # DATA/migrate.lock: held while a process migrates
 BACKUPS = "backups"  # DATA/backups/: the copies made before each upgrade
 LOCK_WAIT = 600.0  # seconds a process waits for another one's migration before it gives up
 LOCK_POLL = 0.05  # seconds between two tries of the lock
+KEEP_COPIES = 3  # copies made before upgrades kept in DATA/backups/ (the newest)
+# the dry run's estimate, from bench/migrate.py on the development machine (BENCHMARKS.md), a little under what
+# it measured: a slower disk takes longer
+COPY_BYTES_PER_S = 50e6  # the copy before the upgrade (76 MB/s measured)
+ROWS_PER_S = 15e3  # roster rows migration 2 moves (17 000/s measured, 300 000 rows)
 
 
 @dataclass(frozen=True)
@@ -64,6 +79,7 @@ class Migration:
     number: int  # the schema version it brings the database to
     name: str  # what it does, for the log
     apply: Callable[[sqlite3.Connection], None]  # plain SQL, inside the migration's transaction
+    rows: Callable[[sqlite3.Connection], int] | None = None  # the rows it moves (the dry run's estimate)
 
 
 def _m0001_baseline(db: sqlite3.Connection) -> None:
@@ -73,7 +89,12 @@ def _m0001_baseline(db: sqlite3.Connection) -> None:
 
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
-    Migration(2, "courses: assignments and rosters into the default course", migration_0002_courses.apply),
+    Migration(
+        2,
+        "courses: assignments and rosters into the default course",
+        migration_0002_courses.apply,
+        migration_0002_courses.rows,
+    ),
 )
 LATEST = MIGRATIONS[-1].number
 
@@ -112,6 +133,7 @@ def migrate(
     data_dir = Path(data_dir)
     latest = migrations[-1].number
     with _exclusive(data_dir / LOCK_NAME, lock_wait):
+        remove_partials(data_dir)
         db = sqlite3.connect(data_dir / DB_NAME, timeout=30, isolation_level=None)
         try:
             db.execute("PRAGMA journal_mode=WAL")  # as the stores open it
@@ -130,15 +152,107 @@ def migrate(
             report = Report(version, version)
             if version == latest:
                 return report
-            report.backup = backup_database(db, data_dir / BACKUPS, f"jobs-v{version}-{_stamp(clock())}.sqlite3")
+            try:
+                report.backup = backup_database(db, data_dir / BACKUPS, copy_name(version, clock()))
+            except (OSError, sqlite3.Error) as e:
+                if not is_disk_full(e):
+                    raise
+                size = (data_dir / DB_NAME).stat().st_size
+                raise MigrationError(
+                    f"no room for the copy of {data_dir / DB_NAME} made before the upgrade (about {size} bytes, in "
+                    f"{data_dir / BACKUPS}): the disk is full. Nothing was changed or left behind: free space, then "
+                    "start again"
+                ) from None
             log.info("schema version %d, this release's %d: database copied to %s", version, latest, report.backup)
             for m in migrations:
                 if m.number <= version:
                     continue
                 _apply(db, m, report, data_dir)
+            prune_copies(data_dir / BACKUPS)
             return report
         finally:
             db.close()
+
+
+def copy_name(version: int, t: datetime) -> str:
+    """The name of the copy made before upgrading a database at schema `version`, at time `t`."""
+    return f"jobs-v{version}-{_stamp(t)}.sqlite3"
+
+
+def plan(
+    data_dir: Path, clock: Callable[[], datetime] = utc_now, migrations: tuple[Migration, ...] = MIGRATIONS
+) -> dict:
+    """What `migrate` would do to DATA/jobs.sqlite3, and about how long it would take; nothing is changed (the
+    database is opened read-only). `steps` says it in words."""
+    data_dir = Path(data_dir)
+    path, latest = data_dir / DB_NAME, migrations[-1].number
+    out: dict = {"database": str(path), "latest": latest, "migrations": [], "backup": None, "estimate_s": 0.0}
+    if not path.is_file():
+        out.update(version=None, steps=[f"no database: a new one is made at schema version {latest}"])
+        return out
+    db = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=30, isolation_level=None)
+    try:
+        version = schema_version(db)
+        tables = db.execute("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]
+        out["version"] = version
+        if tables == 0:
+            out["steps"] = [f"an empty database: marked schema version {latest}"]
+            return out
+        if version > latest:
+            out["steps"] = [f"schema version {version} is newer than this release's {latest}: refused, nothing done"]
+            return out
+        if version == latest:
+            out["steps"] = [f"schema version {version}, this release's: nothing to do"]
+            return out
+        size = sum(p.stat().st_size for p in data_dir.glob(f"{DB_NAME}*") if p.name in (DB_NAME, f"{DB_NAME}-wal"))
+        copy = data_dir / BACKUPS / copy_name(version, clock())
+        out["backup"] = {"path": str(copy), "bytes": size, "estimate_s": round(size / COPY_BYTES_PER_S, 1)}
+        steps = [f"copy the database ({size} bytes) to {copy} (about {size / COPY_BYTES_PER_S:.1f} s)"]
+        total = size / COPY_BYTES_PER_S
+        for m in migrations:
+            if m.number <= version:
+                continue
+            n = m.rows(db) if m.rows is not None else 0
+            took = n / ROWS_PER_S
+            total += took
+            out["migrations"].append({"number": m.number, "name": m.name, "rows": n, "estimate_s": round(took, 1)})
+            steps.append(f"migration {m.number} ({m.name}): {n} rows (about {took:.1f} s)")
+        old = sorted((data_dir / BACKUPS).glob("jobs-v*-*.sqlite3"))
+        if len(old) + 1 > KEEP_COPIES:
+            steps.append(f"remove the oldest {len(old) + 1 - KEEP_COPIES} of the copies of earlier upgrades")
+        out["estimate_s"] = round(total, 1)
+        out["steps"] = steps
+        return out
+    finally:
+        db.close()
+
+
+def remove_partials(data_dir: Path) -> list[Path]:
+    """The hidden leftovers of a copy or a restore that was killed: DATA/backups/.*.partial and
+    DATA/.jobs.sqlite3.restoring; the paths removed."""
+    gone = [*Path(data_dir, BACKUPS).glob(".*.partial"), *Path(data_dir).glob(f".{DB_NAME}.restoring")]
+    for path in gone:
+        path.unlink(missing_ok=True)
+        log.info("removed %s, left by a copy that did not finish", path)
+    return gone
+
+
+def prune_copies(folder: Path, keep: int = KEEP_COPIES) -> list[Path]:
+    """The copies made before upgrades beyond the newest `keep` removed (their names sort by time within a
+    version, and versions only go up); the paths removed."""
+    copies = sorted(folder.glob("jobs-v*-*.sqlite3"), key=lambda p: (_version_of(p), p.name))
+    gone = copies[: max(0, len(copies) - keep)]
+    for path in gone:
+        path.unlink(missing_ok=True)
+        log.info("removed %s: the last %d copies made before upgrades are kept", path, keep)
+    return gone
+
+
+def _version_of(path: Path) -> int:
+    try:
+        return int(path.name.split("-")[1][1:])
+    except (IndexError, ValueError):
+        return -1
 
 
 def _apply(db: sqlite3.Connection, m: Migration, report: Report, data_dir: Path) -> None:
@@ -167,12 +281,16 @@ def backup_database(src: sqlite3.Connection, folder: Path, name: str) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path, tmp = folder / name, folder / f".{name}.partial"
     tmp.unlink(missing_ok=True)
-    dest = sqlite3.connect(tmp)
     try:
-        src.backup(dest)
-    finally:
-        dest.close()
-    tmp.replace(path)
+        dest = sqlite3.connect(tmp)
+        try:
+            src.backup(dest)
+        finally:
+            dest.close()
+        tmp.replace(path)
+    except BaseException:  # a full disk, a kill: nothing half-made is left
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 

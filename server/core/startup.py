@@ -26,6 +26,7 @@ import sqlite3
 import tempfile
 from pathlib import Path
 
+from server.core.files import make_private, private_files
 from server.core.ids import looks_like_job_id
 
 DB_NAME = "jobs.sqlite3"
@@ -36,13 +37,15 @@ class StartupError(RuntimeError):
 
 
 def check_data_dir(data_dir: Path) -> None:
-    """Raise StartupError if the server cannot run on `data_dir` (creating it when it is missing)."""
+    """Raise StartupError if the server cannot run on `data_dir` (creating it when it is missing, 0700). From here
+    on, what the process makes is private to its user (server/core/files.py, `private_files`)."""
     data_dir = Path(data_dir)
+    private_files()
     where = f"the data directory {data_dir} (--data-dir, TRACER_DATA_DIR)"
     if data_dir.exists() and not data_dir.is_dir():
         raise StartupError(f"{where} is a file, not a folder: give a folder (it is made if it is missing)")
     try:
-        data_dir.mkdir(parents=True, exist_ok=True)
+        data_dir.mkdir(mode=0o700, parents=True, exist_ok=True)
     except OSError as e:
         raise StartupError(f"cannot make {where}: {e.strerror}; make it yourself or give another folder") from None
     try:
@@ -53,6 +56,8 @@ def check_data_dir(data_dir: Path) -> None:
             f"{where} is not writable ({e.strerror}): the server keeps its job database and images there. Make "
             "it writable (a read-only mount: remount it read-write) or give another folder"
         ) from None
+    for name in (DB_NAME, f"{DB_NAME}-wal", f"{DB_NAME}-shm"):  # an earlier release's, made 0644
+        make_private(data_dir / name)
     jobs = data_dir / "jobs"
     if jobs.exists() and not jobs.is_dir():
         raise StartupError(f"{jobs} is a file; the server keeps each job's files in that folder: move the file away")

@@ -8,8 +8,9 @@ version is published, grades the reference scene itself (the instructor's check 
 and the source of the reference image), then takes each submission as one more student of that run. So the
 reference is rendered once per version and each noise baseline once per (sampler, spp, light samples) of
 the version, whatever the number of submissions; every render is a batch-lane job; and the run's rows
-make it durable: a restarted server resumes it. A submission is its row here first (acknowledged), then its
-row in the run, keyed by its own id (`INSERT OR IGNORE`): handed twice, graded once.
+make it durable: a restarted server resumes it. A submission's file is linked into the run's folder, then its
+row here and its row in the run (keyed by its own id) are written in one transaction: a full disk keeps
+neither (507). A regrade hands rows again (`INSERT OR IGNORE`): handed twice, graded once.
 
 **Time** is `clock()`, the app's `state.clock` (UTC now; tests set it): a submission's time is the clock when
 its body was accepted, and the deadline, the late mark and the feedback shown follow it.
@@ -32,6 +33,7 @@ from concurrent.futures import TimeoutError
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 
 from server.core.errors import Conflict, Forbidden, Invalid, NotFound, TooMany, Unavailable
@@ -466,9 +468,22 @@ class Course:
             "late": int(accepted > due),
         }
         cap = self.settings.max_submissions_per_hour
-        refused = self.store.add_submission(sub, a["policy"]["max_submissions"], cap, accepted - 3600)
+        # its file is put into the run's folder (a link) first, then both rows go in one transaction: a full disk
+        # keeps nothing (507), never a row without its grade (issue #39, item 2)
+        try:
+            item = self.runs.place(a["run_id"], self._handed(sub))
+            try:
+                refused = self.store.add_submission(sub, a["policy"]["max_submissions"], cap, accepted - 3600,
+                                                    also=partial(self.runs.gs.add_item, a["run_id"], item))  # fmt: skip
+            except BaseException:
+                self.runs.unplace(a["run_id"], item)
+                raise
+        except BaseException:  # a full disk: nothing of it is kept (the client was not told it was taken)
+            path.unlink(missing_ok=True)
+            raise
         if refused is not None:
             path.unlink(missing_ok=True)
+            self.runs.unplace(a["run_id"], item)
             if refused == "hour":
                 message = f"at most {cap} submissions per hour (TRACER_MAX_SUBMISSIONS_PER_HOUR); try again later"
                 raise TooMany([{"path": "", "message": message}], retry_after=600)
@@ -477,12 +492,7 @@ class Course:
                 "submission costs none)"
             )
             raise Forbidden([{"path": "max_submissions", "message": message}])
-        try:
-            self._hand(sub)
-        except BaseException:  # a full disk: nothing of it is kept (the client was not told it was taken)
-            self.store.remove_submission(sid)
-            path.unlink(missing_ok=True)
-            raise
+        self.runs.added(a["run_id"])
         return self.submission(a, sid)
 
     def check(self, a: dict, who: Who, kind: str, data: bytes) -> dict:
@@ -544,11 +554,11 @@ class Course:
             sub["late"] = int(sub["accepted_at"] > self.deadlines(a, self.store.student(a["id"], sub["student"]))[0])
         return sub
 
+    def _handed(self, sub: dict) -> Handed:
+        return Handed(sub["id"], sub["kind"], f"submission{SUFFIX[sub['kind']]}", path=self.root / sub["file"])
+
     def _hand(self, sub: dict) -> None:
-        self.runs.add(
-            sub["run_id"],
-            Handed(sub["id"], sub["kind"], f"submission{SUFFIX[sub['kind']]}", path=self.root / sub["file"]),
-        )
+        self.runs.add(sub["run_id"], self._handed(sub))
         self.store.handed(sub["id"], sub["run_id"])
 
     def resume(self) -> int:

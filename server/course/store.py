@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import sqlite3
+from collections.abc import Callable
 from pathlib import Path
 
 from server.core.db import Tables
@@ -387,9 +388,18 @@ class CourseStore(Tables):
 
     # -- submissions ---------------------------------------------------------------------------
 
-    def add_submission(self, sub: dict, max_attempts: int | None, per_hour: int, hour_ago: float) -> str | None:
+    def add_submission(
+        self,
+        sub: dict,
+        max_attempts: int | None,
+        per_hour: int,
+        hour_ago: float,
+        also: Callable[[sqlite3.Connection], None] | None = None,
+    ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),
-        with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap."""
+        with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap. `also`
+        writes more in the same transaction (its row in the grading run: then it is `handed` at once), so the
+        two rows are kept together or neither is (a full disk)."""
         with self._tx() as db:
             who = (sub["assignment_id"], sub["student"])
             recent = db.execute(
@@ -402,10 +412,12 @@ class CourseStore(Tables):
                 return "attempts"
             db.execute(
                 "INSERT INTO course_submissions (id, assignment_id, student, version, run_id, kind, file,"
-                " accepted_at, late) VALUES (:id, :assignment_id, :student, :version, :run_id, :kind, :file,"
-                " :accepted_at, :late)",
-                sub,
+                " accepted_at, late, handed) VALUES (:id, :assignment_id, :student, :version, :run_id, :kind, :file,"
+                " :accepted_at, :late, :handed)",
+                {**sub, "handed": int(also is not None)},
             )
+            if also is not None:
+                also(db)
         return None
 
     def attempts(self, aid: str, student: str) -> int:
@@ -418,9 +430,6 @@ class CourseStore(Tables):
             f" AND g.student = s.id WHERE s.assignment_id = ? AND s.student = ? AND {HOLDS_ATTEMPT}",
             (aid, student),
         ).fetchone()[0]
-
-    def remove_submission(self, sid: str) -> None:
-        self.db.execute("DELETE FROM course_submissions WHERE id = ?", (sid,))
 
     def handed(self, sid: str, run_id: str) -> None:
         """Its row is in `run_id` (unless a regrade moved it to another run meanwhile: then it is handed again)."""

@@ -16,6 +16,12 @@ job it had queued is found by its id (still queued or running: waited for; finis
 never rendered again), and only a job that is gone (the janitor removed it before the run took its
 image) is queued again.
 
+**A full disk** never ends a run: the step that met it (a row, a report, a render's image) is done again once
+there is space. The run's thread waits (`waiting_space`: /api/health says so) until the janitor's next round, a
+new submission or SPACE_RETRY seconds wake it, then takes the run up from its rows as a restarted server would.
+A render job that failed because the disk was full is queued again; a task that met it in a grading process is
+done again, never a student's failure.
+
 Each task goes to the grading processes with at most FLIGHT_PER_PROCESS per process in flight. A
 process that dies breaks the pool: the tasks that were in flight become suspects and run again one at
 a time, so the one that kills its process is found and fails alone (twice alone: failed).
@@ -35,6 +41,7 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
+from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
 from server.grading.renders import capped, job_outcome
@@ -53,6 +60,8 @@ POLL = 0.2  # seconds between two looks at the run's render jobs
 IDLE = 1.0  # seconds between two looks whether the server stops, for an open run with nothing to do
 FLIGHT_PER_PROCESS = 2  # tasks of one run in the grading pool at once, per process
 MAX_QUEUED = 1_000_000  # a class is queued whole: the queue's limit (TRACER_MAX_QUEUED_JOBS) is for students
+SPACE_RETRY = 30.0  # seconds a run that met a full disk waits before it tries again (the janitor wakes it sooner)
+JOB_DISK_FULL = "the disk is full"  # in the error of a render job that failed for it (server/queue/render_try.py)
 MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
 
 
@@ -84,6 +93,7 @@ class RunContext:
     stopping: threading.Event  # set when the server stops: the run stops where it is (its rows say where)
     wake: Callable[[str], threading.Event]  # an open run's event, set when a student is added (GradeRuns.add)
     item_changed: Callable[[str, str], None]  # (run, student): a student's row moved; the listeners are told
+    waiting_space: Callable[[str, str | None], None]  # (run, why): it waits for space on the disk; None: no more
 
 
 class GradingRun:
@@ -96,15 +106,47 @@ class GradingRun:
         self.suspects: set[tuple] = set()  # tasks in flight when the pool broke
         self.breaks: dict[tuple, int] = {}  # times a task broke the pool while it ran alone
         self.render_jobs: dict[str, RenderJob] = {}  # the class's render jobs, by key
+        self.waited = False  # it met a full disk, and has not gone through a round of its loop since
 
     def run(self) -> None:
-        try:
-            self._load()
-            if self._loop():
-                self._finish()
-        except Exception as e:  # a bug must end the run with a reason, never leave it "running"
-            log.exception("grading run %s failed", self.id)
-            self.gs.end_run(self.id, JobStatus.failed, f"{type(e).__name__}: {e}")
+        """The run to its end, or until the server stops. A full disk is waited out (the module's docstring); a
+        bug ends the run with a reason, never leaves it "running" (that row too waits for space if it must)."""
+        error = None
+        while not self.context.stopping.is_set():
+            try:
+                if error is not None:
+                    self.gs.end_run(self.id, JobStatus.failed, error)
+                    return
+                self._fresh()
+                self._load()
+                if self._loop():
+                    self._finish()
+                return
+            except Exception as e:
+                if is_disk_full(e):
+                    self._wait_for_space(e)
+                    continue
+                if error is not None:  # the failure could not be written: a restarted server takes the run up
+                    log.exception("grading run %s: its failure could not be recorded", self.id)
+                    return
+                log.exception("grading run %s failed", self.id)
+                error = f"{type(e).__name__}: {e}"
+
+    def _wait_for_space(self, exc: Exception) -> None:
+        """The disk is full: wait until something may have freed space (the janitor's round, a new submission,
+        SPACE_RETRY seconds, the server stopping), then the run is taken up again from its rows."""
+        log.warning("grading run %s: the disk is full (%s); it waits for space, and goes on from where its rows "
+                    "say once there is some", self.id, exc)  # fmt: skip
+        self.context.waiting_space(self.id, f"{exc}")  # (since the first time: kept until a round goes through)
+        self.waited = True
+        woken = self.context.wake(self.id)
+        woken.wait(SPACE_RETRY)
+        woken.clear()
+
+    def _fresh(self) -> None:
+        """Nothing in flight (a run taken up again after a full disk: the tasks it had in flight are done again;
+        what they write is the same)."""
+        self.flight, self.suspects, self.breaks = {}, set(), {}
 
     def _load(self) -> None:
         row = self.gs.run(self.id)
@@ -129,6 +171,9 @@ class GradingRun:
                 self._newcomers()
             self._poll_jobs()
             self._schedule()
+            if self.waited:  # a round went through: no longer waiting for space
+                self.waited = False
+                self.context.waiting_space(self.id, None)
             if not self.flight and all(it["stage"] == Stage.graded for it in self.items.values()):
                 if not self.open:
                     return True
@@ -235,6 +280,14 @@ class GradingRun:
                 continue
             if not JobStatus(row["status"]).finished:
                 continue
+            if row["status"] == JobStatus.failed and JOB_DISK_FULL in (row.get("error") or ""):
+                log.warning("grading run %s: render job %s met a full disk; queued again", self.id, job_id)
+                if what == "render":
+                    self.renders[name]["job_id"] = None
+                    self._queue_render(name)
+                else:
+                    self._queue_item(self.items[name])
+                continue
             job = self._reference_job(name) if what == "render" else _render_job(self.items[name]["prepared"]["job"])
             _, seconds, source = capped(job, self.settings)
             error, spp, took = job_outcome(row, seconds, source)
@@ -242,6 +295,8 @@ class GradingRun:
                 try:
                     self._take(job_id, variance=what == "render" and name == MEAN)
                 except OSError as e:
+                    if is_disk_full(e):
+                        raise
                     error = f"the render job {job_id} left no readable image: {e}"
             if what == "render":
                 status = RenderStatus.failed if error else RenderStatus.done
@@ -384,6 +439,8 @@ class GradingRun:
             self.suspects.discard(task)
             return self._failed(task, "its grading process died (twice; the server's log may say why)")
         except Exception as e:  # a bug, or a file the grading process could not read: this student alone fails
+            if is_disk_full(e):  # not the student's: the run waits for space, and does the task again
+                raise
             log.exception("grading run %s: %s failed", self.id, task)
             self.suspects.discard(task)
             return self._failed(task, f"grading error: {type(e).__name__}: {e}")

@@ -5,6 +5,10 @@ API process drives it (server/grading/run.py) and a restarted server resumes it 
 renders are jobs that the render workers take like any other (through the job service), each with the
 assignment's time limit, so one slow or broken submission fails alone while the others go on; each
 student's other work runs in the grading processes (server/grading/pool.py).
+
+A full disk never ends a run (server/grading/run.py): its thread waits for space (`waiting`, shown by
+/api/health) and is woken by `retry`, which the janitor calls each round and a new submission calls too; `retry`
+also starts a thread for any run that is `running` without one.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 from pathlib import Path
 
 from server.core.files import write_atomic
@@ -65,6 +69,15 @@ class Handed:
 SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
 
 
+def _link_or_copy(src: Path, tmp: Path) -> None:
+    """`src` at `tmp`: a hard link (no byte written: a submission's file goes into its run on a full disk too),
+    or a copy where links are not allowed."""
+    try:
+        os.link(src, tmp)
+    except OSError:
+        shutil.copyfile(src, tmp)
+
+
 class GradeRuns:
     """The service's grading runs: start one, read its state, resume the unfinished ones at start-up.
 
@@ -86,9 +99,10 @@ class GradeRuns:
         self.threads: dict[str, threading.Thread] = {}
         self._wakes: dict[str, threading.Event] = {}  # an open run's: set when a student is added
         self._wakes_lock = threading.Lock()
+        self.waiting: dict[str, tuple[float, str]] = {}  # runs waiting for space on the disk: (since, why)
         self.listeners: list[Callable[[str, str], None]] = []  # told (run, student) when a student's stage moves
         self.context = RunContext(settings, self.gs, jobs, self.pool, self.root, self.stopping, self.wake,
-                                  self.item_changed)  # fmt: skip
+                                  self.item_changed, self._waiting_space)  # fmt: skip
         self._import_legacy()
 
     # -- starting, resuming, stopping
@@ -131,17 +145,61 @@ class GradeRuns:
     def add(self, run_id: str, h: Handed) -> bool:
         """One more submission for an open run (its file kept in the run's folder, then its row); False if
         the run has that student already: handing the same submission again grades it once."""
-        folder = self.root / run_id
-        rel = f"submissions/{h.student}{SUFFIX[h.kind]}"
         if self.gs.item(run_id, h.student) is not None:
             return False
-        if h.path is not None:
-            write_atomic(folder / rel, lambda tmp: shutil.copyfile(h.path, tmp))
-        else:
-            write_atomic(folder / rel, lambda tmp: tmp.write_bytes(h.data or b""))
-        added = self.gs.add_item(run_id, {"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel})
-        self.wake(run_id).set()
+        item = self.place(run_id, h)
+        added = self.gs.add_item(run_id, item)
+        self.added(run_id)
         return added
+
+    def place(self, run_id: str, h: Handed) -> dict:
+        """A submission's file put into an open run's folder (a hard link to an upload's file where it can be:
+        no byte written), before its row: the row's dict for `GradingStore.add_item`. A caller whose row is not
+        written takes the file away again (`unplace`)."""
+        rel = f"submissions/{h.student}{SUFFIX[h.kind]}"
+        path = self.root / run_id / rel
+        if h.path is not None:
+            write_atomic(path, partial(_link_or_copy, h.path))
+        else:
+            write_atomic(path, lambda tmp: tmp.write_bytes(h.data or b""))
+        return {"student": h.student, "kind": h.kind, "filename": h.filename, "file": rel}
+
+    def unplace(self, run_id: str, item: dict) -> None:
+        """`place` undone: the file of a submission whose row was not written."""
+        (self.root / run_id / item["file"]).unlink(missing_ok=True)
+
+    def added(self, run_id: str) -> None:
+        """A student was added to the open run `run_id`: its thread looks (and a run waiting for space tries
+        again: the disk may have room now)."""
+        self.wake(run_id).set()
+        self.retry()
+
+    def retry(self) -> None:
+        """Every run waiting for space tries again now, and a run left `running` without a thread (one that
+        stopped on something unforeseen) gets one. The janitor calls it each round."""
+        for run_id in list(self.waiting):
+            self.wake(run_id).set()
+        if self.stopping.is_set():
+            return
+        for run_id in self.gs.running():
+            thread = self.threads.get(run_id)
+            if thread is None or not thread.is_alive():
+                log.warning("grading run %s: running without a thread; taken up again", run_id)
+                self._spawn(run_id)
+
+    def _waiting_space(self, run_id: str, why: str | None) -> None:
+        if why is None:
+            self.waiting.pop(run_id, None)
+        else:
+            self.waiting.setdefault(run_id, (time.time(), why))
+
+    def health(self) -> dict:
+        """For /api/health: the runs waiting for space on the disk (and since when, Unix time)."""
+        waiting = dict(self.waiting)
+        return {
+            "waiting_for_space": len(waiting),
+            "since": min((since for since, _ in waiting.values()), default=None),
+        }
 
     def close(self, run_id: str) -> None:
         """An open run takes no more submissions: it ends once those it has are graded."""
@@ -180,16 +238,29 @@ class GradeRuns:
         return ids
 
     def _spawn(self, run_id: str) -> None:
-        run = GradingRun(self.context, run_id)
-        thread = threading.Thread(target=run.run, name=f"grading-{run_id[:8]}", daemon=True)
-        self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
-        self.threads[run_id] = thread
-        thread.start()
+        with self._wakes_lock:  # one thread per run (start and retry may both come)
+            old = self.threads.get(run_id)
+            if old is not None and old.is_alive():
+                return
+            run = GradingRun(self.context, run_id)
+            thread = threading.Thread(target=self._drive, args=(run,), name=f"grading-{run_id[:8]}", daemon=True)
+            self.threads = {k: t for k, t in self.threads.items() if t.is_alive()}  # the runs still going
+            self.threads[run_id] = thread
+            thread.start()
+
+    def _drive(self, run: GradingRun) -> None:
+        try:
+            run.run()
+        finally:
+            self.waiting.pop(run.id, None)
 
     def shutdown(self) -> None:
         """At the server's shutdown: the runs stop where they are (their rows say where) and the grading
         processes end; the next server resumes the runs."""
         self.stopping.set()
+        with self._wakes_lock:
+            for event in self._wakes.values():  # a run waiting for space stops waiting
+                event.set()
         deadline = time.monotonic() + 10  # for all of them together: a stopping server exits in seconds
         for thread in self.threads.values():
             thread.join(timeout=max(0.0, deadline - time.monotonic()))

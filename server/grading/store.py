@@ -21,6 +21,7 @@ Every write is one short statement or transaction; each thread opens its own con
 from __future__ import annotations
 
 import json
+import sqlite3
 import time
 from enum import StrEnum
 from pathlib import Path
@@ -122,10 +123,11 @@ class GradingStore(Tables):
                  for i, it in enumerate(items)],
             )  # fmt: skip
 
-    def add_item(self, run_id: str, it: dict) -> bool:
+    def add_item(self, run_id: str, it: dict, db: sqlite3.Connection | None = None) -> bool:
         """One more student (a dict as create_run's) at the end of an open run; False if they are in it already
-        (so handing a submission twice grades it once)."""
-        cur = self.db.execute(
+        (so handing a submission twice grades it once). On `db` when given: inside its caller's transaction (a
+        course submission's row and this one are written together)."""
+        cur = (db or self.db).execute(
             "INSERT OR IGNORE INTO grading_items (run_id, student, position, kind, filename, file, stage)"
             " SELECT ?1, ?2, COALESCE(MAX(position) + 1, 0), ?3, ?4, ?5, ?6 FROM grading_items WHERE run_id = ?1",
             (run_id, it["student"], it["kind"], it["filename"], it["file"], Stage.submitted),

@@ -6,6 +6,8 @@ A round, once at start-up and then every `janitor_interval` seconds, in a thread
 2. job folders whose row is gone (a removal cut short by a crash) are removed;
 3. while the data directory holds more than `max_data_bytes`, the finished job that ended first
    is removed, then the next.
+4. the chores others gave it run (the grading runs': a run waiting for space on the disk tries again, since a
+   round may have freed some: server/grading/runs.py, `GradeRuns.retry`).
 Queued and running jobs are never touched, nor is a job that ended less than `GRACE` seconds ago:
 its client (the page, a grading run) may still be fetching its image. Grading runs (grades/) count
 towards the size but are an instructor's record: the janitor leaves them alone.
@@ -17,6 +19,7 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,8 +63,8 @@ class Round:
 
 
 class Janitor:
-    def __init__(self, settings: Settings, store: JobStore):
-        self.settings, self.store = settings, store
+    def __init__(self, settings: Settings, store: JobStore, chores: tuple[Callable[[], None], ...] = ()):
+        self.settings, self.store, self.chores = settings, store, chores
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._warned = False  # over the cap with nothing left to remove: said once, until it changes
@@ -108,6 +111,11 @@ class Janitor:
             if done.for_size:
                 done.size = tree_size(store.data_dir)  # measured again: the database changed too
         self._report(done, keep, cap)
+        for chore in self.chores:
+            try:
+                chore()
+            except Exception:  # one chore's failure never stops the round's others
+                log.exception("janitor: %s", getattr(chore, "__qualname__", chore))
         return done
 
     @staticmethod

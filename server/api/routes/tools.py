@@ -14,6 +14,7 @@ from server.api.deps import (
     ClientDep,
     JobsDep,
     QueueDep,
+    RunsDep,
     SettingsDep,
     StoreDep,
     get_client,
@@ -30,7 +31,9 @@ router = APIRouter(prefix="/api", tags=["tools"])
 
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
-async def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: JobsDep, caller: CallerDep) -> Health:
+async def health(
+    store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: JobsDep, runs: RunsDep, caller: CallerDep
+) -> Health:
     """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
 
     def answer() -> Health:  # reads the database (and, on Redis, the worker hosts): in one trip to a thread
@@ -40,7 +43,8 @@ async def health(store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: Jobs
                 if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
                     w["job"] = None
         return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers,
-                      checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers())  # fmt: skip
+                      checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
+                      grading=runs.health())  # fmt: skip
 
     # async, so that FastAPI checks the answer here rather than in a second trip through the thread pool
     return await anyio.to_thread.run_sync(answer)
