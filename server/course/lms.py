@@ -669,8 +669,10 @@ class Lms:
             log.warning("roster of course %s not read from the LMS: %s", cid, e)
 
     def sync(self, cid: str) -> dict:
-        """Read the roster of each LMS course linked to `cid` (every page) into its members and staff."""
-        added, seen = 0, 0
+        """Read the roster of each LMS course linked to `cid` (every page) into its members and staff. A member
+        whose email is an unlinked roster student's is left for their own launch to link (`unlinked`), unless the
+        platform is trusted with emails."""
+        added, seen, unlinked = 0, 0, 0
         for ctx in self.store.contexts(cid):
             platform = self.platforms(ctx["platform_id"])
             if platform is None or not ctx["memberships_url"]:
@@ -685,11 +687,15 @@ class Lms:
                 who = f"{platform['id']}:{m['user_id']}"
                 if self.course.store.by_lti(cid, "student", who) is not None:
                     continue
+                email = m.get("email") or ""
+                if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
+                    unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
+                    continue
                 launch = _Member(m)
                 self.person(cid, platform, launch, "student")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
-        return {"course": cid, "members": seen, "added": added}
+        return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}
 
     def board(self, aid: str, cid: str) -> dict | None:
         """What the dashboard shows of the LMS: None for a course that is in none."""

@@ -236,15 +236,19 @@ class Course:
             raise refuse_ta(ACTIONS.get(action, action))
         return a, who
 
-    def course_staff(self, cid: str, caller: Caller, instructor: Check, action: str = "follow") -> Who:
+    def course_staff(
+        self, cid: str, caller: Caller, instructor: Check, action: str = "follow", hide: bool = True
+    ) -> Who:
         """The caller as staff of course `cid` (404 for an unknown course; 403 for a TA where an instructor
         is needed). Anyone else who cannot be the admin gets the same 404 as for an unknown course: no token, a
         student of it, or a good token of another course (course ids are not told); a token known nowhere gets
-        what `instructor` says (401, counted against its address, or 403)."""
+        what `instructor` says (401, counted against its address, or 403). `hide=False` where the caller named no
+        course (POST /api/assignments: the default one): `instructor` answers everyone."""
         self.course(cid)
         who = self.role(cid, caller)
         if who is None or who.student is not None:
-            if not caller.instructor and (caller.owner is None or self.store.roster_kind(caller.owner) is not None):
+            known = caller.owner is None or self.store.roster_kind(caller.owner) is not None
+            if hide and not caller.instructor and known:
                 raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
             instructor(caller)
             who = Who(None, "admin")
@@ -377,7 +381,7 @@ class Course:
         a = self.assignment(aid)
         if not a["policy"]["open"]:
             raise not_found("assignment", aid)
-        shown = " ".join(name.split())
+        shown = " ".join(spreadsheet.clean_name(name)[0].split())  # no control or bidi override (parse_roster)
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
         row = {"student": sid, "name": shown, "email": ""}
         most = self.settings.max_joins_per_assignment

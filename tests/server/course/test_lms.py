@@ -222,6 +222,16 @@ def test_lms_an_email_is_no_identity_unless_the_platform_is_trusted_with_emails(
                     overrides={"email": "zed@example.edu"})  # fmt: skip
     assert r.status_code == 303 and r.headers["location"] == f"/assignments/{aid}#token=" + links["zed"].split(
         "#token=")[1]  # fmt: skip
+    # the roster read from the LMS leaves a member of a roster student's email to their own launch
+    p.members["course-1"].append({"status": "Active", "name": "Xia from the LMS", "email": "xia@example.edu",
+                                  "user_id": "user-xia", "roles": [LEARNER]})  # fmt: skip
+    try:
+        r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+        assert r.status_code == 200 and r.json()["unlinked"] == 1, r.text
+    finally:
+        p.members["course-1"].pop()
+    roster = client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]
+    assert [s["id"] for s in roster if s["email"] == "xia@example.edu"] == ["xia"]
     # a platform trusted with its emails
     body = {**p.registration(trust_emails=True), "deployment_ids": [p.deployment_id]}
     assert client.post("/api/lti/platforms", json=body, headers=ADMIN).json()["trust_emails"] is True
