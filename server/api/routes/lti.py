@@ -126,10 +126,8 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
         response = respond(storage_put_page(storage, platform_origin, state, nonce, url))
     else:
         response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})
-    response.headers.append("set-cookie", _cookie(STATE_COOKIE, state, STATE_AGE))
-    if not storage:
-        response.headers.append("set-cookie", _cookie(CHECK_COOKIE, "", 0))
-    return response
+    response.headers.append("set-cookie", _cookie(STATE_COOKIE, state, STATE_AGE))  # (lti_check left to expire:
+    return response  # another tab's login may be between its two steps)
 
 
 @router.post("/lti/launch", include_in_schema=False, name="lti_launch")
