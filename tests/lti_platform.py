@@ -140,10 +140,12 @@ class Platform:
     def jwks_url(self) -> str:
         return self.url + "/jwks"
 
-    def registration(self) -> dict:
-        """The values a tool registers this platform with (LtiStore.register's keywords)."""
+    def registration(self, **more) -> dict:
+        """The values a tool registers this platform with (LtiStore.register's keywords, and the API's body):
+        `allow_private`, since it is on 127.0.0.1; `more` adds or replaces some (trust_emails=True)."""
         return dict(issuer=self.issuer, client_id=self.client_id, auth_url=self.auth_url, token_url=self.token_url,
-                    jwks_url=self.jwks_url, deployment_ids=[self.deployment_id], name=self.name)  # fmt: skip
+                    jwks_url=self.jwks_url, deployment_ids=[self.deployment_id], name=self.name,
+                    allow_private=True) | more  # fmt: skip
 
     # -- launches -------------------------------------------------------------------------------------
 
@@ -217,7 +219,9 @@ class Platform:
         """The OIDC flow as a browser goes through it: the tool's /lti/login (GET or POST), the redirect to this
         platform's /auth (recorded; state and nonce read from it), then the id_token (`launch_token(**token_args)`,
         or `token`) and the state (or `state`) posted to the tool's /lti/launch with the state's cookie (a browser
-        sends it: 127.0.0.1 is a secure context; `cookie=False`: blocked). The launch's response."""
+        sends it: 127.0.0.1 is a secure context; `cookie=False`: lost between the login and the launch). The
+        login's check that the browser keeps the tool's cookie is passed (the check cookie sent back). The
+        launch's response."""
         params = {"iss": self.issuer, "login_hint": "user-hint-1", "target_link_uri": tool_base + "/lti/launch",
                   "lti_message_hint": "message-hint-1", "client_id": self.client_id,
                   "lti_deployment_id": self.deployment_id} | (login or {})  # fmt: skip
@@ -226,10 +230,14 @@ class Platform:
         else:
             r = client.post(tool_base + "/lti/login", data=params)
         assert r.status_code == 302, r.text
+        if "lti_cookie_check=1" in r.headers["location"]:  # the login looks for its cookie (a browser keeps it)
+            check = {"Cookie": "; ".join(f"{k}={v}" for k, v in cookies_of(r).items() if v)}
+            r = client.get(r.headers["location"], headers=check)
+            assert r.status_code == 302, r.text
         auth = client.get(r.headers["location"])
         assert auth.status_code == 200, auth.text
         query = self.auth_requests[-1]
-        jar = {c.split("=", 1)[0]: c.split("=", 1)[1].split(";", 1)[0] for c in r.headers.get_list("set-cookie")}
+        jar = {k: v for k, v in cookies_of(r).items() if v}
         token = token or self.launch_token(nonce=query["nonce"], **token_args)
         self.last = {"state": query["state"], "nonce": query["nonce"], "id_token": token, "cookies": jar}
         headers = {"Cookie": "; ".join(f"{k}={v}" for k, v in jar.items())} if cookie and jar else {}
@@ -416,6 +424,11 @@ def member(i: int) -> dict:
         "lis_person_sourcedid": f"sis-{i}",
         "roles": [INSTRUCTOR] if i == 0 else [LEARNER],
     }
+
+
+def cookies_of(r: httpx.Response) -> dict:
+    """The cookies a response sets: name -> value ("" for one it ends)."""
+    return {c.split("=", 1)[0]: c.split("=", 1)[1].split(";", 1)[0] for c in r.headers.get_list("set-cookie")}
 
 
 def public(item: dict) -> dict:

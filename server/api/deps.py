@@ -134,9 +134,20 @@ async def get_caller(request: Request, _: Annotated[object, Depends(bearer)] = N
     """The caller of a request (`_`: only so that /docs offers a field for the token). `async`: it reads nothing
     but the request (no trip through the thread pool)."""
     token = parse_bearer(request.headers.get("authorization"))
-    if token is not None:  # an address that sent too many refused tokens waits (server/core/clients.py)
-        request.app.state.caps.auth_allowed(client_address(request))
-    return Caller(token, token_hash(token) if token else None, is_instructor(token, request.app.state.settings))
+    owner = token_hash(token) if token else None
+    instructor = is_instructor(token, request.app.state.settings)
+    caps, address = request.app.state.caps, client_address(request)
+    if token is not None and not instructor and caps.auth_held(address) and not _known_token(request, owner):
+        # an address that sent too many refused tokens waits (server/core/clients.py); a good token never does
+        caps.auth_allowed(address)
+    return Caller(token, owner, instructor)
+
+
+def _known_token(request: Request, owner: str | None) -> bool:
+    """Whether the token of hash `owner` is a course's (a roster's, a joined student's or a staff member's): a
+    good token, which the failed-auth backoff never holds up. Asked only while an address is held."""
+    course = request.app.state.course
+    return owner is not None and course is not None and course.store.roster_kind(owner) is not None
 
 
 CallerDep = Annotated[Caller, Depends(get_caller)]

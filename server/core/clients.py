@@ -222,11 +222,17 @@ class AddressCaps:
         no roster where one is required)."""
         self._failures.add(address_key(host))
 
+    def auth_held(self, host: str | None) -> bool:
+        """Whether this address has had TRACER_MAX_AUTH_FAILURES failed authentications in the last
+        TRACER_AUTH_FAILURE_WINDOW (its tokens that are not known to be good are then refused: `auth_allowed`)."""
+        return self._failures.count(address_key(host)) >= self.settings.max_auth_failures * self.clients(host)
+
     def auth_allowed(self, host: str | None) -> None:
         """429 while this address has had TRACER_MAX_AUTH_FAILURES failed authentications in the last
-        TRACER_AUTH_FAILURE_WINDOW: its requests with a token wait until the oldest leaves the window."""
+        TRACER_AUTH_FAILURE_WINDOW: its requests with a token that is not known to be good (the instructor's, a
+        roster's or a staff member's are: server/api/deps.py) wait until the oldest leaves the window."""
         key = address_key(host)
-        if self._failures.count(key) < self.settings.max_auth_failures * self.clients(host):
+        if not self.auth_held(host):
             return
         retry = self._failures.retry_after(key)
         message = (

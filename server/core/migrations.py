@@ -87,6 +87,25 @@ def _m0001_baseline(db: sqlite3.Connection) -> None:
     its stores make it: nothing to change, the version is marked."""
 
 
+def _m0003_lti_platforms_and_logins(db: sqlite3.Connection) -> None:
+    """LTI (issue #39): a platform's `trust_emails` and `service_origins`, a login's client `address`; in the
+    tables that exist (a database whose server never opened LTI's gets them whole from its store)."""
+    added = {
+        "lti_platforms": (
+            "trust_emails INTEGER NOT NULL DEFAULT 0",
+            "service_origins TEXT NOT NULL DEFAULT ''",
+        ),
+        "lti_logins": ("address TEXT NOT NULL DEFAULT ''",),
+    }
+    for table, columns in added.items():
+        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
+        if not have:
+            continue
+        for column in columns:
+            if column.split()[0] not in have:
+                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -94,6 +113,9 @@ MIGRATIONS: tuple[Migration, ...] = (
         "courses: assignments and rosters into the default course",
         migration_0002_courses.apply,
         migration_0002_courses.rows,
+    ),
+    Migration(
+        3, "lti: a platform's trust_emails and service_origins, a login's address", _m0003_lti_platforms_and_logins
     ),
 )
 LATEST = MIGRATIONS[-1].number

@@ -38,6 +38,7 @@ from datetime import UTC, datetime
 
 from server.core.answers import Answer, Page, Redirect
 from server.core.db import Tables
+from server.core.security import token_hash
 from server.course.people import COURSE_ID
 from server.course.policy import Feedback, When
 from server.course.service import Course
@@ -45,7 +46,9 @@ from server.lti.pages import page as lti_page
 from server.lti.roles import course_role
 from server.lti.services import deep_link_response
 from server.lti.services import score as score_json
+from server.lti.store import on_platform, platform_origins, url_origin
 from tracer.grading import student_name
+from tracer.tools.spreadsheet import clean_name
 
 log = logging.getLogger(__name__)
 
@@ -99,7 +102,8 @@ CREATE INDEX IF NOT EXISTS course_lti_scores_due ON course_lti_scores (state, ne
 CREATE INDEX IF NOT EXISTS course_lti_scores_user ON course_lti_scores (lineitem, user_id, id);
 """
 
-PICK_SECONDS = 600  # a picker's form is good this long
+PICK_SECONDS = 600  # a picker's form (and a claim form) is good this long
+MAX_CLAIMS = 10000  # claim forms held at once (the oldest dropped past it)
 RETRY_FIRST, RETRY_MAX = 30.0, 3600.0  # seconds: the wait after a failed post doubles from the first to the most
 POST_BATCH = 50  # scores posted per round of the poster
 SWEEP_SECONDS = 60.0  # how often the poster looks for scores released by a deadline
@@ -292,6 +296,7 @@ class Lms:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._swept = 0.0
+        self._claims: dict[str, dict] = {}  # claim forms of learners whose email is a roster student's
         course.runs.listeners.append(self._graded)
 
     # -- the launch ----------------------------------------------------------------------------
@@ -317,6 +322,10 @@ class Lms:
                            "yet: your instructor opens it once from the LMS, then it opens for you too.")  # fmt: skip
         if launch.nrps and launch.nrps.get("context_memberships_url"):
             self.store.set_memberships(platform["id"], context["id"], launch.nrps["context_memberships_url"], None)
+        if (role == "student" and launch.email and not platform.get("trust_emails")
+                and self.course.store.by_lti(cid, "student", lti_user(platform, launch.sub)) is None
+                and self.email_match(cid, launch.email) is not None):  # fmt: skip
+            return self.claim_page(cid, platform, launch)
         person, token = self.person(cid, platform, launch, role)
         if role in STAFF and launch.nrps:
             threading.Thread(target=self.sync_quietly, args=(cid,), name="lti-roster", daemon=True).start()
@@ -388,12 +397,12 @@ class Lms:
         """The launch's user as staff or a member of the course (made or updated): (their id, their token)."""
         who = lti_user(platform, launch.sub)
         name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
+        name = " ".join(clean_name(name)[0].split())[:200]  # no control or bidi override into pages and exports
         email = launch.email or ""
         kind = "staff" if role in STAFF else "student"
         known = self.course.store.by_lti(cid, kind, who)
-        if known is None and kind == "student" and email:
-            known = next((m for m in self.course.store.members(cid) if m["email"].lower() == email.lower()
-                          and not m["lti_user"]), None)  # fmt: skip
+        if known is None and kind == "student" and email and platform.get("trust_emails"):
+            known = self.email_match(cid, email)  # only where the platform's emails identify people
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
         if kind == "staff":
             self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
@@ -404,6 +413,57 @@ class Lms:
             self.course.store.add_members(cid, [row], self.now(), [])
             gen = self.course.store.member(cid, pid)["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
+
+    def email_match(self, cid: str, email: str) -> dict | None:
+        """The course's roster student of `email` whom no LMS user is linked to yet."""
+        return next((m for m in self.course.store.members(cid) if m["email"].lower() == email.lower()
+                     and not m["lti_user"]), None)  # fmt: skip
+
+    def claim_page(self, cid: str, platform: dict, launch) -> Page:
+        """A learner's first launch whose email is a roster student's, from a platform whose emails do not
+        identify people (no --trust-emails): their roster link, given once while launched, links the two."""
+        claim = secrets.token_urlsafe(24)
+        with self._lock:
+            now = self.now()
+            for k in [k for k, v in self._claims.items() if v["expires"] < now]:
+                del self._claims[k]
+            if len(self._claims) >= MAX_CLAIMS:
+                self._claims.pop(next(iter(self._claims)))
+            self._claims[claim] = {"course": cid, "lti_user": lti_user(platform, launch.sub),
+                                   "expires": now + PICK_SECONDS}  # fmt: skip
+        body = (
+            "<h1>Link your course account</h1>"
+            "<p>This course has a place on its roster for your email. To be sure it is yours, paste the link your "
+            "instructor sent you (it opens your assignments); this is asked once. No link? Ask your instructor.</p>"
+            f'<form method="post" action="/lti/claim"><input type="hidden" name="claim" value="{claim}">'
+            '<label for="lti-claim-link">Your link</label> '
+            '<input id="lti-claim-link" name="link" type="url" required autocomplete="off" size="60"> '
+            '<button type="submit">Link</button></form>'
+        )
+        return page("Link your course account", body)
+
+    def claimed(self, claim: str, link: str) -> Page:
+        """The claim form: the roster link's token, if it is a good one of an unlinked student of the claim's
+        course, links the LMS user to that student (then the launch opens them)."""
+        with self._lock:
+            held = self._claims.pop(claim, None)
+        if held is None or held["expires"] < self.now():
+            return refused("This page has expired", "Open the tool from the LMS again.", 400)
+        cid, who = held["course"], held["lti_user"]
+        token = link.split("#token=", 1)[-1].split("&", 1)[0].strip()
+        row = self.course.store.token(token_hash(token)) if token else None
+        member = self.course.store.member(cid, row["person"]) if row and row["course_id"] == cid else None
+        good = (member is not None and row["kind"] == "student"
+                and self.course.token_of(cid, "student", member["student"], member["gen"]) == token)  # fmt: skip
+        if not good or member["lti_user"] or self.course.store.by_lti(cid, "student", who) is not None:
+            return refused("Not a link of this course", "That link is not a current roster link of this course "
+                           "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
+        row = {"student": member["student"], "name": member["name"], "email": member["email"],
+               "every": member["every"], "lti_user": who}  # fmt: skip
+        self.course.store.add_members(cid, [row], self.now(), [])
+        log.info("LMS user %s linked to roster student %s of course %s by their link", who, member["student"], cid)
+        return page("Linked", f"<h1>Linked: {html.escape(member['name'])}</h1><p>Open the tool from the LMS again: "
+                    "it opens your assignments from now on.</p>")  # fmt: skip
 
     def new_id(self, cid: str, kind: str, launch, email: str) -> str:
         """A readable id for someone new: the LMS's SIS id, else their email's name, else their sub; made unique."""
@@ -467,6 +527,11 @@ class Lms:
             return page("Assignment picked", f"<h1>Picked: {html.escape(a['spec']['name'])}</h1><p>Launch the "
                         "link again from the LMS to open it.</p>")  # fmt: skip
         settings = json.loads(pick["settings"])
+        url = settings.get("deep_link_return_url")
+        if not on_platform(platform, url):  # (checked at the launch too: a platform registered again since)
+            where = ", ".join(platform_origins(platform))
+            return refused("The LMS's return address is not its own", "The deep-linking return URL is not at the "
+                           f"platform's registered addresses ({where}).", 400)  # fmt: skip
         points = self.course.spec(aid, a["version"]).max_score()
         item = {
             "type": "ltiResourceLink",
@@ -476,10 +541,9 @@ class Lms:
             "lineItem": {"scoreMaximum": points, "label": a["spec"]["name"], "resourceId": aid},
         }
         jwt = deep_link_response(self.keys, platform, pick["deployment_id"], settings, [item], self.now())
-        url = settings["deep_link_return_url"]
-        origin = re.match(r"https?://[^/]+", url)
-        csp = (f"default-src 'self'; script-src 'self'; form-action {origin.group(0) if origin else url}; "
-               "frame-ancestors *; base-uri 'none'; object-src 'none'")  # fmt: skip
+        origins = " ".join(platform_origins(platform))  # the LMS's own pages frame this one, no one else
+        csp = (f"default-src 'self'; script-src 'self'; form-action {url_origin(url)}; frame-ancestors {origins}; "
+               "base-uri 'none'; object-src 'none'")  # fmt: skip
         body = (
             f"<h1>Adding {html.escape(a['spec']['name'])}</h1>"
             f'<form id="lti-return" method="post" action="{html.escape(url)}">'
@@ -605,8 +669,10 @@ class Lms:
             log.warning("roster of course %s not read from the LMS: %s", cid, e)
 
     def sync(self, cid: str) -> dict:
-        """Read the roster of each LMS course linked to `cid` (every page) into its members and staff."""
-        added, seen = 0, 0
+        """Read the roster of each LMS course linked to `cid` (every page) into its members and staff. A member
+        whose email is an unlinked roster student's is left for their own launch to link (`unlinked`), unless the
+        platform is trusted with emails."""
+        added, seen, unlinked = 0, 0, 0
         for ctx in self.store.contexts(cid):
             platform = self.platforms(ctx["platform_id"])
             if platform is None or not ctx["memberships_url"]:
@@ -621,11 +687,15 @@ class Lms:
                 who = f"{platform['id']}:{m['user_id']}"
                 if self.course.store.by_lti(cid, "student", who) is not None:
                     continue
+                email = m.get("email") or ""
+                if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
+                    unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
+                    continue
                 launch = _Member(m)
                 self.person(cid, platform, launch, "student")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
-        return {"course": cid, "members": seen, "added": added}
+        return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}
 
     def board(self, aid: str, cid: str) -> dict | None:
         """What the dashboard shows of the LMS: None for a course that is in none."""

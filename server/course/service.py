@@ -238,12 +238,20 @@ class Course:
             raise refuse_ta(ACTIONS.get(action, action))
         return a, who
 
-    def course_staff(self, cid: str, caller: Caller, instructor: Check, action: str = "follow") -> Who:
+    def course_staff(
+        self, cid: str, caller: Caller, instructor: Check, action: str = "follow", hide: bool = True
+    ) -> Who:
         """The caller as staff of course `cid` (404 for an unknown course; 403 for a TA where an instructor
-        is needed; 401/403 for anyone else)."""
+        is needed). Anyone else who cannot be the admin gets the same 404 as for an unknown course: no token, a
+        student of it, or a good token of another course (course ids are not told); a token known nowhere gets
+        what `instructor` says (401, counted against its address, or 403). `hide=False` where the caller named no
+        course (POST /api/assignments: the default one): `instructor` answers everyone."""
         self.course(cid)
         who = self.role(cid, caller)
         if who is None or who.student is not None:
+            known = caller.owner is None or self.store.roster_kind(caller.owner) is not None
+            if hide and not caller.instructor and known:
+                raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
             instructor(caller)
             who = Who(None, "admin")
         if not who.may(action):
@@ -328,8 +336,11 @@ class Course:
         member = self.store.member(cid, r["student"])
         token = self.token_of(cid, "student", member["student"], member["gen"])
         link = self._link(base, aid, token) if aid else self.course_link(base, cid, token)
-        return {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,
-                "link": link, "new": new}  # fmt: skip
+        out = {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,
+               "link": link, "new": new}  # fmt: skip
+        if r.get("warning"):  # the roster's row lost characters of its name (parse_roster)
+            out["warning"] = r["warning"]
+        return out
 
     def links(self, cid: str, base: str, aid: str | None = None) -> list[dict]:
         """Every student's current link again (of one assignment, or the course's page): nothing changes."""
@@ -372,7 +383,7 @@ class Course:
         a = self.assignment(aid)
         if not a["policy"]["open"]:
             raise not_found("assignment", aid)
-        shown = " ".join(name.split())
+        shown = " ".join(spreadsheet.clean_name(name)[0].split())  # no control or bidi override (parse_roster)
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
         row = {"student": sid, "name": shown, "email": ""}
         most = self.settings.max_joins_per_assignment
@@ -898,6 +909,8 @@ def parse_roster(text: str) -> list[dict]:
                 )
                 continue
             sid, name, email = (f.strip() for f in fields)
+            name, removed = spreadsheet.clean_name(name)  # no control or bidi override into pages and exports
+            name = " ".join(name.split()) if removed else name
             if not sid or student_name(sid) != sid or len(sid) > 80:
                 errors.append(
                     {
@@ -914,6 +927,12 @@ def parse_roster(text: str) -> list[dict]:
                 errors.append({"path": f"line {line}.email", "message": f"{email[:80]!r} is not an email address"})
             seen.setdefault(sid, line)
             rows.append({"student": sid, "name": name[:200], "email": email})
+            if removed:
+                rows[-1]["warning"] = (
+                    f"line {line}.name: {removed} control or bidirectional-override character(s) taken out of "
+                    f"the name (kept as {name[:200]!r})"
+                )
+                log.warning("roster %s", rows[-1]["warning"])
     except csv.Error as e:
         errors.append({"path": f"line {reader.line_num}", "message": f"not CSV: {e}"})
     if errors:

@@ -3,9 +3,11 @@ database directly (--data-dir, else TRACER_DATA_DIR or ./data), so it runs besid
 new platform within a minute, or at once when it is registered through POST /api/lti/platforms).
 
     python -m server.lti register --issuer URL --client-id ID --auth-url URL --token-url URL --jwks-url URL
-        --deployment ID [--deployment ID2 ...] [--name NAME] [--data-dir DIR]
+        --deployment ID [--deployment ID2 ...] [--name NAME] [--service-origin URL ...] [--trust-emails]
+        [--allow-private] [--data-dir DIR]
     python -m server.lti list [--data-dir DIR]
     python -m server.lti remove ID [--data-dir DIR]
+    python -m server.lti rotate-key [--grace-hours 72] [--data-dir DIR]
     python -m server.lti show-tool --base https://tool.example.edu
 
 `register` prints the platform's id on its first line, then what was registered; a wrong value is printed as
@@ -19,10 +21,12 @@ import argparse
 import json
 import sys
 import time
+from datetime import UTC, datetime
 from pathlib import Path
 from urllib.parse import urlsplit
 
 from server.core.errors import DomainError
+from server.lti.keys import DEFAULT_GRACE_HOURS, ToolKeys
 from server.lti.services import LINEITEM_READ_SCOPE, LINEITEM_SCOPE, NRPS_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE
 from server.lti.store import LtiStore, url_problem
 
@@ -89,7 +93,9 @@ def show_tool(base: str) -> str:
 def describe(p: dict) -> str:
     deployments = ", ".join(p["deployment_ids"]) or "none"
     name = f" ({p['name']})" if p["name"] else ""
-    return f"{p['id']}  {p['issuer']}{name}  client id {p['client_id']}  deployments: {deployments}"
+    extra = f"  service origins: {p['service_origins']}" if p.get("service_origins") else ""
+    emails = "  trusts emails" if p.get("trust_emails") else ""
+    return f"{p['id']}  {p['issuer']}{name}  client id {p['client_id']}  deployments: {deployments}{extra}{emails}"
 
 
 def parser() -> argparse.ArgumentParser:
@@ -103,12 +109,28 @@ def parser() -> argparse.ArgumentParser:
     reg.add_argument("--jwks-url", required=True, help="the platform's public keyset URL")
     reg.add_argument("--deployment", action="append", default=[], help="a deployment id (repeat for several)")
     reg.add_argument("--name", default="", help="a name to show")
+    reg.add_argument(
+        "--service-origin",
+        action="append",
+        default=[],
+        dest="service_origins",
+        help="a further origin of its services (a hosted Canvas: https://school.instructure.com)",
+    )
+    reg.add_argument("--trust-emails", action="store_true",
+                     help="a launch's email identifies the roster student of that email (only for an LMS whose "
+                     "users cannot change their own email)")  # fmt: skip
+    reg.add_argument("--allow-private", action="store_true",
+                     help="accept URLs on loopback, link-local or private addresses (a test platform, an LMS on "
+                     "the school's own network)")  # fmt: skip
     ls = sub.add_parser("list", help="the registered platforms")
     rm = sub.add_parser("remove", help="remove a platform")
     rm.add_argument("id")
+    rot = sub.add_parser("rotate-key", help="a new key for the tool; the old one published for a grace period")
+    rot.add_argument("--grace-hours", type=float, default=DEFAULT_GRACE_HOURS,
+                     help=f"how long the old key stays in /lti/jwks (default {DEFAULT_GRACE_HOURS:g})")  # fmt: skip
     show = sub.add_parser("show-tool", help="the values to paste into the LMS")
     show.add_argument("--base", required=True, help="the tool's public address: https://tool.example.edu")
-    for p in (reg, ls, rm):
+    for p in (reg, ls, rm, rot):
         p.add_argument("--data-dir", type=Path, default=None, help="the server's data directory (default: ./data)")
     return ap
 
@@ -131,6 +153,16 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     folder = data_dir(args.data_dir)
     folder.mkdir(parents=True, exist_ok=True)
+    if args.command == "rotate-key":
+        if not 0 <= args.grace_hours <= 24 * 90:
+            print("--grace-hours: expected 0 to 2160 hours", file=sys.stderr)
+            return 1
+        keys = ToolKeys(folder / "lti")
+        old, new, until = keys.rotate(args.grace_hours * 3600)
+        print(new)
+        print(f"new key {new}; the old key {old} stays in /lti/jwks until "
+              f"{datetime.fromtimestamp(until, UTC):%Y-%m-%d %H:%M UTC}, then it is dropped")  # fmt: skip
+        return 0
     store = LtiStore(folder)
     if args.command == "list":
         for p in store.platforms():
@@ -146,6 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         p = store.register(
             issuer=args.issuer, client_id=args.client_id, auth_url=args.auth_url, token_url=args.token_url,
             jwks_url=args.jwks_url, deployment_ids=args.deployment, name=args.name, now=time.time(),
+            allow_private=args.allow_private, trust_emails=args.trust_emails, service_origins=args.service_origins,
         )  # fmt: skip
     except DomainError as e:
         for err in e.errors:

@@ -27,7 +27,7 @@ from joserfc.jwk import KeySet
 
 from server.lti.http import TooLarge, get_json
 from server.lti.roles import course_role
-from server.lti.store import LtiStore
+from server.lti.store import LtiStore, on_platform, platform_origins
 
 log = logging.getLogger("server.lti")
 
@@ -345,3 +345,22 @@ def _check_message(claims: dict) -> None:
         settings = claims.get(DL_SETTINGS)
         if not isinstance(settings, dict) or not isinstance(settings.get("deep_link_return_url"), str):
             raise LaunchError("deep_linking", "a deep linking launch must carry its settings' deep_link_return_url")
+
+
+def check_service_urls(launch: Launch) -> None:
+    """LaunchError("services") unless every service URL of the launch (AGS line items and line item, the NRPS
+    memberships, the deep-linking return URL) is at one of its platform's registered origins: the tool sends the
+    platform's access token, and a deep-linking answer, nowhere else."""
+    urls = {
+        "lineitem": (launch.ags or {}).get("lineitem"),
+        "lineitems": (launch.ags or {}).get("lineitems"),
+        "context_memberships_url": (launch.nrps or {}).get("context_memberships_url"),
+        "deep_link_return_url": (launch.deep_linking or {}).get("deep_link_return_url"),
+    }
+    for name, url in urls.items():
+        if url is not None and not on_platform(launch.platform, url):
+            allowed = ", ".join(platform_origins(launch.platform))
+            raise LaunchError(
+                "services", f"the launch's {name} ({url[:200]}) is not at the platform's registered addresses "
+                f"({allowed}); the server's admin registers another with --service-origin",
+            )  # fmt: skip

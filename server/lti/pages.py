@@ -88,3 +88,17 @@ def storage_check_page(target: str, origin: str, state: str, continuation: str) 
         '<script src="/js/lti_storage.js"></script>'
     )
     return page("Checking the sign-in", body)
+
+
+def new_window_page(login_url: str) -> Page:
+    """The login's page for a browser that keeps no cookie for the tool inside the platform's page (and no
+    Platform Storage was offered): the tool opens in a window of its own, where the same login sets its cookie
+    first (a launch is accepted only by the browser that holds its state's cookie)."""
+    body = (
+        "<h1>Open the tool in a new window</h1>\n"
+        "<p>Your browser keeps no cookie for this tool inside the course's page, and the sign-in needs one. "
+        "Open it in a window of its own: you are signed in there the same way.</p>\n"
+        f'<p><a id="lti-new-window" class="button" href="{escape(login_url, quote=True)}" target="_blank" '
+        'rel="noopener">Open in a new window</a></p>'
+    )
+    return page("Open in a new window", body, 200, ' class="lti-page" data-check="cookie"')

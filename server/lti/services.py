@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import secrets
 import threading
 import time
@@ -28,6 +29,7 @@ import httpx
 from server.lti.http import TooLarge, get_json, read_bounded
 from server.lti.keys import ToolKeys
 from server.lti.launch import DEPLOYMENT_ID, DL, MESSAGE_TYPE, VERSION
+from server.lti.store import on_platform, platform_origins
 
 log = logging.getLogger("server.lti")
 
@@ -110,9 +112,10 @@ class ServiceClient:
             raise ServiceError(0, f"{what}: no answer from {url} ({type(e).__name__}: {e})") from None
         except TooLarge as e:
             raise ServiceError(502, f"{what}: the answer of {url} is too large ({e})") from None
-        if not response.is_success:
-            raise ServiceError(response.status_code, f"{what}: {url} answered HTTP {response.status_code}: "
-                               f"{body[:300].decode('utf-8', 'replace')}")  # fmt: skip
+        if not response.is_success:  # its status and reason for the staff; its body (anything) for the log only
+            log.info("%s: %s answered HTTP %d: %r", what, url, response.status_code, body[:300])
+            raise ServiceError(response.status_code, f"{what}: the platform answered HTTP {response.status_code} "
+                               f"{_reason(response, body)}")  # fmt: skip
         if not body.strip():
             return None
         try:
@@ -124,8 +127,9 @@ class ServiceClient:
         return {**headers, "Authorization": f"Bearer {self.access_token(platform, [scope])}"}
 
     def _send(self, platform: dict, scope: str, method: str, url: str, what: str, headers: dict, **kwargs) -> object:
-        """`_call` with a bearer token for `scope`; a 401 (a token the platform no longer honours) drops the cached
-        token and tries once more with a new one."""
+        """`_call` with a bearer token for `scope`, only to the platform's own origins (ServiceError otherwise);
+        a 401 (a token the platform no longer honours) drops the cached token and tries once more with a new one."""
+        _on_platform(platform, url, what)
         for attempt in (1, 2):
             try:
                 return self._call(method, url, what, headers=self._authorized(platform, scope, headers), **kwargs)
@@ -175,6 +179,7 @@ class ServiceClient:
         """The context's members (NRPS 2.0), following `Link: <...>; rel="next"` for at most `max_pages` pages,
         each of at most MAX_BYTES bytes, on the memberships URL's own host only (the token goes nowhere else)."""
         origin = urlsplit(memberships_url)[:2]
+        _on_platform(platform, memberships_url, "the members")
         headers = self._authorized(platform, NRPS_SCOPE, {"Accept": MEMBERS_TYPE})
         out, url = [], memberships_url
         for _ in range(max_pages):
@@ -196,6 +201,26 @@ class ServiceClient:
                 raise ServiceError(502, f"the members: the next page {url} is on another host than {memberships_url}")
         log.warning("members of %s: stopped after %d pages", memberships_url, max_pages)
         return out
+
+
+def _on_platform(platform: dict, url: str, what: str) -> None:
+    """ServiceError unless `url` is at one of the platform's registered origins (its token goes nowhere else)."""
+    if not on_platform(platform, url):
+        raise ServiceError(0, f"{what}: {url[:200]} is not at the platform's registered addresses "
+                           f"({', '.join(platform_origins(platform))}); nothing was sent")  # fmt: skip
+
+
+def _reason(response: httpx.Response, body: bytes) -> str:
+    """A short reason for a refused call: the HTTP reason phrase, and an OAuth-style `error` code when the
+    platform's JSON answer names one (a word of lower-case letters and `_`, as OAuth 2 error codes are)."""
+    try:
+        data = json.loads(body) if body.strip() else None
+    except ValueError:
+        data = None
+    code = data.get("error") if isinstance(data, dict) else None
+    code = code if isinstance(code, str) and re.fullmatch(r"[a-z_]{1,40}", code) else None
+    parts = [p for p in (response.reason_phrase, code) if p]
+    return f"({', '.join(parts)})" if parts else ""
 
 
 def _member(m: dict) -> dict:

@@ -50,13 +50,15 @@ class LtiTool:
         self._held: dict[str, tuple[float, object]] = {}  # launches waiting for the platform storage's check
 
     def origins(self) -> list[str]:
-        """The origins of the registered platforms' issuers and auth URLs (cached; `refresh` after a change)."""
+        """The origins of the registered platforms' issuers, auth URLs and further service origins, and those
+        their launches named (cached; `refresh` after a change)."""
         with self._lock:
             if self._origins is not None and time.monotonic() - self._origins[0] < ORIGINS_TTL:
                 return self._origins[1]
         found = {o for o in self.store.origins_seen() if ORIGIN.fullmatch(o)}
         for p in self.store.platforms():
             found |= {o for o in (origin(p["issuer"]), origin(p["auth_url"])) if o}
+            found |= {o for o in (p.get("service_origins") or "").split() if ORIGIN.fullmatch(o)}  # a school's address
         with self._lock:
             self._origins = (time.monotonic(), sorted(found))
         return self._origins[1]

@@ -47,3 +47,38 @@ def test_spreadsheet_a_grading_summary_neutralises_a_students_name():
         {"student": "'=HYPERLINK(1)", "score": "-1.0", "error": "'+oops"},
         {"student": "bob", "score": "", "error": ""},
     ]
+
+
+@pytest.mark.parametrize(
+    ("value", "cell"),
+    [
+        ("a;=1+1", "a;'=1+1"),
+        ("x, =HYPERLINK(1)", "x, '=HYPERLINK(1)"),
+        ("b\t@SUM(A1)", "b\t'@SUM(A1)"),
+        ("c|+1+cmd", "c|'+1+cmd"),
+        ("d\n-2+3", "d\n'-2+3"),
+        ("=e;-f", "'=e;'-f"),
+        ("g;-3.5", "g;'-3.5"),  # its piece would be `-3.5",3` to a spreadsheet that splits on `;`
+        ("h;i", "h;i"),
+    ],
+)
+def test_spreadsheet_a_formula_after_a_separator_is_quoted_for_every_splitter(value, cell):
+    """A spreadsheet that splits on `;` (or a tab, or `|`) must not find a formula in the cell's pieces either;
+    the cell itself is written between double quotes."""
+    buf = io.StringIO()
+    spreadsheet.writer(buf, lineterminator="\n").writerow(["ada", value, 3])
+    line = buf.getvalue()
+    assert line == 'ada,"' + cell + '",3\n', line
+    for delimiter in (";", ",", "\t", "|"):
+        for row in csv.reader(io.StringIO(line), delimiter=delimiter):
+            for piece in row:
+                piece = piece.lstrip(' "')
+                assert not piece.startswith(("=", "+", "@", "-")), (delimiter, row)
+    assert list(csv.reader(io.StringIO(line))) == [["ada", cell, "3"]]
+
+
+def test_spreadsheet_clean_name_takes_out_control_and_bidi_override_characters():
+    assert spreadsheet.clean_name("Ada\u202eexe.png") == ("Adaexe.png", 1)
+    assert spreadsheet.clean_name("B\x00o\x1bb\u2066\u200f") == ("Bob", 4)
+    assert spreadsheet.clean_name("Ada\tLovelace") == ("Ada Lovelace", 1)
+    assert spreadsheet.clean_name("Zoë O'Brien \u05e9\u05dc\u05d5\u05dd") == ("Zoë O'Brien \u05e9\u05dc\u05d5\u05dd", 0)

@@ -157,10 +157,11 @@ async def publish(
 
 
 async def publish_in(request: Request, course: Course, caller: Caller, response: Response, cid: str | None) -> dict:
+    named = cid is not None  # (a course the caller did not name is not hidden from them: course_staff)
     if cid is None:
         mine = course.store.token(caller.owner) if caller.owner else None
         cid = mine["course_id"] if mine is not None and mine["kind"] == "staff" else DEFAULT_COURSE
-    course.course_staff(cid, caller, instructor_check(request), "publish")
+    course.course_staff(cid, caller, instructor_check(request), "publish", hide=named)
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.publish, body, cid)
     response.headers["Location"] = f"/api/assignments/{a['id']}"

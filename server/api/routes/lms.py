@@ -27,6 +27,16 @@ async def pick(
     return respond(await run_in_threadpool(lms.picked, pick, assignment, str(request.base_url)))
 
 
+@router.post("/lti/claim", include_in_schema=False)
+async def claim(
+    request: Request, claim: Annotated[str, Form(max_length=64)], link: Annotated[str, Form(max_length=2048)]
+) -> Response:
+    """A learner's roster link, given once while launched (their email is a roster student's, on a platform whose
+    emails do not identify people): the LMS user and the roster student linked."""
+    lms = get_lms(request)
+    return respond(await run_in_threadpool(lms.claimed, claim, link))
+
+
 class ContextIn(BaseModel):
     model_config = ConfigDict(extra="forbid")
 

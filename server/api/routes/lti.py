@@ -9,8 +9,11 @@
   (the instructor token).
 
 The login and the launch are cross-site by design (the LMS posts them, often inside an iframe where third-party
-cookies are blocked): the state's cookie is checked when it comes back, and the server-side one-time state
-stands when it does not.
+cookies are blocked). A launch is the browser's that started its login: its state must be the one of the state
+cookie (one cookie, `lti_state`). Without that cookie a launch opens only through LTI Platform Storage (the state
+read back from the platform's page); so a login without storage first checks that the browser keeps the tool's
+cookie inside the platform's page, and where it does not, offers to open the tool in a window of its own (where
+the login sets its cookie first).
 """
 
 from __future__ import annotations
@@ -25,10 +28,12 @@ from pydantic import BaseModel, Field
 from starlette.concurrency import run_in_threadpool
 
 from server.api.answers import respond
-from server.api.deps import LtiDep, SettingsDep, require_instructor
+from server.api.deps import LtiDep, SettingsDep, client_address, require_instructor
 from server.api.errors import ApiError
-from server.lti.launch import LaunchError, auth_request_url, verify_launch
-from server.lti.pages import error_page, storage_check_page, storage_put_page
+from server.core.clients import address_key
+from server.lti.launch import LaunchError, auth_request_url, check_service_urls, verify_launch
+from server.lti.pages import error_page, new_window_page, storage_check_page, storage_put_page
+from server.lti.store import TooManyLogins
 from server.lti.tool import origin
 
 log = logging.getLogger("server.lti")
@@ -38,8 +43,11 @@ STORAGE_TARGET = re.compile(r"_parent|[A-Za-z0-9_-]{1,64}")  # Platform Storage'
 MAX_FIELD = 16384  # characters of a login's or launch's parameter (an id_token is a few KB)
 
 
-def state_cookie(state: str) -> str:
-    return f"lti_state_{state[:8]}"
+STATE_COOKIE = "lti_state"  # the one state cookie: a launch's state must be the one its browser's login was given
+CHECK_COOKIE = "lti_check"  # set by the login's first step: does this browser keep the tool's cookies here?
+CHECK = "lti_cookie_check"  # the login's second step (its query parameter)
+LOGIN_PARAMS = ("iss", "login_hint", "target_link_uri", "lti_message_hint", "client_id", "lti_deployment_id",
+                "lti_storage_target")  # fmt: skip
 
 
 async def _params(request: Request) -> dict[str, str]:
@@ -64,6 +72,10 @@ async def tool_jwks(lti: LtiDep) -> JSONResponse:
     return JSONResponse(lti.keys.jwks(), headers={"Cache-Control": "max-age=300"})
 
 
+def _cookie(name: str, value: str, age: int) -> str:
+    return f"{name}={value}; Max-Age={age}; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned"
+
+
 @router.api_route("/lti/login", methods=["GET", "POST"], include_in_schema=False)
 async def lti_login(request: Request, lti: LtiDep) -> Response:
     p = await _params(request)
@@ -84,20 +96,38 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
         return refused(LaunchError("login", "lti_storage_target is not a frame's name ('_parent' or a name)"))
     platform_origin = origin(platform["auth_url"])
     storage = storage if platform_origin else None
-    state, nonce = await run_in_threadpool(lti.store.new_login, platform["id"], target, lti.clock(), storage)
+    login = {k: v for k, v in p.items() if k in LOGIN_PARAMS}
+    if not storage and p.get(CHECK) != "1":
+        # no Platform Storage: the state will be checked by its cookie alone, so the browser must keep one here;
+        # a cookie is set, and the login comes back to look for it (GET /lti/login?...&lti_cookie_check=1)
+        again = str(request.url_for("lti_login").include_query_params(**login, **{CHECK: "1"}))
+        response = RedirectResponse(again, status_code=302, headers={"Cache-Control": "no-store"})
+        response.headers.append("set-cookie", _cookie(CHECK_COOKIE, "1", STATE_AGE))
+        return response
+    if not storage and request.cookies.get(CHECK_COOKIE) != "1":
+        # a browser that keeps no cookie for the tool inside the platform's page: the tool opens in a window of
+        # its own, where the same login sets its cookie first
+        alone = str(request.url_for("lti_login").include_query_params(**login))
+        return respond(new_window_page(alone))
+    try:
+        state, nonce = await run_in_threadpool(
+            lti.store.new_login, platform["id"], target, lti.clock(), storage, address_key(client_address(request))
+        )
+    except TooManyLogins as e:
+        log.warning("LTI login refused: %s", e.message)
+        response = respond(error_page("login", e.message, 429))
+        response.headers["Retry-After"] = str(e.retry_after)
+        return response
     url = auth_request_url(
         platform, login_hint=login_hint, lti_message_hint=p.get("lti_message_hint"), state=state, nonce=nonce,
         redirect_uri=str(request.url_for("lti_launch")), client_id=platform["client_id"],
     )  # fmt: skip
-    if storage:  # LTI Platform Storage: state and nonce kept in the platform's page too (no cookie needed)
+    if storage:  # LTI Platform Storage: state and nonce kept in the platform's page too
         response = respond(storage_put_page(storage, platform_origin, state, nonce, url))
     else:
         response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})
-    response.headers.append(
-        "set-cookie",
-        f"{state_cookie(state)}={state}; Max-Age={STATE_AGE}; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned",
-    )
-    return response
+    response.headers.append("set-cookie", _cookie(STATE_COOKIE, state, STATE_AGE))  # (lti_check left to expire:
+    return response  # another tab's login may be between its two steps)
 
 
 @router.post("/lti/launch", include_in_schema=False, name="lti_launch")
@@ -114,27 +144,31 @@ async def lti_launch(request: Request, lti: LtiDep, settings: SettingsDep) -> Re
     if row is None:
         message = "this launch's login is unknown, used already or older than 10 minutes; open the link again"
         return refused(LaunchError("state", message))
-    cookie = request.cookies.get(state_cookie(state))
+    cookie = request.cookies.get(STATE_COOKIE)
     if cookie is not None and not hmac.compare_digest(cookie.encode(), state.encode()):
         return refused(LaunchError("state", "the launch's state is not the one this browser's login was given"))
+    storage = row.get("storage_target")
+    if cookie is None and not storage:  # only the browser that started the login may finish it
+        message = ("this browser did not send back the cookie of its sign-in, and the platform keeps no copy of it "
+                   "(Platform Storage): open the link again from the course")  # fmt: skip
+        return refused(LaunchError("state", message))
     try:
         launch = await run_in_threadpool(
             verify_launch, p.get("id_token", ""), store=lti.store, jwks=lti.jwks, state_row=row, now=now,
             leeway=settings.lti_leeway,
         )  # fmt: skip
+        check_service_urls(launch)
     except LaunchError as e:
         return refused(e)
     await run_in_threadpool(lti.learn_origins, launch)  # before the answer's headers name who may frame it
     platform_origin = origin(launch.platform["auth_url"])
-    if row.get("storage_target") and cookie is None and platform_origin:
+    if storage and cookie is None and platform_origin:
         # no cookie came back (the platform's frame keeps none), and the login put its state into the platform's
         # storage: the launch opens once the page has read the same state there (POST /lti/continue)
-        response = respond(storage_check_page(row["storage_target"], platform_origin, state, lti.hold(launch)))
+        response = respond(storage_check_page(storage, platform_origin, state, lti.hold(launch)))
     else:
         response = respond(await run_in_threadpool(lti.handler.launched, launch, str(request.base_url)))
-    response.headers.append(
-        "set-cookie", f"{state_cookie(state)}=; Max-Age=0; Path=/lti/; Secure; HttpOnly; SameSite=None; Partitioned"
-    )
+    response.headers.append("set-cookie", _cookie(STATE_COOKIE, "", 0))
     return response
 
 
@@ -160,6 +194,11 @@ class PlatformIn(BaseModel):
     jwks_url: str = Field(description="the platform's public keyset URL")
     deployment_ids: list[str] = Field(default_factory=list, description="deployment ids its launches may carry")
     name: str = Field("", description="a name to show")
+    service_origins: list[str] = Field(
+        default_factory=list, description="further origins of its services (a hosted Canvas's school address)"
+    )
+    trust_emails: bool = Field(False, description="a launch's email identifies the roster student of that email")
+    allow_private: bool = Field(False, description="accept URLs on loopback, link-local or private addresses")
 
 
 @router.post("/api/lti/platforms", status_code=201, tags=["lti"], dependencies=[Depends(require_instructor)])

@@ -115,7 +115,8 @@ def test_identity_refused_tokens_back_off_their_address(tmp_path):
     """Failed authentication per address, on the caps' injectable clock: TRACER_MAX_AUTH_FAILURES (3 here) tokens
     that are not the instructor's where the instructor's is needed, or on no roster where one is, and the address's
     next requests with a token (the instructor's too) are a 429 naming the setting with Retry-After, until the
-    oldest failure leaves TRACER_AUTH_FAILURE_WINDOW; requests without a token still pass."""
+    oldest failure leaves TRACER_AUTH_FAILURE_WINDOW; requests without a token, and with a good token (the
+    instructor's: test_identity_a_good_token_is_never_held_by_the_backoff), still pass."""
     from test_api_support import Clock
 
     settings = dict(instructor_token=INSTRUCTOR, require_identity=True, max_auth_failures=3, auth_failure_window=60)
@@ -125,12 +126,33 @@ def test_identity_refused_tokens_back_off_their_address(tmp_path):
         clock.now += 10
         assert c.get("/api/jobs", params={"scope": "all"}, headers=bearer(student_token())).status_code == 401
         assert c.post("/api/validate", json={"scene": tiny_scene()}, headers=bearer(student_token())).status_code == 401
-        for headers in (TEACHER, bearer(student_token())):
+        for headers in (bearer(student_token()), bearer(student_token())):
             r = c.get("/api/grade/schema", headers=headers)
             assert r.status_code == 429, r.text
             [error] = r.json()["errors"]
             assert error["path"] == "Authorization" and "TRACER_MAX_AUTH_FAILURES" in error["message"], error
             assert r.headers["retry-after"] == "50"  # the first failure leaves the window in 50 s
+        assert c.get("/api/grade/schema", headers=TEACHER).status_code == 200  # a good token is never held
         assert c.get("/api/health").status_code == 200  # no token: not held
         clock.now += 50
         assert c.get("/api/grade/schema", headers=TEACHER).status_code == 200
+
+
+def test_identity_a_good_token_is_never_held_by_the_backoff(tmp_path):
+    """20 refused tokens from an address (the default TRACER_MAX_AUTH_FAILURES) hold up its further refused ones
+    (429) for the window, never a good token: the admin's and a roster student's keep working."""
+    from test_api_support import Clock
+
+    settings = dict(instructor_token=INSTRUCTOR, require_identity=True, auth_failure_window=600)
+    with api_client(tmp_path / "data", workers=0, token=None, **settings) as c:
+        c.app.state.caps.clock = Clock(1000.0)
+        aid = publish(c)
+        text = "id,name,email\nada,Ada L,ada@example.edu\n"
+        r = c.post(f"/api/assignments/{aid}/roster", content=text, headers={"Content-Type": "text/csv", **TEACHER})
+        ada = bearer(r.json()["students"][0]["token"])
+        for _ in range(c.app.state.settings.max_auth_failures):
+            assert c.get("/api/grade/schema", headers=bearer(student_token())).status_code == 401
+        assert c.get("/api/grade/schema", headers=bearer(student_token())).status_code == 429  # a further one
+        assert c.get("/api/grade/schema", headers=TEACHER).status_code == 200
+        assert c.get(f"/api/assignments/{aid}", headers=ada).status_code == 200
+        assert c.post("/api/validate", json={"scene": tiny_scene()}, headers=ada).status_code == 200

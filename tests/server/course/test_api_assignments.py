@@ -308,6 +308,8 @@ def test_assignments_an_open_assignment_takes_anyone_by_name(app, clock):
     b = app.get(f"/api/assignments/{aid}", headers=bearer(me["token"])).json()
     assert b["student"] == {"id": me["id"], "name": "Zoë O'Brien", "self_declared": True}
     assert app.get(f"/api/assignments/{aid}/roster", headers=TEACHER).json()["students"][0]["self_declared"] is True
+    r = app.post(f"/api/assignments/{aid}/join", json={"name": "Eve\u202egnp.exe\x07"}, headers={"Authorization": ""})
+    assert r.status_code == 200 and r.json()["name"] == "Evegnp.exe", r.text  # no control or bidi override
 
 
 # ---------------------------------------------------------------------------------- bad input

@@ -10,7 +10,7 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 from conftest import ROOT
-from test_api_support import INSTRUCTOR, bearer, course_client
+from test_api_support import INSTRUCTOR, bearer, course_client, student_token
 
 EXAMPLE = ROOT / "scenes" / "grading"
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
@@ -87,7 +87,7 @@ def test_courses_an_instructor_publishes_into_their_course_and_a_ta_is_refused(a
     assert r.status_code == 200 and r.json()["version"] == 2
     # the other course's instructor cannot publish here, nor read it
     r = app.post("/api/courses/cs101/assignments", json=body(), headers=two["prof-b"])
-    assert r.status_code == 401
+    assert r.status_code == 404  # as an unknown course (test_courses_another_course_answers_as_an_unknown_one)
     assert app.get(f"/api/assignments/{aid}/dashboard", headers=two["prof-b"]).status_code in (401, 404)
 
 
@@ -127,8 +127,8 @@ def test_courses_two_courses_on_one_server_cannot_see_each_other_s_students(app,
     r = app.post(f"/api/assignments/{theirs}/submissions", json={"scene": {}}, headers=cyd)
     assert r.status_code == 404
     # the other course's staff see neither its roster nor its students' links
-    assert app.get("/api/courses/cs202/roster", headers=two["prof-a"]).status_code == 401
-    assert app.get("/api/courses/cs202/links", headers=two["ta-1"]).status_code == 401
+    assert app.get("/api/courses/cs202/roster", headers=two["prof-a"]).status_code == 404
+    assert app.get("/api/courses/cs202/links", headers=two["ta-1"]).status_code == 404
     assert "cyd" not in [
         s["id"] for s in app.get("/api/courses/cs202/roster", headers=two["prof-b"]).json()["students"]
     ]
@@ -179,3 +179,39 @@ def test_courses_re_issue_all_links_at_once(app, two):
     assert "re1,Rae,," in r.text and f"#token={fresh['re1']['token']}" not in r.text
     other = app.get("/api/courses/cs202/links", headers=two["prof-b"]).json()["students"]
     assert all(app.get("/api/courses/cs202", headers=bearer(s["token"])).status_code == 200 for s in other)
+
+
+def test_courses_a_roster_name_loses_control_and_bidi_override_characters_with_a_warning(app, two):
+    text = "id,name,email\nfay,Fay\u202egnp.exe,\ngus,Gus\tGrey,\nhal,Hal,\n"
+    r = app.post("/api/courses/cs101/roster", content=text.encode(), headers={"Content-Type": "text/csv",
+                 **two["prof-a"]})  # fmt: skip
+    assert r.status_code == 200, r.text
+    got = {s["id"]: s for s in r.json()["students"]}
+    assert got["fay"]["name"] == "Faygnp.exe" and got["fay"]["warning"].startswith("line 2.name: 1 control")
+    assert got["gus"]["name"] == "Gus Grey" and got["gus"]["warning"].startswith("line 3.name: ")
+    assert got["hal"]["name"] == "Hal" and "warning" not in got["hal"]
+    names = [s["name"] for s in app.get("/api/courses/cs101/roster", headers=two["prof-a"]).json()["students"]]
+    assert not any(c in n for n in names for c in "\u202e\t")
+
+
+def test_courses_another_course_answers_as_an_unknown_one(app, two):
+    """A good token of another course (staff or student), a student's of this one, and no token get the 404 of an
+    unknown course on its staff's routes, word for word (course ids are not told, and a good token is not told
+    it is not good); a token known nowhere still gets its 401."""
+    r = app.post("/api/courses/cs101/roster", content="id,name,email\nemy,Emy,\n", headers=two["prof-a"])
+    emy = bearer(r.json()["students"][0]["token"])
+    for path in ("roster", "links", "lms/sync"):
+        method = app.post if path == "lms/sync" else app.get
+        unknown = method(f"/api/courses/nosuch/{path}", headers=two["prof-b"])
+        assert unknown.status_code == 404, unknown.text
+        for cid, headers in (("cs101", two["prof-b"]), ("cs202", two["ta-1"]), ("cs202", emy), ("cs101", emy),
+                             ("cs101", None)):  # fmt: skip
+            if headers is None:  # no token (the client sends the admin's unless told otherwise)
+                request = app.build_request("POST" if path == "lms/sync" else "GET", f"/api/courses/{cid}/{path}")
+                del request.headers["authorization"]
+                r = app.send(request)
+            else:
+                r = method(f"/api/courses/{cid}/{path}", headers=headers)
+            assert r.status_code == 404, (cid, path, r.status_code, r.text)
+            assert r.json()["errors"][0]["message"].replace(cid, "nosuch") == unknown.json()["errors"][0]["message"]
+    assert app.get("/api/courses/cs101/roster", headers=bearer(student_token())).status_code == 401

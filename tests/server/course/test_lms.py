@@ -74,6 +74,8 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     r = client.post("/lti/pick", data={"pick": pick, "assignment": aid})
     assert r.status_code == 200, r.text
     assert f'action="{p.url}/deep_link_return"' in r.text and "form-action" in r.headers["content-security-policy"]
+    csp = r.headers["content-security-policy"]  # the return page is framed by the LMS's own pages only
+    assert f"frame-ancestors {p.url};" in csp and "frame-ancestors *" not in csp, csp
     jwt = re.search(r'name="JWT" value="([^"]+)"', r.text)[1]
     assert httpx.post(p.url + "/deep_link_return", data={"JWT": jwt}).status_code == 200  # verified by the LMS
     item = p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"][0]
@@ -191,3 +193,52 @@ def test_lms_a_link_without_a_line_item_gets_a_gradebook_column_once(tool, lms):
     assert len(p.line_items) == before + 1 and len(made) == 1  # made once, found again at the second launch
     assert made[0]["scoreMaximum"] == 13 and made[0]["resourceId"] == aid
     assert LmsStore(app.state.settings.data_dir).link(p.registered_id, "link-2")["lineitem"] == made[0]["id"]
+
+
+def test_lms_an_email_is_no_identity_unless_the_platform_is_trusted_with_emails(tool, lms):
+    """A learner's launch whose email is an unlinked roster student's does not get that student's token: the
+    roster link, given once while launched, links them (a good one of an unlinked student of the course only).
+    A platform registered with trust_emails links by the email at once."""
+    url, app, client = tool
+    p, aid = lms
+    text = "id,name,email\nzed,Zed Z,zed@example.edu\nyan,Yan Y,yan@example.edu\nxia,Xia X,xia@example.edu\n"
+    r = client.post("/api/courses/gfx/roster", content=text, headers={"Content-Type": "text/csv", **ADMIN})
+    assert r.status_code == 200, r.text
+    links = {s["id"]: s["link"] for s in r.json()["students"]}
+    r = p.do_launch(client, url, sub="mallory", roles=[LEARNER], custom={"assignment": aid},
+                    overrides={"email": "zed@example.edu"})  # fmt: skip
+    assert r.status_code == 200 and "Link your course account" in r.text and "token=" not in r.text, r.text
+    assert "location" not in r.headers
+    claim = re.search(r'name="claim" value="([^"]+)"', r.text)[1]
+    r = client.post("/lti/claim", data={"claim": claim, "link": "https://x/courses/gfx#token=" + "A" * 43})
+    assert r.status_code == 403  # not a roster link: and the form is used up
+    assert client.post("/lti/claim", data={"claim": claim, "link": links["zed"]}).status_code == 400
+    r = p.do_launch(client, url, sub="student-z", roles=[LEARNER], custom={"assignment": aid},
+                    overrides={"email": "zed@example.edu"})  # fmt: skip
+    claim = re.search(r'name="claim" value="([^"]+)"', r.text)[1]
+    r = client.post("/lti/claim", data={"claim": claim, "link": links["zed"]})
+    assert r.status_code == 200 and "Linked: Zed Z" in r.text, r.text
+    r = p.do_launch(client, url, sub="student-z", roles=[LEARNER], custom={"assignment": aid},
+                    overrides={"email": "zed@example.edu"})  # fmt: skip
+    assert r.status_code == 303 and r.headers["location"] == f"/assignments/{aid}#token=" + links["zed"].split(
+        "#token=")[1]  # fmt: skip
+    # the roster read from the LMS leaves a member of a roster student's email to their own launch
+    p.members["course-1"].append({"status": "Active", "name": "Xia from the LMS", "email": "xia@example.edu",
+                                  "user_id": "user-xia", "roles": [LEARNER]})  # fmt: skip
+    try:
+        r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+        assert r.status_code == 200 and r.json()["unlinked"] == 1, r.text
+    finally:
+        p.members["course-1"].pop()
+    roster = client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]
+    assert [s["id"] for s in roster if s["email"] == "xia@example.edu"] == ["xia"]
+    # a platform trusted with its emails
+    body = {**p.registration(trust_emails=True), "deployment_ids": [p.deployment_id]}
+    assert client.post("/api/lti/platforms", json=body, headers=ADMIN).json()["trust_emails"] is True
+    try:
+        r = p.do_launch(client, url, sub="student-y", roles=[LEARNER], custom={"assignment": aid},
+                        overrides={"email": "yan@example.edu"})  # fmt: skip
+        assert r.status_code == 303 and r.headers["location"].split("#token=")[1] == links["yan"].split("#token=")[1]
+    finally:
+        body["trust_emails"] = False
+        assert client.post("/api/lti/platforms", json=body, headers=ADMIN).json()["trust_emails"] is False

@@ -88,3 +88,30 @@ def test_lti_api_register_names_a_bad_field(tool):  # noqa: F811
     r = tool.client.post("/api/lti/platforms", json={**body, "auth_url": body["token_url"], "jwks_url": 3},
                          headers=tool.admin())  # fmt: skip
     assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["jwks_url"]
+
+
+def test_lti_command_private_addresses_need_allow_private_and_the_options_are_kept(tmp_path, capsys):
+    data = ["--data-dir", str(tmp_path)]
+    local = [
+        "--issuer", "https://10.0.0.5", "--client-id", "c1", "--auth-url", "https://10.0.0.5/auth",
+        "--token-url", "https://10.0.0.5/token", "--jwks-url", "https://10.0.0.5/jwks", "--deployment", "1",
+    ]  # fmt: skip
+    assert main(["register", *local, *data]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("issuer: 'https://10.0.0.5' is on a loopback, link-local or private address") and (
+        "--allow-private" in err
+    )
+    assert main(["register", *local, "--allow-private", "--trust-emails", *data]) == 0
+    assert "trusts emails" in capsys.readouterr().out
+    argv = ["register", *PLATFORM, "--deployment", "1", "--service-origin", "https://school.example.edu", *data]
+    assert main(argv) == 0 and "service origins: https://school.example.edu" in capsys.readouterr().out
+
+
+def test_lti_api_register_refuses_a_private_address_unless_allowed(tool):  # noqa: F811
+    body = {"issuer": "https://169.254.169.254", "client_id": "c", "auth_url": "https://lms.example.edu/auth",
+            "token_url": "https://lms.example.edu/token", "jwks_url": "https://lms.example.edu/jwks"}  # fmt: skip
+    r = tool.client.post("/api/lti/platforms", json=body, headers=tool.admin())
+    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["issuer"]
+    r = tool.client.post("/api/lti/platforms", json={**body, "allow_private": True}, headers=tool.admin())
+    assert r.status_code == 201 and r.json()["trust_emails"] is False
+    assert tool.client.delete(f"/api/lti/platforms/{r.json()['id']}", headers=tool.admin()).status_code == 204

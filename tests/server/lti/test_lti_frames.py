@@ -47,3 +47,19 @@ def test_lti_frames_origins_are_plain_web_origins():
     assert origin("https://[::1]:9000/x") == "https://[::1]:9000"
     assert origin("https://a;b.example/x") is None  # nothing that a policy could read as another directive
     assert origin("https://a b.example/") is None
+
+
+def test_lti_frames_a_platform_s_service_origin_may_frame_the_tool(tmp_path):
+    """A hosted Canvas shows its courses at the school's address, registered as a further service origin."""
+    from server.lti.tool import LtiTool
+
+    tool = LtiTool(tmp_path)
+    try:
+        tool.store.register(
+            issuer="https://canvas.instructure.com", client_id="1", auth_url="https://sso.canvaslms.com/auth",
+            token_url="https://sso.canvaslms.com/token", jwks_url="https://sso.canvaslms.com/jwks",
+            deployment_ids=["d"], service_origins=["https://school.instructure.com"],
+        )  # fmt: skip
+        assert "https://school.instructure.com" in tool.origins()
+    finally:
+        tool.close()

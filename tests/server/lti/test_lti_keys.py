@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import stat
 import threading
+import time
 
 from joserfc import jwt
 from joserfc.jwk import KeySet
@@ -40,3 +41,29 @@ def test_lti_keys_made_by_two_threads_at_once_are_one_key(tmp_path):
     for t in threads:
         t.join(timeout=60)
     assert len({k.kid for k in made}) == 1
+
+
+def test_lti_keys_rotation_publishes_both_for_the_grace_period_then_drops_the_old(tmp_path, capsys):
+    """`python -m server.lti rotate-key` beside a running server (another ToolKeys on the same folder): the server
+    signs with the new key at once, and its key set has the new key and the old one until the grace period ends
+    (its clock), then the new one alone."""
+    from test_api_support import Clock
+
+    from server.lti.command import main
+
+    clock = Clock(time.time())  # (the command's clock is the real one)
+    server = ToolKeys(tmp_path / "data" / "lti", clock=clock)
+    old = server.kid
+    signed_before = server.sign({"n": 1})
+    assert main(["rotate-key", "--grace-hours", "2", "--data-dir", str(tmp_path / "data")]) == 0
+    new = capsys.readouterr().out.splitlines()[0]
+    assert new != old and server.kid == new  # the server sees the new file
+    assert [k["kid"] for k in server.jwks()["keys"]] == [new, old]
+    keys = KeySet.import_key_set(server.jwks())
+    assert jwt.decode(signed_before, keys, algorithms=["RS256"]).claims == {"n": 1}  # signed before: still checks
+    assert jwt.decode(server.sign({"n": 2}), keys, algorithms=["RS256"]).header["kid"] == new
+    assert stat.S_IMODE(os.stat(server.path).st_mode) == 0o600
+    assert "BEGIN" not in (tmp_path / "data" / "lti" / "retired-keys.json").read_text()  # public halves only
+    clock.now += 2 * 3600 + 1
+    assert [k["kid"] for k in server.jwks()["keys"]] == [new]
+    assert main(["rotate-key", "--grace-hours", "-1", "--data-dir", str(tmp_path / "data")]) == 1

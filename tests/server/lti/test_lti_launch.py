@@ -44,17 +44,92 @@ def test_lti_launch_through_the_oidc_flow_opens_the_handler_page(tool, platform)
     assert platform.jwks_hits == 1
 
 
-def test_lti_launch_login_by_post_sets_the_state_cookie_and_works_without_it(tool, platform):  # noqa: F811
-    r = tool.client.post(tool.url + "/lti/login", data={"iss": platform.issuer, "login_hint": "u",
-                         "target_link_uri": tool.url + "/lti/launch", "client_id": platform.client_id})  # fmt: skip
+def test_lti_launch_login_by_post_sets_the_state_cookie_and_a_launch_needs_it(tool, platform):  # noqa: F811
+    """The login first looks for a cookie it set (does this browser keep the tool's cookies here?), then sets the
+    one state cookie, `lti_state`; a launch whose browser lost it is refused (no Platform Storage was offered)."""
+    login = {"iss": platform.issuer, "login_hint": "u", "target_link_uri": tool.url + "/lti/launch",
+             "client_id": platform.client_id}  # fmt: skip
+    r = tool.client.post(tool.url + "/lti/login", data=login)
+    assert r.status_code == 302 and "lti_cookie_check=1" in r.headers["location"], r.headers
+    assert r.headers["set-cookie"].startswith("lti_check=1;") and not platform.auth_requests  # nothing kept yet
+    r = tool.client.get(r.headers["location"], headers={"Cookie": "lti_check=1"})
     assert r.status_code == 302 and r.headers["location"].startswith(platform.auth_url + "?")
-    cookie = r.headers["set-cookie"]
+    cookie = next(c for c in r.headers.get_list("set-cookie") if c.startswith("lti_state="))
     state = dict(p.split("=", 1) for p in r.headers["location"].split("?", 1)[1].split("&"))["state"]
-    assert cookie.startswith(f"lti_state_{state[:8]}={state};")
+    assert cookie.startswith(f"lti_state={state};")
     for attribute in ("Secure", "HttpOnly", "SameSite=None", "Path=/lti/", "Max-Age=600", "Partitioned"):
         assert attribute in cookie
-    r = platform.do_launch(tool.client, tool.url, method="POST", cookie=False)  # third-party cookies blocked
-    assert r.status_code == 200 and "launched as student in Rendering 101" in r.text
+    r = platform.do_launch(tool.client, tool.url, method="POST", cookie=False)  # the cookie lost since the login
+    assert_refused(r, "state", 400, "did not send back the cookie")
+    assert platform.do_launch(tool.client, tool.url, method="POST").status_code == 200
+
+
+def test_lti_launch_a_browser_that_keeps_no_cookie_is_offered_a_new_window(tool, platform):  # noqa: F811
+    login = {"iss": platform.issuer, "login_hint": "u", "target_link_uri": tool.url + "/lti/launch",
+             "client_id": platform.client_id, "lti_message_hint": "m&1"}  # fmt: skip
+    r = tool.client.get(tool.url + "/lti/login", params={**login, "lti_cookie_check": "1"})  # no cookie came back
+    assert r.status_code == 200 and 'data-check="cookie"' in r.text and "set-cookie" not in r.headers
+    link = html.unescape(r.text.split('id="lti-new-window" class="button" href="', 1)[1].split('"', 1)[0])
+    assert 'target="_blank"' in r.text and "lti_cookie_check" not in link and "m%261" in link
+    assert not platform.auth_requests  # no login kept
+    r = tool.client.get(link)  # the new window: its own login, which sets its cookie first
+    assert r.status_code == 302 and "lti_cookie_check=1" in r.headers["location"]
+
+
+def test_lti_launch_a_forged_launch_meets_the_browser_s_own_state_cookie(tool, platform):  # noqa: F811
+    """Login CSRF: an attacker's own login and launch, posted by the victim's browser. The victim's browser holds
+    its own state cookie (one name for every state): the states differ, refused; it holds none: refused too."""
+    checked = {"Cookie": "lti_check=1"}  # (the login's check passed)
+    victim = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "v",
+                             "target_link_uri": "t", "lti_cookie_check": "1"}, headers=checked)  # fmt: skip
+    victims = next(c for c in victim.headers.get_list("set-cookie") if c.startswith("lti_state="))
+    for cookie in (victims.split(";", 1)[0], None):
+        attacker = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "a",
+                                   "target_link_uri": "t", "lti_cookie_check": "1"},
+                                   headers={"Cookie": "lti_check=1"})  # fmt: skip
+        query = dict(p.split("=", 1) for p in attacker.headers["location"].split("?", 1)[1].split("&"))
+        token = platform.launch_token(nonce=query["nonce"], sub="attacker")
+        headers = {"Cookie": cookie} if cookie else {}
+        r = tool.client.post(tool.url + "/lti/launch", data={"id_token": token, "state": query["state"]},
+                             headers=headers)  # fmt: skip
+        assert_refused(r, "state", 400)
+
+
+def test_lti_launch_refused_for_a_service_url_off_the_platform(tool, platform):  # noqa: F811
+    """The tool sends the platform's access token to its service URLs: a line item, the line items, the members
+    or a deep-linking return URL elsewhere than the platform's registered origins is refused at the launch."""
+    ags = "https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"
+    nrps = "https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"
+    elsewhere = "http://127.0.0.1:9/lineitems/li-1"  # loopback too, but another origin
+    for overrides, name in (
+        ({ags: {"scope": [], "lineitem": elsewhere}}, "lineitem"),
+        ({ags: {"scope": [], "lineitems": "https://evil.example/items"}}, "lineitems"),
+        ({nrps: {"context_memberships_url": "http://169.254.169.254/latest/meta-data"}}, "context_memberships_url"),
+    ):
+        r = platform.do_launch(tool.client, tool.url, overrides=overrides)
+        assert_refused(r, "services", 400, f"the launch's {name} (")
+        assert platform.url in html.unescape(r.text)  # the addresses it may be at
+    r = platform.do_launch(tool.client, tool.url, roles=[INSTRUCTOR], message_type="LtiDeepLinkingRequest",
+                           deep_linking={"deep_link_return_url": "https://evil.example/return"})  # fmt: skip
+    assert_refused(r, "services", 400, "deep_link_return_url")
+    assert platform.do_launch(tool.client, tool.url).status_code == 200  # its own URLs
+
+
+def test_lti_launch_logins_from_one_address_are_capped(tool, platform, monkeypatch):  # noqa: F811
+    from server.lti import store as lti_store
+
+    monkeypatch.setattr(lti_store, "MAX_LOGINS_PER_ADDRESS", 2)
+    with tool.lti.store._tx() as db:
+        db.execute("DELETE FROM lti_logins")
+    login = {"iss": platform.issuer, "login_hint": "u", "target_link_uri": "t", "lti_cookie_check": "1"}
+    for _ in range(2):
+        r = tool.client.get(tool.url + "/lti/login", params=login, headers={"Cookie": "lti_check=1"})
+        assert r.status_code == 302
+    r = tool.client.get(tool.url + "/lti/login", params=login, headers={"Cookie": "lti_check=1"})
+    assert r.status_code == 429 and 'data-check="login"' in r.text and int(r.headers["retry-after"]) > 590
+    assert "set-cookie" not in r.headers
+    with tool.lti.store._tx() as db:
+        db.execute("DELETE FROM lti_logins")
 
 
 def test_lti_launch_of_a_teaching_assistant_with_the_principal_role_is_a_ta(tool, platform):  # noqa: F811
@@ -122,7 +197,11 @@ def test_lti_launch_refused_when_the_nonce_was_used(tool, platform):  # noqa: F8
     last = platform.last
     state, _ = tool.lti.store.new_login(platform.registered["id"], "x", tool.lti.clock())
     tool.lti.store.db.execute("UPDATE lti_logins SET nonce = ? WHERE state = ?", (last["nonce"], state))
-    r = tool.client.post(tool.url + "/lti/launch", data={"id_token": last["id_token"], "state": state})
+    r = tool.client.post(
+        tool.url + "/lti/launch",
+        data={"id_token": last["id_token"], "state": state},
+        headers={"Cookie": f"lti_state={state}"},
+    )  # (the browser's own login, as it were)
     assert_refused(r, "nonce", 400, "<strong>nonce</strong>: this launch was used already")
 
 
@@ -140,10 +219,11 @@ def test_lti_launch_refused_without_state(tool, platform):  # noqa: F811
 
 def test_lti_launch_refused_when_the_cookie_is_another_state(tool, platform):  # noqa: F811
     first = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "u",
-                            "target_link_uri": "t", "client_id": platform.client_id})  # fmt: skip
+                            "target_link_uri": "t", "client_id": platform.client_id, "lti_cookie_check": "1"},
+                            headers={"Cookie": "lti_check=1"})  # fmt: skip
     state = first.headers["location"].split("state=")[1].split("&")[0]
     nonce = first.headers["location"].split("nonce=")[1].split("&")[0]
-    headers = {"Cookie": f"lti_state_{state[:8]}=something-else"}
+    headers = {"Cookie": "lti_state=something-else"}
     data = {"id_token": platform.launch_token(nonce=nonce), "state": state}
     assert_refused(tool.client.post(tool.url + "/lti/launch", data=data, headers=headers), "state", 400, "browser")
 

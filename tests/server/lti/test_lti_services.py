@@ -131,3 +131,38 @@ def test_lti_services_a_revoked_token_is_replaced_once(services, platform):  # n
     platform.tokens.clear()  # the platform forgets every token it gave
     services.post_score(p, lineitem, score("student-1", 2, 10, 2.0))
     assert len(platform.token_requests) == 2 and len(platform.scores) == 2
+
+
+def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s_body(services, platform):  # noqa: F811
+    platform.down = True  # its answer's body: {"error": "down for maintenance"}
+    with pytest.raises(ServiceError) as e:
+        services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 0.0))
+    assert e.value.status == 503 and "HTTP 503 (Service Unavailable" in e.value.message, e.value.message
+    assert "maintenance" not in e.value.message and "{" not in e.value.message
+
+
+def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services, platform):  # noqa: F811
+    """A score, a line item or the members at another origin (another port of loopback here) are refused before
+    anything is sent: no access token is even asked for."""
+    from lti_platform import LoopbackServer
+
+    seen = []
+
+    async def elsewhere(scope, receive, send):  # an ASGI app that records what comes
+        if scope["type"] == "http":
+            seen.append(scope["path"])
+            await send({"type": "http.response.start", "status": 204, "headers": []})
+            await send({"type": "http.response.body", "body": b""})
+
+    with LoopbackServer(elsewhere) as other:
+        p = platform.registered
+        calls = (
+            lambda: services.post_score(p, f"{other.url}/lineitems/li-1", score("s", 1, 2, 0.0)),
+            lambda: services.line_items(p, f"{other.url}/lineitems"),
+            lambda: services.members(p, f"{other.url}/memberships/course-1"),
+        )
+        for call in calls:
+            with pytest.raises(ServiceError) as e:
+                call()
+            assert "not at the platform's registered addresses" in e.value.message and platform.url in e.value.message
+    assert seen == [] and platform.token_requests == []

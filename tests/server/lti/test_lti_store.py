@@ -45,7 +45,7 @@ def test_lti_store_http_is_allowed_on_loopback_only(tmp_path):
     store = LtiStore(tmp_path)
     for host in ("127.0.0.1:8001", "localhost", "[::1]:9000", "127.9.9.9"):
         urls = {k: f"http://{host}/{k}" for k in ("issuer", "auth_url", "token_url", "jwks_url")}
-        store.register(**urls, client_id="c", deployment_ids=["d"])
+        store.register(**urls, client_id="c", deployment_ids=["d"], allow_private=True)  # (a test platform)
     with pytest.raises(Invalid) as e:
         store.register(**{**CANVAS, "client_id": " "}, deployment_ids=[""])
     assert [x["path"] for x in e.value.errors] == ["client_id", "deployment_ids[0]"]
@@ -84,3 +84,49 @@ def test_lti_store_origins_seen_are_kept_once_and_bounded(tmp_path):
     assert len(store.origins_seen()) == 20 and "https://school.example.edu" in store.origins_seen()
     store.remove(pid)
     assert store.origins_seen() == []
+
+
+@pytest.mark.parametrize(
+    "host",
+    ["127.0.0.1:8001", "localhost", "[::1]", "10.1.2.3", "192.168.0.10", "172.16.5.5", "169.254.169.254",
+     "[fe80::1]", "[fd00::5]", "0.0.0.0", "[::ffff:10.0.0.1]", "tool.localhost"],
+)  # fmt: skip
+def test_lti_store_a_private_address_needs_allow_private(tmp_path, host):
+    """Loopback, link-local (the cloud's metadata address) and private addresses are refused, naming each field,
+    unless the registration allows them (a test platform, an LMS on the school's own network)."""
+    store = LtiStore(tmp_path)
+    scheme = "http" if host in ("127.0.0.1:8001", "localhost", "[::1]", "tool.localhost") else "https"
+    urls = {k: f"{scheme}://{host}/{k}" for k in ("issuer", "auth_url", "token_url", "jwks_url")}
+    with pytest.raises(Invalid) as e:
+        store.register(**urls, client_id="c", deployment_ids=["d"])
+    assert [x["path"] for x in e.value.errors] == ["issuer", "auth_url", "token_url", "jwks_url"]
+    assert all("--allow-private" in x["message"] for x in e.value.errors), e.value.errors
+    assert store.register(**urls, client_id="c", deployment_ids=["d"], allow_private=True)["issuer"] == urls["issuer"]
+    with pytest.raises(Invalid) as e:  # a further service origin is held to the same rule
+        store.register(**CANVAS, deployment_ids=["1"], service_origins=[f"https://{host}"])
+    assert [x["path"] for x in e.value.errors] == ["service_origins[0]"]
+
+
+def test_lti_store_logins_are_capped_per_address_and_in_all_and_kept_ten_minutes(tmp_path, monkeypatch):
+    """A login writes a row: at most MAX_LOGINS_PER_ADDRESS in flight from one address and MAX_LOGINS in all
+    (TooManyLogins with the seconds until the oldest is pruned), each pruned 10 minutes after it was made."""
+    from server.lti import store as lti_store
+
+    monkeypatch.setattr(lti_store, "MAX_LOGINS_PER_ADDRESS", 3)
+    monkeypatch.setattr(lti_store, "MAX_LOGINS", 5)
+    store = LtiStore(tmp_path)
+    pid = store.register(**CANVAS, deployment_ids=["1"])["id"]
+    states = [store.new_login(pid, "t", now=100.0 + i, address="192.0.2.1")[0] for i in range(3)]
+    with pytest.raises(lti_store.TooManyLogins) as e:
+        store.new_login(pid, "t", now=110.0, address="192.0.2.1")
+    assert e.value.retry_after == 591 and "192.0.2.1" not in e.value.message  # the oldest goes at 100 + 600
+    store.new_login(pid, "t", now=110.0, address="192.0.2.2")
+    store.new_login(pid, "t", now=111.0, address="192.0.2.3")
+    with pytest.raises(lti_store.TooManyLogins):  # five in all
+        store.new_login(pid, "t", now=112.0, address="192.0.2.4")
+    assert store.take_login(states[0], now=120.0) is not None  # a launch takes one: room again
+    store.new_login(pid, "t", now=121.0, address="192.0.2.1")
+    assert store.db.execute("SELECT COUNT(*) FROM lti_logins").fetchone()[0] == 5
+    store.new_login(pid, "t", now=100.0 + 2 + 601, address="192.0.2.9")  # those of 100..102 s pruned at 702..
+    assert store.db.execute("SELECT COUNT(*) FROM lti_logins").fetchone()[0] == 4
+    assert lti_store.LOGIN_KEEP == 600
