@@ -514,11 +514,16 @@ class Course:
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / f"{uuid.uuid4().hex}{SUFFIX[kind]}"
         path.write_bytes(data)
+        feedback = Feedback.model_validate(a["policy"]["feedback"])
+        assignment, now = self.spec(a["id"], a["version"]), self.now()
+        probes: dict = {}
         try:
             future = self.runs.pool.submit(
                 tasks.prepare_submission, json.dumps(a["spec"]), "check", kind, str(path), f"check{SUFFIX[kind]}"
             )
             result = future.result(timeout=CHECK_SECONDS)
+            if kind != "scene" and not result["prepared"]["report"]["errors"] and assignment.image_tests():
+                probes = self._check_probes(a, who, feedback, now, path, kind)
         except (BrokenProcessPool, TimeoutError):
             raise Unavailable(
                 [{"path": "", "message": "the check could not run now; try again"}], retry_after=5
@@ -526,8 +531,6 @@ class Course:
         finally:
             path.unlink(missing_ok=True)
         report = result["prepared"]["report"]
-        feedback = Feedback.model_validate(a["policy"]["feedback"])
-        assignment, now = self.spec(a["id"], a["version"]), self.now()
         keys = report_keys(assignment, kind)
         tests = []
         for key, t in zip(keys, report["tests"], strict=False):
@@ -547,7 +550,28 @@ class Course:
             "errors": report["errors"],
             "warnings": report["warnings"],
             "image_tests": list(assignment.image_tests()) if valid else [],
+            **probes,
         }
+
+    def _check_probes(self, a: dict, who: Who, feedback: Feedback, now: float, path: Path, kind: str) -> dict:
+        """An image's probes in the check (docs/own-tracer.md), as the policy shows the error map now: {"probes"},
+        {"probes_hidden": when}, or {"probes_pending": why} while the reference is not rendered yet."""
+        tests = self.spec(a["id"], a["version"]).image_tests()
+        if not all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests):
+            never = any(feedback.tests.get(k, feedback.default) == When.never for k in tests)
+            when = "never, for this assignment" if never else (
+                f"after your deadline, from {iso(self.deadlines(a, who.student)[1])}" if who.student
+                else "after the deadline")  # fmt: skip
+            return {"probes_hidden": f"the probe pixels are shown with the error map: {when}"}
+        folder = self.runs.folder(a["run_id"]) if a.get("run_id") else None
+        mean = next((r for r in self.runs.gs.renders(a["run_id"]) if r["key"] == "mean"), None) if folder else None
+        if mean is None or mean["status"] != "done" or not mean.get("job_id"):
+            return {"probes_pending": "the reference is still being rendered: the probes come with the check once "
+                    "it is done, and with your submission's feedback"}  # fmt: skip
+        exr = folder / "renders" / f"{mean['job_id']}.exr"
+        found = self.runs.pool.submit(tasks.probe_image, json.dumps(a["spec"]), str(exr), str(path), kind)
+        found = found.result(timeout=CHECK_SECONDS)
+        return {"probes": found["probes"]} if "probes" in found else {"probes_pending": found["error"]}
 
     def submissions(self, a: dict, student: str | None = None) -> list[dict]:
         """Submissions (one student's, or all), each `late` by the student's deadline as it is now: an

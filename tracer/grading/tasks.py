@@ -62,6 +62,26 @@ def reference_images(assignment: str, reference: dict) -> ReferenceImages | None
     )
 
 
+def probe_image(assignment: str, mean: str, path: str, kind: str) -> dict:
+    """The probes of a student's image (a check: nothing kept) against the reference mean (an EXR's path):
+    {"probes": [...]} or {"error": why} (a size that is not the reference's, a file that is not an image)."""
+    from tracer.grading import metrics
+    from tracer.grading.probes import find, flip_error
+    from tracer.grading.submission import decode_image
+
+    g = grader(assignment)
+    exposure = g.reference.exposure if g.reference is not None else 0.0
+    try:
+        image, encoding = decode_image(Path(path).read_bytes(), kind)
+        reference = _exr(mean)
+        metrics.same_size(reference, image)
+    except metrics.GradingError as e:
+        return {"error": str(e)}
+    shown = metrics.display(image, exposure) if encoding.linear else image
+    listed = [p.model_dump() for p in g.assignment.reference.probes] if g.assignment.reference else []
+    return {"probes": [p.to_json() for p in find(flip_error(metrics.display(reference, exposure), shown), listed)]}
+
+
 def rendered(render: dict | None) -> Rendered | None:
     """{"image": path, "spp": n, "seconds": s} or {"error": why} (None: no render) -> a Rendered."""
     from tracer.rendering.film import read_exr

@@ -226,6 +226,9 @@ def test_own_trees_who_may_and_when(app, graded, ex, tmp_path):
     feedback = app.get(f"/api/assignments/{aid}/submissions/{sid}", headers=bearer(tok["s3"])).json()["feedback"]
     assert "probes" not in feedback
     assert "after your deadline" in feedback["probes_hidden"], feedback
+    r = app.post(f"/api/assignments/{aid}/check", json={"image": png_of(rendered()), "format": "png"},
+                 headers=bearer(tok["s3"]))  # fmt: skip
+    assert "probes" not in r.json() and "after your deadline" in r.json()["probes_hidden"], r.json()
 
 
 def test_own_trees_the_check_compares_a_log_and_keeps_nothing(app, graded, ex):
@@ -234,9 +237,16 @@ def test_own_trees_the_check_compares_a_log_and_keeps_nothing(app, graded, ex):
     body = {"image": png_of(rendered()), "format": "png", "trees": log}
     r = app.post(f"/api/assignments/{graded['aid']}/check", json=body, headers=bearer(graded["tok"]["s1"]))
     assert r.status_code == 200, r.text
+    assert r.json()["probes"] == [{"x": 3, "y": 20, "why": "floor"}], r.json()  # the spec's own: nothing differs
     trees = r.json()["trees"]
     assert trees[0]["matches"] is True
     assert trees[1]["differences"][0]["what"] == "eye_ray" and "lookfrom" in trees[1]["differences"][0]["message"]
+    dark = rendered()
+    dark[10:20, 20:30] *= 0.2
+    r = app.post(f"/api/assignments/{graded['aid']}/check", json={"image": png_of(dark), "format": "png"},
+                 headers=bearer(graded["tok"]["s1"]))  # fmt: skip
+    found = r.json()["probes"][1:]
+    assert found and 20 <= found[0]["x"] < 30 and 10 <= found[0]["y"] < 20, r.json()
     r = app.post(f"/api/assignments/{graded['aid']}/check", json={"scene": REFERENCE, "trees": log},
                  headers=bearer(graded["tok"]["s1"]))  # fmt: skip
     assert r.status_code == 422 and r.json()["errors"][0]["path"] == "trees", r.text
