@@ -556,13 +556,8 @@ class Course:
     def _check_probes(self, a: dict, who: Who, feedback: Feedback, now: float, path: Path, kind: str) -> dict:
         """An image's probes in the check (docs/own-tracer.md), as the policy shows the error map now: {"probes"},
         {"probes_hidden": when}, or {"probes_pending": why} while the reference is not rendered yet."""
-        tests = self.spec(a["id"], a["version"]).image_tests()
-        if not all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests):
-            never = any(feedback.tests.get(k, feedback.default) == When.never for k in tests)
-            when = "never, for this assignment" if never else (
-                f"after your deadline, from {iso(self.deadlines(a, who.student)[1])}" if who.student
-                else "after the deadline")  # fmt: skip
-            return {"probes_hidden": f"the probe pixels are shown with the error map: {when}"}
+        if not self._map_shown(a, a["version"], who, feedback, now):
+            return {"probes_hidden": self._probes_hidden(a, who, feedback)}
         folder = self.runs.folder(a["run_id"]) if a.get("run_id") else None
         mean = next((r for r in self.runs.gs.renders(a["run_id"]) if r["key"] == "mean"), None) if folder else None
         if mean is None or mean["status"] != "done" or not mean.get("job_id"):
@@ -743,8 +738,7 @@ class Course:
         feedback = Feedback.model_validate(a["policy"]["feedback"])
         now = self.now()
         names = ["render.png"]
-        tests = self.spec(a["id"], sub["version"]).image_tests()
-        if all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests):
+        if self._map_shown(a, sub["version"], who, feedback, now):
             names += ["error_map.png", "rejected.png"]
         if who.instructor or a["policy"]["show_reference"]:
             names.append("reference.png")
@@ -775,17 +769,25 @@ class Course:
         if probes is not None and not hidden_image:  # shown with the error map (docs/own-tracer.md)
             out["probes"] = probes
         elif probes is not None:
-            out["probes_hidden"] = (
-                "the probe pixels are shown with the error map: "
-                + ("never, for this assignment" if self._image_feedback_never(a, feedback)
-                   else f"after your deadline, from {iso(self.deadlines(a, who.student)[1])}" if who.student
-                   else "after the deadline")
-            )  # fmt: skip
+            out["probes_hidden"] = self._probes_hidden(a, who, feedback)
         return out
 
-    def _image_feedback_never(self, a: dict, feedback: Feedback) -> bool:
+    def _map_shown(self, a: dict, version: int, who: Who, feedback: Feedback, now: float) -> bool:
+        """Whether the error map (and the rejected pixels, the probes) is shown to the caller now: every image
+        test's feedback shown."""
+        tests = self.spec(a["id"], version).image_tests()
+        return all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests)
+
+    def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str:
+        """When the probe pixels appear, for a student to whom the error map is hidden now."""
         tests = self.spec(a["id"], a["version"]).image_tests()
-        return any(feedback.tests.get(k, feedback.default) == When.never for k in tests)
+        if any(feedback.tests.get(k, feedback.default) == When.never for k in tests):
+            when = "never, for this assignment"
+        elif who.student:
+            when = f"after your deadline, from {iso(self.deadlines(a, who.student)[1])}"
+        else:
+            when = "after the deadline"
+        return f"the probe pixels are shown with the error map: {when}"
 
     def counting(self, a: dict, subs: list[dict]) -> dict | None:
         """The submission that is the grade: the last graded one, or the best (by the share of its points
