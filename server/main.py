@@ -190,8 +190,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
+    app.include_router(own_trees.router)  # a tree log compared (docs/own-tracer.md); before .../{sid}/{name}
     app.include_router(assignments.router)
-    app.include_router(own_trees.router)  # a student tracer's tree log, compared (docs/own-tracer.md)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

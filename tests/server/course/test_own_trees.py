@@ -184,6 +184,14 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     first = t["differences"][0]
     assert first["what"] == "eye_ray" and first["student"] == 0 and first["reference"] == 0
     assert "corner" in first["message"] and "(x + 0.5, y + 0.5)" in first["message"], first["message"]
+    # the latest comparison is kept: the student and the staff read it again, and the dashboard counts it
+    url = f"/api/assignments/{graded['aid']}/submissions/{graded['right']}/trees"
+    for token in (graded["tok"]["s1"], INSTRUCTOR):
+        again = app.get(url, headers=bearer(token))
+        assert again.status_code == 200 and again.json()["trees"][1]["differences"][0]["what"] == "eye_ray"
+    assert app.get(url, headers=bearer(graded["tok"]["s2"])).status_code == 404
+    board = app.get(f"/api/assignments/{graded['aid']}/dashboard", headers=bearer(INSTRUCTOR)).json()
+    assert board["tree_whats"] == {"eye_ray": 1}, board["tree_whats"]
 
 
 def test_own_trees_a_bad_log_is_a_422_with_every_error_at_its_path(app, graded, ex):
