@@ -65,7 +65,10 @@ def test_integrators_share_their_kernels_where_the_table_says():
 
 
 def test_integrators_trace_with_one_signature():
-    traces = {m: importlib.import_module(f"tracer.integrators.{m}").trace for m in dispatch.KERNEL_MODULES}
+    """Every integrator's `trace`, and whitted_simple's (Whitted in lecture size, in no table), which
+    dispatch.make_kernels makes kernels of the same way."""
+    modules = (*dispatch.KERNEL_MODULES, "whitted_simple")
+    traces = {m: importlib.import_module(f"tracer.integrators.{m}").trace for m in modules}
     signatures = {
         m: [(k, getattr(t, "__name__", repr(t))) for k, t in f.input_types.items()] for m, f in traces.items()
     }

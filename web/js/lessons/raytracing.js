@@ -4,6 +4,8 @@ import { eachMaterial, reference, values } from "./helpers.js";
 
 const GLASS_PIXEL = [110, 70]; // on the glass ball of `whitted` at 160 x 120 (the lessons' size)
 const QUESTION_DEPTH = 3; // the ray tree question's max_depth, where the left picture's slider starts
+// "read the code": the Whitted integrator in lecture size (tracer/integrators/whitted_simple.py), as docs/renderer.md presents it
+const WHITTED_CODE = ["read the code: Whitted in lecture size", "/reference/renderer.md#whitted-in-lecture-size"];
 
 export const RAY_TRACING = [
   {
@@ -12,7 +14,7 @@ export const RAY_TRACING = [
     scene: "whitted",
     set: { "sampler.type": "jittered", "sampler.spp": 4 },
     text: "Each eye ray that hits a mirror or glass spawns a reflection ray and a transmission ray, and those spawn their own: a ray tree. A branch ends where its ray leaves the scene, or where it is cut: at max_depth, or where its contribution to the pixel, the product of the K's (kr, kt) along the way, falls below min_weight. Cutting by depth stops every branch at the same generation, bright or faint; cutting by weight stops faint branches early and lets the bright ones (a mirror seen in a mirror) go deep. Compare the pictures and what each cost in rays.",
-    more: [reference("the ray tree", "the-ray-tree"), reference("why a ray ends", "why-a-ray-ends"), reference("reflection and transmission rays", "reflection-and-transmission-rays")],
+    more: [reference("the ray tree", "the-ray-tree"), reference("why a ray ends", "why-a-ray-ends"), reference("reflection and transmission rays", "reflection-and-transmission-rays"), WHITTED_CODE],
     controls: [
       { key: "depth", label: "max_depth (left)", kind: "range", min: 1, max: 10, step: 1, value: QUESTION_DEPTH, panels: [0], path: "render.max_depth" },
       { key: "weight", label: "min_weight (right)", kind: "select", choices: values(0.001, 0.05, 0.2, 0.5, 0.9), value: 0.2, panels: [1], path: "render.min_weight" },
