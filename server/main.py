@@ -188,8 +188,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
+    # a student tracer's tree log, compared (docs/own-tracer.md): before assignments' GET .../{sid}/{name} (a
+    # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
+    app.include_router(own_trees.router)
     app.include_router(assignments.router)
-    app.include_router(own_trees.router)  # a student tracer's tree log, compared (docs/own-tracer.md)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

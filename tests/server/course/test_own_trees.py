@@ -172,6 +172,9 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     assert [t["matches"] for t in answer["trees"]] == [True] * len(PIXELS), answer["trees"][0]["differences"]
     # the reference's trees are the kernels' own (the same as the library's)
     assert answer["trees"][0]["reference"]["color"] == ex.reference_tree(*PIXELS[0])["color"]
+    # the scene they were traced in, for the page's overlay and 3D views (its camera and objects)
+    assert answer["scene"]["camera"]["lookfrom"] == REFERENCE["camera"]["lookfrom"]
+    assert [o["name"] for o in answer["scene"]["objects"]] == [o["name"] for o in REFERENCE["objects"]]
     bad = copy.deepcopy(log)
     x, y = PIXELS[1]
     forward, right, up, h, aspect = ex.camera_frame()
@@ -184,6 +187,10 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     first = t["differences"][0]
     assert first["what"] == "eye_ray" and first["student"] == 0 and first["reference"] == 0
     assert "corner" in first["message"] and "(x + 0.5, y + 0.5)" in first["message"], first["message"]
+    # the latest answer is kept: its student and the staff read it again (the instructor's view on /course)
+    for who in (graded["tok"]["s1"], INSTRUCTOR):
+        kept = app.get(f"/api/assignments/{graded['aid']}/submissions/{graded['right']}/trees", headers=bearer(who))
+        assert kept.status_code == 200 and kept.json() == r.json(), kept.text
 
 
 def test_own_trees_a_bad_log_is_a_422_with_every_error_at_its_path(app, graded, ex):
@@ -216,7 +223,7 @@ def test_own_trees_who_may_and_when(app, graded, ex, tmp_path):
     r = post_trees(app, graded, graded["scene"], log, graded["tok"]["s2"])
     assert r.status_code == 409 and "scene" in r.json()["errors"][0]["message"], r.text
     # an assignment that shows the image tests only after the deadline: no trees and no probes yet
-    aid = publish(app, feedback={"default": "always", "tests": {"flip": "after_deadline"}})
+    aid = publish(app, feedback={"default": "now", "tests": {"flip": "after_deadline"}})
     tok = roster(app, aid, "s3")
     sid = submit(app, aid, tok["s3"], {"image": png_of(rendered()), "format": "png"})
     url = f"/api/assignments/{aid}/submissions/{sid}/trees"
