@@ -182,6 +182,8 @@ def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, ser
         assert seen["verdict"] == "3 trees compared: 1 differs from the reference's (first differences: eye ray).", seen
         assert [b["pressed"] for b in seen["buttons"]] == ["false", "true", "false"], seen["buttons"]
         assert [b["what"] for b in seen["buttons"]] == ["none", "eye_ray", "none"], seen["buttons"]
+        texts = [b["text"] for b in seen["buttons"]]
+        assert texts == ["✓(12, 12) matches", "✗(24, 14): eye ray", "✓(3, 20) matches"], texts  # ✓ ✗ aria-hidden
         assert seen["at"] == [x, y] and seen["title"] == f"Ray trees at pixel ({x}, {y}) · the red ball", seen
         assert seen["what"] == "eye_ray" and "corner" in seen["message"] and "(x + 0.5, y + 0.5)" in seen["message"]
         mine, ref = seen["sides"]
@@ -209,6 +211,14 @@ def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, ser
         again = page.evaluate(SIDES, f"#tl-{sid}-result")
         assert again["what"] == "none" and "matches the reference's" in again["message"], again
         assert all(s["differs"] == [] for s in again["sides"]), again["sides"]
+
+        # on a phone: the two trees one above the other, within the page's width
+        page.set_viewport_size({"width": 390, "height": 844})
+        page.wait_for_function("() => document.documentElement.scrollWidth <= 390")
+        narrow = page.evaluate(SIDES, f"#tl-{sid}-result")
+        assert narrow["top"][1] > narrow["top"][0], narrow["top"]
+        page.locator(f"#tl-{sid}-result").screenshot(path=str(SHOTS / "own-tracer-phone.png"))
+        page.set_viewport_size(DESKTOP)
 
         # a bad log: nothing compared, every error at its path
         bad = copy.deepcopy(log)

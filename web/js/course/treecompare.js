@@ -74,6 +74,8 @@ export function studentTree(tree, reference, scene = null) {
   return { ...tree, color: tree.color ?? null, nodes: tree.nodes.map((n) => ({ ...n, depth: depths.get(n.id), hit: named(n) })) };
 }
 
+const shownPictures = new WeakMap(); // container -> the object URLs of its answer's two pictures
+
 /** The object URL of a picture that needs the token (null when it cannot be read). */
 async function picture(url, auth) {
   if (!url) return null;
@@ -170,14 +172,15 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
   root.append(said, picker, body);
   container.replaceChildren(root);
   const pictures = Promise.all([picture(images.student, auth), picture(images.reference, auth)]);
+  for (const url of shownPictures.get(container) || []) if (url) URL.revokeObjectURL(url); // the last answer's
+  pictures.then((urls) => shownPictures.set(container, urls));
   const buttons = trees.map((t, i) => {
     const d = t.differences[0];
     const b = h(
       "button",
       { type: "button", class: `small tl-pixel-button ${t.matches ? "same" : "differs"}`, "aria-pressed": "false", dataset: { i, what: d ? d.what : "none" }, onclick: () => select(i) },
-      h("span", { "aria-hidden": "true" }, t.matches ? "✓ " : "✗ "),
-      `(${t.pixel[0]}, ${t.pixel[1]})`,
-      h("span", { class: "tl-pixel-what" }, t.matches ? " matches" : `: ${whatWords(d.what)}`),
+      h("span", { "aria-hidden": "true" }, t.matches ? "✓" : "✗"),
+      `(${t.pixel[0]}, ${t.pixel[1]})${t.matches ? " matches" : `: ${whatWords(d.what)}`}`,
     );
     return b;
   });
