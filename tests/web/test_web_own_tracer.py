@@ -64,6 +64,8 @@ def publish(srv) -> dict:
     r = httpx.post(f"{srv.url}/api/assignments", json=body, headers=TEACHER, timeout=60)
     assert r.status_code == 201, r.text
     aid = r.json()["id"]
+    ready = lambda: httpx.get(f"{srv.url}/api/assignments/{aid}/reference.png", headers=TEACHER, timeout=30)  # noqa: E731
+    wait_for(lambda: ready().status_code == 200, 120, "the reference rendered", interval=0.2)
     r = httpx.post(f"{srv.url}/api/assignments/{aid}/roster", content="id,name,email\ns1,Sam Own,\n",
                    headers={**TEACHER, "Content-Type": "text/csv"}, timeout=30)  # fmt: skip
     assert r.status_code == 200, r.text
@@ -154,7 +156,16 @@ def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, ser
     me.allow.append(NOT_FOUND_OR_BAD)  # the bad log's 422, said on the page
     try:
         page = me.page
+        # the reference image not ready at the first load (404): said, and shown once the brief is read again
+        first = []
+        page.route(
+            f"**/api/assignments/{aid}/reference.png",
+            lambda route: (
+                route.fulfill(status=404, body="{}") if not first.append(1) and len(first) == 1 else route.continue_()
+            ),
+        )
         page.goto(who["link"])
+        page.wait_for_function("() => document.querySelector('#a-reference-fig').textContent.includes('not ready yet')")
         page.wait_for_selector("body[data-ready=true]", state="attached")
         page.check("#a-kind-image")
         page.set_input_files("#a-image", str(tmp_path / "mine.png"))
@@ -162,6 +173,8 @@ def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, ser
         page.click("#a-submit")
         page.wait_for_selector("#a-sub-list li.a-sub")
         sid = page.get_attribute("#a-sub-list li.a-sub", "data-id")
+        page.wait_for_function("() => document.querySelector('#a-reference')?.naturalWidth > 0")  # the brief again
+        assert "not ready yet" not in page.text_content("#a-reference-fig")
         page.wait_for_selector(f"#tl-{sid}-probes li", timeout=120_000)  # graded: its probes listed
 
         # the probes: the spec's own, each with why, and as a list to paste into a tracer
