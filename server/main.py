@@ -190,7 +190,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
-    app.include_router(own_trees.router)  # a tree log compared (docs/own-tracer.md); before .../{sid}/{name}
+    # a student tracer's tree log, compared (docs/own-tracer.md): before assignments' GET .../{sid}/{name} (a
+    # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
+    app.include_router(own_trees.router)
     app.include_router(assignments.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/

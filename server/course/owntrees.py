@@ -131,8 +131,9 @@ async def compare_log(
     body: bytes, max_trees: int, gone: Callable[[], Awaitable[bool]],
 ) -> dict:  # fmt: skip
     """The route's answer: {submission, width, height, trees: [{pixel, matches, differences, student,
-    reference}]} (404 as for any submission; 409 for a scene or an ungraded one; 403 while the error map is
-    hidden; 422 for a bad log)."""
+    reference}], scene} (404 as for any submission; 409 for a scene or an ungraded one; 403 while the error map
+    is hidden; 422 for a bad log). `scene` is the reference scene the trees were traced in (the student renders
+    it anyway): the page draws both trees over the images and in 3D with its camera and objects."""
     a, who = await anyio.to_thread.run_sync(course.who, aid, caller)
     sub = await anyio.to_thread.run_sync(course.submission, a, sid)
     if sub is None or not (who.instructor or sub["student"] == who.student["student"]):
@@ -153,7 +154,7 @@ async def compare_log(
         answers = Explainer(scene, reference, device=None).compare(log, shown, trees)
         film = scene.get("film", {})
         out = {"submission": sid, "width": film.get("width", 256), "height": film.get("height", 256),
-               "trees": answers}  # fmt: skip
+               "trees": answers, "scene": scene}  # fmt: skip
         if folder is not None and folder.is_dir():  # the latest answer, for the staff and the dashboard
             write_atomic(folder / ANSWER, lambda tmp: tmp.write_bytes(json.dumps(out).encode()))
         return out

@@ -172,6 +172,9 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     assert [t["matches"] for t in answer["trees"]] == [True] * len(PIXELS), answer["trees"][0]["differences"]
     # the reference's trees are the kernels' own (the same as the library's)
     assert answer["trees"][0]["reference"]["color"] == ex.reference_tree(*PIXELS[0])["color"]
+    # the scene they were traced in, for the page's overlay and 3D views (its camera and objects)
+    assert answer["scene"]["camera"]["lookfrom"] == REFERENCE["camera"]["lookfrom"]
+    assert [o["name"] for o in answer["scene"]["objects"]] == [o["name"] for o in REFERENCE["objects"]]
     bad = copy.deepcopy(log)
     x, y = PIXELS[1]
     forward, right, up, h, aspect = ex.camera_frame()
@@ -186,9 +189,9 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     assert "corner" in first["message"] and "(x + 0.5, y + 0.5)" in first["message"], first["message"]
     # the latest comparison is kept: the student and the staff read it again, and the dashboard counts it
     url = f"/api/assignments/{graded['aid']}/submissions/{graded['right']}/trees"
-    for token in (graded["tok"]["s1"], INSTRUCTOR):
+    for token in (graded["tok"]["s1"], INSTRUCTOR):  # the instructor's view on /course reads it
         again = app.get(url, headers=bearer(token))
-        assert again.status_code == 200 and again.json()["trees"][1]["differences"][0]["what"] == "eye_ray"
+        assert again.status_code == 200 and again.json() == r.json(), again.text
     assert app.get(url, headers=bearer(graded["tok"]["s2"])).status_code == 404
     board = app.get(f"/api/assignments/{graded['aid']}/dashboard", headers=bearer(INSTRUCTOR)).json()
     assert board["tree_whats"] == {"eye_ray": 1}, board["tree_whats"]

@@ -113,10 +113,15 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   $("#a-limits", root).replaceChildren(...kv.map(([k, v]) => h("div", {}, h("dt", {}, k), h("dd", {}, String(v)))));
 
   const fig = $("#a-reference-fig", root);
+  const img = $("#a-reference", root); // kept in the figure: the brief is shown again (refreshBrief) with it
+  $("#a-reference-wait", fig)?.remove();
   if (brief.reference_image) {
     fig.hidden = false;
-    showImage($("#a-reference", root), brief.reference_image, { token }).then((ok) => {
-      if (!ok) fig.replaceChildren(h("p", { class: "hint" }, "The reference image is not ready yet (it is being rendered): reload the page in a moment."));
+    img.hidden = false;
+    showImage(img, brief.reference_image, { token }).then((ok) => {
+      if (ok || $("#a-reference-wait", fig)) return;
+      img.hidden = true;
+      fig.prepend(h("p", { class: "hint", id: "a-reference-wait" }, "The reference image is not ready yet (it is being rendered): reload the page in a moment."));
     });
   } else fig.hidden = true;
 

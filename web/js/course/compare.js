@@ -30,7 +30,7 @@ const SIDES = {
  * instructor, the same sentence about the student ("The student's eye ray hits…"). */
 export function inWordsOf(as, message) {
   if (as !== "instructor") return message;
-  return message.replace(/\bYour\b/g, "The student's").replace(/\byours\b/g, "the student's").replace(/\byour\b/g, "the student's");
+  return message.replace(/\bYours\b/g, "The student's").replace(/\bYour\b/g, "The student's").replace(/\byours\b/g, "the student's").replace(/\byour\b/g, "the student's");
 }
 
 /** The diagram's model of a tree (diagram.js): its nodes, each node's children in id order, the root. */
@@ -73,8 +73,9 @@ function side(name, title, tree, marked) {
   return { section, box, words, title, model, marked };
 }
 
-/** Mark the differing node of a drawn side (its box and the edge into it) and say so in its label. */
-function mark(view, what) {
+/** Mark the differing node of a drawn side (its box and the edge into it) and say so in its label. `view`:
+ * {box (the diagram's container), marked (the node)}; the tree-log view (treecompare.js) marks its sides so too. */
+export function mark(view, what) {
   const n = view.marked;
   if (!n) return null;
   const g = view.box.querySelector(`g.rt-node[data-id="${n.id}"]`);

@@ -2,10 +2,13 @@
 // as its name, its points and when it will be shown), an invalid submission's errors at their JSON paths, the
 // metrics against the noise baseline, and its pictures (render, difference map, rejected pixels, reference).
 // A pixel of a scene submission's difference map, clicked (or chosen with the keyboard), shows the student's
-// ray tree beside the reference's at that pixel (compare.js, loaded at the first click).
+// ray tree beside the reference's at that pixel (compare.js, loaded at the first click). A graded image from
+// the student's own tracer lists its probe pixels and takes their tracer's tree log (owntracer.js), or says
+// when the probes appear (`probes_hidden`).
 import { showImage } from "../api.js";
 import { h, num } from "../util.js";
 import { pts } from "./brief.js";
+import { treeLogSection } from "./owntracer.js";
 
 const PICTURES = [
   ["render.png", (sub) => (sub.kind === "scene" ? "your scene, rendered at the assignment's settings" : "your image")],
@@ -121,6 +124,10 @@ export function showFeedback(root, sub, ctx) {
         ),
       );
     }
+  }
+  if (sub.kind !== "scene" && sub.status === "graded") {
+    if (Array.isArray(fb?.probes)) parts.push(treeLogSection(sub, ctx));
+    else if (fb?.probes_hidden) parts.push(h("p", { class: "hint tl-hidden" }, `Your own tracer's ray trees against the reference's: ${fb.probes_hidden}.`));
   }
   if (fb?.tests?.length) {
     const list = h("ol", { class: "grade-tests a-tests" }, fb.tests.map(testItem));

@@ -2,8 +2,9 @@
 // (shown this once), the roster against each student's state (GET .../dashboard: one answer for the whole
 // class, asked again every few seconds while the page is shown, so it fills live while a class submits),
 // the distribution of the scores, a student's detail (their history with feedback and pictures, an
-// extension, a replaced link), the versions with the form that publishes a new one (and regrades), and
-// the exports. Pictures and files are fetched with the instructor's header and shown as blob: URLs.
+// extension, a replaced link, the latest comparison of an own tracer's tree log: treecompare.js), the class's
+// first differences in those logs (a bar chart), the versions with the form that publishes a new one (and
+// regrades), and the exports. Pictures and files are fetched with the instructor's header and shown as blob: URLs.
 import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
@@ -174,7 +175,16 @@ export class Board {
     this.detail = h("section", { class: "panel grade-detail board-detail", id: "student-detail", "aria-labelledby": "h-student", hidden: true });
     this.versions = h("section", { class: "panel board-versions", "aria-labelledby": "h-versions" });
     this.renderVersions();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, this.versions);
+    // own tracers: what the class's tree logs get wrong first (GET .../dashboard `tree_whats`)
+    this.whats = h("div", { id: "whats" });
+    const whats = h(
+      "section",
+      { class: "panel board-whats", "aria-labelledby": "h-whats" },
+      h("div", { class: "panel-head" }, h("h2", { id: "h-whats" }, "Own tracers: first differences")),
+      h("p", { class: "hint" }, "For each student's latest tree log, each tree's first difference from the reference's, by what differs (the most frequent first): what the class gets wrong most."),
+      this.whats,
+    );
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.versions);
   }
 
   renderHead() {
@@ -260,6 +270,17 @@ export class Board {
     );
     this.renderLms();
     this.renderHistogram();
+    this.renderWhats();
+  }
+
+  /** The class's first differences by `what` (treecompare.js whatChart), drawn again only when they change. */
+  async renderWhats() {
+    const counts = this.data.tree_whats || {};
+    const sig = JSON.stringify(counts);
+    if (sig === this.whatsSig) return;
+    this.whatsSig = sig;
+    const { whatChart } = await import("./treecompare.js");
+    this.whats.replaceChildren(whatChart(counts));
   }
 
   /** The course's LMS, when it has one: its roster's last reading, and why grades wait (the LMS's last answer). */
@@ -609,6 +630,33 @@ export class Board {
     }
   }
 
+  /** An image submission's latest tree log comparison (GET .../trees), shown on demand as the student saw it,
+   * in the instructor's words (treecompare.js). */
+  treesButton(sub, n) {
+    const box = h("div", { class: "tl-box", dataset: { sid: sub.id } });
+    const button = h("button", { type: "button", class: "small tl-open", "aria-expanded": "false", dataset: { sid: sub.id } }, "Their tree log comparison");
+    button.addEventListener("click", async () => {
+      if (button.getAttribute("aria-expanded") === "true") {
+        button.setAttribute("aria-expanded", "false");
+        return box.replaceChildren();
+      }
+      button.setAttribute("aria-expanded", "true");
+      box.replaceChildren(h("p", { class: "hint", role: "status" }, "Reading their latest comparison…"));
+      try {
+        const [answer, { showTreeAnswers }] = await Promise.all([course.trees(this.aid, sub.id), import("./treecompare.js")]);
+        box.replaceChildren(h("h4", {}, `Their tree log against the reference's (submission ${n})`));
+        const view = h("div", {});
+        box.append(view);
+        const files = sub.files || {};
+        showTreeAnswers(view, answer, { as: "instructor", images: { student: files["render.png"], reference: files["reference.png"] }, auth: AS, probes: sub.feedback?.probes || [] });
+      } catch (err) {
+        const none = err.status === 404;
+        box.replaceChildren(h("p", { class: none ? "hint" : "message", role: "status", dataset: { kind: none ? "" : "error" } }, none ? "They have not sent a tree log for this submission yet." : `Could not read their comparison: ${err.message}`));
+      }
+    });
+    return h("div", { class: "tl-instructor" }, button, box);
+  }
+
   closeStudent() {
     const sid = this.open_;
     this.open_ = null;
@@ -641,6 +689,7 @@ export class Board {
     });
     const problem = (e) => h("li", {}, h("code", {}, e.path || "(the submission)"), " ", e.message);
     const compare = h("div", { class: "compare-box", "aria-live": "polite" });
+    const trees = sub.kind !== "scene" && sub.status === "graded" ? this.treesButton(sub, n) : null;
     const figs = PICTURES.filter(([name]) => files[name]).map(([name, alt]) => {
       const img = h("img", { alt: `${alt} (submission ${n})` });
       showImage(img, files[name], AS);
@@ -676,6 +725,7 @@ export class Board {
       fb.warnings?.length ? h("div", { class: "message grade-problems", dataset: { kind: "warn" } }, h("strong", {}, "Warnings:"), h("ul", {}, fb.warnings.map(problem))) : null,
       figs.length ? h("div", { class: "grade-figs" }, figs) : null,
       compare,
+      trees,
       tests.length ? h("ol", { class: "grade-tests" }, tests) : sub.status === "queued" || sub.status === "grading" ? h("p", { class: "hint" }, `${sub.status === "queued" ? "Waiting to be graded" : "Being graded"}…`) : null,
     );
   }
