@@ -176,6 +176,27 @@ def test_deploy_each_start_command_is_a_real_command_that_parses(path, tmp_path)
         assert "a-password" not in done.stderr and "***" in done.stderr, done.stderr  # the URL's file was read
 
 
+def test_deploy_systemd_analyze_verify_finds_nothing_to_say(tmp_path):
+    """systemd's own check of the units (every key known, every value parsed, the timer's calendar), with their
+    folders moved into `tmp_path`: it warns on stderr (status 0) about what it ignores, so any output fails."""
+    analyze = shutil.which("systemd-analyze")
+    if analyze is None:
+        pytest.fail("systemd-analyze is missing: install Debian's systemd package (./dev test does it)")
+    m = Machine(tmp_path, token=secrets.token_urlsafe(32))
+    units = tmp_path / "units"
+    units.mkdir()
+    for path in [*SYSTEMD.glob("*.service"), *SYSTEMD.glob("*.timer")]:
+        (units / path.name).write_text(m.moved(path.read_text()))
+    files = sorted(str(p) for p in units.iterdir())
+    done = subprocess.run([analyze, "verify", "--man=no", *files], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and not done.stderr.strip() and not done.stdout.strip(), done.stderr + done.stdout
+    api = (units / "tracer-api.service").read_text()
+    (units / "tracer-api.service").write_text(api.replace("KillMode=control-group", "KillMode=group"))
+    bad = subprocess.run([analyze, "verify", "--man=no", str(units / "tracer-api.service")], capture_output=True,
+                         text=True, timeout=120)  # fmt: skip
+    assert "kill mode" in bad.stderr, bad.stderr  # the check does check
+
+
 def test_deploy_the_env_example_s_placeholder_token_stops_the_start(tmp_path):
     """Installed unchanged, the settings file keeps the API from starting (behind nginx on loopback a server
     without a token would make everyone the instructor): the message names the setting."""
