@@ -1,13 +1,15 @@
 """/course's layout once the admin has made a course and added staff (issue #42): the TA's link used to run on
 unbroken, widen the Courses panel and squeeze the Add-staff inputs to slivers over the Assignments column. At
 1280, 1024 and 390 px no element sticks out of its panel sideways, the page never scrolls sideways, the forms'
-inputs keep a usable width, and every link on the page wraps and has a Copy button that copies it. The new-course
-id's `pattern` is a regular expression Chromium accepts (it logged one it could not compile, and checked nothing):
-the page's console stays free of errors. Screenshots: $WEB_SHOTS/course-layout-*.png.
+inputs keep a usable width, and every link on the page wraps and has a Copy button that copies it (axe-core
+finds no serious violation). The new-course id's `pattern` is a regular expression Chromium accepts (it logged
+one it could not compile, and checked nothing): the page's console stays free of errors. Screenshots:
+$WEB_SHOTS/course-layout-*.png.
 """
 
 from __future__ import annotations
 
+from test_web_axe import assert_accessible
 from test_web_course_instructor import open_course
 from test_web_page import SHOTS, browser, server  # noqa: F401  (fixtures)
 
@@ -82,6 +84,7 @@ def test_web_course_layout_holds_after_add_staff_and_its_link_wraps_with_copy(br
         lines = page.evaluate("() => document.querySelector('#staff-link').getClientRects().length")
         assert lines >= (2 if width == 390 else 1), (width, lines)  # a token is one word: at 390 px it wraps
 
+    assert_accessible(page, "the courses panel with a new TA's link")  # (at 390 px)
     page.click("#staff-status button.copy")
     page.wait_for_function("() => document.querySelector('#staff-status button.copy').textContent === 'Copied'")
     assert page.evaluate("() => navigator.clipboard.readText()") == link
