@@ -1,7 +1,7 @@
 """A class submitting in the same second, on the default settings (issue #32, item 9; docs/service.md, "Sizing").
 
     python -m bench.burst [--students 300] [--addresses own|one] [--backend embedded|redis] [--hosts 2]
-        [--set NAME=VALUE ...] [--follow] [--json FILE]
+        [--set NAME=VALUE ...] [--follow] [--json [FILE]]
 
 The server is `python -m server` with nothing set but its instructor token (and a data directory): the
 defaults a deployer gets. The instructor publishes the repository's example assignment (bench/grading.py's)
@@ -18,8 +18,10 @@ then opens its connection and POSTs one submission (a copy of the example class'
   burst to the last student's feedback).
 
 It reports every answer's status (the point: no 429 and no 503), the submit latency (to the 202), and with
---follow when each student had their grade. Nothing here is a test; tests/server/test_burst.py asserts the
-answers at 300 on loopback. Every process started here is stopped by its PID (its process group) at the end.
+--follow when each student had their grade: a table (accepted, refused by status, p50/p99, graded within), or
+with `--json` the whole result as JSON instead (`--json FILE`: also written to FILE). Nothing here is a test;
+tests/server/test_burst.py asserts the answers at 300 on loopback. Every process started here is stopped by its
+PID (its process group) at the end.
 """
 
 from __future__ import annotations
@@ -176,6 +178,28 @@ def run(args, root: Path) -> dict:
         procs.stop()
 
 
+def summary(r: dict) -> str:
+    """The result as a table for a person: what was accepted, what was refused (by status; `none`: no answer),
+    the submit latency and, with --follow, when the class had its grades."""
+    ok = sum(n for code, n in r["codes"].items() if code in ("200", "202"))
+    refused = sorted((code, n) for code, n in r["codes"].items() if code not in ("200", "202"))
+    rows = [("students", f"{r['students']} ({r['what']}, {r['backend']} backend, addresses {r['addresses']})")]
+    rows.append(("accepted", f"{ok} of {r['students']}"))
+    rows += [(f"refused {'none' if code == 'None' else code}", str(n)) for code, n in refused]
+    rows += [("error", f"{n} x {text}") for text, n in r.get("errors", {}).items()]
+    lat = r["submit_latency_s"]
+    rows.append(("submit p50 / p99", f"{lat['p50']:.2f} / {lat['p99']:.2f} s" if lat.get("n") else "-"))
+    fb = r.get("feedback_s")
+    if fb:
+        graded = ", ".join(f"{n} {status}" for status, n in sorted(r.get("statuses", {}).items()))
+        rows.append(
+            ("graded within", f"p50 {fb['p50']:.1f} s, p99 {fb['p99']:.1f} s, last {fb['max']:.1f} s ({graded})")
+        )
+    rows.append(("took", f"{r['took_s']} s, load {' '.join(r['load_before'])} -> {' '.join(r['load_after'])}"))
+    width = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k.ljust(width)}  {v}" for k, v in rows)
+
+
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(prog="bench.burst", description=__doc__.split("\n\n")[0])
     p.add_argument("--students", type=int, default=300)
@@ -191,7 +215,13 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="a TRACER_ setting")
     p.add_argument("--follow", action="store_true", help="follow every submission to its final status")
     p.add_argument("--timeout", type=float, default=1800.0, help="seconds to wait for the clients")
-    p.add_argument("--json", help="write the results as JSON here")
+    p.add_argument(
+        "--json",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="print the results as JSON instead of the table (and write them to FILE if given)",
+    )
     p.add_argument("--logs", type=Path, help="keep the servers' logs in this folder")
     args = p.parse_args(argv)
     print(f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}", flush=True)
@@ -203,8 +233,11 @@ def main(argv: list[str] | None = None) -> dict:
                 args.logs.mkdir(parents=True, exist_ok=True)
                 for log in Path(tmp).glob("*.log"):
                     shutil.copy(log, args.logs / log.name)
+    if args.json is None:
+        print(summary(result))
+        return result
     print(json.dumps(result, indent=2))
-    if args.json:
+    if args.json != "-":
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
     return result
 

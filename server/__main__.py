@@ -1,5 +1,5 @@
 """python -m server [--host H] [--port P] [--data-dir DIR] [--workers N] [--redis URL | --redis-url-file PATH]
-[--settings FILE]
+[--settings FILE] [--check]
 
 and the data directory's upkeep (docs/service.md, "Backups and upgrades"):
 
@@ -70,8 +70,14 @@ def main(argv: list[str] | None = None) -> None:
         help="a file whose first line is the Redis URL, password included (or TRACER_REDIS_URL_FILE): unlike "
         "--redis, never shown by ps",
     )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="check the command line, the settings and the data directory, say what would start, and exit (0) "
+        "without serving: a unit's ExecStart with --check (deploy/)",
+    )
     args = p.parse_args(argv)
-    given = {k: v for k, v in vars(args).items() if k != "settings" and v is not None}
+    given = {k: v for k, v in vars(args).items() if k not in ("settings", "check") and v is not None}
     try:
         settings = load_settings(args.settings, **given)
     except ValidationError as exc:  # each setting by the name it was given (an option, or its TRACER_ variable)
@@ -81,6 +87,10 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     try:  # what is wrong with the data directory, and what to do: one message, no traceback, nothing changed
         check_data_dir(settings.data_dir)
+        if args.check:  # no lock (a running server holds it), no migration: nothing changed
+            log.info("check: would serve on http://%s:%d (data in %s; %s)", settings.host, settings.port,
+                     settings.data_dir, settings.processes_text())  # fmt: skip
+            return
         lock = lock_data_dir(settings.data_dir)
         migrate(settings.data_dir)  # here, for a clear message if it cannot (the lifespan finds it done)
     except StartupError as exc:

@@ -216,8 +216,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     # -- a lost link replaced: the old token stops working
     page.click("#roster-rows tr[data-student=s2]")
     page.click("#btn-new-link")
-    page.wait_for_selector("#new-link input")
-    new = urlparse(page.input_value("#new-link input")).fragment.removeprefix("token=")
+    page.wait_for_selector("#new-link .course-link button.copy")
+    new = urlparse(page.text_content("#new-link code")).fragment.removeprefix("token=")
     assert new and new != tok["s2"]
     assert httpx.get(f"{server.url}/api/assignments/{aid}", headers=bearer(tok["s2"]), timeout=30).status_code == 404
     assert httpx.get(f"{server.url}/api/assignments/{aid}", headers=bearer(new), timeout=30).status_code == 200

@@ -45,7 +45,7 @@ from rq.exceptions import StopRequested
 from rq.utils import now
 from rq.worker import WorkerStatus
 
-from server.core.settings import redis_url_from
+from server.core.settings import masked, redis_url_from
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Stop, TryEnd
 from server.queue.redis import events as ev
@@ -389,6 +389,12 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="run each try in this process, not in a forked work horse (always so on a CUDA device)",
     )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="check the command line and the Redis URL (its file read), say what would start, and exit (0) "
+        "without connecting: a unit's ExecStart with --check (deploy/)",
+    )
     args = p.parse_args(argv)  # an unknown device: "warp has no device cuda:0 here; available: cpu", exit 2
     try:  # the command line's, else the environment's; never both a URL and a file
         url = redis_url_from(
@@ -402,6 +408,9 @@ def main(argv: list[str] | None = None) -> int:
                 "TRACER_REDIS_URL_FILE)")  # fmt: skip
     device = args.device
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
+    if args.check:
+        log.info("check: would render on %s from %s, lanes %s", device, masked(url), " ".join(args.queues))
+        return 0
     faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
     cuda = is_cuda(device)
     worker_class = InProcessWorker if cuda or args.no_fork else HostWorker  # CUDA must not be forked

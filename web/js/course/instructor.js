@@ -7,7 +7,7 @@ import { tokens } from "../api.js";
 import { $, h } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { Board } from "./instructor_board.js";
-import { course, say, tokenProblem, when } from "./instructor_util.js";
+import { course, linkBox, say, tokenProblem, when } from "./instructor_util.js";
 
 const view = $("#course-view");
 
@@ -137,13 +137,13 @@ function staffForm(courses, admin) {
     e.preventDefault();
     try {
       const s = await course.addStaff(cid.value, { id: pid.value.trim(), name: name.value.trim(), role: role.value });
-      out.replaceChildren(`${s.name} is ${s.role === "ta" ? "a TA" : "an instructor"} of ${cid.value}. Send them this link (it carries their token): `, h("code", { id: "staff-link" }, s.link));
+      out.replaceChildren(`${s.name} is ${s.role === "ta" ? "a TA" : "an instructor"} of ${cid.value}. Send them this link (it carries their token): `, linkBox(s.link, { id: "staff-link", label: `Copy ${s.name}'s link` }));
     } catch (err) {
       out.textContent = `Not added: ${err.message}`;
     }
   });
   if (!admin) return form;
-  const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_-]*" });
+  const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_\\-]*" }); // the server's COURSE_ID; `-` escaped: Chromium compiles it with the v flag
   const nname = h("input", { id: "new-course-name", maxlength: 200, autocomplete: "off" });
   const made = h("p", { class: "hint", role: "status", "aria-live": "polite" });
   const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("button", { type: "submit" }, "Create"), made);

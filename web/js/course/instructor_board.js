@@ -8,7 +8,7 @@
 import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
-import { AS, course, errorList, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
+import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
 const POLL_MS = 3000; // the roster is asked again this often while the page is shown
 const BINS = 10; // the histogram's bars: tenths of the spec's points
@@ -525,7 +525,7 @@ export class Board {
     this.linksBox.replaceChildren(
       h("p", { class: "message", dataset: { kind: why === "again" ? "info" : "warn" } }, ...said),
       button,
-      h("details", {}, h("summary", {}, "The links"), h("ul", { class: "links-list" }, students.map((st) => h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, h("code", {}, st.link))))),
+      h("details", {}, h("summary", {}, "The links"), h("ul", { class: "links-list" }, students.map((st) => h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, linkBox(st.link, { label: `Copy ${st.id}'s link` }))))),
     );
     this.linksBox.hidden = false;
     button.focus();
@@ -572,9 +572,8 @@ export class Board {
       if (!confirm(`Replace ${sid}'s link? Their old link stops working at once.`)) return;
       try {
         const r = await course.newLink(this.aid, sid);
-        const out = h("input", { type: "text", readonly: true, class: "share-link", value: r.link, "aria-label": `${sid}'s new link` });
-        linkOut.replaceChildren(h("p", { class: "hint" }, "The new link, shown this once (the old one no longer works):"), out, h("button", { type: "button", class: "small", onclick: () => navigator.clipboard?.writeText(r.link) }, "Copy"));
-        out.select();
+        linkOut.replaceChildren(h("p", { class: "hint" }, "The new link, shown this once (the old one no longer works):"), linkBox(r.link, { label: `Copy ${sid}'s new link` }));
+        linkOut.querySelector("button.copy").focus();
       } catch (err) {
         linkOut.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not replace the link: ${err.message}`));
       }

@@ -124,3 +124,17 @@ export async function fileText(input) {
   const f = input.files?.[0];
   return f ? f.text() : null;
 }
+
+/** A link to hand out (a student's, a TA's): its text wraps anywhere (a token is one long word) beside a Copy
+ * button. `id` goes to the link's text; `label` names the button for screen readers. */
+export function linkBox(url, { id, label = "Copy the link" } = {}) {
+  const text = h("code", { class: "link-text", ...(id ? { id } : {}) }, url);
+  const copy = h("button", { type: "button", class: "small copy", "aria-label": label }, "Copy");
+  copy.addEventListener("click", () => {
+    const done = () => (copy.textContent = "Copied");
+    if (navigator.clipboard && window.isSecureContext) return navigator.clipboard.writeText(url).then(done, () => {});
+    getSelection().selectAllChildren(text); // else the selection, as the workspace's share links do
+    if (document.execCommand?.("copy")) done();
+  });
+  return h("span", { class: "course-link" }, text, copy);
+}
