@@ -68,10 +68,12 @@ def _overrides(data: dict, args) -> dict:
     return data
 
 
-def _print_problems(items: list[dict], kind: str = "error", scene: str | None = None, file=sys.stderr) -> None:
+def _print_problems(items: list[dict], kind: str = "error", scene: str | None = None, file=None) -> None:
     """A scene's errors (or warnings) one a line, `FILE:LINE:COL: error: PATH: MESSAGE`, each at its JSON path's
     place in the scene file's text (tracer/tools/jsonpos.py: a missing field at its object), as compilers write them
-    and as the page's editor marks them; without a file (or one that is not JSON) `error: PATH: MESSAGE`."""
+    and as the page's editor marks them; without a file (or one that is not JSON) `error: PATH: MESSAGE`. `file`:
+    standard error as it is when called (None)."""
+    file = sys.stderr if file is None else file
     text = found = None
     if scene is not None and items:
         try:
