@@ -104,3 +104,7 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.render)
         if item.nodeid in slow or item.nodeid.split("[")[0] in slow:
             item.add_marker(pytest.mark.slow)
+    # the browser's tests last (a stable sort): Chromium runs once per session (tests/web/conftest.py), and while
+    # Playwright's loop is set no other test could asyncio.run(); with xdist's --dist loadfile, once a process
+    # takes a browser test file every file left is one too
+    items.sort(key=lambda item: item.get_closest_marker("browser") is not None)

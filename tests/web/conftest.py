@@ -25,7 +25,9 @@ def server(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def browser():
-    """Chromium, once per session (each test opens a context of its own: no cookies or storage carry over)."""
+    """Chromium, once per session (each test opens a context of its own: no cookies or storage carry over). The
+    browser's tests run after all others (tests/conftest.py orders them): while it is open, Playwright's event loop
+    is the thread's, and a test of another folder could not asyncio.run()."""
     try:
         from playwright.sync_api import sync_playwright
     except ImportError as exc:
