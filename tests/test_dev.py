@@ -68,7 +68,7 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
     said, calls = dev("test", "-k", "nothing")  # serve's install lacks pytest and ruff: installed now
     assert "[test] extras" in said, said
     assert pip_installs(calls) == ["python -m pip install -q -e .[test]"], calls
-    assert calls[-2:] == ["ruff check .", "python -m pytest -n 2 --dist loadfile -k nothing"], calls
+    assert calls[-2:] == ["ruff check .", "python -m pytest -k nothing"], calls
     for cmd in ("test", "serve"):  # both warm now: the test extras serve too
         _, calls = dev(cmd)
         assert pip_installs(calls) == [], (cmd, calls)
