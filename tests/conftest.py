@@ -8,8 +8,6 @@ first collects a file there). Test modules' names are unique across the folders.
 
 from __future__ import annotations
 
-import copy
-import json
 import sys
 from pathlib import Path
 
@@ -20,25 +18,7 @@ for _folder in sorted(p for p in TESTS.rglob("*") if p.is_dir() and "__pycache__
     if any(_folder.glob("*.py")) and str(_folder) not in sys.path:
         sys.path.append(str(_folder))
 
-ROOT = TESTS.parent
-SCENES = ROOT / "scenes"
-EXAMPLES = sorted(SCENES.glob("*.json"))
-
-
-def scene_dict(name: str) -> dict:
-    return json.loads((SCENES / f"{name}.json").read_text())
-
-
-def small(data: dict, width: int = 32, height: int = 24, **sections) -> dict:
-    """A copy of a scene dict at a small size, with sections overridden (sampler={...})."""
-    d = copy.deepcopy(data)
-    d.setdefault("film", {}).update(width=width, height=height)
-    for key, values in sections.items():
-        if isinstance(values, dict):
-            d.setdefault(key, {}).update(values)
-        else:
-            d[key] = values
-    return d
+from scene_support import EXAMPLES, ROOT, SCENES, scene_dict, small  # noqa: E402, F401  (re-exported)
 
 
 @pytest.fixture(scope="session")
@@ -83,3 +63,48 @@ def client_without_workers(tmp_path_factory):
 
     with api_client(tmp_path_factory.mktemp("api-data-no-workers"), workers=0, instructor_token=INSTRUCTOR) as c:
         yield c
+
+
+# -- markers: the tiers of the suite --------------------------------------------------------------
+# Registered in pyproject.toml and given here by what a test uses, so that a new test gets them too:
+# `./dev test -m "not browser"` is the inner loop's tier (no Chromium), `-m "not slow"` leaves out the tests
+# listed in slow_tests.txt (over 10 s each on the 2-core machine, from `--durations`). CI runs everything.
+
+REDIS_WORDS = ("RedisServer", "redis_argv", "from hosts import")  # redis-server (and network namespaces)
+RENDER_WORDS = ("load_kernels", "tracer.rendering", "tracer.radiosity", "tracer.grading", "render_scene")
+RENDER_FIXTURES = {"compiled_kernels", "kernels", "client", "settings", "server", "desktop", "phone", "browser"}
+_SOURCES: dict[Path, str] = {}
+
+
+def _source(path: Path) -> str:
+    if path not in _SOURCES:
+        _SOURCES[path] = path.read_text(errors="replace")
+    return _SOURCES[path]
+
+
+def _slow_tests() -> set[str]:
+    listed = TESTS / "slow_tests.txt"
+    if not listed.exists():
+        return set()
+    lines = (line.split("#")[0].strip() for line in listed.read_text().splitlines())
+    return {line for line in lines if line}
+
+
+def pytest_collection_modifyitems(config, items):
+    slow = _slow_tests()
+    for item in items:
+        path = Path(str(item.fspath))
+        text = _source(path)
+        names = set(getattr(item, "fixturenames", ()))
+        if "browser" in names or TESTS / "web" in path.parents:
+            item.add_marker(pytest.mark.browser)
+        if any(w in text for w in REDIS_WORDS):
+            item.add_marker(pytest.mark.redis)
+        if names & RENDER_FIXTURES or any(w in text for w in RENDER_WORDS):
+            item.add_marker(pytest.mark.render)
+        if item.nodeid in slow or item.nodeid.split("[")[0] in slow:
+            item.add_marker(pytest.mark.slow)
+    # the browser's tests last (a stable sort): Chromium runs once per session (tests/web/conftest.py), and while
+    # Playwright's loop is set no other test could asyncio.run(); with xdist's --dist loadfile, once a process
+    # takes a browser test file every file left is one too
+    items.sort(key=lambda item: item.get_closest_marker("browser") is not None)

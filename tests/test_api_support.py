@@ -19,7 +19,7 @@ from pathlib import Path
 
 import httpx
 import numpy as np
-from conftest import ROOT, scene_dict, small
+from scene_support import ROOT, scene_dict, small
 
 SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
 INSTRUCTOR = "instructor-token-of-the-tests"  # TRACER_INSTRUCTOR_TOKEN where a test's server has one

@@ -20,7 +20,7 @@ import httpx
 import pytest
 from conftest import ROOT
 from test_api_support import INSTRUCTOR, Server, bearer, long_scene, wait_for
-from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER, browser  # noqa: F401  (a fixture)
+from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER
 
 EXAMPLE = ROOT / "scenes" / "grading"
 SIZE = (32, 24)  # the assignment's film: every render is graded at it
@@ -70,7 +70,7 @@ def blue_ball() -> dict:
     return s
 
 
-def publish(server, **policy) -> str:  # noqa: F811
+def publish(server, **policy) -> str:
     deadline = (datetime.now(UTC) + timedelta(days=1)).isoformat()
     body = {"spec": spec(), "deadline": deadline, **policy}
     r = httpx.post(f"{server.url}/api/assignments", json=body, headers=TEACHER, timeout=60)
@@ -81,7 +81,7 @@ def publish(server, **policy) -> str:  # noqa: F811
     return aid
 
 
-def roster(server, aid: str, ids: list[str]) -> dict[str, dict]:  # noqa: F811
+def roster(server, aid: str, ids: list[str]) -> dict[str, dict]:
     text = "id,name,email\n" + "".join(f"{i},Student {i.upper()},{i}@school.edu\n" for i in ids)
     r = httpx.post(f"{server.url}/api/assignments/{aid}/roster", content=text,
                    headers={**TEACHER, "Content-Type": "text/csv"}, timeout=30)  # fmt: skip
@@ -90,7 +90,7 @@ def roster(server, aid: str, ids: list[str]) -> dict[str, dict]:  # noqa: F811
 
 
 @pytest.fixture(scope="module")
-def hw(server):  # noqa: F811
+def hw(server):
     """The assignment of these tests: a starter, the reference shown, 3 attempts, a late day at 20 % off, every
     test's feedback shown at once but one requirement's (never), the score too, and one student per test."""
     policy = {
@@ -109,7 +109,7 @@ def hw(server):  # noqa: F811
 class Student:
     """A fresh browser context (a student's own browser) with its console watched."""
 
-    def __init__(self, browser, server, allow=()):  # noqa: F811
+    def __init__(self, browser, server, allow=()):
         self.context = browser.new_context(viewport=DESKTOP, timezone_id=TIMEZONE)
         self.context.add_init_script(CSP_WATCH)
         self.page = self.context.new_page()
@@ -133,7 +133,7 @@ class Student:
 
 
 @pytest.fixture
-def student(browser, server):  # noqa: F811
+def student(browser, server):
     made = []
 
     def make(allow=()):
@@ -169,7 +169,7 @@ def wait_status(page, sid: str, status: str, timeout: float = 60_000) -> None:
     )
 
 
-def api_submissions(server, aid: str, token: str) -> list[dict]:  # noqa: F811
+def api_submissions(server, aid: str, token: str) -> list[dict]:
     r = httpx.get(f"{server.url}/api/assignments/{aid}/submissions", headers=bearer(token), timeout=30)
     assert r.status_code == 200, r.text
     return r.json()["submissions"]
@@ -178,7 +178,7 @@ def api_submissions(server, aid: str, token: str) -> list[dict]:  # noqa: F811
 # --------------------------------------------------------------------------------------------------
 
 
-def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief(student, server, hw):  # noqa: F811
+def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief(student, server, hw):
     s = hw["students"]["brief"]
     me = student()
     page = me.open(s["link"])
@@ -235,7 +235,7 @@ def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief
     assert page.is_visible("#a-brief") and not page.is_visible("#a-access")
 
 
-def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student, server, hw, tmp_path):  # noqa: F811
+def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student, server, hw, tmp_path):
     s = hw["students"]["start"]
     me = student()
     page = me.open(s["link"])
@@ -269,7 +269,7 @@ def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student
     assert json.loads(page.input_value("#a-scene")) == reference()
 
 
-def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, server, hw):  # noqa: F811
+def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, server, hw):
     s = hw["students"]["check"]
     me = student()
     page = me.open(s["link"])
@@ -323,7 +323,7 @@ def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, se
     assert page.get_attribute("#a-left", "data-left") == "3"
 
 
-def test_an_invalid_then_a_valid_submission_graded_live(student, server, hw):  # noqa: F811
+def test_an_invalid_then_a_valid_submission_graded_live(student, server, hw):
     s = hw["students"]["submit"]
     me = student()
     page = me.open(s["link"])
@@ -388,7 +388,7 @@ def test_an_invalid_then_a_valid_submission_graded_live(student, server, hw):  #
     me.shot("graded")
 
 
-def test_an_image_from_the_students_own_ray_tracer(student, server, hw, tmp_path):  # noqa: F811
+def test_an_image_from_the_students_own_ray_tracer(student, server, hw, tmp_path):
     s = hw["students"]["image"]
     r = httpx.post(f"{server.url}/api/jobs", json={"scene": reference()}, headers=bearer(s["token"]), timeout=30)
     job = r.json()["id"]
@@ -427,7 +427,7 @@ def test_an_image_from_the_students_own_ray_tracer(student, server, hw, tmp_path
     page.wait_for_selector(f"#job-list li[data-id='{job}']")
 
 
-def test_a_browser_without_the_link_gets_no_data_and_a_bad_token_a_clear_message(student, server, hw):  # noqa: F811
+def test_a_browser_without_the_link_gets_no_data_and_a_bad_token_a_clear_message(student, server, hw):
     me = student(allow=[NOT_FOUND])
     asked = []
     me.page.on("request", lambda r: "/api/assignments" in r.url and asked.append(r.url))
@@ -452,7 +452,7 @@ def test_a_browser_without_the_link_gets_no_data_and_a_bad_token_a_clear_message
     page.wait_for_function("() => document.querySelector('#a-join-status').textContent.includes('not open')")
 
 
-def test_an_open_assignment_is_joined_by_a_name(student, server):  # noqa: F811
+def test_an_open_assignment_is_joined_by_a_name(student, server):
     aid = publish(server, open=True)
     me = student()
     page = me.open(f"{server.url}/assignments/{aid}")
@@ -466,7 +466,7 @@ def test_an_open_assignment_is_joined_by_a_name(student, server):  # noqa: F811
     assert page.evaluate(f"() => JSON.parse(localStorage.getItem('rt.course.{aid}.token'))") == link.split("#token=")[1]
 
 
-def test_refusals_are_the_servers_own_words_in_place(student, server, hw):  # noqa: F811
+def test_refusals_are_the_servers_own_words_in_place(student, server, hw):
     """Past the cut-off (a deadline an hour ago), with no attempts left, and past the hourly cap: each the
     server's 403 or 429, said where the Submit button is, with nothing added to the list."""
     closed = publish(server, deadline=(datetime.now(UTC) - timedelta(hours=1)).isoformat())
@@ -510,7 +510,7 @@ def test_refusals_are_the_servers_own_words_in_place(student, server, hw):  # no
     assert page.locator("#a-sub-list li.a-sub").count() == PER_HOUR
 
 
-def test_a_late_submission_is_marked_and_its_penalty_said(student, server, hw):  # noqa: F811
+def test_a_late_submission_is_marked_and_its_penalty_said(student, server, hw):
     """An extension to an hour ago moves this student's deadline and late cut-off back alike: they are in their
     late day (by the server's clock, no waiting), and their submission is late, 20 % off."""
     s = hw["students"]["late"]
@@ -561,7 +561,7 @@ def pixel_of(scene: dict, point: list[float]) -> tuple[int, int]:
     return int(x), int(y)
 
 
-def test_student_clicks_a_pixel_of_the_difference_map(student, server, hw):  # noqa: F811
+def test_student_clicks_a_pixel_of_the_difference_map(student, server, hw):
     """The red ball made blue: a click on the ball in the difference map shows both ray trees there (compare.js,
     helper R's), the first node where they differ marked. Fails until web/js/course/compare.js is merged."""
     s = hw["students"]["pixel"]

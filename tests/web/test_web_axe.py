@@ -31,12 +31,11 @@ import pytest
 from test_api_support import INSTRUCTOR, Server, bearer, wait_for
 from test_dashboard import good_scene, small_spec
 from test_web_grading import enter_token, load_example
-from test_web_page import (  # noqa: F401  (browser: a fixture)
+from test_web_page import (
     DESKTOP,
     SHOTS,
     TEACHER,
     Page,
-    browser,
     radiosity_scene,
     render,
     run_lesson,
@@ -96,7 +95,7 @@ def server(tmp_path_factory):
 
 
 @pytest.fixture
-def desktop(browser, server):  # noqa: F811
+def desktop(browser, server):
     p = Page(browser, server, DESKTOP)
     yield p
     p.context.close()
@@ -104,7 +103,7 @@ def desktop(browser, server):  # noqa: F811
 
 
 @pytest.fixture(scope="module")
-def course(server):  # noqa: F811
+def course(server):
     """A small published assignment (its reference 32 x 24) with a roster of two, and one graded submission."""
     body = {"spec": small_spec(), "deadline": (datetime.now(UTC) + timedelta(days=1)).isoformat()}
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
@@ -147,7 +146,7 @@ def click_pixel(page, x: int, y: int) -> None:
     page.wait_for_selector("#rt-diagram .rt-node")
 
 
-def test_axe_workspace_with_a_render_and_a_ray_tree(desktop, server):  # noqa: F811
+def test_axe_workspace_with_a_render_and_a_ray_tree(desktop, server):
     page = desktop.open().page
     assert_accessible(page, "workspace at first")
     scene = whitted(*SIZE, spp=4)
@@ -163,7 +162,7 @@ def test_axe_workspace_with_a_render_and_a_ray_tree(desktop, server):  # noqa: F
     assert scene["name"] in alt and "64 × 48" in alt and "4 samples per pixel" in alt and "done" in alt, alt
 
 
-def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):  # noqa: F811
+def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):
     """The tree as a nested list: the eye ray first, a shadow ray under it, each with its depth, what it hit
     (or that it missed), its weight and the colour it carried back; reachable with the keyboard."""
     page = desktop.open().page
@@ -199,7 +198,7 @@ def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):  # noqa: 
     assert first.get_attribute("aria-expanded") == "true"
 
 
-def test_axe_workspace_radiosity_panel_and_its_keys(desktop, server):  # noqa: F811
+def test_axe_workspace_radiosity_panel_and_its_keys(desktop, server):
     """The radiosity panel (a small two-pass Cornell box): no violation, and the arrow keys on the patch mesh
     say a patch's numbers as hovering does."""
     page = desktop.open().page
@@ -217,7 +216,7 @@ def test_axe_workspace_radiosity_panel_and_its_keys(desktop, server):  # noqa: F
     page.wait_for_function("() => document.querySelector('#rad-hover').textContent === ''")
 
 
-def test_axe_workspace_build_panel_with_a_pick(desktop, server):  # noqa: F811
+def test_axe_workspace_build_panel_with_a_pick(desktop, server):
     """The Build panel with an object picked (its handles, material menu and Remove): no violation, and its keys
     reach the pick and the move as the mouse does."""
     page = desktop.open().page
@@ -235,7 +234,7 @@ def test_axe_workspace_build_panel_with_a_pick(desktop, server):  # noqa: F811
     assert_accessible(page, "workspace build panel", "#editor-panel")
 
 
-def test_axe_workspace_tabs(desktop, server):  # noqa: F811
+def test_axe_workspace_tabs(desktop, server):
     page = desktop.open("#lessons").page
     run_lesson(page, "bounces", 3)
     assert_accessible(page, "lessons with a lesson open")
@@ -261,7 +260,7 @@ def test_axe_workspace_tabs(desktop, server):  # noqa: F811
 # -- the course ---------------------------------------------------------------------------------------
 
 
-def test_axe_course_dashboard(desktop, server, course):  # noqa: F811
+def test_axe_course_dashboard(desktop, server, course):
     desktop.allow.append(r"status of 401")  # the page's first request, before the token is typed
     page = desktop.page
     page.goto(f"{server.url}/course")
@@ -281,7 +280,7 @@ def test_axe_course_dashboard(desktop, server, course):  # noqa: F811
     assert_accessible(page, "course dashboard")
 
 
-def test_axe_the_student_s_assignment_page(desktop, server, course):  # noqa: F811
+def test_axe_the_student_s_assignment_page(desktop, server, course):
     page = desktop.page
     page.goto(course["students"]["s1"]["link"])
     page.wait_for_selector("body[data-ready=true]", state="attached")
@@ -301,7 +300,7 @@ def test_axe_the_student_s_assignment_page(desktop, server, course):  # noqa: F8
 
 
 @pytest.mark.parametrize("path", ["/reference/", "/reference/scene-format.md"])
-def test_axe_reference_pages(desktop, server, path):  # noqa: F811
+def test_axe_reference_pages(desktop, server, path):
     page = desktop.page
     page.goto(f"{server.url}{path}")
     desktop.shot(f"axe-reference-{path.strip('/').replace('/', '-')}")
@@ -311,7 +310,7 @@ def test_axe_reference_pages(desktop, server, path):  # noqa: F811
 # -- courses and LTI ----------------------------------------------------------------------------------
 
 
-def test_axe_a_student_s_course_page_and_the_courses_panel(desktop, server):  # noqa: F811
+def test_axe_a_student_s_course_page_and_the_courses_panel(desktop, server):
     """/courses/{id} (a course roster's link) and /course's courses panel with its forms (the admin's)."""
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
         assert c.post("/api/courses", json={"id": "axe101", "name": "Accessible Rendering"}).status_code == 201
@@ -332,7 +331,7 @@ def test_axe_a_student_s_course_page_and_the_courses_panel(desktop, server):  # 
     assert_accessible(page, "the courses panel")
 
 
-def test_axe_a_refused_lti_launch_page(desktop, server):  # noqa: F811
+def test_axe_a_refused_lti_launch_page(desktop, server):
     desktop.allow.append(r"status of 400")  # the refusal itself
     page = desktop.page
     page.goto(f"{server.url}/lti/login?iss=https://unknown.example.edu&login_hint=x&target_link_uri=x")

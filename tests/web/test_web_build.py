@@ -1,16 +1,17 @@
-"""Building a scene on the page (issue #33, item 1), in a real browser (the fixtures of test_web_page.py): a new
+"""Building a scene on the page (issue #33, item 1), in a real browser (the fixtures of conftest.py): a new
 scene from a template, a floor, two spheres, a glass ball (preset) and an area light added from the Build panel,
 one sphere moved with a handle of the 3D view (a mouse drag), one undo; the JSON checked after each step, the
 scene validated (no warning for the presets) and rendered. Also: a material that the validator warns about,
 picking an object by clicking it in the rendered picture and in the 3D view, the keys of the 3D view, removing
-things, the editor's undo and redo of typing and of form writes, and jsonpos.js's appendItem and removeAt."""
+things, the editor's undo and redo of typing and of form writes. (jsonpos.js's appendItem and removeAt and edits.js's
+firstHit, which need no page, are tests/js/'s, under node.)"""
 
 from __future__ import annotations
 
 import json
 import math
 
-from test_web_page import DESKTOP, Page, browser, desktop, editor_text, render, server  # noqa: F401  (fixtures)
+from test_web_page import editor_text, render
 
 VERDICT = "() => document.querySelector('#validation-status').dataset.kind !== 'busy'"
 
@@ -66,7 +67,7 @@ def handle(page, name: str) -> tuple[float, float]:
     raise AssertionError(f"no {name} handle in {data!r}")
 
 
-def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
+def test_web_build_a_scene_in_a_few_clicks(desktop):
     page = desktop.open().page
     new_scene(page, "empty_room")
     s = scene(page)
@@ -136,7 +137,7 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):  # noqa: F811
     desktop.shot("build-rendered")
 
 
-def test_web_build_warns_on_a_grey_half_opaque_glass_and_not_on_the_preset(desktop):  # noqa: F811
+def test_web_build_warns_on_a_grey_half_opaque_glass_and_not_on_the_preset(desktop):
     page = desktop.open().page
     new_scene(page, "empty_room")
     page.click("#build-add-sphere")
@@ -183,7 +184,7 @@ def click_picture(page, point: list[float] | None, expect: str) -> None:
     page.wait_for_function("(e) => document.querySelector('#build').dataset.picked === e", arg=expect)
 
 
-def test_web_build_pick_an_object_by_clicking_the_picture(desktop):  # noqa: F811
+def test_web_build_pick_an_object_by_clicking_the_picture(desktop):
     page = desktop.open().page
     new_scene(page, "whitted")
     s = scene(page)
@@ -227,7 +228,7 @@ def test_web_build_pick_an_object_by_clicking_the_picture(desktop):  # noqa: F81
     page.wait_for_function("() => document.querySelector('#build-status').textContent.includes('another camera')")
 
 
-def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):  # noqa: F811
+def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):
     """A mesh read from a file (its triangles are the server's alone): clicking it in the picture picks it, from
     the eye ray's hit in the pixel's ray tree; the floor beside it is still picked by the page at once."""
     page = desktop.open().page
@@ -262,7 +263,7 @@ def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):  # noqa: F
     assert page.get_attribute("#build", "data-picked") == "objects.0"
 
 
-def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
+def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):
     page = desktop.open().page
     new_scene(page, "whitted")
     page.focus("#build-3d")
@@ -297,7 +298,7 @@ def test_web_build_pick_in_the_3d_view_and_its_keys(desktop):  # noqa: F811
     desktop.shot("build-3d-keys")
 
 
-def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):  # noqa: F811
+def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):
     """The other handles, with the mouse: the knob scales about the centre, the square moves on the horizontal
     plane (y kept); each drag one step."""
     page = desktop.open().page
@@ -323,7 +324,7 @@ def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):  # no
     assert scene(page)["objects"][2] == before
 
 
-def test_web_build_move_and_scale_an_area_light_with_its_handles(desktop):  # noqa: F811
+def test_web_build_move_and_scale_an_area_light_with_its_handles(desktop):
     page = desktop.open().page
     new_scene(page, "cornell_box")
     page.focus("#build-3d")
@@ -353,7 +354,7 @@ def test_web_build_move_and_scale_an_area_light_with_its_handles(desktop):  # no
     assert scene(page)["lights"][0] == before
 
 
-def test_web_build_undo_of_typing_and_of_the_form(desktop):  # noqa: F811
+def test_web_build_undo_of_typing_and_of_the_form(desktop):
     page = desktop.open().page
     new_scene(page, "empty_room")
     start = editor_text(page)
@@ -380,35 +381,7 @@ def test_web_build_undo_of_typing_and_of_the_form(desktop):  # noqa: F811
     assert '"Empty room"' not in editor_text(page)
 
 
-def test_web_build_jsonpos_append_and_remove_keep_the_rest_of_the_text(desktop):  # noqa: F811
-    page = desktop.open().page
-    text = (
-        '{\n  "objects": [\n    {"type": "sphere"},\n    {"type": "plane"}\n  ],\n'
-        '  "lights": [],\n  "m": {"a": 1, "b": 2}\n}\n'
-    )
-    out = page.evaluate(
-        """async (t) => {
-            const j = await import('/js/jsonpos.js');
-            const a = j.appendItem(t, ["objects"], {type: "box"}).text;
-            const b = j.appendItem(a, ["lights"], {type: "point"}).text;
-            const c = j.appendItem(b, ["extra"], 1).text;
-            return {a, b, c, r0: j.removeAt(t, ["objects", 0]).text, r1: j.removeAt(t, ["objects", 1]).text,
-                    ma: j.removeAt(t, ["m", "a"]).text, mb: j.removeAt(t, ["m", "b"]).text,
-                    all: j.removeAt(j.removeAt(t, ["objects", 1]).text, ["objects", 0]).text};
-        }""",
-        text,
-    )
-    assert out["a"].split("\n")[2:5] == ['    {"type": "sphere"},', '    {"type": "plane"},', '    {"type": "box"}']
-    assert '"lights": [\n    {"type": "point"}\n  ]' in out["b"]
-    assert json.loads(out["c"])["extra"] == [1]
-    assert json.loads(out["r0"])["objects"] == [{"type": "plane"}]
-    assert '  "objects": [\n    {"type": "plane"}\n  ]' in out["r0"]
-    assert json.loads(out["r1"])["objects"] == [{"type": "sphere"}]
-    assert json.loads(out["ma"])["m"] == {"b": 2} and json.loads(out["mb"])["m"] == {"a": 1}
-    assert '"objects": [],' in out["all"]
-
-
-def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
+def test_web_build_a_spot_light_aimed_with_its_knob(desktop):
     """A spot light added from the panel points at what the camera looks at; dragging its orange knob turns it
     (one step of the history), the cone drawn follows, and the scene stays valid."""
     page = desktop.open().page
@@ -471,24 +444,3 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):  # noqa: F811
     for _ in range(steps):  # one step of the history for each press that turned the beam
         page.keyboard.press("Control+z")
     assert editor_text(page) == text_before
-
-
-def test_web_build_a_rotated_box_is_picked_where_it_is_drawn(desktop):  # noqa: F811
-    """edits.js's firstHit in the browser: a box turned 45 degrees about z is a diamond seen along z; a ray by its
-    bounds' corner (inside the axis-aligned bounds of its corners) misses it, a ray through it meets its front
-    face at the right distance, and a moved and scaled box is met where its transform puts it."""
-    page = desktop.open().page
-    out = page.evaluate(
-        """async () => {
-            const e = await import('/js/edits.js');
-            const box = (transform) => ({objects: [{type: "box", min: [-1, -1, -1], max: [1, 1, 1], transform}]});
-            const t = (scene, o) => e.firstHit(scene, o, [0, 0, -1])?.t ?? null;
-            const turned = box({rotate: [0, 0, 45]});
-            const moved = box({translate: [3, 0, 0], scale: 2});
-            return {corner: t(turned, [1.2, 1.2, 5]), centre: t(turned, [0, 0, 5]), edge: t(turned, [0.6, 0.6, 5]),
-                    moved: t(moved, [4.5, 0, 10]), beside: t(moved, [5.5, 0, 10])};
-        }"""
-    )
-    assert out["corner"] is None and out["beside"] is None, out
-    assert abs(out["centre"] - 4) < 1e-9 and abs(out["edge"] - 4) < 1e-9, out
-    assert abs(out["moved"] - 8) < 1e-9, out

@@ -1,6 +1,6 @@
 """The two ray trees at a pixel (web/js/course/compare.js, web/css/compare.css) in a real browser.
 
-Uses the fixtures of test_web_page.py (`python -m server` on loopback with one render worker and an instructor
+Uses the fixtures of tests/web/conftest.py (`python -m server` on loopback with one render worker and an instructor
 token; Debian's Chromium through Playwright; a page that fails on console errors it did not expect). A small
 assignment is published and a student submits a scene whose red ball is blue, over the API; once it is graded,
 a page of the server imports compare.js, as the student's page does on a click of the difference map, and
@@ -16,7 +16,7 @@ from datetime import UTC, datetime, timedelta
 
 import httpx
 from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_web_page import DESKTOP, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
+from test_web_page import DESKTOP, TEACHER, Page
 
 W, H = 48, 36
 REFERENCE = {
@@ -119,7 +119,7 @@ def reflected_pixel(srv, sub: dict) -> tuple[int, int]:
     raise AssertionError("no pixel of the floor reflects the ball")
 
 
-def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, phone, server):  # noqa: F811
+def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, phone, server):
     sub = graded_submission(server)
     page = desktop.open().page
     page.evaluate("(t) => localStorage.setItem('rt.token', JSON.stringify(t))", sub["token"])  # the student's link
@@ -180,7 +180,7 @@ def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, ph
     phone.shot("compare-phone", full_page=True)
 
 
-def test_web_compare_on_the_instructor_s_dashboard_in_the_instructor_s_words(browser, server):  # noqa: F811
+def test_web_compare_on_the_instructor_s_dashboard_in_the_instructor_s_words(browser, server):
     """/course#<aid>/<student>: a click on the difference map of a graded scene shows the two trees styled as on
     the student's page (compare.css), within the page's width at 1280, about the student ("The student's eye
     ray"), never to them ("Your")."""

@@ -1,5 +1,5 @@
 """The instructor's course page (/course: web/course.html, web/js/course/instructor*.js) in a real browser:
-the instructor flow of the assignments issue. Uses the fixtures of test_web_page.py (`python -m server` on
+the instructor flow of the assignments issue. Uses the fixtures of tests/web/conftest.py (`python -m server` on
 loopback with one render worker and an instructor token, typed into the page; Debian's Chromium through
 Playwright; a page that fails on console errors it did not expect).
 
@@ -25,7 +25,7 @@ from urllib.parse import urlparse
 import httpx
 from test_api_support import INSTRUCTOR, Server, bearer
 from test_dashboard import bad_scene, good_scene, small_reference, small_spec
-from test_web_page import CSP_WATCH, DESKTOP, TEACHER, Page, browser, server  # noqa: F401  (fixtures)
+from test_web_page import CSP_WATCH, DESKTOP, TEACHER, Page
 
 GRADE_TIMEOUT = 120_000  # ms: a few small renders and their metrics on a busy 2-core machine
 ROSTER = [("s1", "Ada Lovelace", "ada@x.edu"), ("s2", "Bob, Jr.", "bob@x.edu"), ("s3", "Cy Young", ""),
@@ -38,7 +38,7 @@ ZONE = "America/New_York"  # the browser's zone: UTC-05:00 in December, so the d
 class CoursePage(Page):
     """test_web_page's Page (its console watched) in a browser context whose time zone is ZONE."""
 
-    def __init__(self, browser, server, viewport):  # noqa: F811
+    def __init__(self, browser, server, viewport):
         super().__init__(browser, server, viewport)
         self.context.close()
         self.context = browser.new_context(viewport=viewport, timezone_id=ZONE, accept_downloads=True)
@@ -49,7 +49,7 @@ class CoursePage(Page):
         self.context.add_init_script(CSP_WATCH)
 
 
-def open_course(browser, server, tmp: Path):  # noqa: F811
+def open_course(browser, server, tmp: Path):
     p = CoursePage(browser, server, DESKTOP)
     p.allow.append(r"status of 401")  # the page's first request, before the token is typed, is refused
     p.page.goto(f"{server.url}/course")
@@ -92,7 +92,7 @@ def download(page, selector: str) -> tuple[str, str]:
     return d.suggested_filename, Path(d.path()).read_text()
 
 
-def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports(browser, server, tmp_path):  # noqa: F811
+def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports(browser, server, tmp_path):
     p = open_course(browser, server, tmp_path)
     page = p.page
     page.on("dialog", lambda d: d.accept())  # "replace the link?"
@@ -255,7 +255,7 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     assert p.unexpected_errors() == []
 
 
-def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, server, tmp_path):  # noqa: F811
+def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, server, tmp_path):
     p = open_course(browser, server, tmp_path)
     page = p.page
     bad = small_spec(inline=True)
@@ -302,7 +302,7 @@ def variant(change: str) -> dict:
     return scene
 
 
-def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path):  # noqa: F811
+def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path):
     """300 students on the roster, 24 of them submitting scenes of varied quality through the API while the
     page is open: every row is shown, the graded ones with their scores, the histogram spread over them;
     the filter and the sort work on the whole class. Screenshots for a person to look at."""
@@ -351,7 +351,7 @@ def test_web_course_a_class_of_300_fills_the_dashboard(browser, server, tmp_path
     assert p.unexpected_errors() == []
 
 
-def test_web_course_on_loopback_without_a_token_everyone_is_the_instructor(browser, tmp_path):  # noqa: F811
+def test_web_course_on_loopback_without_a_token_everyone_is_the_instructor(browser, tmp_path):
     """A server on loopback with no TRACER_INSTRUCTOR_TOKEN: the page answers without a token and says why."""
     env = {k: v for k, v in os.environ.items() if k != "TRACER_INSTRUCTOR_TOKEN"}
     with Server(tmp_path / "data", workers=0, env=env) as own:
@@ -367,7 +367,7 @@ def test_web_course_on_loopback_without_a_token_everyone_is_the_instructor(brows
         assert p.unexpected_errors() == []
 
 
-def test_web_course_links_again_and_re_issued(browser, server, tmp_path):  # noqa: F811
+def test_web_course_links_again_and_re_issued(browser, server, tmp_path):
     """The links shown after an upload are not lost with the page: "Download links again" gives the same links
     (GET /api/courses/{cid}/links: they still work); "Re-issue all…" asks first, saying the old links stop
     working, and a dismissed question changes nothing; accepted, every student gets a new link and the old ones

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from test_web_axe import assert_accessible
 from test_web_course_instructor import open_course
-from test_web_page import SHOTS, browser, server  # noqa: F401  (fixtures)
+from test_web_page import SHOTS
 
 WIDTHS = (1280, 1024, 390)
 MIN_INPUT = 120  # px: a field one can read and type in
@@ -40,7 +40,7 @@ INPUTS = """() => [...document.querySelectorAll('.staff-form input, .staff-form 
     .map(el => [el.id, el.getBoundingClientRect().width])"""
 
 
-def test_web_course_layout_holds_after_add_staff_and_its_link_wraps_with_copy(browser, server, tmp_path):  # noqa: F811
+def test_web_course_layout_holds_after_add_staff_and_its_link_wraps_with_copy(browser, server, tmp_path):
     p = open_course(browser, server, tmp_path)
     page = p.page
     p.context.grant_permissions(["clipboard-read", "clipboard-write"], origin=server.url)

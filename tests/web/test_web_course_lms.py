@@ -7,12 +7,17 @@ from __future__ import annotations
 
 from datetime import timedelta
 
+import test_lms
 from lti_platform import LEARNER
 from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_lms import EXAMPLE, T0, lms, tool  # noqa: F401  (fixtures)
-from test_web_page import CSP_WATCH, DESKTOP, SHOTS, browser  # noqa: F401  (fixtures)
+from test_lms import EXAMPLE, T0
+from test_web_page import CSP_WATCH, DESKTOP, SHOTS
 
 from server.course.lms import LmsStore
+
+# test_lms.py's module fixtures (the tool with a test LMS linked, one per module), used here as they are there
+tool = test_lms.tool
+lms = test_lms.lms
 
 
 def stat(page, name: str) -> str:
@@ -20,7 +25,7 @@ def stat(page, name: str) -> str:
     return page.locator(f"[data-stat={name}] dd").inner_text().strip()
 
 
-def test_web_course_lms_the_dashboard_says_grades_wait_for_the_lms_and_then_that_they_were_sent(tool, lms, browser):  # noqa: F811
+def test_web_course_lms_the_dashboard_says_grades_wait_for_the_lms_and_then_that_they_were_sent(tool, lms, browser):
     url, app, client = tool
     p, aid = lms
     r = p.do_launch(client, url, sub="student-9", roles=[LEARNER], custom={"assignment": aid})

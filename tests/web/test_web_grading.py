@@ -1,6 +1,6 @@
 """The instructor's grading view (the page's "Grading" tab, web/js/grading.js) in a real browser.
 
-Uses the fixtures of test_web_page.py: `python -m server` on loopback with one render worker and an
+Uses the fixtures of tests/web/conftest.py: `python -m server` on loopback with one render worker and an
 instructor token (typed into the tab, as an instructor would), Debian's Chromium driven by Playwright,
 and a page that fails on console errors it did not expect. The example
 class (scenes/grading/class, 9 students) is graded through the page; on this 2-core machine that takes
@@ -17,7 +17,7 @@ from pathlib import Path
 import httpx
 from conftest import ROOT
 from test_api_support import INSTRUCTOR, long_scene, wait_for
-from test_web_page import PHONE, TEACHER, Page, browser, desktop, phone, server  # noqa: F401  (fixtures)
+from test_web_page import PHONE, TEACHER, Page
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
 SHOT_DIR = Path("/tmp")
@@ -83,7 +83,7 @@ def wait_pictures(page, n: int = 4) -> None:
     )
 
 
-def grade_example_over_api(server) -> str:  # noqa: F811
+def grade_example_over_api(server) -> str:
     """Grade the example class without the page; the run's id once it is done."""
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
         example = c.get("/api/grade/example").json()
@@ -104,7 +104,7 @@ def grade_example_over_api(server) -> str:  # noqa: F811
 # --------------------------------------------------------------------------------------------------
 
 
-def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # noqa: F811
+def test_web_grading_example_class_table_and_erins_detail(desktop, server):
     page = open_grading(desktop)
     load_example(page)
     kinds = dict(
@@ -251,7 +251,7 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):  # n
     assert page.evaluate("() => document.activeElement.dataset.student") == "frank"
 
 
-def test_web_grading_broken_assignment_shows_the_servers_paths(desktop):  # noqa: F811
+def test_web_grading_broken_assignment_shows_the_servers_paths(desktop):
     desktop.allow.append(r"status of 422")  # Chromium logs the refused request
     page = open_grading(desktop)
     load_example(page)
@@ -289,7 +289,7 @@ def test_web_grading_broken_assignment_shows_the_servers_paths(desktop):  # noqa
     assert "add the submissions first" in page.text_content("#grade-sub-errors")
 
 
-def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
+def test_web_grading_files_and_a_phone(phone, server, tmp_path):
     """Files picked (a scene, an image, a stray text file; then a zip alone), and the phone layout of
     the table and a student's detail (the run graded over the API, shown again from localStorage)."""
     root = ROOT / "scenes" / "grading" / "class"
@@ -337,7 +337,7 @@ def test_web_grading_files_and_a_phone(phone, server, tmp_path):  # noqa: F811
     shot(page, "phone-full", full_page=True)
 
 
-def test_web_grading_asks_for_the_instructor_s_token(desktop, server):  # noqa: F811
+def test_web_grading_asks_for_the_instructor_s_token(desktop, server):
     """Without the instructor's token the tab says what it needs, and points at the field; with a wrong one,
     that the server refused it; with the right one it works, and the token is kept for the next visit."""
     desktop.allow.append(r"status of 401")  # Chromium logs the refused requests

@@ -1,4 +1,4 @@
-"""The page's pictures and addresses in a real browser (the fixtures of test_web_page.py): the magnifier and
+"""The page's pictures and addresses in a real browser (the fixtures of tests/web/conftest.py): the magnifier and
 the full-size view of a lesson's panels, the examples' previews ready without clicking, links to a scene and
 to a job (read-only), the address following tabs and lessons with Back and Forward, the whole description,
 the ray-tree diagram fitted to its panel. Each test fails on any console error or CSP violation it does not
@@ -13,7 +13,7 @@ import string
 import pytest
 from conftest import scene_dict
 from test_api_support import Server
-from test_web_page import DESKTOP, Page, browser, desktop, render, server, set_scene, whitted  # noqa: F401  (fixtures)
+from test_web_page import DESKTOP, Page, render, set_scene, whitted
 
 LESSON_DONE = """(n) => document.querySelectorAll('.lesson-panel').length === n
     && [...document.querySelectorAll('.lesson-panel')]
@@ -34,7 +34,7 @@ def lenses(page) -> list[dict]:
     )
 
 
-def test_web_inspect_magnifier_follows_on_every_panel_and_full_size_view(desktop):  # noqa: F811
+def test_web_inspect_magnifier_follows_on_every_panel_and_full_size_view(desktop):
     page = desktop.open("#lessons/bounces").page  # the address opens the lesson
     page.wait_for_function(LESSON_DONE, arg=3, timeout=90_000)
     assert page.get_attribute("#lesson-stage", "data-lesson") == "bounces"
@@ -102,7 +102,7 @@ def test_web_inspect_magnifier_follows_on_every_panel_and_full_size_view(desktop
     page.wait_for_selector("dialog.inspect-dialog", state="detached")
 
 
-def test_web_inspect_address_follows_tabs_and_lessons_back_and_forward(desktop):  # noqa: F811
+def test_web_inspect_address_follows_tabs_and_lessons_back_and_forward(desktop):
     page = desktop.open().page
     page.click("#tab-lessons")
     assert page.evaluate("location.hash") == "#lessons"
@@ -134,7 +134,7 @@ def test_web_inspect_address_follows_tabs_and_lessons_back_and_forward(desktop):
     banner_says(page, "There is no lesson 'glossy-nope'")
 
 
-def test_web_inspect_whole_description_and_the_tree_fitted(desktop):  # noqa: F811
+def test_web_inspect_whole_description_and_the_tree_fitted(desktop):
     page = desktop.open().page
     text = page.inner_text("#scene-description")
     assert text == scene_dict("whitted")["description"]  # the editor starts with whitted
@@ -158,7 +158,7 @@ def test_web_inspect_whole_description_and_the_tree_fitted(desktop):  # noqa: F8
     assert page.evaluate("() => +document.querySelector('#rt-diagram svg').getAttribute('width')") >= fit["w"]
 
 
-def test_web_inspect_links_open_a_scene_in_the_editor(desktop, browser):  # noqa: F811
+def test_web_inspect_links_open_a_scene_in_the_editor(desktop, browser):
     page = desktop.open().page
     scene = whitted(96, 72)
     scene["name"] = "Zoë's linked scene"
@@ -192,7 +192,7 @@ def test_web_inspect_links_open_a_scene_in_the_editor(desktop, browser):  # noqa
     assert "Save file" in page.inner_text("#load-note")
 
 
-def test_web_inspect_read_only_link_to_a_job(desktop, browser):  # noqa: F811
+def test_web_inspect_read_only_link_to_a_job(desktop, browser):
     page = desktop.open().page
     set_scene(page, whitted(96, 72, spp=4))
     render(page)
@@ -237,7 +237,7 @@ def fresh_server(tmp_path_factory):
         yield s
 
 
-def test_web_inspect_previews_ready_without_opening_them(browser, fresh_server):  # noqa: F811
+def test_web_inspect_previews_ready_without_opening_them(browser, fresh_server):
     p = Page(browser, fresh_server, DESKTOP)
     try:
         page = p.open("#examples").page

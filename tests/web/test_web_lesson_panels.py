@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import json
 
-from test_web_page import Page, browser, server  # noqa: F401  (the fixtures)
+from test_web_page import Page
 
 from bench.lessons import first_panels, panels_text
 from server.jobs.lesson_panels import PANELS, lesson_panels
 
 
-def test_web_lesson_panels_the_server_s_list_is_the_page_s(browser, server):  # noqa: F811
+def test_web_lesson_panels_the_server_s_list_is_the_page_s(browser, server):
     page = Page(browser, server, {"width": 1280, "height": 800}).open("#lessons")
     try:
         panels = first_panels(page.page)

@@ -19,7 +19,7 @@ import pytest
 from conftest import ROOT
 from PIL import Image
 from test_api_support import wait_finished
-from test_web_page import DESKTOP, PHONE, TEACHER, Page, browser, phone, server  # noqa: F401  (the fixtures)
+from test_web_page import DESKTOP, PHONE, TEACHER, Page
 
 JS = ROOT / "web" / "js"
 
@@ -37,7 +37,7 @@ ENDED = "['done', 'refused', 'failed', 'cancelled'].includes(p.dataset.status)"
 
 
 @pytest.fixture
-def desktop(browser, server):  # noqa: F811
+def desktop(browser, server):
     p = Page(browser, server, DESKTOP)
     yield p
     p.context.close()
@@ -82,7 +82,7 @@ def fingerprints(page) -> list[str]:
     )
 
 
-def job_png(server, job_id: str) -> np.ndarray:  # noqa: F811
+def job_png(server, job_id: str) -> np.ndarray:
     """A job's final picture as it was sent (0-255 RGB floats)."""
     r = httpx.get(f"{server.url}/api/jobs/{job_id}/image?format=png", headers=TEACHER, timeout=30)
     r.raise_for_status()
@@ -194,7 +194,7 @@ def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop
     desktop.shot(f"lesson-{lesson}", full_page=True)
 
 
-def test_lesson_superseded_jobs_are_cancelled(desktop, server):  # noqa: F811
+def test_lesson_superseded_jobs_are_cancelled(desktop, server):
     """Moving a slider while the panels render cancels the jobs the new values replace."""
     desktop.allow.append(r"status of 409 \(Conflict\)")  # a job that ended just before its cancel came: 409
     page = desktop.open("#lessons").page
@@ -250,7 +250,7 @@ def test_lesson_circle_of_confusion_of_a_clicked_point(desktop):
                            arg=f"Pixel ({w // 2 - 1}, {h // 2})")  # fmt: skip
 
 
-def test_lesson_radiosity_two_pass_shadows_are_clean(desktop, server):  # noqa: F811
+def test_lesson_radiosity_two_pass_shadows_are_clean(desktop, server):
     """The question asks why two-pass has the sharper shadows: its panel must not hide them in noise. Its RMS
     difference from the same scene at 64 rays per pixel and 16 shadow rays each (the same seed, so the same
     radiosity solution: what differs is the per-pixel noise) stays under 2 levels of 255; with 4 rays per pixel
@@ -289,7 +289,7 @@ def test_lesson_ray_tree_question_is_about_the_left_picture(desktop):
     assert f"render.max_depth = {depth}" in panels.nth(["left", "right"].index(side[1])).inner_text()
 
 
-def test_lesson_motion_words_name_every_moving_object(desktop, server):  # noqa: F811
+def test_lesson_motion_words_name_every_moving_object(desktop, server):
     """What moves in the moving picture's scene (its objects with a velocity, as the server rendered them) is what
     the lesson's words name: each as its material and kind ("red ball") in the text, the control and the answers."""
     page = desktop.open("#lessons").page
@@ -308,7 +308,7 @@ def test_lesson_motion_words_name_every_moving_object(desktop, server):  # noqa:
         assert all(name in w for w in words.values()), (name, words)
 
 
-def test_lesson_texts_link_to_the_reference_sections_they_name(desktop, server):  # noqa: F811
+def test_lesson_texts_link_to_the_reference_sections_they_name(desktop, server):
     """Every lesson links to the reference that explains what its text only names (the server's /reference/
     pages, which work offline): each link's page is served and has the section its anchor names. The links are
     shown under the lesson's text."""
@@ -390,7 +390,7 @@ def wait_for_errors(page, n: int) -> None:
     )
 
 
-def test_lesson_noise_errors_against_the_references(desktop, server):  # noqa: F811
+def test_lesson_noise_errors_against_the_references(desktop, server):
     """The noise lesson: random, jittered and low-discrepancy at the same rays per pixel, on the checkered floor
     (top row) and on the path-traced Cornell box (bottom row), each with its RMS difference from its row's
     reference. On the floor the film position is all that is sampled: low-discrepancy < jittered < random. In
@@ -436,12 +436,12 @@ def test_lesson_noise_errors_against_the_references(desktop, server):  # noqa: F
     desktop.shot("lesson-noise-64", full_page=True)
 
 
-def job_scene(server, page, panel: int) -> dict:  # noqa: F811
+def job_scene(server, page, panel: int) -> dict:
     job = page.get_attribute(f".lesson-panel >> nth={panel}", "data-job")
     return httpx.get(f"{server.url}/api/jobs/{job}/scene", headers=TEACHER, timeout=30).json()
 
 
-def test_lesson_shadows_one_box_only_the_light_changes(desktop, server):  # noqa: F811
+def test_lesson_shadows_one_box_only_the_light_changes(desktop, server):
     """The three shadow pictures are one scene: the left one's square ceiling light is a point light at its
     centre (as bright straight down), the right two differ only in their shadow rays per point."""
     page = desktop.open("#lessons").page
@@ -464,7 +464,7 @@ def test_lesson_shadows_one_box_only_the_light_changes(desktop, server):  # noqa
     desktop.shot("lesson-shadows-one-box", full_page=True)
 
 
-def test_lesson_phong_ambient_only_has_no_light_anywhere(desktop, server):  # noqa: F811
+def test_lesson_phong_ambient_only_has_no_light_anywhere(desktop, server):
     """The ambient picture shows ka·Ia alone: every surface is one flat colour (no lit floor, no cast shadow)."""
     page = desktop.open("#lessons").page
     open_lesson(page, "phong")
@@ -510,7 +510,7 @@ def test_lesson_ray_tree_pixel_is_marked_in_the_workspace(desktop):
     assert page.get_attribute("#stage-marker", "data-kind") is None  # picked: the usual marker
 
 
-def test_lesson_on_a_phone_comes_before_the_list_and_its_tree_is_readable(phone):  # noqa: F811
+def test_lesson_on_a_phone_comes_before_the_list_and_its_tree_is_readable(phone):
     page = phone.open("#lessons/raytree-stop").page
     page.wait_for_selector(".lesson-panel >> nth=0 >> .lesson-mark", timeout=90_000)
     tops = page.evaluate(

@@ -17,14 +17,14 @@ from conftest import ROOT
 from lti_platform import LEARNER, Platform
 from playwright.sync_api import Error as PlaywrightError
 from test_api_support import INSTRUCTOR, Server, bearer, wait_for
-from test_web_page import SHOTS, browser  # noqa: F401, F811  (a fixture)
+from test_web_page import SHOTS
 
 ADMIN = bearer(INSTRUCTOR)
 EXAMPLE = ROOT / "scenes" / "grading"
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory, browser):  # noqa: F811
+def setup(tmp_path_factory, browser):
     env = {"TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
     with Server(tmp_path_factory.mktemp("web-lti"), workers=0, env=env) as server, Platform() as p:
         p.tool_jwks_url = server.url + "/lti/jwks"
@@ -89,7 +89,7 @@ def where(page) -> str:
 
 def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_opens_the_assignment(
     setup,
-    browser,  # noqa: F811
+    browser,
 ):
     server, p, aid = setup
     p.auto_launch = {"sub": "student-7", "roles": [LEARNER], "custom": {"assignment": aid}}
@@ -114,7 +114,7 @@ def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_
     context.close()
 
 
-def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, browser):  # noqa: F811
+def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, browser):
     server, p, aid = setup
     p.auto_launch = {"sub": "student-8", "roles": [LEARNER], "custom": {"assignment": aid}}
     context = browser.new_context(viewport={"width": 1100, "height": 800})

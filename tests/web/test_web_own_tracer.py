@@ -25,7 +25,7 @@ from datetime import UTC, datetime, timedelta
 import httpx
 from test_api_support import INSTRUCTOR, bearer, wait_for
 from test_web_axe import assert_accessible
-from test_web_page import DESKTOP, SHOTS, TEACHER, Page, browser, server  # noqa: F401  (fixtures)
+from test_web_page import DESKTOP, SHOTS, TEACHER, Page
 
 W, H = 32, 24
 REFERENCE = {
@@ -146,7 +146,7 @@ SIDES = """(root) => {
 }"""
 
 
-def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, server, tmp_path):  # noqa: F811
+def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, server, tmp_path):
     who = publish(server)
     aid = who["aid"]
     students_image(server, who["token"], tmp_path / "mine.png")

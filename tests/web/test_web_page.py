@@ -18,9 +18,8 @@ from collections import Counter
 from pathlib import Path
 
 import httpx
-import pytest
-from conftest import ROOT, scene_dict, small
-from test_api_support import INSTRUCTOR, Server, bearer
+from scene_support import ROOT, scene_dict, small
+from test_api_support import INSTRUCTOR, bearer
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = [
@@ -36,29 +35,6 @@ DESKTOP = {"width": 1280, "height": 800}
 PHONE = {"width": 390, "height": 844}
 DONE = ("done", "failed", "cancelled")
 TEACHER = bearer(INSTRUCTOR)
-
-
-@pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    # previews every 0.1 s: a render of a second or two shows several passes
-    env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
-    with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
-        yield s
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError as exc:
-        pytest.fail(f"Playwright is not installed ({exc}); `pip install -e .[test]` (or ./dev test) installs it")
-    if not Path(CHROMIUM).exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium package (./dev test does it)")
-    SHOTS.mkdir(parents=True, exist_ok=True)
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True)
-        yield b
-        b.close()
 
 
 CSP_WATCH = """document.addEventListener("securitypolicyviolation", (e) =>
@@ -89,22 +65,6 @@ class Page:
 
     def unexpected_errors(self) -> list[str]:
         return [e for e in self.errors if not any(re.search(a, e) for a in self.allow)]
-
-
-@pytest.fixture
-def desktop(browser, server):
-    p = Page(browser, server, DESKTOP)
-    yield p
-    p.context.close()
-    assert p.unexpected_errors() == []
-
-
-@pytest.fixture
-def phone(browser, server):
-    p = Page(browser, server, PHONE)
-    yield p
-    p.context.close()
-    assert p.unexpected_errors() == []
 
 
 def set_scene(page, scene: dict) -> None:

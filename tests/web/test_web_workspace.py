@@ -1,4 +1,4 @@
-"""The workspace in a real browser (the fixtures of test_web_page.py): the picture and the ray tree of a clicked
+"""The workspace in a real browser (the fixtures of tests/web/conftest.py): the picture and the ray tree of a clicked
 pixel in view together, Render an early Tab stop, the Example menu following the text, and the browser's
 ResizeObserver notice kept out of the error banner. Screenshots go to $WEB_SHOTS (workspace-*.png)."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 
 from conftest import scene_dict
-from test_web_page import DESKTOP, browser, desktop, render, server, set_scene, whitted  # noqa: F401  (fixtures)
+from test_web_page import DESKTOP, render, set_scene, whitted
 
 SETTLED = """() => new Promise((done) => {
     let last = -1, same = 0, frames = 0;  // five frames without a move (a smooth scroll ends), at most 600
@@ -24,7 +24,7 @@ BOXES = """() => Object.fromEntries(['#render-img', '#rt-diagram', '#rt-diagram 
 }))"""
 
 
-def test_web_workspace_a_pixel_click_keeps_the_picture_and_its_tree_in_view(desktop):  # noqa: F811
+def test_web_workspace_a_pixel_click_keeps_the_picture_and_its_tree_in_view(desktop):
     page = desktop.open().page
     set_scene(page, whitted(160, 120, spp=4))
     render(page)
@@ -45,7 +45,7 @@ def test_web_workspace_a_pixel_click_keeps_the_picture_and_its_tree_in_view(desk
     assert width <= DESKTOP["width"], f"the page is {width} px wide at {DESKTOP['width']} px"
 
 
-def test_web_workspace_render_is_the_tab_stop_after_the_scene_text(desktop):  # noqa: F811
+def test_web_workspace_render_is_the_tab_stop_after_the_scene_text(desktop):
     """From the top of the page Tab reaches the scene text, and the next Tab is Render (it was the 49th stop,
     after every field of the form)."""
     page = desktop.open().page
@@ -67,7 +67,7 @@ def menu(page) -> str:
     return page.input_value("#example-select")
 
 
-def test_web_workspace_the_example_menu_follows_the_text(desktop):  # noqa: F811
+def test_web_workspace_the_example_menu_follows_the_text(desktop):
     page = desktop.open().page
     page.wait_for_selector("#validation-status[data-kind=ok]")
     assert menu(page) == "whitted"
@@ -99,7 +99,7 @@ RESIZE_LOOP = """() => new Promise((done) => {
 })"""
 
 
-def test_web_workspace_the_resize_observer_notice_is_no_error(desktop):  # noqa: F811
+def test_web_workspace_the_resize_observer_notice_is_no_error(desktop):
     """The browser's "ResizeObserver loop completed with undelivered notifications" (a notice: the rest is
     delivered in the next frame) leaves the banner hidden; a real error still shows it."""
     desktop.allow += [r"ResizeObserver loop", r"a real error"]

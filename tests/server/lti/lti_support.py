@@ -1,6 +1,5 @@
-"""The LTI tests' fixtures, imported by name in each test module (a conftest.py here would shadow
-tests/conftest.py, which other modules import as `conftest`): the service's app served by uvicorn on loopback
-(`tool`, one per session, its data directory its own), and a test platform registered with it (`platform`, a
+"""The LTI tests' fixtures, registered for the folder by its conftest.py: the service's app served by uvicorn on
+loopback (`tool`, one per session, its data directory its own), and a test platform registered with it (`platform`, a
 fresh one per test, on its own port, so that no key set or token cached by the tool carries over)."""
 
 from __future__ import annotations

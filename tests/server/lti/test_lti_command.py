@@ -7,7 +7,6 @@ import subprocess
 import sys
 
 from conftest import ROOT
-from lti_support import tool  # noqa: F401  (the fixture)
 from test_api_support import bearer, student_token
 
 from server.lti.command import CANVAS_HEADER, main
@@ -57,7 +56,7 @@ def test_lti_command_show_tool_prints_canvas_json():
                      "link_selection": "LtiDeepLinkingRequest"}  # fmt: skip
 
 
-def test_lti_api_platforms_are_the_admins(tool):  # noqa: F811
+def test_lti_api_platforms_are_the_admins(tool):
     body = {"issuer": "https://canvas.instructure.com", "client_id": "10000000000042", "deployment_ids": ["7:x"],
             "auth_url": "https://sso.canvaslms.com/api/lti/authorize_redirect",
             "token_url": "https://sso.canvaslms.com/login/oauth2/token",
@@ -78,7 +77,7 @@ def test_lti_api_platforms_are_the_admins(tool):  # noqa: F811
     assert "canvas" not in page.headers["content-security-policy"]
 
 
-def test_lti_api_register_names_a_bad_field(tool):  # noqa: F811
+def test_lti_api_register_names_a_bad_field(tool):
     body = {"issuer": "https://lms.example.edu", "client_id": "c", "auth_url": "http://lms.example.edu/auth",
             "token_url": "https://lms.example.edu/token", "jwks_url": "https://lms.example.edu/jwks"}  # fmt: skip
     r = tool.client.post("/api/lti/platforms", json=body, headers=tool.admin())
@@ -107,7 +106,7 @@ def test_lti_command_private_addresses_need_allow_private_and_the_options_are_ke
     assert main(argv) == 0 and "service origins: https://school.example.edu" in capsys.readouterr().out
 
 
-def test_lti_api_register_refuses_a_private_address_unless_allowed(tool):  # noqa: F811
+def test_lti_api_register_refuses_a_private_address_unless_allowed(tool):
     body = {"issuer": "https://169.254.169.254", "client_id": "c", "auth_url": "https://lms.example.edu/auth",
             "token_url": "https://lms.example.edu/token", "jwks_url": "https://lms.example.edu/jwks"}  # fmt: skip
     r = tool.client.post("/api/lti/platforms", json=body, headers=tool.admin())

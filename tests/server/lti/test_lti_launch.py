@@ -8,7 +8,6 @@ import time
 
 import pytest
 from lti_platform import INSTRUCTOR, LTI, new_key
-from lti_support import platform, tool  # noqa: F401  (the fixtures)
 
 TA = "http://purl.imsglobal.org/vocab/lis/v2/membership/Instructor#TeachingAssistant"
 
@@ -29,7 +28,7 @@ def assert_refused(r, check: str, status: int = 400, words: str = "") -> None:
     assert "location" not in r.headers and "token=" not in r.text and "authorization" not in r.headers
 
 
-def test_lti_launch_through_the_oidc_flow_opens_the_handler_page(tool, platform):  # noqa: F811
+def test_lti_launch_through_the_oidc_flow_opens_the_handler_page(tool, platform):
     r = platform.do_launch(tool.client, tool.url, roles=[INSTRUCTOR])
     assert r.status_code == 200, r.text
     assert "launched as instructor in Rendering 101" in r.text
@@ -44,7 +43,7 @@ def test_lti_launch_through_the_oidc_flow_opens_the_handler_page(tool, platform)
     assert platform.jwks_hits == 1
 
 
-def test_lti_launch_login_by_post_sets_the_state_cookie_and_a_launch_needs_it(tool, platform):  # noqa: F811
+def test_lti_launch_login_by_post_sets_the_state_cookie_and_a_launch_needs_it(tool, platform):
     """The login first looks for a cookie it set (does this browser keep the tool's cookies here?), then sets the
     one state cookie, `lti_state`; a launch whose browser lost it is refused (no Platform Storage was offered)."""
     login = {"iss": platform.issuer, "login_hint": "u", "target_link_uri": tool.url + "/lti/launch",
@@ -64,7 +63,7 @@ def test_lti_launch_login_by_post_sets_the_state_cookie_and_a_launch_needs_it(to
     assert platform.do_launch(tool.client, tool.url, method="POST").status_code == 200
 
 
-def test_lti_launch_a_browser_that_keeps_no_cookie_is_offered_a_new_window(tool, platform):  # noqa: F811
+def test_lti_launch_a_browser_that_keeps_no_cookie_is_offered_a_new_window(tool, platform):
     login = {"iss": platform.issuer, "login_hint": "u", "target_link_uri": tool.url + "/lti/launch",
              "client_id": platform.client_id, "lti_message_hint": "m&1"}  # fmt: skip
     r = tool.client.get(tool.url + "/lti/login", params={**login, "lti_cookie_check": "1"})  # no cookie came back
@@ -76,7 +75,7 @@ def test_lti_launch_a_browser_that_keeps_no_cookie_is_offered_a_new_window(tool,
     assert r.status_code == 302 and "lti_cookie_check=1" in r.headers["location"]
 
 
-def test_lti_launch_a_forged_launch_meets_the_browser_s_own_state_cookie(tool, platform):  # noqa: F811
+def test_lti_launch_a_forged_launch_meets_the_browser_s_own_state_cookie(tool, platform):
     """Login CSRF: an attacker's own login and launch, posted by the victim's browser. The victim's browser holds
     its own state cookie (one name for every state): the states differ, refused; it holds none: refused too."""
     checked = {"Cookie": "lti_check=1"}  # (the login's check passed)
@@ -95,7 +94,7 @@ def test_lti_launch_a_forged_launch_meets_the_browser_s_own_state_cookie(tool, p
         assert_refused(r, "state", 400)
 
 
-def test_lti_launch_refused_for_a_service_url_off_the_platform(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_a_service_url_off_the_platform(tool, platform):
     """The tool sends the platform's access token to its service URLs: a line item, the line items, the members
     or a deep-linking return URL elsewhere than the platform's registered origins is refused at the launch."""
     ags = "https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"
@@ -115,7 +114,7 @@ def test_lti_launch_refused_for_a_service_url_off_the_platform(tool, platform): 
     assert platform.do_launch(tool.client, tool.url).status_code == 200  # its own URLs
 
 
-def test_lti_launch_logins_from_one_address_are_capped(tool, platform, monkeypatch):  # noqa: F811
+def test_lti_launch_logins_from_one_address_are_capped(tool, platform, monkeypatch):
     from server.lti import store as lti_store
 
     monkeypatch.setattr(lti_store, "MAX_LOGINS_PER_ADDRESS", 2)
@@ -132,17 +131,17 @@ def test_lti_launch_logins_from_one_address_are_capped(tool, platform, monkeypat
         db.execute("DELETE FROM lti_logins")
 
 
-def test_lti_launch_of_a_teaching_assistant_with_the_principal_role_is_a_ta(tool, platform):  # noqa: F811
+def test_lti_launch_of_a_teaching_assistant_with_the_principal_role_is_a_ta(tool, platform):
     r = platform.do_launch(tool.client, tool.url, roles=[INSTRUCTOR, TA])
     assert r.status_code == 200 and "launched as ta in" in r.text
 
 
-def test_lti_launch_refused_with_another_key(tool, platform):  # noqa: F811
+def test_lti_launch_refused_with_another_key(tool, platform):
     r = platform.do_launch(tool.client, tool.url, key=new_key(), kid=platform.key.kid)
     assert_refused(r, "signature", 401, "does not match")
 
 
-def test_lti_launch_refused_for_an_unknown_kid_after_one_refetch(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_an_unknown_kid_after_one_refetch(tool, platform):
     platform.do_launch(tool.client, tool.url)  # the key set is cached
     assert platform.jwks_hits == 1
     tool.lti.jwks.min_interval = 0  # (the cache's refetch interval is its own test's)
@@ -154,7 +153,7 @@ def test_lti_launch_refused_for_an_unknown_kid_after_one_refetch(tool, platform)
     assert platform.jwks_hits == 2  # fetched again exactly once
 
 
-def test_lti_launch_follows_a_rotated_key(tool, platform):  # noqa: F811
+def test_lti_launch_follows_a_rotated_key(tool, platform):
     platform.do_launch(tool.client, tool.url)
     platform.key = new_key()
     platform.keys = [platform.key]
@@ -167,30 +166,30 @@ def test_lti_launch_follows_a_rotated_key(tool, platform):  # noqa: F811
     assert platform.jwks_hits == 2
 
 
-def test_lti_launch_refused_when_expired(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_expired(tool, platform):
     r = platform.do_launch(tool.client, tool.url, now=time.time() - 300 - 61)
     assert_refused(r, "exp", 400, "this launch expired at")
 
 
-def test_lti_launch_refused_when_issued_in_the_future(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_issued_in_the_future(tool, platform):
     r = platform.do_launch(tool.client, tool.url, now=time.time() + 61 + 5)
     assert_refused(r, "iat", 400, "in the future")
 
 
 @pytest.mark.parametrize("skew", [-300 - 50, 50])
-def test_lti_launch_accepts_clock_skew_within_the_leeway(tool, platform, skew):  # noqa: F811
+def test_lti_launch_accepts_clock_skew_within_the_leeway(tool, platform, skew):
     r = platform.do_launch(tool.client, tool.url, now=time.time() + skew)
     assert r.status_code == 200, r.text
 
 
-def test_lti_launch_refused_when_replayed_with_a_second_login(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_replayed_with_a_second_login(tool, platform):
     assert platform.do_launch(tool.client, tool.url).status_code == 200
     replayed = platform.last["id_token"]
     r = platform.do_launch(tool.client, tool.url, token=replayed)
     assert_refused(r, "nonce", 400, "nonce")
 
 
-def test_lti_launch_refused_when_the_nonce_was_used(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_the_nonce_was_used(tool, platform):
     """The same id_token and nonce again (its login's row put back, as a replayed state would): the nonce is
     seen already."""
     assert platform.do_launch(tool.client, tool.url).status_code == 200
@@ -205,19 +204,19 @@ def test_lti_launch_refused_when_the_nonce_was_used(tool, platform):  # noqa: F8
     assert_refused(r, "nonce", 400, "<strong>nonce</strong>: this launch was used already")
 
 
-def test_lti_launch_refused_when_its_state_comes_twice(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_its_state_comes_twice(tool, platform):
     assert platform.do_launch(tool.client, tool.url).status_code == 200
     last = platform.last
     r = tool.client.post(tool.url + "/lti/launch", data={"id_token": last["id_token"], "state": last["state"]})
     assert_refused(r, "state", 400, "used already")
 
 
-def test_lti_launch_refused_without_state(tool, platform):  # noqa: F811
+def test_lti_launch_refused_without_state(tool, platform):
     r = tool.client.post(tool.url + "/lti/launch", data={"id_token": platform.launch_token(nonce="n")})
     assert_refused(r, "state", 400, "no state")
 
 
-def test_lti_launch_refused_when_the_cookie_is_another_state(tool, platform):  # noqa: F811
+def test_lti_launch_refused_when_the_cookie_is_another_state(tool, platform):
     first = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "u",
                             "target_link_uri": "t", "client_id": platform.client_id, "lti_cookie_check": "1"},
                             headers={"Cookie": "lti_check=1"})  # fmt: skip
@@ -228,64 +227,64 @@ def test_lti_launch_refused_when_the_cookie_is_another_state(tool, platform):  #
     assert_refused(tool.client.post(tool.url + "/lti/launch", data=data, headers=headers), "state", 400, "browser")
 
 
-def test_lti_launch_refused_for_another_audience(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_another_audience(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={"aud": "someone-else", "azp": "someone-else"})
     assert_refused(r, "aud", 400, "someone-else")
 
 
-def test_lti_launch_refused_for_several_audiences_without_azp(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_several_audiences_without_azp(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={"aud": [platform.client_id, "other"]}, drop=["azp"])
     assert_refused(r, "azp", 400, "several audiences")
 
 
-def test_lti_launch_refused_for_an_azp_that_is_not_the_tool(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_an_azp_that_is_not_the_tool(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={"aud": [platform.client_id, "other"], "azp": "other"})
     assert_refused(r, "azp", 400, "'other'")
 
 
-def test_lti_launch_refused_for_an_unknown_deployment(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_an_unknown_deployment(tool, platform):
     r = platform.do_launch(tool.client, tool.url, deployment_id="deployment-9")
     assert_refused(r, "deployment_id", 400, "deployment-9")
 
 
-def test_lti_login_refused_for_an_unknown_deployment(tool, platform):  # noqa: F811
+def test_lti_login_refused_for_an_unknown_deployment(tool, platform):
     r = tool.client.get(tool.url + "/lti/login", params={"iss": platform.issuer, "login_hint": "u",
                         "target_link_uri": "t", "lti_deployment_id": "deployment-9"})  # fmt: skip
     assert_refused(r, "deployment_id", 400, "deployment-9")
 
 
-def test_lti_launch_refused_for_another_message_type(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_another_message_type(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={LTI + "message_type": "LtiSubmissionReviewRequest"})
     assert_refused(r, "message_type", 400, "LtiSubmissionReviewRequest")
 
 
-def test_lti_launch_refused_for_another_version(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_another_version(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={LTI + "version": "1.1"})
     assert_refused(r, "version", 400, "expected '1.3.0'")
 
 
-def test_lti_launch_refused_without_a_resource_link_id(tool, platform):  # noqa: F811
+def test_lti_launch_refused_without_a_resource_link_id(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={LTI + "resource_link": {"title": "no id"}})
     assert_refused(r, "resource_link", 400)
 
 
-def test_lti_launch_refused_for_an_unknown_issuer(tool, platform):  # noqa: F811
+def test_lti_launch_refused_for_an_unknown_issuer(tool, platform):
     r = platform.do_launch(tool.client, tool.url, overrides={"iss": "https://lms.elsewhere.example"})
     assert_refused(r, "iss", 400, "not a registered platform")
 
 
-def test_lti_login_refused_for_an_unknown_platform(tool, platform):  # noqa: F811
+def test_lti_login_refused_for_an_unknown_platform(tool, platform):
     r = tool.client.get(tool.url + "/lti/login", params={"iss": "https://nobody.example", "login_hint": "u",
                         "target_link_uri": "t"})  # fmt: skip
     assert_refused(r, "platform", 400, "no platform is registered")
 
 
-def test_lti_launch_of_deep_linking_carries_its_settings(tool, platform):  # noqa: F811
+def test_lti_launch_of_deep_linking_carries_its_settings(tool, platform):
     r = platform.do_launch(tool.client, tool.url, message_type="LtiDeepLinkingRequest")
     assert r.status_code == 200 and "LtiDeepLinkingRequest" in r.text
 
 
-def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):  # noqa: F811
+def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):
     r = platform.do_launch(tool.client, tool.url)
     policy = r.headers["content-security-policy"]
     assert f"frame-ancestors 'self' {platform.issuer}" in policy and "x-frame-options" not in r.headers
@@ -294,14 +293,14 @@ def test_lti_launch_pages_may_be_framed_by_the_platform_only(tool, platform):  #
     assert api.headers["x-frame-options"] == "DENY"
 
 
-def test_lti_launch_refusal_page_escapes_what_the_token_says(tool, platform):  # noqa: F811
+def test_lti_launch_refusal_page_escapes_what_the_token_says(tool, platform):
     r = platform.do_launch(tool.client, tool.url, deployment_id='<script>alert("x")</script>')
     assert_refused(r, "deployment_id", 400, '<script>alert("x")</script>')
     assert "<script>" not in r.text and "&lt;script&gt;" in r.text
     assert '<html lang="en">' in r.text and '<link rel="stylesheet" href="/css/app.css">' in r.text
 
 
-def test_lti_launch_return_url_origin_may_frame_the_tool(tool, platform):  # noqa: F811
+def test_lti_launch_return_url_origin_may_frame_the_tool(tool, platform):
     """A hosted Canvas shows its courses at the school's address, which its registration does not name: the
     origin of a verified launch's return URL may frame the tool, from that launch's own answer on."""
     school = "https://school.example.edu"

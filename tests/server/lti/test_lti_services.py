@@ -6,7 +6,6 @@ from __future__ import annotations
 import httpx
 import pytest
 from lti_platform import DL, LTI, NRPS_SCOPE
-from lti_support import platform, tool  # noqa: F401  (the fixtures)
 
 from server.lti.services import SCORE_SCOPE, ServiceClient, ServiceError, deep_link_response, score, scores_url
 
@@ -20,7 +19,7 @@ class Clock:
 
 
 @pytest.fixture
-def services(tool):  # noqa: F811
+def services(tool):
     import time
 
     clock = Clock(time.time())
@@ -30,7 +29,7 @@ def services(tool):  # noqa: F811
         yield client
 
 
-def test_lti_services_access_token_is_cached_until_a_minute_before_expiry(services, platform):  # noqa: F811
+def test_lti_services_access_token_is_cached_until_a_minute_before_expiry(services, platform):
     p = platform.registered
     token = services.access_token(p, [SCORE_SCOPE])
     assert services.access_token(p, [SCORE_SCOPE]) == token and len(platform.token_requests) == 1
@@ -41,14 +40,14 @@ def test_lti_services_access_token_is_cached_until_a_minute_before_expiry(servic
     assert services.access_token(p, [SCORE_SCOPE]) != token and len(platform.token_requests) == 3
 
 
-def test_lti_services_a_bad_assertion_is_refused_by_the_platform(services, platform):  # noqa: F811
+def test_lti_services_a_bad_assertion_is_refused_by_the_platform(services, platform):
     p = {**platform.registered, "client_id": "not-the-client"}
     with pytest.raises(ServiceError) as e:
         services.access_token(p, [SCORE_SCOPE])
     assert e.value.status == 401 and "invalid_client" in e.value.message
 
 
-def test_lti_services_score_posted_with_increasing_timestamps(services, platform):  # noqa: F811
+def test_lti_services_score_posted_with_increasing_timestamps(services, platform):
     p = platform.registered
     lineitem = f"{platform.url}/lineitems/li-1?context=course-1"
     assert scores_url(lineitem) == f"{platform.url}/lineitems/li-1/scores?context=course-1"
@@ -65,7 +64,7 @@ def test_lti_services_score_posted_with_increasing_timestamps(services, platform
     assert e.value.status == 409
 
 
-def test_lti_services_score_fails_with_the_platform_down(services, platform):  # noqa: F811
+def test_lti_services_score_fails_with_the_platform_down(services, platform):
     platform.down = True
     with pytest.raises(ServiceError) as e:
         services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 0.0))
@@ -76,7 +75,7 @@ def test_lti_services_score_fails_with_the_platform_down(services, platform):  #
     assert e.value.status == 0 and "no answer" in e.value.message
 
 
-def test_lti_services_line_items_read_and_made(services, platform):  # noqa: F811
+def test_lti_services_line_items_read_and_made(services, platform):
     p, url = platform.registered, f"{platform.url}/lineitems?context=course-1"
     assert [i["label"] for i in services.line_items(p, url)] == ["Ray trees"]
     made = services.create_line_item(p, url, "Radiosity", 20, resource_link_id="link-2", tag="hw2")
@@ -86,7 +85,7 @@ def test_lti_services_line_items_read_and_made(services, platform):  # noqa: F81
     assert platform.scores[-1]["lineitem"] == made["id"].rsplit("/", 1)[1]
 
 
-def test_lti_services_members_across_pages(services, platform):  # noqa: F811
+def test_lti_services_members_across_pages(services, platform):
     members = services.members(platform.registered, f"{platform.url}/memberships/course-1?limit=2")
     assert [m["user_id"] for m in members] == [f"user-{i}" for i in range(5)]  # 3 pages of at most 2
     assert members[0] == {
@@ -97,7 +96,7 @@ def test_lti_services_members_across_pages(services, platform):  # noqa: F811
     assert len(services.members(platform.registered, f"{platform.url}/memberships/course-1?limit=2", 2)) == 4
 
 
-def test_lti_services_deep_link_response_verified_by_the_platform(tool, platform):  # noqa: F811
+def test_lti_services_deep_link_response_verified_by_the_platform(tool, platform):
     settings = {"deep_link_return_url": platform.url + "/deep_link_return", "data": "opaque-data-1"}
     items = [{"type": "ltiResourceLink", "title": "Ray trees", "url": tool.url + "/lti/launch",
               "custom": {"assignment": "a1"}}]  # fmt: skip
@@ -109,7 +108,7 @@ def test_lti_services_deep_link_response_verified_by_the_platform(tool, platform
     assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse" and claims["exp"] - claims["iat"] == 600
 
 
-def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, platform):  # noqa: F811
+def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, platform):
     import re
 
     from server.lti.pages import deep_link_form
@@ -125,7 +124,7 @@ def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, plat
     assert platform.deep_links[-1][DL + "content_items"] == []
 
 
-def test_lti_services_a_revoked_token_is_replaced_once(services, platform):  # noqa: F811
+def test_lti_services_a_revoked_token_is_replaced_once(services, platform):
     p, lineitem = platform.registered, f"{platform.url}/lineitems/li-1"
     services.post_score(p, lineitem, score("student-1", 1, 10, 1.0))
     platform.tokens.clear()  # the platform forgets every token it gave
@@ -133,7 +132,7 @@ def test_lti_services_a_revoked_token_is_replaced_once(services, platform):  # n
     assert len(platform.token_requests) == 2 and len(platform.scores) == 2
 
 
-def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s_body(services, platform):  # noqa: F811
+def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s_body(services, platform):
     platform.down = True  # its answer's body: {"error": "down for maintenance"}
     with pytest.raises(ServiceError) as e:
         services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 0.0))
@@ -141,7 +140,7 @@ def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s
     assert "maintenance" not in e.value.message and "{" not in e.value.message
 
 
-def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services, platform):  # noqa: F811
+def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services, platform):
     """A score, a line item or the members at another origin (another port of loopback here) are refused before
     anything is sent: no access token is even asked for."""
     from lti_platform import LoopbackServer

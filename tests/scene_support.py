@@ -1,0 +1,31 @@
+"""The repository's paths and the example scenes as dicts, for every test module. Test modules import them from
+`conftest` (`from conftest import ROOT, scene_dict, small`); every conftest.py of tests/ re-exports them, because
+pytest loads each folder's conftest.py under the one module name `conftest` and the name then stands for the
+last one loaded."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+TESTS = Path(__file__).resolve().parent
+ROOT = TESTS.parent
+SCENES = ROOT / "scenes"
+EXAMPLES = sorted(SCENES.glob("*.json"))
+
+
+def scene_dict(name: str) -> dict:
+    return json.loads((SCENES / f"{name}.json").read_text())
+
+
+def small(data: dict, width: int = 32, height: int = 24, **sections) -> dict:
+    """A copy of a scene dict at a small size, with sections overridden (sampler={...})."""
+    d = copy.deepcopy(data)
+    d.setdefault("film", {}).update(width=width, height=height)
+    for key, values in sections.items():
+        if isinstance(values, dict):
+            d.setdefault(key, {}).update(values)
+        else:
+            d[key] = values
+    return d
