@@ -439,6 +439,9 @@ def _hit(walk: _Walk, s: dict, r: dict) -> bool:
                      "(hit + 1e-4 N, N turned to the side the ray goes), as for shadow acne.")  # fmt: skip
         elif same is not False and abs(ts - tr) > ex.position:
             text += " The same object at another distance: check its intersection (the nearer root, t > 0)."
+        elif same is False and abs(ts - tr) <= ex.position + 1e-3 * tr:
+            text += (" Both at the same distance: two surfaces meet there (coplanar, or touching), and which one a "
+                     "ray hits is a tie of rounding; the scene should keep them apart.")  # fmt: skip
         walk.add("hit", text, s, r)
         return False
     hs, hr = s.get("hit") or {}, r.get("hit") or {}
