@@ -556,14 +556,15 @@ def _brought(walk: _Walk, s: dict, r: dict, c: dict, x: dict) -> None:
         f"Your shadow ray from {where} towards light {x.get('light')} brings {_p(mine)}; the reference's {_p(theirs)}."
     )
     fa = _f_att(light, point)
-    if fa is not None and np.any(theirs > ABSOLUTE):
+    if fa is not None and np.any(theirs > 0):  # a far light's share may be tiny: its ratio is what tells
         f, d = fa
-        if _close(mine * f, theirs, rel=0.02):
+        tiny = 1e-6 * float(theirs.max())
+        if _close(mine * f, theirs, rel=0.02, abs_=tiny):
             walk.add("attenuation", f"{head} Yours is the reference's / f_att: the distance attenuation is missing. "
                      f"The light is d = {d:.3g} away: f_att = 1 / (c1 + c2 d + c3 d^2) = {f:.3g} with (c1, c2, c3) = "
                      f"{_p(light.attenuation)}.", c, x)  # fmt: skip
             return
-        if _close(mine, theirs * f, rel=0.02):
+        if _close(mine, theirs * f, rel=0.02, abs_=tiny):
             walk.add("attenuation", f"{head} Yours has the distance attenuation f_att = {f:.3g} (d = {d:.3g}) twice.",
                      c, x)  # fmt: skip
             return

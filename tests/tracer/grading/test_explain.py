@@ -133,16 +133,30 @@ def test_explain_shadow_acne_and_a_wrong_shadow(ex, places):
 
 
 def test_explain_a_missing_distance_attenuation_and_a_wrong_highlight(ex, places):
-    x, y = places["lit"][0]
+    def d2(n: dict, tree: dict) -> float:  # the squared distance from the ray's parent's hit to its light
+        parent = next(m for m in tree["nodes"] if m["id"] == n["parent"])
+        position = SCENE["lights"][n["light"]]["position"]
+        return sum((a - b) ** 2 for a, b in zip(position, parent["hit"]["point"], strict=True))
+
+    # a faint lit shadow ray (a light far from the floor there): its share is below the comparison's absolute
+    # tolerance, but without the 1/d^2 it is not, and the ratio tells
+    (x, y), faint = next(
+        (p, n) for p in places["lit"] for n in ex.reference_tree(*p)["nodes"]
+        if n["kind"] == "shadow" and not n["occluded"] and 0 < max(n["radiance"]) < 2e-3
+        and max(n["radiance"]) * d2(n, ex.reference_tree(*p)) > 0.01
+    )  # fmt: skip
     tree = logged(ex.reference_tree(x, y))
-    s = node_where(tree, lambda n: n["kind"] == "shadow" and not n["occluded"] and max(n["radiance"]) > 1e-3)
+    s = node_where(tree, lambda n: n["id"] == faint["id"])
     parent = next(n for n in tree["nodes"] if n["id"] == s["parent"])
     light = SCENE["lights"][s["light"]]
-    d2 = sum((a - b) ** 2 for a, b in zip(light["position"], parent["hit"]["point"], strict=True))
-    s["radiance"] = [c * d2 for c in s["radiance"]]  # I cos(theta) f without the 1 / d^2
+    far = sum((a - b) ** 2 for a, b in zip(light["position"], parent["hit"]["point"], strict=True))
+    s["radiance"] = [c * far for c in s["radiance"]]  # I cos(theta) f without the 1 / d^2
     d = first(ex, tree)
     assert d["what"] == "attenuation" and "f_att" in d["message"], d
-    s["radiance"] = [c * 1.6 / d2 for c in s["radiance"]]
+    x, y = places["lit"][0]  # a bright one, 1.6 times too bright: not the attenuation
+    tree = logged(ex.reference_tree(x, y))
+    s = node_where(tree, lambda n: n["kind"] == "shadow" and not n["occluded"] and max(n["radiance"]) > 1e-2)
+    s["radiance"] = [c * 1.6 for c in s["radiance"]]
     d = first(ex, tree)
     assert d["what"] == "shading" and "shininess" in d["message"], d
     tree = logged(ex.reference_tree(x, y))
