@@ -24,28 +24,10 @@ from datetime import UTC, datetime, timedelta
 
 import httpx
 from test_api_support import INSTRUCTOR, bearer, wait_for
+from test_own_trees import REFERENCE, H, W  # the scene of the service's tests: a mirror ball and a red ball
 from test_web_axe import assert_accessible
 from test_web_page import DESKTOP, SHOTS, TEACHER, Page
 
-W, H = 32, 24
-REFERENCE = {
-    "version": 1,
-    "name": "mirror and red",
-    "camera": {"lookfrom": [0, 0.5, 5], "lookat": [0, 0, 0], "vfov": 40},
-    "film": {"width": W, "height": H},
-    "sampler": {"type": "center", "spp": 1},
-    "render": {"integrator": "whitted", "max_depth": 2},
-    "background": [0.2, 0.3, 0.5],
-    "ambient": 0.05,
-    "materials": {"red": {"kd": [0.8, 0.1, 0.1], "ks": 0.4, "shininess": 30}, "mirror": {"kd": 0.05, "kr": 0.9},
-                  "floor": {"kd": 0.5}},
-    "lights": [{"type": "point", "position": [1, 4, 4], "intensity": 40}],
-    "objects": [
-        {"type": "plane", "name": "floor", "point": [0, -1, 0], "normal": [0, 1, 0], "material": "floor"},
-        {"type": "sphere", "name": "mirror ball", "center": [-0.7, 0, 0], "radius": 0.8, "material": "mirror"},
-        {"type": "sphere", "name": "red ball", "center": [1.2, -0.3, 0.5], "radius": 0.6, "material": "red"},
-    ],
-}  # fmt: skip
 PROBES = [{"x": 12, "y": 12, "why": "the mirror ball"}, {"x": 24, "y": 14, "why": "the red ball"},
           {"x": 3, "y": 20, "why": "the floor"}]  # fmt: skip
 SPEC = {
