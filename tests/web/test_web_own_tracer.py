@@ -68,23 +68,14 @@ def tree_log(srv) -> dict:
     """The reference's centre-ray trees at the probes (POST /api/raytree on the scene as the grader traces them)
     with only the log's fields, the eye ray of tree SHIFTED through its pixel's top-left corner."""
     from tracer.grading.explain import centre_scene
+    from tracer.grading.treelog import as_logged
 
-    keep = ("id", "parent", "kind", "origin", "direction", "t", "light", "occluded", "radiance", "weight")
     trees = []
     for p in PROBES:
         r = httpx.post(f"{srv.url}/api/raytree", json={"scene": centre_scene(REFERENCE), "x": p["x"], "y": p["y"],
                        "sample": 0}, headers=TEACHER, timeout=120)  # fmt: skip
         assert r.status_code == 200, r.text
-        tree = r.json()
-        nodes = []
-        for n in tree["nodes"]:
-            node = {k: n[k] for k in keep}
-            if n["hit"]:
-                node["hit"] = {k: n["hit"][k] for k in ("point", "normal", "object")}
-            if n["terms"]:
-                node["terms"] = {k: n["terms"][k] for k in ("ambient", "diffuse", "specular")}
-            nodes.append(node)
-        trees.append({"pixel": [p["x"], p["y"]], "color": tree["color"], "nodes": nodes})
+        trees.append(as_logged(r.json()))
     cam = REFERENCE["camera"]
     sub = lambda a, b: [x - y for x, y in zip(a, b, strict=True)]  # noqa: E731
     unit = lambda v: [x / math.sqrt(sum(c * c for c in v)) for x in v]  # noqa: E731

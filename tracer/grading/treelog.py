@@ -172,6 +172,23 @@ def parse(data: bytes | str | dict | Any, width: int | None = None, height: int 
     return TreeLog.model_construct(trees=[t for _, t in trees])
 
 
+LOGGED = ("id", "parent", "kind", "origin", "direction", "t", "light", "occluded", "radiance", "weight")
+
+
+def as_logged(tree: dict) -> dict:
+    """A ray tree of the renderer (rendering/raytree.py) as a right tracer logs it: the tree log's fields only
+    (what a correct log of that pixel looks like; the tests' right logs)."""
+    nodes = []
+    for n in tree["nodes"]:
+        node = {k: n[k] for k in LOGGED}
+        if n.get("hit"):
+            node["hit"] = {k: n["hit"][k] for k in ("point", "normal", "object")}
+        if n.get("terms"):
+            node["terms"] = {k: n["terms"][k] for k in ("ambient", "diffuse", "specular")}
+        nodes.append(node)
+    return {"pixel": list(tree["pixel"]), "color": tree["color"], "nodes": nodes}
+
+
 def validate(obj: Any, width: int | None = None, height: int | None = None) -> list[dict]:
     """The errors of a tree log ({path, message} each; [] when it is valid)."""
     try:

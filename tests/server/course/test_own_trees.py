@@ -64,20 +64,9 @@ def ex():
 
 def reference_log(ex, pixels) -> dict:
     """A log as a correct tracer writes it: the reference's own trees, with only the contract's fields."""
-    keep = ("id", "parent", "kind", "origin", "direction", "t", "light", "occluded", "radiance", "weight")
-    trees = []
-    for x, y in pixels:
-        tree = ex.reference_tree(x, y)
-        nodes = []
-        for n in tree["nodes"]:
-            node = {k: n[k] for k in keep}
-            if n["hit"]:
-                node["hit"] = {k: n["hit"][k] for k in ("point", "normal", "object")}
-            if n["terms"]:
-                node["terms"] = {k: n["terms"][k] for k in ("ambient", "diffuse", "specular")}
-            nodes.append(node)
-        trees.append({"pixel": [x, y], "color": tree["color"], "nodes": nodes})
-    return {"trees": trees}
+    from tracer.grading.treelog import as_logged
+
+    return {"trees": [as_logged(ex.reference_tree(x, y)) for x, y in pixels]}
 
 
 def png_of(image: np.ndarray) -> str:

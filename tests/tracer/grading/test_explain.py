@@ -21,22 +21,11 @@ from tracer.grading import probes, treelog
 from tracer.grading.explain import WHATS, Explainer
 
 SCENE = json.loads((Path(__file__).parent / "own_tracer_scene.json").read_text())
-KEEP = ("id", "parent", "kind", "origin", "direction", "t", "light", "occluded", "radiance", "weight")
 
 
 def logged(tree: dict) -> dict:
     """The reference's tree as a right tracer logs it: the contract's fields only (no depth, end, material...)."""
-    nodes = []
-    for n in tree["nodes"]:
-        node = {k: copy.deepcopy(n[k]) for k in KEEP}
-        if n["hit"]:
-            node["hit"] = {
-                k: list(n["hit"][k]) if k != "object" else n["hit"][k] for k in ("point", "normal", "object")
-            }
-        if n["terms"]:
-            node["terms"] = {k: list(n["terms"][k]) for k in ("ambient", "diffuse", "specular")}
-        nodes.append(node)
-    return {"pixel": tree["pixel"], "color": tree["color"], "nodes": nodes}
+    return copy.deepcopy(treelog.as_logged(tree))
 
 
 @pytest.fixture(scope="module")
