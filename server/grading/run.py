@@ -270,18 +270,12 @@ class GradingRun:
         states = self.service.states(waiting)
         for job_id, (what, name) in waiting.items():
             row = states.get(job_id)
-            if row is None:  # removed before we took its image: queue it again
-                log.warning("grading run %s: render job %s is gone; queued again", self.id, job_id)
-                if what == "render":
-                    self.renders[name]["job_id"] = None
-                    self._queue_render(name)
-                else:
-                    self._queue_item(self.items[name])
+            if row is not None and not JobStatus(row["status"]).finished:
                 continue
-            if not JobStatus(row["status"]).finished:
-                continue
-            if row["status"] == JobStatus.failed and JOB_DISK_FULL in (row.get("error") or ""):
-                log.warning("grading run %s: render job %s met a full disk; queued again", self.id, job_id)
+            gone = row is None  # removed before we took its image
+            if gone or (row["status"] == JobStatus.failed and JOB_DISK_FULL in (row.get("error") or "")):
+                why = "is gone" if gone else "met a full disk"
+                log.warning("grading run %s: render job %s %s; queued again", self.id, job_id, why)
                 if what == "render":
                     self.renders[name]["job_id"] = None
                     self._queue_render(name)
