@@ -42,6 +42,7 @@ from server.api.routes import (
     reference,
     samples,
     scenes,
+    similarity,
     tools,
 )  # fmt: skip
 from server.checkers.pool import CheckPool
@@ -54,6 +55,7 @@ from server.core.startup import check_data_dir, lock_data_dir
 from server.course.lms import Lms
 from server.course.owntrees import TreeCache
 from server.course.service import Course
+from server.course.similarity import Reports
 from server.grading.runs import GradeRuns
 from server.jobs import lesson_panels
 from server.jobs.janitor import Janitor
@@ -107,6 +109,7 @@ async def lifespan(app: FastAPI):
         stack.callback(grade_runs.shutdown)
         course = app.state.course = Course(settings, grade_runs, lambda: app.state.clock())
         course.resume()  # submissions a stopped server accepted but had not handed to their grading run
+        app.state.similarity = Reports(course)  # similarity reports, computed in the grading processes
         lti = app.state.lti = LtiTool(settings.data_dir)  # LTI 1.3: keys, platforms, launches (server/lti/)
         stack.callback(lti.close)
         lms = app.state.lms = Lms(course, lti.services, lti.keys, lti.store.platform)  # what a launch opens
@@ -166,7 +169,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
-    app.state.course = app.state.lti = app.state.lms = None
+    app.state.course = app.state.lti = app.state.lms = app.state.similarity = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.tree_cache = TreeCache()  # the reference's trees that own tracers' logs are compared with
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
@@ -193,6 +196,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # a student tracer's tree log, compared (docs/own-tracer.md): before assignments' GET .../{sid}/{name} (a
     # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
     app.include_router(own_trees.router)
+    app.include_router(similarity.router)  # before assignments.py, as own_trees
     app.include_router(assignments.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/

@@ -27,6 +27,7 @@ from server.core.settings import Settings
 from server.course.lms import Lms
 from server.course.owntrees import TreeCache
 from server.course.service import Course
+from server.course.similarity import Reports
 from server.grading.runs import GradeRuns
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
@@ -68,6 +69,10 @@ async def get_tree_cache(request: Request) -> TreeCache:
     return request.app.state.tree_cache
 
 
+async def get_similarity(request: Request) -> Reports:
+    return request.app.state.similarity
+
+
 async def get_lti(request: Request) -> LtiTool:
     return request.app.state.lti
 
@@ -107,6 +112,7 @@ JobsDep = Annotated[JobService, Depends(get_jobs)]
 CapsDep = Annotated[AddressCaps, Depends(get_caps)]
 CourseDep = Annotated[Course, Depends(get_course)]
 TreeCacheDep = Annotated[TreeCache, Depends(get_tree_cache)]  # the reference's trees of own tracers' logs
+SimilarityDep = Annotated[Reports, Depends(get_similarity)]  # similarity reports (server/course/similarity.py)
 LtiDep = Annotated[LtiTool, Depends(get_lti)]
 MaybeLmsDep = Annotated[Lms | None, Depends(find_lms)]
 RunsDep = Annotated[GradeRuns, Depends(get_runs)]
