@@ -135,8 +135,7 @@ def scene_class(n: int, copies: int, seed: int = 1) -> tuple[list[tuple[str, dic
     rng = random.Random(seed)
     scenes = [(f"s{i:03d}", honest(rng)) for i in range(n - copies)]
     pairs = set()
-    for k in range(copies):
-        source, scene = scenes[rng.randrange(len(scenes))]
+    for k, (source, scene) in enumerate(rng.sample(scenes, copies)):  # each copy of its own source
         who = f"c{k:03d}"
         scenes.append((who, disguised(rng, scene)))
         pairs.add(frozenset((source, who)))
@@ -168,8 +167,8 @@ def image_class(n: int, copies: int, seed: int = 1) -> tuple[list[tuple[str, byt
     rng = np.random.default_rng(seed)
     pics = [(f"s{i:03d}", picture(rng)) for i in range(n - copies)]
     pairs = set()
-    for k in range(copies):
-        source, img = pics[int(rng.integers(len(pics)))]
+    for k, i in enumerate(rng.choice(len(pics), copies, replace=False)):  # each copy of its own source
+        source, img = pics[int(i)]
         pics.append((f"c{k:03d}", img + rng.integers(-1, 2, img.shape) / 255))
         pairs.add(frozenset((source, f"c{k:03d}")))
     return [(who, png(img)) for who, img in pics], pairs

@@ -12,10 +12,10 @@ object and light, where
 - a field equal to its default (the scene models' own, tracer/scene/) is no fact, written out or not, and an
   RGB triple of three equal numbers is that number (as the format reads it);
 - every number is **rounded to a grid**: steps of 0.05 below 1 in magnitude, steps of 5 % above (a
-  logarithmic grid, which meets the linear one at 1). A nudge of +0.001 would still cross a grid line now and
-  then, so each fact is written on two grids, the second shifted by half a step (`~` before its path): a
-  nudge smaller than half a step crosses a line of at most one of the two, and the fact on the other still
-  matches.
+  logarithmic grid, which meets the linear one near 1), whose lines are off the round numbers people write
+  (0.0137 + 0.05 k). A nudge of +0.001 would still cross a grid line now and then, so each fact is written on
+  two grids, the second shifted by half a step (`~` before its path): a nudge smaller than a quarter step
+  crosses a line of at most one of the two, and the number on the other still matches.
 
 `facts` holds both grids' facts (what MinHash and the distance read); `shown` maps each fact of the first grid
 to its path and the value as the scene wrote it (what a person reads beside the other student's). A starter
@@ -39,6 +39,10 @@ from tracer.scene.render import Fog, RenderSettings
 
 LINEAR_STEP = 0.05  # the grid below 1 in magnitude (coefficients, colours, small positions)
 LOG_STEP = math.log(1.05)  # above 1: steps of 5 % (a camera at 3.9 or 4.0 is not the same choice; 200 or 201 is)
+OFFSET = 0.0137  # the first grid's lines are at 0.0137 + 0.05 k: never on a number written with two decimals
+SWITCH = 1 + OFFSET  # where the 5 % steps start: a line of the linear grid
+ANCHOR_SCALE = 4  # where a thing is, on a grid 4 times coarser: a nudge that crosses a line there would change
+# every fact of the thing at once
 MAX_LIST = 12  # numbers of a list shown in full; a longer one (a mesh's vertices) is summarised
 MAX_TEXT = 60  # characters of a string value kept
 
@@ -59,22 +63,23 @@ MATERIAL_DEFAULTS = _defaults(Material)
 TRANSFORM_DEFAULTS = _defaults(Transform)
 
 
-def grid(x: float, shifted: bool = False) -> str:
-    """A number on the grid (linear below 1, logarithmic above), as the text of its cell: the first grid's
-    cells centred on its lines (0.05 k, 1.05^k), the second's (`shifted`) half a step off."""
+def grid(x: float, shifted: bool = False, scale: int = 1) -> str:
+    """A number's cell on the first grid (or the second, `shifted` half a step), as the text of the cell's middle.
+    Cells are LINEAR_STEP wide below SWITCH in magnitude and 5 % wide above. No line of either grid lies on a
+    number people write (0.7, 1.25, 2): the lines sit OFFSET off the round numbers. `scale`: cells that many
+    times wider (where a thing is: ANCHOR_SCALE)."""
     if not math.isfinite(x):
         return str(x)
-    a, sign = abs(x), "-" if x < 0 else ""
-    half = 0.5 if shifted else 0.0
-    if a < 1:
-        k = math.floor(a / LINEAR_STEP + 0.5 - half)
-        value = (k + half) * LINEAR_STEP
+    step, log_step = LINEAR_STEP * scale, LOG_STEP * scale
+    off = OFFSET + (step / 2 if shifted else 0.0)
+    switch = SWITCH * (math.exp(log_step / 2) if shifted else 1.0)  # each grid's own line
+    if abs(x) < switch:
+        k = math.floor((x - off) / step)
+        middle = off + (k + 0.5) * step
     else:
-        k = math.floor(math.log(a) / LOG_STEP + 0.5 - half)
-        value = math.exp((k + half) * LOG_STEP)
-    if value == 0:
-        return "0"
-    return f"{sign}{value:.3g}"
+        k = math.floor(math.log(abs(x) / switch) / log_step)
+        middle = math.copysign(switch * math.exp((k + 0.5) * log_step), x)
+    return f"{middle:.3g}"
 
 
 def _same(value: Any, default: Any) -> bool:
@@ -96,13 +101,13 @@ def _norm(v: Any) -> Any:
     return v
 
 
-def value_text(v: Any, shifted: bool | None = None) -> str:
+def value_text(v: Any, shifted: bool | None = None, scale: int = 1) -> str:
     """A value as a fact writes it: numbers on the grid (`shifted`: the second; None: as written, for people)."""
     v = _norm(v)
     if isinstance(v, bool) or v is None:
         return json.dumps(v)
     if isinstance(v, float):
-        return f"{v:.6g}" if shifted is None else grid(v, shifted)
+        return f"{v:.6g}" if shifted is None else grid(v, shifted, scale)
     if isinstance(v, str):
         return json.dumps(v[:MAX_TEXT])
     if isinstance(v, list):
@@ -111,10 +116,10 @@ def value_text(v: Any, shifted: bool | None = None) -> str:
             if not flat:
                 return f"[{len(v)} items]"
             lo, hi = min(flat), max(flat)
-            return f"[{len(v)} items in {value_text(lo, shifted)}..{value_text(hi, shifted)}]"
-        return "(" + ",".join(value_text(x, shifted) for x in v) + ")"
+            return f"[{len(v)} items in {value_text(lo, shifted, scale)}..{value_text(hi, shifted, scale)}]"
+        return "(" + ",".join(value_text(x, shifted, scale) for x in v) + ")"
     if isinstance(v, dict):
-        return "{" + ",".join(f"{k}:{value_text(x, shifted)}" for k, x in sorted(v.items())) + "}"
+        return "{" + ",".join(f"{k}:{value_text(x, shifted, scale)}" for k, x in sorted(v.items())) + "}"
     return json.dumps(str(v)[:MAX_TEXT])
 
 
@@ -183,7 +188,8 @@ def _flatten(prefix: str, value: Any, defaults: dict[str, Any], out: list[tuple[
 
 def _thing(c: Canonical, kind: str, thing: dict, model, material: dict | None) -> None:
     anchor = _anchor(thing)
-    key, shifted_key = f"{kind}@{value_text(anchor, False)}", f"{kind}@{value_text(anchor, True)}"
+    where = value_text(anchor, False, ANCHOR_SCALE), value_text(anchor, True, ANCHOR_SCALE)
+    key, shifted_key = f"{kind}@{where[0]}", f"{kind}@{where[1]}"
     fields: list[tuple[str, Any]] = []
     _flatten("", thing, _defaults(model) if model is not None else {}, fields)
     if material is not None:
