@@ -153,16 +153,17 @@ def _anchor(thing: dict) -> Any:
 
 @dataclass
 class Canonical:
-    """A scene's facts: `facts` on both grids; `shown`: each first-grid fact -> (its path, the value as written)."""
+    """A scene's facts: `facts` on both grids; `shown`: each first-grid fact -> (its path, the path as a person
+    reads it: where a thing is as written, not its cell; the value as written)."""
 
     facts: set[str] = field(default_factory=set)
-    shown: dict[str, tuple[str, str]] = field(default_factory=dict)
+    shown: dict[str, tuple[str, str, str]] = field(default_factory=dict)
 
-    def add(self, path: str, value: Any, shifted_path: str | None = None) -> None:
+    def add(self, path: str, value: Any, shifted_path: str | None = None, read_as: str | None = None) -> None:
         fact = f"{path}={value_text(value, False)}"
         self.facts.add(fact)
         self.facts.add(f"~{shifted_path or path}={value_text(value, True)}")
-        self.shown[fact] = (path, value_text(value))
+        self.shown[fact] = (path, read_as or path, value_text(value))
 
     def own(self, given: Canonical | None) -> Canonical:
         """The facts that are not `given`'s (a starter scene's): what the student made."""
@@ -196,8 +197,9 @@ def _thing(c: Canonical, kind: str, thing: dict, model, material: dict | None) -
         _flatten(".material", material, MATERIAL_DEFAULTS, fields)
     if not fields:  # a thing with nothing but its place is still a fact
         fields = [(".at", anchor)]
+    written = f"{kind}@{value_text(anchor)}"
     for path, v in fields:
-        c.add(key + path, v, shifted_key + path)
+        c.add(key + path, v, shifted_key + path, written + path)
 
 
 def canonical(scene: Any) -> Canonical | None:

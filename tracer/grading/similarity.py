@@ -174,12 +174,14 @@ def usual(nearest: list[float]) -> dict:
 def _explain(a: canon.Canonical, b: canon.Canonical) -> tuple[list[dict], int]:
     """The two students' own facts side by side: those they share (the evidence), then those that differ
     (a path with two values, or one side's alone)."""
-    shared = sorted(set(a.shown) & set(b.shown))
-    rows = [{"path": a.shown[f][0], "a": a.shown[f][1], "b": b.shown[f][1], "shared": True} for f in shared]
-    only_a = {a.shown[f][0]: a.shown[f][1] for f in set(a.shown) - set(b.shown)}
-    only_b = {b.shown[f][0]: b.shown[f][1] for f in set(b.shown) - set(a.shown)}
-    for path in sorted(only_a.keys() | only_b.keys()):
-        rows.append({"path": path, "a": only_a.get(path), "b": only_b.get(path), "shared": False})
+    shared = sorted(set(a.shown) & set(b.shown), key=lambda f: a.shown[f][1])
+    rows = [{"path": a.shown[f][1], "a": a.shown[f][2], "b": b.shown[f][2], "shared": True} for f in shared]
+    only_a = {a.shown[f][0]: a.shown[f][1:] for f in set(a.shown) - set(b.shown)}  # by path: one row per field
+    only_b = {b.shown[f][0]: b.shown[f][1:] for f in set(b.shown) - set(a.shown)}
+    for key in sorted(only_a.keys() | only_b.keys(), key=lambda k: (only_a.get(k) or only_b[k])[0]):
+        path = (only_a.get(key) or only_b[key])[0]
+        in_a, in_b = only_a.get(key, (None, None))[1], only_b.get(key, (None, None))[1]
+        rows.append({"path": path, "a": in_a, "b": in_b, "shared": False})
     return rows[:MAX_FACTS_SHOWN], max(0, len(rows) - MAX_FACTS_SHOWN)
 
 

@@ -93,7 +93,8 @@ def test_canonical_the_starter_discounted_leaves_nothing_of_the_starter():
     s = honest(random.Random(9))
     own = canon.canonical(s).own(given)
     assert own.facts and not own.facts & given.facts
-    assert all(path.split("=")[0] == path_value[0] for path, path_value in own.shown.items())
+    assert all(fact.split("=")[0] == shown[0] for fact, shown in own.shown.items())
+    assert any(shown[1].startswith("sphere@(") and shown[1] != shown[0] for shown in own.shown.values())
 
 
 def test_canonical_what_is_no_scene():

@@ -8,6 +8,7 @@
 import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
+import { SimilarityPanel } from "./similarity.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
 const POLL_MS = 3000; // the roster is asked again this often while the page is shown
@@ -78,6 +79,7 @@ export class Board {
   close() {
     this.closed = true;
     clearTimeout(this.timer);
+    this.similarity?.close();
   }
 
   /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
@@ -184,7 +186,9 @@ export class Board {
       h("p", { class: "hint" }, "For each student's latest tree log, each tree's first difference from the reference's, by what differs (the most frequent first): what the class gets wrong most."),
       this.whats,
     );
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.versions);
+    this.similarity = new SimilarityPanel(this.aid, { access: this.access }); // web/js/course/similarity.js
+    this.similarity.load();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.similarity.root, this.versions);
   }
 
   renderHead() {
