@@ -79,6 +79,11 @@ def test_web_similarity_the_panel_asks_for_a_report_and_shows_the_flagged_pair(b
         assert not p.page.is_disabled("#similarity-ask")  # done: it may be asked again
         p.shot("course-similarity", full_page=True)
         assert_accessible(p.page, "the similarity panel", "#similarity")
+        p.page.set_viewport_size({"width": 390, "height": 800})  # a phone: the tables scroll in their boxes
+        p.page.wait_for_timeout(100)
+        wide = p.page.evaluate("() => document.documentElement.scrollWidth - document.documentElement.clientWidth")
+        panel = p.page.evaluate("() => document.querySelector('#similarity').getBoundingClientRect().right")
+        assert wide <= 0 and panel <= 390, (wide, panel)
     finally:
         p.context.close()
     assert p.unexpected_errors() == []

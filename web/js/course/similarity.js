@@ -108,41 +108,40 @@ export class SimilarityPanel {
     const rows = groups.map(([kind, g]) =>
       h("tr", {}, h("th", { scope: "row" }, kind === "scene" ? "scenes" : "pictures"), h("td", {}, String(g.compared)), h("td", {}, dist(g.typical)), h("td", {}, g.threshold === null ? "too few to tell" : dist(g.threshold)), h("td", {}, String(g.candidates))),
     );
-    const skipped = (r.skipped || []).length ? h("details", {}, h("summary", {}, `${r.skipped.length} not compared`), h("ul", {}, r.skipped.map((s) => h("li", {}, `${s.student}: ${s.why}`)))) : null;
-    this.summary.replaceChildren(
-      h(
-        "table",
-        { class: "grade-table similarity-groups" },
-        h("caption", {}, "What is usual in this class (distance 0: the same; 1: nothing in common)"),
-        h("thead", {}, h("tr", {}, ["Kind", "Compared", "Usual nearest distance", "Flagged at or below", "Candidate pairs"].map((t) => h("th", { scope: "col" }, t)))),
-        h("tbody", {}, rows),
-      ),
-      h("details", {}, h("summary", {}, "How a pair is flagged"), h("p", { class: "hint", id: "similarity-how" }, r.how || "")),
-      ...(skipped ? [skipped] : []),
+    const table = h(
+      "table",
+      { class: "grade-table similarity-groups" },
+      h("caption", {}, "What is usual in this class (distance 0: the same; 1: nothing in common)"),
+      h("thead", {}, h("tr", {}, ["Kind", "Compared", "Usual nearest distance", "Flagged at or below", "Candidate pairs"].map((t) => h("th", { scope: "col" }, t)))),
+      h("tbody", {}, rows),
     );
+    const how = h("details", {}, h("summary", {}, "How a pair is flagged"), h("p", { class: "hint", id: "similarity-how" }, r.how || ""));
+    const skipped = r.skipped || [];
+    const left = skipped.length ? [h("details", {}, h("summary", {}, `${skipped.length} not compared`), h("ul", {}, skipped.map((s) => h("li", {}, `${s.student}: ${s.why}`))))] : [];
+    this.summary.replaceChildren(h("div", { class: "grade-table-box" }, table), how, ...left);
   }
 
   renderPairs(pairs) {
     this.list.replaceChildren(
       ...pairs.map((p, i) => {
         const id = `similarity-pair-${i}`;
-        const more = p.facts_more ? h("p", { class: "hint" }, `and ${p.facts_more} more fact(s)`) : null;
+        const facts = h(
+          "table",
+          { class: "grade-table similarity-facts" },
+          h("caption", {}, `${p.kind === "scene" ? "Their scenes' facts beyond the starter" : "Their pictures"}, side by side: shared first, then those that differ`),
+          h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "Fact"), h("th", { scope: "col" }, p.a), h("th", { scope: "col" }, p.b), h("th", { scope: "col" }, "Same after rounding"))),
+          h(
+            "tbody",
+            {},
+            p.facts.map((f) => h("tr", { class: f.shared ? "shared" : "differs" }, h("th", { scope: "row" }, h("code", {}, f.path)), h("td", {}, f.a ?? "—"), h("td", {}, f.b ?? "—"), h("td", {}, f.shared ? "yes" : "no"))),
+          ),
+        );
         return h(
           "article",
           { class: "similarity-pair", "aria-labelledby": id },
           h("h3", { id }, `${p.a} and ${p.b}`, h("span", { class: "muted" }, ` · distance ${dist(p.score)}, the class's usual ${dist(p.typical)}`)),
-          h(
-            "table",
-            { class: "grade-table similarity-facts" },
-            h("caption", {}, `${p.kind === "scene" ? "Their scenes' facts beyond the starter" : "Their pictures"}, side by side: shared first, then those that differ`),
-            h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "Fact"), h("th", { scope: "col" }, p.a), h("th", { scope: "col" }, p.b), h("th", { scope: "col" }, "Same after rounding"))),
-            h(
-              "tbody",
-              {},
-              p.facts.map((f) => h("tr", { class: f.shared ? "shared" : "differs" }, h("th", { scope: "row" }, h("code", {}, f.path)), h("td", {}, f.a ?? "—"), h("td", {}, f.b ?? "—"), h("td", {}, f.shared ? "yes" : "no"))),
-            ),
-          ),
-          more,
+          h("div", { class: "grade-table-box" }, facts),
+          p.facts_more ? h("p", { class: "hint" }, `and ${p.facts_more} more fact(s)`) : null,
         );
       }),
     );
