@@ -202,6 +202,14 @@ def _thing(c: Canonical, kind: str, thing: dict, model, material: dict | None) -
         c.add(key + path, v, shifted_key + path, written + path)
 
 
+def _list(v: Any) -> list:
+    return v if isinstance(v, list) else []
+
+
+def _kind(thing: dict) -> str:
+    return str(thing.get("type"))[:20]
+
+
 def canonical(scene: Any) -> Canonical | None:
     """A scene (a dict, as its JSON reads) as its facts; None for what is no scene at all (not an object).
     A scene the validator would refuse is still read as far as it goes: similarity is about what was written."""
@@ -217,15 +225,16 @@ def canonical(scene: Any) -> Canonical | None:
     for name in ("background", "ambient"):
         if name in scene and not _same(scene[name], 0.0):
             c.add(name, scene[name])
-    for obj in scene.get("objects") or []:
+    for obj in _list(scene.get("objects")):
         if isinstance(obj, dict):
             m = obj.get("material")
             material = materials.get(m) if isinstance(m, str) else m
             material = material if isinstance(material, dict) else {}
-            _thing(c, str(obj.get("type"))[:20], obj, OBJECTS.get(obj.get("type")), material)
-    for light in scene.get("lights") or []:
+            kind = _kind(obj)
+            _thing(c, kind, obj, OBJECTS.get(kind), material)
+    for light in _list(scene.get("lights")):
         if isinstance(light, dict):
-            _thing(c, f"light.{str(light.get('type'))[:20]}", light, LIGHTS.get(light.get("type")), None)
+            _thing(c, f"light.{_kind(light)}", light, LIGHTS.get(_kind(light)), None)
     return c
 
 

@@ -171,3 +171,22 @@ def test_similarity_report_images_a_copied_picture_with_noise_is_flagged():
     assert {frozenset((p["a"], p["b"])) for p in out["pairs"]} == copied
     assert out["pairs"][0]["kind"] == "image" and out["skipped"][0]["student"] == "bad"
     assert png(picture(np.random.default_rng(0)))[:4] == b"\x89PNG"
+
+
+@pytest.mark.parametrize(
+    "scene",
+    [
+        {"objects": 5, "lights": {"a": 1}, "materials": [1]},
+        {"objects": [{"type": ["sphere"], "center": [0, 0, 0]}], "lights": [{"type": {"x": 1}}]},
+        {"objects": [{"type": "sphere", "material": ["x"], "center": "here", "radius": None}]},
+        {"objects": [{"type": "mesh", "vertices": [[0, 0, 0], "x", [1, 2]], "faces": [[0, 1, 2]] * 40}]},
+        {"camera": [1, 2], "film": "big", "fog": {"density": float("nan")}, "background": [1e308, -1e308, 0]},
+    ],
+)
+def test_canonical_a_scene_written_wrong_is_read_as_far_as_it_goes(scene):
+    """What a student handed in may be no valid scene (an invalid submission is still compared): its facts
+    are read where they can be, and nothing raises."""
+    c = canon.canonical(scene)
+    assert c is not None
+    works = [Work(f"s{i}", "scene", json.dumps(x).encode()) for i, x in enumerate([scene] * 3)]
+    similarity.report(works)
