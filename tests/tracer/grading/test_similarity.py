@@ -190,3 +190,20 @@ def test_canonical_a_scene_written_wrong_is_read_as_far_as_it_goes(scene):
     assert c is not None
     works = [Work(f"s{i}", "scene", json.dumps(x).encode()) for i, x in enumerate([scene] * 3)]
     similarity.report(works)
+
+
+def test_similarity_report_what_the_task_asks_of_everyone_is_no_evidence():
+    """Every student also makes what the task asks for, the same way (a glass ball at the same place, with the
+    textbook's glass): those facts are the class's common ones, discounted like the starter's, and no honest pair
+    comes close because of them."""
+    scenes, copied = scene_class(20, 1, seed=7)
+    works = []
+    for who, s in scenes:
+        s["objects"].append(
+            {"type": "sphere", "center": [0, 1, -1], "radius": 0.5, "material": {"kd": 0, "kt": 1, "ior": 1.5}}
+        )
+        works.append(Work(who, "scene", json.dumps(s).encode()))
+    out = similarity.report(works, starter())
+    assert {frozenset((p["a"], p["b"])) for p in out["pairs"]} == copied
+    assert out["groups"]["scene"]["common_facts"] >= 8  # the glass ball's facts, on both grids
+    assert not any(f["path"].startswith("sphere@(0,1,-1)") for f in out["pairs"][0]["facts"])
