@@ -1,4 +1,4 @@
-"""Similarity reports of a class (docs/assignments.md, "Similarity reports"): which students' submissions are much
+"""Similarity reports of a class (docs/assignments.md, "5. Similarity reports"): which students' submissions are much
 closer to each other than the class's usual, explained fact by fact, for a person to look at. Never a verdict.
 
 **Scenes** are compared as canonical scenes (tracer/grading/canonical.py): sets of `path=value` facts, names and
@@ -21,11 +21,12 @@ cheap (one matrix product for the class), so every pair is a candidate; the SSIM
 is shown beside it for the person reading.
 
 **Flagging: much closer than usual.** Each student's nearest neighbour distance (exact among their candidates,
-estimated otherwise); `typical` is the class's median of them, `spread` their median absolute deviation (times
-1.4826, a standard deviation's size for normal data; at least MIN_SPREAD). A pair is flagged when its exact
-distance is below `threshold` = min(typical - K * spread, typical * MAX_SHARE_OF_TYPICAL): both far out from the
-class's usual and at most half of it. With fewer than MIN_CLASS students compared nothing is flagged: there is no
-usual to speak of. Plain data in, plain data out: the service runs `report_files` in a grading process."""
+estimated otherwise); `typical` is the class's median of them, `spread` the median absolute deviation of their
+logarithms (times 1.4826, a standard deviation's size for normal data; at least MIN_SPREAD). A pair is flagged
+when its exact distance is at or below `threshold` = typical * min(e^(-K * spread), MAX_SHARE_OF_TYPICAL): far
+out from the class's usual on a scale of ratios, and at most half of it (`usual`). With fewer than MIN_CLASS
+students compared nothing is flagged: there is no usual to speak of. Plain data in, plain data out: the service
+runs `report_files` in a grading process."""
 
 from __future__ import annotations
 
