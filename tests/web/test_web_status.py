@@ -38,7 +38,11 @@ def server(tmp_path_factory):
 def open_status(page: Page) -> None:
     page.page.goto(f"{page.server.url}/status")
     page.page.wait_for_function("() => document.querySelector('#status-said').dataset.kind === 'error'")
-    assert "needs the instructor's token" in page.page.text_content("#status-said")
+    assert "needs the admin's token (TRACER_INSTRUCTOR_TOKEN)" in page.page.text_content("#status-said")
+    page.page.fill("#status-token", "a-course-staff-token-or-a-typo")
+    page.page.dispatch_event("#status-token", "change")
+    page.page.wait_for_function("() => document.querySelector('#status-said').textContent.includes('refused')")
+    assert page.page.get_attribute("#status-token", "aria-invalid") == "true"
     page.page.fill("#status-token", INSTRUCTOR)
     page.page.dispatch_event("#status-token", "change")
     page.page.wait_for_selector("#st-release")

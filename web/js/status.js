@@ -3,9 +3,8 @@
 // workers, the queue by lane, the grades going back to the LMS, the last backup, the disk against its limit, the
 // release and the schema. Each panel says in words whether all is well; it is read again every REFRESH_MS and on
 // the Refresh button. What each fact means: docs/service.md, "The status page".
-import { request, tokens } from "./api.js";
+import { ApiError, request, tokens } from "./api.js";
 import { $, h } from "./util.js";
-import { tokenProblem } from "./course/instructor_util.js";
 
 const REFRESH_MS = 15000;
 const view = $("#status-view");
@@ -16,6 +15,14 @@ const say = (kind, text) => {
   said.dataset.kind = kind;
   said.textContent = text;
 };
+
+/** What a refused request says of the token (null: not the token's fault). */
+function tokenProblem(err, hasToken) {
+  if (!(err instanceof ApiError)) return null;
+  if (err.status === 403) return `The server has no admin: ${err.message}`;
+  if (err.status === 401) return hasToken ? "The server refused this token: the status page is the server admin's (TRACER_INSTRUCTOR_TOKEN), not a course's staff." : "The server needs the admin's token (TRACER_INSTRUCTOR_TOKEN): enter it above.";
+  return null;
+}
 
 /** Bytes as a person reads them (1.2 GB). */
 export function bytes(n) {
