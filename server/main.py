@@ -43,6 +43,7 @@ from server.api.routes import (
     samples,
     scenes,
     similarity,
+    status,
     tools,
 )  # fmt: skip
 from server.checkers.pool import CheckPool
@@ -122,7 +123,8 @@ async def lifespan(app: FastAPI):
             threading.Thread(target=previews.ahead, name="previews", daemon=True).start()
         if settings.lessons_ahead and jobs.version is not None:  # the lessons' first pictures, answered from these
             threading.Thread(target=lesson_panels.ahead, args=(jobs,), name="lessons-ahead", daemon=True).start()
-        janitor = Janitor(settings, store, chores=(grade_runs.retry,))  # a run waiting for space tries again
+        # a run waiting for space tries again; the status page reads the size it measured
+        janitor = app.state.janitor = Janitor(settings, store, chores=(grade_runs.retry,))
         janitor.start()
         stack.callback(janitor.stop)
         stack.callback(app.state.stopping.set)  # (already set if a signal stopped the server)
@@ -169,7 +171,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.store = app.state.queue = app.state.jobs = app.state.grade_runs = app.state.checks = None
-    app.state.course = app.state.lti = app.state.lms = app.state.similarity = None
+    app.state.course = app.state.lti = app.state.lms = app.state.similarity = app.state.janitor = None
     app.state.clock = utc_now  # the API's time (deadlines, a submission's time): tests set another
     app.state.tree_cache = TreeCache()  # the reference's trees that own tracers' logs are compared with
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
@@ -202,6 +204,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms
     app.include_router(lms.router)  # the course's side of LTI: /lti/pick, an LMS course's roster, grades back
+    app.include_router(status.router)  # /status and /api/status: the operator's page (admin)
     app.include_router(pages.router)  # /assignments/{id} and /course: the course's pages of web/
     app.mount("/", StaticFiles(directory=WEB, html=True), name="web")
     return app

@@ -29,6 +29,7 @@ from server.course.owntrees import TreeCache
 from server.course.service import Course
 from server.course.similarity import Reports
 from server.grading.runs import GradeRuns
+from server.jobs.janitor import Janitor
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
@@ -90,6 +91,11 @@ async def get_stopping(request: Request) -> Callable[[], bool]:
     return request.app.state.stopping
 
 
+async def find_janitor(request: Request) -> Janitor | None:
+    """The janitor (the data directory's size as it last measured it), None before the server has started."""
+    return getattr(request.app.state, "janitor", None)
+
+
 async def find_lms(request: Request) -> Lms | None:
     """The course's side of LTI, None where it is not running."""
     return getattr(request.app.state, "lms", None)
@@ -115,6 +121,7 @@ TreeCacheDep = Annotated[TreeCache, Depends(get_tree_cache)]  # the reference's 
 SimilarityDep = Annotated[Reports, Depends(get_similarity)]  # similarity reports (server/course/similarity.py)
 LtiDep = Annotated[LtiTool, Depends(get_lti)]
 MaybeLmsDep = Annotated[Lms | None, Depends(find_lms)]
+MaybeJanitorDep = Annotated[Janitor | None, Depends(find_janitor)]
 RunsDep = Annotated[GradeRuns, Depends(get_runs)]
 PreviewsDep = Annotated[Previews, Depends(get_previews)]
 StoppingDep = Annotated[Callable[[], bool], Depends(get_stopping)]

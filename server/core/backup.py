@@ -15,6 +15,8 @@ A backup is a folder:
 - `manifest.json`, written last (a folder without it is an unfinished backup, and restore refuses it): the
   time (UTC), the schema version, the rows of each table, and the size and SHA-256 of the database and of each
   file.
+  After it, `last-backup.json` in the data directory (the backup's time, place and size: what the status page
+  shows, server/core/status.py); it is not backed up itself.
 
 A restore checks every checksum before it writes anything, then copies into an empty (or new) data directory
 under its lock (it refuses one a server holds, and a non-empty one unless `force`: then what was there goes),
@@ -35,10 +37,12 @@ from pathlib import Path
 from server.core.files import is_disk_full
 from server.core.migrations import BACKUPS, LOCK_NAME, backup_database, schema_version
 from server.core.startup import DB_NAME, StartupError, lock_data_dir
+from server.core.status import LAST_BACKUP, record_backup
 
 MANIFEST = "manifest.json"
 FILES = "files"  # the backup's copy of the data directory's files
-SKIPPED = {BACKUPS, "cache", "previews", "server.lock", LOCK_NAME}  # top-level names not backed up
+# top-level names not backed up (the last backup's record is the data directory's own, not to be restored)
+SKIPPED = {BACKUPS, "cache", "previews", "server.lock", LOCK_NAME, LAST_BACKUP}
 CHUNK = 1 << 20  # bytes read at a time for a checksum
 
 
@@ -142,6 +146,7 @@ def _backup(data_dir: Path, dest: Path, clock: Callable[[], datetime]) -> dict:
     tmp = dest / f".{MANIFEST}.partial"
     tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     tmp.replace(dest / MANIFEST)
+    record_backup(data_dir, dest, manifest)  # for the status page (server/core/status.py)
     return manifest
 
 

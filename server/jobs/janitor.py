@@ -68,6 +68,7 @@ class Janitor:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._warned = False  # over the cap with nothing left to remove: said once, until it changes
+        self.measured: tuple[int, float] | None = None  # the data directory's bytes at the last round, and when
 
     def start(self) -> None:
         self._thread = threading.Thread(target=self._loop, name="janitor", daemon=True)
@@ -110,6 +111,7 @@ class Janitor:
                     done.size -= freed
             if done.for_size:
                 done.size = tree_size(store.data_dir)  # measured again: the database changed too
+        self.measured = (done.size, now)  # what the status page shows (server/core/status.py)
         self._report(done, keep, cap)
         for chore in self.chores:
             try:

@@ -448,6 +448,16 @@ class JobStore:
             out[status] = n
         return out
 
+    def lanes(self) -> dict[str, dict[str, int]]:
+        """The queued and running jobs of each lane (the status page)."""
+        out = {lane.value: {"queued": 0, "running": 0} for lane in LANES}
+        rows = self.db.execute(
+            "SELECT lane, status, COUNT(*) FROM jobs WHERE status IN (?, ?) GROUP BY lane, status", (QUEUED, RUNNING)
+        )
+        for lane, status, n in rows:
+            out.setdefault(lane, {"queued": 0, "running": 0})[status] = n
+        return out
+
     def cancel(self, job_id: str) -> dict | None:
         """Cancel a queued job now; ask the worker of a running one to stop. The job's row after: cancelled
         (it was queued), running (asked to stop: however its try ends, it ends cancelled, see `finish`),

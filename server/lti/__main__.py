@@ -1,4 +1,4 @@
-"""python -m server.lti register|list|remove|show-tool: LTI 1.3 platforms (server/lti/command.py)."""
+"""python -m server.lti register|list|remove|rotate-key|show-tool|try: LTI 1.3 platforms (server/lti/command.py)."""
 
 from __future__ import annotations
 

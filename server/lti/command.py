@@ -9,6 +9,7 @@ new platform within a minute, or at once when it is registered through POST /api
     python -m server.lti remove ID [--data-dir DIR]
     python -m server.lti rotate-key [--grace-hours 72] [--data-dir DIR]
     python -m server.lti show-tool --base https://tool.example.edu
+    python -m server.lti try [--url URL --token TOKEN] [--keep]   (server/lti/trial.py: a pretend LMS on loopback)
 
 `register` prints the platform's id on its first line, then what was registered; a wrong value is printed as
 `field: message` lines (exit 1). `show-tool` prints the values to paste into the LMS, then Canvas's developer
@@ -26,6 +27,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from server.core.errors import DomainError
+from server.lti import trial
 from server.lti.keys import DEFAULT_GRACE_HOURS, ToolKeys
 from server.lti.services import LINEITEM_READ_SCOPE, LINEITEM_SCOPE, NRPS_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE
 from server.lti.store import LtiStore, url_problem
@@ -130,6 +132,7 @@ def parser() -> argparse.ArgumentParser:
                      help=f"how long the old key stays in /lti/jwks (default {DEFAULT_GRACE_HOURS:g})")  # fmt: skip
     show = sub.add_parser("show-tool", help="the values to paste into the LMS")
     show.add_argument("--base", required=True, help="the tool's public address: https://tool.example.edu")
+    trial.parser(sub)
     for p in (reg, ls, rm, rot):
         p.add_argument("--data-dir", type=Path, default=None, help="the server's data directory (default: ./data)")
     return ap
@@ -145,6 +148,8 @@ def data_dir(given: Path | None) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if args.command == "try":
+        return trial.main(args)
     if args.command == "show-tool":
         if problem := url_problem(args.base):
             print(f"--base: {problem}", file=sys.stderr)
