@@ -181,9 +181,9 @@ class Course:
         moments = []
         for name, m in (("now", Moment(cut - 1, cut)), ("after_deadline", Moment(cut, cut))):
             seen = feedback_view(report, keys, image_tests, feedback, m, "scene")
-            score = sum(t["score"] for t in seen["tests"] if "score" in t)
             shown = m.shows(feedback.score_when())
-            moments.append({"moment": name, "score": score if shown else None, "max_score": assignment.max_score(),
+            total = sum(t["score"] for t in tests)
+            moments.append({"moment": name, "score": total if shown else None, "max_score": assignment.max_score(),
                             "score_shown": shown, "feedback": seen})  # fmt: skip
         return {
             "example": "the reference scene as a scene submission for validity and the requirements; for the image "
