@@ -153,11 +153,13 @@ def hidden_badge(when: When) -> str:
     return f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
 
 
-def appears(when: When, m: Moment) -> str:
-    """When something hidden now appears, in words (a time in ISO 8601, UTC)."""
+def appears(when: When, m: Moment, readable: bool = False) -> str:
+    """When something hidden now appears, in words: its time in ISO 8601 (UTC), or `readable` as a person reads
+    it in a test's output ("2026-12-09 17:00 UTC"; the page shows `at` in the student's own zone)."""
     if when == When.never:
         return "never shown to students for this assignment (your instructor sees them)"
-    return f"shown after the deadline, from {iso(m.cut)}"
+    at = datetime.fromtimestamp(m.cut, UTC).strftime("%Y-%m-%d %H:%M UTC") if readable else iso(m.cut)
+    return f"shown after the deadline, from {at}"
 
 
 def _join(items: list[str]) -> str:
@@ -203,7 +205,7 @@ def feedback_view(
     shown, else each shown image test's "Where to look" without the pictures; `pictures` (of MAP_PICTURES) shown;
     `withheld`: what is hidden and when it appears."""
     maps = map_shown(feedback, image_tests, m)
-    later = appears(maps_when(feedback, image_tests), m)
+    later = appears(maps_when(feedback, image_tests), m, readable=True)
     note = None if maps else f"The error map and the rejected pixels are {later}."
     tests = []
     for key, t in zip(keys, report.get("tests", []), strict=False):

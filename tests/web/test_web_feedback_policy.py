@@ -16,6 +16,7 @@ from datetime import UTC, datetime, timedelta
 import httpx
 from test_api_support import wait_for
 from test_feedback_policy import POLICY, dimmed, spec
+from test_web_axe import assert_accessible
 from test_web_course_instructor import CoursePage, open_course, write
 from test_web_page import DESKTOP, SHOTS, TEACHER, bearer
 
@@ -58,6 +59,7 @@ def test_the_publish_form_previews_the_feedback_now_and_after_the_deadline(brows
     assert "the error map, the rejected pixels" in after["pictures"]
     assert "the FLIP error map" in after["tests"]["flip"]["output"]
     page.locator("#publish .af-preview").screenshot(path=str(SHOTS / "course-feedback-preview.png"))
+    assert_accessible(page, "publish form with a feedback preview", "#publish")
 
     # it follows the form: every test shown now, nothing held back
     page.select_option("#publish tr[data-test='pixels'] select", "")
@@ -107,5 +109,6 @@ def test_the_students_page_says_what_is_hidden_and_when_it_appears(browser, serv
     where = [x for o in outputs for x in o.split("\n") if x.startswith("Where to look: ")]
     assert where and all("error map" not in x and "rejected pixels" not in x for x in where), where
     row.screenshot(path=str(SHOTS / "assignment-withheld.png"))
+    assert_accessible(page, "assignment with feedback withheld")
     p.context.close()
     assert p.unexpected_errors() == []

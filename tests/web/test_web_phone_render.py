@@ -7,6 +7,7 @@ The fixtures of tests/web/conftest.py (`python -m server` on loopback, Debian's 
 
 from __future__ import annotations
 
+from test_web_axe import assert_accessible
 from test_web_page import DESKTOP, PHONE, set_scene, whitted
 
 IN_VIEW = """(sel) => { const r = document.querySelector(sel).getBoundingClientRect();
@@ -41,10 +42,13 @@ def test_render_on_a_phone_shows_the_progress_at_the_button_and_brings_the_pictu
 
     page.wait_for_selector("#stage[data-status=done]", timeout=120_000)
     page.wait_for_selector("#render-img:not([hidden])")
+    # its last layout settles within a frame or two of the end
+    page.wait_for_function(f"() => ({IN_VIEW})('#render-img').inView", timeout=5_000)
     img = page.evaluate(IN_VIEW, "#render-img")
     assert img["inView"] and img["height"] > 100, img
     assert page.text_content("#render-progress-text").startswith("done in")
     phone.shot("phone-render-done")
+    assert_accessible(page, "workspace on a phone after Render")
     # "Show the picture" brings it back after scrolling away
     page.evaluate("() => window.scrollTo(0, 0)")
     page.locator("#btn-to-picture").scroll_into_view_if_needed()

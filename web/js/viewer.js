@@ -122,7 +122,7 @@ export class Viewer {
     this.el.render.disabled = true;
     this.message("info", "Submitting…");
     this.near("info", "submitting…");
-    this.revealing = true; // the picture is brought into view now, and again when its first pass arrives
+    this.revealing = true; // the picture is brought into view now, and kept there while it grows, until the job ends
     this.reveal();
     try {
       const job = await api.submit(scene.text);
@@ -219,7 +219,7 @@ export class Viewer {
 
   async ended(job, live) {
     this.view.job = job;
-    if (!job.preview) this.revealing = false; // no picture will come
+    if (this.revealing) requestAnimationFrame(() => (this.reveal(), (this.revealing = false))); // its last layout
     this.update(job);
     if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
     this.updateAovButtons(job);
@@ -301,10 +301,7 @@ export class Viewer {
       this.el.empty.hidden = true;
       img.hidden = false;
       this.layout();
-      if (this.revealing && what === "image") {
-        this.revealing = false;
-        this.reveal(); // the picture is taller than the stage's text was
-      }
+      if (this.revealing && what === "image") requestAnimationFrame(() => this.reveal()); // taller than the text was
     };
     img.src = this.blobUrl;
     this.describe();

@@ -108,7 +108,7 @@ def test_a_hidden_image_test_leaves_no_text_pointing_at_a_missing_picture(server
         where = [line for line in out.split("\n") if line.startswith("Where to look: ")]
         assert where, out  # it still says what to compare in the scene
         assert mentions_pictures(where[0]) == [], f"{k}'s output points at a hidden picture: {where[0]}"
-        assert "shown after the deadline" in out, out  # and says when the pictures come
+        assert f"shown after the deadline, from {deadline:%Y-%m-%d %H:%M} UTC." in out, out  # and when they come
     cut = deadline.isoformat().replace("+00:00", "Z")
     [notice] = now["feedback"]["withheld"]
     assert notice["when"] == "after_deadline" and notice["at"] == cut
