@@ -83,7 +83,7 @@ export class AssignmentForm {
     this.button = h("button", { type: "submit", class: "primary" }, this.edit ? "Publish the new version" : "Publish");
     this.previewButton = h("button", { type: "button", class: "af-preview-button" }, "Preview what a student sees");
     this.previewButton.addEventListener("click", () => this.preview());
-    this.previewStatus = h("p", { class: "af-status", role: "status", "aria-live": "polite" });
+    this.previewStatus = h("p", { class: "af-preview-status", role: "status", "aria-live": "polite" });
     this.previewBox = h("div", { class: "af-preview", id: `${id}-preview`, hidden: true });
     const zone = `in this browser's zone (${zoneName()}); sent with its offset`;
     const form = h(
@@ -149,7 +149,7 @@ export class AssignmentForm {
     );
     // once a preview is shown, it follows the policy's fields
     const again = debounce(() => !this.previewBox.hidden && this.preview(), 400);
-    form.addEventListener("change", (e) => e.target !== this.specInput && again());
+    form.addEventListener("change", () => again());
     form.addEventListener("submit", (e) => {
       e.preventDefault();
       this.send();
