@@ -8,7 +8,7 @@ The fixtures of tests/web/conftest.py (`python -m server` on loopback, Debian's 
 from __future__ import annotations
 
 from test_web_axe import assert_accessible
-from test_web_page import DESKTOP, PHONE, set_scene, whitted
+from test_web_page import DESKTOP, PHONE, SHOTS, set_scene, whitted
 
 IN_VIEW = """(sel) => { const r = document.querySelector(sel).getBoundingClientRect();
     return {top: r.top, bottom: r.bottom, height: r.height,
@@ -57,7 +57,17 @@ def test_render_on_a_phone_shows_the_progress_at_the_button_and_brings_the_pictu
     assert page.evaluate(IN_VIEW, "#stage")["inView"]
 
 
-def test_the_build_panel_stays_open_on_a_desktop(desktop):
+def test_on_a_desktop_the_build_panel_stays_open_and_render_scrolls_nothing(desktop):
+    """The picture is beside the editor on a wide screen: Render moves nothing, and says its progress there too."""
     page = desktop.open().page
     assert page.evaluate("() => innerWidth") == DESKTOP["width"]
     assert page.evaluate("() => document.querySelector('#build-details').open") is True
+    set_scene(page, whitted(80, 60, spp=16))
+    assert page.evaluate(IN_VIEW, "#stage")["inView"]
+    before = page.evaluate("() => scrollY")
+    page.click("#btn-render")
+    page.wait_for_selector("#stage[data-status=done]", timeout=120_000)
+    page.wait_for_function("() => document.querySelector('#render-progress-text').textContent.startsWith('done in')")
+    assert page.evaluate("() => scrollY") == before
+    assert page.evaluate(IN_VIEW, "#render-progress")["inView"]
+    page.locator(".editor-actions").screenshot(path=str(SHOTS / "desktop-render-progress.png"))
