@@ -166,10 +166,13 @@ def _join(items: list[str]) -> str:
     return items[0] if len(items) == 1 else f"{', '.join(items[:-1])} and {items[-1]}"
 
 
-def withheld(feedback: Feedback, tests: list[dict], image_tests: list[str], m: Moment, kind: str) -> list[dict]:
+def withheld(
+    feedback: Feedback, tests: list[dict], image_tests: list[str], m: Moment, kind: str, measured: bool = True
+) -> list[dict]:
     """What the policy hides from the student now, grouped by when it appears: each group's `when`, `at` (the
     time, ISO 8601; null for never), the hidden `tests` (their policy names), the `pictures` held back, `parts`
-    (what is hidden, in words, for the page's sentence) and a `message` saying it all."""
+    (what is hidden, in words, for the page's sentence) and a `message` saying it all. `measured`: whether the
+    image was compared at all (an invalid scene has no error map to hide)."""
     if m.instructor:
         return []
     groups: dict[When, dict] = {}
@@ -183,7 +186,7 @@ def withheld(feedback: Feedback, tests: list[dict], image_tests: list[str], m: M
             g = group(when_of(feedback, t["test"]))
             g["tests"].append(t["test"])
             g["parts"].append(f"the result of \u201c{t['name']}\u201d")
-    if image_tests and not map_shown(feedback, image_tests, m):
+    if measured and image_tests and not map_shown(feedback, image_tests, m):
         g = group(maps_when(feedback, image_tests))
         g["pictures"] = list(MAP_PICTURES)
         g["parts"] += ["the error map", "the rejected pixels", "the metrics against the noise baseline"]
@@ -226,5 +229,5 @@ def feedback_view(
     if maps and report.get("metrics"):
         out["metrics"] = report["metrics"]
     out["pictures"] = list(MAP_PICTURES) if maps else []
-    out["withheld"] = withheld(feedback, tests, image_tests, m, kind)
+    out["withheld"] = withheld(feedback, tests, image_tests, m, kind, measured=bool(report.get("metrics")))
     return out
