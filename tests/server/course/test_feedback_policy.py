@@ -159,3 +159,31 @@ def test_the_preview_checks_the_body_as_publishing_does(server):
     good = body(datetime(2026, 12, 9, 17, 0, tzinfo=UTC))
     r = httpx.post(f"{server.url}/api/assignments/preview-feedback", json=good, headers=bearer("x" * 40), timeout=60)
     assert r.status_code in (401, 403), r.text
+
+
+def test_an_image_test_never_shown_says_so_and_the_instructor_sees_everything():
+    """policy.feedback_view alone (the rule both the service and the preview use): `flip` never shown keeps the
+    pictures from students for good, and the other image tests' outputs say so; the instructor sees all."""
+    from server.course.policy import Feedback, Moment, feedback_view
+    from tracer.grading.imagetests import where_without_pictures
+
+    where = "Where to look: the FLIP error map (bright where the pictures differ most) and the rejected pixels (red); "
+    scene_where = "compare those parts of your scene with the reference: an object's place or size, a material's "
+    output = f"Differs.\nNumbers.\n{where}{scene_where}colour or its kr, kt and ks, a light's position or intensity."
+    report = {"tests": [{"name": "FLIP against the reference", "score": 0, "max_score": 2, "status": "failed",
+                         "output": "hidden words"},
+                        {"name": "SSIM against the reference", "score": 0, "max_score": 1, "status": "failed",
+                         "output": output}], "metrics": {"flip": 0.3}}  # fmt: skip
+    feedback = Feedback.model_validate({"tests": {"flip": "never"}})
+    student = feedback_view(report, ["flip", "ssim"], ["flip", "ssim"], feedback, Moment(10.0, 5.0), "scene")
+    flip, ssim = student["tests"]
+    assert flip["hidden"] == "shown never" and "shown_at" not in flip
+    assert "error map" not in ssim["output"].split("\n")[2] and ssim["output"].split("\n")[2].startswith("Where")
+    assert ssim["output"].endswith("The error map and the rejected pixels are never shown to students for this "
+                                   "assignment (your instructor sees them).")  # fmt: skip
+    [group] = student["withheld"]
+    assert group["when"] == "never" and group["at"] is None and group["tests"] == ["flip"]
+    assert student["pictures"] == [] and "metrics" not in student
+    teacher = feedback_view(report, ["flip", "ssim"], ["flip", "ssim"], feedback, Moment(0.0, 5.0, True), "scene")
+    assert teacher["withheld"] == [] and teacher["tests"][1]["output"] == output and teacher["metrics"]
+    assert where_without_pictures("no such line", "note") == "no such line"
