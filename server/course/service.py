@@ -32,7 +32,7 @@ from collections.abc import Callable
 from concurrent.futures import TimeoutError
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from datetime import UTC, datetime
+from datetime import datetime
 from functools import partial
 from pathlib import Path
 
@@ -40,13 +40,16 @@ from server.core.errors import Conflict, Forbidden, Invalid, NotFound, TooMany, 
 from server.core.files import write_atomic
 from server.core.security import Caller, token_hash
 from server.core.settings import Settings
+from server.course import policy
 from server.course.people import ROLES, TokenMaker, Who, check_course_id, refuse_ta
-from server.course.policy import AssignmentIn, Feedback, Policy, When
+from server.course.policy import AssignmentIn, Feedback, Moment, Policy, When, feedback_view, map_shown
 from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.runs import GradeRuns, Handed
 from server.jobs.service import Follower, wake_all
 from server.jobs.store import JobStore
 from tracer.grading import Assignment, AssignmentError, Grader, load_assignment, student_name, tasks
+from tracer.grading.imagetests import example_misses
+from tracer.grading.submission import Submission
 from tracer.tools import spreadsheet
 
 log = logging.getLogger(__name__)
@@ -54,7 +57,6 @@ log = logging.getLogger(__name__)
 ACTIONS = {"publish": "publish or edit an assignment", "roster": "change the roster or its links",
            "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions"}  # fmt: skip
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
-IMAGE_TESTS = ("flip", "ssim", "psnr", "pixels")
 VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
 SUFFIX = {"scene": ".json", "png": ".png", "exr": ".exr"}
 # whether a caller who is none of a course's staff may act as the admin (the instructor); raises if not. The routes
@@ -67,8 +69,7 @@ def not_found(what: str, key: str) -> NotFound:
     return NotFound([{"path": "id", "message": f"no {what} with id '{key[:64]}'"}])
 
 
-def iso(t: float | None) -> str | None:
-    return None if t is None else datetime.fromtimestamp(t, UTC).isoformat().replace("+00:00", "Z")
+iso = policy.iso
 
 
 class Course:
@@ -150,6 +151,47 @@ class Course:
             raise
         log.info("assignment %s published (grading run %s)", aid, run_id)
         return self.store.assignment(aid)
+
+    def preview(self, body: AssignmentIn) -> dict:
+        """What a student will see under `body`'s policy, before it is published (the publish form's preview):
+        the feedback of an example scene submission until the deadline and after it, through the same
+        policy.feedback_view as every submission's. The example: the reference scene itself (the starter's
+        when there is no reference) for validity and the requirements, checked as a submission's are, and for
+        the image tests the grader's own words for a render that misses the reference (example numbers; its
+        "Where to look" lines are the ones a hidden picture would leave pointing at nothing)."""
+        spec_text, stored = self._checked(body)
+        assignment, _ = load_assignment(spec_text)
+        spec = json.loads(spec_text)
+        stand_in = (spec.get("reference") or {}).get("scene") or stored["starter"]
+        tests: list[dict] = []
+        if stand_in is not None:
+            prepared = Grader(assignment, None).prepare(Submission("example", json.dumps(stand_in).encode()))
+            tests = [t.to_json() for t in prepared.report.tests]
+        else:  # nothing to check: the tests by name, as passed
+            names = [("valid scene", assignment.validity.points)] + [
+                (r.name, r.points) for r in assignment.requirements
+            ]
+            tests = [{"name": n, "score": p, "max_score": p, "status": "passed", "output": "passed"} for n, p in names]
+        misses, metrics = example_misses(assignment, "scene")
+        tests += [t.to_json() for t in misses]
+        report = {"tests": tests, "errors": [], "warnings": [], "metrics": metrics}
+        feedback = Feedback.model_validate(stored["feedback"])
+        due, cut = self.deadlines({"policy": stored}, None)
+        keys, image_tests = report_keys(assignment, "scene"), list(assignment.image_tests())
+        moments = []
+        for name, m in (("now", Moment(cut - 1, cut)), ("after_deadline", Moment(cut, cut))):
+            seen = feedback_view(report, keys, image_tests, feedback, m, "scene")
+            shown = m.shows(feedback.score_when())
+            total = sum(t["score"] for t in tests)
+            moments.append({"moment": name, "score": total if shown else None, "max_score": assignment.max_score(),
+                            "score_shown": shown, "feedback": seen})  # fmt: skip
+        return {
+            "example": "the reference scene as a scene submission for validity and the requirements; for the image "
+            "tests, a render that misses the reference (example numbers)",
+            "deadline": iso(due),
+            "cut_off": iso(cut),
+            "moments": moments,
+        }
 
     def edit(self, aid: str, body: AssignmentIn, regrade: bool) -> dict:
         """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
@@ -437,12 +479,12 @@ class Course:
             due, cut = student["deadline"], max(student["deadline"], cut + shift)
         return due, cut
 
+    def moment(self, a: dict, who: Who, now: float) -> Moment:
+        """The caller at `now`, as the feedback policy sees them (server/course/policy.py)."""
+        return Moment(now, self.deadlines(a, who.student)[1], who.instructor)
+
     def shown(self, when: str, a: dict, who: Who, now: float) -> bool:
-        if who.instructor or when == When.now:
-            return True
-        if when == When.never:
-            return False
-        return now >= self.deadlines(a, who.student)[1]
+        return self.moment(a, who, now).shows(when)
 
     # -- submissions ---------------------------------------------------------------------------
 
@@ -531,22 +573,12 @@ class Course:
         finally:
             path.unlink(missing_ok=True)
         report = result["prepared"]["report"]
-        keys = report_keys(assignment, kind)
-        tests = []
-        for key, t in zip(keys, report["tests"], strict=False):
-            when = feedback.tests.get(key, feedback.default)
-            entry = {"name": t["name"], "test": key, "max_score": t["max_score"], "shown": when}
-            if self.shown(when, a, who, now):
-                entry.update(
-                    score=t["score"], status="passed" if t["score"] >= t["max_score"] else "failed", output=t["output"]
-                )
-            else:
-                entry["hidden"] = f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
-            tests.append(entry)
+        m = self.moment(a, who, now)
+        seen = feedback_view(report, report_keys(assignment, kind), list(assignment.image_tests()), feedback, m, kind)
         valid = not report["errors"]
         return {
             "valid": valid,
-            "tests": tests,
+            "tests": seen["tests"],
             "errors": report["errors"],
             "warnings": report["warnings"],
             "image_tests": list(assignment.image_tests()) if valid else [],
@@ -556,7 +588,7 @@ class Course:
     def _check_probes(self, a: dict, who: Who, feedback: Feedback, now: float, path: Path, kind: str) -> dict:
         """An image's probes in the check (docs/own-tracer.md), as the policy shows the error map now: {"probes"},
         {"probes_hidden": when}, or {"probes_pending": why} while the reference is not rendered yet."""
-        if not self._map_shown(a, a["version"], who, feedback, now):
+        if not map_shown(feedback, self.spec(a["id"], a["version"]).image_tests(), self.moment(a, who, now)):
             return {"probes_hidden": self._probes_hidden(a, who, feedback)}
         folder = self.runs.folder(a["run_id"]) if a.get("run_id") else None
         mean = next((r for r in self.runs.gs.renders(a["run_id"]) if r["key"] == "mean"), None) if folder else None
@@ -738,8 +770,8 @@ class Course:
         feedback = Feedback.model_validate(a["policy"]["feedback"])
         now = self.now()
         names = ["render.png"]
-        if self._map_shown(a, sub["version"], who, feedback, now):
-            names += ["error_map.png", "rejected.png"]
+        if map_shown(feedback, self.spec(a["id"], sub["version"]).image_tests(), self.moment(a, who, now)):
+            names += list(policy.MAP_PICTURES)
         if who.instructor or a["policy"]["show_reference"]:
             names.append("reference.png")
         folder = self.runs.root / sub["run_id"] / "out" / sub["id"]
@@ -751,32 +783,17 @@ class Course:
         return self.runs.root / sub["run_id"] / "out" / sub["id"] / name
 
     def _feedback(self, a: dict, sub: dict, report: dict, feedback: Feedback, who: Who, now: float) -> dict:
-        keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
-        tests, hidden_image = [], False
-        for key, t in zip(keys, report.get("tests", []), strict=False):
-            when = feedback.tests.get(key, feedback.default)
-            entry = {"name": t["name"], "test": key, "max_score": t["max_score"], "shown": when}
-            if self.shown(when, a, who, now):
-                entry.update(score=t["score"], status=t["status"], output=t["output"])
-            else:
-                entry["hidden"] = f"shown {'after the deadline' if when == When.after_deadline else 'never'}"
-                hidden_image |= key in IMAGE_TESTS
-            tests.append(entry)
-        out = {"tests": tests, "errors": report.get("errors", []), "warnings": report.get("warnings", [])}
-        if not hidden_image and report.get("metrics"):
-            out["metrics"] = report["metrics"]
+        """The report as the policy shows it to the caller now (policy.feedback_view: the one rule, shared with the
+        publish form's preview), with the probes of an image from the student's own tracer."""
+        spec = self.spec(a["id"], sub["version"])
+        keys, image_tests = report_keys(spec, sub["kind"]), list(spec.image_tests())
+        out = feedback_view(report, keys, image_tests, feedback, self.moment(a, who, now), sub["kind"])
         probes = (report.get("metrics") or {}).get("probes")
-        if probes is not None and not hidden_image:  # shown with the error map (docs/own-tracer.md)
+        if probes is not None and out["pictures"]:  # shown with the error map (docs/own-tracer.md)
             out["probes"] = probes
         elif probes is not None:
             out["probes_hidden"] = self._probes_hidden(a, who, feedback)
         return out
-
-    def _map_shown(self, a: dict, version: int, who: Who, feedback: Feedback, now: float) -> bool:
-        """Whether the error map (and the rejected pixels, the probes) is shown to the caller now: every image
-        test's feedback shown."""
-        tests = self.spec(a["id"], version).image_tests()
-        return all(self.shown(feedback.tests.get(k, feedback.default), a, who, now) for k in tests)
 
     def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str:
         """When the probe pixels appear, for a student to whom the error map is hidden now."""

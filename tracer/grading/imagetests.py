@@ -157,6 +157,18 @@ WHERE = {  # where to look when a test fails, by what the student handed in
 }
 
 
+def where_without_pictures(output: str, note: str) -> str:
+    """An image test's output for a student who is not shown the error map and the rejected pixels (the service's
+    feedback policy hides them while an image test's result is hidden): its "Where to look" line names only what
+    to compare, no picture, and then `note` (when the pictures appear). Any other output is returned as it is."""
+    lines = output.split("\n")
+    for i, line in enumerate(lines):
+        if line.startswith("Where to look: "):
+            where = next((w for w in WHERE.values() if w in line), None)
+            lines[i] = f"Where to look: {where}.\n{note}" if where else note
+    return "\n".join(lines)
+
+
 def spp_words(spp: int) -> str:
     return f"{spp} sample{'s' if spp != 1 else ''} per pixel"
 
@@ -210,6 +222,26 @@ def _image_test(name: str, t, m: dict, base: dict, spp: int = 1, kind: str = "sc
                  f"Where to look: the FLIP error map (bright where the pictures differ most) and the rejected "
                  f"pixels (red); {where}."]  # fmt: skip
     return TestResult(TEST_NAMES[name], t.points if ok else 0.0, t.points, "\n".join(lines), "image")
+
+
+EXAMPLE_BASELINE = {"flip": 0.05, "ssim": 0.9, "psnr": 30.0, "rejected": 0.01}  # a noise baseline, for the example
+
+
+def example_misses(assignment: Assignment, kind: str = "scene", spp: int = 16) -> tuple[list[TestResult], dict]:
+    """The image tests of an example submission that misses the reference by more than noise in every test, with
+    example numbers, and those metrics: what the grader says for a miss (its "Where to look" lines too), for the
+    service's preview of the feedback before an assignment is published (POST /api/assignments/preview-feedback)."""
+    base, m = dict(EXAMPLE_BASELINE), {}
+    for name, t in assignment.image_tests().items():
+        if name == "pixels":
+            m["rejected"] = round(base["rejected"] + t.max_fraction + 0.1, 4)
+            continue
+        down = name == "flip"  # lower is better
+        bound = t.limit if t.limit is not None else base[name] + t.margin if down else base[name] - t.margin
+        m[name] = round(bound + 0.1 if down else bound - (6.0 if name == "psnr" else 0.2), 4)
+    m = {**base, **m}
+    tests = [_image_test(name, t, m, base, spp, kind) for name, t in assignment.image_tests().items()]
+    return tests, {**m, "baseline": base}
 
 
 # -- the pictures

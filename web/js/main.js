@@ -123,7 +123,11 @@ $("#btn-undo").addEventListener("click", () => editor.undo());
 $("#btn-redo").addEventListener("click", () => editor.redo());
 // the Build panel's pick shows the same object (its material) or light in the form
 build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), onLoad: (text, name) => loadText(text, name, false), notify });
-if (window.matchMedia("(max-width: 820px)").matches) $("details.fields").open = false; // a phone: the viewer comes sooner
+if (window.matchMedia("(max-width: 820px)").matches) {
+  // a phone: the Build panel and the fields fold away, so that the viewer comes sooner under the Render button
+  $("details.fields").open = false;
+  $("#build-details").open = false;
+}
 
 const viewer = new Viewer({
   getScene: () => {

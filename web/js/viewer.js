@@ -78,7 +78,13 @@ export class Viewer {
       legend: $("#aov-legend"),
       list: $("#job-list"),
       title: $("#viewer-title"),
+      near: $("#render-progress"), // the progress where the Render button is
+      nearBar: $("#render-progress-bar"),
+      nearText: $("#render-progress-text"),
     };
+    $("#btn-to-picture").addEventListener("click", () => this.reveal(true));
+    // the picture is kept in view while a new render starts (reveal), until the person scrolls or types
+    for (const e of ["wheel", "touchstart", "keydown"]) window.addEventListener(e, () => (this.revealing = false), { passive: true });
     this.el.render.addEventListener("click", () => this.submit());
     this.el.cancel.addEventListener("click", () => this.cancel());
     this.el.share = $("#btn-share");
@@ -115,10 +121,14 @@ export class Viewer {
     }
     this.el.render.disabled = true;
     this.message("info", "Submitting…");
+    this.near("info", "submitting…");
+    this.revealing = true; // the picture is brought into view now, and kept there while it grows, until the job ends
+    this.reveal();
     try {
       const job = await api.submit(scene.text);
       this.remember(job);
       await this.show(job, scene.value, scene.text);
+      this.reveal();
     } catch (err) {
       if (err instanceof ApiError && err.status === 422) {
         this.message("error", "The server refused the scene; its errors are marked in the editor.", err.errors);
@@ -209,6 +219,7 @@ export class Viewer {
 
   async ended(job, live) {
     this.view.job = job;
+    if (this.revealing) requestAnimationFrame(() => (this.reveal(), (this.revealing = false))); // its last layout
     this.update(job);
     if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
     this.updateAovButtons(job);
@@ -290,6 +301,7 @@ export class Viewer {
       this.el.empty.hidden = true;
       img.hidden = false;
       this.layout();
+      if (this.revealing && what === "image") requestAnimationFrame(() => this.reveal()); // taller than the text was
     };
     img.src = this.blobUrl;
     this.describe();
@@ -412,6 +424,8 @@ export class Viewer {
     const fraction = solving ? p.solve.fraction : p.fraction || 0;
     this.el.bar.value = fraction;
     this.el.bar.textContent = `${Math.round(fraction * 100)}%`;
+    this.el.nearBar.value = fraction;
+    this.el.nearBar.textContent = `${Math.round(fraction * 100)}%`;
     this.el.stage.dataset.status = job.status;
     const running = !job.finished;
     this.el.cancel.disabled = !running || !!this.view?.shared;
@@ -429,8 +443,13 @@ export class Viewer {
     const solveChip = rays.radiosity ? [h("span", { class: "chip", style: "--c:#c792ea", title: "form-factor rays of the radiosity solve" }, `radiosity ${integer(rays.radiosity)}`)] : [];
     this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), ...solveChip, h("span", {}, `total ${integer(rays.total ?? 0)}`));
     this.setDownloads(job);
+    if (this.revealing) requestAnimationFrame(() => this.reveal()); // the rows above the stage grew: still in view
+    const pct = `${Math.round(fraction * 100)}%`;
+    if (running) this.near("info", job.status === "queued" ? "queued…" : solving ? `radiosity ${pct}` : `${pct} rendered`);
+    else if (job.status === "done") this.near("ok", `done in ${seconds(job.elapsed)}`);
+    else this.near(job.status === "failed" ? "error" : "warn", job.status);
     if (running && solving) this.message("info", `Solving radiosity before the first pass: ${Math.round(fraction * 100)}% · ${integer(p.solve.shots)} shots · ${(100 * p.solve.unshot).toFixed(2)}% of the power still unshot…`);
-    else if (running) this.message("info", job.status === "queued" ? queuedText(job) : `Rendering pass ${(p.passes_done ?? 0) + 1}…`);
+    else if (running) this.message("info", job.status === "queued" ? queuedText(job) : `Rendering pass ${(p.passes_done ?? 0) + 1}: ${Math.round(fraction * 100)}% of the samples…`);
     if (this.jobs.has(job.id)) {
       this.jobs.set(job.id, job);
     }
@@ -453,7 +472,26 @@ export class Viewer {
     }
   }
 
+  /** Bring the picture into view after Render (on a phone it is a screen or more below the button): the whole
+   * stage, with the button still on screen when both fit (`force`: the stage's top, whatever the button). */
+  reveal(force = false) {
+    const stage = this.el.stage.getBoundingClientRect();
+    const button = this.el.render.getBoundingClientRect();
+    const room = window.innerHeight;
+    if (!force && stage.top >= 0 && stage.bottom <= room) return; // already in view
+    if (!force && stage.bottom - button.top + 24 <= room) window.scrollBy({ top: stage.bottom - room + 16, behavior: "instant" });
+    else this.el.stage.scrollIntoView({ block: "start", behavior: "instant" });
+  }
+
+  /** The render's state beside the Render button, in a few words (a problem in full: it is why nothing renders). */
+  near(kind, text) {
+    this.el.near.hidden = false;
+    this.el.near.dataset.kind = kind;
+    this.el.nearText.textContent = text;
+  }
+
   message(kind, text, errors = null, retry = null) {
+    if (kind === "error" || kind === "warn") this.near(kind, text); // and beside the Render button
     const m = this.el.message;
     m.dataset.kind = kind;
     const parts = [h("span", {}, text)];

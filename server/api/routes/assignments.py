@@ -156,16 +156,43 @@ async def publish(
     return await publish_in(request, course, caller, response, course_id)
 
 
-async def publish_in(request: Request, course: Course, caller: Caller, response: Response, cid: str | None) -> dict:
+def _publisher(request: Request, course: Course, caller: Caller, cid: str | None) -> str:
+    """The course to publish in (named, else the staff token's own, else the default), once the caller may."""
     named = cid is not None  # (a course the caller did not name is not hidden from them: course_staff)
     if cid is None:
         mine = course.store.token(caller.owner) if caller.owner else None
         cid = mine["course_id"] if mine is not None and mine["kind"] == "staff" else DEFAULT_COURSE
     course.course_staff(cid, caller, instructor_check(request), "publish", hide=named)
+    return cid
+
+
+async def publish_in(request: Request, course: Course, caller: Caller, response: Response, cid: str | None) -> dict:
+    cid = _publisher(request, course, caller, cid)
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.publish, body, cid)
     response.headers["Location"] = f"/api/assignments/{a['id']}"
     return course.brief(a, Who(), _base(request))
+
+
+@router.post(
+    "/preview-feedback",
+    summary="What a student will see under a policy, before publishing (nothing is kept)",
+    responses=ERRORS,
+    openapi_extra=ASSIGNMENT_BODY,
+)
+async def preview_feedback(
+    request: Request,
+    course: CourseDep,
+    caller: CallerDep,
+    course_id: Annotated[str | None, Query(alias="course", description="the course it would be published in")] = None,
+) -> dict:
+    """The body of a publish (JSON or multipart, checked the same: 422 at its fields) -> the feedback of an
+    example scene submission as a student would see it until the deadline (`moments[0]`) and after it
+    (`moments[1]`), through the same rule as every submission's: each test shown or `hidden` with when, the
+    pictures shown, and `withheld` (what is hidden and when it appears). Nothing is published or rendered."""
+    _publisher(request, course, caller, course_id)
+    body = await _assignment_body(request)
+    return await run_in_threadpool(course.preview, body)
 
 
 @router.put(

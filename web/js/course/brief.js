@@ -96,7 +96,16 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   const imagePts = (brief.image_tests || []).reduce((a, t) => a + t.points, (brief.validity?.points || 0));
   $("#a-max", root).replaceChildren(h("strong", {}, pts(brief.max_score)));
   const imageNote = brief.requirements?.length && brief.image_tests?.length ? `An image from your own ray tracer is out of ${pts(imagePts)}: the requirements apply to scenes.` : "";
-  $("#a-points-note", root).textContent = imageNote;
+  // a hidden image test hides the error map and the rejected pixels too (server/course/policy.py map_shown)
+  const maps = (brief.image_tests || []).map((t) => when(brief, t.name)).reduce((a, b) => (ORDER.indexOf(b) > ORDER.indexOf(a) ? b : a), "now");
+  const cut = brief.late_until || brief.deadline;
+  const mapsNote =
+    maps === "now"
+      ? null
+      : maps === "never"
+        ? h("span", { id: "a-maps-note" }, "The error map, the rejected pixels and the metrics are never shown to students for this assignment: they would tell a hidden test's result.")
+        : h("span", { id: "a-maps-note" }, "The error map, the rejected pixels and the metrics are shown after your deadline (", timeEl(cut), "): before, they would tell a hidden test's result.");
+  $("#a-points-note", root).replaceChildren(imageNote, imageNote && mapsNote ? " " : "", mapsNote || "");
 
   const limits = brief.limits || {};
   const render = brief.render || {};

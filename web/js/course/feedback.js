@@ -4,10 +4,11 @@
 // A pixel of a scene submission's difference map, clicked (or chosen with the keyboard), shows the student's
 // ray tree beside the reference's at that pixel (compare.js, loaded at the first click). A graded image from
 // the student's own tracer lists its probe pixels and takes their tracer's tree log (owntracer.js), or says
-// when the probes appear (`probes_hidden`).
+// when the probes appear (`probes_hidden`). What the policy hides now (a hidden image test hides the error map,
+// the rejected pixels and the metrics too) is said with when it appears (`withheld`, withheldNotice).
 import { showImage } from "../api.js";
 import { h, num } from "../util.js";
-import { pts } from "./brief.js";
+import { localTime, pts } from "./brief.js";
 import { treeLogSection } from "./owntracer.js";
 
 const PICTURES = [
@@ -24,13 +25,28 @@ const METRICS = [
   ["rejected", "pixels rejected", (x) => `${num(100 * x, 3)} %`],
 ];
 
+/** What the feedback policy hides now and when it appears (the server's `withheld` groups: their `parts` in
+ * words, `when` and `at`), as one sentence a group: "The result of “pixels match the reference”, the error map
+ * and the rejected pixels are shown after the deadline (Wed, Dec 9, 2026, 12:00 PM EST)." Null when nothing is. */
+export function withheldNotice(groups, { who = "your" } = {}) {
+  if (!Array.isArray(groups) || !groups.length) return null;
+  const join = (xs) => (xs.length === 1 ? xs[0] : `${xs.slice(0, -1).join(", ")} and ${xs[xs.length - 1]}`);
+  const lines = groups.map((g) => {
+    const what = join(g.parts || []);
+    const first = what.charAt(0).toUpperCase() + what.slice(1);
+    const later = g.when === "never" ? [" are never shown to students for this assignment (the instructor sees them)."] : [` are shown after ${who} deadline (`, h("time", { datetime: g.at, title: g.at }, localTime(g.at)), ")."];
+    return h("li", { dataset: { when: g.when } }, first, ...later);
+  });
+  return h("div", { class: "message a-withheld", dataset: { kind: "info" } }, h("strong", {}, "Not shown yet: "), h("ul", {}, lines));
+}
+
 /** One test of a check or a submission: passed / failed with its points and output, or hidden. */
 export function testItem(t) {
   if (t.hidden) {
     return h(
       "li",
       { class: "grade-test a-hidden", dataset: { test: t.test, status: "hidden" } },
-      h("div", { class: "grade-test-head" }, h("span", { class: "pf", "aria-hidden": "true" }, "?"), h("strong", {}, t.name), h("span", { class: "badge" }, t.hidden), h("span", { class: "pts" }, `– / ${pts(t.max_score)}`)),
+      h("div", { class: "grade-test-head" }, h("span", { class: "pf", "aria-hidden": "true" }, "?"), h("strong", {}, t.name), h("span", { class: "badge", title: t.shown_at ? localTime(t.shown_at) : null }, t.hidden), h("span", { class: "pts" }, `– / ${pts(t.max_score)}`)),
     );
   }
   const ok = t.status === "passed";
@@ -96,6 +112,10 @@ export function showFeedback(root, sub, ctx) {
       parts.push(h("p", { class: "a-score-note" }, later));
     }
     else if (sub.penalty) parts.push(h("p", { class: "a-score-note" }, `Late: ${num(100 * sub.penalty, 3)} % of the points taken off (${pts(sub.raw_score)} before the penalty).`));
+  }
+  if (["graded", "invalid", "failed"].includes(sub.status)) {
+    const notice = withheldNotice(fb?.withheld);
+    if (notice) parts.push(notice);
   }
   const files = sub.files || {};
   const names = PICTURES.filter(([name]) => files[name]);

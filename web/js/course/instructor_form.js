@@ -4,7 +4,12 @@
 // attempts, which submission counts, the starter scene, the reference shown, open) and the feedback policy
 // of each test named in the spec. It is sent as multipart, as docs/assignments.md shows; a deadline typed
 // in the browser's zone is sent with that zone's offset. The server's 422 errors are shown at their fields.
-import { h } from "../util.js";
+// "Preview what a student sees" (POST /api/assignments/preview-feedback, the same body) shows an example
+// submission's feedback until the deadline and after it, as the server's own policy rule gives it: each test
+// shown or hidden, the pictures, and what is held back until when; it follows the form's changes once shown.
+import { debounce, h } from "../util.js";
+import { localTime, pts } from "./brief.js";
+import { testItem, withheldNotice } from "./feedback.js";
 import { course, errorList, localValue, say, showFieldErrors, zoned, zoneName } from "./instructor_util.js";
 
 const WHEN = [
@@ -76,6 +81,10 @@ export class AssignmentForm {
     this.status = h("p", { class: "af-status", role: "status", "aria-live": "polite" });
     this.regrade = this.edit ? h("input", { type: "checkbox", id: `${id}-regrade`, checked: true }) : null;
     this.button = h("button", { type: "submit", class: "primary" }, this.edit ? "Publish the new version" : "Publish");
+    this.previewButton = h("button", { type: "button", class: "af-preview-button" }, "Preview what a student sees");
+    this.previewButton.addEventListener("click", () => this.preview());
+    this.previewStatus = h("p", { class: "af-preview-status", role: "status", "aria-live": "polite" });
+    this.previewBox = h("div", { class: "af-preview", id: `${id}-preview`, hidden: true });
     const zone = `in this browser's zone (${zoneName()}); sent with its offset`;
     const form = h(
       "form",
@@ -127,8 +136,10 @@ export class AssignmentForm {
           ),
           this.fbRows,
         ),
-        h("p", { class: "hint" }, "The tests are read from the spec. After the deadline: once the student can no longer submit (their late cut-off, else their deadline)."),
+        h("p", { class: "hint" }, "The tests are read from the spec. After the deadline: once the student can no longer submit (their late cut-off, else their deadline). A hidden image test hides the error map, the rejected pixels and the metrics too (they would tell its result)."),
         fbList,
+        h("div", { class: "af-preview-go" }, this.previewButton, this.previewStatus),
+        this.previewBox,
       ),
       this.edit
         ? h("div", { class: "af-field af-check" }, this.regrade, h("label", { for: this.regrade.id }, "Regrade every submission under the new version"))
@@ -136,6 +147,9 @@ export class AssignmentForm {
       this.general,
       h("div", { class: "af-go" }, this.button, this.status),
     );
+    // once a preview is shown, it follows the policy's fields
+    const again = debounce(() => !this.previewBox.hidden && this.preview(), 400);
+    form.addEventListener("change", () => again());
     form.addEventListener("submit", (e) => {
       e.preventDefault();
       this.send();
@@ -235,6 +249,49 @@ export class AssignmentForm {
     if (this.fbScore.value) feedback.score = this.fbScore.value;
     fd.append("feedback", JSON.stringify(feedback));
     return fd;
+  }
+
+  /** The feedback of an example submission until the deadline and after it under the form's policy, as the
+   * server applies it to every submission (nothing is published). */
+  async preview() {
+    if (!this.precheck()) {
+      say(this.previewStatus, "error", "Fix the fields marked above to preview.");
+      return;
+    }
+    showFieldErrors([], this.fields, this.general);
+    say(this.previewStatus, "busy", "Asking the server what a student would see…");
+    const seq = (this.previewSeq = (this.previewSeq || 0) + 1);
+    try {
+      const p = await course.preview(await this.body());
+      if (seq !== this.previewSeq) return; // a later one was asked
+      this.showPreview(p);
+      say(this.previewStatus, "ok", "The preview below follows the policy's fields as you change them.");
+    } catch (err) {
+      if (seq !== this.previewSeq) return;
+      const errors = err.errors || [{ path: "", message: String(err.message || err) }];
+      showFieldErrors(errors, this.fields, this.general)?.focus();
+      say(this.previewStatus, "error", `No preview: the server refused the form (${errors.length} problem${errors.length > 1 ? "s" : ""}): see the fields marked.`);
+    }
+  }
+
+  showPreview(p) {
+    const cols = p.moments.map((m) => {
+      const fb = m.feedback;
+      const head = `${this.id}-preview-${m.moment}`;
+      const title = m.moment === "now" ? ["Now: until the deadline (", h("time", { datetime: p.cut_off }, localTime(p.cut_off)), ")"] : ["After the deadline"];
+      const pictures = ["their render", ...(fb.pictures.includes("error_map.png") ? ["the error map", "the rejected pixels"] : []), ...(this.showRef.checked ? ["the reference"] : [])];
+      return h(
+        "section",
+        { class: "af-preview-col", dataset: { moment: m.moment }, "aria-labelledby": head },
+        h("h4", { id: head }, ...title),
+        h("p", { class: "af-preview-score" }, m.score_shown ? `Score: ${pts(m.score)} / ${pts(m.max_score)}` : `Score: hidden (out of ${pts(m.max_score)})`),
+        h("p", { class: "af-preview-pictures" }, `Pictures: ${pictures.join(", ")}${fb.metrics ? "; the metrics against the noise baseline" : ""}.`),
+        withheldNotice(fb.withheld, { who: "their" }),
+        h("ol", { class: "grade-tests a-tests" }, fb.tests.map(testItem)),
+      );
+    });
+    this.previewBox.replaceChildren(h("p", { class: "hint" }, `An example submission: ${p.example}.`), h("div", { class: "af-preview-cols" }, cols));
+    this.previewBox.hidden = false;
   }
 
   /** Problems the page can tell before asking (a field left empty), at their fields; true when none. */

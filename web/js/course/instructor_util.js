@@ -15,6 +15,8 @@ export const course = {
   courseView: (cid) => request("GET", `/api/courses/${encodeURIComponent(cid)}`, undefined, { ...AS, cache: "no-store" }),
   createCourse: (body) => request("POST", "/api/courses", body, AS),
   addStaff: (cid, body) => request("POST", `/api/courses/${encodeURIComponent(cid)}/staff`, body, AS),
+  // what a student would see under the form's policy, before publishing (nothing is kept)
+  preview: (form) => request("POST", `/api/assignments/preview-feedback${course.into ? `?course=${encodeURIComponent(course.into)}` : ""}`, form, AS),
   edit: (aid, form, regrade) => request("PUT", `${A(aid)}${regrade ? "?regrade=true" : ""}`, form, AS),
   brief: (aid) => request("GET", A(aid), undefined, { ...AS, cache: "no-store" }),
   board: (aid) => request("GET", `${A(aid)}/dashboard`, undefined, { ...AS, cache: "no-store" }),
