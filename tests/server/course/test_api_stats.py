@@ -158,16 +158,30 @@ def test_stats_of_a_class_with_known_scores_attempts_and_times(app):
 
 
 def test_stats_are_the_staffs(app):
-    r = app.post("/api/assignments", json={"spec": small_spec(), "deadline": DEADLINE.isoformat()})
+    """A TA of the course reads them; a student of the assignment gets the answer of an unknown id (as on the
+    dashboard), a TA of another course what the dashboard answers them (401), a token of no one 401 or 403."""
+    for cid in ("cs1", "cs2"):
+        assert app.post("/api/courses", json={"id": cid, "name": cid}).status_code == 201
+    r = app.post("/api/assignments?course=cs1", json={"spec": small_spec(), "deadline": DEADLINE.isoformat()})
+    assert r.status_code == 201, r.text
     aid = r.json()["id"]
     r = app.post(f"/api/assignments/{aid}/roster", content="id,name,email\neve,Eve E,\n",
                  headers={"Content-Type": "text/csv"})  # fmt: skip
-    eve = r.json()["students"][0]["token"]
+    eve = bearer(r.json()["students"][0]["token"])
+    ta = {}
+    for cid in ("cs1", "cs2"):
+        r = app.post(f"/api/courses/{cid}/staff", json={"id": f"ta-{cid}", "name": "T A", "role": "ta"})
+        assert r.status_code == 201, r.text
+        ta[cid] = bearer(r.json()["token"])
+    unknown = "0" * 32
     for path in ("stats", "stats.csv"):
-        r = app.get(f"/api/assignments/{aid}/{path}", headers=bearer(eve))
-        assert r.status_code == 404, (path, r.text)  # a student: the 404 of an unknown id, as the dashboard
-        assert app.get(f"/api/assignments/{aid}/dashboard", headers=bearer(eve)).status_code == 404
-        r = app.get(f"/api/assignments/{'0' * 32}/{path}")
-        assert r.status_code == 404 and "0" * 32 in r.text, r.text
+        assert app.get(f"/api/assignments/{aid}/{path}", headers=ta["cs1"]).status_code == 200, path
+        mine = app.get(f"/api/assignments/{aid}/{path}", headers=eve)
+        nothing = app.get(f"/api/assignments/{unknown}/{path}", headers=eve)
+        assert mine.status_code == nothing.status_code == 404, (path, mine.text)
+        assert mine.text.replace(aid, unknown) == nothing.text, path
+        assert app.get(f"/api/assignments/{aid}/dashboard", headers=eve).status_code == 404
+        other = app.get(f"/api/assignments/{aid}/{path}", headers=ta["cs2"]).status_code
+        assert other == app.get(f"/api/assignments/{aid}/dashboard", headers=ta["cs2"]).status_code == 401, path
         r = app.get(f"/api/assignments/{aid}/{path}", headers=bearer("not-a-token-of-anyone-here-at-all"))
         assert r.status_code in (401, 403), r.text
