@@ -82,11 +82,14 @@ def _kind(spec, key: str) -> str:
 
 def student_stats(course: Course, a: dict) -> tuple[list[dict], dict[str, dict[str, dict]]]:
     """Each roster student's statistics (in roster order) and their counting submission's tests by key."""
-    rows = student_rows(course, a)
-    grades = course.class_grades(a)
+    rows = student_rows(course, a)  # the dashboard's rows: state, points and the counting submission's id
+    subs: dict[str, list[dict]] = {}
+    for s in course.submissions(a):  # in the order they came (a student who joined since: none yet)
+        subs.setdefault(s["student"], []).append(s)
     out, tests = [], {}
-    for row, (st, mine, counting, _) in zip(rows, grades, strict=True):
-        assert row["id"] == st["student"]  # one roster order
+    for row in rows:
+        mine = subs.get(row["id"], [])
+        counting = next((s for s in mine if s["id"] == row["counting"]), None)
         attempts = sum(status_of(s) not in NOT_ATTEMPTS for s in mine)
         first = mine[0]["accepted_at"] if mine else None
         full = next(
