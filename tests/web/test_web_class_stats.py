@@ -19,7 +19,7 @@ DEADLINE = "2100-01-01T12:00:00Z"
 
 
 @pytest.fixture(scope="module")
-def assignment(server) -> str:
+def assignment(server) -> tuple[str, dict]:
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
         r = c.post("/api/assignments", json={"spec": small_spec(), "deadline": DEADLINE})
         assert r.status_code == 201, r.text
@@ -37,13 +37,14 @@ def assignment(server) -> str:
         for sid in sids:
             url = f"/api/assignments/{aid}/submissions/{sid}"
             wait_for(lambda u=url: c.get(u).json()["status"] == "graded", 240, f"{sid} graded", 0.2)
-    return aid
+    return aid, tokens
 
 
 def test_web_class_stats_draws_the_histogram_and_pass_rates_with_their_text(browser, server, assignment, tmp_path):
+    aid, tokens = assignment
     p = open_course(browser, server, tmp_path)
     try:
-        p.page.evaluate("(id) => { location.hash = id; }", assignment)
+        p.page.evaluate("(id) => { location.hash = id; }", aid)
         p.page.wait_for_selector("#stats-rates-svg .rate")
         assert "3 graded students of 4" in p.page.text_content("#stats-status")
         bars = p.page.eval_on_selector_all("#stats-histogram-svg .bar", "gs => gs.map(g => +g.dataset.count)")
@@ -88,6 +89,20 @@ def test_web_class_stats_draws_the_histogram_and_pass_rates_with_their_text(brow
         p.page.locator("#class-stats").scroll_into_view_if_needed()
         p.shot("course-class-stats", full_page=True)
         assert_accessible(p.page, "the class statistics panel", "#class-stats")
+
+        # cid hands in the reference: the status says the class changed (nothing redrawn), Refresh counts it
+        with httpx.Client(base_url=server.url, timeout=60) as c:
+            r = c.post(f"/api/assignments/{aid}/submissions", json={"scene": reference()}, headers=tokens["cid"])
+            assert r.status_code == 202, r.text
+            url = f"/api/assignments/{aid}/submissions/{r.json()['id']}"
+            wait_for(lambda: c.get(url, headers=tokens["cid"]).json()["status"] == "graded", 240, "cid's graded", 0.2)
+        p.page.wait_for_function("() => document.querySelector('#stats-status').textContent.includes('changed since')")
+        assert p.page.is_visible("#stats-rates table")  # what the reader had open stays open
+        p.page.click("#stats-refresh")
+        bars = "[...document.querySelectorAll('#stats-attempts-svg .bar')].map(g => g.dataset.count).join()"
+        p.page.wait_for_function(f"() => {bars} === '1,1,2'")  # ann 1, bea 2, cid 2 now, dan none
+        assert "changed since" not in p.page.text_content("#stats-status")
+        assert p.page.text_content("#stats-summary [data-stat='Requirement failed most']") == "none"  # cid's glass
         p.page.set_viewport_size({"width": 390, "height": 800})  # a phone: nothing wider than the page
         p.page.wait_for_timeout(100)
         wide = p.page.evaluate("() => document.documentElement.scrollWidth - document.documentElement.clientWidth")

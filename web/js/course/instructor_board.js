@@ -236,6 +236,7 @@ export class Board {
       this.data = data;
       this.renderSummary();
       this.renderTable();
+      this.classStats?.follow(data); // says when the class statistics are no longer the class's
       if (this.open_) {
         const was = before?.students.find((r) => r.id === this.open_);
         const now = data.students.find((r) => r.id === this.open_);

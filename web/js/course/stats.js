@@ -1,5 +1,6 @@
 // The dashboard's "Class statistics" panel (web/course.html, one assignment's dashboard; docs/assignments.md,
-// "Class statistics"): GET .../stats once when the dashboard opens and again on "Refresh", drawn as three
+// "Class statistics"): GET .../stats once when the dashboard opens and again on "Refresh" (the status says when
+// the dashboard's class has changed since: nothing is redrawn under a reader), drawn as three
 // figures (the score distribution, each test's pass rate, attempts per student), each an SVG with role="img"
 // and a sentence for a screen reader, its caption, and its numbers as a table under "The numbers"; the time
 // from a student's first submission to full marks per student in a table, the class's median in the summary;
@@ -78,6 +79,9 @@ function columns(id, label, bars, { tickEvery = 1, edges = null } = {}) {
   );
 }
 
+/** What the statistics depend on, the same from the dashboard's rows and the statistics' per_student. */
+const sig = (rows) => JSON.stringify(rows.map((r) => [r.id, r.state, r.submissions, r.points]));
+
 export class StatsPanel {
   constructor(aid, { access }) {
     this.aid = aid;
@@ -113,6 +117,16 @@ export class StatsPanel {
     this.closed = true;
   }
 
+  /** The dashboard's latest answer (every few seconds): when its class is no longer the one counted (a new
+   * submission, a grade), the status says so once, and Refresh counts again; nothing is redrawn under the reader. */
+  follow(board) {
+    if (!this.counted || this.stale) return;
+    if (sig(board.students) !== this.counted) {
+      this.stale = true;
+      say(this.status, "info", `${this.status.textContent} The class has changed since: Refresh to count it again.`);
+    }
+  }
+
   async load() {
     this.refreshButton.disabled = true;
     try {
@@ -126,6 +140,8 @@ export class StatsPanel {
   }
 
   show(d) {
+    this.counted = sig(d.per_student);
+    this.stale = false;
     say(this.status, "info", `${plural(d.graded, "graded student")} of ${d.students}, counted ${when(d.now)}.`);
     const worst = d.fails_most.length ? d.fails_most.map((t) => `${t.name} (${t.failed} of ${t.graded} fail it)`).join("; ") : "none";
     const fm = d.full_marks;
