@@ -20,10 +20,12 @@ the policy says); its points are the dashboard's (the score after the late penal
   submission graded with every test passed (the work's full marks, a late penalty aside), and the median over
   those who got there.
 
-**Cost.** The class is bounded before this (a roster is one upload of at most max_body_bytes, the joins of an
-open assignment at most max_joins_per_assignment); this is the dashboard's query of the submissions plus one
-report.json per student (their counting submission's), and at most MAX_STUDENTS of those: past it the tests are
-counted over the first MAX_STUDENTS students and `tests_over` says so. Nothing is kept: each GET computes it.
+**Cost.** The class is what its staff put on the roster (uploads of at most max_body_bytes each, an LMS's
+roster) plus at most max_joins_per_assignment self-declared joins: no student can grow it, and the staff's
+dashboard reads the same rows every few seconds. This is the dashboard's work (one query of the submissions)
+plus one report.json per student (their counting submission's), at most MAX_STUDENTS of those: past it the
+tests are counted over the first MAX_STUDENTS students and `tests_over` says so. Nothing is kept: each GET
+computes it, for the course's staff only.
 """
 
 from __future__ import annotations
