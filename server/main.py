@@ -43,6 +43,7 @@ from server.api.routes import (
     samples,
     scenes,
     similarity,
+    stats,
     status,
     tools,
 )  # fmt: skip
@@ -199,6 +200,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
     app.include_router(own_trees.router)
     app.include_router(similarity.router)  # before assignments.py, as own_trees
+    app.include_router(stats.router)  # before assignments.py, as similarity
     app.include_router(assignments.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/

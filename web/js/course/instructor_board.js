@@ -9,6 +9,7 @@ import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
+import { StatsPanel } from "./stats.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
 const POLL_MS = 3000; // the roster is asked again this often while the page is shown
@@ -80,6 +81,7 @@ export class Board {
     this.closed = true;
     clearTimeout(this.timer);
     this.similarity?.close();
+    this.classStats?.close();
   }
 
   /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
@@ -188,7 +190,9 @@ export class Board {
     );
     this.similarity = new SimilarityPanel(this.aid, { access: this.access }); // web/js/course/similarity.js
     this.similarity.load();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.similarity.root, this.versions);
+    this.classStats = new StatsPanel(this.aid, { access: this.access }); // web/js/course/stats.js
+    this.classStats.load();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.classStats.root, this.similarity.root, this.versions);
   }
 
   renderHead() {
@@ -232,6 +236,7 @@ export class Board {
       this.data = data;
       this.renderSummary();
       this.renderTable();
+      this.classStats?.follow(data); // says when the class statistics are no longer the class's
       if (this.open_) {
         const was = before?.students.find((r) => r.id === this.open_);
         const now = data.students.find((r) => r.id === this.open_);
