@@ -19,11 +19,11 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, small
-from queue_support import LOST_AFTER, Api, Process, RedisServer
-from test_api_support import job, submit, tiny_scene, wait_finished, wait_for
 
 import tracer.rendering.progressive as render_module
+from tests.support.api import job, submit, tiny_scene, wait_finished, wait_for
+from tests.support.queue import LOST_AFTER, Api, Process, RedisServer
+from tests.support.scene import ROOT, scene_dict, small
 from tracer.rendering.compile import compile_scene
 from tracer.rendering.film import read_exr
 from tracer.rendering.parallel import DeviceError, check_device

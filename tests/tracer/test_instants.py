@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 
+from tests.support.scene import scene_dict, small
 from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import Renderer, render
 from tracer.rendering.raytree import ray_tree

@@ -8,8 +8,8 @@ import re
 from typing import get_args
 
 import pytest
-from conftest import ROOT
 
+from tests.support.scene import ROOT
 from tracer.errors import SceneError
 from tracer.grading.spec import RenderOverrides
 from tracer.integrators import INTEGRATORS, NAMES, dispatch

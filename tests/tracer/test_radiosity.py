@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 
+from tests.support.scene import scene_dict, small
 from tracer.kernels.kinds import RadDisplay
 from tracer.radiosity import attach, build_patches, solve
 from tracer.rendering.compile import compile_scene
@@ -481,7 +481,7 @@ def test_radiosity_the_integrators_import_only_the_lookup():
     import subprocess
     import sys
 
-    from conftest import ROOT
+    from tests.support.scene import ROOT
 
     p = subprocess.run([sys.executable, "-c", PACKAGE_MODULES], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]

@@ -6,8 +6,8 @@ import json
 import re
 
 import numpy as np
-from conftest import ROOT
 
+from tests.support.scene import ROOT
 from tracer.kernels.kinds import End
 from tracer.limits import Limits
 from tracer.rendering.compile import compile_scene

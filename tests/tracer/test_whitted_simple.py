@@ -10,8 +10,8 @@ same random numbers."""
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, scene_dict, small
 
+from tests.support.scene import EXAMPLES, scene_dict, small
 from tracer.integrators import dispatch, whitted_simple
 from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import Renderer
