@@ -45,7 +45,7 @@ TREE_PIXELS = [
 @pytest.fixture(scope="module")
 def reference(compiled_kernels):
     """The zoo scene compiled for the renderer."""
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.scene import load_scene
 
     scene, warnings = load_scene(zoo_scene())

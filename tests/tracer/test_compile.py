@@ -8,7 +8,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from tests.support.assets import no_repr
-from tracer.rendering.compile import box_faces, compile_scene, transform_matrix
+from tracer.kernels.compile import box_faces, compile_scene, transform_matrix
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import ASSET_DIR, SceneError, Transform, load_scene
 

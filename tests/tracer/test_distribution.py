@@ -14,6 +14,7 @@ import warp as wp
 from numpy.testing import assert_allclose
 
 from tests.support.scene import SCENES, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.lights import light_data, sample_area_light
 from tracer.kernels.sampling import (
     concentric_disk,
@@ -23,7 +24,6 @@ from tracer.kernels.sampling import (
     sample_cosine_hemisphere,
 )
 from tracer.kernels.structs import LightData
-from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import Limits, load_scene

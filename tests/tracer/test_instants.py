@@ -5,7 +5,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from tests.support.scene import scene_dict, small
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer, render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene, validate_scene

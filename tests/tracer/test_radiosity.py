@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import RadDisplay
+from tracer.kernels.parallel import ITEMS_PER_BAND
 from tracer.radiosity import attach, build_patches, solve
-from tracer.rendering.compile import compile_scene
-from tracer.rendering.parallel import ITEMS_PER_BAND
 from tracer.rendering.progressive import render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene

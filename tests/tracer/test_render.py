@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 from tests.support.scene import EXAMPLES, ROOT, scene_dict, small
 from tracer.integrators import adaptive
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene

@@ -6,8 +6,8 @@ from numpy.testing import assert_allclose
 
 from tests.support.samples import FILM_TOL, film_point
 from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import RayKind
-from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import Renderer
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import Sampler, SceneError, load_scene, scene_json_schema

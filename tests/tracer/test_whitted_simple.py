@@ -13,7 +13,7 @@ import pytest
 
 from tests.support.scene import EXAMPLES, scene_dict, small
 from tracer.integrators import dispatch, whitted_simple
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene

@@ -13,7 +13,7 @@ from tests.support.scene import ROOT
 
 
 def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 

@@ -38,7 +38,7 @@ def busy(client):
 
 
 def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.film import png_bytes
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
@@ -278,7 +278,7 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, settin
     settings.max_active_jobs_per_token = 100  # every example (24) queued at once by one student
     settings.max_queued_per_token = 100  # (20 waiting: passed only while the worker took them fast enough)
     from tests.support.scene import EXAMPLES, small
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 

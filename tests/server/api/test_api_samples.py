@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from tests.support.samples import FILM_TOL, film_point
 from tests.support.scene import scene_dict, small
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.scene import load_scene
 
 # `client` (tests/conftest.py): the app with a render worker, which traces the ray trees compared with.

@@ -63,7 +63,7 @@ def png_of(image: np.ndarray) -> str:
 
 def rendered() -> np.ndarray:
     """A student's right image: the reference scene, antialiased as the reference mean is."""
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 

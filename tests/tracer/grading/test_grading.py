@@ -274,7 +274,7 @@ OWN_SEED = 777  # "the student's" seed: not the reference's (1000003), the basel
 
 
 def render_linear(scene: dict) -> np.ndarray:
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
 
     return render(compile_scene(load_scene(scene)[0])).image
