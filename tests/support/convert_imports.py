@@ -1,6 +1,7 @@
-"""Rewrites the tests' old bare imports of helpers (before tests/ was a package) to the `tests.support` package.
+"""Rewrites the tests' old bare imports of helpers (before tests/ was a package) to the `tests.support` package,
+and the imports of the library's modules that moved when tracer/ was layered (issue #40).
 
-    python tests/support/convert_imports.py [FILE_OR_FOLDER ...]    (default: tests/)
+    .venv/bin/python tests/support/convert_imports.py [FILE_OR_FOLDER ...]    (default: tests/)
 
 `from conftest import ROOT` becomes `from tests.support.scene import ROOT`, `from test_api_support import Server`
 `from tests.support.api import Server`, `from test_web_page import Page` `from tests.support.page import Page`, and so
@@ -9,7 +10,12 @@ none does, to the test module's dotted name (`tests.server.course.test_x`), with
 tests/support/ by hand. `import test_lms` and `tool = test_lms.tool` (fixtures taken from another module) are
 reported, not rewritten: the fixtures `tool` and `lms` are registered by tests/server/course/ and tests/web/'s
 conftest.py. Imports inside functions are rewritten too. The changed files then get `ruff check --select I --fix`
-(import order) and `ruff format`. Running it again changes nothing."""
+(import order) and `ruff format`. Running it again changes nothing.
+
+The library's moves, in any file given (tracer/, server/, bench/ too): `tracer.rendering.compile` and
+`tracer.rendering.parallel` are `tracer.kernels.compile` and `tracer.kernels.parallel`; the integrators' table
+(`INTEGRATORS`, `BY_NAME`, `NAMES`, `IntegratorInfo`) is `tracer.scene.integrators`'s; the film's filters
+(`FILTER_TABLE`, `filter_1d`, `filter_tables`) are `tracer.kernels.filters`'."""
 
 from __future__ import annotations
 
@@ -54,6 +60,17 @@ HELPERS = {
     "test_web_page": "tests.support.page",
 }
 GONE = {"lti_support": {"platform", "tool"}}  # fixtures now registered by tests/server/lti/conftest.py
+# the library's modules that moved (tracer/ layered by package), and names that moved out of a module that stayed
+TRACER_MODULES = {
+    "tracer.rendering.compile": "tracer.kernels.compile",
+    "tracer.rendering.parallel": "tracer.kernels.parallel",
+}
+TRACER_NAMES = {
+    "tracer.integrators": dict.fromkeys(
+        ("INTEGRATORS", "BY_NAME", "NAMES", "IntegratorInfo"), "tracer.scene.integrators"
+    ),
+    "tracer.rendering.film": dict.fromkeys(("FILTER_TABLE", "filter_1d", "filter_tables"), "tracer.kernels.filters"),
+}
 
 
 def _top_names(module: str) -> set[str]:
@@ -99,6 +116,14 @@ def convert(path: Path, modules: dict[str, str], warn) -> bool:
             old = node.module
             if old in WHOLE:
                 groups = {WHOLE[old]: list(node.names)}
+            elif old in TRACER_MODULES:
+                groups = {TRACER_MODULES[old]: list(node.names)}
+            elif old in TRACER_NAMES:
+                if not any(a.name in TRACER_NAMES[old] for a in node.names):
+                    continue
+                groups = {}
+                for a in node.names:
+                    groups.setdefault(TRACER_NAMES[old].get(a.name, old), []).append(a)
             elif old in GONE:
                 left = [a for a in node.names if a.name not in GONE[old]]
                 if left:
@@ -133,6 +158,14 @@ def convert(path: Path, modules: dict[str, str], warn) -> bool:
                 new = [f"{indent}pass"] if node.col_offset else []
             edits.append((node.lineno, node.end_lineno, "".join(n + "\n" for n in new)))
         elif isinstance(node, ast.Import):
+            moved = [a for a in node.names if a.name in TRACER_MODULES]
+            if len(node.names) == 1 and moved and moved[0].asname:
+                a = moved[0]
+                line = f"{' ' * node.col_offset}import {TRACER_MODULES[a.name]} as {a.asname}\n"
+                edits.append((node.lineno, node.end_lineno, line))
+                continue
+            for a in moved:
+                warn(f"{path}:{node.lineno}: `import {a.name}`: it is {TRACER_MODULES[a.name]} now (by hand)")
             for a in node.names:
                 if a.name in WHOLE or a.name in HELPERS or a.name in modules:
                     warn(f"{path}:{node.lineno}: `import {a.name}`: use its names from tests.support (by hand)")

@@ -38,7 +38,7 @@ from tracer.kernels.structs import (
     vec3,
 )
 from tracer.meshing import apply as _apply
-from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, defined here once)
+from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported)
 from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
 
 
