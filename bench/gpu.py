@@ -102,8 +102,8 @@ def part_renders(args, report: Report) -> dict:
     import numpy as np
 
     from tracer.grading.metrics import pixel_test
-    from tracer.rendering.compile import compile_scene
-    from tracer.rendering.parallel import default_threads, is_cuda
+    from tracer.kernels.compile import compile_scene
+    from tracer.kernels.parallel import default_threads, is_cuda
     from tracer.rendering.progressive import Renderer, load_kernels, render
     from tracer.rendering.raytree import ray_tree
     from tracer.scene import load_scene
@@ -269,7 +269,7 @@ def main() -> int:
     if gone:
         print(f"cannot render: missing {', '.join(gone)}", file=sys.stderr)
         return 2
-    from tracer.rendering.parallel import DeviceError, check_device
+    from tracer.kernels.parallel import DeviceError, check_device
 
     try:
         args.device = check_device(args.device)

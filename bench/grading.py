@@ -48,7 +48,7 @@ def assignment() -> dict:
 
 
 def render(scene: dict):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render as run
     from tracer.scene import load_scene
 

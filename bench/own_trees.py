@@ -23,7 +23,6 @@ import io
 import json
 import shutil
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -36,8 +35,7 @@ TOKEN = "bench-own-trees-instructor-token-0123456789"
 
 def zoo():
     """The zoo tracer of the tests (tests/owntracer/zoo_tracer.py): the scene, its right trees and picture."""
-    sys.path.insert(0, str(ROOT / "tests" / "owntracer"))
-    from zoo_tracer import zoo_render, zoo_scene
+    from tests.owntracer.zoo_tracer import zoo_render, zoo_scene
 
     _, trees, picture = zoo_render(None)
     return zoo_scene(), trees, picture

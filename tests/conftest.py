@@ -1,24 +1,17 @@
-"""Shared fixtures: example scenes as dicts, small renders, the repository's paths, and the app in a
-TestClient for the API tests (built by test_api_support.api_client; its helpers live there too).
+"""Shared fixtures: the renderer's kernels compiled once, and the app in a TestClient for the API tests (built by
+tests.support.api.api_client; its helpers live there too); the markers each test gets from what it uses.
 
-The tests' folders mirror the packages (tracer/, server/api/, server/queue/, ..., web/), and a test
-module may use another's helpers by name (`from test_assets import png_uri`, whatever folder either is
-in): every folder of tests/ is on the import path from the start (pytest would add each only when it
-first collects a file there). Test modules' names are unique across the folders."""
+tests/ is a package (each folder has an `__init__.py`): test modules import helpers from the `tests.support`
+package (`from tests.support.scene import ROOT, scene_dict, small`, `from tests.support.api import Server`); a
+folder's own fixtures are in its conftest.py, used without an import."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
 TESTS = Path(__file__).resolve().parent
-for _folder in sorted(p for p in TESTS.rglob("*") if p.is_dir() and "__pycache__" not in p.parts):
-    if any(_folder.glob("*.py")) and str(_folder) not in sys.path:
-        sys.path.append(str(_folder))
-
-from scene_support import EXAMPLES, ROOT, SCENES, scene_dict, small  # noqa: E402, F401  (re-exported)
 
 
 @pytest.fixture(scope="session")
@@ -37,9 +30,9 @@ def compiled_kernels():
 def client(tmp_path_factory):
     """The app with one real render worker process, shared by the API tests: the worker starts once.
     Each test leaves no job queued or running behind (it waits for its jobs or cancels them). The app has
-    an instructor token (test_api_support.INSTRUCTOR), and the client is a student with a token of its own:
+    an instructor token (tests.support.api.INSTRUCTOR), and the client is a student with a token of its own:
     its jobs are its own (test_api_owners.py has the other students)."""
-    from test_api_support import INSTRUCTOR, api_client
+    from tests.support.api import INSTRUCTOR, api_client
 
     with api_client(tmp_path_factory.mktemp("api-data"), workers=1, instructor_token=INSTRUCTOR) as c:
         yield c
@@ -59,7 +52,7 @@ def settings(client):
 def client_without_workers(tmp_path_factory):
     """The app with no render worker (submitted jobs wait in the queue), for routes that render nothing;
     a student's client of a server with an instructor token, as `client`."""
-    from test_api_support import INSTRUCTOR, api_client
+    from tests.support.api import INSTRUCTOR, api_client
 
     with api_client(tmp_path_factory.mktemp("api-data-no-workers"), workers=0, instructor_token=INSTRUCTOR) as c:
         yield c
@@ -70,7 +63,7 @@ def client_without_workers(tmp_path_factory):
 # `./dev test -m "not browser"` is the inner loop's tier (no Chromium), `-m "not slow"` leaves out the tests
 # listed in slow_tests.txt (over 10 s each on the 2-core machine, from `--durations`). CI runs everything.
 
-REDIS_WORDS = ("RedisServer", "redis_argv", "from hosts import")  # redis-server (and network namespaces)
+REDIS_WORDS = ("RedisServer", "redis_argv", "tests.support.hosts import")  # redis-server (and network namespaces)
 RENDER_WORDS = ("load_kernels", "tracer.rendering", "tracer.radiosity", "tracer.grading", "render_scene")
 RENDER_FIXTURES = {"compiled_kernels", "kernels", "client", "settings", "server", "desktop", "phone", "browser"}
 _SOURCES: dict[Path, str] = {}

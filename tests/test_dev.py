@@ -13,7 +13,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
+
+from tests.support.scene import ROOT
 
 FAKE = """#!/usr/bin/env bash
 # a stand-in for Python (and ruff): logs its arguments; `-m venv DIR` makes DIR/bin/python and DIR/bin/ruff

@@ -88,7 +88,7 @@ def _print_problems(items: list[dict], kind: str = "error", scene: str | None = 
 
 
 def cmd_render(args) -> int:
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.film import aov_layers, write_exr, write_png
     from tracer.rendering.progressive import load_kernels, render
 
@@ -145,7 +145,7 @@ def cmd_raytree(args) -> int:
     from tracer.rendering.raytree import ray_tree
 
     scene, warnings = load_scene(_read_json(args.scene), assets=args.assets)
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
 
     tree = ray_tree(compile_scene(scene, asset_dir=Path(args.assets)), args.x, args.y, args.sample)
     if args.text:
@@ -316,7 +316,7 @@ def default_output(submission: Path) -> Path:
 
 def _device(name: str) -> str:
     """--device: Warp's name of the device, or a usage error naming the devices there are."""
-    from tracer.rendering.parallel import device_arg
+    from tracer.kernels.parallel import device_arg
 
     return device_arg(name)
 

@@ -6,7 +6,7 @@ the file itself. A path never reaches outside the folder, after '..' and symboli
 
 Validation (tracer/scene/) resolves every asset: an image's header is read (format and size, no
 pixels decoded) and a mesh is read and its triangles counted against the primitive limit. Compiling
-(tracer/rendering/compile.py) reads the same files through the same functions, so the two never disagree.
+(tracer/kernels/compile.py) reads the same files through the same functions, so the two never disagree.
 
 Functions that take a JSON `path` raise SceneError at that path; the others raise AssetError, whose
 message the caller places at the field it checks.

@@ -1,7 +1,7 @@
 """The surfaces' shapes in plain numpy: transforms, a box's faces, and the radiosity patches each surface
 is cut into, counted from the geometry and `patch_size` before any meshing.
 
-The renderer (tracer/rendering/compile.py) and the radiosity solve (tracer/radiosity/patches.py) place surfaces and
+The renderer (tracer/kernels/compile.py) and the radiosity solve (tracer/radiosity/patches.py) place surfaces and
 cut them with these functions, and validation (tracer/scene/model.py) counts the patches with the same ones,
 so a scene refused for its number of patches is refused before a single patch is made, and the count is
 the one the mesh would have:

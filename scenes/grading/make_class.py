@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.film import write_exr, write_png
 from tracer.rendering.progressive import render
 from tracer.scene import load_scene

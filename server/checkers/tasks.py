@@ -56,7 +56,7 @@ def summary(body: bytes, limits: Limits, assets: Path, threads: int) -> dict:
 
 def samples(body: bytes, limits: Limits, assets: Path, x: int, y: int) -> dict:
     """POST /api/samples's answer, or its `errors`."""
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.tools.pixel_samples import pixel_samples
 
     try:

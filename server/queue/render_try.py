@@ -310,7 +310,7 @@ class Try:
 
     def _scene(self):
         """The job's scene, validated and compiled; None (the job failed, with its errors) if it is not."""
-        from tracer.rendering.compile import compile_scene
+        from tracer.kernels.compile import compile_scene
         from tracer.scene import SceneError, load_scene
 
         try:

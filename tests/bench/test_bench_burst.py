@@ -10,9 +10,8 @@ import sys
 import threading
 import time
 
-from conftest import ROOT
-
 from bench.burst import Student, summary
+from tests.support.scene import ROOT
 
 
 def test_a_burst_client_connects_after_the_barrier():

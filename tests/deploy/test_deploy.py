@@ -27,9 +27,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
 
 from server.core.settings import Settings
+from tests.support.scene import ROOT
 
 DEPLOY = ROOT / "deploy"
 SYSTEMD = DEPLOY / "systemd"

@@ -7,7 +7,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 
-from scene_support import TESTS
+from tests.support.scene import TESTS
 
 JS = TESTS / "js"
 

@@ -5,7 +5,8 @@ tracer's trees."""
 from __future__ import annotations
 
 import pytest
-from zoo_tracer import BUGS, bug_pixels, zoo_render, zoo_scene
+
+from tests.owntracer.zoo_tracer import BUGS, bug_pixels, zoo_render, zoo_scene
 
 SAMPLES = 12  # pixels tried per bug, spread over the pixels where it shows
 # Besides its own `what`, what a bug may show first at some of its pixels: None where the change stays inside the

@@ -9,9 +9,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
-from zoo_tracer import tree_log, treelog, zoo_scene
 
+from tests.owntracer.zoo_tracer import tree_log, treelog, zoo_scene
+from tests.support.scene import ROOT
 from tracer.grading.treelog import validate
 
 GXX = Path("/usr/bin/g++")

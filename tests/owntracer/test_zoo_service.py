@@ -10,8 +10,9 @@ import json
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from test_api_support import INSTRUCTOR, bearer, course_client, wait_for
-from zoo_tracer import BUGS, bug_pixels, png_bytes, zoo_render, zoo_scene
+
+from tests.owntracer.zoo_tracer import BUGS, bug_pixels, png_bytes, zoo_render, zoo_scene
+from tests.support.api import INSTRUCTOR, bearer, course_client, wait_for
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 SAMPLES = 6  # pixels sent per bug

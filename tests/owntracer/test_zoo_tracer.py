@@ -13,8 +13,9 @@ import math
 import numpy as np
 import pytest
 from PIL import Image
-from zoo_tracer import BUGS, ZOO_SCENE, bug_pixels, png_bytes, srgb8, zoo_render, zoo_scene
-from zoo_trees import tree_difference
+
+from tests.owntracer.zoo_tracer import BUGS, ZOO_SCENE, bug_pixels, png_bytes, srgb8, zoo_render, zoo_scene
+from tests.owntracer.zoo_trees import tree_difference
 
 # The picture: |student - renderer| <= ABS + REL |renderer| per channel, at all pixels but OUTLIERS of them
 IMAGE_ABS = 1e-3
@@ -44,7 +45,7 @@ TREE_PIXELS = [
 @pytest.fixture(scope="module")
 def reference(compiled_kernels):
     """The zoo scene compiled for the renderer."""
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.scene import load_scene
 
     scene, warnings = load_scene(zoo_scene())

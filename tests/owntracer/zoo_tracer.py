@@ -422,7 +422,7 @@ def zoo_render(bug: str | None = None):
 def bug_pixels(bug: str) -> list[tuple[int, int]]:
     """The pixels (x, y) of the zoo scene where `bug` shows: its tree or its 8-bit pixel differs from the
     correct tracer's (zoo_trees.tree_difference, with the tolerances stated there), in raster order."""
-    from zoo_trees import tree_difference
+    from tests.owntracer.zoo_trees import tree_difference
 
     if bug not in BUGS:
         raise ValueError(f"no bug {bug!r}: {', '.join(BUGS)}")

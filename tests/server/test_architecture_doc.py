@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 
-from conftest import ROOT
+from tests.support.scene import ROOT
 
 DOC = ROOT / "docs" / "architecture.md"
 PACKAGES = ("server", "tracer")

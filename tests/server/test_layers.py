@@ -8,8 +8,8 @@ import ast
 import subprocess
 import sys
 
-from conftest import ROOT
-from layering import cycles, graph, imports_of, modules
+from tests.support.layering import cycles, graph, imports_of, modules
+from tests.support.scene import ROOT
 
 SERVER = graph("server")  # every import, those made only for type checkers too
 AT_RUN_TIME = graph("server", typing=False)

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SCENES
 
+from tests.support.scene import SCENES
 from tracer.scene import load_scene
 from tracer.tools import bench_mitsuba
 from tracer.tools.bench import cornell_data

@@ -5,10 +5,10 @@ import subprocess
 import sys
 
 import numpy as np
-from conftest import ROOT, SCENES, scene_dict, small
 from PIL import Image
-from test_assets import obj_grid
 
+from tests.support.assets import obj_grid
+from tests.support.scene import ROOT, SCENES, scene_dict, small
 from tracer.rendering.film import read_exr
 
 

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-from test_assets import no_repr
 
-from tracer.rendering.compile import box_faces, compile_scene, transform_matrix
+from tests.support.assets import no_repr
+from tracer.kernels.compile import box_faces, compile_scene, transform_matrix
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import ASSET_DIR, SceneError, Transform, load_scene
 
@@ -114,8 +114,7 @@ def test_compile_images_past_the_limits_are_refused_before_any_is_decoded():
     counted) refuses it at its field, holding a few MB (72 MB once decoded); within the limits, it decodes."""
     import tracemalloc
 
-    from test_assets import big_png_uri, png_uri
-
+    from tests.support.assets import big_png_uri, png_uri
     from tracer.scene import Limits
 
     big, small = big_png_uri(3000, 2000), png_uri(4, 2)

@@ -19,14 +19,14 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, small
-from queue_support import LOST_AFTER, Api, Process, RedisServer
-from test_api_support import job, submit, tiny_scene, wait_finished, wait_for
 
 import tracer.rendering.progressive as render_module
-from tracer.rendering.compile import compile_scene
+from tests.support.api import job, submit, tiny_scene, wait_finished, wait_for
+from tests.support.queue import LOST_AFTER, Api, Process, RedisServer
+from tests.support.scene import ROOT, scene_dict, small
+from tracer.kernels.compile import compile_scene
+from tracer.kernels.parallel import DeviceError, check_device
 from tracer.rendering.film import read_exr
-from tracer.rendering.parallel import DeviceError, check_device
 from tracer.rendering.progressive import BAND_PIXELS, Renderer, band_size, pass_schedule, render
 from tracer.scene import load_scene
 

@@ -11,9 +11,10 @@ import math
 import numpy as np
 import pytest
 import warp as wp
-from conftest import SCENES, small
 from numpy.testing import assert_allclose
 
+from tests.support.scene import SCENES, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.lights import light_data, sample_area_light
 from tracer.kernels.sampling import (
     concentric_disk,
@@ -23,7 +24,6 @@ from tracer.kernels.sampling import (
     sample_cosine_hemisphere,
 )
 from tracer.kernels.structs import LightData
-from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import Limits, load_scene
@@ -361,7 +361,7 @@ def test_aovs_depth_normal_albedo_rays_variance():
 def test_adaptive_spends_rays_on_edges_and_converges_to_the_grid():
     """Whitted's adaptive supersampling: uniform pixels cost 5 rays, edges many; the image is close
     to a 16x16 grid's with far fewer eye rays."""
-    from conftest import scene_dict, small
+    from tests.support.scene import scene_dict, small
 
     base = scene_dict("whitted")
     adaptive = load_scene(small(base, 64, 48, sampler={"type": "adaptive", "threshold": 0.03, "max_level": 3}))[0]

@@ -6,8 +6,7 @@ import json
 import re
 from pathlib import Path
 
-from conftest import ROOT, scene_dict, small
-
+from tests.support.scene import ROOT, scene_dict, small
 from tracer.tools import scene_docs as docs
 
 REFERENCE = ROOT / "docs" / "scene-format.md"

@@ -6,8 +6,8 @@ at 32 x 32 was estimated at 0.12 s and took 4.2 s)."""
 import json
 
 import pytest
-from conftest import EXAMPLES, ROOT, scene_dict, small
 
+from tests.support.scene import EXAMPLES, ROOT, scene_dict, small
 from tracer.integrators.adaptive import kept_points
 from tracer.limits import Limits
 from tracer.rendering import estimate

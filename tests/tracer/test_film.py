@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from tracer.rendering.film import FILTER_TABLE, filter_1d, filter_tables, read_exr, srgb_encode, to_srgb8, write_exr
+from tracer.kernels.filters import FILTER_TABLE, filter_1d, filter_tables
+from tracer.rendering.film import read_exr, srgb_encode, to_srgb8, write_exr
 
 FILTERS = [("box", 0.5), ("box", 1.0), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)]
 

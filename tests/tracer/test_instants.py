@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 
-from tracer.rendering.compile import compile_scene
+from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer, render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene, validate_scene

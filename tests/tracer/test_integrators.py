@@ -1,4 +1,4 @@
-"""The integrators' one table (tracer/integrators/__init__.py) and their one interface.
+"""The integrators' one table (tracer/scene/integrators.py) and their one interface.
 
 What each integrator computes is tested by the scenes: test_analytic.py, test_distribution.py
 (path against whitted, MIS), test_radiosity.py, test_render.py (every example, ray trees)."""
@@ -8,13 +8,14 @@ import re
 from typing import get_args
 
 import pytest
-from conftest import ROOT
 
+from tests.support.scene import ROOT
 from tracer.errors import SceneError
 from tracer.grading.spec import RenderOverrides
-from tracer.integrators import INTEGRATORS, NAMES, dispatch
+from tracer.integrators import dispatch
 from tracer.kernels.kinds import Integrator
 from tracer.scene import RenderSettings, load_scene, scene_json_schema
+from tracer.scene.integrators import INTEGRATORS, NAMES
 
 
 def test_integrators_one_table_names_them_everywhere():

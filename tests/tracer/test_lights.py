@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from tracer.grading.spec import PRESETS
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import Shape
 from tracer.kernels.lights import LightKind, light_data, light_shape
-from tracer.rendering.compile import compile_scene
 from tracer.scene import AREA_LIGHT_TYPES, LIGHT_TYPES, load_scene
 
 LIGHTS = {

@@ -5,12 +5,12 @@ import math
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 
+from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import RadDisplay
+from tracer.kernels.parallel import ITEMS_PER_BAND
 from tracer.radiosity import attach, build_patches, solve
-from tracer.rendering.compile import compile_scene
-from tracer.rendering.parallel import ITEMS_PER_BAND
 from tracer.rendering.progressive import render
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import SceneError, load_scene
@@ -481,7 +481,7 @@ def test_radiosity_the_integrators_import_only_the_lookup():
     import subprocess
     import sys
 
-    from conftest import ROOT
+    from tests.support.scene import ROOT
 
     p = subprocess.run([sys.executable, "-c", PACKAGE_MODULES], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]

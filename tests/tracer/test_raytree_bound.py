@@ -6,11 +6,11 @@ import json
 import re
 
 import numpy as np
-from conftest import ROOT
 
+from tests.support.scene import ROOT
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import End
 from tracer.limits import Limits
-from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import render
 from tracer.rendering.raytree import END_WORDS, ray_tree, tree_text
 from tracer.scene import load_scene

@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 import warp as wp
-from conftest import EXAMPLES, ROOT, scene_dict, small
 from numpy.testing import assert_allclose
 
+from tests.support.scene import EXAMPLES, ROOT, scene_dict, small
 from tracer.integrators import adaptive
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer, pass_schedule, render, snapshot_bytes, snapshot_from
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene
@@ -312,9 +312,8 @@ def test_render_a_long_pass_is_cut_into_launches_a_cancel_can_stop_between(monke
     each; the band callback's exception stops the render after the launch it follows."""
     import json
 
-    from conftest import ROOT
-
     import tracer.rendering.progressive as render_module
+    from tests.support.scene import ROOT
 
     box = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
     cs = compile_scene(load_scene(small(box, 16, 16))[0])

@@ -2,18 +2,16 @@
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 from numpy.testing import assert_allclose
 
+from tests.support.samples import FILM_TOL, film_point
+from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import RayKind
-from tracer.rendering.compile import compile_scene
 from tracer.rendering.progressive import Renderer
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import Sampler, SceneError, load_scene, scene_json_schema
 from tracer.tools.pixel_samples import adaptive_count, adaptive_levels, load_kernels, pixel_samples
-
-# film positions recovered from float32 eye-ray directions: a few 1e-5 pixel at these sizes
-FILM_TOL = 1e-4
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -24,17 +22,6 @@ def kernels():
 def compiled(sampler: dict, width: int = 37, height: int = 23, **sections):
     scene, _ = load_scene(small(scene_dict("antialias_adaptive"), width, height, sampler=sampler, **sections))
     return compile_scene(scene)
-
-
-def film_point(cs, node: dict) -> np.ndarray:
-    """The film point (fx, fy) a pinhole eye ray passes through (tracer/kernels/camera.py inverted)."""
-    cam, d = cs.data.camera, np.asarray(node["direction"], dtype=np.float64)
-    forward, right, up = (np.asarray(v, dtype=np.float64) for v in (cam.forward, cam.right, cam.up))
-    t = d / d.dot(forward)
-    sx, sy = t.dot(right), t.dot(up)
-    return np.array(
-        [(sx / (cam.h * cam.aspect) + 1.0) * cs.data.width / 2.0, (1.0 - sy / cam.h) * cs.data.height / 2.0]
-    )
 
 
 @pytest.mark.parametrize(

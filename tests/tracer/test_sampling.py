@@ -3,10 +3,10 @@
 import numpy as np
 import warp as wp
 
+from tracer.kernels.compile import compile_scene
 from tracer.kernels.kinds import SamplerKind
 from tracer.kernels.sampling import film_offset, film_uniforms, filter_offset, pixel_key, rng_start, sample_2d
 from tracer.kernels.structs import SceneData
-from tracer.rendering.compile import compile_scene
 from tracer.scene import load_scene
 
 
@@ -142,7 +142,7 @@ def test_sampling_box_filter_radius_spreads_samples():
 def test_sampling_filters_importance_sampled():
     """Offsets follow |f| (chi-square against the filter's own histogram); Mitchell's negative lobes
     come back as negative weights, and the weights average to 1 (the filter integrates to 1)."""
-    from tracer.rendering.film import filter_1d
+    from tracer.kernels.filters import filter_1d
 
     for kind, radius in (("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)):
         r = film(SamplerKind.RANDOM, 1, 100_000, kind, weights=True)[:, 0]

@@ -14,11 +14,11 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
 from PIL import Image
 from pydantic import ValidationError
-from test_assets import gltf_instanced, gltf_uri, no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
 
+from tests.support.assets import gltf_instanced, gltf_uri, no_repr, obj_grid, obj_uri, png_header_only, png_uri, uri
+from tests.support.scene import ROOT
 from tracer.scene import (
     ASSET_DIR,
     Box,
@@ -936,9 +936,8 @@ def test_assets_a_6000_x_6000_png_is_refused_from_its_header_without_decoding():
     service's limits at its field, and validating it holds no more than a few MB (traced allocations)."""
     import tracemalloc
 
-    from test_assets import big_png_uri
-
     from server.core.settings import Settings
+    from tests.support.assets import big_png_uri
 
     data = _scene(materials={"m": {"texture": {"type": "image", "file": big_png_uri()}}})
     tracemalloc.start()

@@ -6,9 +6,9 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from conftest import ROOT
-from layering import cycles, imports_of, modules
-from layering import graph as package_graph
+from tests.support.layering import cycles, imports_of, modules
+from tests.support.layering import graph as package_graph
+from tests.support.scene import ROOT
 
 MODULES = modules("tracer")
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 
 import pytest
-from conftest import ROOT, scene_dict
+
+from tests.support.scene import ROOT, scene_dict
 
 # (example, a phrase of its description with {} where a number stands, the JSON path of that number)
 QUOTED = [

@@ -10,10 +10,10 @@ same random numbers."""
 
 import numpy as np
 import pytest
-from conftest import EXAMPLES, scene_dict, small
 
+from tests.support.scene import EXAMPLES, scene_dict, small
 from tracer.integrators import dispatch, whitted_simple
-from tracer.rendering.compile import compile_scene
+from tracer.kernels.compile import compile_scene
 from tracer.rendering.progressive import Renderer
 from tracer.rendering.raytree import ray_tree
 from tracer.scene import load_scene

@@ -2,17 +2,19 @@
 started once per session; the page's server (`server`, `python -m server` on loopback, one per module, as the
 tests of a module build on each other's jobs and lists); a desktop and a phone page on them (`desktop`, `phone`),
 a fresh browser context per test, each failing its test on a console error the test did not expect. A module
-that needs a server of its own settings defines its own `server`, which its `desktop`/`phone` then use.
-The helpers (Page, render, set_scene, ...) are test_web_page.py's."""
+that needs a server of its own settings defines its own `server`, which its `desktop`/`phone` then use. The
+service with a test LMS linked (`tool` and `lms`, one per module) is tests/support/lms.py's, as for the course's tests.
+The helpers (Page, render, set_scene, ...) are tests/support/page.py's."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-from scene_support import EXAMPLES, ROOT, SCENES, scene_dict, small  # noqa: F401  (re-exported: see scene_support)
-from test_api_support import INSTRUCTOR, Server
-from test_web_page import CHROMIUM, CHROMIUM_ARGS, DESKTOP, PHONE, SHOTS, Page
+
+from tests.support.api import INSTRUCTOR, Server
+from tests.support.lms import lms, tool  # noqa: F401  (the fixtures, registered here for the folder)
+from tests.support.page import CHROMIUM, CHROMIUM_ARGS, DESKTOP, PHONE, SHOTS, Page
 
 
 @pytest.fixture(scope="module")

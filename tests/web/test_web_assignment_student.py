@@ -18,9 +18,10 @@ from datetime import UTC, datetime, timedelta
 
 import httpx
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, long_scene, wait_for
-from test_web_page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER
+
+from tests.support.api import INSTRUCTOR, Server, bearer, long_scene, wait_for
+from tests.support.page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 SIZE = (32, 24)  # the assignment's film: every render is graded at it

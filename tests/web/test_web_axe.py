@@ -22,69 +22,18 @@ the lesson's and the grading.
 
 from __future__ import annotations
 
-import json
-import re
 from datetime import UTC, datetime, timedelta
 
 import httpx
 import pytest
-from test_api_support import INSTRUCTOR, Server, bearer, wait_for
-from test_dashboard import good_scene, small_spec
-from test_web_grading import enter_token, load_example
-from test_web_page import (
-    DESKTOP,
-    SHOTS,
-    TEACHER,
-    Page,
-    radiosity_scene,
-    render,
-    run_lesson,
-    set_scene,
-    whitted,
-)
 
-TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa"]
-# and two rules outside those tags that the accessibility review ran (issue #32): an accessible name that
-# does not contain the visible label (WCAG 2.5.3, axe marks the rule experimental) and targets smaller than
-# 24 x 24 CSS px without room around them (WCAG 2.2's 2.5.8)
-RULES = {"label-content-name-mismatch": {"enabled": True}, "target-size": {"enabled": True}}
-BLOCKING = ("serious", "critical")
+from tests.support.api import INSTRUCTOR, Server, bearer, wait_for
+from tests.support.axe import assert_accessible
+from tests.support.dashboard import good_scene, small_spec
+from tests.support.grading_page import enter_token, load_example
+from tests.support.page import DESKTOP, TEACHER, Page, radiosity_scene, render, run_lesson, set_scene, whitted
+
 SIZE = (64, 48)  # the workspace's render: its ray tree in well under a second
-
-
-def axe_script() -> str:
-    try:
-        from axe_playwright_python.base import AXE_SCRIPT
-    except ImportError as exc:
-        pytest.fail(f"axe-playwright-python is not installed ({exc}); `pip install -e .[test]` installs it")
-    return AXE_SCRIPT
-
-
-def axe(page, context: str | None = None) -> list[dict]:
-    """axe-core's WCAG 2.1 A/AA violations of the page as it is now (of `context`, a selector, if given)."""
-    if not page.evaluate("() => typeof window.axe === 'object'"):
-        page.evaluate(axe_script())
-    return page.evaluate(
-        "([ctx, tags, rules]) => axe.run(ctx || document,"
-        " {runOnly: {type: 'tag', values: tags}, rules, resultTypes: ['violations']})"
-        ".then(r => r.violations.map(v => ({id: v.id, impact: v.impact, help: v.help,"
-        " targets: v.nodes.map(n => n.target.join(' ')), summary: v.nodes[0]?.failureSummary || ''})))",
-        [context, TAGS, RULES],
-    )
-
-
-def assert_accessible(page, where: str, context: str | None = None) -> list[dict]:
-    """No serious or critical violation; the minor and moderate ones are returned (and written to the shots)."""
-    found = axe(page, context)
-    blocking = [v for v in found if v["impact"] in BLOCKING]
-    report = "\n".join(
-        f"  {v['id']} ({v['impact']}): {v['help']}; {len(v['targets'])} nodes: {v['targets'][:4]}\n"
-        f"    {v['summary'][:300]}"
-        for v in blocking
-    )
-    (SHOTS / f"axe-{re.sub(r'[^a-z0-9]+', '-', where.lower())}.json").write_text(json.dumps(found, indent=1))
-    assert not blocking, f"axe on {where}: {len(blocking)} serious or critical violations\n{report}"
-    return [v for v in found if v["impact"] not in BLOCKING]
 
 
 @pytest.fixture(scope="module")

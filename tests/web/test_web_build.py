@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 
-from test_web_page import editor_text, render
+from tests.support.page import editor_text, render
 
 VERDICT = "() => document.querySelector('#validation-status').dataset.kind !== 'busy'"
 

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import httpx
 import pytest
-from test_api_stats import red, reference, small_spec
-from test_api_support import bearer, wait_for
-from test_web_axe import assert_accessible
-from test_web_course_instructor import open_course
-from test_web_page import TEACHER
+
+from tests.support.api import bearer, wait_for
+from tests.support.axe import assert_accessible
+from tests.support.course_page import open_course
+from tests.support.page import TEACHER
+from tests.support.stats import red, reference, small_spec
 
 DEADLINE = "2100-01-01T12:00:00Z"
 

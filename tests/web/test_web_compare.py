@@ -15,8 +15,9 @@ import re
 from datetime import UTC, datetime, timedelta
 
 import httpx
-from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_web_page import DESKTOP, TEACHER, Page
+
+from tests.support.api import INSTRUCTOR, bearer, wait_for
+from tests.support.page import DESKTOP, TEACHER, Page
 
 W, H = 48, 36
 REFERENCE = {

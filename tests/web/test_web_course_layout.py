@@ -9,9 +9,9 @@ $WEB_SHOTS/course-layout-*.png.
 
 from __future__ import annotations
 
-from test_web_axe import assert_accessible
-from test_web_course_instructor import open_course
-from test_web_page import SHOTS
+from tests.support.axe import assert_accessible
+from tests.support.course_page import open_course
+from tests.support.page import SHOTS
 
 WIDTHS = (1280, 1024, 390)
 MIN_INPUT = 120  # px: a field one can read and type in

@@ -1,23 +1,17 @@
 """The dashboard's LMS line in Chromium (issue #31's grades back): the course linked to a test LMS
-(tests/lti_platform.py, test_lms.py's fixtures), a student's launch and graded submission while the LMS is down;
-/course shows the grade waiting with the LMS's answer, then, the LMS back and the score sent, the grade sent and
-no waiting line. Screenshots go to $WEB_SHOTS (course-lms-*.png)."""
+(tests/support/lti_platform.py; the fixtures `tool` and `lms` of tests/support/lms.py), a student's launch and
+graded submission while the LMS is down; /course shows the grade waiting with the LMS's answer, then, the LMS back
+and the score sent, the grade sent and no waiting line. Screenshots go to $WEB_SHOTS (course-lms-*.png)."""
 
 from __future__ import annotations
 
 from datetime import timedelta
 
-import test_lms
-from lti_platform import LEARNER
-from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_lms import EXAMPLE, T0
-from test_web_page import CSP_WATCH, DESKTOP, SHOTS
-
 from server.course.lms import LmsStore
-
-# test_lms.py's module fixtures (the tool with a test LMS linked, one per module), used here as they are there
-tool = test_lms.tool
-lms = test_lms.lms
+from tests.support.api import INSTRUCTOR, bearer, wait_for
+from tests.support.lms import EXAMPLE, T0
+from tests.support.lti_platform import LEARNER
+from tests.support.page import CSP_WATCH, DESKTOP, SHOTS
 
 
 def stat(page, name: str) -> str:

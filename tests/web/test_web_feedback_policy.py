@@ -14,11 +14,12 @@ import json
 from datetime import UTC, datetime, timedelta
 
 import httpx
-from test_api_support import wait_for
-from test_feedback_policy import POLICY, dimmed, spec
-from test_web_axe import assert_accessible
-from test_web_course_instructor import CoursePage, open_course, write
-from test_web_page import DESKTOP, SHOTS, TEACHER, bearer
+
+from tests.support.api import wait_for
+from tests.support.axe import assert_accessible
+from tests.support.course_page import CoursePage, open_course, write
+from tests.support.feedback_policy import POLICY, dimmed, spec
+from tests.support.page import DESKTOP, SHOTS, TEACHER, bearer
 
 
 def preview_col(page, moment: str) -> dict:

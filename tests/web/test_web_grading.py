@@ -15,9 +15,11 @@ import zipfile
 from pathlib import Path
 
 import httpx
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, long_scene, wait_for
-from test_web_page import PHONE, TEACHER, Page
+
+from tests.support.api import INSTRUCTOR, long_scene, wait_for
+from tests.support.grading_page import enter_token, load_example
+from tests.support.page import PHONE, TEACHER, Page
+from tests.support.scene import ROOT
 
 GRADE_TIMEOUT = 240_000  # ms: the whole class, renders and metrics
 SHOT_DIR = Path("/tmp")
@@ -49,17 +51,6 @@ def open_grading(p: Page, token: str | None = INSTRUCTOR):
     if token is not None:
         enter_token(page, token)
     return page
-
-
-def enter_token(page, token: str) -> None:
-    page.fill("#grade-token", token)
-    page.dispatch_event("#grade-token", "change")
-
-
-def load_example(page) -> None:
-    page.click("#grade-load-example")
-    page.wait_for_function("() => document.querySelectorAll('#grade-sub-rows tr[data-student]').length === 9")
-    assert '"HW 4: glass, mirrors and soft shadows"' in page.input_value("#grade-assignment")
 
 
 def table_rows(page) -> dict[str, tuple[str, str]]:

@@ -11,9 +11,10 @@ import random
 import string
 
 import pytest
-from conftest import scene_dict
-from test_api_support import Server
-from test_web_page import DESKTOP, Page, render, set_scene, whitted
+
+from tests.support.api import Server
+from tests.support.page import DESKTOP, Page, render, set_scene, whitted
+from tests.support.scene import scene_dict
 
 LESSON_DONE = """(n) => document.querySelectorAll('.lesson-panel').length === n
     && [...document.querySelectorAll('.lesson-panel')]

@@ -7,10 +7,9 @@ from __future__ import annotations
 
 import json
 
-from test_web_page import Page
-
 from bench.lessons import first_panels, panels_text
 from server.jobs.lesson_panels import PANELS, lesson_panels
+from tests.support.page import Page
 
 
 def test_web_lesson_panels_the_server_s_list_is_the_page_s(browser, server):

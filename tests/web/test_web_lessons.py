@@ -16,10 +16,11 @@ from io import BytesIO
 import httpx
 import numpy as np
 import pytest
-from conftest import ROOT
 from PIL import Image
-from test_api_support import wait_finished
-from test_web_page import DESKTOP, PHONE, TEACHER, Page
+
+from tests.support.api import wait_finished
+from tests.support.page import DESKTOP, PHONE, TEACHER, Page
+from tests.support.scene import ROOT
 
 JS = ROOT / "web" / "js"
 

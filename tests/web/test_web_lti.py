@@ -13,11 +13,12 @@ from pathlib import Path
 from urllib.parse import urlencode
 
 import pytest
-from conftest import ROOT
-from lti_platform import LEARNER, Platform
 from playwright.sync_api import Error as PlaywrightError
-from test_api_support import INSTRUCTOR, Server, bearer, wait_for
-from test_web_page import SHOTS
+
+from tests.support.api import INSTRUCTOR, Server, bearer, wait_for
+from tests.support.lti_platform import LEARNER, Platform
+from tests.support.page import SHOTS
+from tests.support.scene import ROOT
 
 ADMIN = bearer(INSTRUCTOR)
 EXAMPLE = ROOT / "scenes" / "grading"

@@ -17,8 +17,8 @@ import threading
 import time
 from types import SimpleNamespace
 
-from conftest import ROOT
-from test_web_page import DESKTOP, Page
+from tests.support.page import DESKTOP, Page
+from tests.support.scene import ROOT
 
 RUN_SECONDS = 720  # the try until it serves its links, on a loaded 2-core machine (about 90 s quiet)
 NAME = "HW 4: glass, mirrors and soft shadows"

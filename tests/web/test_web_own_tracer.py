@@ -23,10 +23,11 @@ from collections import Counter
 from datetime import UTC, datetime, timedelta
 
 import httpx
-from test_api_support import INSTRUCTOR, bearer, wait_for
-from test_own_trees import REFERENCE, H, W  # the scene of the service's tests: a mirror ball and a red ball
-from test_web_axe import assert_accessible
-from test_web_page import DESKTOP, SHOTS, TEACHER, Page
+
+from tests.support.api import INSTRUCTOR, bearer, wait_for
+from tests.support.axe import assert_accessible
+from tests.support.own_trees import REFERENCE, H, W  # the scene of the service's tests: a mirror ball and a red ball
+from tests.support.page import DESKTOP, SHOTS, TEACHER, Page
 
 PROBES = [{"x": 12, "y": 12, "why": "the mirror ball"}, {"x": 24, "y": 14, "why": "the red ball"},
           {"x": 3, "y": 20, "why": "the floor"}]  # fmt: skip

@@ -7,8 +7,8 @@ The fixtures of tests/web/conftest.py (`python -m server` on loopback, Debian's 
 
 from __future__ import annotations
 
-from test_web_axe import assert_accessible
-from test_web_page import DESKTOP, PHONE, SHOTS, set_scene, whitted
+from tests.support.axe import assert_accessible
+from tests.support.page import DESKTOP, PHONE, SHOTS, set_scene, whitted
 
 IN_VIEW = """(sel) => { const r = document.querySelector(sel).getBoundingClientRect();
     return {top: r.top, bottom: r.bottom, height: r.height,

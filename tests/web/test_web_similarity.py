@@ -12,13 +12,13 @@ import random
 
 import httpx
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer
-from test_web_axe import assert_accessible
-from test_web_course_instructor import open_course
-from test_web_page import TEACHER
 
 from bench.similarity import disguised, honest, starter
+from tests.support.api import INSTRUCTOR, Server, bearer
+from tests.support.axe import assert_accessible
+from tests.support.course_page import open_course
+from tests.support.page import TEACHER
+from tests.support.scene import ROOT
 
 DEADLINE = "2100-01-01T12:00:00Z"
 

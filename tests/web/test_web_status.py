@@ -10,13 +10,13 @@ from __future__ import annotations
 import time
 
 import pytest
-from test_api_support import INSTRUCTOR, Server, wait_for
-from test_web_axe import assert_accessible
-from test_web_page import DESKTOP, PHONE, Page
 
 from server.core.backup import backup
 from server.core.migrations import LATEST
 from server.course.lms import LmsStore
+from tests.support.api import INSTRUCTOR, Server, wait_for
+from tests.support.axe import assert_accessible
+from tests.support.page import DESKTOP, PHONE, Page
 
 LIMIT = 40_000_000
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import json
 
-from conftest import scene_dict
-from test_web_page import DESKTOP, render, set_scene, whitted
+from tests.support.page import DESKTOP, render, set_scene, whitted
+from tests.support.scene import scene_dict
 
 SETTLED = """() => new Promise((done) => {
     let last = -1, same = 0, frames = 0;  // five frames without a move (a smooth scroll ends), at most 600

@@ -116,7 +116,7 @@ class Explainer:
         self.scene, _ = load_scene(centre_scene(scene))
         self.cs = None
         if device is not None:
-            from tracer.rendering.compile import compile_scene
+            from tracer.kernels.compile import compile_scene
 
             self.cs = compile_scene(self.scene, device=device)
         self.device = device

@@ -245,7 +245,7 @@ class Grader:
 
 def _mesh_triangles(scene) -> dict[int, int]:
     """Faces of the mesh files (for the primitive count); an unreadable file counts 0 (the render says why)."""
-    from tracer.rendering.compile import load_mesh_file
+    from tracer.kernels.compile import load_mesh_file
 
     out = {}
     for i, obj in enumerate(scene.objects):

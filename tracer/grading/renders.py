@@ -57,7 +57,7 @@ class InlineRenderer:
         return [self.one(job) for job in jobs]
 
     def one(self, job: RenderJob) -> Rendered:
-        from tracer.rendering.compile import compile_scene
+        from tracer.kernels.compile import compile_scene
         from tracer.rendering.progressive import render
 
         start = time.monotonic()

@@ -7,7 +7,7 @@ tree recorded. `make_kernels(trace, module)` builds the three for one integrator
 kernel closures) in a Warp module of their own, so each compiled unit holds one integrator's
 code: with every integrator in one unit, the Whitted kernels ran 1.5x slower (the C++ compiler
 inlines the shared helpers less when more code calls them). `KERNELS` has them for every
-integrator of the table in tracer/integrators/__init__.py, each made when first asked for.
+integrator of the table in tracer/scene/integrators.py, each made when first asked for.
 """
 
 import importlib
@@ -16,20 +16,20 @@ from collections.abc import Mapping
 
 import warp as wp
 
-from tracer.integrators import INTEGRATORS
 from tracer.integrators.adaptive import make_adaptive
 from tracer.integrators.common import SampleOut, Stack
 from tracer.integrators.pixel import FilmBuffers, band_pixel, eye_ray, pixel_sample
 from tracer.integrators.record import TreeRecord
 from tracer.kernels.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.kernels.structs import SceneData
+from tracer.scene.integrators import INTEGRATORS
 
 __all__ = ["KERNELS", "KERNEL_MODULES", "FilmBuffers", "kernel_modules", "make_kernels"]
 
 
 def make_kernels(trace, module: str):
     """(render_pixels, render_adaptive, trace_one) for an integrator's `trace` (the signature in
-    tracer/integrators/__init__.py), compiled together as the Warp module `module`."""
+    tracer/scene/integrators.py), compiled together as the Warp module `module`."""
 
     @wp.func(inline=False)
     def trace_outlined(

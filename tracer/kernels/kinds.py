@@ -2,7 +2,7 @@
 
 Each kind is a Python ``IntEnum`` (for the compiler, the ray-tree JSON and tests) mirrored by
 ``wp.constant`` values (for kernels), so no kernel ever compares against a magic number. Two kinds
-are derived from tables elsewhere: `Integrator` from tracer/integrators/__init__.py, and the light
+are derived from tables elsewhere: `Integrator` from tracer/scene/integrators.py, and the light
 kinds (tracer/kernels/lights.py) from the scene format's light types.
 """
 
@@ -10,8 +10,8 @@ from enum import IntEnum
 
 import warp as wp
 
-from tracer.integrators import INTEGRATORS
 from tracer.kernels import wpinit  # noqa: F401  (initialise Warp once)
+from tracer.scene.integrators import INTEGRATORS
 
 
 class Shape(IntEnum):
@@ -56,7 +56,7 @@ class End(IntEnum):
     MAX_TREE_RAYS = 7  # a wanted child was not traced: the sample's tree had its max_tree_rays rays (limits.py)
 
 
-# The integrators of the table in tracer/integrators/__init__.py, numbered in its order (SceneData.integrator).
+# The integrators of the table in tracer/scene/integrators.py, numbered in its order (SceneData.integrator).
 Integrator = IntEnum("Integrator", [(i.name.upper(), k) for k, i in enumerate(INTEGRATORS)], module=__name__)
 
 

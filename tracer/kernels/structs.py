@@ -1,7 +1,7 @@
 """The data the kernels share: one ``@wp.struct`` per concept, and ``SceneData`` holding them all.
 
 These are the interfaces between the modules (as pbrt-v4 keeps its interfaces apart from their
-implementations): tracer/rendering/compile.py fills them from the scene's models, and the @wp.func code of
+implementations): tracer/kernels/compile.py fills them from the scene's models, and the @wp.func code of
 geometry, lights, materials, sampling, camera, the integrators and the radiosity solver reads them.
 This module imports nothing of the renderer but its named kinds' Warp initialisation, so every other
 module can import it.

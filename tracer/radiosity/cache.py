@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from tracer.kernels.compile import CompiledScene
 from tracer.radiosity.patches import Patches
 from tracer.radiosity.solver import Solution
-from tracer.rendering.compile import CompiledScene
 
 PACKAGE = Path(__file__).parent  # its code is part of every solution's key
 

@@ -7,12 +7,12 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from tracer.kernels.compile import CompiledScene
 from tracer.kernels.kinds import RadDisplay
 from tracer.kernels.structs import PatchIndex, RadiosityData
 from tracer.radiosity.cache import SolutionCache
 from tracer.radiosity.patches import Patches, patch_index
 from tracer.radiosity.solver import Solution, solve
-from tracer.rendering.compile import CompiledScene
 
 
 def corner_values(p: Patches, values: np.ndarray) -> np.ndarray:

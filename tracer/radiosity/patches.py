@@ -20,9 +20,9 @@ import numpy as np
 import warp as wp
 
 from tracer import meshing
+from tracer.kernels.compile import CompiledScene
 from tracer.kernels.kinds import PatchKind, Texture
 from tracer.kernels.structs import PatchIndex
-from tracer.rendering.compile import CompiledScene
 from tracer.scene import SceneError
 
 SPHERE_MIN_SEGMENTS = meshing.SPHERE_MIN_SEGMENTS  # a sphere's net: at least this many triangles around, and rows

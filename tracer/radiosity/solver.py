@@ -28,11 +28,11 @@ import numpy as np
 import warp as wp
 
 from tracer.errors import Cancelled
+from tracer.kernels.compile import CompiledScene, compile_scene
 from tracer.kernels.kinds import Shooter
+from tracer.kernels.parallel import BandLauncher, default_threads
 from tracer.radiosity.form_factors import TARGET_LIGHT, direct, shoot
 from tracer.radiosity.patches import Patches, build_patches, check_limits, patch_index
-from tracer.rendering.compile import CompiledScene, compile_scene
-from tracer.rendering.parallel import BandLauncher, default_threads
 from tracer.scene import AREA_LIGHTS, Scene
 
 LIGHT_RAYS_PER_PATCH = 256  # an area light shoots at least this many rays per patch side

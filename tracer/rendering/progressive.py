@@ -31,13 +31,14 @@ import numpy as np
 import warp as wp
 
 from tracer.errors import Cancelled
-from tracer.integrators import INTEGRATORS, adaptive, dispatch, record
+from tracer.integrators import adaptive, dispatch, record
 from tracer.integrators.common import Stack
+from tracer.kernels.compile import CompiledScene, compile_scene
 from tracer.kernels.kinds import Integrator, RayKind, SamplerKind
+from tracer.kernels.parallel import default_threads, is_cuda, thread_pool
 from tracer.rendering import estimate
-from tracer.rendering.compile import CompiledScene, compile_scene
-from tracer.rendering.parallel import default_threads, is_cuda, thread_pool
 from tracer.scene import Scene
+from tracer.scene.integrators import INTEGRATORS
 
 if TYPE_CHECKING:
     from tracer import radiosity

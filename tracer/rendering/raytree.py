@@ -18,12 +18,13 @@ import numpy as np
 import warp as wp
 
 from tracer import radiosity
-from tracer.integrators import INTEGRATORS, dispatch
+from tracer.integrators import dispatch
 from tracer.integrators import record as W
+from tracer.kernels.compile import CompiledScene, compile_scene
 from tracer.kernels.kinds import End, Integrator, RayKind
-from tracer.rendering.compile import CompiledScene, compile_scene
 from tracer.rendering.progressive import load_kernels, make_record, make_stack
 from tracer.scene import Scene, SceneError
+from tracer.scene.integrators import INTEGRATORS
 
 DEFAULT_CAP = 8192  # nodes recorded at most; a larger tree is reported as truncated
 

@@ -35,7 +35,7 @@ def _file_triangles(objects: list, info: ValidationInfo) -> dict[int, int]:
 
 def image_files(materials: dict, objects: list) -> list[tuple[tuple, str]]:
     """(location, file) of every image texture and bump of a scene, in the order the renderer loads them:
-    the named materials', then the objects' own (tracer/rendering/compile.py). A location names the tags of the
+    the named materials', then the objects' own (tracer/kernels/compile.py). A location names the tags of the
     unions it passes (an object's type, an inline material, an image), as pydantic's own do."""
     found = [(("materials", name), m) for name, m in materials.items()]
     found += [

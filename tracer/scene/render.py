@@ -1,17 +1,17 @@
-"""How light is carried to the eye: the integrator (a row of the table in tracer/integrators/__init__.py)
+"""How light is carried to the eye: the integrator (a row of the table in tracer/scene/integrators.py)
 and where its ray tree stops, the radiosity solution's settings, and the fog light passes through."""
 
 from typing import Any, Literal
 
 from pydantic import Field, ValidationInfo
 
-from tracer.integrators import BY_NAME, INTEGRATORS, IntegratorInfo
-from tracer.integrators import NAMES as INTEGRATOR_NAMES
 from tracer.scene.base import _has, _Model
 from tracer.scene.context import _limits
+from tracer.scene.integrators import BY_NAME, INTEGRATORS, IntegratorInfo
+from tracer.scene.integrators import NAMES as INTEGRATOR_NAMES
 from tracer.scene.values import RGB, Int, Num
 
-IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/integrators/__init__.py
+IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/scene/integrators.py
 
 
 class RadiositySettings(_Model):
@@ -58,7 +58,7 @@ class RenderSettings(_Model):
 
     @property
     def integrator_info(self) -> IntegratorInfo:
-        """The integrator's row of the table (tracer/integrators/__init__.py): its pre-pass, its cost."""
+        """The integrator's row of the table (tracer/scene/integrators.py): its pre-pass, its cost."""
         return BY_NAME[self.integrator]
 
     @classmethod

@@ -17,8 +17,8 @@ import platform
 import sys
 from pathlib import Path
 
-from tracer.rendering.compile import compile_scene
-from tracer.rendering.parallel import default_threads
+from tracer.kernels.compile import compile_scene
+from tracer.kernels.parallel import default_threads
 from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 

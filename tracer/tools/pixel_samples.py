@@ -21,10 +21,10 @@ import numpy as np
 import warp as wp
 
 from tracer.integrators import dispatch
+from tracer.kernels.compile import CompiledScene
 from tracer.kernels.kinds import SAMPLER_ADAPTIVE, Integrator
 from tracer.kernels.sampling import film_offset, film_uniforms, filter_offset, pixel_key, rng_start
 from tracer.kernels.structs import SceneData
-from tracer.rendering.compile import CompiledScene
 from tracer.rendering.film import to_srgb8
 from tracer.rendering.progressive import load_kernels as load_render_kernels
 from tracer.rendering.progressive import make_record, make_stack

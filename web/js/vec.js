@@ -60,7 +60,7 @@ export function clipNear(p, q, from, forward, near) {
 }
 
 /** The 4x4 (row-major, as nested arrays) of a transform: scale, rotate about X then Y then Z (degrees),
- * translate (tracer/rendering/compile.py transform_matrix). */
+ * translate (tracer/kernels/compile.py transform_matrix). */
 export function transformMatrix(t) {
   const I = [
     [1, 0, 0, 0],

@@ -347,7 +347,7 @@ class InProcessWorker(HostWorker):
 
 def main(argv: list[str] | None = None) -> int:
     from tracer.assets import import_mesh_reader
-    from tracer.rendering.parallel import default_threads, device_arg, is_cuda
+    from tracer.kernels.parallel import default_threads, device_arg, is_cuda
     from tracer.rendering.progressive import load_kernels
 
     p = argparse.ArgumentParser(

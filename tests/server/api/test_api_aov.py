@@ -5,15 +5,15 @@ from __future__ import annotations
 import io
 
 import numpy as np
-from conftest import ROOT
 from PIL import Image
-from test_api_support import long_scene, parse_sse, submit, tiny_scene, wait_for, wait_status
 
 from server.jobs.files import AOV_NAMES
+from tests.support.api import long_scene, parse_sse, submit, tiny_scene, wait_for, wait_status
+from tests.support.scene import ROOT
 
 
 def test_api_aov_pictures_of_a_finished_job(client, compiled_kernels):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 

@@ -5,7 +5,8 @@ them into these answers in one place (server/api/errors.py). A change of wording
 from __future__ import annotations
 
 import pytest
-from test_api_support import INSTRUCTOR, api_client, bearer
+
+from tests.support.api import INSTRUCTOR, api_client, bearer
 
 
 @pytest.fixture(scope="module")

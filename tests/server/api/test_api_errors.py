@@ -8,9 +8,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import ROOT, scene_dict
-from test_api_support import api_client, tiny_scene
-from test_assets import no_repr, obj_uri, png_uri, uri
+
+from tests.support.api import api_client, tiny_scene
+from tests.support.assets import no_repr, obj_uri, png_uri, uri
+from tests.support.scene import ROOT, scene_dict
 
 BAD_DIR = ROOT / "tests" / "bad_scenes"
 EXPECTED = json.loads((BAD_DIR / "expected.json").read_text())

@@ -6,9 +6,10 @@ and Redis (a real redis-server), each an app without workers, so that every job 
 from __future__ import annotations
 
 import pytest
-from conftest import scene_dict, small
-from queue_support import RedisServer
-from test_api_support import INSTRUCTOR, api_client, bearer, student_token, tiny_scene
+
+from tests.support.api import INSTRUCTOR, api_client, bearer, student_token, tiny_scene
+from tests.support.queue import RedisServer
+from tests.support.scene import scene_dict, small
 
 TEACHER = bearer(INSTRUCTOR)
 

@@ -9,9 +9,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 from PIL import Image
-from test_api_support import (
+
+from tests.support.api import (
     bearer,
     exr_of,
     job,
@@ -24,6 +24,7 @@ from test_api_support import (
     wait_for,
     wait_status,
 )
+from tests.support.scene import scene_dict, small
 
 
 @pytest.fixture
@@ -37,7 +38,7 @@ def busy(client):
 
 
 def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client, compiled_kernels):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.film import png_bytes
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
@@ -276,9 +277,8 @@ def test_api_jobs_every_example_scene_renders_as_the_library_does(client, settin
     """Each example (every integrator and sampler), small, through the worker: the library's floats."""
     settings.max_active_jobs_per_token = 100  # every example (24) queued at once by one student
     settings.max_queued_per_token = 100  # (20 waiting: passed only while the worker took them fast enough)
-    from conftest import EXAMPLES, small
-
-    from tracer.rendering.compile import compile_scene
+    from tests.support.scene import EXAMPLES, small
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene
 

@@ -18,8 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 import httpx
 import numpy as np
 import pytest
-from conftest import ROOT
-from test_api_support import (
+
+from tests.support.api import (
     Server,
     free_port,
     job,
@@ -32,7 +32,7 @@ from test_api_support import (
     wait_for,
     wait_status,
 )
-
+from tests.support.scene import ROOT
 from tracer.rendering.film import read_exr
 
 

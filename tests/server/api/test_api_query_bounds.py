@@ -10,7 +10,8 @@ from __future__ import annotations
 import http.client
 
 import pytest
-from test_api_support import Server, submit, tiny_scene
+
+from tests.support.api import Server, submit, tiny_scene
 
 HUGE = ["9223372036854775808", "-9223372036854775809", "1" + "0" * 40, "-1" + "0" * 40]
 NON_FINITE = ["1e400", "-1e400", "nan", "inf"]

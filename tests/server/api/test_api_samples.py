@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 from numpy.testing import assert_allclose
-from test_samples import FILM_TOL, film_point
 
-from tracer.rendering.compile import compile_scene
+from tests.support.samples import FILM_TOL, film_point
+from tests.support.scene import scene_dict, small
+from tracer.kernels.compile import compile_scene
 from tracer.scene import load_scene
 
 # `client` (tests/conftest.py): the app with a render worker, which traces the ray trees compared with.

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from test_api_support import INSTRUCTOR, bearer, student_token, submit, tiny_scene, wait_status
+from tests.support.api import INSTRUCTOR, bearer, student_token, submit, tiny_scene, wait_status
 
 
 def test_api_share_token_reads_one_job_and_changes_nothing(client):

@@ -10,12 +10,12 @@ import tomllib
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Clock, bearer, long_scene, submit, wait_for
 
 from server.core.backup import backup
 from server.core.migrations import LATEST
 from server.course.lms import LmsStore
+from tests.support.api import INSTRUCTOR, Clock, bearer, long_scene, submit, wait_for
+from tests.support.scene import ROOT
 
 T0 = datetime(2026, 12, 7, 6, 0, tzinfo=UTC)
 ADMIN = bearer(INSTRUCTOR)
@@ -24,7 +24,7 @@ LIMIT = 50_000_000
 
 @pytest.fixture(scope="module")
 def app_client(tmp_path_factory):
-    from test_api_support import api_client
+    from tests.support.api import api_client
 
     data = tmp_path_factory.mktemp("status") / "data"
     with api_client(data, workers=1, instructor_token=INSTRUCTOR, max_data_bytes=LIMIT) as c:

@@ -2,8 +2,9 @@
 TestClient of an app without workers (the jobs: test_api_jobs.py and the other test_api_*.py)."""
 
 import pytest
-from conftest import scene_dict, small
-from test_api_support import INSTRUCTOR, bearer
+
+from tests.support.api import INSTRUCTOR, bearer
+from tests.support.scene import scene_dict, small
 
 
 @pytest.fixture

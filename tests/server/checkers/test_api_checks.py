@@ -11,10 +11,10 @@ import os
 import socket
 
 import pytest
-from conftest import scene_dict, small
-from test_api_support import Server, pid_alive, wait_for
-from test_assets import big_png_uri, gltf_instanced, gltf_uri
 
+from tests.support.api import Server, pid_alive, wait_for
+from tests.support.assets import big_png_uri, gltf_instanced, gltf_uri
+from tests.support.scene import scene_dict, small
 from tracer.scene import validate_scene
 
 

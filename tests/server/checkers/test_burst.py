@@ -12,8 +12,8 @@ import http.client
 import json
 import threading
 
-from conftest import scene_dict, small
-from test_api_support import Server
+from tests.support.api import Server
+from tests.support.scene import scene_dict, small
 
 STUDENTS = 300
 

@@ -9,7 +9,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pytest
-from test_api_support import INSTRUCTOR, Server, bearer, long_scene, student_token, tiny_scene, wait_for
+
+from tests.support.api import INSTRUCTOR, Server, bearer, long_scene, student_token, tiny_scene, wait_for
 
 TEACHER = bearer(INSTRUCTOR)
 CAPS = {
@@ -160,7 +161,7 @@ def open_assignment(server: Server, **policy) -> str:
     """An open assignment of the repository's example (anyone with its link joins by a name)."""
     import json
 
-    from conftest import ROOT
+    from tests.support.scene import ROOT
 
     grading = ROOT / "scenes" / "grading"
     spec = json.loads((grading / "assignment.json").read_text())

@@ -8,8 +8,9 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, api_client, bearer, student_token, tiny_scene
+
+from tests.support.api import INSTRUCTOR, api_client, bearer, student_token, tiny_scene
+from tests.support.scene import ROOT
 
 TEACHER = bearer(INSTRUCTOR)
 WORK = [  # every route that does work for a client: (path, body)
@@ -117,7 +118,7 @@ def test_identity_refused_tokens_back_off_their_address(tmp_path):
     next requests with a token (the instructor's too) are a 429 naming the setting with Retry-After, until the
     oldest failure leaves TRACER_AUTH_FAILURE_WINDOW; requests without a token, and with a good token (the
     instructor's: test_identity_a_good_token_is_never_held_by_the_backoff), still pass."""
-    from test_api_support import Clock
+    from tests.support.api import Clock
 
     settings = dict(instructor_token=INSTRUCTOR, require_identity=True, max_auth_failures=3, auth_failure_window=60)
     with api_client(tmp_path / "data", workers=0, token=None, **settings) as c:
@@ -141,9 +142,8 @@ def test_identity_refused_tokens_back_off_their_address(tmp_path):
 def test_identity_a_good_token_is_never_held_by_the_backoff(tmp_path):
     """20 refused tokens from an address (the default TRACER_MAX_AUTH_FAILURES) hold up its further refused ones
     (429) for the window, never a good token: the admin's and a roster student's keep working."""
-    from test_api_support import Clock
-
     from server.core.settings import Settings
+    from tests.support.api import Clock
 
     default = Settings.model_fields["max_auth_failures"].default  # the harness lifts it: the default here
     settings = dict(

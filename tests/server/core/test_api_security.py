@@ -15,8 +15,10 @@ import re
 from contextlib import contextmanager
 
 import pytest
-from conftest import scene_dict, small
-from test_api_support import (
+
+from server.core.security import host_name, loopback_only, served_hosts, token_hash
+from server.core.settings import Settings
+from tests.support.api import (
     INSTRUCTOR,
     api_client,
     bearer,
@@ -28,9 +30,7 @@ from test_api_support import (
     wait_for,
     wait_status,
 )
-
-from server.core.security import host_name, loopback_only, served_hosts, token_hash
-from server.core.settings import Settings
+from tests.support.scene import scene_dict, small
 
 TEACHER = bearer(INSTRUCTOR)
 JOB_ROUTES = ["", "/image", "/image?format=exr", "/scene", "/events", "/aov", "/aov/rays", "/radiosity"]
@@ -496,7 +496,7 @@ def test_api_security_python_m_server_names_the_weak_token_without_showing_it(tm
     import subprocess
     import sys
 
-    from conftest import ROOT
+    from tests.support.scene import ROOT
 
     env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": "weak-but-16-chars"}
     argv = [sys.executable, "-m", "server", "--host", "10.1.2.3", "--data-dir", str(tmp_path / "data")]

@@ -11,8 +11,9 @@ import json
 
 import httpx
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, student_token, tiny_scene, wait_for
+
+from tests.support.api import INSTRUCTOR, Server, bearer, student_token, tiny_scene, wait_for
+from tests.support.scene import ROOT
 
 TEACHER = bearer(INSTRUCTOR)
 ENV = {

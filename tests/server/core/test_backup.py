@@ -14,8 +14,9 @@ import threading
 from pathlib import Path
 
 import httpx
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, tiny_scene, wait_for
+
+from tests.support.api import INSTRUCTOR, Server, bearer, tiny_scene, wait_for
+from tests.support.scene import ROOT
 
 SUBMITS = 3000  # jobs the background thread submits at most, until the backup has ended (about 60 s of them)
 BEFORE_BACKUP = 4  # jobs submitted (and one rendered) before the backup starts

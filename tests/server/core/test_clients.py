@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import pytest
 from pydantic import ValidationError
-from test_api_support import Clock
 
 from server.core.clients import AddressCaps, StreamCaps, address_key, address_owner
 from server.core.errors import TooMany
 from server.core.security import token_hash
 from server.core.settings import Settings
+from tests.support.api import Clock
 
 
 def caps(**settings) -> tuple[AddressCaps, Clock]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from conftest import ROOT
+from tests.support.scene import ROOT
 
 PROGRAM = """
 import atexit, logging

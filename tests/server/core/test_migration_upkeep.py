@@ -13,13 +13,13 @@ import sys
 from datetime import timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import Clock
-from test_disk_full import filled, tmpfs
-from test_migrations import T0, query, unpack
 
 from server.core import migration_0002_courses
 from server.core.migrations import KEEP_COPIES, LATEST, MigrationError, migrate
+from tests.support.api import Clock
+from tests.support.disk import filled, tmpfs
+from tests.support.migrations import T0, query, unpack
+from tests.support.scene import ROOT
 
 
 def server(*args: str) -> subprocess.CompletedProcess:

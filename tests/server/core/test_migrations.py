@@ -14,38 +14,20 @@ import shutil
 import sqlite3
 import subprocess
 import sys
-import tarfile
-from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
-from test_api_support import Clock, Server, bearer, free_port
 
 from server.core.migrations import LATEST, MIGRATIONS, Migration, MigrationError, migrate
+from tests.support.api import Clock, Server, bearer, free_port
+from tests.support.migrations import FIXTURE, T0, query, unpack
+from tests.support.scene import ROOT
 
-FIXTURE = ROOT / "tests" / "fixtures" / "release-2026-12-05"
 EXPECTED = json.loads((FIXTURE / "expected.json").read_text())
 TEACHER = bearer(EXPECTED["instructor"])
 VOLATILE = {"time_left", "late_time_left", "closed", "join"}  # as the fixture's script leaves them out
-T0 = datetime(2026, 12, 6, 9, 30, tzinfo=UTC)  # the tests' clock, for the names of the copies
 MOVED: set[str] = {"course_students"}  # tables a migration empties or drops on purpose: migration 2 moved the
 # rosters of before courses into course_members, course_tokens and course_enrolments
-
-
-def unpack(where: Path) -> Path:
-    """The release's data directory, unpacked into `where` (its DATA/ folder)."""
-    with tarfile.open(FIXTURE / "data.tar.gz") as tar:
-        tar.extractall(where, filter="data")
-    return where / "data"
-
-
-def query(db_path: Path, sql: str) -> list[tuple]:
-    db = sqlite3.connect(db_path)
-    try:
-        return db.execute(sql).fetchall()
-    finally:
-        db.close()
 
 
 def rows(db_path: Path) -> dict[str, int]:

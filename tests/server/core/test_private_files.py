@@ -10,10 +10,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import ROOT
-from test_api_support import Server, submit, tiny_scene, wait_finished
-
 from server.core.startup import check_data_dir
+from tests.support.api import Server, submit, tiny_scene, wait_finished
+from tests.support.scene import ROOT
 
 
 def modes(root: Path) -> dict[str, int]:

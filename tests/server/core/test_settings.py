@@ -36,9 +36,8 @@ def test_settings_read_durations_and_sizes(monkeypatch):
 def test_settings_the_scene_limits_are_the_rows_of_one_table(monkeypatch):
     """TRACER_MAX_WIDTH ... TRACER_MAX_SOLVE_RAYS are the rows of tracer/limits.py: their defaults the
     library's, their descriptions the table's, and docs/service.md lists each with its default."""
-    from conftest import ROOT
-
     from server.core.settings import Settings
+    from tests.support.scene import ROOT
     from tracer.limits import LIMITS, Limits
 
     assert Settings().limits == Limits()
@@ -63,7 +62,7 @@ def test_settings_a_bad_setting_stops_the_server_naming_it_as_given(tmp_path):
     import subprocess
     import sys
 
-    from conftest import ROOT
+    from tests.support.scene import ROOT
 
     env = {**os.environ, "TRACER_INSTRUCTOR_TOKEN": "short-secret"}
     argv = [sys.executable, "-m", "server", "--port", "9", "--workers", "-2", "--data-dir", str(tmp_path / "data")]

@@ -12,7 +12,7 @@ import json
 import socket
 from contextlib import ExitStack
 
-from test_api_support import Server, tiny_scene
+from tests.support.api import Server, tiny_scene
 
 BOUND = 30  # seconds a socket waits for the server's answer or its end of the connection
 HEAD = "POST /api/validate HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"

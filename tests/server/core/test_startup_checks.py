@@ -14,12 +14,12 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
-from test_api_support import Server, free_port
-from test_disk_full import tmpfs
 
 from server.core.startup import StartupError
 from server.jobs.store import JobStore
+from tests.support.api import Server, free_port
+from tests.support.disk import tmpfs
+from tests.support.scene import ROOT
 
 
 def start(data_dir: Path, timeout: float = 120) -> tuple[int, str]:
@@ -159,9 +159,9 @@ def test_startup_raises_its_soft_open_files_limit_for_its_connections(tmp_path):
     import resource
 
     import httpx
-    from test_api_support import wait_for
 
     from server.core.startup import FILES_PER_CONNECTION, OWN_FILES
+    from tests.support.api import wait_for
 
     def soft_limit(pid: int) -> int:
         line = next(x for x in Path(f"/proc/{pid}/limits").read_text().splitlines() if x.startswith("Max open files"))

@@ -9,28 +9,14 @@ import base64
 import csv
 import io
 import json
-from datetime import UTC, datetime, timedelta
+from datetime import timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Clock, bearer, course_client, student_token, wait_for
 
-EXAMPLE = ROOT / "scenes" / "grading"
-CLASS = EXAMPLE / "class"
-T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)  # the tests' "now" (the app's clock is set to it)
-DEADLINE = T0 + timedelta(days=2)
+from tests.support.api import INSTRUCTOR, Clock, bearer, course_client, student_token, wait_for
+from tests.support.assignments import CLASS, DEADLINE, EXAMPLE, T0, finished, publish, roster, scene_text, spec, submit
+
 TEACHER = bearer(INSTRUCTOR)
-
-
-def spec(inline: bool = True) -> dict:
-    a = json.loads((EXAMPLE / "assignment.json").read_text())
-    if inline:
-        a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
-    return a
-
-
-def scene_text(name: str) -> str:
-    return (CLASS / f"{name}.json").read_text()
 
 
 def image(name: str) -> dict:
@@ -56,37 +42,6 @@ def clock(app):
     app.app.state.clock = Clock(T0)
     yield app.app.state.clock
     app.app.state.clock.now = T0
-
-
-def publish(client, **policy) -> dict:
-    body = {"spec": spec(), "deadline": DEADLINE.isoformat(), **policy}
-    r = client.post("/api/assignments", json=body)
-    assert r.status_code == 201, r.text
-    assert r.headers["location"] == f"/api/assignments/{r.json()['id']}"
-    return r.json()
-
-
-def roster(client, aid: str, rows: list[tuple[str, str, str]]) -> dict[str, dict]:
-    text = "id,name,email\n" + "".join(f"{i},{n},{e}\n" for i, n, e in rows)
-    r = client.post(f"/api/assignments/{aid}/roster", content=text, headers={"Content-Type": "text/csv"})
-    assert r.status_code == 200, r.text
-    return {s["id"]: s for s in r.json()["students"]}
-
-
-def submit(client, aid: str, token: str, body: dict, status: int = 202) -> dict:
-    r = client.post(f"/api/assignments/{aid}/submissions", json=body, headers=bearer(token))
-    assert r.status_code == status, r.text
-    return r.json()
-
-
-def finished(client, aid: str, sid: str, token: str = INSTRUCTOR, timeout: float = 240) -> dict:
-    url = f"/api/assignments/{aid}/submissions/{sid}"
-
-    def done():
-        s = client.get(url, headers=bearer(token)).json()
-        return s["status"] in ("graded", "invalid", "failed") and s
-
-    return wait_for(done, timeout, f"submission {sid} graded", interval=0.1)
 
 
 def grades(client, aid: str) -> list[dict]:
@@ -277,7 +232,7 @@ def test_assignments_students_see_only_their_own_work(app, clock):
 def test_assignments_a_students_token_owns_their_workspace_jobs_and_a_new_link_moves_them(app, clock):
     """The roster's token is a job owner's token (its SHA-256 is the owner), so "my jobs" follows the link;
     replacing a lost link gives a new token, the old one stops working, and the jobs go with the student."""
-    from test_api_support import tiny_scene
+    from tests.support.api import tiny_scene
 
     aid = publish(app)["id"]
     old = roster(app, aid, [("a", "A", "")])["a"]["token"]
@@ -450,7 +405,7 @@ def test_assignments_an_edit_keeps_every_version_and_regrades(app, clock):
 def test_assignments_a_submissions_grade_streams_as_it_moves(app, spare, clock):
     """GET .../events: the submission now, then each time its grade moves, then `end`; another student's
     submission is a 404 there too."""
-    from test_api_support import parse_sse
+    from tests.support.api import parse_sse
 
     tok = roster(app, spare, [("sse", "Stream S", ""), ("other", "Other O", "")])
     sub = submit(app, spare, tok["sse"]["token"], image("grace"))

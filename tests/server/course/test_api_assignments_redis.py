@@ -19,10 +19,11 @@ import signal
 import sqlite3
 
 import pytest
-from conftest import ROOT
-from queue_support import Api, Process, RedisServer, proc_env, worker_argv
-from test_api_assignments_restart import slow_alice, spec
-from test_api_support import INSTRUCTOR, bearer, wait_for
+
+from tests.support.api import INSTRUCTOR, bearer, wait_for
+from tests.support.assignments_restart import slow_alice, spec
+from tests.support.queue import Api, Process, RedisServer, proc_env, worker_argv
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 TEACHER = bearer(INSTRUCTOR)

@@ -7,31 +7,16 @@ server hands them again, and they are still graded once."""
 
 from __future__ import annotations
 
-import copy
-import json
 import signal
 import sqlite3
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, api_client, bearer, wait_for
 
-EXAMPLE = ROOT / "scenes" / "grading"
+from tests.support.api import INSTRUCTOR, Server, api_client, bearer, wait_for
+from tests.support.assignments_restart import EXAMPLE, slow_alice, spec
+
 SLOW = 8  # students submitting alice's scene at 64 spp and 16 light samples (~0.3 s each to render)
-
-
-def spec() -> dict:
-    a = json.loads((EXAMPLE / "assignment.json").read_text())
-    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
-    return a
-
-
-def slow_alice() -> dict:
-    scene = copy.deepcopy(json.loads((EXAMPLE / "class" / "alice.json").read_text()))
-    scene["sampler"] = {"type": "jittered", "spp": 64}
-    scene["render"]["light_samples"] = 16
-    return scene
 
 
 def statuses(server: Server, aid: str) -> dict[str, dict]:
@@ -120,7 +105,7 @@ def statuses_in(client, aid: str) -> dict[str, dict]:
 
 @pytest.fixture(scope="module")
 def redis_server(tmp_path_factory):
-    from queue_support import RedisServer
+    from tests.support.queue import RedisServer
 
     with RedisServer(tmp_path_factory.mktemp("redis") / "redis.log") as r:
         yield r
@@ -131,7 +116,7 @@ def test_assignments_on_the_redis_backend(redis_server, tmp_path):
     and an image graded as the example class is, and the grades exported."""
     import base64
 
-    from queue_support import Api, Process, worker_argv
+    from tests.support.queue import Api, Process, worker_argv
 
     api = Api(tmp_path / "data", redis_server.url).start()  # on loopback without a token: the instructor is anyone
     host = Process(worker_argv(redis_server.url, "host-a", threads=2), tmp_path / "host-a.log").start()

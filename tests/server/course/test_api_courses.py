@@ -9,8 +9,9 @@ import json
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, bearer, course_client, student_token
+
+from tests.support.api import INSTRUCTOR, bearer, course_client, student_token
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)

@@ -13,10 +13,10 @@ import json
 import random
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, wait_for
 
 from bench.similarity import disguised, honest, starter
+from tests.support.api import INSTRUCTOR, Server, bearer, wait_for
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 DEADLINE = "2100-01-01T12:00:00Z"

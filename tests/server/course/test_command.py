@@ -16,10 +16,10 @@ import subprocess
 import sys
 
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, free_port, wait_for
 
 from server.course.command import main
+from tests.support.api import INSTRUCTOR, Server, bearer, free_port, wait_for
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 DEADLINE = "2100-01-01T12:00:00+01:00"

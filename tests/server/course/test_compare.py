@@ -14,7 +14,8 @@ import re
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from test_api_support import INSTRUCTOR, bearer, course_client
+
+from tests.support.api import INSTRUCTOR, bearer, course_client
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=1)
@@ -82,7 +83,7 @@ def submit(client, aid: str, token: str, body: dict) -> str:
 
 
 def finished(client, aid: str, sid: str) -> dict:
-    from test_api_support import wait_for
+    from tests.support.api import wait_for
 
     def done():
         s = client.get(f"/api/assignments/{aid}/submissions/{sid}", headers=bearer(INSTRUCTOR)).json()

@@ -16,11 +16,10 @@ import threading
 import time
 from pathlib import Path
 
-from test_api_assignments import T0, finished, publish, roster, scene_text, submit
-from test_api_support import INSTRUCTOR, bearer, course_client, wait_for
-from test_disk_full import filled, is_507, tmpfs
-
 from server.jobs.janitor import Janitor
+from tests.support.api import INSTRUCTOR, bearer, course_client, wait_for
+from tests.support.assignments import T0, finished, publish, roster, scene_text, submit
+from tests.support.disk import filled, is_507, tmpfs
 
 
 def rows(data: Path, sql: str, *args) -> list[tuple]:

@@ -9,61 +9,15 @@ Time is the app's clock (`app.state.clock`), moved past the deadline, never slep
 from __future__ import annotations
 
 import base64
-import copy
-import json
 from datetime import UTC, datetime, timedelta
 
 import pytest
-from conftest import ROOT
-from test_api_support import Clock, bearer, course_client, student_token, wait_for
 
-EXAMPLE = ROOT / "scenes" / "grading"
+from tests.support.api import Clock, bearer, course_client, student_token, wait_for
+from tests.support.dashboard import bad_scene, good_scene, small_spec
+
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=2)
-SIZE = (32, 24)  # every render of the small assignment: its reference mean renders in a second or two
-
-
-def small_reference() -> dict:
-    ref = json.loads((EXAMPLE / "reference.json").read_text())
-    ref["film"] = {"width": SIZE[0], "height": SIZE[1]}
-    ref["sampler"] = {"type": "jittered", "spp": 4}
-    return ref
-
-
-def small_spec(inline: bool = True) -> dict:
-    """The example's assignment, smaller: two requirements and two image tests (max 6 for a scene, 4 for an
-    image: validity and the image tests); its reference inline, or named as the file 'reference.json' (the
-    page sends the file beside the spec)."""
-    return {
-        "version": 1,
-        "name": "HW 0: a small glass ball",
-        "description": "The example's scene at 32 x 24 pixels.",
-        "render": {"width": SIZE[0], "height": SIZE[1], "seed": 7},
-        "limits": {"max_seconds": 30, "max_spp": 16},
-        "validity": {"points": 1},
-        "requirements": [
-            {"name": "a glass object", "points": 1, "check": "transmissive_material"},
-            {"name": "an area light", "points": 1, "check": "area_light"},
-        ],
-        "reference": {
-            "scene": small_reference() if inline else "reference.json",
-            "spp": 16,
-            "psnr": {"points": 1},
-            "pixels": {"points": 2},
-        },
-        "image": {"spp": 4},
-    }
-
-
-def good_scene() -> dict:
-    """The reference scene itself at 4 spp: full marks."""
-    return small_reference()
-
-
-def bad_scene() -> dict:
-    scene = copy.deepcopy(small_reference())
-    scene["objects"][1]["radius"] = -1  # invalid: a negative radius
-    return scene
 
 
 def good_image(client, aid: str) -> dict:

@@ -11,17 +11,17 @@ away, never waited for."""
 
 from __future__ import annotations
 
-import json
 from datetime import UTC, datetime, timedelta
 
 import httpx
 import pytest
-from conftest import ROOT
-from test_api_support import INSTRUCTOR, Server, bearer, wait_for
+
+from tests.support.api import INSTRUCTOR, Server, bearer, wait_for
+from tests.support.feedback_policy import POLICY, dimmed, spec
+from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 TEACHER = bearer(INSTRUCTOR)
-POLICY = {"feedback": {"tests": {"pixels": "after_deadline"}, "score": "now"}}  # docs/assignments.md's example
 PICTURE_WORDS = ("error map", "rejected pixels", "picture")  # what a text pointing at a hidden picture says
 
 
@@ -30,32 +30,6 @@ def server(tmp_path_factory):
     env = {"TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
     with Server(tmp_path_factory.mktemp("feedback-policy-data"), workers=1, env=env) as s:
         yield s
-
-
-def reference() -> dict:
-    ref = json.loads((EXAMPLE / "reference.json").read_text())
-    ref["film"] = {"width": 32, "height": 24}
-    ref["sampler"] = {"type": "jittered", "spp": 4}
-    return ref
-
-
-def spec() -> dict:
-    s = json.loads((EXAMPLE / "assignment.json").read_text())
-    s["render"] = {"width": 32, "height": 24, "seed": 7}
-    s["reference"]["scene"] = reference()
-    s["reference"]["spp"] = 16
-    s["image"] = {"spp": 4}
-    return s
-
-
-def dimmed() -> dict:
-    """The reference with its lights at a fifth: every requirement met, every image test missed."""
-    s = reference()
-    for light in s["lights"]:
-        for key in ("intensity", "radiance", "power"):
-            if key in light:
-                light[key] = [v / 5 for v in light[key]] if isinstance(light[key], list) else light[key] / 5
-    return s
 
 
 def body(deadline: datetime) -> dict:

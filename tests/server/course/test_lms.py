@@ -8,58 +8,17 @@ dashboard) and goes once it is back; the roster comes from NRPS page by page. Th
 
 from __future__ import annotations
 
-import json
 import re
-from datetime import UTC, datetime, timedelta
+from datetime import timedelta
 
 import httpx
 import pytest
-from conftest import ROOT
-from lti_platform import INSTRUCTOR as LMS_INSTRUCTOR
-from lti_platform import LEARNER, LoopbackServer, Platform
-from test_api_support import INSTRUCTOR, Clock, bearer, wait_for
 
-from server.core.settings import Settings
 from server.course.lms import LmsStore
-from server.main import create_app
-
-EXAMPLE = ROOT / "scenes" / "grading"
-T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
-ADMIN = bearer(INSTRUCTOR)
-NRPS = "https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice"
-
-
-@pytest.fixture(scope="module")
-def tool(tmp_path_factory):
-    data = tmp_path_factory.mktemp("lms") / "data"
-    data.mkdir()
-    settings = Settings(data_dir=data, workers=1, interactive_workers=0, validate_processes=1, previews_ahead=False,
-                        lessons_ahead=False, answer_again=False, instructor_token=INSTRUCTOR)  # fmt: skip
-    app = create_app(settings)
-    with LoopbackServer(app) as server, httpx.Client(base_url=server.url, timeout=60) as client:
-        app.state.clock = Clock(T0)
-        yield server.url, app, client
-
-
-@pytest.fixture(scope="module")
-def lms(tool):
-    """The platform registered, its course-1 linked to course gfx, and an assignment published in gfx."""
-    url, app, client = tool
-    with Platform() as p:
-        p.tool_jwks_url = url + "/lti/jwks"
-        r = client.post("/api/lti/platforms", json={**p.registration(), "deployment_ids": [p.deployment_id]},
-                        headers=ADMIN)  # fmt: skip
-        assert r.status_code == 201, r.text
-        pid = p.registered_id = r.json()["id"]
-        assert client.post("/api/courses", json={"id": "gfx", "name": "Graphics"}, headers=ADMIN).status_code == 201
-        r = client.post("/api/courses/gfx/lms/contexts", json={"platform": pid, "context": "course-1"}, headers=ADMIN)
-        assert r.status_code == 201, r.text
-        spec = json.loads((EXAMPLE / "assignment.json").read_text())
-        spec["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
-        body = {"spec": spec, "deadline": (T0 + timedelta(days=2)).isoformat()}
-        r = client.post("/api/courses/gfx/assignments", json=body, headers=ADMIN)
-        assert r.status_code == 201, r.text
-        yield p, r.json()["id"]
+from tests.support.api import bearer, wait_for
+from tests.support.lms import ADMIN, EXAMPLE, NRPS, T0
+from tests.support.lti_platform import INSTRUCTOR as LMS_INSTRUCTOR
+from tests.support.lti_platform import LEARNER
 
 
 def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_was_down(tool, lms):

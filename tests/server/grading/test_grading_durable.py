@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ROOT
-from test_api_support import Server, api_client, pid_alive, wait_for
 
+from tests.support.api import Server, api_client, pid_alive, wait_for
+from tests.support.scene import ROOT
 from tracer.grading import Grader, InlineRenderer, RenderJob, collect, load_assignment, tasks
 from tracer.scene import Limits
 
@@ -268,7 +268,7 @@ def test_grading_runs_from_before_the_tables_are_imported(tmp_path):
 
 @pytest.fixture(scope="module")
 def redis_server(tmp_path_factory):
-    from queue_support import RedisServer
+    from tests.support.queue import RedisServer
 
     with RedisServer(tmp_path_factory.mktemp("redis") / "redis.log") as r:
         yield r
@@ -278,7 +278,7 @@ def test_grading_run_resumes_on_the_redis_backend(redis_server, tmp_path):
     """The same restart with the jobs on a worker host through Redis: the API is killed mid-run while the
     host goes on rendering; started again, the API applies what the host did meanwhile and the run takes
     up its jobs by id, none queued twice, none rendered twice."""
-    from queue_support import Api, Process, worker_argv
+    from tests.support.queue import Api, Process, worker_argv
 
     url = redis_server.url
     data = tmp_path / "data"

@@ -18,37 +18,20 @@ import zlib
 from pathlib import Path
 
 import pytest
-from conftest import ROOT
-from test_api_support import api_client, wait_for
 
 from server.jobs.files import JobFile
+from tests.support.api import api_client, wait_for
+from tests.support.grading_upload import CLASS, assignment_text, class_zip
+from tests.support.scene import ROOT
 from tracer.grading import Caps, GradingError, read_zip, unpack_zip
 from tracer.grading.archive import CHUNK
 
-EXAMPLE = ROOT / "scenes" / "grading"
-CLASS = EXAMPLE / "class"
 EXPECTED = {  # the example class's scores and statuses (every test: tests/tracer/grading/test_grading.py)
     "alice": (13.0, "graded"), "bob": (6.0, "graded"), "carol": (0.0, "invalid"), "dave": (13.0, "graded"),
     "erin": (7.0, "graded"), "frank": (0.0, "invalid"), "grace": (7.0, "graded"), "heidi": (1.0, "graded"),
     "ivan": (0.0, "invalid"),
 }  # fmt: skip
 GiB = 1 << 30
-
-
-def assignment_text() -> str:
-    a = json.loads((EXAMPLE / "assignment.json").read_text())
-    a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())
-    return json.dumps(a)
-
-
-def class_zip(top: str = "hw4/") -> bytes:
-    """The example class as a zip (deflated), in one top folder."""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-        for f in sorted(CLASS.rglob("*")):
-            if f.is_file():
-                z.write(f, top + f.relative_to(CLASS).as_posix())
-    return buf.getvalue()
 
 
 def raw_zip(entries: list[dict]) -> bytes:

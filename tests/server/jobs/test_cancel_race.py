@@ -13,9 +13,10 @@ from __future__ import annotations
 import time
 
 import pytest
-from conftest import scene_dict, small
-from queue_support import Api, Process, RedisServer, worker_argv
-from test_api_support import submit, wait_finished, wait_for
+
+from tests.support.api import submit, wait_finished, wait_for
+from tests.support.queue import Api, Process, RedisServer, worker_argv
+from tests.support.scene import scene_dict, small
 
 TRIES = 30
 AGREES = {200: {"cancelled"}, 202: {"cancelled"}, 409: {"done"}}

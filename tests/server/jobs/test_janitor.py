@@ -3,10 +3,9 @@ folders left without a job, and the server running it."""
 
 from __future__ import annotations
 
-from test_api_support import api_client
-from test_store import add
-
 from server.jobs.store import JobStore
+from tests.support.api import api_client
+from tests.support.store import add
 
 DAY = 86400.0
 NOW = 1_900_000_000.0  # the present, for the janitor's rounds

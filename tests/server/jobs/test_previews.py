@@ -7,14 +7,13 @@ import json
 import shutil
 import time
 
-from conftest import SCENES
-from test_api_support import INSTRUCTOR, api_client, bearer
-
 from server.core.settings import Settings
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
 from server.jobs.store import JobStore
+from tests.support.api import INSTRUCTOR, api_client, bearer
+from tests.support.scene import SCENES
 
 
 def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(tmp_path):

@@ -7,7 +7,10 @@ import json
 import shutil
 
 import pytest
-from test_api_support import (
+
+from server.jobs import lesson_panels
+from server.jobs.results import renderer_version, result_key
+from tests.support.api import (
     INSTRUCTOR,
     api_client,
     bearer,
@@ -18,9 +21,6 @@ from test_api_support import (
     wait_finished,
     wait_for,
 )
-
-from server.jobs import lesson_panels
-from server.jobs.results import renderer_version, result_key
 
 
 @pytest.fixture(scope="module")

@@ -12,14 +12,7 @@ from server.core.ids import looks_like_job_id
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
 from server.jobs.store import JobStore, QueueFull
-
-
-def add(store: JobStore, priority: int = 0, max_queued: int = 100) -> str:
-    row = store.create(
-        json.dumps({"camera": {}}), name=None, width=4, height=4, spp=1, priority=priority, warnings=[],
-        max_seconds=60, max_queued=max_queued,
-    )  # fmt: skip
-    return row["id"]
+from tests.support.store import add
 
 
 def test_store_claims_by_priority_then_age(tmp_path):

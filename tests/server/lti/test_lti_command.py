@@ -6,10 +6,9 @@ import json
 import subprocess
 import sys
 
-from conftest import ROOT
-from test_api_support import bearer, student_token
-
 from server.lti.command import CANVAS_HEADER, main
+from tests.support.api import bearer, student_token
+from tests.support.scene import ROOT
 
 PLATFORM = [
     "--issuer", "https://moodle.example.edu", "--client-id", "abc123",

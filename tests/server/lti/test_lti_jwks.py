@@ -4,9 +4,9 @@ loop of forged kids; errors are LaunchError("jwks")."""
 from __future__ import annotations
 
 import pytest
-from lti_platform import new_key
 
 from server.lti.launch import JwksCache, LaunchError, fetch_jwks
+from tests.support.lti_platform import new_key
 
 
 class Fetcher:
@@ -70,7 +70,8 @@ def test_lti_jwks_default_fetch_says_why_it_failed():
 def test_lti_jwks_default_fetch_is_bounded_and_checks_the_answer():
     from fastapi import FastAPI
     from fastapi.responses import JSONResponse, Response
-    from lti_platform import LoopbackServer
+
+    from tests.support.lti_platform import LoopbackServer
 
     key = new_key()
     app = FastAPI()

@@ -47,9 +47,8 @@ def test_lti_keys_rotation_publishes_both_for_the_grace_period_then_drops_the_ol
     """`python -m server.lti rotate-key` beside a running server (another ToolKeys on the same folder): the server
     signs with the new key at once, and its key set has the new key and the old one until the grace period ends
     (its clock), then the new one alone."""
-    from test_api_support import Clock
-
     from server.lti.command import main
+    from tests.support.api import Clock
 
     clock = Clock(time.time())  # (the command's clock is the real one)
     server = ToolKeys(tmp_path / "data" / "lti", clock=clock)

@@ -7,7 +7,8 @@ import html
 import time
 
 import pytest
-from lti_platform import INSTRUCTOR, LTI, new_key
+
+from tests.support.lti_platform import INSTRUCTOR, LTI, new_key
 
 TA = "http://purl.imsglobal.org/vocab/lis/v2/membership/Instructor#TeachingAssistant"
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import httpx
 import pytest
-from lti_platform import DL, LTI, NRPS_SCOPE
 
 from server.lti.services import SCORE_SCOPE, ServiceClient, ServiceError, deep_link_response, score, scores_url
+from tests.support.lti_platform import DL, LTI, NRPS_SCOPE
 
 
 class Clock:
@@ -143,7 +143,7 @@ def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s
 def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services, platform):
     """A score, a line item or the members at another origin (another port of loopback here) are refused before
     anything is sent: no access token is even asked for."""
-    from lti_platform import LoopbackServer
+    from tests.support.lti_platform import LoopbackServer
 
     seen = []
 

@@ -14,8 +14,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import ROOT
-from test_api_support import INSTRUCTOR
+from tests.support.api import INSTRUCTOR
+from tests.support.scene import ROOT
 
 STEPS = ["Registration", "An instructor's launch", "The instructor publishes an assignment", "Deep linking",
          "A student's launch", "A submission graded", "The grade at the LMS"]  # fmt: skip

@@ -11,9 +11,9 @@ import signal
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, small
-from test_api_support import api_client, exr_of, submit, wait_for, wait_status
 
+from tests.support.api import api_client, exr_of, submit, wait_for, wait_status
+from tests.support.scene import ROOT, scene_dict, small
 from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 

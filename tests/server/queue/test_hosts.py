@@ -8,7 +8,8 @@ import sys
 import time
 
 import pytest
-from hosts import Cluster
+
+from tests.support.hosts import Cluster
 
 
 def _get(c: Cluster, ns: str, url: str, seconds: int = 3) -> subprocess.CompletedProcess:

@@ -8,8 +8,8 @@ from __future__ import annotations
 import json
 import time
 
-from conftest import ROOT, small
-from test_api_support import api_client, job, submit, wait_for, wait_status
+from tests.support.api import api_client, job, submit, wait_for, wait_status
+from tests.support.scene import ROOT, small
 
 BOX = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
 CANCEL_SECONDS = 10  # the cancel, then a trivial job, on a machine shared with other tests (launches ~0.25 s)

@@ -22,11 +22,11 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, small
-from hosts import Cluster
-from queue_support import LOST_AFTER, api_argv, proc_env, redis_argv, worker_argv
-from test_api_support import bearer, student_token, wait_for
 
+from tests.support.api import bearer, student_token, wait_for
+from tests.support.hosts import Cluster
+from tests.support.queue import LOST_AFTER, api_argv, proc_env, redis_argv, worker_argv
+from tests.support.scene import ROOT, scene_dict, small
 from tracer.rendering.film import read_exr
 
 PORT = 8000

@@ -9,10 +9,10 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, scene_dict, small
-from queue_support import Api, Process, RedisServer, proc_env, worker_argv
-from test_api_support import long_scene, parse_sse, wait_for
 
+from tests.support.api import long_scene, parse_sse, wait_for
+from tests.support.queue import Api, Process, RedisServer, proc_env, worker_argv
+from tests.support.scene import ROOT, scene_dict, small
 from tracer.rendering.film import read_exr
 
 
@@ -157,7 +157,7 @@ def test_queue_redis_grades_a_class_through_the_worker_hosts(cluster):
     import base64
     import json
 
-    from test_grading import CLASS, EXAMPLE, assignment_dict
+    from tests.support.grading import CLASS, EXAMPLE, assignment_dict
 
     api, _, _ = cluster
     assignment = assignment_dict()

@@ -8,16 +8,16 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import scene_dict, small
-from queue_support import RedisServer
 from rq.job import Job
-from test_api_support import Clock
 
 from server.core.settings import load_settings
 from server.jobs.lifecycle import JobStatus
 from server.jobs.store import JobStore
 from server.queue.redis import events as ev
 from server.queue.redis.queue import FINISHED_GRACE, RedisQueue
+from tests.support.api import Clock
+from tests.support.queue import RedisServer
+from tests.support.scene import scene_dict, small
 
 
 @pytest.fixture

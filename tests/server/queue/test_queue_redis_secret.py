@@ -9,8 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from queue_support import REDIS, Process, proc_env, redis_argv
-from test_api_support import free_port, student_token, tiny_scene, wait_for
+from tests.support.api import free_port, student_token, tiny_scene, wait_for
+from tests.support.queue import REDIS, Process, proc_env, redis_argv
 
 PASSWORD = "s3cret-redis-pw-of-the-test"
 

@@ -16,7 +16,8 @@ import threading
 
 import httpx
 import pytest
-from test_api_support import Server, job, long_scene, pid_alive, submit, tiny_scene, wait_finished, wait_for
+
+from tests.support.api import Server, job, long_scene, pid_alive, submit, tiny_scene, wait_finished, wait_for
 
 EXIT_BOUND = 60  # seconds: a bound on the exit, not a speed measurement (about one here; generous for a loaded CI)
 

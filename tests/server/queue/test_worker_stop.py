@@ -19,8 +19,9 @@ import signal
 from pathlib import Path
 
 import pytest
-from queue_support import Api, Process, RedisServer, worker_argv
-from test_api_support import long_scene, pid_alive, wait_for
+
+from tests.support.api import long_scene, pid_alive, wait_for
+from tests.support.queue import Api, Process, RedisServer, worker_argv
 
 STOP_BOUND = 60  # seconds
 

@@ -83,7 +83,7 @@ def test_explain_the_reference_logged_as_a_tracer_would_matches_everywhere(ex, p
 
 def test_explain_the_reference_tree_is_the_kernels_own_pixel(ex):
     """The tree's colour is the pixel of the centre-sampled image, rendered by the same kernels (bit for bit)."""
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
 
     image = render(compile_scene(ex.scene)).image
@@ -253,7 +253,7 @@ def test_explain_the_depth_limit_and_rays_too_many_or_too_few(ex, places):
 
 
 def test_explain_a_right_tree_but_a_linear_pixel_is_the_encoding(ex):
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.film import to_srgb8
     from tracer.rendering.progressive import render
 
@@ -328,7 +328,7 @@ def test_explain_the_command_line_prints_probes_and_the_diagnosis(ex, tmp_path, 
     from PIL import Image
 
     from tracer.__main__ import main
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.film import to_srgb8
     from tracer.rendering.progressive import render
     from tracer.scene import load_scene

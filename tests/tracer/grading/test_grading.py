@@ -25,9 +25,10 @@ from pathlib import Path
 import httpx
 import numpy as np
 import pytest
-from conftest import ROOT
-from test_api_support import Server, wait_for
 
+from tests.support.api import Server, wait_for
+from tests.support.grading import ASSIGNMENT, CLASS, EXAMPLE, assignment_dict
+from tests.support.scene import ROOT
 from tracer.grading import (
     AssignmentError,
     Grader,
@@ -46,9 +47,6 @@ from tracer.grading.checks import run_check
 from tracer.grading.spec import Check
 from tracer.scene import load_scene
 
-EXAMPLE = ROOT / "scenes" / "grading"
-ASSIGNMENT = EXAMPLE / "assignment.json"
-CLASS = EXAMPLE / "class"
 REQUIREMENTS = ["valid scene", "a glass object", "an area light", "three bounces", "a small scene", "a render budget"]
 IMAGE_TESTS = ["FLIP against the reference", "SSIM against the reference", "PSNR against the reference",
                "pixels match the reference"]  # fmt: skip
@@ -65,10 +63,6 @@ EXPECTED = {
     "heidi": ("graded", [1, 0, 0, 0, 0]),
     "ivan": ("invalid", [0, 0, 0, 0, 0]),
 }
-
-
-def assignment_dict() -> dict:
-    return json.loads(ASSIGNMENT.read_text())
 
 
 @pytest.fixture(scope="module")
@@ -280,7 +274,7 @@ OWN_SEED = 777  # "the student's" seed: not the reference's (1000003), the basel
 
 
 def render_linear(scene: dict) -> np.ndarray:
-    from tracer.rendering.compile import compile_scene
+    from tracer.kernels.compile import compile_scene
     from tracer.rendering.progressive import render
 
     return render(compile_scene(load_scene(scene)[0])).image

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import scene_dict, small
 
+from tests.support.scene import scene_dict, small
 from tracer.grading import InlineRenderer, RenderJob
 from tracer.grading.local import LocalRenderer
 

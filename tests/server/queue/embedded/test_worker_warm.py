@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from test_api_support import api_client, wait_for
+from tests.support.api import api_client, wait_for
 
 MARK = "/scipy/sparse/csgraph/"  # trimesh's graph module imports scipy.sparse.csgraph, a compiled library
 

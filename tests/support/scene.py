@@ -1,7 +1,5 @@
-"""The repository's paths and the example scenes as dicts, for every test module. Test modules import them from
-`conftest` (`from conftest import ROOT, scene_dict, small`); every conftest.py of tests/ re-exports them, because
-pytest loads each folder's conftest.py under the one module name `conftest` and the name then stands for the
-last one loaded."""
+"""The repository's paths and the example scenes as dicts, for every test module
+(`from tests.support.scene import ROOT, scene_dict, small`)."""
 
 from __future__ import annotations
 
@@ -9,7 +7,7 @@ import copy
 import json
 from pathlib import Path
 
-TESTS = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parent.parent
 ROOT = TESTS.parent
 SCENES = ROOT / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.json"))

@@ -18,8 +18,9 @@ import time
 from pathlib import Path
 
 import httpx
-from conftest import ROOT
-from test_api_support import free_port, wait_for
+
+from tests.support.api import free_port, wait_for
+from tests.support.scene import ROOT
 
 REDIS = shutil.which("redis-server") or "/usr/bin/redis-server"
 LOST_AFTER = 3.0  # seconds: a lost worker host's try runs again this soon in the tests

@@ -9,7 +9,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from conftest import ROOT
+from tests.support.scene import ROOT
 
 
 def module_name(path: Path) -> str:

@@ -22,6 +22,7 @@ from tracer.assets import (  # noqa: F401 (load_mesh_file: re-exported)
     load_image,
     load_mesh_file,
 )
+from tracer.kernels.filters import filter_tables
 from tracer.kernels.kinds import Bump, FilterKind, Integrator, SamplerKind, Shape, Texture
 from tracer.kernels.lights import light_data, light_shape
 from tracer.kernels.structs import (
@@ -37,8 +38,7 @@ from tracer.kernels.structs import (
     vec3,
 )
 from tracer.meshing import apply as _apply
-from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported, tracer.rendering.compile's before)
-from tracer.rendering.film import filter_tables
+from tracer.meshing import box_faces, transform_matrix  # noqa: F401 (box_faces: re-exported)
 from tracer.scene import AREA_LIGHTS, Limits, Material, Scene, SceneError, json_path, texture_problem
 
 

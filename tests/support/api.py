@@ -1,6 +1,6 @@
-"""Helpers of the API tests, and their own tests: scenes, the app in a TestClient (the fixtures `client`,
-`client_without_workers` and `settings` of conftest.py are built with `api_client`), jobs through it,
-Server-Sent Events, and a real server on loopback."""
+"""Helpers of the API tests (their own tests are tests/test_support_api.py): scenes, the app in a TestClient (the
+fixtures `client`, `client_without_workers` and `settings` of tests/conftest.py are built with `api_client`), jobs
+through it, Server-Sent Events, and a real server on loopback."""
 
 from __future__ import annotations
 
@@ -19,7 +19,8 @@ from pathlib import Path
 
 import httpx
 import numpy as np
-from scene_support import ROOT, scene_dict, small
+
+from tests.support.scene import ROOT, scene_dict, small
 
 SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
 INSTRUCTOR = "instructor-token-of-the-tests"  # TRACER_INSTRUCTOR_TOKEN where a test's server has one
@@ -263,15 +264,3 @@ def pid_alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
-
-
-def test_api_support_parse_sse_events():
-    lines = ["retry: 1000", "", ": keep-alive", "", "event: progress", 'data: {"a": 1}', "", 'data: {"b": 2}', ""]
-    assert list(parse_sse(lines)) == [("progress", {"a": 1}), ("message", {"b": 2})]
-
-
-def test_api_support_scenes_are_valid():
-    from tracer.scene import load_scene
-
-    assert load_scene(tiny_scene())[0].film.width == 16
-    assert load_scene(long_scene())[0].sampler.spp == 1024
