@@ -218,7 +218,7 @@ class Server:
         return self
 
     def _ready(self) -> bool:
-        assert self.proc.poll() is None, f"server exited: {self.log_text()}"
+        assert self.proc.poll() is None, f"server exited: {self.log_tail()}"
         try:
             health = self.client.get("/api/health").json()
         except httpx.TransportError:
@@ -228,7 +228,12 @@ class Server:
         return all(w["ready"] for w in health["workers"]) and len(health["workers"]) == self.workers
 
     def log_text(self) -> str:
-        return self.log_path.read_text(errors="replace")[-5000:]
+        """The whole log: what a test looks for in it may be anywhere (a slow start's health polls fill it)."""
+        return self.log_path.read_text(errors="replace")
+
+    def log_tail(self, chars: int = 5000) -> str:
+        """The log's end, for a failure's message."""
+        return self.log_text()[-chars:]
 
     def worker_pids(self) -> list[int]:
         return [w["pid"] for w in self.client.get("/api/health").json()["workers"] if w["alive"]]
