@@ -7,7 +7,7 @@
   assignments and their workspace jobs (`lti_user`: the LMS's user, when they came from one; `every`: enrolled
   in every assignment of the course, the ones published later too).
 - `course_tokens`: the SHA-256 of each token that names a member or a staff member of a course (the token
-  itself is never kept: it is derived from the data directory's secret, server/course/service.py).
+  itself is never kept: it is derived from the data directory's secret, server/course/people.py).
 - `course_assignments`: one per published assignment, in a course: its current version.
 - `course_versions`: every version ever published (an edit adds one, the earlier ones are kept): the spec
   (its reference scene inline), the policy, and its open grading run (server/grading/: the run that grades

@@ -38,9 +38,11 @@ from server.api.streams import KEEP_ALIVE, event_stream, sse
 from server.core.security import Caller
 from server.course import compare, owntrees
 from server.course import dashboard as course_board
+from server.course.base import iso
 from server.course.people import Who
 from server.course.policy import AssignmentIn, Instant
-from server.course.service import Course, iso, links_csv
+from server.course.roster import links_csv
+from server.course.service import Course
 from server.course.store import DEFAULT_COURSE
 from tracer.errors import pydantic_errors
 

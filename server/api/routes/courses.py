@@ -1,7 +1,7 @@
 """Courses (docs/assignments.md, "Courses and staff"): the server's admin creates a course and its staff; a
 course's instructors enrol its roster once (one identity per student across the course's assignments) and
 publish assignments into it; its TAs follow it. A student's token reads the course's page (their assignments).
-The rules live in server/course/service.py and server/course/people.py."""
+The rules live in server/course/ (courses.py, roster.py) and server/course/people.py."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from server.api.errors import ApiError
 from server.api.models import ErrorResponse
 from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in, roster_text
 from server.course.people import ROLES, Who
-from server.course.service import links_csv
+from server.course.roster import links_csv
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
