@@ -13,7 +13,7 @@ from test_api_support import INSTRUCTOR, bearer, wait_for
 from test_lms import EXAMPLE, T0
 from test_web_page import CSP_WATCH, DESKTOP, SHOTS
 
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 
 # test_lms.py's module fixtures (the tool with a test LMS linked, one per module), used here as they are there
 tool = test_lms.tool
