@@ -33,6 +33,7 @@ from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
 from server.api.routes import (
     assignments,
     courses,
+    dashboard,
     grade,
     jobs,
     lms,
@@ -40,8 +41,10 @@ from server.api.routes import (
     own_trees,
     pages,
     reference,
+    roster,
     samples,
     scenes,
+    submissions,
     tools,
 )  # fmt: skip
 from server.checkers.pool import CheckPool
@@ -190,10 +193,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
-    # a student tracer's tree log, compared (docs/own-tracer.md): before assignments' GET .../{sid}/{name} (a
+    # a student tracer's tree log, compared (docs/own-tracer.md): before submissions' GET .../{sid}/{name} (a
     # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
     app.include_router(own_trees.router)
-    app.include_router(assignments.router)
+    app.include_router(assignments.router)  # /api/assignments: the assignment, then its roster, submissions, class
+    app.include_router(roster.router)
+    app.include_router(submissions.router)
+    app.include_router(dashboard.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms
