@@ -7,6 +7,7 @@ import logging
 from collections.abc import Callable
 
 from server.core.errors import Conflict, Invalid, NotFound
+from server.core.roles import Kind, Role
 from server.core.security import Caller
 from server.course.base import CourseBase, iso, not_found
 from server.course.people import ROLES, Who, check_course_id, refuse_ta
@@ -29,16 +30,16 @@ class Courses(CourseBase):
         question), one of its staff, or the server's admin; None for anyone else."""
         mine = self.store.token(caller.owner) if caller.owner else None
         if mine is not None and mine["course_id"] == cid:
-            if mine["kind"] == "student":
+            if mine["kind"] == Kind.STUDENT:
                 member = self.store.member(cid, mine["person"])
                 if member is not None:
-                    return Who(member, "student")
+                    return Who(member, Role.STUDENT)
             else:
                 staff = self.store.staff_member(cid, mine["person"])
                 if staff is not None:
-                    return Who(None, staff["role"], staff["person"])
+                    return Who(None, Role(staff["role"]), staff["person"])
         if caller.instructor:
-            return Who(None, "admin")
+            return Who(None, Role.ADMIN)
         return None
 
     def who(self, aid: str, caller: Caller) -> tuple[dict, Who]:
@@ -47,11 +48,11 @@ class Courses(CourseBase):
         a = self.assignment(aid)
         student = self.store.by_token(aid, caller.owner) if caller.owner else None
         if student is not None:
-            return a, Who(student, "student")
+            return a, Who(student, Role.STUDENT)
         who = self.role(a["course_id"], caller)
         if who is None or who.student is not None:  # a member not enrolled in this one: unknown to them
             if caller.instructor:
-                return a, Who(None, "admin")
+                return a, Who(None, Role.ADMIN)
             raise not_found("assignment", aid)
         return a, who
 
@@ -64,7 +65,7 @@ class Courses(CourseBase):
         who = self.role(a["course_id"], caller)
         if who is None or who.student is not None:
             instructor(caller)
-            who = Who(None, "admin")
+            who = Who(None, Role.ADMIN)
         if not who.may(action):
             raise refuse_ta(ACTIONS.get(action, action))
         return a, who
@@ -84,7 +85,7 @@ class Courses(CourseBase):
             if hide and not caller.instructor and known:
                 raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
             instructor(caller)
-            who = Who(None, "admin")
+            who = Who(None, Role.ADMIN)
         if not who.may(action):
             raise refuse_ta(ACTIONS.get(action, action))
         return who
@@ -111,7 +112,7 @@ class Courses(CourseBase):
             )  # fmt: skip
         if who.student is not None:
             s = who.student
-            out["you"] = {"id": s["student"], "name": s["name"], "role": "student"}
+            out["you"] = {"id": s["student"], "name": s["name"], "role": Role.STUDENT}
         else:
             out["you"] = {"role": who.role, "id": who.person}
             out["staff"] = [
@@ -135,6 +136,6 @@ class Courses(CourseBase):
         s = self.store.staff_member(cid, person)
         if s is None:
             raise NotFound([{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
-        token = self.token_of(cid, "staff", person, s["gen"])
+        token = self.token_of(cid, Kind.STAFF, person, s["gen"])
         return {"id": person, "name": s["name"], "email": s["email"], "role": s["role"], "token": token,
                 "link": self.course_link(base, cid, token, staff=True)}  # fmt: skip

@@ -32,6 +32,7 @@ import threading
 from collections.abc import Callable
 
 from server.core.answers import Answer, Page, Redirect
+from server.core.roles import STAFF, Kind, Role
 from server.core.security import token_hash
 from server.course.lms_poster import Poster
 from server.course.lms_store import LmsStore
@@ -48,7 +49,6 @@ log = logging.getLogger(__name__)
 
 PICK_SECONDS = 600  # a picker's form (and a claim form) is good this long
 MAX_CLAIMS = 10000  # claim forms held at once (the oldest dropped past it)
-STAFF = ("instructor", "ta")
 
 
 def lti_user(platform: dict, sub: str) -> str:
@@ -112,15 +112,15 @@ class Lms:
                            "yet: your instructor opens it once from the LMS, then it opens for you too.")  # fmt: skip
         if launch.nrps and launch.nrps.get("context_memberships_url"):
             self.store.set_memberships(platform["id"], context["id"], launch.nrps["context_memberships_url"], None)
-        if (role == "student" and launch.email and not platform.get("trust_emails")
-                and self.course.store.by_lti(cid, "student", lti_user(platform, launch.sub)) is None
+        if (role == Role.STUDENT and launch.email and not platform.get("trust_emails")
+                and self.course.store.by_lti(cid, Kind.STUDENT, lti_user(platform, launch.sub)) is None
                 and self.email_match(cid, launch.email) is not None):  # fmt: skip
             return self.claim_page(cid, platform, launch)
         person, token = self.person(cid, platform, launch, role)
         if role in STAFF and launch.nrps:
             threading.Thread(target=self.sync_quietly, args=(cid,), name="lti-roster", daemon=True).start()
         if launch.message_type == "LtiDeepLinkingRequest":
-            if role != "instructor":
+            if role != Role.INSTRUCTOR:
                 return refused("Only an instructor picks", "Adding the tool to the course is an instructor's.")
             return self.picker(cid, platform, launch.deployment_id, launch.deep_linking or {}, None, token, base)
         link_id = (launch.resource_link or {}).get("id")
@@ -138,9 +138,9 @@ class Lms:
         if link_id:
             self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
         if not aid:  # a course's navigation link, or an assignment link not bound yet
-            if role == "student":  # their course's page: the assignments they are on
+            if role == Role.STUDENT:  # their course's page: the assignments they are on
                 return Redirect(f"/courses/{cid}#token={token}")
-            if role == "ta":
+            if role == Role.TA:
                 return Redirect(f"/course#token={token}")
             return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
         if role in STAFF:
@@ -172,7 +172,7 @@ class Lms:
         known = self.store.context(platform["id"], context["id"])
         if known is not None:
             return known["course_id"]
-        if role != "instructor":
+        if role != Role.INSTRUCTOR:
             return None
         title = " ".join(str(context.get("title") or context.get("label") or "LMS course").split())[:200]
         stem = re.sub(r"[^A-Za-z0-9_-]+", "-", str(context.get("label") or title)).strip("-_")[:30] or "lms"
@@ -189,12 +189,12 @@ class Lms:
         name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
         name = " ".join(clean_name(name)[0].split())[:200]  # no control or bidi override into pages and exports
         email = launch.email or ""
-        kind = "staff" if role in STAFF else "student"
+        kind = Kind.STAFF if role in STAFF else Kind.STUDENT
         known = self.course.store.by_lti(cid, kind, who)
-        if known is None and kind == "student" and email and platform.get("trust_emails"):
+        if known is None and kind == Kind.STUDENT and email and platform.get("trust_emails"):
             known = self.email_match(cid, email)  # only where the platform's emails identify people
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
-        if kind == "staff":
+        if kind == Kind.STAFF:
             self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
                                               "lti_user": who}, self.now())  # fmt: skip
             gen = self.course.store.staff_member(cid, pid)["gen"]
@@ -243,9 +243,9 @@ class Lms:
         token = link.split("#token=", 1)[-1].split("&", 1)[0].strip()
         row = self.course.store.token(token_hash(token)) if token else None
         member = self.course.store.member(cid, row["person"]) if row and row["course_id"] == cid else None
-        good = (member is not None and row["kind"] == "student"
-                and self.course.token_of(cid, "student", member["student"], member["gen"]) == token)  # fmt: skip
-        if not good or member["lti_user"] or self.course.store.by_lti(cid, "student", who) is not None:
+        good = (member is not None and row["kind"] == Kind.STUDENT
+                and self.course.token_of(cid, Kind.STUDENT, member["student"], member["gen"]) == token)  # fmt: skip
+        if not good or member["lti_user"] or self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
             return refused("Not a link of this course", "That link is not a current roster link of this course "
                            "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
         row = {"student": member["student"], "name": member["name"], "email": member["email"],
@@ -263,7 +263,7 @@ class Lms:
             if candidate and student_name(str(candidate))[:60].strip("._"):
                 stem = student_name(str(candidate))[:60].strip("._")
                 break
-        taken = self.course.store.member if kind == "student" else self.course.store.staff_member
+        taken = self.course.store.member if kind == Kind.STUDENT else self.course.store.staff_member
         pid = stem
         while taken(cid, pid) is not None:
             pid = f"{stem[:60]}-{secrets.token_hex(2)}"
@@ -364,18 +364,18 @@ class Lms:
                 if (m.get("status") or "Active") != "Active":
                     continue
                 role = course_role(m.get("roles") or [])
-                if role not in ("student",):
+                if role != Role.STUDENT:
                     continue
                 seen += 1
                 who = f"{platform['id']}:{m['user_id']}"
-                if self.course.store.by_lti(cid, "student", who) is not None:
+                if self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
                     continue
                 email = m.get("email") or ""
                 if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
                     unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
                     continue
                 launch = _Member(m)
-                self.person(cid, platform, launch, "student")
+                self.person(cid, platform, launch, Role.STUDENT)
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
         return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}

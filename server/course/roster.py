@@ -14,6 +14,7 @@ import secrets
 from datetime import datetime
 
 from server.core.errors import Forbidden, Invalid, NotFound
+from server.core.roles import Kind
 from server.core.security import token_hash
 from server.course.base import CourseBase, iso, not_found
 from server.jobs.store import JobStore
@@ -58,7 +59,7 @@ class Roster(CourseBase):
 
     def _student_link(self, cid: str, r: dict, base: str, aid: str | None, new: bool) -> dict:
         member = self.store.member(cid, r["student"])
-        token = self.token_of(cid, "student", member["student"], member["gen"])
+        token = self.token_of(cid, Kind.STUDENT, member["student"], member["gen"])
         link = self._link(base, aid, token) if aid else self.course_link(base, cid, token)
         out = {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,
                "link": link, "new": new}  # fmt: skip
@@ -75,7 +76,7 @@ class Roster(CourseBase):
         link sent before stops working, in every assignment of the course; their workspace jobs move."""
         rows = self._roster(cid, aid)
         for r in rows:
-            self.renew(cid, "student", r["student"], jobs)
+            self.renew(cid, Kind.STUDENT, r["student"], jobs)
         return [self._student_link(cid, r, base, aid, True) for r in rows]
 
     def _roster(self, cid: str, aid: str | None) -> list[dict]:
@@ -89,7 +90,7 @@ class Roster(CourseBase):
         row = self.store.student(aid, student)
         if row is None:
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
-        token = self.renew(a["course_id"], "student", student, jobs)
+        token = self.renew(a["course_id"], Kind.STUDENT, student, jobs)
         return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
 
     def renew(self, cid: str, kind: str, person: str, jobs: JobStore) -> str:
@@ -117,7 +118,7 @@ class Roster(CourseBase):
                 "(TRACER_MAX_JOINS_PER_ASSIGNMENT): ask your instructor for a link of the roster"
             )
             raise Forbidden([{"path": "", "message": message}])
-        token = self.token_of(a["course_id"], "student", sid, 0)
+        token = self.token_of(a["course_id"], Kind.STUDENT, sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
     def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:

@@ -28,6 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from server.core.db import Tables
+from server.core.roles import Kind
 from server.grading.store import GradingStore
 
 DEFAULT_COURSE = "default"  # the course of the assignments from before courses, and of those published without one
@@ -226,7 +227,7 @@ class CourseStore(Tables):
 
     def by_lti(self, cid: str, kind: str, lti_user: str) -> dict | None:
         """The member (kind student) or staff member of a course that an LMS knows by `lti_user`."""
-        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
+        table, key = ("course_members", "student") if kind == Kind.STUDENT else ("course_staff", "person")
         row = self.db.execute(
             f"SELECT *, {key} AS person FROM {table} WHERE course_id = ? AND lti_user = ?", (cid, lti_user)
         ).fetchone()
@@ -254,7 +255,7 @@ class CourseStore(Tables):
 
     def next_gen(self, cid: str, kind: str, person: str) -> int:
         """A new generation of someone's token: every token of theirs stops working. The new generation."""
-        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
+        table, key = ("course_members", "student") if kind == Kind.STUDENT else ("course_staff", "person")
         with self._tx() as db:
             db.execute(f"UPDATE {table} SET gen = gen + 1 WHERE course_id = ? AND {key} = ?", (cid, person))
             db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = ? AND person = ?", (cid, kind, person))
@@ -284,9 +285,9 @@ class CourseStore(Tables):
             " AND m.course_id = t.course_id AND m.student = t.person WHERE t.token_hash = ?",
             (token_hash,),
         ).fetchone()
-        if row is None or (row["kind"] == "student" and row["self_declared"] is None):
+        if row is None or (row["kind"] == Kind.STUDENT and row["self_declared"] is None):
             return None
-        return "joined" if row["kind"] == "student" and row["self_declared"] else "roster"
+        return "joined" if row["kind"] == Kind.STUDENT and row["self_declared"] else "roster"
 
     def add_joined(self, aid: str, cid: str, row: dict, now: float, most: int) -> bool:
         """A self-declared member on assignment `aid` (an open assignment's join), unless it already has `most` of

@@ -21,6 +21,7 @@ from server.api.deps import (
 )
 from server.api.errors import ApiError
 from server.api.routes.course_common import ERRORS, NOT_FOUND, base_url, staff_assignment
+from server.core.roles import Kind
 from server.core.security import Caller
 from server.course.people import Who
 from server.course.policy import AssignmentIn
@@ -118,7 +119,7 @@ async def publish_in(request: Request, course: Course, caller: Caller, response:
     named = cid is not None  # (a course the caller did not name is not hidden from them: course_staff)
     if cid is None:
         mine = course.store.token(caller.owner) if caller.owner else None
-        cid = mine["course_id"] if mine is not None and mine["kind"] == "staff" else DEFAULT_COURSE
+        cid = mine["course_id"] if mine is not None and mine["kind"] == Kind.STAFF else DEFAULT_COURSE
     course.course_staff(cid, caller, instructor_check(request), "publish", hide=named)
     body = await _assignment_body(request)
     a = await run_in_threadpool(course.publish, body, cid)
@@ -165,7 +166,7 @@ def listing(
     course_id: Annotated[str | None, Query(alias="course", description="only this course's")] = None,
 ) -> dict:
     mine = course.store.token(caller.owner) if caller.owner else None
-    if mine is not None and mine["kind"] == "staff" and course_id in (None, mine["course_id"]):
+    if mine is not None and mine["kind"] == Kind.STAFF and course_id in (None, mine["course_id"]):
         course_id = mine["course_id"]
         course.course_staff(course_id, caller, instructor_check(request))
     else:

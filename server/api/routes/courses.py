@@ -17,6 +17,7 @@ from server.api.errors import ApiError
 from server.api.models import ErrorResponse
 from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in
 from server.api.routes.course_common import base_url, roster_text
+from server.core.roles import Kind, Role
 from server.course.people import ROLES, Who
 from server.course.roster import links_csv
 
@@ -46,7 +47,7 @@ def create(body: CourseIn, request: Request, course: CourseDep, caller: CallerDe
     require_instructor(caller, request)
     c = course.create_course(body.id, body.name)
     response.headers["Location"] = f"/api/courses/{c['id']}"
-    return course.course_view(c["id"], Who(None, "admin"), base_url(request))
+    return course.course_view(c["id"], Who(None, Role.ADMIN), base_url(request))
 
 
 @router.get("", summary="The courses: every one (the admin), or the caller's own (staff, student)")
@@ -192,7 +193,7 @@ def staff_link(
 ) -> Response:
     course.course_staff(cid, caller, instructor_check(request), "staff")
     if renew and course.store.staff_member(cid, person) is not None:
-        course.renew(cid, "staff", person, store)
+        course.renew(cid, Kind.STAFF, person, store)
     out = course.staff_link(cid, person, base_url(request))
     return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
 
