@@ -33,6 +33,7 @@ from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
 from server.api.routes import (
     assignments,
     courses,
+    dashboard,
     grade,
     jobs,
     lms,
@@ -40,11 +41,13 @@ from server.api.routes import (
     own_trees,
     pages,
     reference,
+    roster,
     samples,
     scenes,
     similarity,
     stats,
     status,
+    submissions,
     tools,
 )  # fmt: skip
 from server.checkers.pool import CheckPool
@@ -196,12 +199,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(samples.router)
     app.include_router(scenes.router)
     app.include_router(grade.router)
-    # a student tracer's tree log, compared (docs/own-tracer.md): before assignments' GET .../{sid}/{name} (a
+    # a student tracer's tree log, compared (docs/own-tracer.md): before submissions' GET .../{sid}/{name} (a
     # submission's picture), which would take GET .../{sid}/trees for a picture named "trees"
     app.include_router(own_trees.router)
-    app.include_router(similarity.router)  # before assignments.py, as own_trees
-    app.include_router(stats.router)  # before assignments.py, as similarity
-    app.include_router(assignments.router)
+    app.include_router(similarity.router)  # before submissions.py, as own_trees
+    app.include_router(stats.router)  # before submissions.py, as similarity
+    app.include_router(assignments.router)  # /api/assignments: the assignment, then its roster, submissions, class
+    app.include_router(roster.router)
+    app.include_router(submissions.router)
+    app.include_router(dashboard.router)
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

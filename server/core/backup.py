@@ -7,7 +7,7 @@ A backup is a folder:
   database's file alone lacks the commits still in its -wal file, and a copy taken mid-write is torn;
 - `files/`: every other file of the data directory (job images, grading runs' outputs in grades/, course
   submissions in course/, LTI keys in lti/, ...), copied AFTER the snapshot. A file is written before the row
-  that names it (server/course/service.py: the file, then its row), so every file a row of the snapshot names
+  that names it (server/course/submissions.py: the file, then its row), so every file a row of the snapshot names
   was there to copy (unless the janitor removed an old job meanwhile). Files made after the snapshot come too;
   a server started on the restore removes what no row names (the janitor). Left out: what a server remakes
   (the radiosity cache, the examples' previews), its locks, half-written files (`.<pid>.<thread>.tmp...`, see

@@ -43,6 +43,8 @@ import urllib.request
 import uuid
 from pathlib import Path
 
+from server.core.roles import STAFF, Role
+
 DEFAULT_SERVER = "http://127.0.0.1:8000"
 TIMEOUT = 120  # seconds: publishing validates the spec and its reference scene in the request
 
@@ -224,7 +226,7 @@ def staff_add(client: Client, args) -> int:
     body = json.dumps({"id": args.id, "name": args.name or args.id, "email": args.email or "", "role": args.role})
     s = client.json("POST", f"/api/courses/{args.course}/staff", body.encode(), "application/json")
     print(s["link"])
-    print(f"{s['name']} is a{'n' if s['role'] == 'instructor' else ''} {s['role']} of {args.course}: send them the "
+    print(f"{s['name']} is a{'n' if s['role'] == Role.INSTRUCTOR else ''} {s['role']} of {args.course}: send them the "
           "link above (it carries their token)", file=sys.stderr)  # fmt: skip
     return 0
 
@@ -292,7 +294,7 @@ def parser() -> argparse.ArgumentParser:
     st = sub.add_parser("staff-add", parents=[common], help="add an instructor or a TA to a course; prints their link")
     st.add_argument("course", help="the course's id")
     st.add_argument("id", help="their id (letters, digits, . _ -)")
-    st.add_argument("--role", required=True, choices=("instructor", "ta"))
+    st.add_argument("--role", required=True, choices=[str(r) for r in STAFF])
     st.add_argument("--name")
     st.add_argument("--email")
     return p

@@ -26,8 +26,10 @@ import anyio
 
 from server.core.errors import Conflict, Forbidden, Invalid, NotFound, Unavailable
 from server.core.security import Caller
+from server.course.base import iso
+from server.course.people import Who
 from server.course.policy import Feedback, When
-from server.course.service import Course, Who, iso
+from server.course.service import Course
 from server.jobs.lifecycle import RAYTREE_PRIORITY
 from server.jobs.service import JobService
 from tracer.grading import tasks

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import statistics
 
-from server.course.service import Course, Who, iso, status_of
+from server.course.base import iso, status_of
+from server.course.people import Who
+from server.course.service import Course
 
 PENDING = ("queued", "grading")
 

@@ -16,11 +16,7 @@ nonce, state); this module is what a checked launch means to a course.
 - **A link is an assignment.** A resource link made by Deep Linking carries `custom.assignment`; one made
   otherwise is bound the first time an instructor launches it and picks one. `course_lti_links` keeps each
   link's assignment and its AGS line item.
-- **Grades back** are rows first (`course_lti_scores`, durable): when a linked student's counting grade changes
-  and the policy shows the score to them (now, or after their cut-off), a row with the score is kept, then
-  posted by the poster thread; a platform that is down leaves the row pending, tried again later with a
-  growing wait (nothing is lost across restarts); the dashboard counts what is pending. Timestamps are strictly
-  increasing per user and line item, as the AGS specification requires.
+- **Grades back** are rows first, posted by a thread: server/course/lms_poster.py. The tables: lms_store.py.
 - **The roster from the LMS**: the NRPS memberships of a context, every page (`rel="next"`), as members and
   staff of its course, at each staff launch and on demand; the dashboard then shows who has not submitted.
 """
@@ -34,232 +30,25 @@ import re
 import secrets
 import threading
 from collections.abc import Callable
-from datetime import UTC, datetime
 
 from server.core.answers import Answer, Page, Redirect
-from server.core.db import Tables
+from server.core.roles import STAFF, Kind, Role
 from server.core.security import token_hash
+from server.course.lms_poster import Poster
+from server.course.lms_store import LmsStore
 from server.course.people import COURSE_ID
-from server.course.policy import Feedback, When
 from server.course.service import Course
 from server.lti.pages import page as lti_page
 from server.lti.roles import course_role
 from server.lti.services import deep_link_response
-from server.lti.services import score as score_json
 from server.lti.store import on_platform, platform_origins, url_origin
 from tracer.grading import student_name
 from tracer.tools.spreadsheet import clean_name
 
 log = logging.getLogger(__name__)
 
-SCHEMA = """
-CREATE TABLE IF NOT EXISTS course_lti_contexts (
-    platform_id TEXT NOT NULL,            -- server/lti's platform row
-    context_id TEXT NOT NULL,             -- the LMS course's id
-    course_id TEXT NOT NULL,
-    title TEXT NOT NULL DEFAULT '',
-    memberships_url TEXT,                 -- its NRPS endpoint, from the latest launch that had one
-    synced_at REAL,                       -- the last roster read from it
-    created_at REAL NOT NULL,
-    PRIMARY KEY (platform_id, context_id)
-);
-CREATE TABLE IF NOT EXISTS course_lti_links (
-    platform_id TEXT NOT NULL,
-    resource_link_id TEXT NOT NULL,
-    assignment_id TEXT,                   -- NULL until an instructor picks one
-    lineitem TEXT,                        -- its AGS line item URL (grades go there)
-    course_id TEXT NOT NULL,
-    created_at REAL NOT NULL,
-    PRIMARY KEY (platform_id, resource_link_id)
-);
-CREATE TABLE IF NOT EXISTS course_lti_picks (
-    id TEXT PRIMARY KEY,                  -- a one-time secret in the picker's form
-    platform_id TEXT NOT NULL,
-    deployment_id TEXT NOT NULL,
-    course_id TEXT NOT NULL,
-    settings TEXT NOT NULL,               -- the deep_linking_settings claim (JSON); '' for a link to bind
-    resource_link_id TEXT,                -- a link to bind to the picked assignment (no deep linking)
-    expires REAL NOT NULL
-);
-CREATE TABLE IF NOT EXISTS course_lti_scores (
-    id INTEGER PRIMARY KEY AUTOINCREMENT,
-    platform_id TEXT NOT NULL,
-    lineitem TEXT NOT NULL,
-    user_id TEXT NOT NULL,                -- the LMS's sub
-    assignment_id TEXT NOT NULL,
-    student TEXT NOT NULL,
-    score_given REAL NOT NULL,
-    score_max REAL NOT NULL,
-    timestamp REAL NOT NULL,              -- the score's time (strictly increasing per line item and user)
-    state TEXT NOT NULL,                  -- pending, sent, superseded (a newer score replaced it unsent)
-    tries INTEGER NOT NULL DEFAULT 0,
-    next_try REAL NOT NULL,
-    error TEXT,
-    created_at REAL NOT NULL,
-    sent_at REAL
-);
-CREATE INDEX IF NOT EXISTS course_lti_scores_due ON course_lti_scores (state, next_try);
-CREATE INDEX IF NOT EXISTS course_lti_scores_user ON course_lti_scores (lineitem, user_id, id);
-"""
-
 PICK_SECONDS = 600  # a picker's form (and a claim form) is good this long
 MAX_CLAIMS = 10000  # claim forms held at once (the oldest dropped past it)
-RETRY_FIRST, RETRY_MAX = 30.0, 3600.0  # seconds: the wait after a failed post doubles from the first to the most
-POST_BATCH = 50  # scores posted per round of the poster
-SWEEP_SECONDS = 60.0  # how often the poster looks for scores released by a deadline
-STAFF = ("instructor", "ta")
-
-
-class LmsStore(Tables):
-    def __init__(self, data_dir):
-        super().__init__(data_dir, SCHEMA)
-
-    def context(self, platform_id: str, context_id: str) -> dict | None:
-        row = self.db.execute(
-            "SELECT * FROM course_lti_contexts WHERE platform_id = ? AND context_id = ?", (platform_id, context_id)
-        ).fetchone()
-        return dict(row) if row else None
-
-    def contexts(self, course_id: str) -> list[dict]:
-        rows = self.db.execute("SELECT * FROM course_lti_contexts WHERE course_id = ?", (course_id,))
-        return [dict(r) for r in rows]
-
-    def link_context(self, platform_id: str, context_id: str, course_id: str, title: str, now: float) -> None:
-        self.db.execute(
-            "INSERT INTO course_lti_contexts (platform_id, context_id, course_id, title, created_at)"
-            " VALUES (?, ?, ?, ?, ?) ON CONFLICT (platform_id, context_id)"
-            " DO UPDATE SET course_id = excluded.course_id",
-            (platform_id, context_id, course_id, title, now),
-        )
-
-    def set_memberships(self, platform_id: str, context_id: str, url: str | None, synced_at: float | None) -> None:
-        if url is not None:
-            self.db.execute(
-                "UPDATE course_lti_contexts SET memberships_url = ? WHERE platform_id = ? AND context_id = ?",
-                (url, platform_id, context_id),
-            )
-        if synced_at is not None:
-            self.db.execute(
-                "UPDATE course_lti_contexts SET synced_at = ? WHERE platform_id = ? AND context_id = ?",
-                (synced_at, platform_id, context_id),
-            )
-
-    def link(self, platform_id: str, link_id: str) -> dict | None:
-        row = self.db.execute(
-            "SELECT * FROM course_lti_links WHERE platform_id = ? AND resource_link_id = ?", (platform_id, link_id)
-        ).fetchone()
-        return dict(row) if row else None
-
-    def keep_link(self, platform_id, link_id, course_id, aid, lineitem, now) -> None:
-        self.db.execute(
-            "INSERT INTO course_lti_links (platform_id, resource_link_id, assignment_id, lineitem, course_id,"
-            " created_at) VALUES (?, ?, ?, ?, ?, ?) ON CONFLICT (platform_id, resource_link_id) DO UPDATE SET"
-            " assignment_id = COALESCE(excluded.assignment_id, assignment_id),"
-            " lineitem = COALESCE(excluded.lineitem, lineitem)",
-            (platform_id, link_id, aid, lineitem, course_id, now),
-        )
-
-    def links(self, aid: str) -> list[dict]:
-        rows = self.db.execute("SELECT * FROM course_lti_links WHERE assignment_id = ?", (aid,))
-        return [dict(r) for r in rows]
-
-    def linked_assignments(self) -> list[str]:
-        rows = self.db.execute(
-            "SELECT DISTINCT assignment_id FROM course_lti_links"
-            " WHERE assignment_id IS NOT NULL AND lineitem IS NOT NULL"
-        )
-        return [r[0] for r in rows]
-
-    def new_pick(self, row: dict) -> str:
-        pid = secrets.token_urlsafe(24)
-        self.db.execute(
-            "INSERT INTO course_lti_picks (id, platform_id, deployment_id, course_id, settings, resource_link_id,"
-            " expires) VALUES (?, ?, ?, ?, ?, ?, ?)",
-            (pid, row["platform_id"], row["deployment_id"], row["course_id"], row["settings"],
-             row.get("resource_link_id"), row["expires"]),
-        )  # fmt: skip
-        return pid
-
-    def take_pick(self, pid: str, now: float) -> dict | None:
-        with self._tx() as db:
-            row = db.execute("SELECT * FROM course_lti_picks WHERE id = ?", (pid,)).fetchone()
-            db.execute("DELETE FROM course_lti_picks WHERE id = ? OR expires < ?", (pid, now))
-        return dict(row) if row and row["expires"] >= now else None
-
-    # -- scores --------------------------------------------------------------------------------
-
-    def last_score(self, lineitem: str, user_id: str) -> dict | None:
-        row = self.db.execute(
-            "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? AND state != 'superseded'"
-            " ORDER BY id DESC LIMIT 1",
-            (lineitem, user_id),
-        ).fetchone()
-        return dict(row) if row else None
-
-    def add_score(self, row: dict, now: float) -> bool:
-        """Keep a score to post, unless the latest one for its line item and user has the same numbers; an
-        unsent older one is superseded. Its timestamp comes after every earlier one's. True if kept."""
-        with self._tx() as db:
-            last = db.execute(
-                "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? ORDER BY id DESC LIMIT 1",
-                (row["lineitem"], row["user_id"]),
-            ).fetchone()
-            live = db.execute(
-                "SELECT score_given, score_max FROM course_lti_scores WHERE lineitem = ? AND user_id = ?"
-                " AND state != 'superseded' ORDER BY id DESC LIMIT 1",
-                (row["lineitem"], row["user_id"]),
-            ).fetchone()
-            if live is not None and (live[0], live[1]) == (row["score_given"], row["score_max"]):
-                return False
-            stamp = max(now, last["timestamp"] + 0.001) if last is not None else now
-            db.execute(
-                "UPDATE course_lti_scores SET state = 'superseded' WHERE lineitem = ? AND user_id = ?"
-                " AND state = 'pending'",
-                (row["lineitem"], row["user_id"]),
-            )
-            db.execute(
-                "INSERT INTO course_lti_scores (platform_id, lineitem, user_id, assignment_id, student, score_given,"
-                " score_max, timestamp, state, next_try, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'pending', ?, ?)",
-                (row["platform_id"], row["lineitem"], row["user_id"], row["assignment_id"], row["student"],
-                 row["score_given"], row["score_max"], stamp, now, now),
-            )  # fmt: skip
-        return True
-
-    def due(self, now: float, limit: int) -> list[dict]:
-        rows = self.db.execute(
-            "SELECT * FROM course_lti_scores WHERE state = 'pending' AND next_try <= ? ORDER BY id LIMIT ?",
-            (now, limit),
-        )
-        return [dict(r) for r in rows]
-
-    def sent(self, sid: int, now: float) -> None:
-        self.db.execute(
-            "UPDATE course_lti_scores SET state = 'sent', sent_at = ?, error = NULL WHERE id = ? AND state = 'pending'",
-            (now, sid),
-        )
-
-    def failed(self, sid: int, error: str, next_try: float) -> None:
-        self.db.execute(
-            "UPDATE course_lti_scores SET tries = tries + 1, error = ?, next_try = ? WHERE id = ?",
-            (error[:500], next_try, sid),
-        )
-
-    def scores(self, aid: str) -> dict:
-        """What the dashboard says of the grades sent back: counts by state and the latest error."""
-        counts = dict(
-            self.db.execute(
-                "SELECT state, COUNT(*) FROM course_lti_scores WHERE assignment_id = ? AND state != 'superseded'"
-                " GROUP BY state",
-                (aid,),
-            ).fetchall()
-        )
-        err = self.db.execute(
-            "SELECT error, next_try FROM course_lti_scores WHERE assignment_id = ? AND state = 'pending'"
-            " AND error IS NOT NULL ORDER BY id DESC LIMIT 1",
-            (aid,),
-        ).fetchone()
-        return {"pending": counts.get("pending", 0), "sent": counts.get("sent", 0), "error": err[0] if err else None,
-                "next_try": err[1] if err else None}  # fmt: skip
 
 
 def lti_user(platform: dict, sub: str) -> str:
@@ -289,15 +78,16 @@ class Lms:
         self.course, self.services, self.keys, self.platforms = course, services, keys, platforms
         self.store = LmsStore(course.settings.data_dir)
         self.now = clock or course.now
-        self._wake = threading.Event()
-        self._changed: set[tuple[str, str]] = set()
         self._lock = threading.Lock()
-        self._posting = threading.Lock()
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
-        self._swept = 0.0
         self._claims: dict[str, dict] = {}  # claim forms of learners whose email is a roster student's
-        course.runs.listeners.append(self._graded)
+        self.poster = Poster(course, self.store, services, platforms, lambda: self.now())
+
+    def start(self) -> None:
+        """The poster thread (grades back): the rows a stopped server left are posted too."""
+        self.poster.start()
+
+    def stop(self) -> None:
+        self.poster.stop()
 
     # -- the launch ----------------------------------------------------------------------------
 
@@ -322,15 +112,15 @@ class Lms:
                            "yet: your instructor opens it once from the LMS, then it opens for you too.")  # fmt: skip
         if launch.nrps and launch.nrps.get("context_memberships_url"):
             self.store.set_memberships(platform["id"], context["id"], launch.nrps["context_memberships_url"], None)
-        if (role == "student" and launch.email and not platform.get("trust_emails")
-                and self.course.store.by_lti(cid, "student", lti_user(platform, launch.sub)) is None
+        if (role == Role.STUDENT and launch.email and not platform.get("trust_emails")
+                and self.course.store.by_lti(cid, Kind.STUDENT, lti_user(platform, launch.sub)) is None
                 and self.email_match(cid, launch.email) is not None):  # fmt: skip
             return self.claim_page(cid, platform, launch)
         person, token = self.person(cid, platform, launch, role)
         if role in STAFF and launch.nrps:
             threading.Thread(target=self.sync_quietly, args=(cid,), name="lti-roster", daemon=True).start()
         if launch.message_type == "LtiDeepLinkingRequest":
-            if role != "instructor":
+            if role != Role.INSTRUCTOR:
                 return refused("Only an instructor picks", "Adding the tool to the course is an instructor's.")
             return self.picker(cid, platform, launch.deployment_id, launch.deep_linking or {}, None, token, base)
         link_id = (launch.resource_link or {}).get("id")
@@ -348,9 +138,9 @@ class Lms:
         if link_id:
             self.store.keep_link(platform["id"], link_id, cid, aid, lineitem, self.now())
         if not aid:  # a course's navigation link, or an assignment link not bound yet
-            if role == "student":  # their course's page: the assignments they are on
+            if role == Role.STUDENT:  # their course's page: the assignments they are on
                 return Redirect(f"/courses/{cid}#token={token}")
-            if role == "ta":
+            if role == Role.TA:
                 return Redirect(f"/course#token={token}")
             return self.picker(cid, platform, launch.deployment_id, None, link_id, token, base)
         if role in STAFF:
@@ -382,7 +172,7 @@ class Lms:
         known = self.store.context(platform["id"], context["id"])
         if known is not None:
             return known["course_id"]
-        if role != "instructor":
+        if role != Role.INSTRUCTOR:
             return None
         title = " ".join(str(context.get("title") or context.get("label") or "LMS course").split())[:200]
         stem = re.sub(r"[^A-Za-z0-9_-]+", "-", str(context.get("label") or title)).strip("-_")[:30] or "lms"
@@ -399,12 +189,12 @@ class Lms:
         name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
         name = " ".join(clean_name(name)[0].split())[:200]  # no control or bidi override into pages and exports
         email = launch.email or ""
-        kind = "staff" if role in STAFF else "student"
+        kind = Kind.STAFF if role in STAFF else Kind.STUDENT
         known = self.course.store.by_lti(cid, kind, who)
-        if known is None and kind == "student" and email and platform.get("trust_emails"):
+        if known is None and kind == Kind.STUDENT and email and platform.get("trust_emails"):
             known = self.email_match(cid, email)  # only where the platform's emails identify people
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
-        if kind == "staff":
+        if kind == Kind.STAFF:
             self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
                                               "lti_user": who}, self.now())  # fmt: skip
             gen = self.course.store.staff_member(cid, pid)["gen"]
@@ -453,9 +243,9 @@ class Lms:
         token = link.split("#token=", 1)[-1].split("&", 1)[0].strip()
         row = self.course.store.token(token_hash(token)) if token else None
         member = self.course.store.member(cid, row["person"]) if row and row["course_id"] == cid else None
-        good = (member is not None and row["kind"] == "student"
-                and self.course.token_of(cid, "student", member["student"], member["gen"]) == token)  # fmt: skip
-        if not good or member["lti_user"] or self.course.store.by_lti(cid, "student", who) is not None:
+        good = (member is not None and row["kind"] == Kind.STUDENT
+                and self.course.token_of(cid, Kind.STUDENT, member["student"], member["gen"]) == token)  # fmt: skip
+        if not good or member["lti_user"] or self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
             return refused("Not a link of this course", "That link is not a current roster link of this course "
                            "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
         row = {"student": member["student"], "name": member["name"], "email": member["email"],
@@ -473,7 +263,7 @@ class Lms:
             if candidate and student_name(str(candidate))[:60].strip("._"):
                 stem = student_name(str(candidate))[:60].strip("._")
                 break
-        taken = self.course.store.member if kind == "student" else self.course.store.staff_member
+        taken = self.course.store.member if kind == Kind.STUDENT else self.course.store.staff_member
         pid = stem
         while taken(cid, pid) is not None:
             pid = f"{stem[:60]}-{secrets.token_hex(2)}"
@@ -553,113 +343,6 @@ class Lms:
         )
         return page("Return to the LMS", body, extra_csp=csp)
 
-    # -- grades back ---------------------------------------------------------------------------
-
-    def _graded(self, run_id: str, sid: str) -> None:
-        """From a grading run's thread: a submission's row moved: its student's grade is looked at again by the
-        poster (cheap here: the run's thread must not wait on an LMS)."""
-        if len(sid) != 32:
-            return
-        whose = self.course.store.submission_of(sid)
-        if whose is None:
-            return
-        with self._lock:
-            self._changed.add(whose)
-        self._wake.set()
-
-    def release(self, aid: str, student: str) -> bool:
-        """Keep the student's grade to send, if it is linked, theirs is graded and the policy shows the score
-        to them now. True if a new score was kept."""
-        a = self.course.store.assignment(aid)
-        member = self.course.store.member(a["course_id"], student) if a else None
-        if member is None or not member["lti_user"]:
-            return False
-        st = self.course.store.student(aid, student)
-        if st is None:
-            return False
-        feedback = Feedback.model_validate(a["policy"]["feedback"])
-        when = feedback.score_when()
-        if when == When.never or (when == When.after_deadline and self.now() < self.course.deadlines(a, st)[1]):
-            return False
-        c = self.course.counting(a, self.course.submissions(a, student))
-        if c is None:
-            return False
-        penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
-        platform_id, sub = member["lti_user"].split(":", 1)
-        kept = False
-        for link in self.store.links(aid):
-            if link["platform_id"] != platform_id or not link["lineitem"]:
-                continue
-            row = {"platform_id": platform_id, "lineitem": link["lineitem"], "user_id": sub, "assignment_id": aid,
-                   "student": student, "score_given": round(c["score"] * (1 - penalty), 6),
-                   "score_max": c["max_score"]}  # fmt: skip
-            kept |= self.store.add_score(row, self.now())
-        return kept
-
-    def post_due(self) -> int:
-        """Post the scores that are due (one round at a time); a failure leaves its row pending with a later
-        try. The number posted."""
-        with self._posting:
-            return self._post_due()
-
-    def _post_due(self) -> int:
-        posted = 0
-        for row in self.store.due(self.now(), POST_BATCH):
-            platform = self.platforms(row["platform_id"])
-            if platform is None:
-                self.store.failed(row["id"], "the platform is no longer registered", self.now() + RETRY_MAX)
-                continue
-            stamp = datetime.fromtimestamp(row["timestamp"], UTC).isoformat(timespec="milliseconds")
-            body = score_json(row["user_id"], row["score_given"], row["score_max"], stamp.replace("+00:00", "Z"))
-            try:
-                self.services.post_score(platform, row["lineitem"], body)
-            except Exception as e:  # noqa: BLE001 (a platform down, a refusal: kept, tried again later)
-                wait = min(RETRY_MAX, RETRY_FIRST * 2 ** min(row["tries"], 12))
-                self.store.failed(row["id"], str(e) or type(e).__name__, self.now() + wait)
-                log.warning(
-                    "grade for %s on %s not sent (%s); again in %.0f s", row["user_id"], row["lineitem"], e, wait
-                )
-                continue
-            self.store.sent(row["id"], self.now())
-            posted += 1
-        return posted
-
-    def sweep(self) -> int:
-        """Scores a deadline released (feedback after the deadline), and those changed since the last look."""
-        with self._lock:
-            changed, self._changed = self._changed, set()
-        kept = sum(self.release(aid, student) for aid, student in changed)
-        if self.now() - self._swept >= SWEEP_SECONDS:
-            self._swept = self.now()
-            for aid in self.store.linked_assignments():
-                a = self.course.store.assignment(aid)
-                if a is None:
-                    continue
-                for m in self.course.store.students(aid):
-                    if m["lti_user"]:
-                        kept += self.release(aid, m["student"])
-        return kept
-
-    def start(self) -> None:
-        self._thread = threading.Thread(target=self._run, name="lti-grades", daemon=True)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._wake.set()
-        if self._thread is not None:
-            self._thread.join(timeout=10)
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                self.sweep()
-                self.post_due()
-            except Exception:  # noqa: BLE001 (the poster carries on: its rows say what is left)
-                log.exception("grades back: a round failed")
-            self._wake.wait(5.0)
-            self._wake.clear()
-
     # -- the roster from the LMS (NRPS) --------------------------------------------------------
 
     def sync_quietly(self, cid: str) -> None:
@@ -681,18 +364,18 @@ class Lms:
                 if (m.get("status") or "Active") != "Active":
                     continue
                 role = course_role(m.get("roles") or [])
-                if role not in ("student",):
+                if role != Role.STUDENT:
                     continue
                 seen += 1
                 who = f"{platform['id']}:{m['user_id']}"
-                if self.course.store.by_lti(cid, "student", who) is not None:
+                if self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
                     continue
                 email = m.get("email") or ""
                 if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
                     unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
                     continue
                 launch = _Member(m)
-                self.person(cid, platform, launch, "student")
+                self.person(cid, platform, launch, Role.STUDENT)
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
         return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}

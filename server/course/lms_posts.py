@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from datetime import UTC, datetime
 
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 
 
 def _iso(t: float | None) -> str | None:

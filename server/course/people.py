@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from server.core.errors import Forbidden, Invalid
+from server.core.roles import STAFF, Role
 
-ROLES = ("instructor", "ta")  # a course's staff
-STAFF_ROLES = ("admin", *ROLES)
+ROLES = STAFF  # a course's staff (server/core/roles.py)
 COURSE_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,39}")
 COURSE_ID_WORDS = "1 to 40 letters, digits, '-' or '_', starting with a letter or digit"
 
@@ -38,7 +38,7 @@ class Who:
     the server's admin, or one of the course's instructors or TAs (`role`)."""
 
     student: dict | None = None
-    role: str = "instructor"  # admin, instructor, ta, or student
+    role: Role = Role.INSTRUCTOR  # admin, instructor, ta, or student
     person: str | None = None  # a staff member's id in the course (None: the admin)
 
     @property
@@ -51,7 +51,7 @@ class Who:
         "regrade": a TA's too)?"""
         if self.student is not None:
             return False
-        if self.role == "ta":
+        if self.role == Role.TA:
             return action in ("follow", "extend", "regrade")
         return True
 

@@ -7,7 +7,7 @@
   assignments and their workspace jobs (`lti_user`: the LMS's user, when they came from one; `every`: enrolled
   in every assignment of the course, the ones published later too).
 - `course_tokens`: the SHA-256 of each token that names a member or a staff member of a course (the token
-  itself is never kept: it is derived from the data directory's secret, server/course/service.py).
+  itself is never kept: it is derived from the data directory's secret, server/course/people.py).
 - `course_assignments`: one per published assignment, in a course: its current version.
 - `course_versions`: every version ever published (an edit adds one, the earlier ones are kept): the spec
   (its reference scene inline), the policy, and its open grading run (server/grading/: the run that grades
@@ -28,84 +28,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from server.core.db import Tables
+from server.core.roles import Kind
+from server.course.schema import SCHEMA
 from server.grading.store import GradingStore
 
 DEFAULT_COURSE = "default"  # the course of the assignments from before courses, and of those published without one
-
-SCHEMA = """
-CREATE TABLE IF NOT EXISTS courses (
-    id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
-    name TEXT NOT NULL,
-    created_at REAL NOT NULL              -- Unix time (s), the API's clock
-);
-CREATE TABLE IF NOT EXISTS course_staff (
-    course_id TEXT NOT NULL,
-    person TEXT NOT NULL,                 -- an id like a roster's
-    name TEXT NOT NULL,
-    email TEXT NOT NULL DEFAULT '',
-    role TEXT NOT NULL,                   -- instructor or ta
-    lti_user TEXT,                        -- '<platform id>:<sub>' when they came from an LMS launch
-    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation (a new link: + 1, the old one stops working)
-    created_at REAL NOT NULL,
-    PRIMARY KEY (course_id, person)
-);
-CREATE TABLE IF NOT EXISTS course_members (
-    course_id TEXT NOT NULL,
-    student TEXT NOT NULL,                -- the roster's id
-    name TEXT NOT NULL,
-    email TEXT NOT NULL DEFAULT '',
-    self_declared INTEGER NOT NULL DEFAULT 0, -- joined an open assignment by a name they typed
-    every INTEGER NOT NULL DEFAULT 0,     -- on every assignment's roster (the course's roster, an LMS's)
-    lti_user TEXT,                        -- '<platform id>:<sub>' when known to an LMS
-    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation
-    created_at REAL NOT NULL,
-    PRIMARY KEY (course_id, student)
-);
-CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);
-CREATE TABLE IF NOT EXISTS course_tokens (
-    token_hash TEXT PRIMARY KEY,          -- SHA-256 (hex) of a token: also the owner of its workspace jobs
-    course_id TEXT NOT NULL,
-    kind TEXT NOT NULL,                   -- student or staff
-    person TEXT NOT NULL,                 -- course_members.student or course_staff.person
-    created_at REAL NOT NULL
-);
-CREATE INDEX IF NOT EXISTS course_tokens_person ON course_tokens (course_id, kind, person);
-CREATE TABLE IF NOT EXISTS course_assignments (
-    id TEXT PRIMARY KEY,                  -- 32 hex digits (an open assignment's link carries it)
-    version INTEGER NOT NULL,             -- the current version (1, 2, ...)
-    created_at REAL NOT NULL,             -- Unix time (s), the API's clock
-    course_id TEXT NOT NULL DEFAULT 'default'
-);
-CREATE TABLE IF NOT EXISTS course_versions (
-    assignment_id TEXT NOT NULL,
-    version INTEGER NOT NULL,
-    spec TEXT NOT NULL,                   -- the grading spec (JSON, reference scene inline)
-    policy TEXT NOT NULL,                 -- deadline, late cut-off and penalty, limits, feedback... (JSON)
-    run_id TEXT NOT NULL,                 -- its open grading run (grading_runs.id)
-    created_at REAL NOT NULL,
-    PRIMARY KEY (assignment_id, version)
-);
-CREATE TABLE IF NOT EXISTS course_enrolments (
-    assignment_id TEXT NOT NULL,
-    student TEXT NOT NULL,                -- course_members.student of the assignment's course
-    deadline REAL,                        -- their extension (Unix time); NULL: the assignment's
-    created_at REAL NOT NULL,
-    PRIMARY KEY (assignment_id, student)
-);
-CREATE TABLE IF NOT EXISTS course_submissions (
-    id TEXT PRIMARY KEY,                  -- 32 hex digits
-    assignment_id TEXT NOT NULL,
-    student TEXT NOT NULL,
-    version INTEGER NOT NULL,             -- the version it is graded against
-    run_id TEXT NOT NULL,                 -- that version's grading run; its row there is keyed by this id
-    kind TEXT NOT NULL,                   -- scene, png or exr
-    file TEXT NOT NULL,                   -- relative to DATA/course/
-    accepted_at REAL NOT NULL,            -- Unix time (s): the API's clock when its body was accepted
-    late INTEGER NOT NULL,                -- after the student's deadline when it came (its view reads the deadline now)
-    handed INTEGER NOT NULL DEFAULT 0     -- its row is in the grading run (a restart hands those that are not)
-);
-CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
-"""
 
 # A roster student as the service reads one (an enrolment joined with its member): the columns of the
 # per-assignment roster of before courses, so that every rule reads a student as it did.
@@ -226,7 +153,7 @@ class CourseStore(Tables):
 
     def by_lti(self, cid: str, kind: str, lti_user: str) -> dict | None:
         """The member (kind student) or staff member of a course that an LMS knows by `lti_user`."""
-        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
+        table, key = ("course_members", "student") if kind == Kind.STUDENT else ("course_staff", "person")
         row = self.db.execute(
             f"SELECT *, {key} AS person FROM {table} WHERE course_id = ? AND lti_user = ?", (cid, lti_user)
         ).fetchone()
@@ -254,7 +181,7 @@ class CourseStore(Tables):
 
     def next_gen(self, cid: str, kind: str, person: str) -> int:
         """A new generation of someone's token: every token of theirs stops working. The new generation."""
-        table, key = ("course_members", "student") if kind == "student" else ("course_staff", "person")
+        table, key = ("course_members", "student") if kind == Kind.STUDENT else ("course_staff", "person")
         with self._tx() as db:
             db.execute(f"UPDATE {table} SET gen = gen + 1 WHERE course_id = ? AND {key} = ?", (cid, person))
             db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = ? AND person = ?", (cid, kind, person))
@@ -284,9 +211,9 @@ class CourseStore(Tables):
             " AND m.course_id = t.course_id AND m.student = t.person WHERE t.token_hash = ?",
             (token_hash,),
         ).fetchone()
-        if row is None or (row["kind"] == "student" and row["self_declared"] is None):
+        if row is None or (row["kind"] == Kind.STUDENT and row["self_declared"] is None):
             return None
-        return "joined" if row["kind"] == "student" and row["self_declared"] else "roster"
+        return "joined" if row["kind"] == Kind.STUDENT and row["self_declared"] else "roster"
 
     def add_joined(self, aid: str, cid: str, row: dict, now: float, most: int) -> bool:
         """A self-declared member on assignment `aid` (an open assignment's join), unless it already has `most` of

@@ -24,6 +24,7 @@ from server.core.errors import ClientGone, Invalid, TookTooLong, TooMany, Unavai
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.placing import Placed, place
 from server.jobs.results import DEVICE, link_files, renderer_version, result_key
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
@@ -297,14 +298,9 @@ class JobService:
             raise Invalid([{"path": "sampler.spp", "message": message}])
         return round(seconds, 3)
 
-    def lane_for(self, seconds: float, asked: Lane | None = None, staff: bool = False) -> Lane:
-        """The lane a render goes to: by its estimate (TRACER_INTERACTIVE_SECONDS). A caller may move it down to
-        the batch lane; only staff (the instructor) may move it up: a student's long render asked for in the
-        interactive lane would hold the worker kept for everyone's short work."""
-        estimated = Lane.interactive if seconds <= self.settings.interactive_seconds else Lane.batch
-        if asked is Lane.batch or (asked is Lane.interactive and staff):
-            return asked
-        return estimated
+    def place(self, seconds: float, lane: Lane | None, priority: int, staff: bool) -> Placed:
+        """A render's lane and priority by who asks (server/jobs/placing.py), with warnings for what was lowered."""
+        return place(seconds, self.settings.interactive_seconds, lane, priority, staff)
 
     def solve_estimate(self, found: dict) -> float:
         """The radiosity solve's estimated seconds (a ray tree's worker refuses it past its limit, unless kept)."""

@@ -11,6 +11,8 @@ role `membership#Instructor` which the specification asks platforms to send besi
 
 from __future__ import annotations
 
+from server.core.roles import Role
+
 LIS = "http://purl.imsglobal.org/vocab/lis/v2/"
 MEMBERSHIP = LIS + "membership"
 URN = "urn:lti:role:ims/lis/"
@@ -47,15 +49,15 @@ STUDENT = {
 }
 
 
-def course_role(roles: list[str] | None) -> str | None:
+def course_role(roles: list[str] | None) -> Role | None:
     """The course role of a launch's (or a member's) `roles`: "instructor", "ta", "student" or None."""
     have = {r.strip() for r in roles or () if isinstance(r, str)}
     if have & TA:
         have -= PRINCIPAL_INSTRUCTOR  # the principal role sent beside the TA's sub-role
     if have & INSTRUCTOR:
-        return "instructor"
+        return Role.INSTRUCTOR
     if have & TA:
-        return "ta"
+        return Role.TA
     if have & STUDENT:
-        return "student"
+        return Role.STUDENT
     return None

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from datetime import timedelta
 
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 from tests.support.api import INSTRUCTOR, bearer, wait_for
 from tests.support.lms import EXAMPLE, T0
 from tests.support.lti_platform import LEARNER
@@ -51,7 +51,7 @@ def test_web_course_lms_the_dashboard_says_grades_wait_for_the_lms_and_then_that
 
         p.down = False
         app.state.clock.now = T0 + timedelta(hours=3)
-        app.state.lms._wake.set()
+        app.state.lms.poster.wake()
         wait_for(lambda: any(s["userId"] == "student-9" for s in p.scores), 60, "the score at the LMS", 0.2)
         page.reload()
         page.wait_for_selector("#lms-note")

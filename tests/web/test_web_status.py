@@ -13,7 +13,7 @@ import pytest
 
 from server.core.backup import backup
 from server.core.migrations import LATEST
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 from tests.support.api import INSTRUCTOR, Server, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.page import DESKTOP, PHONE, Page

@@ -1,7 +1,7 @@
 """Courses (docs/assignments.md, "Courses and staff"): the server's admin creates a course and its staff; a
 course's instructors enrol its roster once (one identity per student across the course's assignments) and
 publish assignments into it; its TAs follow it. A student's token reads the course's page (their assignments).
-The rules live in server/course/service.py and server/course/people.py."""
+The rules live in server/course/ (courses.py, roster.py) and server/course/people.py."""
 
 from __future__ import annotations
 
@@ -15,9 +15,11 @@ from starlette.concurrency import run_in_threadpool
 from server.api.deps import CallerDep, CourseDep, StoreDep, instructor_check, require_instructor
 from server.api.errors import ApiError
 from server.api.models import ErrorResponse
-from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in, roster_text
+from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in
+from server.api.routes.course_common import base_url, roster_text
+from server.core.roles import Kind, Role
 from server.course.people import ROLES, Who
-from server.course.service import links_csv
+from server.course.roster import links_csv
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
@@ -40,16 +42,12 @@ class StaffIn(BaseModel):
     role: str = Field(description=f"one of {', '.join(ROLES)}")
 
 
-def _base(request: Request) -> str:
-    return str(request.base_url)
-
-
 @router.post("", status_code=201, summary="Create a course (the server admin's)", responses=ERRORS)
 def create(body: CourseIn, request: Request, course: CourseDep, caller: CallerDep, response: Response) -> dict:
     require_instructor(caller, request)
     c = course.create_course(body.id, body.name)
     response.headers["Location"] = f"/api/courses/{c['id']}"
-    return course.course_view(c["id"], Who(None, "admin"), _base(request))
+    return course.course_view(c["id"], Who(None, Role.ADMIN), base_url(request))
 
 
 @router.get("", summary="The courses: every one (the admin), or the caller's own (staff, student)")
@@ -76,7 +74,7 @@ def view(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> di
     who = course.role(cid, caller)
     if who is None:
         raise ApiError(404, [{"path": "course", "message": f"no course with id '{cid[:64]}'"}])
-    return course.course_view(cid, who, _base(request))
+    return course.course_view(cid, who, base_url(request))
 
 
 @router.post(
@@ -101,7 +99,7 @@ async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDe
     (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
     course.course_staff(cid, caller, instructor_check(request), "roster")
     text = await roster_text(request)
-    students = await run_in_threadpool(course.course_roster, cid, text, _base(request))
+    students = await run_in_threadpool(course.course_roster, cid, text, base_url(request))
     return _students(students, request)
 
 
@@ -135,7 +133,7 @@ def links(
     `Accept: text/csv` answers CSV (id,name,email,link)."""
     course.course_staff(cid, caller, instructor_check(request), "roster")
     _of_course(course, cid, assignment)
-    return _students(course.links(cid, _base(request), assignment), request)
+    return _students(course.links(cid, base_url(request), assignment), request)
 
 
 @router.post(
@@ -154,7 +152,7 @@ def renew_links(
     for CSV), `new` true."""
     course.course_staff(cid, caller, instructor_check(request), "roster")
     _of_course(course, cid, assignment)
-    return _students(course.renew_links(cid, _base(request), store, assignment), request)
+    return _students(course.renew_links(cid, base_url(request), store, assignment), request)
 
 
 @router.delete("/{cid}/students/{student}", summary="Take a student off the course's roster", responses=NOT_FOUND)
@@ -172,7 +170,7 @@ def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, call
     """The server admin or the course's instructors: `{id, name, email, role}` -> their token and link (the
     /course page with the token), never cached."""
     course.course_staff(cid, caller, instructor_check(request), "staff")
-    out = course.add_staff(cid, body.id, body.name, body.email, body.role, _base(request))
+    out = course.add_staff(cid, body.id, body.name, body.email, body.role, base_url(request))
     headers = {"Cache-Control": "no-store"}
     return Response(json.dumps(out), status_code=201, media_type="application/json", headers=headers)
 
@@ -180,7 +178,7 @@ def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, call
 @router.get("/{cid}/staff", summary="The course's staff (no tokens)", responses=NOT_FOUND)
 def staff(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     course.course_staff(cid, caller, instructor_check(request))
-    return {"staff": course.course_view(cid, Who(), _base(request))["staff"]}
+    return {"staff": course.course_view(cid, Who(), base_url(request))["staff"]}
 
 
 @router.post("/{cid}/staff/{person}/link", summary="A staff member's link: the same, or new (?renew=true)")
@@ -195,8 +193,8 @@ def staff_link(
 ) -> Response:
     course.course_staff(cid, caller, instructor_check(request), "staff")
     if renew and course.store.staff_member(cid, person) is not None:
-        course.renew(cid, "staff", person, store)
-    out = course.staff_link(cid, person, _base(request))
+        course.renew(cid, Kind.STAFF, person, store)
+    out = course.staff_link(cid, person, base_url(request))
     return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
 
 

@@ -1,14 +1,14 @@
 """Grading: an instructor posts an assignment and submissions (a scene, an image, a list, or a zip);
 the renders go through the job queue; the run's state, reports and pictures are read back. Every route
-here is the instructor's (server/core/security.py): 401 without TRACER_INSTRUCTOR_TOKEN when the server has one."""
+here is the instructor's (server/core/security.py): 401 without TRACER_INSTRUCTOR_TOKEN when the server has one.
+The rules (what a class may be, its checks and their refusals) live in server/grading/handin.py: these routes
+translate HTTP."""
 
 from __future__ import annotations
 
 import base64
-import binascii
 import json
 import shutil
-from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, Request, Response
@@ -16,25 +16,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import RunsDep, SettingsDep, require_instructor
-from server.api.errors import ApiError
-from server.api.gate import json_depth
 from server.api.models import ErrorResponse, HandedIn
 from server.core.paths import ROOT
-from server.core.settings import Settings
-from server.grading.runs import STUDENT_FILES, GradeRuns, Handed
-from server.grading.uploads import Upload, receive
-from server.jobs.lifecycle import JobStatus
-from tracer.grading import (
-    AssignmentError,
-    Caps,
-    GradingError,
-    group_names,
-    student_for_file,
-    student_name,
-    unpack_zip,
-)
-from tracer.grading.archive import kept
-from tracer.grading.batch import MAX_FILES, _inside
+from server.grading import handin
+from server.grading.runs import STUDENT_FILES
+from server.grading.uploads import receive
+from tracer.grading import student_for_file
+from tracer.grading.batch import MAX_FILES
 
 INSTRUCTOR = {
     401: {"model": ErrorResponse, "description": "no instructor token, or not the instructor's (WWW-Authenticate)"},
@@ -45,7 +33,6 @@ router = APIRouter(
 )
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
-NO_SUBMISSIONS = "no submissions in it (.json, .png or .exr files)"
 EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"
 UPLOAD = "/api/grade/upload"  # streamed (server/grading/uploads.py): the request gate does not buffer it
 UPLOAD_BODY = {  # the multipart body, for /docs (the route parses it as a stream, not through FastAPI's models)
@@ -90,57 +77,6 @@ class StudentsIn(BaseModel):
     )
 
 
-def _b64(text: str, where: str) -> bytes:
-    try:
-        return base64.b64decode(text, validate=True)
-    except (binascii.Error, ValueError):
-        raise ApiError(422, [{"path": where, "message": "expected base64 data"}]) from None
-
-
-def class_caps(settings: Settings) -> Caps:
-    """How much of a class the service reads (docs/grading.md): the settings' caps."""
-    return Caps(
-        entries=settings.max_class_entries, total_bytes=int(settings.max_class_bytes),
-        entries_name="TRACER_MAX_CLASS_ENTRIES", bytes_name="TRACER_MAX_CLASS_BYTES",
-    )  # fmt: skip
-
-
-def _submissions(body: GradeCreate, settings: Settings, staging: Path | None) -> list[Handed]:
-    """The body's submissions; a zip is unpacked into `staging` (a folder of the run's disk) with the same
-    bounded reader as an upload's: never more than a chunk of it in memory, whatever its headers say."""
-    if body.scene is not None:
-        text = body.scene if isinstance(body.scene, str) else json.dumps(body.scene)
-        return [Handed("submission", "scene", "submission.json", text.encode())]
-    if body.zip is not None:
-        src = staging / "class.zip"
-        src.write_bytes(_b64(body.zip, "zip"))
-        entries = _unpack(src, staging, class_caps(settings), "zip")
-        return [Handed(student, kind, _inside(name, entries), path=entries[name])
-                for student, name, kind in group_names(list(entries))]  # fmt: skip
-    out, seen = [], set()
-    for i, s in enumerate(body.submissions or []):
-        name = student_name(s.student)
-        if name in seen:
-            raise ApiError(422, [{"path": f"submissions[{i}].student", "message": f"'{name}' appears twice"}])
-        seen.add(name)
-        if s.image is not None:
-            data = _b64(s.image, f"submissions[{i}].image")
-            out.append(Handed(name, s.format, f"{name}.{s.format}", data))
-        else:
-            text = s.scene if isinstance(s.scene, str) else json.dumps(s.scene)
-            out.append(Handed(name, "scene", f"{name}.json", text.encode()))
-    if not out:
-        raise ApiError(422, [{"path": "submissions", "message": "no submissions"}])
-    return out
-
-
-def _public(state: dict, runs: GradeRuns) -> dict:
-    out = dict(state)
-    out["url"] = f"/api/grade/{state['id']}"
-    out["reports"] = runs.reports(state["id"]) if state["status"] == JobStatus.done else []
-    return out
-
-
 @router.post("", status_code=202, summary="Grade a scene, an image or a class", responses=ERRORS)
 def grade(body: GradeCreate, runs: RunsDep, settings: SettingsDep, response: Response) -> dict:
     """Validate the assignment (422 with paths under `assignment`), start the run (202): its renders
@@ -149,20 +85,13 @@ def grade(body: GradeCreate, runs: RunsDep, settings: SettingsDep, response: Res
     size limit (TRACER_MAX_BODY_BYTES)."""
     staging = runs.staging() if body.zip is not None else None
     try:
-        state = start_run(runs, body.assignment, _submissions(body, settings, staging))
+        handed = handin.submissions(body.scene, body.submissions, body.zip, settings, staging)
+        state = handin.start(runs, body.assignment, handed)
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
     response.headers["Location"] = f"/api/grade/{state['id']}"
-    return _public(state, runs)
-
-
-def start_run(runs: GradeRuns, assignment: dict, handed: list[Handed]) -> dict:
-    try:
-        return runs.start(assignment, handed)
-    except AssignmentError as e:
-        raise ApiError(422, [{"path": "assignment" + ("." + x["path"] if x["path"] else ""),
-                              "message": x["message"]} for x in e.errors]) from None  # fmt: skip
+    return handin.public(state, runs)
 
 
 @router.post(
@@ -178,65 +107,21 @@ async def upload(request: Request, runs: RunsDep, settings: SettingsDep, respons
     named by its file name). Read as a stream into files, never whole into memory; the class may have
     at most TRACER_MAX_CLASS_ENTRIES entries and TRACER_MAX_CLASS_BYTES unpacked, each file 20 MB (422
     naming the entry past a cap, or a broken one). Then as POST /api/grade: 202 with the run."""
-    caps = class_caps(settings)
+    caps = handin.class_caps(settings)
     staging = runs.staging()
     try:
         kind = request.headers.get("content-type", "")
         up = await receive(kind, request.stream(), staging, caps, settings.max_body_bytes)
-        assignment = _assignment(up.assignment, settings)
+        assignment = handin.json_part(up.assignment, settings.max_json_depth)
         if up.reference is not None:  # the reference scene beside an assignment that names it as a file
-            reference = _assignment(up.reference, settings, "reference", "the reference scene")
-            if not isinstance(assignment.get("reference"), dict):
-                raise ApiError(422, [{"path": "reference", "message": "the assignment has no 'reference' for it"}])
-            assignment["reference"]["scene"] = reference
-        handed = await run_in_threadpool(_unpacked, up, staging, caps)
-        state = await run_in_threadpool(start_run, runs, assignment, handed)
+            reference = handin.json_part(up.reference, settings.max_json_depth, "reference", "the reference scene")
+            handin.with_reference(assignment, reference)
+        handed = await run_in_threadpool(handin.unpacked, up, staging, caps)
+        state = await run_in_threadpool(handin.start, runs, assignment, handed)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     response.headers["Location"] = f"/api/grade/{state['id']}"
-    return _public(state, runs)
-
-
-def _assignment(data: bytes, settings: Settings, where: str = "assignment", what: str = "the assignment") -> dict:
-    """The `assignment` part (or another JSON part) -> its JSON object (422 at `where` when it is not one)."""
-    depth = json_depth(bytes(data))
-    if depth > settings.max_json_depth:
-        message = f"JSON nested {depth} levels deep; at most {settings.max_json_depth} (TRACER_MAX_JSON_DEPTH)"
-        raise ApiError(422, [{"path": where, "message": message}])
-    try:
-        value = json.loads(bytes(data).decode("utf-8"))
-    except UnicodeDecodeError:
-        raise ApiError(422, [{"path": where, "message": "not UTF-8 text"}]) from None
-    except json.JSONDecodeError as e:
-        message = f"invalid JSON at line {e.lineno}, column {e.colno}: {e.msg}"
-        raise ApiError(422, [{"path": where, "message": message}]) from None
-    if not isinstance(value, dict):
-        raise ApiError(422, [{"path": where, "message": f"{what} must be a JSON object {{...}}"}])
-    return value
-
-
-def _unpacked(up: Upload, staging: Path, caps: Caps) -> list[Handed]:
-    """The uploaded class -> one submission per student, its file on disk (a zip unpacked first)."""
-    if up.zip is not None:
-        entries = _unpack(up.zip, staging, caps, "class")
-    else:
-        entries = {name.replace("\\", "/"): path for name, path in up.files if kept(name)}
-        if not group_names(list(entries)):
-            raise ApiError(422, [{"path": "files", "message": NO_SUBMISSIONS}])
-    return [Handed(student, kind, name, path=entries[name]) for student, name, kind in group_names(list(entries))]
-
-
-def _unpack(src: Path, staging: Path, caps: Caps, where: str) -> dict[str, Path]:
-    """A class's zip file -> its files in staging/class/ by relative path (422 at `where` naming the broken
-    entry, or when it holds no submission); the zip itself is removed."""
-    try:
-        entries = unpack_zip(src, staging / "class", caps)
-    except GradingError as e:
-        raise ApiError(422, [{"path": where, "message": str(e)}]) from None
-    src.unlink()
-    if not group_names(list(entries)):
-        raise ApiError(422, [{"path": where, "message": NO_SUBMISSIONS}])
-    return entries
+    return handin.public(state, runs)
 
 
 @router.get("/schema", summary="The JSON Schema of an assignment")
@@ -273,24 +158,14 @@ def example() -> dict:
     return {"assignment": assignment, "submissions": subs}
 
 
-def _run(run_id: str, runs: GradeRuns) -> dict:
-    state = runs.state(run_id)
-    if state is None:
-        raise ApiError(404, [{"path": "id", "message": f"no grading run with id '{run_id[:64]}'"}])
-    return state
-
-
 @router.get("/{run_id}", summary="A grading run: status, render progress, summary and reports", responses=NOT_FOUND)
 def run_state(run_id: str, runs: RunsDep) -> dict:
-    return _public(_run(run_id, runs), runs)
+    return handin.public(handin.state(runs, run_id), runs)
 
 
 @router.get("/{run_id}/summary.{fmt}", summary="The class summary as CSV or JSON", responses=NOT_FOUND)
 def run_summary(run_id: str, fmt: Literal["csv", "json"], runs: RunsDep) -> Response:
-    state = _run(run_id, runs)
-    if state["status"] != JobStatus.done:
-        raise ApiError(404, f"no summary yet: the run is {state['status']}")
-    data = (runs.folder(run_id) / "out" / f"summary.{fmt}").read_bytes()
+    data = handin.summary(runs, run_id, fmt)
     media = "text/csv" if fmt == "csv" else "application/json"
     return Response(data, media_type=media, headers={"Content-Disposition": f'inline; filename="summary.{fmt}"'})
 
@@ -300,10 +175,5 @@ def run_summary(run_id: str, fmt: Literal["csv", "json"], runs: RunsDep) -> Resp
 def student_file(run_id: str, student: str, file: str, runs: RunsDep) -> Response:
     """render.png (their scene, as we rendered it, or their image), reference.png, error_map.png (FLIP),
     rejected.png (pixels the z test rejected), results.json (Gradescope), report.json."""
-    _run(run_id, runs)
-    if file not in STUDENT_FILES or student != student_name(student):
-        raise ApiError(404, [{"path": "file", "message": f"one of: {', '.join(STUDENT_FILES)}"}])
-    path = runs.folder(run_id) / "out" / student / file
-    if not path.is_file():
-        raise ApiError(404, [{"path": "file", "message": f"no {file} for '{student}' (yet)"}])
+    path = handin.student_file(runs, run_id, student, file)
     return Response(path.read_bytes(), media_type=STUDENT_FILES[file], headers={"Cache-Control": "no-store"})

@@ -38,14 +38,6 @@ from server.jobs.store import JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
-STAFF_PRIORITY = (
-    "a priority above 0 is the instructor's: {} was lowered to 0 (the job runs by its lane, then first come, "
-    "first served)"
-)
-STAFF_LANE = (
-    "the interactive lane is for work estimated at most TRACER_INTERACTIVE_SECONDS ({1:g} s); this render is "
-    "estimated at {0:.0f} s, so it goes to the batch lane (only the instructor may move a job up)"
-)
 MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
 ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
 UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
@@ -110,19 +102,13 @@ async def submit(
 
         def queued() -> JobCreated:
             seconds = jobs.estimate(found)
-            lane = jobs.lane_for(seconds, body.lane, staff=caller.instructor)
-            priority, warnings = body.priority, list(found["warnings"])
-            if priority > 0 and not caller.instructor:  # staff's: a student's job is never put ahead of others'
-                priority = 0
-                warnings.append({"path": "priority", "message": STAFF_PRIORITY.format(body.priority)})
-            if body.lane is not None and lane is not body.lane:
-                warnings.append({"path": "lane", "message": STAFF_LANE.format(seconds, settings.interactive_seconds)})
+            placed = jobs.place(seconds, body.lane, body.priority, staff=caller.instructor)
             row = jobs.submit_checked(
                 found,
-                priority=priority,
-                warnings=warnings,
+                priority=placed.priority,
+                warnings=[*found["warnings"], *placed.warnings],
                 estimate=seconds,
-                lane=lane,
+                lane=placed.lane,
                 owner=caller.owner or token_hash(issued),
                 max_active_owner=None if caller.instructor else settings.max_active_jobs_per_token,
             )

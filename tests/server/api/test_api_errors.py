@@ -185,7 +185,7 @@ def test_api_errors_json_depth_read_by_arrays_is_the_regex_s():
     that text to the regular expression."""
     import random
 
-    from server.api.gate import _depth_by_regex, _depth_of_arrays, json_depth
+    from server.core.jsondepth import _depth_by_regex, _depth_of_arrays, json_depth
 
     rng = random.Random(7)
 

@@ -13,7 +13,7 @@ import pytest
 
 from server.core.backup import backup
 from server.core.migrations import LATEST
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 from tests.support.api import INSTRUCTOR, Clock, bearer, long_scene, submit, wait_for
 from tests.support.scene import ROOT
 

@@ -102,7 +102,7 @@ def test_migrations_todays_release_starts_with_every_job_and_grade(upgraded):
 
 def test_migrations_a_migrated_schema_is_a_new_databases(upgraded, tmp_path):
     """A column or index added to a store's schema and forgotten in a migration (or the reverse) shows here."""
-    from server.course.lms import LmsStore
+    from server.course.lms_store import LmsStore
     from server.course.store import CourseStore
     from server.jobs.store import JobStore
     from server.lti.store import LtiStore

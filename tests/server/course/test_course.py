@@ -7,7 +7,8 @@ import pytest
 
 from server.core.errors import Invalid
 from server.core.migrations import migrate
-from server.course.service import Course, parse_roster
+from server.course.roster import parse_roster
+from server.course.service import Course
 from server.course.store import CourseStore
 from server.grading.store import GradingStore
 

@@ -1,4 +1,4 @@
-"""The instructor's dashboard routes (server/course/dashboard.py, the end of server/api/routes/assignments.py):
+"""The instructor's dashboard routes (server/course/dashboard.py, server/api/routes/dashboard.py):
 GET /api/assignments/{id}/dashboard, the roster with each student's state and counting score in one answer,
 and GET /api/assignments/{id}/students/{student}, one student's history. A small assignment (the example's
 reference scene at 32 x 24, so that its reference renders in a second or two) is published; students submit

@@ -14,7 +14,7 @@ from datetime import timedelta
 import httpx
 import pytest
 
-from server.course.lms import LmsStore
+from server.course.lms_store import LmsStore
 from tests.support.api import bearer, wait_for
 from tests.support.lms import ADMIN, EXAMPLE, NRPS, T0
 from tests.support.lti_platform import INSTRUCTOR as LMS_INSTRUCTOR
@@ -69,7 +69,7 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     # back: the next try (after its wait, on the app's clock) sends it
     p.down = False
     app.state.clock.now = T0 + timedelta(hours=2)
-    app.state.lms._wake.set()
+    app.state.lms.poster.wake()
     wait_for(lambda: p.scores, 60, "the score at the LMS", 0.2)
     (score,) = p.scores
     assert score["userId"] == "student-7" and score["scoreGiven"] == pytest.approx(graded["score"])

@@ -1,0 +1,106 @@
+"""What every part of the course service shares: its state (the store, the tokens, the grading runs, the clock, the
+parsed specs), an assignment and a course looked up (404 for an unknown id), a version's spec, a student's deadlines
+and whether feedback is shown now, and the small helpers of the views (`iso`, `status_of`, `report_keys`).
+
+The concepts are mixins of `CourseBase`, each in its module (courses.py, roster.py, assignments.py,
+submissions.py, views.py, grades.py); server/course/service.py joins them into the one `Course` the app holds.
+
+**Time** is `clock()`, the app's `state.clock` (UTC now; tests set it): a submission's time is the clock when
+its body was accepted, and the deadline, the late mark and the feedback shown follow it.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from datetime import datetime
+
+from server.core.errors import NotFound
+from server.core.settings import Settings
+from server.course import policy
+from server.course.people import TokenMaker, Who
+from server.course.policy import Moment
+from server.course.store import CourseStore
+from server.grading.runs import GradeRuns
+from server.jobs.service import Follower
+from tracer.grading import Assignment, load_assignment
+
+REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
+
+
+def not_found(what: str, key: str) -> NotFound:
+    return NotFound([{"path": "id", "message": f"no {what} with id '{key[:64]}'"}])
+
+
+iso = policy.iso
+
+
+class CourseBase:
+    """The state and the lookups every concept's mixin uses."""
+
+    def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):
+        self.settings, self.runs, self.clock = settings, runs, clock
+        self.store = CourseStore(settings.data_dir, self.now())
+        self.tokens = TokenMaker(settings.data_dir / "keys")
+        self.root = settings.data_dir / "course"
+        self.root.mkdir(parents=True, exist_ok=True)
+        self._specs: dict[tuple[str, int], Assignment] = {}  # a version's spec, parsed (versions never change)
+        self._followers: dict[str, set[Follower]] = {}  # a submission's event streams, by its id
+        self._lock = threading.Lock()
+
+    def now(self) -> float:
+        return self.clock().timestamp()
+
+    def assignment(self, aid: str) -> dict:
+        a = self.store.assignment(aid) if len(aid) == 32 else None
+        if a is None:
+            raise not_found("assignment", aid)
+        return a
+
+    def course(self, cid: str) -> dict:
+        c = self.store.course(cid) if isinstance(cid, str) and len(cid) <= 40 else None
+        if c is None:
+            raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])
+        return c
+
+    def spec(self, aid: str, version: int) -> Assignment:
+        """A version's spec, parsed once."""
+        key = (aid, version)
+        if key not in self._specs:
+            row = next(v for v in self.store.versions(aid) if v["version"] == version)
+            self._specs[key] = load_assignment(row["spec"])[0]
+        return self._specs[key]
+
+    @staticmethod
+    def deadlines(a: dict, student: dict | None) -> tuple[float, float]:
+        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much."""
+        p = a["policy"]
+        due = datetime.fromisoformat(p["deadline"]).timestamp()
+        cut = datetime.fromisoformat(p["late_until"]).timestamp() if p["late_until"] else due
+        if student is not None and student["deadline"] is not None:
+            shift = student["deadline"] - due
+            due, cut = student["deadline"], max(student["deadline"], cut + shift)
+        return due, cut
+
+    def moment(self, a: dict, who: Who, now: float) -> Moment:
+        """The caller at `now`, as the feedback policy sees them (server/course/policy.py)."""
+        return Moment(now, self.deadlines(a, who.student)[1], who.instructor)
+
+    def shown(self, when: str, a: dict, who: Who, now: float) -> bool:
+        return self.moment(a, who, now).shows(when)
+
+
+def status_of(sub: dict) -> str:
+    """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
+    stage = sub.get("stage")
+    if stage is None or stage == "submitted":
+        return "queued"
+    if stage != "graded":
+        return "grading"
+    return sub["status"] or "failed"
+
+
+def report_keys(assignment, kind: str) -> list[str]:
+    """The policy's name of each test of a report, in the report's order (an image has no requirements)."""
+    requirements = [r.name for r in assignment.requirements] if kind == "scene" else []
+    return ["validity", *requirements, *assignment.image_tests()]

@@ -1,0 +1,79 @@
+"""The course's tables in DATA/jobs.sqlite3 (what each keeps: server/course/store.py's docstring): the schema of a
+new database; an existing one gets its changes as numbered migrations (server/core/migrations.py)."""
+
+from __future__ import annotations
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS courses (
+    id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
+    name TEXT NOT NULL,
+    created_at REAL NOT NULL              -- Unix time (s), the API's clock
+);
+CREATE TABLE IF NOT EXISTS course_staff (
+    course_id TEXT NOT NULL,
+    person TEXT NOT NULL,                 -- an id like a roster's
+    name TEXT NOT NULL,
+    email TEXT NOT NULL DEFAULT '',
+    role TEXT NOT NULL,                   -- instructor or ta
+    lti_user TEXT,                        -- '<platform id>:<sub>' when they came from an LMS launch
+    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation (a new link: + 1, the old one stops working)
+    created_at REAL NOT NULL,
+    PRIMARY KEY (course_id, person)
+);
+CREATE TABLE IF NOT EXISTS course_members (
+    course_id TEXT NOT NULL,
+    student TEXT NOT NULL,                -- the roster's id
+    name TEXT NOT NULL,
+    email TEXT NOT NULL DEFAULT '',
+    self_declared INTEGER NOT NULL DEFAULT 0, -- joined an open assignment by a name they typed
+    every INTEGER NOT NULL DEFAULT 0,     -- on every assignment's roster (the course's roster, an LMS's)
+    lti_user TEXT,                        -- '<platform id>:<sub>' when known to an LMS
+    gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation
+    created_at REAL NOT NULL,
+    PRIMARY KEY (course_id, student)
+);
+CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);
+CREATE TABLE IF NOT EXISTS course_tokens (
+    token_hash TEXT PRIMARY KEY,          -- SHA-256 (hex) of a token: also the owner of its workspace jobs
+    course_id TEXT NOT NULL,
+    kind TEXT NOT NULL,                   -- student or staff
+    person TEXT NOT NULL,                 -- course_members.student or course_staff.person
+    created_at REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS course_tokens_person ON course_tokens (course_id, kind, person);
+CREATE TABLE IF NOT EXISTS course_assignments (
+    id TEXT PRIMARY KEY,                  -- 32 hex digits (an open assignment's link carries it)
+    version INTEGER NOT NULL,             -- the current version (1, 2, ...)
+    created_at REAL NOT NULL,             -- Unix time (s), the API's clock
+    course_id TEXT NOT NULL DEFAULT 'default'
+);
+CREATE TABLE IF NOT EXISTS course_versions (
+    assignment_id TEXT NOT NULL,
+    version INTEGER NOT NULL,
+    spec TEXT NOT NULL,                   -- the grading spec (JSON, reference scene inline)
+    policy TEXT NOT NULL,                 -- deadline, late cut-off and penalty, limits, feedback... (JSON)
+    run_id TEXT NOT NULL,                 -- its open grading run (grading_runs.id)
+    created_at REAL NOT NULL,
+    PRIMARY KEY (assignment_id, version)
+);
+CREATE TABLE IF NOT EXISTS course_enrolments (
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,                -- course_members.student of the assignment's course
+    deadline REAL,                        -- their extension (Unix time); NULL: the assignment's
+    created_at REAL NOT NULL,
+    PRIMARY KEY (assignment_id, student)
+);
+CREATE TABLE IF NOT EXISTS course_submissions (
+    id TEXT PRIMARY KEY,                  -- 32 hex digits
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    version INTEGER NOT NULL,             -- the version it is graded against
+    run_id TEXT NOT NULL,                 -- that version's grading run; its row there is keyed by this id
+    kind TEXT NOT NULL,                   -- scene, png or exr
+    file TEXT NOT NULL,                   -- relative to DATA/course/
+    accepted_at REAL NOT NULL,            -- Unix time (s): the API's clock when its body was accepted
+    late INTEGER NOT NULL,                -- after the student's deadline when it came (its view reads the deadline now)
+    handed INTEGER NOT NULL DEFAULT 0     -- its row is in the grading run (a restart hands those that are not)
+);
+CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
+"""
