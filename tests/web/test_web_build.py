@@ -444,3 +444,28 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):
     for _ in range(steps):  # one step of the history for each press that turned the beam
         page.keyboard.press("Control+z")
     assert editor_text(page) == text_before
+
+
+def test_web_build_status_names_what_undo_and_redo_took_back(desktop):
+    """After Undo the panel's status names the step as undone (issue #42: it still said "Moved object 0 ..." as if
+    the move were done), after Redo as redone; a step of the form or of typing is named too."""
+    page = desktop.open().page
+    new_scene(page, "empty_room")
+    page.click("#build-add-sphere")
+    page.focus("#build-3d")
+    page.keyboard.press("ArrowRight")
+    status = page.locator("#build-status")
+    assert status.text_content().startswith("Moved object 0 (sphere)")
+    page.click("#btn-undo")
+    assert status.text_content() == "Undid: move object 0 (sphere). Redo does it again."
+    page.click("#btn-undo")
+    assert status.text_content() == "Undid: add a sphere. Redo does it again."
+    page.click("#btn-redo")
+    assert status.text_content() == "Redid: add a sphere."
+    page.click("#btn-redo")
+    assert status.text_content() == "Redid: move object 0 (sphere)."
+    page.click("#scene-text")
+    page.keyboard.press("Control+End")
+    page.keyboard.type(" ")
+    page.keyboard.press("Control+z")
+    assert status.text_content() == "Undid: typing. Redo does it again."

@@ -356,6 +356,13 @@ export class BuildPanel {
     if (announce) this.say(item ? `Picked ${this.describe(this.picked)}.` : "Nothing picked: click a shape in the 3D view or in the rendered picture.");
   }
 
+  /** An undo or redo of the editor (any step: the panel's, the form's, typing): the status names the step as
+   * undone or redone, never as done (it would still say "Moved object 0" after the move was undone). */
+  travelled(kind, what) {
+    const step = what || "the last change";
+    this.say(kind === "undo" ? `Undid: ${step}. Redo does it again.` : `Redid: ${step}.`);
+  }
+
   say(text, bad = false) {
     this.status.textContent = text;
     this.status.dataset.kind = bad ? "warn" : "ok";

@@ -117,6 +117,7 @@ const editor = new SceneEditor($("#editor-panel"), {
     $("#btn-undo").disabled = !canUndo;
     $("#btn-redo").disabled = !canRedo;
   },
+  onTravel: (kind, what) => build?.travelled(kind, what),
 });
 fields = new SceneFields(fieldsForm, editor);
 $("#btn-undo").addEventListener("click", () => editor.undo());
