@@ -469,3 +469,50 @@ def test_web_build_status_names_what_undo_and_redo_took_back(desktop):
     page.keyboard.type(" ")
     page.keyboard.press("Control+z")
     assert status.text_content() == "Undid: typing. Redo does it again."
+
+
+def blocks(light: dict, source: list[float], target: list[float]) -> bool:
+    """Does a quad light cross the segment from a point light to a point of the scene (a shadow ray)?"""
+    c, e1, e2 = light["corner"], light["edge1"], light["edge2"]
+    n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    d = [t - s for s, t in zip(source, target, strict=True)]
+    den = sum(a * b for a, b in zip(n, d, strict=True))
+    if abs(den) < 1e-12:
+        return False
+    t = sum(a * (p - s) for a, p, s in zip(n, c, source, strict=True)) / den
+    if not 0 < t < 1:
+        return False
+    q = [s + t * x - p for s, x, p in zip(source, d, c, strict=True)]
+    u = sum(a * b for a, b in zip(q, e1, strict=True)) / sum(a * a for a in e1)
+    v = sum(a * b for a, b in zip(q, e2, strict=True)) / sum(a * a for a in e2)
+    return 0 <= u <= 1 and 0 <= v <= 1
+
+
+def test_web_build_an_area_light_shadows_no_other_light(desktop):
+    """An area light added to the Empty room went under its point light and blocked it (a dark streak on the floor,
+    issue #42): it goes above the scene's lights (grown to light the floor as much), where no shadow ray of the
+    point light to the floor crosses it; in the Cornell box, beside the ceiling's light, not under it."""
+    page = desktop.open().page
+    new_scene(page, "empty_room")
+    page.click("#build-add-plane")
+    page.click("#build-add-sphere")
+    page.click("#build-light-quad")
+    s = scene(page)
+    point, quad = s["lights"]
+    floor = [[x / 2, 0, z / 2] for x in range(-16, 17) for z in range(-16, 17)]  # the floor around the scene
+    assert not any(blocks(quad, point["position"], p) for p in floor), quad
+    assert quad["corner"][1] > point["position"][1]
+    assert quad["edge1"][0] > 1.5  # grown: up there it lights the floor as much as a 1 x 1 light at 4
+    assert "above the scene's other lights" in page.text_content("#build-status")
+    assert settled(page) == "ok", problems(page)
+
+    new_scene(page, "cornell_box")
+    page.click("#build-light-quad")
+    s = scene(page)
+    ceiling, added = s["lights"]
+    centre = [c + (a + b) / 2 for c, a, b in zip(added["corner"], added["edge1"], added["edge2"], strict=True)]
+    assert centre[1] < 1 and all(-1 < centre[k] < 1 for k in (0, 2))  # inside the box, under its ceiling
+    corners = [[ceiling["corner"][0] + i * 0.5, 0.999, ceiling["corner"][2] + j * 0.5] for i in (0, 1) for j in (0, 1)]
+    assert not any(blocks(added, q, [x / 4, -1, z / 4]) for q in corners for x in range(-3, 4) for z in range(-3, 4))
+    assert "beside the light under the ceiling" in page.text_content("#build-status")
+    assert settled(page) == "ok", problems(page)
