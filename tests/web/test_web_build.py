@@ -516,3 +516,49 @@ def test_web_build_an_area_light_shadows_no_other_light(desktop):
     assert not any(blocks(added, q, [x / 4, -1, z / 4]) for q in corners for x in range(-3, 4) for z in range(-3, 4))
     assert "beside the light under the ceiling" in page.text_content("#build-status")
     assert settled(page) == "ok", problems(page)
+
+
+def box_centre(box: dict) -> list[float]:
+    """A box's centre in the scene: its min and max's middle through its transform (scale, rotate about y, then
+    translate: the boxes here turn about y only)."""
+    c = [(a + b) / 2 for a, b in zip(box["min"], box["max"], strict=True)]
+    t = box.get("transform") or {}
+    k = t.get("scale", 1)
+    c = [x * k for x in c]
+    ry = math.radians((t.get("rotate") or [0, 0, 0])[1])
+    c = [c[0] * math.cos(ry) + c[2] * math.sin(ry), c[1], -c[0] * math.sin(ry) + c[2] * math.cos(ry)]
+    return [x + d for x, d in zip(c, t.get("translate") or [0, 0, 0], strict=True)]
+
+
+def test_web_build_rotate_handle_turns_a_box_in_place(desktop):
+    """The cyan knob turns the picked box about the vertical (issue #42: the example assignment's turned cube needed
+    a typed transform.rotate): dragged sideways, one step of the history; Q and E turn it 15 degrees; its centre
+    stays where it was (a transform turns about the origin: its translate follows)."""
+    page = desktop.open().page
+    new_scene(page, "empty_room")
+    page.click("#build-add-plane")
+    page.click("#build-add-box")
+    s = scene(page)
+    assert page.get_attribute("#build", "data-picked") == "objects.1"
+    before = s["objects"][1]
+    centre = box_centre(before)
+    text_before = editor_text(page)
+    turn = [float(v) for v in page.get_attribute("#build-3d", "data-turn").split(",")]
+    drag(page, turn, (turn[0] + 60, turn[1]))  # 60 px to the right: 30 degrees
+    turned = scene(page)["objects"][1]
+    assert turned["transform"]["rotate"] == [0, 30, 0], turned
+    assert all(abs(p - q) < 0.002 for p, q in zip(box_centre(turned), centre, strict=True)), (turned, centre)
+    assert page.text_content("#build-status").startswith("Rotated object 1 (box): transform ")
+    desktop.shot("build-rotated")
+    page.focus("#build-3d")
+    page.keyboard.press("e")
+    again = scene(page)["objects"][1]
+    assert again["transform"]["rotate"] == [0, 45, 0]
+    assert all(abs(p - q) < 0.002 for p, q in zip(box_centre(again), centre, strict=True))
+    assert settled(page) == "ok", problems(page)
+    page.click("#btn-undo")
+    page.click("#btn-undo")
+    assert editor_text(page) == text_before
+    # what does not turn has no knob: a sphere
+    page.click("#build-add-sphere")
+    assert page.get_attribute("#build-3d", "data-turn") == ""

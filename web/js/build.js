@@ -148,7 +148,7 @@ export class BuildPanel {
       id: "build-3d",
       tabindex: "0",
       role: "img",
-      "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move or scale it",
+      "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move, scale or rotate it",
       "aria-describedby": "build-keys",
     });
     const box = h("div", { class: "canvas-box" }, this.canvas); // the view sizes itself to its box
@@ -176,8 +176,8 @@ export class BuildPanel {
         ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
       ),
       h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
-        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
-        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
+        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the white knob to scale, the cyan knob sideways to rotate about the vertical, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
+        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Q and E rotate 15°, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
         (this.pickedMaterialLabel = h("label", { class: "inline", hidden: true }, "material ", this.pickedMaterial)),
@@ -248,7 +248,7 @@ export class BuildPanel {
   write(writes, what) {
     const label = this.describe(this.picked);
     const ok = this.change((text) => writes.reduce((r, [parts, v]) => setValue(r.text, parts, v), { text }), `${what} ${label}`);
-    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
+    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed", rotate: "Rotated" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
   }
 
   /** A material choice -> [the name to write, the preset's write to make first or null]. */
