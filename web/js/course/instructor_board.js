@@ -304,6 +304,40 @@ export class Board {
     const synced = l.roster_synced_at ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}` : "roster not read from the LMS yet";
     const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; the next try: ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
     note.textContent = `In the LMS: ${l.contexts.join(", ")} (${synced}).${waiting}`;
+    this.renderRefused(note, l.grades?.refused || []);
+  }
+
+  /** The grades the LMS refused for good (a 4xx: not tried again): who, the LMS's status and why, and "Send
+   * again" (POST .../lms/send-again) once the LMS's side is fixed. */
+  renderRefused(note, refused) {
+    let box = this.stats.parentElement.querySelector("#lms-refused");
+    if (!refused.length) return box?.remove();
+    if (!box) {
+      box = h("div", { id: "lms-refused", class: "lms-refused", role: "region", "aria-labelledby": "h-lms-refused" });
+      note.after(box);
+    }
+    const sig = JSON.stringify(refused);
+    if (box.dataset.sig === sig) return; // drawn already (the poll must not clear what "Send again" said)
+    box.dataset.sig = sig;
+    const status = h("span", { class: "muted", role: "status" });
+    const again = h("button", { type: "button", id: "lms-send-again" }, "Send again");
+    again.addEventListener("click", async () => {
+      again.disabled = true;
+      try {
+        const r = await course.lmsSendAgain(this.aid);
+        say(status, "ok", `${r.queued} grade${r.queued === 1 ? "" : "s"} queued to be sent again.`);
+        await this.refresh();
+      } catch (e) {
+        say(status, "error", `Could not queue them again: ${e.message}`);
+      } finally {
+        again.disabled = false;
+      }
+    });
+    box.replaceChildren(
+      h("h3", { id: "h-lms-refused" }, `Grades the LMS refused (${refused.length}): not tried again`),
+      h("ul", {}, ...refused.map((x) => h("li", { dataset: { score: x.id } }, h("strong", {}, x.student), ` ${pts(x.score_given)} / ${pts(x.score_max)}: HTTP ${x.status}, ${x.error}`))),
+      h("p", { class: "hint" }, "Fix it in the LMS first (the gradebook column, the student's enrolment), then send them again.", " ", again, " ", status),
+    );
   }
 
   /** The scores as a bar chart (SVG): tenths of the spec's points, the count over each bar, the mean and
@@ -427,9 +461,9 @@ export class Board {
         tabindex: 0,
         class: "student",
         dataset: { student: r.id, state: r.state, late: r.late, extended: r.extended, pending: r.pending },
-        "aria-label": `${r.name} (${r.id}): ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
+        "aria-label": `${r.name} (${r.id})${r.active === false ? ", inactive" : ""}: ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
       },
-      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null),
+      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null, r.active === false ? h("span", { class: "badge inactive", title: "no longer in the LMS course: kept with their submissions and grades; cannot submit" }, "inactive") : null),
       h(
         "td",
         { class: "state" },
