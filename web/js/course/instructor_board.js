@@ -325,7 +325,7 @@ export class Board {
       again.disabled = true;
       try {
         const r = await course.lmsSendAgain(this.aid);
-        say(status, "ok", `${r.queued} grade${r.queued === 1 ? "" : "s"} queued to be sent again.`);
+        say(this.status, "ok", `${r.queued} refused grade${r.queued === 1 ? "" : "s"} queued to be sent to the LMS again.`);
         await this.refresh();
       } catch (e) {
         say(status, "error", `Could not queue them again: ${e.message}`);
