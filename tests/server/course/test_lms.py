@@ -283,7 +283,9 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
             # they may read their assignment still, not submit
             m = app.state.course.store.member("gfx", "sis-3")
             token = app.state.course.token_of("gfx", "student", "sis-3", m["gen"])
-            assert client.get(f"/api/assignments/{aid}", headers=bearer(token)).status_code == 200
+            brief = client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+            assert brief["student"]["id"] == "sis-3" and brief["inactive"] is True, brief
+            assert client.get(f"/api/assignments/{aid}/submissions", headers=bearer(token)).status_code == 200
             scene = (EXAMPLE / "class" / "alice.json").read_text()
             r = client.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=bearer(token))
             assert r.status_code == 403 and r.json()["errors"][0]["path"] == "student", r.text
@@ -293,6 +295,7 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
         assert r.status_code == 200 and r.json()["back"] >= 1, r.text
         roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
         assert roster["sis-3"]["active"] is True and roster["sis-3"]["left_at"] is None
+        assert "inactive" not in client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
     finally:
         p.members["course-1"].remove(ta)
 

@@ -25,6 +25,7 @@ const FILTERS = [
   ["failed", "ungradable"],
   ["extended", "with an extension"],
   ["self", "self-declared names"],
+  ["inactive", "inactive (left the LMS course)"],
 ];
 const PICTURES = [
   ["render.png", "their render"],
@@ -49,6 +50,7 @@ function matches(row, filter) {
     case "late": return row.late;
     case "extended": return row.extended;
     case "self": return row.self_declared;
+    case "inactive": return row.active === false;
     default: return row.state === filter;
   }
 }
@@ -627,7 +629,7 @@ export class Board {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-student", tabindex: -1 }, `${d.name} (${d.id})`),
-        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null),
+        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null, d.active === false ? h("span", { class: "badge inactive" }, "inactive: left the LMS course, cannot submit") : null),
         h("span", { class: "toolbar" }, h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…"), h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
       ),
       linkOut,
