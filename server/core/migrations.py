@@ -106,6 +106,21 @@ def _m0003_lti_platforms_and_logins(db: sqlite3.Connection) -> None:
                 db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
 
 
+def _m0004_lms_refusals_and_leavers(db: sqlite3.Connection) -> None:
+    """The LMS (issue #41, item 8): a score's HTTP `status` when the LMS refused it for good (its row then
+    `failed`) and its `comment`, and a member's `left_at` (the roster sync found them gone from the LMS course:
+    inactive, kept); in the tables that exist (a database whose server never opened them gets them whole from
+    their stores)."""
+    added = {"course_lti_scores": ("status INTEGER", "comment TEXT"), "course_members": ("left_at REAL",)}
+    for table, columns in added.items():
+        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
+        if not have:
+            continue
+        for column in columns:
+            if column.split()[0] not in have:
+                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -117,6 +132,7 @@ MIGRATIONS: tuple[Migration, ...] = (
     Migration(
         3, "lti: a platform's trust_emails and service_origins, a login's address", _m0003_lti_platforms_and_logins
     ),
+    Migration(4, "lms: a score's refusal status and comment, a member's left_at", _m0004_lms_refusals_and_leavers),
 )
 LATEST = MIGRATIONS[-1].number
 

@@ -229,6 +229,8 @@ class Assignments(CourseBase):
                 submissions_left=left,
                 attempts_used=used,
             )
+            if s.get("left_at") is not None:  # gone from the LMS course: may read all of theirs, not submit
+                out["inactive"] = True
         return out
 
     def reference_png(self, a: dict) -> Path | None:

@@ -50,6 +50,7 @@ def student_rows(course: Course, a: dict) -> list[dict]:
                 "name": st["name"],
                 "email": st["email"],
                 "self_declared": bool(st["self_declared"]),
+                "active": st["left_at"] is None,  # False: gone from the LMS course (kept; cannot submit)
                 "deadline": iso(due),
                 "late_until": iso(cut) if cut > due else None,
                 "extended": st["deadline"] is not None,

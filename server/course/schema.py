@@ -30,6 +30,7 @@ CREATE TABLE IF NOT EXISTS course_members (
     lti_user TEXT,                        -- '<platform id>:<sub>' when known to an LMS
     gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation
     created_at REAL NOT NULL,
+    left_at REAL,                         -- the LMS's roster no longer had them (inactive: kept, cannot submit)
     PRIMARY KEY (course_id, student)
 );
 CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);

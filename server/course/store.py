@@ -38,7 +38,7 @@ DEFAULT_COURSE = "default"  # the course of the assignments from before courses,
 # per-assignment roster of before courses, so that every rule reads a student as it did.
 STUDENT = (
     "SELECT e.assignment_id, e.student, m.name, m.email, m.self_declared, e.deadline, e.created_at, m.course_id,"
-    " m.lti_user FROM course_enrolments e JOIN course_assignments a ON a.id = e.assignment_id"
+    " m.lti_user, m.left_at FROM course_enrolments e JOIN course_assignments a ON a.id = e.assignment_id"
     " JOIN course_members m ON m.course_id = a.course_id AND m.student = e.student"
 )
 
@@ -266,6 +266,17 @@ class CourseStore(Tables):
                         (aid, r["student"], now),
                     )
         return added
+
+    def set_left(self, cid: str, students: list[str], when: float | None) -> int:
+        """Members who left the course's LMS course (`when`: inactive from then; kept with their submissions and
+        grades) or came back (None: active again). How many changed."""
+        with self._tx() as db:
+            cur = db.executemany(
+                "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
+                + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
+                [(when, cid, s) for s in students],
+            )
+        return cur.rowcount
 
     def remove_member(self, cid: str, student: str) -> bool:
         """Off the course's rosters (their submissions are kept; their tokens stop working)."""

@@ -47,6 +47,12 @@ class Submissions(CourseBase):
                 ],
             )
         student = who.student
+        if student.get("left_at") is not None:  # the LMS's roster no longer has them (server/course/lms.py's sync)
+            message = (
+                "you are no longer on this course's roster in the LMS (inactive): your submissions and "
+                "grades are kept and shown, but new ones are not taken; ask your instructor if this is wrong"
+            )
+            raise Forbidden([{"path": "student", "message": message}])
         due, cut = self.deadlines(a, student)
         if accepted > cut:
             late = f"; late submissions were taken until {iso(cut)}" if cut > due else ""

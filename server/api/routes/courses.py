@@ -109,7 +109,8 @@ def roster_list(cid: str, request: Request, course: CourseDep, caller: CallerDep
     return {
         "students": [
             {"id": m["student"], "name": m["name"], "email": m["email"], "self_declared": bool(m["self_declared"]),
-             "every_assignment": bool(m["every"]), "lms": m["lti_user"] is not None}
+             "every_assignment": bool(m["every"]), "lms": m["lti_user"] is not None,
+             "active": m["left_at"] is None, "left_at": m["left_at"]}
             for m in course.store.members(cid)
         ]
     }  # fmt: skip

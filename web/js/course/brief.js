@@ -60,7 +60,7 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   $("#a-name", root).textContent = brief.name;
   document.title = `${brief.name} · Ray tracing for teaching`;
   const s = brief.student;
-  $("#a-who", root).replaceChildren(s ? h("span", {}, "You are ", h("strong", { id: "a-student" }, s.name), ` (${s.id}${s.self_declared ? ", self-declared" : ""})`) : h("span", {}, "The instructor's view"));
+  $("#a-who", root).replaceChildren(s ? h("span", {}, "You are ", h("strong", { id: "a-student" }, s.name), ` (${s.id}${s.self_declared ? ", self-declared" : ""})`, brief.inactive ? h("strong", { id: "a-inactive", class: "badge inactive" }, " inactive: you are no longer in this course in the LMS; your submissions and grades are kept, new submissions are not taken") : null) : h("span", {}, "The instructor's view"));
   $("#a-description", root).textContent = brief.description || "";
 
   $("#a-deadline", root).replaceChildren(timeEl(brief.deadline), h("small", { class: "muted" }, " (your local time)"));

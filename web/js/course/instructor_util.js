@@ -20,6 +20,7 @@ export const course = {
   edit: (aid, form, regrade) => request("PUT", `${A(aid)}${regrade ? "?regrade=true" : ""}`, form, AS),
   brief: (aid) => request("GET", A(aid), undefined, { ...AS, cache: "no-store" }),
   board: (aid) => request("GET", `${A(aid)}/dashboard`, undefined, { ...AS, cache: "no-store" }),
+  lmsSendAgain: (aid) => request("POST", `${A(aid)}/lms/send-again`, {}, AS), // the grades the LMS refused, queued again
   student: (aid, sid) => request("GET", `${A(aid)}/students/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
   trees: (aid, sid) => request("GET", `${A(aid)}/submissions/${encodeURIComponent(sid)}/trees`, undefined, { ...AS, cache: "no-store" }), // the latest tree log comparison
   extend: (aid, student, deadline) => request("POST", `${A(aid)}/extensions`, { student, deadline }, AS),
