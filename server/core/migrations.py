@@ -106,6 +106,35 @@ def _m0003_lti_platforms_and_logins(db: sqlite3.Connection) -> None:
                 db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
 
 
+def _m0004_late_tokens(db: sqlite3.Connection) -> None:
+    """Late tokens and extensions' history (issue #41, item 4): a course's `late_tokens`, a submission's
+    `tokens_spent`, the tokens granted and the extensions granted, each kept with who, when, before, after and why."""
+    added = {
+        "courses": ("late_tokens INTEGER NOT NULL DEFAULT 0",),
+        "course_submissions": ("tokens_spent INTEGER NOT NULL DEFAULT 0",),
+    }
+    for table, columns in added.items():
+        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
+        if not have:
+            continue
+        for column in columns:
+            if column.split()[0] not in have:
+                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+    if not {r[1] for r in db.execute('PRAGMA table_info("courses")')}:
+        return  # no course tables yet: the course store makes them whole
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_token_grants (course_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " added INTEGER NOT NULL, before INTEGER NOT NULL, after INTEGER NOT NULL, who TEXT NOT NULL,"
+        " why TEXT NOT NULL DEFAULT '', at REAL NOT NULL)"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_token_grants_student ON course_token_grants (course_id, student)")
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_extensions (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " before REAL, after REAL, who TEXT NOT NULL, why TEXT NOT NULL DEFAULT '', at REAL NOT NULL)"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student)")
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -116,6 +145,9 @@ MIGRATIONS: tuple[Migration, ...] = (
     ),
     Migration(
         3, "lti: a platform's trust_emails and service_origins, a login's address", _m0003_lti_platforms_and_logins
+    ),
+    Migration(
+        4, "course: late tokens (a course's, a submission's spent, grants) and extensions' history", _m0004_late_tokens
     ),
 )
 LATEST = MIGRATIONS[-1].number

@@ -225,6 +225,7 @@ class Assignments(CourseBase):
                 student={"id": s["student"], "name": s["name"], "self_declared": bool(s["self_declared"])},
                 submissions_left=left,
                 attempts_used=used,
+                **self.tokens_brief(a, s, now),
             )
         return out
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from server.core.errors import Forbidden, TooMany, Unavailable
 from server.core.files import write_atomic
-from server.course.base import CourseBase, iso, report_keys
+from server.course.base import DAY, CourseBase, report_keys
 from server.course.people import Who
 from server.course.policy import Feedback, feedback_view, map_shown
 from server.grading.runs import Handed
@@ -48,10 +48,9 @@ class Submissions(CourseBase):
             )
         student = who.student
         due, cut = self.deadlines(a, student)
+        decide = self.spend_plan(a, student, due, cut, accepted)  # late tokens (tokens.py): decided in the row's tx
         if accepted > cut:
-            late = f"; late submissions were taken until {iso(cut)}" if cut > due else ""
-            message = f"the deadline was {iso(due)}{late}; this submission came at {iso(accepted)}"
-            raise Forbidden([{"path": "deadline", "message": message}])
+            decide(self.store.db)  # refused at once when tokens cannot cover it (nothing written yet)
         sid = uuid.uuid4().hex
         rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
         path = self.root / rel
@@ -74,7 +73,8 @@ class Submissions(CourseBase):
             item = self.runs.place(a["run_id"], self._handed(sub))
             try:
                 refused = self.store.add_submission(sub, a["policy"]["max_submissions"], cap, accepted - 3600,
-                                                    also=partial(self.runs.gs.add_item, a["run_id"], item))  # fmt: skip
+                                                    also=partial(self.runs.gs.add_item, a["run_id"], item),
+                                                    before=decide)  # fmt: skip
             except BaseException:
                 self.runs.unplace(a["run_id"], item)
                 raise
@@ -153,14 +153,17 @@ class Submissions(CourseBase):
         away or gives it (the row keeps what was true when the body came)."""
         subs = self.store.submissions(a["id"], student)
         due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
+        covered: dict[str, int] = {}  # late tokens spent so far (in order) by each student: their deadline moves
         for sub in subs:
-            sub["late"] = int(sub["accepted_at"] > due.get(sub["student"], sub["accepted_at"]))
+            covered[sub["student"]] = covered.get(sub["student"], 0) + sub["tokens_spent"]
+            mine = due.get(sub["student"], sub["accepted_at"]) + covered[sub["student"]] * DAY
+            sub["late"] = int(sub["accepted_at"] > mine)
         return subs
 
     def submission(self, a: dict, sid: str) -> dict | None:
         sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
         if sub is not None:
-            sub["late"] = int(sub["accepted_at"] > self.deadlines(a, self.store.student(a["id"], sub["student"]))[0])
+            return next((s for s in self.submissions(a, sub["student"]) if s["id"] == sid), sub)
         return sub
 
     def _handed(self, sub: dict) -> Handed:
