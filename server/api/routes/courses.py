@@ -32,20 +32,24 @@ class CourseIn(BaseModel):
 
     id: str = Field(min_length=1, max_length=40, description="1 to 40 letters, digits, '-' or '_' (in its URLs)")
     name: str = Field("", max_length=200, description="its name, as students see it")
-    late_tokens: int = Field(0, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})")
+    late_tokens: int = Field(
+        0, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
 
 
 class CourseEdit(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     name: str | None = Field(None, max_length=200, description="its name, as students see it")
-    late_tokens: int | None = Field(None, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})")
+    late_tokens: int | None = Field(
+        None, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
 
 
 class TokensIn(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    add: int = Field(description=f"late tokens (days) to give the student (1 to {MAX_TOKENS})")
+    add: int = Field(strict=True, description=f"late tokens (days) to give the student (1 to {MAX_TOKENS})")
     why: str = Field("", max_length=500, description="why (kept with the grant)")
 
 

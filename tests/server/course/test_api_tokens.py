@@ -162,7 +162,7 @@ def test_too_few_tokens_spend_none_and_the_penalty_applies_then_a_grant_covers_i
     assert r.status_code == 200, r.text
     t = r.json()
     assert (t["left"], t["granted"]) == (4, 1)
-    assert t["grants"] == [{"at": "2026-12-06T13:00:00Z", "who": "ta-1", "add": 1, "before": 3, "after": 4,
+    assert t["grants"] == [{"at": "2026-12-07T01:00:00Z", "who": "ta-1", "add": 1, "before": 3, "after": 4,
                             "why": "ill on Tuesday"}]  # fmt: skip
     assert numbers(brief(app, course, "A", "cid")) == (4, 4, 0)
     covered = hand(app, course, "A", "cid")
