@@ -153,17 +153,14 @@ class Submissions(CourseBase):
         away or gives it (the row keeps what was true when the body came)."""
         subs = self.store.submissions(a["id"], student)
         due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
-        covered: dict[str, int] = {}  # late tokens spent so far (in order) by each student: their deadline moves
-        for sub in subs:
-            covered[sub["student"]] = covered.get(sub["student"], 0) + sub["tokens_spent"]
-            mine = due.get(sub["student"], sub["accepted_at"]) + covered[sub["student"]] * DAY
-            sub["late"] = int(sub["accepted_at"] > mine)
-        return subs
+        return _marked(subs, lambda sub: due.get(sub["student"], sub["accepted_at"]))
 
     def submission(self, a: dict, sid: str) -> dict | None:
         sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
         if sub is not None:
-            return next((s for s in self.submissions(a, sub["student"]) if s["id"] == sid), sub)
+            due = self.deadlines(a, self.store.student(a["id"], sub["student"]))[0]
+            mine = _marked(self.store.submissions(a["id"], sub["student"]), lambda _: due)
+            sub["late"] = next((s["late"] for s in mine if s["id"] == sid), int(sub["accepted_at"] > due))
         return sub
 
     def _handed(self, sub: dict) -> Handed:
@@ -203,3 +200,13 @@ class Submissions(CourseBase):
         for f in followers:
             f.wake({"id": student})
         wake_all(followers)
+
+
+def _marked(subs: list[dict], due_of) -> list[dict]:
+    """Each submission (in the order they came) `late` after its student's deadline plus the days of late tokens
+    they spent on the assignment up to it, itself included (server/course/tokens.py)."""
+    covered: dict[str, int] = {}
+    for sub in subs:
+        covered[sub["student"]] = covered.get(sub["student"], 0) + sub["tokens_spent"]
+        sub["late"] = int(sub["accepted_at"] > due_of(sub) + covered[sub["student"]] * DAY)
+    return subs
