@@ -124,15 +124,14 @@ class Roster(CourseBase):
 
     def extend(self, aid: str, student: str, deadline: datetime | None, who: Who | None = None, why: str = "") -> dict:
         """A student's own deadline (None: the assignment's), the grant kept in its history (who, when, before,
-        after, why: `extension_history`)."""
+        after, why: `extension_history`, the student's detail on the dashboard)."""
         a = self.assignment(aid)
         by = (who.person or str(who.role)) if who is not None else ""
         if not self.store.extend(aid, student, deadline.timestamp() if deadline else None, by, why, self.now()):
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         row = self.store.student(aid, student)
         due, cut = self.deadlines(a, row)
-        return {"id": student, "deadline": iso(due), "late_until": iso(cut),
-                "history": self.extension_history(aid, student)}  # fmt: skip
+        return {"id": student, "deadline": iso(due), "late_until": iso(cut)}
 
 
 def parse_roster(text: str) -> list[dict]:

@@ -91,7 +91,8 @@ def new_link(aid: str, student: str, request: Request, course: CourseDep, caller
 
 @router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
 def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    """Their deadline and late cut-off, and `history`: every extension of theirs (at, who, before, after, why)."""
+    """Their deadline and late cut-off. Each extension is kept (at, who, before, after, why): `extensions` in
+    GET /api/assignments/{aid}/students/{student}."""
     _, who = course.staff(aid, caller, instructor_check(request), "extend")
     return course.extend(aid, body.student, body.deadline, who, body.why)
 
