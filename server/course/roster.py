@@ -17,6 +17,7 @@ from server.core.errors import Forbidden, Invalid, NotFound
 from server.core.roles import Kind
 from server.core.security import token_hash
 from server.course.base import CourseBase, iso, not_found
+from server.course.people import Who
 from server.jobs.store import JobStore
 from tracer.grading import student_name
 from tracer.tools import spreadsheet
@@ -121,9 +122,12 @@ class Roster(CourseBase):
         token = self.token_of(a["course_id"], Kind.STUDENT, sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
-    def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:
+    def extend(self, aid: str, student: str, deadline: datetime | None, who: Who | None = None, why: str = "") -> dict:
+        """A student's own deadline (None: the assignment's), the grant kept in its history (who, when, before,
+        after, why: `extension_history`, the student's detail on the dashboard)."""
         a = self.assignment(aid)
-        if not self.store.extend(aid, student, deadline.timestamp() if deadline else None):
+        by = (who.person or str(who.role)) if who is not None else ""
+        if not self.store.extend(aid, student, deadline.timestamp() if deadline else None, by, why, self.now()):
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         row = self.store.student(aid, student)
         due, cut = self.deadlines(a, row)

@@ -128,6 +128,9 @@ class CourseStore(Tables):
     def rename_course(self, cid: str, name: str) -> None:
         self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
 
+    def set_late_tokens(self, cid: str, n: int) -> None:
+        self.db.execute("UPDATE courses SET late_tokens = ? WHERE id = ?", (n, cid))
+
     def add_staff(self, cid: str, row: dict, now: float) -> None:
         """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated."""
         self.db.execute(
@@ -317,12 +320,34 @@ class CourseStore(Tables):
             (aid, student, now),
         )
 
-    def extend(self, aid: str, student: str, deadline: float | None) -> bool:
-        cur = self.db.execute(
-            "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
-            (deadline, aid, student),
+    def extend(
+        self, aid: str, student: str, deadline: float | None, who: str = "", why: str = "", now: float = 0
+    ) -> bool:
+        """Their own deadline (None: the assignment's), and the grant kept in its history (before, after, who,
+        why, when): one transaction."""
+        with self._tx() as db:
+            row = db.execute(
+                "SELECT deadline FROM course_enrolments WHERE assignment_id = ? AND student = ?", (aid, student)
+            ).fetchone()
+            if row is None:
+                return False
+            db.execute(
+                "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
+                (deadline, aid, student),
+            )
+            db.execute(
+                "INSERT INTO course_extensions (assignment_id, student, before, after, who, why, at)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (aid, student, row[0], deadline, who, why, now),
+            )
+        return True
+
+    def extensions(self, aid: str, student: str) -> list[dict]:
+        """A student's extensions of an assignment, oldest first."""
+        rows = self.db.execute(
+            "SELECT * FROM course_extensions WHERE assignment_id = ? AND student = ? ORDER BY at, rowid", (aid, student)
         )
-        return cur.rowcount == 1
+        return [dict(r) for r in rows]
 
     # -- submissions ---------------------------------------------------------------------------
 
@@ -333,11 +358,14 @@ class CourseStore(Tables):
         per_hour: int,
         hour_ago: float,
         also: Callable[[sqlite3.Connection], None] | None = None,
+        before: Callable[[sqlite3.Connection], dict] | None = None,
     ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),
         with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap. `also`
         writes more in the same transaction (its row in the grading run: then it is `handed` at once), so the
-        two rows are kept together or neither is (a full disk)."""
+        two rows are kept together or neither is (a full disk). `before` reads what it needs in the same
+        transaction and gives the row's last fields (the late tokens it spends: server/course/tokens.py), or
+        raises to keep nothing."""
         with self._tx() as db:
             who = (sub["assignment_id"], sub["student"])
             recent = db.execute(
@@ -348,11 +376,13 @@ class CourseStore(Tables):
                 return "hour"
             if max_attempts is not None and self._attempts(db, *who) >= max_attempts:
                 return "attempts"
+            if before is not None:
+                sub.update(before(db))
             db.execute(
                 "INSERT INTO course_submissions (id, assignment_id, student, version, run_id, kind, file,"
-                " accepted_at, late, handed) VALUES (:id, :assignment_id, :student, :version, :run_id, :kind, :file,"
-                " :accepted_at, :late, :handed)",
-                {**sub, "handed": int(also is not None)},
+                " accepted_at, late, handed, tokens_spent) VALUES (:id, :assignment_id, :student, :version, :run_id,"
+                " :kind, :file, :accepted_at, :late, :handed, :tokens_spent)",
+                {"tokens_spent": 0, **sub, "handed": int(also is not None)},
             )
             if also is not None:
                 also(db)

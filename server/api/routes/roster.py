@@ -16,6 +16,7 @@ from server.api.deps import (
     CourseDep,
     StoreDep,
     client_address,
+    instructor_check,
 )
 from server.api.models import ErrorResponse
 from server.api.routes.course_common import ERRORS, NOT_FOUND, base_url, csv_response, roster_text, staff_assignment
@@ -31,6 +32,7 @@ class ExtensionIn(BaseModel):
 
     student: str = Field(min_length=1, max_length=80, description="the roster's id")
     deadline: Instant | None = Field(description="their own deadline (ISO 8601 with a zone); null: the assignment's")
+    why: str = Field("", max_length=500, description="why (kept in the extension's history)")
 
 
 class JoinIn(BaseModel):
@@ -89,8 +91,10 @@ def new_link(aid: str, student: str, request: Request, course: CourseDep, caller
 
 @router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
 def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    staff_assignment(course, aid, caller, request, "extend")
-    return course.extend(aid, body.student, body.deadline)
+    """Their deadline and late cut-off. Each extension is kept (at, who, before, after, why): `extensions` in
+    GET /api/assignments/{aid}/students/{student}."""
+    _, who = course.staff(aid, caller, instructor_check(request), "extend")
+    return course.extend(aid, body.student, body.deadline, who, body.why)
 
 
 @router.post(
