@@ -46,11 +46,11 @@ def assignment(server) -> tuple[str, dict]:
         for sid in sids.values():
             url = f"/api/assignments/{aid}/submissions/{sid}"
             wait_for(lambda u=url: c.get(u).json()["status"] == "graded", 240, f"{sid} graded", 0.2)
-    return aid, sids
+    return aid, sids, tokens
 
 
 def test_web_grading_queue_grades_two_submissions_with_the_keyboard_alone(browser, server, assignment, tmp_path):
-    aid, sids = assignment
+    aid, sids, tokens = assignment
     p = open_course(browser, server, tmp_path)
     page = p.page
     saved = "(t) => document.querySelector('#grading-status').textContent.startsWith(t)"
@@ -113,11 +113,33 @@ def test_web_grading_queue_grades_two_submissions_with_the_keyboard_alone(browse
                 view = c.get(f"/api/assignments/{aid}/grading/submissions/{sids[who]}").json()
                 assert [i["rubric"] for i in view["manual"]["items"]] == levels, view["manual"]
             assert view["manual"]["points"] == 1.5
+
+            def ann_s_submission():  # ann's own page, her submission opened
+                me = p.context.new_page()
+                me.goto(f"{server.url}/assignments/{aid}#token={tokens['ann']['Authorization'].split()[1]}")
+                head = me.locator(f"#a-sub-list li[data-id='{sids['ann']}'] .a-sub-head")
+                head.wait_for()
+                if head.get_attribute("aria-expanded") != "true":  # the latest may open by itself
+                    head.click()
+                return me, me.locator(f"#a-sub-list li[data-id='{sids['ann']}']")
+
+            me, row = ann_s_submission()  # before the release: the auto part, and a word that more comes
+            row.locator(".a-manual-later").wait_for()
+            assert row.locator(".a-sub-score").text_content() == "6 / 6" and row.locator(".a-manual").count() == 0
+            me.close()
             page.focus("#grading-release")
             page.keyboard.press("Enter")
             page.wait_for_function(saved, arg="Released")
             rows = list(csv.reader(io.StringIO(c.get(f"/api/assignments/{aid}/grades.csv").text)))
             assert {r[0]: r[2:4] for r in rows[1:]} == {"ann": ["10", "11"], "bea": ["3.5", "11"]}
+            me, row = ann_s_submission()  # after it: each item's points and comment, and the total
+            row.locator(".a-manual").wait_for()
+            assert row.locator(".a-sub-score").text_content() == "10 / 11"
+            items = row.locator(".a-manual-item").all_text_contents()
+            assert items[0].startswith("creativity2 / 3") and "a nice story" in items[0], items
+            assert row.locator(".a-total").text_content().startswith("Total: 10 / 11")
+            assert_accessible(me, "a student's released manual grades", ".a-manual")
+            me.close()
     finally:
         p.context.close()
     assert p.unexpected_errors() == []
