@@ -38,6 +38,7 @@ from server.api.routes import (
     jobs,
     lms,
     lti,
+    manual,
     own_trees,
     pages,
     reference,
@@ -204,6 +205,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(own_trees.router)
     app.include_router(similarity.router)  # before submissions.py, as own_trees
     app.include_router(stats.router)  # before submissions.py, as similarity
+    app.include_router(manual.router)  # before submissions.py, as similarity
     app.include_router(assignments.router)  # /api/assignments: the assignment, then its roster, submissions, class
     app.include_router(roster.router)
     app.include_router(submissions.router)

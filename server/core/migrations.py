@@ -144,6 +144,25 @@ def _m0005_late_tokens(db: sqlite3.Connection) -> None:
     db.execute("CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student)")
 
 
+def _m0006_manual_grades(db: sqlite3.Connection) -> None:
+    """Staff-graded items (issue #41, item 2): the manual grades, each assignment's release and anonymity, the
+    graders each student's submission is assigned to (server/course/schema.py has the same tables)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_manual_grades (submission_id TEXT NOT NULL, item TEXT NOT NULL,"
+        " assignment_id TEXT NOT NULL, rubric TEXT NOT NULL, points REAL, comment TEXT NOT NULL DEFAULT '',"
+        " grader TEXT, graded_at REAL NOT NULL, PRIMARY KEY (submission_id, item))"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_manual_grades_assignment ON course_manual_grades (assignment_id)")
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_manual (assignment_id TEXT PRIMARY KEY, released_at REAL,"
+        " released_by TEXT, anonymous INTEGER NOT NULL DEFAULT 0)"
+    )
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_graders (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " grader TEXT NOT NULL, PRIMARY KEY (assignment_id, student))"
+    )
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -159,6 +178,7 @@ MIGRATIONS: tuple[Migration, ...] = (
     Migration(
         5, "course: late tokens (a course's, a submission's spent, grants) and extensions' history", _m0005_late_tokens
     ),
+    Migration(6, "manual grades: staff-graded items, their release, graders", _m0006_manual_grades),
 )
 LATEST = MIGRATIONS[-1].number
 

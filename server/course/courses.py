@@ -16,7 +16,8 @@ from tracer.grading import student_name
 log = logging.getLogger(__name__)
 
 ACTIONS = {"publish": "publish or edit an assignment", "roster": "change the roster or its links",
-           "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions"}  # fmt: skip
+           "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions",
+           "release": "assign graders, switch anonymous grading or release manual grades"}  # fmt: skip
 # whether a caller who is none of a course's staff may act as the admin (the instructor); raises if not. The routes
 # hand in server/core/security.check_instructor for their server and their caller's address
 Check = Callable[[Caller], object]

@@ -100,4 +100,28 @@ CREATE TABLE IF NOT EXISTS course_extensions (
     at REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student);
+CREATE TABLE IF NOT EXISTS course_manual_grades (
+    submission_id TEXT NOT NULL,          -- course_submissions.id
+    item TEXT NOT NULL,                   -- the name of a manual item of the spec
+    assignment_id TEXT NOT NULL,
+    rubric TEXT NOT NULL,                 -- JSON list of the chosen levels' NAMES (points: the current spec's)
+    points REAL,                          -- the grader's override; NULL: the chosen levels' sum
+    comment TEXT NOT NULL DEFAULT '',
+    grader TEXT,                          -- course_staff.person; NULL: the admin
+    graded_at REAL NOT NULL,
+    PRIMARY KEY (submission_id, item)
+);
+CREATE INDEX IF NOT EXISTS course_manual_grades_assignment ON course_manual_grades (assignment_id);
+CREATE TABLE IF NOT EXISTS course_manual (
+    assignment_id TEXT PRIMARY KEY,       -- an assignment's manual grading (no row: not released, not anonymous)
+    released_at REAL,                     -- when the instructor released the manual part; NULL: not yet
+    released_by TEXT,
+    anonymous INTEGER NOT NULL DEFAULT 0  -- students' names hidden from graders until release
+);
+CREATE TABLE IF NOT EXISTS course_graders (
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    grader TEXT NOT NULL,                 -- course_staff.person who grades this student's submission
+    PRIMARY KEY (assignment_id, student)
+);
 """

@@ -9,6 +9,7 @@ state, the lookups, the deadlines):
 - views.py: what a caller may see of a submission (the feedback policy)
 - grades.py: the counting submission, the class's grades, the three exports
 - tokens.py: late tokens (a course's, spent by late submissions, granted by staff), extensions' history
+- manual.py: staff-graded items: manual grades, the grading queue, graders, the release
 
 A new concept goes the same way: a module with its mixin, named here.
 """
@@ -22,6 +23,7 @@ from server.core.settings import Settings
 from server.course.assignments import Assignments
 from server.course.courses import Courses
 from server.course.grades import Grades
+from server.course.manual import Manual
 from server.course.roster import Roster
 from server.course.submissions import Submissions
 from server.course.tokens import Tokens
@@ -29,7 +31,7 @@ from server.course.views import Views
 from server.grading.runs import GradeRuns
 
 
-class Course(Courses, Roster, Assignments, Submissions, Views, Grades, Tokens):
+class Course(Courses, Roster, Assignments, Submissions, Views, Grades, Tokens, Manual):
     """Courses, staff, rosters, assignments, submissions, what a caller sees, grades."""
 
     def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):

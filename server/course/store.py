@@ -16,6 +16,7 @@
 - `course_submissions`: one per submission, written when its body is accepted (the API's clock): who, when,
   late or not, its file, the grading run it went to and whether it was handed to it yet (`handed`). Its
   grade is that run's row for it (grading_items, keyed by the submission's id), read, never copied.
+- `course_manual_grades`, `course_manual`, `course_graders`: staff-graded items (server/course/manual_store.py).
 
 Every write is one statement or one transaction (server/core/db.py); each thread has its own connection.
 """
@@ -29,6 +30,7 @@ from pathlib import Path
 
 from server.core.db import Tables
 from server.core.roles import Kind
+from server.course.manual_store import ManualTables
 from server.course.schema import SCHEMA
 from server.grading.store import GradingStore
 
@@ -46,7 +48,7 @@ STUDENT = (
 HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))"
 
 
-class CourseStore(Tables):
+class CourseStore(ManualTables, Tables):
     def __init__(self, data_dir: Path, now: float = 0.0):
         GradingStore(data_dir)  # the grading tables this store's queries join (created if new)
         super().__init__(data_dir, SCHEMA)  # (a database from before courses: server/core/migrations.py, 2)

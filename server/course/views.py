@@ -46,6 +46,12 @@ class Views(CourseBase):
             report = (item or {}).get("report") or {}
             out["feedback"] = self._feedback(a, sub, report, feedback, who, now)
             out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
+        manual = self.manual_view(a, sub, who)
+        if manual is not None:  # staff-graded items (server/course/manual.py): the student's after the release
+            out["manual"] = manual
+            total = self.total(a, sub) if out["score"] is not None else None
+            out["total"] = None if total is None else round(total[0], 6)
+            out["total_max"] = None if total is None else total[1]
         return out
 
     def view_one(self, a: dict, sub: dict, who: Who) -> dict:

@@ -78,6 +78,20 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
     assert (board["lms"]["grades"]["pending"], board["lms"]["grades"]["sent"]) == (0, 1)
 
+    # a staff-graded item (server/course/manual.py): its grade goes back only once released, with the auto part
+    spec = client.get(f"/api/assignments/{aid}", headers=ADMIN).json()["spec"]
+    spec["manual"] = [{"name": "creativity", "points": 2, "rubric": [{"name": "new objects", "points": 1.5}]}]
+    body = {"spec": spec, "deadline": (T0 + timedelta(days=2)).isoformat()}
+    assert client.put(f"/api/assignments/{aid}", json=body, headers=ADMIN).status_code == 200
+    put = f"{sub}/manual/creativity"
+    assert client.put(put, json={"rubric": ["new objects"]}, headers=ADMIN).status_code == 200
+    poster = app.state.lms.poster
+    assert poster.sweep() == 0 and len(p.scores) == 1  # not released: the same total, nothing new to send
+    assert client.post(f"/api/assignments/{aid}/release", headers=ADMIN).status_code == 200
+    poster.wake()
+    wait_for(lambda: len(p.scores) == 2, 60, "the released total at the LMS", 0.2)
+    assert p.scores[1]["scoreGiven"] == pytest.approx(graded["score"] + 1.5) and p.scores[1]["scoreMaximum"] == 15
+
 
 def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who_has_not_submitted(tool, lms):
     url, app, client = tool

@@ -9,6 +9,7 @@ import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
+import { GradingPanel } from "./grading.js";
 import { StatsPanel } from "./stats.js";
 import { extensionHistory, tokensPanel } from "./latetokens.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
@@ -87,6 +88,7 @@ export class Board {
     clearTimeout(this.timer);
     this.similarity?.close();
     this.classStats?.close();
+    this.grading?.close();
   }
 
   /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
@@ -204,7 +206,10 @@ export class Board {
     this.similarity.load();
     this.classStats = new StatsPanel(this.aid, { access: this.access }); // web/js/course/stats.js
     this.classStats.load();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.classStats.root, this.similarity.root, this.versions);
+    // staff-graded items: the grading queue (web/js/course/grading.js), when the spec has manual items
+    this.grading = this.brief.spec?.manual?.length ? new GradingPanel(this.aid, { access: this.access, may: (a) => this.may(a) }) : null;
+    this.grading?.load();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, ...(this.grading ? [this.grading.root] : []), whats, this.classStats.root, this.similarity.root, this.versions);
   }
 
   renderHead() {

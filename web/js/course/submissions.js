@@ -113,7 +113,8 @@ export class SubmissionList {
     row.li.dataset.late = String(!!v.late);
     row.li.dataset.counts = String(!!v.counts);
     row.head.setAttribute("aria-expanded", String(open));
-    const score = v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
+    const released = v.manual?.released && v.total !== null && v.total !== undefined; // the staff's part added
+    const score = released ? h("span", { class: "a-sub-score" }, `${pts(v.total)} / ${pts(v.total_max)}`) : v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
     const parts = [
       h("span", { class: "a-sub-n" }, `#${row.n}`),
       h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
