@@ -106,6 +106,19 @@ def _m0003_lti_platforms_and_logins(db: sqlite3.Connection) -> None:
                 db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
 
 
+def _m0004_course_audit(db: sqlite3.Connection) -> None:
+    """The course's audit trail (issue #41, item 5): the `course_audit` table and its indexes, as
+    server/course/schema.py makes them (a new table: no rows move)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_audit (id INTEGER PRIMARY KEY AUTOINCREMENT, course_id TEXT NOT NULL,"
+        " at REAL NOT NULL, who TEXT NOT NULL, action TEXT NOT NULL, assignment_id TEXT, student TEXT,"
+        " target TEXT NOT NULL, before TEXT, after TEXT, why TEXT NOT NULL DEFAULT '')"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id)")
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -117,6 +130,7 @@ MIGRATIONS: tuple[Migration, ...] = (
     Migration(
         3, "lti: a platform's trust_emails and service_origins, a login's address", _m0003_lti_platforms_and_logins
     ),
+    Migration(4, "course: the audit trail (course_audit)", _m0004_course_audit),
 )
 LATEST = MIGRATIONS[-1].number
 

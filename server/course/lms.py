@@ -165,7 +165,7 @@ class Lms:
             return None
 
     def _enrol(self, aid: str, student: str) -> None:
-        self.course.store.enrol(aid, student, self.now())
+        self.course.store.enrol(aid, student, self.now(), self.course.by("lms", "LMS launch"))
 
     def course_of(self, platform: dict, context: dict, role: str) -> str | None:
         """The course linked to the LMS course; made at an instructor's first launch."""
@@ -195,12 +195,12 @@ class Lms:
             known = self.email_match(cid, email)  # only where the platform's emails identify people
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
         if kind == Kind.STAFF:
-            self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
-                                              "lti_user": who}, self.now())  # fmt: skip
+            row = {"person": pid, "name": name or pid, "email": email, "role": role, "lti_user": who}
+            self.course.store.add_staff(cid, row, self.now(), self.course.by("lms", "LMS launch"))
             gen = self.course.store.staff_member(cid, pid)["gen"]
         else:
             row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
-            self.course.store.add_members(cid, [row], self.now(), [])
+            self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", "LMS launch"))
             gen = self.course.store.member(cid, pid)["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
@@ -250,7 +250,7 @@ class Lms:
                            "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
         row = {"student": member["student"], "name": member["name"], "email": member["email"],
                "every": member["every"], "lti_user": who}  # fmt: skip
-        self.course.store.add_members(cid, [row], self.now(), [])
+        self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", "linked by their roster link"))
         log.info("LMS user %s linked to roster student %s of course %s by their link", who, member["student"], cid)
         return page("Linked", f"<h1>Linked: {html.escape(member['name'])}</h1><p>Open the tool from the LMS again: "
                     "it opens your assignments from now on.</p>")  # fmt: skip
