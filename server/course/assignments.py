@@ -205,6 +205,9 @@ class Assignments(CourseBase):
         }
         if who.instructor:
             out.update(
+                # the caller's role (admin, instructor or ta) and what it may change, so that the page shows a TA
+                # no form the server would refuse (a TA follows the class, grants extensions and regrades)
+                you={"role": who.role, "may": {k: who.may(k) for k in ("publish", "roster", "extend", "regrade")}},
                 spec=spec,
                 policy=p,
                 run_id=a["run_id"],

@@ -29,7 +29,9 @@ from pathlib import Path
 from server.core.errors import Forbidden, TooLarge, TooMany
 from server.core.files import write_atomic
 from server.core.security import Caller
-from server.course.service import Check, Course, iso
+from server.course.base import iso
+from server.course.courses import Check
+from server.course.service import Course
 from tracer.grading import similarity
 
 log = logging.getLogger(__name__)

@@ -33,8 +33,10 @@ from __future__ import annotations
 import io
 import statistics
 
+from server.course.assignments import test_keys
+from server.course.base import iso, report_keys, status_of
 from server.course.dashboard import student_rows
-from server.course.service import Course, iso, report_keys, status_of, test_keys
+from server.course.service import Course
 from tracer.tools import spreadsheet
 
 BINS = 10  # the histogram's bars: tenths of the spec's points (web/js/course/instructor_board.js's BINS)

@@ -3,6 +3,7 @@ a submission, the image tests), never in the API process."""
 
 from __future__ import annotations
 
+import gc
 import logging
 import multiprocessing as mp
 import os
@@ -15,6 +16,7 @@ from concurrent.futures.process import BrokenProcessPool
 log = logging.getLogger(__name__)
 
 PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the server is still there
+STOP_GRACE = 2.0  # seconds a grading process has at shutdown to finish its task before it is killed
 
 
 def _pool_process(nice: int) -> None:
@@ -75,9 +77,26 @@ class GradingPool:
         executor = self._executor
         return sorted((getattr(executor, "_processes", None) or {}).keys()) if executor else []
 
-    def shutdown(self) -> None:
+    def shutdown(self, grace: float = STOP_GRACE) -> None:
+        """Stop the processes (a task still running after `grace` seconds is killed: its run is resumed by the
+        next server) and release the pool's queues. Python's pool keeps them (five named POSIX semaphores) until
+        they are collected; a server that ends by its signal (uvicorn re-raises SIGTERM and SIGINT) runs no
+        finalizer after, and multiprocessing's resource tracker warned "5 leaked semaphore objects" at each stop."""
         with self._lock:
             self.closed = True
-            if self._executor is not None:
-                self._executor.shutdown(wait=False, cancel_futures=True)
-                self._executor = None
+            executor, self._executor = self._executor, None
+        if executor is None:
+            return
+        manager = executor._executor_manager_thread  # joins the processes, then lets go of the queues
+        processes = list((executor._processes or {}).values())
+        executor.shutdown(wait=False, cancel_futures=True)
+        if manager is not None:
+            manager.join(timeout=grace)
+        for p in processes:
+            if p.is_alive():
+                log.warning("grading process %d did not stop in %.0f s; killing it", p.pid, grace)
+                p.kill()
+        if manager is not None:
+            manager.join(timeout=10)
+        del executor, manager, processes
+        gc.collect()  # the pool's queues are in reference cycles: their semaphores are unlinked as they go

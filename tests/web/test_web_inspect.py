@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import random
+import re
 import string
 
 import pytest
@@ -257,3 +258,53 @@ def test_web_inspect_previews_ready_without_opening_them(browser, fresh_server):
         assert p.unexpected_errors() == []
     finally:
         p.context.close()
+
+
+def test_web_inspect_shadow_rays_grouped_and_the_view_starts_at_the_eye_ray(desktop):
+    """16 light samples: a hit's 16 shadow rays to a light are one box ("16 shadow rays to light 0", "11 reach the
+    light, 5 blocked"; before, 48 boxes side by side under the floor's hit, unreadable even fitted), opened with a
+    click and folded back; unfitted, the view starts at the eye ray's box (issue #42)."""
+    page = desktop.open().page
+    scene = scene_dict("soft_shadows")
+    scene["film"] = {"width": 160, "height": 120}
+    scene["sampler"] = {"type": "jittered", "spp": 1}
+    set_scene(page, scene)
+    render(page)
+    page.wait_for_selector("#render-img:not([hidden])")
+    box = page.locator("#render-img").bounding_box()
+    page.mouse.click(box["x"] + box["width"] * 80.5 / 160, box["y"] + box["height"] * 108.5 / 120)  # the floor
+    page.wait_for_selector("#rt-diagram svg .rt-group")
+    diagram = page.locator("#rt-diagram")
+    nodes, boxes = int(diagram.get_attribute("data-nodes")), int(diagram.get_attribute("data-boxes"))
+    groups = page.locator("#rt-diagram .rt-group")
+    assert groups.count() >= 3 and nodes >= 49 and boxes <= nodes - 3 * 15, (groups.count(), nodes, boxes)
+    texts = page.eval_on_selector_all(
+        "#rt-diagram .rt-group",
+        "gs => gs.map(g => [...g.querySelectorAll('text')].map(t => t.textContent).join('\\n'))",
+    )
+    for text in texts:
+        m = re.search(r"16 shadow rays to light (\d)\s+(\d+) reach(?:es)? the light, (\d+) blocked", text)
+        assert m and int(m[2]) + int(m[3]) == 16, text
+    assert float(diagram.get_attribute("data-scale")) >= 0.5  # fitted, its words still readable
+    diagram.scroll_into_view_if_needed()
+    desktop.shot("raytree-grouped")
+    page.click("#rt-fit")  # off: the boxes at their own size, the eye ray's box in view
+
+    def in_view(selector: str) -> bool:
+        return page.evaluate(
+            """(s) => { const c = document.querySelector('#rt-diagram').getBoundingClientRect();
+                        const b = document.querySelector(s).getBoundingClientRect();
+                        return b.left >= c.left && b.right <= c.right && b.top >= c.top && b.bottom <= c.bottom; }""",
+            selector,
+        )
+
+    assert in_view("#rt-diagram .rt-node[data-id='0']")
+    first = groups.first.get_attribute("data-group")
+    groups.first.click()  # opened: its 16 rays, each a box, and a tab to fold them
+    page.wait_for_function("(n) => +document.querySelector('#rt-diagram').dataset.boxes === n", arg=boxes + 15)
+    fold = page.locator(f"#rt-diagram .rt-fold[data-group='{first}']")
+    assert fold.text_content() == "▴ fold the 16 shadow rays"
+    desktop.shot("raytree-group-opened")
+    fold.click()
+    page.wait_for_function("(n) => +document.querySelector('#rt-diagram').dataset.boxes === n", arg=boxes)
+    assert page.locator(f"#rt-diagram .rt-group[data-group='{first}']").count() == 1

@@ -538,3 +538,63 @@ def test_lesson_on_a_phone_comes_before_the_list_and_its_tree_is_readable(phone)
     assert seen["scale"] == "1" and seen["text"] >= 10 and seen["page"] <= PHONE["width"], seen
     page.locator("#rt-diagram").scroll_into_view_if_needed()
     phone.shot("lesson-phone-raytree")
+
+
+def in_view(page, selector: str) -> bool:
+    return page.evaluate(
+        """(s) => { const r = document.querySelector(s).getBoundingClientRect();
+                    return r.height > 0 && r.top >= 0 && r.bottom <= innerHeight; }""",
+        selector,
+    )
+
+
+def test_lesson_answer_in_view_marked_done_and_next(desktop):
+    """The Check's answer is brought into view (it appeared below the fold with nothing in view changing) in a live
+    region; a lesson answered right is marked done in the list (kept in localStorage: there after a reload); a
+    "Next lesson" button opens the next one at its own address (issue #42)."""
+    first, second = LESSON_IDS[0], LESSON_IDS[1]
+    page = desktop.open(f"#lessons/{first}").page
+    page.wait_for_selector(".lesson-question .choice", timeout=90_000)
+    assert page.locator(".lesson-done:visible").count() == 0  # nothing done yet
+    answer = page.evaluate("() => document.querySelector('.lesson-question').question.answer")
+    wrong = f".lesson-question .choice[data-choice='{(answer + 1) % page.locator('.lesson-question .choice').count()}']"
+    feedback = ".lesson-question .feedback"
+    assert page.get_attribute(feedback, "aria-live") == "polite" and page.get_attribute(feedback, "role") == "status"
+    page.eval_on_selector(wrong, "b => b.scrollIntoView({ block: 'end' })")  # the answers at the foot of the window
+    page.click(wrong)
+    assert page.get_attribute(feedback, "data-verdict") == "wrong" and in_view(page, feedback)
+    assert page.locator(".lesson-done:visible").count() == 0
+    right = f".lesson-question .choice[data-choice='{answer}']"
+    page.eval_on_selector(right, "b => b.scrollIntoView({ block: 'end' })")
+    page.click(right)
+    assert page.get_attribute(feedback, "data-verdict") == "right" and in_view(page, feedback)
+    assert in_view(page, "#lesson-next")
+    assert page.locator(f".lesson-button[data-lesson={first}] .lesson-done").is_visible()
+    assert "(done)" in page.inner_text(f".lesson-button[data-lesson={first}]")
+    assert page.evaluate("() => JSON.parse(localStorage.getItem('rt.lessons.done'))") == [first]
+    desktop.shot("lesson-answered-next")
+    title = page.inner_text(f".lesson-button[data-lesson={second}]")
+    assert page.inner_text("#lesson-next") == f"Next lesson: {title} \u2192"
+    page.click("#lesson-next")
+    page.wait_for_function(f"() => document.querySelector('#lesson-stage').dataset.lesson === '{second}'")
+    assert page.evaluate("() => location.hash") == f"#lessons/{second}"
+    assert page.get_attribute(f".lesson-button[data-lesson={second}]", "aria-current") == "true"
+    page.reload()
+    page.wait_for_selector(f".lesson-button[data-lesson={first}]")
+    assert page.locator(f".lesson-button[data-lesson={first}] .lesson-done").is_visible()
+    assert not page.locator(f".lesson-button[data-lesson={second}] .lesson-done").is_visible()
+
+
+def test_lesson_on_a_phone_switches_without_scrolling_past_the_lesson(phone):
+    """On a phone the lesson comes first (its list under it): a menu above the lesson's title switches lessons, so
+    no one scrolls past the whole lesson to reach the list (issue #42)."""
+    page = phone.open(f"#lessons/{LESSON_IDS[1]}").page
+    page.wait_for_selector("#lesson-switch")
+    assert in_view(page, "#lesson-switch") and in_view(page, "#lesson-stage h2")
+    assert page.input_value("#lesson-switch") == LESSON_IDS[1]
+    phone.shot("lesson-phone-switch")
+    page.select_option("#lesson-switch", LESSON_IDS[2])
+    page.wait_for_function(f"() => document.querySelector('#lesson-stage').dataset.lesson === '{LESSON_IDS[2]}'")
+    assert page.evaluate("() => location.hash") == f"#lessons/{LESSON_IDS[2]}"
+    assert in_view(page, "#lesson-stage h2") and page.input_value("#lesson-switch") == LESSON_IDS[2]
+    page.wait_for_selector(".lesson-question .choice", timeout=90_000)

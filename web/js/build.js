@@ -6,10 +6,10 @@
 // tests/tracer/test_scene.py to give no warning).
 import { request } from "./api.js";
 import { BuildView } from "./buildview.js";
-import { floorAndCeiling, freeSpot, itemAt, pickAt, r3, stage, v3 } from "./edits.js";
+import { anchorOf, floorAndCeiling, freeSpot, itemAt, pickAt, r3, stage, v3 } from "./edits.js";
 import { appendItem, formatJSON, removeAt, setValue } from "./jsonpos.js";
 import { $, h } from "./util.js";
-import { add, dot, mul, normalize, sub } from "./vec.js";
+import { add, dot, length, mul, normalize, sub } from "./vec.js";
 
 export const TEMPLATES = [
   { file: "empty_room", label: "Empty room (a camera and a light)" },
@@ -53,6 +53,43 @@ function overhead(scene) {
   return add(at, mul(up, height - dot(at, up)));
 }
 
+/** How far across a light reaches from its centre, along the floor (a point or spot light: 0). */
+function lightReach(l) {
+  if (l?.type === "quad" && Array.isArray(l.edge1) && Array.isArray(l.edge2)) return Math.max(length(add(l.edge1, l.edge2)), length(sub(l.edge1, l.edge2))) / 2;
+  return Number.isFinite(l?.radius) ? l.radius : 0;
+}
+
+/** Where a new area light of half-size `half` goes, so that it shadows nothing of the scene (a light with a size
+ * blocks the shadow rays of the lights behind it: an area light added to the Empty room under its point light
+ * cast a dark streak). {centre, k}: over the scene (`overhead`), raised above the lights already there when
+ * there is no ceiling, grown by k so that it lights the floor as much from up there; under a ceiling, moved
+ * aside of the lights there (a Cornell box's own). The message says where and why. */
+function areaPlace(scene, half) {
+  const { up, right, toward, scale } = stage(scene);
+  const base = overhead(scene);
+  const { ceiling } = floorAndCeiling(scene);
+  const lights = (Array.isArray(scene.lights) ? scene.lights : []).map((l) => [l, anchorOf(l)]).filter(([, p]) => p);
+  if (!lights.length) return { centre: base, k: 1, why: "" };
+  if (ceiling === null) {
+    const top = Math.max(...lights.map(([l, p]) => dot(p, up) + lightReach(l)));
+    const lift = top + 0.5 * scale + half - dot(base, up);
+    if (lift <= 0) return { centre: base, k: 1, why: "" };
+    const k = (4 * scale + lift) / (4 * scale);
+    return { centre: add(base, mul(up, lift)), k, why: ", above the scene's other lights (under them it would block their light: a shadow)" };
+  }
+  // under a ceiling: the middle, else the nearest spot aside (left, right, front, back) whose footprint on the
+  // ceiling leaves every light's clear (their shadow rays go down from there)
+  const extent = (l, axis) => (l.type === "quad" ? (Math.abs(dot(l.edge1, axis)) + Math.abs(dot(l.edge2, axis))) / 2 : lightReach(l));
+  const margin = 0.05 * scale;
+  const clear = (c) => lights.every(([l, p]) => Math.abs(dot(sub(p, c), right)) >= extent(l, right) + half + margin || Math.abs(dot(sub(p, c), toward)) >= extent(l, toward) + half + margin);
+  const aside = (axis) => Math.max(...lights.map(([l, p]) => Math.abs(dot(sub(p, base), axis)) + extent(l, axis))) + half + margin;
+  for (const [axis, side] of [[right, 0], [right, -1], [right, 1], [toward, -1], [toward, 1]]) {
+    const c = add(base, mul(axis, side * aside(axis)));
+    if (clear(c)) return { centre: c, k: 1, why: side ? ", beside the light under the ceiling (under it, it would block that light)" : "" };
+  }
+  return { centre: base, k: 1, why: ": under the light already there, it blocks that light's rays (its shadow is dark); move it aside with its handles" };
+}
+
 const LIGHTS = {
   point: ["Point light", (scene) => {
     const { right, scale } = stage(scene);
@@ -68,14 +105,16 @@ const LIGHTS = {
   }],
   quad: ["Area light (quad)", (scene) => {
     const { right, toward, scale } = stage(scene);
-    const s = scale;
+    const { centre, k, why } = areaPlace(scene, scale / 2);
+    const s = scale * k;
     // edge1 x edge2 = right x toward points down: the light shines on the scene
-    return { type: "quad", corner: v3(sub(overhead(scene), mul(add(right, toward), s / 2))), edge1: v3(mul(right, s)), edge2: v3(mul(toward, s)), radiance: 16 };
+    return [{ type: "quad", corner: v3(sub(centre, mul(add(right, toward), s / 2))), edge1: v3(mul(right, s)), edge2: v3(mul(toward, s)), radiance: 16 }, why];
   }],
   sphere: ["Sphere light", (scene) => {
     const { up, scale } = stage(scene);
     const r = 0.2 * scale; // its whole ball under a ceiling
-    return { type: "sphere", center: v3(sub(overhead(scene), mul(up, r + 0.02 * scale))), radius: r3(r), radiance: 120 };
+    const { centre, k, why } = areaPlace(scene, r);
+    return [{ type: "sphere", center: v3(sub(centre, mul(up, r * k + 0.02 * scale))), radius: r3(r * k), radiance: 120 }, why];
   }],
 };
 
@@ -109,7 +148,7 @@ export class BuildPanel {
       id: "build-3d",
       tabindex: "0",
       role: "img",
-      "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move or scale it",
+      "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move, scale or rotate it",
       "aria-describedby": "build-keys",
     });
     const box = h("div", { class: "canvas-box" }, this.canvas); // the view sizes itself to its box
@@ -137,8 +176,8 @@ export class BuildPanel {
         ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
       ),
       h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
-        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the round knob to scale, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
-        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
+        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the white knob to scale, the cyan knob sideways to rotate about the vertical, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
+        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Q and E rotate 15°, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
       this.status,
       h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
         (this.pickedMaterialLabel = h("label", { class: "inline", hidden: true }, "material ", this.pickedMaterial)),
@@ -209,7 +248,7 @@ export class BuildPanel {
   write(writes, what) {
     const label = this.describe(this.picked);
     const ok = this.change((text) => writes.reduce((r, [parts, v]) => setValue(r.text, parts, v), { text }), `${what} ${label}`);
-    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
+    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed", rotate: "Rotated" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
   }
 
   /** A material choice -> [the name to write, the preset's write to make first or null]. */
@@ -250,7 +289,8 @@ export class BuildPanel {
 
   addLight(type) {
     if (!this.usable()) return;
-    const light = LIGHTS[type][1](this.value);
+    const made = LIGHTS[type][1](this.value);
+    const [light, why] = Array.isArray(made) ? made : [made, ""]; // an area light: where it went, and why there
     const index = Array.isArray(this.value.lights) ? this.value.lights.length : 0;
     const area = type !== "point" && type !== "spot"; // lights with a size
     const samples = this.value.render?.light_samples;
@@ -259,7 +299,7 @@ export class BuildPanel {
       // an area light's soft shadow needs several shadow rays per point; one is the default
       return area && samples === undefined ? { text: setValue(r.text, ["render", "light_samples"], 16).text, start: r.start } : r;
     }, `add a ${type} light`);
-    if (ok) this.pickAfter(["lights", index], `Added light ${index} (${type})${area && samples === undefined ? ", and render.light_samples 16 for its soft shadows" : ""}.`);
+    if (ok) this.pickAfter(["lights", index], `Added light ${index} (${type})${why}${area && samples === undefined ? ", and render.light_samples 16 for its soft shadows" : ""}.`);
   }
 
   addMaterial(key) {
@@ -354,6 +394,13 @@ export class BuildPanel {
     this.pickedMaterialLabel.hidden = this.pickedMaterial.disabled; // a light has no material
     this.root.dataset.picked = item ? this.picked.join(".") : "";
     if (announce) this.say(item ? `Picked ${this.describe(this.picked)}.` : "Nothing picked: click a shape in the 3D view or in the rendered picture.");
+  }
+
+  /** An undo or redo of the editor (any step: the panel's, the form's, typing): the status names the step as
+   * undone or redone, never as done (it would still say "Moved object 0" after the move was undone). */
+  travelled(kind, what) {
+    const step = what || "the last change";
+    this.say(kind === "undo" ? `Undid: ${step}. Redo does it again.` : `Redid: ${step}.`);
   }
 
   say(text, bad = false) {

@@ -1,12 +1,14 @@
 // The Build panel's 3D view: the scene's wireframe (view3d.js) with the picked object or light and its handles.
 // Click a shape to pick it. Drag an arrow to move along that axis (x red, y green, z blue), the centre square to
 // move on the horizontal plane, the round knob to scale about the centre, a spot light's orange knob (at the end
-// of its beam's axis) to aim it; elsewhere a drag orbits. While a
+// of its beam's axis) to aim it, the cyan knob (under the centre, or beside it where an arrow is) sideways to turn it about the vertical
+// (a box's or mesh's transform.rotate); elsewhere a drag orbits. While a
 // handle is dragged only the drawing follows; letting go writes the move into the JSON as one step of the
 // editor's history. Keys (the canvas focused): arrows move x and z, Page Up and Page Down move y, [ and ]
-// scale, A and D turn a spot or directional light's beam and W and S tilt it (5 degrees), Shift+arrows orbit,
+// scale, Q and E turn the picked shape 15 degrees about the vertical, A and D turn a spot or directional light's
+// beam and W and S tilt it (5 degrees), Shift+arrows orbit,
 // + and - zoom, N and L pick the next object and light, Escape lets go.
-import { aimWrites, anchorOf, firstHit, itemAt, moveWrites, r3, scaleWrites, stage } from "./edits.js";
+import { aimWrites, anchorOf, firstHit, itemAt, moveWrites, r3, rotateWrites, scaleWrites, stage } from "./edits.js";
 import { sceneLines } from "./shapes.js";
 import { clone } from "./util.js";
 import { add, dot, mul, normalize, sub } from "./vec.js";
@@ -19,6 +21,10 @@ const AXES = [
 ];
 const GRAB = 12; // px: how near the pointer must be to a handle to take it
 const KNOB = [34, 34]; // px from the centre: the scale knob
+const TURNS = [[0, 46], [-44, 0], [-34, 34], [-34, -34], [34, -34]]; // px from the centre: where the turn knob may go (the first clear of the arrows)
+const TURN_COLOUR = "#3fd0ff";
+const TURN_PER_PX = 0.5; // degrees of turn per pixel of a sideways drag of the turn knob
+const TURN_STEP = 15; // degrees: one press of Q or E
 const AIM = "#ff9f1c"; // a spot light's aim knob and beam
 const AIM_STEP = 5; // degrees: one press of A, D (turn) or W, S (tilt) on a light with a direction
 
@@ -101,10 +107,14 @@ export class BuildView extends View3D {
     const a = this.project(this.cam, p);
     const tips = AXES.map((axis) => ({ axis, p: this.project(this.cam, add(p, mul(axis.dir, L))) }));
     const knob = scaleWrites(item, [], 1) ? [a[0] + KNOB[0], a[1] + KNOB[1]] : null;
+    // the turn knob: the first of its places clear of the arrows' tips and the scale knob (they turn with the view)
+    const taken = [...tips.map((t) => t.p), ...(knob ? [knob] : [])];
+    const spot = TURNS.map(([dx, dy]) => [a[0] + dx, a[1] + dy]).find((q) => taken.every((t) => Math.hypot(q[0] - t[0], q[1] - t[1]) >= 2 * GRAB));
+    const turn = rotateWrites(item, [], 0) ? spot || [a[0] + TURNS[0][0], a[1] + TURNS[0][1]] : null;
     const axis = item.type === "spot" && Array.isArray(item.direction) ? normalize(item.direction) : null;
     const aimAt = axis && axis.every(Number.isFinite) ? add(p, mul(axis, L * 1.6)) : null;
     const aim = aimAt && dot(sub(aimAt, this.cam.eye), this.cam.forward) > 0 ? this.project(this.cam, aimAt) : null;
-    return { at: p, a, tips, knob, L, aim, aimAt };
+    return { at: p, a, tips, knob, turn, L, aim, aimAt };
   }
 
   draw() {
@@ -114,7 +124,7 @@ export class BuildView extends View3D {
     const hs = this.scene && this.picked ? this.handles() : null;
     c.dataset.handles = hs ? "true" : "false";
     if (!hs) {
-      c.dataset.handleAt = c.dataset.handleTips = c.dataset.knob = c.dataset.aim = "";
+      c.dataset.handleAt = c.dataset.handleTips = c.dataset.knob = c.dataset.aim = c.dataset.turn = "";
       return;
     }
     const ctx = c.getContext("2d");
@@ -163,6 +173,25 @@ export class BuildView extends View3D {
       ctx.arc(hs.knob[0], hs.knob[1], 7, 0, 2 * Math.PI);
       ctx.fill();
     }
+    if (hs.turn) {
+      // a knob with a round arrow: drag it sideways to turn the shape about the vertical
+      ctx.strokeStyle = TURN_COLOUR;
+      ctx.setLineDash([3, 3]);
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      ctx.moveTo(...hs.a);
+      ctx.lineTo(...hs.turn);
+      ctx.stroke();
+      ctx.setLineDash([]);
+      ctx.fillStyle = TURN_COLOUR;
+      ctx.beginPath();
+      ctx.arc(hs.turn[0], hs.turn[1], 7, 0, 2 * Math.PI);
+      ctx.fill();
+      ctx.lineWidth = 2;
+      ctx.beginPath();
+      ctx.arc(hs.turn[0], hs.turn[1], 11, 0.2 * Math.PI, 1.6 * Math.PI);
+      ctx.stroke();
+    }
     if (hs.aim) {
       ctx.strokeStyle = AIM;
       ctx.fillStyle = AIM;
@@ -181,6 +210,7 @@ export class BuildView extends View3D {
     c.dataset.handleTips = hs.tips.map((t) => `${t.axis.name}:${t.p.map(Math.round).join(",")}`).join(" ");
     c.dataset.knob = hs.knob ? hs.knob.map(Math.round).join(",") : "";
     c.dataset.aim = hs.aim ? hs.aim.map(Math.round).join(",") : "";
+    c.dataset.turn = hs.turn ? hs.turn.map(Math.round).join(",") : "";
   }
 
   local(e) {
@@ -188,12 +218,13 @@ export class BuildView extends View3D {
     return [e.clientX - r.left, e.clientY - r.top];
   }
 
-  /** Which handle is under the canvas point m: "x", "y", "z", "plane", "scale", "aim" or null. */
+  /** Which handle is under the canvas point m: "x", "y", "z", "plane", "scale", "turn", "aim" or null. */
   handleAt(m) {
     const hs = this.picked ? this.handles() : null;
     if (!hs) return null;
     if (hs.aim && Math.hypot(m[0] - hs.aim[0], m[1] - hs.aim[1]) < GRAB) return { kind: "aim", hs };
     if (hs.knob && Math.hypot(m[0] - hs.knob[0], m[1] - hs.knob[1]) < GRAB) return { kind: "scale", hs };
+    if (hs.turn && Math.hypot(m[0] - hs.turn[0], m[1] - hs.turn[1]) < GRAB) return { kind: "turn", hs };
     for (const { axis, p } of hs.tips) if (Math.hypot(m[0] - p[0], m[1] - p[1]) < GRAB) return { kind: axis.name, hs };
     if (Math.abs(m[0] - hs.a[0]) < GRAB && Math.abs(m[1] - hs.a[1]) < GRAB) return { kind: "plane", hs };
     for (const { axis, p } of hs.tips) if (distTo(m, hs.a, p) < 5) return { kind: axis.name, hs };
@@ -230,6 +261,11 @@ export class BuildView extends View3D {
       const d = q && sub(q, hs.at);
       if (!d || Math.hypot(...d) < 1e-6) return null;
       return [[[...base, "direction"], normalize(d).map(r3)]];
+    }
+    if (kind === "turn") {
+      // sideways: to the right turns the side facing the view to the right (a positive angle about y)
+      const deg = Math.round((m[0] - m0[0]) * TURN_PER_PX);
+      return deg ? rotateWrites(item, base, deg) : null;
     }
     if (kind === "scale") {
       const r0 = Math.hypot(m0[0] - hs.a[0], m0[1] - hs.a[1]);
@@ -269,7 +305,7 @@ export class BuildView extends View3D {
       const { writes, kind } = this.drag;
       this.drag = null;
       this.shown = null;
-      if (writes) this.onEdit(writes, { scale: "scale", aim: "aim" }[kind] || "move");
+      if (writes) this.onEdit(writes, { scale: "scale", aim: "aim", turn: "rotate" }[kind] || "move");
       else this.draw();
       return;
     }
@@ -336,6 +372,9 @@ export class BuildView extends View3D {
     else if (aimed) {
       writes = aimed;
       what = "aim";
+    } else if ((e.key === "q" || e.key === "e") && rotateWrites(item, this.picked, 0)) {
+      writes = rotateWrites(item, this.picked, e.key === "e" ? TURN_STEP : -TURN_STEP);
+      what = "rotate";
     } else if (e.key === "[" || e.key === "]") {
       writes = scaleWrites(item, this.picked, e.key === "]" ? 1.1 : 1 / 1.1);
       what = "scale";

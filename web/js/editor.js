@@ -25,7 +25,7 @@ export function keptText() {
 
 export class SceneEditor {
   /** root: the element holding .code, #problems, #validation-status. */
-  constructor(root, { onChange = () => {}, onRender = () => {}, onHistory = () => {} } = {}) {
+  constructor(root, { onChange = () => {}, onRender = () => {}, onHistory = () => {}, onTravel = () => {} } = {}) {
     this.root = root;
     this.ta = $("textarea", root);
     this.gutter = $(".gutter-nums", root);
@@ -36,7 +36,8 @@ export class SceneEditor {
     this.onChange = onChange;
     this.onRender = onRender;
     this.onHistory = onHistory; // (canUndo, canRedo): the buttons follow
-    this.past = []; // [{text, sel}] before each step, the latest last
+    this.onTravel = onTravel; // ("undo" | "redo", what): an undo or redo went through; `what` names the step
+    this.past = []; // [{text, sel, what}] before each step (what: the step's name), the latest last
     this.future = []; // steps undone, the next redo last
     this.typing = -Infinity; // when the student last typed (a pause starts a new step; -Infinity: none since the last step)
     this.state = { text: "", value: null, nodes: null, where: null, syntax: null, valid: null, errors: [], warnings: [] };
@@ -74,7 +75,7 @@ export class SceneEditor {
 
   /** Replace the whole text (an example, a file, a lesson's variant): one step of the history. */
   setText(text, name = null) {
-    this.record();
+    this.record(`load ${name || "a new scene"}`);
     this.ta.value = text;
     if (name) store.set(NAME_KEY, name);
     this.ta.scrollTop = 0;
@@ -99,7 +100,7 @@ export class SceneEditor {
       return false;
     }
     if (result.text === old) return true;
-    this.record();
+    this.record(what);
     // replace only the changed span, so the textarea keeps its scroll and selection elsewhere
     const next = result.text;
     let a = 0;
@@ -115,11 +116,11 @@ export class SceneEditor {
 
   // -- history ------------------------------------------------------------------------------------
 
-  /** Keep the text as it is now as a step to go back to (before a change). */
-  record() {
+  /** Keep the text as it is now as a step to go back to (before a change named `what`: "move object 0 (sphere)"). */
+  record(what = "typing") {
     const text = this.ta.value;
     this.typing = -Infinity;
-    if (text.trim() && this.past.at(-1)?.text !== text) this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
+    if (text.trim() && this.past.at(-1)?.text !== text) this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd], what });
     if (this.past.length > HISTORY) this.past.shift();
     this.future = [];
     this.onHistory(this.canUndo, this.canRedo);
@@ -135,20 +136,21 @@ export class SceneEditor {
 
   /** Go back one step (true), or say there is none (false). */
   undo() {
-    return this.travel(this.past, this.future, "Nothing to undo.");
+    return this.travel(this.past, this.future, "Nothing to undo.", "undo");
   }
 
   redo() {
-    return this.travel(this.future, this.past, "Nothing to redo.");
+    return this.travel(this.future, this.past, "Nothing to redo.", "redo");
   }
 
-  travel(from, to, none) {
+  /** One step from `from` to `to`: a step keeps its name both ways (undone, it is the step that redo makes again). */
+  travel(from, to, none, kind) {
     const step = from.pop();
     if (!step) {
       this.setStatus("warn", none);
       return false;
     }
-    to.push({ text: this.ta.value, sel: [this.ta.selectionStart, this.ta.selectionEnd] });
+    to.push({ text: this.ta.value, sel: [this.ta.selectionStart, this.ta.selectionEnd], what: step.what });
     this.typing = -Infinity;
     const top = this.ta.scrollTop;
     this.ta.value = step.text;
@@ -158,6 +160,7 @@ export class SceneEditor {
     // moves the picked sphere) must start from the text it brought back, not from the step it undid
     this.changed(true);
     this.onHistory(this.canUndo, this.canRedo);
+    this.onTravel(kind, step.what);
     return true;
   }
 

@@ -103,6 +103,54 @@ export function aimWrites(o, base, yaw, pitch, up = [0, 1, 0]) {
   return [[[...base, "direction"], v3(normalize(d))]];
 }
 
+/** An angle in degrees as a student writes it: to a tenth of a degree, in (-180, 180]. */
+const angle = (deg) => {
+  const a = Math.round(((((deg + 180) % 360) + 360) % 360) * 10) / 10 - 180;
+  return a === -180 ? 180 : a;
+};
+
+/** The writes that turn `o` by `deg` degrees about the vertical (y) axis through its anchor, so that it turns
+ * in place; null for what does not turn (a sphere, a plane, a light without a shape). A box or a mesh turns by
+ * its `transform.rotate` (about y: the angle a student types), its `translate` set so that its centre stays
+ * (a transform turns about the origin: docs/scene-format.md); a box without a transform gets one. A quad, a
+ * triangle and a disk turn their own vectors. About y exactly when the transform has no z rotation (the order
+ * is x, then y, then z); about the box's own tilted axis otherwise. */
+export function rotateWrites(o, base, deg) {
+  if (!o || !Number.isFinite(deg)) return null;
+  const c = anchorOf(o);
+  if (!c) return null;
+  const up = [0, 1, 0];
+  const a = (deg * Math.PI) / 180;
+  const spin = (v) => turn(v, up, a);
+  const about = (p) => v3(add(c, spin(sub(p, c))));
+  const at = (k) => [...base, k];
+  switch (o.type) {
+    case "box":
+    case "mesh": {
+      const t = o.transform && typeof o.transform === "object" ? o.transform : {};
+      const r = isVec(t.rotate) ? t.rotate : [0, 0, 0];
+      const rotate = [r[0], angle(r[1] + deg), r[2]];
+      const scale = t.scale ?? 1;
+      // the centre in the shape's own frame (a box: its min and max's middle; a mesh: its origin) stays where it is
+      const local = o.type === "box" ? mul(add(o.min, o.max), 0.5) : [0, 0, 0];
+      const translate = v3(sub(c, applyPoint(transformMatrix({ rotate, scale }), local)));
+      return [[[...base, "transform"], t.scale === undefined ? { translate, rotate } : { translate, rotate, scale }]];
+    }
+    case "quad":
+      return [
+        [at("corner"), about(o.corner)],
+        [at("edge1"), v3(spin(o.edge1))],
+        [at("edge2"), v3(spin(o.edge2))],
+      ];
+    case "triangle":
+      return [[at("vertices"), o.vertices.map(about)]];
+    case "disk":
+      return isVec(o.normal) ? [[at("normal"), v3(spin(o.normal))]] : null;
+    default:
+      return null;
+  }
+}
+
 /** The writes that scale `o` by k about its anchor; null for what has no size (a plane, a point light). */
 export function scaleWrites(o, base, k) {
   const at = (key) => [...base, key];

@@ -13,11 +13,12 @@ import { RAY_TRACING } from "./lessons/raytracing.js";
 import { SAMPLING } from "./lessons/sampling.js";
 import { SURFACES } from "./lessons/surfaces.js";
 import { drawSamples, samplerWords } from "./samplers.js";
-import { $, clone, debounce, h, integer, num, seconds } from "./util.js";
+import { $, clone, debounce, h, integer, num, seconds, store } from "./util.js";
 import { dot, length, normalize, sub } from "./vec.js";
 
 const SIZE = [160, 120]; // the largest lesson image; each keeps its scene's aspect
 const SETTLE_MS = 350; // a control's panels re-render this long after its last change
+const DONE_KEY = "rt.lessons.done"; // the ids of the lessons whose question was answered right, in localStorage
 
 /** Every lesson, in the lecture's order. An entry: id, title, text; `scene` (an example's name), `set` ({dotted path:
  * value}) and `edit(scene)`, the changes every panel gets; `panels`, each with a `label` (text, or a function of its
@@ -118,19 +119,67 @@ export async function firstPanels(sceneOf) {
 }
 
 export class Lessons {
-  constructor(root, { openInWorkspace }) {
+  /** openInWorkspace(scene, job, label, marks); onChoose(id): a lesson was chosen (the list, the switch, Next). */
+  constructor(root, { openInWorkspace, onChoose = () => {} }) {
     this.root = root;
     this.openInWorkspace = openInWorkspace;
+    this.onChoose = onChoose;
     this.list = $("#lesson-list", root);
     this.stage = $("#lesson-stage", root);
     this.scenes = new Map();
     this.runs = new Map(); // lesson id -> {values, panels: [...], question}, kept while the page lives
+    const known = new Set(LESSONS.map((l) => l.id));
+    const kept = store.get(DONE_KEY, []);
+    this.done = new Set(Array.isArray(kept) ? kept.filter((id) => known.has(id)) : []); // answered right, on any visit
     this.list.replaceChildren(
       ...LESSONS.map((l) =>
-        h("li", {}, h("button", { type: "button", class: "lesson-button", dataset: { lesson: l.id }, onclick: () => this.run(l.id) }, l.title)),
+        h("li", {}, h("button", { type: "button", class: "lesson-button", dataset: { lesson: l.id }, onclick: () => this.choose(l.id) }, l.title, this.doneMark(l.id))),
       ),
     );
     this.stage.replaceChildren(h("p", { class: "hint" }, "Choose a comparison: its images render in a few seconds."));
+  }
+
+  /** A lesson chosen by the student: it runs, and the page's address follows (main.js). */
+  choose(id) {
+    this.onChoose(id);
+    return this.run(id);
+  }
+
+  /** The mark of a lesson done (its question answered right): a tick, and words for a screen reader. */
+  doneMark(id) {
+    return h("span", { class: "lesson-done", hidden: !this.done.has(id), title: "Done: its question answered right" },
+      h("span", { "aria-hidden": "true" }, " \u2713"), h("span", { class: "sr-only" }, " (done)"));
+  }
+
+  markDone(id) {
+    if (this.done.has(id)) return;
+    this.done.add(id);
+    store.set(DONE_KEY, [...this.done]);
+    const mark = this.list.querySelector(`[data-lesson="${id}"] .lesson-done`);
+    if (mark) mark.hidden = false;
+    const option = this.stage.querySelector(`.lesson-switch option[value="${id}"]`);
+    if (option) option.textContent = this.optionText(LESSONS.find((l) => l.id === id));
+  }
+
+  optionText(l) {
+    return `${LESSONS.indexOf(l) + 1}. ${l.title}${this.done.has(l.id) ? " \u2713 (done)" : ""}`;
+  }
+
+  /** On a phone the list of lessons is under the lesson: a menu above it switches without scrolling past it. */
+  switchElement(lesson) {
+    const select = h("select", { id: "lesson-switch", "aria-describedby": "lesson-switch-help" },
+      ...LESSONS.map((l) => h("option", { value: l.id, selected: l.id === lesson.id }, this.optionText(l))));
+    select.addEventListener("change", () => this.choose(select.value));
+    return h("div", { class: "lesson-switch" }, h("label", { for: "lesson-switch" }, "Lesson"), select,
+      h("small", { id: "lesson-switch-help", class: "hint" }, `${LESSONS.indexOf(lesson) + 1} of ${LESSONS.length}; the list is also under the lesson.`));
+  }
+
+  /** The way on: a button to the next lesson (none after the last). */
+  nextElement(lesson) {
+    const next = LESSONS[LESSONS.indexOf(lesson) + 1];
+    if (!next) return h("p", { class: "lesson-next hint" }, "This was the last lesson.");
+    return h("div", { class: "lesson-next" },
+      h("button", { type: "button", id: "lesson-next", onclick: () => this.choose(next.id) }, `Next lesson: ${next.title} \u2192`));
   }
 
   async scene(name) {
@@ -162,7 +211,8 @@ export class Lessons {
     const controls = this.controlsElement(lesson, run);
     const extra = h("div", { class: "lesson-extra" });
     const question = h("section", { class: "lesson-question", "aria-label": "Check yourself" });
-    this.stage.replaceChildren(h("h2", { tabindex: -1 }, lesson.title), h("p", { class: "lesson-text" }, lesson.text), moreElement(lesson), controls, grid, extra, question);
+    const title = h("h2", { tabindex: -1 }, lesson.title, this.doneMark(id));
+    this.stage.replaceChildren(this.switchElement(lesson), title, h("p", { class: "lesson-text" }, lesson.text), moreElement(lesson), controls, grid, extra, question, this.nextElement(lesson));
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
     run.extra = extra;
@@ -492,15 +542,17 @@ export class Lessons {
     }
     const q = run.question;
     box.question = q; // the page's tests read the answer here
-    const feedback = h("div", { class: "feedback", role: "status", "aria-live": "polite" });
+    const feedback = h("div", { class: "feedback", role: "status", "aria-live": "polite", "aria-atomic": "true" });
     const choices = q.choices.map((text, i) =>
-      h("button", { type: "button", class: "choice", dataset: { choice: i }, onclick: () => this.answer(lesson, run, i, choices, feedback) }, text),
+      h("button", { type: "button", class: "choice", dataset: { choice: i }, onclick: () => this.answer(lesson, run, i, choices, feedback, true) }, text),
     );
     box.replaceChildren(h("h3", {}, "Check yourself"), h("p", { class: "question" }, q.prompt), h("div", { class: "choices", role: "group", "aria-label": "answers" }, ...choices), feedback);
     if (run.chosen != null) this.answer(lesson, run, run.chosen, choices, feedback);
   }
 
-  answer(lesson, run, i, buttons, feedback) {
+  /** An answer chosen (`clicked`: by the student now, not shown again on coming back): right or not, said in the
+   * feedback (a live region: a screen reader reads it) and brought into view with the Next button under it. */
+  answer(lesson, run, i, buttons, feedback, clicked = false) {
     const q = run.question;
     const right = i === q.answer;
     run.chosen = i;
@@ -515,6 +567,15 @@ export class Lessons {
     if (right && !run.answered) {
       run.answered = true;
       for (const p of run.panels) if (p.reveal && p.el) this.caption(p);
+    }
+    if (right) {
+      this.markDone(lesson.id);
+      const title = this.stage.querySelector("h2 .lesson-done");
+      if (title) title.hidden = false;
+    }
+    if (clicked) {
+      this.stage.querySelector(".lesson-next")?.scrollIntoView({ block: "nearest" });
+      feedback.scrollIntoView({ block: "nearest" }); // the answer wins where both do not fit
     }
   }
 

@@ -117,6 +117,7 @@ const editor = new SceneEditor($("#editor-panel"), {
     $("#btn-undo").disabled = !canUndo;
     $("#btn-redo").disabled = !canRedo;
   },
+  onTravel: (kind, what) => build?.travelled(kind, what),
 });
 fields = new SceneFields(fieldsForm, editor);
 $("#btn-undo").addEventListener("click", () => editor.undo());
@@ -380,6 +381,8 @@ let lessons = null;
 async function start() {
   showWorkingOn($("#working-on")); // opened from an assignment's "Start": the way back to it
   lessons = new Lessons($("#page-lessons"), {
+    // a lesson chosen (the list, the menu above a lesson, Next) gets its own address, so Back returns to the one before
+    onChoose: (id) => location.hash !== `#lessons/${id}` && history.pushState(null, "", `#lessons/${id}`),
     openInWorkspace: async (scene, job, label, marks = []) => {
       loadText(formatJSON(scene), label);
       viewer.remember(job);
@@ -390,11 +393,6 @@ async function start() {
         $("#stage").scrollIntoView({ block: "nearest" });
       }
     },
-  });
-  // a lesson chosen from the list gets its own address (the lesson itself runs from its button)
-  $("#lesson-list").addEventListener("click", (e) => {
-    const id = e.target.closest("[data-lesson]")?.dataset.lesson;
-    if (id && location.hash !== `#lessons/${id}`) history.pushState(null, "", `#lessons/${id}`);
   });
   // the form's rules (kinds, bounds, defaults) are the server's; without them it still shows the text's values
   const schema = loadSchema().then(

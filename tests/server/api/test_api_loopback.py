@@ -7,12 +7,14 @@ restarted with jobs queued and running, and 50 concurrent submissions.
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import os
 import signal
 import subprocess
 import sys
 import threading
+import zipfile
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
@@ -21,11 +23,13 @@ import pytest
 
 from tests.support.api import (
     Server,
+    bearer,
     free_port,
     job,
     long_scene,
     parse_sse,
     pid_alive,
+    student_token,
     submit,
     tiny_scene,
     wait_finished,
@@ -224,10 +228,10 @@ def test_api_loopback_a_stopped_server_s_worker_gives_its_job_back(tmp_path, sig
         assert back["status"] == "queued" and back["attempts"] == 0  # a stop is not the job's fault
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
-def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
-    """The server, its worker and multiprocessing's resource tracker (which warns of leaked semaphores
-    as it exits) all write to one pipe (stderr, with stdout): reading it to its end waits for the last of them."""
+def stopped_server_log(tmp_path, sig, work) -> str:
+    """`python -m server` with one worker, `work(http)` done on it, then stopped by `sig`: everything the server,
+    its worker, its grading processes and multiprocessing's resource tracker (which warns of leaked semaphores
+    as it exits) wrote to the one pipe (stderr, with stdout). Reading it to its end waits for the last of them."""
     port = free_port()
     cmd = [sys.executable, "-m", "server", "--port", str(port), "--data-dir", str(tmp_path / "data"), "--workers", "1"]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -235,7 +239,7 @@ def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
     reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
     reader.start()
     try:
-        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30) as http:
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30, headers=bearer(student_token())) as http:
 
             def ready() -> bool:
                 assert proc.poll() is None, "".join(lines)
@@ -246,8 +250,7 @@ def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
                 return len(workers) == 2 and all(w["ready"] for w in workers)  # one, and one kept for the page
 
             wait_for(ready, 120, "the server to start", interval=0.2)
-            created = submit(http, tiny_scene())  # a job rendered and its worker woken, as in real use
-            assert wait_finished(http, created["id"], timeout=120)["status"] == "done"
+            work(http)
         proc.send_signal(sig)
         proc.wait(timeout=60)
     finally:
@@ -258,4 +261,38 @@ def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
     assert not reader.is_alive(), "a process of the server still holds its output pipe"
     log = "".join(lines)
     assert "Application shutdown complete" in log and "render workers stopped" in log
+    return log
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_api_loopback_a_stopped_server_leaks_no_semaphore(tmp_path, sig):
+    def render(http) -> None:  # a job rendered and its worker woken, as in real use
+        created = submit(http, tiny_scene())
+        assert wait_finished(http, created["id"], timeout=120)["status"] == "done"
+
+    log = stopped_server_log(tmp_path, sig, render)
+    assert "leaked semaphore" not in log, log[-3000:]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_api_loopback_a_server_stopped_after_grading_leaks_no_semaphore(tmp_path, sig):
+    """A grading run's per-student work runs in a pool of processes (server/grading/pool.py), whose queues are
+    five named semaphores: a stop after a grading run warned "There appear to be 5 leaked semaphore objects"
+    (issue #42) as the pool was left without its queues closed."""
+    example = ROOT / "scenes" / "grading"
+    assignment = json.loads((example / "assignment.json").read_text())
+    assignment["reference"]["scene"] = json.loads((example / "reference.json").read_text())
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.write(example / "class" / "alice.json", "hw/alice.json")
+
+    def grade(http) -> None:
+        r = http.post("/api/grade/upload", data={"assignment": json.dumps(assignment)},
+                      files={"class": ("hw.zip", buf.getvalue(), "application/zip")})  # fmt: skip
+        assert r.status_code == 202, r.text
+        url = r.json()["url"]
+        state = wait_for(lambda: (s := http.get(url).json())["status"] != "running" and s, 240, "the run", 0.2)
+        assert state["status"] == "done" and state["graded"] == 1, state
+
+    log = stopped_server_log(tmp_path, sig, grade)
     assert "leaked semaphore" not in log, log[-3000:]

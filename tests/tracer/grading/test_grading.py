@@ -45,6 +45,8 @@ from tracer.grading import (
 from tracer.grading.batch import group_files, summary
 from tracer.grading.checks import run_check
 from tracer.grading.spec import Check
+from tracer.kernels.compile import compile_scene
+from tracer.rendering.progressive import render
 from tracer.scene import load_scene
 
 REQUIREMENTS = ["valid scene", "a glass object", "an area light", "three bounces", "a small scene", "a render budget"]
@@ -110,7 +112,7 @@ def test_grading_messages_say_why(graded):
     ivan = graded["ivan"]
     assert ivan.errors[0]["message"] == "the image is 64x48 pixels; the assignment renders 96x72"
     erin = graded["erin"]
-    assert "(the noise baseline) 0.01603" in erin.tests[6].output
+    assert "(the noise baseline) 0.01662" in erin.tests[6].output
     assert erin.metrics["flip"] > erin.metrics["baseline"]["flip"] + 0.02
 
 
@@ -126,7 +128,7 @@ def test_grading_is_fair_to_noise(graded):
 
 def test_grading_words_a_correct_noisy_render_reads_as_matching_the_baseline(graded):
     """dave's correct 1-spp render has full marks, and each image test says so first, against a correct render
-    at the same samples per pixel (the noise baseline), before any number: 12 % of its pixels past the z test
+    at the same samples per pixel (the noise baseline), before any number: 11 % of its pixels past the z test
     read as noise, not failure (before: "11.99 % of pixels differ from the reference by more than the noise
     explains", beside a mostly red picture)."""
     dave = graded["dave"]
@@ -136,15 +138,15 @@ def test_grading_words_a_correct_noisy_render_reads_as_matching_the_baseline(gra
         assert "a correct render at 1 sample per pixel (the noise baseline)" in lines[1]
     pixels = dave.tests[9].output.split("\n")
     assert pixels[1].startswith("Pixels off by more than noise explains (a z test per pixel, alpha 0.001; fewer is")
-    assert "yours 11.99%; a correct render at 1 sample per pixel (the noise baseline) 12.09%" in pixels[1]
-    assert "allowed up to 13.09% (the baseline's + 1.00%)" in pixels[1]
+    assert "yours 10.58%; a correct render at 1 sample per pixel (the noise baseline) 11.36%" in pixels[1]
+    assert "allowed up to 12.36% (the baseline's + 1.00%)" in pixels[1]
     assert pixels[2] == "At 1 sample per pixel even a correct render has this many: they are noise, not mistakes."
     flip, ssim, psnr = (dave.tests[i].output.split("\n")[1] for i in (6, 7, 8))
     assert flip.startswith("FLIP (how different the two pictures look to a viewer; 0 is identical, lower is better)")
     assert ssim.startswith("SSIM (how alike the pictures' edges, textures and contrast are; 1 is identical, higher")
     assert psnr.startswith("PSNR (the pixels' average error on a log scale; higher is better, 100 dB is identical)")
-    assert "allowed at most 0.1055 (the baseline's + 0.02)" in flip
-    assert "allowed at least 20.34 dB (the baseline's - 2 dB)" in psnr
+    assert "allowed at most 0.1074 (the baseline's + 0.02)" in flip
+    assert "allowed at least 20.27 dB (the baseline's - 2 dB)" in psnr
 
 
 def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
@@ -157,11 +159,11 @@ def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
         assert "a correct render at 16 samples per pixel (the noise baseline)" in numbers
         assert where.startswith("Where to look: ") and "rejected pixels" in where and "your scene" in where
     assert erin.tests[9].output.startswith(
-        "Differs from the reference more than noise can explain: 8.48% of your pixels are off, where a correct "
-        "render at 16 samples per pixel has 0.01%.\n"
+        "Differs from the reference more than noise can explain: 12.72% of your pixels are off, where a correct "
+        "render at 16 samples per pixel has 0.06%.\n"
     )
-    assert erin.tests[6].output.startswith("Differs from the reference more than noise can explain: FLIP 0.06297 "
-                                           "is above the 0.03603 allowed")  # fmt: skip
+    assert erin.tests[6].output.startswith("Differs from the reference more than noise can explain: FLIP 0.07711 "
+                                           "is above the 0.03662 allowed")  # fmt: skip
     assert "the FLIP error map (bright where the pictures differ most)" in erin.tests[6].output
     heidi = graded["heidi"].tests[4].output
     assert heidi.startswith("Differs from the reference") and "what your ray tracer computes there" in heidi
@@ -175,7 +177,7 @@ def red_share(pixels: np.ndarray) -> float:
 
 
 def test_grading_rejected_picture_marks_red_only_what_noise_does_not_explain(graded):
-    """The rejected pixels picture: dave's correct 1-spp render has 12 % of its pixels past the z test, as many
+    """The rejected pixels picture: dave's correct 1-spp render has 11 % of its pixels past the z test, as many
     as the noise baseline, and none of them red (they are pale yellow, "as a correct render has them"); erin's
     wrong cube and ball are red, nearly all her rejected pixels; the caption says both, with the baseline's share."""
     dave, erin = graded["dave"], graded["erin"]
@@ -187,7 +189,7 @@ def test_grading_rejected_picture_marks_red_only_what_noise_does_not_explain(gra
     assert erin.metrics["beyond_noise"] == pytest.approx(red_share(erin.images["rejected"]), abs=1e-6)
     caption = dave.metrics["captions"]["rejected"]
     assert "red where they differ beyond noise (0.00% of the image)" in caption
-    assert caption.endswith("pale yellow as many as noise makes (a correct render at 1 sample per pixel: 12.09%)")
+    assert caption.endswith("pale yellow as many as noise makes (a correct render at 1 sample per pixel: 11.36%)")
     assert "rejected_map" not in dave.metrics["baseline"]  # the baseline's map is for the picture, not the report
 
 
@@ -892,3 +894,32 @@ def test_own_images_of_other_formats_are_refused_before_any_decoder(fmt, told, m
     with pytest.raises(GradingError) as e:
         decode_image(picture.getvalue(), "exr")
     assert str(e.value).startswith("cannot read the EXR image: it is ")
+
+
+def test_grading_example_reference_shows_its_mirror_cube():
+    """The example assignment asks for a mirror cube, and its reference at the assignment's 96x72 shows one (issue
+    #42: a plain mirror cube reflected the checkered floor and read as floor, 3 to 4 % off the colour of what it
+    hid). The cube's pixels (where the eye ray meets it first: a probe render with it painted green, its albedo)
+    are a tenth of the picture, and their mean colour differs from the picture's there without the cube by
+    more than 0.1 (sRGB, 0 to 1) in some channel: a gold mirror turned 45 degrees."""
+    reference = json.loads((EXAMPLE / "reference.json").read_text())
+    assert assignment_dict()["render"] == {"width": 96, "height": 72, "seed": 7}
+    reference["sampler"]["spp"] = 16
+
+    def render_of(scene: dict):
+        s, _ = load_scene(scene)
+        return render(compile_scene(s), threads=2)
+
+    probe = copy.deepcopy(reference)
+    probe["materials"]["mirror"] = {"kd": [0, 1, 0]}
+    cube = np.abs(render_of(probe).aovs["albedo"] - [0, 1, 0]).max(axis=-1) < 0.05
+    assert cube.mean() > 0.05, cube.mean()
+    gone = copy.deepcopy(reference)
+    gone["objects"] = [o for o in gone["objects"] if o.get("name") != "mirror cube"]
+    assert len(gone["objects"]) == len(reference["objects"]) - 1
+
+    def srgb(image: np.ndarray) -> np.ndarray:
+        return np.clip(image, 0, 1) ** (1 / 2.2)
+
+    seen, hidden = srgb(render_of(reference).image)[cube], srgb(render_of(gone).image)[cube]
+    assert np.abs(seen.mean(axis=0) - hidden.mean(axis=0)).max() > 0.1, (seen.mean(axis=0), hidden.mean(axis=0))

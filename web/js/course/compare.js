@@ -129,7 +129,8 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   );
   let first = null;
   for (const v of views) {
-    renderDiagram(v.box, v.model, { onHover: () => {}, onSelect: () => {} }); // a still picture: no linked views here
+    // a still picture: no linked views here; the differing ray is never folded into a group of shadow rays
+    renderDiagram(v.box, v.model, { onHover: () => {}, onSelect: () => {}, open: v.marked ? [v.marked.id] : [] });
     renderRayList(v.words, v.model, { label: `${v.title}: ${v.model.nodes.length} rays`, onFocus: () => {}, onSelect: () => {} });
     if (d && v.marked) v.words.querySelector(`[data-id="${v.marked.id}"] > .rt-li-text`)?.append(` The first difference: ${d.what}.`);
     const g = d ? mark(v, d.what) : null;

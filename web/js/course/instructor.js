@@ -7,7 +7,7 @@ import { tokens } from "../api.js";
 import { $, h } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { Board } from "./instructor_board.js";
-import { course, linkBox, say, tokenProblem, when } from "./instructor_util.js";
+import { course, errorWords, linkBox, say, tokenProblem, when } from "./instructor_util.js";
 
 const view = $("#course-view");
 
@@ -25,6 +25,18 @@ const access = $("#course-access-status");
 const tokenInput = $("#course-token");
 let board = null;
 let signedAs = null; // "Signed in as a TA of ..." once the token's course and role are known
+let madeCourse = null; // the course the admin just created: the publish form publishes into it
+
+/** The token's field says whose token it is once the server told the role (a TA's page said "Instructor
+ * token"). */
+function showRole(role) {
+  const label = document.querySelector('label[for="course-token"]');
+  const words = { ta: "Your TA token", instructor: "Your instructor token" }[role];
+  if (!label || !words) return;
+  label.textContent = words;
+  tokenInput.placeholder = "the token of your staff link";
+  $("#course-token-help").textContent = "It came with the staff link you were sent (kept in this browser); open that link again to sign in anew.";
+}
 
 /** The address's assignment and student: /course#<id> is the dashboard, /course#<id>/<student> with that
  * student's detail open. */
@@ -89,7 +101,7 @@ async function showList() {
     );
   } catch (err) {
     accessOk(err);
-    say(note, "error", `Could not list the assignments: ${err.message}`);
+    say(note, "error", tokenProblem(err, !!tokens.instructor()) ? "Sign in first: see above." : `Could not list the assignments: ${err.message}`);
   }
 }
 
@@ -99,7 +111,9 @@ async function showCourses(panel) {
   const { courses } = await course.courses();
   const mine = courses.length === 1 ? await course.courseView(courses[0].id) : null;
   const role = mine?.you?.role;
-  const pick = h("select", { id: "course-into", "aria-label": "Course to publish into" }, ...courses.map((c) => h("option", { value: c.id }, `${c.name} (${c.id})`)));
+  // a course just created is the one to publish into (it stayed on the first course)
+  const into = courses.some((c) => c.id === madeCourse) ? madeCourse : course.into;
+  const pick = h("select", { id: "course-into", "aria-label": "Course to publish into" }, ...courses.map((c) => h("option", { value: c.id, selected: c.id === into }, `${c.name} (${c.id})`)));
   pick.addEventListener("change", () => (course.into = pick.value));
   course.into = courses.length > 1 ? pick.value : null;
   const items = courses.map((c) => h("li", { dataset: { id: c.id } }, h("strong", {}, c.name), h("span", { class: "muted" }, ` · ${c.id} · ${c.assignments} assignment${c.assignments === 1 ? "" : "s"} · ${c.students} student${c.students === 1 ? "" : "s"} on its roster`)));
@@ -107,6 +121,7 @@ async function showCourses(panel) {
   if (role && role !== "admin") {
     signedAs = `Signed in as ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}.`;
     say(access, "ok", signedAs);
+    showRole(role);
   }
   if (role === "ta") document.querySelector('[aria-labelledby="h-publish"]')?.remove(); // publishing is the instructors'
   if (role && role !== "admin") parts.push(h("p", { class: "hint", id: "course-role" }, `You are ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}${role === "ta" ? ": you follow the class, grant extensions and regrade; publishing is the instructors'." : "."}`));
@@ -118,7 +133,7 @@ async function showCourses(panel) {
 /** Add an instructor or a TA to a course (and, for the admin, make a course): their link is shown once here. */
 function staffForm(courses, admin) {
   const out = h("p", { class: "hint", id: "staff-status", role: "status", "aria-live": "polite" });
-  const cid = h("select", { id: "staff-course" }, ...courses.map((c) => h("option", { value: c.id }, c.id)));
+  const cid = h("select", { id: "staff-course" }, ...courses.map((c) => h("option", { value: c.id, selected: c.id === madeCourse }, c.id)));
   const pid = h("input", { id: "staff-id", required: true, maxlength: 80, autocomplete: "off" });
   const name = h("input", { id: "staff-name", maxlength: 200, autocomplete: "off" });
   const role = h("select", { id: "staff-role" }, h("option", { value: "ta" }, "TA"), h("option", { value: "instructor" }, "instructor"));
@@ -150,7 +165,8 @@ function staffForm(courses, admin) {
   create.addEventListener("submit", async (e) => {
     e.preventDefault();
     try {
-      await course.createCourse({ id: nid.value.trim(), name: nname.value.trim() });
+      madeCourse = nid.value.trim();
+      await course.createCourse({ id: madeCourse, name: nname.value.trim() });
       showList();
     } catch (err) {
       made.textContent = `Not created: ${err.message}`;
@@ -167,7 +183,7 @@ async function route() {
     return;
   }
   board?.close();
-  board = new Board(id, view, { access: accessOk });
+  board = new Board(id, view, { access: accessOk, onRole: showRole });
   await board.open(student);
 }
 

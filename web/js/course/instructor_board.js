@@ -12,6 +12,7 @@ import { SimilarityPanel } from "./similarity.js";
 import { StatsPanel } from "./stats.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
+const TA_MAY = "As a TA you follow the class, grant extensions and regrade.";
 const POLL_MS = 3000; // the roster is asked again this often while the page is shown
 const BINS = 10; // the histogram's bars: tenths of the spec's points
 const STATE_TEXT = { none: "not submitted", submitted: "submitted", graded: "graded", invalid: "invalid only", failed: "ungradable" };
@@ -64,10 +65,11 @@ const COLUMNS = [
 ];
 
 export class Board {
-  constructor(aid, root, { access }) {
+  constructor(aid, root, { access, onRole = () => {} }) {
     this.aid = aid;
     this.root = root;
     this.access = access;
+    this.onRole = onRole; // (role): the page's token field says whose token it is
     this.rows = new Map(); // student id -> {sig, tr}
     this.data = null; // the last dashboard answer
     this.sort = { key: "student", dir: 1 };
@@ -99,6 +101,7 @@ export class Board {
     }
     if (this.closed) return;
     this.access(null);
+    if (this.brief.you?.role) this.onRole(this.brief.you.role);
     this.build();
     await this.refresh();
     if (student) await this.showStudent(student);
@@ -120,22 +123,28 @@ export class Board {
     this.rosterErrors = errorList("roster-errors", "Problems in the roster");
     this.rosterStatus = h("p", { id: "roster-status", role: "status", "aria-live": "polite" });
     this.linksBox = h("div", { id: "links-box", class: "links-box", hidden: true });
+    // a TA may not change the roster or its links (the server refuses them after the form is sent): no forms, the reason
+    const rosterForms = this.may("roster")
+      ? [
+          h("label", { for: "roster-file", class: "grade-label" }, "Upload the roster (CSV with the header id,name,email)"),
+          this.rosterInput,
+          h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Download the links after the upload; they can be downloaded again at any time."),
+          this.rosterErrors,
+          this.rosterStatus,
+          h(
+            "div",
+            { class: "links-again" },
+            h("button", { type: "button", id: "links-again", onclick: () => this.linksAgain() }, "Download links again"),
+            h("button", { type: "button", id: "links-reissue", onclick: () => this.reissueAll() }, "Re-issue all…"),
+          ),
+          this.linksBox,
+        ]
+      : [h("p", { class: "hint", id: "roster-ta" }, `${TA_MAY} The roster and the students' links are the instructors': ask one of them to upload a roster or re-issue a link.`)];
     const roster = h(
       "section",
       { class: "panel", "aria-labelledby": "h-roster" },
       h("div", { class: "panel-head" }, h("h2", { id: "h-roster" }, "Roster and links")),
-      h("label", { for: "roster-file", class: "grade-label" }, "Upload the roster (CSV with the header id,name,email)"),
-      this.rosterInput,
-      h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Download the links after the upload; they can be downloaded again at any time."),
-      this.rosterErrors,
-      this.rosterStatus,
-      h(
-        "div",
-        { class: "links-again" },
-        h("button", { type: "button", id: "links-again", onclick: () => this.linksAgain() }, "Download links again"),
-        h("button", { type: "button", id: "links-reissue", onclick: () => this.reissueAll() }, "Re-issue all…"),
-      ),
-      this.linksBox,
+      ...rosterForms,
     );
 
     // the distribution
@@ -411,7 +420,7 @@ export class Board {
       else kept.tr.removeAttribute("aria-current");
       return kept.tr;
     });
-    if (!all.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No students yet: upload the roster.")));
+    if (!all.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, this.may("roster") ? "No students yet: upload the roster." : "No students yet: an instructor uploads the roster.")));
     else if (!shown.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No student matches.")));
     this.tbody.replaceChildren(...trs);
     const filtered = shown.length !== all.length ? `${shown.length} of ${all.length}` : `${all.length}`;
@@ -594,7 +603,7 @@ export class Board {
         { class: "panel-head" },
         h("h2", { id: "h-student", tabindex: -1 }, `${d.name} (${d.id})`),
         h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null),
-        h("span", { class: "toolbar" }, h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…"), h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
+        h("span", { class: "toolbar" }, this.may("roster") ? h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…") : null, h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
       ),
       linkOut,
       h(
@@ -759,13 +768,21 @@ export class Board {
         { class: "versions", id: "versions" },
         (b.versions || []).map((v) => h("li", { dataset: { version: v.version } }, `version ${v.version}, published ${when(v.created_at)}`, v.version === b.version ? h("span", { class: "badge graded" }, "current") : null)),
       ),
-      h(
-        "details",
-        { class: "edit-box", id: "edit-box" },
-        h("summary", {}, "Edit: publish a new version (and regrade)"),
-        h("p", { class: "hint" }, "Every earlier version is kept. New submissions are graded under the new version; with regrading, every earlier submission is graded again under it. The roster, extensions and submissions stay."),
-        form.el,
-      ),
+      this.may("publish")
+        ? h(
+            "details",
+            { class: "edit-box", id: "edit-box" },
+            h("summary", {}, "Edit: publish a new version (and regrade)"),
+            h("p", { class: "hint" }, "Every earlier version is kept. New submissions are graded under the new version; with regrading, every earlier submission is graded again under it. The roster, extensions and submissions stay."),
+            form.el,
+          )
+        : h("p", { class: "hint", id: "edit-ta" }, `${TA_MAY} Editing the assignment (a new version) is the instructors'.`),
     );
+  }
+
+  /** May the caller `action` ("publish", "roster", "extend", "regrade")? The brief says (a TA: follow, extend and
+   * regrade only); a server that does not say lets everyone (it refuses what it refuses). */
+  may(action) {
+    return this.brief?.you?.may?.[action] ?? true;
   }
 }

@@ -34,9 +34,17 @@ export const course = {
 export function tokenProblem(err, hasToken) {
   if (!(err instanceof ApiError)) return null;
   if (err.status === 403 && err.errors?.[0]?.path === "Authorization") return `The server has no instructor: ${err.message}`;
-  if (err.status === 401) return hasToken ? "The server refused the instructor token: check it above." : "The server needs the instructor's token: enter it above.";
+  if (err.status === 401) return hasToken ? "The server refused this token: check it above (or open your staff link again)." : NO_TOKEN;
   return null;
 }
+
+/** What a person does on /course without a token (the server's answer speaks HTTP: "send 'Authorization: Bearer'"). */
+export const NO_TOKEN =
+  "This page is for a course's staff. Open the staff link you were sent (it signs you in), or paste your token above: " +
+  "the instructor's (the server's TRACER_INSTRUCTOR_TOKEN) or a TA's. A student's page is the link from their instructor.";
+
+/** An error's words for a person: the token's problem when it is one, else the server's message. */
+export const errorWords = (err, hasToken) => tokenProblem(err, hasToken) || err.message;
 
 // -- times ----------------------------------------------------------------------------------------
 

@@ -128,7 +128,7 @@ function draw(view, ctx, image, d) {
     view.overlay?.highlight(at);
     view.view3d?.highlight(at);
   };
-  diagram = renderDiagram(view.box, model, { onHover: show, onSelect: show, label: `${view.title}: ${model.nodes.length} rays (the tree in words, below, names each)` });
+  diagram = renderDiagram(view.box, model, { onHover: show, onSelect: show, open: marked ? [marked.id] : [], label: `${view.title}: ${model.nodes.length} rays (the tree in words, below, names each)` });
   list = renderRayList(view.words, model, { label: `${view.title}: ${model.nodes.length} rays`, onFocus: show, onSelect: show });
   if (marked) view.words.querySelector(`[data-id="${marked.id}"] > .rt-li-text`)?.append(` The first difference: ${whatWords(d.what)}.`);
   if (ctx.scene) {
