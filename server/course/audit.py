@@ -91,8 +91,9 @@ def events(
     limit: int = DEFAULT_LIMIT,
     before: int | None = None,
 ) -> list[dict]:
-    """The course's events, newest first: only a student's or an assignment's when named; at most `limit`, those
-    written before event id `before` (the last one of the page before)."""
+    """The course's events, newest first: only a student's or an assignment's when named; at most `limit` (bounded:
+    MAX_LIMIT and one more, which tells a page that there is another), those written before event id `before`
+    (the last one of the page before)."""
     sql, args = "SELECT * FROM course_audit WHERE course_id = ?", [cid]
     if student is not None:
         sql, args = sql + " AND student = ?", [*args, student]
@@ -100,7 +101,7 @@ def events(
         sql, args = sql + " AND assignment_id = ?", [*args, assignment]
     if before is not None:
         sql, args = sql + " AND id < ?", [*args, before]
-    rows = db.execute(sql + " ORDER BY id DESC LIMIT ?", (*args, max(1, min(limit, MAX_LIMIT))))
+    rows = db.execute(sql + " ORDER BY id DESC LIMIT ?", (*args, max(1, min(limit, MAX_LIMIT + 1))))
     return [_event(r) for r in rows]
 
 

@@ -5,6 +5,9 @@ and whether feedback is shown now, and the small helpers of the views (`iso`, `s
 The concepts are mixins of `CourseBase`, each in its module (courses.py, roster.py, assignments.py,
 submissions.py, views.py, grades.py); server/course/service.py joins them into the one `Course` the app holds.
 
+**The audit trail**: a change's store method records its event in the change's transaction with the `By` that
+`by(who, why)` gives (server/course/audit.py); `audit_trail(cid, ...)` reads a course's events.
+
 **Time** is `clock()`, the app's `state.clock` (UTC now; tests set it): a submission's time is the clock when
 its body was accepted, and the deadline, the late mark and the feedback shown follow it.
 """

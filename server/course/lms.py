@@ -183,8 +183,9 @@ class Lms:
         log.info("course %s made for LMS course %r of platform %s", cid, title, platform["id"])
         return cid
 
-    def person(self, cid: str, platform: dict, launch, role: str) -> tuple[str, str]:
-        """The launch's user as staff or a member of the course (made or updated): (their id, their token)."""
+    def person(self, cid: str, platform: dict, launch, role: str, why: str = "LMS launch") -> tuple[str, str]:
+        """The launch's user as staff or a member of the course (made or updated): (their id, their token); the
+        change audited as the LMS's (`why`: a launch, or the roster's sync)."""
         who = lti_user(platform, launch.sub)
         name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
         name = " ".join(clean_name(name)[0].split())[:200]  # no control or bidi override into pages and exports
@@ -196,11 +197,11 @@ class Lms:
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
         if kind == Kind.STAFF:
             row = {"person": pid, "name": name or pid, "email": email, "role": role, "lti_user": who}
-            self.course.store.add_staff(cid, row, self.now(), self.course.by("lms", "LMS launch"))
+            self.course.store.add_staff(cid, row, self.now(), self.course.by("lms", why))
             gen = self.course.store.staff_member(cid, pid)["gen"]
         else:
             row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
-            self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", "LMS launch"))
+            self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", why))
             gen = self.course.store.member(cid, pid)["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
@@ -375,7 +376,7 @@ class Lms:
                     unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
                     continue
                 launch = _Member(m)
-                self.person(cid, platform, launch, Role.STUDENT)
+                self.person(cid, platform, launch, Role.STUDENT, "LMS roster sync")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
         return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}

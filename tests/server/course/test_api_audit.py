@@ -16,6 +16,8 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 
+from server.core.db import Transaction
+from server.course.audit import MAX_LIMIT, By, Target
 from tests.support.api import INSTRUCTOR, bearer, course_client
 from tests.support.scene import ROOT
 
@@ -105,6 +107,11 @@ def course(app):
     assert app.post(f"/api/assignments/{aid}/students/s2/link", headers=tok["prof"]).status_code == 200
     tick("remove", 10)
     assert app.delete("/api/courses/au1/students/s3?why=dropped", headers=tok["prof"]).status_code == 200
+    tick("staff2", 11)  # a TA added, their link renewed, removed: by the instructor
+    r = app.post("/api/courses/au1/staff", json={"id": "gone", "name": "Gone", "role": "ta"}, headers=tok["prof"])
+    assert r.status_code == 201, r.text
+    assert app.post("/api/courses/au1/staff/gone/link?renew=true", headers=tok["prof"]).status_code == 200
+    assert app.delete("/api/courses/au1/staff/gone", headers=tok["prof"]).status_code == 200
     return tok, aid, at
 
 
@@ -171,6 +178,14 @@ def test_audit_each_change_is_an_event_with_who_when_before_after_and_why(app, c
     e = one(evs, "link.renew", student="s2")
     assert (e["before"], e["after"], e["at"]) == ({"link": 0}, {"link": 1}, z(at["link"]))
     assert "token" not in json.dumps(e)
+    gone = [
+        (x["action"], x["who"], x["at"], x["before"], x["after"]) for x in evs if x["target"].get("staff") == "gone"
+    ]
+    assert gone[::-1] == [
+        ("staff.add", "instructor:prof", z(at["staff2"]), None, {"name": "Gone", "email": "", "role": "ta"}),
+        ("link.renew", "instructor:prof", z(at["staff2"]), {"link": 0}, {"link": 1}),
+        ("staff.remove", "instructor:prof", z(at["staff2"]), {"name": "Gone", "email": "", "role": "ta"}, None),
+    ]
     e = one(evs, "student.remove", student="s3")
     assert (e["before"], e["after"], e["why"]) == ({"name": "Cy", "email": "", "every": False}, None, "dropped")
 
@@ -274,3 +289,20 @@ def test_audit_a_failed_change_leaves_no_event_and_no_event_is_kept_without_its_
         db.execute("DROP TRIGGER IF EXISTS no_audit")
         db.execute("DROP TRIGGER IF EXISTS no_change")
         db.close()
+
+
+def test_audit_a_page_of_the_most_events_says_there_is_another(app):
+    """501 events of a course (written as a change would: By.record in a transaction): a page of 500, `next`, the
+    one left; the CSV holds them all."""
+    assert app.post("/api/courses", json={"id": "au3", "name": "au3"}, headers=ADMIN).status_code == 201
+    service = app.app.state.course
+    with Transaction(service.store.db) as db:
+        for i in range(MAX_LIMIT + 1):
+            By("admin", T0.timestamp() + i).record(db, "student.add", Target("au3", student=f"p{i}"), None, {"i": i})
+    first = app.get("/api/courses/au3/audit", params={"limit": MAX_LIMIT}).json()
+    assert len(first["events"]) == MAX_LIMIT and first["next"] == first["events"][-1]["id"]
+    assert first["events"][0]["after"] == {"i": MAX_LIMIT}
+    rest = app.get("/api/courses/au3/audit", params={"limit": MAX_LIMIT, "before": first["next"]}).json()
+    assert [e["after"] for e in rest["events"]] == [{"i": 0}] and rest["next"] is None
+    rows = list(csv.DictReader(io.StringIO(app.get("/api/courses/au3/audit.csv").text)))
+    assert len(rows) == MAX_LIMIT + 1 and rows[-1]["student"] == "p0"

@@ -95,6 +95,13 @@ def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who
     # the instructor's own launch made them the course's instructor
     staff = client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]
     assert [s["role"] for s in staff] == ["instructor"]
+    # each in the course's audit trail as the LMS's doing (server/course/audit.py)
+    events = client.get("/api/courses/gfx/audit", params={"limit": 500}, headers=ADMIN).json()["events"]
+    synced = {e["target"]["student"] for e in events if (e["action"], e["why"]) == ("student.add", "LMS roster sync")}
+    assert {f"sis-{i}" for i in range(1, 5)} <= synced and all(
+        e["who"] == "lms" for e in events if e["why"].startswith("LMS")
+    )
+    assert any(e["action"] == "staff.add" and e["after"]["role"] == "instructor" and e["who"] == "lms" for e in events)
 
 
 def test_lms_a_student_of_a_course_no_instructor_opened_is_told_so(tool, lms):
