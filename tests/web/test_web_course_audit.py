@@ -20,6 +20,15 @@ from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
 TEACHER = bearer(INSTRUCTOR)
+OUT_OF_PANEL = """() => {
+    const html = document.documentElement, box = document.querySelector('#audit').getBoundingClientRect();
+    const out = html.scrollWidth > html.clientWidth + 1 ? [`the page scrolls sideways: ${html.scrollWidth}`] : [];
+    for (const el of document.querySelectorAll('#audit *')) {
+        const r = el.getBoundingClientRect();
+        if (r.width && (r.right > box.right + 1 || r.left < box.left - 1)) out.push(`${el.tagName} ${r.right}`);
+    }
+    return out;
+}"""
 
 
 @pytest.fixture(scope="module")
@@ -83,6 +92,11 @@ def test_web_course_audit_panel_lists_filters_pages_and_exports(browser, server,
         assert actions == ["extension", "student.add", "student.add", "publish"]  # a new link is the course's
         assert page.is_hidden("#audit-more")  # all on one page
         p.shot("course-audit", full_page=True)
+        # a phone's width: each change a block of labelled lines, nothing out of the panel, no sideways scroll
+        page.set_viewport_size({"width": 390, "height": 844})
+        assert page.evaluate(OUT_OF_PANEL) == []
+        assert page.evaluate("() => getComputedStyle(document.querySelector('#audit-table td')).display") == "block"
+        p.shot("course-audit-390", full_page=True)
     finally:
         p.context.close()
     assert p.unexpected_errors() == []

@@ -131,17 +131,17 @@ export class AuditPanel {
   }
 
   row(e) {
-    const cell = (text, cls) => h("td", cls ? { class: cls } : {}, text);
+    const cell = (label, text, cls) => h("td", { dataset: { label }, ...(cls ? { class: cls } : {}) }, text);
     return h(
       "tr",
       { dataset: { id: e.id, action: e.action } },
-      cell(h("time", { datetime: e.at }, when(e.at))),
-      cell(e.who),
-      cell(ACTIONS[e.action] || e.action),
-      cell(targetText(e.target, this.names)),
-      cell(shown(e.before), "audit-value"),
-      cell(shown(e.after), "audit-value"),
-      cell(e.why || "–"),
+      cell("When", h("time", { datetime: e.at }, when(e.at))),
+      cell("Who", e.who),
+      cell("What", ACTIONS[e.action] || e.action),
+      cell("On", targetText(e.target, this.names)),
+      cell("Before", shown(e.before), "audit-value"),
+      cell("After", shown(e.after), "audit-value"),
+      cell("Why", e.why || "–"),
     );
   }
 
