@@ -306,3 +306,18 @@ def test_audit_a_page_of_the_most_events_says_there_is_another(app):
     assert [e["after"] for e in rest["events"]] == [{"i": 0}] and rest["next"] is None
     rows = list(csv.DictReader(io.StringIO(app.get("/api/courses/au3/audit.csv").text)))
     assert len(rows) == MAX_LIMIT + 1 and rows[-1]["student"] == "p0"
+
+
+def test_audit_a_join_of_an_open_assignment_is_the_students_own(app, course):
+    tok, _, _ = course
+    r = app.post("/api/courses/au2/assignments", json=body(open=True), headers=tok["other"])
+    assert r.status_code == 201, r.text
+    aid = r.json()["id"]
+    joined = app.post(f"/api/assignments/{aid}/join", json={"name": "Zoë"}, headers={"Authorization": ""})
+    assert joined.status_code == 200, joined.text
+    sid = joined.json()["id"]
+    e = one(app.get("/api/courses/au2/audit", headers=tok["other"]).json()["events"], "student.join")
+    assert (e["who"], e["why"], e["before"]) == (f"student:{sid}", "joined", None)
+    assert e["target"] == {"course": "au2", "assignment": aid, "student": sid}
+    assert e["after"] == {"name": "Zoë", "email": "", "self_declared": True}
+    assert app.get("/api/courses/au2/audit", headers=bearer(joined.json()["token"])).status_code == 404
