@@ -229,7 +229,10 @@ class Assignments(CourseBase):
                 student={"id": s["student"], "name": s["name"], "self_declared": bool(s["self_declared"])},
                 submissions_left=left,
                 attempts_used=used,
+                **self.tokens_brief(a, s, now),
             )
+            if s.get("left_at") is not None:  # gone from the LMS course: may read all of theirs, not submit
+                out["inactive"] = True
         return out
 
     def reference_png(self, a: dict) -> Path | None:

@@ -28,6 +28,7 @@ from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
 from tracer.grading import Assignment, load_assignment
 
+DAY = 86400.0  # a late token's worth (server/course/tokens.py)
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
 
 

@@ -101,7 +101,8 @@ class Courses(CourseBase):
         """A course: its assignments (a student: those they are on the roster of, with links), its staff and the
         size of its roster (its staff)."""
         c = self.course(cid)
-        out = {"id": c["id"], "name": c["name"], "created_at": iso(c["created_at"]), "assignments": []}
+        out = {"id": c["id"], "name": c["name"], "created_at": iso(c["created_at"]), "assignments": [],
+               "late_tokens": c["late_tokens"]}  # fmt: skip
         for aid in self.store.assignments(cid):
             a = self.store.assignment(aid)
             if who.student is not None and self.store.student(aid, who.student["student"]) is None:

@@ -70,6 +70,18 @@ def refused(title: str, message: str, status: int = 403) -> Page:
     )
 
 
+def not_accepted(settings: dict) -> Page | None:
+    """The refusal of a deep-linking request whose `accept_types` has no `ltiResourceLink` (the one kind of item
+    this tool returns: a link that launches an assignment); None where it is accepted."""
+    types = settings.get("accept_types")
+    if isinstance(types, list) and "ltiResourceLink" in types:
+        return None
+    named = ", ".join(str(t)[:40] for t in types[:10]) if isinstance(types, list) and types else "none"
+    return refused("The LMS does not take an assignment link here", "This place in the LMS accepts these kinds of "
+                   f"content: {named}. The tool adds assignments as LTI resource links (ltiResourceLink) only: add "
+                   "it where the LMS offers external tool links (an assignment or a module item).", 400)  # fmt: skip
+
+
 class Lms:
     """The course's side of LTI: `launched` (the launch handler of server/lti), the picker, grades back and
     the roster from the LMS. `services`: server/lti's ServiceClient (tokens, scores, memberships)."""
@@ -122,6 +134,8 @@ class Lms:
         if launch.message_type == "LtiDeepLinkingRequest":
             if role != Role.INSTRUCTOR:
                 return refused("Only an instructor picks", "Adding the tool to the course is an instructor's.")
+            if (wrong := not_accepted(launch.deep_linking or {})) is not None:
+                return wrong
             return self.picker(cid, platform, launch.deployment_id, launch.deep_linking or {}, None, token, base)
         link_id = (launch.resource_link or {}).get("id")
         aid = (launch.custom or {}).get("assignment")
@@ -202,7 +216,10 @@ class Lms:
         else:
             row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
             self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", why))
-            gen = self.course.store.member(cid, pid)["gen"]
+            member = self.course.store.member(cid, pid)
+            if member["left_at"] is not None:  # the LMS launched them: they are in its course again
+                self.course.store.set_left(cid, [pid], None)
+            gen = member["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
     def email_match(self, cid: str, email: str) -> dict | None:
@@ -323,14 +340,17 @@ class Lms:
             where = ", ".join(platform_origins(platform))
             return refused("The LMS's return address is not its own", "The deep-linking return URL is not at the "
                            f"platform's registered addresses ({where}).", 400)  # fmt: skip
-        points = self.course.spec(aid, a["version"]).max_score()
+        if (wrong := not_accepted(settings)) is not None:
+            return wrong
         item = {
             "type": "ltiResourceLink",
             "title": a["spec"]["name"],
             "url": f"{base.rstrip('/')}/lti/launch",
             "custom": {"assignment": aid},
-            "lineItem": {"scoreMaximum": points, "label": a["spec"]["name"], "resourceId": aid},
         }
+        if settings.get("accept_lineitem") is not False:  # absent: the platform did not say; false: it ignores one
+            points = self.course.spec(aid, a["version"]).max_score()
+            item["lineItem"] = {"scoreMaximum": points, "label": a["spec"]["name"], "resourceId": aid}
         jwt = deep_link_response(self.keys, platform, pick["deployment_id"], settings, [item], self.now())
         origins = " ".join(platform_origins(platform))  # the LMS's own pages frame this one, no one else
         csp = (f"default-src 'self'; script-src 'self'; form-action {url_origin(url)}; frame-ancestors {origins}; "
@@ -355,19 +375,27 @@ class Lms:
     def sync(self, cid: str) -> dict:
         """Read the roster of each LMS course linked to `cid` (every page) into its members and staff. A member
         whose email is an unlinked roster student's is left for their own launch to link (`unlinked`), unless the
-        platform is trusted with emails."""
-        added, seen, unlinked = 0, 0, 0
+        platform is trusted with emails. Instructors and TAs become the course's staff (`staff`); a linked student
+        no longer in any of its LMS courses (gone, or not Active) is marked inactive (`left`: kept, with their
+        submissions and grades; they can no longer submit); one who is back is active again (`back`)."""
+        added, seen, unlinked, staff = 0, 0, 0, 0
+        active: dict[str, set[str]] = {}  # platform id -> the subs of its active students, over its contexts
         for ctx in self.store.contexts(cid):
             platform = self.platforms(ctx["platform_id"])
             if platform is None or not ctx["memberships_url"]:
                 continue
+            subs = active.setdefault(platform["id"], set())
             for m in self.services.members(platform, ctx["memberships_url"]):
                 if (m.get("status") or "Active") != "Active":
                     continue
                 role = course_role(m.get("roles") or [])
+                if role in STAFF:
+                    self.person(cid, platform, _Member(m), role)  # made, or their name and role brought up to date
+                    staff += 1
                 if role != Role.STUDENT:
                     continue
                 seen += 1
+                subs.add(str(m["user_id"]))
                 who = f"{platform['id']}:{m['user_id']}"
                 if self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
                     continue
@@ -375,11 +403,31 @@ class Lms:
                 if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
                     unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
                     continue
-                launch = _Member(m)
-                self.person(cid, platform, launch, Role.STUDENT, "LMS roster sync")
+                self.person(cid, platform, _Member(m), Role.STUDENT, "LMS roster sync")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
-        return {"course": cid, "members": seen, "added": added, "unlinked": unlinked}
+        left, back = self._leavers(cid, active)
+        return {"course": cid, "members": seen, "added": added, "unlinked": unlinked, "staff": staff,
+                "left": left, "back": back}  # fmt: skip
+
+    def _leavers(self, cid: str, active: dict[str, set[str]]) -> tuple[int, int]:
+        """The course's LMS students of the platforms read (`active`: their active students' subs) marked inactive
+        when gone, active when back (the one place a sync changes that: an audit call goes here). A platform that
+        listed no student at all is left alone (an LMS's empty answer does not empty a course)."""
+        gone, returned = [], []
+        for m in self.course.store.members(cid):
+            platform_id, _, sub = (m["lti_user"] or "").partition(":")
+            if not active.get(platform_id):
+                continue
+            if sub not in active[platform_id] and m["left_at"] is None:
+                gone.append(m["student"])
+            elif sub in active[platform_id] and m["left_at"] is not None:
+                returned.append(m["student"])
+        left = self.course.store.set_left(cid, gone, self.now()) if gone else 0
+        back = self.course.store.set_left(cid, returned, None) if returned else 0
+        if left or back:
+            log.info("roster of course %s from the LMS: %d left (inactive), %d back", cid, left, back)
+        return left, back
 
     def board(self, aid: str, cid: str) -> dict | None:
         """What the dashboard shows of the LMS: None for a course that is in none."""

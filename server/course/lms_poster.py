@@ -2,7 +2,10 @@
 durable): when a linked student's counting grade changes and the policy shows the score to them (now, or after
 their cut-off), a row with the score is kept, then posted by the poster thread; a platform that is down leaves the
 row pending, tried again later with a growing wait (nothing is lost across restarts); the dashboard counts what is
-pending. Timestamps are strictly increasing per user and line item, as the AGS specification requires."""
+pending. A score the LMS refuses for good (an HTTP 4xx other than 401 and 429: the same post would be refused
+again) is not tried again: its row is `failed` with the LMS's status and message, shown on the dashboard, until
+staff send it again (POST /api/assignments/{aid}/lms/send-again). Timestamps are strictly increasing per user and
+line item, as the AGS specification requires."""
 
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ from datetime import UTC, datetime
 from server.course.lms_store import LmsStore
 from server.course.policy import Feedback, When
 from server.course.service import Course
+from server.lti.services import ServiceError
 from server.lti.services import score as score_json
 
 log = logging.getLogger(__name__)
@@ -21,6 +25,13 @@ log = logging.getLogger(__name__)
 RETRY_FIRST, RETRY_MAX = 30.0, 3600.0  # seconds: the wait after a failed post doubles from the first to the most
 POST_BATCH = 50  # scores posted per round of the poster
 SWEEP_SECONDS = 60.0  # how often the poster looks for scores released by a deadline
+
+
+def for_good(e: Exception) -> int | None:
+    """The HTTP status of a refusal the same post would meet again (a 4xx other than 401, the token, and 429, too
+    many calls): None for a failure worth trying again (no answer, a 5xx, 401, 429, anything else)."""
+    status = e.status if isinstance(e, ServiceError) else 0
+    return status if 400 <= status < 500 and status not in (401, 429) else None
 
 
 class Poster:
@@ -97,10 +108,14 @@ class Poster:
                 self.store.failed(row["id"], "the platform is no longer registered", self.now() + RETRY_MAX)
                 continue
             stamp = datetime.fromtimestamp(row["timestamp"], UTC).isoformat(timespec="milliseconds")
-            body = score_json(row["user_id"], row["score_given"], row["score_max"], stamp.replace("+00:00", "Z"))
+            body = score_json(row["user_id"], row["score_given"], row["score_max"], stamp.replace("+00:00", "Z"),
+                              row.get("comment"))  # fmt: skip
             try:
                 self.services.post_score(platform, row["lineitem"], body)
-            except Exception as e:  # noqa: BLE001 (a platform down, a refusal: kept, tried again later)
+            except Exception as e:  # noqa: BLE001 (a platform down: kept, tried again later; a refusal: kept, failed)
+                if (status := for_good(e)) is not None:
+                    self._refused(row, status, e)
+                    continue
                 wait = min(RETRY_MAX, RETRY_FIRST * 2 ** min(row["tries"], 12))
                 self.store.failed(row["id"], str(e) or type(e).__name__, self.now() + wait)
                 log.warning(
@@ -110,6 +125,23 @@ class Poster:
             self.store.sent(row["id"], self.now())
             posted += 1
         return posted
+
+    def _refused(self, row: dict, status: int, e: Exception) -> None:
+        """The LMS refused the score for good: failed, with its status and message (the one place a score is
+        marked so: an audit call goes here)."""
+        message = getattr(e, "message", None) or str(e) or type(e).__name__
+        self.store.refused(row["id"], status, message, self.now())
+        log.warning("grade for %s on %s refused by the LMS for good (HTTP %d: %s); not tried again until sent again",
+                    row["user_id"], row["lineitem"], status, message)  # fmt: skip
+
+    def send_again(self, aid: str, sid: int | None = None) -> int:
+        """Staff's "send again": the assignment's failed scores (or one) pending again, posted at the next round
+        (now). How many (the one place failed scores are queued again: an audit call goes here)."""
+        n = self.store.send_again(aid, self.now(), sid)
+        if n:
+            log.info("%d refused grade(s) of assignment %s queued to be sent again", n, aid)
+            self.wake()
+        return n
 
     def sweep(self) -> int:
         """Scores a deadline released (feedback after the deadline), and those changed since the last look."""

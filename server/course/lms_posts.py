@@ -15,6 +15,7 @@ def _iso(t: float | None) -> str | None:
 
 def posts(store: LmsStore, now: datetime) -> dict:
     """`pending` (waiting to be posted, failed ones included), `failed` (waiting after a failed post), `sent`;
+    `refused` (refused by the LMS for good: not tried again until staff send them again);
     `last_error` ({message, platform_id, tries, next_try}) of the latest failed one; `oldest_pending_seconds`."""
     db = store.db
     counts = dict(db.execute("SELECT state, COUNT(*) FROM course_lti_scores GROUP BY state").fetchall())
@@ -30,6 +31,7 @@ def posts(store: LmsStore, now: datetime) -> dict:
         "pending": counts.get("pending", 0),
         "failed": failed,
         "sent": counts.get("sent", 0),
+        "refused": counts.get("failed", 0),
         "last_error": {"message": last[0], "platform_id": last[1], "tries": last[2], "next_try": _iso(last[3])}
         if last
         else None,

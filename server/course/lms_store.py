@@ -47,12 +47,15 @@ CREATE TABLE IF NOT EXISTS course_lti_scores (
     score_given REAL NOT NULL,
     score_max REAL NOT NULL,
     timestamp REAL NOT NULL,              -- the score's time (strictly increasing per line item and user)
-    state TEXT NOT NULL,                  -- pending, sent, superseded (a newer score replaced it unsent)
+    state TEXT NOT NULL,                  -- pending, sent, superseded (a newer score replaced it unsent), failed
+                                          -- (the LMS refused it for good: not tried again until sent again)
     tries INTEGER NOT NULL DEFAULT 0,
     next_try REAL NOT NULL,
     error TEXT,
     created_at REAL NOT NULL,
-    sent_at REAL
+    sent_at REAL,
+    status INTEGER,                       -- the LMS's HTTP status when it refused the score for good
+    comment TEXT                          -- the score's comment for the student (AGS `comment`), if any
 );
 CREATE INDEX IF NOT EXISTS course_lti_scores_due ON course_lti_scores (state, next_try);
 CREATE INDEX IF NOT EXISTS course_lti_scores_user ON course_lti_scores (lineitem, user_id, id);
@@ -146,31 +149,33 @@ class LmsStore(Tables):
         return dict(row) if row else None
 
     def add_score(self, row: dict, now: float) -> bool:
-        """Keep a score to post, unless the latest one for its line item and user has the same numbers; an
-        unsent older one is superseded. Its timestamp comes after every earlier one's. True if kept."""
+        """Keep a score to post (`comment`: optional, sent as AGS's comment), unless the latest one for its line
+        item and user has the same numbers and comment; an unsent older one (pending, or failed) is superseded.
+        Its timestamp comes after every earlier one's. True if kept."""
         with self._tx() as db:
             last = db.execute(
                 "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? ORDER BY id DESC LIMIT 1",
                 (row["lineitem"], row["user_id"]),
             ).fetchone()
             live = db.execute(
-                "SELECT score_given, score_max FROM course_lti_scores WHERE lineitem = ? AND user_id = ?"
+                "SELECT score_given, score_max, comment FROM course_lti_scores WHERE lineitem = ? AND user_id = ?"
                 " AND state != 'superseded' ORDER BY id DESC LIMIT 1",
                 (row["lineitem"], row["user_id"]),
             ).fetchone()
-            if live is not None and (live[0], live[1]) == (row["score_given"], row["score_max"]):
+            if live is not None and tuple(live) == (row["score_given"], row["score_max"], row.get("comment") or None):
                 return False
             stamp = max(now, last["timestamp"] + 0.001) if last is not None else now
             db.execute(
                 "UPDATE course_lti_scores SET state = 'superseded' WHERE lineitem = ? AND user_id = ?"
-                " AND state = 'pending'",
+                " AND state IN ('pending', 'failed')",
                 (row["lineitem"], row["user_id"]),
             )
             db.execute(
                 "INSERT INTO course_lti_scores (platform_id, lineitem, user_id, assignment_id, student, score_given,"
-                " score_max, timestamp, state, next_try, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'pending', ?, ?)",
+                " score_max, timestamp, state, next_try, created_at, comment)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'pending', ?, ?, ?)",
                 (row["platform_id"], row["lineitem"], row["user_id"], row["assignment_id"], row["student"],
-                 row["score_given"], row["score_max"], stamp, now, now),
+                 row["score_given"], row["score_max"], stamp, now, now, row.get("comment") or None),
             )  # fmt: skip
         return True
 
@@ -193,8 +198,40 @@ class LmsStore(Tables):
             (error[:500], next_try, sid),
         )
 
+    def refused(self, sid: int, status: int, error: str, now: float) -> None:
+        """The LMS refused the score for good (a 4xx other than 401 and 429): `failed`, with its status and why;
+        not tried again until staff send it again (`send_again`)."""
+        self.db.execute(
+            "UPDATE course_lti_scores SET state = 'failed', tries = tries + 1, status = ?, error = ?, next_try = ?"
+            " WHERE id = ? AND state = 'pending'",
+            (status, error[:500], now, sid),
+        )
+
+    def send_again(self, aid: str, now: float, sid: int | None = None) -> int:
+        """The assignment's failed scores (or the one `sid`) pending again, to be posted at once; a newer score
+        of the same line item and user already kept stays (an older one is not sent over it). How many."""
+        one = " AND id = ?" if sid is not None else ""
+        cur = self.db.execute(
+            "UPDATE course_lti_scores SET state = 'pending', tries = 0, next_try = ?, status = NULL, error = NULL"
+            " WHERE assignment_id = ? AND state = 'failed'" + one + " AND NOT EXISTS (SELECT 1 FROM"
+            " course_lti_scores n WHERE n.lineitem = course_lti_scores.lineitem AND n.user_id ="
+            " course_lti_scores.user_id AND n.id > course_lti_scores.id AND n.state != 'superseded')",
+            (now, aid, sid) if sid is not None else (now, aid),
+        )
+        return cur.rowcount
+
+    def refusals(self, aid: str, limit: int = 50) -> list[dict]:
+        """The assignment's scores the LMS refused for good, newest first: who, the score, the status and why."""
+        rows = self.db.execute(
+            "SELECT id, student, user_id, score_given, score_max, status, error, next_try AS at FROM"
+            " course_lti_scores WHERE assignment_id = ? AND state = 'failed' ORDER BY id DESC LIMIT ?",
+            (aid, limit),
+        )
+        return [dict(r) for r in rows]
+
     def scores(self, aid: str) -> dict:
-        """What the dashboard says of the grades sent back: counts by state and the latest error."""
+        """What the dashboard says of the grades sent back: counts by state, the latest error of a score that
+        waits, and the scores the LMS refused for good (`refused`: who, status, why)."""
         counts = dict(
             self.db.execute(
                 "SELECT state, COUNT(*) FROM course_lti_scores WHERE assignment_id = ? AND state != 'superseded'"
@@ -207,5 +244,6 @@ class LmsStore(Tables):
             " AND error IS NOT NULL ORDER BY id DESC LIMIT 1",
             (aid,),
         ).fetchone()
-        return {"pending": counts.get("pending", 0), "sent": counts.get("sent", 0), "error": err[0] if err else None,
-                "next_try": err[1] if err else None}  # fmt: skip
+        return {"pending": counts.get("pending", 0), "sent": counts.get("sent", 0), "failed": counts.get("failed", 0),
+                "error": err[0] if err else None, "next_try": err[1] if err else None,
+                "refused": self.refusals(aid)}  # fmt: skip

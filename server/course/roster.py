@@ -126,9 +126,13 @@ class Roster(CourseBase):
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
     def extend(self, aid: str, student: str, deadline: datetime | None, who: Who | None = None, why: str = "") -> dict:
-        """A student's own deadline (None: the assignment's again); an `extension` audit event."""
+        """A student's own deadline (None: the assignment's), the grant kept in its history (who, when, before,
+        after, why: `extension_history`, the student's detail on the dashboard); an `extension` audit event."""
         a = self.assignment(aid)
-        if not self.store.extend(aid, student, deadline.timestamp() if deadline else None, self.by(who, why)):
+        by = (who.person or str(who.role)) if who is not None else ""
+        if not self.store.extend(
+            aid, student, deadline.timestamp() if deadline else None, by, why, self.now(), self.by(who, why)
+        ):
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         row = self.store.student(aid, student)
         due, cut = self.deadlines(a, row)

@@ -7,7 +7,8 @@ SCHEMA = """
 CREATE TABLE IF NOT EXISTS courses (
     id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
     name TEXT NOT NULL,
-    created_at REAL NOT NULL              -- Unix time (s), the API's clock
+    created_at REAL NOT NULL,             -- Unix time (s), the API's clock
+    late_tokens INTEGER NOT NULL DEFAULT 0 -- late tokens (days) each student starts with (server/course/tokens.py)
 );
 CREATE TABLE IF NOT EXISTS course_staff (
     course_id TEXT NOT NULL,
@@ -30,6 +31,7 @@ CREATE TABLE IF NOT EXISTS course_members (
     lti_user TEXT,                        -- '<platform id>:<sub>' when known to an LMS
     gen INTEGER NOT NULL DEFAULT 0,       -- their token's generation
     created_at REAL NOT NULL,
+    left_at REAL,                         -- the LMS's roster no longer had them (inactive: kept, cannot submit)
     PRIMARY KEY (course_id, student)
 );
 CREATE INDEX IF NOT EXISTS course_members_lti ON course_members (course_id, lti_user);
@@ -73,9 +75,31 @@ CREATE TABLE IF NOT EXISTS course_submissions (
     file TEXT NOT NULL,                   -- relative to DATA/course/
     accepted_at REAL NOT NULL,            -- Unix time (s): the API's clock when its body was accepted
     late INTEGER NOT NULL,                -- after the student's deadline when it came (its view reads the deadline now)
-    handed INTEGER NOT NULL DEFAULT 0     -- its row is in the grading run (a restart hands those that are not)
+    handed INTEGER NOT NULL DEFAULT 0,    -- its row is in the grading run (a restart hands those that are not)
+    tokens_spent INTEGER NOT NULL DEFAULT 0 -- late tokens (days) it spent when it came (server/course/tokens.py)
 );
 CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
+CREATE TABLE IF NOT EXISTS course_token_grants (
+    course_id TEXT NOT NULL,
+    student TEXT NOT NULL,                -- course_members.student
+    added INTEGER NOT NULL,               -- tokens (days) granted
+    before INTEGER NOT NULL,              -- the student's tokens left before, and after
+    after INTEGER NOT NULL,
+    who TEXT NOT NULL,                    -- the staff member's id (or 'admin')
+    why TEXT NOT NULL DEFAULT '',
+    at REAL NOT NULL                      -- Unix time (s), the API's clock
+);
+CREATE INDEX IF NOT EXISTS course_token_grants_student ON course_token_grants (course_id, student);
+CREATE TABLE IF NOT EXISTS course_extensions (
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    before REAL,                          -- their own deadline before (NULL: the assignment's), and after
+    after REAL,
+    who TEXT NOT NULL,                    -- the staff member's id (or 'admin')
+    why TEXT NOT NULL DEFAULT '',
+    at REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student);
 CREATE TABLE IF NOT EXISTS course_audit (
     id INTEGER PRIMARY KEY AUTOINCREMENT, -- the order events were written in (a page's cursor)
     course_id TEXT NOT NULL,

@@ -43,7 +43,7 @@ DEFAULT_COURSE = "default"  # the course of the assignments from before courses,
 # per-assignment roster of before courses, so that every rule reads a student as it did.
 STUDENT = (
     "SELECT e.assignment_id, e.student, m.name, m.email, m.self_declared, e.deadline, e.created_at, m.course_id,"
-    " m.lti_user FROM course_enrolments e JOIN course_assignments a ON a.id = e.assignment_id"
+    " m.lti_user, m.left_at FROM course_enrolments e JOIN course_assignments a ON a.id = e.assignment_id"
     " JOIN course_members m ON m.course_id = a.course_id AND m.student = e.student"
 )
 
@@ -158,6 +158,9 @@ class CourseStore(Tables):
 
     def rename_course(self, cid: str, name: str) -> None:
         self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
+
+    def set_late_tokens(self, cid: str, n: int) -> None:
+        self.db.execute("UPDATE courses SET late_tokens = ? WHERE id = ?", (n, cid))
 
     def add_staff(self, cid: str, row: dict, now: float, by: By | None = None) -> None:
         """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated (with
@@ -330,6 +333,17 @@ class CourseStore(Tables):
                         record(by, db, "student.enrol", target, None, {"enrolled": True})
         return added
 
+    def set_left(self, cid: str, students: list[str], when: float | None) -> int:
+        """Members who left the course's LMS course (`when`: inactive from then; kept with their submissions and
+        grades) or came back (None: active again). How many changed."""
+        with self._tx() as db:
+            cur = db.executemany(
+                "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
+                + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
+                [(when, cid, s) for s in students],
+            )
+        return cur.rowcount
+
     def remove_member(self, cid: str, student: str, by: By | None = None) -> bool:
         """Off the course's rosters (their submissions are kept; their tokens stop working)."""
         with self._tx() as db:
@@ -379,24 +393,46 @@ class CourseStore(Tables):
                 cid = db.execute("SELECT course_id FROM course_assignments WHERE id = ?", (aid,)).fetchone()[0]
                 record(by, db, "student.enrol", Target(cid, aid, student=student), None, {"enrolled": True})
 
-    def extend(self, aid: str, student: str, deadline: float | None, by: By | None = None) -> bool:
-        """A student's own deadline (None: the assignment's); with `by`, an `extension` event: the deadline
-        before and after (ISO 8601; null: the assignment's)."""
+    def extend(
+        self,
+        aid: str,
+        student: str,
+        deadline: float | None,
+        who: str = "",
+        why: str = "",
+        now: float = 0,
+        by: By | None = None,
+    ) -> bool:
+        """Their own deadline (None: the assignment's), and the grant kept in its history (before, after, who,
+        why, when); with `by`, an `extension` audit event: the deadline before and after (ISO 8601; null: the
+        assignment's). One transaction."""
         with self._tx() as db:
-            was = db.execute(
+            row = db.execute(
                 "SELECT e.deadline, a.course_id FROM course_enrolments e JOIN course_assignments a"
                 " ON a.id = e.assignment_id WHERE e.assignment_id = ? AND e.student = ?",
                 (aid, student),
             ).fetchone()
-            if was is None:
+            if row is None:
                 return False
             db.execute(
                 "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
                 (deadline, aid, student),
             )
-            target = Target(was["course_id"], aid, student=student)
-            record(by, db, "extension", target, {"deadline": iso(was["deadline"])}, {"deadline": iso(deadline)})
+            db.execute(
+                "INSERT INTO course_extensions (assignment_id, student, before, after, who, why, at)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (aid, student, row[0], deadline, who, why, now),
+            )
+            target = Target(row["course_id"], aid, student=student)
+            record(by, db, "extension", target, {"deadline": iso(row[0])}, {"deadline": iso(deadline)})
         return True
+
+    def extensions(self, aid: str, student: str) -> list[dict]:
+        """A student's extensions of an assignment, oldest first."""
+        rows = self.db.execute(
+            "SELECT * FROM course_extensions WHERE assignment_id = ? AND student = ? ORDER BY at, rowid", (aid, student)
+        )
+        return [dict(r) for r in rows]
 
     # -- submissions ---------------------------------------------------------------------------
 
@@ -407,11 +443,14 @@ class CourseStore(Tables):
         per_hour: int,
         hour_ago: float,
         also: Callable[[sqlite3.Connection], None] | None = None,
+        before: Callable[[sqlite3.Connection], dict] | None = None,
     ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),
         with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap. `also`
         writes more in the same transaction (its row in the grading run: then it is `handed` at once), so the
-        two rows are kept together or neither is (a full disk)."""
+        two rows are kept together or neither is (a full disk). `before` reads what it needs in the same
+        transaction and gives the row's last fields (the late tokens it spends: server/course/tokens.py), or
+        raises to keep nothing."""
         with self._tx() as db:
             who = (sub["assignment_id"], sub["student"])
             recent = db.execute(
@@ -422,11 +461,13 @@ class CourseStore(Tables):
                 return "hour"
             if max_attempts is not None and self._attempts(db, *who) >= max_attempts:
                 return "attempts"
+            if before is not None:
+                sub.update(before(db))
             db.execute(
                 "INSERT INTO course_submissions (id, assignment_id, student, version, run_id, kind, file,"
-                " accepted_at, late, handed) VALUES (:id, :assignment_id, :student, :version, :run_id, :kind, :file,"
-                " :accepted_at, :late, :handed)",
-                {**sub, "handed": int(also is not None)},
+                " accepted_at, late, handed, tokens_spent) VALUES (:id, :assignment_id, :student, :version, :run_id,"
+                " :kind, :file, :accepted_at, :late, :handed, :tokens_spent)",
+                {"tokens_spent": 0, **sub, "handed": int(also is not None)},
             )
             if also is not None:
                 also(db)

@@ -31,6 +31,7 @@ class Views(CourseBase):
             "version": sub["version"],
             "accepted_at": iso(sub["accepted_at"]),
             "late": bool(sub["late"]),
+            "tokens_spent": sub.get("tokens_spent", 0),
             "counts_as_attempt": status not in ("invalid", "failed"),
             "counts": sub["id"] == counting,
             "score": round(sub["score"] * (1 - penalty), 6) if show_score and sub["score"] is not None else None,

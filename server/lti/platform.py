@@ -163,6 +163,7 @@ class Platform:
         self.tokens: dict[str, set[str]] = {}  # access token -> its scopes
         self.scores: list[dict] = []  # every score accepted, with its line item's id ("lineitem")
         self.down = False  # the score endpoint answers 503
+        self.refuse: tuple[int, str] | None = None  # the score endpoint answers (HTTP status, OAuth-style error code)
         self.line_items: dict[str, dict] = {}  # id -> line item (its "context" key: the context's id)
         self.members: dict[str, list[dict]] = {"course-1": [member(i) for i in range(5)]}
         self.deep_links: list[dict] = []  # the content items of each verified deep-linking answer
@@ -509,6 +510,8 @@ class Platform:
             return Answer.json({"error": "unsupported content type"}, 415)
         if self.down:
             return Answer.json({"error": "down for maintenance"}, 503)
+        if self.refuse is not None:
+            return Answer.json({"error": self.refuse[1]}, self.refuse[0])
         if lid not in self.line_items:
             return Answer.json({"error": "not found"}, 404)
         score = req.json()
@@ -517,6 +520,12 @@ class Platform:
             return Answer.json({"error": "timestamp not later than the last score's"}, 409)
         self.scores.append({**score, "lineitem": lid})
         return Answer(204)
+
+    def drop(self, context: str, user_id: str) -> dict:
+        """A member leaves the LMS course (gone from its memberships, as a dropped student is): the member."""
+        (gone,) = [m for m in self.members[context] if m["user_id"] == user_id]
+        self.members[context].remove(gone)
+        return gone
 
     def _memberships(self, req: Request, context: str) -> Answer:
         if error := self._refused(req, NRPS_SCOPE):

@@ -20,6 +20,7 @@ from server.api.routes.course_common import Why, base_url, roster_text
 from server.core.roles import Kind, Role
 from server.course.people import ROLES, Who
 from server.course.roster import links_csv
+from server.course.tokens import MAX_TOKENS, check_tokens
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
@@ -31,6 +32,25 @@ class CourseIn(BaseModel):
 
     id: str = Field(min_length=1, max_length=40, description="1 to 40 letters, digits, '-' or '_' (in its URLs)")
     name: str = Field("", max_length=200, description="its name, as students see it")
+    late_tokens: int = Field(
+        0, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
+
+
+class CourseEdit(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str | None = Field(None, max_length=200, description="its name, as students see it")
+    late_tokens: int | None = Field(
+        None, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
+
+
+class TokensIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    add: int = Field(strict=True, description=f"late tokens (days) to give the student (1 to {MAX_TOKENS})")
+    why: str = Field("", max_length=500, description="why (kept with the grant)")
 
 
 class StaffIn(BaseModel):
@@ -45,7 +65,10 @@ class StaffIn(BaseModel):
 @router.post("", status_code=201, summary="Create a course (the server admin's)", responses=ERRORS)
 def create(body: CourseIn, request: Request, course: CourseDep, caller: CallerDep, response: Response) -> dict:
     require_instructor(caller, request)
+    check_tokens(body.late_tokens)
     c = course.create_course(body.id, body.name)
+    if body.late_tokens:
+        course.set_late_tokens(c["id"], body.late_tokens, Who(None, Role.ADMIN))
     response.headers["Location"] = f"/api/courses/{c['id']}"
     return course.course_view(c["id"], Who(None, Role.ADMIN), base_url(request))
 
@@ -75,6 +98,40 @@ def view(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> di
     if who is None:
         raise ApiError(404, [{"path": "course", "message": f"no course with id '{cid[:64]}'"}])
     return course.course_view(cid, who, base_url(request))
+
+
+@router.patch("/{cid}", summary="Edit a course's settings (its instructors')", responses={**ERRORS, **NOT_FOUND})
+def edit(cid: str, body: CourseEdit, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """`{name?, late_tokens?}`: what is given changes. `late_tokens` moves every student's tokens left by as
+    much (what they spent stays spent)."""
+    who = course.course_staff(cid, caller, instructor_check(request), "publish")
+    if body.late_tokens is not None:
+        course.set_late_tokens(cid, check_tokens(body.late_tokens), who)
+    if body.name is not None:
+        course.store.rename_course(cid, " ".join(body.name.split())[:200] or cid)
+    return course.course_view(cid, who, base_url(request))
+
+
+@router.get("/{cid}/students/{student}/tokens", summary="A student's late tokens and grants", responses=NOT_FOUND)
+def tokens(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course_staff(cid, caller, instructor_check(request))
+    _member(course, cid, student)
+    return course.tokens_of(cid, student)
+
+
+@router.post(
+    "/{cid}/students/{student}/tokens",
+    summary="Grant a student more late tokens (instructors and TAs)",
+    responses={**ERRORS, **NOT_FOUND},
+)
+def grant_tokens(
+    cid: str, student: str, body: TokensIn, request: Request, course: CourseDep, caller: CallerDep
+) -> dict:
+    """`{add, why}` -> the student's tokens (left, the course's, granted, spent, `grants`: each with at, who,
+    add, before, after, why)."""
+    who = course.course_staff(cid, caller, instructor_check(request), "extend")
+    _member(course, cid, student)
+    return course.grant_tokens(cid, student, body.add, body.why, who)
 
 
 @router.post(
@@ -109,7 +166,8 @@ def roster_list(cid: str, request: Request, course: CourseDep, caller: CallerDep
     return {
         "students": [
             {"id": m["student"], "name": m["name"], "email": m["email"], "self_declared": bool(m["self_declared"]),
-             "every_assignment": bool(m["every"]), "lms": m["lti_user"] is not None}
+             "every_assignment": bool(m["every"]), "lms": m["lti_user"] is not None,
+             "active": m["left_at"] is None, "left_at": m["left_at"]}
             for m in course.store.members(cid)
         ]
     }  # fmt: skip
@@ -204,6 +262,11 @@ def remove_staff(cid: str, person: str, request: Request, course: CourseDep, cal
     who = course.course_staff(cid, caller, instructor_check(request), "staff")
     course.remove_staff(cid, person, who)
     return {"id": person, "removed": True}
+
+
+def _member(course, cid: str, student: str) -> None:
+    if course.store.member(cid, student) is None:
+        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
 
 
 def _of_course(course, cid: str, assignment: str | None) -> None:

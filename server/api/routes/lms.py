@@ -74,3 +74,27 @@ async def sync(cid: str, request: Request, course: CourseDep, caller: CallerDep)
 def grades_back(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     a, _ = course.staff(aid, caller, instructor_check(request))
     return get_lms(request).board(aid, a["course_id"]) or {"contexts": [], "linked": False, "grades": None}
+
+
+class SendAgainIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    score: int | None = Field(None, ge=1, description="one refused score's id (the dashboard's `refused`); all if none")
+
+
+@router.post(
+    "/api/assignments/{aid}/lms/send-again",
+    summary="Queue the grades the LMS refused for good to be sent again (staff)",
+)
+def send_again(
+    aid: str, request: Request, course: CourseDep, caller: CallerDep, body: SendAgainIn | None = None
+) -> dict:
+    """The assignment's scores the LMS refused (a 4xx other than 401 and 429: marked failed, not tried again) pending
+    again, posted at once: after the LMS's side was fixed (the column re-opened, the student enrolled again)."""
+    a, _ = course.staff(aid, caller, instructor_check(request))
+    lms = get_lms(request)
+    one = body.score if body is not None else None
+    n = lms.poster.send_again(a["id"], one)
+    if one is not None and n == 0:
+        raise ApiError(404, [{"path": "score", "message": f"no refused score {one} of assignment {aid} to send again"}])
+    return {"queued": n, "grades": lms.store.scores(a["id"])}

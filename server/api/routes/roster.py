@@ -16,6 +16,7 @@ from server.api.deps import (
     CourseDep,
     StoreDep,
     client_address,
+    instructor_check,
 )
 from server.api.models import ErrorResponse
 from server.api.routes.course_common import (
@@ -39,7 +40,7 @@ class ExtensionIn(BaseModel):
 
     student: str = Field(min_length=1, max_length=80, description="the roster's id")
     deadline: Instant | None = Field(description="their own deadline (ISO 8601 with a zone); null: the assignment's")
-    why: str = Field("", max_length=1000, description="why (kept in the course's audit trail)")
+    why: str = Field("", max_length=500, description="why (kept in the extension's history and the audit trail)")
 
 
 class JoinIn(BaseModel):
@@ -98,7 +99,9 @@ def new_link(aid: str, student: str, request: Request, course: CourseDep, caller
 
 @router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
 def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    who = staff_who(course, aid, caller, request, "extend")
+    """Their deadline and late cut-off. Each extension is kept (at, who, before, after, why): `extensions` in
+    GET /api/assignments/{aid}/students/{student}."""
+    _, who = course.staff(aid, caller, instructor_check(request), "extend")
     return course.extend(aid, body.student, body.deadline, who, body.why)
 
 

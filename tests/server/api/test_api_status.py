@@ -99,8 +99,9 @@ def test_api_status_counts_the_grades_going_back_to_the_lms(app_client):
     rows = store.due(now, 10)
     store.sent(rows[0]["id"], now)
     store.failed(rows[1]["id"], "the platform answered 503", now + 60)
+    store.refused(rows[3]["id"], 404, "the score: the platform answered HTTP 404 (Not Found)", now)
     lms = app_client.get("/api/status", headers=ADMIN).json()["lms"]
-    assert (lms["pending"], lms["failed"], lms["sent"]) == (3, 1, 1)
+    assert (lms["pending"], lms["failed"], lms["sent"], lms["refused"]) == (2, 1, 1, 1)
     assert lms["last_error"]["message"] == "the platform answered 503" and lms["last_error"]["platform_id"] == "p1"
     assert lms["last_error"]["next_try"] == datetime.fromtimestamp(now + 60, UTC).isoformat()
     assert lms["oldest_pending_seconds"] == pytest.approx(600)

@@ -92,9 +92,9 @@ def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who
     states = {s["id"]: s["state"] for s in board["students"]}
     assert {f"sis-{i}" for i in range(1, 5)} <= set(states) and all(states[f"sis-{i}"] == "none" for i in range(1, 5))
     assert board["lms"]["roster_synced_at"] is not None
-    # the instructor's own launch made them the course's instructor
+    # the instructor's own launch made them the course's instructor; the sync, the LMS's instructor (sis-0) too
     staff = client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]
-    assert [s["role"] for s in staff] == ["instructor"]
+    assert {s["id"]: s["role"] for s in staff} == {"ada": "instructor", "sis-0": "instructor"}, staff
     # each in the course's audit trail as the LMS's doing (server/course/audit.py)
     events = client.get("/api/courses/gfx/audit", params={"limit": 500}, headers=ADMIN).json()["events"]
     synced = {e["target"]["student"] for e in events if (e["action"], e["why"]) == ("student.add", "LMS roster sync")}
@@ -208,3 +208,122 @@ def test_lms_an_email_is_no_identity_unless_the_platform_is_trusted_with_emails(
     finally:
         body["trust_emails"] = False
         assert client.post("/api/lti/platforms", json=body, headers=ADMIN).json()["trust_emails"] is False
+
+
+def test_lms_a_score_the_lms_refuses_for_good_is_failed_shown_with_why_and_sent_again_by_staff(tool, lms):
+    """A 4xx other than 401/429 (the same post would be refused again) is not tried again: the row is failed with
+    the LMS's status and message, the dashboard lists it, and "send again" queues it once the LMS is fixed. The
+    score's comment goes as AGS's `comment`."""
+    url, app, client = tool
+    p, aid = lms
+    lms_ = app.state.lms
+    row = {"platform_id": p.registered_id, "lineitem": f"{p.url}/lineitems/li-1", "user_id": "refused-1",
+           "assignment_id": aid, "student": "refused-1", "score_given": 9.0, "score_max": 13.0,
+           "comment": "Good shadows; the glass is too dark."}  # fmt: skip
+    p.refuse = (422, "invalid_score")
+    try:
+        assert lms_.store.add_score(row, lms_.now())
+        lms_.poster.wake()
+        wait_for(lambda: lms_.store.scores(aid)["failed"], 60, "the refused score marked failed", 0.2)
+        board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()["lms"]["grades"]
+        (refused,) = board["refused"]
+        assert refused["student"] == "refused-1" and refused["status"] == 422, refused
+        assert "HTTP 422" in refused["error"] and "invalid_score" in refused["error"], refused
+        # not tried again, however late it gets (a pending row would be, after its wait)
+        app.state.clock.now += timedelta(days=3)
+        lms_.poster.post_due()
+        assert lms_.store.scores(aid)["failed"] == 1 and not [s for s in p.scores if s["userId"] == "refused-1"]
+        # the same score again is not kept anew (it would be refused again): staff send it again instead
+        assert not lms_.store.add_score(row, lms_.now())
+    finally:
+        p.refuse = None
+    assert (
+        client.post(f"/api/assignments/{aid}/lms/send-again", json={"score": 999999}, headers=ADMIN).status_code == 404
+    )
+    r = client.post(f"/api/assignments/{aid}/lms/send-again", headers=ADMIN)
+    assert r.status_code == 200 and r.json()["queued"] == 1 and r.json()["grades"]["refused"] == [], r.text
+    wait_for(lambda: [s for s in p.scores if s["userId"] == "refused-1"], 60, "the score sent again", 0.2)
+    (sent,) = [s for s in p.scores if s["userId"] == "refused-1"]
+    assert sent["scoreGiven"] == 9.0 and sent["comment"] == "Good shadows; the glass is too dark."
+    assert lms_.store.scores(aid)["failed"] == 0
+    # a student may not ask for it; a 503 or a 429 stays pending (tried again later)
+    r = client.post(f"/api/assignments/{aid}/lms/send-again", headers=bearer("x" * 43))
+    assert r.status_code in (401, 403, 404), r.text
+    for status in (429, 503, 401):
+        from server.course.lms_poster import for_good
+        from server.lti.services import ServiceError
+
+        assert for_good(ServiceError(status, "x")) is None
+    assert for_good(ServiceError(404, "x")) == 404 and for_good(ServiceError(0, "no answer")) is None
+
+
+def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_returning_student_is_active(tool, lms):
+    """NRPS: a student gone from the LMS course is kept, inactive (their submissions stay; they cannot submit);
+    the LMS's instructors and TAs become the course's staff; a student back in the LMS course is active again."""
+    url, app, client = tool
+    p, aid = lms
+    members = {"context_memberships_url": f"{p.url}/memberships/course-1?limit=2", "service_versions": ["2.0"]}
+    p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], custom={"assignment": aid},
+                overrides={NRPS: members})  # fmt: skip
+    ta_role = "http://purl.imsglobal.org/vocab/lis/v2/membership/Instructor#TeachingAssistant"
+    ta = {"status": "Active", "name": "Tia Assistant", "email": "tia@example.edu", "user_id": "user-ta",
+          "lis_person_sourcedid": "tia", "roles": [ta_role]}  # fmt: skip
+    p.members["course-1"].append(ta)
+    try:
+        r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+        assert r.status_code == 200, r.text
+        roles = {s["id"]: s["role"] for s in client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]}
+        assert roles.get("sis-0") == "instructor" and roles.get("tia") == "ta", roles
+        roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
+        assert roster["sis-3"]["active"] is True
+        gone = p.drop("course-1", "user-3")
+        try:
+            r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+            assert r.status_code == 200 and r.json()["left"] >= 1, r.text
+            roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
+            assert roster["sis-3"]["active"] is False and roster["sis-3"]["left_at"] is not None  # kept, inactive
+            assert roster["sis-1"]["active"] is True
+            board = {
+                s["id"]: s for s in client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()["students"]
+            }
+            assert board["sis-3"]["active"] is False and board["sis-1"]["active"] is True
+            # they may read their assignment still, not submit
+            m = app.state.course.store.member("gfx", "sis-3")
+            token = app.state.course.token_of("gfx", "student", "sis-3", m["gen"])
+            brief = client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+            assert brief["student"]["id"] == "sis-3" and brief["inactive"] is True, brief
+            assert client.get(f"/api/assignments/{aid}/submissions", headers=bearer(token)).status_code == 200
+            scene = (EXAMPLE / "class" / "alice.json").read_text()
+            r = client.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=bearer(token))
+            assert r.status_code == 403 and r.json()["errors"][0]["path"] == "student", r.text
+        finally:
+            p.members["course-1"].insert(3, gone)
+        r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
+        assert r.status_code == 200 and r.json()["back"] >= 1, r.text
+        roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
+        assert roster["sis-3"]["active"] is True and roster["sis-3"]["left_at"] is None
+        assert "inactive" not in client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+    finally:
+        p.members["course-1"].remove(ta)
+
+
+def test_lms_deep_linking_honours_accept_types_and_accept_lineitem(tool, lms):
+    """A deep-linking request whose accept_types has no ltiResourceLink gets a page that says why (no picker);
+    one with accept_lineitem false gets its link without a lineItem."""
+    url, app, client = tool
+    p, aid = lms
+    back = p.url + "/deep_link_return"
+    r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], message_type="LtiDeepLinkingRequest",
+                    deep_linking={"deep_link_return_url": back, "accept_types": ["link", "file"]})  # fmt: skip
+    assert r.status_code == 400 and "ltiResourceLink" in r.text and "link, file" in r.text, r.text
+    assert 'name="pick"' not in r.text
+    settings = {"deep_link_return_url": back, "accept_types": ["ltiResourceLink"], "accept_lineitem": False}
+    r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], message_type="LtiDeepLinkingRequest",
+                    deep_linking=settings)  # fmt: skip
+    assert r.status_code == 200 and "Pick an assignment" in r.text, r.text
+    pick = re.search(r'name="pick" value="([^"]+)"', r.text)[1]
+    r = client.post("/lti/pick", data={"pick": pick, "assignment": aid})
+    jwt = re.search(r'name="JWT" value="([^"]+)"', r.text)[1]
+    assert httpx.post(back, data={"JWT": jwt}).status_code == 200
+    (item,) = p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"]
+    assert item["type"] == "ltiResourceLink" and item["custom"] == {"assignment": aid} and "lineItem" not in item

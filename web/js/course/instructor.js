@@ -171,13 +171,14 @@ function staffForm(courses, admin) {
   if (!admin) return form;
   const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_\\-]*" }); // the server's COURSE_ID; `-` escaped: Chromium compiles it with the v flag
   const nname = h("input", { id: "new-course-name", maxlength: 200, autocomplete: "off" });
+  const ntokens = h("input", { id: "new-course-tokens", type: "number", min: "0", max: "60", step: "1", value: "0", title: "days each student may spend on late work, shared by the course's assignments" });
   const made = h("p", { class: "hint", role: "status", "aria-live": "polite" });
-  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("button", { type: "submit" }, "Create"), made);
+  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("label", { for: "new-course-tokens" }, "Late tokens (days per student)"), ntokens, h("button", { type: "submit" }, "Create"), made);
   create.addEventListener("submit", async (e) => {
     e.preventDefault();
     try {
       madeCourse = nid.value.trim();
-      await course.createCourse({ id: madeCourse, name: nname.value.trim() });
+      await course.createCourse({ id: madeCourse, name: nname.value.trim(), late_tokens: Number(ntokens.value || 0) });
       showList();
     } catch (err) {
       made.textContent = `Not created: ${err.message}`;

@@ -10,6 +10,7 @@ import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
 import { StatsPanel } from "./stats.js";
+import { extensionHistory, tokensPanel } from "./latetokens.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
 const TA_MAY = "As a TA you follow the class, grant extensions and regrade.";
@@ -26,6 +27,7 @@ const FILTERS = [
   ["failed", "ungradable"],
   ["extended", "with an extension"],
   ["self", "self-declared names"],
+  ["inactive", "inactive (left the LMS course)"],
 ];
 const PICTURES = [
   ["render.png", "their render"],
@@ -50,6 +52,7 @@ function matches(row, filter) {
     case "late": return row.late;
     case "extended": return row.extended;
     case "self": return row.self_declared;
+    case "inactive": return row.active === false;
     default: return row.state === filter;
   }
 }
@@ -313,6 +316,40 @@ export class Board {
     const synced = l.roster_synced_at ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}` : "roster not read from the LMS yet";
     const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; the next try: ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
     note.textContent = `In the LMS: ${l.contexts.join(", ")} (${synced}).${waiting}`;
+    this.renderRefused(note, l.grades?.refused || []);
+  }
+
+  /** The grades the LMS refused for good (a 4xx: not tried again): who, the LMS's status and why, and "Send
+   * again" (POST .../lms/send-again) once the LMS's side is fixed. */
+  renderRefused(note, refused) {
+    let box = this.stats.parentElement.querySelector("#lms-refused");
+    if (!refused.length) return box?.remove();
+    if (!box) {
+      box = h("div", { id: "lms-refused", class: "lms-refused", role: "region", "aria-labelledby": "h-lms-refused" });
+      note.after(box);
+    }
+    const sig = JSON.stringify(refused);
+    if (box.dataset.sig === sig) return; // drawn already (the poll must not clear what "Send again" said)
+    box.dataset.sig = sig;
+    const status = h("span", { class: "muted", role: "status" });
+    const again = h("button", { type: "button", id: "lms-send-again" }, "Send again");
+    again.addEventListener("click", async () => {
+      again.disabled = true;
+      try {
+        const r = await course.lmsSendAgain(this.aid);
+        say(this.status, "ok", `${r.queued} refused grade${r.queued === 1 ? "" : "s"} queued to be sent to the LMS again.`);
+        await this.refresh();
+      } catch (e) {
+        say(status, "error", `Could not queue them again: ${e.message}`);
+      } finally {
+        again.disabled = false;
+      }
+    });
+    box.replaceChildren(
+      h("h3", { id: "h-lms-refused" }, `Grades the LMS refused (${refused.length}): not tried again`),
+      h("ul", {}, ...refused.map((x) => h("li", { dataset: { score: x.id } }, h("strong", {}, x.student), ` ${pts(x.score_given)} / ${pts(x.score_max)}: HTTP ${x.status}, ${x.error}`))),
+      h("p", { class: "hint" }, "Fix it in the LMS first (the gradebook column, the student's enrolment), then send them again.", " ", again, " ", status),
+    );
   }
 
   /** The scores as a bar chart (SVG): tenths of the spec's points, the count over each bar, the mean and
@@ -436,9 +473,9 @@ export class Board {
         tabindex: 0,
         class: "student",
         dataset: { student: r.id, state: r.state, late: r.late, extended: r.extended, pending: r.pending },
-        "aria-label": `${r.name} (${r.id}): ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
+        "aria-label": `${r.name} (${r.id})${r.active === false ? ", inactive" : ""}: ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
       },
-      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null),
+      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null, r.active === false ? h("span", { class: "badge inactive", title: "no longer in the LMS course: kept with their submissions and grades; cannot submit" }, "inactive") : null),
       h(
         "td",
         { class: "state" },
@@ -577,7 +614,7 @@ export class Board {
     const grant = async (deadline) => {
       extErrors.replaceChildren();
       try {
-        const r = await course.extend(this.aid, sid, deadline);
+        const r = await course.extend(this.aid, sid, deadline, $("#ext-why", this.detail)?.value || "");
         say(extStatus, "ok", deadline ? `${sid}'s deadline is now ${when(r.deadline)}${r.late_until ? ` (late until ${when(r.late_until)})` : ""}.` : `${sid} is back to the assignment's deadline.`);
         await this.refresh();
       } catch (err) {
@@ -602,7 +639,7 @@ export class Board {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-student", tabindex: -1 }, `${d.name} (${d.id})`),
-        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null),
+        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null, d.active === false ? h("span", { class: "badge inactive" }, "inactive: left the LMS course, cannot submit") : null),
         h("span", { class: "toolbar" }, this.may("roster") ? h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…") : null, h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
       ),
       linkOut,
@@ -611,12 +648,16 @@ export class Board {
         { class: "ext-form", id: "ext-form", "aria-label": `An extension for ${sid}` },
         h("label", { for: "ext-deadline" }, `Their deadline${d.extended ? " (extended)" : ""}`),
         ext,
+        h("label", { for: "ext-why" }, "Why"),
+        h("input", { type: "text", id: "ext-why", maxlength: "500", placeholder: "kept in the history" }),
         h("button", { type: "submit", id: "ext-grant" }, "Grant the extension"),
         d.extended ? h("button", { type: "button", id: "ext-clear", onclick: () => grant(null) }, "Back to the assignment's deadline") : null,
         h("p", { id: "ext-help", class: "hint" }, `In this browser's zone (${zoneName()}). An extension moves their deadline and their late cut-off by as much.`),
         extErrors,
         extStatus,
       ),
+      extensionHistory(d),
+      d.tokens ? tokensPanel(d, () => this.showStudent(sid, false)) : null,
       h("h3", {}, `Submissions (${d.history.length})`),
       history.length ? h("ol", { class: "history", id: "history", reversed: true }, history.map((sub, i) => this.submission(sub, history.length - i))) : h("p", { class: "hint" }, "Nothing submitted yet."),
     );
@@ -733,6 +774,7 @@ export class Board {
         h("span", { class: "muted" }, `${sub.kind === "scene" ? "scene" : `image (${sub.kind.toUpperCase()})`} · version ${sub.version}`),
         h("span", { class: `badge ${sub.status}` }, sub.status),
         sub.late ? h("span", { class: "badge late" }, sub.penalty ? `late −${Math.round(sub.penalty * 100)} %` : "late") : null,
+        sub.tokens_spent ? h("span", { class: "badge tokens", dataset: { tokens: String(sub.tokens_spent) } }, `${sub.tokens_spent} late ${sub.tokens_spent === 1 ? "token" : "tokens"} spent`) : null,
         sub.counts ? h("span", { class: "badge counts", title: "this submission is the grade" }, "counts") : null,
         !sub.counts_as_attempt ? h("span", { class: "muted" }, "no attempt used") : null,
         h("span", { class: "pts" }, sub.score === null ? "" : `${pts(sub.score)} / ${pts(sub.max_score)}`),

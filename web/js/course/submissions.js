@@ -119,6 +119,7 @@ export class SubmissionList {
       h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
       h("span", { class: "muted" }, v.kind === "scene" ? "scene" : `${v.kind.toUpperCase()} image`),
       v.late ? h("span", { class: "badge a-late" }, "late") : null,
+      v.tokens_spent ? h("span", { class: "badge a-tokens" }, `${v.tokens_spent} late ${v.tokens_spent === 1 ? "token" : "tokens"} spent: on time`) : null,
       h("span", { class: `badge ${v.status} a-sub-status` }, STATUS[v.status] || v.status),
       score,
       v.counts ? h("span", { class: "badge a-counts", title: "the submission that is your grade" }, "★ counts") : null,
