@@ -218,7 +218,7 @@ class Lms:
             self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", why))
             member = self.course.store.member(cid, pid)
             if member["left_at"] is not None:  # the LMS launched them: they are in its course again
-                self.course.store.set_left(cid, [pid], None)
+                self.course.store.set_left(cid, [pid], None, self.course.by("lms", why))
             gen = member["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
@@ -423,8 +423,9 @@ class Lms:
                 gone.append(m["student"])
             elif sub in active[platform_id] and m["left_at"] is not None:
                 returned.append(m["student"])
-        left = self.course.store.set_left(cid, gone, self.now()) if gone else 0
-        back = self.course.store.set_left(cid, returned, None) if returned else 0
+        by = self.course.by("lms", "LMS roster sync")
+        left = self.course.store.set_left(cid, gone, self.now(), by) if gone else 0
+        back = self.course.store.set_left(cid, returned, None, by) if returned else 0
         if left or back:
             log.info("roster of course %s from the LMS: %d left (inactive), %d back", cid, left, back)
         return left, back

@@ -159,8 +159,13 @@ class CourseStore(Tables):
     def rename_course(self, cid: str, name: str) -> None:
         self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
 
-    def set_late_tokens(self, cid: str, n: int) -> None:
-        self.db.execute("UPDATE courses SET late_tokens = ? WHERE id = ?", (n, cid))
+    def set_late_tokens(self, cid: str, n: int, by: By | None = None) -> None:
+        """The course's late tokens per student (with `by`: a `tokens.course` event, before and after)."""
+        with self._tx() as db:
+            was = db.execute("SELECT late_tokens FROM courses WHERE id = ?", (cid,)).fetchone()
+            db.execute("UPDATE courses SET late_tokens = ? WHERE id = ?", (n, cid))
+            if was is not None and was[0] != n:
+                record(by, db, "tokens.course", Target(cid), {"late_tokens": was[0]}, {"late_tokens": n})
 
     def add_staff(self, cid: str, row: dict, now: float, by: By | None = None) -> None:
         """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated (with
@@ -333,16 +338,25 @@ class CourseStore(Tables):
                         record(by, db, "student.enrol", target, None, {"enrolled": True})
         return added
 
-    def set_left(self, cid: str, students: list[str], when: float | None) -> int:
+    def set_left(self, cid: str, students: list[str], when: float | None, by: By | None = None) -> int:
         """Members who left the course's LMS course (`when`: inactive from then; kept with their submissions and
-        grades) or came back (None: active again). How many changed."""
+        grades) or came back (None: active again). How many changed (with `by`: a `student.left` or
+        `student.back` event for each)."""
+        changed = 0
         with self._tx() as db:
-            cur = db.executemany(
-                "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
-                + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
-                [(when, cid, s) for s in students],
-            )
-        return cur.rowcount
+            for s in students:
+                n = db.execute(
+                    "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
+                    + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
+                    (when, cid, s),
+                ).rowcount
+                changed += n
+                if n:
+                    action, before, after = (
+                        ("student.left", True, False) if when is not None else ("student.back", False, True)
+                    )
+                    record(by, db, action, Target(cid, student=s), {"active": before}, {"active": after})
+        return changed
 
     def remove_member(self, cid: str, student: str, by: By | None = None) -> bool:
         """Off the course's rosters (their submissions are kept; their tokens stop working)."""

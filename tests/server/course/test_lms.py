@@ -303,6 +303,16 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
         roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
         assert roster["sis-3"]["active"] is True and roster["sis-3"]["left_at"] is None
         assert "inactive" not in client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+        trail = client.get("/api/courses/gfx/audit", params={"student": "sis-3"}, headers=ADMIN).json()["events"]
+        moves = [
+            (e["action"], e["who"], e["before"], e["after"])
+            for e in trail
+            if e["action"] in ("student.left", "student.back")
+        ]
+        assert moves[:2] == [
+            ("student.back", "lms", {"active": False}, {"active": True}),
+            ("student.left", "lms", {"active": True}, {"active": False}),
+        ], trail  # the audit trail has both, newest first
     finally:
         p.members["course-1"].remove(ta)
 
