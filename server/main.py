@@ -32,6 +32,7 @@ from server.api.gate import BodyBudget, RequestGate
 from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
 from server.api.routes import (
     assignments,
+    audit,
     courses,
     dashboard,
     grade,
@@ -210,6 +211,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(roster.router)
     app.include_router(submissions.router)
     app.include_router(dashboard.router)
+    app.include_router(audit.router)  # /api/courses/{cid}/audit
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

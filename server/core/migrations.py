@@ -161,6 +161,17 @@ def _m0006_manual_grades(db: sqlite3.Connection) -> None:
         "CREATE TABLE IF NOT EXISTS course_graders (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
         " grader TEXT NOT NULL, PRIMARY KEY (assignment_id, student))"
     )
+def _m0007_course_audit(db: sqlite3.Connection) -> None:
+    """The course's audit trail (issue #41, item 5): the `course_audit` table and its indexes, as
+    server/course/schema.py makes them (a new table: no rows move)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_audit (id INTEGER PRIMARY KEY AUTOINCREMENT, course_id TEXT NOT NULL,"
+        " at REAL NOT NULL, who TEXT NOT NULL, action TEXT NOT NULL, assignment_id TEXT, student TEXT,"
+        " target TEXT NOT NULL, before TEXT, after TEXT, why TEXT NOT NULL DEFAULT '')"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id)")
 
 
 MIGRATIONS: tuple[Migration, ...] = (
@@ -179,6 +190,7 @@ MIGRATIONS: tuple[Migration, ...] = (
         5, "course: late tokens (a course's, a submission's spent, grants) and extensions' history", _m0005_late_tokens
     ),
     Migration(6, "manual grades: staff-graded items, their release, graders", _m0006_manual_grades),
+    Migration(7, "course: the audit trail (course_audit)", _m0007_course_audit),
 )
 LATEST = MIGRATIONS[-1].number
 

@@ -124,15 +124,24 @@ class Courses(CourseBase):
             out["students"] = len(self.store.members(cid))
         return out
 
-    def add_staff(self, cid: str, person: str, name: str, email: str, role: str, base: str) -> dict:
+    def add_staff(
+        self, cid: str, person: str, name: str, email: str, role: str, base: str, who: Who | None = None
+    ) -> dict:
+        """A staff member added (or their name, email and role changed): `staff.add` (`staff.change`) audited."""
         self.course(cid)
         if not person or student_name(person) != person or len(person) > 80:
             message = f"{person[:80]!r}: an id is 1 to 80 letters, digits, '.', '_' or '-' (no spaces)"
             raise Invalid([{"path": "id", "message": message}])
         if role not in ROLES:
             raise Invalid([{"path": "role", "message": f"expected one of {', '.join(ROLES)}; got {role!r}"}])
-        self.store.add_staff(cid, {"person": person, "name": name or person, "email": email, "role": role}, self.now())
+        row = {"person": person, "name": name or person, "email": email, "role": role}
+        self.store.add_staff(cid, row, self.now(), self.by(who))
         return self.staff_link(cid, person, base)
+
+    def remove_staff(self, cid: str, person: str, who: Who | None = None) -> None:
+        """A staff member removed (404 if none); their token stops working; `staff.remove` audited."""
+        if not self.store.remove_staff(cid, person, self.by(who)):
+            raise NotFound([{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
 
     def staff_link(self, cid: str, person: str, base: str) -> dict:
         s = self.store.staff_member(cid, person)

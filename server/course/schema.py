@@ -124,4 +124,20 @@ CREATE TABLE IF NOT EXISTS course_graders (
     grader TEXT NOT NULL,                 -- course_staff.person who grades this student's submission
     PRIMARY KEY (assignment_id, student)
 );
+CREATE TABLE IF NOT EXISTS course_audit (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, -- the order events were written in (a page's cursor)
+    course_id TEXT NOT NULL,
+    at REAL NOT NULL,                     -- Unix time (s), the API's clock
+    who TEXT NOT NULL,                    -- instructor:<id>, ta:<id>, admin, student:<id>, lms
+    action TEXT NOT NULL,                 -- publish, edit, regrade, extension, student.add, ... (audit.py)
+    assignment_id TEXT,                   -- what it names, for the filters (NULL: not an assignment's)
+    student TEXT,
+    target TEXT NOT NULL,                 -- JSON: {course, assignment?, student?, submission?, staff?}
+    before TEXT,                          -- JSON (NULL: nothing before, e.g. a student added)
+    after TEXT,                           -- JSON (NULL: nothing after, e.g. a student removed)
+    why TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id);
+CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id);
+CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id);
 """

@@ -28,6 +28,7 @@ import math
 import sqlite3
 
 from server.core.errors import Forbidden, Invalid, NotFound
+from server.course.audit import Target, record
 from server.course.base import DAY, CourseBase, iso
 from server.course.people import Who
 
@@ -88,7 +89,7 @@ class Tokens(CourseBase):
     def set_late_tokens(self, cid: str, n: int, who: Who) -> dict:
         """The course's tokens per student (an int, 0 to MAX_TOKENS): every student's balance moves by the change."""
         before = self.course(cid)["late_tokens"]
-        self.store.set_late_tokens(cid, check_tokens(n))
+        self.store.set_late_tokens(cid, check_tokens(n), self.by(who))
         log.info("course %s: late tokens %d -> %d (by %s)", cid, before, n, who.person or who.role)
         return self.course(cid)
 
@@ -124,7 +125,10 @@ class Tokens(CourseBase):
             p = plan(accepted, due, cut, spent, left)
             if p is None:
                 raise refused(due, cut, accepted, days_late(accepted, due) - spent, left)
-            if p[0]:
+            if p[0]:  # the student's balance moves: audited as theirs, in the submission's transaction
+                after = {"tokens_left": left - p[0], "spent": p[0]}
+                record(self.by(f"student:{sid}", "a late submission"), db, "tokens.spend",
+                       Target(a["course_id"], a["id"], student=sid), {"tokens_left": left}, after)  # fmt: skip
                 log.info("student %s spent %d late token(s) on %s (%d left)", sid, p[0], a["id"], left - p[0])
             return {"tokens_spent": p[0], "late": int(p[1])}
 
@@ -144,6 +148,10 @@ class Tokens(CourseBase):
                 "INSERT INTO course_token_grants (course_id, student, added, before, after, who, why, at)"
                 " VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                 (cid, student, add, before, before + add, who.person or str(who.role), why, self.now()),
+            )
+            target = Target(cid, student=student)
+            record(
+                self.by(who, why), db, "tokens.grant", target, {"tokens_left": before}, {"tokens_left": before + add}
             )
         log.info("course %s: %d late token(s) granted to %s by %s", cid, add, student, who.person or who.role)
         return self.tokens_of(cid, student)

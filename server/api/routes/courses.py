@@ -16,7 +16,7 @@ from server.api.deps import CallerDep, CourseDep, StoreDep, instructor_check, re
 from server.api.errors import ApiError
 from server.api.models import ErrorResponse
 from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in
-from server.api.routes.course_common import base_url, roster_text
+from server.api.routes.course_common import Why, base_url, roster_text
 from server.core.roles import Kind, Role
 from server.course.people import ROLES, Who
 from server.course.roster import links_csv
@@ -154,9 +154,9 @@ async def publish(cid: str, request: Request, course: CourseDep, caller: CallerD
 async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """200 with `students: [{id, name, email, link, token, new}]`: each student's link opens the course's page
     (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
     text = await roster_text(request)
-    students = await run_in_threadpool(course.course_roster, cid, text, base_url(request))
+    students = await run_in_threadpool(course.course_roster, cid, text, base_url(request), who)
     return _students(students, request)
 
 
@@ -208,18 +208,19 @@ def renew_links(
     """Re-issue all at once: each student gets a new token (every earlier one stops working, in every assignment
     of the course; their workspace jobs move to it). The new links, as `GET /links` gives them (`Accept: text/csv`
     for CSV), `new` true."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
     _of_course(course, cid, assignment)
-    return _students(course.renew_links(cid, base_url(request), store, assignment), request)
+    return _students(course.renew_links(cid, base_url(request), store, assignment, who), request)
 
 
 @router.delete("/{cid}/students/{student}", summary="Take a student off the course's roster", responses=NOT_FOUND)
-def remove_student(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+def remove_student(
+    cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep, why: Why = ""
+) -> dict:
     """Their tokens stop working; their submissions and grades are kept (and read again if they are enrolled
     again)."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
-    if not course.store.remove_member(cid, student):
-        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
+    course.remove_member(cid, student, who, why)
     return {"id": student, "removed": True}
 
 
@@ -227,8 +228,8 @@ def remove_student(cid: str, student: str, request: Request, course: CourseDep, 
 def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """The server admin or the course's instructors: `{id, name, email, role}` -> their token and link (the
     /course page with the token), never cached."""
-    course.course_staff(cid, caller, instructor_check(request), "staff")
-    out = course.add_staff(cid, body.id, body.name, body.email, body.role, base_url(request))
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
+    out = course.add_staff(cid, body.id, body.name, body.email, body.role, base_url(request), who)
     headers = {"Cache-Control": "no-store"}
     return Response(json.dumps(out), status_code=201, media_type="application/json", headers=headers)
 
@@ -249,18 +250,17 @@ def staff_link(
     store: StoreDep,
     renew: Annotated[bool, Query(description="a new token: the old one stops working")] = False,
 ) -> Response:
-    course.course_staff(cid, caller, instructor_check(request), "staff")
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
     if renew and course.store.staff_member(cid, person) is not None:
-        course.renew(cid, Kind.STAFF, person, store)
+        course.renew(cid, Kind.STAFF, person, store, who, "a new staff link")
     out = course.staff_link(cid, person, base_url(request))
     return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
 
 
 @router.delete("/{cid}/staff/{person}", summary="Remove a staff member (their token stops working)")
 def remove_staff(cid: str, person: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, instructor_check(request), "staff")
-    if not course.store.remove_staff(cid, person):
-        raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
+    course.remove_staff(cid, person, who)
     return {"id": person, "removed": True}
 
 

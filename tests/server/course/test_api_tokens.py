@@ -170,6 +170,18 @@ def test_too_few_tokens_spend_none_and_the_penalty_applies_then_a_grant_covers_i
     r = app.get(f"/api/assignments/{course['aids']['A']}/submissions/{late['id']}", headers=ADMIN)
     assert r.json()["late"] is True  # the earlier one came before the tokens: still late
     assert brief(app, course, "A", "cid")["tokens_left"] == 0
+    # the grant and the spending in the course's audit trail (server/course/audit.py), each with its balance
+    events = app.get(f"/api/courses/{CID}/audit", params={"student": "cid"}, headers=ADMIN).json()["events"]
+    moves = [(e["action"], e["who"], e["before"], e["after"], e["why"]) for e in events if "tokens" in e["action"]]
+    assert moves == [
+        ("tokens.spend", "student:cid", {"tokens_left": 4}, {"tokens_left": 0, "spent": 4}, "a late submission"),
+        ("tokens.grant", "ta:ta-1", {"tokens_left": 3}, {"tokens_left": 4}, "ill on Tuesday"),
+    ]
+    assert events[0]["target"] == {"course": CID, "assignment": course["aids"]["A"], "student": "cid"}
+    made = app.get(f"/api/courses/{CID}/audit", headers=ADMIN).json()["events"]
+    assert [(e["before"], e["after"]) for e in made if e["action"] == "tokens.course"] == [
+        ({"late_tokens": 0}, {"late_tokens": 3})
+    ]
 
 
 def test_extensions_keep_their_history_and_tokens_count_from_the_students_own_deadline(app, course):

@@ -5,6 +5,7 @@
 // and the page says so when the server answered without a token.
 import { tokens } from "../api.js";
 import { $, h } from "../util.js";
+import { AuditPanel } from "./audit.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { Board } from "./instructor_board.js";
 import { course, errorWords, linkBox, say, tokenProblem, when } from "./instructor_util.js";
@@ -99,10 +100,20 @@ async function showList() {
         ),
       ),
     );
+    showAudit(assignments).catch(() => {});
   } catch (err) {
     accessOk(err);
     say(note, "error", tokenProblem(err, !!tokens.instructor()) ? "Sign in first: see above." : `Could not list the assignments: ${err.message}`);
   }
+}
+
+/** The courses' audit trail (audit.js), below the home's panels, once the token is known to be staff's. */
+async function showAudit(assignments) {
+  const { courses } = await course.courses();
+  if (!courses.length || board) return;
+  const panel = new AuditPanel(courses, assignments, { access: accessOk });
+  view.querySelector(".course-home")?.append(panel.root);
+  await panel.load();
 }
 
 /** The courses the token sees (the admin: every one, with forms for a new course and its staff; an instructor
