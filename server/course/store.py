@@ -33,8 +33,8 @@ from pathlib import Path
 
 from server.core.db import Tables
 from server.core.roles import Kind
-from server.course.manual_store import ManualTables
 from server.course.audit import By, Target, record
+from server.course.manual_store import ManualTables
 from server.course.policy import iso
 from server.course.schema import SCHEMA
 from server.grading.store import GradingStore
