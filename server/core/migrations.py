@@ -161,6 +161,8 @@ def _m0006_manual_grades(db: sqlite3.Connection) -> None:
         "CREATE TABLE IF NOT EXISTS course_graders (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
         " grader TEXT NOT NULL, PRIMARY KEY (assignment_id, student))"
     )
+
+
 def _m0007_course_audit(db: sqlite3.Connection) -> None:
     """The course's audit trail (issue #41, item 5): the `course_audit` table and its indexes, as
     server/course/schema.py makes them (a new table: no rows move)."""
