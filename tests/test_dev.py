@@ -69,7 +69,9 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
     said, calls = dev("test", "-k", "nothing")  # serve's install lacks pytest and ruff: installed now
     assert "[test] extras" in said, said
     assert pip_installs(calls) == ["python -m pip install -q -e .[test]"], calls
-    assert calls[-2:] == ["ruff check .", "python -m pytest -k nothing"], calls
+    # two processes, each test file whole in one, in the collection's order (the browser's files last)
+    pytest = "python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -k nothing"
+    assert calls[-2:] == ["ruff check .", pytest], calls
     for cmd in ("test", "serve"):  # both warm now: the test extras serve too
         _, calls = dev(cmd)
         assert pip_installs(calls) == [], (cmd, calls)

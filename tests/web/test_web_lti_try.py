@@ -24,9 +24,9 @@ RUN_SECONDS = 720  # the try until it serves its links, on a loaded 2-core machi
 NAME = "HW 4: glass, mirrors and soft shadows"
 
 
-def lines_until(proc: subprocess.Popen, marker: str, seconds: float) -> str:
-    """The process's output up to the line that starts with `marker` (or its end), read within `seconds`."""
-    got: queue.Queue = queue.Queue()
+def lines_until(proc: subprocess.Popen, marker: str, seconds: float, got: queue.Queue) -> str:
+    """The process's output up to the line that starts with `marker` (or its end), read within `seconds`; a
+    thread reads every line into `got` (None at the end): the rest is read from there, never from the pipe."""
     threading.Thread(target=lambda: [got.put(x) for x in proc.stdout] + [got.put(None)], daemon=True).start()
     out, until = [], time.monotonic() + seconds
     while time.monotonic() < until:
@@ -47,7 +47,8 @@ def test_web_lti_try_s_links_launch_the_tool_through_the_lms_in_a_browser(browse
     proc = subprocess.Popen([sys.executable, "-m", "server.lti", "try", "--keep", "--timeout", "600"], cwd=ROOT,
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)  # fmt: skip
     try:
-        out = lines_until(proc, "Running until Ctrl-C", RUN_SECONDS)
+        got: queue.Queue = queue.Queue()
+        out = lines_until(proc, "Running until Ctrl-C", RUN_SECONDS, got)
         assert "The whole flow works." in out, out
         lms = re.search(r"the pretend LMS's course page .*: (\S+)", out)[1].rstrip("/")
         tool = re.search(r"^The tool: (\S+)", out, re.M)[1]
@@ -72,6 +73,7 @@ def test_web_lti_try_s_links_launch_the_tool_through_the_lms_in_a_browser(browse
         assert p.unexpected_errors() == [], missing
     finally:
         proc.send_signal(signal.SIGTERM)
-        rest, _ = proc.communicate(timeout=90)
+        proc.wait(timeout=90)
+    rest = "".join(iter(lambda: got.get(timeout=30), None))  # what it said after, read by lines_until's thread
     assert proc.returncode == 0, rest
     assert "stopped" in rest

@@ -436,6 +436,8 @@ def test_web_page_cancel_and_my_jobs(desktop):
     page.wait_for_function("() => Number(document.querySelector('#render-img').dataset.previews) >= 1")
     page.click("#btn-cancel")
     page.wait_for_selector("#stage[data-status=cancelled]", timeout=30_000)
+    # the status is set as the end arrives, the message once the last picture has loaded (viewer.js, ended)
+    page.wait_for_function("() => document.querySelector('#viewer-message').innerText.includes('Cancelled after')")
     assert "Cancelled after" in page.inner_text("#viewer-message")
     assert page.locator("#job-list li[data-status]").count() == 2
     assert page.locator("#job-list li[data-status=done] img").count() == 1
