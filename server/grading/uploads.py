@@ -133,6 +133,7 @@ class _Parts:
             if self.size > self.max_assignment:
                 raise _refuse(self.name, f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", TooLarge)
             held = self.upload.reference if self.name == "reference" else self.upload.assignment
+            assert held is not None  # the reference part's bytearray is made at its headers
             held += data[start:end]
             return
         if self.name == "files":

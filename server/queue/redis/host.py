@@ -102,13 +102,13 @@ class RedisChannel:
         self.bytes_sent = 0
         self.unreachable = 0  # reports that could not reach Redis (dropped, or retried for the final one)
 
-    def _send(self, kind: str, **data) -> None:
+    def _send(self, kind: ev.EventKind, **data) -> None:
         entry = ev.encode(kind, self.job_id, self.attempt, **data)
         self.r.xadd(ev.STREAM, entry, maxlen=ev.STREAM_MAXLEN, approximate=True)
         self.bytes_sent += sum(len(v) for v in entry.values())
 
     def started(self, worker: str) -> None:
-        self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
+        self._send(ev.EventKind.started, host=HOST["host"], device=HOST["device"], worker=worker)
 
     def stop_reason(self) -> Stop | None:
         if STOP():
@@ -166,18 +166,18 @@ class RedisChannel:
 
     def progress(self, **fields) -> None:
         try:
-            self._send("progress", fields=fields, files=self.files)
+            self._send(ev.EventKind.progress, fields=fields, files=self.files)
             self.files = {}
         except redis.RedisError:
             self.unreachable += 1  # a later report carries the state again
 
     def finish(self, status: JobStatus, **fields) -> None:
-        self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
+        self._final(ev.EventKind.finish, status=JobStatus(status).value, fields=fields, files=self.files)
 
     def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
-        self._final("giveback", outcome=outcome, fields=fields, files=self.files)
+        self._final(ev.EventKind.giveback, outcome=outcome, fields=fields, files=self.files)
 
-    def _final(self, kind: str, **data) -> None:
+    def _final(self, kind: ev.EventKind, **data) -> None:
         """The last word of a try: retried while Redis is unreachable (a cut cable may come back)."""
         deadline = time.monotonic() + SEND_RETRY_SECONDS
         while True:

@@ -299,7 +299,7 @@ class RedisQueue:
         self.stats["events"] += 1
         with self.lock:
             row = self.store.get(job_id)
-            if kind == "started":
+            if kind == ev.EventKind.started:
                 if self.store.start_try(job_id, attempt, data.get("host"), data.get("device"), data.get("worker")):
                     return
                 log.info("job %s: try %d started, but the job has moved on (%s)", job_id, attempt, _state(row))
@@ -314,12 +314,12 @@ class RedisQueue:
                 return
             self._copy_files(job_id, files)
             fence = Attempt(attempt)
-            if kind == "progress":
+            if kind == ev.EventKind.progress:
                 self.store.progress(job_id, fence, **data.get("fields", {}))
-            elif kind == "finish":
+            elif kind == ev.EventKind.finish:
                 self.store.finish(job_id, fence, JobStatus(data["status"]), **data.get("fields", {}))
                 self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
-            elif kind == "giveback":
+            elif kind == ev.EventKind.giveback:
                 if data.get("fields"):
                     self.store.progress(job_id, fence, **data["fields"])
                 outcome = TryEnd(data.get("outcome") or TryEnd.given_back)
