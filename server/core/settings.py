@@ -467,7 +467,8 @@ def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -
     settings_file = settings_file or os.environ.get("TRACER_SETTINGS_FILE") or None
     if settings_file is not None and not Path(settings_file).is_file():
         raise FileNotFoundError(f"settings file not found: {settings_file}")
-    return Settings(_env_file=settings_file, **overrides)
+    # pydantic-settings' own __init__ argument, which pyright's model of a pydantic class (its fields) leaves out
+    return Settings(_env_file=settings_file, **overrides)  # pyright: ignore[reportCallIssue]
 
 
 def explain(exc: ValidationError, flags: dict[str, str] | None = None) -> str:

@@ -137,7 +137,7 @@ class JobPublic(BaseModel):
             name=row["name"],
             width=row["width"],
             height=row["height"],
-            created_at=_dt(row["created_at"]),
+            created_at=datetime.fromtimestamp(row["created_at"], UTC),  # (NOT NULL)
             started_at=_dt(row["started_at"]),
             finished_at=_dt(row["finished_at"]),
             progress=JobProgress(

@@ -198,13 +198,13 @@ class Trial:
             self.answered(r, 202)
             sub = r.headers["location"]
 
-            def graded():
+            def graded_now() -> dict | None:
                 s = self.http.get(sub, headers=bearer(student)).json()
                 if s["status"] in ("failed", "rejected"):
                     raise AssertionError(f"the submission ended {s['status']}: {s.get('error')}")
                 return s if s["status"] == "graded" else None
 
-            graded = self.wait("the submission's grade (the workers render the reference, then it)", graded, 600)
+            graded = self.wait("the submission's grade (the workers render the reference, then it)", graded_now, 600)
             self.found["score"] = graded["score"]
             self.done(f"she handed in {SUBMISSION.relative_to(ROOT)}; graded {graded['score']:g} of "
                       f"{graded['max_score']:g}")  # fmt: skip

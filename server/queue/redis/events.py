@@ -90,6 +90,11 @@ def blob_key(job_id: str, attempt: int, serial: int) -> str:
     return f"{PREFIX}blob:{rq_job_id(job_id, attempt)}:{serial}"
 
 
+def text(x: bytes | str) -> str:
+    """A Redis reply as text (this service's connections answer bytes: decode_responses is off)."""
+    return x.decode() if isinstance(x, bytes) else x
+
+
 def encode(kind: EventKind, job_id: str, attempt: int, **data) -> dict[str, str]:
     """A stream entry: its kind, job, try and data (JSON)."""
     return {"kind": kind.value, "job": job_id, "attempt": str(attempt), "data": json.dumps(data, separators=(",", ":"))}
@@ -98,9 +103,5 @@ def encode(kind: EventKind, job_id: str, attempt: int, **data) -> dict[str, str]
 def decode(fields: dict) -> tuple[str, str, int, dict]:
     """A stream entry (bytes or str fields) -> (kind, job id, try, data); the kind as sent (an EventKind's value,
     or a kind this API does not know, which it leaves alone)."""
-
-    def text(x) -> str:
-        return x.decode() if isinstance(x, bytes) else x
-
     get = {text(k): text(v) for k, v in fields.items()}
     return get["kind"], get["job"], int(get["attempt"]), json.loads(get.get("data") or "{}")
