@@ -32,12 +32,14 @@ from server.api.gate import BodyBudget, RequestGate
 from server.api.middleware import CrossSiteCheck, HostCheck, SecurityHeaders
 from server.api.routes import (
     assignments,
+    audit,
     courses,
     dashboard,
     grade,
     jobs,
     lms,
     lti,
+    manual,
     own_trees,
     pages,
     reference,
@@ -205,10 +207,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(own_trees.router)
     app.include_router(similarity.router)  # before submissions.py, as own_trees
     app.include_router(stats.router)  # before submissions.py, as similarity
+    app.include_router(manual.router)  # before submissions.py, as similarity
     app.include_router(assignments.router)  # /api/assignments: the assignment, then its roster, submissions, class
     app.include_router(roster.router)
     app.include_router(submissions.router)
     app.include_router(dashboard.router)
+    app.include_router(audit.router)  # /api/courses/{cid}/audit
     app.include_router(courses.router)
     app.include_router(reference.router)  # docs/*.md as HTML at /reference/
     app.include_router(lti.router)  # LTI 1.3: /lti/login, /lti/launch, /lti/jwks, /api/lti/platforms

@@ -82,6 +82,18 @@ class Migration:
     rows: Callable[[sqlite3.Connection], int] | None = None  # the rows it moves (the dry run's estimate)
 
 
+def _add_columns(db: sqlite3.Connection, added: dict[str, tuple[str, ...]]) -> None:
+    """Each table's new columns (`name TYPE ...`) that it lacks, in the tables that exist (a database whose server
+    never opened a table gets it whole from its store)."""
+    for table, columns in added.items():
+        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
+        if not have:
+            continue
+        for column in columns:
+            if column.split()[0] not in have:
+                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+
+
 def _m0001_baseline(db: sqlite3.Connection) -> None:
     """The schema of the release of 2026-12-05 (jobs, grading runs, assignments with per-assignment rosters), as
     its stores make it: nothing to change, the version is marked."""
@@ -97,13 +109,7 @@ def _m0003_lti_platforms_and_logins(db: sqlite3.Connection) -> None:
         ),
         "lti_logins": ("address TEXT NOT NULL DEFAULT ''",),
     }
-    for table, columns in added.items():
-        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
-        if not have:
-            continue
-        for column in columns:
-            if column.split()[0] not in have:
-                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+    _add_columns(db, added)
 
 
 def _m0004_lms_refusals_and_leavers(db: sqlite3.Connection) -> None:
@@ -112,13 +118,62 @@ def _m0004_lms_refusals_and_leavers(db: sqlite3.Connection) -> None:
     inactive, kept); in the tables that exist (a database whose server never opened them gets them whole from
     their stores)."""
     added = {"course_lti_scores": ("status INTEGER", "comment TEXT"), "course_members": ("left_at REAL",)}
-    for table, columns in added.items():
-        have = {r[1] for r in db.execute(f'PRAGMA table_info("{table}")')}
-        if not have:
-            continue
-        for column in columns:
-            if column.split()[0] not in have:
-                db.execute(f"ALTER TABLE {table} ADD COLUMN {column}")
+    _add_columns(db, added)
+
+
+def _m0005_late_tokens(db: sqlite3.Connection) -> None:
+    """Late tokens and extensions' history (issue #41, item 4): a course's `late_tokens`, a submission's
+    `tokens_spent`, the tokens granted and the extensions granted, each kept with who, when, before, after and why."""
+    added = {
+        "courses": ("late_tokens INTEGER NOT NULL DEFAULT 0",),
+        "course_submissions": ("tokens_spent INTEGER NOT NULL DEFAULT 0",),
+    }
+    _add_columns(db, added)
+    if not {r[1] for r in db.execute('PRAGMA table_info("courses")')}:
+        return  # no course tables yet: the course store makes them whole
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_token_grants (course_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " added INTEGER NOT NULL, before INTEGER NOT NULL, after INTEGER NOT NULL, who TEXT NOT NULL,"
+        " why TEXT NOT NULL DEFAULT '', at REAL NOT NULL)"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_token_grants_student ON course_token_grants (course_id, student)")
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_extensions (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " before REAL, after REAL, who TEXT NOT NULL, why TEXT NOT NULL DEFAULT '', at REAL NOT NULL)"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student)")
+
+
+def _m0006_manual_grades(db: sqlite3.Connection) -> None:
+    """Staff-graded items (issue #41, item 2): the manual grades, each assignment's release and anonymity, the
+    graders each student's submission is assigned to (server/course/schema.py has the same tables)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_manual_grades (submission_id TEXT NOT NULL, item TEXT NOT NULL,"
+        " assignment_id TEXT NOT NULL, rubric TEXT NOT NULL, points REAL, comment TEXT NOT NULL DEFAULT '',"
+        " grader TEXT, graded_at REAL NOT NULL, PRIMARY KEY (submission_id, item))"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_manual_grades_assignment ON course_manual_grades (assignment_id)")
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_manual (assignment_id TEXT PRIMARY KEY, released_at REAL,"
+        " released_by TEXT, anonymous INTEGER NOT NULL DEFAULT 0)"
+    )
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_graders (assignment_id TEXT NOT NULL, student TEXT NOT NULL,"
+        " grader TEXT NOT NULL, PRIMARY KEY (assignment_id, student))"
+    )
+
+
+def _m0007_course_audit(db: sqlite3.Connection) -> None:
+    """The course's audit trail (issue #41, item 5): the `course_audit` table and its indexes, as
+    server/course/schema.py makes them (a new table: no rows move)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_audit (id INTEGER PRIMARY KEY AUTOINCREMENT, course_id TEXT NOT NULL,"
+        " at REAL NOT NULL, who TEXT NOT NULL, action TEXT NOT NULL, assignment_id TEXT, student TEXT,"
+        " target TEXT NOT NULL, before TEXT, after TEXT, why TEXT NOT NULL DEFAULT '')"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id)")
+    db.execute("CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id)")
 
 
 MIGRATIONS: tuple[Migration, ...] = (
@@ -133,6 +188,11 @@ MIGRATIONS: tuple[Migration, ...] = (
         3, "lti: a platform's trust_emails and service_origins, a login's address", _m0003_lti_platforms_and_logins
     ),
     Migration(4, "lms: a score's refusal status and comment, a member's left_at", _m0004_lms_refusals_and_leavers),
+    Migration(
+        5, "course: late tokens (a course's, a submission's spent, grants) and extensions' history", _m0005_late_tokens
+    ),
+    Migration(6, "manual grades: staff-graded items, their release, graders", _m0006_manual_grades),
+    Migration(7, "course: the audit trail (course_audit)", _m0007_course_audit),
 )
 LATEST = MIGRATIONS[-1].number
 

@@ -122,41 +122,42 @@ class Assignments(CourseBase):
             handed.append(Handed(REFERENCE, "scene", "reference.json", scene))
         return self.runs.start(spec, handed, open_=True)["id"]
 
-    def publish(self, body: AssignmentIn, cid: str = DEFAULT_COURSE) -> dict:
-        """A new assignment of course `cid` (its roster: the course's members enrolled in every assignment)."""
+    def publish(self, body: AssignmentIn, cid: str = DEFAULT_COURSE, who: Who | None = None) -> dict:
+        """A new assignment of course `cid` (its roster: the course's members enrolled in every assignment); a
+        `publish` audit event."""
         self.course(cid)
         spec, policy = self._checked(body)
         aid = uuid.uuid4().hex
         run_id = self._open_run(spec)
         try:
-            self.store.create(aid, spec, policy, run_id, self.now(), cid)
+            self.store.create(aid, spec, policy, run_id, self.now(), cid, by=self.by(who))
         except BaseException:  # a full disk: the run ends (its reference is graded), no assignment is left
             self.runs.close(run_id)
             raise
         log.info("assignment %s published (grading run %s)", aid, run_id)
         return self.store.assignment(aid)
 
-    def edit(self, aid: str, body: AssignmentIn, regrade: bool) -> dict:
+    def edit(self, aid: str, body: AssignmentIn, regrade: bool, who: Who | None = None, why: str = "") -> dict:
         """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
-        rows of its grading run (durable as any)."""
+        rows of its grading run (durable as any). Audit events: `edit`, and `regrade` with `regrade`."""
         self.assignment(aid)  # 404 for an unknown one
         spec, policy = self._checked(body)
         run_id = self._open_run(spec)
         try:
-            version = self.store.add_version(aid, spec, policy, run_id, self.now())
+            version = self.store.add_version(aid, spec, policy, run_id, self.now(), by=self.by(who, why))
         except BaseException:
             self.runs.close(run_id)
             raise
         # the old version's run stays open: a submission accepted under it a moment ago is still handed to
         # it and graded (closing it could let its thread end first); an idle open run costs a look a second
         if regrade:
-            for sub in self.store.regrade(aid, version, run_id):
+            for sub in self.store.regrade(aid, version, run_id, by=self.by(who, why or "edited")):
                 self._hand(sub)
         return self.store.assignment(aid)
 
-    def regrade(self, aid: str) -> dict:
+    def regrade(self, aid: str, who: Who | None = None, why: str = "") -> dict:
         """Every submission graded again: a new version with the same spec and policy, and its own run (the
-        earlier grades stay in their version's run)."""
+        earlier grades stay in their version's run); a `regrade` audit event."""
         a = self.assignment(aid)
         spec = json.dumps(a["spec"])
         run_id = self._open_run(spec)
@@ -165,7 +166,7 @@ class Assignments(CourseBase):
         except BaseException:
             self.runs.close(run_id)
             raise
-        for sub in self.store.regrade(aid, version, run_id):
+        for sub in self.store.regrade(aid, version, run_id, by=self.by(who, why)):
             self._hand(sub)
         log.info("assignment %s regraded as version %d (grading run %s)", aid, version, run_id)
         return self.store.assignment(aid)
@@ -228,6 +229,7 @@ class Assignments(CourseBase):
                 student={"id": s["student"], "name": s["name"], "self_declared": bool(s["self_declared"])},
                 submissions_left=left,
                 attempts_used=used,
+                **self.tokens_brief(a, s, now),
             )
             if s.get("left_at") is not None:  # gone from the LMS course: may read all of theirs, not submit
                 out["inactive"] = True

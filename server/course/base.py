@@ -5,6 +5,9 @@ and whether feedback is shown now, and the small helpers of the views (`iso`, `s
 The concepts are mixins of `CourseBase`, each in its module (courses.py, roster.py, assignments.py,
 submissions.py, views.py, grades.py); server/course/service.py joins them into the one `Course` the app holds.
 
+**The audit trail**: a change's store method records its event in the change's transaction with the `By` that
+`by(who, why)` gives (server/course/audit.py); `audit_trail(cid, ...)` reads a course's events.
+
 **Time** is `clock()`, the app's `state.clock` (UTC now; tests set it): a submission's time is the clock when
 its body was accepted, and the deadline, the late mark and the feedback shown follow it.
 """
@@ -17,7 +20,7 @@ from datetime import datetime
 
 from server.core.errors import NotFound
 from server.core.settings import Settings
-from server.course import policy
+from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Moment
 from server.course.store import CourseStore
@@ -25,6 +28,7 @@ from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
 from tracer.grading import Assignment, load_assignment
 
+DAY = 86400.0  # a late token's worth (server/course/tokens.py)
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
 
 
@@ -50,6 +54,16 @@ class CourseBase:
 
     def now(self) -> float:
         return self.clock().timestamp()
+
+    def by(self, who: Who | str | None, why: str = "") -> audit.By:
+        """Who makes a change now, and why: what the store's changing methods record their audit events with
+        (server/course/audit.py). `who` a caller, or a name ("lms"); None: "system" (nothing goes unrecorded)."""
+        name = who if isinstance(who, str) else "system" if who is None else audit.who_of(who)
+        return audit.By(name, self.now(), " ".join((why or "").split()))
+
+    def audit_trail(self, cid: str, **filters) -> list[dict]:
+        """The course's audit events, newest first (audit.events: student, assignment, limit, before)."""
+        return audit.events(self.store.db, cid, **filters)
 
     def assignment(self, aid: str) -> dict:
         a = self.store.assignment(aid) if len(aid) == 32 else None

@@ -16,7 +16,8 @@ from tracer.grading import student_name
 log = logging.getLogger(__name__)
 
 ACTIONS = {"publish": "publish or edit an assignment", "roster": "change the roster or its links",
-           "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions"}  # fmt: skip
+           "staff": "change the course's staff", "regrade": "regrade", "extend": "grant extensions",
+           "release": "assign graders, switch anonymous grading or release manual grades"}  # fmt: skip
 # whether a caller who is none of a course's staff may act as the admin (the instructor); raises if not. The routes
 # hand in server/core/security.check_instructor for their server and their caller's address
 Check = Callable[[Caller], object]
@@ -101,7 +102,8 @@ class Courses(CourseBase):
         """A course: its assignments (a student: those they are on the roster of, with links), its staff and the
         size of its roster (its staff)."""
         c = self.course(cid)
-        out = {"id": c["id"], "name": c["name"], "created_at": iso(c["created_at"]), "assignments": []}
+        out = {"id": c["id"], "name": c["name"], "created_at": iso(c["created_at"]), "assignments": [],
+               "late_tokens": c["late_tokens"]}  # fmt: skip
         for aid in self.store.assignments(cid):
             a = self.store.assignment(aid)
             if who.student is not None and self.store.student(aid, who.student["student"]) is None:
@@ -122,15 +124,24 @@ class Courses(CourseBase):
             out["students"] = len(self.store.members(cid))
         return out
 
-    def add_staff(self, cid: str, person: str, name: str, email: str, role: str, base: str) -> dict:
+    def add_staff(
+        self, cid: str, person: str, name: str, email: str, role: str, base: str, who: Who | None = None
+    ) -> dict:
+        """A staff member added (or their name, email and role changed): `staff.add` (`staff.change`) audited."""
         self.course(cid)
         if not person or student_name(person) != person or len(person) > 80:
             message = f"{person[:80]!r}: an id is 1 to 80 letters, digits, '.', '_' or '-' (no spaces)"
             raise Invalid([{"path": "id", "message": message}])
         if role not in ROLES:
             raise Invalid([{"path": "role", "message": f"expected one of {', '.join(ROLES)}; got {role!r}"}])
-        self.store.add_staff(cid, {"person": person, "name": name or person, "email": email, "role": role}, self.now())
+        row = {"person": person, "name": name or person, "email": email, "role": role}
+        self.store.add_staff(cid, row, self.now(), self.by(who))
         return self.staff_link(cid, person, base)
+
+    def remove_staff(self, cid: str, person: str, who: Who | None = None) -> None:
+        """A staff member removed (404 if none); their token stops working; `staff.remove` audited."""
+        if not self.store.remove_staff(cid, person, self.by(who)):
+            raise NotFound([{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
 
     def staff_link(self, cid: str, person: str, base: str) -> dict:
         s = self.store.staff_member(cid, person)

@@ -100,10 +100,17 @@ def dashboard(course: Course, a: dict) -> dict:
 
 def student_detail(course: Course, a: dict, student: str) -> dict | None:
     """One student's row (as student_rows) and every submission of theirs, as the instructor sees it
-    (feedback whole, pictures listed), oldest first. None for a student not on the roster."""
+    (feedback whole, pictures listed), oldest first, their extensions' history and their late tokens. None for a
+    student not on the roster."""
     row = next((r for r in student_rows(course, a) if r["id"] == student), None)
     if row is None:
         return None
     subs = course.submissions(a, student)
     who = Who(None)
-    return {**row, "history": [course.view(a, s, who, row["counting"]) for s in subs]}
+    return {
+        **row,
+        "history": [course.view(a, s, who, row["counting"]) for s in subs],
+        "extensions": course.extension_history(a["id"], student),  # each grant: at, who, before, after, why
+        "tokens": course.tokens_of(a["course_id"], student),  # late tokens: left, granted, spent, each grant
+        "course": a["course_id"],
+    }

@@ -45,6 +45,17 @@ class Grades(CourseBase):
             out.append((st, mine, c, None if c is None else c["score"] * (1 - penalty)))
         return out
 
+    def total(self, a: dict, sub: dict) -> tuple[float, float]:
+        """(the grade, its maximum) of a graded submission as students, exports and the LMS see it: the auto part
+        plus the manual part once released (server/course/manual.py), the late penalty taken off the whole."""
+        penalty = a["policy"]["late_penalty"] if sub["late"] else 0.0
+        manual = self.released_manual(a, sub)
+        if manual is None:
+            return sub["score"] * (1 - penalty), sub["max_score"]
+        return (sub["score"] + manual) * (1 - penalty), (sub["max_score"] or 0) + self.spec(
+            a["id"], a["version"]
+        ).manual_points()
+
     def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
         """Each roster student: (their row, the counting submission or None, its score after the late
         penalty or None, how many submissions they made), in the roster's order."""
@@ -52,7 +63,8 @@ class Grades(CourseBase):
 
     def grades_csv(self, a: dict) -> str:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
-        when none was graded), max_score, late, submissions (all they made)."""
+        when none was graded; with the manual part once released: `total`), max_score, late, submissions (all
+        they made)."""
         buf = io.StringIO()
         w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["id", "name", "score", "max_score", "late", "submissions"])
@@ -61,7 +73,8 @@ class Grades(CourseBase):
                 w.writerow([st["student"], st["name"], "", "", "", n])
             else:
                 late = "true" if c["late"] else "false"
-                w.writerow([st["student"], st["name"], _num(score), _num(c["max_score"]), late, n])
+                score, most = self.total(a, c)
+                w.writerow([st["student"], st["name"], _num(score), _num(most), late, n])
         return buf.getvalue()
 
     def gradebook_csv(self, a: dict) -> str:
@@ -69,15 +82,20 @@ class Grades(CourseBase):
         SIS User ID, SIS Login ID, Section, then one column for this assignment, and a Points Possible row):
         the roster's id as the SIS User ID, its email as the SIS Login ID; a student with nothing graded has
         an empty cell, which an import leaves as it was. The column has one number of points (the spec's), so
-        a score out of another maximum (an image: no requirements) is scaled to it: 3.5 of 7 is 6.5 of 13."""
+        a score out of another maximum (an image: no requirements) is scaled to it: 3.5 of 7 is 6.5 of 13. Once
+        the manual part is released, its points are added to the column's and to each grade (not scaled)."""
         spec = self.spec(a["id"], a["version"])
         buf = io.StringIO()
         w = spreadsheet.writer(buf, lineterminator="\n")
         w.writerow(["Student", "ID", "SIS User ID", "SIS Login ID", "Section", f"{spec.name} ({a['id'][:8]})"])
         points = spec.max_score()
-        w.writerow(["Points Possible", "", "", "", "", _num(points)])
+        released = spec.manual and self.released_at(a) is not None
+        w.writerow(["Points Possible", "", "", "", "", _num(points + (spec.manual_points() if released else 0))])
         for st, c, score, _ in self.final_grades(a):
             scaled = None if c is None else score * points / (c["max_score"] or points)
+            if scaled is not None and released:
+                penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
+                scaled += (self.released_manual(a, c) or 0.0) * (1 - penalty)
             w.writerow([st["name"], "", st["student"], st.get("email") or "", "", _num(scaled)])
         return buf.getvalue()
 

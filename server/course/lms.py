@@ -179,7 +179,7 @@ class Lms:
             return None
 
     def _enrol(self, aid: str, student: str) -> None:
-        self.course.store.enrol(aid, student, self.now())
+        self.course.store.enrol(aid, student, self.now(), self.course.by("lms", "LMS launch"))
 
     def course_of(self, platform: dict, context: dict, role: str) -> str | None:
         """The course linked to the LMS course; made at an instructor's first launch."""
@@ -197,8 +197,9 @@ class Lms:
         log.info("course %s made for LMS course %r of platform %s", cid, title, platform["id"])
         return cid
 
-    def person(self, cid: str, platform: dict, launch, role: str) -> tuple[str, str]:
-        """The launch's user as staff or a member of the course (made or updated): (their id, their token)."""
+    def person(self, cid: str, platform: dict, launch, role: str, why: str = "LMS launch") -> tuple[str, str]:
+        """The launch's user as staff or a member of the course (made or updated): (their id, their token); the
+        change audited as the LMS's (`why`: a launch, or the roster's sync)."""
         who = lti_user(platform, launch.sub)
         name = launch.name or " ".join(x for x in (launch.given_name, launch.family_name) if x) or launch.email or ""
         name = " ".join(clean_name(name)[0].split())[:200]  # no control or bidi override into pages and exports
@@ -209,15 +210,15 @@ class Lms:
             known = self.email_match(cid, email)  # only where the platform's emails identify people
         pid = (known or {}).get("person") or (known or {}).get("student") or self.new_id(cid, kind, launch, email)
         if kind == Kind.STAFF:
-            self.course.store.add_staff(cid, {"person": pid, "name": name or pid, "email": email, "role": role,
-                                              "lti_user": who}, self.now())  # fmt: skip
+            row = {"person": pid, "name": name or pid, "email": email, "role": role, "lti_user": who}
+            self.course.store.add_staff(cid, row, self.now(), self.course.by("lms", why))
             gen = self.course.store.staff_member(cid, pid)["gen"]
         else:
             row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
-            self.course.store.add_members(cid, [row], self.now(), [])
+            self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", why))
             member = self.course.store.member(cid, pid)
             if member["left_at"] is not None:  # the LMS launched them: they are in its course again
-                self.course.store.set_left(cid, [pid], None)
+                self.course.store.set_left(cid, [pid], None, self.course.by("lms", why))
             gen = member["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
@@ -267,7 +268,7 @@ class Lms:
                            "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
         row = {"student": member["student"], "name": member["name"], "email": member["email"],
                "every": member["every"], "lti_user": who}  # fmt: skip
-        self.course.store.add_members(cid, [row], self.now(), [])
+        self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", "linked by their roster link"))
         log.info("LMS user %s linked to roster student %s of course %s by their link", who, member["student"], cid)
         return page("Linked", f"<h1>Linked: {html.escape(member['name'])}</h1><p>Open the tool from the LMS again: "
                     "it opens your assignments from now on.</p>")  # fmt: skip
@@ -402,7 +403,7 @@ class Lms:
                 if email and not platform.get("trust_emails") and self.email_match(cid, email) is not None:
                     unlinked += 1  # a roster student's email: linked by their own launch and roster link, not here
                     continue
-                self.person(cid, platform, _Member(m), Role.STUDENT)
+                self.person(cid, platform, _Member(m), Role.STUDENT, "LMS roster sync")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
         left, back = self._leavers(cid, active)
@@ -422,8 +423,9 @@ class Lms:
                 gone.append(m["student"])
             elif sub in active[platform_id] and m["left_at"] is not None:
                 returned.append(m["student"])
-        left = self.course.store.set_left(cid, gone, self.now()) if gone else 0
-        back = self.course.store.set_left(cid, returned, None) if returned else 0
+        by = self.course.by("lms", "LMS roster sync")
+        left = self.course.store.set_left(cid, gone, self.now(), by) if gone else 0
+        back = self.course.store.set_left(cid, returned, None, by) if returned else 0
         if left or back:
             log.info("roster of course %s from the LMS: %d left (inactive), %d back", cid, left, back)
         return left, back

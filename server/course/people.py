@@ -48,11 +48,11 @@ class Who:
 
     def may(self, action: str) -> bool:
         """May this caller `action` ("publish", "roster", "staff": an instructor's; "follow", "extend",
-        "regrade": a TA's too)?"""
+        "regrade", "grade" (manual items): a TA's too)?"""
         if self.student is not None:
             return False
         if self.role == Role.TA:
-            return action in ("follow", "extend", "regrade")
+            return action in ("follow", "extend", "regrade", "grade")
         return True
 
 

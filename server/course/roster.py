@@ -17,6 +17,7 @@ from server.core.errors import Forbidden, Invalid, NotFound
 from server.core.roles import Kind
 from server.core.security import token_hash
 from server.course.base import CourseBase, iso, not_found
+from server.course.people import Who
 from server.jobs.store import JobStore
 from tracer.grading import student_name
 from tracer.tools import spreadsheet
@@ -40,21 +41,21 @@ class Roster(CourseBase):
         page = "course" if staff else f"courses/{cid}"
         return f"{base.rstrip('/')}/{page}#token={token}"
 
-    def roster(self, aid: str, text: str, base: str) -> list[dict]:
+    def roster(self, aid: str, text: str, base: str, who: Who | None = None) -> list[dict]:
         """The roster CSV (header id,name,email) of one assignment -> each student with their link and token:
         members of the assignment's course (added if new: one identity across the course's assignments),
         enrolled in this assignment. A token is shown again each time (it is derived: the same link)."""
         a = self.assignment(aid)
         rows = parse_roster(text)
-        added = set(self.store.add_members(a["course_id"], rows, self.now(), [aid]))
+        added = set(self.store.add_members(a["course_id"], rows, self.now(), [aid], self.by(who, "roster CSV")))
         return [self._student_link(a["course_id"], r, base, aid, r["student"] in added) for r in rows]
 
-    def course_roster(self, cid: str, text: str, base: str) -> list[dict]:
+    def course_roster(self, cid: str, text: str, base: str, who: Who | None = None) -> list[dict]:
         """The course's roster CSV: each student a member enrolled in every assignment of the course (those
         published later too), with their course link (the page that lists their assignments)."""
         self.course(cid)
         rows = [{**r, "every": 1} for r in parse_roster(text)]
-        added = set(self.store.add_members(cid, rows, self.now(), []))
+        added = set(self.store.add_members(cid, rows, self.now(), [], self.by(who, "the course's roster CSV")))
         return [self._student_link(cid, r, base, None, r["student"] in added) for r in rows]
 
     def _student_link(self, cid: str, r: dict, base: str, aid: str | None, new: bool) -> dict:
@@ -71,32 +72,35 @@ class Roster(CourseBase):
         """Every student's current link again (of one assignment, or the course's page): nothing changes."""
         return [self._student_link(cid, r, base, aid, False) for r in self._roster(cid, aid)]
 
-    def renew_links(self, cid: str, base: str, jobs: JobStore, aid: str | None = None) -> list[dict]:
+    def renew_links(
+        self, cid: str, base: str, jobs: JobStore, aid: str | None = None, who: Who | None = None
+    ) -> list[dict]:
         """A new link for every student of the course (or of one assignment's roster), in one request: every
         link sent before stops working, in every assignment of the course; their workspace jobs move."""
         rows = self._roster(cid, aid)
         for r in rows:
-            self.renew(cid, Kind.STUDENT, r["student"], jobs)
+            self.renew(cid, Kind.STUDENT, r["student"], jobs, who, "every link re-issued")
         return [self._student_link(cid, r, base, aid, True) for r in rows]
 
     def _roster(self, cid: str, aid: str | None) -> list[dict]:
         """One assignment's students, or the course's."""
         return self.store.students(aid) if aid else self.store.members(cid)
 
-    def new_link(self, aid: str, student: str, base: str, jobs: JobStore) -> dict:
+    def new_link(self, aid: str, student: str, base: str, jobs: JobStore, who: Who | None = None) -> dict:
         """A fresh token for one student (every old one stops working, in every assignment of the course);
         their workspace jobs move to it."""
         a = self.assignment(aid)
         row = self.store.student(aid, student)
         if row is None:
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
-        token = self.renew(a["course_id"], Kind.STUDENT, student, jobs)
+        token = self.renew(a["course_id"], Kind.STUDENT, student, jobs, who, "a new link")
         return {"id": student, "name": row["name"], "token": token, "link": self._link(base, aid, token)}
 
-    def renew(self, cid: str, kind: str, person: str, jobs: JobStore) -> str:
-        """A new token for someone (every earlier one of theirs stops working); their workspace jobs move to it."""
+    def renew(self, cid: str, kind: str, person: str, jobs: JobStore, who: Who | None = None, why: str = "") -> str:
+        """A new token for someone (every earlier one of theirs stops working); their workspace jobs move to it.
+        A `link.renew` audit event (the generations, never a token)."""
         old = self.store.token_hashes(cid, kind, person)
-        gen = self.store.next_gen(cid, kind, person)
+        gen = self.store.next_gen(cid, kind, person, self.by(who, why))
         token = self.token_of(cid, kind, person, gen)
         for h in old:
             jobs.give_owner(h, token_hash(token))
@@ -112,7 +116,7 @@ class Roster(CourseBase):
         sid = f"{student_name(shown)[:60] or 'student'}-{secrets.token_hex(3)}"
         row = {"student": sid, "name": shown, "email": ""}
         most = self.settings.max_joins_per_assignment
-        if not self.store.add_joined(aid, a["course_id"], row, self.now(), most):
+        if not self.store.add_joined(aid, a["course_id"], row, self.now(), most, self.by(f"student:{sid}", "joined")):
             message = (
                 f"this open assignment already has {most} students who joined by a name, the most it takes "
                 "(TRACER_MAX_JOINS_PER_ASSIGNMENT): ask your instructor for a link of the roster"
@@ -121,13 +125,23 @@ class Roster(CourseBase):
         token = self.token_of(a["course_id"], Kind.STUDENT, sid, 0)
         return {"id": sid, "name": shown, "token": token, "link": self._link(base, aid, token), "self_declared": True}
 
-    def extend(self, aid: str, student: str, deadline: datetime | None) -> dict:
+    def extend(self, aid: str, student: str, deadline: datetime | None, who: Who | None = None, why: str = "") -> dict:
+        """A student's own deadline (None: the assignment's), the grant kept in its history (who, when, before,
+        after, why: `extension_history`, the student's detail on the dashboard); an `extension` audit event."""
         a = self.assignment(aid)
-        if not self.store.extend(aid, student, deadline.timestamp() if deadline else None):
+        by = (who.person or str(who.role)) if who is not None else ""
+        if not self.store.extend(
+            aid, student, deadline.timestamp() if deadline else None, by, why, self.now(), self.by(who, why)
+        ):
             raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
         row = self.store.student(aid, student)
         due, cut = self.deadlines(a, row)
         return {"id": student, "deadline": iso(due), "late_until": iso(cut)}
+
+    def remove_member(self, cid: str, student: str, who: Who | None = None, why: str = "") -> None:
+        """A student off the course's rosters (404 if not on it); a `student.remove` audit event."""
+        if not self.store.remove_member(cid, student, self.by(who, why)):
+            raise NotFound([{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
 
 
 def parse_roster(text: str) -> list[dict]:

@@ -7,7 +7,8 @@ SCHEMA = """
 CREATE TABLE IF NOT EXISTS courses (
     id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
     name TEXT NOT NULL,
-    created_at REAL NOT NULL              -- Unix time (s), the API's clock
+    created_at REAL NOT NULL,             -- Unix time (s), the API's clock
+    late_tokens INTEGER NOT NULL DEFAULT 0 -- late tokens (days) each student starts with (server/course/tokens.py)
 );
 CREATE TABLE IF NOT EXISTS course_staff (
     course_id TEXT NOT NULL,
@@ -74,7 +75,69 @@ CREATE TABLE IF NOT EXISTS course_submissions (
     file TEXT NOT NULL,                   -- relative to DATA/course/
     accepted_at REAL NOT NULL,            -- Unix time (s): the API's clock when its body was accepted
     late INTEGER NOT NULL,                -- after the student's deadline when it came (its view reads the deadline now)
-    handed INTEGER NOT NULL DEFAULT 0     -- its row is in the grading run (a restart hands those that are not)
+    handed INTEGER NOT NULL DEFAULT 0,    -- its row is in the grading run (a restart hands those that are not)
+    tokens_spent INTEGER NOT NULL DEFAULT 0 -- late tokens (days) it spent when it came (server/course/tokens.py)
 );
 CREATE INDEX IF NOT EXISTS course_submissions_student ON course_submissions (assignment_id, student, accepted_at);
+CREATE TABLE IF NOT EXISTS course_token_grants (
+    course_id TEXT NOT NULL,
+    student TEXT NOT NULL,                -- course_members.student
+    added INTEGER NOT NULL,               -- tokens (days) granted
+    before INTEGER NOT NULL,              -- the student's tokens left before, and after
+    after INTEGER NOT NULL,
+    who TEXT NOT NULL,                    -- the staff member's id (or 'admin')
+    why TEXT NOT NULL DEFAULT '',
+    at REAL NOT NULL                      -- Unix time (s), the API's clock
+);
+CREATE INDEX IF NOT EXISTS course_token_grants_student ON course_token_grants (course_id, student);
+CREATE TABLE IF NOT EXISTS course_extensions (
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    before REAL,                          -- their own deadline before (NULL: the assignment's), and after
+    after REAL,
+    who TEXT NOT NULL,                    -- the staff member's id (or 'admin')
+    why TEXT NOT NULL DEFAULT '',
+    at REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS course_extensions_student ON course_extensions (assignment_id, student);
+CREATE TABLE IF NOT EXISTS course_manual_grades (
+    submission_id TEXT NOT NULL,          -- course_submissions.id
+    item TEXT NOT NULL,                   -- the name of a manual item of the spec
+    assignment_id TEXT NOT NULL,
+    rubric TEXT NOT NULL,                 -- JSON list of the chosen levels' NAMES (points: the current spec's)
+    points REAL,                          -- the grader's override; NULL: the chosen levels' sum
+    comment TEXT NOT NULL DEFAULT '',
+    grader TEXT,                          -- course_staff.person; NULL: the admin
+    graded_at REAL NOT NULL,
+    PRIMARY KEY (submission_id, item)
+);
+CREATE INDEX IF NOT EXISTS course_manual_grades_assignment ON course_manual_grades (assignment_id);
+CREATE TABLE IF NOT EXISTS course_manual (
+    assignment_id TEXT PRIMARY KEY,       -- an assignment's manual grading (no row: not released, not anonymous)
+    released_at REAL,                     -- when the instructor released the manual part; NULL: not yet
+    released_by TEXT,
+    anonymous INTEGER NOT NULL DEFAULT 0  -- students' names hidden from graders until release
+);
+CREATE TABLE IF NOT EXISTS course_graders (
+    assignment_id TEXT NOT NULL,
+    student TEXT NOT NULL,
+    grader TEXT NOT NULL,                 -- course_staff.person who grades this student's submission
+    PRIMARY KEY (assignment_id, student)
+);
+CREATE TABLE IF NOT EXISTS course_audit (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, -- the order events were written in (a page's cursor)
+    course_id TEXT NOT NULL,
+    at REAL NOT NULL,                     -- Unix time (s), the API's clock
+    who TEXT NOT NULL,                    -- instructor:<id>, ta:<id>, admin, student:<id>, lms
+    action TEXT NOT NULL,                 -- publish, edit, regrade, extension, student.add, ... (audit.py)
+    assignment_id TEXT,                   -- what it names, for the filters (NULL: not an assignment's)
+    student TEXT,
+    target TEXT NOT NULL,                 -- JSON: {course, assignment?, student?, submission?, staff?}
+    before TEXT,                          -- JSON (NULL: nothing before, e.g. a student added)
+    after TEXT,                           -- JSON (NULL: nothing after, e.g. a student removed)
+    why TEXT NOT NULL DEFAULT ''
+);
+CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id);
+CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id);
+CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id);
 """

@@ -8,6 +8,8 @@ state, the lookups, the deadlines):
 - submissions.py: submitting (caps, the deadline), checking, handing each to its run, following one
 - views.py: what a caller may see of a submission (the feedback policy)
 - grades.py: the counting submission, the class's grades, the three exports
+- tokens.py: late tokens (a course's, spent by late submissions, granted by staff), extensions' history
+- manual.py: staff-graded items: manual grades, the grading queue, graders, the release
 
 A new concept goes the same way: a module with its mixin, named here.
 """
@@ -21,13 +23,15 @@ from server.core.settings import Settings
 from server.course.assignments import Assignments
 from server.course.courses import Courses
 from server.course.grades import Grades
+from server.course.manual import Manual
 from server.course.roster import Roster
 from server.course.submissions import Submissions
+from server.course.tokens import Tokens
 from server.course.views import Views
 from server.grading.runs import GradeRuns
 
 
-class Course(Courses, Roster, Assignments, Submissions, Views, Grades):
+class Course(Courses, Roster, Assignments, Submissions, Views, Grades, Tokens, Manual):
     """Courses, staff, rosters, assignments, submissions, what a caller sees, grades."""
 
     def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):

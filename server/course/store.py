@@ -16,6 +16,10 @@
 - `course_submissions`: one per submission, written when its body is accepted (the API's clock): who, when,
   late or not, its file, the grading run it went to and whether it was handed to it yet (`handed`). Its
   grade is that run's row for it (grading_items, keyed by the submission's id), read, never copied.
+- `course_manual_grades`, `course_manual`, `course_graders`: staff-graded items (server/course/manual_store.py).
+
+- `course_audit`: the audit trail (server/course/audit.py): each change's event, written in the change's own
+  transaction by the method that makes it, when it is given a `By` (who, when, why).
 
 Every write is one statement or one transaction (server/core/db.py); each thread has its own connection.
 """
@@ -29,6 +33,9 @@ from pathlib import Path
 
 from server.core.db import Tables
 from server.core.roles import Kind
+from server.course.audit import By, Target, record
+from server.course.manual_store import ManualTables
+from server.course.policy import iso
 from server.course.schema import SCHEMA
 from server.grading.store import GradingStore
 
@@ -46,7 +53,7 @@ STUDENT = (
 HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))"
 
 
-class CourseStore(Tables):
+class CourseStore(ManualTables, Tables):
     def __init__(self, data_dir: Path, now: float = 0.0):
         GradingStore(data_dir)  # the grading tables this store's queries join (created if new)
         super().__init__(data_dir, SCHEMA)  # (a database from before courses: server/core/migrations.py, 2)
@@ -57,9 +64,20 @@ class CourseStore(Tables):
 
     # -- assignments and their versions --------------------------------------------------------
 
-    def create(self, aid: str, spec: str, policy: dict, run_id: str, now: float, cid: str = DEFAULT_COURSE) -> None:
+    def create(
+        self,
+        aid: str,
+        spec: str,
+        policy: dict,
+        run_id: str,
+        now: float,
+        cid: str = DEFAULT_COURSE,
+        by: By | None = None,
+    ) -> None:
         """A new assignment of course `cid`, its roster the members enrolled in every assignment of the course."""
         with self._tx() as db:
+            after = {"version": 1, "name": json.loads(spec).get("name"), "policy": policy}
+            record(by, db, "publish", Target(cid, aid), None, after)
             db.execute(
                 "INSERT INTO course_assignments (id, version, created_at, course_id) VALUES (?, 1, ?, ?)",
                 (aid, now, cid),
@@ -75,9 +93,24 @@ class CourseStore(Tables):
                 (aid, spec, json.dumps(policy), run_id, now),
             )
 
-    def add_version(self, aid: str, spec: str, policy: dict, run_id: str, now: float) -> int:
+    def add_version(self, aid: str, spec: str, policy: dict, run_id: str, now: float, by: By | None = None) -> int:
+        """A new version of the assignment (an edit's; a regrade's, the same spec and policy). With `by`: an `edit`
+        event, before and after the policy's fields that changed, and whether the spec did."""
         with self._tx() as db:
-            version = db.execute("SELECT version FROM course_assignments WHERE id = ?", (aid,)).fetchone()[0] + 1
+            row = db.execute(
+                "SELECT a.version, a.course_id, v.spec, v.policy FROM course_assignments a JOIN course_versions v"
+                " ON v.assignment_id = a.id AND v.version = a.version WHERE a.id = ?",
+                (aid,),
+            ).fetchone()
+            version = row["version"] + 1
+            if by is not None:
+                old = json.loads(row["policy"])
+                changed = sorted(k for k in {*old, *policy} if old.get(k) != policy.get(k))
+                spec_changed = json.loads(row["spec"]) != json.loads(spec)
+                before = {"version": row["version"], "policy": {k: old.get(k) for k in changed}}
+                after = {"version": version, "policy": {k: policy.get(k) for k in changed}}
+                after["spec_changed"] = spec_changed
+                record(by, db, "edit", Target(row["course_id"], aid), before, after)
             db.execute(
                 "INSERT INTO course_versions (assignment_id, version, spec, policy, run_id, created_at)"
                 " VALUES (?, ?, ?, ?, ?, ?)",
@@ -128,14 +161,32 @@ class CourseStore(Tables):
     def rename_course(self, cid: str, name: str) -> None:
         self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
 
-    def add_staff(self, cid: str, row: dict, now: float) -> None:
-        """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated."""
-        self.db.execute(
-            "INSERT INTO course_staff (course_id, person, name, email, role, lti_user, created_at)"
-            " VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (course_id, person) DO UPDATE SET name = excluded.name,"
-            " email = excluded.email, role = excluded.role, lti_user = COALESCE(excluded.lti_user, lti_user)",
-            (cid, row["person"], row["name"], row.get("email", ""), row["role"], row.get("lti_user"), now),
-        )
+    def set_late_tokens(self, cid: str, n: int, by: By | None = None) -> None:
+        """The course's late tokens per student (with `by`: a `tokens.course` event, before and after)."""
+        with self._tx() as db:
+            was = db.execute("SELECT late_tokens FROM courses WHERE id = ?", (cid,)).fetchone()
+            db.execute("UPDATE courses SET late_tokens = ? WHERE id = ?", (n, cid))
+            if was is not None and was[0] != n:
+                record(by, db, "tokens.course", Target(cid), {"late_tokens": was[0]}, {"late_tokens": n})
+
+    def add_staff(self, cid: str, row: dict, now: float, by: By | None = None) -> None:
+        """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated (with
+        `by`: a `staff.add` event, or `staff.change` when something changed)."""
+        with self._tx() as db:
+            was = db.execute(
+                "SELECT name, email, role FROM course_staff WHERE course_id = ? AND person = ?", (cid, row["person"])
+            ).fetchone()
+            db.execute(
+                "INSERT INTO course_staff (course_id, person, name, email, role, lti_user, created_at)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (course_id, person) DO UPDATE SET name = excluded.name,"
+                " email = excluded.email, role = excluded.role, lti_user = COALESCE(excluded.lti_user, lti_user)",
+                (cid, row["person"], row["name"], row.get("email", ""), row["role"], row.get("lti_user"), now),
+            )
+            after = {"name": row["name"], "email": row.get("email", ""), "role": str(row["role"])}
+            before = dict(was) if was is not None else None
+            if before != after:
+                action = "staff.add" if before is None else "staff.change"
+                record(by, db, action, Target(cid, staff=row["person"]), before, after)
 
     def staff(self, cid: str) -> list[dict]:
         rows = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? ORDER BY person", (cid,))
@@ -145,9 +196,14 @@ class CourseStore(Tables):
         row = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? AND person = ?", (cid, person)).fetchone()
         return dict(row) if row else None
 
-    def remove_staff(self, cid: str, person: str) -> bool:
+    def remove_staff(self, cid: str, person: str, by: By | None = None) -> bool:
         with self._tx() as db:
+            was = db.execute(
+                "SELECT name, email, role FROM course_staff WHERE course_id = ? AND person = ?", (cid, person)
+            ).fetchone()
             cur = db.execute("DELETE FROM course_staff WHERE course_id = ? AND person = ?", (cid, person))
+            if was is not None:
+                record(by, db, "staff.remove", Target(cid, staff=person), dict(was), None)
             db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = 'staff' AND person = ?", (cid, person))
         return cur.rowcount == 1
 
@@ -179,13 +235,17 @@ class CourseStore(Tables):
         )
         return [r[0] for r in rows]
 
-    def next_gen(self, cid: str, kind: str, person: str) -> int:
-        """A new generation of someone's token: every token of theirs stops working. The new generation."""
+    def next_gen(self, cid: str, kind: str, person: str, by: By | None = None) -> int:
+        """A new generation of someone's token: every token of theirs stops working. The new generation (with
+        `by`: a `link.renew` event, the generations before and after; never the token)."""
         table, key = ("course_members", "student") if kind == Kind.STUDENT else ("course_staff", "person")
         with self._tx() as db:
             db.execute(f"UPDATE {table} SET gen = gen + 1 WHERE course_id = ? AND {key} = ?", (cid, person))
             db.execute("DELETE FROM course_tokens WHERE course_id = ? AND kind = ? AND person = ?", (cid, kind, person))
-            return db.execute(f"SELECT gen FROM {table} WHERE course_id = ? AND {key} = ?", (cid, person)).fetchone()[0]
+            gen = db.execute(f"SELECT gen FROM {table} WHERE course_id = ? AND {key} = ?", (cid, person)).fetchone()[0]
+            target = Target(cid, student=person) if kind == Kind.STUDENT else Target(cid, staff=person)
+            record(by, db, "link.renew", target, {"link": gen - 1}, {"link": gen})
+            return gen
 
     def on_a_roster(self, token_hash: str) -> bool:
         """Is this token's hash a member's or a staff member's (a known identity: server/core/clients.py)?"""
@@ -215,7 +275,7 @@ class CourseStore(Tables):
             return None
         return "joined" if row["kind"] == Kind.STUDENT and row["self_declared"] else "roster"
 
-    def add_joined(self, aid: str, cid: str, row: dict, now: float, most: int) -> bool:
+    def add_joined(self, aid: str, cid: str, row: dict, now: float, most: int, by: By | None = None) -> bool:
         """A self-declared member on assignment `aid` (an open assignment's join), unless it already has `most` of
         them: counted and added in one transaction, so that joins at once cannot pass the cap."""
         with self._tx() as db:
@@ -235,15 +295,23 @@ class CourseStore(Tables):
                 "INSERT INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
                 (aid, row["student"], now),
             )
+            after = {"name": row["name"], "email": row["email"], "self_declared": True}
+            record(by, db, "student.join", Target(cid, aid, student=row["student"]), None, after)
         return True
 
-    def add_members(self, cid: str, rows: list[dict], now: float, enrol: list[str]) -> list[str]:
+    def add_members(self, cid: str, rows: list[dict], now: float, enrol: list[str], by: By | None = None) -> list[str]:
         """Members (dicts: student, name, email, self_declared, every, lti_user) in one transaction: a new one
         added, one already there gets the name and email given (and `every` once set stays set); each enrolled in
-        the assignments `enrol` names (and, with `every`, in every assignment of the course). The ids added."""
+        the assignments `enrol` names (and, with `every`, in every assignment of the course). The ids added.
+        With `by`: a `student.add` event for each one added, `student.change` for one whose name, email or
+        `every` changed, `student.enrol` for one already a member newly on an assignment `enrol` names."""
         added = []
         with self._tx() as db:
             for r in rows:
+                was = db.execute(
+                    "SELECT name, email, every FROM course_members WHERE course_id = ? AND student = ?",
+                    (cid, r["student"]),
+                ).fetchone()
                 cur = db.execute(
                     "UPDATE course_members SET name = ?, email = ?, every = MAX(every, ?),"
                     " lti_user = COALESCE(?, lti_user) WHERE course_id = ? AND student = ?",
@@ -257,31 +325,51 @@ class CourseStore(Tables):
                          int(r.get("every", 0)), r.get("lti_user"), now),
                     )  # fmt: skip
                     added.append(r["student"])
+                if by is not None:
+                    _member_event(db, by, cid, r, was, enrol)
                 aids = list(enrol)
                 if r.get("every"):
                     aids += [a[0] for a in db.execute("SELECT id FROM course_assignments WHERE course_id = ?", (cid,))]
                 for aid in dict.fromkeys(aids):
-                    db.execute(
+                    enrolled = db.execute(
                         "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
                         (aid, r["student"], now),
-                    )
+                    ).rowcount
+                    if enrolled and was is not None and aid in enrol:
+                        target = Target(cid, aid, student=r["student"])
+                        record(by, db, "student.enrol", target, None, {"enrolled": True})
         return added
 
-    def set_left(self, cid: str, students: list[str], when: float | None) -> int:
+    def set_left(self, cid: str, students: list[str], when: float | None, by: By | None = None) -> int:
         """Members who left the course's LMS course (`when`: inactive from then; kept with their submissions and
-        grades) or came back (None: active again). How many changed."""
+        grades) or came back (None: active again). How many changed (with `by`: a `student.left` or
+        `student.back` event for each)."""
+        changed = 0
         with self._tx() as db:
-            cur = db.executemany(
-                "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
-                + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
-                [(when, cid, s) for s in students],
-            )
-        return cur.rowcount
+            for s in students:
+                n = db.execute(
+                    "UPDATE course_members SET left_at = ? WHERE course_id = ? AND student = ? AND"
+                    + (" left_at IS NULL" if when is not None else " left_at IS NOT NULL"),
+                    (when, cid, s),
+                ).rowcount
+                changed += n
+                if n:
+                    action, before, after = (
+                        ("student.left", True, False) if when is not None else ("student.back", False, True)
+                    )
+                    record(by, db, action, Target(cid, student=s), {"active": before}, {"active": after})
+        return changed
 
-    def remove_member(self, cid: str, student: str) -> bool:
+    def remove_member(self, cid: str, student: str, by: By | None = None) -> bool:
         """Off the course's rosters (their submissions are kept; their tokens stop working)."""
         with self._tx() as db:
+            was = db.execute(
+                "SELECT name, email, every FROM course_members WHERE course_id = ? AND student = ?", (cid, student)
+            ).fetchone()
             cur = db.execute("DELETE FROM course_members WHERE course_id = ? AND student = ?", (cid, student))
+            if was is not None:
+                before = {"name": was["name"], "email": was["email"], "every": bool(was["every"])}
+                record(by, db, "student.remove", Target(cid, student=student), before, None)
             db.execute(
                 "DELETE FROM course_enrolments WHERE student = ? AND assignment_id IN"
                 " (SELECT id FROM course_assignments WHERE course_id = ?)",
@@ -310,19 +398,57 @@ class CourseStore(Tables):
         ).fetchone()
         return dict(row) if row else None
 
-    def enrol(self, aid: str, student: str, now: float) -> None:
-        """A member of the assignment's course on its roster (if not already)."""
-        self.db.execute(
-            "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
-            (aid, student, now),
-        )
+    def enrol(self, aid: str, student: str, now: float, by: By | None = None) -> None:
+        """A member of the assignment's course on its roster (if not already: then a `student.enrol` event)."""
+        with self._tx() as db:
+            added = db.execute(
+                "INSERT OR IGNORE INTO course_enrolments (assignment_id, student, created_at) VALUES (?, ?, ?)",
+                (aid, student, now),
+            ).rowcount
+            if added and by is not None:
+                cid = db.execute("SELECT course_id FROM course_assignments WHERE id = ?", (aid,)).fetchone()[0]
+                record(by, db, "student.enrol", Target(cid, aid, student=student), None, {"enrolled": True})
 
-    def extend(self, aid: str, student: str, deadline: float | None) -> bool:
-        cur = self.db.execute(
-            "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
-            (deadline, aid, student),
+    def extend(
+        self,
+        aid: str,
+        student: str,
+        deadline: float | None,
+        who: str = "",
+        why: str = "",
+        now: float = 0,
+        by: By | None = None,
+    ) -> bool:
+        """Their own deadline (None: the assignment's), and the grant kept in its history (before, after, who,
+        why, when); with `by`, an `extension` audit event: the deadline before and after (ISO 8601; null: the
+        assignment's). One transaction."""
+        with self._tx() as db:
+            row = db.execute(
+                "SELECT e.deadline, a.course_id FROM course_enrolments e JOIN course_assignments a"
+                " ON a.id = e.assignment_id WHERE e.assignment_id = ? AND e.student = ?",
+                (aid, student),
+            ).fetchone()
+            if row is None:
+                return False
+            db.execute(
+                "UPDATE course_enrolments SET deadline = ? WHERE assignment_id = ? AND student = ?",
+                (deadline, aid, student),
+            )
+            db.execute(
+                "INSERT INTO course_extensions (assignment_id, student, before, after, who, why, at)"
+                " VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (aid, student, row[0], deadline, who, why, now),
+            )
+            target = Target(row["course_id"], aid, student=student)
+            record(by, db, "extension", target, {"deadline": iso(row[0])}, {"deadline": iso(deadline)})
+        return True
+
+    def extensions(self, aid: str, student: str) -> list[dict]:
+        """A student's extensions of an assignment, oldest first."""
+        rows = self.db.execute(
+            "SELECT * FROM course_extensions WHERE assignment_id = ? AND student = ? ORDER BY at, rowid", (aid, student)
         )
-        return cur.rowcount == 1
+        return [dict(r) for r in rows]
 
     # -- submissions ---------------------------------------------------------------------------
 
@@ -333,11 +459,14 @@ class CourseStore(Tables):
         per_hour: int,
         hour_ago: float,
         also: Callable[[sqlite3.Connection], None] | None = None,
+        before: Callable[[sqlite3.Connection], dict] | None = None,
     ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),
         with nothing written. Counting and writing are one transaction, so a burst cannot pass a cap. `also`
         writes more in the same transaction (its row in the grading run: then it is `handed` at once), so the
-        two rows are kept together or neither is (a full disk)."""
+        two rows are kept together or neither is (a full disk). `before` reads what it needs in the same
+        transaction and gives the row's last fields (the late tokens it spends: server/course/tokens.py), or
+        raises to keep nothing."""
         with self._tx() as db:
             who = (sub["assignment_id"], sub["student"])
             recent = db.execute(
@@ -348,11 +477,13 @@ class CourseStore(Tables):
                 return "hour"
             if max_attempts is not None and self._attempts(db, *who) >= max_attempts:
                 return "attempts"
+            if before is not None:
+                sub.update(before(db))
             db.execute(
                 "INSERT INTO course_submissions (id, assignment_id, student, version, run_id, kind, file,"
-                " accepted_at, late, handed) VALUES (:id, :assignment_id, :student, :version, :run_id, :kind, :file,"
-                " :accepted_at, :late, :handed)",
-                {**sub, "handed": int(also is not None)},
+                " accepted_at, late, handed, tokens_spent) VALUES (:id, :assignment_id, :student, :version, :run_id,"
+                " :kind, :file, :accepted_at, :late, :handed, :tokens_spent)",
+                {"tokens_spent": 0, **sub, "handed": int(also is not None)},
             )
             if also is not None:
                 also(db)
@@ -378,9 +509,20 @@ class CourseStore(Tables):
         rows = self.db.execute("SELECT * FROM course_submissions WHERE handed = 0 ORDER BY accepted_at")
         return [dict(r) for r in rows]
 
-    def regrade(self, aid: str, version: int, run_id: str) -> list[dict]:
-        """Every submission of the assignment moved to a new version's run, to be handed to it again."""
+    def regrade(self, aid: str, version: int, run_id: str, by: By | None = None) -> list[dict]:
+        """Every submission of the assignment moved to a new version's run, to be handed to it again. With `by`:
+        a `regrade` event, the versions the submissions were graded under before (and how many) and the new one."""
         with self._tx() as db:
+            if by is not None:
+                rows = db.execute(
+                    "SELECT version, COUNT(*) AS n FROM course_submissions WHERE assignment_id = ?"
+                    " GROUP BY version ORDER BY version",
+                    (aid,),
+                ).fetchall()
+                cid = db.execute("SELECT course_id FROM course_assignments WHERE id = ?", (aid,)).fetchone()[0]
+                before = {"versions": {str(r["version"]): r["n"] for r in rows}}
+                after = {"version": version, "submissions": sum(r["n"] for r in rows)}
+                record(by, db, "regrade", Target(cid, aid), before, after)
             db.execute(
                 "UPDATE course_submissions SET version = ?, run_id = ?, handed = 0 WHERE assignment_id = ?",
                 (version, run_id, aid),
@@ -411,6 +553,18 @@ class CourseStore(Tables):
             (aid, sid),
         ).fetchone()
         return dict(row) if row else None
+
+
+def _member_event(db: sqlite3.Connection, by: By, cid: str, r: dict, was: sqlite3.Row | None, enrol: list) -> None:
+    """A roster row's event: the member added, or changed (their name, email, or on every assignment now)."""
+    after = {"name": r["name"], "email": r["email"], "every": bool(r.get("every", 0)) or bool(was and was["every"])}
+    aid = enrol[0] if len(enrol) == 1 and was is None else None
+    if was is None:
+        record(by, db, "student.add", Target(cid, aid, student=r["student"]), None, after)
+        return
+    before = {"name": was["name"], "email": was["email"], "every": bool(was["every"])}
+    if before != after:
+        record(by, db, "student.change", Target(cid, student=r["student"]), before, after)
 
 
 def _version(row: sqlite3.Row) -> dict:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from server.core.errors import Forbidden, TooMany, Unavailable
 from server.core.files import write_atomic
-from server.course.base import CourseBase, iso, report_keys
+from server.course.base import DAY, CourseBase, report_keys
 from server.course.people import Who
 from server.course.policy import Feedback, feedback_view, map_shown
 from server.grading.runs import Handed
@@ -54,10 +54,9 @@ class Submissions(CourseBase):
             )
             raise Forbidden([{"path": "student", "message": message}])
         due, cut = self.deadlines(a, student)
+        decide = self.spend_plan(a, student, due, cut, accepted)  # late tokens (tokens.py): decided in the row's tx
         if accepted > cut:
-            late = f"; late submissions were taken until {iso(cut)}" if cut > due else ""
-            message = f"the deadline was {iso(due)}{late}; this submission came at {iso(accepted)}"
-            raise Forbidden([{"path": "deadline", "message": message}])
+            decide(self.store.db)  # refused at once when tokens cannot cover it (nothing written yet)
         sid = uuid.uuid4().hex
         rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
         path = self.root / rel
@@ -80,7 +79,8 @@ class Submissions(CourseBase):
             item = self.runs.place(a["run_id"], self._handed(sub))
             try:
                 refused = self.store.add_submission(sub, a["policy"]["max_submissions"], cap, accepted - 3600,
-                                                    also=partial(self.runs.gs.add_item, a["run_id"], item))  # fmt: skip
+                                                    also=partial(self.runs.gs.add_item, a["run_id"], item),
+                                                    before=decide)  # fmt: skip
             except BaseException:
                 self.runs.unplace(a["run_id"], item)
                 raise
@@ -159,14 +159,14 @@ class Submissions(CourseBase):
         away or gives it (the row keeps what was true when the body came)."""
         subs = self.store.submissions(a["id"], student)
         due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
-        for sub in subs:
-            sub["late"] = int(sub["accepted_at"] > due.get(sub["student"], sub["accepted_at"]))
-        return subs
+        return _marked(subs, lambda sub: due.get(sub["student"], sub["accepted_at"]))
 
     def submission(self, a: dict, sid: str) -> dict | None:
         sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
         if sub is not None:
-            sub["late"] = int(sub["accepted_at"] > self.deadlines(a, self.store.student(a["id"], sub["student"]))[0])
+            due = self.deadlines(a, self.store.student(a["id"], sub["student"]))[0]
+            mine = _marked(self.store.submissions(a["id"], sub["student"]), lambda _: due)
+            sub["late"] = next((s["late"] for s in mine if s["id"] == sid), int(sub["accepted_at"] > due))
         return sub
 
     def _handed(self, sub: dict) -> Handed:
@@ -206,3 +206,13 @@ class Submissions(CourseBase):
         for f in followers:
             f.wake({"id": student})
         wake_all(followers)
+
+
+def _marked(subs: list[dict], due_of) -> list[dict]:
+    """Each submission (in the order they came) `late` after its student's deadline plus the days of late tokens
+    they spent on the assignment up to it, itself included (server/course/tokens.py)."""
+    covered: dict[str, int] = {}
+    for sub in subs:
+        covered[sub["student"]] = covered.get(sub["student"], 0) + sub["tokens_spent"]
+        sub["late"] = int(sub["accepted_at"] > due_of(sub) + covered[sub["student"]] * DAY)
+    return subs

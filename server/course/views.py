@@ -31,6 +31,7 @@ class Views(CourseBase):
             "version": sub["version"],
             "accepted_at": iso(sub["accepted_at"]),
             "late": bool(sub["late"]),
+            "tokens_spent": sub.get("tokens_spent", 0),
             "counts_as_attempt": status not in ("invalid", "failed"),
             "counts": sub["id"] == counting,
             "score": round(sub["score"] * (1 - penalty), 6) if show_score and sub["score"] is not None else None,
@@ -45,6 +46,12 @@ class Views(CourseBase):
             report = (item or {}).get("report") or {}
             out["feedback"] = self._feedback(a, sub, report, feedback, who, now)
             out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
+        manual = self.manual_view(a, sub, who)
+        if manual is not None:  # staff-graded items (server/course/manual.py): the student's after the release
+            out["manual"] = manual
+            total = self.total(a, sub) if out["score"] is not None else None
+            out["total"] = None if total is None else round(total[0], 6)
+            out["total_max"] = None if total is None else total[1]
         return out
 
     def view_one(self, a: dict, sub: dict, who: Who) -> dict:

@@ -12,7 +12,16 @@ path). docs/grading.md has the full table and a worked example (scenes/grading/a
                        "check": {"value": "render.max_depth", "at_least": 3}}],
      "reference": {"scene": "reference.json", "spp": 256,
                    "flip": {"points": 2}, "ssim": {"points": 1}, "psnr": {"points": 1},
-                   "pixels": {"points": 2}}}
+                   "pixels": {"points": 2}},
+     "manual": [{"name": "creativity", "points": 3, "instructions": "Is the scene more than the starter?",
+                 "rubric": [{"name": "new objects", "points": 2}, {"name": "a story", "points": 1},
+                            {"name": "copied starter", "points": -3, "description": "a deduction"}]}]}
+
+`manual` items are graded by the course's staff (server/course/manual.py), not by this package: each has its
+points (the item's most), a rubric of levels (at most 9: a key each on the grading queue) whose chosen ones'
+points add up, clamped to 0..points, and instructions for the graders. A level's points lie in -points..points:
+a negative one is a deduction (a rubric that starts from full marks lists a level worth `points` and deductions).
+Item names are unique in the spec, and level names within their item.
 """
 
 from __future__ import annotations
@@ -211,6 +220,54 @@ class ImageSettings(_Model):
                             "(default: the assignment's render.spp, else the reference scene's).")  # fmt: skip
 
 
+MAX_LEVELS = 9  # rubric levels of a manual item: keys 1..9 on the grading queue
+
+
+class RubricLevel(_Model):
+    """One level (a checkable criterion) of a manual item's rubric."""
+
+    name: str = Field(min_length=1, max_length=100, description="Shown to graders and the student, e.g. 'glass'.")
+    points: float = Field(description="Added when chosen (negative: a deduction); within -points..points of its item.")
+    description: str | None = Field(None, max_length=1000, description="What earns it, for graders and students.")
+
+
+class ManualItem(_Model):
+    """A part of the grade that staff give by hand (docs/grading.md, "Staff-graded items")."""
+
+    name: str = Field(min_length=1, max_length=100, description="The item, e.g. 'an interesting scene'.")
+    points: float = Field(gt=0, description="The most it is worth: its chosen levels' sum is clamped to 0..points.")
+    rubric: list[RubricLevel] = Field(min_length=1, max_length=MAX_LEVELS)
+    instructions: str | None = Field(None, max_length=4000, description="For the graders.")
+
+    def level(self, name: str) -> RubricLevel | None:
+        return next((r for r in self.rubric if r.name == name), None)
+
+    def score(self, chosen: list[str]) -> float:
+        """The chosen levels' points (by name; a name no longer in the rubric counts nothing), clamped."""
+        total = sum(r.points for r in self.rubric if r.name in set(chosen))
+        return min(self.points, max(0.0, total))
+
+
+def _manual_errors(items: list[ManualItem]) -> list[dict]:
+    """What pydantic cannot say of manual items, at their paths: names unique, a level's points in range."""
+    errors, names = [], set()
+    for i, item in enumerate(items):
+        if item.name in names:
+            message = f"a second item named {item.name!r}: names are unique"
+            errors.append({"path": f"manual[{i}].name", "message": message})
+        names.add(item.name)
+        levels = set()
+        for j, level in enumerate(item.rubric):
+            at = f"manual[{i}].rubric[{j}]"
+            if level.name in levels:
+                errors.append({"path": f"{at}.name", "message": f"a second level named {level.name!r} in this item"})
+            levels.add(level.name)
+            if abs(level.points) > item.points:
+                message = f"expected points within -{item.points:g}..{item.points:g} (the item's); got {level.points:g}"
+                errors.append({"path": f"{at}.points", "message": message})
+    return errors
+
+
 class Assignment(_Model):
     version: Literal[1] = 1
     name: str = Field(min_length=1, description="Shown in reports, e.g. 'HW 4: glass and soft shadows'.")
@@ -221,6 +278,14 @@ class Assignment(_Model):
     requirements: list[Requirement] = Field(default_factory=list)
     reference: Reference | None = None
     image: ImageSettings = Field(default_factory=ImageSettings)
+    manual: list[ManualItem] = Field(default_factory=list, max_length=50, description="Items graded by staff.")
+
+    def manual_points(self) -> float:
+        """The most the staff-graded items are worth together (not part of `max_score`: the autograder's)."""
+        return sum(m.points for m in self.manual)
+
+    def manual_item(self, name: str) -> ManualItem | None:
+        return next((m for m in self.manual if m.name == name), None)
 
     def max_score(self, kind: str = "scene") -> float:
         """The most a submission of this kind can earn: a scene every test's points; an image (png, exr) its
@@ -260,6 +325,10 @@ def load_assignment(src: Any) -> tuple[Assignment, Path | None]:
     if not isinstance(src, dict):
         raise AssignmentError([{"path": "", "message": "an assignment must be a JSON object {...}"}])
     try:
-        return Assignment.model_validate(src), base
+        assignment = Assignment.model_validate(src)
     except ValidationError as e:
         raise AssignmentError(pydantic_errors(e, Assignment)) from None
+    errors = _manual_errors(assignment.manual)
+    if errors:
+        raise AssignmentError(errors)
+    return assignment, base

@@ -20,7 +20,7 @@ from server.api.deps import (
     require_instructor,
 )
 from server.api.errors import ApiError
-from server.api.routes.course_common import ERRORS, NOT_FOUND, base_url, staff_assignment
+from server.api.routes.course_common import ERRORS, NOT_FOUND, Why, base_url, staff_who
 from server.core.roles import Kind
 from server.core.security import Caller
 from server.course.people import Who
@@ -115,20 +115,21 @@ async def publish(
     return await publish_in(request, course, caller, response, course_id)
 
 
-def _publisher(request: Request, course: Course, caller: Caller, cid: str | None) -> str:
-    """The course to publish in (named, else the staff token's own, else the default), once the caller may."""
+def _publisher(request: Request, course: Course, caller: Caller, cid: str | None) -> tuple[str, Who]:
+    """The course to publish in (named, else the staff token's own, else the default), once the caller may, and
+    the caller."""
     named = cid is not None  # (a course the caller did not name is not hidden from them: course_staff)
     if cid is None:
         mine = course.store.token(caller.owner) if caller.owner else None
         cid = mine["course_id"] if mine is not None and mine["kind"] == Kind.STAFF else DEFAULT_COURSE
-    course.course_staff(cid, caller, instructor_check(request), "publish", hide=named)
-    return cid
+    who = course.course_staff(cid, caller, instructor_check(request), "publish", hide=named)
+    return cid, who
 
 
 async def publish_in(request: Request, course: Course, caller: Caller, response: Response, cid: str | None) -> dict:
-    cid = _publisher(request, course, caller, cid)
+    cid, who = _publisher(request, course, caller, cid)
     body = await _assignment_body(request)
-    a = await run_in_threadpool(course.publish, body, cid)
+    a = await run_in_threadpool(course.publish, body, cid, who)
     response.headers["Location"] = f"/api/assignments/{a['id']}"
     return course.brief(a, Who(), base_url(request))
 
@@ -166,10 +167,11 @@ async def edit(
     course: CourseDep,
     caller: CallerDep,
     regrade: Annotated[bool, Query(description="grade every submission again under it")] = False,
+    why: Why = "",
 ) -> dict:
-    staff_assignment(course, aid, caller, request, "publish")
+    who = staff_who(course, aid, caller, request, "publish")
     body = await _assignment_body(request)
-    a = await run_in_threadpool(course.edit, aid, body, regrade)
+    a = await run_in_threadpool(course.edit, aid, body, regrade, who, why)
     return course.brief(a, Who(), base_url(request))
 
 
@@ -178,11 +180,11 @@ async def edit(
     summary="Grade every submission again (a new version, the same spec and policy)",
     responses=NOT_FOUND,
 )
-def regrade(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+def regrade(aid: str, request: Request, course: CourseDep, caller: CallerDep, why: Why = "") -> dict:
     """For a course's instructors and TAs: after a grading fix, or a doubt; the earlier grades stay in their
     version's run."""
-    staff_assignment(course, aid, caller, request, "regrade")
-    return course.brief(course.regrade(aid), Who(), base_url(request))
+    who = staff_who(course, aid, caller, request, "regrade")
+    return course.brief(course.regrade(aid, who, why), Who(), base_url(request))
 
 
 @router.get("", summary="Every assignment (the admin's), or a course's (its staff's)")

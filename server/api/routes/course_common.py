@@ -4,7 +4,9 @@ text and a CSV download."""
 
 from __future__ import annotations
 
-from fastapi import Request, Response
+from typing import Annotated
+
+from fastapi import Query, Request, Response
 
 from server.api.deps import (
     instructor_check,
@@ -12,9 +14,13 @@ from server.api.deps import (
 from server.api.errors import ApiError
 from server.api.models import ErrorResponse
 from server.core.security import Caller
+from server.course.people import Who
 from server.course.service import Course
 
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
+
+# why a change is made, for its audit event (server/course/audit.py)
+Why = Annotated[str, Query(max_length=1000, description="why (kept in the course's audit trail)")]
 
 NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such assignment (or not yours)"}}
 
@@ -27,6 +33,11 @@ def staff_assignment(course: Course, aid: str, caller: Caller, request: Request,
     """The assignment, for its course's staff only (a TA for what a TA may do, else 403): its students' tokens
     get the 404 of an unknown id (on a server where everyone is the instructor too), anyone else 401 or 403."""
     return course.staff(aid, caller, instructor_check(request), action)[0]
+
+
+def staff_who(course: Course, aid: str, caller: Caller, request: Request, action: str = "follow") -> Who:
+    """The caller as the assignment's staff (refused as `staff_assignment` refuses): who a change is by."""
+    return course.staff(aid, caller, instructor_check(request), action)[1]
 
 
 async def roster_text(request: Request) -> str:

@@ -16,10 +16,11 @@ from server.api.deps import CallerDep, CourseDep, StoreDep, instructor_check, re
 from server.api.errors import ApiError
 from server.api.models import ErrorResponse
 from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in
-from server.api.routes.course_common import base_url, roster_text
+from server.api.routes.course_common import Why, base_url, roster_text
 from server.core.roles import Kind, Role
 from server.course.people import ROLES, Who
 from server.course.roster import links_csv
+from server.course.tokens import MAX_TOKENS, check_tokens
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
 ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
@@ -31,6 +32,25 @@ class CourseIn(BaseModel):
 
     id: str = Field(min_length=1, max_length=40, description="1 to 40 letters, digits, '-' or '_' (in its URLs)")
     name: str = Field("", max_length=200, description="its name, as students see it")
+    late_tokens: int = Field(
+        0, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
+
+
+class CourseEdit(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str | None = Field(None, max_length=200, description="its name, as students see it")
+    late_tokens: int | None = Field(
+        None, strict=True, description=f"late tokens (days) each student may spend (0 to {MAX_TOKENS})"
+    )
+
+
+class TokensIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    add: int = Field(strict=True, description=f"late tokens (days) to give the student (1 to {MAX_TOKENS})")
+    why: str = Field("", max_length=500, description="why (kept with the grant)")
 
 
 class StaffIn(BaseModel):
@@ -45,7 +65,10 @@ class StaffIn(BaseModel):
 @router.post("", status_code=201, summary="Create a course (the server admin's)", responses=ERRORS)
 def create(body: CourseIn, request: Request, course: CourseDep, caller: CallerDep, response: Response) -> dict:
     require_instructor(caller, request)
+    check_tokens(body.late_tokens)
     c = course.create_course(body.id, body.name)
+    if body.late_tokens:
+        course.set_late_tokens(c["id"], body.late_tokens, Who(None, Role.ADMIN))
     response.headers["Location"] = f"/api/courses/{c['id']}"
     return course.course_view(c["id"], Who(None, Role.ADMIN), base_url(request))
 
@@ -77,6 +100,40 @@ def view(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> di
     return course.course_view(cid, who, base_url(request))
 
 
+@router.patch("/{cid}", summary="Edit a course's settings (its instructors')", responses={**ERRORS, **NOT_FOUND})
+def edit(cid: str, body: CourseEdit, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    """`{name?, late_tokens?}`: what is given changes. `late_tokens` moves every student's tokens left by as
+    much (what they spent stays spent)."""
+    who = course.course_staff(cid, caller, instructor_check(request), "publish")
+    if body.late_tokens is not None:
+        course.set_late_tokens(cid, check_tokens(body.late_tokens), who)
+    if body.name is not None:
+        course.store.rename_course(cid, " ".join(body.name.split())[:200] or cid)
+    return course.course_view(cid, who, base_url(request))
+
+
+@router.get("/{cid}/students/{student}/tokens", summary="A student's late tokens and grants", responses=NOT_FOUND)
+def tokens(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+    course.course_staff(cid, caller, instructor_check(request))
+    _member(course, cid, student)
+    return course.tokens_of(cid, student)
+
+
+@router.post(
+    "/{cid}/students/{student}/tokens",
+    summary="Grant a student more late tokens (instructors and TAs)",
+    responses={**ERRORS, **NOT_FOUND},
+)
+def grant_tokens(
+    cid: str, student: str, body: TokensIn, request: Request, course: CourseDep, caller: CallerDep
+) -> dict:
+    """`{add, why}` -> the student's tokens (left, the course's, granted, spent, `grants`: each with at, who,
+    add, before, after, why)."""
+    who = course.course_staff(cid, caller, instructor_check(request), "extend")
+    _member(course, cid, student)
+    return course.grant_tokens(cid, student, body.add, body.why, who)
+
+
 @router.post(
     "/{cid}/assignments",
     status_code=201,
@@ -97,9 +154,9 @@ async def publish(cid: str, request: Request, course: CourseDep, caller: CallerD
 async def roster(cid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """200 with `students: [{id, name, email, link, token, new}]`: each student's link opens the course's page
     (their assignments). `Accept: text/csv` answers the links as CSV to mail out."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
     text = await roster_text(request)
-    students = await run_in_threadpool(course.course_roster, cid, text, base_url(request))
+    students = await run_in_threadpool(course.course_roster, cid, text, base_url(request), who)
     return _students(students, request)
 
 
@@ -151,18 +208,19 @@ def renew_links(
     """Re-issue all at once: each student gets a new token (every earlier one stops working, in every assignment
     of the course; their workspace jobs move to it). The new links, as `GET /links` gives them (`Accept: text/csv`
     for CSV), `new` true."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
     _of_course(course, cid, assignment)
-    return _students(course.renew_links(cid, base_url(request), store, assignment), request)
+    return _students(course.renew_links(cid, base_url(request), store, assignment, who), request)
 
 
 @router.delete("/{cid}/students/{student}", summary="Take a student off the course's roster", responses=NOT_FOUND)
-def remove_student(cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
+def remove_student(
+    cid: str, student: str, request: Request, course: CourseDep, caller: CallerDep, why: Why = ""
+) -> dict:
     """Their tokens stop working; their submissions and grades are kept (and read again if they are enrolled
     again)."""
-    course.course_staff(cid, caller, instructor_check(request), "roster")
-    if not course.store.remove_member(cid, student):
-        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
+    who = course.course_staff(cid, caller, instructor_check(request), "roster")
+    course.remove_member(cid, student, who, why)
     return {"id": student, "removed": True}
 
 
@@ -170,8 +228,8 @@ def remove_student(cid: str, student: str, request: Request, course: CourseDep, 
 def add_staff(cid: str, body: StaffIn, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """The server admin or the course's instructors: `{id, name, email, role}` -> their token and link (the
     /course page with the token), never cached."""
-    course.course_staff(cid, caller, instructor_check(request), "staff")
-    out = course.add_staff(cid, body.id, body.name, body.email, body.role, base_url(request))
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
+    out = course.add_staff(cid, body.id, body.name, body.email, body.role, base_url(request), who)
     headers = {"Cache-Control": "no-store"}
     return Response(json.dumps(out), status_code=201, media_type="application/json", headers=headers)
 
@@ -192,19 +250,23 @@ def staff_link(
     store: StoreDep,
     renew: Annotated[bool, Query(description="a new token: the old one stops working")] = False,
 ) -> Response:
-    course.course_staff(cid, caller, instructor_check(request), "staff")
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
     if renew and course.store.staff_member(cid, person) is not None:
-        course.renew(cid, Kind.STAFF, person, store)
+        course.renew(cid, Kind.STAFF, person, store, who, "a new staff link")
     out = course.staff_link(cid, person, base_url(request))
     return Response(json.dumps(out), media_type="application/json", headers={"Cache-Control": "no-store"})
 
 
 @router.delete("/{cid}/staff/{person}", summary="Remove a staff member (their token stops working)")
 def remove_staff(cid: str, person: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    course.course_staff(cid, caller, instructor_check(request), "staff")
-    if not course.store.remove_staff(cid, person):
-        raise ApiError(404, [{"path": "staff", "message": f"no staff member '{person[:80]}' in course '{cid}'"}])
+    who = course.course_staff(cid, caller, instructor_check(request), "staff")
+    course.remove_staff(cid, person, who)
     return {"id": person, "removed": True}
+
+
+def _member(course, cid: str, student: str) -> None:
+    if course.store.member(cid, student) is None:
+        raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' in course '{cid}'"}])
 
 
 def _of_course(course, cid: str, assignment: str | None) -> None:

@@ -16,9 +16,18 @@ from server.api.deps import (
     CourseDep,
     StoreDep,
     client_address,
+    instructor_check,
 )
 from server.api.models import ErrorResponse
-from server.api.routes.course_common import ERRORS, NOT_FOUND, base_url, csv_response, roster_text, staff_assignment
+from server.api.routes.course_common import (
+    ERRORS,
+    NOT_FOUND,
+    base_url,
+    csv_response,
+    roster_text,
+    staff_assignment,
+    staff_who,
+)
 from server.course.base import iso
 from server.course.policy import Instant
 from server.course.roster import links_csv
@@ -31,6 +40,7 @@ class ExtensionIn(BaseModel):
 
     student: str = Field(min_length=1, max_length=80, description="the roster's id")
     deadline: Instant | None = Field(description="their own deadline (ISO 8601 with a zone); null: the assignment's")
+    why: str = Field("", max_length=500, description="why (kept in the extension's history and the audit trail)")
 
 
 class JoinIn(BaseModel):
@@ -48,9 +58,9 @@ class JoinIn(BaseModel):
 async def roster(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> Response:
     """200 with `students: [{id, name, email, link, token, new}]`: each new student's token is shown this once
     (kept hashed). `Accept: text/csv` answers the links as CSV (id,name,email,link) to mail out."""
-    staff_assignment(course, aid, caller, request, "roster")
+    who = staff_who(course, aid, caller, request, "roster")
     text = await roster_text(request)
-    students = await run_in_threadpool(course.roster, aid, text, base_url(request))
+    students = await run_in_threadpool(course.roster, aid, text, base_url(request), who)
     if "text/csv" in request.headers.get("accept", ""):
         return csv_response(links_csv(students), "links.csv")
     return Response(
@@ -83,14 +93,16 @@ def roster_list(aid: str, request: Request, course: CourseDep, caller: CallerDep
     responses=NOT_FOUND,
 )
 def new_link(aid: str, student: str, request: Request, course: CourseDep, caller: CallerDep, store: StoreDep) -> dict:
-    staff_assignment(course, aid, caller, request, "roster")
-    return course.new_link(aid, student, base_url(request), store)
+    who = staff_who(course, aid, caller, request, "roster")
+    return course.new_link(aid, student, base_url(request), store, who)
 
 
 @router.post("/{aid}/extensions", summary="Move one student's deadline", responses={**ERRORS, **NOT_FOUND})
 def extend(aid: str, body: ExtensionIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    staff_assignment(course, aid, caller, request, "extend")
-    return course.extend(aid, body.student, body.deadline)
+    """Their deadline and late cut-off. Each extension is kept (at, who, before, after, why): `extensions` in
+    GET /api/assignments/{aid}/students/{student}."""
+    _, who = course.staff(aid, caller, instructor_check(request), "extend")
+    return course.extend(aid, body.student, body.deadline, who, body.why)
 
 
 @router.post(

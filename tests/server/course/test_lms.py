@@ -78,6 +78,20 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
     assert (board["lms"]["grades"]["pending"], board["lms"]["grades"]["sent"]) == (0, 1)
 
+    # a staff-graded item (server/course/manual.py): its grade goes back only once released, with the auto part
+    spec = client.get(f"/api/assignments/{aid}", headers=ADMIN).json()["spec"]
+    spec["manual"] = [{"name": "creativity", "points": 2, "rubric": [{"name": "new objects", "points": 1.5}]}]
+    body = {"spec": spec, "deadline": (T0 + timedelta(days=2)).isoformat()}
+    assert client.put(f"/api/assignments/{aid}", json=body, headers=ADMIN).status_code == 200
+    put = f"{sub}/manual/creativity"
+    assert client.put(put, json={"rubric": ["new objects"]}, headers=ADMIN).status_code == 200
+    poster = app.state.lms.poster
+    assert poster.sweep() == 0 and len(p.scores) == 1  # not released: the same total, nothing new to send
+    assert client.post(f"/api/assignments/{aid}/release", headers=ADMIN).status_code == 200
+    poster.wake()
+    wait_for(lambda: len(p.scores) == 2, 60, "the released total at the LMS", 0.2)
+    assert p.scores[1]["scoreGiven"] == pytest.approx(graded["score"] + 1.5) and p.scores[1]["scoreMaximum"] == 15
+
 
 def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who_has_not_submitted(tool, lms):
     url, app, client = tool
@@ -95,6 +109,13 @@ def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who
     # the instructor's own launch made them the course's instructor; the sync, the LMS's instructor (sis-0) too
     staff = client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]
     assert {s["id"]: s["role"] for s in staff} == {"ada": "instructor", "sis-0": "instructor"}, staff
+    # each in the course's audit trail as the LMS's doing (server/course/audit.py)
+    events = client.get("/api/courses/gfx/audit", params={"limit": 500}, headers=ADMIN).json()["events"]
+    synced = {e["target"]["student"] for e in events if (e["action"], e["why"]) == ("student.add", "LMS roster sync")}
+    assert {f"sis-{i}" for i in range(1, 5)} <= synced and all(
+        e["who"] == "lms" for e in events if e["why"].startswith("LMS")
+    )
+    assert any(e["action"] == "staff.add" and e["after"]["role"] == "instructor" and e["who"] == "lms" for e in events)
 
 
 def test_lms_a_student_of_a_course_no_instructor_opened_is_told_so(tool, lms):
@@ -296,6 +317,16 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
         roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
         assert roster["sis-3"]["active"] is True and roster["sis-3"]["left_at"] is None
         assert "inactive" not in client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
+        trail = client.get("/api/courses/gfx/audit", params={"student": "sis-3"}, headers=ADMIN).json()["events"]
+        moves = [
+            (e["action"], e["who"], e["before"], e["after"])
+            for e in trail
+            if e["action"] in ("student.left", "student.back")
+        ]
+        assert moves[:2] == [
+            ("student.back", "lms", {"active": False}, {"active": True}),
+            ("student.left", "lms", {"active": True}, {"active": False}),
+        ], trail  # the audit trail has both, newest first
     finally:
         p.members["course-1"].remove(ta)
 

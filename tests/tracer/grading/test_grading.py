@@ -496,6 +496,49 @@ def test_assignment_errors_name_the_field(change, path, words):
     assert any(x["path"] == path and words in x["message"] for x in e.value.errors), e.value.errors
 
 
+MANUAL = [{"name": "creativity", "points": 3, "instructions": "More than the starter?",
+           "rubric": [{"name": "new objects", "points": 2, "description": "two or more"},
+                      {"name": "a story", "points": 1.5}, {"name": "copied", "points": -3}]},
+          {"name": "lighting", "points": 2, "rubric": [{"name": "area light", "points": 2}]}]  # fmt: skip
+
+
+def test_assignment_manual_items_are_optional_and_score_their_chosen_levels_clamped():
+    assert load_assignment(assignment_dict())[0].manual == []
+    a = assignment_dict()
+    a["manual"] = MANUAL
+    spec, _ = load_assignment(a)
+    creativity = spec.manual_item("creativity")
+    assert spec.manual_points() == 5 and spec.max_score() == load_assignment(assignment_dict())[0].max_score()
+    assert creativity.score(["new objects"]) == 2 and creativity.score(["new objects", "a story"]) == 3  # clamped
+    assert creativity.score(["a story", "copied"]) == 0 and creativity.score(["gone"]) == 0  # never below 0
+    assert creativity.level("a story").points == 1.5 and spec.manual_item("nope") is None
+
+
+@pytest.mark.parametrize(
+    "change, path, words",
+    [
+        (lambda m: m.append(dict(m[1])), "manual[2].name", "a second item named 'lighting'"),
+        (lambda m: m[0]["rubric"].append({"name": "a story", "points": 1}), "manual[0].rubric[3].name",
+         "a second level named 'a story'"),
+        (lambda m: m[1]["rubric"][0].update(points=2.5), "manual[1].rubric[0].points",
+         "expected points within -2..2 (the item's); got 2.5"),
+        (lambda m: m[0]["rubric"][2].update(points=-4), "manual[0].rubric[2].points", "within -3..3"),
+        (lambda m: m[0].update(points=0), "manual[0].points", "must be > 0"),
+        (lambda m: m[1].update(rubric=[]), "manual[1].rubric", "at least 1"),
+        (lambda m: m[1]["rubric"].extend({"name": str(i), "points": 0} for i in range(9)), "manual[1].rubric",
+         "at most 9"),
+        (lambda m: m[0].update(grader="x"), "manual[0].grader", "unknown field"),
+    ],
+)  # fmt: skip
+def test_assignment_manual_errors_name_the_field(change, path, words):
+    a = assignment_dict()
+    a["manual"] = json.loads(json.dumps(MANUAL))
+    change(a["manual"])
+    with pytest.raises(AssignmentError) as e:
+        load_assignment(a)
+    assert any(x["path"] == path and words in x["message"] for x in e.value.errors), e.value.errors
+
+
 def test_assignment_reference_must_be_a_valid_scene():
     a = assignment_dict()
     a["reference"]["scene"] = json.loads((EXAMPLE / "reference.json").read_text())

@@ -74,6 +74,7 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   $("#a-left", root).textContent =
     left === null || left === undefined ? `no limit (${brief.attempts_used || 0} used)` : `${left} of ${brief.max_submissions} (an invalid submission, or one that cannot be graded, costs none)`;
   $("#a-left", root).dataset.left = left === null || left === undefined ? "" : String(left);
+  showTokens(root, brief);
   $("#a-counts", root).textContent = brief.counts === "best" ? "your best graded submission (after any late penalty)" : "your last graded submission";
 
   // what earns points, and when each test's feedback is shown
@@ -137,6 +138,25 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   return countdown(root, brief, onPhase);
 }
 
+/** The student's late tokens (server/course/tokens.py): how many are left in the course and what a submission now
+ * would spend (whole days past their deadline, less those already spent on this assignment), before they submit. */
+function showTokens(root, brief) {
+  const row = $("#a-tokens-row", root);
+  const left = brief.tokens_left;
+  row.hidden = left === undefined || left === null || (!left && !brief.late_tokens && !brief.tokens_spent_here);
+  if (row.hidden) return;
+  const dd = $("#a-tokens", root);
+  dd.dataset.left = String(left);
+  dd.dataset.needed = String(brief.tokens_needed_now || 0);
+  const days = (n) => `${n} ${n === 1 ? "token" : "tokens"}`;
+  const parts = [h("span", { id: "a-tokens-left" }, `${days(left)} left in this course`), " (a token is a day: a late submission spends what it needs, and is then on time). "];
+  if (brief.tokens_needed_now) parts.push(h("strong", { id: "a-tokens-now" }, `A submission now spends ${days(brief.tokens_needed_now)}`), ", and is not late.");
+  else if (brief.tokens_missing_now) parts.push(h("strong", { id: "a-tokens-now" }, `A submission now would need ${days(brief.tokens_missing_now)}: you have too few, so it spends none`), brief.late_time_left ? " and is marked late." : " and is refused.");
+  else parts.push(h("span", { id: "a-tokens-now" }, "A submission now spends none."));
+  if (brief.tokens_spent_here) parts.push(` You spent ${days(brief.tokens_spent_here)} on this assignment: your deadline is `, timeEl(brief.tokens_deadline), ".");
+  dd.replaceChildren(...parts);
+}
+
 /** The time left, counting down each second from the server's `time_left` (its clock, not the browser's). */
 function countdown(root, brief, onPhase) {
   const el = $("#a-time-left", root);
@@ -145,6 +165,7 @@ function countdown(root, brief, onPhase) {
   const phaseOf = (elapsed) => {
     if (brief.closed) return "closed";
     if (brief.time_left - elapsed > 0) return "open";
+    if (brief.tokens_cover_now) return "tokens"; // past the deadline, on time by late tokens (the brief says how many)
     if (brief.late_time_left !== null && brief.late_time_left !== undefined && brief.late_time_left - elapsed > 0) return "late";
     return "closed";
   };
@@ -154,6 +175,7 @@ function countdown(root, brief, onPhase) {
     const phase = phaseOf(elapsed);
     el.dataset.phase = phase;
     if (phase === "open") el.textContent = duration(brief.time_left - elapsed);
+    else if (phase === "tokens") el.textContent = `the deadline has passed; a submission now spends ${brief.tokens_needed_now || 0} late token(s)`;
     else if (phase === "late") el.textContent = `the deadline has passed; ${duration(brief.late_time_left - elapsed)} left to hand in late`;
     else el.textContent = "none: the assignment is closed";
     if (phase !== first) {
@@ -165,9 +187,11 @@ function countdown(root, brief, onPhase) {
   const stop = () => clearInterval(timer);
   tick();
   phaseEl.hidden = first === "open";
-  phaseEl.dataset.kind = first === "late" ? "warn" : "error";
+  phaseEl.dataset.kind = first === "late" || first === "tokens" ? "warn" : "error";
   phaseEl.textContent =
-    first === "late"
+    first === "tokens"
+      ? `The deadline has passed: a submission now spends ${brief.tokens_needed_now || "none"} of your late tokens and is on time.`
+      : first === "late"
       ? "The deadline has passed: a submission now is marked late" + (brief.late_penalty ? ` and loses ${num(100 * brief.late_penalty, 3)} % of its points.` : ".")
       : "The assignment is closed: submissions are no longer taken. Your submissions and their feedback stay below.";
   return stop;

@@ -155,7 +155,26 @@ export function showFeedback(root, sub, ctx) {
     if (sub.status === "invalid") parts.push(h("details", { class: "a-unchecked" }, h("summary", {}, "Tests (not checked: the submission is invalid)"), list));
     else parts.push(h("h4", {}, "Tests"), list);
   }
+  if (sub.manual && ["graded", "invalid", "failed"].includes(sub.status)) parts.push(manualSection(sub));
   root.replaceChildren(...parts);
+}
+
+/** The staff-graded items of a submission (docs/assignments.md, "Staff-graded items"): each item's points and
+ * the grader's comment, and the total, once the instructor released them; before, that they come later. */
+export function manualSection(sub) {
+  const m = sub.manual;
+  if (!m.released) return h("p", { class: "hint a-manual-later" }, "Part of this assignment is graded by the course's staff: those points appear here once your instructor releases them.");
+  const items = m.items.map((i) =>
+    h(
+      "li",
+      { class: "a-manual-item" },
+      h("div", { class: "grade-test-head" }, h("strong", {}, i.name), h("span", { class: "pts" }, `${pts(i.points ?? 0)} / ${pts(i.max_points)}`)),
+      i.rubric.length ? h("p", { class: "hint" }, i.rubric.join("; ")) : null,
+      i.comment ? h("p", { class: "a-manual-comment" }, i.comment) : null,
+    ),
+  );
+  const total = sub.total !== null && sub.total !== undefined ? h("p", { class: "a-total" }, `Total: ${pts(sub.total)} / ${pts(sub.total_max)} (the tests and the staff's grade together).`) : null;
+  return h("section", { class: "a-manual", "aria-label": "Graded by the staff" }, h("h4", {}, "Graded by the staff"), h("ol", { class: "grade-tests a-manual-items" }, items), total);
 }
 
 /** The difference map as a picker of pixels: a click, or the arrow keys and Enter, asks for the two ray trees

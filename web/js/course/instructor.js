@@ -5,6 +5,7 @@
 // and the page says so when the server answered without a token.
 import { tokens } from "../api.js";
 import { $, h } from "../util.js";
+import { AuditPanel } from "./audit.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { Board } from "./instructor_board.js";
 import { course, errorWords, linkBox, say, tokenProblem, when } from "./instructor_util.js";
@@ -99,10 +100,20 @@ async function showList() {
         ),
       ),
     );
+    showAudit(assignments).catch(() => {});
   } catch (err) {
     accessOk(err);
     say(note, "error", tokenProblem(err, !!tokens.instructor()) ? "Sign in first: see above." : `Could not list the assignments: ${err.message}`);
   }
+}
+
+/** The courses' audit trail (audit.js), below the home's panels, once the token is known to be staff's. */
+async function showAudit(assignments) {
+  const { courses } = await course.courses();
+  if (!courses.length || board) return;
+  const panel = new AuditPanel(courses, assignments, { access: accessOk });
+  view.querySelector(".course-home")?.append(panel.root);
+  await panel.load();
 }
 
 /** The courses the token sees (the admin: every one, with forms for a new course and its staff; an instructor
@@ -160,13 +171,14 @@ function staffForm(courses, admin) {
   if (!admin) return form;
   const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_\\-]*" }); // the server's COURSE_ID; `-` escaped: Chromium compiles it with the v flag
   const nname = h("input", { id: "new-course-name", maxlength: 200, autocomplete: "off" });
+  const ntokens = h("input", { id: "new-course-tokens", type: "number", min: "0", max: "60", step: "1", value: "0", title: "days each student may spend on late work, shared by the course's assignments" });
   const made = h("p", { class: "hint", role: "status", "aria-live": "polite" });
-  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("button", { type: "submit" }, "Create"), made);
+  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("label", { for: "new-course-tokens" }, "Late tokens (days per student)"), ntokens, h("button", { type: "submit" }, "Create"), made);
   create.addEventListener("submit", async (e) => {
     e.preventDefault();
     try {
       madeCourse = nid.value.trim();
-      await course.createCourse({ id: madeCourse, name: nname.value.trim() });
+      await course.createCourse({ id: madeCourse, name: nname.value.trim(), late_tokens: Number(ntokens.value || 0) });
       showList();
     } catch (err) {
       made.textContent = `Not created: ${err.message}`;

@@ -9,7 +9,9 @@ import { downloadFile, showImage } from "../api.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
+import { GradingPanel } from "./grading.js";
 import { StatsPanel } from "./stats.js";
+import { extensionHistory, tokensPanel } from "./latetokens.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
 
 const TA_MAY = "As a TA you follow the class, grant extensions and regrade.";
@@ -86,6 +88,7 @@ export class Board {
     clearTimeout(this.timer);
     this.similarity?.close();
     this.classStats?.close();
+    this.grading?.close();
   }
 
   /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
@@ -203,7 +206,10 @@ export class Board {
     this.similarity.load();
     this.classStats = new StatsPanel(this.aid, { access: this.access }); // web/js/course/stats.js
     this.classStats.load();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, whats, this.classStats.root, this.similarity.root, this.versions);
+    // staff-graded items: the grading queue (web/js/course/grading.js), when the spec has manual items
+    this.grading = this.brief.spec?.manual?.length ? new GradingPanel(this.aid, { access: this.access, may: (a) => this.may(a) }) : null;
+    this.grading?.load();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, ...(this.grading ? [this.grading.root] : []), whats, this.classStats.root, this.similarity.root, this.versions);
   }
 
   renderHead() {
@@ -613,7 +619,7 @@ export class Board {
     const grant = async (deadline) => {
       extErrors.replaceChildren();
       try {
-        const r = await course.extend(this.aid, sid, deadline);
+        const r = await course.extend(this.aid, sid, deadline, $("#ext-why", this.detail)?.value || "");
         say(extStatus, "ok", deadline ? `${sid}'s deadline is now ${when(r.deadline)}${r.late_until ? ` (late until ${when(r.late_until)})` : ""}.` : `${sid} is back to the assignment's deadline.`);
         await this.refresh();
       } catch (err) {
@@ -647,12 +653,16 @@ export class Board {
         { class: "ext-form", id: "ext-form", "aria-label": `An extension for ${sid}` },
         h("label", { for: "ext-deadline" }, `Their deadline${d.extended ? " (extended)" : ""}`),
         ext,
+        h("label", { for: "ext-why" }, "Why"),
+        h("input", { type: "text", id: "ext-why", maxlength: "500", placeholder: "kept in the history" }),
         h("button", { type: "submit", id: "ext-grant" }, "Grant the extension"),
         d.extended ? h("button", { type: "button", id: "ext-clear", onclick: () => grant(null) }, "Back to the assignment's deadline") : null,
         h("p", { id: "ext-help", class: "hint" }, `In this browser's zone (${zoneName()}). An extension moves their deadline and their late cut-off by as much.`),
         extErrors,
         extStatus,
       ),
+      extensionHistory(d),
+      d.tokens ? tokensPanel(d, () => this.showStudent(sid, false)) : null,
       h("h3", {}, `Submissions (${d.history.length})`),
       history.length ? h("ol", { class: "history", id: "history", reversed: true }, history.map((sub, i) => this.submission(sub, history.length - i))) : h("p", { class: "hint" }, "Nothing submitted yet."),
     );
@@ -769,6 +779,7 @@ export class Board {
         h("span", { class: "muted" }, `${sub.kind === "scene" ? "scene" : `image (${sub.kind.toUpperCase()})`} · version ${sub.version}`),
         h("span", { class: `badge ${sub.status}` }, sub.status),
         sub.late ? h("span", { class: "badge late" }, sub.penalty ? `late −${Math.round(sub.penalty * 100)} %` : "late") : null,
+        sub.tokens_spent ? h("span", { class: "badge tokens", dataset: { tokens: String(sub.tokens_spent) } }, `${sub.tokens_spent} late ${sub.tokens_spent === 1 ? "token" : "tokens"} spent`) : null,
         sub.counts ? h("span", { class: "badge counts", title: "this submission is the grade" }, "counts") : null,
         !sub.counts_as_attempt ? h("span", { class: "muted" }, "no attempt used") : null,
         h("span", { class: "pts" }, sub.score === null ? "" : `${pts(sub.score)} / ${pts(sub.max_score)}`),

@@ -23,7 +23,7 @@ export const course = {
   lmsSendAgain: (aid) => request("POST", `${A(aid)}/lms/send-again`, {}, AS), // the grades the LMS refused, queued again
   student: (aid, sid) => request("GET", `${A(aid)}/students/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
   trees: (aid, sid) => request("GET", `${A(aid)}/submissions/${encodeURIComponent(sid)}/trees`, undefined, { ...AS, cache: "no-store" }), // the latest tree log comparison
-  extend: (aid, student, deadline) => request("POST", `${A(aid)}/extensions`, { student, deadline }, AS),
+  extend: (aid, student, deadline, why = "") => request("POST", `${A(aid)}/extensions`, { student, deadline, why }, AS),
   newLink: (aid, student) => request("POST", `${A(aid)}/students/${encodeURIComponent(student)}/link`, undefined, AS),
   roster: (aid, text) => request("POST", `${A(aid)}/roster`, text, { ...AS, type: "text/csv" }), // a CSV body
   renewLinks: (cid, aid) => request("POST", `/api/courses/${encodeURIComponent(cid)}/links/renew?assignment=${encodeURIComponent(aid)}`, undefined, AS),

@@ -113,12 +113,14 @@ export class SubmissionList {
     row.li.dataset.late = String(!!v.late);
     row.li.dataset.counts = String(!!v.counts);
     row.head.setAttribute("aria-expanded", String(open));
-    const score = v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
+    const released = v.manual?.released && v.total !== null && v.total !== undefined; // the staff's part added
+    const score = released ? h("span", { class: "a-sub-score" }, `${pts(v.total)} / ${pts(v.total_max)}`) : v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
     const parts = [
       h("span", { class: "a-sub-n" }, `#${row.n}`),
       h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
       h("span", { class: "muted" }, v.kind === "scene" ? "scene" : `${v.kind.toUpperCase()} image`),
       v.late ? h("span", { class: "badge a-late" }, "late") : null,
+      v.tokens_spent ? h("span", { class: "badge a-tokens" }, `${v.tokens_spent} late ${v.tokens_spent === 1 ? "token" : "tokens"} spent: on time`) : null,
       h("span", { class: `badge ${v.status} a-sub-status` }, STATUS[v.status] || v.status),
       score,
       v.counts ? h("span", { class: "badge a-counts", title: "the submission that is your grade" }, "★ counts") : null,
