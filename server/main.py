@@ -54,6 +54,7 @@ from server.api.routes import (
 )  # fmt: skip
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps, StreamCaps
+from server.core.db import Tables
 from server.core.migrations import migrate
 from server.core.paths import SCENES, WEB
 from server.core.security import served_hosts, start_up_warnings
@@ -102,7 +103,7 @@ async def lifespan(app: FastAPI):
         store = JobStore(settings.data_dir)
         # the stores' connections (one per thread that used them) closed last of all: a pool's thread outlives
         # the app, and each connection would keep two files open
-        stores = [store]
+        stores: list[JobStore | Tables] = [store]
         stack.callback(lambda: [s.close_connections() for s in stores])
         queue = make_queue(settings, store, app.state.stopping)
         jobs = JobService(settings, store, queue, app.state.stopping)

@@ -20,7 +20,7 @@ This module imports nothing of the tracer, so the service's settings can read it
 from __future__ import annotations
 
 import dataclasses
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 PILLOW_MAX_PIXELS = 89_478_485  # Pillow warns of a decompression bomb past this (PIL.Image.MAX_IMAGE_PIXELS)
 
@@ -87,14 +87,27 @@ def _at_most(self: Limits, name: str) -> str:
     return f"must be at most {getattr(self, name)} (limit {name})"
 
 
-Limits = dataclasses.make_dataclass(
-    "Limits",
-    [(limit.name, int, limit.default) for limit in LIMITS],
-    frozen=True,
-    namespace={
-        "__doc__": "Scene limits (the table LIMITS); a value past one is an error at its JSON path.",
-        "__module__": __name__,
-        "tighter": _tighter,
-        "at_most": _at_most,
-    },
-)
+if TYPE_CHECKING:
+
+    class Limits:
+        """What the checker sees of the class made below from the table LIMITS: one int field per limit."""
+
+        __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+        def __init__(self, **limits: int) -> None: ...
+        def __getattr__(self, name: str) -> int: ...
+        def tighter(self, other: Limits) -> Limits: ...
+        def at_most(self, name: str) -> str: ...
+
+else:
+    Limits = dataclasses.make_dataclass(
+        "Limits",
+        [(limit.name, int, limit.default) for limit in LIMITS],
+        frozen=True,
+        namespace={
+            "__doc__": "Scene limits (the table LIMITS); a value past one is an error at its JSON path.",
+            "__module__": __name__,
+            "tighter": _tighter,
+            "at_most": _at_most,
+        },
+    )

@@ -158,13 +158,14 @@ class SecurityHeaders:
             await self._docs(scope, receive, send)
             return
         path = scope["path"]
-        may_frame = self.frame_ancestors and (path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES))
+        framed = path in FRAMED_PATHS or path.startswith(FRAMED_PREFIXES)
+        ancestors = self.frame_ancestors if framed else None
 
         api = scope["path"] == "/api" or scope["path"].startswith("/api/")
 
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
-                origins = self.frame_ancestors() if may_frame else []  # as they are when the answer starts
+                origins = ancestors() if ancestors else []  # as they are when the answer starts
                 policy = framed_policy(origins) if origins else POLICY
                 headers = message.get("headers") or []
                 if api:  # tokens, grades, students' work: never kept by a browser or a proxy
@@ -185,6 +186,7 @@ class SecurityHeaders:
                 return
             body.append(message.get("body", b""))
             if not message.get("more_body", False):
+                assert start is not None  # (ASGI: the start comes first)
                 html = b"".join(body)
                 start["headers"] = _with(start.get("headers") or [], docs_policy(html))
                 await send(start)

@@ -34,6 +34,9 @@ import threading
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
+from enum import StrEnum
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 
 import anyio
 
@@ -68,15 +71,25 @@ class _Clock:
 
     def __call__(self) -> float:
         now = self._cpu() if self.cpu is not None else None
-        return now - self.cpu if now is not None else time.monotonic() - self.wall
+        if now is not None and self.cpu is not None:
+            return now - self.cpu
+        return time.monotonic() - self.wall
+
+
+class CheckerState(StrEnum):
+    """A checking process's state (GET /api/health's checkers' `state`)."""
+
+    starting = "starting"  # loading (its process starts, or starts again after a death or a stopped task)
+    idle = "idle"  # waits for a task
+    busy = "busy"  # runs one
 
 
 @dataclass
 class _Checker:
     index: int
-    process: mp.process.BaseProcess | None = None
-    conn: object = None  # the server's end of the process's line
-    state: str = "starting"  # starting, idle, busy
+    process: BaseProcess | None = None
+    conn: Connection | None = None  # the server's end of the process's line
+    state: CheckerState = CheckerState.starting
     task: str | None = None  # what it does while busy: read, validate, summary, samples
     restarts: int = 0
 
@@ -102,7 +115,7 @@ class CheckPool:
 
     def _restart(self, checker: _Checker, old=None) -> None:
         """Start the checker's process again, in a thread: the old one (if any) is killed and reaped first."""
-        checker.state = "starting"
+        checker.state = CheckerState.starting
         threading.Thread(target=self._start, args=(checker, old), name=f"checker-{checker.index}", daemon=True).start()
 
     def _start(self, checker: _Checker, old) -> None:
@@ -133,7 +146,7 @@ class CheckPool:
                 checker.restarts += 1
                 self._restart(checker, (process, ours))
                 return
-            checker.process, checker.conn, checker.state = process, ours, "idle"
+            checker.process, checker.conn, checker.state = process, ours, CheckerState.idle
             self._wake()
 
     def _head(self):
@@ -161,7 +174,9 @@ class CheckPool:
                 checker.conn.close()  # the process reads end-of-file: it exits
         for checker in self.checkers:
             if checker.process is not None:
-                if checker.state == "starting":  # still loading (seconds on a loaded machine): nothing of it to keep
+                if (
+                    checker.state == CheckerState.starting
+                ):  # still loading (seconds on a loaded machine): nothing of it to keep
                     checker.process.kill()
                 checker.process.join(timeout=5)
                 if checker.process.is_alive():
@@ -171,8 +186,8 @@ class CheckPool:
     def info(self) -> list[dict]:
         """Each checking process: pid, state (starting, idle, busy), task (while busy), restarts."""
         return [
-            {"pid": c.process.pid if c.process is not None and c.state != "starting" else None, "state": c.state,
-             "task": c.task, "restarts": c.restarts}
+            {"pid": c.process.pid if c.process is not None and c.state != CheckerState.starting else None,
+             "state": c.state, "task": c.task, "restarts": c.restarts}
             for c in self.checkers
         ]  # fmt: skip
 
@@ -188,18 +203,18 @@ class CheckPool:
         try:
             while True:
                 with self._lock:
-                    free = next((c for c in self.checkers if c.state == "idle"), None)
+                    free = next((c for c in self.checkers if c.state == CheckerState.idle), None)
                     head = self._head()
                     first = head is waiter if head is not None else waiter is None
                     if small and waiter is None and not self._small:
                         first = True  # no small one waits: the large ones' line is behind this one
                     if free is not None and first:
-                        free.state = "busy"
+                        free.state = CheckerState.busy
                         if waiter is not None:
                             line.remove(waiter)
                             self._waiting_bytes -= size
                             waiter = None
-                        if any(c.state == "idle" for c in self.checkers):
+                        if any(c.state == CheckerState.idle for c in self.checkers):
                             self._wake()  # another one is free: the next in line takes it
                         return free
                     if waiter is None:
@@ -226,7 +241,7 @@ class CheckPool:
                     head = self._head() is waiter
                     line.remove(waiter)
                     self._waiting_bytes -= size
-                    if head and any(c.state == "idle" for c in self.checkers):
+                    if head and any(c.state == CheckerState.idle for c in self.checkers):
                         self._wake()  # it was woken for a free checker: the next in line takes it
 
     async def run(self, gone: Gone, task: str, *args, timed: bool = True):
@@ -237,6 +252,8 @@ class CheckPool:
         checker = await self._take(gone, size)
         checker.task = task
         conn, process, answered = checker.conn, checker.process, False
+        # a checker is taken once started (idle)
+        assert conn is not None and process is not None and process.pid is not None
         limit = self.settings.max_validate_seconds if timed else math.inf
         try:
             await anyio.to_thread.run_sync(conn.send, (task, args))
@@ -263,7 +280,7 @@ class CheckPool:
             with self._lock:
                 checker.task = None
                 if answered:
-                    checker.state = "idle"
+                    checker.state = CheckerState.idle
                     self._wake()
                 elif not self._closed:  # stopped mid-task (or dead): a new process takes its place
                     checker.restarts += 1

@@ -11,6 +11,8 @@ course, grading, the jobs and the checkers raise these and never build a respons
 
 from __future__ import annotations
 
+from typing import Self
+
 from pydantic import BaseModel, Field
 
 Items = list[dict[str, str]]
@@ -31,7 +33,7 @@ class DomainError(Exception):
         super().__init__(f"{type(self).__name__}: {self.errors}")
 
     @classmethod
-    def at(cls, path: str, message: str, **kwargs) -> DomainError:
+    def at(cls, path: str, message: str, **kwargs) -> Self:
         """One error at one path: `NotFound.at("id", "no job with id ...")`."""
         return cls([{"path": path, "message": message}], **kwargs)
 

@@ -168,7 +168,8 @@ def start_up_warnings(settings: Settings) -> list[str]:
             f"listening on {settings.host} (not loopback only) without TRACER_INSTRUCTOR_TOKEN: grading is "
             "refused and jobs without an owner (grading renders, older jobs) cannot be read; set it"
         )
-    weak = weak_token(instructor_token(settings)) if instructor_token(settings) else None
+    token = instructor_token(settings)
+    weak = weak_token(token) if token else None
     if weak:  # (refused at start on any other address: server/core/settings.py)
         out.append(
             f"TRACER_INSTRUCTOR_TOKEN is weak ({weak}): it is accepted on loopback only; use at least "

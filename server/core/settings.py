@@ -12,7 +12,7 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 from pydantic import (
     BeforeValidator,
@@ -126,11 +126,10 @@ Duration = Annotated[float, BeforeValidator(_seconds)]
 
 # The scene limits, one setting per row of the table in tracer/limits.py (TRACER_MAX_WIDTH, ...), each
 # answered with a 422 at the offending field's JSON path: the library's defaults are the service's.
-SceneLimits = create_model(
-    "SceneLimits",
-    __base__=BaseSettings,
-    **{limit.name: (int, Field(limit.default, ge=1, le=limit.most, description=limit.description)) for limit in LIMITS},
-)
+_LIMIT_FIELDS: dict[str, Any] = {
+    limit.name: (int, Field(limit.default, ge=1, le=limit.most, description=limit.description)) for limit in LIMITS
+}
+SceneLimits = create_model("SceneLimits", __base__=BaseSettings, **_LIMIT_FIELDS)
 
 
 class Settings(SceneLimits):
@@ -317,7 +316,9 @@ class Settings(SceneLimits):
         "in TRACER_SHARED_NETWORKS; at most half of TRACER_MAX_CONNECTIONS, the rest kept for others): 429 past it",
     )
     body_budget_bytes: ByteSize = Field(
-        32_000_000, ge=0, description="bytes of JSON bodies of 64 KB or more held at once, all requests together"
+        ByteSize(32_000_000),
+        ge=0,
+        description="bytes of JSON bodies of 64 KB or more held at once, all requests together",
     )
     body_budget_wait: Duration = Field(
         2.0, ge=0, description="seconds a large body waits for the budget before its request is answered 503"
@@ -466,7 +467,8 @@ def load_settings(settings_file: str | os.PathLike | None = None, **overrides) -
     settings_file = settings_file or os.environ.get("TRACER_SETTINGS_FILE") or None
     if settings_file is not None and not Path(settings_file).is_file():
         raise FileNotFoundError(f"settings file not found: {settings_file}")
-    return Settings(_env_file=settings_file, **overrides)
+    # pydantic-settings' own __init__ argument, which pyright's model of a pydantic class (its fields) leaves out
+    return Settings(_env_file=settings_file, **overrides)  # pyright: ignore[reportCallIssue]
 
 
 def explain(exc: ValidationError, flags: dict[str, str] | None = None) -> str:

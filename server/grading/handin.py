@@ -46,6 +46,7 @@ def submissions(scene, subs: list | None, zip_: str | None, settings: Settings, 
         text = scene if isinstance(scene, str) else json.dumps(scene)
         return [Handed("submission", "scene", "submission.json", text.encode())]
     if zip_ is not None:
+        assert staging is not None  # the route makes one for a zip
         src = staging / "class.zip"
         src.write_bytes(b64(zip_, "zip"))
         entries = unpack(src, staging, class_caps(settings), "zip")
@@ -141,12 +142,19 @@ def public(found: dict, runs: GradeRuns) -> dict:
     return out
 
 
+def _folder(runs: GradeRuns, run_id: str) -> Path:
+    """The folder of a run that state() has found."""
+    folder = runs.folder(run_id)
+    assert folder is not None
+    return folder
+
+
 def summary(runs: GradeRuns, run_id: str, fmt: str) -> bytes:
     """The class summary (summary.csv or summary.json) of a run that is done (404 before)."""
     found = state(runs, run_id)
     if found["status"] != JobStatus.done:
         raise NotFound(f"no summary yet: the run is {found['status']}")
-    return (runs.folder(run_id) / "out" / f"summary.{fmt}").read_bytes()
+    return (_folder(runs, run_id) / "out" / f"summary.{fmt}").read_bytes()
 
 
 def student_file(runs: GradeRuns, run_id: str, student: str, file: str) -> Path:
@@ -154,7 +162,7 @@ def student_file(runs: GradeRuns, run_id: str, student: str, file: str) -> Path:
     state(runs, run_id)
     if file not in STUDENT_FILES or student != student_name(student):
         raise NotFound.at("file", f"one of: {', '.join(STUDENT_FILES)}")
-    path = runs.folder(run_id) / "out" / student / file
+    path = _folder(runs, run_id) / "out" / student / file
     if not path.is_file():
         raise NotFound.at("file", f"no {file} for '{student}' (yet)")
     return path

@@ -12,6 +12,7 @@ import threading
 import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from typing import cast
 
 log = logging.getLogger(__name__)
 
@@ -87,7 +88,8 @@ class GradingPool:
             executor, self._executor = self._executor, None
         if executor is None:
             return
-        manager = executor._executor_manager_thread  # joins the processes, then lets go of the queues
+        # joins the processes, then lets go of the queues (a thread: typeshed types the private attribute wrongly)
+        manager = cast(threading.Thread | None, executor._executor_manager_thread)
         processes = list((executor._processes or {}).values())
         executor.shutdown(wait=False, cancel_futures=True)
         if manager is not None:

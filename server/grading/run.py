@@ -150,6 +150,7 @@ class GradingRun:
 
     def _load(self) -> None:
         row = self.gs.run(self.id)
+        assert row is not None  # the run's own row, written before its thread starts
         self.text = row["assignment"]
         spec, _ = load_assignment(self.text)
         self.grader = Grader(spec, None)
@@ -327,8 +328,8 @@ class GradingRun:
 
     def _schedule(self) -> None:
         for it in self.items.values():  # what a server stopped between two writes left undone
-            if it["stage"] in (Stage.prepared, Stage.rendered) and _key(it) is not None:
-                self._queue_render(_key(it))
+            if it["stage"] in (Stage.prepared, Stage.rendered) and (key := _key(it)) is not None:
+                self._queue_render(key)
             if it["stage"] == Stage.prepared and not it["job_id"]:
                 self._queue_item(it)
         if self.renders_total is None and all(it["stage"] != Stage.submitted for it in self.items.values()):
@@ -357,8 +358,8 @@ class GradingRun:
         if mean is not None and mean["status"] == RenderStatus.done:
             wanted: dict[str, set[str]] = {}  # baseline -> the encodings of its students
             for it in self.items.values():
-                if _key(it) is not None:
-                    wanted.setdefault(_key(it), set()).add(_encoding(it))
+                if (key := _key(it)) is not None:
+                    wanted.setdefault(key, set()).add(_encoding(it))
             for key, r in list(self.renders.items()):
                 if key == MEAN or r["status"] == RenderStatus.waiting:
                     continue
@@ -453,8 +454,8 @@ class GradingRun:
         it.pop("_key", None)
         self.gs.update_item(self.id, student, prepared=p, stage=stage, prepare_seconds=seconds)
         self.context.item_changed(self.id, student)
-        if _key(it) is not None:
-            self._queue_render(_key(it))
+        if (key := _key(it)) is not None:
+            self._queue_render(key)
         if p["job"] is not None:
             self._queue_item(it)
 

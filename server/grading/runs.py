@@ -140,7 +140,9 @@ class GradeRuns:
             raise
         log.info("grading run %s: %d submission(s) for %s", run_id, len(items), spec.name)
         self._spawn(run_id)
-        return self.state(run_id)
+        made = self.state(run_id)
+        assert made is not None  # written just above
+        return made
 
     def add(self, run_id: str, h: Handed) -> bool:
         """One more submission for an open run (its file kept in the run's folder, then its row); False if
@@ -291,8 +293,10 @@ class GradeRuns:
     def reports(self, run_id: str) -> list[dict]:
         """Each graded student's report.json, in the class's order."""
         folder = self.folder(run_id)
-        out = []
-        for it in self.gs.items(run_id) if folder else ():
+        out: list[dict] = []
+        if folder is None:
+            return out
+        for it in self.gs.items(run_id):
             path = folder / "out" / it["student"] / "report.json"
             if it["stage"] == Stage.graded and path.is_file():
                 out.append(json.loads(path.read_text()))

@@ -21,11 +21,14 @@ import re
 from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 from urllib.parse import unquote
 
 from python_multipart.exceptions import FormParserError
 from python_multipart.multipart import MultipartParser, parse_options_header
+
+if TYPE_CHECKING:
+    from python_multipart.multipart import MultipartCallbacks
 
 from server.core.errors import DomainError, Invalid, TooLarge, Unsupported
 from tracer.grading import Caps
@@ -79,7 +82,7 @@ class _Parts:
         self.size = 0  # bytes of the current part
         self.total = 0  # bytes of all the `files` parts
 
-    def callbacks(self) -> dict:
+    def callbacks(self) -> MultipartCallbacks:
         return {
             "on_part_begin": self.begin, "on_part_data": self.data, "on_part_end": self.end,
             "on_header_field": self.header_field, "on_header_value": self.header_value,
@@ -133,6 +136,7 @@ class _Parts:
             if self.size > self.max_assignment:
                 raise _refuse(self.name, f"larger than {self.max_assignment} bytes (TRACER_MAX_BODY_BYTES)", TooLarge)
             held = self.upload.reference if self.name == "reference" else self.upload.assignment
+            assert held is not None  # the reference part's bytearray is made at its headers
             held += data[start:end]
             return
         if self.name == "files":

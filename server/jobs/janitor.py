@@ -34,7 +34,7 @@ GRACE = 60.0  # seconds after its end during which a job is never removed
 
 def tree_size(path: Path) -> int:
     """Bytes in the files under `path` (the sum of their sizes); 0 when it does not exist."""
-    total, folders = 0, [path]
+    total, folders = 0, list[str | Path]([path])
     while folders:
         try:
             entries = os.scandir(folders.pop())

@@ -38,10 +38,12 @@ def ahead(jobs: JobService, path: Path = PANELS) -> int:
     except (OSError, ValueError) as exc:
         log.warning("no lesson panels to render ahead: %s", exc)
         return 0
+    version = jobs.version
+    assert version is not None  # (server/main.py starts this only where results are answered again)
     queued = 0
     for panel in panels:
         text = json.dumps(panel["scene"])
-        key = result_key(text, jobs.version)
+        key = result_key(text, version)
         if jobs.store.has_result(key):
             continue
         film, sampler = panel["scene"].get("film", {}), panel["scene"].get("sampler") or {}

@@ -296,7 +296,9 @@ class JobStore:
                  total, max_seconds, JobKind(kind).value, Lane(lane).value, json.dumps(params or {}), estimate,
                  owner, result_key),
             )  # fmt: skip
-        return self.get(job_id)
+        made = self.get(job_id)
+        assert made is not None  # inserted just above
+        return made
 
     def done_result(self, key: str, device: str) -> dict | None:
         """The latest render done on `device` whose result has this key (server/jobs/results.py), or None."""
@@ -646,9 +648,11 @@ class JobStore:
             > 0
         )
 
-    def start_try(self, job_id: str, attempt: int, host: str, device: str, worker: str) -> dict | None:
+    def start_try(
+        self, job_id: str, attempt: int, host: str | None, device: str | None, worker: str | None
+    ) -> dict | None:
         """A worker host took try `attempt` of a queued job: it runs (None if the job moved on: cancelled,
-        or a later try)."""
+        or a later try). The host, device and worker are as its event named them (None where it did not)."""
         rows = self._move(
             self.db, QUEUED, RUNNING, "id = ? AND attempts = ?", (job_id, attempt),
             worker=None, started_at=time.time(), finished_at=None, **_fresh_unless_resumed(), error=None,

@@ -97,7 +97,9 @@ class JobPublic(BaseModel):
     )
     lane: Lane = Field(description="interactive or batch")
     estimate: float | None = Field(description="seconds the render was estimated to take, at submit")
-    queue: QueuePlace | None = Field(None, description="a queued job's place in the queue and its expected wait")
+    queue: QueuePlace | None = Field(
+        default=None, description="a queued job's place in the queue and its expected wait"
+    )
     snapshot: int = Field(
         description="the pass of the film last saved: a try that takes the job (after a lost worker, or a render "
         "that gave way to interactive work) continues from it; 0: none"
@@ -124,7 +126,7 @@ class JobPublic(BaseModel):
             rendering = max(0.0, elapsed - (solve or {}).get("seconds", 0.0))  # the passes' own time
             if status is JobStatus.running and done > 0:
                 eta = rendering * (1.0 - fraction) / fraction
-            elif solving and solve["fraction"] > 0:
+            elif solving and solve is not None and solve["fraction"] > 0:
                 eta = elapsed * (1.0 - solve["fraction"]) / solve["fraction"]  # of the solve
         preview = row["preview"]
         return cls(
@@ -135,7 +137,7 @@ class JobPublic(BaseModel):
             name=row["name"],
             width=row["width"],
             height=row["height"],
-            created_at=_dt(row["created_at"]),
+            created_at=datetime.fromtimestamp(row["created_at"], UTC),  # (NOT NULL)
             started_at=_dt(row["started_at"]),
             finished_at=_dt(row["finished_at"]),
             progress=JobProgress(

@@ -63,10 +63,12 @@ class ToolKeys:
 
     def _load(self) -> RSAKey | None:
         try:
-            pem = self.path.read_bytes()
+            return self._read()
         except FileNotFoundError:
             return None
-        return RSAKey.import_key(pem, {"alg": ALG, "use": "sig"})
+
+    def _read(self) -> RSAKey:
+        return RSAKey.import_key(self.path.read_bytes(), {"alg": ALG, "use": "sig"})
 
     def _make(self) -> RSAKey:
         """A new key, written whole with mode 0600 under a temporary name and then linked to its own: of two
@@ -83,7 +85,7 @@ class ToolKeys:
             try:
                 os.link(tmp, self.path)
             except FileExistsError:
-                return self._load()
+                return self._read()  # the first link's key, there for good
         finally:
             tmp.unlink(missing_ok=True)
         return key

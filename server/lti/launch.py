@@ -88,8 +88,9 @@ def auth_request_url(
 # -- the platforms' key sets -----------------------------------------------------------------------------
 
 
-def fetch_jwks(url: str) -> dict:
-    """A platform's JWKS from `url` (httpx: 5 s, at most 64 KiB, JSON with "keys"); LaunchError("jwks") else."""
+def fetch_jwks(url: str) -> object:
+    """A platform's JWKS from `url` (httpx: 5 s, at most 64 KiB, JSON, checked to be a key set by
+    JwksCache._import); LaunchError("jwks") else."""
     try:
         with httpx.Client(timeout=JWKS_TIMEOUT, follow_redirects=False) as client:
             response, data = get_json(client, url, JWKS_MAX_BYTES, {"Accept": "application/json"}, JWKS_TIMEOUT)
@@ -110,7 +111,7 @@ class JwksCache:
     loop; a platform that rotates its key is followed within that time."""
 
     def __init__(
-        self, fetch: Callable[[str], dict] | None = None, min_interval: float = 60.0,
+        self, fetch: Callable[[str], object] | None = None, min_interval: float = 60.0,
         clock: Callable[[], float] = time.monotonic,
     ):  # fmt: skip
         self.fetch, self.min_interval, self.clock = fetch or fetch_jwks, min_interval, clock
@@ -143,7 +144,7 @@ class JwksCache:
         return fresh
 
     @staticmethod
-    def _import(url: str, data: Any) -> KeySet:
+    def _import(url: str, data: object) -> KeySet:
         if not isinstance(data, dict) or not isinstance(data.get("keys"), list):
             raise LaunchError("jwks", f'the platform\'s key set at {url} is not a JWKS ({{"keys": [...]}})')
         try:

@@ -553,6 +553,7 @@ class Platform:
 
     def _tool_jwt(self, token: str) -> dict:
         """The claims of a JWT the tool signed, verified with the tool's published key set (fetched now)."""
+        assert self.tool_jwks_url is not None, "set tool_jwks_url first"
         keys = KeySet.import_key_set(httpx.get(self.tool_jwks_url, timeout=5).json())
         return jwt.decode(token, keys, algorithms=["RS256"]).claims
 

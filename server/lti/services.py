@@ -95,7 +95,7 @@ class ServiceClient:
         }
         data = self._call("POST", platform["token_url"], "the access token", data=form)
         token = data.get("access_token") if isinstance(data, dict) else None
-        if not isinstance(token, str) or not token:
+        if not isinstance(data, dict) or not isinstance(token, str) or not token:
             raise ServiceError(502, f"the platform's token URL {platform['token_url']} answered without access_token")
         expires_in = data.get("expires_in", 3600)
         expires_in = expires_in if isinstance(expires_in, int | float) and not isinstance(expires_in, bool) else 3600

@@ -223,7 +223,8 @@ class LtiStore(Tables):
         values = dict(issuer=issuer, client_id=client_id, auth_url=auth_url, token_url=token_url, jwks_url=jwks_url)
         check_platform({**values, "deployment_ids": deployment_ids, "name": name, "service_origins": origins},
                        allow_private)  # fmt: skip
-        extra = " ".join(sorted({url_origin(o) for o in origins}))
+        extra_origins: set[str] = {origin for o in origins if (origin := url_origin(o)) is not None}  # (all: checked)
+        extra = " ".join(sorted(extra_origins))
         with self._tx() as db:
             row = db.execute(
                 "SELECT id FROM lti_platforms WHERE issuer = ? AND client_id = ?", (issuer, client_id)
@@ -246,7 +247,9 @@ class LtiStore(Tables):
                 "INSERT OR IGNORE INTO lti_deployments (platform_id, deployment_id) VALUES (?, ?)",
                 [(pid, d) for d in deployment_ids],
             )
-        return self.platform(pid)
+        made = self.platform(pid)
+        assert made is not None  # written just above
+        return made
 
     def add_deployment(self, platform_id: str, deployment_id: str) -> dict | None:
         """The platform with one more deployment id (None: no such platform)."""

@@ -40,11 +40,14 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
+from typing import TypeVar
 
 import httpx
 
 from server.core.paths import ROOT, SCENES
 from server.lti.platform import AGS_CLAIM, DL, INSTRUCTOR, LEARNER, Platform, free_port
+
+T = TypeVar("T")  # what a wait gives back
 
 EXAMPLE = SCENES / "grading"  # the example assignment, and its class's submissions
 SUBMISSION = EXAMPLE / "class" / "alice.json"
@@ -104,7 +107,7 @@ class Trial:
         if r.status_code not in want:
             raise AssertionError(f"{r.request.method} {r.request.url.path} answered {r.status_code}: {r.text[:300]}")
 
-    def wait(self, what: str, check: Callable[[], object], most: float, every: float = 0.5):
+    def wait(self, what: str, check: Callable[[], T | None], most: float, every: float = 0.5) -> T:
         """`check()`'s first true answer, asked every `every` s for at most `most` s (and the try's time left)."""
         until = time.monotonic() + max(0.0, min(most, self.left()))
         while True:
@@ -195,13 +198,13 @@ class Trial:
             self.answered(r, 202)
             sub = r.headers["location"]
 
-            def graded():
+            def graded_now() -> dict | None:
                 s = self.http.get(sub, headers=bearer(student)).json()
                 if s["status"] in ("failed", "rejected"):
                     raise AssertionError(f"the submission ended {s['status']}: {s.get('error')}")
                 return s if s["status"] == "graded" else None
 
-            graded = self.wait("the submission's grade (the workers render the reference, then it)", graded, 600)
+            graded = self.wait("the submission's grade (the workers render the reference, then it)", graded_now, 600)
             self.found["score"] = graded["score"]
             self.done(f"she handed in {SUBMISSION.relative_to(ROOT)}; graded {graded['score']:g} of "
                       f"{graded['max_score']:g}")  # fmt: skip
@@ -225,6 +228,7 @@ class Trial:
 
     def links(self) -> list[str]:
         p, f = self.platform, self.found
+        assert p is not None  # links are asked for after the try, which sets it
         out = [f"  the pretend LMS's course page (launch the tool in a browser): {p.url}/"]
         if "link" in f:
             out += [f"  ... as the student, through the real OIDC flow:     {p.start_url('student')}",
@@ -354,7 +358,9 @@ def main(args: argparse.Namespace, say: Callable[[str], None] = shout) -> int:
             else:
                 if args.data_dir is None:
                     temp = Path(tempfile.mkdtemp(prefix="lti-try-"))
-                data = args.data_dir or temp / "data"
+                    data = temp / "data"
+                else:
+                    data = args.data_dir
                 token = secrets.token_urlsafe(32)
                 tool = Tool(data, token, say)
                 say(f"Starting the tool: python -m server on 127.0.0.1:{tool.port}, data in {data} (a first start "

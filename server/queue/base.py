@@ -43,9 +43,11 @@ class JobQueue(Protocol):
 
     def workers(self) -> list[dict]:
         """The live workers (GET /api/health): slot, name, host, device, pid, alive, ready, job, ..."""
+        ...
 
     def capacity(self, lane: Lane) -> int:
         """How many workers take jobs of `lane` (for a queued job's expected wait)."""
+        ...
 
 
 def make_queue(settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False) -> JobQueue:

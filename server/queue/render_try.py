@@ -22,12 +22,20 @@ import json
 import logging
 import time
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from server.core.files import is_disk_full
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane, Stop, TryEnd
 from server.jobs.store import JobStore
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy as np
+
+    from tracer.radiosity.cache import SolutionCache
+    from tracer.scene import Limits
 
 log = logging.getLogger(__name__)
 
@@ -41,12 +49,15 @@ class Channel(Protocol):
     def stop_reason(self) -> Stop | None:
         """Stop.cancel (the job was cancelled), Stop.lost (it is no longer this try's), Stop.shutdown (the
         host asks for the job back), or None: go on."""
+        ...
 
     def should_yield(self) -> bool:
         """Is interactive work waiting for this worker? (asked of a batch render at each pass)"""
+        ...
 
     def snapshot(self) -> bytes | None:
         """The film this try continues from (a snapshot of an earlier try of the job), or None."""
+        ...
 
     def progress(self, **fields) -> None:
         """Progress fields: samples_done, samples_total, passes_done, spp_done, rays, preview, solve,
@@ -118,7 +129,7 @@ class Stopped(Exception):
 
 @dataclass
 class _Pass:
-    image: object  # (H, W, 3) float32
+    image: np.ndarray  # (H, W, 3) float32
     number: int
     spp: int
     rays: dict
@@ -278,12 +289,12 @@ class Try:
 
     job: dict
     channel: Channel
-    limits: object
+    limits: Limits
     threads: int
     preview_interval: float
-    stopping: object
+    stopping: Callable[[], bool]
     device: str = "cpu"
-    cache: object = None
+    cache: SolutionCache | None = None
     snapshot_interval: float = 10.0
 
     def run(self) -> TryEnd | Stop:
@@ -325,7 +336,7 @@ class Try:
         message = "; ".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in exc.errors)
         self.channel.finish(JobStatus.failed, error=f"invalid scene: {message}", errors=exc.errors)
 
-    def _raytree(self) -> str:
+    def _raytree(self) -> TryEnd | Stop:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
         the cache after the first click)."""
         from tracer import radiosity
@@ -404,7 +415,7 @@ class Try:
             return None
         return snap if snap["passes"] == want else None
 
-    def _render(self) -> str:
+    def _render(self) -> TryEnd | Stop:
         """A render: the scene compiled, then the renderer's passes (continuing from an earlier try's film
         when there is one) with a _Watch over them; the try ends done, giving way, or stopped."""
         from tracer.rendering.progressive import render
@@ -432,7 +443,7 @@ class Try:
             return self._gave_way(watch)
         return self._stopped(watch.stop_reason, watch.last, watch.published, watch.publish)
 
-    def _done(self, watch: _Watch, cs, result) -> str:
+    def _done(self, watch: _Watch, cs, result) -> TryEnd:
         """A finished render: its final image, AOVs and radiosity solution saved, then the job done."""
         done = watch.done
         final = _Pass(result.image, watch.last.number if watch.last else 1, result.spp, result.rays, done["total"])
@@ -448,8 +459,9 @@ class Try:
         log.info("job %s: done, %s", self.job["id"], result.stats_line())
         return TryEnd.done
 
-    def _gave_way(self, watch: _Watch) -> str:
+    def _gave_way(self, watch: _Watch) -> TryEnd:
         """A batch render that gave way to interactive work: back in the queue, to continue from its snapshot."""
+        assert watch.last is not None  # it gives way only at the end of a pass (on_pass)
         self.channel.give_back(TryEnd.gave_way, snapshot=watch.last.number, preview=watch.published)
         log.info("job %s: gave way to interactive work after pass %d", self.job["id"], watch.last.number)
         return TryEnd.gave_way

@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import wait
+from multiprocessing.process import BaseProcess
 
 from server.core.files import is_disk_full
 from server.core.settings import Settings
@@ -46,7 +47,7 @@ HARD_GRACE = 10.0  # seconds past a job's time limit before its worker is killed
 class Slot:
     index: int
     lanes: tuple = LANES  # the lanes its worker takes jobs from (an interactive slot: interactive only)
-    process: mp.process.BaseProcess | None = None
+    process: BaseProcess | None = None
     line: ServerEnd | None = None  # wake it, hear it is ready, close to stop it (server/queue/embedded/wakeup.py)
     started: float = 0.0
     restarts: int = 0
@@ -83,11 +84,13 @@ class WorkerPool:
         starting = [s for s in self.slots if s.process is not None and s.line is not None and not s.line.is_ready()]
         self._stop_workers()
         for slot in starting:  # still loading its kernels (seconds on a loaded machine): it has no job to give back
-            slot.process.kill()
-            slot.process.join(timeout=5)
-            job_id = self.store.running_on(slot.process.pid)  # one claimed in the moment since it was asked
+            process = slot.process
+            assert process is not None and process.pid is not None  # (picked above: started)
+            process.kill()
+            process.join(timeout=5)
+            job_id = self.store.running_on(process.pid)  # one claimed in the moment since it was asked
             if job_id is not None:
-                self.store.requeue(job_id, slot.process.pid)
+                self.store.requeue(job_id, process.pid)
         deadline = time.monotonic() + timeout
         for slot in self.slots:
             p = slot.process
@@ -190,14 +193,14 @@ class WorkerPool:
             log.warning("render worker %d (pid %d) %s", slot.index, p.pid, how)
 
     def _kill_overdue(self) -> None:
-        ours = {s.process.pid: s.process for s in self.slots if s.process is not None}
+        ours = {s.process.pid: s.process for s in self.slots if s.process is not None and s.process.pid is not None}
         for job in self.store.overdue(HARD_GRACE):
             p = ours.get(job["worker"])
             limit = job["max_seconds"]
             error = f"stopped: over the time limit of {limit:g} s per job (TRACER_MAX_JOB_SECONDS); worker killed"
             if self.store.fail(job["id"], job["worker"], error) and p is not None and p.is_alive():
-                log.warning("job %s over its time limit: killing worker %d", job["id"], p.pid)
-                os.kill(p.pid, signal.SIGKILL)
+                log.warning("job %s over its time limit: killing worker %d", job["id"], job["worker"])
+                os.kill(job["worker"], signal.SIGKILL)  # = p.pid (ours is by pid)
 
     # -- information --------------------------------------------------------------------------
 
@@ -213,7 +216,7 @@ class WorkerPool:
                     "alive": alive,
                     "ready": bool(alive and slot.line is not None and slot.line.is_ready()),
                     "restarts": slot.restarts,
-                    "job": self.store.running_on(p.pid) if alive else None,
+                    "job": self.store.running_on(p.pid) if alive and p is not None and p.pid is not None else None,
                     "lanes": [str(x) for x in slot.lanes],
                 }
             )

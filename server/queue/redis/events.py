@@ -27,6 +27,7 @@ Redis lost its data (`epoch`), and the mark of the one API that uses the databas
 from __future__ import annotations
 
 import json
+from enum import StrEnum
 
 from server.jobs.lifecycle import LANES
 
@@ -41,6 +42,15 @@ QUEUES = tuple(str(lane) for lane in LANES)  # the RQ queues, one per lane, in t
 STREAM_MAXLEN = 100_000  # events kept (approximately); the API acknowledges as it applies them
 BLOB_TTL = 24 * 3600  # seconds a file sent by a worker host waits for the API
 FLAG_TTL = 7 * 24 * 3600  # seconds the try, cancel and give-back keys live
+
+
+class EventKind(StrEnum):
+    """The kinds of event on the stream (the table above)."""
+
+    started = "started"
+    progress = "progress"
+    finish = "finish"
+    giveback = "giveback"
 
 
 def rq_job_id(job_id: str, attempt: int) -> str:
@@ -80,16 +90,18 @@ def blob_key(job_id: str, attempt: int, serial: int) -> str:
     return f"{PREFIX}blob:{rq_job_id(job_id, attempt)}:{serial}"
 
 
-def encode(kind: str, job_id: str, attempt: int, **data) -> dict[str, str]:
+def text(x: bytes | str) -> str:
+    """A Redis reply as text (this service's connections answer bytes: decode_responses is off)."""
+    return x.decode() if isinstance(x, bytes) else x
+
+
+def encode(kind: EventKind, job_id: str, attempt: int, **data) -> dict[str, str]:
     """A stream entry: its kind, job, try and data (JSON)."""
-    return {"kind": kind, "job": job_id, "attempt": str(attempt), "data": json.dumps(data, separators=(",", ":"))}
+    return {"kind": kind.value, "job": job_id, "attempt": str(attempt), "data": json.dumps(data, separators=(",", ":"))}
 
 
 def decode(fields: dict) -> tuple[str, str, int, dict]:
-    """A stream entry (bytes or str fields) -> (kind, job id, try, data)."""
-
-    def text(x) -> str:
-        return x.decode() if isinstance(x, bytes) else x
-
+    """A stream entry (bytes or str fields) -> (kind, job id, try, data); the kind as sent (an EventKind's value,
+    or a kind this API does not know, which it leaves alone)."""
     get = {text(k): text(v) for k, v in fields.items()}
     return get["kind"], get["job"], int(get["attempt"]), json.loads(get.get("data") or "{}")

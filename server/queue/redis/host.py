@@ -38,8 +38,10 @@ import threading
 import time
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import cast
 
 import redis
+from redis.typing import EncodableT, FieldT
 from rq import Queue, Worker, worker_registration
 from rq.exceptions import StopRequested
 from rq.utils import now
@@ -102,13 +104,14 @@ class RedisChannel:
         self.bytes_sent = 0
         self.unreachable = 0  # reports that could not reach Redis (dropped, or retried for the final one)
 
-    def _send(self, kind: str, **data) -> None:
+    def _send(self, kind: ev.EventKind, **data) -> None:
         entry = ev.encode(kind, self.job_id, self.attempt, **data)
-        self.r.xadd(ev.STREAM, entry, maxlen=ev.STREAM_MAXLEN, approximate=True)
+        fields: dict[FieldT, EncodableT] = {**entry}
+        self.r.xadd(ev.STREAM, fields, maxlen=ev.STREAM_MAXLEN, approximate=True)
         self.bytes_sent += sum(len(v) for v in entry.values())
 
     def started(self, worker: str) -> None:
-        self._send("started", host=HOST["host"], device=HOST["device"], worker=worker)
+        self._send(ev.EventKind.started, host=HOST["host"], device=HOST["device"], worker=worker)
 
     def stop_reason(self) -> Stop | None:
         if STOP():
@@ -134,12 +137,12 @@ class RedisChannel:
             first = self.r.lindex(Queue(ev.QUEUES[0], connection=self.r).key, 0)
             if first is None:
                 return False
-            enqueued = self.r.hget(f"rq:job:{first.decode()}", "enqueued_at")
+            enqueued = self.r.hget(f"rq:job:{ev.text(first)}", "enqueued_at")
         except redis.RedisError:
             return False
         if enqueued is None:
             return False
-        when = datetime.fromisoformat(enqueued.decode().replace("Z", "+00:00"))
+        when = datetime.fromisoformat(ev.text(enqueued).replace("Z", "+00:00"))
         if when.tzinfo is None:
             when = when.replace(tzinfo=UTC)
         return (datetime.now(UTC) - when).total_seconds() > 1.0
@@ -148,7 +151,7 @@ class RedisChannel:
         if not self.snapshot_key:
             return None
         try:
-            return self.r.get(self.snapshot_key)
+            return cast(bytes | None, self.r.get(self.snapshot_key))  # (bytes: decode_responses is off)
         except redis.RedisError:
             return None
 
@@ -166,18 +169,18 @@ class RedisChannel:
 
     def progress(self, **fields) -> None:
         try:
-            self._send("progress", fields=fields, files=self.files)
+            self._send(ev.EventKind.progress, fields=fields, files=self.files)
             self.files = {}
         except redis.RedisError:
             self.unreachable += 1  # a later report carries the state again
 
     def finish(self, status: JobStatus, **fields) -> None:
-        self._final("finish", status=JobStatus(status).value, fields=fields, files=self.files)
+        self._final(ev.EventKind.finish, status=JobStatus(status).value, fields=fields, files=self.files)
 
     def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
-        self._final("giveback", outcome=outcome, fields=fields, files=self.files)
+        self._final(ev.EventKind.giveback, outcome=outcome, fields=fields, files=self.files)
 
-    def _final(self, kind: str, **data) -> None:
+    def _final(self, kind: ev.EventKind, **data) -> None:
         """The last word of a try: retried while Redis is unreachable (a cut cable may come back)."""
         deadline = time.monotonic() + SEND_RETRY_SECONDS
         while True:
@@ -262,7 +265,7 @@ class HostWorker(Worker):
         connection = pipeline if pipeline is not None else self.connection
         # RQ drops a worker from its registry when anyone lists the workers while its key is missing (a
         # host cut off long enough): every heartbeat registers it again, so a host that comes back is seen
-        worker_registration.register(self, pipeline=connection)
+        worker_registration.register(self, pipeline=pipeline)  # (None: the worker's connection)
         key = ev.host_key(self.name)
         mapping = {"host": HOST["host"], "device": HOST["device"], "threads": HOST["threads"]}
         connection.hset(key, mapping={**mapping, "lanes": ",".join(self.queue_names())})

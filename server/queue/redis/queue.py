@@ -32,6 +32,7 @@ import threading
 import time
 from collections.abc import Callable
 from datetime import UTC, datetime
+from typing import cast
 
 import redis
 from rq import Queue, Worker
@@ -57,6 +58,10 @@ DIED_GRACE = 2.0  # seconds a dead render process's last events get to arrive be
 FINISHED_GRACE = 10.0
 WORKERS_SECONDS = 1.0  # how long the list of worker hosts read from Redis is kept (health, the lanes' capacity)
 
+# XREADGROUP's reply on a connection that answers bytes: [(stream, [(entry id, {field: value}), ...])], or
+# None when nothing came within the block
+StreamReply = list[tuple[bytes, list[tuple[bytes, dict[bytes, bytes]]]]] | None
+
 
 class RedisQueue:
     backend = "redis"
@@ -71,14 +76,15 @@ class RedisQueue:
         self.settings, self.store = settings, store
         self.clock = clock  # the wall clock of the monitor's graces and time limits (a test's own)
         self.stopping = stopping  # the server has been asked to stop: its local worker hosts are not restarted
-        self.url = settings.redis_url
+        assert settings.redis_url is not None  # (make_queue picks this backend for a Redis URL)
+        self.url: str = settings.redis_url
         self.r = redis.Redis.from_url(self.url, socket_timeout=10, socket_connect_timeout=5, health_check_interval=5)
         self.queues = {name: Queue(name, connection=self.r) for name in ev.QUEUES}
         self.lock = threading.RLock()
         self.stop = threading.Event()
         self.threads: list[threading.Thread] = []
         self.consumer = "api"  # one API per Redis: the same name after a restart finds what it had not acknowledged
-        self.epoch: str | None = None
+        self.epoch: bytes | None = None
         self._workers: tuple[float, list[dict]] | None = None  # (when, the worker hosts) as last read from Redis
         self.died_since: dict[str, float] = {}  # rq id -> when its render process was first seen dead
         self.hosts: list[subprocess.Popen | None] = [None] * settings.workers
@@ -91,7 +97,7 @@ class RedisQueue:
         self._hold_api_mark()
         self.r.hset(ev.CONFIG, mapping={"lost_after": self.settings.lost_after})
         self._ensure_group()
-        self.epoch = self.r.get(ev.EPOCH)
+        self.epoch = cast(bytes | None, self.r.get(ev.EPOCH))  # (bytes: decode_responses is off)
         if self.epoch is None:
             self.epoch = secrets.token_hex(8).encode()
             self.r.set(ev.EPOCH, self.epoch)
@@ -111,7 +117,7 @@ class RedisQueue:
         deadline = time.monotonic() + ev.API_TTL + 1
         while not self.r.set(ev.API, self.mark, nx=True, ex=ev.API_TTL):
             if time.monotonic() > deadline:
-                other = (self.r.get(ev.API) or b"?").decode()
+                other = ev.text(cast(bytes | None, self.r.get(ev.API)) or b"?")
                 raise RuntimeError(
                     f"another API uses this Redis database ({other}); give each API its own database "
                     "(redis://host:6379/N) or Redis"
@@ -179,7 +185,7 @@ class RedisQueue:
             alive = beat is not None and (now - beat).total_seconds() <= self.settings.lost_after + 1
             if not alive:
                 continue
-            info = {k.decode(): v.decode() for k, v in self.r.hgetall(ev.host_key(w.name)).items()}
+            info = {ev.text(k): ev.text(v) for k, v in self.r.hgetall(ev.host_key(w.name)).items()}
             current = w.get_current_job_id()
             parsed = ev.parse_rq_job_id(current) if current else None
             out.append(
@@ -203,6 +209,12 @@ class RedisQueue:
         return sum(1 for w in self.workers() if str(lane) in w["lanes"])
 
     # -- out: tries into RQ -------------------------------------------------------------------
+
+    def _row(self, job_id: str) -> dict:
+        """The row of a job that is there: queued or running (a job's row goes only after it finished)."""
+        row = self.store.get(job_id)
+        assert row is not None
+        return row
 
     def _enqueue(self, row: dict, attempt: int) -> None:
         """Put try `attempt` of a queued job into RQ (the store records it first)."""
@@ -245,11 +257,11 @@ class RedisQueue:
                 attempt = max(1, row["attempts"])
                 if self.r.exists(Job.key_for(ev.rq_job_id(row["id"], attempt))):
                     continue
-                full = self.store.get(row["id"])
+                full = self._row(row["id"])
                 if row["status"] == JobStatus.queued:
                     self._enqueue(full, attempt)
                 elif self.store.requeue(row["id"], Attempt(attempt)) == JobStatus.queued:  # not counted as lost
-                    self._enqueue(self.store.get(row["id"]), attempt + 1)
+                    self._enqueue(self._row(row["id"]), attempt + 1)
                     log.warning("job %s: its try %d is gone from Redis; queued again", row["id"], attempt)
 
     # -- in: events into the store ------------------------------------------------------------
@@ -265,8 +277,11 @@ class RedisQueue:
         pending = True  # first the entries delivered to this consumer before and not acknowledged
         while not self.stop.is_set():
             try:
-                got = self.r.xreadgroup(
-                    ev.GROUP, self.consumer, {ev.STREAM: "0" if pending else ">"}, count=100, block=500
+                got = cast(
+                    StreamReply,
+                    self.r.xreadgroup(
+                        ev.GROUP, self.consumer, {ev.STREAM: "0" if pending else ">"}, count=100, block=500
+                    ),
                 )
                 entries = got[0][1] if got else []
                 if pending and not entries:
@@ -299,7 +314,7 @@ class RedisQueue:
         self.stats["events"] += 1
         with self.lock:
             row = self.store.get(job_id)
-            if kind == "started":
+            if kind == ev.EventKind.started:
                 if self.store.start_try(job_id, attempt, data.get("host"), data.get("device"), data.get("worker")):
                     return
                 log.info("job %s: try %d started, but the job has moved on (%s)", job_id, attempt, _state(row))
@@ -314,18 +329,18 @@ class RedisQueue:
                 return
             self._copy_files(job_id, files)
             fence = Attempt(attempt)
-            if kind == "progress":
+            if kind == ev.EventKind.progress:
                 self.store.progress(job_id, fence, **data.get("fields", {}))
-            elif kind == "finish":
+            elif kind == ev.EventKind.finish:
                 self.store.finish(job_id, fence, JobStatus(data["status"]), **data.get("fields", {}))
                 self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
-            elif kind == "giveback":
+            elif kind == ev.EventKind.giveback:
                 if data.get("fields"):
                     self.store.progress(job_id, fence, **data["fields"])
                 outcome = TryEnd(data.get("outcome") or TryEnd.given_back)
                 moved = self.store.requeue(job_id, fence, outcome)
                 if moved == JobStatus.queued:
-                    self._enqueue(self.store.get(job_id), attempt + 1)
+                    self._enqueue(self._row(job_id), attempt + 1)
                     log.info("job %s: try %d %s; queued as try %d", job_id, attempt, outcome, attempt + 1)
                 elif moved == JobStatus.cancelled:  # its cancel was accepted while it ran: it ends here
                     self.r.delete(ev.try_key(job_id), ev.cancel_key(job_id))
@@ -407,7 +422,7 @@ class RedisQueue:
             self.stats["lost"] += 1
             status, next_attempt = moved
             if status == JobStatus.queued:
-                self._enqueue(self.store.get(job_id), next_attempt)
+                self._enqueue(self._row(job_id), next_attempt)
                 log.warning("job %s: try %d lost (%s); queued as try %d", job_id, attempt, reason, next_attempt)
             else:
                 self.r.delete(ev.try_key(job_id))
@@ -434,8 +449,8 @@ class RedisQueue:
             cmd += ["--threads", str(self.settings.render_threads)]
         env = {k: v for k, v in os.environ.items() if k != "TRACER_REDIS_URL_FILE"}
         env["TRACER_REDIS_URL"] = self.url  # in its environment, not on its command line (which ps shows)
-        self.hosts[slot] = subprocess.Popen(cmd, cwd=ROOT, env=env)
-        log.info("started local worker host %d (pid %d)", slot, self.hosts[slot].pid)
+        self.hosts[slot] = host = subprocess.Popen(cmd, cwd=ROOT, env=env)
+        log.info("started local worker host %d (pid %d)", slot, host.pid)
 
     def _keep_hosts(self) -> None:
         for slot, p in enumerate(self.hosts):
