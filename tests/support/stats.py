@@ -1,39 +1,19 @@
 """The class-statistics tests' assignment and scenes (tests/server/course/test_api_stats.py,
-tests/web/test_web_class_stats.py):
-the example's reference scene at 32 x 24, a spec of 6 points, a red-sky scene."""
+tests/web/test_web_class_stats.py): the course tests' small assignment (tests/support/dashboard.py: the example's
+reference scene at 32 x 24, 6 points for a scene) under a name of its own, and a red-sky scene."""
 
 from __future__ import annotations
 
-import json
+from tests.support.dashboard import SIZE, small_reference
+from tests.support.dashboard import small_spec as dashboard_spec
 
-from tests.support.scene import ROOT
-
-EXAMPLE = ROOT / "scenes" / "grading"
-SIZE = (32, 24)
-
-
-def reference() -> dict:
-    ref = json.loads((EXAMPLE / "reference.json").read_text())
-    ref["film"] = {"width": SIZE[0], "height": SIZE[1]}
-    ref["sampler"] = {"type": "jittered", "spp": 4}
-    return ref
+reference = small_reference  # the example's reference scene at SIZE, 4 spp
+__all__ = ["SIZE", "red", "reference", "small_spec"]
 
 
 def small_spec() -> dict:
     """Validity 1, 'a glass object' 1, 'an area light' 1, psnr 1, pixels 2: 6 points for a scene."""
-    return {
-        "version": 1,
-        "name": "HW 0: statistics",
-        "render": {"width": SIZE[0], "height": SIZE[1], "seed": 7},
-        "limits": {"max_seconds": 30, "max_spp": 16},
-        "validity": {"points": 1},
-        "requirements": [
-            {"name": "a glass object", "points": 1, "check": "transmissive_material"},
-            {"name": "an area light", "points": 1, "check": "area_light"},
-        ],
-        "reference": {"scene": reference(), "spp": 16, "psnr": {"points": 1}, "pixels": {"points": 2}},
-        "image": {"spp": 4},
-    }
+    return {**dashboard_spec(), "name": "HW 0: statistics"}
 
 
 def red(glass: bool) -> dict:
