@@ -116,8 +116,8 @@ def grading_scene(aid: str, sid: str, request: Request, course: CourseDep, calle
 def grading_assign(aid: str, body: GradersIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     """`{graders: [{id, students}]}`: the roster's students dealt in turn, as many each within one; the queue
     of each then holds their own."""
-    a, _ = _staff(course, aid, caller, request, "release")
-    return course.assign_graders(a, body.graders)
+    a, who = _staff(course, aid, caller, request, "release")
+    return course.assign_graders(a, body.graders, who)
 
 
 @router.put("/{aid}/grading/settings", summary="Anonymous grading on or off (an instructor)",
@@ -125,7 +125,7 @@ def grading_assign(aid: str, body: GradersIn, request: Request, course: CourseDe
 def grading_settings(aid: str, body: GradingSettingsIn, request: Request, course: CourseDep,
                      caller: CallerDep) -> dict:  # fmt: skip
     a, who = _staff(course, aid, caller, request, "release")
-    course.set_anonymous(a, body.anonymous)
+    course.set_anonymous(a, body.anonymous, who)
     return course.grading_state(a, who)
 
 
