@@ -205,17 +205,24 @@ class Manual(CourseBase):
     # -- the queue -------------------------------------------------------------------------------------------
 
     def grading_state(self, a: dict, who: Who) -> dict:
+        """The release, anonymity and points; the course's staff (who may be assigned), the graders assigned
+        (each with their number of students) and the caller's id (`you`)."""
         state = self.store.manual_state(a["id"])
         most = sum(m.points for m in self.manual_items(a))
+        assigned = list(self.store.graders(a["id"]).values())
+        graders = [{"id": g, "students": assigned.count(g)} for g in dict.fromkeys(assigned)]
+        staff = [{"id": s["person"], "name": s["name"], "role": s["role"]} for s in self.store.staff(a["course_id"])]
         return {"released": state["released_at"] is not None, "released_at": iso(state["released_at"]),
-                "anonymous": bool(state["anonymous"]), "max_points": most}  # fmt: skip
+                "anonymous": bool(state["anonymous"]), "max_points": most, "staff": staff, "graders": graders,
+                "you": who.person}  # fmt: skip
 
-    def queue(self, a: dict, who: Who, grader: str | None = None) -> list[dict]:
+    def queue(self, a: dict, who: Who, grader: str | None = None, everyone: bool = False) -> list[dict]:
         """The counting submissions still to grade (some item without a grade), in the roster's order: the
-        grader's own when graders are assigned (`grader`, else the caller's; the admin and an unassigned caller:
-        everyone's)."""
+        grader's own when graders are assigned (`grader`, else the caller's; the admin, an unassigned caller and
+        `everyone`: everyone's)."""
         assigned = self.store.graders(a["id"])
         mine = grader if grader is not None else (who.person if who.person in set(assigned.values()) else None)
+        mine = None if everyone else mine
         grades = self.store.manual_grades(a["id"])
         items = {m.name for m in self.manual_items(a)}
         out = []
@@ -226,9 +233,11 @@ class Manual(CourseBase):
                 out.append(c)
         return out
 
-    def next_to_grade(self, a: dict, who: Who, grader: str | None = None, after: str | None = None) -> dict | None:
-        """The next submission to grade (after `after` in the queue's order, wrapping), or None."""
-        todo = self.queue(a, who, grader)
+    def next_to_grade(
+        self, a: dict, who: Who, grader: str | None = None, after: str | None = None, everyone: bool = False
+    ) -> dict | None:
+        """The next submission to grade (after `after` in the queue's order, wrapping; `everyone`'s), or None."""
+        todo = self.queue(a, who, grader, everyone)
         if not todo:
             return None
         ids = [c["id"] for c in todo]

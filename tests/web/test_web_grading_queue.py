@@ -16,22 +16,17 @@ import pytest
 from tests.support.api import bearer, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.course_page import open_course
+from tests.support.manual import manual_spec
 from tests.support.page import TEACHER
-from tests.support.stats import red, reference, small_spec
+from tests.support.stats import red, reference
 
 DEADLINE = "2100-01-01T12:00:00Z"
-MANUAL = [
-    {"name": "creativity", "points": 3, "instructions": "More than the starter scene?",
-     "rubric": [{"name": "new objects", "points": 2, "description": "two or more"},
-                {"name": "a story", "points": 0.5}, {"name": "copied", "points": -3}]},
-    {"name": "lighting", "points": 2, "rubric": [{"name": "area light", "points": 2}, {"name": "mood", "points": 1}]},
-]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def assignment(server) -> tuple[str, dict]:
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
-        r = c.post("/api/assignments", json={"spec": {**small_spec(), "manual": MANUAL}, "deadline": DEADLINE})
+        r = c.post("/api/assignments", json={"spec": manual_spec(), "deadline": DEADLINE})
         assert r.status_code == 201, r.text
         aid = r.json()["id"]
         r = c.post(f"/api/assignments/{aid}/roster", content="id,name,email\nann,Ann A,\nbea,Bea B,\n",

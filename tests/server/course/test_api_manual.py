@@ -3,8 +3,10 @@ course with an instructor and two TAs, the statistics tests' small assignment (6
 items (creativity 3, lighting 2), a class of three (ann: full marks, bea: 2 points, cid: nothing). The TAs grade
 from the queue (the next counting submission, anonymous until the release), bad grades are 422s naming the field;
 before the release the student's view, grades.csv and the gradebook have the auto part only, after it both; an
-edit that changes a level's points changes the grade; graders dealt evenly see their own. Time is the app's
-clock, never slept to."""
+edit that changes a level's points changes the grade; graders dealt evenly see their own. Anonymous grading hides
+names from a TA in every view of the assignment until the release; the dashboard's and the statistics' grades count
+the manual part (marked not released); each change is an event of the audit trail. Time is the app's clock, never
+slept to."""
 
 from __future__ import annotations
 
@@ -16,20 +18,13 @@ from datetime import UTC, datetime, timedelta
 import pytest
 
 from tests.support.api import bearer, course_client, wait_for
-from tests.support.stats import red, reference, small_spec
+from tests.support.manual import MANUAL, manual_spec
+from tests.support.stats import red, reference
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=2)
-MANUAL = [
-    {"name": "creativity", "points": 3, "instructions": "More than the starter scene?",
-     "rubric": [{"name": "new objects", "points": 2, "description": "two or more"},
-                {"name": "a story", "points": 0.5}, {"name": "copied", "points": -3}]},
-    {"name": "lighting", "points": 2, "rubric": [{"name": "area light", "points": 2}, {"name": "mood", "points": 1}]},
-]  # fmt: skip
 
-
-def spec(manual=MANUAL) -> dict:
-    return {**small_spec(), "manual": copy.deepcopy(manual)}
+spec = manual_spec
 
 
 @pytest.fixture(scope="module")
@@ -241,6 +236,12 @@ def test_manual_graders_dealt_evenly_see_their_own(app, cls):
     assert app.get(f"/api/assignments/{aid}/grading/next?grader=ta-2", headers=staff["ta-1"]).status_code == 204
     state = app.get(f"/api/assignments/{aid}/grading", headers=staff["ta-1"]).json()
     assert (state["released"], state["remaining"], state["max_points"]) == (True, 1, 5)
+    assert state["graders"] == [{"id": "ta-1", "students": 2}, {"id": "ta-2", "students": 1}]
+    assert [(x["id"], x["role"]) for x in state["staff"]] == [("prof", "instructor"), ("ta-1", "ta"), ("ta-2", "ta")]
+    state = app.get(f"/api/assignments/{aid}/grading", headers=staff["ta-2"]).json()
+    assert (state["you"], state["remaining"], state["remaining_all"]) == ("ta-2", 0, 1)
+    nxt = app.get(f"/api/assignments/{aid}/grading/next?all=true", headers=staff["ta-2"])  # "all": another's too
+    assert nxt.status_code == 200 and nxt.json()["submission"] == sub.json()["id"], nxt.text
 
 
 def test_manual_each_change_is_in_the_audit_trail(app, cls):
