@@ -14,7 +14,8 @@ an instructor.
 - **Anonymous grading** (`anonymous`, an instructor's switch): until the release, the grading queue and a
   submission's grading view show everyone who grades (the instructor too) "Student 3" (the roster's order),
   never the id or name; and a TA sees the label in every view of that assignment (the dashboard's rows, a
-  student's detail, the submissions list, the similarity report's pairs: `hides_names`, `anonymous_labels`).
+  student's detail, the submissions list, the statistics' students, the similarity report's pairs:
+  `hides_names`, `anonymous_labels`).
   An instructor still sees names outside the queue: they keep the roster, extensions and tokens.
 - **The release** (`release`, an instructor's): until it, the manual part reaches no student, no export and no
   LMS; after it, a grade is the auto part plus the manual part, the late penalty taken off the whole

@@ -5,7 +5,7 @@ token gets the 404 of an unknown id, anyone else 401 or 403. Before submissions.
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, Query, Request, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from server.api.deps import CallerDep, CourseDep, instructor_check
@@ -75,13 +75,14 @@ def put_manual(aid: str, sid: str, item: str, body: ManualIn, request: Request, 
     responses={204: {"description": "nothing left to grade"}, **REFUSED},
 )
 def grading_next(aid: str, request: Request, course: CourseDep, caller: CallerDep, grader: str | None = None,
-                 after: str | None = None, all: bool = False) -> Response | dict:  # fmt: skip
+                 after: str | None = None,
+                 everyone: bool = Query(False, alias="all")) -> Response | dict:  # fmt: skip
     """Each roster student's counting submission without a grade of every manual item, in the roster's order
     (after `after`, wrapping): `{submission, student ({id, name}, or null while anonymous), label, kind, render,
     reference, scene, auto: {status, score, max_score, late, feedback}, items (the spec's), manual (the grades so
     far), remaining, url}`. When graders are assigned, the caller's own (or `grader`'s), or everyone's (`all`)."""
     a, who = _staff(course, aid, caller, request)
-    out = course.next_to_grade(a, who, grader, after, all)
+    out = course.next_to_grade(a, who, grader, after, everyone)
     return Response(status_code=204) if out is None else out
 
 

@@ -195,6 +195,11 @@ def anonymous_to_tas(app, cls) -> None:
     assert {v["student"] for v in detail["history"]} == {"Student 2"}
     assert app.get(f"/api/assignments/{aid}/students/bea", headers=ta).status_code == 404
     assert app.get(f"/api/assignments/{aid}/students/bea", headers=prof).json()["name"] == "Bea B"
+    per = app.get(f"/api/assignments/{aid}/stats", headers=ta).json()["per_student"]
+    assert [(r["id"], r["name"]) for r in per] == [(f"Student {i}", f"Student {i}") for i in (1, 2, 3)]
+    assert [r["id"] for r in app.get(f"/api/assignments/{aid}/stats", headers=prof).json()["per_student"]] == [
+        "ann", "bea", "cid"
+    ]  # fmt: skip
     subs = app.get(f"/api/assignments/{aid}/submissions", headers=ta).json()["submissions"]
     assert sorted(v["student"] for v in subs) == ["Student 1", "Student 2"]
     subs = app.get(f"/api/assignments/{aid}/submissions", headers=prof).json()["submissions"]
