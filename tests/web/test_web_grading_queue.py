@@ -13,12 +13,10 @@ import io
 import httpx
 import pytest
 
-from tests.support.api import bearer, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.course_page import open_course
-from tests.support.manual import manual_spec
+from tests.support.manual import publish_class
 from tests.support.page import TEACHER
-from tests.support.stats import red, reference
 
 DEADLINE = "2100-01-01T12:00:00Z"
 
@@ -26,21 +24,9 @@ DEADLINE = "2100-01-01T12:00:00Z"
 @pytest.fixture(scope="module")
 def assignment(server) -> tuple[str, dict]:
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
-        r = c.post("/api/assignments", json={"spec": manual_spec(), "deadline": DEADLINE})
-        assert r.status_code == 201, r.text
-        aid = r.json()["id"]
-        r = c.post(f"/api/assignments/{aid}/roster", content="id,name,email\nann,Ann A,\nbea,Bea B,\n",
-                   headers={"Content-Type": "text/csv"})  # fmt: skip
-        assert r.status_code == 200, r.text
-        tokens = {s["id"]: bearer(s["token"]) for s in r.json()["students"]}
-        sids = {}
-        for who, scene in (("ann", reference()), ("bea", red(glass=False))):
-            r = c.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=tokens[who])
-            assert r.status_code == 202, r.text
-            sids[who] = r.json()["id"]
-        for sid in sids.values():
-            url = f"/api/assignments/{aid}/submissions/{sid}"
-            wait_for(lambda u=url: c.get(u).json()["status"] == "graded", 240, f"{sid} graded", 0.2)
+        aid, tokens, sids = publish_class(
+            c, "/api/assignments", TEACHER, DEADLINE, "id,name,email\nann,Ann A,\nbea,Bea B,\n"
+        )
     return aid, sids, tokens
 
 

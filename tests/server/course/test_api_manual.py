@@ -18,8 +18,8 @@ from datetime import UTC, datetime, timedelta
 import pytest
 
 from tests.support.api import bearer, course_client, wait_for
-from tests.support.manual import MANUAL, manual_spec
-from tests.support.stats import red, reference
+from tests.support.manual import MANUAL, manual_spec, publish_class
+from tests.support.stats import reference
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=2)
@@ -42,24 +42,8 @@ def cls(app):
         r = app.post("/api/courses/cs-m/staff", json={"id": person, "name": person.title(), "role": role})
         assert r.status_code == 201, r.text
         staff[person] = bearer(r.json()["token"])
-    body = {"spec": spec(), "deadline": DEADLINE.isoformat()}
-    r = app.post("/api/assignments?course=cs-m", json=body, headers=staff["prof"])
-    assert r.status_code == 201, r.text
-    aid = r.json()["id"]
     roster = "id,name,email\nann,Ann A,\nbea,Bea B,\ncid,Cid C,\n"
-    r = app.post(
-        f"/api/assignments/{aid}/roster", content=roster, headers={"Content-Type": "text/csv", **staff["prof"]}
-    )
-    assert r.status_code == 200, r.text
-    tok = {s["id"]: bearer(s["token"]) for s in r.json()["students"]}
-    sids = {}
-    for student, scene in (("ann", reference()), ("bea", red(glass=False))):
-        r = app.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=tok[student])
-        assert r.status_code == 202, r.text
-        sids[student] = r.json()["id"]
-    for sid in sids.values():
-        url = f"/api/assignments/{aid}/submissions/{sid}"
-        wait_for(lambda u=url: app.get(u).json()["status"] in ("graded", "invalid", "failed"), 240, sid, 0.1)
+    aid, tok, sids = publish_class(app, "/api/assignments?course=cs-m", staff["prof"], DEADLINE.isoformat(), roster)
     return {"aid": aid, "staff": staff, "tok": tok, "sids": sids}
 
 
