@@ -13,6 +13,13 @@ A student's **state** is what the roster column says of them:
 `score` is the counting submission's after the late penalty (as grades.csv has it), `max_score` its own
 maximum (a scene's 13 or an image's 7 in the example), and `points` the score scaled to the spec's points
 (as gradebook.csv has it), which the distribution uses: scenes and images then share one axis.
+
+With staff-graded items (server/course/manual.py) a row also has `manual` (the graded items' points so far, None
+when none is graded), `released` (the manual part released to the students), `total` and `total_max` (the auto
+part plus the manual part graded so far, the late penalty taken off the whole: grades.csv's score and max_score
+once released), and `points` counts the manual part too (so do the mean, the median and the statistics, out of
+the spec's points plus the items'): staff see the manual part as it is graded, marked "not released" until the
+release.
 """
 
 from __future__ import annotations
@@ -28,7 +35,10 @@ PENDING = ("queued", "grading")
 
 def student_rows(course: Course, a: dict) -> list[dict]:
     """Each roster student with their deadline, state, counting score and submissions, in roster order."""
-    points = course.spec(a["id"], a["version"]).max_score()
+    spec = course.spec(a["id"], a["version"])
+    points = spec.max_score()
+    manual = course.store.manual_grades(a["id"]) if spec.manual else {}
+    released = bool(spec.manual) and course.released_at(a) is not None
     rows = []
     for st, mine, counting, score in course.class_grades(a):
         statuses = [status_of(s) for s in mine]
@@ -65,7 +75,30 @@ def student_rows(course: Course, a: dict) -> list[dict]:
                 "last_at": iso(mine[-1]["accepted_at"]) if mine else None,
             }
         )
+        if spec.manual:
+            _with_manual(course, a, rows[-1], counting, manual, released)
     return rows
+
+
+def _with_manual(course: Course, a: dict, row: dict, counting: dict | None, grades: dict, released: bool) -> None:
+    """A row's manual part (see the module's docstring): `manual`, `released`, `total`, `total_max`, `points`."""
+    spec = course.spec(a["id"], a["version"])
+    part = None if counting is None else course.manual_part(a, counting["id"], grades.get(counting["id"], {}))
+    row["manual"] = None if part is None else part["points"]
+    row["released"] = released
+    row["total"] = row["total_max"] = None
+    if counting is not None:
+        keep = 1 - (a["policy"]["late_penalty"] if counting["late"] else 0.0)
+        extra = (row["manual"] or 0.0) * keep
+        row["total"] = round(row["score"] + extra, 6)
+        row["total_max"] = (counting["max_score"] or 0) + spec.manual_points()
+        row["points"] = round(row["points"] + extra, 6)
+
+
+def max_points(course: Course, a: dict) -> float:
+    """The rows' `points` out of: the spec's points, plus its manual items' (counted as graded)."""
+    spec = course.spec(a["id"], a["version"])
+    return spec.max_score() + (spec.manual_points() if spec.manual else 0)
 
 
 def dashboard(course: Course, a: dict) -> dict:
@@ -79,7 +112,8 @@ def dashboard(course: Course, a: dict) -> dict:
         "id": a["id"],
         "version": a["version"],
         "name": a["spec"]["name"],
-        "max_points": course.spec(a["id"], a["version"]).max_score(),
+        "max_points": max_points(course, a),
+        "released": None if not course.manual_items(a) else course.released_at(a) is not None,
         "deadline": a["policy"]["deadline"],
         "now": iso(course.now()),
         "students": rows,
@@ -96,6 +130,16 @@ def dashboard(course: Course, a: dict) -> dict:
             "median": round(statistics.median(graded), 6) if graded else None,
         },
     }
+
+
+def masked(row: dict, label: str) -> dict:
+    """A dashboard row or a student's detail as a TA sees it under anonymous grading: the label for the id and the
+    name, no email, the label in each submission and in the tokens."""
+    out = {**row, "id": label, "name": label, "email": None, "anonymous": True}
+    if "history" in row:
+        out["history"] = [{**v, "student": label} for v in row["history"]]
+        out["tokens"] = {**row["tokens"], "student": label}
+    return out
 
 
 def student_detail(course: Course, a: dict, student: str) -> dict | None:

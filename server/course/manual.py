@@ -10,13 +10,21 @@ an instructor.
 - **The queue**: each roster student's counting submission (the one that is the grade, `Grades.counting`) that
   lacks a grade of some item, in the roster's order; when graders were assigned (`assign_graders`, round-robin
   over the roster, so each gets as many as the others within one), a grader's own only, unless they ask for
-  another's (`grader`). With `anonymous` on, graders see "Student 3" until the release, never the id or name.
+  another's (`grader`).
+- **Anonymous grading** (`anonymous`, an instructor's switch): until the release, the grading queue and a
+  submission's grading view show everyone who grades (the instructor too) "Student 3" (the roster's order),
+  never the id or name; and a TA sees the label in every view of that assignment (the dashboard's rows, a
+  student's detail, the submissions list, the statistics' students, the similarity report's pairs:
+  `hides_names`, `anonymous_labels`).
+  An instructor still sees names outside the queue: they keep the roster, extensions and tokens.
 - **The release** (`release`, an instructor's): until it, the manual part reaches no student, no export and no
   LMS; after it, a grade is the auto part plus the manual part, the late penalty taken off the whole
   (server/course/grades.py `total`). Grades changed after the release reach them at once.
 
-Each change goes through one method (`_set_manual_grade`, `_release`, `_set_graders`, `_set_anonymous`), where the
-audit trail's record goes.
+Each change goes through one method (`_set_manual_grade`, `_release`, `_set_graders`, `_set_anonymous`), which
+records it in the audit trail in the change's own transaction (server/course/audit.py): `manual.grade` (the item's
+points, levels, override and comment before and after), `assignment.release`, `manual.graders` ({student:
+grader} before and after), `manual.anonymous` (a switch that changes it).
 """
 
 from __future__ import annotations
@@ -24,6 +32,8 @@ from __future__ import annotations
 import logging
 
 from server.core.errors import Invalid, NotFound
+from server.core.roles import Role
+from server.course.audit import Target
 from server.course.base import CourseBase, iso, status_of
 from server.course.people import Who
 
@@ -41,6 +51,14 @@ class Manual(CourseBase):
     def released_at(self, a: dict) -> float | None:
         return self.store.manual_state(a["id"])["released_at"]
 
+    def manual_points(self, a: dict, item: str, row: dict) -> float:
+        """One grade's points by the current spec: the override, or the chosen levels' sum, clamped to 0..the
+        item's points (0 for an item the spec no longer has)."""
+        m = self.spec(a["id"], a["version"]).manual_item(item)
+        if m is None:
+            return 0.0
+        return m.score(row["rubric"]) if row["points"] is None else min(m.points, max(0.0, row["points"]))
+
     def manual_part(self, a: dict, sid: str, rows: dict | None = None) -> dict:
         """A submission's manual grades by the current spec: {points, max_points, complete, items: [...]}."""
         if rows is None:
@@ -50,7 +68,7 @@ class Manual(CourseBase):
             row = rows.get(m.name)
             points = None
             if row is not None:
-                points = m.score(row["rubric"]) if row["points"] is None else min(m.points, max(0.0, row["points"]))
+                points = self.manual_points(a, m.name, row)
                 total += points
             items.append(
                 {"name": m.name, "max_points": m.points, "points": points,
@@ -109,12 +127,15 @@ class Manual(CourseBase):
         if len(comment) > MAX_COMMENT:
             raise Invalid([{"path": "comment", "message": f"at most {MAX_COMMENT} characters; got {len(comment)}"}])
         row = {"rubric": chosen, "points": points, "comment": comment, "grader": who.person}
-        self._set_manual_grade(a, sub, item, row)
+        self._set_manual_grade(a, sub, item, row, who)
         return self.grading_view(a, sub, who)
 
-    def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict) -> None:
-        """The one write of a manual grade (the audit trail's record goes here)."""
-        self.store.set_manual(a["id"], sub["id"], item, row, self.now())
+    def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict, who: Who) -> None:
+        """The one write of a manual grade, audited (`manual.grade`) in its transaction."""
+        target = Target(a["course_id"], a["id"], student=sub["student"], submission=sub["id"])
+        self.store.set_manual(
+            a["id"], sub["id"], item, row, self.now(), self.by(who), target, lambda r: self.manual_points(a, item, r)
+        )
         log.info("manual grade of %s for submission %s by %s", item, sub["id"], row["grader"] or "the admin")
         if self.released_at(a) is not None:
             self._grade_moved(sub)
@@ -133,18 +154,19 @@ class Manual(CourseBase):
         return self.grading_state(a, who)
 
     def _release(self, a: dict, who: Who) -> None:
-        """The one write of a release (the audit trail's record goes here)."""
-        self.store.release_manual(a["id"], who.person, self.now())
+        """The one write of a release, audited (`assignment.release`) in its transaction."""
+        self.store.release_manual(a["id"], who.person, self.now(), self.by(who), Target(a["course_id"], a["id"]))
         log.info("manual grades of assignment %s released by %s", a["id"], who.person or "the admin")
 
-    def set_anonymous(self, a: dict, anonymous: bool) -> dict:
-        self._set_anonymous(a, anonymous)
+    def set_anonymous(self, a: dict, anonymous: bool, who: Who) -> dict:
+        self._set_anonymous(a, anonymous, who)
         return self.store.manual_state(a["id"])
 
-    def _set_anonymous(self, a: dict, anonymous: bool) -> None:
-        self.store.set_anonymous(a["id"], anonymous)
+    def _set_anonymous(self, a: dict, anonymous: bool, who: Who) -> None:
+        """The one write of anonymity, audited (`manual.anonymous`, when it changes) in its transaction."""
+        self.store.set_anonymous(a["id"], anonymous, self.by(who), Target(a["course_id"], a["id"]))
 
-    def assign_graders(self, a: dict, graders: list[str]) -> dict:
+    def assign_graders(self, a: dict, graders: list[str], who: Who) -> dict:
         """The roster's students dealt to `graders` (staff ids of the course) in turn: as many each, within one."""
         staff = {s["person"] for s in self.store.staff(a["course_id"])}
         if not graders:
@@ -156,28 +178,52 @@ class Manual(CourseBase):
         graders = list(dict.fromkeys(graders))
         students = [st["student"] for st in self.store.students(a["id"])]
         pairs = [(s, graders[i % len(graders)]) for i, s in enumerate(students)]
-        self._set_graders(a, pairs)
+        self._set_graders(a, pairs, who)
         counts = {g: sum(1 for _, x in pairs if x == g) for g in graders}
         return {"graders": [{"id": g, "students": n} for g, n in counts.items()]}
 
-    def _set_graders(self, a: dict, pairs: list[tuple[str, str]]) -> None:
-        """The one write of the graders' assignment (the audit trail's record goes here)."""
-        self.store.set_graders(a["id"], pairs)
+    def _set_graders(self, a: dict, pairs: list[tuple[str, str]], who: Who) -> None:
+        """The one write of the graders' assignment, audited (`manual.graders`) in its transaction."""
+        self.store.set_graders(a["id"], pairs, self.by(who), Target(a["course_id"], a["id"]))
+
+    # -- anonymity -------------------------------------------------------------------------------------------
+
+    def hides_names(self, a: dict, who: Who) -> bool:
+        """Are students' names hidden from this caller now: anonymous grading on, not released, and a TA?"""
+        if who.student is not None or who.role != Role.TA:
+            return False
+        state = self.store.manual_state(a["id"])
+        return bool(state["anonymous"]) and state["released_at"] is None
+
+    def anonymous_labels(self, a: dict) -> dict[str, str]:
+        """{student id: "Student N"} by the roster's order (the grading queue's labels)."""
+        return {st["student"]: f"Student {i}" for i, st in enumerate(self.store.students(a["id"]), 1)}
+
+    def anonymous_student(self, a: dict, label: str) -> str | None:
+        """The student a label stands for (None: no such label)."""
+        return next((s for s, x in self.anonymous_labels(a).items() if x == label), None)
 
     # -- the queue -------------------------------------------------------------------------------------------
 
     def grading_state(self, a: dict, who: Who) -> dict:
+        """The release, anonymity and points; the course's staff (who may be assigned), the graders assigned
+        (each with their number of students) and the caller's id (`you`)."""
         state = self.store.manual_state(a["id"])
         most = sum(m.points for m in self.manual_items(a))
+        assigned = list(self.store.graders(a["id"]).values())
+        graders = [{"id": g, "students": assigned.count(g)} for g in dict.fromkeys(assigned)]
+        staff = [{"id": s["person"], "name": s["name"], "role": s["role"]} for s in self.store.staff(a["course_id"])]
         return {"released": state["released_at"] is not None, "released_at": iso(state["released_at"]),
-                "anonymous": bool(state["anonymous"]), "max_points": most}  # fmt: skip
+                "anonymous": bool(state["anonymous"]), "max_points": most, "staff": staff, "graders": graders,
+                "you": who.person}  # fmt: skip
 
-    def queue(self, a: dict, who: Who, grader: str | None = None) -> list[dict]:
+    def queue(self, a: dict, who: Who, grader: str | None = None, everyone: bool = False) -> list[dict]:
         """The counting submissions still to grade (some item without a grade), in the roster's order: the
-        grader's own when graders are assigned (`grader`, else the caller's; the admin and an unassigned caller:
-        everyone's)."""
+        grader's own when graders are assigned (`grader`, else the caller's; the admin, an unassigned caller and
+        `everyone`: everyone's)."""
         assigned = self.store.graders(a["id"])
         mine = grader if grader is not None else (who.person if who.person in set(assigned.values()) else None)
+        mine = None if everyone else mine
         grades = self.store.manual_grades(a["id"])
         items = {m.name for m in self.manual_items(a)}
         out = []
@@ -188,9 +234,11 @@ class Manual(CourseBase):
                 out.append(c)
         return out
 
-    def next_to_grade(self, a: dict, who: Who, grader: str | None = None, after: str | None = None) -> dict | None:
-        """The next submission to grade (after `after` in the queue's order, wrapping), or None."""
-        todo = self.queue(a, who, grader)
+    def next_to_grade(
+        self, a: dict, who: Who, grader: str | None = None, after: str | None = None, everyone: bool = False
+    ) -> dict | None:
+        """The next submission to grade (after `after` in the queue's order, wrapping; `everyone`'s), or None."""
+        todo = self.queue(a, who, grader, everyone)
         if not todo:
             return None
         ids = [c["id"] for c in todo]

@@ -3,7 +3,8 @@
 
 **Whose submission.** Each roster student's counting submission is the dashboard's and the grades' (
 `dashboard.student_rows`, which is `Course.class_grades` and `Course.counting`: the last graded or the best, as
-the policy says); its points are the dashboard's (the score after the late penalty, in the spec's points).
+the policy says); its points are the dashboard's (the score after the late penalty, in the spec's points; with
+staff-graded items, plus the manual part graded so far, out of the spec's points and the items').
 
 - `histogram`: the counting points in tenths of the spec's points (the dashboard's Scores bars: a score of
   exactly the maximum is in the last bar), with the mean and the median.
@@ -33,6 +34,7 @@ from __future__ import annotations
 import io
 import statistics
 
+from server.course import dashboard
 from server.course.assignments import test_keys
 from server.course.base import iso, report_keys, status_of
 from server.course.dashboard import student_rows
@@ -125,7 +127,7 @@ def student_stats(course: Course, a: dict) -> tuple[list[dict], dict[str, dict[s
 def stats(course: Course, a: dict) -> dict:
     """The assignment's class statistics (see the module's docstring)."""
     spec = course.spec(a["id"], a["version"])
-    max_points = spec.max_score()
+    max_points = dashboard.max_points(course, a)  # the spec's points and its manual items' (dashboard.max_points)
     students, tests = student_stats(course, a)
     points = [r["points"] for r in students if r["points"] is not None]
 

@@ -111,6 +111,7 @@ class CourseStore(ManualTables, Tables):
                 after = {"version": version, "policy": {k: policy.get(k) for k in changed}}
                 after["spec_changed"] = spec_changed
                 record(by, db, "edit", Target(row["course_id"], aid), before, after)
+                self.record_rescore(db, by, Target(row["course_id"], aid), json.loads(row["spec"]), json.loads(spec))
             db.execute(
                 "INSERT INTO course_versions (assignment_id, version, spec, policy, run_id, created_at)"
                 " VALUES (?, ?, ?, ?, ?, ?)",

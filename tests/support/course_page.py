@@ -32,12 +32,13 @@ def write(tmp: Path, name: str, data) -> str:
     return str(path)
 
 
-def open_course(browser, server, tmp: Path):
+def open_course(browser, server, tmp: Path, token: str = INSTRUCTOR):
+    """/course with `token` typed in (the admin's, or a staff member's)."""
     p = CoursePage(browser, server, DESKTOP)
     p.allow.append(r"status of 401")  # the page's first request, before the token is typed, is refused
     p.page.goto(f"{server.url}/course")
     p.page.wait_for_selector("body[data-ready=true]", state="attached")
-    p.page.fill("#course-token", INSTRUCTOR)
+    p.page.fill("#course-token", token)
     p.page.dispatch_event("#course-token", "change")
     p.page.wait_for_function("() => document.querySelector('#course-access-status').dataset.kind === 'ok'")
     return p

@@ -13,39 +13,20 @@ import io
 import httpx
 import pytest
 
-from tests.support.api import bearer, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.course_page import open_course
+from tests.support.manual import publish_class
 from tests.support.page import TEACHER
-from tests.support.stats import red, reference, small_spec
 
 DEADLINE = "2100-01-01T12:00:00Z"
-MANUAL = [
-    {"name": "creativity", "points": 3, "instructions": "More than the starter scene?",
-     "rubric": [{"name": "new objects", "points": 2, "description": "two or more"},
-                {"name": "a story", "points": 0.5}, {"name": "copied", "points": -3}]},
-    {"name": "lighting", "points": 2, "rubric": [{"name": "area light", "points": 2}, {"name": "mood", "points": 1}]},
-]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def assignment(server) -> tuple[str, dict]:
     with httpx.Client(base_url=server.url, timeout=60, headers=TEACHER) as c:
-        r = c.post("/api/assignments", json={"spec": {**small_spec(), "manual": MANUAL}, "deadline": DEADLINE})
-        assert r.status_code == 201, r.text
-        aid = r.json()["id"]
-        r = c.post(f"/api/assignments/{aid}/roster", content="id,name,email\nann,Ann A,\nbea,Bea B,\n",
-                   headers={"Content-Type": "text/csv"})  # fmt: skip
-        assert r.status_code == 200, r.text
-        tokens = {s["id"]: bearer(s["token"]) for s in r.json()["students"]}
-        sids = {}
-        for who, scene in (("ann", reference()), ("bea", red(glass=False))):
-            r = c.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=tokens[who])
-            assert r.status_code == 202, r.text
-            sids[who] = r.json()["id"]
-        for sid in sids.values():
-            url = f"/api/assignments/{aid}/submissions/{sid}"
-            wait_for(lambda u=url: c.get(u).json()["status"] == "graded", 240, f"{sid} graded", 0.2)
+        aid, tokens, sids = publish_class(
+            c, "/api/assignments", TEACHER, DEADLINE, "id,name,email\nann,Ann A,\nbea,Bea B,\n"
+        )
     return aid, sids, tokens
 
 

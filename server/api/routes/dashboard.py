@@ -9,6 +9,7 @@ from server.api.deps import (
     CallerDep,
     CourseDep,
     MaybeLmsDep,
+    instructor_check,
 )
 from server.api.errors import ApiError
 from server.api.routes.course_common import NOT_FOUND, csv_response, staff_assignment
@@ -37,8 +38,11 @@ def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep, 
     """Every roster student with their deadline (an extension marked), state (none, submitted, graded,
     invalid, failed), counting score, submissions and whether self-declared; and the class's counts, mean and
     median. One answer for the whole class, for a page that follows it while it submits."""
-    a = staff_assignment(course, aid, caller, request)
+    a, who = course.staff(aid, caller, instructor_check(request))
     out = course_board.dashboard(course, a)
+    if course.hides_names(a, who):  # anonymous grading: a TA sees the queue's labels (server/course/manual.py)
+        labels = course.anonymous_labels(a)
+        out["students"] = [course_board.masked(r, labels.get(r["id"], "Student ?")) for r in out["students"]]
     out["tree_whats"] = owntrees.whats(course, a)  # own tracers: the class's first differences by `what`
     out["lms"] = lms.board(aid, a["course_id"]) if lms is not None else None
     out["course"] = a["course_id"]
@@ -53,7 +57,11 @@ def dashboard(aid: str, request: Request, course: CourseDep, caller: CallerDep, 
 def student_detail(aid: str, student: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     """The student's dashboard row and their history: each submission as GET .../submissions/{sid} shows it
     to the instructor (status, late, score, feedback, pictures), oldest first."""
-    out = course_board.student_detail(course, staff_assignment(course, aid, caller, request), student)
+    a, who = course.staff(aid, caller, instructor_check(request))
+    hidden = course.hides_names(a, who)  # anonymous grading: a TA names the student by their label
+    out = course_board.student_detail(course, a, course.anonymous_student(a, student) or "" if hidden else student)
+    if out is not None and hidden:
+        out = course_board.masked(out, student)
     if out is None:
         raise ApiError(404, [{"path": "student", "message": f"no student '{student[:80]}' on the roster"}])
     return out

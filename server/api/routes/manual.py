@@ -5,7 +5,7 @@ token gets the 404 of an unknown id, anyone else 401 or 403. Before submissions.
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, Query, Request, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from server.api.deps import CallerDep, CourseDep, instructor_check
@@ -75,23 +75,26 @@ def put_manual(aid: str, sid: str, item: str, body: ManualIn, request: Request, 
     responses={204: {"description": "nothing left to grade"}, **REFUSED},
 )
 def grading_next(aid: str, request: Request, course: CourseDep, caller: CallerDep, grader: str | None = None,
-                 after: str | None = None) -> Response | dict:  # fmt: skip
+                 after: str | None = None,
+                 everyone: bool = Query(False, alias="all")) -> Response | dict:  # fmt: skip
     """Each roster student's counting submission without a grade of every manual item, in the roster's order
     (after `after`, wrapping): `{submission, student ({id, name}, or null while anonymous), label, kind, render,
     reference, scene, auto: {status, score, max_score, late, feedback}, items (the spec's), manual (the grades so
-    far), remaining, url}`. When graders are assigned, the caller's own (or `grader`'s)."""
+    far), remaining, url}`. When graders are assigned, the caller's own (or `grader`'s), or everyone's (`all`)."""
     a, who = _staff(course, aid, caller, request)
-    out = course.next_to_grade(a, who, grader, after)
+    out = course.next_to_grade(a, who, grader, after, everyone)
     return Response(status_code=204) if out is None else out
 
 
 @router.get("/{aid}/grading", summary="The manual grading's state (the course's staff)", responses=REFUSED)
 def grading_state(aid: str, request: Request, course: CourseDep, caller: CallerDep) -> dict:
-    """`{released, released_at, anonymous, max_points, items, remaining}`."""
+    """`{released, released_at, anonymous, max_points, staff: [{id, name, role}], graders: [{id, students}], you,
+    items, remaining (the caller's queue), remaining_all (everyone's)}`."""
     a, who = _staff(course, aid, caller, request)
     out = course.grading_state(a, who)
     out["items"] = [m.model_dump() for m in course.manual_items(a)]
     out["remaining"] = len(course.queue(a, who)) if out["items"] else 0
+    out["remaining_all"] = len(course.queue(a, who, everyone=True)) if out["items"] else 0
     return out
 
 
@@ -116,8 +119,8 @@ def grading_scene(aid: str, sid: str, request: Request, course: CourseDep, calle
 def grading_assign(aid: str, body: GradersIn, request: Request, course: CourseDep, caller: CallerDep) -> dict:
     """`{graders: [{id, students}]}`: the roster's students dealt in turn, as many each within one; the queue
     of each then holds their own."""
-    a, _ = _staff(course, aid, caller, request, "release")
-    return course.assign_graders(a, body.graders)
+    a, who = _staff(course, aid, caller, request, "release")
+    return course.assign_graders(a, body.graders, who)
 
 
 @router.put("/{aid}/grading/settings", summary="Anonymous grading on or off (an instructor)",
@@ -125,7 +128,7 @@ def grading_assign(aid: str, body: GradersIn, request: Request, course: CourseDe
 def grading_settings(aid: str, body: GradingSettingsIn, request: Request, course: CourseDep,
                      caller: CallerDep) -> dict:  # fmt: skip
     a, who = _staff(course, aid, caller, request, "release")
-    course.set_anonymous(a, body.anonymous)
+    course.set_anonymous(a, body.anonymous, who)
     return course.grading_state(a, who)
 
 

@@ -9,6 +9,8 @@ from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import CallerDep, SimilarityDep, instructor_check
 from server.api.models import ErrorResponse
+from server.core.security import Caller
+from server.course.similarity import Reports
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
 REFUSED = {
@@ -44,4 +46,20 @@ async def report(aid: str, request: Request, reports: SimilarityDep, caller: Cal
     computed_at, since, note, how}`. `status`: none (never asked), computing, done or failed. `score` is the
     pair's distance (0: the same), `typical` the class's median nearest-neighbour distance; `pairs` are the
     flagged ones, closest first; `closest` the nearest that were not flagged. `note` says what a flag means."""
-    return await run_in_threadpool(reports.get, aid, caller, instructor_check(request))
+    out = await run_in_threadpool(reports.get, aid, caller, instructor_check(request))
+    return await run_in_threadpool(_anonymous, reports, aid, caller, request, out)
+
+
+def _anonymous(reports: Reports, aid: str, caller: Caller, request: Request, out: dict) -> dict:
+    """Under anonymous grading, until the release, a TA sees each pair's students as the grading queue's labels
+    (server/course/manual.py `hides_names`)."""
+    course = reports.course
+    a, who = course.staff(aid, caller, instructor_check(request))
+    if not course.hides_names(a, who):
+        return out
+    labels = course.anonymous_labels(a)
+
+    def mask(pairs: list[dict]) -> list[dict]:
+        return [{**p, "a": labels.get(p["a"], "Student ?"), "b": labels.get(p["b"], "Student ?")} for p in pairs]
+
+    return {**out, **{k: mask(out[k]) for k in ("pairs", "closest") if isinstance(out.get(k), list)}}

@@ -116,7 +116,11 @@ def submissions(aid: str, course: CourseDep, caller: CallerDep) -> dict:
         c = course.counting(a, [s for s in subs if s["student"] == student])
         if c is not None:
             counting[student] = c["id"]
-    return {"submissions": [course.view(a, s, who, counting.get(s["student"])) for s in subs]}
+    views = [course.view(a, s, who, counting.get(s["student"])) for s in subs]
+    if course.hides_names(a, who):  # anonymous grading: a TA sees the queue's labels (server/course/manual.py)
+        labels = course.anonymous_labels(a)
+        views = [{**v, "student": labels.get(v["student"], "Student ?")} for v in views]
+    return {"submissions": views}
 
 
 @router.get("/{aid}/submissions/{sid}", summary="One submission: status, score, feedback", responses=NOT_FOUND)

@@ -3,8 +3,10 @@ course with an instructor and two TAs, the statistics tests' small assignment (6
 items (creativity 3, lighting 2), a class of three (ann: full marks, bea: 2 points, cid: nothing). The TAs grade
 from the queue (the next counting submission, anonymous until the release), bad grades are 422s naming the field;
 before the release the student's view, grades.csv and the gradebook have the auto part only, after it both; an
-edit that changes a level's points changes the grade; graders dealt evenly see their own. Time is the app's
-clock, never slept to."""
+edit that changes a level's points changes the grade; graders dealt evenly see their own. Anonymous grading hides
+names from a TA in every view of the assignment until the release; the dashboard's and the statistics' grades count
+the manual part (marked not released); each change is an event of the audit trail. Time is the app's clock, never
+slept to."""
 
 from __future__ import annotations
 
@@ -16,20 +18,13 @@ from datetime import UTC, datetime, timedelta
 import pytest
 
 from tests.support.api import bearer, course_client, wait_for
-from tests.support.stats import red, reference, small_spec
+from tests.support.manual import MANUAL, manual_spec, publish_class
+from tests.support.stats import reference
 
 T0 = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 DEADLINE = T0 + timedelta(days=2)
-MANUAL = [
-    {"name": "creativity", "points": 3, "instructions": "More than the starter scene?",
-     "rubric": [{"name": "new objects", "points": 2, "description": "two or more"},
-                {"name": "a story", "points": 0.5}, {"name": "copied", "points": -3}]},
-    {"name": "lighting", "points": 2, "rubric": [{"name": "area light", "points": 2}, {"name": "mood", "points": 1}]},
-]  # fmt: skip
 
-
-def spec(manual=MANUAL) -> dict:
-    return {**small_spec(), "manual": copy.deepcopy(manual)}
+spec = manual_spec
 
 
 @pytest.fixture(scope="module")
@@ -47,24 +42,8 @@ def cls(app):
         r = app.post("/api/courses/cs-m/staff", json={"id": person, "name": person.title(), "role": role})
         assert r.status_code == 201, r.text
         staff[person] = bearer(r.json()["token"])
-    body = {"spec": spec(), "deadline": DEADLINE.isoformat()}
-    r = app.post("/api/assignments?course=cs-m", json=body, headers=staff["prof"])
-    assert r.status_code == 201, r.text
-    aid = r.json()["id"]
     roster = "id,name,email\nann,Ann A,\nbea,Bea B,\ncid,Cid C,\n"
-    r = app.post(
-        f"/api/assignments/{aid}/roster", content=roster, headers={"Content-Type": "text/csv", **staff["prof"]}
-    )
-    assert r.status_code == 200, r.text
-    tok = {s["id"]: bearer(s["token"]) for s in r.json()["students"]}
-    sids = {}
-    for student, scene in (("ann", reference()), ("bea", red(glass=False))):
-        r = app.post(f"/api/assignments/{aid}/submissions", json={"scene": scene}, headers=tok[student])
-        assert r.status_code == 202, r.text
-        sids[student] = r.json()["id"]
-    for sid in sids.values():
-        url = f"/api/assignments/{aid}/submissions/{sid}"
-        wait_for(lambda u=url: app.get(u).json()["status"] in ("graded", "invalid", "failed"), 240, sid, 0.1)
+    aid, tok, sids = publish_class(app, "/api/assignments?course=cs-m", staff["prof"], DEADLINE.isoformat(), roster)
     return {"aid": aid, "staff": staff, "tok": tok, "sids": sids}
 
 
@@ -138,6 +117,14 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv").text)))
     assert book[1][5] == "6" and book[2][5] == "6"
     assert app.post(f"/api/assignments/{aid}/release", headers=ta1).status_code == 403
+    anonymous_to_tas(app, cls)
+    board = app.get(f"/api/assignments/{aid}/dashboard", headers=prof).json()
+    assert (board["max_points"], board["released"], board["summary"]["mean"]) == (11, False, 6.75)
+    assert [(r["score"], r["manual"], r["total"], r["total_max"], r["points"], r["released"])
+            for r in board["students"]] == [(6, 4.5, 10.5, 11, 10.5, False), (2, 1, 3, 11, 3, False),
+                                            (None, None, None, None, None, False)]  # fmt: skip
+    stats = app.get(f"/api/assignments/{aid}/stats", headers=prof).json()
+    assert stats["max_points"] == 11 and [b["count"] for b in stats["histogram"]["bins"]][2::7] == [1, 1]
 
     app.app.state.clock.now = T0 + timedelta(hours=1)
     r = app.post(f"/api/assignments/{aid}/release", headers=prof)
@@ -150,6 +137,12 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
     assert grades_csv(app, aid) == {"ann": ["10.5", "11"], "bea": ["3", "11"], "cid": ["", ""]}
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv").text)))
     assert (book[1][5], book[2][5], book[3][5]) == ("11", "10.5", "3")
+    board = app.get(f"/api/assignments/{aid}/dashboard", headers=ta1).json()  # the grades.csv's totals, released
+    assert board["released"] and [(r["name"], r["total"], r["total_max"]) for r in board["students"]] == [
+        ("Ann A", 10.5, 11),
+        ("Bea B", 3, 11),
+        ("Cid C", None, None),
+    ]
     nxt = app.get(f"/api/assignments/{aid}/grading/submissions/{sids['bea']}", headers=ta1).json()
     assert nxt["student"] == {"id": "bea", "name": "Bea B"}  # anonymous until the release only
 
@@ -161,6 +154,46 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
     assert grades_csv(app, aid)["ann"] == ["11", "11"]
     view = app.get(f"/api/assignments/{aid}/submissions/{sids['ann']}", headers=tok["ann"]).json()
     assert view["manual"]["items"][0]["points"] == 3 and view["total"] == 11
+
+
+def anonymous_to_tas(app, cls) -> None:
+    """Anonymous grading, not released: a TA sees the queue's labels in the dashboard, a student's detail (asked
+    for by label), the submissions list and the similarity report's pairs; the instructor sees names there."""
+    aid, staff, sids = cls["aid"], cls["staff"], cls["sids"]
+    ta, prof = staff["ta-1"], staff["prof"]
+    rows = app.get(f"/api/assignments/{aid}/dashboard", headers=ta).json()["students"]
+    assert [(r["id"], r["name"], r["email"]) for r in rows] == [
+        (f"Student {i}", f"Student {i}", None) for i in (1, 2, 3)
+    ]
+    rows = app.get(f"/api/assignments/{aid}/dashboard", headers=prof).json()["students"]
+    assert [r["name"] for r in rows] == ["Ann A", "Bea B", "Cid C"]
+    r = app.get(f"/api/assignments/{aid}/students/Student 2", headers=ta)
+    assert r.status_code == 200, r.text
+    detail = r.json()
+    assert (detail["name"], detail["email"], detail["counting"], detail["tokens"]["student"]) == (
+        "Student 2",
+        None,
+        sids["bea"],
+        "Student 2",
+    )
+    assert {v["student"] for v in detail["history"]} == {"Student 2"}
+    assert app.get(f"/api/assignments/{aid}/students/bea", headers=ta).status_code == 404
+    assert app.get(f"/api/assignments/{aid}/students/bea", headers=prof).json()["name"] == "Bea B"
+    per = app.get(f"/api/assignments/{aid}/stats", headers=ta).json()["per_student"]
+    assert [(r["id"], r["name"]) for r in per] == [(f"Student {i}", f"Student {i}") for i in (1, 2, 3)]
+    assert [r["id"] for r in app.get(f"/api/assignments/{aid}/stats", headers=prof).json()["per_student"]] == [
+        "ann", "bea", "cid"
+    ]  # fmt: skip
+    subs = app.get(f"/api/assignments/{aid}/submissions", headers=ta).json()["submissions"]
+    assert sorted(v["student"] for v in subs) == ["Student 1", "Student 2"]
+    subs = app.get(f"/api/assignments/{aid}/submissions", headers=prof).json()["submissions"]
+    assert sorted(v["student"] for v in subs) == ["ann", "bea"]
+    assert app.post(f"/api/assignments/{aid}/similarity", headers=prof).status_code == 202
+    url = f"/api/assignments/{aid}/similarity"
+    wait_for(lambda: app.get(url, headers=prof).json()["status"] == "done", 120, "the similarity report", 0.1)
+    pairs = app.get(url, headers=ta).json()["closest"]
+    assert [(p["a"], p["b"]) for p in pairs] == [("Student 1", "Student 2")]
+    assert [(p["a"], p["b"]) for p in app.get(url, headers=prof).json()["closest"]] == [("ann", "bea")]
 
 
 def test_manual_graders_dealt_evenly_see_their_own(app, cls):
@@ -192,3 +225,65 @@ def test_manual_graders_dealt_evenly_see_their_own(app, cls):
     assert app.get(f"/api/assignments/{aid}/grading/next?grader=ta-2", headers=staff["ta-1"]).status_code == 204
     state = app.get(f"/api/assignments/{aid}/grading", headers=staff["ta-1"]).json()
     assert (state["released"], state["remaining"], state["max_points"]) == (True, 1, 5)
+    assert state["graders"] == [{"id": "ta-1", "students": 2}, {"id": "ta-2", "students": 1}]
+    assert [(x["id"], x["role"]) for x in state["staff"]] == [("prof", "instructor"), ("ta-1", "ta"), ("ta-2", "ta")]
+    state = app.get(f"/api/assignments/{aid}/grading", headers=staff["ta-2"]).json()
+    assert (state["you"], state["remaining"], state["remaining_all"]) == ("ta-2", 0, 1)
+    nxt = app.get(f"/api/assignments/{aid}/grading/next?all=true", headers=staff["ta-2"])  # "all": another's too
+    assert nxt.status_code == 200 and nxt.json()["submission"] == sub.json()["id"], nxt.text
+
+
+def test_manual_each_change_is_in_the_audit_trail(app, cls):
+    """The changes of the tests above, each an event of the course's trail: the anonymity switched on, each grade
+    (before: none, after: its points, levels, override and comment), a grade changed (before and after), the
+    release, the edit that re-scored a level, the graders dealt."""
+    aid, staff, sids = cls["aid"], cls["staff"], cls["sids"]
+    app.app.state.clock.now = T0 + timedelta(hours=2)
+    r = app.put(f"/api/assignments/{aid}/submissions/{sids['ann']}/manual/lighting",
+                json={"rubric": ["area light"], "comment": "no mood"}, headers=staff["ta-1"])  # fmt: skip
+    assert r.status_code == 200, r.text
+    r = app.put(f"/api/assignments/{aid}/grading/settings", json={"anonymous": True}, headers=staff["prof"])
+    assert r.status_code == 200, r.text  # no change: no event
+    r = app.get(f"/api/courses/cs-m/audit?assignment={aid}", headers=staff["prof"])
+    assert r.status_code == 200, r.text
+    evs = r.json()["events"][::-1]  # oldest first
+    manual = [e for e in evs if e["action"].startswith("manual.") or e["action"] == "assignment.release"]
+    assert [(e["action"], e["who"]) for e in manual] == [
+        ("manual.anonymous", "instructor:prof"),
+        ("manual.grade", "ta:ta-1"), ("manual.grade", "ta:ta-2"), ("manual.grade", "ta:ta-2"),
+        ("assignment.release", "instructor:prof"),
+        ("manual.rescore", "instructor:prof"),
+        ("manual.graders", "instructor:prof"),
+        ("manual.grade", "ta:ta-2"), ("manual.grade", "ta:ta-1"),
+    ]  # fmt: skip
+    anonymous, first, _, override, release, rescore, graders, _, changed = manual
+    assert (anonymous["before"], anonymous["after"]) == ({"anonymous": False}, {"anonymous": True})
+    assert anonymous["target"] == {"course": "cs-m", "assignment": aid}
+    assert first["target"] == {"course": "cs-m", "assignment": aid, "student": "ann", "submission": sids["ann"]}
+    assert first["before"] is None and first["after"] == {
+        "item": "creativity", "points": 2.5, "rubric": ["new objects", "a story"], "override": None,
+        "comment": "a nice story", "grader": "ta-1",
+    }  # fmt: skip
+    assert (override["after"]["points"], override["after"]["override"]) == (1, 1)
+    assert (release["at"], release["before"], release["after"]) == (
+        "2026-12-01T13:00:00Z",
+        {"released_at": None},
+        {"released_at": "2026-12-01T13:00:00Z"},
+    )
+    assert (rescore["before"], rescore["after"]) == (
+        {"points": {"creativity: a story": 0.5}},
+        {"points": {"creativity: a story": 1}, "grades": 1},
+    )
+    assert graders["before"] == {"graders": None}
+    assert graders["after"] == {"graders": {"ann": "ta-1", "bea": "ta-2", "cid": "ta-1"}}
+    assert changed["at"] == "2026-12-01T14:00:00Z" and changed["target"]["student"] == "ann"
+    assert changed["before"] == {
+        "item": "lighting", "points": 2, "rubric": ["area light", "mood"], "override": None, "comment": "",
+        "grader": "ta-2",
+    }  # fmt: skip
+    assert changed["after"] == {
+        "item": "lighting", "points": 2, "rubric": ["area light"], "override": None, "comment": "no mood",
+        "grader": "ta-1",
+    }  # fmt: skip
+    mine = app.get("/api/courses/cs-m/audit?student=bea", headers=staff["prof"]).json()["events"]
+    assert {e["action"] for e in mine} >= {"manual.grade"} and all(e["target"].get("student") == "bea" for e in mine)

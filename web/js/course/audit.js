@@ -29,6 +29,14 @@ const ACTIONS = {
   "staff.add": "staff added",
   "staff.change": "staff changed",
   "staff.remove": "staff removed",
+  "tokens.course": "late tokens of the course",
+  "tokens.grant": "tokens granted",
+  "tokens.spend": "tokens spent",
+  "manual.grade": "manual grade",
+  "manual.rescore": "manual grades re-scored",
+  "manual.graders": "graders assigned",
+  "manual.anonymous": "anonymous grading",
+  "assignment.release": "manual grades released",
 };
 
 /** A value before or after a change, as short text: a dict's fields as "key: value", one a line. */

@@ -4,7 +4,9 @@
 // item: a checkbox per rubric level, a comment. Each change is saved at once (PUT .../manual/{item}).
 // Keyboard only: 1-9 toggle the levels of the current item (the one holding the focus, else the first),
 // n the next submission, b the one before, Tab moves to the comment (and on to the next item), Escape leaves
-// a comment for its item's first level. An instructor assigns graders, switches anonymous grading and releases.
+// a comment for its item's first level. An instructor assigns graders (the staff chosen in "Graders", then
+// "Assign evenly": the roster dealt in turn), switches anonymous grading and releases. Once graders are assigned,
+// "Queue" says whose submissions "Grade the next submission" takes: mine (the caller's own) or all.
 import { request, showImage } from "../api.js";
 import { h } from "../util.js";
 import { AS, course, say } from "./instructor_util.js";
@@ -14,7 +16,12 @@ const signed = (x) => (x >= 0 ? `+${pts(x)}` : `−${pts(-x)}`);
 
 const grading = {
   state: (aid) => request("GET", `${course.url(aid)}/grading`, undefined, { ...AS, cache: "no-store" }),
-  next: (aid, after) => request("GET", `${course.url(aid)}/grading/next${after ? `?after=${encodeURIComponent(after)}` : ""}`, undefined, { ...AS, cache: "no-store" }),
+  next: (aid, after, all) => {
+    const q = new URLSearchParams();
+    if (after) q.set("after", after);
+    if (all) q.set("all", "true");
+    return request("GET", `${course.url(aid)}/grading/next${q.size ? `?${q}` : ""}`, undefined, { ...AS, cache: "no-store" });
+  },
   one: (aid, sid) => request("GET", `${course.url(aid)}/grading/submissions/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
   put: (aid, sid, item, body) => request("PUT", `${course.url(aid)}/submissions/${encodeURIComponent(sid)}/manual/${encodeURIComponent(item)}`, body, AS),
   release: (aid) => request("POST", `${course.url(aid)}/release`, undefined, AS),
@@ -30,6 +37,8 @@ export class GradingPanel {
     this.sub = null; // the submission shown (the queue's answer)
     this.history = []; // the submissions shown before (b)
     this.current = 0; // the item 1-9 act on
+    this.state = null; // GET .../grading's answer
+    this.scopeTouched = false; // the queue's scope chosen by the caller (else: mine when assigned, else all)
     this.status = h("p", { id: "grading-status", class: "message", role: "status", "aria-live": "polite" });
     this.card = h("div", { id: "grading-card" });
     this.card.addEventListener("keydown", (e) => this.key(e));
@@ -38,8 +47,32 @@ export class GradingPanel {
       if (set) this.current = Number(set.dataset.index);
     });
     this.start = h("button", { type: "button", id: "grading-start", onclick: () => this.next() }, "Grade the next submission");
-    const tools = [this.start];
+    this.scope = h(
+      "select",
+      {
+        id: "grading-scope",
+        onchange: () => {
+          this.scopeTouched = true;
+          if (this.state) this.showState(this.state);
+        },
+      },
+      h("option", { value: "mine" }, "mine"),
+      h("option", { value: "all" }, "all"),
+    );
+    this.scopeBox = h("label", { class: "inline", for: "grading-scope", hidden: true }, "Queue: ", this.scope);
+    const tools = [this.start, this.scopeBox];
+    this.gradersBox = null;
     if (this.may("publish")) {
+      this.staffList = h("ul", { class: "grading-staff", id: "grading-staff" });
+      this.assignButton = h("button", { type: "button", id: "grading-assign", onclick: () => this.assign() }, "Assign evenly");
+      this.gradersBox = h(
+        "fieldset",
+        { class: "grading-graders", id: "grading-graders" },
+        h("legend", {}, "Graders"),
+        h("p", { class: "hint", id: "grading-graders-hint" }, "Choose who grades, then Assign evenly: the roster's students are dealt to them in turn, as many each within one. Each grader's queue then holds their own."),
+        this.staffList,
+        this.assignButton,
+      );
       this.anonymous = h("input", { type: "checkbox", id: "grading-anonymous", onchange: () => this.setAnonymous() });
       this.releaseButton = h("button", { type: "button", id: "grading-release", onclick: () => this.release() }, "Release the manual grades");
       tools.push(h("label", { class: "inline", for: "grading-anonymous" }, this.anonymous, " Anonymous grading (names hidden until the release)"), this.releaseButton);
@@ -51,6 +84,7 @@ export class GradingPanel {
       h("div", { class: "panel-head" }, h("h2", { id: "h-grading" }, "Grading queue"), h("span", { class: "toolbar" }, ...tools)),
       h("p", { class: "hint", id: "grading-keys" }, "Keys: 1–9 choose the levels of the current item, Tab moves to its comment and on to the next item, n the next submission, b the one before. Each choice is saved at once."),
       this.summary,
+      this.gradersBox,
       this.status,
       this.card,
     );
@@ -69,14 +103,45 @@ export class GradingPanel {
   showState(st) {
     this.state = st;
     if (this.anonymous) this.anonymous.checked = st.anonymous;
+    const graders = st.graders || [];
+    const mine = graders.some((g) => g.id === st.you);
+    this.scopeBox.hidden = !graders.length;
+    if (!mine && !this.scopeTouched) this.scope.value = "all";
+    const all = this.scope.value === "all" || !graders.length;
     const released = st.released ? `released ${st.released_at}` : "not released: students see the auto part only";
-    this.summary.textContent = `${st.remaining} submission(s) to grade; manual items worth ${pts(st.max_points)} points, ${released}.`;
+    const dealt = graders.length ? ` Graders: ${graders.map((g) => `${g.id} ${g.students}`).join(", ")}.` : "";
+    const left = all ? st.remaining_all ?? st.remaining : st.remaining;
+    this.summary.textContent = `${left} submission(s) to grade${all ? "" : " in your queue"}; manual items worth ${pts(st.max_points)} points, ${released}.${dealt}`;
+    if (this.staffList && !this.staffList.childElementCount) {
+      const chosen = new Set(graders.map((g) => g.id));
+      this.staffList.replaceChildren(
+        ...(st.staff || []).map((s, i) => {
+          const box = h("input", { type: "checkbox", id: `grading-grader-${i}`, checked: chosen.has(s.id), dataset: { person: s.id } });
+          return h("li", {}, box, h("label", { for: box.id }, ` ${s.name || s.id} (${s.id}, ${s.role === "ta" ? "TA" : s.role})`));
+        }),
+      );
+    }
+  }
+
+  async assign() {
+    const ids = [...this.staffList.querySelectorAll("input:checked")].map((b) => b.dataset.person);
+    if (!ids.length) {
+      say(this.status, "error", "Choose at least one grader first.");
+      return;
+    }
+    try {
+      const r = await grading.assign(this.aid, ids);
+      say(this.status, "ok", `Assigned evenly: ${r.graders.map((g) => `${g.id} ${g.students}`).join(", ")}.`);
+      this.load();
+    } catch (err) {
+      if (!this.access(err)) say(this.status, "error", `Could not assign the graders: ${err.message}`);
+    }
   }
 
   async next() {
     const after = this.sub?.submission;
     try {
-      const r = await grading.next(this.aid, after);
+      const r = await grading.next(this.aid, after, this.scope.value === "all");
       if (!r) {
         if (this.sub) this.history.push(this.sub.submission);
         this.sub = null;

@@ -478,7 +478,7 @@ export class Board {
         tabindex: 0,
         class: "student",
         dataset: { student: r.id, state: r.state, late: r.late, extended: r.extended, pending: r.pending },
-        "aria-label": `${r.name} (${r.id})${r.active === false ? ", inactive" : ""}: ${STATE_TEXT[r.state]}${r.score !== null ? `, ${pts(r.score)} of ${pts(r.max_score)}` : ""}; Enter shows the details`,
+        "aria-label": `${r.name} (${r.id})${r.active === false ? ", inactive" : ""}: ${STATE_TEXT[r.state]}${r.score !== null ? `, ${r.total != null ? `${pts(r.total)} of ${pts(r.total_max)}${r.released ? "" : " (manual part not released)"}` : `${pts(r.score)} of ${pts(r.max_score)}`}` : ""}; Enter shows the details`,
       },
       h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null, r.active === false ? h("span", { class: "badge inactive", title: "no longer in the LMS course: kept with their submissions and grades; cannot submit" }, "inactive") : null),
       h(
@@ -488,7 +488,7 @@ export class Board {
         r.pending && r.state === "graded" ? h("span", { class: "badge state-submitted" }, `${r.pending} waiting`) : null,
         r.late ? h("span", { class: "badge late" }, "late") : null,
       ),
-      h("td", { class: "num score" }, r.score === null ? h("span", { class: "muted" }, "–") : [h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`]),
+      h("td", { class: "num score" }, r.score === null ? h("span", { class: "muted" }, "–") : r.total != null ? [h("strong", {}, pts(r.total)), ` / ${pts(r.total_max)}`, r.released ? null : h("span", { class: "badge not-released", title: "auto part plus the manual part graded so far; students see the auto part until the release" }, "not released")] : [h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`]),
       h("td", { class: "num subs" }, String(r.submissions)),
       h("td", { class: "deadline" }, when(r.deadline, true), r.extended ? h("span", { class: "badge extended", title: "an extension: their own deadline" }, "extended") : null),
       h("td", { class: "last" }, r.last_at ? when(r.last_at, true) : h("span", { class: "muted" }, "–")),
