@@ -212,10 +212,19 @@ class Regrade(CourseBase):
             rows = [r for r in rows if r["submission_id"] == sid]
         history = rs.events(self.store, [r["id"] for r in rows])
         until = self.regrade_deadline(a, who.student) if who.student is not None else None
-        return {"requests": [self._request_view(a, r, who, history[r["id"]]) for r in rows],
+        staff = self._staff_context(a) if who.student is None else None
+        return {"requests": [self._request_view(a, r, who, history[r["id"]], staff) for r in rows],
                 "regrade_deadline": iso(until) if until is not None else None}  # fmt: skip
 
-    def _request_view(self, a: dict, row: dict, who: Who, history: list[dict]) -> dict:
+    def _staff_context(self, a: dict) -> dict:
+        """What staff's view of every request reads once: anonymity, the roster's order and names."""
+        state = self.store.manual_state(a["id"])
+        roster = self.store.students(a["id"])
+        return {"hidden": bool(state["anonymous"]) and state["released_at"] is None,
+                "number": {st["student"]: i + 1 for i, st in enumerate(roster)},
+                "name": {st["student"]: st["name"] for st in roster}}  # fmt: skip
+
+    def _request_view(self, a: dict, row: dict, who: Who, history: list[dict], staff: dict | None = None) -> dict:
         sub = self.submission(a, row["submission_id"])
         current = most = None
         if sub is not None:
@@ -239,12 +248,10 @@ class Regrade(CourseBase):
             "url": f"/api/assignments/{a['id']}/submissions/{row['submission_id']}/regrade-requests/{row['id']}",
         }
         if who.student is None:
-            state = self.store.manual_state(a["id"])
-            hidden = bool(state["anonymous"]) and state["released_at"] is None
-            member = self.store.student(a["id"], row["student"])
-            name = member["name"] if member else row["student"]
-            roster = [st["student"] for st in self.store.students(a["id"])]
-            number = roster.index(row["student"]) + 1 if row["student"] in roster else 0
+            staff = staff or self._staff_context(a)
+            hidden = staff["hidden"]
+            name = staff["name"].get(row["student"], row["student"])
+            number = staff["number"].get(row["student"], 0)
             out["student"] = None if hidden else {"id": row["student"], "name": name}
             out["label"] = f"Student {number}" if hidden else name
             out["answered_by"] = row["answered_by"]
