@@ -214,7 +214,8 @@ class Regrade(CourseBase):
         until = self.regrade_deadline(a, who.student) if who.student is not None else None
         staff = self._staff_context(a) if who.student is None else None
         return {"requests": [self._request_view(a, r, who, history[r["id"]], staff) for r in rows],
-                "regrade_deadline": iso(until) if until is not None else None}  # fmt: skip
+                "regrade_deadline": iso(until) if until is not None else None,
+                "regrade_open": None if until is None else self.now() <= until}  # fmt: skip
 
     def _staff_context(self, a: dict) -> dict:
         """What staff's view of every request reads once: anonymity, the roster's order and names."""

@@ -68,8 +68,9 @@ def queue(
     caller: CallerDep,
     status: Annotated[str | None, Query(max_length=20, description="open, accepted or declined")] = None,
 ) -> dict:
-    """`{requests: [...], regrade_deadline}`: open first, then oldest first; to staff each also with `student`
-    ({id, name}, or null while the assignment grades anonymously and is not released), `label`, `answered_by`."""
+    """`{requests: [...], regrade_deadline, regrade_open}` (the last two a student's): open first, then oldest
+    first; to staff each also with `student` ({id, name}, or null while the assignment grades anonymously and is not
+    released), `label`, `answered_by`."""
     a, who = course.who(aid, caller)
     return course.regrade_requests(a, who, status)
 

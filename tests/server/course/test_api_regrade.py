@@ -123,6 +123,7 @@ def test_regrade_a_ta_accepts_a_test_then_declines_it_each_change_kept(app, cls)
     mine = app.get(f"/api/assignments/{aid}/regrade-requests", headers=tok["bea"]).json()
     assert [x["id"] for x in mine["requests"]] == [req["id"]] and "student" not in mine["requests"][0]
     assert mine["regrade_deadline"] == "2026-12-10T12:00:00Z"  # a week after the deadline (no late cut-off)
+    assert mine["regrade_open"] is True
     url = f"/api/assignments/{aid}/submissions/{sids['bea']}/regrade-requests/{req['id']}"
     for student in ("ann", "bea"):  # a student cannot answer (their own or another's): the unknown id's 404
         assert app.put(url, json={"status": "accepted", "reply": "mine"}, headers=tok[student]).status_code == 404
@@ -194,3 +195,5 @@ def test_regrade_after_the_deadline_a_hidden_test_opens_then_the_regrade_deadlin
     app.app.state.clock.now = DEADLINE + timedelta(days=7, seconds=1)
     message = refusal(ask(app, cls, "bea", "psnr"), 403, "regrade_deadline")
     assert "2026-12-10T12:00:00Z" in message
+    mine = app.get(f"/api/assignments/{cls['aid']}/regrade-requests", headers=cls["tok"]["bea"]).json()
+    assert mine["regrade_open"] is False and len(mine["requests"]) == 3  # her requests and answers stay readable

@@ -30,7 +30,8 @@ export function regradeControls(root, sub, ctx) {
   const show = (data) => {
     const reqs = data.requests || [];
     open = new Set(reqs.filter((r) => r.status === "open").map((r) => r.item));
-    deadline.textContent = data.regrade_deadline ? `You can ask until ${new Date(data.regrade_deadline).toLocaleString()}.` : "";
+    const closed = data.regrade_open === false; // the server's clock says
+    deadline.textContent = data.regrade_deadline ? `${closed ? "Requests were taken until" : "You can ask until"} ${new Date(data.regrade_deadline).toLocaleString()}.` : "";
     list.replaceChildren(
       ...(reqs.length
         ? reqs.map((r) =>
@@ -48,8 +49,9 @@ export function regradeControls(root, sub, ctx) {
         : [h("li", { class: "hint" }, "None: a button beside each result asks for another look.")]),
     );
     for (const b of root.querySelectorAll("button.a-regrade-ask")) {
-      b.disabled = open.has(b.dataset.item);
+      b.disabled = open.has(b.dataset.item) || closed;
       b.textContent = open.has(b.dataset.item) ? "Regrade requested" : "Request a regrade";
+      b.hidden = closed && !open.has(b.dataset.item);
     }
   };
   const load = async () => {
