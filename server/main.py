@@ -43,6 +43,7 @@ from server.api.routes import (
     own_trees,
     pages,
     reference,
+    regrade,
     roster,
     samples,
     scenes,
@@ -208,6 +209,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(similarity.router)  # before submissions.py, as own_trees
     app.include_router(stats.router)  # before submissions.py, as similarity
     app.include_router(manual.router)  # before submissions.py, as similarity
+    app.include_router(regrade.router)  # before submissions.py, as similarity
     app.include_router(assignments.router)  # /api/assignments: the assignment, then its roster, submissions, class
     app.include_router(roster.router)
     app.include_router(submissions.router)

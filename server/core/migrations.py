@@ -176,6 +176,35 @@ def _m0007_course_audit(db: sqlite3.Connection) -> None:
     db.execute("CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id)")
 
 
+def _m0008_regrade_requests(db: sqlite3.Connection) -> None:
+    """Regrade requests (issue #41, item 3): the requests, their events, the tests' points they set, as
+    server/course/schema.py makes them (new tables: no rows move)."""
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_regrade_requests (id TEXT PRIMARY KEY, assignment_id TEXT NOT NULL,"
+        " submission_id TEXT NOT NULL, student TEXT NOT NULL, item TEXT NOT NULL, kind TEXT NOT NULL,"
+        " reason TEXT NOT NULL, status TEXT NOT NULL, reply TEXT NOT NULL DEFAULT '', points REAL,"
+        " created_at REAL NOT NULL, answered_at REAL, answered_by TEXT)"
+    )
+    db.execute(
+        "CREATE INDEX IF NOT EXISTS course_regrade_requests_assignment ON course_regrade_requests (assignment_id,"
+        " status)"
+    )
+    db.execute(
+        "CREATE INDEX IF NOT EXISTS course_regrade_requests_submission ON course_regrade_requests (submission_id, item)"
+    )
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_regrade_events (id INTEGER PRIMARY KEY AUTOINCREMENT,"
+        " request_id TEXT NOT NULL, at REAL NOT NULL, who TEXT NOT NULL, kind TEXT NOT NULL, change TEXT NOT NULL)"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_regrade_events_request ON course_regrade_events (request_id, id)")
+    db.execute(
+        "CREATE TABLE IF NOT EXISTS course_test_overrides (submission_id TEXT NOT NULL, test TEXT NOT NULL,"
+        " assignment_id TEXT NOT NULL, version INTEGER NOT NULL, original REAL NOT NULL, points REAL NOT NULL,"
+        " request_id TEXT NOT NULL, at REAL NOT NULL, PRIMARY KEY (submission_id, test))"
+    )
+    db.execute("CREATE INDEX IF NOT EXISTS course_test_overrides_assignment ON course_test_overrides (assignment_id)")
+
+
 MIGRATIONS: tuple[Migration, ...] = (
     Migration(1, "baseline: the release of 2026-12-05", _m0001_baseline),
     Migration(
@@ -193,6 +222,7 @@ MIGRATIONS: tuple[Migration, ...] = (
     ),
     Migration(6, "manual grades: staff-graded items, their release, graders", _m0006_manual_grades),
     Migration(7, "course: the audit trail (course_audit)", _m0007_course_audit),
+    Migration(8, "course: regrade requests, their events, the tests' points they set", _m0008_regrade_requests),
 )
 LATEST = MIGRATIONS[-1].number
 

@@ -191,6 +191,7 @@ class Assignments(CourseBase):
             "deadline": iso(due),
             "late_until": iso(cut) if cut > due else None,
             "late_penalty": p["late_penalty"],
+            "regrade_deadline": iso(self.regrade_deadline(a, who.student)),
             "time_left": max(0.0, due - now),
             "late_time_left": max(0.0, cut - now) if cut > due else None,
             "closed": now > cut,

@@ -17,7 +17,7 @@ from datetime import UTC, datetime
 from enum import StrEnum
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from tracer.grading.imagetests import where_without_pictures
 
@@ -78,6 +78,10 @@ class Policy(BaseModel):
     deadline: Instant = Field(description="ISO 8601 with a zone")
     late_until: Instant | None = Field(None, description="late submissions are taken until then (ISO 8601)")
     late_penalty: float = Field(0.0, ge=0, le=1, description="fraction of a late submission's points taken off")
+    regrade_deadline: Instant | None = Field(
+        None, description="regrade requests are taken until then (ISO 8601); none: a week after the student's late"
+        " cut-off (server/course/regrade.py)",
+    )  # fmt: skip
     max_submissions: int | None = Field(
         None, ge=1, le=10_000, description="attempts per student; an invalid or ungradable submission costs none"
     )
@@ -86,6 +90,14 @@ class Policy(BaseModel):
     show_reference: bool = Field(False, description="whether students see the reference image")
     feedback: Feedback = Field(default_factory=Feedback)
     open: bool = Field(False, description="anyone with the assignment's link may join by a name")
+
+    @field_validator("regrade_deadline")
+    @classmethod
+    def _regrade(cls, v: datetime | None, info: ValidationInfo) -> datetime | None:
+        deadline = info.data.get("deadline")
+        if v is not None and deadline is not None and v < deadline:
+            raise ValueError("the regrade deadline must not be before the deadline")
+        return v
 
     @model_validator(mode="after")
     def _late(self) -> Policy:

@@ -140,4 +140,42 @@ CREATE TABLE IF NOT EXISTS course_audit (
 CREATE INDEX IF NOT EXISTS course_audit_course ON course_audit (course_id, id);
 CREATE INDEX IF NOT EXISTS course_audit_student ON course_audit (course_id, student, id);
 CREATE INDEX IF NOT EXISTS course_audit_assignment ON course_audit (assignment_id, id);
+CREATE TABLE IF NOT EXISTS course_regrade_requests (
+    id TEXT PRIMARY KEY,                  -- 32 hex digits
+    assignment_id TEXT NOT NULL,
+    submission_id TEXT NOT NULL,          -- course_submissions.id: the student's counting one when they asked
+    student TEXT NOT NULL,
+    item TEXT NOT NULL,                   -- a test's name (validity, a requirement, an image test) or a manual item's
+    kind TEXT NOT NULL,                   -- test or manual
+    reason TEXT NOT NULL,
+    status TEXT NOT NULL,                 -- open, accepted or declined (server/course/regrade.py)
+    reply TEXT NOT NULL DEFAULT '',       -- the latest answer's
+    points REAL,                          -- the points the latest accepted answer set (NULL: none set)
+    created_at REAL NOT NULL,
+    answered_at REAL,
+    answered_by TEXT                      -- the audit trail's name of who answered last
+);
+CREATE INDEX IF NOT EXISTS course_regrade_requests_assignment ON course_regrade_requests (assignment_id, status);
+CREATE INDEX IF NOT EXISTS course_regrade_requests_submission ON course_regrade_requests (submission_id, item);
+CREATE TABLE IF NOT EXISTS course_regrade_events (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, -- the order of a request's changes
+    request_id TEXT NOT NULL,
+    at REAL NOT NULL,
+    who TEXT NOT NULL,
+    kind TEXT NOT NULL,                   -- request or answer
+    change TEXT NOT NULL                  -- JSON: status, reason or reply, points before and after
+);
+CREATE INDEX IF NOT EXISTS course_regrade_events_request ON course_regrade_events (request_id, id);
+CREATE TABLE IF NOT EXISTS course_test_overrides (
+    submission_id TEXT NOT NULL,          -- a test's points set by an accepted regrade request
+    test TEXT NOT NULL,                   -- the test's policy name
+    assignment_id TEXT NOT NULL,
+    version INTEGER NOT NULL,             -- the version whose grading gave `original` (another: not applied)
+    original REAL NOT NULL,               -- the points the grading gave
+    points REAL NOT NULL,                 -- the points the answer set
+    request_id TEXT NOT NULL,
+    at REAL NOT NULL,
+    PRIMARY KEY (submission_id, test)
+);
+CREATE INDEX IF NOT EXISTS course_test_overrides_assignment ON course_test_overrides (assignment_id);
 """

@@ -10,6 +10,7 @@ state, the lookups, the deadlines):
 - grades.py: the counting submission, the class's grades, the three exports
 - tokens.py: late tokens (a course's, spent by late submissions, granted by staff), extensions' history
 - manual.py: staff-graded items: manual grades, the grading queue, graders, the release
+- regrade.py: regrade requests: asked by a student, answered by staff, the tests' points they set
 
 A new concept goes the same way: a module with its mixin, named here.
 """
@@ -24,6 +25,7 @@ from server.course.assignments import Assignments
 from server.course.courses import Courses
 from server.course.grades import Grades
 from server.course.manual import Manual
+from server.course.regrade import Regrade
 from server.course.roster import Roster
 from server.course.submissions import Submissions
 from server.course.tokens import Tokens
@@ -31,7 +33,7 @@ from server.course.views import Views
 from server.grading.runs import GradeRuns
 
 
-class Course(Courses, Roster, Assignments, Submissions, Views, Grades, Tokens, Manual):
+class Course(Courses, Roster, Assignments, Submissions, Views, Grades, Tokens, Manual, Regrade):
     """Courses, staff, rosters, assignments, submissions, what a caller sees, grades."""
 
     def __init__(self, settings: Settings, runs: GradeRuns, clock: Callable[[], datetime]):

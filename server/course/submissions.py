@@ -159,7 +159,8 @@ class Submissions(CourseBase):
         away or gives it (the row keeps what was true when the body came)."""
         subs = self.store.submissions(a["id"], student)
         due = {s["student"]: self.deadlines(a, s)[0] for s in self.store.students(a["id"])}
-        return _marked(subs, lambda sub: due.get(sub["student"], sub["accepted_at"]))
+        marked = _marked(subs, lambda sub: due.get(sub["student"], sub["accepted_at"]))
+        return self.with_test_overrides(a, marked)  # tests' points set by regrade requests (regrade.py)
 
     def submission(self, a: dict, sid: str) -> dict | None:
         sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
@@ -167,6 +168,7 @@ class Submissions(CourseBase):
             due = self.deadlines(a, self.store.student(a["id"], sub["student"]))[0]
             mine = _marked(self.store.submissions(a["id"], sub["student"]), lambda _: due)
             sub["late"] = next((s["late"] for s in mine if s["id"] == sid), int(sub["accepted_at"] > due))
+            self.with_test_overrides(a, [sub])  # tests' points set by regrade requests (regrade.py)
         return sub
 
     def _handed(self, sub: dict) -> Handed:

@@ -45,6 +45,7 @@ class Views(CourseBase):
             item = self.runs.item(sub["run_id"], sub["id"])
             report = (item or {}).get("report") or {}
             out["feedback"] = self._feedback(a, sub, report, feedback, who, now)
+            self.regraded_feedback(a, sub, out["feedback"])  # tests' points set by regrade requests
             out["files"] = {name: f"{out['url']}/{name}" for name in self.files(a, sub, who)}
         manual = self.manual_view(a, sub, who)
         if manual is not None:  # staff-graded items (server/course/manual.py): the student's after the release

@@ -10,6 +10,7 @@ import { showImage } from "../api.js";
 import { h, num } from "../util.js";
 import { localTime, pts } from "./brief.js";
 import { treeLogSection } from "./owntracer.js";
+import { regradeControls } from "./regrade.js";
 
 const PICTURES = [
   ["render.png", (sub) => (sub.kind === "scene" ? "your scene, rendered at the assignment's settings" : "your image")],
@@ -157,6 +158,8 @@ export function showFeedback(root, sub, ctx) {
   }
   if (sub.manual && ["graded", "invalid", "failed"].includes(sub.status)) parts.push(manualSection(sub));
   root.replaceChildren(...parts);
+  // the submission that is the grade: "Request a regrade" beside each result, the requests and answers (regrade.js)
+  if (sub.counts && sub.status === "graded" && ctx.aid) root.append(regradeControls(root, sub, ctx));
 }
 
 /** The staff-graded items of a submission (docs/assignments.md, "Staff-graded items"): each item's points and
@@ -167,7 +170,7 @@ export function manualSection(sub) {
   const items = m.items.map((i) =>
     h(
       "li",
-      { class: "a-manual-item" },
+      { class: "a-manual-item", dataset: { item: i.name } },
       h("div", { class: "grade-test-head" }, h("strong", {}, i.name), h("span", { class: "pts" }, `${pts(i.points ?? 0)} / ${pts(i.max_points)}`)),
       i.rubric.length ? h("p", { class: "hint" }, i.rubric.join("; ")) : null,
       i.comment ? h("p", { class: "a-manual-comment" }, i.comment) : null,

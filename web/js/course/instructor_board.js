@@ -10,6 +10,7 @@ import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
 import { GradingPanel } from "./grading.js";
+import { RegradePanel } from "./regrade.js";
 import { StatsPanel } from "./stats.js";
 import { extensionHistory, tokensPanel } from "./latetokens.js";
 import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
@@ -89,6 +90,7 @@ export class Board {
     this.similarity?.close();
     this.classStats?.close();
     this.grading?.close();
+    this.regrade?.close();
   }
 
   /** Load the assignment and its class; `student`: their detail opened too (the address named them). */
@@ -209,7 +211,9 @@ export class Board {
     // staff-graded items: the grading queue (web/js/course/grading.js), when the spec has manual items
     this.grading = this.brief.spec?.manual?.length ? new GradingPanel(this.aid, { access: this.access, may: (a) => this.may(a) }) : null;
     this.grading?.load();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, ...(this.grading ? [this.grading.root] : []), whats, this.classStats.root, this.similarity.root, this.versions);
+    this.regrade = new RegradePanel(this.aid, { access: this.access }); // web/js/course/regrade.js
+    this.regrade.load();
+    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, ...(this.grading ? [this.grading.root] : []), this.regrade.root, whats, this.classStats.root, this.similarity.root, this.versions);
   }
 
   renderHead() {

@@ -66,6 +66,7 @@ export class AssignmentForm {
     this.refBox.hidden = true;
     this.deadline = h("input", { type: "datetime-local", name: "deadline", required: true });
     this.lateUntil = h("input", { type: "datetime-local", name: "late_until" });
+    this.regradeUntil = h("input", { type: "datetime-local", name: "regrade_deadline" });
     this.penalty = h("input", { type: "number", name: "late_penalty", min: 0, max: 1, step: 0.05, value: "", placeholder: "0", inputmode: "decimal" });
     this.maxSubs = h("input", { type: "number", name: "max_submissions", min: 1, step: 1, placeholder: "no limit", inputmode: "numeric" });
     this.counts = h("select", { name: "counts" }, h("option", { value: "last" }, "the last graded one"), h("option", { value: "best" }, "the best graded one"));
@@ -109,6 +110,7 @@ export class AssignmentForm {
         this.field("deadline", "Deadline", this.deadline, zone),
         this.field("late_until", "Late submissions until (optional)", this.lateUntil, "Taken and marked late until then."),
         this.field("late_penalty", "Late penalty (0 to 1)", this.penalty, "The fraction of a late submission's points taken off: 0.2 keeps 80 %."),
+        this.field("regrade_deadline", "Regrade requests until (optional)", this.regradeUntil, "Empty: a week after each student's late cut-off (their deadline without one)."),
         this.field("max_submissions", "Attempts per student", this.maxSubs, "Empty: no limit. An invalid or ungradable submission costs none."),
         this.field("counts", "The grade is", this.counts),
       ),
@@ -213,6 +215,7 @@ export class AssignmentForm {
   prefill(p) {
     this.deadline.value = localValue(p.deadline);
     this.lateUntil.value = localValue(p.late_until);
+    this.regradeUntil.value = localValue(p.regrade_deadline);
     this.penalty.value = p.late_penalty ? String(p.late_penalty) : "";
     this.maxSubs.value = p.max_submissions ?? "";
     this.counts.value = p.counts || "last";
@@ -235,6 +238,8 @@ export class AssignmentForm {
     if (deadline) fd.append("deadline", deadline);
     const late = zoned(this.lateUntil.value);
     if (late) fd.append("late_until", late);
+    const regrade = zoned(this.regradeUntil.value);
+    if (regrade) fd.append("regrade_deadline", regrade);
     if (this.penalty.value.trim()) fd.append("late_penalty", this.penalty.value.trim());
     if (String(this.maxSubs.value).trim()) fd.append("max_submissions", String(this.maxSubs.value).trim());
     fd.append("counts", this.counts.value);
