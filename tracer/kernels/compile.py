@@ -140,7 +140,7 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
 
 def _light_material(light) -> MaterialData:
     """Area lights are visible: radiance on the emitting side, black on the back, nothing else."""
-    return _material(Material(kd=0.0, ka=0.0, emission=light.radiance), "", None)
+    return _material(Material(kd=(0.0, 0.0, 0.0), ka=(0.0, 0.0, 0.0), emission=light.radiance), "", None)
 
 
 def _camera(scene: Scene) -> CameraData:

@@ -10,7 +10,7 @@ Warp passes a struct to a @wp.func by value: a SceneData is about 1.7 KB, so the
 are inlined (``@wp.func(inline=True)``), or each call would copy it (BENCHMARKS.md, "Whitted kernel").
 """
 
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import warp as wp
@@ -25,8 +25,14 @@ if TYPE_CHECKING:
         name a type (Warp's own annotation returns a `Struct` object, which is not a class)."""
         ...
 
+    def empty(shape: int | tuple[int, ...], dtype: Any, device: str = "cpu") -> wp.array:
+        """What pyright sees of `wp.empty`: any Warp type as the dtype (Warp leaves that parameter
+        unannotated, so pyright takes its default, float, for its type)."""
+        ...
+
 else:
     struct = wp.struct  # at run time Warp's decorator itself: the structs and kernels are Warp's, unchanged
+    empty = wp.empty
 
 
 @struct

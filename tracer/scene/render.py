@@ -1,7 +1,7 @@
 """How light is carried to the eye: the integrator (a row of the table in tracer/scene/integrators.py)
 and where its ray tree stops, the radiosity solution's settings, and the fog light passes through."""
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field, ValidationInfo
 
@@ -11,7 +11,10 @@ from tracer.scene.integrators import BY_NAME, INTEGRATORS, IntegratorInfo
 from tracer.scene.integrators import NAMES as INTEGRATOR_NAMES
 from tracer.scene.values import RGB, Int, Num
 
-IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/scene/integrators.py
+if TYPE_CHECKING:  # a Literal made from the table at run time, which pyright cannot read: a str to it
+    IntegratorName = str
+else:
+    IntegratorName = Literal[INTEGRATOR_NAMES]  # "whitted", "path", ...: the table in tracer/scene/integrators.py
 
 
 class RadiositySettings(_Model):
