@@ -82,7 +82,9 @@ def _print_problems(items: list[dict], kind: str = "error", scene: str | None = 
             text = None
         found = positions(text) if text is not None else None
     for e in items:
-        at = e.get("at") or (locate(text, e["path"], found) if found else None)  # a syntax error brings its own
+        at = e.get("at")  # a syntax error brings its own
+        if not at and found and text is not None:
+            at = locate(text, e["path"], found)
         where = f"{scene}:{at[0]}:{at[1]}: " if at and scene is not None else ""
         print(f"{where}{kind}: {e['path'] or '(scene)'}: {e['message']}", file=file)
 

@@ -26,6 +26,7 @@ import struct
 import threading
 from collections import OrderedDict
 from pathlib import Path
+from typing import cast
 from urllib.parse import unquote_to_bytes
 
 import numpy as np
@@ -160,7 +161,9 @@ def _source(file: str, asset_dir: Path) -> tuple[str, Path | io.BytesIO, str]:
     if file.startswith("data:"):
         media, raw = data_uri(file)
         return "the data: URI", io.BytesIO(raw), media
-    return f"asset file '{file}'", resolve(file, asset_dir), ""
+    real = resolve(file, asset_dir)
+    assert real is not None, "resolve returns None for a data: URI alone"
+    return f"asset file '{file}'", real, ""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -271,6 +274,7 @@ def _mesh_key(file: str, asset_dir: Path) -> tuple:
     if file.startswith("data:"):
         return ("data", hashlib.sha256(file.encode()).hexdigest())
     real = resolve(file, asset_dir)
+    assert real is not None, "resolve returns None for a data: URI alone"
     st = os.stat(real)
     return ("file", str(real), st.st_mtime_ns, st.st_size)
 
@@ -390,6 +394,7 @@ def _parse_mesh(file: str, asset_dir: Path, max_triangles: int | None = None) ->
             raise AssetError(f"cannot read {what}: {e.strerror}") from None
         checked = _checked_gltf(raw, kind, what, max_triangles)
     import trimesh
+    import trimesh.resolvers  # loaded with trimesh; named for the type checker
 
     try:
         if checked is not None:
@@ -401,6 +406,7 @@ def _parse_mesh(file: str, asset_dir: Path, max_triangles: int | None = None) ->
             tm = trimesh.load(str(src), force="mesh", process=False)
         else:
             tm = trimesh.load(src, file_type=kind, force="mesh", process=False)
+        tm = cast(trimesh.Trimesh, tm)  # force="mesh": a Trimesh (load is annotated with their base, Geometry)
         verts = np.asarray(tm.vertices, dtype=np.float64)
         faces = np.asarray(tm.faces, dtype=np.int64).reshape(-1, 3)
     except AssetError:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 import json
 import re
+from collections.abc import Mapping
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
@@ -27,9 +28,10 @@ class Cancelled(Exception):
 
 
 class SceneError(Exception):
-    """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...}."""
+    """An invalid scene; `errors` is a list of {"path": "objects[3].radius", "message": ...} (a JSON syntax
+    error's also has "at": its (line, column))."""
 
-    def __init__(self, errors: list[dict[str, str]]):
+    def __init__(self, errors: list[dict[str, Any]]):
         self.errors = list(errors)
         super().__init__("\n".join(f"{e['path']}: {e['message']}" if e["path"] else e["message"] for e in errors))
 
@@ -207,7 +209,7 @@ _MESSAGES = {
 }
 
 
-def translate_error(err: dict, root: type[BaseModel] | None = None) -> dict[str, str]:
+def translate_error(err: Mapping[str, Any], root: type[BaseModel] | None = None) -> dict[str, str]:
     """One of pydantic's errors (an item of ValidationError.errors(), its loc relative to `root`) ->
     {"path", "message"} at the offending value's own JSON path. Without `root` the path is the loc as
     it is, less validator labels, and the messages cannot name allowed fields or union members."""
@@ -244,7 +246,7 @@ def translate_error(err: dict, root: type[BaseModel] | None = None) -> dict[str,
             choices = re.findall(r"'([^']*)'", str(ctx.get("expected", "")))
         given = err.get("input")
         message = f"expected one of: {', '.join(choices)}; got {show_value(given)}{did_you_mean(given, choices)}"
-    elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge"))) == FLOAT32_MAX:
+    elif kind in ("less_than_equal", "greater_than_equal") and abs(ctx.get("le", ctx.get("ge", 0))) == FLOAT32_MAX:
         message = FLOAT32  # a number's float32 range (the bounds of tracer.scene's F32 and NonNeg)
     elif kind in _MESSAGES:
         values = {k: _num(v) for k, v in ctx.items()}

@@ -161,7 +161,7 @@ def cells(length: float, patch_size: float) -> int | float:
 
 def grid_cells(e1, e2, patch_size: float) -> tuple[int | float, int | float]:
     """Cells of a parallelogram along e1 and along e2."""
-    return cells(np.linalg.norm(e1), patch_size), cells(np.linalg.norm(e2), patch_size)
+    return cells(float(np.linalg.norm(e1)), patch_size), cells(float(np.linalg.norm(e2)), patch_size)
 
 
 def plane_rect(point, normal, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

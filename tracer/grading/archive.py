@@ -28,7 +28,7 @@ import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from tracer.grading.metrics import GradingError
 
@@ -38,6 +38,8 @@ MAX_CLASS_BYTES = 1_000_000_000  # all the files of a class, unpacked
 CHUNK = 1 << 16  # bytes inflated at a time
 SUFFIXES = {".json": "scene", ".png": "png", ".exr": "exr"}  # what a submission can be
 METHODS = {zipfile.ZIP_STORED: "stored", zipfile.ZIP_DEFLATED: "deflate"}  # the compression methods read
+# zipfile's own reader of the end record and its layout constants: not in typeshed's stubs (private), so Any
+_zip: Any = zipfile
 
 
 @dataclass(frozen=True)
@@ -82,12 +84,12 @@ def open_zip(src: BinaryIO, caps: Caps) -> zipfile.ZipFile:
     """A zip file opened once its entry count is known to be within the cap (counted before Python reads
     the directory into memory: the end of central directory record's count, then the directory's own)."""
     try:
-        end = zipfile._EndRecData(src)  # the end record (zip64 too); None when there is none
+        end = _zip._EndRecData(src)  # the end record (zip64 too); None when there is none
     except OSError as e:
         raise GradingError(f"not a zip file: {e}") from None
     if end is None:
         raise GradingError("not a zip file (no end of central directory record)")
-    count = end[zipfile._ECD_ENTRIES_TOTAL]
+    count = end[_zip._ECD_ENTRIES_TOTAL]
     if count > caps.entries:
         raise caps.too_many(count)
     if directory_entries(src, end, caps.entries) > caps.entries:
@@ -104,21 +106,21 @@ def directory_entries(src: BinaryIO, end: list, most: int) -> int:
     the end record puts the directory, header after header for the directory's size in bytes), counted up
     to `most` + 1 without keeping any. A header that is cut short or not one ends the count (zipfile then
     says why the file is broken)."""
-    size = end[zipfile._ECD_SIZE]
-    start = end[zipfile._ECD_LOCATION] - size
-    if end[zipfile._ECD_SIGNATURE] == zipfile.stringEndArchive64:
-        start -= zipfile.sizeEndCentDir64 + zipfile.sizeEndCentDir64Locator
+    size = end[_zip._ECD_SIZE]
+    start = end[_zip._ECD_LOCATION] - size
+    if end[_zip._ECD_SIGNATURE] == _zip.stringEndArchive64:
+        start -= _zip.sizeEndCentDir64 + _zip.sizeEndCentDir64Locator
     if start < 0:
         return 0
     n, at = 0, 0
     while at < size and n <= most:
         src.seek(start + at)
-        head = src.read(zipfile.sizeCentralDir)
-        if len(head) != zipfile.sizeCentralDir or head[:4] != zipfile.stringCentralDir:
+        head = src.read(_zip.sizeCentralDir)
+        if len(head) != _zip.sizeCentralDir or head[:4] != _zip.stringCentralDir:
             break
-        fields = struct.unpack(zipfile.structCentralDir, head)
-        lengths = (zipfile._CD_FILENAME_LENGTH, zipfile._CD_EXTRA_FIELD_LENGTH, zipfile._CD_COMMENT_LENGTH)
-        at += zipfile.sizeCentralDir + sum(fields[i] for i in lengths)
+        fields = struct.unpack(_zip.structCentralDir, head)
+        lengths = (_zip._CD_FILENAME_LENGTH, _zip._CD_EXTRA_FIELD_LENGTH, _zip._CD_COMMENT_LENGTH)
+        at += _zip.sizeCentralDir + sum(fields[i] for i in lengths)
         n += 1
     return n
 
@@ -144,7 +146,9 @@ def inflate(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: int, 
     limit = min(caps.file_bytes, budget)
     if info.file_size > limit:
         raise _over(name, info.file_size, caps, budget)
-    unbounded = copy.copy(info)  # zipfile stops at the declared size; we read on to see if the entry holds more
+    # zipfile stops at the declared size; we read on to see if the entry holds more (Any: typeshed's ZipInfo
+    # allows no CRC of None)
+    unbounded: Any = copy.copy(info)
     unbounded.file_size = info.file_size + 1
     unbounded.CRC = None  # and check the CRC ourselves (zipfile would check it against a cut-short stream)
     crc, n = 0, 0

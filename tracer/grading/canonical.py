@@ -146,7 +146,8 @@ def _anchor(thing: dict) -> Any:
             continue
         return v
     if thing.get("file") is not None:
-        t = thing.get("transform") if isinstance(thing.get("transform"), dict) else {}
+        t = thing.get("transform")
+        t = t if isinstance(t, dict) else {}
         return [str(thing["file"])[:MAX_TEXT], t.get("translate", [0, 0, 0])]
     return None
 
@@ -216,7 +217,8 @@ def canonical(scene: Any) -> Canonical | None:
     if not isinstance(scene, dict):
         return None
     c = Canonical()
-    materials = scene.get("materials") if isinstance(scene.get("materials"), dict) else {}
+    materials = scene.get("materials")
+    materials = materials if isinstance(materials, dict) else {}
     for name, model in SETTINGS.items():
         fields: list[tuple[str, Any]] = []
         _flatten(name, scene.get(name), _defaults(model), fields)

@@ -109,6 +109,7 @@ def run_check(scene: Scene, check: Check, mesh_triangles: dict[int, int] | None 
         n = primitives(scene, mesh_triangles)
         what = "primitives"
     else:
+        assert check.count is not None, "a check counts or reads a value (the spec's validator)"
         n = sum(_matches(item, check.where) for item in _items(scene, check.count))
         what = check.count
     if check.where:

@@ -138,7 +138,7 @@ class Explainer:
         from tracer.rendering.raytree import ray_tree
 
         if (x, y) not in self._trees:
-            if self.cs is None:
+            if self.cs is None or self.device is None:  # both None, or neither
                 raise LookupError(f"no reference tree at ({x}, {y}) was handed over")
             self._trees[x, y] = ray_tree(self.cs, x, y, 0, device=self.device)
         return self._trees[x, y]
@@ -373,7 +373,7 @@ def _direction(walk: _Walk, s: dict, r: dict) -> bool:
     text = (f"Your transmission ray{where} goes in direction {mine}; the refracted direction is {theirs} "
             f"({math.degrees(angle):.3g} degrees apart). Snell: n1 sin(theta1) = n2 sin(theta2), with eta = n1 / n2 "
             "(from 1 to ior entering a front face, from ior to 1 leaving).")  # fmt: skip
-    if incoming is not None and normal is not None and parent.get("hit"):
+    if incoming is not None and normal is not None and parent and parent.get("hit"):
         front = parent["hit"].get("front_face", True)
         ior = _ior(walk.ex, parent["hit"])
         if ior is not None:
@@ -433,7 +433,7 @@ def _hit(walk: _Walk, s: dict, r: dict) -> bool:
         mine = f"hits {_object_words(ex, s.get('hit'))} at t = {ts:.4g}"
         theirs = f"hits {_object_words(ex, r.get('hit'))} at t = {tr:.4g}"
         text = f"Your {ray} {mine}; the reference's {theirs}."
-        parent = walk.reference.get(r.get("parent")) if r.get("parent") is not None else None
+        parent = walk.reference.get(up) if (up := r.get("parent")) is not None else None
         if ts < ex.acne and parent is not None and _same_object(ex, s.get("hit"), parent.get("hit")) is not False:
             text += (" It hits the surface it leaves, at once: offset the new ray's origin along the normal "
                      "(hit + 1e-4 N, N turned to the side the ray goes), as for shadow acne.")  # fmt: skip
@@ -479,7 +479,7 @@ def _shadow(walk: _Walk, s: dict, r: dict) -> bool:
     if blocked_s == blocked_r and not (acne and (r.get("t") or 0.0) >= ex.acne):
         return True
     if blocked_s:
-        if acne:
+        if acne and parent is not None:  # acne: its own surface, the parent's
             walk.add("shadow_acne", f"Your shadow ray{where} is blocked at t = {t:.2g} by "
                      f"{_object_words(ex, s.get('hit') or parent['hit'])}, the surface it leaves: shadow acne. Offset "
                      "its origin along the normal (hit + 1e-4 N, N turned towards the light), or the ray meets its own"
@@ -557,7 +557,10 @@ def _brought(walk: _Walk, s: dict, r: dict, c: dict, x: dict) -> None:
     )
     fa = _f_att(light, point)
     if fa is not None and np.any(theirs > 0):  # a far light's share may be tiny: its ratio is what tells
+        from tracer.scene import PointLight, SpotLight  # loaded already: the scene is a model
+
         f, d = fa
+        assert isinstance(light, PointLight | SpotLight), "f_att is a point or a spot light's"
         tiny = 1e-6 * float(theirs.max())
         if _close(mine * f, theirs, rel=0.02, abs_=tiny):
             walk.add("attenuation", f"{head} Yours is the reference's / f_att: the distance attenuation is missing. "
@@ -640,6 +643,7 @@ def _secondary(walk: _Walk, s: dict, r: dict, depth: int) -> None:
             a = mine[kind][i] if i < len(mine[kind]) else None
             b = theirs[kind][i] if i < len(theirs[kind]) else None
             if a is None:
+                assert b is not None, "one of the two trees has the ray"
                 walk.add("missing_ray", f"The reference casts a {_ray(b)} at {where} (weight {_p(b['weight'])}); "
                          f"yours casts none: a hit spawns a reflection ray when kr > 0 and a transmission ray when "
                          f"kt > 0, while the depth and the weight allow.", s, b)  # fmt: skip

@@ -108,6 +108,7 @@ class Grader:
         """The reference mean (once) and the noise baselines not made yet, for these (sampler, spp,
         light_samples): ("mean", None, job) and ("baseline", key, job)."""
         ref, spec = self.reference, self.assignment.reference
+        assert ref is not None and spec is not None, "asked for when the assignment has a reference scene alone"
         jobs = []
         if ref.mean is None and ref.error is None:
             scene = copy.deepcopy(ref.scene)
@@ -133,7 +134,7 @@ class Grader:
         keys = {p.key for p in prepared if p.key is not None}
         ref_jobs = self.reference_jobs(keys) if self.reference is not None else []
         student_jobs = [p for p in prepared if p.job is not None]
-        results = self.renderer([j for _, _, j in ref_jobs] + [p.job for p in student_jobs])
+        results = self.renderer([j for _, _, j in ref_jobs] + [p.job for p in student_jobs if p.job is not None])
         for (what, key, _), r in zip(ref_jobs, results[: len(ref_jobs)], strict=True):
             self._keep_reference(what, key, r)
         rendered = dict(zip((id(p) for p in student_jobs), results[len(ref_jobs) :], strict=True))
@@ -144,14 +145,16 @@ class Grader:
 
     def _keep_reference(self, what: str, key: tuple | None, r: Rendered) -> None:
         ref = self.reference
+        assert ref is not None, "reference renders are made when the assignment has a reference scene alone"
         if what == "mean":
             ref.mean, ref.variance, ref.spp, ref.error = r.image, r.variance, r.spp, r.error
             return
         ref.baselines[key] = r
 
-    def _baseline(self, key: tuple, encoding: metrics.Encoding) -> dict:
+    def _baseline(self, key: tuple | None, encoding: metrics.Encoding) -> dict:
         """The noise baseline's metrics for `key` and `encoding` (baseline_metrics), measured once."""
         ref = self.reference
+        assert ref is not None and key is not None, "asked for when a submission is compared with the reference"
         if (key, encoding) not in ref.measured:
             ref.measured[(key, encoding)] = baseline_metrics(
                 self.assignment, ref, ref.baselines.get(key), key, encoding
@@ -185,6 +188,7 @@ class Grader:
             p.job = self._job(sub.student, data)
             try:
                 final, p.render_warnings = load_scene(data, self.limits)
+                assert final.sampler.spp is not None, "the Sampler's validator fills in its type's default spp"
                 p.key = (final.sampler.type, final.sampler.spp, final.render.light_samples)
                 p.size = (final.film.width, final.film.height, final.sampler.spp)
             except SceneError as e:  # the assignment's settings made it invalid (e.g. spp for a grid)

@@ -25,7 +25,7 @@ from tracer.grading import metrics
 from tracer.grading.prepared import Prepared
 from tracer.grading.renders import Rendered
 from tracer.grading.report import Report, TestResult
-from tracer.grading.spec import Assignment
+from tracer.grading.spec import Assignment, PixelTest
 
 TEST_NAMES = {  # the image tests as students see them
     "flip": "FLIP against the reference", "ssim": "SSIM against the reference",
@@ -49,6 +49,7 @@ def measure(ref: ReferenceImages, image: np.ndarray, n: int, encoding: metrics.E
     PSNR on the displayed images; the z test on linear radiance (a render, an EXR) or, for a PNG, on
     clamp(2^exposure L) against the reference mean put through the same exposure and clamp. The keys
     starting with "_" are the pictures (FLIP's map, the rejected pixels, the image as shown)."""
+    assert ref.mean is not None and ref.variance is not None, "compared with a reference that has its mean"
     shown_ref = metrics.display(ref.mean, ref.exposure)
     if encoding.linear:
         shown, test, mean, var = metrics.display(image, ref.exposure), image, ref.mean, ref.variance
@@ -80,6 +81,7 @@ def baseline_metrics(
     them; {"error": why} when there is no baseline or no reference mean."""
     if r is None or r.error or ref.mean is None:
         return {"error": (r.error if r else None) or ref.error or "no noise baseline"}
+    assert r.image is not None, "a render without an error has its image"
     m = measure(ref, encoding.store(r.image, ref.exposure), key[1], encoding, _alpha(assignment))
     return {**{k: v for k, v in m.items() if not k.startswith("_")}, "rejected_map": pack_map(m["_rejected"])}
 
@@ -94,18 +96,22 @@ def finish_report(
     if report.errors or not tests:
         return report
     base: dict = {}
-    problem = report.metrics.get("problem") or ref.error
+    # ref is None only with a problem already (the service's failed task: not compared, with its reason)
+    problem = report.metrics.get("problem") or (ref.error if ref is not None else None)
     if problem is None and p.sub.kind == "scene" and (r is None or r.error):
         problem = r.error if r else "not rendered"
     if problem is None:
+        assert ref is not None, "compared with the assignment's reference"
         if r is not None:
             report.render_seconds = r.seconds
         try:
             base = baseline()
             problem = base.get("error")
             if problem is None and p.image is None:
+                assert r is not None and r.image is not None, "a scene's render, without an error"
                 m = measure(ref, r.image, r.spp, p.encoding, _alpha(assignment))
             elif problem is None:
+                assert p.key is not None and p.image is not None, "a prepared image: its key and its pixels"
                 m = measure(ref, p.image, p.key[1], p.encoding, _alpha(assignment))
         except metrics.GradingError as e:
             problem = str(e)
@@ -114,6 +120,7 @@ def finish_report(
             report.tests.append(TestResult(TEST_NAMES[name], 0.0, t.points, f"not compared: {problem}", "image"))
         report.metrics["problem"] = problem
         return report
+    assert ref is not None and p.key is not None, "compared with the reference: a prepared submission has its key"
     report.metrics.update({k: v for k, v in m.items() if not k.startswith("_")})
     report.metrics["baseline"] = {k: v for k, v in base.items() if not k.startswith("_") and k != "rejected_map"}
     report.metrics["spp"] = p.key[1]
@@ -132,6 +139,7 @@ def _probes(report: Report, assignment: Assignment, ref: ReferenceImages, m: dic
     from tracer.grading.probes import find, flip_error
 
     listed = [p.model_dump() for p in assignment.reference.probes] if assignment.reference else []
+    assert ref.mean is not None, "compared with a reference that has its mean"
     error = flip_error(metrics.display(ref.mean, ref.exposure), m["_shown"])
     report.metrics["probes"] = [
         p.to_json() for p in find(error, listed) if p.x < error.shape[1] and p.y < error.shape[0]
@@ -233,7 +241,7 @@ def example_misses(assignment: Assignment, kind: str = "scene", spp: int = 16) -
     service's preview of the feedback before an assignment is published (POST /api/assignments/preview-feedback)."""
     base, m = dict(EXAMPLE_BASELINE), {}
     for name, t in assignment.image_tests().items():
-        if name == "pixels":
+        if isinstance(t, PixelTest):  # "pixels"
             m["rejected"] = round(base["rejected"] + t.max_fraction + 0.1, 4)
             continue
         down = name == "flip"  # lower is better
@@ -268,7 +276,7 @@ NOISE = (235, 215, 120)  # rejected, as many as a correct render has there
 
 def pack_map(rejected: np.ndarray) -> dict:
     """An (H, W) bool map as plain data: {"shape": [H, W], "bits": base64 of its packed bits}."""
-    return {"shape": list(rejected.shape), "bits": base64.b64encode(np.packbits(rejected.ravel())).decode()}
+    return {"shape": list(rejected.shape), "bits": base64.b64encode(np.packbits(rejected.ravel()).tobytes()).decode()}
 
 
 def unpack_map(packed: dict) -> np.ndarray:
@@ -302,6 +310,7 @@ def beyond_noise(rejected: np.ndarray, baseline: np.ndarray | None, share: float
 
 
 def _pictures(report: Report, ref: ReferenceImages, m: dict, base: dict, alpha: float, spp: int) -> None:
+    assert ref.mean is not None, "compared with a reference that has its mean"
     report.images["render"] = np.round(m["_shown"] * 255).astype(np.uint8)
     report.images["reference"] = np.round(metrics.display(ref.mean, ref.exposure) * 255).astype(np.uint8)
     report.images["error_map"] = np.round(m["_flip_map"] * 255).astype(np.uint8)

@@ -41,6 +41,7 @@ def load_reference(path: Path, threads: int | None = None) -> Reference:
 
             raise AssignmentError([{"path": "reference", "message": "this assignment has no reference scene"}])
         (_, _, job), *_ = grader.reference_jobs(set())
+        assert assignment.reference is not None, "the grader's reference is the assignment's"
         listed = [p.model_dump() for p in assignment.reference.probes]
         scene = grader.reference.scene
     else:
@@ -52,6 +53,7 @@ def load_reference(path: Path, threads: int | None = None) -> Reference:
     rendered = InlineRenderer(threads).one(job)
     if rendered.error:
         raise metrics.GradingError(f"the reference could not be rendered: {rendered.error}")
+    assert rendered.image is not None, "a render without an error has its image"
     return Reference(scene, listed, rendered.image)
 
 

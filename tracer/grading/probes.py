@@ -12,6 +12,7 @@ summed error, so one large wrong area outranks a thin edge. An assignment's spec
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -62,7 +63,8 @@ def find(error: np.ndarray, listed: list[dict] | None = None, n: int = MAX_PROBE
     if peak < THRESHOLD:
         return out
     mask = error >= max(THRESHOLD, 0.25 * peak)
-    labels, count = ndimage.label(mask, structure=np.ones((3, 3), dtype=bool))
+    # with no output array, label returns (labels, count): scipy's code returns count alone otherwise
+    labels, count = cast(tuple[np.ndarray, int], ndimage.label(mask, structure=np.ones((3, 3), dtype=bool)))
     index = np.arange(1, count + 1)
     sums = ndimage.sum_labels(error, labels, index)
     sizes = ndimage.sum_labels(np.ones_like(error), labels, index)

@@ -165,6 +165,7 @@ def usual(nearest: list[float]) -> dict:
     typical = statistics.median(nearest) if nearest else None
     if len(nearest) < MIN_CLASS:
         return {"typical": typical, "spread": None, "threshold": None}
+    assert typical is not None, "the median of MIN_CLASS distances or more"
     logs = [math.log(d + EPSILON) for d in nearest]
     centre = statistics.median(logs)
     spread = max(1.4826 * statistics.median(abs(x - centre) for x in logs), MIN_SPREAD)

@@ -132,13 +132,15 @@ class Requirement(_Model):
 class RenderOverrides(_Model):
     """Settings every render of the assignment uses (the submission's own are replaced)."""
 
-    width: int | None = Field(None, ge=1, le=4096, description="Film width; default: the reference scene's.")
-    height: int | None = Field(None, ge=1, le=4096, description="Film height; default: the reference scene's.")
-    spp: int | None = Field(None, ge=1, description="Samples per pixel; default: the submission's own (limited).")
-    seed: int = Field(7, ge=0, lt=2**31, description="The seed of every submission's render.")
+    width: int | None = Field(default=None, ge=1, le=4096, description="Film width; default: the reference scene's.")
+    height: int | None = Field(default=None, ge=1, le=4096, description="Film height; default: the reference scene's.")
+    spp: int | None = Field(
+        default=None, ge=1, description="Samples per pixel; default: the submission's own (limited)."
+    )
+    seed: int = Field(default=7, ge=0, lt=2**31, description="The seed of every submission's render.")
     sampler: SamplerType | None = None
     integrator: IntegratorName | None = None
-    max_depth: int | None = Field(None, ge=1, le=64)
+    max_depth: int | None = Field(default=None, ge=1, le=64)
 
 
 class GradingLimits(_Model):
@@ -146,14 +148,14 @@ class GradingLimits(_Model):
     that runs longer than `max_seconds` is stopped (its image tests score 0). Each max_* is a limit of
     the table in tracer/limits.py, tighter by default than the service's."""
 
-    max_seconds: float = Field(60.0, gt=0, le=3600, description="Seconds one render may take.")
-    max_width: int = Field(1024, ge=1)
-    max_height: int = Field(1024, ge=1)
-    max_pixels: int = Field(1024 * 1024, ge=1)
-    max_spp: int = Field(256, ge=1)
-    max_depth: int = Field(16, ge=1, le=64)
-    max_light_samples: int = Field(16, ge=1)
-    max_primitives: int = Field(100_000, ge=1)
+    max_seconds: float = Field(default=60.0, gt=0, le=3600, description="Seconds one render may take.")
+    max_width: int = Field(default=1024, ge=1)
+    max_height: int = Field(default=1024, ge=1)
+    max_pixels: int = Field(default=1024 * 1024, ge=1)
+    max_spp: int = Field(default=256, ge=1)
+    max_depth: int = Field(default=16, ge=1, le=64)
+    max_light_samples: int = Field(default=16, ge=1)
+    max_primitives: int = Field(default=100_000, ge=1)
 
     def scene_limits(self) -> Limits:
         """The scene limits of a student's render: these, and the table's defaults for the others."""
@@ -161,9 +163,9 @@ class GradingLimits(_Model):
 
 
 class Validity(_Model):
-    points: float = Field(1.0, ge=0, description="Earned by a scene that validates.")
+    points: float = Field(default=1.0, ge=0, description="Earned by a scene that validates.")
     per_error: float | None = Field(
-        None, ge=0, description="Points lost per error (default: all of them for any error)."
+        default=None, ge=0, description="Points lost per error (default: all of them for any error)."
     )
 
 
@@ -216,7 +218,7 @@ class Reference(_Model):
 class ImageSettings(_Model):
     """Grading a student's own image of the reference scene."""
 
-    spp: int | None = Field(None, ge=1, description="Samples per pixel the students were told to use "
+    spp: int | None = Field(default=None, ge=1, description="Samples per pixel the students were told to use "
                             "(default: the assignment's render.spp, else the reference scene's).")  # fmt: skip
 
 
@@ -299,7 +301,7 @@ class Assignment(_Model):
         """{"scene": ..., "image": ...}: the maximum of each kind of submission (`max_score`)."""
         return {kind: self.max_score(kind) for kind in ("scene", "image")}
 
-    def image_tests(self) -> dict[str, BaseModel]:
+    def image_tests(self) -> dict[str, FlipTest | SsimTest | PsnrTest | PixelTest]:
         ref = self.reference
         if ref is None:
             return {}

@@ -108,6 +108,7 @@ def measure_baseline(assignment: str, reference: dict, baseline: dict, key: list
     render as `rendered` takes it."""
     g = grader(assignment)
     ref = reference_images(assignment, reference)
+    assert ref is not None, "a baseline is measured for an assignment with a reference scene alone"
     return baseline_metrics(g.assignment, ref, rendered(baseline), tuple(key), Encoding(*encoding))
 
 

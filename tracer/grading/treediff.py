@@ -293,6 +293,7 @@ def _missing(a: dict, b: dict, x: dict | None, y: dict | None) -> None:
     if x is not None and y is not None:
         return
     n = x or y
+    assert n is not None, "one of the two trees has the child"
     why = {
         "shadow": "a light that one scene has, or that cannot light this point in the other (behind the surface, "
         "outside a spot's cone)",
@@ -300,6 +301,7 @@ def _missing(a: dict, b: dict, x: dict | None, y: dict | None) -> None:
         "transmission": "kt, max_depth, min_weight, or total internal reflection (ior)",
     }.get(n["kind"], "the materials")
     if x is None:
+        assert y is not None, "one of the two trees has the child"
         message = f"The reference's {_where(b)} casts a {ray_words(y)}; yours, at {_where(a)}, does not (check {why})."
         raise _Found(None, y, "missing", message, a, y)
     message = f"Your {_where(a)} casts a {ray_words(x)}; the reference's, at {_where(b)}, does not (check {why})."

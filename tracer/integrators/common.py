@@ -10,10 +10,10 @@ from tracer.kernels.geometry import Hit
 from tracer.kernels.kinds import BUMP_NONE, RAY_OFFSET, TEX_NONE
 from tracer.kernels.materials import bump_normal, diffuse_color, fresnel_dielectric, refract
 from tracer.kernels.sampling import sample_cos_lobe, to_world
-from tracer.kernels.structs import MaterialData, SceneData
+from tracer.kernels.structs import MaterialData, SceneData, struct
 
 
-@wp.struct
+@struct
 class SampleOut:
     """One pixel sample: its radiance, its rays by RAY_* kind, and its first hit (for the AOVs)."""
 
@@ -24,7 +24,7 @@ class SampleOut:
     albedo: wp.vec3  # kd there (zero on a miss)
 
 
-@wp.struct
+@struct
 class Stack:
     """Per-thread scratch of the integrators that keep pending rays (whitted's ray tree): row = thread,
     column = stack slot. Every integrator's `trace` receives it; the others leave it alone."""
@@ -37,7 +37,7 @@ class Stack:
     i: wp.array2d(dtype=wp.vec3i)  # depth, kind, parent node
 
 
-@wp.struct
+@struct
 class Surface:
     """A hit made ready for shading."""
 

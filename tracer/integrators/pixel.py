@@ -16,10 +16,10 @@ from tracer.kernels.sampling import (
     rng_start,
     sobol_2d,
 )
-from tracer.kernels.structs import SceneData
+from tracer.kernels.structs import SceneData, struct
 
 
-@wp.struct
+@struct
 class FilmBuffers:
     """Per-pixel running sums over the samples so far (divide by the sample count)."""
 

@@ -10,6 +10,7 @@ import warp as wp
 
 from tracer.kernels.geometry import Hit
 from tracer.kernels.kinds import END_ABSORBED, END_LIGHT, END_MISS, END_NONE, RAY_SHADOW
+from tracer.kernels.structs import struct
 
 # Node record layout: integers, vectors and floats per node.
 I_KIND, I_DEPTH, I_PARENT, I_HIT, I_OBJ, I_MAT, I_FRONT, I_LIGHT, I_OCCLUDED, I_END = range(10)
@@ -18,7 +19,7 @@ F_T, F_FOG, F_TIME = range(3)
 NUM_I, NUM_V, NUM_F = 10, 11, 3
 
 
-@wp.struct
+@struct
 class TreeRecord:
     """Where `trace` writes the nodes of one sample's tree (record = 1), or a dummy."""
 

@@ -122,6 +122,7 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
         d.tex, d.tex_size = int(Texture.CHECKER), float(m.texture.size)
         d.tex_c1, d.tex_c2 = vec3(m.texture.color1), vec3(m.texture.color2)
     elif m.texture is not None:
+        assert images is not None, "an image texture needs the scene's images (only a light's material has none)"
         d.tex = int(Texture.IMAGE)
         d.tex_image = images.add(m.texture.file, f"{path}.texture.file")
         d.tex_scale = wp.vec2(*(float(s) for s in m.texture.scale))
@@ -130,6 +131,7 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
     if m.bump is not None and m.bump.type == "noise":
         d.bump, d.bump_scale, d.bump_strength = int(Bump.NOISE), float(m.bump.scale), float(m.bump.strength)
     elif m.bump is not None:
+        assert images is not None, "a bump map needs the scene's images (only a light's material has none)"
         d.bump, d.bump_strength = int(Bump.IMAGE), float(m.bump.strength)
         d.bump_image = images.add(m.bump.file, f"{path}.bump.file")
         d.bump_uvscale = wp.vec2(*(float(s) for s in m.bump.scale))
@@ -138,7 +140,7 @@ def _material(m, path: str, images: _Images | None) -> MaterialData:
 
 def _light_material(light) -> MaterialData:
     """Area lights are visible: radiance on the emitting side, black on the back, nothing else."""
-    return _material(Material(kd=0.0, ka=0.0, emission=light.radiance), "", None)
+    return _material(Material(kd=(0.0, 0.0, 0.0), ka=(0.0, 0.0, 0.0), emission=light.radiance), "", None)
 
 
 def _camera(scene: Scene) -> CameraData:
@@ -248,22 +250,22 @@ class _Flat:
         """Every object: an analytic shape, or triangles (a mesh file read from `asset_dir`)."""
         for i, obj in enumerate(scene.objects):
             m = self.material_of(i, obj)
-            t, vel = obj.type, obj.velocity
-            if t == "sphere":
+            vel = obj.velocity
+            if obj.type == "sphere":
                 self.shape(Shape.SPHERE, i, m, p0=obj.center, radius=obj.radius, velocity=vel)
-            elif t == "plane":
+            elif obj.type == "plane":
                 self.shape(Shape.PLANE, i, m, p0=obj.point, p1=unit(obj.normal), velocity=vel)
-            elif t == "quad":
+            elif obj.type == "quad":
                 self.shape(Shape.QUAD, i, m, p0=obj.corner, p1=obj.edge1, p2=obj.edge2, velocity=vel)
-            elif t == "disk":
+            elif obj.type == "disk":
                 self.shape(Shape.DISK, i, m, p0=obj.center, p1=unit(obj.normal), radius=obj.radius, velocity=vel)
-            elif t == "box":  # one slab test in the box's own coordinates
+            elif obj.type == "box":  # one slab test in the box's own coordinates
                 fwd = transform_matrix(obj.transform)
                 inv = np.linalg.inv(fwd[:3, :3])
                 self.shape(Shape.BOX, i, m, p0=obj.min, p1=obj.max, p2=-inv @ fwd[:3, 3], velocity=vel, xf=inv)
-            elif t == "triangle":
+            elif obj.type == "triangle":
                 self.triangles(i, m, obj.vertices, [[0, 1, 2]], vel)
-            elif t == "mesh":
+            elif obj.type == "mesh":
                 if obj.file is not None:
                     v, f, uv = load_mesh_file(obj.file, f"objects[{i}].file", asset_dir)
                 else:
@@ -334,9 +336,11 @@ def _fill_settings(data: SceneData, scene: Scene, limits: Limits, device: str) -
     data.max_tree_rays = int(limits.max_tree_rays)
     data.width, data.height = int(scene.film.width), int(scene.film.height)
     sm = scene.sampler
+    assert sm.spp is not None, "the Sampler's validator fills in its type's default spp"
     data.spp, data.sampler = int(sm.spp), int(SamplerKind[sm.type.upper()])
     data.threshold, data.max_level, data.jitter = float(sm.threshold), int(sm.max_level), int(sm.jitter)
     flt = scene.film.filter
+    assert flt.radius is not None, "the Filter's validator fills in its type's default radius"
     data.filter, data.filter_radius = int(FilterKind[flt.type.upper()]), float(flt.radius)
     icdf, sign, norm = filter_tables(flt.type, float(flt.radius))
     data.filter_icdf = wp.array(icdf, dtype=float, device=device)

@@ -7,6 +7,7 @@ kinds (tracer/kernels/lights.py) from the scene format's light types.
 """
 
 from enum import IntEnum
+from typing import cast
 
 import warp as wp
 
@@ -57,7 +58,10 @@ class End(IntEnum):
 
 
 # The integrators of the table in tracer/scene/integrators.py, numbered in its order (SceneData.integrator).
-Integrator = IntEnum("Integrator", [(i.name.upper(), k) for k, i in enumerate(INTEGRATORS)], module=__name__)
+# Made from the table at run time, so pyright cannot list its members: the cast says it is an IntEnum class.
+Integrator = cast(
+    type[IntEnum], IntEnum("Integrator", [(i.name.upper(), k) for k, i in enumerate(INTEGRATORS)], module=__name__)
+)
 
 
 class FilterKind(IntEnum):

@@ -31,7 +31,7 @@ def check_device(name: str | None) -> str:
     name = (name or "cpu").strip()
     have = [d.alias for d in wp.get_devices()]
     if name == "cuda" and wp.get_cuda_device_count() > 0:
-        name = wp.get_device("cuda").alias
+        name = str(wp.get_device("cuda").alias)  # "cuda:N" (a str: Warp leaves Device.alias unannotated)
     if name not in have:  # never wp.get_device(name) here: on a machine without CUDA that prints driver noise
         raise DeviceError(f"warp has no device {name} here; available: {', '.join(have)}")
     return name
@@ -91,6 +91,7 @@ class BandLauncher:
         if bands == 1:
             run(0)
         else:
+            assert self.pool is not None, "more than one band with a pool alone"
             list(self.pool.map(run, range(bands)))
         wp.synchronize_device(self.device)
 

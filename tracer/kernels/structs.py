@@ -10,13 +10,32 @@ Warp passes a struct to a @wp.func by value: a SceneData is about 1.7 KB, so the
 are inlined (``@wp.func(inline=True)``), or each call would copy it (BENCHMARKS.md, "Whitted kernel").
 """
 
+from typing import TYPE_CHECKING, Any, TypeVar
+
 import numpy as np
 import warp as wp
 
 from tracer.kernels import wpinit  # noqa: F401  (initialise Warp once)
 
+if TYPE_CHECKING:
+    _C = TypeVar("_C", bound=type)
 
-@wp.struct
+    def struct(c: _C) -> _C:
+        """What pyright sees of `wp.struct`: the class itself, so its fields are typed attributes and its
+        name a type (Warp's own annotation returns a `Struct` object, which is not a class)."""
+        ...
+
+    def empty(shape: int | tuple[int, ...], dtype: Any, device: str = "cpu") -> wp.array:
+        """What pyright sees of `wp.empty`: any Warp type as the dtype (Warp leaves that parameter
+        unannotated, so pyright takes its default, float, for its type)."""
+        ...
+
+else:
+    struct = wp.struct  # at run time Warp's decorator itself: the structs and kernels are Warp's, unchanged
+    empty = wp.empty
+
+
+@struct
 class CameraData:
     origin: wp.vec3  # lookfrom
     forward: wp.vec3  # unit vector towards lookat
@@ -31,7 +50,7 @@ class CameraData:
     instants: int  # 0: continuous time per ray; N: sample s at instant (s mod N + 0.5) / N of the shutter
 
 
-@wp.struct
+@struct
 class ShapeData:
     kind: int  # SHAPE_*
     obj: int  # index into scene.objects (the ray tree reports it); -1 - k for area light k
@@ -48,7 +67,7 @@ class ShapeData:
     light: int  # index of the area light this shape is, or -1
 
 
-@wp.struct
+@struct
 class MaterialData:
     kd: wp.vec3  # diffuse reflectance
     ka: wp.vec3  # ambient coefficient (used when ka_is_kd == 0)
@@ -74,7 +93,7 @@ class MaterialData:
     bump_uvscale: wp.vec2  # uv scale of an image bump map
 
 
-@wp.struct
+@struct
 class LightData:
     kind: int  # LightKind (tracer/kernels/lights.py)
     position: wp.vec3  # point/spot position
@@ -90,7 +109,7 @@ class LightData:
     shape: int  # index of an area light's own shape in SceneData.shapes, else -1
 
 
-@wp.struct
+@struct
 class PatchIndex:
     """Which radiosity patch a point of a surface lies on (tracer/radiosity/lookup.py, `patch_at`): every patch
     as triangles of one wp.Mesh, and how each object's points are brought onto its facets."""
@@ -105,7 +124,7 @@ class PatchIndex:
     max_dist: float  # how far from a facet a point of a flat surface may be to belong to it
 
 
-@wp.struct
+@struct
 class RadiosityData:
     """A radiosity solution for the `radiosity` integrator (`radiosity.attach` fills it); inactive otherwise."""
 
@@ -119,7 +138,7 @@ class RadiosityData:
     corners_ind: wp.array(dtype=wp.vec3)  # the same for the interreflected part (two-pass shading)
 
 
-@wp.struct
+@struct
 class SceneData:
     camera: CameraData
     shapes: wp.array(dtype=ShapeData)

@@ -7,6 +7,7 @@ import json
 import os
 from dataclasses import fields
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,8 +66,9 @@ class SolutionCache:
     def put(self, key: str, sol: Solution) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         tmp = self.folder / f".{key}.{os.getpid()}.npz"
+        arrays: dict[str, Any] = _solution_arrays(sol)  # Any: no key is taken for savez's options
         with open(tmp, "wb") as f:
-            np.savez(f, **_solution_arrays(sol))
+            np.savez(f, **arrays)
         os.replace(tmp, self.folder / f"{key}.npz")
         files = sorted(self.folder.glob("*.npz"), key=lambda p: p.stat().st_mtime)
         for old in files[: max(0, len(files) - self.keep)]:

@@ -64,7 +64,7 @@ def attach(
     curve). `on_step` and `cancel` as in `solve`."""
     cfg = cs.scene.render.radiosity
     key = cache.key(cs) if cache is not None else None
-    sol = cache.get(key) if cache is not None else None
+    sol = cache.get(key) if cache is not None and key is not None else None
     if sol is None:
         sol = solve(
             cs,
@@ -84,7 +84,7 @@ def attach(
     if sol.corners is None:  # the smooth shading's corner values, kept with a cached solution
         sol.corners = _triangle_corners(ix, p, corner_values(p, sol.radiosity))
         sol.corners_ind = _triangle_corners(ix, p, corner_values(p, indirect))
-        if cache is not None:
+        if cache is not None and key is not None:
             cache.put(key, sol)
     r = RadiosityData()
     r.active = 1

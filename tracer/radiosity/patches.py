@@ -101,7 +101,7 @@ def solid_angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def sphere_net(center, radius: float, patch_size: float) -> np.ndarray:
     """A latitude-longitude net of triangles inscribed in a sphere, wound outwards: (T, 3 corners, 3)."""
-    n_lon, n_lat = meshing.sphere_segments(radius, patch_size)
+    n_lon, n_lat = (int(n) for n in meshing.sphere_segments(radius, patch_size))  # finite: check_limits ran
     theta = np.linspace(0.0, math.pi, n_lat + 1)
     phi = np.linspace(0.0, 2 * math.pi, n_lon + 1)
 
@@ -130,7 +130,7 @@ def sphere_net(center, radius: float, patch_size: float) -> np.ndarray:
 def disk_net(center, normal, radius: float, patch_size: float) -> tuple[np.ndarray, float]:
     """Rings of triangles inscribed in a disk, wound along its normal: (T, 3 corners, 3), and the radius
     of the circle inside their polygon."""
-    n_s, n_r = meshing.disk_segments(radius, patch_size)
+    n_s, n_r = (int(n) for n in meshing.disk_segments(radius, patch_size))  # finite: check_limits ran
     n = np.asarray(normal, float) / np.linalg.norm(normal)
     t, b = meshing.tangents(n)
     c = np.asarray(center, float)
@@ -181,7 +181,7 @@ def build_patches(cs: CompiledScene, patch_size: float) -> Patches:
 
     def grid(c, e1, e2, obj, mat):
         c, e1, e2 = (np.asarray(v, float) for v in (c, e1, e2))
-        nu, nv = meshing.grid_cells(e1, e2, patch_size)
+        nu, nv = (int(n) for n in meshing.grid_cells(e1, e2, patch_size))  # finite: check_limits ran
         for j in range(nv):
             for i in range(nu):
                 rows.append((c + e1 * i / nu + e2 * j / nv, e1 / nu, e2 / nv, False, obj, mat, None, None, 0.0))

@@ -31,6 +31,7 @@ from tracer.errors import Cancelled
 from tracer.kernels.compile import CompiledScene, compile_scene
 from tracer.kernels.kinds import Shooter
 from tracer.kernels.parallel import BandLauncher, default_threads
+from tracer.kernels.structs import empty
 from tracer.radiosity.form_factors import TARGET_LIGHT, direct, shoot
 from tracer.radiosity.patches import Patches, build_patches, check_limits, patch_index
 from tracer.scene import AREA_LIGHTS, Scene
@@ -246,7 +247,7 @@ def _shoot(sol, cs, ix, launch, shooter, k, li, seed, step, rays, power, receive
         e1, e2 = (p.e1[k], p.e2[k]) if k < len(p) // 2 else (p.e2[k], p.e1[k])  # a back side: flip its edges
         args = [wp.vec3(*p.corner[k]), wp.vec3(*e1), wp.vec3(*e2), int(p.triangle[k])]
         args += [wp.vec3(*p.sphere_center[k]), float(p.sphere_radius[k])]
-    target = wp.empty(rays, dtype=wp.int32, device=launch.device)
+    target = empty(rays, dtype=wp.int32, device=launch.device)
     launch(shoot, rays, lambda first: [cs.data, ix, int(shooter), *args, li, seed, step, first, rays, target])
     hits = target.numpy()
     counts = np.bincount(hits[hits >= 0], minlength=len(p))

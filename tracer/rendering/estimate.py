@@ -126,6 +126,7 @@ def seconds(
         passes = sampler.max_level + 1
         eye = film.width * film.height * per_pixel  # each grid point once over all the passes
     else:
+        assert sampler.spp is not None, "the Sampler's validator fills in its type's default spp"
         eye = film.width * film.height * sampler.spp
         passes = 1 + max(0, math.ceil(math.log2(max(sampler.spp, 1))))
     shapes = sum(1 for o in scene.objects if o.type != "mesh" and o.type != "triangle") + len(scene.lights)

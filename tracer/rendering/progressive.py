@@ -25,7 +25,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import warp as wp
@@ -36,12 +36,14 @@ from tracer.integrators.common import Stack
 from tracer.kernels.compile import CompiledScene, compile_scene
 from tracer.kernels.kinds import Integrator, RayKind, SamplerKind
 from tracer.kernels.parallel import default_threads, is_cuda, thread_pool
+from tracer.kernels.structs import empty
 from tracer.rendering import estimate
 from tracer.scene import Scene
 from tracer.scene.integrators import INTEGRATORS
 
 if TYPE_CHECKING:
     from tracer import radiosity
+    from tracer.radiosity.solver import Solution
 
 BAND_PIXELS = 4096  # pixels per launch: small enough to balance two threads, large enough to amortise
 ADAPTIVE_CACHE_BYTES = 32 << 20  # per thread: the adaptive sampler's cache of traced grid points
@@ -77,12 +79,12 @@ def band_size(device: str, pixels: int, max_depth: int, grid_points: int, band: 
 def make_stack(rows: int, depth: int, device: str = "cpu") -> Stack:
     st = Stack()
     shape = (rows, depth + 1)
-    st.o = wp.empty(shape, dtype=wp.vec3, device=device)
-    st.d = wp.empty(shape, dtype=wp.vec3, device=device)
-    st.k = wp.empty(shape, dtype=wp.vec3, device=device)
-    st.w = wp.empty(shape, dtype=wp.vec3, device=device)
-    st.tau = wp.empty(shape, dtype=wp.vec3, device=device)
-    st.i = wp.empty(shape, dtype=wp.vec3i, device=device)
+    st.o = empty(shape, dtype=wp.vec3, device=device)
+    st.d = empty(shape, dtype=wp.vec3, device=device)
+    st.k = empty(shape, dtype=wp.vec3, device=device)
+    st.w = empty(shape, dtype=wp.vec3, device=device)
+    st.tau = empty(shape, dtype=wp.vec3, device=device)
+    st.i = empty(shape, dtype=wp.vec3i, device=device)
     return st
 
 
@@ -136,9 +138,9 @@ class Kept:
     adaptive.kept_points(level) colours for each pixel that got one."""
 
     level: int  # the pass's subdivision level
-    colours: wp.array2d  # (slots, kept_points(level)) vec3, numbered as adaptive.point_slot numbers them
+    colours: wp.array  # 2-D (slots, kept_points(level)) vec3, numbered as adaptive.point_slot numbers them
     slots: np.ndarray  # (H, W) int32: each pixel's row of `colours`, -1 for none
-    slots_wp: wp.array2d  # the same on the device
+    slots_wp: wp.array  # the same on the device (2-D)
 
     @property
     def nbytes(self) -> int:
@@ -223,14 +225,14 @@ class Renderer:
             self.caches = []
             for _ in range(self.threads):
                 c = adaptive.AdaptiveCache()
-                c.color = wp.empty((self.band, points), dtype=wp.vec3, device=device)
+                c.color = empty((self.band, points), dtype=wp.vec3, device=device)
                 c.stamp = wp.zeros((self.band, points), dtype=wp.int32, device=device)
                 self.caches.append(c)
             self.done = wp.zeros((self.height, self.width), dtype=wp.int32, device=device)  # pixels finished
             self.keep_bytes = keep_bytes
             self.kept: Kept | None = None  # the colours the last pass kept for the next
             self.no_slots = wp.full((self.height, self.width), -1, dtype=wp.int32, device=device)
-            self.no_colours = wp.empty((1, 1), dtype=wp.vec3, device=device)
+            self.no_colours = empty((1, 1), dtype=wp.vec3, device=device)
         self.film = make_film(self.height, self.width, device)
         self.stacks = [make_stack(self.band, data.max_depth, device) for _ in range(self.threads)]
         self.dummy = make_record(0, device)
@@ -367,7 +369,7 @@ class Renderer:
             return None
         slots = np.full(todo.shape, -1, dtype=np.int32)
         slots.flat[np.flatnonzero(todo)[:n]] = np.arange(n, dtype=np.int32)
-        colours = wp.empty((n, points), dtype=wp.vec3, device=self.device)
+        colours = empty((n, points), dtype=wp.vec3, device=self.device)
         return Kept(level, colours, slots, wp.array(slots, dtype=wp.int32, device=self.device))
 
     FIELDS = ("accum", "sumsq", "counts", "depth", "normal", "albedo")
@@ -445,7 +447,8 @@ class PassResult:
 def snapshot_bytes(snap: dict) -> bytes:
     """A film snapshot (`PassResult.snapshot()`) as the bytes of an .npz file, to keep or send."""
     buf = io.BytesIO()
-    np.savez(buf, **{k: np.asarray(v) for k, v in snap.items()})
+    arrays: dict[str, Any] = {k: np.asarray(v) for k, v in snap.items()}  # Any: no key is taken for savez's options
+    np.savez(buf, **arrays)
     return buf.getvalue()
 
 
@@ -560,4 +563,5 @@ def solve_radiosity(
                 progress(Progress(0, total, 0, time.perf_counter() - start, phase="radiosity", solve=info))
 
         radiosity.attach(cs, device=device, threads=threads, on_step=on_step, cancel=cancel, cache=cache)
-    return cs.radiosity.stats()
+    # attach has set the Solution (CompiledScene cannot name the type: the kernels come before radiosity)
+    return cast("Solution", cs.radiosity).stats()

@@ -38,6 +38,7 @@ def sample_count(scene: Scene) -> int:
     sampler the points of its finest grid, (2^(max_level+1) + 1)^2."""
     if scene.sampler.type == "adaptive":
         return ((1 << (scene.sampler.max_level + 1)) + 1) ** 2
+    assert scene.sampler.spp is not None, "the Sampler's validator fills in its type's default spp"
     return scene.sampler.spp
 
 
@@ -106,11 +107,12 @@ def ray_tree(
         if ints[i, W.I_HIT]:
             obj = int(ints[i, W.I_OBJ])
             light = -1 - obj if obj < 0 else None  # an area light is geometry too
+            name = cs.object_names[obj] if light is None else f"light {light} ({cs.scene.lights[light].type})"
             hit = {
                 "point": _vec(vecs[i, W.V_POINT]),
                 "normal": _vec(vecs[i, W.V_NORMAL]),
                 "object": obj if obj >= 0 else None,
-                "object_name": cs.object_names[obj] if obj >= 0 else f"light {light} ({cs.scene.lights[light].type})",
+                "object_name": name,
                 "light": light,
                 "material": cs.material_names[int(ints[i, W.I_MAT])],
                 "front_face": bool(ints[i, W.I_FRONT]),

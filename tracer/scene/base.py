@@ -3,6 +3,7 @@ reported at once: the checks between fields (`_checks`) run on the valid model, 
 fields failed, on the fields that are valid (`_Partial`)."""
 
 import functools
+from collections.abc import Mapping
 from typing import Annotated, Any, get_args
 
 from pydantic import BaseModel, ConfigDict, TypeAdapter, ValidationError, ValidationInfo, model_validator
@@ -14,7 +15,7 @@ from tracer.scene.values import _error, _raise_at
 _KNOWN_ERRORS = frozenset(get_args(ErrorType))
 
 
-def _details(err: dict) -> InitErrorDetails:
+def _details(err: Mapping[str, Any]) -> InitErrorDetails:
     """A pydantic error as raised (ValidationError.errors()) -> the same error, to raise again."""
     ctx = err.get("ctx")
     if err["type"] in _KNOWN_ERRORS:
@@ -29,7 +30,8 @@ def _details(err: dict) -> InitErrorDetails:
 @functools.cache
 def _field_adapter(model: type[BaseModel], name: str) -> TypeAdapter:
     field = model.model_fields[name]
-    return TypeAdapter(Annotated[field.annotation, field])
+    # a type form made at run time from the field, which pyright cannot read statically
+    return TypeAdapter(Annotated[field.annotation, field])  # pyright: ignore[reportArgumentType, reportInvalidTypeForm]
 
 
 class _Partial:

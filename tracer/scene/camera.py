@@ -53,9 +53,9 @@ FILTER_RADIUS = {"box": 0.5, "tent": 1.0, "gaussian": 1.5, "mitchell": 2.0}
 class Filter(_Model):
     """Pixel reconstruction filter."""
 
-    type: Literal["box", "tent", "gaussian", "mitchell"] = Field("box", description="Filter shape.")
+    type: Literal["box", "tent", "gaussian", "mitchell"] = Field(default="box", description="Filter shape.")
     radius: Positive | None = Field(
-        None,
+        default=None,
         description="Filter radius (pixels); null = the type's default: box 0.5, tent 1, gaussian 1.5, mitchell 2.",
     )
 
@@ -69,10 +69,10 @@ class Filter(_Model):
 class Film(_Model):
     """The image: resolution, reconstruction filter, exposure."""
 
-    width: Int = Field(256, ge=1, description="Image width (pixels).")
-    height: Int = Field(256, ge=1, description="Image height (pixels).")
+    width: Int = Field(default=256, ge=1, description="Image width (pixels).")
+    height: Int = Field(default=256, ge=1, description="Image height (pixels).")
     filter: Filter = Field(default_factory=Filter, description="Reconstruction filter.")
-    exposure: Num = Field(0.0, description="Exposure (stops); the PNG stores sRGB(clamp(2^exposure L)).")
+    exposure: Num = Field(default=0.0, description="Exposure (stops); the PNG stores sRGB(clamp(2^exposure L)).")
 
     @classmethod
     def _checks(cls, v: Any, info: ValidationInfo) -> list[tuple[tuple, str]]:
@@ -90,9 +90,9 @@ class Film(_Model):
 class Sampler(_Model):
     """Where in each pixel the samples go (and, for adaptive, how many)."""
 
-    type: SamplerType = Field("jittered", description="Sample pattern in the pixel.")
+    type: SamplerType = Field(default="jittered", description="Sample pattern in the pixel.")
     spp: Int | None = Field(
-        None,
+        default=None,
         ge=1,
         description="Samples per pixel; null = 1 for center, 16 otherwise. "
         "center: exactly 1; grid, jittered: a perfect square.",
@@ -109,10 +109,10 @@ class Sampler(_Model):
         },
     )
     threshold: Num = Field(
-        0.05, ge=0, description="adaptive: largest colour difference of a cell still called uniform."
+        default=0.05, ge=0, description="adaptive: largest colour difference of a cell still called uniform."
     )
-    max_level: Int = Field(3, ge=0, le=8, description="adaptive: subdivision limit (levels).")
-    jitter: Bool = Field(False, description="adaptive: random sample positions inside the cells.")
+    max_level: Int = Field(default=3, ge=0, le=8, description="adaptive: subdivision limit (levels).")
+    jitter: Bool = Field(default=False, description="adaptive: random sample positions inside the cells.")
 
     @model_validator(mode="after")
     def _default_spp(self) -> "Sampler":

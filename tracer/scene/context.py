@@ -32,10 +32,12 @@ def _asset_file(v: str) -> str:
 
 def _image_size(file: str, info: ValidationInfo) -> tuple[int, int]:
     """(width, height) of an image from its header, read once per validation (the scene's total reads it again)."""
+    asset_dir = _asset_dir(info)
+    assert info.context is not None and asset_dir is not None, "called when validation resolves assets alone"
     sizes = info.context.setdefault("image_sizes", {})
     if file not in sizes:
         try:
-            sizes[file] = image_size(file, _asset_dir(info))
+            sizes[file] = image_size(file, asset_dir)
         except AssetError as e:
             sizes[file] = e
     if isinstance(sizes[file], AssetError):

@@ -73,7 +73,7 @@ def _warnings(scene: Scene) -> list[dict[str, str]]:
     if camera.instants is not None:
         if not any(any(o.velocity) for o in scene.objects):
             warn(["camera", "instants"], "has no effect: nothing moves (no object has a non-zero velocity)")
-        elif sampler.type != "adaptive" and sampler.spp % camera.instants:
+        elif sampler.type != "adaptive" and sampler.spp is not None and sampler.spp % camera.instants:
             warn(
                 ["camera", "instants"],
                 f"the {camera.instants} instants are not used equally: spp ({sampler.spp}) is not a multiple of it",

@@ -58,28 +58,28 @@ Bump = Annotated[NoiseBump | ImageBump, Field(discriminator="type")]
 class Material(_Model):
     """Phong material with reflection and transmission rays; coefficients are linear RGB."""
 
-    kd: RGB = Field((0.5, 0.5, 0.5), description="Diffuse reflectance (albedo).")
+    kd: RGB = Field(default=(0.5, 0.5, 0.5), description="Diffuse reflectance (albedo).")
     ka: RGB | None = Field(
-        None,
+        default=None,
         description="Ambient coefficient, times the scene's ambient (whitted); null = kd after texturing.",
     )
-    ks: RGB = Field((0.0, 0.0, 0.0), description="Specular coefficient of the Phong highlight.")
-    shininess: Num = Field(32.0, ge=0, description="Phong exponent n of the highlight.")
-    kr: RGB = Field((0.0, 0.0, 0.0), description="Weight of the reflection ray.")
-    kt: RGB = Field((0.0, 0.0, 0.0), description="Weight of the transmission (refraction) ray.")
-    ior: Num = Field(1.5, gt=0, description="Index of refraction inside the surface (outside is 1).")
+    ks: RGB = Field(default=(0.0, 0.0, 0.0), description="Specular coefficient of the Phong highlight.")
+    shininess: Num = Field(default=32.0, ge=0, description="Phong exponent n of the highlight.")
+    kr: RGB = Field(default=(0.0, 0.0, 0.0), description="Weight of the reflection ray.")
+    kt: RGB = Field(default=(0.0, 0.0, 0.0), description="Weight of the transmission (refraction) ray.")
+    ior: Num = Field(default=1.5, gt=0, description="Index of refraction inside the surface (outside is 1).")
     fresnel: Bool = Field(
-        False,
+        default=False,
         description="Scale reflection and transmission weights by the dielectric Fresnel terms R, 1 - R.",
     )
     gloss: Positive | None = Field(
-        None,
+        default=None,
         description="null: perfect mirror/refraction rays; "
         "m: directions spread in a cos^m lobe (glossy reflection, frosted glass).",
     )
-    emission: RGB = Field((0.0, 0.0, 0.0), description="Emitted radiance (W / (m^2 sr)).")
-    texture: Texture | None = Field(None, description="Replaces kd: a checker or an image texture.")
-    bump: Bump | None = Field(None, description="Perturbs the shading normal: noise or a height image.")
+    emission: RGB = Field(default=(0.0, 0.0, 0.0), description="Emitted radiance (W / (m^2 sr)).")
+    texture: Texture | None = Field(default=None, description="Replaces kd: a checker or an image texture.")
+    bump: Bump | None = Field(default=None, description="Perturbs the shading normal: noise or a height image.")
 
 
 def _material_kind(v: Any) -> str | None:

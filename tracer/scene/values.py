@@ -3,7 +3,7 @@ float32's range, the renderer's; points, vectors, colours, pairs and faces; the 
 made of, and errors raised at explicit locations."""
 
 import math
-from typing import Annotated, Any, Union
+from typing import Annotated, Any, TypeGuard, Union
 
 from annotated_types import Ge, Gt, Le
 from pydantic import AfterValidator, AllowInfNan, BeforeValidator, Strict, ValidationError
@@ -23,7 +23,7 @@ def _raise_at(errors: list[tuple[tuple, str]]) -> None:
         raise ValidationError.from_exception_data("Scene", details)
 
 
-def _is_number(v: Any) -> bool:
+def _is_number(v: Any) -> TypeGuard[int | float]:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
@@ -59,13 +59,15 @@ def _triple(expected: str, scalar=None):
 def _grey(v: float) -> tuple[float, float, float]:
     if v < 0:
         raise _error("must be >= 0")
-    return (float(v),) * 3
+    f = float(v)
+    return (f, f, f)
 
 
 def _uniform_scale(v: float) -> tuple[float, float, float]:
     if v == 0:
         raise _error("must not be zero")
-    return (float(v),) * 3
+    f = float(v)
+    return (f, f, f)
 
 
 def _nonzero(v: float) -> float:

@@ -43,6 +43,7 @@ def measure(cs, threads: int, repeat: int = 1) -> dict:
         r = render(cs, threads=threads)
         if best is None or r.seconds < best.seconds:
             best = r
+    assert best is not None, "repeat >= 1 renders"
     samples = cs.data.width * cs.data.height * best.spp
     row = {
         "width": cs.data.width,

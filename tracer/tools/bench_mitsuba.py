@@ -256,6 +256,7 @@ def compare(
 
     scene, _ = load_scene(data)
     spp = scene.sampler.spp
+    assert spp is not None, "the Sampler's validator fills in its type's default spp"
     out: dict = {"spp": spp, "size": [scene.film.width, scene.film.height], "max_depth": scene.render.max_depth}
     out["sampler"] = scene.sampler.type
     out["threads"] = threads or os.cpu_count()

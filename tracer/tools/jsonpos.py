@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import re
-from json.decoder import scanstring
+from json.decoder import scanstring  # pyright: ignore[reportAttributeAccessIssue]  (there, not in typeshed's stub)
 
 from tracer.errors import json_path
 
@@ -33,7 +33,9 @@ def positions(text: str) -> dict[str, int]:
     out: dict[str, int] = {}
 
     def skip(i: int) -> int:
-        return _WS.match(text, i).end()
+        m = _WS.match(text, i)
+        assert m is not None, "whitespace* matches the empty string too"
+        return m.end()
 
     def value(i: int, parts: list, shown_at: int | None) -> int:
         i = skip(i)

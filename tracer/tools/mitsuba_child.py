@@ -39,8 +39,8 @@ def main(argv: list[str]) -> int:
     t0 = time.perf_counter()
     if args.variant.startswith("llvm"):
         llvm_path()
-    import drjit as dr
-    import mitsuba as mi
+    import drjit as dr  # pyright: ignore[reportMissingImports]  (in Mitsuba's interpreter, not in .venv)
+    import mitsuba as mi  # pyright: ignore[reportMissingImports]  (in Mitsuba's interpreter, not in .venv)
     import numpy as np
 
     mi.set_variant(args.variant)
