@@ -11,7 +11,15 @@ const rows = [
   { name: "d", score: 2, index: 3 },
   { name: "e", index: 4 },
 ];
-const names = (sort) => sort.sorted(rows, (r) => r.score, (x, y) => x.index - y.index).map((r) => r.name).join("");
+const names = (sort) =>
+  sort
+    .sorted(
+      rows,
+      (r) => r.score,
+      (x, y) => x.index - y.index,
+    )
+    .map((r) => r.name)
+    .join("");
 
 test("rows without a value go last whichever way, ties keep the table's order", () => {
   const sort = new TableSort("score");

@@ -215,7 +215,7 @@ export class GradingPanel {
     button.disabled = true;
     try {
       const ex = await grade.example();
-      this.text.value = JSON.stringify(ex.assignment, null, 2) + "\n";
+      this.text.value = `${JSON.stringify(ex.assignment, null, 2)}\n`;
       this.setSubs(
         ex.submissions.map((s) =>
           s.image !== undefined

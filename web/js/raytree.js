@@ -223,7 +223,7 @@ export class RayTreePanel {
         row("ambient", `${rgb(t.ambient)} = ka · Ia`, t.ambient);
         row("diffuse", `${rgb(t.diffuse)} = Σ f_att · I · kd/π · cosθ`, t.diffuse);
         row("specular", `${rgb(t.specular)} = Σ f_att · I · ks (n+2)/2π cosⁿα · cosθ`, t.specular);
-        if (t.emission && t.emission.some((x) => x)) row("emission", rgb(t.emission), t.emission);
+        if (t.emission?.some((x) => x)) row("emission", rgb(t.emission), t.emission);
       }
       row("radiance", `${rgb(n.radiance)} carried back (local terms + weighted children)`, n.radiance);
       if (n.fog_transmittance !== null && n.fog_transmittance !== undefined) row("fog", `transmittance e^(−density·t) = ${rgb(n.fog_transmittance)}`);

@@ -44,7 +44,7 @@ function csvText(rows) {
     const t = v === null || v === undefined ? "" : String(v);
     return /[",\r\n]/.test(t) ? `"${t.replace(/"/g, '""')}"` : t;
   };
-  return rows.map((r) => r.map(field).join(",")).join("\n") + "\n";
+  return `${rows.map((r) => r.map(field).join(",")).join("\n")}\n`;
 }
 
 function matches(row, filter) {

@@ -140,7 +140,7 @@ function draw(view, ctx, image, d) {
  */
 export function showTreeAnswers(container, answer, { as = "student", images = {}, auth = {}, probes = [] } = {}) {
   const trees = answer.trees || [];
-  const scene = answer.scene && answer.scene.camera ? answer.scene : null;
+  const scene = answer.scene?.camera ? answer.scene : null;
   const ctx = { as, scene, width: answer.width, height: answer.height };
   const whose = as === "instructor" ? "The student's" : "Your";
   const differ = trees.filter((t) => !t.matches);
@@ -178,7 +178,7 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     const t = trees[i];
     if (!t) return;
     const mine = ++seq;
-    buttons.forEach((b, j) => b.setAttribute("aria-pressed", String(j === i)));
+    for (const [j, b] of buttons.entries()) b.setAttribute("aria-pressed", String(j === i));
     const d = t.differences[0] || null;
     const probe = probes.find((p) => p.x === t.pixel[0] && p.y === t.pixel[1]);
     const head = h(
@@ -217,7 +217,7 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     body.dataset.drawn = "true";
   }
   const first = trees.findIndex((t) => !t.matches);
-  if (trees.length) select(first < 0 ? 0 : first);
+  if (trees.length) select(Math.max(first , 0));
   return { select };
 }
 
