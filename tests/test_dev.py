@@ -17,12 +17,17 @@ import pytest
 from tests.support.scene import ROOT
 
 FAKE = """#!/usr/bin/env bash
-# a stand-in for Python (and ruff): logs its arguments; `-m venv DIR` makes DIR/bin/python and DIR/bin/ruff
+# a stand-in for Python (and ruff, npm, biome): logs its arguments; `-m venv DIR` makes DIR/bin/python and
+# DIR/bin/ruff, `ci` (npm's) node_modules/.bin/biome
 echo "$(basename "$0") $*" >>"$DEV_LOG"
 if [ "${1:-}" = -m ] && [ "${2:-}" = venv ]; then
     mkdir -p "$3/bin"
     cp "$0" "$3/bin/python"
     cp "$0" "$3/bin/ruff"
+fi
+if [ "$(basename "$0")" = npm ] && [ "${1:-}" = ci ]; then
+    mkdir -p node_modules/.bin
+    cp "$0" node_modules/.bin/biome
 fi
 """
 
@@ -32,11 +37,15 @@ def dev(tmp_path):
     """Run the copied ./dev with arguments: (its stderr, the fake commands it ran since the last run)."""
     shutil.copy(ROOT / "dev", tmp_path / "dev")
     shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
+    shutil.copy(ROOT / "package-lock.json", tmp_path / "package-lock.json")
     fake = tmp_path / "python3"
     fake.write_text(FAKE)
     fake.chmod(0o755)
+    npm = tmp_path / "npm"
+    npm.write_text(FAKE)
+    npm.chmod(0o755)
     log = tmp_path / "calls.log"
-    env = {**os.environ, "PYTHON": str(fake), "DEV_LOG": str(log)}
+    env = {**os.environ, "PYTHON": str(fake), "NPM": str(npm), "DEV_LOG": str(log)}
 
     def run(*args: str) -> tuple[str, list[str]]:
         log.write_text("")
@@ -71,10 +80,23 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
     assert pip_installs(calls) == ["python -m pip install -q -e .[test]"], calls
     # two processes, each test file whole in one, in the collection's order (the browser's files last)
     pytest = "python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -k nothing"
-    assert calls[-2:] == ["ruff check .", pytest], calls
+    npm = "npm ci --no-audit --no-fund --loglevel=error"
+    assert calls[-4:] == ["ruff check .", npm, "biome ci --reporter=summary", pytest], calls
     for cmd in ("test", "serve"):  # both warm now: the test extras serve too
         _, calls = dev(cmd)
         assert pip_installs(calls) == [], (cmd, calls)
+        assert not any(c.startswith("npm ") for c in calls), (cmd, calls)  # biome is there, from the same lock
+
+
+def test_dev_test_installs_biome_again_when_its_lock_changes(dev):
+    said, calls = dev("test")
+    assert "installing the page's JS tools" in said, said
+    assert calls[-2] == "biome ci --reporter=summary", calls
+    lock: Path = dev.folder / "package-lock.json"
+    lock.write_text(lock.read_text() + "\n")  # a new version of biome, say
+    said, calls = dev("test")
+    assert "installing the page's JS tools" in said, said
+    assert "npm ci --no-audit --no-fund --loglevel=error" in calls, calls
 
 
 def test_dev_installs_again_when_pyproject_changes(dev):

@@ -39,7 +39,8 @@ PLACE_EVERY = 1.0  # seconds between two wakes of a queued job's followers (its 
 PROGRESS_EVERY = 0.5  # seconds between two wakes of a job's followers for its progress alone (the latest is kept)
 PROGRESS_FIELDS = frozenset({"samples_done", "samples_total", "passes_done", "spp_done", "rays", "solve"})
 CAPACITY_SECONDS = 1.0  # how long the queue's count of workers per lane is kept (Redis lists them from Redis)
-KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open)
+KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an SSE comment keeps the line open;
+# a submission's stream, server/api/routes/submissions.py, keeps the same)
 VIEWS_KEPT = 4096  # views of followed jobs' rows kept for their other followers (a class's jobs, and more)
 ACTIVE_RETRY = 10  # seconds a client past its share of the workers is told to wait (Retry-After)
 WAKE = 1.0  # seconds a follower waits before it looks again whether its client or the server is going

@@ -9,7 +9,8 @@ import { groupWords, visible } from "../../web/js/diagram.js";
  * reflection ray with one shadow ray of its own. */
 function tree() {
   const nodes = [{ id: 0, parent: null, kind: "eye", depth: 0 }];
-  for (let i = 0; i < 16; i++) nodes.push({ id: nodes.length, parent: 0, kind: "shadow", depth: 1, light: 0, occluded: i % 3 === 0 });
+  for (let i = 0; i < 16; i++)
+    nodes.push({ id: nodes.length, parent: 0, kind: "shadow", depth: 1, light: 0, occluded: i % 3 === 0 });
   nodes.push({ id: nodes.length, parent: 0, kind: "shadow", depth: 1, light: 1, occluded: false });
   nodes.push({ id: nodes.length, parent: 0, kind: "shadow", depth: 1, light: 1, occluded: true });
   const refl = nodes.length;
@@ -37,7 +38,10 @@ test("a node's shadow rays to one light, four or more, are one box that says how
 test("an opened group is drawn ray by ray", () => {
   const v = visible(tree(), new Set(["0:0"]));
   assert.equal(v.nodes.length, tree().nodes.length);
-  assert.equal(v.nodes.some((n) => n.group), false);
+  assert.equal(
+    v.nodes.some((n) => n.group),
+    false,
+  );
 });
 
 test("one of a group's rays reaching the light reads in the singular", () => {

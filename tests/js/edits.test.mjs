@@ -24,7 +24,11 @@ test("a rotated box is hit where it is drawn", () => {
 test("projectToFilm is the inverse of pixelDirection (the Build panel's picks in the picture)", () => {
   const camera = { lookfrom: [0, 1, 5], lookat: [0.5, 0.5, 0], vup: [0, 1, 0], vfov: 40 };
   const b = v.cameraBasis(camera, 160, 120);
-  for (const [fx, fy] of [[80, 60], [0.5, 0.5], [150, 20]]) {
+  for (const [fx, fy] of [
+    [80, 60],
+    [0.5, 0.5],
+    [150, 20],
+  ]) {
     const p = v.add(b.from, v.mul(v.pixelDirection(b, fx, fy), 7));
     const f = v.projectToFilm(b, p);
     assert.ok(Math.abs(f.x - fx) < 1e-9 && Math.abs(f.y - fy) < 1e-9, JSON.stringify([fx, fy, f]));
@@ -54,7 +58,11 @@ test("rotateWrites turns a box, a mesh, a quad and a triangle in place about the
   assert.deepEqual(e.rotateWrites(box, ["objects", 0], 90)[0][0], ["objects", 0, "transform"]);
   // its scale is kept; angles stay in (-180, 180]
   const scaled = { type: "box", min: [-1, -1, -1], max: [1, 1, 1], transform: { rotate: [0, 170, 0], scale: 2 } };
-  assert.deepEqual(apply(scaled, e.rotateWrites(scaled, [], 20)).transform, { translate: [0, 0, 0], rotate: [0, -170, 0], scale: 2 });
+  assert.deepEqual(apply(scaled, e.rotateWrites(scaled, [], 20)).transform, {
+    translate: [0, 0, 0],
+    rotate: [0, -170, 0],
+    scale: 2,
+  });
   // a mesh turns about its origin (its anchor)
   const mesh = { type: "mesh", vertices: [], faces: [], transform: { translate: [1, 0, 0] } };
   assert.deepEqual(apply(mesh, e.rotateWrites(mesh, [], 30)).transform, { translate: [1, 0, 0], rotate: [0, 30, 0] });
@@ -62,9 +70,20 @@ test("rotateWrites turns a box, a mesh, a quad and a triangle in place about the
   const quad = { type: "quad", corner: [-1, 0, -1], edge1: [2, 0, 0], edge2: [0, 0, 2] };
   const q = apply(quad, e.rotateWrites(quad, [], 90));
   assert.ok(close(e.anchorOf(q), [0, 0, 0]) && close(q.edge1, [0, 0, -2]), JSON.stringify(q));
-  const tri = { type: "triangle", vertices: [[0, 0, 0], [3, 0, 0], [0, 0, 3]] };
+  const tri = {
+    type: "triangle",
+    vertices: [
+      [0, 0, 0],
+      [3, 0, 0],
+      [0, 0, 3],
+    ],
+  };
   assert.ok(close(e.anchorOf(apply(tri, e.rotateWrites(tri, [], 45))), [1, 0, 1]));
   // what does not turn: a sphere, a plane, a point light
-  for (const o of [{ type: "sphere", center: [0, 0, 0], radius: 1 }, { type: "plane", point: [0, 0, 0], normal: [0, 1, 0] }, { type: "point", position: [0, 1, 0] }])
+  for (const o of [
+    { type: "sphere", center: [0, 0, 0], radius: 1 },
+    { type: "plane", point: [0, 0, 0], normal: [0, 1, 0] },
+    { type: "point", position: [0, 1, 0] },
+  ])
     assert.equal(e.rotateWrites(o, [], 10), null);
 });

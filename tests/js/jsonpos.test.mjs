@@ -6,7 +6,9 @@ import { test } from "node:test";
 import * as j from "../../web/js/jsonpos.js";
 
 test("appendItem and removeAt keep the rest of the text", () => {
-  const t = '{\n  "objects": [\n    {"type": "sphere"},\n    {"type": "plane"}\n  ],\n' + '  "lights": [],\n  "m": {"a": 1, "b": 2}\n}\n';
+  const t =
+    '{\n  "objects": [\n    {"type": "sphere"},\n    {"type": "plane"}\n  ],\n' +
+    '  "lights": [],\n  "m": {"a": 1, "b": 2}\n}\n';
   const a = j.appendItem(t, ["objects"], { type: "box" }).text;
   const b = j.appendItem(a, ["lights"], { type: "point" }).text;
   const c = j.appendItem(b, ["extra"], 1).text;
@@ -16,7 +18,11 @@ test("appendItem and removeAt keep the rest of the text", () => {
   const mb = j.removeAt(t, ["m", "b"]).text;
   const all = j.removeAt(j.removeAt(t, ["objects", 1]).text, ["objects", 0]).text;
 
-  assert.deepEqual(a.split("\n").slice(2, 5), ['    {"type": "sphere"},', '    {"type": "plane"},', '    {"type": "box"}']);
+  assert.deepEqual(a.split("\n").slice(2, 5), [
+    '    {"type": "sphere"},',
+    '    {"type": "plane"},',
+    '    {"type": "box"}',
+  ]);
   assert.ok(b.includes('"lights": [\n    {"type": "point"}\n  ]'), b);
   assert.deepEqual(JSON.parse(c).extra, [1]);
   assert.deepEqual(JSON.parse(r0).objects, [{ type: "plane" }]);

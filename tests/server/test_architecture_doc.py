@@ -1,11 +1,12 @@
-"""docs/architecture.md names every module of server/ and tracer/: a module added, moved or renamed without its line
-in the map fails here. Read generically from the doc's shapes, so that packages may move:
+"""docs/architecture.md names every module of server/ and tracer/, and every page and module of web/ (its .html and
+.js files): a module added, moved or renamed without its line in the map fails here. Read generically from the doc's
+shapes, so that packages may move:
 
 - a code block drawn as a tree (`server/`, then `core/` indented under it, then `settings.py` under that): each
   name resolves against the folders above it, and a folder's line names the modules its words list;
 - a table row whose first cell is a folder (`` `grading/` ``) names the modules its row lists, in that folder;
-- anywhere under a `## tracer/` or `## server/` heading, a path (`jobs/lifecycle.py`, `server/api/deps.py`) names
-  that module, from the repository's root or from the heading's package.
+- anywhere under a `## tracer/`, `## server/` or `## web/` heading, a path (`jobs/lifecycle.py`,
+  `server/api/deps.py`) names that module, from the repository's root or from the heading's package.
 
 A package's `__init__.py` is named by its folder."""
 
@@ -16,13 +17,19 @@ import re
 from tests.support.scene import ROOT
 
 DOC = ROOT / "docs" / "architecture.md"
-PACKAGES = ("server", "tracer")
-# a module or a folder, with the folders before it: run.py, queue/base.py, jobs/
-TOKEN = re.compile(r"(?<![\w./-])((?:[A-Za-z_]\w*/)*(?:[A-Za-z_]\w*\.py|[A-Za-z_]\w*/))")
+MODULES = {"server": ("*.py",), "tracer": ("*.py",), "web": ("*.js", "*.html")}  # each folder's modules
+PACKAGES = tuple(MODULES)
+# a module or a folder, with the folders before it: run.py, queue/base.py, jobs/, js/course/student.js
+TOKEN = re.compile(r"(?<![\w./-])((?:[A-Za-z_]\w*/)*(?:[A-Za-z_]\w*\.(?:py|js|html)\b|[A-Za-z_]\w*/))")
 
 
-def package_modules() -> set[str]:
-    return {p.relative_to(ROOT).as_posix() for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py")}
+def package_modules(packages: tuple[str, ...] = ("server", "tracer")) -> set[str]:
+    return {
+        p.relative_to(ROOT).as_posix()
+        for pkg in packages
+        for pattern in MODULES[pkg]
+        for p in (ROOT / pkg).rglob(pattern)
+    }
 
 
 def _resolve(token: str, bases: list[str]) -> set[str]:
@@ -83,6 +90,13 @@ def test_architecture_doc_names_every_module():
     assert unnamed(package_modules(), named(DOC.read_text())) == []
 
 
+def test_architecture_doc_names_every_web_module():
+    """web/'s pages and modules (the course's pages, the Build panel, LTI's pages, ...): one line each."""
+    modules = package_modules(("web",))
+    assert "web/index.html" in modules and "web/js/course/student.js" in modules
+    assert unnamed(modules, named(DOC.read_text())) == []
+
+
 def test_architecture_doc_reading_resolves_trees_tables_and_paths():
     doc = """
 ## server/: the service
@@ -111,3 +125,11 @@ A route asks `jobs/service.py`; see server/core/ids.py.
     assert "tracer/store.py" not in names and "tracer/spec.py" not in names
     modules = {"server/jobs/store.py", "server/lti/store.py", "server/jobs/__init__.py", "server/lti/__init__.py"}
     assert unnamed(modules, names) == ["server/lti/__init__.py", "server/lti/store.py"]
+    web = named(
+        "## web/: the page\n```\nweb/\n  index.html   the page\n  js/\n    main.js    tabs\n    course/\n"
+        "      student.js   a student's\n      mycourse.js, session.js\n```\nSee `web/js/build.js`.\n"
+    )
+    for path in ("web/index.html", "web/js/main.js", "web/js/course/student.js", "web/js/course/session.js",
+                 "web/js/build.js"):  # fmt: skip
+        assert path in web, path
+    assert "web/js/student.js" not in web and "web/main.js" not in web

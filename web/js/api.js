@@ -264,7 +264,7 @@ async function submitJob(body) {
   issuing = request("POST", "/api/jobs", body);
   try {
     const job = await issuing;
-    if (job && job.token) tokens.setStudent(job.token);
+    if (job?.token) tokens.setStudent(job.token);
     return job;
   } finally {
     issuing = null;
@@ -275,7 +275,7 @@ async function submitJob(body) {
  * and numbers are sent exactly as typed). `sceneText` must already be a parsed, valid JSON value. */
 export function withScene(sceneText, fields = {}) {
   const rest = JSON.stringify(fields);
-  return `{"scene":${sceneText}${rest === "{}" ? "" : "," + rest.slice(1, -1)}}`;
+  return `{"scene":${sceneText}${rest === "{}" ? "" : `,${rest.slice(1, -1)}`}}`;
 }
 
 export const api = {

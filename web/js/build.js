@@ -8,7 +8,7 @@ import { request } from "./api.js";
 import { BuildView } from "./buildview.js";
 import { anchorOf, floorAndCeiling, freeSpot, itemAt, pickAt, r3, stage, v3 } from "./edits.js";
 import { appendItem, formatJSON, removeAt, setValue } from "./jsonpos.js";
-import { $, h } from "./util.js";
+import { h } from "./util.js";
 import { add, dot, length, mul, normalize, sub } from "./vec.js";
 
 export const TEMPLATES = [
@@ -375,7 +375,7 @@ export class BuildPanel {
     const eye = tree?.nodes?.find((n) => n.parent === null || n.parent === undefined);
     const i = eye?.hit?.object;
     const o = Number.isInteger(i) ? this.value?.objects?.[i] : null;
-    if (!o || o.type !== "mesh" || !o.file || (found && !(eye.t < found.t))) return;
+    if (o?.type !== "mesh" || !o.file || (found && !(eye.t < found.t))) return;
     this.pick(["objects", i]);
   }
 

@@ -112,7 +112,7 @@ export class BuildView extends View3D {
     const spot = TURNS.map(([dx, dy]) => [a[0] + dx, a[1] + dy]).find((q) => taken.every((t) => Math.hypot(q[0] - t[0], q[1] - t[1]) >= 2 * GRAB));
     const turn = rotateWrites(item, [], 0) ? spot || [a[0] + TURNS[0][0], a[1] + TURNS[0][1]] : null;
     const axis = item.type === "spot" && Array.isArray(item.direction) ? normalize(item.direction) : null;
-    const aimAt = axis && axis.every(Number.isFinite) ? add(p, mul(axis, L * 1.6)) : null;
+    const aimAt = axis?.every(Number.isFinite) ? add(p, mul(axis, L * 1.6)) : null;
     const aim = aimAt && dot(sub(aimAt, this.cam.eye), this.cam.forward) > 0 ? this.project(this.cam, aimAt) : null;
     return { at: p, a, tips, knob, turn, L, aim, aimAt };
   }

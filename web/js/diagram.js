@@ -14,7 +14,7 @@ const GAP = 14;
 const ROW = H + 54;
 const TOP = 40;
 
-const cut = (text, chars) => (text.length > chars ? text.slice(0, chars - 1) + "…" : text);
+const cut = (text, chars) => (text.length > chars ? `${text.slice(0, chars - 1)}…` : text);
 const mean = (v) => (Array.isArray(v) ? (v[0] + v[1] + v[2]) / 3 : v);
 
 function hitName(n) {
@@ -132,7 +132,7 @@ function nodeBox(n, p) {
     g.append(swatchRow(7, 18 + 14 * 3 + 1, [["L", n.radiance]]));
     return g;
   }
-  const mat = n.hit && n.hit.material ? ` · ${n.hit.material}` : "";
+  const mat = n.hit?.material ? ` · ${n.hit.material}` : "";
   g.append(line(1, cut(hitName(n) + mat, 28), "strong"));
   g.append(line(2, cut(`weight ${rgb(n.weight, 2)}${n.t !== null && n.t !== undefined ? ` · t ${num(n.t, 3)}` : ""}`, 28)));
   const t = n.terms;

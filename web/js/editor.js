@@ -322,7 +322,7 @@ export class SceneEditor {
     if (n !== this.lines) {
       this.lines = n;
       let s = "";
-      for (let i = 1; i <= n; i++) s += i + "\n";
+      for (let i = 1; i <= n; i++) s += `${i}\n`;
       this.gutter.textContent = s;
     }
   }
@@ -439,8 +439,8 @@ export class SceneEditor {
       const extra = before.endsWith("{") || before.endsWith("[") ? "  " : "";
       e.preventDefault();
       this.noteTyping(); // execCommand sends no beforeinput
-      const insert = "\n" + indent + extra;
-      if (!document.execCommand || !document.execCommand("insertText", false, insert)) {
+      const insert = `\n${indent}${extra}`;
+      if (!document.execCommand?.("insertText", false, insert)) {
         this.ta.setRangeText(insert, pos, this.ta.selectionEnd, "end");
         this.changed();
       }

@@ -252,7 +252,7 @@ export class SceneFields {
 
     const objects = Array.isArray(value.objects) ? value.objects : [];
     this.objectIndex = Math.min(this.objectIndex, Math.max(0, objects.length - 1));
-    const objectLabels = objects.map((o, i) => `${i}: ${(o && o.name) || (o && o.type) || "?"}`);
+    const objectLabels = objects.map((o, i) => `${i}: ${(o?.name) || (o?.type) || "?"}`);
     if (objectLabels.join("\n") !== $$("option", this.objectSelect).map((o) => o.textContent).join("\n")) {
       this.objectSelect.replaceChildren(...objectLabels.map((l, i) => h("option", { value: i }, l)));
     }
@@ -263,7 +263,7 @@ export class SceneFields {
       const mats = value.materials && typeof value.materials === "object" ? value.materials : {};
       this.materialNote.textContent = `material "${obj.material}"${users > 1 ? `, shared by ${users} objects` : ""}`;
       this.fill("material", MATERIAL, ["materials", obj.material], mats[obj.material] || {}, part("material"));
-    } else if (obj && obj.material && typeof obj.material === "object") {
+    } else if (obj?.material && typeof obj.material === "object") {
       this.materialNote.textContent = "an inline material";
       this.fill("material", MATERIAL, ["objects", this.objectIndex, "material"], obj.material, part("material"));
     } else {
@@ -273,7 +273,7 @@ export class SceneFields {
 
     const lights = Array.isArray(value.lights) ? value.lights : [];
     this.lightIndex = Math.min(this.lightIndex, Math.max(0, lights.length - 1));
-    const lightLabels = lights.map((l, i) => `${i}: ${(l && l.type) || "?"}`);
+    const lightLabels = lights.map((l, i) => `${i}: ${(l?.type) || "?"}`);
     if (lightLabels.join("\n") !== $$("option", this.lightSelect).map((o) => o.textContent).join("\n")) {
       this.lightSelect.replaceChildren(...lightLabels.map((l, i) => h("option", { value: i }, l)));
     }

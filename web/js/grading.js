@@ -8,6 +8,7 @@
 // TRACER_INSTRUCTOR_TOKEN answers grading to it alone; pictures and files come as blob: URLs.
 import { ApiError, downloadFile, openFile, request, showImage, tokens } from "./api.js";
 import { locate, nodeLine, lineIndex, parse } from "./jsonpos.js";
+import { TableSort } from "./sorttable.js";
 import { $, h, num, store } from "./util.js";
 
 const POLL_MS = 500;
@@ -95,7 +96,7 @@ export class GradingPanel {
     this.subs = []; // [{student, kind: scene|png|exr|zip, file (a File or Blob), name (the file's name), bytes, from}]
     this.run = null; // the last state of the run shown
     this.token = 0; // bumps when a new run starts: an older poll stops
-    this.sort = { key: "student", dir: 1 };
+    this.sort = new TableSort("student");
     this.built = false;
   }
 
@@ -214,7 +215,7 @@ export class GradingPanel {
     button.disabled = true;
     try {
       const ex = await grade.example();
-      this.text.value = JSON.stringify(ex.assignment, null, 2) + "\n";
+      this.text.value = `${JSON.stringify(ex.assignment, null, 2)}\n`;
       this.setSubs(
         ex.submissions.map((s) =>
           s.image !== undefined
@@ -554,37 +555,14 @@ export class GradingPanel {
     return cols;
   }
 
-  sortBy(key) {
-    const col = this.columns().find((c) => c.key === key);
-    this.sort = this.sort.key === key ? { key, dir: -this.sort.dir } : { key, dir: col.first };
-    this.renderTable();
-    $(`th[data-col="${key}"] button`, this.tableBox)?.focus();
-  }
-
   sortedReports() {
     const col = this.columns().find((c) => c.key === this.sort.key) || this.columns()[0];
-    const dir = this.sort.dir;
-    return [...this.run.reports].sort((a, b) => {
-      const x = col.sort(a);
-      const y = col.sort(b);
-      if (x === null && y !== null) return 1; // no value: last, whichever way
-      if (y === null && x !== null) return -1;
-      if (x !== y && x !== null) return (x < y ? -1 : 1) * dir;
-      return a.student.localeCompare(b.student);
-    });
+    return this.sort.sorted(this.run.reports, col.sort, (a, b) => a.student.localeCompare(b.student));
   }
 
   renderTable() {
     const cols = this.columns();
-    const sortable = (c) => {
-      const on = this.sort.key === c.key;
-      const arrow = on ? (this.sort.dir > 0 ? " ▲" : " ▼") : "";
-      return h(
-        "th",
-        { scope: "col", class: c.metric ? "num" : null, dataset: { col: c.key }, "aria-sort": on ? (this.sort.dir > 0 ? "ascending" : "descending") : null },
-        h("button", { type: "button", class: "sort", onclick: () => this.sortBy(c.key) }, c.label, h("span", { "aria-hidden": "true" }, arrow)),
-      );
-    };
+    const sortable = (c) => this.sort.header(c.key, c.label, { first: c.first, num: c.metric, redraw: () => this.renderTable(), within: this.tableBox });
     const [student, kind, status, score, ...metrics] = cols;
     const head = h(
       "tr",

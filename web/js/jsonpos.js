@@ -59,6 +59,7 @@ export function lineIndex(text) {
 }
 
 const NUMBER = /-?(?:0|[1-9]\d*)(?:\.\d+)?(?:[eE][+-]?\d+)?/y;
+// biome-ignore lint/suspicious/noControlCharactersInRegex: JSON forbids raw control characters in a string
 const STRING = /"(?:[^"\\\u0000-\u001f]|\\(?:["\\/bfnrt]|u[0-9a-fA-F]{4}))*"/y;
 
 /**
@@ -245,7 +246,7 @@ export function setValue(text, parts, newValue) {
   let k = parts.length - 1;
   while (k > 0 && !nodes.has(pathString(parts.slice(0, k)))) k--;
   const parent = nodes.get(pathString(parts.slice(0, k)));
-  if (!parent || parent.type !== "object" || typeof parts[k] === "number") {
+  if (parent?.type !== "object" || typeof parts[k] === "number") {
     throw new Error(`cannot set ${pathString(parts)}: ${pathString(parts.slice(0, k)) || "the scene"} is not an object`);
   }
   let v = newValue;
@@ -286,14 +287,14 @@ export function formatJSON(value, indent = "") {
     if (!value.length) return "[]";
     const flat = value.every(isPrimitive) || value.every((x) => Array.isArray(x) && x.every(isPrimitive));
     if (flat && one.length <= room) return one;
-    const inner = indent + "  ";
+    const inner = `${indent}  `;
     return `[\n${value.map((x) => inner + formatJSON(x, inner)).join(",\n")}\n${indent}]`;
   }
   const keys = Object.keys(value);
   if (!keys.length) return "{}";
   const leaf = keys.every((k) => isPrimitive(value[k]) || (Array.isArray(value[k]) && value[k].every(isPrimitive)));
   if (indent.length >= 4 && leaf && keys.length <= 6 && one.length <= room - 8) return one;
-  const inner = indent + "  ";
+  const inner = `${indent}  `;
   return `{\n${keys.map((k) => `${inner}${JSON.stringify(k)}: ${formatJSON(value[k], inner)}`).join(",\n")}\n${indent}}`;
 }
 
@@ -312,7 +313,7 @@ export function appendItem(text, parts, newValue) {
   if (node.type !== "array") throw new Error(`${pathString(parts)} is not an array`);
   if (node.count === 0) {
     const ind = indentAt(text, node.keyStart >= 0 ? node.keyStart : node.start);
-    const inner = ind + "  ";
+    const inner = `${ind}  `;
     const insert = `[\n${inner}${formatJSON(newValue, inner)}\n${ind}]`;
     return { text: text.slice(0, node.start) + insert + text.slice(node.end), start: node.start + 2 + inner.length, end: node.start + insert.length };
   }

@@ -286,7 +286,9 @@ export class Lessons {
 
   changed(lesson, run, control, value) {
     run.values[control.key] = value;
-    lesson.panels.forEach((_, i) => touches(control, i) && run.dirty.add(i));
+    lesson.panels.forEach((_, i) => {
+      if (touches(control, i)) run.dirty.add(i);
+    });
     run.settle();
   }
 
@@ -476,7 +478,7 @@ export class Lessons {
     el.img.hidden = false;
     const solving = job?.progress?.phase === "radiosity" && job.progress.solve; // the radiosity solve comes first
     el.bar.value = solving ? job.progress.solve.fraction : job?.progress?.fraction ?? 0;
-    if (job && job.image_url && el.rays.getAttribute("aria-pressed") !== "true") {
+    if (job?.image_url && el.rays.getAttribute("aria-pressed") !== "true") {
       const url = job.image_url;
       showImage(el.img, url).then((ok) => ok && el.img.dataset.src === url && (el.img.dataset.shown = url)); // fetched with the token (once per pass)
       el.img.alt = panel.label;
@@ -580,7 +582,7 @@ export class Lessons {
   }
 
   /** What a question's `make` may use: the example scenes, the lessons' picture size, and marks on the panels. */
-  context(lesson, run) {
+  context(_lesson, run) {
     return {
       scene: (name) => this.scene(name),
       size: SIZE,
@@ -614,7 +616,7 @@ export class Lessons {
     return x >= 0 && y >= 0 && x < width && y < height ? [x, y] : null;
   }
 
-  async circleOfConfusion(lesson, run, panel, e) {
+  async circleOfConfusion(_lesson, run, panel, e) {
     const at = this.pixelAt(panel, e);
     if (!at) return;
     const [x, y] = at;

@@ -13,7 +13,7 @@ const AXIS = "#8a96a6";
 
 /** B (W/m^2) of a diffuse patch as a CSS colour: B / pi is its radiance, clamped to [0, 1], gamma 1/2.2. */
 export function toneMap(b) {
-  const c = (b || [0, 0, 0]).map((x) => Math.round(255 * Math.pow(Math.min(1, Math.max(0, (Number.isFinite(x) ? x : 0) / Math.PI)), 1 / 2.2)));
+  const c = (b || [0, 0, 0]).map((x) => Math.round(255 * Math.min(1, Math.max(0, (Number.isFinite(x) ? x : 0) / Math.PI)) ** (1 / 2.2)));
   return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;
 }
 
@@ -158,7 +158,7 @@ export class RadiosityPanel {
   /** The viewer shows a job, or the job it shows changed: the panel shows a finished radiosity job's
    * solution, and hides for anything else. */
   async update(view) {
-    if (!view || view.job.status !== "done") return this.hide();
+    if (view?.job.status !== "done") return this.hide();
     if (this.loading === view.id || (this.data && this.data.id === view.id)) return;
     this.hide();
     const seq = this.seq;
@@ -291,7 +291,7 @@ export class RadiosityPanel {
 
   play() {
     const d = this.data;
-    if (!d || !d.steps) return;
+    if (!d?.steps) return;
     if (this.step >= d.steps) this.setStep(0);
     const ms = Math.max(33, Math.min(250, 8000 / d.steps)); // about 8 s from the first shot to the last
     const stride = Math.max(1, Math.round((d.steps * ms) / 8000));
@@ -480,7 +480,7 @@ export class RadiosityPanel {
     const positive = u.filter((v) => v > 0);
     if (d.threshold > 0) positive.push(d.threshold);
     if (!positive.length) return;
-    let lo = Math.floor(Math.log10(Math.min(...positive)));
+    const lo = Math.floor(Math.log10(Math.min(...positive)));
     let hi = Math.ceil(Math.log10(Math.max(...positive)));
     if (hi <= lo) hi = lo + 1;
     const pw = cssW - l - r;
@@ -542,7 +542,10 @@ export class RadiosityPanel {
     ctx.strokeStyle = CURVE;
     ctx.lineWidth = 1.6;
     ctx.beginPath();
-    u.forEach((v, k) => (k ? ctx.lineTo(X(k), Y(v)) : ctx.moveTo(X(k), Y(v))));
+    u.forEach((v, k) => {
+      if (k) ctx.lineTo(X(k), Y(v));
+      else ctx.moveTo(X(k), Y(v));
+    });
     ctx.stroke();
     ctx.fillStyle = LIGHT;
     d.history.forEach((e, i) => {
@@ -613,7 +616,10 @@ export class RadiosityPanel {
 
 function path(ctx, pts) {
   ctx.beginPath();
-  pts.forEach(([x, y], i) => (i ? ctx.lineTo(x, y) : ctx.moveTo(x, y)));
+  pts.forEach(([x, y], i) => {
+    if (i) ctx.lineTo(x, y);
+    else ctx.moveTo(x, y);
+  });
   ctx.closePath();
 }
 

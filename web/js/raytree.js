@@ -6,10 +6,9 @@ import { renderDiagram } from "./diagram.js";
 import { Overlay } from "./overlay.js";
 import { renderRayList } from "./raylist.js";
 import { RAY_STYLES, countRays, endWords, legend, styleKey } from "./rays.js";
+import { drawRays, highlightRay, treeModel } from "./rayviews.js";
 import { withDefaults } from "./schema.js";
-import { raySegments, sceneBounds } from "./shapes.js";
 import { $, cssColour, h, num, rgb } from "./util.js";
-import { cameraBasis } from "./vec.js";
 import { View3D } from "./view3d.js";
 
 /** Sample indices a pixel has: the adaptive sampler's grid points, else spp (the schema's defaults fill in
@@ -97,20 +96,10 @@ export class RayTreePanel {
   }
 
   present(tree, view, imageUrl) {
-    const nodes = tree.nodes;
-    const children = new Map();
-    for (const n of nodes) {
-      if (n.parent === null || n.parent === undefined) continue;
-      if (!children.has(n.parent)) children.set(n.parent, []);
-      children.get(n.parent).push(n);
-    }
-    const root = nodes.find((n) => n.parent === null || n.parent === undefined);
-    const maxDepth = Math.max(...nodes.map((n) => n.depth));
-    const model = { tree, nodes, children, root, maxDepth, byId: new Map(nodes.map((n) => [n.id, n])) };
+    const model = treeModel(tree);
+    const { nodes, maxDepth } = model;
     this.model = model;
     this.hovered = this.selected = this.focused = null;
-    const { radius } = sceneBounds(view.scene);
-    const segments = raySegments(tree, view.scene, Math.max(1, radius * 0.6));
     const kinds = {};
     for (const n of nodes) kinds[styleKey(n)] = (kinds[styleKey(n)] || 0) + 1;
     const counts = Object.entries(kinds)
@@ -132,9 +121,7 @@ export class RayTreePanel {
     this.list = renderRayList(this.el.list, model, { label: `The ${nodes.length} rays of ${where}`, onFocus: (id) => this.focusRay(id), onSelect: (id) => this.select(id) });
     this.el.overlayCanvas.setAttribute("aria-label", `the ${nodes.length} rays of ${where} drawn over the rendered image`);
     this.diagram.fit(this.el.fit.getAttribute("aria-pressed") === "true");
-    this.overlay.set(imageUrl, { model, segments, basis: cameraBasis(view.scene.camera, view.width, view.height), pixel: [tree.pixel[0], tree.pixel[1]], width: view.width, height: view.height });
-    this.view3d.setScene(view.scene, { width: view.width, height: view.height });
-    this.view3d.setRays({ model, segments });
+    drawRays(this.overlay, this.view3d, imageUrl, model, view);
     this.el.depth.min = "1";
     this.el.depth.max = String(maxDepth);
     this.el.depth.value = String(maxDepth);
@@ -205,11 +192,8 @@ export class RayTreePanel {
 
   link(scroll) {
     const id = this.focused ?? this.hovered ?? this.selected;
-    this.diagram.highlight(id, scroll && (this.focused ?? this.hovered) !== null);
-    this.list.highlight(id);
+    highlightRay(this, id, scroll && (this.focused ?? this.hovered) !== null);
     this.list.select(this.selected);
-    this.overlay.highlight(id);
-    this.view3d.highlight(id);
     this.details(id);
   }
 
@@ -239,7 +223,7 @@ export class RayTreePanel {
         row("ambient", `${rgb(t.ambient)} = ka · Ia`, t.ambient);
         row("diffuse", `${rgb(t.diffuse)} = Σ f_att · I · kd/π · cosθ`, t.diffuse);
         row("specular", `${rgb(t.specular)} = Σ f_att · I · ks (n+2)/2π cosⁿα · cosθ`, t.specular);
-        if (t.emission && t.emission.some((x) => x)) row("emission", rgb(t.emission), t.emission);
+        if (t.emission?.some((x) => x)) row("emission", rgb(t.emission), t.emission);
       }
       row("radiance", `${rgb(n.radiance)} carried back (local terms + weighted children)`, n.radiance);
       if (n.fog_transmittance !== null && n.fog_transmittance !== undefined) row("fog", `transmittance e^(−density·t) = ${rgb(n.fog_transmittance)}`);

@@ -22,7 +22,7 @@ export function loadSchema() {
 
 /** Follow "$ref"s to the definition they name. */
 function deref(node) {
-  while (node && node.$ref) node = root.$defs[node.$ref.split("/").pop()];
+  while (node?.$ref) node = root.$defs[node.$ref.split("/").pop()];
   return node;
 }
 

@@ -6,7 +6,7 @@ const LIGHT = "#ffd23f";
 const CAMERA = "#c8a2ff";
 
 function material(scene, m) {
-  if (typeof m === "string") return (scene.materials || {})[m] || {};
+  if (typeof m === "string") return scene.materials?.[m] || {};
   return m && typeof m === "object" ? m : {};
 }
 
@@ -96,7 +96,7 @@ export function sceneBounds(scene) {
   const pts = [];
   for (const o of scene.objects || []) pts.push(...objectPoints(o));
   for (const l of scene.lights || []) pts.push(...lightPoints(l));
-  if (scene.camera && scene.camera.lookat) pts.push(scene.camera.lookat);
+  if (scene.camera?.lookat) pts.push(scene.camera.lookat);
   const ok = pts.filter((p) => Array.isArray(p) && p.every(Number.isFinite));
   if (!ok.length) return { centre: [0, 0, 0], radius: 5 };
   const lo = [0, 1, 2].map((i) => Math.min(...ok.map((p) => p[i])));

@@ -59,7 +59,7 @@ export function rgb(v, digits = 3) {
 export function cssColour(v, scale = 1) {
   const c = (Array.isArray(v) ? v : [v, v, v]).map((x) => {
     const l = Math.min(1, Math.max(0, (Number.isFinite(x) ? x : 0) * scale));
-    const srgb = l <= 0.0031308 ? 12.92 * l : 1.055 * Math.pow(l, 1 / 2.4) - 0.055;
+    const srgb = l <= 0.0031308 ? 12.92 * l : 1.055 * l ** (1 / 2.4) - 0.055;
     return Math.round(srgb * 255);
   });
   return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;

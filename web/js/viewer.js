@@ -219,12 +219,15 @@ export class Viewer {
 
   async ended(job, live) {
     this.view.job = job;
-    if (this.revealing) requestAnimationFrame(() => (this.reveal(), (this.revealing = false))); // its last layout
+    if (this.revealing) requestAnimationFrame(() => {
+      this.reveal();
+      this.revealing = false;
+    }); // its last layout
     this.update(job);
     if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
     this.updateAovButtons(job);
     if (job.image_url && live) await this.loadImage(job.image_url);
-    if (job.status === "failed") this.message("error", `The job failed: ${job.error || "no reason given"}.`, job.errors && job.errors.length ? job.errors : null);
+    if (job.status === "failed") this.message("error", `The job failed: ${job.error || "no reason given"}.`, job.errors?.length ? job.errors : null);
     else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
     else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
     if (job.status === "done") this.loadAovRanges(job.id);
@@ -460,7 +463,7 @@ export class Viewer {
       [this.el.png, "png"],
       [this.el.exr, "exr"],
     ]) {
-      if (job && job.preview) {
+      if (job?.preview) {
         a.href = api.imageUrl(job.id, fmt);
         a.setAttribute("download", `${(job.name || "render").replace(/[^A-Za-z0-9_-]+/g, "_").slice(0, 40)}.${fmt}`);
         a.removeAttribute("aria-disabled");
@@ -547,7 +550,7 @@ export class Viewer {
         // the legend then names no sampler
       }
     }
-    if (ok && this.view === view && this.aov === name) this.el.legend.textContent = aovLegend(name, view.aovRanges && view.aovRanges[name], sampler);
+    if (ok && this.view === view && this.aov === name) this.el.legend.textContent = aovLegend(name, view.aovRanges?.[name], sampler);
   }
 
   // -- my jobs ----------------------------------------------------------------------------------

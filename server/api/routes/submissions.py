@@ -31,6 +31,7 @@ from server.api.models import CheckIn, ErrorResponse, HandedIn
 from server.api.routes.course_common import ERRORS, NOT_FOUND, staff_assignment
 from server.api.streams import KEEP_ALIVE, event_stream, sse
 from server.course import compare, owntrees
+from server.jobs.service import KEEPALIVE
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
 
@@ -134,7 +135,6 @@ def submission(aid: str, sid: str, course: CourseDep, caller: CallerDep) -> dict
 
 FINAL = ("graded", "invalid", "failed")
 INT32 = 2**31 - 1  # a query's number is checked against the image when the submission is read; this bound comes
-KEEPALIVE = 15.0  # seconds of quiet after which a comment keeps the stream open
 
 
 @router.get(

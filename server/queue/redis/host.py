@@ -41,13 +41,14 @@ from pathlib import Path
 from typing import cast
 
 import redis
+from pydantic import ValidationError
 from redis.typing import EncodableT, FieldT
 from rq import Queue, Worker, worker_registration
 from rq.exceptions import StopRequested
 from rq.utils import now
 from rq.worker import WorkerStatus
 
-from server.core.settings import masked, redis_url_from
+from server.core.settings import explain, load_settings, masked
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Stop, TryEnd
 from server.queue.redis import events as ev
@@ -58,6 +59,8 @@ log = logging.getLogger(__name__)
 
 HOST = {"url": None, "device": "cpu", "threads": 1, "name": None, "host": socket.gethostname(), "cache": None}
 DEFAULT_LOST_AFTER = 15.0
+DEFAULT_CACHE_DIR = Path.home() / ".cache" / "raytrace-edu" / "radiosity"  # without --cache-dir, TRACER_CACHE_DIR
+SETTINGS = ("redis_url", "redis_url_file", "render_threads", "cache_dir")  # Settings' fields the command line sets
 HORSE_GRACE = 60  # s past an RQ job's timeout before its host gives up on it (RQ kills a forked horse then)
 EXIT_STUCK = 70  # an in-process host's exit status when a try ran past that: a supervisor starts it afresh
 SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while Redis is unreachable
@@ -357,8 +360,10 @@ def main(argv: list[str] | None = None) -> int:
         prog="server.worker",
         description="A worker host: render jobs from the API's Redis queue (python -m server --redis URL).",
     )
+    p.add_argument("--settings", help="a settings file of TRACER_*=value lines (default: $TRACER_SETTINGS_FILE)")
     p.add_argument(
         "--redis",
+        dest="redis_url",
         metavar="URL",
         help="the Redis the API uses (redis://host:6379/0), or TRACER_REDIS_URL; with a password, rather "
         "--redis-url-file (a command line is shown by ps)",
@@ -372,7 +377,10 @@ def main(argv: list[str] | None = None) -> int:
         "--device", default="cpu", type=device_arg, help="Warp device to render on: cpu (default), cuda:0, ..."
     )
     p.add_argument(
-        "--threads", type=int, default=0, help="render threads (default: every core; a CUDA device: whole images)"
+        "--threads",
+        dest="render_threads",
+        type=int,
+        help="render threads (default TRACER_RENDER_THREADS, else every core; a CUDA device: whole images)",
     )
     p.add_argument(
         "--queues",
@@ -384,8 +392,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--name", help="this worker's name (default: host.pid)")
     p.add_argument(
         "--cache-dir",
-        default=str(Path.home() / ".cache" / "raytrace-edu" / "radiosity"),
-        help="where this host keeps radiosity solutions by their scene's content",
+        help="where this host keeps radiosity solutions by their scene's content (default TRACER_CACHE_DIR, else "
+        f"{DEFAULT_CACHE_DIR})",
     )
     p.add_argument(
         "--no-fork",
@@ -399,26 +407,31 @@ def main(argv: list[str] | None = None) -> int:
         "without connecting: a unit's ExecStart with --check (deploy/)",
     )
     args = p.parse_args(argv)  # an unknown device: "warp has no device cuda:0 here; available: cpu", exit 2
-    try:  # the command line's, else the environment's; never both a URL and a file
-        url = redis_url_from(
-            args.redis or (None if args.redis_url_file else os.environ.get("TRACER_REDIS_URL")),
-            args.redis_url_file or (None if args.redis else os.environ.get("TRACER_REDIS_URL_FILE")),
-        )
-    except ValueError as e:
-        p.error(str(e))
+    given = {k: v for k in SETTINGS if (v := getattr(args, k)) is not None}
+    if "redis_url" in given or "redis_url_file" in given:  # the command line's URL, not the environment's other one
+        given = {"redis_url": None, "redis_url_file": None, **given}
+    try:  # the API's settings (server/core/settings.py): the command line's, the environment's, a settings file's
+        settings = load_settings(args.settings, **given)
+    except ValidationError as exc:  # each setting by the name it was given (an option, or its TRACER_ variable)
+        p.error(explain(exc, {a.dest: a.option_strings[0] for a in p._actions if a.dest in given}))
+    except FileNotFoundError as exc:
+        p.error(str(exc))
+    url = settings.redis_url
     if not url:
         p.error("the Redis URL is missing: give --redis URL or --redis-url-file PATH (or TRACER_REDIS_URL, "
                 "TRACER_REDIS_URL_FILE)")  # fmt: skip
     device = args.device
+    cuda = is_cuda(device)
+    threads = 1 if cuda else settings.render_threads or default_threads()
+    cache = str(settings.cache_dir or DEFAULT_CACHE_DIR)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s[%(process)d]: %(message)s")
     if args.check:
-        log.info("check: would render on %s from %s, lanes %s", device, masked(url), " ".join(args.queues))
+        log.info("check: would render on %s (%d thread(s), radiosity cache in %s) from %s, lanes %s", device,
+                 threads, cache, masked(url), " ".join(args.queues))  # fmt: skip
         return 0
     faulthandler.register(signal.SIGUSR2, all_threads=True)  # kill -USR2 <pid>: where is it stuck?
-    cuda = is_cuda(device)
     worker_class = InProcessWorker if cuda or args.no_fork else HostWorker  # CUDA must not be forked
-    threads = 1 if cuda else args.threads or default_threads()
-    HOST.update(url=url, device=device, threads=threads, cache=args.cache_dir)
+    HOST.update(url=url, device=device, threads=threads, cache=cache)
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
     HOST["pid"] = os.getpid()  # a try run in another process runs in a forked work horse
     load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm

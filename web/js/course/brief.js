@@ -192,7 +192,7 @@ function countdown(root, brief, onPhase) {
     first === "tokens"
       ? `The deadline has passed: a submission now spends ${brief.tokens_needed_now || "none"} of your late tokens and is on time.`
       : first === "late"
-      ? "The deadline has passed: a submission now is marked late" + (brief.late_penalty ? ` and loses ${num(100 * brief.late_penalty, 3)} % of its points.` : ".")
+      ? `The deadline has passed: a submission now is marked late${brief.late_penalty ? ` and loses ${num(100 * brief.late_penalty, 3)} % of its points.` : "."}`
       : "The assignment is closed: submissions are no longer taken. Your submissions and their feedback stay below.";
   return stop;
 }

@@ -12,7 +12,8 @@ import { request } from "../api.js";
 import { renderDiagram } from "../diagram.js";
 import { renderRayList } from "../raylist.js";
 import { legend } from "../rays.js";
-import { cssColour, h, rgb, s } from "../util.js";
+import { colourSwatch, treeModel } from "../rayviews.js";
+import { h, s } from "../util.js";
 
 /** The two sides, titled for the reader: the student themselves, or their instructor (`as`). */
 const SIDES = {
@@ -31,15 +32,6 @@ const SIDES = {
 export function inWordsOf(as, message) {
   if (as !== "instructor") return message;
   return message.replace(/\bYours\b/g, "The student's").replace(/\bYour\b/g, "The student's").replace(/\byours\b/g, "the student's").replace(/\byour\b/g, "the student's");
-}
-
-/** The diagram's model of a tree (diagram.js): its nodes, each node's children in id order, the root. */
-export function treeModel(tree) {
-  const nodes = [...tree.nodes].sort((a, b) => a.id - b.id);
-  const children = new Map(nodes.map((n) => [n.id, []]));
-  for (const n of nodes) if (n.parent !== null && n.parent !== undefined) children.get(n.parent)?.push(n);
-  const root = nodes.find((n) => n.parent === null || n.parent === undefined);
-  return { tree, nodes, children, root, maxDepth: Math.max(...nodes.map((n) => n.depth)), byId: new Map(nodes.map((n) => [n.id, n])) };
 }
 
 /** The node at a path (child indices from the root), or null when the tree has none there. */
@@ -63,8 +55,7 @@ function side(name, title, tree, marked) {
       "p",
       { class: "compare-summary" },
       `${model.nodes.length} ray${model.nodes.length === 1 ? "" : "s"}; the pixel sample's colour `,
-      h("span", { class: "sw", style: `background:${cssColour(tree.color)}`, title: "the colour, as the display shows it" }),
-      `RGB (${tree.color.map((x) => rgb(x)).join(", ")})`,
+      ...colourSwatch(tree.color),
     ),
     box,
   );

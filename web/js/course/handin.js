@@ -70,7 +70,7 @@ export class HandIn {
 
   fromWorkspace() {
     const text = keptText();
-    if (!text || !text.trim()) {
+    if (!text?.trim()) {
       this.note.textContent = "The workspace has no scene in this browser yet: open it (Workspace, above), write your scene, then come back.";
       return;
     }

@@ -8,7 +8,7 @@ import { $, h } from "../util.js";
 import { AuditPanel } from "./audit.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { Board } from "./instructor_board.js";
-import { course, errorWords, linkBox, say, tokenProblem, when } from "./instructor_util.js";
+import { course, linkBox, say, tokenProblem, when } from "./instructor_util.js";
 
 const view = $("#course-view");
 

@@ -6,6 +6,7 @@
 // first differences in those logs (a bar chart), the versions with the form that publishes a new one (and
 // regrades), and the exports. Pictures and files are fetched with the instructor's header and shown as blob: URLs.
 import { downloadFile, showImage } from "../api.js";
+import { TableSort } from "../sorttable.js";
 import { $, download, h, s } from "../util.js";
 import { AssignmentForm } from "./instructor_form.js";
 import { SimilarityPanel } from "./similarity.js";
@@ -44,7 +45,7 @@ function csvText(rows) {
     const t = v === null || v === undefined ? "" : String(v);
     return /[",\r\n]/.test(t) ? `"${t.replace(/"/g, '""')}"` : t;
   };
-  return rows.map((r) => r.map(field).join(",")).join("\n") + "\n";
+  return `${rows.map((r) => r.map(field).join(",")).join("\n")}\n`;
 }
 
 function matches(row, filter) {
@@ -77,7 +78,7 @@ export class Board {
     this.onRole = onRole; // (role): the page's token field says whose token it is
     this.rows = new Map(); // student id -> {sig, tr}
     this.data = null; // the last dashboard answer
-    this.sort = { key: "student", dir: 1 };
+    this.sort = new TableSort("student");
     this.filter = "all";
     this.timer = null;
     this.closed = false;
@@ -410,31 +411,8 @@ export class Board {
   }
 
   columns() {
-    const on = (key) => this.sort.key === key;
-    return h(
-      "tr",
-      {},
-      COLUMNS.map(([key, label, , first]) =>
-        h(
-          "th",
-          { scope: "col", class: ["score", "submissions"].includes(key) ? "num" : null, dataset: { col: key }, "aria-sort": on(key) ? (this.sort.dir > 0 ? "ascending" : "descending") : null },
-          h(
-            "button",
-            {
-              type: "button",
-              class: "sort",
-              onclick: () => {
-                this.sort = on(key) ? { key, dir: -this.sort.dir } : { key, dir: first };
-                this.renderTable();
-                $(`th[data-col="${key}"] button`, this.thead)?.focus();
-              },
-            },
-            label,
-            h("span", { "aria-hidden": "true" }, on(key) ? (this.sort.dir > 0 ? " ▲" : " ▼") : ""),
-          ),
-        ),
-      ),
-    );
+    const redraw = () => this.renderTable();
+    return h("tr", {}, COLUMNS.map(([key, label, , first]) => this.sort.header(key, label, { first, num: ["score", "submissions"].includes(key), redraw, within: this.thead })));
   }
 
   /** The table, kept fast at 300 rows: a row is built again only when its student's data changed. */
@@ -445,16 +423,10 @@ export class Board {
     const q = this.search.value.trim().toLowerCase();
     const shown = all.filter((r) => matches(r, this.filter) && (!q || r.id.toLowerCase().includes(q) || r.name.toLowerCase().includes(q)));
     const col = COLUMNS.find((c) => c[0] === this.sort.key) || COLUMNS[0];
-    const key = col[2];
-    shown.sort((a, b) => {
-      const x = key(a), y = key(b);
-      if ((x === null || x === undefined) !== (y === null || y === undefined)) return x === null || x === undefined ? 1 : -1;
-      if (x !== y && x !== null && x !== undefined) return (x < y ? -1 : 1) * this.sort.dir;
-      return a.index - b.index;
-    });
+    const sorted = this.sort.sorted(shown, col[2], (a, b) => a.index - b.index);
     const ids = new Set(all.map((r) => r.id));
     for (const id of this.rows.keys()) if (!ids.has(id)) this.rows.delete(id);
-    const trs = shown.map((r) => {
+    const trs = sorted.map((r) => {
       const { index, ...data } = r;
       const sig = JSON.stringify(data);
       let kept = this.rows.get(r.id);

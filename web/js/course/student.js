@@ -74,8 +74,14 @@ async function open(token, { joined = null } = {}) {
   stopCountdown = showBrief(briefRoot, brief, token, { onPhase: () => refreshBrief(api) });
   await startLink(brief);
 
-  const ctx = { aid, token, api, compareBox: $("#compare"), scoreWhen: scoreWhen(brief.feedback), onFinal: () => (list.load(), refreshBrief(api)) };
-  if (!handin) handin = new HandIn($("#a-handin"), { aid, api, starter: brief.starter, onSubmitted: (view) => (list.add(view), refreshBrief(api)) });
+  const ctx = { aid, token, api, compareBox: $("#compare"), scoreWhen: scoreWhen(brief.feedback), onFinal: () => {
+    list.load();
+    refreshBrief(api);
+  } };
+  if (!handin) handin = new HandIn($("#a-handin"), { aid, api, starter: brief.starter, onSubmitted: (view) => {
+    list.add(view);
+    refreshBrief(api);
+  } });
   list?.close();
   list = new SubmissionList($("#a-sub-list"), $("#a-attempts"), $("#a-subs-status"), ctx);
   await list.load();

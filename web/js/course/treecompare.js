@@ -18,11 +18,10 @@ import { renderDiagram } from "../diagram.js";
 import { Overlay } from "../overlay.js";
 import { renderRayList } from "../raylist.js";
 import { legend } from "../rays.js";
-import { raySegments, sceneBounds } from "../shapes.js";
-import { cssColour, h, rgb, s } from "../util.js";
-import { cameraBasis } from "../vec.js";
+import { colourSwatch, drawRays, highlightRay, treeModel } from "../rayviews.js";
+import { h, s } from "../util.js";
 import { View3D } from "../view3d.js";
-import { inWordsOf, mark, treeModel } from "./compare.js";
+import { inWordsOf, mark } from "./compare.js";
 
 /** The comparison's vocabulary (tracer/grading/explain.py), in words for the chart and the buttons. */
 export const WHATS = {
@@ -91,9 +90,7 @@ function side(name, title, tree, markedId, ctx) {
   const model = treeModel(tree);
   const marked = markedId === null || markedId === undefined ? null : model.byId.get(markedId) || null;
   const n = model.nodes.length;
-  const colour = Array.isArray(tree.color)
-    ? [h("span", { class: "sw", style: `background:${cssColour(tree.color)}`, title: "the colour, as the display shows it" }), `RGB (${tree.color.map((x) => rgb(x)).join(", ")})`]
-    : ["not logged"];
+  const colour = Array.isArray(tree.color) ? colourSwatch(tree.color) : ["not logged"];
   const box = h("div", { class: "compare-tree", tabindex: 0, role: "group", "aria-label": `${title}: ${n} rays` });
   const section = h("section", { class: "compare-side", dataset: { side: name } }, h("h4", {}, title), h("p", { class: "compare-summary" }, `${n} ray${n === 1 ? "" : "s"}; the pixel's colour `, ...colour), box);
   const view = { section, box, model, marked, title, name };
@@ -121,24 +118,14 @@ function draw(view, ctx, image, d) {
   const { model, marked } = view;
   let diagram = null;
   let list = null;
-  const show = (id) => {
-    const at = id ?? marked?.id ?? null;
-    diagram?.highlight(at);
-    list?.highlight(at);
-    view.overlay?.highlight(at);
-    view.view3d?.highlight(at);
-  };
+  const show = (id) => highlightRay({ diagram, list, overlay: view.overlay, view3d: view.view3d }, id ?? marked?.id ?? null);
   diagram = renderDiagram(view.box, model, { onHover: show, onSelect: show, open: marked ? [marked.id] : [], label: `${view.title}: ${model.nodes.length} rays (the tree in words, below, names each)` });
   list = renderRayList(view.words, model, { label: `${view.title}: ${model.nodes.length} rays`, onFocus: show, onSelect: show });
   if (marked) view.words.querySelector(`[data-id="${marked.id}"] > .rt-li-text`)?.append(` The first difference: ${whatWords(d.what)}.`);
   if (ctx.scene) {
-    const { width, height, scene } = ctx;
-    const segments = raySegments(model.tree, scene, Math.max(1, sceneBounds(scene).radius * 0.6));
     view.overlay = new Overlay(view.overlayCanvas, { onHover: show, onSelect: show, onPick: () => {} });
-    view.overlay.set(image, { model, segments, basis: cameraBasis(scene.camera, width, height), pixel: model.tree.pixel, width, height });
     view.view3d = new View3D(view.canvas3d, { onHover: show, onSelect: show });
-    view.view3d.setScene(scene, { width, height });
-    view.view3d.setRays({ model, segments });
+    drawRays(view.overlay, view.view3d, image, model, ctx);
   }
   const g = marked ? mark(view, whatWords(d.what)) : null;
   show(null);
@@ -153,7 +140,7 @@ function draw(view, ctx, image, d) {
  */
 export function showTreeAnswers(container, answer, { as = "student", images = {}, auth = {}, probes = [] } = {}) {
   const trees = answer.trees || [];
-  const scene = answer.scene && answer.scene.camera ? answer.scene : null;
+  const scene = answer.scene?.camera ? answer.scene : null;
   const ctx = { as, scene, width: answer.width, height: answer.height };
   const whose = as === "instructor" ? "The student's" : "Your";
   const differ = trees.filter((t) => !t.matches);
@@ -191,7 +178,7 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     const t = trees[i];
     if (!t) return;
     const mine = ++seq;
-    buttons.forEach((b, j) => b.setAttribute("aria-pressed", String(j === i)));
+    for (const [j, b] of buttons.entries()) b.setAttribute("aria-pressed", String(j === i));
     const d = t.differences[0] || null;
     const probe = probes.find((p) => p.x === t.pixel[0] && p.y === t.pixel[1]);
     const head = h(
@@ -230,7 +217,7 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     body.dataset.drawn = "true";
   }
   const first = trees.findIndex((t) => !t.matches);
-  if (trees.length) select(first < 0 ? 0 : first);
+  if (trees.length) select(Math.max(first , 0));
   return { select };
 }
 

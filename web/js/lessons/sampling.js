@@ -92,7 +92,9 @@ export const SAMPLING = [
       },
     ],
     panels: [
-      { label: "still (velocities removed)", edit: (s) => (s.objects || []).forEach((o) => delete o.velocity), note: "objects[*].velocity removed" },
+      { label: "still (velocities removed)", edit: (s) => {
+        for (const o of s.objects || []) delete o.velocity;
+      }, note: "objects[*].velocity removed" },
       { label: (s) => `moving, shutter open ${(s.camera.shutter || [0, 1]).join(" → ")}` },
     ],
     question: {
