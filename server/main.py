@@ -74,8 +74,6 @@ from server.jobs.service import JobService
 from server.jobs.store import JobStore
 from server.lti.tool import LtiTool
 from server.queue.base import make_queue
-from server.queue.embedded.worker import load_kernels
-from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
 
 log = logging.getLogger("server")
 
@@ -161,9 +159,13 @@ def load_in_background(loaded: threading.Event, settings: Settings) -> None:
                 break
             time.sleep(GATE_LOOK_SECONDS)
     started = time.monotonic()
-    try:
+    try:  # imported here: the modules that define the kernels take seconds to import, after the page answers
+        from server.queue.embedded.worker import load_kernels
+        from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
+
         load_kernels()
         load_sample_kernels()
+        gc.freeze()  # what they made lives as long as the server, as start-up's does (the lifespan's gc.freeze)
         log.info("render kernels ready (%.1f s): starting the render workers", time.monotonic() - started)
     except Exception:
         log.exception("could not load the render kernels: the render workers try on their own")

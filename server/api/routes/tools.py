@@ -13,6 +13,7 @@ from server.api.deps import (
     ChecksDep,
     ClientDep,
     JobsDep,
+    KernelsDep,
     QueueDep,
     RunsDep,
     SettingsDep,
@@ -33,12 +34,11 @@ router = APIRouter(prefix="/api", tags=["tools"])
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
 async def health(
     store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: JobsDep, runs: RunsDep, caller: CallerDep,
-    request: Request,
+    kernels: KernelsDep,
 ) -> Health:  # fmt: skip
     """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else). `status` is
     "starting" while the server loads the render kernels or a live worker is still loading them (a render waits in
     the queue meanwhile), else "ok"."""
-    kernels = request.app.state.kernels
 
     def answer() -> Health:  # reads the database (and, on Redis, the worker hosts): in one trip to a thread
         workers = queue.workers()
