@@ -1,11 +1,11 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app checks its data directory and takes its lock (server/core/startup.py), brings
-its database to this release's schema (server/core/migrations.py: a copy first, if it is older), starts compiling
-the render kernels (or loading them from Warp's cache) in a thread, starts the processes that check scenes
-(server/checkers/pool.py), opens the job store, puts back in the queue the jobs a dead server left running, has
-the render workers started once the kernels are loaded (the page answers meanwhile; a render waits in the queue,
-and /api/health says "starting"), resumes the grading runs a stopped server left unfinished (the course's
+its database to this release's schema (server/core/migrations.py: a copy first, if it is older), starts the
+processes that check scenes (server/checkers/pool.py), opens the job store, puts back in the queue the jobs a dead
+server left running, has the render workers started once the kernels are loaded (compiled, or read from Warp's
+cache, in a thread started last, while the page answers; a render waits in the queue meanwhile, and /api/health
+says "starting"), resumes the grading runs a stopped server left unfinished (the course's
 assignments' among them, with the submissions it had accepted but not handed to them: server/course/), opens the
 LTI tool (server/lti/: its keys and the platforms that may launch it), and starts the janitor (which removes old
 finished jobs); at shutdown the grading runs stop where they are (their rows say where), the workers give their
@@ -94,13 +94,7 @@ async def lifespan(app: FastAPI):
     except BaseException:
         lock.close()
         raise
-    # the kernels in Warp's cache before this host's workers start, so that they only read it; the page answers
-    # meanwhile (a cold cache takes a minute or more to compile), and a render submitted waits in the queue
-    kernels = app.state.kernels
-    if settings.workers:
-        threading.Thread(target=load_in_background, args=(kernels, settings), name="kernels", daemon=True).start()
-    else:
-        kernels.set()  # no worker here: the workers elsewhere, and the checking processes, load their own
+    kernels = app.state.kernels  # set once the render kernels are loaded: this host's workers start then
     with contextlib.ExitStack() as stack:  # what started is stopped, last first, also when a later start fails
         stack.callback(lock.close)
         checks = app.state.checks = CheckPool(settings)
@@ -146,6 +140,12 @@ async def lifespan(app: FastAPI):
         # event streams open, and every request waited for them)
         gc.freeze()
         stack.callback(gc.unfreeze)
+        # the kernels in Warp's cache before this host's workers start, so that they only read it: loaded from
+        # here on, while the page answers (a cold cache takes a minute or more to compile); a render waits
+        if settings.workers:
+            threading.Thread(target=load_in_background, args=(kernels, settings), name="kernels", daemon=True).start()
+        else:
+            kernels.set()  # no worker here: the workers elsewhere, and the checking processes, load their own
         yield
 
 
