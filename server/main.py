@@ -1,11 +1,11 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app checks its data directory and takes its lock (server/core/startup.py), brings
-its database to this release's schema (server/core/migrations.py: a copy first, if it is older), starts the
-processes that check scenes (server/checkers/pool.py), opens the job store, puts back in the queue the jobs a dead
-server left running, has the render workers started once the kernels are loaded (compiled, or read from Warp's
-cache, in a thread started last, while the page answers; a render waits in the queue meanwhile, and /api/health
-says "starting"), resumes the grading runs a stopped server left unfinished (the course's
+its database to this release's schema (server/core/migrations.py: a copy first, if it is older), opens the job
+store, puts back in the queue the jobs a dead server left running, has the processes that check scenes
+(server/checkers/pool.py) and then the render workers started once their kernels are loaded (compiled, or read
+from Warp's cache, in a thread started last, while the page answers; a render waits in the queue meanwhile, and
+/api/health says "starting"), resumes the grading runs a stopped server left unfinished (the course's
 assignments' among them, with the submissions it had accepted but not handed to them: server/course/), opens the
 LTI tool (server/lti/: its keys and the platforms that may launch it), and starts the janitor (which removes old
 finished jobs); at shutdown the grading runs stop where they are (their rows say where), the workers give their
@@ -22,6 +22,7 @@ import gc
 import logging
 import threading
 import time
+from collections.abc import Callable
 from contextlib import asynccontextmanager
 from datetime import UTC, datetime
 
@@ -98,7 +99,8 @@ async def lifespan(app: FastAPI):
     with contextlib.ExitStack() as stack:  # what started is stopped, last first, also when a later start fails
         stack.callback(lock.close)
         checks = app.state.checks = CheckPool(settings)
-        checks.start()  # scene checks, off the event loop
+        if not settings.workers:  # else once the kernels' thread (below) has the samples' kernel in Warp's cache
+            checks.start()  # scene checks, off the event loop
         stack.callback(checks.shutdown)
         store = JobStore(settings.data_dir)
         # the stores' connections (one per thread that used them) closed last of all: a pool's thread outlives
@@ -143,28 +145,35 @@ async def lifespan(app: FastAPI):
         # the kernels in Warp's cache before this host's workers start, so that they only read it: loaded from
         # here on, while the page answers (a cold cache takes a minute or more to compile); a render waits
         if settings.workers:
-            threading.Thread(target=load_in_background, args=(kernels, settings), name="kernels", daemon=True).start()
+            args = (kernels, settings, checks.start)
+            threading.Thread(target=load_in_background, args=args, name="kernels", daemon=True).start()
         else:
             kernels.set()  # no worker here: the workers elsewhere, and the checking processes, load their own
         yield
 
 
-def load_in_background(loaded: threading.Event, settings: Settings) -> None:
-    """Load the render kernels (and the samples' kernel of POST /api/samples), then set `loaded`: the workers
-    start. A failure is logged and the workers start all the same: each loads them itself, and says why not."""
+def load_in_background(loaded: threading.Event, settings: Settings, start_checkers: Callable[[], None]) -> None:
+    """Load the samples' kernel (POST /api/samples) and start the checking processes (they then read it from Warp's
+    cache), then load the render kernels and set `loaded`: the workers start. A failure is logged and what waits
+    for it starts all the same: each process loads the kernels itself, and says why not."""
+    started = time.monotonic()
+    try:  # imported here: the modules that define the kernels take seconds to import, after the page answers
+        from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
+
+        load_sample_kernels()
+    except Exception:
+        log.exception("could not load the samples' kernel: the checking processes try on their own")
+    start_checkers()
     gate = settings.kernel_load_gate
-    if gate is not None:  # the tests' slow machine (TRACER_KERNEL_LOAD_GATE)
+    if gate is not None:  # the tests' slow machine (TRACER_KERNEL_LOAD_GATE): the workers' start only
         for _ in range(GATE_LOOKS):
             if gate.exists():
                 break
             time.sleep(GATE_LOOK_SECONDS)
-    started = time.monotonic()
-    try:  # imported here: the modules that define the kernels take seconds to import, after the page answers
+    try:
         from server.queue.embedded.worker import load_kernels
-        from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
 
         load_kernels()
-        load_sample_kernels()
         gc.freeze()  # what they made lives as long as the server, as start-up's does (the lifespan's gc.freeze)
         log.info("render kernels ready (%.1f s): starting the render workers", time.monotonic() - started)
     except Exception:
