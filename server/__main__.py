@@ -258,6 +258,13 @@ class StoppingServer(uvicorn.Server):
         super().__init__(config)
         self.stopping = stopping
 
+    async def startup(self, sockets=None) -> None:
+        await super().startup(sockets=sockets)
+        if self.started:  # listening: say so (the render workers start once the kernels are loaded)
+            c = self.config
+            log.info("answering on http://%s:%d: the page works now; renders start once the render kernels are "
+                     "loaded (/api/health says \"starting\" until then)", c.host, c.port)  # fmt: skip
+
     def handle_exit(self, sig, frame) -> None:
         self.stopping.set()  # a plain flag (server/main.py, Stopping): safe in a signal handler
         super().handle_exit(sig, frame)

@@ -1,17 +1,18 @@
 """The FastAPI application: API routers under /api, the static page from web/ at /.
 
 At start-up (the lifespan) the app checks its data directory and takes its lock (server/core/startup.py), brings
-its database to this release's schema (server/core/migrations.py: a copy first, if it is older), compiles the render
-kernels (or loads them from Warp's cache), starts the processes that check scenes (server/checkers/pool.py),
-opens the job store, puts back in the queue the jobs a dead server left running, starts the render
-workers, resumes the grading runs a stopped server left unfinished (the course's assignments' among them,
-with the submissions it had accepted but not handed to them: server/course/), opens the LTI tool (server/lti/:
-its keys and the platforms that may launch it), and starts the janitor (which removes old finished jobs); at
-shutdown the grading runs stop where they are (their rows say where), the workers give their running jobs back
-to the queue (as soon as a stop signal arrives, with `python -m server`: see `Stopping`), and the checking
-processes end. Every request passes the host
-check and gets the security headers (server/api/middleware.py); the start-up log warns of a server open to
-others without an instructor token or a list of host names.
+its database to this release's schema (server/core/migrations.py: a copy first, if it is older), opens the job
+store, puts back in the queue the jobs a dead server left running, has the processes that check scenes
+(server/checkers/pool.py) and then the render workers started once their kernels are loaded (compiled, or read
+from Warp's cache, in a thread started last, while the page answers; a render waits in the queue meanwhile, and
+/api/health says "starting"), resumes the grading runs a stopped server left unfinished (the course's
+assignments' among them, with the submissions it had accepted but not handed to them: server/course/), opens the
+LTI tool (server/lti/: its keys and the platforms that may launch it), and starts the janitor (which removes old
+finished jobs); at shutdown the grading runs stop where they are (their rows say where), the workers give their
+running jobs back to the queue (as soon as a stop signal arrives, with `python -m server`: see `Stopping`), and the
+checking processes end. Every request passes the host check and gets the security headers
+(server/api/middleware.py); the start-up log warns of a server open to others without an instructor token or a list
+of host names.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ import contextlib
 import gc
 import logging
 import threading
+import time
+from collections.abc import Callable
 from contextlib import asynccontextmanager
 from datetime import UTC, datetime
 
@@ -73,10 +76,10 @@ from server.jobs.service import JobService
 from server.jobs.store import JobStore
 from server.lti.tool import LtiTool
 from server.queue.base import make_queue
-from server.queue.embedded.worker import load_kernels
-from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
 
 log = logging.getLogger("server")
+
+GATE_LOOK_SECONDS, GATE_LOOKS = 0.1, 6000  # TRACER_KERNEL_LOAD_GATE: a look every 0.1 s, 10 minutes at most
 
 
 @asynccontextmanager
@@ -93,13 +96,12 @@ async def lifespan(app: FastAPI):
     except BaseException:
         lock.close()
         raise
-    load_kernels()  # before the workers start, so that they only read the cache
-    load_sample_kernels()  # POST /api/samples runs a one-pixel kernel in the checking processes
-    log.info("render kernels ready")
+    kernels = app.state.kernels  # set once the render kernels are loaded: this host's workers start then
     with contextlib.ExitStack() as stack:  # what started is stopped, last first, also when a later start fails
         stack.callback(lock.close)
         checks = app.state.checks = CheckPool(settings)
-        checks.start()  # scene checks, off the event loop
+        if not settings.workers:  # else once the kernels' thread (below) has the samples' kernel in Warp's cache
+            checks.start()  # scene checks, off the event loop
         stack.callback(checks.shutdown)
         store = JobStore(settings.data_dir)
         # the stores' connections (one per thread that used them) closed last of all: a pool's thread outlives
@@ -112,7 +114,7 @@ async def lifespan(app: FastAPI):
         stack.callback(jobs.close)
         grade_runs = app.state.grade_runs = GradeRuns(settings, jobs)
         stores.append(grade_runs.gs)
-        queue.start()  # recovers the jobs a stopped server left, then takes jobs
+        queue.start(kernels)  # recovers the jobs a stopped server left, then takes jobs (its workers: once loaded)
         stack.callback(queue.shutdown)
         grade_runs.resume()  # grading runs a stopped server left: on from where their rows say they were
         stack.callback(grade_runs.shutdown)
@@ -141,7 +143,44 @@ async def lifespan(app: FastAPI):
         # event streams open, and every request waited for them)
         gc.freeze()
         stack.callback(gc.unfreeze)
+        # the kernels in Warp's cache before this host's workers start, so that they only read it: loaded from
+        # here on, while the page answers (a cold cache takes a minute or more to compile); a render waits
+        if settings.workers:
+            args = (kernels, settings, checks.start)
+            threading.Thread(target=load_in_background, args=args, name="kernels", daemon=True).start()
+        else:
+            kernels.set()  # no worker here: the workers elsewhere, and the checking processes, load their own
         yield
+
+
+def load_in_background(loaded: threading.Event, settings: Settings, start_checkers: Callable[[], None]) -> None:
+    """Load the samples' kernel (POST /api/samples) and start the checking processes (they then read it from Warp's
+    cache), then load the render kernels and set `loaded`: the workers start. A failure is logged and what waits
+    for it starts all the same: each process loads the kernels itself, and says why not."""
+    started = time.monotonic()
+    try:  # imported here: the modules that define the kernels take seconds to import, after the page answers
+        from tracer.tools.pixel_samples import load_kernels as load_sample_kernels
+
+        load_sample_kernels()
+    except Exception:
+        log.exception("could not load the samples' kernel: the checking processes try on their own")
+    start_checkers()
+    gate = settings.kernel_load_gate
+    if gate is not None:  # the tests' slow machine (TRACER_KERNEL_LOAD_GATE): the workers' start only
+        for _ in range(GATE_LOOKS):
+            if gate.exists():
+                break
+            time.sleep(GATE_LOOK_SECONDS)
+    try:
+        from server.queue.embedded.worker import load_kernels
+
+        load_kernels()
+        gc.freeze()  # what they made lives as long as the server, as start-up's does (the lifespan's gc.freeze)
+        log.info("render kernels ready (%.1f s): starting the render workers", time.monotonic() - started)
+    except Exception:
+        log.exception("could not load the render kernels: the render workers try on their own")
+    finally:
+        loaded.set()
 
 
 class Stopping:
@@ -186,6 +225,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.streams = StreamCaps(settings, app.state.caps)  # event streams open per token and per address
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
     app.state.stopping = Stopping()
+    app.state.kernels = threading.Event()  # set once the render kernels are loaded (the lifespan)
     install_error_handlers(app)
     upload = (int(settings.max_class_bytes) + settings.max_body_bytes, "TRACER_MAX_CLASS_BYTES + TRACER_MAX_BODY_BYTES")
     budget = BodyBudget(int(settings.body_budget_bytes), settings.body_budget_wait)  # large bodies held at once

@@ -10,6 +10,7 @@ a trip through another thread (and the interpreter's lock) for each, which a bus
 from __future__ import annotations
 
 import sqlite3
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated
@@ -91,6 +92,11 @@ async def get_stopping(request: Request) -> Callable[[], bool]:
     return request.app.state.stopping
 
 
+async def get_kernels(request: Request) -> threading.Event:
+    """Set once the render kernels are loaded (server/main.py: in a thread after start-up; the workers then start)."""
+    return request.app.state.kernels
+
+
 async def find_janitor(request: Request) -> Janitor | None:
     """The janitor (the data directory's size as it last measured it), None before the server has started."""
     return getattr(request.app.state, "janitor", None)
@@ -125,6 +131,7 @@ MaybeJanitorDep = Annotated[Janitor | None, Depends(find_janitor)]
 RunsDep = Annotated[GradeRuns, Depends(get_runs)]
 PreviewsDep = Annotated[Previews, Depends(get_previews)]
 StoppingDep = Annotated[Callable[[], bool], Depends(get_stopping)]
+KernelsDep = Annotated[threading.Event, Depends(get_kernels)]
 
 
 # -- who calls -------------------------------------------------------------------------------------

@@ -106,7 +106,10 @@ class WorkerInfo(BaseModel):
 
 
 class Health(BaseModel):
-    status: str = Field(description="'ok'")
+    status: str = Field(
+        description="'ok', or 'starting' while the render kernels load or a worker is still loading them (a render "
+        "submitted meanwhile waits in the queue)"
+    )
     backend: str = Field(description="the job queue: 'embedded' (workers on this host) or 'redis' (worker hosts)")
     queue: dict[str, int] = Field(
         default_factory=dict,

@@ -147,6 +147,11 @@ class Settings(SceneLimits):
     )
     render_threads: int = Field(0, ge=0, description="threads per worker render; 0 = cores / workers")
     worker_nice: int = Field(10, ge=0, le=19, description="niceness of worker processes, so the API stays responsive")
+    kernel_load_gate: Path | None = Field(
+        None,
+        description="for tests (a slow machine): the start-up's loading of the render kernels, and so the workers' "
+        "start, waits until this file exists (10 minutes at most); the page answers meanwhile",
+    )
     preview_size: int = Field(160, ge=8, le=1024, description="example scene thumbnails (pixels)")
     previews_ahead: bool = Field(
         True,

@@ -28,7 +28,6 @@ from server.jobs.placing import Placed, place
 from server.jobs.results import DEVICE, link_files, renderer_version, result_key
 from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
-from tracer.rendering.raytree import pixel_sample_errors
 
 if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface
     from server.queue.base import JobQueue
@@ -402,6 +401,8 @@ class JobService:
         (nothing queued), or with the errors the job ended with; Unavailable when no worker takes interactive work,
         the server stops, or the job failed otherwise; TookTooLong past TRACER_MAX_RAYTREE_SECONDS; ClientGone
         when the client went away."""
+        from tracer.rendering.raytree import pixel_sample_errors  # here: its module defines the kernels (seconds)
+
         x, y, sample = pixel
         limit = self.settings.max_raytree_seconds
         errors = pixel_sample_errors(x, y, sample, found["width"], found["height"], found["samples"])

@@ -15,6 +15,7 @@ The routes, the SSE streams, grading and the page see only the store and this in
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 from typing import Protocol
 
@@ -29,8 +30,9 @@ class JobQueue(Protocol):
     backend: str  # "embedded" or "redis"
     stats: dict[str, int]  # counts for GET /api/health (the Redis backend: events, stale, lost, bytes)
 
-    def start(self) -> None:
-        """At the API's start-up, after the store is open: recover, then start taking jobs."""
+    def start(self, kernels: threading.Event | None = None) -> None:
+        """At the API's start-up, after the store is open: recover, then start taking jobs; this host's workers
+        start once `kernels` is set (the render kernels are in Warp's cache), at once without it."""
 
     def shutdown(self) -> None:
         """At the API's shutdown: running jobs of this host go back to the queue."""

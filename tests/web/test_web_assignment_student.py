@@ -21,6 +21,7 @@ import pytest
 
 from tests.support.api import INSTRUCTOR, Server, bearer, long_scene, wait_for
 from tests.support.page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER
+from tests.support.page import render as render_in_workspace
 from tests.support.scene import ROOT
 
 EXAMPLE = ROOT / "scenes" / "grading"
@@ -103,7 +104,7 @@ def hw(server):
         "feedback": {"tests": {"a small scene": "never"}, "score": "now"},
     }
     aid = publish(server, **policy)
-    students = roster(server, aid, ["brief", "start", "check", "submit", "image", "pixel", "late", "burst"])
+    students = roster(server, aid, ["brief", "start", "keep", "check", "submit", "image", "pixel", "late", "burst"])
     return {"id": aid, "students": students}
 
 
@@ -268,6 +269,80 @@ def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student
     page.set_input_files("#a-scene-file", str(tmp_path / "mine.json"))
     page.wait_for_function("() => document.querySelector('#a-scene-note').textContent === 'Opened mine.json.'")
     assert json.loads(page.input_value("#a-scene")) == reference()
+
+
+def workspace_scene(page, scene: dict) -> None:
+    """Type `scene` into the workspace's editor, and wait until the editor has kept it (0.3 s after the last
+    keystroke) and the server has checked it."""
+    page.fill("#scene-text", json.dumps(scene, indent=2))
+    page.wait_for_function("() => document.querySelector('#validation-status').dataset.kind !== 'busy'")
+    kept = "(t) => JSON.parse(localStorage.getItem('rt.editor.text')) === t"
+    page.wait_for_function(kept, arg=json.dumps(scene, indent=2))
+
+
+def kept_scene(page) -> dict:
+    return json.loads(page.evaluate("() => JSON.parse(localStorage.getItem('rt.editor.text'))"))
+
+
+def test_a_link_keeps_the_earlier_jobs_and_start_asks_before_replacing_a_built_scene(student, server, hw):
+    """#42: the renders a browser made before an assignment's link made it the student's stay in "my jobs" and
+    open (each with the token that submitted it; no 404 in the console), and "Start from the starter scene" asks
+    before it replaces a scene the student built: Cancel keeps it, Replace replaces it; the starter is not asked
+    about again."""
+    s = hw["students"]["keep"]
+    me = student()  # no console error allowed: a refused look at the earlier job would be one
+    page = me.open(f"{server.url}/")
+    mine = reference()
+    mine["name"] = "my scene from before the course"
+    workspace_scene(page, mine)
+    render_in_workspace(page)
+    earlier = page.get_attribute("#stage", "data-job")
+    before = page.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))")
+
+    page = me.open(s["link"])
+    assert page.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))") == s["token"] != before
+    # the student's token does not own the earlier job: only the token that submitted it opens it
+    assert httpx.get(f"{server.url}/api/jobs/{earlier}", headers=bearer(s["token"]), timeout=30).status_code == 404
+
+    page = me.open(f"{server.url}/")
+    page.wait_for_selector(f"#job-list li[data-id='{earlier}']", timeout=20_000)
+    mine["name"] = "my scene in the course"
+    workspace_scene(page, mine)
+    render_in_workspace(page)
+    now = page.get_attribute("#stage", "data-job")
+    theirs = httpx.get(f"{server.url}/api/jobs", headers=bearer(s["token"]), timeout=30).json()["jobs"]
+    assert [j["id"] for j in theirs] == [now]
+    listed = "(ids) => ids.every(id => document.querySelector(`#job-list li[data-id='${id}']`))"
+    page.wait_for_function(listed, arg=[earlier, now])
+    page.click(f"#job-list li[data-id='{earlier}'] .job-open")
+    shown = "(id) => { const d = document.querySelector('#stage').dataset; return d.job === id && d.status === 'done' }"
+    page.wait_for_function(shown, arg=earlier)
+    page.wait_for_function("() => document.querySelector('#render-img').naturalWidth === 32")
+
+    # Start, with a scene of the student's in the editor: asked, and Cancel keeps it
+    page = me.open(f"{server.url}/assignments/{hw['id']}")
+    assert page.is_hidden("#a-start-ask")
+    page.click("#a-start")
+    page.wait_for_selector("#a-start-ask", state="visible")
+    assert "Replace your scene?" in page.text_content("#a-start-ask")
+    assert page.evaluate("() => document.activeElement.id") == "a-start-cancel"
+    me.shot("start-asks")
+    page.click("#a-start-cancel")
+    assert page.is_hidden("#a-start-ask") and page.url == f"{server.url}/assignments/{hw['id']}"
+    assert kept_scene(page) == mine
+    # Replace: the workspace opens with the starter in the editor
+    page.click("#a-start")
+    page.click("#a-start-replace")
+    page.wait_for_url(f"{server.url}/")
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    assert json.loads(page.input_value("#scene-text")) == starter()
+    # the starter in the editor: Start goes straight to the workspace
+    page = me.open(f"{server.url}/assignments/{hw['id']}")
+    page.click("#a-start")
+    page.wait_for_url(f"{server.url}/")
+    page.wait_for_selector("body[data-ready=true]", state="attached")
+    assert json.loads(page.input_value("#scene-text")) == starter()
+    assert me.unexpected_errors() == []
 
 
 def test_check_shows_each_tests_result_and_the_errors_at_their_paths(student, server, hw):

@@ -8,10 +8,14 @@
 // token reads, follows, cancels and downloads the jobs it submitted. The Grading tab's requests carry
 // the instructor's token instead (typed there, kept in localStorage too). Images and downloads are
 // fetched with the header and shown as blob: URLs (an <img src> or <a href> cannot send it).
+// An assignment's link makes its roster token the workspace's (course/working.js); the jobs listed until then
+// keep the token that submitted them (`rt.owners`), sent only with the requests about those jobs, to this site.
 import { store } from "./util.js";
 
 const TOKEN_KEY = "rt.token"; // the student's token, as POST /api/jobs issued it
 const INSTRUCTOR_KEY = "rt.instructor"; // the instructor's token (the Grading tab)
+const OWNERS_KEY = "rt.owners"; // job id -> the token that submitted it, where that is no longer the workspace's
+const JOBS_KEY = "rt.jobs"; // the ids of "my jobs" (viewer.js)
 const kept = { student: null, instructor: null }; // when localStorage is not available (a private window)
 
 /** The tokens this browser holds: `student` (its jobs') and `instructor` (grading). */
@@ -19,6 +23,8 @@ export const tokens = {
   student: () => store.get(TOKEN_KEY, null) || kept.student,
   instructor: () => store.get(INSTRUCTOR_KEY, null) || kept.instructor,
   setStudent(token) {
+    const before = tokens.student();
+    if (before && token && before !== token) keepOwners(before, token);
     kept.student = token || null;
     store.set(TOKEN_KEY, kept.student);
   },
@@ -27,6 +33,23 @@ export const tokens = {
     store.set(INSTRUCTOR_KEY, kept.instructor);
   },
 };
+
+/** The workspace's token goes from `before` to `now`: each job listed without an owner kept is `before`'s, and
+ * stays openable with it; the owners of jobs no longer listed are forgotten, and `now`'s need no entry. */
+function keepOwners(before, now) {
+  const had = owners();
+  const mine = {};
+  for (const id of store.get(JOBS_KEY, [])) {
+    const owner = typeof id === "string" ? (Object.hasOwn(had, id) ? had[id] : before) : null;
+    if (owner && owner !== now) mine[id] = owner;
+  }
+  store.set(OWNERS_KEY, mine);
+}
+
+function owners() {
+  const map = store.get(OWNERS_KEY, {});
+  return map && typeof map === "object" ? map : {};
+}
 
 const shared = new Map(); // job id -> its read-only share token (a job opened from a shared link)
 
@@ -40,6 +63,9 @@ export function useShareToken(id, token) {
 export function authHeaders(as = "student", url = "") {
   const id = as === "student" ? /^\/api\/jobs\/([^/?#]+)/.exec(url)?.[1] : null;
   if (id && shared.has(decodeURIComponent(id))) return { authorization: `Bearer ${shared.get(decodeURIComponent(id))}` };
+  const map = id ? owners() : {};
+  const owner = id && Object.hasOwn(map, decodeURIComponent(id)) ? map[decodeURIComponent(id)] : null; // a job of an earlier token
+  if (typeof owner === "string" && owner) return { authorization: `Bearer ${owner}` };
   const token = as === "instructor" ? tokens.instructor() : tokens.student();
   return token ? { authorization: `Bearer ${token}` } : {};
 }

@@ -13,6 +13,7 @@ from server.api.deps import (
     ChecksDep,
     ClientDep,
     JobsDep,
+    KernelsDep,
     QueueDep,
     RunsDep,
     SettingsDep,
@@ -32,9 +33,12 @@ router = APIRouter(prefix="/api", tags=["tools"])
 
 @router.get("/health", summary="Liveness, the render workers (pids) and the jobs by status")
 async def health(
-    store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: JobsDep, runs: RunsDep, caller: CallerDep
-) -> Health:
-    """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else)."""
+    store: StoreDep, queue: QueueDep, checks: ChecksDep, jobs: JobsDep, runs: RunsDep, caller: CallerDep,
+    kernels: KernelsDep,
+) -> Health:  # fmt: skip
+    """A worker's `job` is shown to the job's own token and to the instructor (null to anyone else). `status` is
+    "starting" while the server loads the render kernels or a live worker is still loading them (a render waits in
+    the queue meanwhile), else "ok"."""
 
     def answer() -> Health:  # reads the database (and, on Redis, the worker hosts): in one trip to a thread
         workers = queue.workers()
@@ -42,8 +46,9 @@ async def health(
             for w in workers:
                 if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
                     w["job"] = None
-        return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers,
-                      checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
+        starting = not kernels.is_set() or any(w.get("alive") and not w.get("ready") for w in workers)
+        return Health(status="starting" if starting else "ok", backend=queue.backend, queue=queue.stats,
+                      workers=workers, checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
                       grading=runs.health())  # fmt: skip
 
     # async, so that FastAPI checks the answer here rather than in a second trip through the thread pool

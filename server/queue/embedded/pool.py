@@ -69,10 +69,12 @@ class WorkerPool:
 
     # -- life ---------------------------------------------------------------------------------
 
-    def start(self) -> None:
-        for slot in self.slots:
-            self._spawn(slot)
-        self._thread = threading.Thread(target=self._supervise, name="worker-supervisor", daemon=True)
+    def start(self, kernels: threading.Event | None = None) -> None:
+        """Start the workers, or (`kernels`) have the supervisor start them once it is set."""
+        if kernels is None:
+            for slot in self.slots:
+                self._spawn(slot)
+        self._thread = threading.Thread(target=self._supervise, args=(kernels,), name="worker-supervisor", daemon=True)
         self._thread.start()
 
     def shutdown(self, timeout: float = 10.0) -> None:
@@ -137,7 +139,16 @@ class WorkerPool:
 
     # -- supervision --------------------------------------------------------------------------
 
-    def _supervise(self) -> None:
+    def _supervise(self, kernels: threading.Event | None = None) -> None:
+        if kernels is not None:
+            while not kernels.wait(0.5):  # the server loads the kernels into Warp's cache: the workers then read it
+                if self._closing.is_set() or self.stopping():
+                    return
+            with self._lock:
+                if self._closing.is_set() or self.stopping():
+                    return
+                for slot in self.slots:
+                    self._spawn(slot)
         told = False  # the workers were told to stop (the server is stopping)
         while not self._closing.is_set():
             sentinels = [s.process.sentinel for s in self.slots if s.process is not None and s.process.is_alive()]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 
 from server.core.settings import Settings
@@ -23,12 +24,12 @@ class EmbeddedQueue:
         self.stats: dict[str, int] = {}
         self.pool = WorkerPool(settings, store, stopping) if settings.workers > 0 else None
 
-    def start(self) -> None:
+    def start(self, kernels: threading.Event | None = None) -> None:
         requeued, cancelled = self.store.recover()
         if requeued or cancelled:
             log.info("jobs left running by the last server: %d back in the queue, %d cancelled", requeued, cancelled)
         if self.pool is not None:
-            self.pool.start()
+            self.pool.start(kernels)
         else:
             log.warning("no render workers (workers = 0): jobs wait in the queue")
 

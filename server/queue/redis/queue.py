@@ -93,7 +93,7 @@ class RedisQueue:
 
     # -- life ---------------------------------------------------------------------------------
 
-    def start(self) -> None:
+    def start(self, kernels: threading.Event | None = None) -> None:
         self._hold_api_mark()
         self.r.hset(ev.CONFIG, mapping={"lost_after": self.settings.lost_after})
         self._ensure_group()
@@ -106,8 +106,12 @@ class RedisQueue:
             t = threading.Thread(target=target, name=f"rq-{name}", daemon=True)
             t.start()
             self.threads.append(t)
-        for slot in range(len(self.hosts)):
-            self._start_host(slot)
+        if kernels is None:
+            self._start_hosts()
+        else:  # once the server has the kernels in Warp's cache: the hosts then read it
+            t = threading.Thread(target=self._start_hosts, args=(kernels,), name="rq-hosts", daemon=True)
+            t.start()
+            self.threads.insert(0, t)  # joined first at shutdown, before the hosts are stopped
         log.info("job queue: Redis at %s (%d local worker host(s))", masked(self.url), len(self.hosts))
 
     def _hold_api_mark(self) -> None:
@@ -126,6 +130,8 @@ class RedisQueue:
 
     def shutdown(self) -> None:
         self.stop.set()
+        if self.threads and self.threads[0].name == "rq-hosts":
+            self.threads[0].join(timeout=5)  # no host started after the ones stopped here
         for p in self.hosts:
             if p is not None and p.poll() is None:
                 p.send_signal(signal.SIGTERM)  # the try in hand gives its job back
@@ -442,6 +448,14 @@ class RedisQueue:
                         log.warning("job %s: over its time limit on its worker host; failed", row["id"])
 
     # -- local worker hosts -------------------------------------------------------------------
+
+    def _start_hosts(self, kernels: threading.Event | None = None) -> None:
+        while kernels is not None and not kernels.wait(0.5):
+            if self.stop.is_set() or self.stopping():
+                return
+        for slot in range(len(self.hosts)):
+            if not self.stop.is_set() and not self.stopping():
+                self._start_host(slot)
 
     def _start_host(self, slot: int) -> None:
         cmd = [sys.executable, "-m", "server.worker", "--name", f"{os.uname().nodename}.api{slot}"]

@@ -3,7 +3,8 @@
 // policy allows, each followed live while it is graded. The link's token is this page's identity (session.js)
 // and becomes the workspace's too (api.js tokens.setStudent), so the renders the student makes in the
 // workspace are theirs on this assignment, as the server treats a roster token as a job's owner.
-import { ApiError } from "../api.js";
+import { ApiError, request } from "../api.js";
+import { keptText } from "../editor.js";
 import { encodeScene, MAX_LINK } from "../share.js";
 import { formatJSON } from "../jsonpos.js";
 import { $, benignError, h, store } from "../util.js";
@@ -98,18 +99,57 @@ async function refreshBrief(api) {
   }
 }
 
-/** "Start from the starter scene": the workspace opens it from a link (#scene/<data>), with a way back here. */
+/** "Start from the starter scene": the workspace opens it from a link (#scene/<data>), with a way back here. A
+ * scene the student built or changed in the workspace's editor is replaced only once they say so (Replace). */
 async function startLink(brief) {
   const a = $("#a-start");
   a.hidden = !brief.starter;
+  $("#a-start-ask").hidden = true;
   if (!brief.starter) return;
   const data = await encodeScene(JSON.stringify(brief.starter));
   a.href = `/#scene/${data}`;
   if (a.href.length > MAX_LINK) a.href = "/"; // too long for a link: handed over through the editor's kept text below
-  a.onclick = () => {
+  const go = () => {
     setWorkingOn(aid, brief.name);
     if (a.getAttribute("href") === "/") store.set("rt.editor.text", formatJSON(brief.starter)); // the editor's kept text (editor.js KEY)
   };
+  $("#a-start-replace").onclick = () => {
+    go();
+    location.assign(a.href);
+  };
+  $("#a-start-cancel").onclick = () => {
+    $("#a-start-ask").hidden = true;
+    a.focus();
+  };
+  a.onclick = async (e) => {
+    if (e.button !== 0 || e.ctrlKey || e.metaKey || e.shiftKey || e.altKey) return go(); // a new tab or window: the link as it is
+    e.preventDefault();
+    if (!(await builtScene(brief.starter))) return $("#a-start-replace").click();
+    $("#a-start-ask").hidden = false;
+    $("#a-start-cancel").focus();
+  };
+}
+
+/** Whether the workspace's editor holds a scene the student built or changed: not when it is empty, the
+ * starter, or an example as the workspace loaded it (editor.js keeps the example's name). */
+async function builtScene(starter) {
+  const text = keptText();
+  if (text === null || !text.trim()) return false;
+  let value;
+  try {
+    value = JSON.parse(text);
+  } catch {
+    return true; // text that is not JSON (yet): the student's typing
+  }
+  const same = (scene) => JSON.stringify(scene) === JSON.stringify(value);
+  if (same(starter)) return false;
+  const name = store.get("rt.editor.name", null); // (editor.js NAME_KEY)
+  if (typeof name !== "string" || !/^[A-Za-z0-9_-]+$/.test(name)) return true;
+  try {
+    return !same(await request("GET", `/api/scenes/${encodeURIComponent(name)}`, undefined, { token: null }));
+  } catch {
+    return true; // not an example (a file's name, a link's scene)
+  }
 }
 
 $("#a-join").addEventListener("submit", async (e) => {
