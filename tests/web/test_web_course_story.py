@@ -125,6 +125,7 @@ def test_web_course_story_from_publishing_to_the_released_total(browser, server,
         page.click("#publish button[type=submit]")
         page.wait_for_selector("#publish-regrade_deadline-err li")
         assert "regrade deadline must not be before the deadline" in page.text_content("#publish-regrade_deadline-err")
+        assert page.get_attribute("#publish-regrade_deadline-err li", "data-path") == "regrade_deadline"
         assert page.get_attribute("#publish-regrade_deadline", "aria-invalid") == "true"
         assert page.evaluate("() => document.activeElement.id") == "publish-regrade_deadline"
         assert api.get("/api/assignments").json()["assignments"] == []
@@ -347,6 +348,12 @@ def test_web_course_story_from_publishing_to_the_released_total(browser, server,
         r = httpx.post(f"{url}/api/assignments/{aid}/submissions/{sids['lou']}/regrade-requests", json=late,
                        headers=bearer(students["lou"]["token"]), timeout=60)  # fmt: skip
         assert r.status_code == 403 and r.json()["errors"][0]["path"] == "regrade_deadline", r.text
+        ann = f"#a-sub-list li[data-id='{sids['ann']}']"  # ann asked nothing: no button is promised her
+        me.page.reload()
+        open_row(me.page, ann)
+        status_starts(me.page, f"{ann} .a-regrade-deadline", "Requests were taken until")
+        assert me.page.text_content(f"{ann} .a-regrade-list") == "None: the regrade deadline has passed."
+        assert me.page.locator(f"{ann} button.a-regrade-ask:visible").count() == 0
     finally:
         api.close()
         for p in pages:
