@@ -46,7 +46,7 @@ export function regradeControls(root, sub, ctx) {
               r.status !== "open" && r.points !== null ? h("p", { class: "hint" }, `Points now: ${pts(r.points)} / ${pts(r.max_points)}`) : null,
             ),
           )
-        : [h("li", { class: "hint" }, "None: a button beside each result asks for another look.")]),
+        : [h("li", { class: "hint" }, closed ? "None: the regrade deadline has passed." : "None: a button beside each result asks for another look.")]),
     );
     for (const b of root.querySelectorAll("button.a-regrade-ask")) {
       b.disabled = open.has(b.dataset.item) || closed;
