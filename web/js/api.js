@@ -62,7 +62,8 @@ export function useShareToken(id, token) {
  * job opened from a shared link (`url`) carries that job's share token. */
 export function authHeaders(as = "student", url = "") {
   const id = as === "student" ? /^\/api\/jobs\/([^/?#]+)/.exec(url)?.[1] : null;
-  if (id && shared.has(decodeURIComponent(id))) return { authorization: `Bearer ${shared.get(decodeURIComponent(id))}` };
+  if (id && shared.has(decodeURIComponent(id)))
+    return { authorization: `Bearer ${shared.get(decodeURIComponent(id))}` };
   const map = id ? owners() : {};
   const owner = id && Object.hasOwn(map, decodeURIComponent(id)) ? map[decodeURIComponent(id)] : null; // a job of an earlier token
   if (typeof owner === "string" && owner) return { authorization: `Bearer ${owner}` };
@@ -88,7 +89,12 @@ export class ApiError extends Error {
  * `raw`: the Response itself when it is OK. `token`: this token instead of `as`'s (an assignment's page
  * sends its own link's token; null sends none). `type`: the content type of a text body (a roster's
  * "text/csv"; JSON otherwise). */
-export async function request(method, url, body, { raw = false, signal, as = "student", cache, token, type = "application/json" } = {}) {
+export async function request(
+  method,
+  url,
+  body,
+  { raw = false, signal, as = "student", cache, token, type = "application/json" } = {},
+) {
   const init = { method, signal, cache, headers: authFor(url, as, token) };
   if (body instanceof FormData) {
     init.body = body; // multipart/form-data: the browser sets the type and its boundary, and streams the files
@@ -180,7 +186,10 @@ const RETRY_MS = 1000; // until the stream says otherwise (`retry:`)
  * stream is given up: onGiveUp(). A 404 (not this token's, or gone: no retry brings it back) ends it at
  * once: onMissing() (onGiveUp when not given). Returns {close(), done}: `done` resolves once it ended, was
  * given up, or close() was called. */
-export function followEvents(url, { as = "student", token, news = [], onEvent, onDrop, onGiveUp, onMissing = onGiveUp } = {}) {
+export function followEvents(
+  url,
+  { as = "student", token, news = [], onEvent, onDrop, onGiveUp, onMissing = onGiveUp } = {},
+) {
   let drops = 0;
   let open = true;
   let retry = RETRY_MS;
@@ -222,7 +231,11 @@ export function followEvents(url, { as = "student", token, news = [], onEvent, o
     abort = new AbortController();
     let res;
     try {
-      res = await fetch(url, { headers: { accept: "text/event-stream", ...authFor(url, as, token) }, cache: "no-store", signal: abort.signal });
+      res = await fetch(url, {
+        headers: { accept: "text/event-stream", ...authFor(url, as, token) },
+        cache: "no-store",
+        signal: abort.signal,
+      });
     } catch {
       dropped();
       return;
@@ -322,7 +335,8 @@ export const api = {
     `/api/jobs/${encodeURIComponent(id)}/image?format=${format}${pass ? `&pass=${pass}` : ""}`,
   eventsUrl: (id) => `/api/jobs/${encodeURIComponent(id)}/events`,
   radiosity: (id) => request("GET", `/api/jobs/${encodeURIComponent(id)}/radiosity`, undefined, { cache: "no-store" }),
-  raytree: (sceneText, x, y, sample, signal) => request("POST", "/api/raytree", withScene(sceneText, { x, y, sample }), { signal }),
+  raytree: (sceneText, x, y, sample, signal) =>
+    request("POST", "/api/raytree", withScene(sceneText, { x, y, sample }), { signal }),
   schema: () => request("GET", "/api/schema"),
   samples: (sceneText, x, y) => request("POST", "/api/samples", withScene(sceneText, { x, y })),
 };

@@ -21,27 +21,51 @@ const same = (a, b) => JSON.stringify(a) === JSON.stringify(b);
 
 /** New objects, each placed from the scene's camera and floor (edits.js): {type: [label, make(scene, material)]}. */
 const OBJECTS = {
-  sphere: ["Sphere", (scene, material) => {
-    const r = r3(0.5 * stage(scene).scale);
-    return { type: "sphere", center: freeSpot(scene, r), radius: r, material };
-  }],
-  plane: ["Floor (plane)", (scene, material) => {
-    const { at, up, scale } = stage(scene);
-    const height = dot(at, up) > 0 ? 0 : dot(at, up) - scale; // y = 0 under a camera looking down at the scene
-    return { type: "plane", name: "floor", point: v3(add(at, mul(up, height - dot(at, up)))), normal: v3(up), material };
-  }],
-  box: ["Box", (scene, material) => {
-    const s = 0.45 * stage(scene).scale;
-    const c = freeSpot(scene, s * Math.sqrt(3)); // its corners reach that far
-    c[1] = r3(c[1] - s * (Math.sqrt(3) - 1)); // and it stands on the floor
-    return { type: "box", min: v3(sub(c, [s, s, s])), max: v3(add(c, [s, s, s])), material };
-  }],
-  quad: ["Panel (quad)", (scene, material) => {
-    const { right, up, scale } = stage(scene);
-    const s = 0.5 * scale;
-    const c = freeSpot(scene, s);
-    return { type: "quad", corner: v3(sub(c, add(mul(right, s), mul(up, s)))), edge1: v3(mul(right, 2 * s)), edge2: v3(mul(up, 2 * s)), material };
-  }],
+  sphere: [
+    "Sphere",
+    (scene, material) => {
+      const r = r3(0.5 * stage(scene).scale);
+      return { type: "sphere", center: freeSpot(scene, r), radius: r, material };
+    },
+  ],
+  plane: [
+    "Floor (plane)",
+    (scene, material) => {
+      const { at, up, scale } = stage(scene);
+      const height = dot(at, up) > 0 ? 0 : dot(at, up) - scale; // y = 0 under a camera looking down at the scene
+      return {
+        type: "plane",
+        name: "floor",
+        point: v3(add(at, mul(up, height - dot(at, up)))),
+        normal: v3(up),
+        material,
+      };
+    },
+  ],
+  box: [
+    "Box",
+    (scene, material) => {
+      const s = 0.45 * stage(scene).scale;
+      const c = freeSpot(scene, s * Math.sqrt(3)); // its corners reach that far
+      c[1] = r3(c[1] - s * (Math.sqrt(3) - 1)); // and it stands on the floor
+      return { type: "box", min: v3(sub(c, [s, s, s])), max: v3(add(c, [s, s, s])), material };
+    },
+  ],
+  quad: [
+    "Panel (quad)",
+    (scene, material) => {
+      const { right, up, scale } = stage(scene);
+      const s = 0.5 * scale;
+      const c = freeSpot(scene, s);
+      return {
+        type: "quad",
+        corner: v3(sub(c, add(mul(right, s), mul(up, s)))),
+        edge1: v3(mul(right, 2 * s)),
+        edge2: v3(mul(up, 2 * s)),
+        material,
+      };
+    },
+  ],
 };
 
 /** Where a light over the scene goes: 4 scene units over the floor (or over what the camera looks at), out of
@@ -55,7 +79,8 @@ function overhead(scene) {
 
 /** How far across a light reaches from its centre, along the floor (a point or spot light: 0). */
 function lightReach(l) {
-  if (l?.type === "quad" && Array.isArray(l.edge1) && Array.isArray(l.edge2)) return Math.max(length(add(l.edge1, l.edge2)), length(sub(l.edge1, l.edge2))) / 2;
+  if (l?.type === "quad" && Array.isArray(l.edge1) && Array.isArray(l.edge2))
+    return Math.max(length(add(l.edge1, l.edge2)), length(sub(l.edge1, l.edge2))) / 2;
   return Number.isFinite(l?.radius) ? l.radius : 0;
 }
 
@@ -75,52 +100,117 @@ function areaPlace(scene, half) {
     const lift = top + 0.5 * scale + half - dot(base, up);
     if (lift <= 0) return { centre: base, k: 1, why: "" };
     const k = (4 * scale + lift) / (4 * scale);
-    return { centre: add(base, mul(up, lift)), k, why: ", above the scene's other lights (under them it would block their light: a shadow)" };
+    return {
+      centre: add(base, mul(up, lift)),
+      k,
+      why: ", above the scene's other lights (under them it would block their light: a shadow)",
+    };
   }
   // under a ceiling: the middle, else the nearest spot aside (left, right, front, back) whose footprint on the
   // ceiling leaves every light's clear (their shadow rays go down from there)
-  const extent = (l, axis) => (l.type === "quad" ? (Math.abs(dot(l.edge1, axis)) + Math.abs(dot(l.edge2, axis))) / 2 : lightReach(l));
+  const extent = (l, axis) =>
+    l.type === "quad" ? (Math.abs(dot(l.edge1, axis)) + Math.abs(dot(l.edge2, axis))) / 2 : lightReach(l);
   const margin = 0.05 * scale;
-  const clear = (c) => lights.every(([l, p]) => Math.abs(dot(sub(p, c), right)) >= extent(l, right) + half + margin || Math.abs(dot(sub(p, c), toward)) >= extent(l, toward) + half + margin);
-  const aside = (axis) => Math.max(...lights.map(([l, p]) => Math.abs(dot(sub(p, base), axis)) + extent(l, axis))) + half + margin;
-  for (const [axis, side] of [[right, 0], [right, -1], [right, 1], [toward, -1], [toward, 1]]) {
+  const clear = (c) =>
+    lights.every(
+      ([l, p]) =>
+        Math.abs(dot(sub(p, c), right)) >= extent(l, right) + half + margin ||
+        Math.abs(dot(sub(p, c), toward)) >= extent(l, toward) + half + margin,
+    );
+  const aside = (axis) =>
+    Math.max(...lights.map(([l, p]) => Math.abs(dot(sub(p, base), axis)) + extent(l, axis))) + half + margin;
+  for (const [axis, side] of [
+    [right, 0],
+    [right, -1],
+    [right, 1],
+    [toward, -1],
+    [toward, 1],
+  ]) {
     const c = add(base, mul(axis, side * aside(axis)));
-    if (clear(c)) return { centre: c, k: 1, why: side ? ", beside the light under the ceiling (under it, it would block that light)" : "" };
+    if (clear(c))
+      return {
+        centre: c,
+        k: 1,
+        why: side ? ", beside the light under the ceiling (under it, it would block that light)" : "",
+      };
   }
-  return { centre: base, k: 1, why: ": under the light already there, it blocks that light's rays (its shadow is dark); move it aside with its handles" };
+  return {
+    centre: base,
+    k: 1,
+    why: ": under the light already there, it blocks that light's rays (its shadow is dark); move it aside with its handles",
+  };
 }
 
 const LIGHTS = {
-  point: ["Point light", (scene) => {
-    const { right, scale } = stage(scene);
-    return { type: "point", position: v3(add(overhead(scene), mul(right, 0.5 * scale))), intensity: r3(10 * scale * scale) };
-  }],
-  spot: ["Spot light", (scene) => {
-    const { at, right, up, toward, scale } = stage(scene);
-    // over the scene to the left and a little lower, clear of an area light added overhead (which would block
-    // its shadow rays), and inside a Cornell box's walls; aimed at what the camera looks at (its knob turns it)
-    const aside = add(mul(right, -1.2 * scale), add(mul(toward, 0.6 * scale), mul(up, -0.15 * scale)));
-    const position = v3(add(overhead(scene), aside));
-    return { type: "spot", position, direction: v3(normalize(sub(at, position))), intensity: r3(20 * scale * scale), cutoff: 30, falloff: 2 };
-  }],
-  quad: ["Area light (quad)", (scene) => {
-    const { right, toward, scale } = stage(scene);
-    const { centre, k, why } = areaPlace(scene, scale / 2);
-    const s = scale * k;
-    // edge1 x edge2 = right x toward points down: the light shines on the scene
-    return [{ type: "quad", corner: v3(sub(centre, mul(add(right, toward), s / 2))), edge1: v3(mul(right, s)), edge2: v3(mul(toward, s)), radiance: 16 }, why];
-  }],
-  sphere: ["Sphere light", (scene) => {
-    const { up, scale } = stage(scene);
-    const r = 0.2 * scale; // its whole ball under a ceiling
-    const { centre, k, why } = areaPlace(scene, r);
-    return [{ type: "sphere", center: v3(sub(centre, mul(up, r * k + 0.02 * scale))), radius: r3(r * k), radiance: 120 }, why];
-  }],
+  point: [
+    "Point light",
+    (scene) => {
+      const { right, scale } = stage(scene);
+      return {
+        type: "point",
+        position: v3(add(overhead(scene), mul(right, 0.5 * scale))),
+        intensity: r3(10 * scale * scale),
+      };
+    },
+  ],
+  spot: [
+    "Spot light",
+    (scene) => {
+      const { at, right, up, toward, scale } = stage(scene);
+      // over the scene to the left and a little lower, clear of an area light added overhead (which would block
+      // its shadow rays), and inside a Cornell box's walls; aimed at what the camera looks at (its knob turns it)
+      const aside = add(mul(right, -1.2 * scale), add(mul(toward, 0.6 * scale), mul(up, -0.15 * scale)));
+      const position = v3(add(overhead(scene), aside));
+      return {
+        type: "spot",
+        position,
+        direction: v3(normalize(sub(at, position))),
+        intensity: r3(20 * scale * scale),
+        cutoff: 30,
+        falloff: 2,
+      };
+    },
+  ],
+  quad: [
+    "Area light (quad)",
+    (scene) => {
+      const { right, toward, scale } = stage(scene);
+      const { centre, k, why } = areaPlace(scene, scale / 2);
+      const s = scale * k;
+      // edge1 x edge2 = right x toward points down: the light shines on the scene
+      return [
+        {
+          type: "quad",
+          corner: v3(sub(centre, mul(add(right, toward), s / 2))),
+          edge1: v3(mul(right, s)),
+          edge2: v3(mul(toward, s)),
+          radiance: 16,
+        },
+        why,
+      ];
+    },
+  ],
+  sphere: [
+    "Sphere light",
+    (scene) => {
+      const { up, scale } = stage(scene);
+      const r = 0.2 * scale; // its whole ball under a ceiling
+      const { centre, k, why } = areaPlace(scene, r);
+      return [
+        { type: "sphere", center: v3(sub(centre, mul(up, r * k + 0.02 * scale))), radius: r3(r * k), radiance: 120 },
+        why,
+      ];
+    },
+  ],
 };
 
 export class BuildPanel {
   /** root: the element to build into; editor: the SceneEditor; onPicked(of): the form shows the same object. */
-  constructor(root, editor, { onPicked = () => {}, onLoad = (text, name) => editor.setText(text, name), notify = () => {} } = {}) {
+  constructor(
+    root,
+    editor,
+    { onPicked = () => {}, onLoad = (text, name) => editor.setText(text, name), notify = () => {} } = {},
+  ) {
     this.root = root;
     this.onLoad = onLoad; // (text, name): a template replaces the text (main.js: as an example or a file does)
     this.editor = editor;
@@ -140,7 +230,12 @@ export class BuildPanel {
 
   build() {
     const button = (label, run, attrs = {}) => h("button", { type: "button", onclick: run, ...attrs }, label);
-    this.template = h("select", { id: "build-template" }, h("option", { value: "" }, "Start from…"), ...TEMPLATES.map((t) => h("option", { value: t.file }, t.label)));
+    this.template = h(
+      "select",
+      { id: "build-template" },
+      h("option", { value: "" }, "Start from…"),
+      ...TEMPLATES.map((t) => h("option", { value: t.file }, t.label)),
+    );
     this.template.addEventListener("change", () => this.newScene(this.template.value));
     this.material = h("select", { id: "build-material", "aria-describedby": "build-material-help" });
     this.material.addEventListener("change", () => (this.chosen = this.material.value));
@@ -148,12 +243,20 @@ export class BuildPanel {
       id: "build-3d",
       tabindex: "0",
       role: "img",
-      "aria-label": "3D view of the scene for building it: click a shape to pick it, drag its handles to move, scale or rotate it",
+      "aria-label":
+        "3D view of the scene for building it: click a shape to pick it, drag its handles to move, scale or rotate it",
       "aria-describedby": "build-keys",
     });
     const box = h("div", { class: "canvas-box" }, this.canvas); // the view sizes itself to its box
-    this.view = new BuildView(this.canvas, { onPick: (of) => this.pick(of), onEdit: (writes, what) => this.write(writes, what) });
-    this.status = h("p", { id: "build-status", role: "status", "aria-live": "polite" }, "Nothing picked: click a shape in the 3D view or in the rendered picture.");
+    this.view = new BuildView(this.canvas, {
+      onPick: (of) => this.pick(of),
+      onEdit: (writes, what) => this.write(writes, what),
+    });
+    this.status = h(
+      "p",
+      { id: "build-status", role: "status", "aria-live": "polite" },
+      "Nothing picked: click a shape in the 3D view or in the rendered picture.",
+    );
     this.pickedMaterial = h("select", { id: "build-picked-material", disabled: true });
     this.pickedMaterial.addEventListener("change", () => this.setMaterial(this.pickedMaterial.value));
     this.removeButton = button("Remove", () => this.removePicked(), { id: "build-remove", disabled: true });
@@ -165,30 +268,55 @@ export class BuildPanel {
         "div",
         { class: "build-row", role: "group", "aria-label": "Add an object" },
         h("span", { class: "build-head" }, "Add"),
-        ...Object.entries(OBJECTS).map(([type, [label]]) => button(label, () => this.addObject(type), { id: `build-add-${type}` })),
+        ...Object.entries(OBJECTS).map(([type, [label]]) =>
+          button(label, () => this.addObject(type), { id: `build-add-${type}` }),
+        ),
         h("label", { class: "inline" }, "with material ", this.material),
       ),
-      h("small", { id: "build-material-help", class: "hint" }, "A preset (new) adds that material to the scene; the rest are the scene's own."),
+      h(
+        "small",
+        { id: "build-material-help", class: "hint" },
+        "A preset (new) adds that material to the scene; the rest are the scene's own.",
+      ),
       h(
         "div",
         { class: "build-row", role: "group", "aria-label": "Add a light" },
         h("span", { class: "build-head" }, "Light"),
-        ...Object.entries(LIGHTS).map(([type, [label]]) => button(label, () => this.addLight(type), { id: `build-light-${type}` })),
+        ...Object.entries(LIGHTS).map(([type, [label]]) =>
+          button(label, () => this.addLight(type), { id: `build-light-${type}` }),
+        ),
       ),
-      h("figure", { class: "build-fig" }, box, h("figcaption", { id: "build-keys", class: "hint" },
-        "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the white knob to scale, the cyan knob sideways to rotate about the vertical, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
-        "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Q and E rotate 15°, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.")),
+      h(
+        "figure",
+        { class: "build-fig" },
+        box,
+        h(
+          "figcaption",
+          { id: "build-keys", class: "hint" },
+          "Drag an arrow to move along x (red), y (green) or z (blue), the square to move on the horizontal plane, the white knob to scale, the cyan knob sideways to rotate about the vertical, a spot light's orange knob to aim it; drag elsewhere to orbit. ",
+          "Keys: N and L pick the next object and light, arrows move x and z, Page Up and Page Down move y, [ and ] scale, Q and E rotate 15°, A and D turn a spot or directional light, W and S tilt it, Shift+arrows orbit, Escape lets go. Ctrl+Z undoes.",
+        ),
+      ),
       this.status,
-      h("div", { class: "build-row", role: "group", "aria-label": "The picked object or light" },
+      h(
+        "div",
+        { class: "build-row", role: "group", "aria-label": "The picked object or light" },
         (this.pickedMaterialLabel = h("label", { class: "inline", hidden: true }, "material ", this.pickedMaterial)),
-        this.removeButton),
+        this.removeButton,
+      ),
       h(
         "div",
         { class: "build-row", role: "group", "aria-label": "Materials" },
         h("label", { class: "inline" }, "Add material ", this.preset),
-        button("Add", () => this.addMaterial(this.preset.value), { id: "build-add-material", "aria-label": "Add the preset material" }),
+        button("Add", () => this.addMaterial(this.preset.value), {
+          id: "build-add-material",
+          "aria-label": "Add the preset material",
+        }),
         h("label", { class: "inline" }, "Remove material ", this.materials),
-        button("Remove", () => this.removeMaterial(this.materials.value), { id: "build-remove-material", "aria-label": "Remove the chosen material" }),
+        button("Remove", () => this.removeMaterial(this.materials.value), {
+          id: "build-remove-material",
+          "aria-label": "Remove the chosen material",
+        }),
       ),
     );
     // Ctrl+Z anywhere in the panel (the 3D view included) is the editor's undo
@@ -225,14 +353,20 @@ export class BuildPanel {
     const presets = Object.entries(this.presets);
     const options = (keep) => [
       ...names.map((n) => h("option", { value: n, selected: n === keep }, n)),
-      ...presets.map(([key, p]) => h("option", { value: `preset:${key}`, selected: `preset:${key}` === keep }, `${p.label} (new)`)),
+      ...presets.map(([key, p]) =>
+        h("option", { value: `preset:${key}`, selected: `preset:${key}` === keep }, `${p.label} (new)`),
+      ),
     ];
     // the student's last choice while the scene has it, else the scene's first material, else a preset
-    const chosen = this.chosen && (names.includes(this.chosen) || this.chosen.startsWith("preset:")) ? this.chosen : null;
+    const chosen =
+      this.chosen && (names.includes(this.chosen) || this.chosen.startsWith("preset:")) ? this.chosen : null;
     const keepMaterial = chosen || names[0] || "preset:diffuse";
     this.material.replaceChildren(...options(keepMaterial));
     const obj = this.picked?.[0] === "objects" ? itemAt(this.value, this.picked) : null;
-    this.pickedMaterial.replaceChildren(...(obj && typeof obj.material === "object" ? [h("option", { value: "", selected: true }, "(inline)")] : []), ...options(obj?.material));
+    this.pickedMaterial.replaceChildren(
+      ...(obj && typeof obj.material === "object" ? [h("option", { value: "", selected: true }, "(inline)")] : []),
+      ...options(obj?.material),
+    );
     this.preset.replaceChildren(...presets.map(([key, p]) => h("option", { value: key }, p.label)));
     const keep = this.materials.value;
     this.materials.replaceChildren(...names.map((n) => h("option", { value: n, selected: n === keep }, n)));
@@ -247,8 +381,14 @@ export class BuildPanel {
 
   write(writes, what) {
     const label = this.describe(this.picked);
-    const ok = this.change((text) => writes.reduce((r, [parts, v]) => setValue(r.text, parts, v), { text }), `${what} ${label}`);
-    if (ok) this.say(`${{ scale: "Scaled", aim: "Aimed", rotate: "Rotated" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`);
+    const ok = this.change(
+      (text) => writes.reduce((r, [parts, v]) => setValue(r.text, parts, v), { text }),
+      `${what} ${label}`,
+    );
+    if (ok)
+      this.say(
+        `${{ scale: "Scaled", aim: "Aimed", rotate: "Rotated" }[what] || "Moved"} ${label}: ${writes.map(([p, v]) => `${p.at(-1)} ${JSON.stringify(v)}`).join(", ")}.`,
+      );
   }
 
   /** A material choice -> [the name to write, the preset's write to make first or null]. */
@@ -281,7 +421,10 @@ export class BuildPanel {
     const [name, makeMaterial] = this.materialFor(this.material.value || "preset:diffuse");
     const obj = OBJECTS[type][1](this.value, name);
     const index = Array.isArray(this.value.objects) ? this.value.objects.length : 0;
-    const ok = this.change((text) => appendItem(makeMaterial ? makeMaterial(text).text : text, ["objects"], obj), `add a ${type}`);
+    const ok = this.change(
+      (text) => appendItem(makeMaterial ? makeMaterial(text).text : text, ["objects"], obj),
+      `add a ${type}`,
+    );
     if (!ok) return;
     this.chosen = this.material.value = name; // a preset is the scene's own material from now on: the next object gets the same
     this.pickAfter(["objects", index], `Added ${type} ${index} (material ${name}).`);
@@ -297,24 +440,36 @@ export class BuildPanel {
     const ok = this.change((text) => {
       const r = appendItem(text, ["lights"], light);
       // an area light's soft shadow needs several shadow rays per point; one is the default
-      return area && samples === undefined ? { text: setValue(r.text, ["render", "light_samples"], 16).text, start: r.start } : r;
+      return area && samples === undefined
+        ? { text: setValue(r.text, ["render", "light_samples"], 16).text, start: r.start }
+        : r;
     }, `add a ${type} light`);
-    if (ok) this.pickAfter(["lights", index], `Added light ${index} (${type})${why}${area && samples === undefined ? ", and render.light_samples 16 for its soft shadows" : ""}.`);
+    if (ok)
+      this.pickAfter(
+        ["lights", index],
+        `Added light ${index} (${type})${why}${area && samples === undefined ? ", and render.light_samples 16 for its soft shadows" : ""}.`,
+      );
   }
 
   addMaterial(key) {
     if (!this.usable() || !key) return;
     const [name, make] = this.materialFor(`preset:${key}`);
     if (!make) return this.say(`The scene has the material ${name} already.`);
-    if (this.change(make, `add the material ${name}`)) this.say(`Added the material ${name}: pick it for an object, or for the next one added.`);
+    if (this.change(make, `add the material ${name}`))
+      this.say(`Added the material ${name}: pick it for an object, or for the next one added.`);
     this.chosen = this.material.value = name;
   }
 
   removeMaterial(name) {
     if (!this.usable() || !name) return;
     const users = (this.value.objects || []).map((o, i) => (o?.material === name ? i : -1)).filter((i) => i >= 0);
-    if (users.length) return this.say(`The material ${name} is used by object${users.length > 1 ? "s" : ""} ${users.join(", ")}: give ${users.length > 1 ? "them" : "it"} another material first.`, true);
-    if (this.change((text) => removeAt(text, ["materials", name]), `remove the material ${name}`)) this.say(`Removed the material ${name}.`);
+    if (users.length)
+      return this.say(
+        `The material ${name} is used by object${users.length > 1 ? "s" : ""} ${users.join(", ")}: give ${users.length > 1 ? "them" : "it"} another material first.`,
+        true,
+      );
+    if (this.change((text) => removeAt(text, ["materials", name]), `remove the material ${name}`))
+      this.say(`Removed the material ${name}.`);
   }
 
   removePicked() {
@@ -322,13 +477,17 @@ export class BuildPanel {
     const label = this.describe(this.picked);
     const of = this.picked;
     this.picked = null;
-    if (this.change((text) => removeAt(text, of), `remove ${label}`)) this.say(`Removed ${label}. Undo brings it back.`);
+    if (this.change((text) => removeAt(text, of), `remove ${label}`))
+      this.say(`Removed ${label}. Undo brings it back.`);
   }
 
   setMaterial(choice) {
     if (!this.usable() || this.picked?.[0] !== "objects" || !choice) return;
     const [name, make] = this.materialFor(choice);
-    const ok = this.change((text) => setValue(make ? make(text).text : text, [...this.picked, "material"], name), `set the material of ${this.describe(this.picked)}`);
+    const ok = this.change(
+      (text) => setValue(make ? make(text).text : text, [...this.picked, "material"], name),
+      `set the material of ${this.describe(this.picked)}`,
+    );
     if (ok) this.say(`${this.describe(this.picked)} now has the material ${name}.`);
   }
 
@@ -389,11 +548,18 @@ export class BuildPanel {
   showPicked(announce = false) {
     const item = itemAt(this.value, this.picked);
     this.removeButton.disabled = !item;
-    this.removeButton.textContent = item ? `Remove ${this.picked[0] === "objects" ? "object" : "light"} ${this.picked[1]}` : "Remove";
+    this.removeButton.textContent = item
+      ? `Remove ${this.picked[0] === "objects" ? "object" : "light"} ${this.picked[1]}`
+      : "Remove";
     this.pickedMaterial.disabled = !item || this.picked[0] !== "objects";
     this.pickedMaterialLabel.hidden = this.pickedMaterial.disabled; // a light has no material
     this.root.dataset.picked = item ? this.picked.join(".") : "";
-    if (announce) this.say(item ? `Picked ${this.describe(this.picked)}.` : "Nothing picked: click a shape in the 3D view or in the rendered picture.");
+    if (announce)
+      this.say(
+        item
+          ? `Picked ${this.describe(this.picked)}.`
+          : "Nothing picked: click a shape in the 3D view or in the rendered picture.",
+      );
   }
 
   /** An undo or redo of the editor (any step: the panel's, the form's, typing): the status names the step as

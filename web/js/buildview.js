@@ -21,7 +21,13 @@ const AXES = [
 ];
 const GRAB = 12; // px: how near the pointer must be to a handle to take it
 const KNOB = [34, 34]; // px from the centre: the scale knob
-const TURNS = [[0, 46], [-44, 0], [-34, 34], [-34, -34], [34, -34]]; // px from the centre: where the turn knob may go (the first clear of the arrows)
+const TURNS = [
+  [0, 46],
+  [-44, 0],
+  [-34, 34],
+  [-34, -34],
+  [34, -34],
+]; // px from the centre: where the turn knob may go (the first clear of the arrows)
 const TURN_COLOUR = "#3fd0ff";
 const TURN_PER_PX = 0.5; // degrees of turn per pixel of a sideways drag of the turn knob
 const TURN_STEP = 15; // degrees: one press of Q or E
@@ -90,7 +96,12 @@ export class BuildView extends View3D {
     const p = anchorOf(itemAt(this.scene, this.picked));
     for (let k = 0; p && this.cam && k < 8; k++) {
       const [x, y] = this.project(this.cam, p);
-      const inside = dot(sub(p, this.cam.eye), this.cam.forward) > 0 && x > 40 && x < this.cam.w - 40 && y > 40 && y < this.cam.h - 40;
+      const inside =
+        dot(sub(p, this.cam.eye), this.cam.forward) > 0 &&
+        x > 40 &&
+        x < this.cam.w - 40 &&
+        y > 40 &&
+        y < this.cam.h - 40;
       if (inside) return;
       this.orbit.dist *= 1.25;
       this.draw();
@@ -109,7 +120,9 @@ export class BuildView extends View3D {
     const knob = scaleWrites(item, [], 1) ? [a[0] + KNOB[0], a[1] + KNOB[1]] : null;
     // the turn knob: the first of its places clear of the arrows' tips and the scale knob (they turn with the view)
     const taken = [...tips.map((t) => t.p), ...(knob ? [knob] : [])];
-    const spot = TURNS.map(([dx, dy]) => [a[0] + dx, a[1] + dy]).find((q) => taken.every((t) => Math.hypot(q[0] - t[0], q[1] - t[1]) >= 2 * GRAB));
+    const spot = TURNS.map(([dx, dy]) => [a[0] + dx, a[1] + dy]).find((q) =>
+      taken.every((t) => Math.hypot(q[0] - t[0], q[1] - t[1]) >= 2 * GRAB),
+    );
     const turn = rotateWrites(item, [], 0) ? spot || [a[0] + TURNS[0][0], a[1] + TURNS[0][1]] : null;
     const axis = item.type === "spot" && Array.isArray(item.direction) ? normalize(item.direction) : null;
     const aimAt = axis?.every(Number.isFinite) ? add(p, mul(axis, L * 1.6)) : null;
@@ -249,7 +262,14 @@ export class BuildView extends View3D {
     e.preventDefault();
     this.canvas.setPointerCapture(e.pointerId);
     const item = clone(itemAt(this.scene, this.picked));
-    this.drag = { ...grab, m0: m, item, base: [...this.picked], on0: grab.kind === "plane" ? this.onPlane(m, grab.hs.at) : null, writes: null };
+    this.drag = {
+      ...grab,
+      m0: m,
+      item,
+      base: [...this.picked],
+      on0: grab.kind === "plane" ? this.onPlane(m, grab.hs.at) : null,
+      writes: null,
+    };
   }
 
   /** The writes a drag to canvas point m means. */
@@ -311,7 +331,8 @@ export class BuildView extends View3D {
     }
     const p = this.pointers.get(e.pointerId);
     this.pointers.delete(e.pointerId);
-    if (p && Math.hypot(e.clientX - p.x0, e.clientY - p.y0) < 4 && this.pointers.size === 0) this.onPick(this.shapeAt(this.local(e)));
+    if (p && Math.hypot(e.clientX - p.x0, e.clientY - p.y0) < 4 && this.pointers.size === 0)
+      this.onPick(this.shapeAt(this.local(e)));
   }
 
   /** What a click at canvas point m picks: a light drawn within 8 px (a point light is only its star), else the
@@ -334,7 +355,8 @@ export class BuildView extends View3D {
       if (!line.of || !wanted(line.of)) continue;
       for (let i = 1; i < line.pts.length; i++) {
         const [p, q] = [line.pts[i - 1], line.pts[i]];
-        if (dot(sub(p, this.cam.eye), this.cam.forward) < near || dot(sub(q, this.cam.eye), this.cam.forward) < near) continue;
+        if (dot(sub(p, this.cam.eye), this.cam.forward) < near || dot(sub(q, this.cam.eye), this.cam.forward) < near)
+          continue;
         const d = distTo(m, this.project(this.cam, p), this.project(this.cam, q));
         if (d < bestD) {
           bestD = d;
@@ -363,7 +385,14 @@ export class BuildView extends View3D {
       return;
     }
     const { step } = stage(this.scene);
-    const moves = { ArrowLeft: [-step, 0, 0], ArrowRight: [step, 0, 0], ArrowUp: [0, 0, -step], ArrowDown: [0, 0, step], PageUp: [0, step, 0], PageDown: [0, -step, 0] };
+    const moves = {
+      ArrowLeft: [-step, 0, 0],
+      ArrowRight: [step, 0, 0],
+      ArrowUp: [0, 0, -step],
+      ArrowDown: [0, 0, step],
+      PageUp: [0, step, 0],
+      PageDown: [0, -step, 0],
+    };
     let writes = null;
     let what = "move";
     const aim = { a: [AIM_STEP, 0], d: [-AIM_STEP, 0], w: [0, AIM_STEP], s: [0, -AIM_STEP] }[e.key.toLowerCase()];

@@ -19,7 +19,10 @@ const mean = (v) => (Array.isArray(v) ? (v[0] + v[1] + v[2]) / 3 : v);
 
 function hitName(n) {
   if (!n.hit) return n.kind === "shadow" ? `→ light ${n.light}` : "nothing: the background";
-  return n.hit.object_name || (n.hit.light !== null && n.hit.light !== undefined ? `light ${n.hit.light}` : `object ${n.hit.object}`);
+  return (
+    n.hit.object_name ||
+    (n.hit.light !== null && n.hit.light !== undefined ? `light ${n.hit.light}` : `object ${n.hit.object}`)
+  );
 }
 
 /** Sizes and positions: a tidy tree where each subtree is as wide as its children side by side. `model`: the
@@ -78,7 +81,16 @@ export function visible(model, open = new Set()) {
     }
     let g = groups.get(key);
     if (!g) {
-      g = { group: true, id: `g${key}`, key, parent: n.parent, light: n.light, kind: "shadow", depth: n.depth, members: [] };
+      g = {
+        group: true,
+        id: `g${key}`,
+        key,
+        parent: n.parent,
+        light: n.light,
+        kind: "shadow",
+        depth: n.depth,
+        members: [],
+      };
       groups.set(key, g);
       nodes.push(g);
     }
@@ -99,7 +111,10 @@ export function visible(model, open = new Set()) {
 export function groupWords(g) {
   const blocked = g.members.filter((m) => m.occluded).length;
   const reach = g.members.length - blocked;
-  return [`${g.members.length} shadow rays to light ${g.light}`, `${reach} reach${reach === 1 ? "es" : ""} the light, ${blocked} blocked`];
+  return [
+    `${g.members.length} shadow rays to light ${g.light}`,
+    `${reach} reach${reach === 1 ? "es" : ""} the light, ${blocked} blocked`,
+  ];
 }
 
 function swatchRow(x, y, items) {
@@ -109,7 +124,14 @@ function swatchRow(x, y, items) {
   for (const [label, v] of items) {
     g.append(
       s("text", { x: cx, y }, label),
-      s("rect", { x: cx + label.length * 6.2 + 2, y: y - 9, width: 10, height: 10, fill: cssColour(v), stroke: "#0008" }),
+      s("rect", {
+        x: cx + label.length * 6.2 + 2,
+        y: y - 9,
+        width: 10,
+        height: 10,
+        fill: cssColour(v),
+        stroke: "#0008",
+      }),
       s("text", { x: cx + label.length * 6.2 + 15, y }, num(mean(v), 2)),
     );
     cx += label.length * 6.2 + 15 + num(mean(v), 2).length * 6.2 + 8;
@@ -121,22 +143,40 @@ function nodeBox(n, p) {
   const key = styleKey(n);
   const st = RAY_STYLES[key];
   // a picture for the eye and the mouse: the words and the keyboard are the list's (web/js/raylist.js)
-  const g = s("g", { class: "rt-node", transform: `translate(${p.x}, ${p.y})`, dataset: { id: n.id, kind: key, depth: n.depth } });
+  const g = s("g", {
+    class: "rt-node",
+    transform: `translate(${p.x}, ${p.y})`,
+    dataset: { id: n.id, kind: key, depth: n.depth },
+  });
   g.append(s("rect", { class: "box", width: p.w, height: p.h, rx: 6 }));
-  g.append(s("rect", { class: "head", width: p.w, height: 18, rx: 6, fill: st.colour }), s("rect", { width: p.w, height: 8, y: 10, fill: st.colour }));
+  g.append(
+    s("rect", { class: "head", width: p.w, height: 18, rx: 6, fill: st.colour }),
+    s("rect", { width: p.w, height: 8, y: 10, fill: st.colour }),
+  );
   g.append(s("text", { class: "title", x: 7, y: 13 }, `#${n.id} ${n.kind} · depth ${n.depth}`));
   const line = (i, text, cls = "") => s("text", { x: 7, y: 18 + 14 * i + 1, class: cls }, text);
   if (n.kind === "shadow") {
     g.append(line(1, cut(`→ light ${n.light}`, 20)));
-    g.append(line(2, n.occluded ? cut(`blocked by ${hitName(n)}`, 20) : "reached the light", n.occluded ? "bad" : "good"));
+    g.append(
+      line(2, n.occluded ? cut(`blocked by ${hitName(n)}`, 20) : "reached the light", n.occluded ? "bad" : "good"),
+    );
     g.append(swatchRow(7, 18 + 14 * 3 + 1, [["L", n.radiance]]));
     return g;
   }
   const mat = n.hit?.material ? ` · ${n.hit.material}` : "";
   g.append(line(1, cut(hitName(n) + mat, 28), "strong"));
-  g.append(line(2, cut(`weight ${rgb(n.weight, 2)}${n.t !== null && n.t !== undefined ? ` · t ${num(n.t, 3)}` : ""}`, 28)));
+  g.append(
+    line(2, cut(`weight ${rgb(n.weight, 2)}${n.t !== null && n.t !== undefined ? ` · t ${num(n.t, 3)}` : ""}`, 28)),
+  );
   const t = n.terms;
-  if (t) g.append(swatchRow(7, 18 + 14 * 3 + 1, [["a", t.ambient], ["d", t.diffuse], ["s", t.specular]]));
+  if (t)
+    g.append(
+      swatchRow(7, 18 + 14 * 3 + 1, [
+        ["a", t.ambient],
+        ["d", t.diffuse],
+        ["s", t.specular],
+      ]),
+    );
   else g.append(line(3, n.hit ? "no local terms" : "returns the background", "muted"));
   g.append(swatchRow(7, 18 + 14 * 4 + 1, [["L carried", n.radiance]]));
   if (n.end) g.append(line(5, cut(`end: ${endWords(n, true)}`, 28), "end"));
@@ -147,12 +187,25 @@ function groupBox(g, p) {
   const st = RAY_STYLES[styleKey(g.members[0])];
   const [count, outcome] = groupWords(g);
   const blocked = g.members.some((m) => m.occluded);
-  const node = s("g", { class: "rt-node rt-group", transform: `translate(${p.x}, ${p.y})`, dataset: { group: g.key, kind: "shadow", depth: g.depth, count: g.members.length } });
+  const node = s("g", {
+    class: "rt-node rt-group",
+    transform: `translate(${p.x}, ${p.y})`,
+    dataset: { group: g.key, kind: "shadow", depth: g.depth, count: g.members.length },
+  });
   node.append(s("rect", { class: "box", width: p.w, height: p.h, rx: 6 }));
-  node.append(s("rect", { class: "head", width: p.w, height: 18, rx: 6, fill: st.colour }), s("rect", { width: p.w, height: 8, y: 10, fill: st.colour }));
-  node.append(s("text", { class: "title", x: 7, y: 13 }, `#${g.members[0].id}–#${g.members.at(-1).id} shadow · depth ${g.depth}`));
+  node.append(
+    s("rect", { class: "head", width: p.w, height: 18, rx: 6, fill: st.colour }),
+    s("rect", { width: p.w, height: 8, y: 10, fill: st.colour }),
+  );
+  node.append(
+    s("text", { class: "title", x: 7, y: 13 }, `#${g.members[0].id}–#${g.members.at(-1).id} shadow · depth ${g.depth}`),
+  );
   const line = (i, text, cls = "") => s("text", { x: 7, y: 18 + 14 * i + 1, class: cls }, text);
-  node.append(line(1, count, "strong"), line(2, outcome, blocked ? "bad" : "good"), line(3, "▸ click to show each", "muted"));
+  node.append(
+    line(1, count, "strong"),
+    line(2, outcome, blocked ? "bad" : "good"),
+    line(3, "▸ click to show each", "muted"),
+  );
   return node;
 }
 
@@ -177,7 +230,14 @@ export function renderDiagram(container, model, { onHover, onSelect, label = nul
     const view = visible(model, opened);
     const { pos, width, height } = layout(view);
     const grouped = view.groups.size ? "; a node's shadow rays to a light are one box: click it to show each" : "";
-    const svg = s("svg", { class: "rt-svg", width, height, viewBox: `0 0 ${width} ${height}`, role: "img", "aria-label": name + grouped });
+    const svg = s("svg", {
+      class: "rt-svg",
+      width,
+      height,
+      viewBox: `0 0 ${width} ${height}`,
+      role: "img",
+      "aria-label": name + grouped,
+    });
     const edges = s("g", { class: "edges" });
     const boxes = s("g", { class: "boxes" });
     const edgeOf = new Map();
@@ -188,7 +248,12 @@ export function renderDiagram(container, model, { onHover, onSelect, label = nul
       let d;
       if (!hasParent(n)) {
         d = `M ${p.x + p.w / 2} ${p.y - 30} L ${p.x + p.w / 2} ${p.y}`;
-        const eye = s("g", { class: "eye-icon", transform: `translate(${p.x + p.w / 2}, ${p.y - 32})` }, s("ellipse", { rx: 11, ry: 6 }), s("circle", { r: 3 }));
+        const eye = s(
+          "g",
+          { class: "eye-icon", transform: `translate(${p.x + p.w / 2}, ${p.y - 32})` },
+          s("ellipse", { rx: 11, ry: 6 }),
+          s("circle", { r: 3 }),
+        );
         edges.append(eye);
       } else {
         const q = pos.get(n.parent);
@@ -200,8 +265,19 @@ export function renderDiagram(container, model, { onHover, onSelect, label = nul
         d = `M ${x1} ${y1} C ${x1} ${my}, ${x2} ${my}, ${x2} ${y2}`;
       }
       const under = s("path", { d, class: "edge-under" });
-      const path = s("path", { d, class: "edge", stroke: st.colour, "stroke-width": st.width, "stroke-dasharray": st.dash.join(" ") || null });
-      const eg = s("g", { class: "rt-edge", dataset: n.group ? { group: n.key, depth: n.depth } : { id: n.id, depth: n.depth } }, under, path);
+      const path = s("path", {
+        d,
+        class: "edge",
+        stroke: st.colour,
+        "stroke-width": st.width,
+        "stroke-dasharray": st.dash.join(" ") || null,
+      });
+      const eg = s(
+        "g",
+        { class: "rt-edge", dataset: n.group ? { group: n.key, depth: n.depth } : { id: n.id, depth: n.depth } },
+        under,
+        path,
+      );
       edges.append(eg);
       edgeOf.set(n.id, eg);
       if (n.group) {
@@ -225,9 +301,12 @@ export function renderDiagram(container, model, { onHover, onSelect, label = nul
       if (!p || !view.nodes.some((n) => n.id !== first.id && groupKey(n) === key)) continue;
       const count = view.nodes.filter((n) => groupKey(n) === key).length;
       const words = `▴ fold the ${count} shadow rays`;
-      const fold = s("g", { class: "rt-fold", dataset: { group: key } },
+      const fold = s(
+        "g",
+        { class: "rt-fold", dataset: { group: key } },
         s("rect", { x: p.x, y: p.y - 21, width: words.length * 6.2 + 10, height: 17, rx: 4 }),
-        s("text", { x: p.x + 5, y: p.y - 9 }, words)); // a tab over its first ray, on a plate: the edges pass behind
+        s("text", { x: p.x + 5, y: p.y - 9 }, words),
+      ); // a tab over its first ray, on a plate: the edges pass behind
       fold.addEventListener("click", () => toggle(key));
       boxes.append(fold);
     }

@@ -40,7 +40,16 @@ export class SceneEditor {
     this.past = []; // [{text, sel, what}] before each step (what: the step's name), the latest last
     this.future = []; // steps undone, the next redo last
     this.typing = -Infinity; // when the student last typed (a pause starts a new step; -Infinity: none since the last step)
-    this.state = { text: "", value: null, nodes: null, where: null, syntax: null, valid: null, errors: [], warnings: [] };
+    this.state = {
+      text: "",
+      value: null,
+      nodes: null,
+      where: null,
+      syntax: null,
+      valid: null,
+      errors: [],
+      warnings: [],
+    };
     this.marks = []; // [{line, col?, severity, message, path?}]
     this.flash = null; // {line, until}: the line a form control just wrote
     this.lines = 0;
@@ -120,7 +129,8 @@ export class SceneEditor {
   record(what = "typing") {
     const text = this.ta.value;
     this.typing = -Infinity;
-    if (text.trim() && this.past.at(-1)?.text !== text) this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd], what });
+    if (text.trim() && this.past.at(-1)?.text !== text)
+      this.past.push({ text, sel: [this.ta.selectionStart, this.ta.selectionEnd], what });
     if (this.past.length > HISTORY) this.past.shift();
     this.future = [];
     this.onHistory(this.canUndo, this.canRedo);
@@ -237,7 +247,8 @@ export class SceneEditor {
       answer = await api.validate(text, abort.signal);
     } catch (err) {
       if (err.name === "AbortError" || seq !== this.seq) return this.state;
-      const message = err instanceof ApiError && err.status === 0 ? err.message : `the server could not check it: ${err.message}`;
+      const message =
+        err instanceof ApiError && err.status === 0 ? err.message : `the server could not check it: ${err.message}`;
       this.setStatus("warn", `Could not validate: ${message}.`);
       return this.state;
     }
@@ -264,13 +275,23 @@ export class SceneEditor {
         const found = locate(st.nodes, e.path || "");
         const line = found ? nodeLine(st.where, found.node) : 1;
         const where = found && !found.exact ? ` (in ${pathString(found.node.parts) || "the scene"})` : "";
-        marks.push({ line, severity, message: e.message + where, path: e.path || "", node: found?.exact ? found.node : null });
+        marks.push({
+          line,
+          severity,
+          message: e.message + where,
+          path: e.path || "",
+          node: found?.exact ? found.node : null,
+        });
       }
     }
     this.setMarks(marks);
     const n = errors.length;
     const w = warnings.length;
-    if (n) this.setStatus("error", `${n} error${n > 1 ? "s" : ""}${w ? `, ${w} warning${w > 1 ? "s" : ""}` : ""}: the scene cannot be rendered yet.`);
+    if (n)
+      this.setStatus(
+        "error",
+        `${n} error${n > 1 ? "s" : ""}${w ? `, ${w} warning${w > 1 ? "s" : ""}` : ""}: the scene cannot be rendered yet.`,
+      );
     else if (w) this.setStatus("warn", `Valid, with ${w} warning${w > 1 ? "s" : ""}.`);
     else this.setStatus("ok", "The scene is valid.");
   }
@@ -346,14 +367,24 @@ export class SceneEditor {
     const gmarks = [];
     const top = (line) => `${PAD + (line - 1) * LINE_HEIGHT}px`;
     if (flashing && !byLine.has(this.flash.line)) {
-      rows.push(h("div", { class: "mark changed", style: `top:${top(this.flash.line)}` }, h("span", { class: "ghost" }, lines[this.flash.line - 1] || " ")));
+      rows.push(
+        h(
+          "div",
+          { class: "mark changed", style: `top:${top(this.flash.line)}` },
+          h("span", { class: "ghost" }, lines[this.flash.line - 1] || " "),
+        ),
+      );
     }
     for (const [line, ms] of byLine) {
       const severity = ms.some((m) => m.severity === "error") ? "error" : "warning";
       const text = lines[line - 1] ?? "";
       const col = ms.find((m) => m.col)?.col;
       const parts = col
-        ? [h("span", { class: "ghost" }, text.slice(0, col - 1)), h("span", { class: "ghost squiggle" }, text.slice(col - 1, col) || " "), h("span", { class: "ghost" }, text.slice(col))]
+        ? [
+            h("span", { class: "ghost" }, text.slice(0, col - 1)),
+            h("span", { class: "ghost squiggle" }, text.slice(col - 1, col) || " "),
+            h("span", { class: "ghost" }, text.slice(col)),
+          ]
         : [h("span", { class: "ghost" }, text)];
       const message = ms.map((m) => m.message).join(" · ");
       const msg = h("span", { class: "msg" }, `◀ ${message}`);

@@ -2,7 +2,19 @@
 // (jsonpos.js's setValue), so that a move or a scale is one step of the editor's history; where a new object
 // or light goes; and which object or light the eye ray through a pixel meets first (picking in the picture).
 // Fields as in docs/scene-format.md: a sphere's `center`, a plane's `point`, a quad's `corner` and edges, ...
-import { add, applyPoint, cameraBasis, cross, dot, length, mul, normalize, pixelDirection, sub, transformMatrix } from "./vec.js";
+import {
+  add,
+  applyPoint,
+  cameraBasis,
+  cross,
+  dot,
+  length,
+  mul,
+  normalize,
+  pixelDirection,
+  sub,
+  transformMatrix,
+} from "./vec.js";
 
 export const r3 = (x) => Math.round(x * 1000) / 1000; // what a student would type: millimetres in a scene of metres
 export const v3 = (v) => v.map(r3);
@@ -82,7 +94,8 @@ export function moveWrites(o, base, d) {
 }
 
 /** Rotate v about the unit axis u by `a` radians (Rodrigues). */
-const turn = (v, u, a) => add(add(mul(v, Math.cos(a)), mul(cross(u, v), Math.sin(a))), mul(u, dot(u, v) * (1 - Math.cos(a))));
+const turn = (v, u, a) =>
+  add(add(mul(v, Math.cos(a)), mul(cross(u, v), Math.sin(a))), mul(u, dot(u, v) * (1 - Math.cos(a))));
 
 /** The writes that aim a light with a `direction` (spot, directional): turned `yaw` degrees about `up` (the
  * scene's vertical) and tilted `pitch` degrees towards it; null for a light without one. A tilt stops 5 degrees
@@ -352,7 +365,12 @@ export function floorAndCeiling(scene) {
   let ceiling = null;
   for (const o of Array.isArray(scene.objects) ? scene.objects : []) {
     const p = o?.type === "plane" ? o.point : o?.type === "quad" ? o.corner : null;
-    const n = o?.type === "plane" ? o.normal : o?.type === "quad" && isVec(o.edge1) && isVec(o.edge2) ? cross(o.edge1, o.edge2) : null;
+    const n =
+      o?.type === "plane"
+        ? o.normal
+        : o?.type === "quad" && isVec(o.edge1) && isVec(o.edge2)
+          ? cross(o.edge1, o.edge2)
+          : null;
     if (!isVec(p) || !isVec(n) || Math.abs(dot(normalize(n), up)) < 0.9) continue;
     const y = dot(p, up);
     if (y < eye && (floor === null || y > floor)) floor = y;
@@ -372,7 +390,9 @@ function reach(o) {
     case "box":
       return isVec(o.min) && isVec(o.max) ? length(sub(o.max, o.min)) / 2 : null;
     case "quad":
-      return isVec(o.edge1) && isVec(o.edge2) ? Math.max(length(add(o.edge1, o.edge2)), length(sub(o.edge1, o.edge2))) / 2 : null;
+      return isVec(o.edge1) && isVec(o.edge2)
+        ? Math.max(length(add(o.edge1, o.edge2)), length(sub(o.edge1, o.edge2))) / 2
+        : null;
     default:
       return null; // planes (infinite), meshes and triangles: not in the way of a new thing
   }
@@ -396,7 +416,8 @@ export function freeSpot(scene, r) {
     const side = Math.sign(dot(sub(at, p), n)) || 1; // the wall's side where the camera looks
     walls.push({ p, n: mul(normalize(n), side) });
   }
-  const free = (q) => taken.every(([c, k]) => length(sub(c, q)) >= k + r) && walls.every(({ p, n }) => dot(sub(q, p), n) >= r);
+  const free = (q) =>
+    taken.every(([c, k]) => length(sub(c, q)) >= k + r) && walls.every(({ p, n }) => dot(sub(q, p), n) >= r);
   const depth = normalize(sub(toward, mul(up, dot(toward, up)))); // towards the camera, along the floor
   const d = 0.5 * r;
   const spots = [];

@@ -43,7 +43,12 @@ const MATERIAL = [
 ];
 const LIGHT_FIELDS = {
   point: [f("position", "position"), f("intensity", "intensity (W/sr)", { step: 1 })],
-  spot: [f("position", "position"), f("direction", "direction"), f("intensity", "intensity (W/sr)", { step: 1 }), f("cutoff", "cutoff (°)", { step: 1 })],
+  spot: [
+    f("position", "position"),
+    f("direction", "direction"),
+    f("intensity", "intensity (W/sr)", { step: 1 }),
+    f("cutoff", "cutoff (°)", { step: 1 }),
+  ],
   directional: [f("direction", "direction"), f("irradiance", "irradiance (W/m²)", { step: 0.1 })],
   quad: [f("corner", "corner"), f("radiance", "radiance")],
   disk: [f("center", "center"), f("radius", "radius", { step: 0.05 }), f("radiance", "radiance")],
@@ -72,7 +77,11 @@ let uid = 0;
 
 /** "0.8" -> 0.8; "0.8, 0.1, 0.1" or "[0.8 0.1 0.1]" -> [0.8, 0.1, 0.1]; else undefined. */
 function parseRGB(text) {
-  const parts = text.replace(/[[\]]/g, " ").split(/[\s,]+/).filter(Boolean).map(Number);
+  const parts = text
+    .replace(/[[\]]/g, " ")
+    .split(/[\s,]+/)
+    .filter(Boolean)
+    .map(Number);
   if (parts.length === 1 && Number.isFinite(parts[0])) return parts[0];
   if (parts.length === 3 && parts.every(Number.isFinite)) return parts;
   return undefined;
@@ -123,7 +132,12 @@ export class SceneFields {
       section("film", "Film"),
       section("sampler", "Sampler"),
       section("render", "Integrator and depth"),
-      section("material", "Object's material", h("label", { class: "wide" }, "object ", this.objectSelect), this.materialNote),
+      section(
+        "material",
+        "Object's material",
+        h("label", { class: "wide" }, "object ", this.objectSelect),
+        this.materialNote,
+      ),
       section("light", "Light", h("label", { class: "wide" }, "light ", this.lightSelect)),
     );
     this.form.addEventListener("submit", (e) => e.preventDefault());
@@ -158,13 +172,26 @@ export class SceneFields {
     const wrap = (...els) =>
       h(
         "div",
-        { class: `field${spec.type === "vec3" ? " vec" : ""}${isDefault ? " is-default" : ""}`, dataset: { path: path.join(".") }, title: spec.description || null },
+        {
+          class: `field${spec.type === "vec3" ? " vec" : ""}${isDefault ? " is-default" : ""}`,
+          dataset: { path: path.join(".") },
+          title: spec.description || null,
+        },
         ...els,
         spec.help ? h("small", { id: `${id}-help` }, spec.help) : null,
       );
     const later = debounce(write, 350);
     if (spec.type === "number") {
-      const input = h("input", { id, type: "number", step: spec.step, min: spec.min, max: spec.max, value: value ?? "", placeholder: spec.nullable ? "auto" : "", "aria-describedby": spec.help ? `${id}-help` : null });
+      const input = h("input", {
+        id,
+        type: "number",
+        step: spec.step,
+        min: spec.min,
+        max: spec.max,
+        value: value ?? "",
+        placeholder: spec.nullable ? "auto" : "",
+        "aria-describedby": spec.help ? `${id}-help` : null,
+      });
       input.addEventListener("input", () => {
         if (input.value === "" && spec.nullable) return later(null);
         const v = Number(input.value);
@@ -174,7 +201,17 @@ export class SceneFields {
     }
     if (spec.type === "vec3") {
       const v = Array.isArray(value) ? value : ["", "", ""];
-      const inputs = ["x", "y", "z"].map((axis, i) => h("input", { type: "number", step: "any", min: spec.min, max: spec.max, value: v[i] ?? "", "aria-label": `${spec.label} ${axis}`, id: i === 0 ? id : null }));
+      const inputs = ["x", "y", "z"].map((axis, i) =>
+        h("input", {
+          type: "number",
+          step: "any",
+          min: spec.min,
+          max: spec.max,
+          value: v[i] ?? "",
+          "aria-label": `${spec.label} ${axis}`,
+          id: i === 0 ? id : null,
+        }),
+      );
       for (const input of inputs)
         input.addEventListener("input", () => {
           const xs = inputs.map((x) => Number(x.value));
@@ -183,7 +220,15 @@ export class SceneFields {
       return wrap(h("label", { for: id }, spec.label), h("span", { class: "vec3" }, ...inputs));
     }
     if (spec.type === "rgb") {
-      const input = h("input", { id, type: "text", inputmode: "decimal", value: showRGB(value, isDefault), "aria-describedby": `${id}-help`, autocomplete: "off", spellcheck: "false" });
+      const input = h("input", {
+        id,
+        type: "text",
+        inputmode: "decimal",
+        value: showRGB(value, isDefault),
+        "aria-describedby": `${id}-help`,
+        autocomplete: "off",
+        spellcheck: "false",
+      });
       input.addEventListener("input", () => {
         const v = parseRGB(input.value);
         input.setAttribute("aria-invalid", v === undefined ? "true" : "false");
@@ -192,7 +237,11 @@ export class SceneFields {
       return wrap(h("label", { for: id }, spec.label), input, h("small", { id: `${id}-help` }, "a number, or r, g, b"));
     }
     if (spec.type === "select") {
-      const select = h("select", { id }, spec.options.map((o) => h("option", { value: o, selected: o === value }, o)));
+      const select = h(
+        "select",
+        { id },
+        spec.options.map((o) => h("option", { value: o, selected: o === value }, o)),
+      );
       select.addEventListener("change", () => write(select.value));
       return wrap(h("label", { for: id }, spec.label), select);
     }
@@ -209,7 +258,11 @@ export class SceneFields {
     const body = this.sections[section];
     const shown = specs.filter(filter).map((spec) => this.resolve(spec, object, holder));
     const paths = shown.map((spec) => [...base, spec.key].join("."));
-    const same = paths.join("\n") === $$(".field", body).map((el) => el.dataset.path).join("\n");
+    const same =
+      paths.join("\n") ===
+      $$(".field", body)
+        .map((el) => el.dataset.path)
+        .join("\n");
     if (same && body.contains(document.activeElement)) {
       // do not rebuild under the student's cursor: update the other controls' values only
       for (const el of $$(".field", body)) {
@@ -228,9 +281,15 @@ export class SceneFields {
       return;
     }
     // rebuild (the fields differ, e.g. another sampler type), keeping the focus on the same field
-    const focused = body.contains(document.activeElement) ? document.activeElement.closest(".field")?.dataset.path : null;
+    const focused = body.contains(document.activeElement)
+      ? document.activeElement.closest(".field")?.dataset.path
+      : null;
     body.replaceChildren(...shown.map((spec) => this.control(spec, base, holder)));
-    if (focused) $$(".field", body).find((el) => el.dataset.path === focused)?.querySelector("input, select")?.focus();
+    if (focused)
+      $$(".field", body)
+        .find((el) => el.dataset.path === focused)
+        ?.querySelector("input, select")
+        ?.focus();
   }
 
   /** Follow the text: `value` is the parsed scene, or null when the JSON does not parse. */
@@ -253,7 +312,12 @@ export class SceneFields {
     const objects = Array.isArray(value.objects) ? value.objects : [];
     this.objectIndex = Math.min(this.objectIndex, Math.max(0, objects.length - 1));
     const objectLabels = objects.map((o, i) => `${i}: ${(o?.name) || (o?.type) || "?"}`);
-    if (objectLabels.join("\n") !== $$("option", this.objectSelect).map((o) => o.textContent).join("\n")) {
+    if (
+      objectLabels.join("\n") !==
+      $$("option", this.objectSelect)
+        .map((o) => o.textContent)
+        .join("\n")
+    ) {
       this.objectSelect.replaceChildren(...objectLabels.map((l, i) => h("option", { value: i }, l)));
     }
     this.objectSelect.value = String(this.objectIndex);
@@ -273,13 +337,24 @@ export class SceneFields {
 
     const lights = Array.isArray(value.lights) ? value.lights : [];
     this.lightIndex = Math.min(this.lightIndex, Math.max(0, lights.length - 1));
-    const lightLabels = lights.map((l, i) => `${i}: ${(l?.type) || "?"}`);
-    if (lightLabels.join("\n") !== $$("option", this.lightSelect).map((o) => o.textContent).join("\n")) {
+    const lightLabels = lights.map((l, i) => `${i}: ${l?.type || "?"}`);
+    if (
+      lightLabels.join("\n") !==
+      $$("option", this.lightSelect)
+        .map((o) => o.textContent)
+        .join("\n")
+    ) {
       this.lightSelect.replaceChildren(...lightLabels.map((l, i) => h("option", { value: i }, l)));
     }
     this.lightSelect.value = String(this.lightIndex);
     const light = lights[this.lightIndex];
-    this.fill("light", (light && LIGHT_FIELDS[light.type]) || [], ["lights", this.lightIndex], light || {}, part("light", light?.type));
+    this.fill(
+      "light",
+      (light && LIGHT_FIELDS[light.type]) || [],
+      ["lights", this.lightIndex],
+      light || {},
+      part("light", light?.type),
+    );
   }
 
   /** While the text does not parse: no control shows a value of an older text (they would look current). */

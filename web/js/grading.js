@@ -37,7 +37,8 @@ const grade = {
   start: (form) => request("POST", "/api/grade/upload", form, AS), // FormData: assignment, then class or files
   state: (id) => request("GET", `/api/grade/${encodeURIComponent(id)}`, undefined, AS),
   summaryUrl: (id, fmt) => `/api/grade/${encodeURIComponent(id)}/summary.${fmt}`,
-  fileUrl: (id, student, file) => `/api/grade/${encodeURIComponent(id)}/students/${encodeURIComponent(student)}/${file}`,
+  fileUrl: (id, student, file) =>
+    `/api/grade/${encodeURIComponent(id)}/students/${encodeURIComponent(student)}/${file}`,
 };
 
 function fixed(x, digits) {
@@ -69,7 +70,10 @@ function sizeText(bytes) {
 function tokenProblem(err) {
   if (!(err instanceof ApiError)) return null;
   if (err.status === 403) return `The server has no instructor: ${err.message}`;
-  if (err.status === 401) return tokens.instructor() ? "The server refused the instructor token: check it above." : "The server needs the instructor's token: enter it above.";
+  if (err.status === 401)
+    return tokens.instructor()
+      ? "The server refused the instructor token: check it above."
+      : "The server needs the instructor's token: enter it above.";
   return null;
 }
 
@@ -111,11 +115,21 @@ export class GradingPanel {
 
   build() {
     this.text = h("textarea", {
-      id: "grade-assignment", class: "grade-json", wrap: "off", spellcheck: "false", autocomplete: "off", autocapitalize: "off",
+      id: "grade-assignment",
+      class: "grade-json",
+      wrap: "off",
+      spellcheck: "false",
+      autocomplete: "off",
+      autocapitalize: "off",
       "aria-describedby": "grade-assignment-help grade-errors",
       placeholder: '{"version": 1, "name": "HW 4", "requirements": [...], "reference": {"scene": {...}}}',
     });
-    this.errors = h("ul", { id: "grade-errors", class: "grade-errors", "aria-label": "Problems in the request", "aria-live": "polite" });
+    this.errors = h("ul", {
+      id: "grade-errors",
+      class: "grade-errors",
+      "aria-label": "Problems in the request",
+      "aria-live": "polite",
+    });
     this.note = h("p", { id: "grade-load-note", class: "note", "aria-live": "polite" });
     const editor = h(
       "section",
@@ -124,29 +138,71 @@ export class GradingPanel {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-grade-assignment" }, "Assignment"),
-        h("span", { class: "toolbar" }, h("button", { type: "button", id: "grade-load-example", onclick: () => this.loadExample() }, "Load the example")),
+        h(
+          "span",
+          { class: "toolbar" },
+          h(
+            "button",
+            { type: "button", id: "grade-load-example", onclick: () => this.loadExample() },
+            "Load the example",
+          ),
+        ),
       ),
       this.note,
-      h("label", { for: "grade-assignment", class: "grade-label" }, "The assignment as JSON (its reference scene inline)"),
+      h(
+        "label",
+        { for: "grade-assignment", class: "grade-label" },
+        "The assignment as JSON (its reference scene inline)",
+      ),
       this.text,
       h(
         "p",
         { id: "grade-assignment-help", class: "hint" },
         "The format: docs/grading.md (",
-        h("code", {}, "render"), ", ", h("code", {}, "limits"), ", ", h("code", {}, "validity"), ", ",
-        h("code", {}, "requirements"), ", ", h("code", {}, "reference"),
+        h("code", {}, "render"),
+        ", ",
+        h("code", {}, "limits"),
+        ", ",
+        h("code", {}, "validity"),
+        ", ",
+        h("code", {}, "requirements"),
+        ", ",
+        h("code", {}, "reference"),
         "). Problems the server finds are listed here with their place in the text.",
       ),
       this.errors,
     );
 
-    this.fileInput = h("input", { type: "file", id: "grade-files", multiple: true, accept: ".json,.png,.exr,.zip,application/json,image/png,application/zip", hidden: true });
-    this.fileInput.addEventListener("change", () => this.addFiles([...this.fileInput.files]).finally(() => (this.fileInput.value = "")));
+    this.fileInput = h("input", {
+      type: "file",
+      id: "grade-files",
+      multiple: true,
+      accept: ".json,.png,.exr,.zip,application/json,image/png,application/zip",
+      hidden: true,
+    });
+    this.fileInput.addEventListener("change", () =>
+      this.addFiles([...this.fileInput.files]).finally(() => (this.fileInput.value = "")),
+    );
     this.subList = h("tbody", { id: "grade-sub-rows" });
     this.subCount = h("span", { class: "muted", id: "grade-sub-count" });
-    this.subErrors = h("ul", { id: "grade-sub-errors", class: "grade-errors", "aria-label": "Problems with the submissions", "aria-live": "polite" });
-    this.gradeButton = h("button", { type: "button", id: "grade-start", class: "primary", onclick: () => this.start() }, "Grade");
-    this.progress = h("progress", { id: "grade-progress", max: 1, value: 0, "aria-label": "renders done", hidden: true });
+    this.subErrors = h("ul", {
+      id: "grade-sub-errors",
+      class: "grade-errors",
+      "aria-label": "Problems with the submissions",
+      "aria-live": "polite",
+    });
+    this.gradeButton = h(
+      "button",
+      { type: "button", id: "grade-start", class: "primary", onclick: () => this.start() },
+      "Grade",
+    );
+    this.progress = h("progress", {
+      id: "grade-progress",
+      max: 1,
+      value: 0,
+      "aria-label": "renders done",
+      hidden: true,
+    });
     this.status = h("p", { id: "grade-status", role: "status", "aria-live": "polite" });
     const submissions = h(
       "section",
@@ -159,7 +215,16 @@ export class GradingPanel {
         h(
           "span",
           { class: "toolbar" },
-          h("button", { type: "button", id: "grade-pick", "aria-describedby": "grade-files-help", onclick: () => this.fileInput.click() }, "Add files…"),
+          h(
+            "button",
+            {
+              type: "button",
+              id: "grade-pick",
+              "aria-describedby": "grade-files-help",
+              onclick: () => this.fileInput.click(),
+            },
+            "Add files…",
+          ),
           h("button", { type: "button", id: "grade-clear", onclick: () => this.setSubs([]) }, "Clear"),
         ),
       ),
@@ -176,7 +241,18 @@ export class GradingPanel {
           "table",
           { class: "grade-sub-table" },
           h("caption", { class: "sr-only" }, "Submissions to grade"),
-          h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "Student"), h("th", { scope: "col" }, "Kind"), h("th", { scope: "col" }, "Size"), h("th", { scope: "col" }, h("span", { class: "sr-only" }, "Remove")))),
+          h(
+            "thead",
+            {},
+            h(
+              "tr",
+              {},
+              h("th", { scope: "col" }, "Student"),
+              h("th", { scope: "col" }, "Kind"),
+              h("th", { scope: "col" }, "Size"),
+              h("th", { scope: "col" }, h("span", { class: "sr-only" }, "Remove")),
+            ),
+          ),
           this.subList,
         ),
       ),
@@ -185,11 +261,26 @@ export class GradingPanel {
       this.status,
     );
 
-    this.results = h("section", { class: "panel grade-results", id: "grade-results", "aria-labelledby": "h-grade-results", hidden: true });
-    this.detail = h("section", { class: "panel grade-detail", id: "grade-detail", "aria-labelledby": "h-grade-detail", hidden: true });
+    this.results = h("section", {
+      class: "panel grade-results",
+      id: "grade-results",
+      "aria-labelledby": "h-grade-results",
+      hidden: true,
+    });
+    this.detail = h("section", {
+      class: "panel grade-detail",
+      id: "grade-detail",
+      "aria-labelledby": "h-grade-detail",
+      hidden: true,
+    });
     this.tokenInput = h("input", {
-      type: "password", id: "grade-token", autocomplete: "off", spellcheck: "false", "aria-describedby": "grade-token-help",
-      value: tokens.instructor() || "", placeholder: "the server's TRACER_INSTRUCTOR_TOKEN",
+      type: "password",
+      id: "grade-token",
+      autocomplete: "off",
+      spellcheck: "false",
+      "aria-describedby": "grade-token-help",
+      value: tokens.instructor() || "",
+      placeholder: "the server's TRACER_INSTRUCTOR_TOKEN",
     });
     this.tokenInput.addEventListener("change", () => {
       tokens.setInstructor(this.tokenInput.value.trim());
@@ -202,7 +293,11 @@ export class GradingPanel {
       { class: "panel grade-access" },
       h("label", { for: "grade-token" }, "Instructor token"),
       this.tokenInput,
-      h("p", { id: "grade-token-help", class: "hint" }, "Grading is the instructor's: a server started with TRACER_INSTRUCTOR_TOKEN needs it here (kept in this browser). On your own machine without one, leave it empty."),
+      h(
+        "p",
+        { id: "grade-token-help", class: "hint" },
+        "Grading is the instructor's: a server started with TRACER_INSTRUCTOR_TOKEN needs it here (kept in this browser). On your own machine without one, leave it empty.",
+      ),
     );
     this.root.replaceChildren(access, h("div", { class: "grading" }, editor, submissions), this.results, this.detail);
     this.renderSubs();
@@ -219,8 +314,22 @@ export class GradingPanel {
       this.setSubs(
         ex.submissions.map((s) =>
           s.image !== undefined
-            ? { student: s.student, kind: s.format || "png", file: blobOf(s.image, `image/${s.format || "png"}`), name: `${s.student}.${s.format || "png"}`, bytes: Math.floor((s.image.length * 3) / 4), from: "example" }
-            : { student: s.student, kind: "scene", file: new Blob([s.scene], { type: "application/json" }), name: `${s.student}.json`, bytes: new Blob([s.scene]).size, from: "example" },
+            ? {
+                student: s.student,
+                kind: s.format || "png",
+                file: blobOf(s.image, `image/${s.format || "png"}`),
+                name: `${s.student}.${s.format || "png"}`,
+                bytes: Math.floor((s.image.length * 3) / 4),
+                from: "example",
+              }
+            : {
+                student: s.student,
+                kind: "scene",
+                file: new Blob([s.scene], { type: "application/json" }),
+                name: `${s.student}.json`,
+                bytes: new Blob([s.scene]).size,
+                from: "example",
+              },
         ),
       );
       this.showErrors([]);
@@ -228,7 +337,10 @@ export class GradingPanel {
     } catch (err) {
       this.note.textContent = "";
       if (tokenProblem(err)) this.needToken(err);
-      this.showErrors(err instanceof ApiError ? err.errors : [{ path: "", message: String(err.message || err) }], "Could not load the example:");
+      this.showErrors(
+        err instanceof ApiError ? err.errors : [{ path: "", message: String(err.message || err) }],
+        "Could not load the example:",
+      );
     } finally {
       button.disabled = false;
     }
@@ -240,8 +352,12 @@ export class GradingPanel {
     let subs = this.subs.filter((s) => s.kind !== "zip");
     const zips = files.filter((f) => /\.zip$/i.test(f.name));
     if (zips.length) {
-      if (zips.length > 1 || files.length > 1) problems.push({ path: zips[0].name, message: "a zip is the whole class: choose it alone" });
-      else subs = [{ student: zips[0].name, kind: "zip", file: zips[0], name: zips[0].name, bytes: zips[0].size, from: "file" }];
+      if (zips.length > 1 || files.length > 1)
+        problems.push({ path: zips[0].name, message: "a zip is the whole class: choose it alone" });
+      else
+        subs = [
+          { student: zips[0].name, kind: "zip", file: zips[0], name: zips[0].name, bytes: zips[0].size, from: "file" },
+        ];
     }
     if (!zips.length) {
       let picked = [];
@@ -249,7 +365,10 @@ export class GradingPanel {
         const ext = (/\.([^.]+)$/.exec(f.name)?.[1] || "").toLowerCase();
         const kind = KINDS[ext];
         if (!kind || kind === "zip") {
-          problems.push({ path: f.name, message: "not a submission: choose .json scenes, .png or .exr images, or one .zip" });
+          problems.push({
+            path: f.name,
+            message: "not a submission: choose .json scenes, .png or .exr images, or one .zip",
+          });
           continue;
         }
         picked.push({ f, kind });
@@ -260,7 +379,10 @@ export class GradingPanel {
           ids = (await grade.students(picked.map((p) => p.f.name))).students;
         } catch (err) {
           if (tokenProblem(err)) this.needToken(err);
-          problems.push({ path: "", message: `Could not add the files: the server did not name their students (${err.message}).` });
+          problems.push({
+            path: "",
+            message: `Could not add the files: the server did not name their students (${err.message}).`,
+          });
           picked = [];
         }
       }
@@ -286,7 +408,9 @@ export class GradingPanel {
     const zip = this.subs[0]?.kind === "zip";
     this.subCount.textContent = zip ? "a class in a zip" : n ? `${n} student${n > 1 ? "s" : ""}` : "";
     if (!n) {
-      this.subList.replaceChildren(h("tr", { class: "empty" }, h("td", { colspan: 4 }, "None yet: add files, or load the example.")));
+      this.subList.replaceChildren(
+        h("tr", { class: "empty" }, h("td", { colspan: 4 }, "None yet: add files, or load the example.")),
+      );
       return;
     }
     this.subList.replaceChildren(
@@ -297,7 +421,20 @@ export class GradingPanel {
           h("th", { scope: "row" }, s.student),
           h("td", {}, KIND_TEXT[s.kind] || s.kind),
           h("td", { class: "num" }, sizeText(s.bytes)),
-          h("td", {}, h("button", { type: "button", class: "small", "aria-label": `Remove ${s.student}`, onclick: () => this.setSubs(this.subs.filter((_, j) => j !== i)) }, "×")),
+          h(
+            "td",
+            {},
+            h(
+              "button",
+              {
+                type: "button",
+                class: "small",
+                "aria-label": `Remove ${s.student}`,
+                onclick: () => this.setSubs(this.subs.filter((_, j) => j !== i)),
+              },
+              "×",
+            ),
+          ),
         ),
       ),
     );
@@ -311,7 +448,10 @@ export class GradingPanel {
       assignment = parse(text).value;
     } catch (err) {
       const where = err.line ? `line ${err.line}, column ${err.col}` : "";
-      this.showErrors([{ path: where, message: err.message.replace("the scene's JSON object", "the JSON object") }], "The assignment is not valid JSON:");
+      this.showErrors(
+        [{ path: where, message: err.message.replace("the scene's JSON object", "the JSON object") }],
+        "The assignment is not valid JSON:",
+      );
       this.text.focus();
       if (err.offset !== undefined) this.text.setSelectionRange(err.offset, err.offset + 1);
       return null;
@@ -357,7 +497,18 @@ export class GradingPanel {
         { class: "problem-item" },
         e.path ? h("code", { class: "where" }, e.path) : null,
         h("span", { class: "msg" }, e.message),
-        line ? h("button", { type: "button", class: "small", onclick: () => this.select(found.node), "aria-label": `Show line ${line} of the assignment` }, `line ${line}`) : null,
+        line
+          ? h(
+              "button",
+              {
+                type: "button",
+                class: "small",
+                onclick: () => this.select(found.node),
+                "aria-label": `Show line ${line} of the assignment`,
+              },
+              `line ${line}`,
+            )
+          : null,
       );
       list.append(item);
     }
@@ -372,7 +523,16 @@ export class GradingPanel {
   }
 
   showSubErrors(errors) {
-    this.subErrors.replaceChildren(...errors.map((e) => h("li", { class: "problem-item" }, e.path ? h("code", { class: "where" }, e.path) : null, h("span", { class: "msg" }, e.message))));
+    this.subErrors.replaceChildren(
+      ...errors.map((e) =>
+        h(
+          "li",
+          { class: "problem-item" },
+          e.path ? h("code", { class: "where" }, e.path) : null,
+          h("span", { class: "msg" }, e.message),
+        ),
+      ),
+    );
   }
 
   // -- a run --------------------------------------------------------------------------------------
@@ -392,7 +552,10 @@ export class GradingPanel {
         const others = err.errors.filter((e) => !mine.includes(e));
         this.showErrors(mine, mine.length ? "The server refused the assignment:" : null);
         this.showSubErrors(others);
-        this.setStatus("error", `Not graded: ${err.errors.length} problem${err.errors.length > 1 ? "s" : ""} (listed ${mine.length ? "under the assignment" : "above"}).`);
+        this.setStatus(
+          "error",
+          `Not graded: ${err.errors.length} problem${err.errors.length > 1 ? "s" : ""} (listed ${mine.length ? "under the assignment" : "above"}).`,
+        );
         if (mine.length) this.errors.scrollIntoView({ block: "nearest" });
       } else if (tokenProblem(err)) {
         this.needToken(err);
@@ -463,7 +626,9 @@ export class GradingPanel {
     a.addEventListener("click", (e) => {
       e.preventDefault();
       const name = url.split("/").pop();
-      (save ? downloadFile(url, save, AS) : openFile(url, AS)).catch((err) => this.setStatus("error", `Could not open ${name}: ${err.message}.`));
+      (save ? downloadFile(url, save, AS) : openFile(url, AS)).catch((err) =>
+        this.setStatus("error", `Could not open ${name}: ${err.message}.`),
+      );
     });
     return a;
   }
@@ -504,13 +669,19 @@ export class GradingPanel {
     const stats = st.summary?.statistics || {};
     const tests = [];
     for (const r of st.reports) {
-      for (const t of r.tests) if (!tests.some((x) => x.name === t.name)) tests.push({ name: t.name, kind: t.kind, max: t.max_score });
+      for (const t of r.tests)
+        if (!tests.some((x) => x.name === t.name)) tests.push({ name: t.name, kind: t.kind, max: t.max_score });
     }
     tests.sort((a, b) => (TEST_ORDER[a.kind] ?? 9) - (TEST_ORDER[b.kind] ?? 9)); // stable: the assignment's order within a kind
     this.tests = tests;
     const byStatus = stats.by_status || {};
     const stat = (label, value, key) => h("div", { dataset: { stat: key } }, h("dt", {}, label), h("dd", {}, value));
-    this.tableBox = h("div", { class: "grade-table-box", role: "region", "aria-labelledby": "grade-caption", tabindex: 0 });
+    this.tableBox = h("div", {
+      class: "grade-table-box",
+      role: "region",
+      "aria-labelledby": "grade-caption",
+      tabindex: 0,
+    });
     this.results.replaceChildren(
       h(
         "div",
@@ -520,7 +691,12 @@ export class GradingPanel {
         h(
           "span",
           { class: "toolbar" },
-          this.fileLink(grade.summaryUrl(st.id, "csv"), { class: "button", id: "grade-csv", download: "summary.csv" }, "summary.csv", "summary.csv"),
+          this.fileLink(
+            grade.summaryUrl(st.id, "csv"),
+            { class: "button", id: "grade-csv", download: "summary.csv" },
+            "summary.csv",
+            "summary.csv",
+          ),
           this.fileLink(grade.summaryUrl(st.id, "json"), { class: "button", id: "grade-json" }, "summary.json"),
         ),
       ),
@@ -531,10 +707,22 @@ export class GradingPanel {
         stat("mean", percentText(stats.mean_percent), "mean"),
         stat("min", percentText(stats.min_percent), "min"),
         stat("max", percentText(stats.max_percent), "max"),
-        stats.max_scores ? stat("out of", Object.entries(stats.max_scores).map(([kind, n]) => `${pts(n)} (${kind})`).join(" · "), "out-of") : null,
+        stats.max_scores
+          ? stat(
+              "out of",
+              Object.entries(stats.max_scores)
+                .map(([kind, n]) => `${pts(n)} (${kind})`)
+                .join(" · "),
+              "out-of",
+            )
+          : null,
         ...["graded", "invalid", "failed"].map((s) => stat(s, byStatus[s] ?? 0, s)),
       ),
-      h("p", { class: "hint" }, "Click a student (or focus the row and press Enter) for their pictures and every test's output. A test's output is also its cell's tooltip."),
+      h(
+        "p",
+        { class: "hint" },
+        "Click a student (or focus the row and press Enter) for their pictures and every test's output. A test's output is also its cell's tooltip.",
+      ),
       this.tableBox,
     );
     this.results.hidden = false;
@@ -551,7 +739,8 @@ export class GradingPanel {
       { key: "status", label: "Status", sort: (r) => r.status, first: 1 },
       { key: "score", label: "Score", sort: (r) => (share(r) ?? 0) + r.score * 1e-6, first: -1 },
     ];
-    for (const [key, label, , first] of METRICS) cols.push({ key, label, sort: (r) => r.metrics?.[key] ?? null, first, metric: true });
+    for (const [key, label, , first] of METRICS)
+      cols.push({ key, label, sort: (r) => r.metrics?.[key] ?? null, first, metric: true });
     return cols;
   }
 
@@ -562,7 +751,13 @@ export class GradingPanel {
 
   renderTable() {
     const cols = this.columns();
-    const sortable = (c) => this.sort.header(c.key, c.label, { first: c.first, num: c.metric, redraw: () => this.renderTable(), within: this.tableBox });
+    const sortable = (c) =>
+      this.sort.header(c.key, c.label, {
+        first: c.first,
+        num: c.metric,
+        redraw: () => this.renderTable(),
+        within: this.tableBox,
+      });
     const [student, kind, status, score, ...metrics] = cols;
     const head = h(
       "tr",
@@ -571,21 +766,50 @@ export class GradingPanel {
       sortable(kind),
       sortable(status),
       sortable(score),
-      ...this.tests.map((t) => h("th", { scope: "col", class: "test", dataset: { test: t.name }, title: `${t.name} (${t.kind}, ${pts(t.max)} points)` }, t.name, h("small", {}, ` /${pts(t.max)}`))),
+      ...this.tests.map((t) =>
+        h(
+          "th",
+          {
+            scope: "col",
+            class: "test",
+            dataset: { test: t.name },
+            title: `${t.name} (${t.kind}, ${pts(t.max)} points)`,
+          },
+          t.name,
+          h("small", {}, ` /${pts(t.max)}`),
+        ),
+      ),
       ...metrics.map(sortable),
     );
     const rows = this.sortedReports().map((r) => {
       const byName = new Map(r.tests.map((t) => [t.name, t]));
       const row = h(
         "tr",
-        { tabindex: 0, class: "student", dataset: { student: r.student, status: r.status }, "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)} (${percentText(share(r))}), ${r.status}; Enter shows the details` },
+        {
+          tabindex: 0,
+          class: "student",
+          dataset: { student: r.student, status: r.status },
+          "aria-label": `${r.student}: ${pts(r.score)} of ${pts(r.max_score)} (${percentText(share(r))}), ${r.status}; Enter shows the details`,
+        },
         h("th", { scope: "row" }, r.student),
         h("td", {}, r.kind),
         h("td", {}, h("span", { class: `badge ${r.status}` }, r.status)),
-        h("td", { class: "num score" }, h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)} `, h("span", { class: "pct" }, `(${percentText(share(r))})`)),
+        h(
+          "td",
+          { class: "num score" },
+          h("strong", {}, pts(r.score)),
+          ` / ${pts(r.max_score)} `,
+          h("span", { class: "pct" }, `(${percentText(share(r))})`),
+        ),
         ...this.tests.map((c) => {
           const t = byName.get(c.name);
-          if (!t) return h("td", { class: "test na", title: "not a test for this kind of submission" }, h("span", { "aria-hidden": "true" }, "·"), h("span", { class: "sr-only" }, "not tested"));
+          if (!t)
+            return h(
+              "td",
+              { class: "test na", title: "not a test for this kind of submission" },
+              h("span", { "aria-hidden": "true" }, "·"),
+              h("span", { class: "sr-only" }, "not tested"),
+            );
           const ok = t.status === "passed";
           return h(
             "td",
@@ -614,7 +838,11 @@ export class GradingPanel {
     const table = h(
       "table",
       { class: "grade-table", id: "grade-table" },
-      h("caption", { id: "grade-caption" }, `The class: ${this.run.reports.length} students, by ${this.sort.key}${this.sort.dir > 0 ? "" : " (descending)"}`),
+      h(
+        "caption",
+        { id: "grade-caption" },
+        `The class: ${this.run.reports.length} students, by ${this.sort.key}${this.sort.dir > 0 ? "" : " (descending)"}`,
+      ),
       h("thead", {}, head),
       h("tbody", {}, rows),
     );
@@ -643,7 +871,9 @@ export class GradingPanel {
       render: r.kind === "image" ? "their image" : `their scene, rendered${m.spp ? ` (${m.spp} spp)` : ""}`,
       reference: "the reference",
       error_map: `FLIP error map${typeof m.flip === "number" ? ` (mean ${fixed(m.flip, 3)})` : ""}`,
-      rejected: m.captions?.rejected || `pixels the z test rejected${typeof m.rejected === "number" ? ` (${fixed(100 * m.rejected, 2)} %)` : ""}`, // the grader's words: red beyond noise, yellow as noise
+      rejected:
+        m.captions?.rejected ||
+        `pixels the z test rejected${typeof m.rejected === "number" ? ` (${fixed(100 * m.rejected, 2)} %)` : ""}`, // the grader's words: red beyond noise, yellow as noise
     };
     const images = new Set(r.images || []);
     const figures = PICTURES.map(([name, alt]) =>
@@ -651,13 +881,23 @@ export class GradingPanel {
         "figure",
         { class: "grade-fig", dataset: { picture: name } },
         images.has(name)
-          ? this.fileLink(grade.fileUrl(id, student, `${name}.png`), { title: "open the PNG" }, picture(grade.fileUrl(id, student, `${name}.png`), `${alt} of ${student}`))
+          ? this.fileLink(
+              grade.fileUrl(id, student, `${name}.png`),
+              { title: "open the PNG" },
+              picture(grade.fileUrl(id, student, `${name}.png`), `${alt} of ${student}`),
+            )
           : h("div", { class: "grade-noimg" }, "no picture"),
         h("figcaption", {}, captions[name]),
       ),
     );
     const metricRows = METRICS.filter(([key]) => m[key] !== undefined && m[key] !== null).map(([key, label, fmt]) =>
-      h("tr", {}, h("th", { scope: "row" }, label), h("td", { class: "num" }, fmt(m[key])), h("td", { class: "num" }, fmt(base[key]))),
+      h(
+        "tr",
+        {},
+        h("th", { scope: "row" }, label),
+        h("td", { class: "num" }, fmt(m[key])),
+        h("td", { class: "num" }, fmt(base[key])),
+      ),
     );
     const tests = r.tests.map((t) => {
       const ok = t.status === "passed";
@@ -677,25 +917,56 @@ export class GradingPanel {
         multi ? h("pre", { class: "grade-output" }, t.output) : h("p", { class: "grade-output" }, t.output),
       );
     });
-    const problem = (e) => h("li", {}, e.path ? h("code", {}, e.path) : h("code", {}, "(the submission)"), " ", e.message);
+    const problem = (e) =>
+      h("li", {}, e.path ? h("code", {}, e.path) : h("code", {}, "(the submission)"), " ", e.message);
     const parts = [
       h(
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-grade-detail", tabindex: -1 }, student),
-        h("span", {}, h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`), ` (${percentText(share(r))}) · `, r.kind, " · ", h("span", { class: `badge ${r.status}` }, r.status)),
+        h(
+          "span",
+          {},
+          h("strong", {}, `${pts(r.score)} / ${pts(r.max_score)}`),
+          ` (${percentText(share(r))}) · `,
+          r.kind,
+          " · ",
+          h("span", { class: `badge ${r.status}` }, r.status),
+        ),
         h(
           "span",
           { class: "toolbar" },
-          this.fileLink(grade.fileUrl(id, student, "results.json"), { class: "button", title: "Gradescope's autograder results" }, "results.json"),
+          this.fileLink(
+            grade.fileUrl(id, student, "results.json"),
+            { class: "button", title: "Gradescope's autograder results" },
+            "results.json",
+          ),
           this.fileLink(grade.fileUrl(id, student, "report.json"), { class: "button" }, "report.json"),
           h("button", { type: "button", id: "grade-detail-close", onclick: () => this.closeDetail() }, "Close"),
         ),
       ),
       r.errors?.length
-        ? h("div", { class: "message grade-problems", dataset: { kind: "error" } }, h("strong", {}, r.kind === "image" ? "The image could not be graded:" : `The scene is invalid (${r.errors.length} error${r.errors.length > 1 ? "s" : ""}):`), h("ul", { id: "grade-detail-errors" }, r.errors.map(problem)))
+        ? h(
+            "div",
+            { class: "message grade-problems", dataset: { kind: "error" } },
+            h(
+              "strong",
+              {},
+              r.kind === "image"
+                ? "The image could not be graded:"
+                : `The scene is invalid (${r.errors.length} error${r.errors.length > 1 ? "s" : ""}):`,
+            ),
+            h("ul", { id: "grade-detail-errors" }, r.errors.map(problem)),
+          )
         : null,
-      r.warnings?.length ? h("div", { class: "message grade-problems", dataset: { kind: "warn" } }, h("strong", {}, "Warnings:"), h("ul", {}, r.warnings.map(problem))) : null,
+      r.warnings?.length
+        ? h(
+            "div",
+            { class: "message grade-problems", dataset: { kind: "warn" } },
+            h("strong", {}, "Warnings:"),
+            h("ul", {}, r.warnings.map(problem)),
+          )
+        : null,
       images.size
         ? h("div", { class: "grade-figs" }, figures)
         : h("p", { class: "hint" }, "No pictures: the submission was not rendered or compared (see the errors)."),
@@ -704,11 +975,25 @@ export class GradingPanel {
             "div",
             { class: "grade-metrics-box" },
             h("h3", { id: "grade-metrics-h" }, "Against the reference"),
-            h("p", { class: "hint" }, "The noise baseline is the reference scene rendered again with the student's samples and another seed: the difference that noise alone makes."),
+            h(
+              "p",
+              { class: "hint" },
+              "The noise baseline is the reference scene rendered again with the student's samples and another seed: the difference that noise alone makes.",
+            ),
             h(
               "table",
               { class: "grade-metrics", "aria-labelledby": "grade-metrics-h" },
-              h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "metric"), h("th", { scope: "col", class: "num" }, student), h("th", { scope: "col", class: "num" }, "noise baseline"))),
+              h(
+                "thead",
+                {},
+                h(
+                  "tr",
+                  {},
+                  h("th", { scope: "col" }, "metric"),
+                  h("th", { scope: "col", class: "num" }, student),
+                  h("th", { scope: "col", class: "num" }, "noise baseline"),
+                ),
+              ),
               h("tbody", {}, metricRows),
             ),
           )

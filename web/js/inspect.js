@@ -16,7 +16,8 @@ const ZOOMS = [1, 2, 4, 8];
 export function inspectGroup(container, selector, { labelOf = (img) => img.alt } = {}) {
   let at = null; // the lenses' centre, in picture pixels of the picture under the pointer: [x, y] (fractional)
   let clicked = null; // a clickable picture just clicked: no lenses while the pointer stays on it
-  const shown = () => [...container.querySelectorAll(selector)].filter((i) => !i.hidden && i.complete && i.naturalWidth > 0);
+  const shown = () =>
+    [...container.querySelectorAll(selector)].filter((i) => !i.hidden && i.complete && i.naturalWidth > 0);
 
   const prepare = () => {
     for (const img of container.querySelectorAll(selector)) {
@@ -116,7 +117,13 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
       const kept = at || [0.5, 0.5];
       const r = img.getBoundingClientRect();
       const c = contentBox(img);
-      img.dispatchEvent(new MouseEvent("click", { bubbles: true, clientX: r.left + c.left + kept[0] * c.width, clientY: r.top + c.top + kept[1] * c.height }));
+      img.dispatchEvent(
+        new MouseEvent("click", {
+          bubbles: true,
+          clientX: r.left + c.left + kept[0] * c.width,
+          clientY: r.top + c.top + kept[1] * c.height,
+        }),
+      );
       at = kept; // the lenses hide (the click draws under them); the next arrow goes on from here
     } else if (e.key === "Enter" || e.key === " ") {
       e.preventDefault();
@@ -133,7 +140,8 @@ export function inspectGroup(container, selector, { labelOf = (img) => img.alt }
 function contentBox(img) {
   const w = img.clientWidth || 1;
   const hh = img.clientHeight || 1;
-  if (getComputedStyle(img).objectFit !== "contain" || !img.naturalWidth) return { left: 0, top: 0, width: w, height: hh };
+  if (getComputedStyle(img).objectFit !== "contain" || !img.naturalWidth)
+    return { left: 0, top: 0, width: w, height: hh };
   const k = Math.min(w / img.naturalWidth, hh / img.naturalHeight);
   const width = img.naturalWidth * k;
   const height = img.naturalHeight * k;
@@ -157,20 +165,49 @@ function openFull(images, chosen, labelOf) {
   if (!images.length) return;
   dialog?.remove();
   const zoomOut = h("output", { class: "inspect-zoom-out" });
-  const zoom = h("input", { type: "range", min: 0, max: ZOOMS.length - 1, step: 1, value: 2, "aria-label": "zoom", class: "inspect-zoom" });
-  const close = h("button", { type: "button", class: "small", "aria-label": "Close the full-size view" }, "Close (Esc)");
+  const zoom = h("input", {
+    type: "range",
+    min: 0,
+    max: ZOOMS.length - 1,
+    step: 1,
+    value: 2,
+    "aria-label": "zoom",
+    class: "inspect-zoom",
+  });
+  const close = h(
+    "button",
+    { type: "button", class: "small", "aria-label": "Close the full-size view" },
+    "Close (Esc)",
+  );
   const boxes = images.map((img) =>
     h(
       "figure",
       { class: "inspect-figure" },
-      h("div", { class: "inspect-scroll" }, h("img", { src: img.currentSrc || img.src, alt: img.alt, class: "inspect-full-img", dataset: { natural: `${img.naturalWidth}x${img.naturalHeight}` } })),
+      h(
+        "div",
+        { class: "inspect-scroll" },
+        h("img", {
+          src: img.currentSrc || img.src,
+          alt: img.alt,
+          class: "inspect-full-img",
+          dataset: { natural: `${img.naturalWidth}x${img.naturalHeight}` },
+        }),
+      ),
       h("figcaption", {}, labelOf(img) || ""),
     ),
   );
   dialog = h(
     "dialog",
     { class: "inspect-dialog", "aria-label": "The pictures at full size" },
-    h("div", { class: "inspect-head" }, h("strong", {}, "Full size"), h("label", { class: "inline" }, "zoom ", zoom), zoomOut, h("span", { class: "hint" }, "each picture pixel a square; scrolling one scrolls all"), close),
+    h(
+      "div",
+      { class: "inspect-head" },
+      h("strong", {}, "Full size"),
+      h("label", { class: "inline" }, "zoom ", zoom),
+      zoomOut,
+      h("span", { class: "hint" }, "each picture pixel a square; scrolling one scrolls all"),
+      close,
+    ),
     h("div", { class: "inspect-row", dataset: { count: images.length } }, ...boxes),
   );
   document.body.append(dialog);

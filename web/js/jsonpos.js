@@ -89,7 +89,7 @@ export function parse(text) {
     if (!m) {
       let j = i + 1;
       while (j < text.length && text[j] !== '"' && text[j] !== "\n") j += text[j] === "\\" ? 2 : 1;
-      if (j >= text.length || text[j] === "\n") fail("unterminated string: a string must end with \" on the same line");
+      if (j >= text.length || text[j] === "\n") fail('unterminated string: a string must end with " on the same line');
       fail("invalid character or escape in the string", i);
     }
     i += m[0].length;
@@ -120,7 +120,7 @@ export function parse(text) {
         for (;;) {
           ws();
           if (text[i] === "}" && info.count > 0) fail("trailing comma: remove the ',' before '}'", i);
-          if (text[i] === "'") fail("keys and strings need double quotes (\"), not single quotes");
+          if (text[i] === "'") fail('keys and strings need double quotes ("), not single quotes');
           if (text[i] !== '"') fail(`expected a "quoted" key, found ${describe(text[i])}`);
           const ks = i;
           const key = string();
@@ -192,7 +192,7 @@ export function parse(text) {
           if (r.ok) break;
         }
         if (!r.ok) {
-          if (c === "'") fail("strings and keys need double quotes (\"), not single quotes");
+          if (c === "'") fail('strings and keys need double quotes ("), not single quotes');
           fail(`expected a value (object, array, string, number, true, false or null), found ${describe(c)}`);
         }
         info.type = r.v === null ? "null" : typeof r.v;
@@ -247,7 +247,9 @@ export function setValue(text, parts, newValue) {
   while (k > 0 && !nodes.has(pathString(parts.slice(0, k)))) k--;
   const parent = nodes.get(pathString(parts.slice(0, k)));
   if (parent?.type !== "object" || typeof parts[k] === "number") {
-    throw new Error(`cannot set ${pathString(parts)}: ${pathString(parts.slice(0, k)) || "the scene"} is not an object`);
+    throw new Error(
+      `cannot set ${pathString(parts)}: ${pathString(parts.slice(0, k)) || "the scene"} is not an object`,
+    );
   }
   let v = newValue;
   for (let j = parts.length - 1; j > k; j--) v = { [parts[j]]: v };
@@ -315,14 +317,22 @@ export function appendItem(text, parts, newValue) {
     const ind = indentAt(text, node.keyStart >= 0 ? node.keyStart : node.start);
     const inner = `${ind}  `;
     const insert = `[\n${inner}${formatJSON(newValue, inner)}\n${ind}]`;
-    return { text: text.slice(0, node.start) + insert + text.slice(node.end), start: node.start + 2 + inner.length, end: node.start + insert.length };
+    return {
+      text: text.slice(0, node.start) + insert + text.slice(node.end),
+      start: node.start + 2 + inner.length,
+      end: node.start + insert.length,
+    };
   }
   const last = nodes.get(pathString([...parts, node.count - 1]));
   const lastLineStart = text.lastIndexOf("\n", last.start - 1) + 1;
   if (lastLineStart <= node.start) return splice(text, node.lastEnd, node.lastEnd, `, ${inlineJSON(newValue)}`);
   const ind = indentAt(text, last.start);
   const insert = `,\n${ind}${formatJSON(newValue, ind)}`;
-  return { text: text.slice(0, node.lastEnd) + insert + text.slice(node.lastEnd), start: node.lastEnd + 2 + ind.length, end: node.lastEnd + insert.length };
+  return {
+    text: text.slice(0, node.lastEnd) + insert + text.slice(node.lastEnd),
+    start: node.lastEnd + 2 + ind.length,
+    end: node.lastEnd + insert.length,
+  };
 }
 
 /**
@@ -339,7 +349,11 @@ export function removeAt(text, parts) {
   const isWs = (c) => c === " " || c === "\t" || c === "\n" || c === "\r";
   if (parent.count === 1) {
     const empty = parent.type === "array" ? "[]" : "{}";
-    return { text: text.slice(0, parent.start) + empty + text.slice(parent.end), start: parent.start, end: parent.start + 2 };
+    return {
+      text: text.slice(0, parent.start) + empty + text.slice(parent.end),
+      start: parent.start,
+      end: parent.start + 2,
+    };
   }
   let j = node.end;
   while (j < text.length && isWs(text[j])) j++;

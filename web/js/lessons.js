@@ -133,7 +133,16 @@ export class Lessons {
     this.done = new Set(Array.isArray(kept) ? kept.filter((id) => known.has(id)) : []); // answered right, on any visit
     this.list.replaceChildren(
       ...LESSONS.map((l) =>
-        h("li", {}, h("button", { type: "button", class: "lesson-button", dataset: { lesson: l.id }, onclick: () => this.choose(l.id) }, l.title, this.doneMark(l.id))),
+        h(
+          "li",
+          {},
+          h(
+            "button",
+            { type: "button", class: "lesson-button", dataset: { lesson: l.id }, onclick: () => this.choose(l.id) },
+            l.title,
+            this.doneMark(l.id),
+          ),
+        ),
       ),
     );
     this.stage.replaceChildren(h("p", { class: "hint" }, "Choose a comparison: its images render in a few seconds."));
@@ -147,8 +156,12 @@ export class Lessons {
 
   /** The mark of a lesson done (its question answered right): a tick, and words for a screen reader. */
   doneMark(id) {
-    return h("span", { class: "lesson-done", hidden: !this.done.has(id), title: "Done: its question answered right" },
-      h("span", { "aria-hidden": "true" }, " \u2713"), h("span", { class: "sr-only" }, " (done)"));
+    return h(
+      "span",
+      { class: "lesson-done", hidden: !this.done.has(id), title: "Done: its question answered right" },
+      h("span", { "aria-hidden": "true" }, " \u2713"),
+      h("span", { class: "sr-only" }, " (done)"),
+    );
   }
 
   markDone(id) {
@@ -167,19 +180,38 @@ export class Lessons {
 
   /** On a phone the list of lessons is under the lesson: a menu above it switches without scrolling past it. */
   switchElement(lesson) {
-    const select = h("select", { id: "lesson-switch", "aria-describedby": "lesson-switch-help" },
-      ...LESSONS.map((l) => h("option", { value: l.id, selected: l.id === lesson.id }, this.optionText(l))));
+    const select = h(
+      "select",
+      { id: "lesson-switch", "aria-describedby": "lesson-switch-help" },
+      ...LESSONS.map((l) => h("option", { value: l.id, selected: l.id === lesson.id }, this.optionText(l))),
+    );
     select.addEventListener("change", () => this.choose(select.value));
-    return h("div", { class: "lesson-switch" }, h("label", { for: "lesson-switch" }, "Lesson"), select,
-      h("small", { id: "lesson-switch-help", class: "hint" }, `${LESSONS.indexOf(lesson) + 1} of ${LESSONS.length}; the list is also under the lesson.`));
+    return h(
+      "div",
+      { class: "lesson-switch" },
+      h("label", { for: "lesson-switch" }, "Lesson"),
+      select,
+      h(
+        "small",
+        { id: "lesson-switch-help", class: "hint" },
+        `${LESSONS.indexOf(lesson) + 1} of ${LESSONS.length}; the list is also under the lesson.`,
+      ),
+    );
   }
 
   /** The way on: a button to the next lesson (none after the last). */
   nextElement(lesson) {
     const next = LESSONS[LESSONS.indexOf(lesson) + 1];
     if (!next) return h("p", { class: "lesson-next hint" }, "This was the last lesson.");
-    return h("div", { class: "lesson-next" },
-      h("button", { type: "button", id: "lesson-next", onclick: () => this.choose(next.id) }, `Next lesson: ${next.title} \u2192`));
+    return h(
+      "div",
+      { class: "lesson-next" },
+      h(
+        "button",
+        { type: "button", id: "lesson-next", onclick: () => this.choose(next.id) },
+        `Next lesson: ${next.title} \u2192`,
+      ),
+    );
   }
 
   async scene(name) {
@@ -191,12 +223,19 @@ export class Lessons {
   async build(lesson, index, values) {
     const panel = lesson.panels[index];
     const example = await this.scene(panel.scene || lesson.scene);
-    return { ...panelScene(lesson, index, values, example), index, lesson: lesson.id, reveal: panel.reveal, status: "new" };
+    return {
+      ...panelScene(lesson, index, values, example),
+      index,
+      lesson: lesson.id,
+      reveal: panel.reveal,
+      status: "new",
+    };
   }
 
   async run(id) {
     const lesson = LESSONS.find((l) => l.id === id);
-    for (const b of this.list.querySelectorAll("button")) b.setAttribute("aria-current", String(b.dataset.lesson === id));
+    for (const b of this.list.querySelectorAll("button"))
+      b.setAttribute("aria-current", String(b.dataset.lesson === id));
     this.current = id;
     let run = this.runs.get(id);
     const fresh = !run;
@@ -212,7 +251,17 @@ export class Lessons {
     const extra = h("div", { class: "lesson-extra" });
     const question = h("section", { class: "lesson-question", "aria-label": "Check yourself" });
     const title = h("h2", { tabindex: -1 }, lesson.title, this.doneMark(id));
-    this.stage.replaceChildren(this.switchElement(lesson), title, h("p", { class: "lesson-text" }, lesson.text), moreElement(lesson), controls, grid, extra, question, this.nextElement(lesson));
+    this.stage.replaceChildren(
+      this.switchElement(lesson),
+      title,
+      h("p", { class: "lesson-text" }, lesson.text),
+      moreElement(lesson),
+      controls,
+      grid,
+      extra,
+      question,
+      this.nextElement(lesson),
+    );
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
     run.extra = extra;
@@ -221,7 +270,13 @@ export class Lessons {
         for (let i = 0; i < lesson.panels.length; i++) run.panels.push(await this.build(lesson, i, run.values));
       } catch (err) {
         this.runs.delete(id);
-        grid.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not load the lesson's scenes: ${err.message}.`));
+        grid.replaceChildren(
+          h(
+            "p",
+            { class: "message", dataset: { kind: "error" } },
+            `Could not load the lesson's scenes: ${err.message}.`,
+          ),
+        );
         return;
       }
     }
@@ -230,7 +285,15 @@ export class Lessons {
       grid.append(panel.el.root);
       this.paint(panel);
     }
-    if (lesson.coc) extra.append(run.cocText ?? (run.cocText = h("p", { class: "coc-text", role: "status" }, "Click a point of a picture for its circle of confusion (keyboard: focus a picture, the arrow keys move the lens, Space).")));
+    if (lesson.coc)
+      extra.append(
+        run.cocText ??
+          (run.cocText = h(
+            "p",
+            { class: "coc-text", role: "status" },
+            "Click a point of a picture for its circle of confusion (keyboard: focus a picture, the arrow keys move the lens, Space).",
+          )),
+      );
     this.showQuestion(lesson, run, question);
     if (fresh) await this.start(run.panels);
   }
@@ -269,14 +332,28 @@ export class Lessons {
         const out = h("output", { for: id }, c.kind === "range" ? num(run.values[c.key]) : "");
         let input;
         if (c.kind === "range") {
-          input = h("input", { type: "range", id, min: c.min, max: c.max, step: c.step, value: run.values[c.key], dataset: { key: c.key } });
+          input = h("input", {
+            type: "range",
+            id,
+            min: c.min,
+            max: c.max,
+            step: c.step,
+            value: run.values[c.key],
+            dataset: { key: c.key },
+          });
           input.addEventListener("input", () => {
             out.textContent = num(Number(input.value));
             this.changed(lesson, run, c, Number(input.value));
           });
         } else {
           const current = JSON.stringify(run.values[c.key]);
-          input = h("select", { id, dataset: { key: c.key } }, ...c.choices.map(([v, text]) => h("option", { value: JSON.stringify(v), selected: JSON.stringify(v) === current }, text)));
+          input = h(
+            "select",
+            { id, dataset: { key: c.key } },
+            ...c.choices.map(([v, text]) =>
+              h("option", { value: JSON.stringify(v), selected: JSON.stringify(v) === current }, text),
+            ),
+          );
           input.addEventListener("change", () => this.changed(lesson, run, c, JSON.parse(input.value)));
         }
         return h("div", { class: "lesson-control" }, h("label", { for: id }, c.label), input, out);
@@ -309,12 +386,14 @@ export class Lessons {
         panel.el.panel = panel;
         panel.el.info.textContent = "";
         this.caption(panel);
-        if (panel.el.samples) this.drawPixelSamples(panel, samplesPixel(lesson, panel), panel.el.samples.canvas, panel.el.samples.words);
+        if (panel.el.samples)
+          this.drawPixelSamples(panel, samplesPixel(lesson, panel), panel.el.samples.canvas, panel.el.samples.words);
       }
       this.paint(panel);
       fresh.push(panel);
     }
-    for (const p of run.panels) if (indices.includes(p.index) || indices.includes(lesson.panels[p.index].against)) this.clearError(p);
+    for (const p of run.panels)
+      if (indices.includes(p.index) || indices.includes(lesson.panels[p.index].against)) this.clearError(p);
     await this.start(fresh);
   }
 
@@ -327,8 +406,21 @@ export class Lessons {
     const notes = h("ul", { class: "panel-notes", "aria-label": "what changed" });
     const el = { img, state, bar, info, title, notes, panel };
     const marks = () => (run.marks || []).filter((m) => m.panel === panel.index); // the question's pixel, if on this one
-    const open = h("button", { type: "button", class: "small", disabled: true, onclick: () => this.openInWorkspace(el.panel.scene, el.panel.job, el.panel.label, marks()) }, "Open in workspace");
-    const rays = h("button", { type: "button", class: "small", disabled: true, "aria-pressed": "false" }, "Rays / pixel");
+    const open = h(
+      "button",
+      {
+        type: "button",
+        class: "small",
+        disabled: true,
+        onclick: () => this.openInWorkspace(el.panel.scene, el.panel.job, el.panel.label, marks()),
+      },
+      "Open in workspace",
+    );
+    const rays = h(
+      "button",
+      { type: "button", class: "small", disabled: true, "aria-pressed": "false" },
+      "Rays / pixel",
+    );
     rays.addEventListener("click", () => {
       const on = rays.getAttribute("aria-pressed") !== "true";
       rays.setAttribute("aria-pressed", String(on));
@@ -347,7 +439,11 @@ export class Lessons {
     }
     let samples = null;
     if (samplesPixel(lesson, panel)) {
-      const canvas = h("canvas", { class: "samples", role: "img", "aria-label": `where the ${panel.scene.sampler?.type} sampler puts the rays of one pixel` });
+      const canvas = h("canvas", {
+        class: "samples",
+        role: "img",
+        "aria-label": `where the ${panel.scene.sampler?.type} sampler puts the rays of one pixel`,
+      });
       const words = h("small", {}, "asking the renderer where the samples go…");
       samples = h("div", { class: "samples-box" }, canvas, words);
       el.samples = { canvas, words };
@@ -470,14 +566,21 @@ export class Lessons {
     const job = panel.job;
     if (job) el.root.dataset.job = job.id;
     if (panel.status === "refused") {
-      el.state.replaceChildren(h("div", { class: "refused", role: "note" }, h("strong", {}, "The server refused this scene:"), ...panel.error.map((e) => h("p", {}, e.path ? h("code", {}, e.path) : null, e.path ? ": " : null, e.message))));
+      el.state.replaceChildren(
+        h(
+          "div",
+          { class: "refused", role: "note" },
+          h("strong", {}, "The server refused this scene:"),
+          ...panel.error.map((e) => h("p", {}, e.path ? h("code", {}, e.path) : null, e.path ? ": " : null, e.message)),
+        ),
+      );
       el.img.hidden = true;
       el.bar.hidden = true;
       return;
     }
     el.img.hidden = false;
     const solving = job?.progress?.phase === "radiosity" && job.progress.solve; // the radiosity solve comes first
-    el.bar.value = solving ? job.progress.solve.fraction : job?.progress?.fraction ?? 0;
+    el.bar.value = solving ? job.progress.solve.fraction : (job?.progress?.fraction ?? 0);
     if (job?.image_url && el.rays.getAttribute("aria-pressed") !== "true") {
       const url = job.image_url;
       showImage(el.img, url).then((ok) => ok && el.img.dataset.src === url && (el.img.dataset.shown = url)); // fetched with the token (once per pass)
@@ -489,16 +592,32 @@ export class Lessons {
     if (done) {
       el.state.replaceChildren();
       const lesson = LESSONS.find((l) => l.id === panel.lesson);
-      if (job.status === "done" && lesson.panels.some((p) => p.against != null)) this.compare(lesson, this.runs.get(panel.lesson)); // its job has ended
+      if (job.status === "done" && lesson.panels.some((p) => p.against != null))
+        this.compare(lesson, this.runs.get(panel.lesson)); // its job has ended
       el.info.textContent = `${rayWords(job.rays)} · ${seconds(job.elapsed)}`;
       el.root.dataset.image = job.image_url;
       el.bar.hidden = true;
-      if (el.map) showImage(el.map, api.aovUrl(job.id, "rays")).then((ok) => ok && (el.map.alt = `${panel.label}: rays per pixel`));
+      if (el.map)
+        showImage(el.map, api.aovUrl(job.id, "rays")).then(
+          (ok) => ok && (el.map.alt = `${panel.label}: rays per pixel`),
+        );
     } else if (job?.finished) {
       el.state.replaceChildren(h("div", { class: "refused" }, `The job ${panel.status}: ${job.error || ""}`));
     } else {
       el.bar.hidden = false;
-      el.state.replaceChildren(h("span", { class: "spinner" }, panel.status === "new" ? "submitting…" : panel.status === "queued" ? queuedShort(job) : solving ? "solving radiosity…" : "rendering…"));
+      el.state.replaceChildren(
+        h(
+          "span",
+          { class: "spinner" },
+          panel.status === "new"
+            ? "submitting…"
+            : panel.status === "queued"
+              ? queuedShort(job)
+              : solving
+                ? "solving radiosity…"
+                : "rendering…",
+        ),
+      );
     }
   }
 
@@ -538,7 +657,10 @@ export class Lessons {
       try {
         run.question = lesson.question.make ? await lesson.question.make(this.context(lesson, run)) : lesson.question;
       } catch (err) {
-        box.replaceChildren(h("h3", {}, "Check yourself"), h("p", { class: "message", dataset: { kind: "error" } }, `Could not prepare the question: ${err.message}.`));
+        box.replaceChildren(
+          h("h3", {}, "Check yourself"),
+          h("p", { class: "message", dataset: { kind: "error" } }, `Could not prepare the question: ${err.message}.`),
+        );
         return;
       }
     }
@@ -546,9 +668,23 @@ export class Lessons {
     box.question = q; // the page's tests read the answer here
     const feedback = h("div", { class: "feedback", role: "status", "aria-live": "polite", "aria-atomic": "true" });
     const choices = q.choices.map((text, i) =>
-      h("button", { type: "button", class: "choice", dataset: { choice: i }, onclick: () => this.answer(lesson, run, i, choices, feedback, true) }, text),
+      h(
+        "button",
+        {
+          type: "button",
+          class: "choice",
+          dataset: { choice: i },
+          onclick: () => this.answer(lesson, run, i, choices, feedback, true),
+        },
+        text,
+      ),
     );
-    box.replaceChildren(h("h3", {}, "Check yourself"), h("p", { class: "question" }, q.prompt), h("div", { class: "choices", role: "group", "aria-label": "answers" }, ...choices), feedback);
+    box.replaceChildren(
+      h("h3", {}, "Check yourself"),
+      h("p", { class: "question" }, q.prompt),
+      h("div", { class: "choices", role: "group", "aria-label": "answers" }, ...choices),
+      feedback,
+    );
     if (run.chosen != null) this.answer(lesson, run, run.chosen, choices, feedback);
   }
 
@@ -564,7 +700,14 @@ export class Lessons {
     });
     feedback.dataset.verdict = right ? "right" : "wrong";
     feedback.replaceChildren(
-      right ? h("p", {}, h("strong", {}, "Right. "), q.explain) : h("p", {}, h("strong", {}, "Not quite. "), "Look at the pictures again (change the controls if it helps) and try another answer."),
+      right
+        ? h("p", {}, h("strong", {}, "Right. "), q.explain)
+        : h(
+            "p",
+            {},
+            h("strong", {}, "Not quite. "),
+            "Look at the pictures again (change the controls if it helps) and try another answer.",
+          ),
     );
     if (right && !run.answered) {
       run.answered = true;
@@ -689,7 +832,13 @@ export class Lessons {
 function moreElement(lesson) {
   if (!lesson.more?.length) return h("p", { class: "lesson-more", hidden: true });
   const links = lesson.more.map(([text, href]) => h("a", { href, target: "_blank", rel: "noopener" }, text));
-  return h("p", { class: "lesson-more" }, "More in the reference: ", ...links.flatMap((a, i) => (i ? [", ", a] : [a])), ".");
+  return h(
+    "p",
+    { class: "lesson-more" },
+    "More in the reference: ",
+    ...links.flatMap((a, i) => (i ? [", ", a] : [a])),
+    ".",
+  );
 }
 
 /** A lesson panel's queued job: its place in line (from the server). */

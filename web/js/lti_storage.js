@@ -53,10 +53,15 @@ async function put() {
 
 async function get() {
   const answer = await ask("lti.get_data", { key: `state_${d.state}` });
-  if (answer === null) return say("Your learning platform did not answer the sign-in check: open the link again from your course (or in a new window).");
+  if (answer === null)
+    return say(
+      "Your learning platform did not answer the sign-in check: open the link again from your course (or in a new window).",
+    );
   if (answer.value !== d.state) {
     document.querySelector("main").dataset.check = "state";
-    return say("state: this launch is not the one this browser's login started (platform storage); open the link again from your course.");
+    return say(
+      "state: this launch is not the one this browser's login started (platform storage); open the link again from your course.",
+    );
   }
   document.getElementById("lti-continue").submit();
 }

@@ -21,11 +21,19 @@ function notify(text, kind = "error", action = null) {
   banner.dataset.kind = kind;
   const parts = [h("span", {}, text)];
   if (action) parts.push(h("button", { type: "button", onclick: action.run }, action.label));
-  parts.push(h("button", { type: "button", class: "close", "aria-label": "Dismiss", onclick: () => (banner.hidden = true) }, "×"));
+  parts.push(
+    h(
+      "button",
+      { type: "button", class: "close", "aria-label": "Dismiss", onclick: () => (banner.hidden = true) },
+      "×",
+    ),
+  );
   banner.replaceChildren(...parts);
 }
 window.addEventListener("error", (e) => benignError(e) || notify(`Something went wrong on this page: ${e.message}`));
-window.addEventListener("unhandledrejection", (e) => notify(`Something went wrong on this page: ${e.reason?.message || e.reason}`));
+window.addEventListener("unhandledrejection", (e) =>
+  notify(`Something went wrong on this page: ${e.reason?.message || e.reason}`),
+);
 
 // -- tabs, and the address: each tab and lesson has its own (#lessons/bounces), so Back and Forward work -------
 
@@ -110,7 +118,8 @@ const editor = new SceneEditor($("#editor-panel"), {
     fields?.refresh(state.value);
     followExample(state.value);
     build?.refresh(state.value);
-    if (state.value) $("#scene-description").textContent = typeof state.value.description === "string" ? state.value.description : "";
+    if (state.value)
+      $("#scene-description").textContent = typeof state.value.description === "string" ? state.value.description : "";
   },
   onRender: () => viewer.submit(),
   onHistory: (canUndo, canRedo) => {
@@ -123,7 +132,11 @@ fields = new SceneFields(fieldsForm, editor);
 $("#btn-undo").addEventListener("click", () => editor.undo());
 $("#btn-redo").addEventListener("click", () => editor.redo());
 // the Build panel's pick shows the same object (its material) or light in the form
-build = new BuildPanel($("#build"), editor, { onPicked: ([list, i]) => fields.show(list, i), onLoad: (text, name) => loadText(text, name, false), notify });
+build = new BuildPanel($("#build"), editor, {
+  onPicked: ([list, i]) => fields.show(list, i),
+  onLoad: (text, name) => loadText(text, name, false),
+  notify,
+});
 if (window.matchMedia("(max-width: 820px)").matches) {
   // a phone: the Build panel and the fields fold away, so that the viewer comes sooner under the Render button
   $("details.fields").open = false;
@@ -139,7 +152,9 @@ const viewer = new Viewer({
     }
     if (st.valid === false && st.errors.length && st.checked === st.text) {
       const n = st.errors.length;
-      throw new Error(`The scene has ${n} error${n > 1 ? "s" : ""}, marked in the editor: fix ${n > 1 ? "them" : "it"} first.`);
+      throw new Error(
+        `The scene has ${n} error${n > 1 ? "s" : ""}, marked in the editor: fix ${n > 1 ? "them" : "it"} first.`,
+      );
     }
     return { text: st.text, value: st.value };
   },
@@ -171,9 +186,13 @@ async function pickPixel(view, x, y) {
     raytree.status("error", `Could not load the job's scene: ${err.message}.`);
     return;
   }
-  const camera = (s) => JSON.stringify([s?.camera?.lookfrom, s?.camera?.lookat, s?.camera?.vup ?? [0, 1, 0], s?.camera?.vfov]);
+  const camera = (s) =>
+    JSON.stringify([s?.camera?.lookfrom, s?.camera?.lookat, s?.camera?.vup ?? [0, 1, 0], s?.camera?.vfov]);
   if (view.scene && camera(view.scene) !== camera(editor.parseNow().value)) {
-    build.say("This picture was rendered with another camera than the editor's: the pick follows the editor's camera, so it may not be what the picture shows there. Render again to pick in the picture.", true);
+    build.say(
+      "This picture was rendered with another camera than the editor's: the pick follows the editor's camera, so it may not be what the picture shows there. Render again to pick in the picture.",
+      true,
+    );
   }
   const first = $("#raytree").hidden;
   const shown = raytree.show(view, viewer.image(), x, y);
@@ -252,19 +271,41 @@ $("#btn-share-scene").addEventListener("click", async () => {
   const note = $("#load-note");
   const st = editor.parseNow();
   if (st.syntax) {
-    note.replaceChildren(h("span", {}, `Fix the JSON syntax error first (line ${st.syntax.line}, column ${st.syntax.col}): a link carries a scene that parses.`));
+    note.replaceChildren(
+      h(
+        "span",
+        {},
+        `Fix the JSON syntax error first (line ${st.syntax.line}, column ${st.syntax.col}): a link carries a scene that parses.`,
+      ),
+    );
     return;
   }
   const data = await encodeScene(JSON.stringify(st.value));
   const url = `${location.origin}${location.pathname}#scene/${data}`;
   if (url.length > MAX_LINK) {
-    note.replaceChildren(h("span", { class: "bad" }, `This scene is too large for a link (${Math.ceil(url.length / 1000)} KB compressed; a link holds at most ${MAX_LINK / 1000} KB). Use "Save file" and send the file instead.`));
+    note.replaceChildren(
+      h(
+        "span",
+        { class: "bad" },
+        `This scene is too large for a link (${Math.ceil(url.length / 1000)} KB compressed; a link holds at most ${MAX_LINK / 1000} KB). Use "Save file" and send the file instead.`,
+      ),
+    );
     return;
   }
-  const field = h("input", { type: "text", readonly: true, value: url, class: "share-link", "aria-label": "link that opens this scene in the editor" });
+  const field = h("input", {
+    type: "text",
+    readonly: true,
+    value: url,
+    class: "share-link",
+    "aria-label": "link that opens this scene in the editor",
+  });
   const copy = h("button", { type: "button", class: "small" }, "Copy");
   copy.addEventListener("click", () => copyText(field, copy));
-  note.replaceChildren(h("span", {}, "Link to this scene (it opens in the editor of whoever follows it): "), field, copy);
+  note.replaceChildren(
+    h("span", {}, "Link to this scene (it opens in the editor of whoever follows it): "),
+    field,
+    copy,
+  );
   field.select();
 });
 
@@ -274,7 +315,9 @@ async function openSceneLink(data) {
     text = await decodeScene(data);
     JSON.parse(text);
   } catch (err) {
-    notify(`This link does not hold a scene the editor can open (${err.message}). Ask for the link again, or for the scene as a file.`);
+    notify(
+      `This link does not hold a scene the editor can open (${err.message}). Ask for the link again, or for the scene as a file.`,
+    );
     return;
   }
   loadText(formatJSON(JSON.parse(text)), "the scene of a link");
@@ -290,7 +333,10 @@ async function openSharedJob(id, token) {
   try {
     job = await api.job(id);
   } catch (err) {
-    const why = err.status === 404 ? "there is no such job, or the link's token is not its share token (or the job was removed)" : err.message;
+    const why =
+      err.status === 404
+        ? "there is no such job, or the link's token is not its share token (or the job was removed)"
+        : err.message;
     viewer.message("error", `Could not open the shared job: ${why}.`);
     $("#viewer-panel").dataset.shared = "missing";
     return;
@@ -330,7 +376,12 @@ function gallery() {
           h("h2", {}, s.title),
           h("div", { class: "card-image" }, img, state),
           h("p", {}, s.description),
-          h("div", { class: "card-actions" }, h("button", { type: "button", onclick: () => loadExample(s.name) }, "Open in the editor"), h("a", { href: `/api/scenes/${encodeURIComponent(s.name)}` }, `scenes/${s.name}.json`)),
+          h(
+            "div",
+            { class: "card-actions" },
+            h("button", { type: "button", onclick: () => loadExample(s.name) }, "Open in the editor"),
+            h("a", { href: `/api/scenes/${encodeURIComponent(s.name)}` }, `scenes/${s.name}.json`),
+          ),
         );
         cards.set(s.name, { root, img, state, asked: false });
         return root;
@@ -354,7 +405,13 @@ function paintCards() {
     }
     card.state.hidden = false;
     card.state.textContent =
-      p.state === "failed" ? `Could not render the preview: ${p.error}` : p.state === "rendering" ? `Rendering the preview… ${Math.round(100 * (p.fraction || 0))}%` : p.state === "queued" ? "The preview waits for a render worker…" : "Asking for the preview…";
+      p.state === "failed"
+        ? `Could not render the preview: ${p.error}`
+        : p.state === "rendering"
+          ? `Rendering the preview… ${Math.round(100 * (p.fraction || 0))}%`
+          : p.state === "queued"
+            ? "The preview waits for a render worker…"
+            : "Asking for the preview…";
     if (p.state === "failed") continue;
     waiting = true;
     if (p.state === "none" && !card.asked) {
@@ -401,9 +458,15 @@ async function start() {
   );
   try {
     examples = await api.scenes();
-    exampleSelect.replaceChildren(h("option", { value: "" }, "Open an example…"), ...examples.map((s) => h("option", { value: s.name }, s.title)));
+    exampleSelect.replaceChildren(
+      h("option", { value: "" }, "Open an example…"),
+      ...examples.map((s) => h("option", { value: s.name }, s.title)),
+    );
   } catch (err) {
-    notify(`Could not reach the server: ${err.message}. The editor still works; rendering needs the server.`, "error", { label: "Reload", run: () => location.reload() });
+    notify(`Could not reach the server: ${err.message}. The editor still works; rendering needs the server.`, "error", {
+      label: "Reload",
+      run: () => location.reload(),
+    });
   }
   if (!editor.restore()) {
     if (examples.some((s) => s.name === "whitted")) await loadExample("whitted", false);
@@ -418,7 +481,8 @@ async function start() {
   await route();
   if (shared) await viewer.restore({ show: false }).catch((err) => notify(`Could not load your jobs: ${err.message}.`));
   // an assignment's link made this browser a student's: their jobs from another browser join "my jobs"
-  for (const job of (await identityJobs().catch(() => [])).reverse()) if (!viewer.jobs.has(job.id)) viewer.remember(job);
+  for (const job of (await identityJobs().catch(() => [])).reverse())
+    if (!viewer.jobs.has(job.id)) viewer.remember(job);
   document.body.dataset.ready = "true";
 }
 

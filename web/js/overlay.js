@@ -102,13 +102,18 @@ export class Overlay {
         const clipped = clipNear(seg.p, seg.q, b.from, b.forward, near);
         if (clipped) {
           const pts = clipped.map(toCanvas);
-          if (Math.hypot(pts[1][0] - pts[0][0], pts[1][1] - pts[0][1]) > 3) strokeRay(ctx, pts, key, { highlight: this.hl === n.id, dim });
+          if (Math.hypot(pts[1][0] - pts[0][0], pts[1][1] - pts[0][1]) > 3)
+            strokeRay(ctx, pts, key, { highlight: this.hl === n.id, dim });
         }
         const f = projectToFilm(b, seg.q);
-        const at = Number.isFinite(f.x) && f.z > 0 ? [f.x * scale, f.y * scale] : [(d.pixel[0] + 0.5) * scale, (d.pixel[1] + 0.5) * scale];
+        const at =
+          Number.isFinite(f.x) && f.z > 0
+            ? [f.x * scale, f.y * scale]
+            : [(d.pixel[0] + 0.5) * scale, (d.pixel[1] + 0.5) * scale];
         const r = 9;
         const ring = [];
-        for (let i = 0; i <= 24; i++) ring.push([at[0] + r * Math.cos((i / 24) * 2 * Math.PI), at[1] + r * Math.sin((i / 24) * 2 * Math.PI)]);
+        for (let i = 0; i <= 24; i++)
+          ring.push([at[0] + r * Math.cos((i / 24) * 2 * Math.PI), at[1] + r * Math.sin((i / 24) * 2 * Math.PI)]);
         strokeRay(ctx, ring, key, { highlight: this.hl === n.id, dim });
         this.drawn.push({ id: n.id, pts: ring, ring: at });
         if (!seg.open) dots.push({ at, n, dim });

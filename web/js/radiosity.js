@@ -4,7 +4,20 @@
 // power after each shot, on a log scale) and the energy balance of the final solution.
 import { api } from "./api.js";
 import { $, fitCanvas, h, num } from "./util.js";
-import { add, cameraBasis, clipNear, cross, dot, length, mul, normalize, projectToFilm, sub, tangents, triple } from "./vec.js";
+import {
+  add,
+  cameraBasis,
+  clipNear,
+  cross,
+  dot,
+  length,
+  mul,
+  normalize,
+  projectToFilm,
+  sub,
+  tangents,
+  triple,
+} from "./vec.js";
 
 const SHOOTER = "#ff9f1c"; // the patch that shoots: the eye rays' orange, the page's focus colour
 const LIGHT = "#ffd23f";
@@ -13,7 +26,9 @@ const AXIS = "#8a96a6";
 
 /** B (W/m^2) of a diffuse patch as a CSS colour: B / pi is its radiance, clamped to [0, 1], gamma 1/2.2. */
 export function toneMap(b) {
-  const c = (b || [0, 0, 0]).map((x) => Math.round(255 * Math.min(1, Math.max(0, (Number.isFinite(x) ? x : 0) / Math.PI)) ** (1 / 2.2)));
+  const c = (b || [0, 0, 0]).map((x) =>
+    Math.round(255 * Math.min(1, Math.max(0, (Number.isFinite(x) ? x : 0) / Math.PI)) ** (1 / 2.2)),
+  );
   return `rgb(${c[0]}, ${c[1]}, ${c[2]})`;
 }
 
@@ -62,11 +77,16 @@ function insidePolygon(x, y, pts) {
 function lightOutline(l, b) {
   const ring = (c, n, r) => {
     const [t1, t2] = tangents(normalize(n));
-    return Array.from({ length: 32 }, (_, i) => add(c, add(mul(t1, r * Math.cos((i / 32) * 2 * Math.PI)), mul(t2, r * Math.sin((i / 32) * 2 * Math.PI)))));
+    return Array.from({ length: 32 }, (_, i) =>
+      add(c, add(mul(t1, r * Math.cos((i / 32) * 2 * Math.PI)), mul(t2, r * Math.sin((i / 32) * 2 * Math.PI)))),
+    );
   };
   switch (l.type) {
     case "quad":
-      return { pts: [l.corner, add(l.corner, l.edge1), add(add(l.corner, l.edge1), l.edge2), add(l.corner, l.edge2)], centre: add(l.corner, mul(add(l.edge1, l.edge2), 0.5)) };
+      return {
+        pts: [l.corner, add(l.corner, l.edge1), add(add(l.corner, l.edge1), l.edge2), add(l.corner, l.edge2)],
+        centre: add(l.corner, mul(add(l.edge1, l.edge2), 0.5)),
+      };
     case "disk":
       return { pts: ring(l.center, l.normal, l.radius), centre: l.center };
     case "sphere":
@@ -85,9 +105,23 @@ function prepare(sol, scene, view) {
   for (let i = 0; i < n; i++) {
     const [corner, e1, e2] = [P.corner[i], P.e1[i], P.e2[i]];
     const triangle = Boolean(P.triangle[i]);
-    const pts = triangle ? [corner, add(corner, e1), add(corner, e2)] : [corner, add(corner, e1), add(add(corner, e1), e2), add(corner, e2)];
+    const pts = triangle
+      ? [corner, add(corner, e1), add(corner, e2)]
+      : [corner, add(corner, e1), add(add(corner, e1), e2), add(corner, e2)];
     const centre = add(corner, mul(add(e1, e2), triangle ? 1 / 3 : 0.5));
-    patches.push({ index: i, corner, e1, e2, triangle, pts, centre, normal: P.normal[i], object: P.object[i], area: P.area[i], reflectance: P.reflectance[i] });
+    patches.push({
+      index: i,
+      corner,
+      e1,
+      e2,
+      triangle,
+      pts,
+      centre,
+      normal: P.normal[i],
+      object: P.object[i],
+      area: P.area[i],
+      reflectance: P.reflectance[i],
+    });
   }
   const history = sol.history || [];
   const steps = history.length;
@@ -99,12 +133,31 @@ function prepare(sol, scene, view) {
   snapshots.set(steps, sol.radiosity); // the final solution
   const keys = [...snapshots.keys()].sort((a, z) => a - z);
   // before any shot only the emitting patches glow (the emission is on the front side)
-  const initial = Array.from({ length: sides }, (_, s) => (P.emission.length === sides || s < n ? P.emission[s] || [0, 0, 0] : [0, 0, 0]));
+  const initial = Array.from({ length: sides }, (_, s) =>
+    P.emission.length === sides || s < n ? P.emission[s] || [0, 0, 0] : [0, 0, 0],
+  );
   const emitted = sum3(sol.energy?.emitted);
   const unshot = [emitted || history[0]?.unshot || 0, ...history.map((e) => e.unshot)];
   const threshold = (scene.render?.radiosity?.threshold ?? 0.01) * emitted;
   const basis = cameraBasis(scene.camera, view.width, view.height);
-  return { id: view.id, scene, sol, n, sides, patches, history, steps, snapshots, keys, initial, unshot, threshold, basis, width: view.width, height: view.height };
+  return {
+    id: view.id,
+    scene,
+    sol,
+    n,
+    sides,
+    patches,
+    history,
+    steps,
+    snapshots,
+    keys,
+    initial,
+    unshot,
+    threshold,
+    basis,
+    width: view.width,
+    height: view.height,
+  };
 }
 
 export class RadiosityPanel {
@@ -218,7 +271,9 @@ export class RadiosityPanel {
     this.status(
       "ok",
       `Progressive refinement: the light${lights === 1 ? "" : "s"} shoot${lights === 1 ? "s" : ""} first (${lights} shot${lights === 1 ? "" : "s"}), then at each step the patch side with the most unshot power shoots it into the scene. ${
-        last <= d.threshold ? `After ${d.steps} shots less than ${share}% of the emitted power was left unshot: the solution stopped there.` : `It stopped at the step limit, ${d.steps} shots, with ${num((100 * last) / (d.unshot[0] || 1))}% of the emitted power unshot.`
+        last <= d.threshold
+          ? `After ${d.steps} shots less than ${share}% of the emitted power was left unshot: the solution stopped there.`
+          : `It stopped at the step limit, ${d.steps} shots, with ${num((100 * last) / (d.unshot[0] || 1))}% of the emitted power unshot.`
       }`,
     );
     e.section.dataset.steps = String(d.steps);
@@ -255,7 +310,10 @@ export class RadiosityPanel {
   shotWords(k) {
     const e = this.data.history[k - 1];
     if (!e) return { who: "nobody", left: "" };
-    const who = typeof e.shooter === "string" ? `${e.shooter}${this.lightType(e.shooter)} shoots its power` : `${this.sideWords(e.shooter)} shoots ${num(e.power)} W`;
+    const who =
+      typeof e.shooter === "string"
+        ? `${e.shooter}${this.lightType(e.shooter)} shoots its power`
+        : `${this.sideWords(e.shooter)} shoots ${num(e.power)} W`;
     return { who, left: `${num(e.unshot)} W is left unshot` };
   }
 
@@ -277,9 +335,16 @@ export class RadiosityPanel {
     this.snapshot = key;
     this.B = key === null ? d.initial : d.snapshots.get(key);
     e.stepOut.textContent =
-      key === null ? `B before any shot: the emitters only` : key === k ? `B after ${k} of ${d.steps} shots` : `B after ${key} of ${d.steps} shots (the last snapshot before step ${k})`;
+      key === null
+        ? `B before any shot: the emitters only`
+        : key === k
+          ? `B after ${k} of ${d.steps} shots`
+          : `B after ${key} of ${d.steps} shots (the last snapshot before step ${k})`;
     const { who, left } = this.shotWords(k || 1);
-    const shot = k === 0 ? `Before the first shot only the emitting patches have radiosity. Shot 1: ${who}.` : `Shot ${k} of ${d.steps}: ${who}; ${left}.`;
+    const shot =
+      k === 0
+        ? `Before the first shot only the emitting patches have radiosity. Shot 1: ${who}.`
+        : `Shot ${k} of ${d.steps}: ${who}; ${left}.`;
     e.shot.textContent = shot;
     e.shot.dataset.step = String(k);
     e.step.setAttribute("aria-valuetext", `step ${k} of ${d.steps}`);
@@ -338,7 +403,13 @@ export class RadiosityPanel {
       const poly = clipPolygon(p.pts, b, near);
       if (!poly) continue;
       const side = dot(p.normal, sub(b.from, p.centre)) >= 0 ? p.index : p.index + d.n; // the side facing the camera
-      items.push({ patch: p, side, pts: poly.map(toCanvas), dist: length(sub(p.centre, b.from)), fill: toneMap(this.B[side]) });
+      items.push({
+        patch: p,
+        side,
+        pts: poly.map(toCanvas),
+        dist: length(sub(p.centre, b.from)),
+        fill: toneMap(this.B[side]),
+      });
     }
     // area lights, with the patches in painter's order; one the camera sees (its centre unblocked) on top
     const onTop = [];
@@ -346,7 +417,12 @@ export class RadiosityPanel {
       const o = lightOutline(l, b);
       const poly = o && clipPolygon(o.pts, b, near);
       if (!poly) return;
-      const item = { light: i, pts: poly.map(toCanvas), dist: length(sub(o.centre, b.from)), fill: toneMap(mul(triple(l.radiance ?? 1), Math.PI)) };
+      const item = {
+        light: i,
+        pts: poly.map(toCanvas),
+        dist: length(sub(o.centre, b.from)),
+        fill: toneMap(mul(triple(l.radiance ?? 1), Math.PI)),
+      };
       const dir = sub(o.centre, b.from);
       const tl = length(dir);
       const blocked = d.patches.some((p) => hitPatch(p, b.from, mul(dir, 1 / tl)) < tl * (1 - 1e-3) - 1e-4);
@@ -370,10 +446,25 @@ export class RadiosityPanel {
       if ((l.type !== "point" && l.type !== "spot") || projectToFilm(b, l.position).z <= near) return;
       const [x, y] = toCanvas(l.position);
       star(ctx, x, y, 7, LIGHT);
-      items.push({ light: i, pts: [[x - 7, y - 7], [x + 7, y - 7], [x + 7, y + 7], [x - 7, y + 7]], star: true });
+      items.push({
+        light: i,
+        pts: [
+          [x - 7, y - 7],
+          [x + 7, y - 7],
+          [x + 7, y + 7],
+          [x - 7, y + 7],
+        ],
+        star: true,
+      });
     });
     this.drawn = items;
-    const hovered = this.hovered && items.find((x) => (this.hovered.light !== undefined ? x.light === this.hovered.light : x.patch && x.patch.index === this.hovered.patch));
+    const hovered =
+      this.hovered &&
+      items.find((x) =>
+        this.hovered.light !== undefined
+          ? x.light === this.hovered.light
+          : x.patch && x.patch.index === this.hovered.patch,
+      );
     if (hovered) outline(ctx, hovered.pts, "#fff", 1.5, []);
     this.el.hover.textContent = this.hoverText(hovered);
     // the shooter of this step
@@ -403,7 +494,10 @@ export class RadiosityPanel {
     c.dataset.step = String(this.step);
     c.dataset.snapshot = this.snapshot === null ? "" : String(this.snapshot);
     c.dataset.shooter = shooter;
-    c.setAttribute("aria-label", `the patch mesh after ${this.snapshot ?? 0} shots, each patch the colour of its radiosity${shooter ? `; ${shooter === String(Number(shooter)) ? `patch ${shooter}` : shooter} is outlined: it shoots at step ${this.step}` : ""}`);
+    c.setAttribute(
+      "aria-label",
+      `the patch mesh after ${this.snapshot ?? 0} shots, each patch the colour of its radiosity${shooter ? `; ${shooter === String(Number(shooter)) ? `patch ${shooter}` : shooter} is outlined: it shoots at step ${this.step}` : ""}`,
+    );
   }
 
   hover(ev) {
@@ -436,8 +530,11 @@ export class RadiosityPanel {
     if (!move && ev.key !== "Escape") return;
     ev.preventDefault();
     const keyOf = (it) => (it.patch ? { patch: it.patch.index } : { light: it.light });
-    const at = this.hovered ? this.drawn.findIndex((it) => JSON.stringify(keyOf(it)) === JSON.stringify(this.hovered)) : -1;
-    this.hovered = ev.key === "Escape" ? null : keyOf(this.drawn[at < 0 ? (move > 0 ? 0 : n - 1) : (at + move + n) % n]);
+    const at = this.hovered
+      ? this.drawn.findIndex((it) => JSON.stringify(keyOf(it)) === JSON.stringify(this.hovered))
+      : -1;
+    this.hovered =
+      ev.key === "Escape" ? null : keyOf(this.drawn[at < 0 ? (move > 0 ? 0 : n - 1) : (at + move + n) % n]);
     this.draw();
   }
 
@@ -450,7 +547,14 @@ export class RadiosityPanel {
       return `${this.sideWords(it.side)}: B = ${B.map((x) => num(x)).join(" ")} W/m² (radiance B/π = ${B.map((x) => num(x / Math.PI)).join(" ")}), reflectance ${(p.reflectance || []).map((x) => num(x)).join(" ")}, area ${num(p.area)} m²`;
     }
     const l = this.data.scene.lights[it.light];
-    return `lights[${it.light}] (${l.type})${l.radiance !== undefined ? `: radiance ${[l.radiance].flat().map((x) => num(x)).join(" ")} W/(m² sr)` : ""}`;
+    return `lights[${it.light}] (${l.type})${
+      l.radiance !== undefined
+        ? `: radiance ${[l.radiance]
+            .flat()
+            .map((x) => num(x))
+            .join(" ")} W/(m² sr)`
+        : ""
+    }`;
   }
 
   // -- the convergence curve ----------------------------------------------------------------------
@@ -574,7 +678,10 @@ export class RadiosityPanel {
     ctx.textAlign = X(k) > l + pw * 0.6 ? "right" : "left";
     ctx.fillText(`step ${k}: ${num(u[k])} W unshot`, X(k) + (ctx.textAlign === "right" ? -6 : 6), t + 2);
     c.dataset.step = String(k);
-    c.setAttribute("aria-label", `the unshot power after each shot, on a log scale: ${num(u[0])} W at first, ${num(u[d.steps])} W after the last of ${d.steps} shots; at step ${k}, ${num(u[k])} W`);
+    c.setAttribute(
+      "aria-label",
+      `the unshot power after each shot, on a log scale: ${num(u[0])} W at first, ${num(u[d.steps])} W after the last of ${d.steps} shots; at step ${k}, ${num(u[k])} W`,
+    );
   }
 
   energy() {
@@ -602,7 +709,16 @@ export class RadiosityPanel {
         "table",
         { class: "rad-energy" },
         h("caption", {}, "Energy balance of the final solution (W)"),
-        h("thead", {}, h("tr", {}, h("th", { scope: "col" }, ""), ...["R", "G", "B", "R+G+B", "share"].map((x) => h("th", { scope: "col" }, x)))),
+        h(
+          "thead",
+          {},
+          h(
+            "tr",
+            {},
+            h("th", { scope: "col" }, ""),
+            ...["R", "G", "B", "R+G+B", "share"].map((x) => h("th", { scope: "col" }, x)),
+          ),
+        ),
         h("tbody", {}, names.map(row)),
       ),
       h(

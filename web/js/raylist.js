@@ -7,7 +7,12 @@
 import { RAY_STYLES, endWords, styleKey } from "./rays.js";
 import { cssColour, h, num } from "./util.js";
 
-const KIND_WORDS = { eye: "eye ray", reflection: "reflection ray", transmission: "transmission ray", shadow: "shadow ray" };
+const KIND_WORDS = {
+  eye: "eye ray",
+  reflection: "reflection ray",
+  transmission: "transmission ray",
+  shadow: "shadow ray",
+};
 
 /** An RGB triple in words: one number when the three are equal (a grey), else "RGB (r, g, b)". */
 function colour(v) {
@@ -19,7 +24,9 @@ function colour(v) {
 const point = (p) => `(${p.map((x) => num(x)).join(", ")})`;
 
 function hitName(hit) {
-  return hit.object_name || (hit.light !== null && hit.light !== undefined ? `light ${hit.light}` : `object ${hit.object}`);
+  return (
+    hit.object_name || (hit.light !== null && hit.light !== undefined ? `light ${hit.light}` : `object ${hit.object}`)
+  );
 }
 
 /** One ray in a sentence, e.g. "Ray 0: eye ray, depth 1, hit glass ball (material glass) at (0.3, 1, 0.2);
@@ -27,10 +34,14 @@ function hitName(hit) {
 export function rayWords(n) {
   const head = `Ray ${n.id}: ${KIND_WORDS[n.kind] || `${n.kind} ray`}`;
   if (n.kind === "shadow") {
-    const result = n.occluded ? `blocked by ${n.hit ? `${hitName(n.hit)} at ${point(n.hit.point)}` : "an object"}` : "reached the light";
+    const result = n.occluded
+      ? `blocked by ${n.hit ? `${hitName(n.hit)} at ${point(n.hit.point)}` : "an object"}`
+      : "reached the light";
     return `${head} towards light ${n.light}, depth ${n.depth}: ${result}; weight ${colour(n.weight)}; carried back ${colour(n.radiance)}.`;
   }
-  const hit = n.hit ? `hit ${hitName(n.hit)}${n.hit.material ? ` (material ${n.hit.material})` : ""} at ${point(n.hit.point)}${n.hit.front_face === false ? ", its back face" : ""}` : "missed: left the scene";
+  const hit = n.hit
+    ? `hit ${hitName(n.hit)}${n.hit.material ? ` (material ${n.hit.material})` : ""} at ${point(n.hit.point)}${n.hit.front_face === false ? ", its back face" : ""}`
+    : "missed: left the scene";
   const end = n.end && n.end !== "miss" ? `; ended: ${endWords(n, true)}` : "";
   return `${head}, depth ${n.depth}, ${hit}; weight ${colour(n.weight)}; carried back ${colour(n.radiance)}${end}.`;
 }
@@ -47,18 +58,35 @@ export function renderRayList(tree, model, { label, onFocus, onSelect }) {
     const st = RAY_STYLES[styleKey(n)];
     const li = h(
       "li",
-      { role: "treeitem", "aria-level": level, "aria-selected": "false", tabindex: n === model.root ? 0 : -1, dataset: { id: n.id, kind: styleKey(n), depth: n.depth } },
+      {
+        role: "treeitem",
+        "aria-level": level,
+        "aria-selected": "false",
+        tabindex: n === model.root ? 0 : -1,
+        dataset: { id: n.id, kind: styleKey(n), depth: n.depth },
+      },
       h(
         "span",
         { class: "rt-li-text" },
         h("span", { class: "kind-dot", style: `background:${st.colour}`, "aria-hidden": "true" }),
         rayWords(n),
-        h("span", { class: "sw", style: `background:${cssColour(n.radiance)}`, "aria-hidden": "true", title: "the colour it carried back" }),
+        h("span", {
+          class: "sw",
+          style: `background:${cssColour(n.radiance)}`,
+          "aria-hidden": "true",
+          title: "the colour it carried back",
+        }),
       ),
     );
     if (kids.length) {
       li.setAttribute("aria-expanded", "true");
-      li.append(h("ul", { role: "group" }, kids.map((k) => item(k, level + 1))));
+      li.append(
+        h(
+          "ul",
+          { role: "group" },
+          kids.map((k) => item(k, level + 1)),
+        ),
+      );
     }
     itemOf.set(n.id, li);
     return li;
@@ -67,7 +95,10 @@ export function renderRayList(tree, model, { label, onFocus, onSelect }) {
   tree.setAttribute("aria-label", label);
   tree.replaceChildren(item(model.root, 1));
 
-  const visible = () => [...tree.querySelectorAll("[role=treeitem]")].filter((li) => !li.parentElement.closest("[role=treeitem][aria-expanded=false]"));
+  const visible = () =>
+    [...tree.querySelectorAll("[role=treeitem]")].filter(
+      (li) => !li.parentElement.closest("[role=treeitem][aria-expanded=false]"),
+    );
   const focusItem = (li) => {
     if (!li) return;
     for (const other of itemOf.values()) other.tabIndex = -1;
@@ -87,7 +118,12 @@ export function renderRayList(tree, model, { label, onFocus, onSelect }) {
       ArrowUp: () => focusItem(shown[at - 1]),
       Home: () => focusItem(shown[0]),
       End: () => focusItem(shown[shown.length - 1]),
-      ArrowRight: () => (open === "false" ? li.setAttribute("aria-expanded", "true") : open === "true" ? focusItem(li.querySelector("[role=treeitem]")) : null),
+      ArrowRight: () =>
+        open === "false"
+          ? li.setAttribute("aria-expanded", "true")
+          : open === "true"
+            ? focusItem(li.querySelector("[role=treeitem]"))
+            : null,
       ArrowLeft: () => (open === "true" ? li.setAttribute("aria-expanded", "false") : focusItem(parentItem(li))),
       Enter: () => onSelect(Number(li.dataset.id)),
       " ": () => onSelect(Number(li.dataset.id)),

@@ -11,7 +11,10 @@ export const RAY_STYLES = {
 
 /** "1 eye ray", "3 reflection rays", "2 shadow rays reaching the light": a count of one style of ray. */
 export function countRays(key, n) {
-  const noun = { shadow: ["shadow ray reaching the light", "shadow rays reaching the light"], blocked: ["blocked shadow ray", "blocked shadow rays"] }[key];
+  const noun = {
+    shadow: ["shadow ray reaching the light", "shadow rays reaching the light"],
+    blocked: ["blocked shadow ray", "blocked shadow rays"],
+  }[key];
   const [one, many] = noun || [RAY_STYLES[key].label, `${RAY_STYLES[key].label}s`];
   return `${n} ${n === 1 ? one : many}`;
 }
@@ -29,14 +32,24 @@ export const END_WORDS = {
   tir: "total internal reflection: no transmission ray",
   light: "reached the light",
   absorbed: "absorbed: kr = kt = 0 here, no reflection or transmission ray",
-  max_tree_rays: "max tree rays: a reflection or transmission ray was wanted, but the sample had traced its max_tree_rays eye, reflection and transmission rays",
+  max_tree_rays:
+    "max tree rays: a reflection or transmission ray was wanted, but the sample had traced its max_tree_rays eye, reflection and transmission rays",
 };
 
 /** Why a node ended, in words (shadow rays that were blocked read "blocked"). */
 export function endWords(node, short = false) {
   if (!node.end) return short ? "" : "—";
   if (node.kind === "shadow" && node.end === "absorbed") return short ? "blocked" : "blocked before the light";
-  if (short) return { max_depth: "max depth", max_tree_rays: "max tree rays", min_weight: "min weight", tir: "total internal refl.", light: "reached light" }[node.end] || node.end;
+  if (short)
+    return (
+      {
+        max_depth: "max depth",
+        max_tree_rays: "max tree rays",
+        min_weight: "min weight",
+        tir: "total internal refl.",
+        light: "reached light",
+      }[node.end] || node.end
+    );
   return END_WORDS[node.end] || node.end;
 }
 
@@ -52,8 +65,24 @@ export function legend() {
         s(
           "svg",
           { width: 34, height: 10, viewBox: "0 0 34 10", "aria-hidden": "true" },
-          s("line", { x1: 1, y1: 5, x2: 33, y2: 5, stroke: "#000", "stroke-width": st.width + 2, "stroke-linecap": "round" }),
-          s("line", { x1: 1, y1: 5, x2: 33, y2: 5, stroke: st.colour, "stroke-width": st.width, "stroke-dasharray": st.dash.join(" ") || null }),
+          s("line", {
+            x1: 1,
+            y1: 5,
+            x2: 33,
+            y2: 5,
+            stroke: "#000",
+            "stroke-width": st.width + 2,
+            "stroke-linecap": "round",
+          }),
+          s("line", {
+            x1: 1,
+            y1: 5,
+            x2: 33,
+            y2: 5,
+            stroke: st.colour,
+            "stroke-width": st.width,
+            "stroke-dasharray": st.dash.join(" ") || null,
+          }),
         ),
         st.label,
       ),

@@ -44,7 +44,11 @@ export class RayTreePanel {
       swatch: $("#rt-colour"),
     };
     $("#rt-legend").replaceWith(legend());
-    this.overlay = new Overlay($("#rt-overlay"), { onHover: (id) => this.hover(id), onSelect: (id) => this.select(id), onPick: (x, y) => this.onPick(x, y) });
+    this.overlay = new Overlay($("#rt-overlay"), {
+      onHover: (id) => this.hover(id),
+      onSelect: (id) => this.select(id),
+      onPick: (x, y) => this.onPick(x, y),
+    });
     this.view3d = new View3D($("#rt-3d"), { onHover: (id) => this.hover(id), onSelect: (id) => this.select(id) });
     this.model = null;
     this.hovered = null;
@@ -55,7 +59,10 @@ export class RayTreePanel {
     this.el.sample.addEventListener("change", () => this.reload());
     // a phone: the boxes at their own size, scrolled (fitted into 360 px, a tree's words are too small to read)
     if (window.matchMedia("(max-width: 820px)").matches) this.el.fit.setAttribute("aria-pressed", "false");
-    window.addEventListener("resize", () => this.el.fit.getAttribute("aria-pressed") === "true" && this.diagram?.fit(true));
+    window.addEventListener(
+      "resize",
+      () => this.el.fit.getAttribute("aria-pressed") === "true" && this.diagram?.fit(true),
+    );
     this.el.fit.addEventListener("click", () => {
       const on = this.el.fit.getAttribute("aria-pressed") !== "true";
       this.el.fit.setAttribute("aria-pressed", String(on));
@@ -67,7 +74,11 @@ export class RayTreePanel {
    * shown, or null (an error, or a later click came first). */
   async show(view, imageUrl, x, y, sample = null) {
     const { count, centre } = sampleCount(view.scene);
-    if (sample === null) sample = this.request && this.request.view.id === view.id ? Math.min(Number(this.el.sample.value) || 0, count - 1) : centre;
+    if (sample === null)
+      sample =
+        this.request && this.request.view.id === view.id
+          ? Math.min(Number(this.el.sample.value) || 0, count - 1)
+          : centre;
     this.request = { view, imageUrl, x, y, sample };
     this.el.section.hidden = false;
     this.el.sample.max = String(count - 1);
@@ -118,8 +129,15 @@ export class RayTreePanel {
       onSelect: (id) => this.select(id),
       label: `ray tree diagram of ${where}: ${nodes.length} rays (the tree in words, below, names each)`,
     });
-    this.list = renderRayList(this.el.list, model, { label: `The ${nodes.length} rays of ${where}`, onFocus: (id) => this.focusRay(id), onSelect: (id) => this.select(id) });
-    this.el.overlayCanvas.setAttribute("aria-label", `the ${nodes.length} rays of ${where} drawn over the rendered image`);
+    this.list = renderRayList(this.el.list, model, {
+      label: `The ${nodes.length} rays of ${where}`,
+      onFocus: (id) => this.focusRay(id),
+      onSelect: (id) => this.select(id),
+    });
+    this.el.overlayCanvas.setAttribute(
+      "aria-label",
+      `the ${nodes.length} rays of ${where} drawn over the rendered image`,
+    );
     this.diagram.fit(this.el.fit.getAttribute("aria-pressed") === "true");
     drawRays(this.overlay, this.view3d, imageUrl, model, view);
     this.el.depth.min = "1";
@@ -204,16 +222,32 @@ export class RayTreePanel {
     const n = this.model.byId.get(id ?? this.model.root.id);
     const st = RAY_STYLES[styleKey(n)];
     const rows = [];
-    const row = (k, v, swatch = null) => rows.push(h("dt", {}, k), h("dd", {}, swatch ? h("span", { class: "sw", style: `background:${cssColour(swatch)}` }) : null, v));
+    const row = (k, v, swatch = null) =>
+      rows.push(
+        h("dt", {}, k),
+        h("dd", {}, swatch ? h("span", { class: "sw", style: `background:${cssColour(swatch)}` }) : null, v),
+      );
     const v3 = (v) => (v ? v.map((x) => num(x, 3)).join(", ") : "–");
-    row("ray", `#${n.id} ${n.kind}, depth ${n.depth}${n.parent !== null && n.parent !== undefined ? `, child of #${n.parent}` : ""}`);
+    row(
+      "ray",
+      `#${n.id} ${n.kind}, depth ${n.depth}${n.parent !== null && n.parent !== undefined ? `, child of #${n.parent}` : ""}`,
+    );
     if (n.kind === "shadow") {
-      row("towards", `light ${n.light}${this.request?.view.scene.lights?.[n.light] ? ` (${this.request.view.scene.lights[n.light].type})` : ""}`);
-      row("result", n.occluded ? `blocked by ${n.hit?.object_name || "an object"} at t = ${num(n.t)}` : "reached the light");
+      row(
+        "towards",
+        `light ${n.light}${this.request?.view.scene.lights?.[n.light] ? ` (${this.request.view.scene.lights[n.light].type})` : ""}`,
+      );
+      row(
+        "result",
+        n.occluded ? `blocked by ${n.hit?.object_name || "an object"} at t = ${num(n.t)}` : "reached the light",
+      );
       row("radiance", `${rgb(n.radiance)} (f_att · I · cosθ · f at the parent's hit; 0 when blocked)`, n.radiance);
     } else {
       if (n.hit) {
-        row("hit", `${n.hit.object_name || (n.hit.light !== null && n.hit.light !== undefined ? `light ${n.hit.light}` : `object ${n.hit.object}`)} at t = ${num(n.t)}${n.hit.front_face === false ? " (back face)" : ""}`);
+        row(
+          "hit",
+          `${n.hit.object_name || (n.hit.light !== null && n.hit.light !== undefined ? `light ${n.hit.light}` : `object ${n.hit.object}`)} at t = ${num(n.t)}${n.hit.front_face === false ? " (back face)" : ""}`,
+        );
         row("material", n.hit.material ?? "–");
       } else row("hit", "nothing: the ray left the scene");
       row("k", rgb(n.k ?? [1, 1, 1]), null);
@@ -226,7 +260,8 @@ export class RayTreePanel {
         if (t.emission?.some((x) => x)) row("emission", rgb(t.emission), t.emission);
       }
       row("radiance", `${rgb(n.radiance)} carried back (local terms + weighted children)`, n.radiance);
-      if (n.fog_transmittance !== null && n.fog_transmittance !== undefined) row("fog", `transmittance e^(−density·t) = ${rgb(n.fog_transmittance)}`);
+      if (n.fog_transmittance !== null && n.fog_transmittance !== undefined)
+        row("fog", `transmittance e^(−density·t) = ${rgb(n.fog_transmittance)}`);
     }
     row("ended", endWords(n));
     row("origin", v3(n.origin));
@@ -237,10 +272,19 @@ export class RayTreePanel {
     }
     const edit =
       n.hit && Number.isInteger(n.hit.object) && this.onEditObject
-        ? h("button", { type: "button", class: "small", onclick: () => this.onEditObject(n.hit.object) }, `Edit the material of ${n.hit.object_name || `object ${n.hit.object}`}`)
+        ? h(
+            "button",
+            { type: "button", class: "small", onclick: () => this.onEditObject(n.hit.object) },
+            `Edit the material of ${n.hit.object_name || `object ${n.hit.object}`}`,
+          )
         : null;
     box.replaceChildren(
-      h("h3", {}, h("span", { class: "kind-dot", style: `background:${st.colour}` }), id === null ? "The eye ray (hover a ray for its numbers)" : `Ray #${n.id}`),
+      h(
+        "h3",
+        {},
+        h("span", { class: "kind-dot", style: `background:${st.colour}` }),
+        id === null ? "The eye ray (hover a ray for its numbers)" : `Ray #${n.id}`,
+      ),
       h("dl", {}, rows),
       edit,
     );

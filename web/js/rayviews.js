@@ -11,12 +11,22 @@ export function treeModel(tree) {
   const children = new Map(nodes.map((n) => [n.id, []]));
   for (const n of nodes) if (n.parent !== null && n.parent !== undefined) children.get(n.parent)?.push(n);
   const root = nodes.find((n) => n.parent === null || n.parent === undefined);
-  return { tree, nodes, children, root, maxDepth: Math.max(...nodes.map((n) => n.depth)), byId: new Map(nodes.map((n) => [n.id, n])) };
+  return {
+    tree,
+    nodes,
+    children,
+    root,
+    maxDepth: Math.max(...nodes.map((n) => n.depth)),
+    byId: new Map(nodes.map((n) => [n.id, n])),
+  };
 }
 
 /** A pixel's colour: a swatch as the display shows it, then its numbers. */
 export function colourSwatch(color) {
-  return [h("span", { class: "sw", style: `background:${cssColour(color)}`, title: "the colour, as the display shows it" }), `RGB (${color.map((x) => rgb(x)).join(", ")})`];
+  return [
+    h("span", { class: "sw", style: `background:${cssColour(color)}`, title: "the colour, as the display shows it" }),
+    `RGB (${color.map((x) => rgb(x)).join(", ")})`,
+  ];
 }
 
 /** Ray `id` (null: none) highlighted in each view drawn of one tree: the diagram (scrolled to it with `scroll`),

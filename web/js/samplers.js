@@ -71,7 +71,8 @@ function evennessWords(pts) {
   const e = evenness(pts);
   if (!e) return "";
   const { n, m, emptyCells, emptyColumns, emptyRows } = e;
-  if (!emptyCells && !emptyColumns && !emptyRows) return `. One in each of the ${m} × ${m} cells, ${n} columns and ${n} rows (strips 1/${n} wide).`;
+  if (!emptyCells && !emptyColumns && !emptyRows)
+    return `. One in each of the ${m} × ${m} cells, ${n} columns and ${n} rows (strips 1/${n} wide).`;
   return `. Empty: ${emptyCells} of the ${m} × ${m} cells, ${emptyColumns} of ${n} columns, ${emptyRows} of ${n} rows (strips 1/${n} wide).`;
 }
 

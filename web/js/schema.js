@@ -91,6 +91,7 @@ export function withDefaults(name, holder) {
   const object = part(name, given.type);
   const out = { ...given };
   if ("type" in (object?.properties || {}) && out.type === undefined) out.type = defaultOf(object, "type");
-  for (const key of Object.keys(object?.properties || {})) if (out[key] === undefined) out[key] = defaultOf(object, key, out);
+  for (const key of Object.keys(object?.properties || {}))
+    if (out[key] === undefined) out[key] = defaultOf(object, key, out);
   return out;
 }

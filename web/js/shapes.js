@@ -1,6 +1,19 @@
 // The scene as world-space line drawings (objects, lights, the camera) for the 3D view, and the ray
 // tree's rays as segments (for the 3D view and the overlay on the image).
-import { add, applyPoint, cameraBasis, cross, dot, length, mul, normalize, sub, tangents, transformMatrix, triple } from "./vec.js";
+import {
+  add,
+  applyPoint,
+  cameraBasis,
+  cross,
+  dot,
+  length,
+  mul,
+  normalize,
+  sub,
+  tangents,
+  transformMatrix,
+  triple,
+} from "./vec.js";
 
 const LIGHT = "#ffd23f";
 const CAMERA = "#c8a2ff";
@@ -125,7 +138,10 @@ export function sceneLines(scene, film) {
           push(circle(c, [0, 1, 0], r), colour, "object", { label, labelAt: add(c, [0, r * 1.05, 0]) });
           push(circle(c, [1, 0, 0], r), colour, "object");
           push(circle(c, [0, 0, 1], r), colour, "object");
-          for (const y of [-0.55, 0.55]) push(circle(add(c, [0, y * r, 0]), [0, 1, 0], r * Math.sqrt(1 - y * y), 32), colour, "object", { width: 0.7 });
+          for (const y of [-0.55, 0.55])
+            push(circle(add(c, [0, y * r, 0]), [0, 1, 0], r * Math.sqrt(1 - y * y), 32), colour, "object", {
+              width: 0.7,
+            });
           break;
         }
         case "plane": {
@@ -136,14 +152,21 @@ export function sceneLines(scene, film) {
           const k = 8;
           for (let j = -k; j <= k; j++) {
             const f = (j / k) * half;
-            push([add(c, add(mul(t1, f), mul(t2, -half))), add(c, add(mul(t1, f), mul(t2, half)))], colour, "object", { width: 0.6 });
-            push([add(c, add(mul(t2, f), mul(t1, -half))), add(c, add(mul(t2, f), mul(t1, half)))], colour, "object", { width: 0.6 });
+            push([add(c, add(mul(t1, f), mul(t2, -half))), add(c, add(mul(t1, f), mul(t2, half)))], colour, "object", {
+              width: 0.6,
+            });
+            push([add(c, add(mul(t2, f), mul(t1, -half))), add(c, add(mul(t2, f), mul(t1, half)))], colour, "object", {
+              width: 0.6,
+            });
           }
           push([c, add(c, mul(n, radius * 0.15))], colour, "object", { label, labelAt: add(c, mul(t1, half * 0.85)) });
           break;
         }
         case "quad":
-          push(parallelogram(o.corner, o.edge1, o.edge2), colour, "object", { label, labelAt: add(o.corner, mul(add(o.edge1, o.edge2), 0.5)) });
+          push(parallelogram(o.corner, o.edge1, o.edge2), colour, "object", {
+            label,
+            labelAt: add(o.corner, mul(add(o.edge1, o.edge2), 0.5)),
+          });
           break;
         case "disk":
           push(circle(o.center, o.normal, o.radius), colour, "object", { label, labelAt: o.center });
@@ -181,8 +204,16 @@ export function sceneLines(scene, film) {
             // a mesh file: its triangles are not loaded here; a marker at its origin, labelled with the file
             const p = applyPoint(transformMatrix(o.transform), [0, 0, 0]);
             const r = radius * 0.06;
-            for (const axis of [[r, 0, 0], [0, r, 0], [0, 0, r]]) push([sub(p, axis), add(p, axis)], colour, "object", { width: 2 });
-            push(circle(p, [0, 1, 0], r * 1.6, 16), colour, "object", { label: `${label} (${o.file || "mesh"})`, labelAt: add(p, [0, r * 2, 0]) });
+            for (const axis of [
+              [r, 0, 0],
+              [0, r, 0],
+              [0, 0, r],
+            ])
+              push([sub(p, axis), add(p, axis)], colour, "object", { width: 2 });
+            push(circle(p, [0, 1, 0], r * 1.6, 16), colour, "object", {
+              label: `${label} (${o.file || "mesh"})`,
+              labelAt: add(p, [0, r * 2, 0]),
+            });
           }
           break;
         }
@@ -199,7 +230,12 @@ export function sceneLines(scene, film) {
     const label = `light ${i} (${l.type})`;
     try {
       const star = (p, r) => {
-        for (const axis of [[r, 0, 0], [0, r, 0], [0, 0, r]]) push([sub(p, axis), add(p, axis)], LIGHT, "light", { width: 2 });
+        for (const axis of [
+          [r, 0, 0],
+          [0, r, 0],
+          [0, 0, r],
+        ])
+          push([sub(p, axis), add(p, axis)], LIGHT, "light", { width: 2 });
       };
       const r = radius * 0.05;
       switch (l.type) {
@@ -223,11 +259,28 @@ export function sceneLines(scene, film) {
         case "directional": {
           const d = normalize(l.direction);
           const [t1, t2] = tangents(d);
-          for (const [a, b] of [[0, 0], [1, 0], [-1, 0], [0, 1], [0, -1]]) {
-            const o = add(sub(centre, mul(d, radius * 1.1)), add(mul(t1, a * radius * 0.25), mul(t2, b * radius * 0.25)));
+          for (const [a, b] of [
+            [0, 0],
+            [1, 0],
+            [-1, 0],
+            [0, 1],
+            [0, -1],
+          ]) {
+            const o = add(
+              sub(centre, mul(d, radius * 1.1)),
+              add(mul(t1, a * radius * 0.25), mul(t2, b * radius * 0.25)),
+            );
             const e = add(o, mul(d, radius * 0.4));
             push([o, e], LIGHT, "light", { width: 1.6 });
-            push([add(e, add(mul(d, -radius * 0.06), mul(t1, radius * 0.03))), e, add(e, add(mul(d, -radius * 0.06), mul(t1, -radius * 0.03)))], LIGHT, "light");
+            push(
+              [
+                add(e, add(mul(d, -radius * 0.06), mul(t1, radius * 0.03))),
+                e,
+                add(e, add(mul(d, -radius * 0.06), mul(t1, -radius * 0.03))),
+              ],
+              LIGHT,
+              "light",
+            );
           }
           out[out.length - 1].label = label;
           out[out.length - 1].labelAt = sub(centre, mul(d, radius * 1.15));
@@ -245,7 +298,11 @@ export function sceneLines(scene, film) {
           push([l.center, add(l.center, mul(normalize(l.normal), radius * 0.12))], LIGHT, "light");
           break;
         case "sphere":
-          push(circle(l.center, [0, 1, 0], l.radius), LIGHT, "light", { width: 2, label, labelAt: add(l.center, [0, l.radius * 1.1, 0]) });
+          push(circle(l.center, [0, 1, 0], l.radius), LIGHT, "light", {
+            width: 2,
+            label,
+            labelAt: add(l.center, [0, l.radius * 1.1, 0]),
+          });
           push(circle(l.center, [1, 0, 0], l.radius), LIGHT, "light", { width: 2 });
           push(circle(l.center, [0, 0, 1], l.radius), LIGHT, "light", { width: 2 });
           break;
@@ -277,7 +334,11 @@ export function sceneLines(scene, film) {
     const pts = objectPoints(o);
     if (!pts.length) continue;
     const c = mul(pts.reduce(add, [0, 0, 0]), 1 / pts.length);
-    push([c, add(c, o.velocity)], "#b0b8c4", "object", { dash: [3, 3], label: "velocity", labelAt: add(c, o.velocity) });
+    push([c, add(c, o.velocity)], "#b0b8c4", "object", {
+      dash: [3, 3],
+      label: "velocity",
+      labelAt: add(c, o.velocity),
+    });
   }
   return out;
 }

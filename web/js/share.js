@@ -36,7 +36,11 @@ export async function decodeScene(data) {
   } catch (err) {
     throw new Error(err.message.startsWith("the link") ? err.message : "the link's data is not base64url");
   }
-  const reader = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate-raw")).pipeThrough(new TextDecoderStream()).getReader();
+  const reader = new Blob([bytes])
+    .stream()
+    .pipeThrough(new DecompressionStream("deflate-raw"))
+    .pipeThrough(new TextDecoderStream())
+    .getReader();
   let text = "";
   try {
     for (;;) {

@@ -36,7 +36,12 @@ export class TableSort {
     const on = this.key === key;
     return h(
       "th",
-      { scope: "col", class: num ? "num" : null, dataset: { col: key }, "aria-sort": on ? (this.dir > 0 ? "ascending" : "descending") : null },
+      {
+        scope: "col",
+        class: num ? "num" : null,
+        dataset: { col: key },
+        "aria-sort": on ? (this.dir > 0 ? "ascending" : "descending") : null,
+      },
       h(
         "button",
         {

@@ -20,7 +20,10 @@ const say = (kind, text) => {
 function tokenProblem(err, hasToken) {
   if (!(err instanceof ApiError)) return null;
   if (err.status === 403) return `The server has no admin: ${err.message}`;
-  if (err.status === 401) return hasToken ? "The server refused this token: the status page is the server admin's (TRACER_INSTRUCTOR_TOKEN), not a course's staff." : "The server needs the admin's token (TRACER_INSTRUCTOR_TOKEN): enter it above.";
+  if (err.status === 401)
+    return hasToken
+      ? "The server refused this token: the status page is the server admin's (TRACER_INSTRUCTOR_TOKEN), not a course's staff."
+      : "The server needs the admin's token (TRACER_INSTRUCTOR_TOKEN): enter it above.";
   return null;
 }
 
@@ -47,25 +50,59 @@ export function age(s) {
 }
 
 const flag = (kind, text) => h("p", { class: "status-flag", "data-kind": kind }, text);
-const panel = (id, title, ...body) => h("section", { class: "panel", id, "aria-labelledby": `${id}-h` }, h("h2", { id: `${id}-h` }, title), ...body);
+const panel = (id, title, ...body) =>
+  h("section", { class: "panel", id, "aria-labelledby": `${id}-h` }, h("h2", { id: `${id}-h` }, title), ...body);
 const table = (caption, head, rows) =>
   h(
     "table",
     {},
     h("caption", { class: "sr-only" }, caption),
-    h("thead", {}, h("tr", {}, head.map(([text, num]) => h("th", { scope: "col", class: num ? "num" : "" }, text)))),
-    h("tbody", {}, rows.map((r) => h("tr", {}, r.map((cell, i) => h(i === 0 ? "th" : "td", i === 0 ? { scope: "row" } : { class: head[i][1] ? "num" : "" }, cell))))),
+    h(
+      "thead",
+      {},
+      h(
+        "tr",
+        {},
+        head.map(([text, num]) => h("th", { scope: "col", class: num ? "num" : "" }, text)),
+      ),
+    ),
+    h(
+      "tbody",
+      {},
+      rows.map((r) =>
+        h(
+          "tr",
+          {},
+          r.map((cell, i) =>
+            h(i === 0 ? "th" : "td", i === 0 ? { scope: "row" } : { class: head[i][1] ? "num" : "" }, cell),
+          ),
+        ),
+      ),
+    ),
   );
-const facts = (pairs) => h("dl", {}, pairs.flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)]));
+const facts = (pairs) =>
+  h(
+    "dl",
+    {},
+    pairs.flatMap(([k, v]) => [h("dt", {}, k), h("dd", {}, v)]),
+  );
 
 function workersPanel(s) {
   const down = s.hosts.reduce((n, x) => n + (x.workers - x.alive), 0);
   const state =
     s.workers.length === 0
-      ? flag("error", s.backend === "redis" ? "No worker host is connected: nothing renders (start python -m server.worker)." : "No render worker runs on this host: nothing renders (TRACER_WORKERS).")
+      ? flag(
+          "error",
+          s.backend === "redis"
+            ? "No worker host is connected: nothing renders (start python -m server.worker)."
+            : "No render worker runs on this host: nothing renders (TRACER_WORKERS).",
+        )
       : down
         ? flag("warn", `${down} worker${down > 1 ? "s" : ""} not alive.`)
-        : flag("ok", `${s.workers.length} worker${s.workers.length > 1 ? "s" : ""} on ${s.hosts.length} host${s.hosts.length > 1 ? "s" : ""}, all alive.`);
+        : flag(
+            "ok",
+            `${s.workers.length} worker${s.workers.length > 1 ? "s" : ""} on ${s.hosts.length} host${s.hosts.length > 1 ? "s" : ""}, all alive.`,
+          );
   return panel(
     "st-workers",
     "Workers and their hosts",
@@ -77,7 +114,11 @@ function workersPanel(s) {
           s.hosts.map((x) => [x.host, x.workers, x.alive, x.busy, x.devices.join(", ") || "?"]),
         )
       : null,
-    h("p", { class: "hint" }, `Backend: ${s.backend === "redis" ? "Redis (worker hosts anywhere)" : "embedded (worker processes of this host)"}.`),
+    h(
+      "p",
+      { class: "hint" },
+      `Backend: ${s.backend === "redis" ? "Redis (worker hosts anywhere)" : "embedded (worker processes of this host)"}.`,
+    ),
   );
 }
 
@@ -87,9 +128,20 @@ function queuePanel(s) {
   return panel(
     "st-queue",
     "Queue by lane",
-    flag(queued && !s.workers.length ? "error" : "ok", queued ? `${queued} job${queued > 1 ? "s" : ""} waiting.` : "Nothing waiting."),
-    table("Jobs by lane", [["Lane"], ["Waiting", 1], ["Rendering", 1]], lanes.map(([lane, v]) => [lane, v.queued, v.running])),
-    h("p", { class: "hint" }, "Interactive: the page's renders and ray trees, taken first. Batch: long renders and grading."),
+    flag(
+      queued && !s.workers.length ? "error" : "ok",
+      queued ? `${queued} job${queued > 1 ? "s" : ""} waiting.` : "Nothing waiting.",
+    ),
+    table(
+      "Jobs by lane",
+      [["Lane"], ["Waiting", 1], ["Rendering", 1]],
+      lanes.map(([lane, v]) => [lane, v.queued, v.running]),
+    ),
+    h(
+      "p",
+      { class: "hint" },
+      "Interactive: the page's renders and ray trees, taken first. Batch: long renders and grading.",
+    ),
   );
 }
 
@@ -110,7 +162,14 @@ function lmsPanel(s) {
       ["Failed (pending again)", String(l.failed)],
       ["Sent", String(l.sent)],
       ["Oldest pending", l.oldest_pending_seconds === null ? "none" : `${age(l.oldest_pending_seconds)} ago`],
-      ...(l.last_error ? [["Last error", `${l.last_error.message} (platform ${l.last_error.platform_id}, ${l.last_error.tries} ${l.last_error.tries === 1 ? "try" : "tries"}; next ${new Date(l.last_error.next_try).toLocaleString()})`]] : []),
+      ...(l.last_error
+        ? [
+            [
+              "Last error",
+              `${l.last_error.message} (platform ${l.last_error.platform_id}, ${l.last_error.tries} ${l.last_error.tries === 1 ? "try" : "tries"}; next ${new Date(l.last_error.next_try).toLocaleString()})`,
+            ],
+          ]
+        : []),
     ]),
   );
 }
@@ -118,7 +177,10 @@ function lmsPanel(s) {
 function backupPanel(s) {
   const b = s.backup;
   const state = !b.time
-    ? flag("error", "No backup recorded: run python -m server backup (deploy/systemd/tracer-backup.timer does it nightly).")
+    ? flag(
+        "error",
+        "No backup recorded: run python -m server backup (deploy/systemd/tracer-backup.timer does it nightly).",
+      )
     : b.old
       ? flag("warn", `The last backup is ${age(b.age_seconds)} old: the nightly backup has not run.`)
       : flag("ok", `Last backup ${age(b.age_seconds)} ago.`);
@@ -126,7 +188,14 @@ function backupPanel(s) {
     "st-backup",
     "Last backup",
     state,
-    b.time ? facts([["Taken", new Date(b.time).toLocaleString()], ["Age", age(b.age_seconds)], ["Where", b.dest || "?"], ["Size", bytes(b.bytes)]]) : null,
+    b.time
+      ? facts([
+          ["Taken", new Date(b.time).toLocaleString()],
+          ["Age", age(b.age_seconds)],
+          ["Where", b.dest || "?"],
+          ["Size", bytes(b.bytes)],
+        ])
+      : null,
   );
 }
 
@@ -138,13 +207,24 @@ function diskPanel(s) {
     d.used_bytes === null
       ? flag("ok", "Not measured yet (the janitor's first round).")
       : d.near
-        ? flag("warn", `The data directory holds ${share}% of its limit: the janitor removes the oldest finished jobs past it.`)
+        ? flag(
+            "warn",
+            `The data directory holds ${share}% of its limit: the janitor removes the oldest finished jobs past it.`,
+          )
         : flag("ok", share === null ? `${bytes(d.used_bytes)} used.` : `${share}% of the limit used.`);
   return panel(
     "st-disk",
     "Disk",
     state,
-    share === null ? null : h("meter", { class: "status-meter", min: "0", max: "100", value: String(Math.min(share, 100)), "aria-label": `Disk use: ${share}% of the limit` }),
+    share === null
+      ? null
+      : h("meter", {
+          class: "status-meter",
+          min: "0",
+          max: "100",
+          value: String(Math.min(share, 100)),
+          "aria-label": `Disk use: ${share}% of the limit`,
+        }),
     facts([
       ["Data directory", bytes(d.used_bytes)],
       ["Limit", limit],
@@ -159,7 +239,12 @@ function releasePanel(s) {
   return panel(
     "st-release",
     "Version and schema",
-    flag(same ? "ok" : "error", same ? "The database's schema is this release's." : `The database's schema is ${s.schema.version}, this release's ${s.schema.latest}: run python -m server migrate.`),
+    flag(
+      same ? "ok" : "error",
+      same
+        ? "The database's schema is this release's."
+        : `The database's schema is ${s.schema.version}, this release's ${s.schema.latest}: run python -m server migrate.`,
+    ),
     facts([
       ["Version", s.version],
       ["Schema", `${s.schema.version} (this release: ${s.schema.latest})`],

@@ -30,7 +30,8 @@ function setAttrs(el, attrs) {
     if (k.startsWith("on") && typeof v === "function") el.addEventListener(k.slice(2), v);
     else if (k === "dataset") Object.assign(el.dataset, v);
     else if (k === "text") el.textContent = v;
-    else if (k === "style") el.style.cssText = v; // through the CSSOM: the page's content security policy forbids style attributes
+    else if (k === "style")
+      el.style.cssText = v; // through the CSSOM: the page's content security policy forbids style attributes
     else el.setAttribute(k, v === true ? "" : String(v));
   }
 }

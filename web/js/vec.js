@@ -14,7 +14,8 @@ export const lerp = (a, b, t) => add(a, mul(sub(b, a), t));
 export const rad = (deg) => (deg * Math.PI) / 180;
 
 /** A scene's number-or-triple as a triple. */
-export const triple = (v, fallback = [0, 0, 0]) => (Array.isArray(v) ? v : typeof v === "number" ? [v, v, v] : fallback);
+export const triple = (v, fallback = [0, 0, 0]) =>
+  Array.isArray(v) ? v : typeof v === "number" ? [v, v, v] : fallback;
 
 /**
  * The camera of a scene for a film of width x height, exactly as the renderer builds eye rays:

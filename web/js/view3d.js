@@ -78,7 +78,10 @@ export class View3D {
   camera(w, h) {
     const { yaw, pitch, dist } = this.orbit;
     const [a, b] = this.frame();
-    const dir = add(mul(add(mul(a, Math.sin(yaw)), mul(b, Math.cos(yaw))), Math.cos(pitch)), mul(this.frameUp, Math.sin(pitch)));
+    const dir = add(
+      mul(add(mul(a, Math.sin(yaw)), mul(b, Math.cos(yaw))), Math.cos(pitch)),
+      mul(this.frameUp, Math.sin(pitch)),
+    );
     const eye = add(this.target, mul(dir, dist));
     const forward = normalize(sub(this.target, eye));
     const right = normalize(cross(forward, this.frameUp));

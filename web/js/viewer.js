@@ -24,7 +24,8 @@ const AOVS = [
 /** Why pixels differ in the rays AOV, for the job's sampler ({type, spp}; null when unknown). */
 function raysNote(sampler) {
   if (!sampler) return "Eye rays, and the shadow, reflection and transmission rays they spawned.";
-  if (sampler.type === "adaptive") return "The adaptive sampler spends more eye rays where a pixel's corners and centre disagree: on edges.";
+  if (sampler.type === "adaptive")
+    return "The adaptive sampler spends more eye rays where a pixel's corners and centre disagree: on edges.";
   const eye = sampler.spp === 1 ? "the same single eye ray" : `the same ${integer(sampler.spp)} eye rays`;
   return `The ${sampler.type} sampler gives every pixel ${eye}; the differences are the shadow, reflection and transmission rays they spawned.`;
 }
@@ -84,7 +85,8 @@ export class Viewer {
     };
     $("#btn-to-picture").addEventListener("click", () => this.reveal(true));
     // the picture is kept in view while a new render starts (reveal), until the person scrolls or types
-    for (const e of ["wheel", "touchstart", "keydown"]) window.addEventListener(e, () => (this.revealing = false), { passive: true });
+    for (const e of ["wheel", "touchstart", "keydown"])
+      window.addEventListener(e, () => (this.revealing = false), { passive: true });
     this.el.render.addEventListener("click", () => this.submit());
     this.el.cancel.addEventListener("click", () => this.cancel());
     this.el.share = $("#btn-share");
@@ -94,7 +96,16 @@ export class Viewer {
     this.el.img.addEventListener("load", () => this.layout());
     this.el.aovs.replaceChildren(
       ...AOVS.map(([name, label]) => {
-        const b = h("button", { type: "button", dataset: { aov: name }, "aria-pressed": name === "image" ? "true" : "false", disabled: name !== "image" }, label);
+        const b = h(
+          "button",
+          {
+            type: "button",
+            dataset: { aov: name },
+            "aria-pressed": name === "image" ? "true" : "false",
+            disabled: name !== "image",
+          },
+          label,
+        );
         b.addEventListener("click", () => this.showAov(name));
         return b;
       }),
@@ -102,7 +113,10 @@ export class Viewer {
     for (const a of [this.el.png, this.el.exr]) {
       a.addEventListener("click", (e) => {
         e.preventDefault(); // the link's URL needs the token: fetched, then saved from a blob
-        if (a.hasAttribute("href")) downloadFile(a.getAttribute("href"), a.getAttribute("download")).catch((err) => this.message("error", `Could not download the image: ${err.message}.`));
+        if (a.hasAttribute("href"))
+          downloadFile(a.getAttribute("href"), a.getAttribute("download")).catch((err) =>
+            this.message("error", `Could not download the image: ${err.message}.`),
+          );
       });
     }
     new ResizeObserver(() => this.layout()).observe(this.el.stage);
@@ -147,7 +161,10 @@ export class Viewer {
     this.el.stage.dataset.shared = String(shared);
     this.el.share.disabled = shared;
     $("#share-note").hidden = !shared;
-    if (shared) $("#share-note").replaceChildren(`A shared job, read-only: its image and its ray trees (click a pixel). "Edit" in the editor makes a copy of your own.`);
+    if (shared)
+      $("#share-note").replaceChildren(
+        `A shared job, read-only: its image and its ray trees (click a pixel). "Edit" in the editor makes a copy of your own.`,
+      );
     this.previews = 0;
     this.runningPreviews = 0;
     this.cursor = null;
@@ -179,7 +196,16 @@ export class Viewer {
         if (!job) return;
         job.status = p.status;
         job.finished = p.phase === "finished"; // the last progress event says so just before `end`
-        Object.assign(job.progress, { samples_done: p.samples_done, samples_total: p.samples_total, fraction: p.fraction, passes_done: p.passes_done, spp_done: p.spp_done, spp_total: p.spp_total, phase: p.phase, solve: p.solve });
+        Object.assign(job.progress, {
+          samples_done: p.samples_done,
+          samples_total: p.samples_total,
+          fraction: p.fraction,
+          passes_done: p.passes_done,
+          spp_done: p.spp_done,
+          spp_total: p.spp_total,
+          phase: p.phase,
+          solve: p.solve,
+        });
         job.elapsed = p.elapsed;
         job.eta = p.eta;
         job.queue = p.queue;
@@ -219,17 +245,33 @@ export class Viewer {
 
   async ended(job, live) {
     this.view.job = job;
-    if (this.revealing) requestAnimationFrame(() => {
-      this.reveal();
-      this.revealing = false;
-    }); // its last layout
+    if (this.revealing)
+      requestAnimationFrame(() => {
+        this.reveal();
+        this.revealing = false;
+      }); // its last layout
     this.update(job);
     if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
     this.updateAovButtons(job);
     if (job.image_url && live) await this.loadImage(job.image_url);
-    if (job.status === "failed") this.message("error", `The job failed: ${job.error || "no reason given"}.`, job.errors?.length ? job.errors : null);
-    else if (job.status === "cancelled") this.message("warn", job.preview ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.` : "Cancelled before its first pass.");
-    else if (job.status === "done") this.message("ok", `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`);
+    if (job.status === "failed")
+      this.message(
+        "error",
+        `The job failed: ${job.error || "no reason given"}.`,
+        job.errors?.length ? job.errors : null,
+      );
+    else if (job.status === "cancelled")
+      this.message(
+        "warn",
+        job.preview
+          ? `Cancelled after ${job.progress.passes_done} passes; the image of the last full pass is kept.`
+          : "Cancelled before its first pass.",
+      );
+    else if (job.status === "done")
+      this.message(
+        "ok",
+        `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`,
+      );
     if (job.status === "done") this.loadAovRanges(job.id);
     this.view.ended = true;
     this.describe();
@@ -254,10 +296,20 @@ export class Viewer {
     try {
       const { link } = await api.share(v.id);
       const url = new URL(link, location.href).href;
-      const field = h("input", { type: "text", readonly: true, value: url, class: "share-link", "aria-label": "read-only link to this job" });
+      const field = h("input", {
+        type: "text",
+        readonly: true,
+        value: url,
+        class: "share-link",
+        "aria-label": "read-only link to this job",
+      });
       const copy = h("button", { type: "button", class: "small" }, "Copy");
       copy.addEventListener("click", () => copyText(field, copy));
-      note.replaceChildren(h("span", {}, "Read-only link (its image and ray trees; no one can cancel or change it): "), field, copy);
+      note.replaceChildren(
+        h("span", {}, "Read-only link (its image and ray trees; no one can cancel or change it): "),
+        field,
+        copy,
+      );
       note.hidden = false;
       field.select();
     } catch (err) {
@@ -318,7 +370,7 @@ export class Viewer {
     if (!v) return;
     const job = v.job;
     const p = job.progress || {};
-    const spp = job.status === "done" ? p.spp_done ?? p.spp_total : p.spp_total;
+    const spp = job.status === "done" ? (p.spp_done ?? p.spp_total) : p.spp_total;
     const samples = spp ? `, ${spp} sample${spp === 1 ? "" : "s"} per pixel` : "";
     const status = v.ended ? job.status : "rendering, the picture refines as the passes finish"; // ended: the last picture is in
     const aov = this.aov !== "image" ? ` The ${AOVS.find(([n]) => n === this.aov)?.[1] ?? this.aov} AOV.` : "";
@@ -374,7 +426,10 @@ export class Viewer {
     const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] };
     if (moves[e.key]) {
       e.preventDefault();
-      this.cursor = [Math.min(this.view.width - 1, Math.max(0, c[0] + moves[e.key][0])), Math.min(this.view.height - 1, Math.max(0, c[1] + moves[e.key][1]))];
+      this.cursor = [
+        Math.min(this.view.width - 1, Math.max(0, c[0] + moves[e.key][0])),
+        Math.min(this.view.height - 1, Math.max(0, c[1] + moves[e.key][1])),
+      ];
       this.drawMarker();
     } else if (e.key === "Enter" || e.key === " ") {
       e.preventDefault();
@@ -435,24 +490,60 @@ export class Viewer {
     const row = (k, v) => [h("div", {}, h("dt", {}, k), h("dd", {}, v))];
     st.replaceChildren(
       ...row("status", job.status),
-      ...row("samples", `${integer(p.samples_done)} / ${integer(p.samples_total)} (${Math.round((p.fraction || 0) * 100)}%)`),
+      ...row(
+        "samples",
+        `${integer(p.samples_done)} / ${integer(p.samples_total)} (${Math.round((p.fraction || 0) * 100)}%)`,
+      ),
       ...row("passes", `${p.passes_done ?? 0} · ${p.spp_done ?? 0} of ${p.spp_total ?? "?"} spp`),
-      ...(p.solve ? row("radiosity", `${integer(p.solve.shots)} shots · ${integer(p.solve.patches)} patch sides · ${seconds(p.solve.seconds)}`) : []),
+      ...(p.solve
+        ? row(
+            "radiosity",
+            `${integer(p.solve.shots)} shots · ${integer(p.solve.patches)} patch sides · ${seconds(p.solve.seconds)}`,
+          )
+        : []),
       ...row("elapsed", seconds(job.elapsed)),
       ...row("ETA", running ? seconds(job.eta) : "–"),
     );
     const rays = job.rays || {};
-    const chip = (kind) => h("span", { class: "chip", style: `--c:${RAY_STYLES[kind].colour}` }, `${kind} ${integer(rays[kind] ?? 0)}`);
-    const solveChip = rays.radiosity ? [h("span", { class: "chip", style: "--c:#c792ea", title: "form-factor rays of the radiosity solve" }, `radiosity ${integer(rays.radiosity)}`)] : [];
-    this.el.rays.replaceChildren(h("span", { class: "label" }, "rays:"), chip("eye"), chip("shadow"), chip("reflection"), chip("transmission"), ...solveChip, h("span", {}, `total ${integer(rays.total ?? 0)}`));
+    const chip = (kind) =>
+      h("span", { class: "chip", style: `--c:${RAY_STYLES[kind].colour}` }, `${kind} ${integer(rays[kind] ?? 0)}`);
+    const solveChip = rays.radiosity
+      ? [
+          h(
+            "span",
+            { class: "chip", style: "--c:#c792ea", title: "form-factor rays of the radiosity solve" },
+            `radiosity ${integer(rays.radiosity)}`,
+          ),
+        ]
+      : [];
+    this.el.rays.replaceChildren(
+      h("span", { class: "label" }, "rays:"),
+      chip("eye"),
+      chip("shadow"),
+      chip("reflection"),
+      chip("transmission"),
+      ...solveChip,
+      h("span", {}, `total ${integer(rays.total ?? 0)}`),
+    );
     this.setDownloads(job);
     if (this.revealing) requestAnimationFrame(() => this.reveal()); // the rows above the stage grew: still in view
     const pct = `${Math.round(fraction * 100)}%`;
-    if (running) this.near("info", job.status === "queued" ? "queued…" : solving ? `radiosity ${pct}` : `${pct} rendered`);
+    if (running)
+      this.near("info", job.status === "queued" ? "queued…" : solving ? `radiosity ${pct}` : `${pct} rendered`);
     else if (job.status === "done") this.near("ok", `done in ${seconds(job.elapsed)}`);
     else this.near(job.status === "failed" ? "error" : "warn", job.status);
-    if (running && solving) this.message("info", `Solving radiosity before the first pass: ${Math.round(fraction * 100)}% · ${integer(p.solve.shots)} shots · ${(100 * p.solve.unshot).toFixed(2)}% of the power still unshot…`);
-    else if (running) this.message("info", job.status === "queued" ? queuedText(job) : `Rendering pass ${(p.passes_done ?? 0) + 1}: ${Math.round(fraction * 100)}% of the samples…`);
+    if (running && solving)
+      this.message(
+        "info",
+        `Solving radiosity before the first pass: ${Math.round(fraction * 100)}% · ${integer(p.solve.shots)} shots · ${(100 * p.solve.unshot).toFixed(2)}% of the power still unshot…`,
+      );
+    else if (running)
+      this.message(
+        "info",
+        job.status === "queued"
+          ? queuedText(job)
+          : `Rendering pass ${(p.passes_done ?? 0) + 1}: ${Math.round(fraction * 100)}% of the samples…`,
+      );
     if (this.jobs.has(job.id)) {
       this.jobs.set(job.id, job);
     }
@@ -482,7 +573,8 @@ export class Viewer {
     const button = this.el.render.getBoundingClientRect();
     const room = window.innerHeight;
     if (!force && stage.top >= 0 && stage.bottom <= room) return; // already in view
-    if (!force && stage.bottom - button.top + 24 <= room) window.scrollBy({ top: stage.bottom - room + 16, behavior: "instant" });
+    if (!force && stage.bottom - button.top + 24 <= room)
+      window.scrollBy({ top: stage.bottom - room + 16, behavior: "instant" });
     else this.el.stage.scrollIntoView({ block: "start", behavior: "instant" });
   }
 
@@ -498,7 +590,14 @@ export class Viewer {
     const m = this.el.message;
     m.dataset.kind = kind;
     const parts = [h("span", {}, text)];
-    if (errors) parts.push(h("ul", {}, errors.map((e) => h("li", {}, e.path ? h("code", {}, e.path) : null, e.path ? " " : null, e.message))));
+    if (errors)
+      parts.push(
+        h(
+          "ul",
+          {},
+          errors.map((e) => h("li", {}, e.path ? h("code", {}, e.path) : null, e.path ? " " : null, e.message)),
+        ),
+      );
     if (retry) parts.push(h("button", { type: "button", onclick: retry }, "Try again"));
     m.replaceChildren(...parts);
   }
@@ -512,7 +611,9 @@ export class Viewer {
       b.setAttribute("aria-pressed", String(name === this.aov));
       b.title = b.disabled ? "AOVs are saved when the job is done" : "";
     }
-    if (this.aov === "image") this.el.legend.textContent = job.status === "done" ? "The AOVs (arbitrary output variables) show what the renderer saw at each pixel." : "";
+    if (this.aov === "image")
+      this.el.legend.textContent =
+        job.status === "done" ? "The AOVs (arbitrary output variables) show what the renderer saw at each pixel." : "";
   }
 
   async loadAovRanges(id) {
@@ -550,7 +651,8 @@ export class Viewer {
         // the legend then names no sampler
       }
     }
-    if (ok && this.view === view && this.aov === name) this.el.legend.textContent = aovLegend(name, view.aovRanges?.[name], sampler);
+    if (ok && this.view === view && this.aov === name)
+      this.el.legend.textContent = aovLegend(name, view.aovRanges?.[name], sampler);
   }
 
   // -- my jobs ----------------------------------------------------------------------------------
@@ -574,7 +676,10 @@ export class Viewer {
       ),
     );
     const jobs = found.filter(Boolean);
-    store.set(JOBS_KEY, jobs.map((j) => j.id));
+    store.set(
+      JOBS_KEY,
+      jobs.map((j) => j.id),
+    );
     this.jobs = new Map(jobs.filter((j) => !j.missing).map((j) => [j.id, j]));
     this.renderList();
     const current = store.get(CURRENT_KEY, null);
@@ -592,7 +697,10 @@ export class Viewer {
   }
 
   forget(id) {
-    store.set(JOBS_KEY, store.get(JOBS_KEY, []).filter((x) => x !== id));
+    store.set(
+      JOBS_KEY,
+      store.get(JOBS_KEY, []).filter((x) => x !== id),
+    );
     this.jobs.delete(id);
     this.renderList();
   }
@@ -629,8 +737,12 @@ export class Viewer {
     }
     list.replaceChildren(
       ...items.map((job) => {
-        const when = job.created_at ? new Date(job.created_at).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" }) : "";
-        const thumb = job.image_url ? h("img", { alt: "", width: 64, height: Math.round((64 * job.height) / job.width) }) : h("span", { class: "thumb-empty" }, "no image");
+        const when = job.created_at
+          ? new Date(job.created_at).toLocaleTimeString([], { hour: "2-digit", minute: "2-digit" })
+          : "";
+        const thumb = job.image_url
+          ? h("img", { alt: "", width: 64, height: Math.round((64 * job.height) / job.width) })
+          : h("span", { class: "thumb-empty" }, "no image");
         if (job.image_url) this.thumbnail(job).then((url) => url && (thumb.src = url));
         return h(
           "li",
@@ -639,13 +751,42 @@ export class Viewer {
             "button",
             { type: "button", class: "job-open", onclick: () => this.open(job.id) }, // named by its text: the job's name, status and size (WCAG 2.5.3)
             thumb,
-            h("span", { class: "job-text" }, h("strong", {}, job.name || "untitled"), h("span", {}, `${job.status} · ${job.width}×${job.height} · ${job.progress?.spp_total ?? "?"} spp · ${when}`)),
+            h(
+              "span",
+              { class: "job-text" },
+              h("strong", {}, job.name || "untitled"),
+              h(
+                "span",
+                {},
+                `${job.status} · ${job.width}×${job.height} · ${job.progress?.spp_total ?? "?"} spp · ${when}`,
+              ),
+            ),
           ),
           h(
             "span",
             { class: "job-actions" },
-            h("button", { type: "button", class: "small", title: "Load this job's scene into the editor", "aria-label": `Edit the scene of ${job.name || "this job"}`, onclick: () => this.loadSceneOf(job) }, "Edit"),
-            h("button", { type: "button", class: "small", "aria-label": `Remove ${job.name || "job"} from my list`, title: "Remove from my list", onclick: () => this.forget(job.id) }, "×"),
+            h(
+              "button",
+              {
+                type: "button",
+                class: "small",
+                title: "Load this job's scene into the editor",
+                "aria-label": `Edit the scene of ${job.name || "this job"}`,
+                onclick: () => this.loadSceneOf(job),
+              },
+              "Edit",
+            ),
+            h(
+              "button",
+              {
+                type: "button",
+                class: "small",
+                "aria-label": `Remove ${job.name || "job"} from my list`,
+                title: "Remove from my list",
+                onclick: () => this.forget(job.id),
+              },
+              "×",
+            ),
           ),
         );
       }),
@@ -668,7 +809,12 @@ export function queuedText(job) {
   if (!q) return "Queued: waiting for the render worker…";
   if (!q.workers) return `Queued in the ${q.lane} lane, but no worker takes ${q.lane} jobs right now.`;
   const place = q.ahead === 0 ? "next in line" : `${ordinal(q.position)} in line (${q.ahead} ahead)`;
-  const wait = q.expected_wait == null ? "" : q.expected_wait < 1 ? ", starting in a moment" : `, about ${seconds(q.expected_wait)} to wait`;
+  const wait =
+    q.expected_wait == null
+      ? ""
+      : q.expected_wait < 1
+        ? ", starting in a moment"
+        : `, about ${seconds(q.expected_wait)} to wait`;
   const lane = q.lane === "batch" ? " (batch lane: interactive work goes first)" : "";
   return `Queued: ${place}${wait}${lane}…`;
 }

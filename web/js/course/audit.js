@@ -64,12 +64,20 @@ export class AuditPanel {
     this.assignments = assignments;
     this.names = new Map(assignments.map((a) => [a.id, a.name]));
     this.next = null;
-    this.cid = h("select", { id: "audit-course" }, ...courses.map((c) => h("option", { value: c.id }, `${c.name} (${c.id})`)));
+    this.cid = h(
+      "select",
+      { id: "audit-course" },
+      ...courses.map((c) => h("option", { value: c.id }, `${c.name} (${c.id})`)),
+    );
     this.student = h("input", { id: "audit-student", maxlength: 80, autocomplete: "off", placeholder: "any" });
     this.assignment = h("select", { id: "audit-assignment" });
     this.status = h("p", { id: "audit-status", class: "message", role: "status", "aria-live": "polite" });
     this.body = h("tbody", {});
-    this.more = h("button", { type: "button", id: "audit-more", hidden: true, onclick: () => this.load(true) }, "Older");
+    this.more = h(
+      "button",
+      { type: "button", id: "audit-more", hidden: true, onclick: () => this.load(true) },
+      "Older",
+    );
     const form = h(
       "form",
       { class: "audit-filters", id: "audit-filters", "aria-label": "Filter the audit trail" },
@@ -91,7 +99,11 @@ export class AuditPanel {
       "section",
       { class: "panel", id: "audit", "aria-labelledby": "h-audit" },
       h("div", { class: "panel-head" }, h("h2", { id: "h-audit" }, "Audit trail")),
-      h("p", { class: "hint" }, "Every change to the course's grades, extensions, assignments, roster and staff: who made it, when, what it was before and after, and why. Newest first."),
+      h(
+        "p",
+        { class: "hint" },
+        "Every change to the course's grades, extensions, assignments, roster and staff: who made it, when, what it was before and after, and why. Newest first.",
+      ),
       form,
       this.status,
       h(
@@ -113,7 +125,10 @@ export class AuditPanel {
   /** The assignment filter's choices: the chosen course's assignments. */
   choices() {
     const mine = this.assignments.filter((a) => !a.course || a.course === this.cid.value);
-    this.assignment.replaceChildren(h("option", { value: "" }, "any"), ...mine.map((a) => h("option", { value: a.id }, a.name)));
+    this.assignment.replaceChildren(
+      h("option", { value: "" }, "any"),
+      ...mine.map((a) => h("option", { value: a.id }, a.name)),
+    );
   }
 
   filters() {
@@ -132,7 +147,13 @@ export class AuditPanel {
       this.next = r.next;
       this.more.hidden = r.next === null;
       const n = this.body.children.length;
-      say(this.status, "ok", n ? `${n} change${n === 1 ? "" : "s"} shown${r.next === null ? "" : "; older ones with Older"}.` : "No changes match.");
+      say(
+        this.status,
+        "ok",
+        n
+          ? `${n} change${n === 1 ? "" : "s"} shown${r.next === null ? "" : "; older ones with Older"}.`
+          : "No changes match.",
+      );
     } catch (err) {
       if (!this.access(err)) say(this.status, "error", `Could not read the audit trail: ${err.message}`);
     }
@@ -154,6 +175,8 @@ export class AuditPanel {
   }
 
   csv() {
-    downloadFile(`${A(this.cid.value)}.csv${query(this.filters())}`, "audit.csv", AS).catch((err) => say(this.status, "error", `Could not download audit.csv: ${err.message}`));
+    downloadFile(`${A(this.cid.value)}.csv${query(this.filters())}`, "audit.csv", AS).catch((err) =>
+      say(this.status, "error", `Could not download audit.csv: ${err.message}`),
+    );
   }
 }

@@ -21,7 +21,15 @@ export function pts(x) {
 export function localTime(iso) {
   const d = new Date(iso);
   if (Number.isNaN(d.getTime())) return String(iso);
-  return d.toLocaleString(undefined, { weekday: "short", year: "numeric", month: "short", day: "numeric", hour: "numeric", minute: "2-digit", timeZoneName: "short" });
+  return d.toLocaleString(undefined, {
+    weekday: "short",
+    year: "numeric",
+    month: "short",
+    day: "numeric",
+    hour: "numeric",
+    minute: "2-digit",
+    timeZoneName: "short",
+  });
 }
 
 /** Seconds as "2 days 3 h 5 min", "3 h 12 min", "12 min 5 s", "45 s". */
@@ -60,25 +68,55 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
   $("#a-name", root).textContent = brief.name;
   document.title = `${brief.name} · Ray tracing for teaching`;
   const s = brief.student;
-  $("#a-who", root).replaceChildren(s ? h("span", {}, "You are ", h("strong", { id: "a-student" }, s.name), ` (${s.id}${s.self_declared ? ", self-declared" : ""})`, brief.inactive ? h("strong", { id: "a-inactive", class: "badge inactive" }, " inactive: you are no longer in this course in the LMS; your submissions and grades are kept, new submissions are not taken") : null) : h("span", {}, "The instructor's view"));
+  $("#a-who", root).replaceChildren(
+    s
+      ? h(
+          "span",
+          {},
+          "You are ",
+          h("strong", { id: "a-student" }, s.name),
+          ` (${s.id}${s.self_declared ? ", self-declared" : ""})`,
+          brief.inactive
+            ? h(
+                "strong",
+                { id: "a-inactive", class: "badge inactive" },
+                " inactive: you are no longer in this course in the LMS; your submissions and grades are kept, new submissions are not taken",
+              )
+            : null,
+        )
+      : h("span", {}, "The instructor's view"),
+  );
   $("#a-description", root).textContent = brief.description || "";
 
   $("#a-deadline", root).replaceChildren(timeEl(brief.deadline), h("small", { class: "muted" }, " (your local time)"));
   const late = $("#a-late-row", root);
   late.hidden = !brief.late_until;
   if (brief.late_until) {
-    const penalty = brief.late_penalty ? `${num(100 * brief.late_penalty, 3)} % of a late submission's points taken off` : "no penalty";
+    const penalty = brief.late_penalty
+      ? `${num(100 * brief.late_penalty, 3)} % of a late submission's points taken off`
+      : "no penalty";
     $("#a-late", root).replaceChildren("until ", timeEl(brief.late_until), `, ${penalty}`);
   }
   const left = brief.submissions_left;
   $("#a-left", root).textContent =
-    left === null || left === undefined ? `no limit (${brief.attempts_used || 0} used)` : `${left} of ${brief.max_submissions} (an invalid submission, or one that cannot be graded, costs none)`;
+    left === null || left === undefined
+      ? `no limit (${brief.attempts_used || 0} used)`
+      : `${left} of ${brief.max_submissions} (an invalid submission, or one that cannot be graded, costs none)`;
   $("#a-left", root).dataset.left = left === null || left === undefined ? "" : String(left);
   showTokens(root, brief);
-  $("#a-counts", root).textContent = brief.counts === "best" ? "your best graded submission (after any late penalty)" : "your last graded submission";
+  $("#a-counts", root).textContent =
+    brief.counts === "best" ? "your best graded submission (after any late penalty)" : "your last graded submission";
 
   // what earns points, and when each test's feedback is shown
-  const rows = [h("tr", { dataset: { test: "validity" } }, h("th", { scope: "row" }, "valid scene (or a readable image)"), h("td", { class: "num" }, pts(brief.validity?.points)), h("td", {}, SHOWN[when(brief, "validity")]))];
+  const rows = [
+    h(
+      "tr",
+      { dataset: { test: "validity" } },
+      h("th", { scope: "row" }, "valid scene (or a readable image)"),
+      h("td", { class: "num" }, pts(brief.validity?.points)),
+      h("td", {}, SHOWN[when(brief, "validity")]),
+    ),
+  ];
   for (const r of brief.requirements || []) {
     rows.push(
       h(
@@ -91,27 +129,55 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
     );
   }
   for (const t of brief.image_tests || []) {
-    rows.push(h("tr", { dataset: { test: t.name } }, h("th", { scope: "row" }, IMAGE_TESTS[t.name] || t.name), h("td", { class: "num" }, pts(t.points)), h("td", {}, SHOWN[when(brief, t.name)])));
+    rows.push(
+      h(
+        "tr",
+        { dataset: { test: t.name } },
+        h("th", { scope: "row" }, IMAGE_TESTS[t.name] || t.name),
+        h("td", { class: "num" }, pts(t.points)),
+        h("td", {}, SHOWN[when(brief, t.name)]),
+      ),
+    );
   }
   $("#a-points tbody", root).replaceChildren(...rows);
-  const imagePts = (brief.image_tests || []).reduce((a, t) => a + t.points, (brief.validity?.points || 0));
+  const imagePts = (brief.image_tests || []).reduce((a, t) => a + t.points, brief.validity?.points || 0);
   $("#a-max", root).replaceChildren(h("strong", {}, pts(brief.max_score)));
-  const imageNote = brief.requirements?.length && brief.image_tests?.length ? `An image from your own ray tracer is out of ${pts(imagePts)}: the requirements apply to scenes.` : "";
+  const imageNote =
+    brief.requirements?.length && brief.image_tests?.length
+      ? `An image from your own ray tracer is out of ${pts(imagePts)}: the requirements apply to scenes.`
+      : "";
   // a hidden image test hides the error map and the rejected pixels too (server/course/policy.py map_shown)
-  const maps = (brief.image_tests || []).map((t) => when(brief, t.name)).reduce((a, b) => (ORDER.indexOf(b) > ORDER.indexOf(a) ? b : a), "now");
+  const maps = (brief.image_tests || [])
+    .map((t) => when(brief, t.name))
+    .reduce((a, b) => (ORDER.indexOf(b) > ORDER.indexOf(a) ? b : a), "now");
   const cut = brief.late_until || brief.deadline;
   const mapsNote =
     maps === "now"
       ? null
       : maps === "never"
-        ? h("span", { id: "a-maps-note" }, "The error map, the rejected pixels and the metrics are never shown to students for this assignment: they would tell a hidden test's result.")
-        : h("span", { id: "a-maps-note" }, "The error map, the rejected pixels and the metrics are shown after your deadline (", timeEl(cut), "): before, they would tell a hidden test's result.");
+        ? h(
+            "span",
+            { id: "a-maps-note" },
+            "The error map, the rejected pixels and the metrics are never shown to students for this assignment: they would tell a hidden test's result.",
+          )
+        : h(
+            "span",
+            { id: "a-maps-note" },
+            "The error map, the rejected pixels and the metrics are shown after your deadline (",
+            timeEl(cut),
+            "): before, they would tell a hidden test's result.",
+          );
   $("#a-points-note", root).replaceChildren(imageNote, imageNote && mapsNote ? " " : "", mapsNote || "");
 
   const limits = brief.limits || {};
   const render = brief.render || {};
   const kv = [
-    ["film", render.width && render.height ? `${render.width} × ${render.height} pixels (every render is graded at this size)` : null],
+    [
+      "film",
+      render.width && render.height
+        ? `${render.width} × ${render.height} pixels (every render is graded at this size)`
+        : null,
+    ],
     ["seed", render.seed],
     ["samples per pixel", render.spp ?? (limits.max_spp ? `yours, at most ${limits.max_spp}` : null)],
     ["render time", limits.max_seconds ? `at most ${num(limits.max_seconds)} s` : null],
@@ -131,7 +197,13 @@ export function showBrief(root, brief, token, { onPhase } = {}) {
     showImage(img, brief.reference_image, { token }).then((ok) => {
       if (ok || $("#a-reference-wait", fig)) return;
       img.hidden = true;
-      fig.prepend(h("p", { class: "hint", id: "a-reference-wait" }, "The reference image is not ready yet (it is being rendered): reload the page in a moment."));
+      fig.prepend(
+        h(
+          "p",
+          { class: "hint", id: "a-reference-wait" },
+          "The reference image is not ready yet (it is being rendered): reload the page in a moment.",
+        ),
+      );
     });
   } else fig.hidden = true;
 
@@ -149,11 +221,31 @@ function showTokens(root, brief) {
   dd.dataset.left = String(left);
   dd.dataset.needed = String(brief.tokens_needed_now || 0);
   const days = (n) => `${n} ${n === 1 ? "token" : "tokens"}`;
-  const parts = [h("span", { id: "a-tokens-left" }, `${days(left)} left in this course`), " (a token is a day: a late submission spends what it needs, and is then on time). "];
-  if (brief.tokens_needed_now) parts.push(h("strong", { id: "a-tokens-now" }, `A submission now spends ${days(brief.tokens_needed_now)}`), ", and is not late.");
-  else if (brief.tokens_missing_now) parts.push(h("strong", { id: "a-tokens-now" }, `A submission now would need ${days(brief.tokens_missing_now)}: you have too few, so it spends none`), brief.late_time_left ? " and is marked late." : " and is refused.");
+  const parts = [
+    h("span", { id: "a-tokens-left" }, `${days(left)} left in this course`),
+    " (a token is a day: a late submission spends what it needs, and is then on time). ",
+  ];
+  if (brief.tokens_needed_now)
+    parts.push(
+      h("strong", { id: "a-tokens-now" }, `A submission now spends ${days(brief.tokens_needed_now)}`),
+      ", and is not late.",
+    );
+  else if (brief.tokens_missing_now)
+    parts.push(
+      h(
+        "strong",
+        { id: "a-tokens-now" },
+        `A submission now would need ${days(brief.tokens_missing_now)}: you have too few, so it spends none`,
+      ),
+      brief.late_time_left ? " and is marked late." : " and is refused.",
+    );
   else parts.push(h("span", { id: "a-tokens-now" }, "A submission now spends none."));
-  if (brief.tokens_spent_here) parts.push(` You spent ${days(brief.tokens_spent_here)} on this assignment: your deadline is `, timeEl(brief.tokens_deadline), ".");
+  if (brief.tokens_spent_here)
+    parts.push(
+      ` You spent ${days(brief.tokens_spent_here)} on this assignment: your deadline is `,
+      timeEl(brief.tokens_deadline),
+      ".",
+    );
   dd.replaceChildren(...parts);
 }
 
@@ -166,7 +258,8 @@ function countdown(root, brief, onPhase) {
     if (brief.closed) return "closed";
     if (brief.time_left - elapsed > 0) return "open";
     if (brief.tokens_cover_now) return "tokens"; // past the deadline, on time by late tokens (the brief says how many)
-    if (brief.late_time_left !== null && brief.late_time_left !== undefined && brief.late_time_left - elapsed > 0) return "late";
+    if (brief.late_time_left !== null && brief.late_time_left !== undefined && brief.late_time_left - elapsed > 0)
+      return "late";
     return "closed";
   };
   const first = phaseOf(0);
@@ -175,8 +268,10 @@ function countdown(root, brief, onPhase) {
     const phase = phaseOf(elapsed);
     el.dataset.phase = phase;
     if (phase === "open") el.textContent = duration(brief.time_left - elapsed);
-    else if (phase === "tokens") el.textContent = `the deadline has passed; a submission now spends ${brief.tokens_needed_now || 0} late token(s)`;
-    else if (phase === "late") el.textContent = `the deadline has passed; ${duration(brief.late_time_left - elapsed)} left to hand in late`;
+    else if (phase === "tokens")
+      el.textContent = `the deadline has passed; a submission now spends ${brief.tokens_needed_now || 0} late token(s)`;
+    else if (phase === "late")
+      el.textContent = `the deadline has passed; ${duration(brief.late_time_left - elapsed)} left to hand in late`;
     else el.textContent = "none: the assignment is closed";
     if (phase !== first) {
       stop();
@@ -192,7 +287,7 @@ function countdown(root, brief, onPhase) {
     first === "tokens"
       ? `The deadline has passed: a submission now spends ${brief.tokens_needed_now || "none"} of your late tokens and is on time.`
       : first === "late"
-      ? `The deadline has passed: a submission now is marked late${brief.late_penalty ? ` and loses ${num(100 * brief.late_penalty, 3)} % of its points.` : "."}`
-      : "The assignment is closed: submissions are no longer taken. Your submissions and their feedback stay below.";
+        ? `The deadline has passed: a submission now is marked late${brief.late_penalty ? ` and loses ${num(100 * brief.late_penalty, 3)} % of its points.` : "."}`
+        : "The assignment is closed: submissions are no longer taken. Your submissions and their feedback stay below.";
   return stop;
 }

@@ -31,7 +31,11 @@ const SIDES = {
  * instructor, the same sentence about the student ("The student's eye ray hits…"). */
 export function inWordsOf(as, message) {
   if (as !== "instructor") return message;
-  return message.replace(/\bYours\b/g, "The student's").replace(/\bYour\b/g, "The student's").replace(/\byours\b/g, "the student's").replace(/\byour\b/g, "the student's");
+  return message
+    .replace(/\bYours\b/g, "The student's")
+    .replace(/\bYour\b/g, "The student's")
+    .replace(/\byours\b/g, "the student's")
+    .replace(/\byour\b/g, "the student's");
 }
 
 /** The node at a path (child indices from the root), or null when the tree has none there. */
@@ -46,7 +50,12 @@ export function nodeAt(model, path) {
 
 function side(name, title, tree, marked) {
   const model = treeModel(tree);
-  const box = h("div", { class: "compare-tree", tabindex: 0, role: "group", "aria-label": `${title}: ${model.nodes.length} rays` });
+  const box = h("div", {
+    class: "compare-tree",
+    tabindex: 0,
+    role: "group",
+    "aria-label": `${title}: ${model.nodes.length} rays`,
+  });
   const section = h(
     "section",
     { class: "compare-side", dataset: { side: name } },
@@ -88,7 +97,11 @@ export function mark(view, what) {
 export async function showCompare(container, { aid, sid, x, y, sample = null, as = "student", token }) {
   const root = h("div", { class: "compare", dataset: { x, y } });
   const whose = as === "instructor" ? "the student's" : "your";
-  const status = h("p", { class: "compare-status", role: "status" }, `Tracing ${whose} ray tree and the reference's at pixel (${x}, ${y})…`);
+  const status = h(
+    "p",
+    { class: "compare-status", role: "status" },
+    `Tracing ${whose} ray tree and the reference's at pixel (${x}, ${y})…`,
+  );
   root.append(status);
   container.replaceChildren(root);
   const query = new URLSearchParams({ x: String(x), y: String(y) });
@@ -98,14 +111,18 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   try {
     answer = await request("GET", url, undefined, { as, token }); // `token`: the page's own (a student's link), else `as`'s
   } catch (err) {
-    root.replaceChildren(h("p", { class: "compare-error", role: "alert", dataset: { status: err.status } }, err.message));
+    root.replaceChildren(
+      h("p", { class: "compare-error", role: "alert", dataset: { status: err.status } }, err.message),
+    );
     return null;
   }
   const d = answer.difference;
   const head = h(
     "p",
     { class: "compare-message", dataset: { what: d ? d.what : "none" } },
-    d ? inWordsOf(as, d.message) : "The two ray trees agree at this pixel sample: every ray hits the same, with the same weights and terms. Try another pixel of the difference map.",
+    d
+      ? inWordsOf(as, d.message)
+      : "The two ray trees agree at this pixel sample: every ray hits the same, with the same weights and terms. Try another pixel of the difference map.",
   );
   const views = (SIDES[as] || SIDES.student).map(([name, title]) => {
     const tree = answer[name];
@@ -115,15 +132,24 @@ export async function showCompare(container, { aid, sid, x, y, sample = null, as
   root.replaceChildren(
     h("h2", { class: "compare-title" }, `Ray trees at pixel (${answer.x}, ${answer.y}), sample ${answer.sample}`),
     head,
-    h("div", { class: "compare-sides" }, views.map((v) => v.section)),
+    h(
+      "div",
+      { class: "compare-sides" },
+      views.map((v) => v.section),
+    ),
     legend(),
   );
   let first = null;
   for (const v of views) {
     // a still picture: no linked views here; the differing ray is never folded into a group of shadow rays
     renderDiagram(v.box, v.model, { onHover: () => {}, onSelect: () => {}, open: v.marked ? [v.marked.id] : [] });
-    renderRayList(v.words, v.model, { label: `${v.title}: ${v.model.nodes.length} rays`, onFocus: () => {}, onSelect: () => {} });
-    if (d && v.marked) v.words.querySelector(`[data-id="${v.marked.id}"] > .rt-li-text`)?.append(` The first difference: ${d.what}.`);
+    renderRayList(v.words, v.model, {
+      label: `${v.title}: ${v.model.nodes.length} rays`,
+      onFocus: () => {},
+      onSelect: () => {},
+    });
+    if (d && v.marked)
+      v.words.querySelector(`[data-id="${v.marked.id}"] > .rt-li-text`)?.append(` The first difference: ${d.what}.`);
     const g = d ? mark(v, d.what) : null;
     if (g) {
       // the marked ray in view inside its own scrolling box (the page itself scrolls only as far as it must)

@@ -20,10 +20,23 @@ const grading = {
     const q = new URLSearchParams();
     if (after) q.set("after", after);
     if (all) q.set("all", "true");
-    return request("GET", `${course.url(aid)}/grading/next${q.size ? `?${q}` : ""}`, undefined, { ...AS, cache: "no-store" });
+    return request("GET", `${course.url(aid)}/grading/next${q.size ? `?${q}` : ""}`, undefined, {
+      ...AS,
+      cache: "no-store",
+    });
   },
-  one: (aid, sid) => request("GET", `${course.url(aid)}/grading/submissions/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
-  put: (aid, sid, item, body) => request("PUT", `${course.url(aid)}/submissions/${encodeURIComponent(sid)}/manual/${encodeURIComponent(item)}`, body, AS),
+  one: (aid, sid) =>
+    request("GET", `${course.url(aid)}/grading/submissions/${encodeURIComponent(sid)}`, undefined, {
+      ...AS,
+      cache: "no-store",
+    }),
+  put: (aid, sid, item, body) =>
+    request(
+      "PUT",
+      `${course.url(aid)}/submissions/${encodeURIComponent(sid)}/manual/${encodeURIComponent(item)}`,
+      body,
+      AS,
+    ),
   release: (aid) => request("POST", `${course.url(aid)}/release`, undefined, AS),
   settings: (aid, body) => request("PUT", `${course.url(aid)}/grading/settings`, body, AS),
   assign: (aid, graders) => request("POST", `${course.url(aid)}/grading/assign`, { graders }, AS),
@@ -46,7 +59,11 @@ export class GradingPanel {
       const set = e.target.closest("fieldset[data-item]");
       if (set) this.current = Number(set.dataset.index);
     });
-    this.start = h("button", { type: "button", id: "grading-start", onclick: () => this.next() }, "Grade the next submission");
+    this.start = h(
+      "button",
+      { type: "button", id: "grading-start", onclick: () => this.next() },
+      "Grade the next submission",
+    );
     this.scope = h(
       "select",
       {
@@ -64,25 +81,54 @@ export class GradingPanel {
     this.gradersBox = null;
     if (this.may("publish")) {
       this.staffList = h("ul", { class: "grading-staff", id: "grading-staff" });
-      this.assignButton = h("button", { type: "button", id: "grading-assign", onclick: () => this.assign() }, "Assign evenly");
+      this.assignButton = h(
+        "button",
+        { type: "button", id: "grading-assign", onclick: () => this.assign() },
+        "Assign evenly",
+      );
       this.gradersBox = h(
         "fieldset",
         { class: "grading-graders", id: "grading-graders" },
         h("legend", {}, "Graders"),
-        h("p", { class: "hint", id: "grading-graders-hint" }, "Choose who grades, then Assign evenly: the roster's students are dealt to them in turn, as many each within one. Each grader's queue then holds their own."),
+        h(
+          "p",
+          { class: "hint", id: "grading-graders-hint" },
+          "Choose who grades, then Assign evenly: the roster's students are dealt to them in turn, as many each within one. Each grader's queue then holds their own.",
+        ),
         this.staffList,
         this.assignButton,
       );
       this.anonymous = h("input", { type: "checkbox", id: "grading-anonymous", onchange: () => this.setAnonymous() });
-      this.releaseButton = h("button", { type: "button", id: "grading-release", onclick: () => this.release() }, "Release the manual grades");
-      tools.push(h("label", { class: "inline", for: "grading-anonymous" }, this.anonymous, " Anonymous grading (names hidden until the release)"), this.releaseButton);
+      this.releaseButton = h(
+        "button",
+        { type: "button", id: "grading-release", onclick: () => this.release() },
+        "Release the manual grades",
+      );
+      tools.push(
+        h(
+          "label",
+          { class: "inline", for: "grading-anonymous" },
+          this.anonymous,
+          " Anonymous grading (names hidden until the release)",
+        ),
+        this.releaseButton,
+      );
     }
     this.summary = h("p", { id: "grading-summary", class: "hint" });
     this.root = h(
       "section",
       { class: "panel board-grading", id: "grading", "aria-labelledby": "h-grading" },
-      h("div", { class: "panel-head" }, h("h2", { id: "h-grading" }, "Grading queue"), h("span", { class: "toolbar" }, ...tools)),
-      h("p", { class: "hint", id: "grading-keys" }, "Keys: 1–9 choose the levels of the current item, Tab moves to its comment and on to the next item, n the next submission, b the one before. Each choice is saved at once."),
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-grading" }, "Grading queue"),
+        h("span", { class: "toolbar" }, ...tools),
+      ),
+      h(
+        "p",
+        { class: "hint", id: "grading-keys" },
+        "Keys: 1–9 choose the levels of the current item, Tab moves to its comment and on to the next item, n the next submission, b the one before. Each choice is saved at once.",
+      ),
       this.summary,
       this.gradersBox,
       this.status,
@@ -110,14 +156,24 @@ export class GradingPanel {
     const all = this.scope.value === "all" || !graders.length;
     const released = st.released ? `released ${st.released_at}` : "not released: students see the auto part only";
     const dealt = graders.length ? ` Graders: ${graders.map((g) => `${g.id} ${g.students}`).join(", ")}.` : "";
-    const left = all ? st.remaining_all ?? st.remaining : st.remaining;
+    const left = all ? (st.remaining_all ?? st.remaining) : st.remaining;
     this.summary.textContent = `${left} submission(s) to grade${all ? "" : " in your queue"}; manual items worth ${pts(st.max_points)} points, ${released}.${dealt}`;
     if (this.staffList && !this.staffList.childElementCount) {
       const chosen = new Set(graders.map((g) => g.id));
       this.staffList.replaceChildren(
         ...(st.staff || []).map((s, i) => {
-          const box = h("input", { type: "checkbox", id: `grading-grader-${i}`, checked: chosen.has(s.id), dataset: { person: s.id } });
-          return h("li", {}, box, h("label", { for: box.id }, ` ${s.name || s.id} (${s.id}, ${s.role === "ta" ? "TA" : s.role})`));
+          const box = h("input", {
+            type: "checkbox",
+            id: `grading-grader-${i}`,
+            checked: chosen.has(s.id),
+            dataset: { person: s.id },
+          });
+          return h(
+            "li",
+            {},
+            box,
+            h("label", { for: box.id }, ` ${s.name || s.id} (${s.id}, ${s.role === "ta" ? "TA" : s.role})`),
+          );
         }),
       );
     }
@@ -180,18 +236,36 @@ export class GradingPanel {
     const pictures = h(
       "div",
       { class: "grading-pictures" },
-      h("figure", { class: "grade-fig" }, h("div", { class: "fig-box" }, render), h("figcaption", {}, r.render ? "Their render" : "No render")),
-      h("figure", { class: "grade-fig" }, h("div", { class: "fig-box" }, reference), h("figcaption", {}, "The reference")),
+      h(
+        "figure",
+        { class: "grade-fig" },
+        h("div", { class: "fig-box" }, render),
+        h("figcaption", {}, r.render ? "Their render" : "No render"),
+      ),
+      h(
+        "figure",
+        { class: "grade-fig" },
+        h("div", { class: "fig-box" }, reference),
+        h("figcaption", {}, "The reference"),
+      ),
     );
     const auto = r.auto || {};
-    const tests = (auto.feedback?.tests || []).map((t) => h("li", {}, `${t.name}: ${t.status ?? "–"}${t.score !== undefined && t.score !== null ? ` (${pts(t.score)} / ${pts(t.max_score)})` : ""}`));
+    const tests = (auto.feedback?.tests || []).map((t) =>
+      h(
+        "li",
+        {},
+        `${t.name}: ${t.status ?? "–"}${t.score !== undefined && t.score !== null ? ` (${pts(t.score)} / ${pts(t.max_score)})` : ""}`,
+      ),
+    );
     const scene = h("pre", { class: "grading-scene", id: "grading-scene", tabindex: "0", "aria-label": "Their scene" });
     const details = h("details", { class: "grading-scene-box" }, h("summary", {}, "Their scene (JSON)"), scene);
     if (r.scene) {
       details.addEventListener("toggle", async () => {
         if (!details.open || scene.textContent) return;
         try {
-          scene.textContent = await (await request("GET", r.scene, undefined, { ...AS, raw: true, cache: "no-store" })).text();
+          scene.textContent = await (
+            await request("GET", r.scene, undefined, { ...AS, raw: true, cache: "no-store" })
+          ).text();
         } catch (err) {
           scene.textContent = `Could not read the scene: ${err.message}`;
         }
@@ -200,7 +274,11 @@ export class GradingPanel {
     this.items = r.items.map((item, i) => this.itemSet(item, i, r.manual.items[i]));
     this.card.replaceChildren(
       h("h3", { id: "grading-who", tabindex: "-1" }, `${r.label}${auto.late ? " (late)" : ""}`),
-      h("p", { id: "grading-auto" }, `Autograder: ${pts(auto.score)} / ${pts(auto.max_score)} (${auto.status}). ${r.remaining ?? 0} left in the queue.`),
+      h(
+        "p",
+        { id: "grading-auto" },
+        `Autograder: ${pts(auto.score)} / ${pts(auto.max_score)} (${auto.status}). ${r.remaining ?? 0} left in the queue.`,
+      ),
       tests.length ? h("ul", { class: "grading-tests", "aria-label": "The autograder's tests" }, tests) : null,
       pictures,
       r.scene ? details : null,
@@ -215,12 +293,23 @@ export class GradingPanel {
     const id = (s) => `grading-${i}-${s}`;
     const chosen = new Set(grade?.rubric || []);
     const boxes = item.rubric.map((level, j) =>
-      h("input", { type: "checkbox", id: id(`level-${j}`), checked: chosen.has(level.name), dataset: { level: level.name }, "aria-keyshortcuts": String(j + 1), onchange: () => this.save(i) }),
+      h("input", {
+        type: "checkbox",
+        id: id(`level-${j}`),
+        checked: chosen.has(level.name),
+        dataset: { level: level.name },
+        "aria-keyshortcuts": String(j + 1),
+        onchange: () => this.save(i),
+      }),
     );
     const comment = h("textarea", { id: id("comment"), rows: 2, "aria-label": `Comment on ${item.name}` });
     comment.value = grade?.comment || "";
     comment.addEventListener("change", () => this.save(i));
-    const score = h("p", { class: "grading-item-points", id: id("points") }, `${pts(grade?.points)} / ${pts(item.points)}`);
+    const score = h(
+      "p",
+      { class: "grading-item-points", id: id("points") },
+      `${pts(grade?.points)} / ${pts(item.points)}`,
+    );
     const set = h(
       "fieldset",
       { class: "grading-item", dataset: { item: item.name, index: String(i) } },
@@ -230,7 +319,18 @@ export class GradingPanel {
         "ul",
         { class: "grading-levels" },
         item.rubric.map((level, j) =>
-          h("li", {}, boxes[j], h("label", { for: boxes[j].id }, h("kbd", {}, String(j + 1)), ` ${level.name} (${signed(level.points)})`, level.description ? ` – ${level.description}` : "")),
+          h(
+            "li",
+            {},
+            boxes[j],
+            h(
+              "label",
+              { for: boxes[j].id },
+              h("kbd", {}, String(j + 1)),
+              ` ${level.name} (${signed(level.points)})`,
+              level.description ? ` – ${level.description}` : "",
+            ),
+          ),
         ),
       ),
       h("label", { for: comment.id, class: "grade-label" }, `Comment on ${item.name}`),

@@ -39,7 +39,8 @@ export class HandIn {
     this.ta.addEventListener("input", save);
     window.addEventListener("pagehide", () => save.flush());
 
-    for (const radio of root.querySelectorAll("input[name=a-kind]")) radio.addEventListener("change", () => this.showKind());
+    for (const radio of root.querySelectorAll("input[name=a-kind]"))
+      radio.addEventListener("change", () => this.showKind());
     $("#a-from-workspace", root).addEventListener("click", () => this.fromWorkspace());
     $("#a-open-scene", root).addEventListener("click", () => $("#a-scene-file", root).click());
     $("#a-scene-file", root).addEventListener("change", (e) => this.openFile(e.target));
@@ -71,7 +72,8 @@ export class HandIn {
   fromWorkspace() {
     const text = keptText();
     if (!text?.trim()) {
-      this.note.textContent = "The workspace has no scene in this browser yet: open it (Workspace, above), write your scene, then come back.";
+      this.note.textContent =
+        "The workspace has no scene in this browser yet: open it (Workspace, above), write your scene, then come back.";
       return;
     }
     const lines = text.split("\n").length;
@@ -185,11 +187,15 @@ export class HandIn {
 
   async check() {
     const kind = this.kind;
-    const res = await this.send((body) => this.ctx.api.check(body), "Checking…", () => {
-      this.result.hidden = true; // the last check's answer goes: it was about another text
-      delete this.result.dataset.valid;
-      $("#a-check-body", this.root).replaceChildren();
-    });
+    const res = await this.send(
+      (body) => this.ctx.api.check(body),
+      "Checking…",
+      () => {
+        this.result.hidden = true; // the last check's answer goes: it was about another text
+        delete this.result.dataset.valid;
+        $("#a-check-body", this.root).replaceChildren();
+      },
+    );
     if (!res) return;
     this.say("", "");
     this.showCheck(res, kind);
@@ -200,13 +206,40 @@ export class HandIn {
     const n = res.errors.length;
     parts.push(
       res.valid
-        ? h("p", { class: "message", dataset: { kind: "ok" }, id: "a-check-verdict" }, kind === "scene" ? "The scene is valid." : "The image can be read.", " No attempt was used.")
-        : h("p", { class: "message", dataset: { kind: "error" }, id: "a-check-verdict" }, kind === "scene" ? `The scene is invalid: ${n} error${n > 1 ? "s" : ""}.` : "The image cannot be graded.", " No attempt was used."),
+        ? h(
+            "p",
+            { class: "message", dataset: { kind: "ok" }, id: "a-check-verdict" },
+            kind === "scene" ? "The scene is valid." : "The image can be read.",
+            " No attempt was used.",
+          )
+        : h(
+            "p",
+            { class: "message", dataset: { kind: "error" }, id: "a-check-verdict" },
+            kind === "scene" ? `The scene is invalid: ${n} error${n > 1 ? "s" : ""}.` : "The image cannot be graded.",
+            " No attempt was used.",
+          ),
     );
-    if (n) parts.push(problemList(res.errors, { title: "Errors, at their place in the JSON:", jump: kind === "scene" ? this.jump() : null }));
-    if (res.warnings?.length) parts.push(problemList(res.warnings, { kind: "warn", title: "Warnings:", jump: kind === "scene" ? this.jump() : null }));
-    if (res.tests?.length) parts.push(h("ol", { class: "grade-tests a-tests", id: "a-check-tests" }, res.tests.map(testItem)));
-    if (res.image_tests?.length) parts.push(h("p", { class: "hint" }, `The image tests (${res.image_tests.join(", ")}) need a render: they run when you submit.`));
+    if (n)
+      parts.push(
+        problemList(res.errors, {
+          title: "Errors, at their place in the JSON:",
+          jump: kind === "scene" ? this.jump() : null,
+        }),
+      );
+    if (res.warnings?.length)
+      parts.push(
+        problemList(res.warnings, { kind: "warn", title: "Warnings:", jump: kind === "scene" ? this.jump() : null }),
+      );
+    if (res.tests?.length)
+      parts.push(h("ol", { class: "grade-tests a-tests", id: "a-check-tests" }, res.tests.map(testItem)));
+    if (res.image_tests?.length)
+      parts.push(
+        h(
+          "p",
+          { class: "hint" },
+          `The image tests (${res.image_tests.join(", ")}) need a render: they run when you submit.`,
+        ),
+      );
     $("#a-check-body", this.root).replaceChildren(...parts);
     this.result.hidden = false;
     this.result.dataset.valid = String(res.valid);
@@ -216,7 +249,10 @@ export class HandIn {
   async submit() {
     const view = await this.send((body) => this.ctx.api.submit(body), "Submitting…");
     if (!view) return;
-    this.say("ok", `Submitted at ${localTime(view.accepted_at)}${view.late ? " (late)" : ""}. It is graded in turn: its feedback arrives under “Your submissions” as soon as it is ready.`);
+    this.say(
+      "ok",
+      `Submitted at ${localTime(view.accepted_at)}${view.late ? " (late)" : ""}. It is graded in turn: its feedback arrives under “Your submissions” as soon as it is ready.`,
+    );
     this.ctx.onSubmitted?.(view);
   }
 }
@@ -227,6 +263,7 @@ function refusal(err) {
   const words = err.errors.map((e) => e.message).join("; ");
   if (err.status === 0) return words;
   if (err.status === 403 || err.status === 429 || err.status === 413) return `Not accepted: ${words}.`;
-  if (err.status === 404) return "The server does not know this assignment for your link any more (was your link replaced?).";
+  if (err.status === 404)
+    return "The server does not know this assignment for your link any more (was your link replaced?).";
   return `Not accepted (${err.status}): ${err.message}`;
 }

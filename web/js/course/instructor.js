@@ -36,13 +36,17 @@ function showRole(role) {
   if (!label || !words) return;
   label.textContent = words;
   tokenInput.placeholder = "the token of your staff link";
-  $("#course-token-help").textContent = "It came with the staff link you were sent (kept in this browser); open that link again to sign in anew.";
+  $("#course-token-help").textContent =
+    "It came with the staff link you were sent (kept in this browser); open that link again to sign in anew.";
 }
 
 /** The address's assignment and student: /course#<id> is the dashboard, /course#<id>/<student> with that
  * student's detail open. */
 function fromHash() {
-  const [id, student] = location.hash.slice(1).split("/").map((x) => decodeURIComponent(x || ""));
+  const [id, student] = location.hash
+    .slice(1)
+    .split("/")
+    .map((x) => decodeURIComponent(x || ""));
   return /^[0-9a-f]{32}$/.test(id) ? { id, student: student || null } : { id: null, student: null };
 }
 
@@ -56,7 +60,13 @@ function accessOk(err) {
   }
   tokenInput.removeAttribute("aria-invalid");
   if (!err) {
-    say(access, "ok", signedAs || tokens.instructor() ? signedAs || "Signed in as the server's admin (the instructor token)." : "This server has no instructor token and listens on loopback only: everyone who reaches it is the instructor (fine on your own machine; a class's server needs TRACER_INSTRUCTOR_TOKEN).");
+    say(
+      access,
+      "ok",
+      signedAs || tokens.instructor()
+        ? signedAs || "Signed in as the server's admin (the instructor token)."
+        : "This server has no instructor token and listens on loopback only: everyone who reaches it is the instructor (fine on your own machine; a class's server needs TRACER_INSTRUCTOR_TOKEN).",
+    );
   }
   return !err;
 }
@@ -73,37 +83,69 @@ async function showList() {
     h(
       "div",
       { class: "course-home" },
-      h("section", { class: "panel", "aria-labelledby": "h-list" }, h("div", { class: "panel-head" }, h("h2", { id: "h-list" }, "Assignments")), note, list),
+      h(
+        "section",
+        { class: "panel", "aria-labelledby": "h-list" },
+        h("div", { class: "panel-head" }, h("h2", { id: "h-list" }, "Assignments")),
+        note,
+        list,
+      ),
       h(
         "section",
         { class: "panel", "aria-labelledby": "h-publish" },
         h("div", { class: "panel-head" }, h("h2", { id: "h-publish" }, "Publish an assignment")),
-        h("p", { class: "hint" }, "A grading spec with a deadline and a policy; its reference renders as soon as it is published. The whole path, from spec to grades: ", h("a", { href: "/reference/assignments.md" }, "how assignments work"), "."),
+        h(
+          "p",
+          { class: "hint" },
+          "A grading spec with a deadline and a policy; its reference renders as soon as it is published. The whole path, from spec to grades: ",
+          h("a", { href: "/reference/assignments.md" }, "how assignments work"),
+          ".",
+        ),
         form.el,
       ),
     ),
   );
-  const courses = h("section", { class: "panel", "aria-labelledby": "h-courses", id: "courses" }, h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")));
+  const courses = h(
+    "section",
+    { class: "panel", "aria-labelledby": "h-courses", id: "courses" },
+    h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")),
+  );
   view.querySelector(".course-home").prepend(courses);
   showCourses(courses).catch(() => courses.remove());
   try {
     const { assignments } = await course.list();
     accessOk(null);
-    say(note, "ok", assignments.length ? `${assignments.length} assignment${assignments.length > 1 ? "s" : ""}, the newest last.` : "None yet: publish one with the form.");
+    say(
+      note,
+      "ok",
+      assignments.length
+        ? `${assignments.length} assignment${assignments.length > 1 ? "s" : ""}, the newest last.`
+        : "None yet: publish one with the form.",
+    );
     list.replaceChildren(
       ...assignments.map((a) =>
         h(
           "li",
           { dataset: { id: a.id } },
           h("a", { href: `#${a.id}` }, a.name),
-          h("span", { class: "muted" }, ` · ${a.course} · due ${when(a.deadline)} · ${a.students} student${a.students === 1 ? "" : "s"} · version ${a.version}`),
+          h(
+            "span",
+            { class: "muted" },
+            ` · ${a.course} · due ${when(a.deadline)} · ${a.students} student${a.students === 1 ? "" : "s"} · version ${a.version}`,
+          ),
         ),
       ),
     );
     showAudit(assignments).catch(() => {});
   } catch (err) {
     accessOk(err);
-    say(note, "error", tokenProblem(err, !!tokens.instructor()) ? "Sign in first: see above." : `Could not list the assignments: ${err.message}`);
+    say(
+      note,
+      "error",
+      tokenProblem(err, !!tokens.instructor())
+        ? "Sign in first: see above."
+        : `Could not list the assignments: ${err.message}`,
+    );
   }
 }
 
@@ -124,18 +166,43 @@ async function showCourses(panel) {
   const role = mine?.you?.role;
   // a course just created is the one to publish into (it stayed on the first course)
   const into = courses.some((c) => c.id === madeCourse) ? madeCourse : course.into;
-  const pick = h("select", { id: "course-into", "aria-label": "Course to publish into" }, ...courses.map((c) => h("option", { value: c.id, selected: c.id === into }, `${c.name} (${c.id})`)));
+  const pick = h(
+    "select",
+    { id: "course-into", "aria-label": "Course to publish into" },
+    ...courses.map((c) => h("option", { value: c.id, selected: c.id === into }, `${c.name} (${c.id})`)),
+  );
   pick.addEventListener("change", () => (course.into = pick.value));
   course.into = courses.length > 1 ? pick.value : null;
-  const items = courses.map((c) => h("li", { dataset: { id: c.id } }, h("strong", {}, c.name), h("span", { class: "muted" }, ` · ${c.id} · ${c.assignments} assignment${c.assignments === 1 ? "" : "s"} · ${c.students} student${c.students === 1 ? "" : "s"} on its roster`)));
-  const parts = [h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")), h("ul", { class: "course-list", id: "course-list" }, ...items)];
+  const items = courses.map((c) =>
+    h(
+      "li",
+      { dataset: { id: c.id } },
+      h("strong", {}, c.name),
+      h(
+        "span",
+        { class: "muted" },
+        ` · ${c.id} · ${c.assignments} assignment${c.assignments === 1 ? "" : "s"} · ${c.students} student${c.students === 1 ? "" : "s"} on its roster`,
+      ),
+    ),
+  );
+  const parts = [
+    h("div", { class: "panel-head" }, h("h2", { id: "h-courses" }, "Courses")),
+    h("ul", { class: "course-list", id: "course-list" }, ...items),
+  ];
   if (role && role !== "admin") {
     signedAs = `Signed in as ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}.`;
     say(access, "ok", signedAs);
     showRole(role);
   }
   if (role === "ta") document.querySelector('[aria-labelledby="h-publish"]')?.remove(); // publishing is the instructors'
-  if (role && role !== "admin") parts.push(h("p", { class: "hint", id: "course-role" }, `You are ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}${role === "ta" ? ": you follow the class, grant extensions and regrade; publishing is the instructors'." : "."}`));
+  if (role && role !== "admin")
+    parts.push(
+      h(
+        "p",
+        { class: "hint", id: "course-role" },
+        `You are ${role === "ta" ? "a TA" : "an instructor"} of ${mine.name}${role === "ta" ? ": you follow the class, grant extensions and regrade; publishing is the instructors'." : "."}`,
+      ),
+    );
   if (courses.length > 1) parts.push(h("p", {}, h("label", { for: "course-into" }, "Publish into "), pick));
   if (!role || role === "admin" || role === "instructor") parts.push(staffForm(courses, role !== "instructor"));
   panel.replaceChildren(...parts);
@@ -144,18 +211,31 @@ async function showCourses(panel) {
 /** Add an instructor or a TA to a course (and, for the admin, make a course): their link is shown once here. */
 function staffForm(courses, admin) {
   const out = h("p", { class: "hint", id: "staff-status", role: "status", "aria-live": "polite" });
-  const cid = h("select", { id: "staff-course" }, ...courses.map((c) => h("option", { value: c.id, selected: c.id === madeCourse }, c.id)));
+  const cid = h(
+    "select",
+    { id: "staff-course" },
+    ...courses.map((c) => h("option", { value: c.id, selected: c.id === madeCourse }, c.id)),
+  );
   const pid = h("input", { id: "staff-id", required: true, maxlength: 80, autocomplete: "off" });
   const name = h("input", { id: "staff-name", maxlength: 200, autocomplete: "off" });
-  const role = h("select", { id: "staff-role" }, h("option", { value: "ta" }, "TA"), h("option", { value: "instructor" }, "instructor"));
+  const role = h(
+    "select",
+    { id: "staff-role" },
+    h("option", { value: "ta" }, "TA"),
+    h("option", { value: "instructor" }, "instructor"),
+  );
   const form = h(
     "form",
     { class: "staff-form", id: "staff-form" },
     h("h3", {}, "Add staff"),
-    h("label", { for: "staff-course" }, "Course"), cid,
-    h("label", { for: "staff-id" }, "Their id"), pid,
-    h("label", { for: "staff-name" }, "Name"), name,
-    h("label", { for: "staff-role" }, "Role"), role,
+    h("label", { for: "staff-course" }, "Course"),
+    cid,
+    h("label", { for: "staff-id" }, "Their id"),
+    pid,
+    h("label", { for: "staff-name" }, "Name"),
+    name,
+    h("label", { for: "staff-role" }, "Role"),
+    role,
     h("button", { type: "submit" }, "Add"),
     out,
   );
@@ -163,17 +243,46 @@ function staffForm(courses, admin) {
     e.preventDefault();
     try {
       const s = await course.addStaff(cid.value, { id: pid.value.trim(), name: name.value.trim(), role: role.value });
-      out.replaceChildren(`${s.name} is ${s.role === "ta" ? "a TA" : "an instructor"} of ${cid.value}. Send them this link (it carries their token): `, linkBox(s.link, { id: "staff-link", label: `Copy ${s.name}'s link` }));
+      out.replaceChildren(
+        `${s.name} is ${s.role === "ta" ? "a TA" : "an instructor"} of ${cid.value}. Send them this link (it carries their token): `,
+        linkBox(s.link, { id: "staff-link", label: `Copy ${s.name}'s link` }),
+      );
     } catch (err) {
       out.textContent = `Not added: ${err.message}`;
     }
   });
   if (!admin) return form;
-  const nid = h("input", { id: "new-course-id", required: true, maxlength: 40, autocomplete: "off", pattern: "[A-Za-z0-9][A-Za-z0-9_\\-]*" }); // the server's COURSE_ID; `-` escaped: Chromium compiles it with the v flag
+  const nid = h("input", {
+    id: "new-course-id",
+    required: true,
+    maxlength: 40,
+    autocomplete: "off",
+    pattern: "[A-Za-z0-9][A-Za-z0-9_\\-]*",
+  }); // the server's COURSE_ID; `-` escaped: Chromium compiles it with the v flag
   const nname = h("input", { id: "new-course-name", maxlength: 200, autocomplete: "off" });
-  const ntokens = h("input", { id: "new-course-tokens", type: "number", min: "0", max: "60", step: "1", value: "0", title: "days each student may spend on late work, shared by the course's assignments" });
+  const ntokens = h("input", {
+    id: "new-course-tokens",
+    type: "number",
+    min: "0",
+    max: "60",
+    step: "1",
+    value: "0",
+    title: "days each student may spend on late work, shared by the course's assignments",
+  });
   const made = h("p", { class: "hint", role: "status", "aria-live": "polite" });
-  const create = h("form", { class: "staff-form", id: "course-form" }, h("h3", {}, "New course"), h("label", { for: "new-course-id" }, "Id"), nid, h("label", { for: "new-course-name" }, "Name"), nname, h("label", { for: "new-course-tokens" }, "Late tokens (days per student)"), ntokens, h("button", { type: "submit" }, "Create"), made);
+  const create = h(
+    "form",
+    { class: "staff-form", id: "course-form" },
+    h("h3", {}, "New course"),
+    h("label", { for: "new-course-id" }, "Id"),
+    nid,
+    h("label", { for: "new-course-name" }, "Name"),
+    nname,
+    h("label", { for: "new-course-tokens" }, "Late tokens (days per student)"),
+    ntokens,
+    h("button", { type: "submit" }, "Create"),
+    made,
+  );
   create.addEventListener("submit", async (e) => {
     e.preventDefault();
     try {

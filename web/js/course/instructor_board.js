@@ -14,12 +14,30 @@ import { GradingPanel } from "./grading.js";
 import { RegradePanel } from "./regrade.js";
 import { StatsPanel } from "./stats.js";
 import { extensionHistory, tokensPanel } from "./latetokens.js";
-import { AS, course, errorList, linkBox, localValue, pts, say, showFieldErrors, when, zoned, zoneName } from "./instructor_util.js";
+import {
+  AS,
+  course,
+  errorList,
+  linkBox,
+  localValue,
+  pts,
+  say,
+  showFieldErrors,
+  when,
+  zoned,
+  zoneName,
+} from "./instructor_util.js";
 
 const TA_MAY = "As a TA you follow the class, grant extensions and regrade.";
 const POLL_MS = 3000; // the roster is asked again this often while the page is shown
 const BINS = 10; // the histogram's bars: tenths of the spec's points
-const STATE_TEXT = { none: "not submitted", submitted: "submitted", graded: "graded", invalid: "invalid only", failed: "ungradable" };
+const STATE_TEXT = {
+  none: "not submitted",
+  submitted: "submitted",
+  graded: "graded",
+  invalid: "invalid only",
+  failed: "ungradable",
+};
 const FILTERS = [
   ["all", "everyone"],
   ["none", "not submitted"],
@@ -50,13 +68,20 @@ function csvText(rows) {
 
 function matches(row, filter) {
   switch (filter) {
-    case "all": return true;
-    case "waiting": return row.pending > 0;
-    case "late": return row.late;
-    case "extended": return row.extended;
-    case "self": return row.self_declared;
-    case "inactive": return row.active === false;
-    default: return row.state === filter;
+    case "all":
+      return true;
+    case "waiting":
+      return row.pending > 0;
+    case "late":
+      return row.late;
+    case "extended":
+      return row.extended;
+    case "self":
+      return row.self_declared;
+    case "inactive":
+      return row.active === false;
+    default:
+      return row.state === filter;
   }
 }
 
@@ -103,7 +128,13 @@ export class Board {
       if (this.closed) return;
       this.access(err);
       this.root.replaceChildren(
-        h("section", { class: "panel" }, h("h2", {}, "No such assignment"), h("p", { class: "message", dataset: { kind: "error" } }, err.message), h("p", {}, h("a", { href: "#" }, "All assignments"))),
+        h(
+          "section",
+          { class: "panel" },
+          h("h2", {}, "No such assignment"),
+          h("p", { class: "message", dataset: { kind: "error" } }, err.message),
+          h("p", {}, h("a", { href: "#" }, "All assignments")),
+        ),
       );
       return;
     }
@@ -120,13 +151,22 @@ export class Board {
   build() {
     const b = this.brief;
     document.title = `${b.name}: dashboard`;
-    $("#crumbs").replaceChildren(h("a", { href: "#" }, "All assignments"), h("span", { "aria-hidden": "true" }, " › "), h("span", { "aria-current": "page" }, b.name));
+    $("#crumbs").replaceChildren(
+      h("a", { href: "#" }, "All assignments"),
+      h("span", { "aria-hidden": "true" }, " › "),
+      h("span", { "aria-current": "page" }, b.name),
+    );
     this.head = h("section", { class: "panel board-head", "aria-labelledby": "h-board" });
     this.status = h("p", { id: "board-status", role: "status", "aria-live": "polite" });
     this.renderHead();
 
     // the roster and its links
-    this.rosterInput = h("input", { type: "file", id: "roster-file", accept: ".csv,text/csv", "aria-describedby": "roster-help roster-errors" });
+    this.rosterInput = h("input", {
+      type: "file",
+      id: "roster-file",
+      accept: ".csv,text/csv",
+      "aria-describedby": "roster-help roster-errors",
+    });
     this.rosterInput.addEventListener("change", () => this.uploadRoster());
     this.rosterErrors = errorList("roster-errors", "Problems in the roster");
     this.rosterStatus = h("p", { id: "roster-status", role: "status", "aria-live": "polite" });
@@ -134,20 +174,38 @@ export class Board {
     // a TA may not change the roster or its links (the server refuses them after the form is sent): no forms, the reason
     const rosterForms = this.may("roster")
       ? [
-          h("label", { for: "roster-file", class: "grade-label" }, "Upload the roster (CSV with the header id,name,email)"),
+          h(
+            "label",
+            { for: "roster-file", class: "grade-label" },
+            "Upload the roster (CSV with the header id,name,email)",
+          ),
           this.rosterInput,
-          h("p", { id: "roster-help", class: "hint" }, "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Download the links after the upload; they can be downloaded again at any time."),
+          h(
+            "p",
+            { id: "roster-help", class: "hint" },
+            "New students get a personal link with a secret token; students already on the roster keep theirs (their names and emails are updated). Download the links after the upload; they can be downloaded again at any time.",
+          ),
           this.rosterErrors,
           this.rosterStatus,
           h(
             "div",
             { class: "links-again" },
-            h("button", { type: "button", id: "links-again", onclick: () => this.linksAgain() }, "Download links again"),
+            h(
+              "button",
+              { type: "button", id: "links-again", onclick: () => this.linksAgain() },
+              "Download links again",
+            ),
             h("button", { type: "button", id: "links-reissue", onclick: () => this.reissueAll() }, "Re-issue all…"),
           ),
           this.linksBox,
         ]
-      : [h("p", { class: "hint", id: "roster-ta" }, `${TA_MAY} The roster and the students' links are the instructors': ask one of them to upload a roster or re-issue a link.`)];
+      : [
+          h(
+            "p",
+            { class: "hint", id: "roster-ta" },
+            `${TA_MAY} The roster and the students' links are the instructors': ask one of them to upload a roster or re-issue a link.`,
+          ),
+        ];
     const roster = h(
       "section",
       { class: "panel", "aria-labelledby": "h-roster" },
@@ -164,16 +222,29 @@ export class Board {
       h("div", { class: "panel-head" }, h("h2", { id: "h-dist" }, "Scores")),
       this.stats,
       this.histo,
-      h("p", { class: "hint" }, "Each student's counting score, in the spec's points (an image, out of fewer points, is scaled as the gradebook scales it). Mean and median over the graded students."),
+      h(
+        "p",
+        { class: "hint" },
+        "Each student's counting score, in the spec's points (an image, out of fewer points, is scaled as the gradebook scales it). Mean and median over the graded students.",
+      ),
     );
 
     // the roster against the states
-    this.filterSelect = h("select", { id: "roster-filter" }, FILTERS.map(([v, t]) => h("option", { value: v }, t)));
+    this.filterSelect = h(
+      "select",
+      { id: "roster-filter" },
+      FILTERS.map(([v, t]) => h("option", { value: v }, t)),
+    );
     this.filterSelect.addEventListener("change", () => {
       this.filter = this.filterSelect.value;
       this.renderTable();
     });
-    this.search = h("input", { type: "search", id: "roster-search", placeholder: "id or name", "aria-label": "Find a student by id or name" });
+    this.search = h("input", {
+      type: "search",
+      id: "roster-search",
+      placeholder: "id or name",
+      "aria-label": "Find a student by id or name",
+    });
     this.search.addEventListener("input", () => this.renderTable());
     this.count = h("span", { class: "muted", id: "roster-count", "aria-live": "polite" });
     this.tbody = h("tbody", { id: "roster-rows" });
@@ -189,11 +260,24 @@ export class Board {
         this.count,
         h("span", { class: "toolbar" }, h("label", { class: "inline" }, "Show ", this.filterSelect), this.search),
       ),
-      h("p", { class: "hint" }, `Filled live while the class submits (asked every ${POLL_MS / 1000} s). Click a student (or focus the row and press Enter) for their submissions, an extension or a new link.`),
-      h("div", { class: "grade-table-box board-table-box" }, h("table", { class: "grade-table board-table", id: "roster-table" }, this.caption, this.thead, this.tbody)),
+      h(
+        "p",
+        { class: "hint" },
+        `Filled live while the class submits (asked every ${POLL_MS / 1000} s). Click a student (or focus the row and press Enter) for their submissions, an extension or a new link.`,
+      ),
+      h(
+        "div",
+        { class: "grade-table-box board-table-box" },
+        h("table", { class: "grade-table board-table", id: "roster-table" }, this.caption, this.thead, this.tbody),
+      ),
     );
 
-    this.detail = h("section", { class: "panel grade-detail board-detail", id: "student-detail", "aria-labelledby": "h-student", hidden: true });
+    this.detail = h("section", {
+      class: "panel grade-detail board-detail",
+      id: "student-detail",
+      "aria-labelledby": "h-student",
+      hidden: true,
+    });
     this.versions = h("section", { class: "panel board-versions", "aria-labelledby": "h-versions" });
     this.renderVersions();
     // own tracers: what the class's tree logs get wrong first (GET .../dashboard `tree_whats`)
@@ -202,7 +286,11 @@ export class Board {
       "section",
       { class: "panel board-whats", "aria-labelledby": "h-whats" },
       h("div", { class: "panel-head" }, h("h2", { id: "h-whats" }, "Own tracers: first differences")),
-      h("p", { class: "hint" }, "For each student's latest tree log, each tree's first difference from the reference's, by what differs (the most frequent first): what the class gets wrong most."),
+      h(
+        "p",
+        { class: "hint" },
+        "For each student's latest tree log, each tree's first difference from the reference's, by what differs (the most frequent first): what the class gets wrong most.",
+      ),
       this.whats,
     );
     this.similarity = new SimilarityPanel(this.aid, { access: this.access }); // web/js/course/similarity.js
@@ -210,11 +298,24 @@ export class Board {
     this.classStats = new StatsPanel(this.aid, { access: this.access }); // web/js/course/stats.js
     this.classStats.load();
     // staff-graded items: the grading queue (web/js/course/grading.js), when the spec has manual items
-    this.grading = this.brief.spec?.manual?.length ? new GradingPanel(this.aid, { access: this.access, may: (a) => this.may(a) }) : null;
+    this.grading = this.brief.spec?.manual?.length
+      ? new GradingPanel(this.aid, { access: this.access, may: (a) => this.may(a) })
+      : null;
     this.grading?.load();
     this.regrade = new RegradePanel(this.aid, { access: this.access }); // web/js/course/regrade.js
     this.regrade.load();
-    this.root.replaceChildren(this.head, h("div", { class: "board-top" }, roster, dist), table, this.detail, ...(this.grading ? [this.grading.root] : []), this.regrade.root, whats, this.classStats.root, this.similarity.root, this.versions);
+    this.root.replaceChildren(
+      this.head,
+      h("div", { class: "board-top" }, roster, dist),
+      table,
+      this.detail,
+      ...(this.grading ? [this.grading.root] : []),
+      this.regrade.root,
+      whats,
+      this.classStats.root,
+      this.similarity.root,
+      this.versions,
+    );
   }
 
   renderHead() {
@@ -222,26 +323,60 @@ export class Board {
     const ref = b.reference_grade;
     const refText = !ref ? "–" : ref.status === "graded" ? `${pts(ref.score)} / ${pts(ref.max_score)}` : ref.status;
     const exp = (name, file) =>
-      h("button", { type: "button", id: `export-${name}`, onclick: () => downloadFile(`${course.url(this.aid)}/${file}`, file, AS).catch((e) => say(this.status, "error", `Could not download ${file}: ${e.message}`)) }, file);
+      h(
+        "button",
+        {
+          type: "button",
+          id: `export-${name}`,
+          onclick: () =>
+            downloadFile(`${course.url(this.aid)}/${file}`, file, AS).catch((e) =>
+              say(this.status, "error", `Could not download ${file}: ${e.message}`),
+            ),
+        },
+        file,
+      );
     this.head.replaceChildren(
       h(
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-board" }, b.name),
         h("span", { class: "muted" }, `version ${b.version} · ${b.max_score} points`),
-        h("span", { class: "toolbar", role: "group", "aria-label": "Exports" }, exp("grades", "grades.csv"), exp("gradebook", "gradebook.csv")),
+        h(
+          "span",
+          { class: "toolbar", role: "group", "aria-label": "Exports" },
+          exp("grades", "grades.csv"),
+          exp("gradebook", "gradebook.csv"),
+        ),
       ),
       h(
         "dl",
         { class: "stats" },
         h("div", {}, h("dt", {}, "deadline"), h("dd", { id: "board-deadline" }, when(b.deadline))),
-        b.late_until ? h("div", {}, h("dt", {}, "late until"), h("dd", {}, `${when(b.late_until)} (−${Math.round(b.late_penalty * 100)} %)`)) : null,
+        b.late_until
+          ? h(
+              "div",
+              {},
+              h("dt", {}, "late until"),
+              h("dd", {}, `${when(b.late_until)} (−${Math.round(b.late_penalty * 100)} %)`),
+            )
+          : null,
         h("div", {}, h("dt", {}, "attempts"), h("dd", {}, b.max_submissions ?? "no limit")),
         h("div", {}, h("dt", {}, "the grade is"), h("dd", {}, `the ${b.counts} graded`)),
-        h("div", { title: "the reference scene graded against its own spec: full marks says the spec and its reference agree" }, h("dt", {}, "reference's grade"), h("dd", { id: "reference-grade" }, refText)),
+        h(
+          "div",
+          {
+            title: "the reference scene graded against its own spec: full marks says the spec and its reference agree",
+          },
+          h("dt", {}, "reference's grade"),
+          h("dd", { id: "reference-grade" }, refText),
+        ),
         b.join ? h("div", {}, h("dt", {}, "open: join at"), h("dd", {}, h("code", {}, b.join))) : null,
       ),
-      h("p", { class: "hint" }, "grades.csv: one row per roster student (id, name, score, max_score, late, submissions). gradebook.csv: the same for an LMS import (Canvas's columns). Each graded submission's Gradescope results.json is in the student's history."),
+      h(
+        "p",
+        { class: "hint" },
+        "grades.csv: one row per roster student (id, name, score, max_score, late, submissions). gradebook.csv: the same for an LMS import (Canvas's columns). Each graded submission's Gradescope results.json is in the student's history.",
+      ),
       this.status,
     );
   }
@@ -286,7 +421,8 @@ export class Board {
   renderSummary() {
     const d = this.data;
     const m = d.summary;
-    const stat = (key, label, value) => h("div", { dataset: { stat: key } }, h("dt", {}, label), h("dd", {}, String(value)));
+    const stat = (key, label, value) =>
+      h("div", { dataset: { stat: key } }, h("dt", {}, label), h("dd", {}, String(value)));
     this.stats.replaceChildren(
       stat("students", "students", m.students),
       stat("submitted", "submitted", m.submitted),
@@ -297,7 +433,12 @@ export class Board {
       stat("late", "late", m.late),
       stat("mean", "mean", m.mean === null ? "–" : `${pts(m.mean)} / ${pts(d.max_points)}`),
       stat("median", "median", m.median === null ? "–" : `${pts(m.median)} / ${pts(d.max_points)}`),
-      ...(d.lms?.grades ? [stat("lms_pending", "grades to send to the LMS", d.lms.grades.pending), stat("lms_sent", "grades sent to the LMS", d.lms.grades.sent)] : []),
+      ...(d.lms?.grades
+        ? [
+            stat("lms_pending", "grades to send to the LMS", d.lms.grades.pending),
+            stat("lms_sent", "grades sent to the LMS", d.lms.grades.sent),
+          ]
+        : []),
     );
     this.renderLms();
     this.renderHistogram();
@@ -323,8 +464,12 @@ export class Board {
       note = h("p", { class: "hint", id: "lms-note", role: "status" });
       this.stats.after(note);
     }
-    const synced = l.roster_synced_at ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}` : "roster not read from the LMS yet";
-    const waiting = l.grades?.error ? ` Grades wait: the LMS answered "${l.grades.error}"; the next try: ${when(new Date(l.grades.next_try * 1000).toISOString())}.` : "";
+    const synced = l.roster_synced_at
+      ? `roster read from the LMS ${when(new Date(l.roster_synced_at * 1000).toISOString())}`
+      : "roster not read from the LMS yet";
+    const waiting = l.grades?.error
+      ? ` Grades wait: the LMS answered "${l.grades.error}"; the next try: ${when(new Date(l.grades.next_try * 1000).toISOString())}.`
+      : "";
     note.textContent = `In the LMS: ${l.contexts.join(", ")} (${synced}).${waiting}`;
     this.renderRefused(note, l.grades?.refused || []);
   }
@@ -347,7 +492,11 @@ export class Board {
       again.disabled = true;
       try {
         const r = await course.lmsSendAgain(this.aid);
-        say(this.status, "ok", `${r.queued} refused grade${r.queued === 1 ? "" : "s"} queued to be sent to the LMS again.`);
+        say(
+          this.status,
+          "ok",
+          `${r.queued} refused grade${r.queued === 1 ? "" : "s"} queued to be sent to the LMS again.`,
+        );
         await this.refresh();
       } catch (e) {
         say(status, "error", `Could not queue them again: ${e.message}`);
@@ -357,8 +506,27 @@ export class Board {
     });
     box.replaceChildren(
       h("h3", { id: "h-lms-refused" }, `Grades the LMS refused (${refused.length}): not tried again`),
-      h("ul", {}, ...refused.map((x) => h("li", { dataset: { score: x.id } }, h("strong", {}, x.student), ` ${pts(x.score_given)} / ${pts(x.score_max)}: HTTP ${x.status}, ${x.error}`))),
-      h("p", { class: "hint" }, "Fix it in the LMS first (the gradebook column, the student's enrolment), then send them again.", " ", again, " ", status),
+      h(
+        "ul",
+        {},
+        ...refused.map((x) =>
+          h(
+            "li",
+            { dataset: { score: x.id } },
+            h("strong", {}, x.student),
+            ` ${pts(x.score_given)} / ${pts(x.score_max)}: HTTP ${x.status}, ${x.error}`,
+          ),
+        ),
+      ),
+      h(
+        "p",
+        { class: "hint" },
+        "Fix it in the LMS first (the gradebook column, the student's enrolment), then send them again.",
+        " ",
+        again,
+        " ",
+        status,
+      ),
     );
   }
 
@@ -370,27 +538,49 @@ export class Board {
     const counts = new Array(BINS).fill(0);
     const scores = d.students.map((r) => r.points).filter((x) => typeof x === "number");
     for (const x of scores) counts[Math.min(BINS - 1, Math.max(0, Math.floor((x / max) * BINS)))]++;
-    const W = 360, H = 160, L = 22, B = 24, T = 40, R = 8; // T: room above the bars for the two marks' labels
+    const W = 360,
+      H = 160,
+      L = 22,
+      B = 24,
+      T = 40,
+      R = 8; // T: room above the bars for the two marks' labels
     const top = Math.max(1, ...counts);
     const bw = (W - L - R) / BINS;
     const y = (n) => H - B - (n / top) * (H - B - T);
     const x = (p) => L + (p / max) * (W - L - R);
     const bars = counts.map((n, i) => {
-      const lo = (i * max) / BINS, hi = ((i + 1) * max) / BINS;
+      const lo = (i * max) / BINS,
+        hi = ((i + 1) * max) / BINS;
       return s(
         "g",
         { class: "bar", dataset: { bin: i, count: n } },
-        s("title", {}, `${n} student${n === 1 ? "" : "s"} with ${pts(lo)} to ${i === BINS - 1 ? pts(hi) : `under ${pts(hi)}`} points`),
+        s(
+          "title",
+          {},
+          `${n} student${n === 1 ? "" : "s"} with ${pts(lo)} to ${i === BINS - 1 ? pts(hi) : `under ${pts(hi)}`} points`,
+        ),
         s("rect", { x: L + i * bw + 1, y: y(n), width: bw - 2, height: H - B - y(n) }),
-        n ? s("text", { x: L + (i + 0.5) * bw, y: y(n) - 3, "text-anchor": "middle", class: "count" }, String(n)) : null,
+        n
+          ? s("text", { x: L + (i + 0.5) * bw, y: y(n) - 3, "text-anchor": "middle", class: "count" }, String(n))
+          : null,
       );
     });
-    const ticks = [0, max / 2, max].map((p) => s("text", { x: x(p), y: H - B + 15, "text-anchor": p === 0 ? "start" : p === max ? "end" : "middle", class: "tick" }, pts(p)));
+    const ticks = [0, max / 2, max].map((p) =>
+      s(
+        "text",
+        { x: x(p), y: H - B + 15, "text-anchor": p === 0 ? "start" : p === max ? "end" : "middle", class: "tick" },
+        pts(p),
+      ),
+    );
     const mark = (value, cls, label, row) => {
       if (value === null) return null;
       const right = x(value) > W / 2; // the label on the side with room for it
       // the labels in two rows above the tallest bar's count, so that neither covers it nor the other
-      const text = s("text", { x: x(value) + (right ? -3 : 3), y: 10 + row * 11, "text-anchor": right ? "end" : "start", class: "mark" }, `${label} ${pts(value)}`);
+      const text = s(
+        "text",
+        { x: x(value) + (right ? -3 : 3), y: 10 + row * 11, "text-anchor": right ? "end" : "start", class: "mark" },
+        `${label} ${pts(value)}`,
+      );
       return s("g", { class: cls }, s("line", { x1: x(value), x2: x(value), y1: 2 + row * 11, y2: H - B }), text);
     };
     const m = d.summary;
@@ -407,12 +597,27 @@ export class Board {
       mark(m.mean, "mean", "mean", 0),
       mark(m.median, "median", "median", 1),
     );
-    this.histo.replaceChildren(scores.length ? svg : h("p", { class: "hint histo-empty" }, "No graded scores yet: the bars appear as the class is graded."));
+    this.histo.replaceChildren(
+      scores.length
+        ? svg
+        : h("p", { class: "hint histo-empty" }, "No graded scores yet: the bars appear as the class is graded."),
+    );
   }
 
   columns() {
     const redraw = () => this.renderTable();
-    return h("tr", {}, COLUMNS.map(([key, label, , first]) => this.sort.header(key, label, { first, num: ["score", "submissions"].includes(key), redraw, within: this.thead })));
+    return h(
+      "tr",
+      {},
+      COLUMNS.map(([key, label, , first]) =>
+        this.sort.header(key, label, {
+          first,
+          num: ["score", "submissions"].includes(key),
+          redraw,
+          within: this.thead,
+        }),
+      ),
+    );
   }
 
   /** The table, kept fast at 300 rows: a row is built again only when its student's data changed. */
@@ -421,7 +626,9 @@ export class Board {
     this.thead.replaceChildren(this.columns());
     const all = this.data.students.map((r, index) => ({ ...r, index }));
     const q = this.search.value.trim().toLowerCase();
-    const shown = all.filter((r) => matches(r, this.filter) && (!q || r.id.toLowerCase().includes(q) || r.name.toLowerCase().includes(q)));
+    const shown = all.filter(
+      (r) => matches(r, this.filter) && (!q || r.id.toLowerCase().includes(q) || r.name.toLowerCase().includes(q)),
+    );
     const col = COLUMNS.find((c) => c[0] === this.sort.key) || COLUMNS[0];
     const sorted = this.sort.sorted(shown, col[2], (a, b) => a.index - b.index);
     const ids = new Set(all.map((r) => r.id));
@@ -438,8 +645,22 @@ export class Board {
       else kept.tr.removeAttribute("aria-current");
       return kept.tr;
     });
-    if (!all.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, this.may("roster") ? "No students yet: upload the roster." : "No students yet: an instructor uploads the roster.")));
-    else if (!shown.length) trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No student matches.")));
+    if (!all.length)
+      trs.push(
+        h(
+          "tr",
+          { class: "empty" },
+          h(
+            "td",
+            { colspan: COLUMNS.length },
+            this.may("roster")
+              ? "No students yet: upload the roster."
+              : "No students yet: an instructor uploads the roster.",
+          ),
+        ),
+      );
+    else if (!shown.length)
+      trs.push(h("tr", { class: "empty" }, h("td", { colspan: COLUMNS.length }, "No student matches.")));
     this.tbody.replaceChildren(...trs);
     const filtered = shown.length !== all.length ? `${shown.length} of ${all.length}` : `${all.length}`;
     this.count.textContent = `${filtered} student${all.length === 1 ? "" : "s"}`;
@@ -456,17 +677,71 @@ export class Board {
         dataset: { student: r.id, state: r.state, late: r.late, extended: r.extended, pending: r.pending },
         "aria-label": `${r.name} (${r.id})${r.active === false ? ", inactive" : ""}: ${STATE_TEXT[r.state]}${r.score !== null ? `, ${r.total != null ? `${pts(r.total)} of ${pts(r.total_max)}${r.released ? "" : " (manual part not released)"}` : `${pts(r.score)} of ${pts(r.max_score)}`}` : ""}; Enter shows the details`,
       },
-      h("th", { scope: "row" }, h("span", { class: "sid" }, r.id), " ", h("span", { class: "sname" }, r.name), r.self_declared ? h("span", { class: "badge self", title: "joined the open assignment by a name they typed" }, "self-declared") : null, r.active === false ? h("span", { class: "badge inactive", title: "no longer in the LMS course: kept with their submissions and grades; cannot submit" }, "inactive") : null),
+      h(
+        "th",
+        { scope: "row" },
+        h("span", { class: "sid" }, r.id),
+        " ",
+        h("span", { class: "sname" }, r.name),
+        r.self_declared
+          ? h(
+              "span",
+              { class: "badge self", title: "joined the open assignment by a name they typed" },
+              "self-declared",
+            )
+          : null,
+        r.active === false
+          ? h(
+              "span",
+              {
+                class: "badge inactive",
+                title: "no longer in the LMS course: kept with their submissions and grades; cannot submit",
+              },
+              "inactive",
+            )
+          : null,
+      ),
       h(
         "td",
         { class: "state" },
         state,
-        r.pending && r.state === "graded" ? h("span", { class: "badge state-submitted" }, `${r.pending} waiting`) : null,
+        r.pending && r.state === "graded"
+          ? h("span", { class: "badge state-submitted" }, `${r.pending} waiting`)
+          : null,
         r.late ? h("span", { class: "badge late" }, "late") : null,
       ),
-      h("td", { class: "num score" }, r.score === null ? h("span", { class: "muted" }, "–") : r.total != null ? [h("strong", {}, pts(r.total)), ` / ${pts(r.total_max)}`, r.released ? null : h("span", { class: "badge not-released", title: "auto part plus the manual part graded so far; students see the auto part until the release" }, "not released")] : [h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`]),
+      h(
+        "td",
+        { class: "num score" },
+        r.score === null
+          ? h("span", { class: "muted" }, "–")
+          : r.total != null
+            ? [
+                h("strong", {}, pts(r.total)),
+                ` / ${pts(r.total_max)}`,
+                r.released
+                  ? null
+                  : h(
+                      "span",
+                      {
+                        class: "badge not-released",
+                        title:
+                          "auto part plus the manual part graded so far; students see the auto part until the release",
+                      },
+                      "not released",
+                    ),
+              ]
+            : [h("strong", {}, pts(r.score)), ` / ${pts(r.max_score)}`],
+      ),
       h("td", { class: "num subs" }, String(r.submissions)),
-      h("td", { class: "deadline" }, when(r.deadline, true), r.extended ? h("span", { class: "badge extended", title: "an extension: their own deadline" }, "extended") : null),
+      h(
+        "td",
+        { class: "deadline" },
+        when(r.deadline, true),
+        r.extended
+          ? h("span", { class: "badge extended", title: "an extension: their own deadline" }, "extended")
+          : null,
+      ),
       h("td", { class: "last" }, r.last_at ? when(r.last_at, true) : h("span", { class: "muted" }, "–")),
     );
     tr.addEventListener("click", () => this.showStudent(r.id));
@@ -495,13 +770,21 @@ export class Board {
       const { students } = await course.roster(this.aid, await file.text());
       const fresh = students.filter((st) => st.link);
       const kept = students.length - fresh.length;
-      say(this.rosterStatus, "ok", `${students.length} students on ${file.name}: ${fresh.length} new${kept ? `, ${kept} already on the roster (they keep their links)` : ""}.`);
+      say(
+        this.rosterStatus,
+        "ok",
+        `${students.length} students on ${file.name}: ${fresh.length} new${kept ? `, ${kept} already on the roster (they keep their links)` : ""}.`,
+      );
       this.showLinks(fresh, `links-${file.name.replace(/\.csv$/i, "")}.csv`);
       this.refresh();
     } catch (err) {
       showFieldErrors(err.errors || [{ path: "", message: String(err.message || err) }], {}, this.rosterErrors);
       this.rosterInput.setAttribute("aria-invalid", "true");
-      say(this.rosterStatus, "error", `The roster was refused: ${err.errors?.length || 1} problem${err.errors?.length > 1 ? "s" : ""} (nothing was changed).`);
+      say(
+        this.rosterStatus,
+        "error",
+        `The roster was refused: ${err.errors?.length || 1} problem${err.errors?.length > 1 ? "s" : ""} (nothing was changed).`,
+      );
       this.rosterInput.focus();
     } finally {
       this.rosterInput.value = "";
@@ -515,7 +798,11 @@ export class Board {
     try {
       const cid = this.data?.course || (await course.board(this.aid)).course;
       const { students } = await course.links(cid, this.aid);
-      say(this.rosterStatus, "ok", `${students.length} link${students.length === 1 ? "" : "s"}: the ones already sent (they keep working).`);
+      say(
+        this.rosterStatus,
+        "ok",
+        `${students.length} link${students.length === 1 ? "" : "s"}: the ones already sent (they keep working).`,
+      );
       this.showLinks(students, "links-again.csv", "again");
       if (students.length) $("#links-download", this.linksBox).click();
     } catch (err) {
@@ -533,14 +820,23 @@ export class Board {
       return;
     }
     const n = students.length;
-    if (!confirm(`Re-issue all ${n} links? Every student gets a new link, and the links sent before stop working at once (in every assignment of the course ${this.data.course}): mail the new ones out.`)) return;
+    if (
+      !confirm(
+        `Re-issue all ${n} links? Every student gets a new link, and the links sent before stop working at once (in every assignment of the course ${this.data.course}): mail the new ones out.`,
+      )
+    )
+      return;
     say(this.rosterStatus, "busy", `Re-issuing ${n} links…`);
     try {
       const { students: fresh } = await course.renewLinks(this.data.course, this.aid);
       say(this.rosterStatus, "ok", `${fresh.length} new links: the old ones no longer work.`);
       this.showLinks(fresh, "links-reissued.csv", "reissued");
     } catch (err) {
-      say(this.rosterStatus, "error", `Could not re-issue the links: ${err.message}. The links sent before still work.`);
+      say(
+        this.rosterStatus,
+        "error",
+        `Could not re-issue the links: ${err.message}. The links sent before still work.`,
+      );
     }
   }
 
@@ -551,17 +847,43 @@ export class Board {
       this.linksBox.hidden = true;
       return;
     }
-    const text = csvText([["id", "name", "email", "link"], ...students.map((st) => [st.id, st.name, st.email, st.link])]);
-    const button = h("button", { type: "button", class: "primary", id: "links-download", onclick: () => download(name, new Blob([text], { type: "text/csv" })) }, `Download ${name} (${students.length} link${students.length > 1 ? "s" : ""})`);
+    const text = csvText([
+      ["id", "name", "email", "link"],
+      ...students.map((st) => [st.id, st.name, st.email, st.link]),
+    ]);
+    const button = h(
+      "button",
+      {
+        type: "button",
+        class: "primary",
+        id: "links-download",
+        onclick: () => download(name, new Blob([text], { type: "text/csv" })),
+      },
+      `Download ${name} (${students.length} link${students.length > 1 ? "s" : ""})`,
+    );
     const said = {
-      new: [h("strong", {}, "Download the links now. "), "Each link carries its student's secret token: mail each student theirs. If this page is left, \u201cDownload links again\u201d gives the same links. A lost link can be replaced (in the student's detail), which ends the old one."],
+      new: [
+        h("strong", {}, "Download the links now. "),
+        "Each link carries its student's secret token: mail each student theirs. If this page is left, \u201cDownload links again\u201d gives the same links. A lost link can be replaced (in the student's detail), which ends the old one.",
+      ],
       again: [h("strong", {}, "The same links as before. "), "They still work: nothing changed for the students."],
       reissued: [h("strong", {}, "New links: mail them out. "), "The links sent before no longer work."],
     }[why];
     this.linksBox.replaceChildren(
       h("p", { class: "message", dataset: { kind: why === "again" ? "info" : "warn" } }, ...said),
       button,
-      h("details", {}, h("summary", {}, "The links"), h("ul", { class: "links-list" }, students.map((st) => h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, linkBox(st.link, { label: `Copy ${st.id}'s link` }))))),
+      h(
+        "details",
+        {},
+        h("summary", {}, "The links"),
+        h(
+          "ul",
+          { class: "links-list" },
+          students.map((st) =>
+            h("li", {}, h("strong", {}, st.id), ` ${st.name}: `, linkBox(st.link, { label: `Copy ${st.id}'s link` })),
+          ),
+        ),
+      ),
     );
     this.linksBox.hidden = false;
     button.focus();
@@ -571,7 +893,9 @@ export class Board {
 
   /** Open a student's detail (a click, the address, or a change in their row while it is open). */
   showStudent(sid, focus = true) {
-    return this.renderStudent(sid, focus).catch((err) => say(this.status, "error", `Could not show ${sid}: ${err.message}`));
+    return this.renderStudent(sid, focus).catch((err) =>
+      say(this.status, "error", `Could not show ${sid}: ${err.message}`),
+    );
   }
 
   async renderStudent(sid, focus) {
@@ -589,14 +913,25 @@ export class Board {
       return;
     }
     if (this.open_ !== sid || this.closed) return;
-    const ext = h("input", { type: "datetime-local", id: "ext-deadline", value: localValue(d.deadline), "aria-describedby": "ext-help ext-errors" });
+    const ext = h("input", {
+      type: "datetime-local",
+      id: "ext-deadline",
+      value: localValue(d.deadline),
+      "aria-describedby": "ext-help ext-errors",
+    });
     const extErrors = errorList("ext-errors", "Problems with the extension");
     const extStatus = h("p", { id: "ext-status", role: "status", "aria-live": "polite" });
     const grant = async (deadline) => {
       extErrors.replaceChildren();
       try {
         const r = await course.extend(this.aid, sid, deadline, $("#ext-why", this.detail)?.value || "");
-        say(extStatus, "ok", deadline ? `${sid}'s deadline is now ${when(r.deadline)}${r.late_until ? ` (late until ${when(r.late_until)})` : ""}.` : `${sid} is back to the assignment's deadline.`);
+        say(
+          extStatus,
+          "ok",
+          deadline
+            ? `${sid}'s deadline is now ${when(r.deadline)}${r.late_until ? ` (late until ${when(r.late_until)})` : ""}.`
+            : `${sid} is back to the assignment's deadline.`,
+        );
         await this.refresh();
       } catch (err) {
         showFieldErrors(err.errors || [], { deadline: { input: ext, list: extErrors } }, extErrors);
@@ -608,10 +943,15 @@ export class Board {
       if (!confirm(`Replace ${sid}'s link? Their old link stops working at once.`)) return;
       try {
         const r = await course.newLink(this.aid, sid);
-        linkOut.replaceChildren(h("p", { class: "hint" }, "The new link, shown this once (the old one no longer works):"), linkBox(r.link, { label: `Copy ${sid}'s new link` }));
+        linkOut.replaceChildren(
+          h("p", { class: "hint" }, "The new link, shown this once (the old one no longer works):"),
+          linkBox(r.link, { label: `Copy ${sid}'s new link` }),
+        );
         linkOut.querySelector("button.copy").focus();
       } catch (err) {
-        linkOut.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not replace the link: ${err.message}`));
+        linkOut.replaceChildren(
+          h("p", { class: "message", dataset: { kind: "error" } }, `Could not replace the link: ${err.message}`),
+        );
       }
     };
     const history = [...d.history].reverse(); // newest first
@@ -620,8 +960,25 @@ export class Board {
         "div",
         { class: "panel-head" },
         h("h2", { id: "h-student", tabindex: -1 }, `${d.name} (${d.id})`),
-        h("span", {}, h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]), d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null, d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null, d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null, d.active === false ? h("span", { class: "badge inactive" }, "inactive: left the LMS course, cannot submit") : null),
-        h("span", { class: "toolbar" }, this.may("roster") ? h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…") : null, h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close")),
+        h(
+          "span",
+          {},
+          h("span", { class: `badge state-${d.state}` }, STATE_TEXT[d.state]),
+          d.score !== null ? h("strong", {}, ` ${pts(d.score)} / ${pts(d.max_score)}`) : null,
+          d.email ? h("span", { class: "muted" }, ` · ${d.email}`) : null,
+          d.self_declared ? h("span", { class: "badge self" }, "self-declared") : null,
+          d.active === false
+            ? h("span", { class: "badge inactive" }, "inactive: left the LMS course, cannot submit")
+            : null,
+        ),
+        h(
+          "span",
+          { class: "toolbar" },
+          this.may("roster")
+            ? h("button", { type: "button", id: "btn-new-link", onclick: replaceLink }, "Replace lost link…")
+            : null,
+          h("button", { type: "button", id: "student-close", onclick: () => this.closeStudent() }, "Close"),
+        ),
       ),
       linkOut,
       h(
@@ -632,19 +989,40 @@ export class Board {
         h("label", { for: "ext-why" }, "Why"),
         h("input", { type: "text", id: "ext-why", maxlength: "500", placeholder: "kept in the history" }),
         h("button", { type: "submit", id: "ext-grant" }, "Grant the extension"),
-        d.extended ? h("button", { type: "button", id: "ext-clear", onclick: () => grant(null) }, "Back to the assignment's deadline") : null,
-        h("p", { id: "ext-help", class: "hint" }, `In this browser's zone (${zoneName()}). An extension moves their deadline and their late cut-off by as much.`),
+        d.extended
+          ? h(
+              "button",
+              { type: "button", id: "ext-clear", onclick: () => grant(null) },
+              "Back to the assignment's deadline",
+            )
+          : null,
+        h(
+          "p",
+          { id: "ext-help", class: "hint" },
+          `In this browser's zone (${zoneName()}). An extension moves their deadline and their late cut-off by as much.`,
+        ),
         extErrors,
         extStatus,
       ),
       extensionHistory(d),
       d.tokens ? tokensPanel(d, () => this.showStudent(sid, false)) : null,
       h("h3", {}, `Submissions (${d.history.length})`),
-      history.length ? h("ol", { class: "history", id: "history", reversed: true }, history.map((sub, i) => this.submission(sub, history.length - i))) : h("p", { class: "hint" }, "Nothing submitted yet."),
+      history.length
+        ? h(
+            "ol",
+            { class: "history", id: "history", reversed: true },
+            history.map((sub, i) => this.submission(sub, history.length - i)),
+          )
+        : h("p", { class: "hint" }, "Nothing submitted yet."),
     );
     $("#ext-form", this.detail).addEventListener("submit", (e) => {
       e.preventDefault();
-      if (!ext.value) return showFieldErrors([{ path: "deadline", message: "pick a date and a time" }], { deadline: { input: ext, list: extErrors } }, extErrors);
+      if (!ext.value)
+        return showFieldErrors(
+          [{ path: "deadline", message: "pick a date and a time" }],
+          { deadline: { input: ext, list: extErrors } },
+          extErrors,
+        );
       grant(zoned(ext.value));
     });
     this.detail.hidden = false;
@@ -665,7 +1043,13 @@ export class Board {
       const { showCompare } = await import("./compare.js");
       await showCompare(box, { aid: this.aid, sid: sub.id, x, y, as: "instructor" });
     } catch (err) {
-      box.replaceChildren(h("p", { class: "message", dataset: { kind: "error" } }, `Could not compare the ray trees at (${x}, ${y}): ${err.message}`));
+      box.replaceChildren(
+        h(
+          "p",
+          { class: "message", dataset: { kind: "error" } },
+          `Could not compare the ray trees at (${x}, ${y}): ${err.message}`,
+        ),
+      );
     }
   }
 
@@ -673,7 +1057,11 @@ export class Board {
    * in the instructor's words (treecompare.js). */
   treesButton(sub, n) {
     const box = h("div", { class: "tl-box", dataset: { sid: sub.id } });
-    const button = h("button", { type: "button", class: "small tl-open", "aria-expanded": "false", dataset: { sid: sub.id } }, "Their tree log comparison");
+    const button = h(
+      "button",
+      { type: "button", class: "small tl-open", "aria-expanded": "false", dataset: { sid: sub.id } },
+      "Their tree log comparison",
+    );
     button.addEventListener("click", async () => {
       if (button.getAttribute("aria-expanded") === "true") {
         button.setAttribute("aria-expanded", "false");
@@ -682,15 +1070,31 @@ export class Board {
       button.setAttribute("aria-expanded", "true");
       box.replaceChildren(h("p", { class: "hint", role: "status" }, "Reading their latest comparison…"));
       try {
-        const [answer, { showTreeAnswers }] = await Promise.all([course.trees(this.aid, sub.id), import("./treecompare.js")]);
+        const [answer, { showTreeAnswers }] = await Promise.all([
+          course.trees(this.aid, sub.id),
+          import("./treecompare.js"),
+        ]);
         box.replaceChildren(h("h4", {}, `Their tree log against the reference's (submission ${n})`));
         const view = h("div", {});
         box.append(view);
         const files = sub.files || {};
-        showTreeAnswers(view, answer, { as: "instructor", images: { student: files["render.png"], reference: files["reference.png"] }, auth: AS, probes: sub.feedback?.probes || [] });
+        showTreeAnswers(view, answer, {
+          as: "instructor",
+          images: { student: files["render.png"], reference: files["reference.png"] },
+          auth: AS,
+          probes: sub.feedback?.probes || [],
+        });
       } catch (err) {
         const none = err.status === 404;
-        box.replaceChildren(h("p", { class: none ? "hint" : "message", role: "status", dataset: { kind: none ? "" : "error" } }, none ? "They have not sent a tree log for this submission yet." : `Could not read their comparison: ${err.message}`));
+        box.replaceChildren(
+          h(
+            "p",
+            { class: none ? "hint" : "message", role: "status", dataset: { kind: none ? "" : "error" } },
+            none
+              ? "They have not sent a tree log for this submission yet."
+              : `Could not read their comparison: ${err.message}`,
+          ),
+        );
       }
     });
     return h("div", { class: "tl-instructor" }, button, box);
@@ -720,10 +1124,18 @@ export class Board {
           { class: "grade-test-head" },
           h("span", { class: "pf", "aria-hidden": "true" }, ok ? "✓" : "✗"),
           h("strong", {}, t.name),
-          h("span", { class: "muted", title: "when the student sees it" }, `shown ${t.shown === "after_deadline" ? "after the deadline" : t.shown}`),
+          h(
+            "span",
+            { class: "muted", title: "when the student sees it" },
+            `shown ${t.shown === "after_deadline" ? "after the deadline" : t.shown}`,
+          ),
           h("span", { class: "pts" }, `${pts(t.score)} / ${pts(t.max_score)}`),
         ),
-        t.output ? (multi ? h("pre", { class: "grade-output" }, t.output) : h("p", { class: "grade-output" }, t.output)) : null,
+        t.output
+          ? multi
+            ? h("pre", { class: "grade-output" }, t.output)
+            : h("p", { class: "grade-output" }, t.output)
+          : null,
       );
     });
     const problem = (e) => h("li", {}, h("code", {}, e.path || "(the submission)"), " ", e.message);
@@ -739,11 +1151,29 @@ export class Board {
         img.addEventListener("click", (e) => this.compareAt(compare, sub, img, e));
       }
       const said = name === "rejected.png" ? sub.feedback?.metrics?.captions?.rejected || alt : alt; // the grader's caption
-      return h("figure", { class: "grade-fig", dataset: { picture: name.replace(".png", "") } }, h("div", { class: "fig-box" }, img), h("figcaption", {}, pick ? `${alt} (click a pixel to compare ray trees)` : said));
+      return h(
+        "figure",
+        { class: "grade-fig", dataset: { picture: name.replace(".png", "") } },
+        h("div", { class: "fig-box" }, img),
+        h("figcaption", {}, pick ? `${alt} (click a pixel to compare ray trees)` : said),
+      );
     });
-    const results = sub.status === "graded"
-      ? h("button", { type: "button", class: "small", dataset: { results: sub.id }, onclick: () => downloadFile(`${sub.url}/results.json`, `results-${sub.student}-${n}.json`, AS).catch((e) => say(this.status, "error", e.message)) }, "results.json")
-      : null;
+    const results =
+      sub.status === "graded"
+        ? h(
+            "button",
+            {
+              type: "button",
+              class: "small",
+              dataset: { results: sub.id },
+              onclick: () =>
+                downloadFile(`${sub.url}/results.json`, `results-${sub.student}-${n}.json`, AS).catch((e) =>
+                  say(this.status, "error", e.message),
+                ),
+            },
+            "results.json",
+          )
+        : null;
     return h(
       "li",
       { class: "history-item", dataset: { sid: sub.id, status: sub.status } },
@@ -752,21 +1182,51 @@ export class Board {
         { class: "history-head" },
         h("strong", {}, `#${n}`),
         h("span", {}, when(sub.accepted_at)),
-        h("span", { class: "muted" }, `${sub.kind === "scene" ? "scene" : `image (${sub.kind.toUpperCase()})`} · version ${sub.version}`),
+        h(
+          "span",
+          { class: "muted" },
+          `${sub.kind === "scene" ? "scene" : `image (${sub.kind.toUpperCase()})`} · version ${sub.version}`,
+        ),
         h("span", { class: `badge ${sub.status}` }, sub.status),
-        sub.late ? h("span", { class: "badge late" }, sub.penalty ? `late −${Math.round(sub.penalty * 100)} %` : "late") : null,
-        sub.tokens_spent ? h("span", { class: "badge tokens", dataset: { tokens: String(sub.tokens_spent) } }, `${sub.tokens_spent} late ${sub.tokens_spent === 1 ? "token" : "tokens"} spent`) : null,
+        sub.late
+          ? h("span", { class: "badge late" }, sub.penalty ? `late −${Math.round(sub.penalty * 100)} %` : "late")
+          : null,
+        sub.tokens_spent
+          ? h(
+              "span",
+              { class: "badge tokens", dataset: { tokens: String(sub.tokens_spent) } },
+              `${sub.tokens_spent} late ${sub.tokens_spent === 1 ? "token" : "tokens"} spent`,
+            )
+          : null,
         sub.counts ? h("span", { class: "badge counts", title: "this submission is the grade" }, "counts") : null,
         !sub.counts_as_attempt ? h("span", { class: "muted" }, "no attempt used") : null,
         h("span", { class: "pts" }, sub.score === null ? "" : `${pts(sub.score)} / ${pts(sub.max_score)}`),
         results,
       ),
-      fb.errors?.length ? h("div", { class: "message grade-problems", dataset: { kind: "error" } }, h("strong", {}, `${fb.errors.length} error${fb.errors.length > 1 ? "s" : ""}:`), h("ul", {}, fb.errors.map(problem))) : null,
-      fb.warnings?.length ? h("div", { class: "message grade-problems", dataset: { kind: "warn" } }, h("strong", {}, "Warnings:"), h("ul", {}, fb.warnings.map(problem))) : null,
+      fb.errors?.length
+        ? h(
+            "div",
+            { class: "message grade-problems", dataset: { kind: "error" } },
+            h("strong", {}, `${fb.errors.length} error${fb.errors.length > 1 ? "s" : ""}:`),
+            h("ul", {}, fb.errors.map(problem)),
+          )
+        : null,
+      fb.warnings?.length
+        ? h(
+            "div",
+            { class: "message grade-problems", dataset: { kind: "warn" } },
+            h("strong", {}, "Warnings:"),
+            h("ul", {}, fb.warnings.map(problem)),
+          )
+        : null,
       figs.length ? h("div", { class: "grade-figs" }, figs) : null,
       compare,
       trees,
-      tests.length ? h("ol", { class: "grade-tests" }, tests) : sub.status === "queued" || sub.status === "grading" ? h("p", { class: "hint" }, `${sub.status === "queued" ? "Waiting to be graded" : "Being graded"}…`) : null,
+      tests.length
+        ? h("ol", { class: "grade-tests" }, tests)
+        : sub.status === "queued" || sub.status === "grading"
+          ? h("p", { class: "hint" }, `${sub.status === "queued" ? "Waiting to be graded" : "Being graded"}…`)
+          : null,
     );
   }
 
@@ -789,17 +1249,32 @@ export class Board {
       h(
         "ol",
         { class: "versions", id: "versions" },
-        (b.versions || []).map((v) => h("li", { dataset: { version: v.version } }, `version ${v.version}, published ${when(v.created_at)}`, v.version === b.version ? h("span", { class: "badge graded" }, "current") : null)),
+        (b.versions || []).map((v) =>
+          h(
+            "li",
+            { dataset: { version: v.version } },
+            `version ${v.version}, published ${when(v.created_at)}`,
+            v.version === b.version ? h("span", { class: "badge graded" }, "current") : null,
+          ),
+        ),
       ),
       this.may("publish")
         ? h(
             "details",
             { class: "edit-box", id: "edit-box" },
             h("summary", {}, "Edit: publish a new version (and regrade)"),
-            h("p", { class: "hint" }, "Every earlier version is kept. New submissions are graded under the new version; with regrading, every earlier submission is graded again under it. The roster, extensions and submissions stay."),
+            h(
+              "p",
+              { class: "hint" },
+              "Every earlier version is kept. New submissions are graded under the new version; with regrading, every earlier submission is graded again under it. The roster, extensions and submissions stay.",
+            ),
             form.el,
           )
-        : h("p", { class: "hint", id: "edit-ta" }, `${TA_MAY} Editing the assignment (a new version) is the instructors'.`),
+        : h(
+            "p",
+            { class: "hint", id: "edit-ta" },
+            `${TA_MAY} Editing the assignment (a new version) is the instructors'.`,
+          ),
     );
   }
 

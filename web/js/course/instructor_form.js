@@ -62,14 +62,40 @@ export class AssignmentForm {
     this.specInput = h("input", { type: "file", accept: ".json,application/json", name: "spec", required: !this.edit });
     this.specInput.addEventListener("change", () => this.readSpec());
     this.refInput = h("input", { type: "file", accept: ".json,application/json", name: "reference" });
-    this.refBox = this.field("reference", "Reference scene file", this.refInput, "The spec names its reference scene as a file: pick that file (it is sent beside the spec).");
+    this.refBox = this.field(
+      "reference",
+      "Reference scene file",
+      this.refInput,
+      "The spec names its reference scene as a file: pick that file (it is sent beside the spec).",
+    );
     this.refBox.hidden = true;
     this.deadline = h("input", { type: "datetime-local", name: "deadline", required: true });
     this.lateUntil = h("input", { type: "datetime-local", name: "late_until" });
     this.regradeUntil = h("input", { type: "datetime-local", name: "regrade_deadline" });
-    this.penalty = h("input", { type: "number", name: "late_penalty", min: 0, max: 1, step: 0.05, value: "", placeholder: "0", inputmode: "decimal" });
-    this.maxSubs = h("input", { type: "number", name: "max_submissions", min: 1, step: 1, placeholder: "no limit", inputmode: "numeric" });
-    this.counts = h("select", { name: "counts" }, h("option", { value: "last" }, "the last graded one"), h("option", { value: "best" }, "the best graded one"));
+    this.penalty = h("input", {
+      type: "number",
+      name: "late_penalty",
+      min: 0,
+      max: 1,
+      step: 0.05,
+      value: "",
+      placeholder: "0",
+      inputmode: "decimal",
+    });
+    this.maxSubs = h("input", {
+      type: "number",
+      name: "max_submissions",
+      min: 1,
+      step: 1,
+      placeholder: "no limit",
+      inputmode: "numeric",
+    });
+    this.counts = h(
+      "select",
+      { name: "counts" },
+      h("option", { value: "last" }, "the last graded one"),
+      h("option", { value: "best" }, "the best graded one"),
+    );
     this.starter = h("input", { type: "file", accept: ".json,application/json", name: "starter" });
     this.showRef = h("input", { type: "checkbox", name: "show_reference", id: `${id}-show_reference` });
     this.open = h("input", { type: "checkbox", name: "open", id: `${id}-open` });
@@ -89,7 +115,12 @@ export class AssignmentForm {
     const zone = `in this browser's zone (${zoneName()}); sent with its offset`;
     const form = h(
       "form",
-      { class: "af", id, novalidate: true, "aria-label": this.edit ? "A new version of the assignment" : "Publish an assignment" },
+      {
+        class: "af",
+        id,
+        novalidate: true,
+        "aria-label": this.edit ? "A new version of the assignment" : "Publish an assignment",
+      },
       h(
         "fieldset",
         {},
@@ -98,29 +129,70 @@ export class AssignmentForm {
           "spec",
           this.edit ? "Edited spec file (JSON; empty: keep the current spec)" : "Spec file (JSON)",
           this.specInput,
-          h("span", {}, "The grading spec of ", h("a", { href: "/reference/grading.md", target: "_blank", rel: "noopener" }, "docs/grading.md"), " (scenes/grading/assignment.json is the example)."),
+          h(
+            "span",
+            {},
+            "The grading spec of ",
+            h("a", { href: "/reference/grading.md", target: "_blank", rel: "noopener" }, "docs/grading.md"),
+            " (scenes/grading/assignment.json is the example).",
+          ),
         ),
         this.refBox,
-        this.specNote = h("p", { class: "hint af-spec-note", "aria-live": "polite" }),
+        (this.specNote = h("p", { class: "hint af-spec-note", "aria-live": "polite" })),
       ),
       h(
         "fieldset",
         { class: "af-grid" },
         h("legend", {}, "Deadline and attempts"),
         this.field("deadline", "Deadline", this.deadline, zone),
-        this.field("late_until", "Late submissions until (optional)", this.lateUntil, "Taken and marked late until then."),
-        this.field("late_penalty", "Late penalty (0 to 1)", this.penalty, "The fraction of a late submission's points taken off: 0.2 keeps 80 %."),
-        this.field("regrade_deadline", "Regrade requests until (optional)", this.regradeUntil, "Empty: a week after each student's late cut-off (their deadline without one)."),
-        this.field("max_submissions", "Attempts per student", this.maxSubs, "Empty: no limit. An invalid or ungradable submission costs none."),
+        this.field(
+          "late_until",
+          "Late submissions until (optional)",
+          this.lateUntil,
+          "Taken and marked late until then.",
+        ),
+        this.field(
+          "late_penalty",
+          "Late penalty (0 to 1)",
+          this.penalty,
+          "The fraction of a late submission's points taken off: 0.2 keeps 80 %.",
+        ),
+        this.field(
+          "regrade_deadline",
+          "Regrade requests until (optional)",
+          this.regradeUntil,
+          "Empty: a week after each student's late cut-off (their deadline without one).",
+        ),
+        this.field(
+          "max_submissions",
+          "Attempts per student",
+          this.maxSubs,
+          "Empty: no limit. An invalid or ungradable submission costs none.",
+        ),
         this.field("counts", "The grade is", this.counts),
       ),
       h(
         "fieldset",
         { class: "af-grid" },
         h("legend", {}, "What students get"),
-        this.field("starter", "Starter scene (optional)", this.starter, this.edit?.policy?.starter ? "Empty: keep the current starter scene." : "A scene the students start from."),
-        h("div", { class: "af-field af-check" }, this.showRef, h("label", { for: this.showRef.id }, "Students see the reference image")),
-        h("div", { class: "af-field af-check" }, this.open, h("label", { for: this.open.id }, "Open: anyone with the link joins by a name (marked self-declared)")),
+        this.field(
+          "starter",
+          "Starter scene (optional)",
+          this.starter,
+          this.edit?.policy?.starter ? "Empty: keep the current starter scene." : "A scene the students start from.",
+        ),
+        h(
+          "div",
+          { class: "af-field af-check" },
+          this.showRef,
+          h("label", { for: this.showRef.id }, "Students see the reference image"),
+        ),
+        h(
+          "div",
+          { class: "af-field af-check" },
+          this.open,
+          h("label", { for: this.open.id }, "Open: anyone with the link joins by a name (marked self-declared)"),
+        ),
       ),
       h(
         "fieldset",
@@ -133,18 +205,37 @@ export class AssignmentForm {
           h(
             "tbody",
             {},
-            h("tr", {}, h("th", { scope: "row" }, h("label", { for: this.fbDefault.id }, "every test not named below")), h("td", {}, this.fbDefault)),
-            h("tr", {}, h("th", { scope: "row" }, h("label", { for: this.fbScore.id }, "the score")), h("td", {}, this.fbScore)),
+            h(
+              "tr",
+              {},
+              h("th", { scope: "row" }, h("label", { for: this.fbDefault.id }, "every test not named below")),
+              h("td", {}, this.fbDefault),
+            ),
+            h(
+              "tr",
+              {},
+              h("th", { scope: "row" }, h("label", { for: this.fbScore.id }, "the score")),
+              h("td", {}, this.fbScore),
+            ),
           ),
           this.fbRows,
         ),
-        h("p", { class: "hint" }, "The tests are read from the spec. After the deadline: once the student can no longer submit (their late cut-off, else their deadline). A hidden image test hides the error map, the rejected pixels and the metrics too (they would tell its result)."),
+        h(
+          "p",
+          { class: "hint" },
+          "The tests are read from the spec. After the deadline: once the student can no longer submit (their late cut-off, else their deadline). A hidden image test hides the error map, the rejected pixels and the metrics too (they would tell its result).",
+        ),
         fbList,
         h("div", { class: "af-preview-go" }, this.previewButton, this.previewStatus),
         this.previewBox,
       ),
       this.edit
-        ? h("div", { class: "af-field af-check" }, this.regrade, h("label", { for: this.regrade.id }, "Regrade every submission under the new version"))
+        ? h(
+            "div",
+            { class: "af-field af-check" },
+            this.regrade,
+            h("label", { for: this.regrade.id }, "Regrade every submission under the new version"),
+          )
         : null,
       this.general,
       h("div", { class: "af-go" }, this.button, this.status),
@@ -162,7 +253,10 @@ export class AssignmentForm {
   }
 
   whenSelect(name, value, first = null) {
-    const sel = h("select", { id: `${this.id}-fb-${name.replace(/[^A-Za-z0-9_-]/g, "_")}-${Math.random().toString(36).slice(2, 6)}`, dataset: { test: name } });
+    const sel = h("select", {
+      id: `${this.id}-fb-${name.replace(/[^A-Za-z0-9_-]/g, "_")}-${Math.random().toString(36).slice(2, 6)}`,
+      dataset: { test: name },
+    });
     if (first) sel.append(h("option", { value: "" }, first));
     for (const [v, text] of WHEN) sel.append(h("option", { value: v }, text));
     sel.value = value;
@@ -182,7 +276,9 @@ export class AssignmentForm {
       this.spec = JSON.parse(await f.text());
     } catch (err) {
       this.spec = null;
-      this.fields.spec.list.append(h("li", {}, h("span", { class: "where" }, f.name), h("span", { class: "msg" }, `not JSON: ${err.message}`)));
+      this.fields.spec.list.append(
+        h("li", {}, h("span", { class: "where" }, f.name), h("span", { class: "msg" }, `not JSON: ${err.message}`)),
+      );
       this.specInput.setAttribute("aria-invalid", "true");
     }
     this.afterSpec();
@@ -194,7 +290,10 @@ export class AssignmentForm {
     this.refBox.hidden = !named;
     this.refInput.required = !!named;
     if (named) this.refBox.querySelector("label").textContent = `Reference scene file (the spec names '${ref.scene}')`;
-    this.specNote.textContent = this.spec && typeof this.spec === "object" ? `“${this.spec.name || "(no name)"}”: ${specTests(this.spec).length} tests.` : "";
+    this.specNote.textContent =
+      this.spec && typeof this.spec === "object"
+        ? `“${this.spec.name || "(no name)"}”: ${specTests(this.spec).length} tests.`
+        : "";
     this.renderTests();
   }
 
@@ -206,10 +305,18 @@ export class AssignmentForm {
       ...tests.map((t) => {
         const sel = this.whenSelect(t.key, "", "as every test");
         sel.value = kept.get(t.key) ?? given[t.key] ?? "";
-        return h("tr", { dataset: { test: t.key } }, h("th", { scope: "row" }, h("label", { for: sel.id }, t.label)), h("td", {}, sel));
+        return h(
+          "tr",
+          { dataset: { test: t.key } },
+          h("th", { scope: "row" }, h("label", { for: sel.id }, t.label)),
+          h("td", {}, sel),
+        );
       }),
     );
-    if (!tests.length || !this.spec) this.fbRows.replaceChildren(h("tr", {}, h("td", { colspan: 2, class: "muted" }, "Pick the spec file to set each test's feedback.")));
+    if (!tests.length || !this.spec)
+      this.fbRows.replaceChildren(
+        h("tr", {}, h("td", { colspan: 2, class: "muted" }, "Pick the spec file to set each test's feedback.")),
+      );
   }
 
   prefill(p) {
@@ -275,7 +382,11 @@ export class AssignmentForm {
       if (seq !== this.previewSeq) return;
       const errors = err.errors || [{ path: "", message: String(err.message || err) }];
       showFieldErrors(errors, this.fields, this.general)?.focus();
-      say(this.previewStatus, "error", `No preview: the server refused the form (${errors.length} problem${errors.length > 1 ? "s" : ""}): see the fields marked.`);
+      say(
+        this.previewStatus,
+        "error",
+        `No preview: the server refused the form (${errors.length} problem${errors.length > 1 ? "s" : ""}): see the fields marked.`,
+      );
     }
   }
 
@@ -283,28 +394,48 @@ export class AssignmentForm {
     const cols = p.moments.map((m) => {
       const fb = m.feedback;
       const head = `${this.id}-preview-${m.moment}`;
-      const title = m.moment === "now" ? ["Now: until the deadline (", h("time", { datetime: p.cut_off }, localTime(p.cut_off)), ")"] : ["After the deadline"];
-      const pictures = ["their render", ...(fb.pictures.includes("error_map.png") ? ["the error map", "the rejected pixels"] : []), ...(this.showRef.checked ? ["the reference"] : [])];
+      const title =
+        m.moment === "now"
+          ? ["Now: until the deadline (", h("time", { datetime: p.cut_off }, localTime(p.cut_off)), ")"]
+          : ["After the deadline"];
+      const pictures = [
+        "their render",
+        ...(fb.pictures.includes("error_map.png") ? ["the error map", "the rejected pixels"] : []),
+        ...(this.showRef.checked ? ["the reference"] : []),
+      ];
       return h(
         "section",
         { class: "af-preview-col", dataset: { moment: m.moment }, "aria-labelledby": head },
         h("h4", { id: head }, ...title),
-        h("p", { class: "af-preview-score" }, m.score_shown ? `Score: ${pts(m.score)} / ${pts(m.max_score)}` : `Score: hidden (out of ${pts(m.max_score)})`),
-        h("p", { class: "af-preview-pictures" }, `Pictures: ${pictures.join(", ")}${fb.metrics ? "; the metrics against the noise baseline" : ""}.`),
+        h(
+          "p",
+          { class: "af-preview-score" },
+          m.score_shown ? `Score: ${pts(m.score)} / ${pts(m.max_score)}` : `Score: hidden (out of ${pts(m.max_score)})`,
+        ),
+        h(
+          "p",
+          { class: "af-preview-pictures" },
+          `Pictures: ${pictures.join(", ")}${fb.metrics ? "; the metrics against the noise baseline" : ""}.`,
+        ),
         withheldNotice(fb.withheld, { who: "their" }),
         h("ol", { class: "grade-tests a-tests" }, fb.tests.map(testItem)),
       );
     });
-    this.previewBox.replaceChildren(h("p", { class: "hint" }, `An example submission: ${p.example}.`), h("div", { class: "af-preview-cols" }, cols));
+    this.previewBox.replaceChildren(
+      h("p", { class: "hint" }, `An example submission: ${p.example}.`),
+      h("div", { class: "af-preview-cols" }, cols),
+    );
     this.previewBox.hidden = false;
   }
 
   /** Problems the page can tell before asking (a field left empty), at their fields; true when none. */
   precheck() {
     const errors = [];
-    if (!this.edit && !this.specInput.files?.length) errors.push({ path: "spec", message: "pick the spec file (JSON)" });
+    if (!this.edit && !this.specInput.files?.length)
+      errors.push({ path: "spec", message: "pick the spec file (JSON)" });
     if (this.specInput.getAttribute("aria-invalid") === "true" && this.fields.spec.list.children.length) return false;
-    if (!this.refBox.hidden && !this.refInput.files?.length) errors.push({ path: "reference", message: `pick the reference scene file ('${this.spec.reference.scene}')` });
+    if (!this.refBox.hidden && !this.refInput.files?.length)
+      errors.push({ path: "reference", message: `pick the reference scene file ('${this.spec.reference.scene}')` });
     if (!this.deadline.value) errors.push({ path: "deadline", message: "a deadline is required (a date and a time)" });
     if (errors.length) {
       showFieldErrors(errors, this.fields, this.general)?.focus();
@@ -329,7 +460,11 @@ export class AssignmentForm {
     } catch (err) {
       const errors = err.errors || [{ path: "", message: String(err.message || err) }];
       const first = showFieldErrors(errors, this.fields, this.general);
-      say(this.status, "error", `The server refused it (${errors.length} problem${errors.length > 1 ? "s" : ""}): see the fields marked.`);
+      say(
+        this.status,
+        "error",
+        `The server refused it (${errors.length} problem${errors.length > 1 ? "s" : ""}): see the fields marked.`,
+      );
       first?.focus();
     } finally {
       this.button.disabled = false;

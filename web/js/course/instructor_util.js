@@ -10,32 +10,59 @@ const A = (aid) => `/api/assignments/${encodeURIComponent(aid)}`;
 export const course = {
   into: null, // the course the publish form publishes into (null: the token's own, else the default one)
   list: () => request("GET", "/api/assignments", undefined, { ...AS, cache: "no-store" }),
-  publish: (form) => request("POST", course.into ? `/api/courses/${encodeURIComponent(course.into)}/assignments` : "/api/assignments", form, AS),
+  publish: (form) =>
+    request(
+      "POST",
+      course.into ? `/api/courses/${encodeURIComponent(course.into)}/assignments` : "/api/assignments",
+      form,
+      AS,
+    ),
   courses: () => request("GET", "/api/courses", undefined, { ...AS, cache: "no-store" }),
-  courseView: (cid) => request("GET", `/api/courses/${encodeURIComponent(cid)}`, undefined, { ...AS, cache: "no-store" }),
+  courseView: (cid) =>
+    request("GET", `/api/courses/${encodeURIComponent(cid)}`, undefined, { ...AS, cache: "no-store" }),
   createCourse: (body) => request("POST", "/api/courses", body, AS),
   addStaff: (cid, body) => request("POST", `/api/courses/${encodeURIComponent(cid)}/staff`, body, AS),
   // what a student would see under the form's policy, before publishing (nothing is kept)
-  preview: (form) => request("POST", `/api/assignments/preview-feedback${course.into ? `?course=${encodeURIComponent(course.into)}` : ""}`, form, AS),
+  preview: (form) =>
+    request(
+      "POST",
+      `/api/assignments/preview-feedback${course.into ? `?course=${encodeURIComponent(course.into)}` : ""}`,
+      form,
+      AS,
+    ),
   edit: (aid, form, regrade) => request("PUT", `${A(aid)}${regrade ? "?regrade=true" : ""}`, form, AS),
   brief: (aid) => request("GET", A(aid), undefined, { ...AS, cache: "no-store" }),
   board: (aid) => request("GET", `${A(aid)}/dashboard`, undefined, { ...AS, cache: "no-store" }),
   lmsSendAgain: (aid) => request("POST", `${A(aid)}/lms/send-again`, {}, AS), // the grades the LMS refused, queued again
-  student: (aid, sid) => request("GET", `${A(aid)}/students/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
-  trees: (aid, sid) => request("GET", `${A(aid)}/submissions/${encodeURIComponent(sid)}/trees`, undefined, { ...AS, cache: "no-store" }), // the latest tree log comparison
+  student: (aid, sid) =>
+    request("GET", `${A(aid)}/students/${encodeURIComponent(sid)}`, undefined, { ...AS, cache: "no-store" }),
+  trees: (aid, sid) =>
+    request("GET", `${A(aid)}/submissions/${encodeURIComponent(sid)}/trees`, undefined, { ...AS, cache: "no-store" }), // the latest tree log comparison
   extend: (aid, student, deadline, why = "") => request("POST", `${A(aid)}/extensions`, { student, deadline, why }, AS),
   newLink: (aid, student) => request("POST", `${A(aid)}/students/${encodeURIComponent(student)}/link`, undefined, AS),
   roster: (aid, text) => request("POST", `${A(aid)}/roster`, text, { ...AS, type: "text/csv" }), // a CSV body
-  renewLinks: (cid, aid) => request("POST", `/api/courses/${encodeURIComponent(cid)}/links/renew?assignment=${encodeURIComponent(aid)}`, undefined, AS),
-  links: (cid, aid) => request("GET", `/api/courses/${encodeURIComponent(cid)}/links?assignment=${encodeURIComponent(aid)}`, undefined, { ...AS, cache: "no-store" }),
+  renewLinks: (cid, aid) =>
+    request(
+      "POST",
+      `/api/courses/${encodeURIComponent(cid)}/links/renew?assignment=${encodeURIComponent(aid)}`,
+      undefined,
+      AS,
+    ),
+  links: (cid, aid) =>
+    request("GET", `/api/courses/${encodeURIComponent(cid)}/links?assignment=${encodeURIComponent(aid)}`, undefined, {
+      ...AS,
+      cache: "no-store",
+    }),
   url: A,
 };
 
 /** Why the server refused for want of the instructor's token (401, 403), or null. */
 export function tokenProblem(err, hasToken) {
   if (!(err instanceof ApiError)) return null;
-  if (err.status === 403 && err.errors?.[0]?.path === "Authorization") return `The server has no instructor: ${err.message}`;
-  if (err.status === 401) return hasToken ? "The server refused this token: check it above (or open your staff link again)." : NO_TOKEN;
+  if (err.status === 403 && err.errors?.[0]?.path === "Authorization")
+    return `The server has no instructor: ${err.message}`;
+  if (err.status === 401)
+    return hasToken ? "The server refused this token: check it above (or open your staff link again)." : NO_TOKEN;
   return null;
 }
 
@@ -72,7 +99,12 @@ export function localValue(iso) {
 }
 
 const DATE_FMT = new Intl.DateTimeFormat(undefined, { dateStyle: "medium", timeStyle: "short" });
-const SHORT_FMT = new Intl.DateTimeFormat(undefined, { month: "short", day: "numeric", hour: "2-digit", minute: "2-digit" });
+const SHORT_FMT = new Intl.DateTimeFormat(undefined, {
+  month: "short",
+  day: "numeric",
+  hour: "2-digit",
+  minute: "2-digit",
+});
 
 /** An instant for people: "Dec 8, 2026, 11:59 PM" in this browser's zone (`short`: without the year). */
 export function when(iso, short = false) {
@@ -107,7 +139,12 @@ export function showFieldErrors(errors, fields, general) {
   for (const e of errors) {
     const key = (e.path || "").split(/[.[]/)[0];
     const f = fields[key];
-    const item = h("li", { dataset: { path: e.path || "" } }, e.path ? h("span", { class: "where" }, e.path) : null, h("span", { class: "msg" }, e.message));
+    const item = h(
+      "li",
+      { dataset: { path: e.path || "" } },
+      e.path ? h("span", { class: "where" }, e.path) : null,
+      h("span", { class: "msg" }, e.message),
+    );
     if (f) {
       f.list.append(item);
       f.input?.setAttribute("aria-invalid", "true");

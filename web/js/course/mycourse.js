@@ -33,13 +33,21 @@ async function main() {
     $("#c-assignments").replaceChildren(
       ...c.assignments.map((a) => {
         keep(a.id, token); // the assignment's page opens with it, no fragment needed
-        return h("li", {}, h("a", { href: a.page }, a.name), h("span", { class: "muted" }, ` · due ${new Date(a.deadline).toLocaleString()}`));
+        return h(
+          "li",
+          {},
+          h("a", { href: a.page }, a.name),
+          h("span", { class: "muted" }, ` · due ${new Date(a.deadline).toLocaleString()}`),
+        );
       }),
     );
     if (!c.assignments.length) $("#c-assignments").replaceChildren(h("li", { class: "muted" }, "No assignment yet."));
   } catch (err) {
     status.dataset.kind = "error";
-    status.textContent = err.status === 404 ? "This link does not open the course (it may have been replaced: ask your instructor for your new one)." : `Could not open the course: ${err.message}`;
+    status.textContent =
+      err.status === 404
+        ? "This link does not open the course (it may have been replaced: ask your instructor for your new one)."
+        : `Could not open the course: ${err.message}`;
   }
 }
 

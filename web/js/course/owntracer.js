@@ -27,12 +27,26 @@ export function treeLogSection(sub, ctx) {
   const probes = sub.feedback.probes;
   const id = `tl-${sub.id}`;
   const api = treesApi(ctx.aid, sub.id, ctx.token);
-  const text = h("textarea", { id: `${id}-log`, class: "grade-json tl-log", wrap: "off", spellcheck: "false", autocomplete: "off", autocapitalize: "off", rows: 8, placeholder: '{"trees": [{"pixel": [x, y], "nodes": [...]}]}', "aria-describedby": `${id}-help` });
+  const text = h("textarea", {
+    id: `${id}-log`,
+    class: "grade-json tl-log",
+    wrap: "off",
+    spellcheck: "false",
+    autocomplete: "off",
+    autocapitalize: "off",
+    rows: 8,
+    placeholder: '{"trees": [{"pixel": [x, y], "nodes": [...]}]}',
+    "aria-describedby": `${id}-help`,
+  });
   const file = h("input", { type: "file", id: `${id}-file`, accept: ".json,application/json", hidden: true });
   const status = h("p", { class: "message tl-status", role: "status", "aria-live": "polite", id: `${id}-status` });
   const errors = h("div", { class: "tl-errors", id: `${id}-errors` });
   const result = h("div", { class: "tl-result", id: `${id}-result` });
-  const send = h("button", { type: "button", class: "primary", id: `${id}-send` }, "Compare with the reference's trees");
+  const send = h(
+    "button",
+    { type: "button", class: "primary", id: `${id}-send` },
+    "Compare with the reference's trees",
+  );
   const say = (kind, ...content) => {
     status.dataset.kind = kind;
     status.replaceChildren(...content);
@@ -46,7 +60,11 @@ export function treeLogSection(sub, ctx) {
     const f = file.files[0];
     file.value = "";
     if (!f) return;
-    if (f.size > MAX_LOG) return say("error", `${f.name} is ${(f.size / 1e6).toFixed(1)} MB: a tree log may be 4 MB at most (log fewer pixels).`);
+    if (f.size > MAX_LOG)
+      return say(
+        "error",
+        `${f.name} is ${(f.size / 1e6).toFixed(1)} MB: a tree log may be 4 MB at most (log fewer pixels).`,
+      );
     text.value = await f.text();
     say("info", `Opened ${f.name}: Compare sends it.`);
   });
@@ -56,7 +74,10 @@ export function treeLogSection(sub, ctx) {
     if (!log.trim()) return say("error", "The log is empty: paste your tracer's tree log, or open its file.");
     if (new Blob([log]).size > MAX_LOG) return say("error", "The log is over 4 MB: log fewer pixels.");
     send.disabled = true;
-    say("info", "Comparing your trees with the reference's (the reference's are traced the first time a pixel is asked for)…");
+    say(
+      "info",
+      "Comparing your trees with the reference's (the reference's are traced the first time a pixel is asked for)…",
+    );
     try {
       const answer = await api.send(log);
       say("", "");
@@ -64,16 +85,35 @@ export function treeLogSection(sub, ctx) {
     } catch (err) {
       if (err instanceof ApiError && err.status === 422) {
         const n = err.errors.length;
-        say("error", `The log has ${n} error${n === 1 ? "" : "s"}: nothing was compared. Fix ${n === 1 ? "it" : "them"} and send it again.`);
+        say(
+          "error",
+          `The log has ${n} error${n === 1 ? "" : "s"}: nothing was compared. Fix ${n === 1 ? "it" : "them"} and send it again.`,
+        );
         errors.replaceChildren(problemList(err.errors, { title: "Errors, at their place in the log's JSON:" }));
-      } else say("error", err instanceof ApiError && err.status ? `Not compared: ${err.errors.map((e) => e.message).join("; ")}.` : `Not compared: ${err.message}`);
+      } else
+        say(
+          "error",
+          err instanceof ApiError && err.status
+            ? `Not compared: ${err.errors.map((e) => e.message).join("; ")}.`
+            : `Not compared: ${err.message}`,
+        );
     } finally {
       send.disabled = false;
     }
   });
   const list = probes.length
-    ? h("ol", { class: "tl-probes", id: `${id}-probes` }, probes.map((p) => h("li", { dataset: { x: p.x, y: p.y } }, h("strong", {}, `(${p.x}, ${p.y})`), p.why ? ` ${p.why}` : "")))
-    : h("p", { class: "hint", id: `${id}-probes` }, "No probe pixels: your image differs nowhere the error map shows. A log of any pixel of the image is compared all the same.");
+    ? h(
+        "ol",
+        { class: "tl-probes", id: `${id}-probes` },
+        probes.map((p) =>
+          h("li", { dataset: { x: p.x, y: p.y } }, h("strong", {}, `(${p.x}, ${p.y})`), p.why ? ` ${p.why}` : ""),
+        ),
+      )
+    : h(
+        "p",
+        { class: "hint", id: `${id}-probes` },
+        "No probe pixels: your image differs nowhere the error map shows. A log of any pixel of the image is compared all the same.",
+      );
   const section = h(
     "section",
     { class: "tl", id, "aria-labelledby": `${id}-h`, dataset: { sid: sub.id } },
@@ -82,14 +122,26 @@ export function treeLogSection(sub, ctx) {
       "p",
       { class: "hint", id: `${id}-help` },
       "Log, with your own tracer, the ray tree of the ray through the centre of each of the probe pixels (x from the left, y from the top), as a tree log (",
-      h("a", { href: "/reference/assignments.md#your-own-tracers-ray-trees", target: "_blank", rel: "noopener" }, "the format"),
+      h(
+        "a",
+        { href: "/reference/assignments.md#your-own-tracers-ray-trees", target: "_blank", rel: "noopener" },
+        "the format",
+      ),
       "), and send it: each tree is compared with the reference's there, and the first difference is named.",
     ),
     list,
-    probes.length ? h("p", { class: "hint" }, "The pixels as a list: ", h("code", { class: "tl-pixel-list" }, pixelList(probes))) : null,
+    probes.length
+      ? h("p", { class: "hint" }, "The pixels as a list: ", h("code", { class: "tl-pixel-list" }, pixelList(probes)))
+      : null,
     h("label", { for: text.id, class: "grade-label" }, "Your tracer's tree log (paste it here, or open its file)"),
     text,
-    h("div", { class: "a-go" }, h("button", { type: "button", onclick: () => file.click() }, "Open a .json file…"), file, send),
+    h(
+      "div",
+      { class: "a-go" },
+      h("button", { type: "button", onclick: () => file.click() }, "Open a .json file…"),
+      file,
+      send,
+    ),
     status,
     errors,
     result,

@@ -24,14 +24,23 @@ export function regradeControls(root, sub, ctx) {
   const status = h("p", { class: "message a-regrade-status", role: "status", "aria-live": "polite" });
   const list = h("ul", { class: "a-regrade-list" });
   const deadline = h("p", { class: "hint a-regrade-deadline" });
-  const section = h("section", { class: "a-regrade", "aria-labelledby": `rg-h-${sub.id}` }, h("h4", { id: `rg-h-${sub.id}` }, "Regrade requests"), deadline, list, status);
+  const section = h(
+    "section",
+    { class: "a-regrade", "aria-labelledby": `rg-h-${sub.id}` },
+    h("h4", { id: `rg-h-${sub.id}` }, "Regrade requests"),
+    deadline,
+    list,
+    status,
+  );
   let open = new Set(); // items with an open request
 
   const show = (data) => {
     const reqs = data.requests || [];
     open = new Set(reqs.filter((r) => r.status === "open").map((r) => r.item));
     const closed = data.regrade_open === false; // the server's clock says
-    deadline.textContent = data.regrade_deadline ? `${closed ? "Requests were taken until" : "You can ask until"} ${new Date(data.regrade_deadline).toLocaleString()}.` : "";
+    deadline.textContent = data.regrade_deadline
+      ? `${closed ? "Requests were taken until" : "You can ask until"} ${new Date(data.regrade_deadline).toLocaleString()}.`
+      : "";
     list.replaceChildren(
       ...(reqs.length
         ? reqs.map((r) =>
@@ -40,13 +49,27 @@ export function regradeControls(root, sub, ctx) {
               { class: "a-regrade-req", dataset: { item: r.item, status: r.status } },
               h("strong", {}, r.item),
               " ",
-              h("span", { class: `badge ${r.status === "accepted" ? "passed" : r.status === "declined" ? "failed" : ""}` }, STATUS[r.status] || r.status),
+              h(
+                "span",
+                { class: `badge ${r.status === "accepted" ? "passed" : r.status === "declined" ? "failed" : ""}` },
+                STATUS[r.status] || r.status,
+              ),
               h("p", { class: "a-regrade-reason" }, `You asked: ${r.reason}`),
               r.status !== "open" ? h("p", { class: "a-regrade-reply" }, `Answer: ${r.reply}`) : null,
-              r.status !== "open" && r.points !== null ? h("p", { class: "hint" }, `Points now: ${pts(r.points)} / ${pts(r.max_points)}`) : null,
+              r.status !== "open" && r.points !== null
+                ? h("p", { class: "hint" }, `Points now: ${pts(r.points)} / ${pts(r.max_points)}`)
+                : null,
             ),
           )
-        : [h("li", { class: "hint" }, closed ? "None: the regrade deadline has passed." : "None: a button beside each result asks for another look.")]),
+        : [
+            h(
+              "li",
+              { class: "hint" },
+              closed
+                ? "None: the regrade deadline has passed."
+                : "None: a button beside each result asks for another look.",
+            ),
+          ]),
     );
     for (const b of root.querySelectorAll("button.a-regrade-ask")) {
       b.disabled = open.has(b.dataset.item) || closed;
@@ -68,8 +91,25 @@ export function regradeControls(root, sub, ctx) {
     const id = `rg-form-${++forms}`;
     const reason = h("textarea", { id, name: "reason", rows: 3, maxlength: 2000, required: true });
     const send = h("button", { type: "submit" }, "Send the request");
-    const cancel = h("button", { type: "button", class: "secondary", onclick: () => (form.remove(), button.focus()) }, "Cancel");
-    const form = h("form", { class: "a-regrade-form" }, h("label", { for: id }, `Why should “${item}” be looked at again?`), reason, h("div", { class: "toolbar" }, send, cancel));
+    const cancel = h(
+      "button",
+      {
+        type: "button",
+        class: "secondary",
+        onclick: () => {
+          form.remove();
+          button.focus();
+        },
+      },
+      "Cancel",
+    );
+    const form = h(
+      "form",
+      { class: "a-regrade-form" },
+      h("label", { for: id }, `Why should “${item}” be looked at again?`),
+      reason,
+      h("div", { class: "toolbar" }, send, cancel),
+    );
     form.addEventListener("submit", async (e) => {
       e.preventDefault();
       send.disabled = true;
@@ -89,11 +129,17 @@ export function regradeControls(root, sub, ctx) {
   };
 
   const items = [
-    ...[...root.querySelectorAll("li.grade-test[data-test]")].filter((li) => li.dataset.status !== "hidden").map((li) => [li, li.dataset.test, li.querySelector("strong")?.textContent || li.dataset.test]),
+    ...[...root.querySelectorAll("li.grade-test[data-test]")]
+      .filter((li) => li.dataset.status !== "hidden")
+      .map((li) => [li, li.dataset.test, li.querySelector("strong")?.textContent || li.dataset.test]),
     ...[...root.querySelectorAll("li.a-manual-item[data-item]")].map((li) => [li, li.dataset.item, li.dataset.item]),
   ];
   for (const [li, item, name] of items) {
-    const button = h("button", { type: "button", class: "small a-regrade-ask", dataset: { item }, "aria-label": `Request a regrade of ${name}` }, "Request a regrade");
+    const button = h(
+      "button",
+      { type: "button", class: "small a-regrade-ask", dataset: { item }, "aria-label": `Request a regrade of ${name}` },
+      "Request a regrade",
+    );
     button.addEventListener("click", () => ask(li, item, button));
     li.querySelector(".grade-test-head")?.append(button);
   }
@@ -119,8 +165,17 @@ export class RegradePanel {
     this.root = h(
       "section",
       { class: "panel board-regrade", id: "regrade", "aria-labelledby": "h-regrade" },
-      h("div", { class: "panel-head" }, h("h2", { id: "h-regrade" }, "Regrade requests"), h("span", { class: "toolbar" }, h("label", { for: "regrade-filter" }, "Show "), this.filter)),
-      h("p", { class: "hint" }, "Students ask about one result of the submission that is their grade, until the regrade deadline. Accept with new points to change that item's points (the total, the exports and the LMS follow); decline to change nothing but the request. Each answer is kept."),
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-regrade" }, "Regrade requests"),
+        h("span", { class: "toolbar" }, h("label", { for: "regrade-filter" }, "Show "), this.filter),
+      ),
+      h(
+        "p",
+        { class: "hint" },
+        "Students ask about one result of the submission that is their grade, until the regrade deadline. Accept with new points to change that item's points (the total, the exports and the LMS follow); decline to change nothing but the request. Each answer is kept.",
+      ),
       this.status,
       this.list,
     );
@@ -140,24 +195,57 @@ export class RegradePanel {
 
   show(reqs) {
     const open = reqs.filter((r) => r.status === "open").length;
-    if (!this.status.dataset.kind || this.status.dataset.kind === "info") say(this.status, "info", reqs.length ? `${open} open, ${reqs.length} in all.` : "No regrade requests.");
+    if (!this.status.dataset.kind || this.status.dataset.kind === "info")
+      say(this.status, "info", reqs.length ? `${open} open, ${reqs.length} in all.` : "No regrade requests.");
     this.list.replaceChildren(...reqs.map((r, i) => this.item(r, i)));
   }
 
   item(r, i) {
     const id = `regrade-${i}`;
     const reply = h("textarea", { id: `${id}-reply`, rows: 2, maxlength: 4000 }, "");
-    const points = h("input", { id: `${id}-points`, type: "number", min: 0, max: r.max_points ?? undefined, step: "any", inputmode: "decimal" });
+    const points = h("input", {
+      id: `${id}-points`,
+      type: "number",
+      min: 0,
+      max: r.max_points ?? undefined,
+      step: "any",
+      inputmode: "decimal",
+    });
     const answer = (status) => this.answer(r, status, reply, points);
-    const history = r.history.map((e) => h("li", {}, `${new Date(e.at).toLocaleString()} · ${e.who} · ${e.kind === "request" ? `asked: ${e.reason}` : `${e.status}${e.points !== undefined && e.points !== null ? ` (points ${pts(e.points_before)} → ${pts(e.points)})` : ""}: ${e.reply}`}`));
+    const history = r.history.map((e) =>
+      h(
+        "li",
+        {},
+        `${new Date(e.at).toLocaleString()} · ${e.who} · ${e.kind === "request" ? `asked: ${e.reason}` : `${e.status}${e.points !== undefined && e.points !== null ? ` (points ${pts(e.points_before)} → ${pts(e.points)})` : ""}: ${e.reply}`}`,
+      ),
+    );
     return h(
       "li",
       { class: "regrade-req", dataset: { id: r.id, status: r.status } },
-      h("h3", { id: `${id}-h` }, `${r.label}: ${r.item}`, " ", h("span", { class: `badge ${r.status === "accepted" ? "passed" : r.status === "declined" ? "failed" : ""}` }, r.status)),
+      h(
+        "h3",
+        { id: `${id}-h` },
+        `${r.label}: ${r.item}`,
+        " ",
+        h(
+          "span",
+          { class: `badge ${r.status === "accepted" ? "passed" : r.status === "declined" ? "failed" : ""}` },
+          r.status,
+        ),
+      ),
       h("p", { class: "regrade-reason" }, `Reason: ${r.reason}`),
-      h("p", { class: "hint" }, `${r.kind === "manual" ? "Staff-graded item" : "Test"}; points now ${pts(r.points)} / ${pts(r.max_points)}; asked ${new Date(r.asked_at).toLocaleString()}.`),
+      h(
+        "p",
+        { class: "hint" },
+        `${r.kind === "manual" ? "Staff-graded item" : "Test"}; points now ${pts(r.points)} / ${pts(r.max_points)}; asked ${new Date(r.asked_at).toLocaleString()}.`,
+      ),
       r.reply ? h("p", { class: "regrade-reply" }, `Reply: ${r.reply}`) : null,
-      h("details", { class: "regrade-history" }, h("summary", {}, `History (${r.history.length})`), h("ol", {}, history)),
+      h(
+        "details",
+        { class: "regrade-history" },
+        h("summary", {}, `History (${r.history.length})`),
+        h("ol", {}, history),
+      ),
       h(
         "form",
         { class: "regrade-answer", "aria-labelledby": `${id}-h`, onsubmit: (e) => e.preventDefault() },
@@ -165,7 +253,16 @@ export class RegradePanel {
         reply,
         h("label", { for: points.id }, `New points, when accepting (optional, 0 to ${pts(r.max_points)})`),
         points,
-        h("div", { class: "toolbar" }, h("button", { type: "button", class: "regrade-accept", onclick: () => answer("accepted") }, "Accept"), h("button", { type: "button", class: "secondary regrade-decline", onclick: () => answer("declined") }, "Decline")),
+        h(
+          "div",
+          { class: "toolbar" },
+          h("button", { type: "button", class: "regrade-accept", onclick: () => answer("accepted") }, "Accept"),
+          h(
+            "button",
+            { type: "button", class: "secondary regrade-decline", onclick: () => answer("declined") },
+            "Decline",
+          ),
+        ),
       ),
     );
   }
@@ -180,7 +277,12 @@ export class RegradePanel {
       this.list.querySelector(`li[data-id='${r.id}'] h3`)?.setAttribute("tabindex", "-1");
       this.list.querySelector(`li[data-id='${r.id}'] h3`)?.focus();
     } catch (err) {
-      if (!this.access?.(err)) say(this.status, "error", `Not answered: ${err.errors?.[0]?.path ? `${err.errors[0].path}: ` : ""}${err.errors?.[0]?.message || err.message}`);
+      if (!this.access?.(err))
+        say(
+          this.status,
+          "error",
+          `Not answered: ${err.errors?.[0]?.path ? `${err.errors[0].path}: ` : ""}${err.errors?.[0]?.message || err.message}`,
+        );
     }
   }
 }

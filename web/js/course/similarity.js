@@ -24,14 +24,23 @@ export class SimilarityPanel {
     this.timer = null;
     this.polls = 0;
     this.closed = false;
-    this.button = h("button", { type: "button", id: "similarity-ask", onclick: () => this.ask() }, "Make a similarity report");
+    this.button = h(
+      "button",
+      { type: "button", id: "similarity-ask", onclick: () => this.ask() },
+      "Make a similarity report",
+    );
     this.status = h("p", { id: "similarity-status", class: "message", role: "status", "aria-live": "polite" });
     this.summary = h("div", { id: "similarity-summary" });
     this.list = h("div", { id: "similarity-pairs" });
     this.root = h(
       "section",
       { class: "panel board-similarity", id: "similarity", "aria-labelledby": "h-similarity" },
-      h("div", { class: "panel-head" }, h("h2", { id: "h-similarity" }, "Similarity"), h("span", { class: "toolbar" }, this.button)),
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-similarity" }, "Similarity"),
+        h("span", { class: "toolbar" }, this.button),
+      ),
       h(
         "p",
         { class: "hint", id: "similarity-note" },
@@ -53,7 +62,8 @@ export class SimilarityPanel {
     try {
       this.show(await similarity.get(this.aid));
     } catch (err) {
-      if (!this.access(err) && err.status) say(this.status, "error", `Could not read the similarity report: ${err.message}`);
+      if (!this.access(err) && err.status)
+        say(this.status, "error", `Could not read the similarity report: ${err.message}`);
     }
   }
 
@@ -92,7 +102,9 @@ export class SimilarityPanel {
       say(this.status, "error", `The report failed: ${r.error}`);
     } else {
       const since = r.since ? ` ${r.since} submission(s) came since: make it again to include them.` : "";
-      const flagged = r.pairs.length ? `${r.pairs.length} pair(s) much closer than usual.` : "No pair much closer than this class's usual.";
+      const flagged = r.pairs.length
+        ? `${r.pairs.length} pair(s) much closer than usual.`
+        : "No pair much closer than this class's usual.";
       say(this.status, r.pairs.length ? "warn" : "ok", `Report of ${when(r.computed_at)}: ${flagged}${since}`);
     }
     this.renderSummary(r);
@@ -106,18 +118,54 @@ export class SimilarityPanel {
       return;
     }
     const rows = groups.map(([kind, g]) =>
-      h("tr", {}, h("th", { scope: "row" }, kind === "scene" ? "scenes" : "pictures"), h("td", {}, String(g.compared)), h("td", {}, dist(g.typical)), h("td", {}, g.threshold === null ? "too few to tell" : dist(g.threshold)), h("td", {}, String(g.candidates))),
+      h(
+        "tr",
+        {},
+        h("th", { scope: "row" }, kind === "scene" ? "scenes" : "pictures"),
+        h("td", {}, String(g.compared)),
+        h("td", {}, dist(g.typical)),
+        h("td", {}, g.threshold === null ? "too few to tell" : dist(g.threshold)),
+        h("td", {}, String(g.candidates)),
+      ),
     );
     const table = h(
       "table",
       { class: "grade-table similarity-groups" },
       h("caption", {}, "What is usual in this class (distance 0: the same; 1: nothing in common)"),
-      h("thead", {}, h("tr", {}, ["Kind", "Compared", "Usual nearest distance", "Flagged at or below", "Candidate pairs"].map((t) => h("th", { scope: "col" }, t)))),
+      h(
+        "thead",
+        {},
+        h(
+          "tr",
+          {},
+          ["Kind", "Compared", "Usual nearest distance", "Flagged at or below", "Candidate pairs"].map((t) =>
+            h("th", { scope: "col" }, t),
+          ),
+        ),
+      ),
       h("tbody", {}, rows),
     );
-    const how = h("details", {}, h("summary", {}, "How a pair is flagged"), h("p", { class: "hint", id: "similarity-how" }, r.how || ""));
+    const how = h(
+      "details",
+      {},
+      h("summary", {}, "How a pair is flagged"),
+      h("p", { class: "hint", id: "similarity-how" }, r.how || ""),
+    );
     const skipped = r.skipped || [];
-    const left = skipped.length ? [h("details", {}, h("summary", {}, `${skipped.length} not compared`), h("ul", {}, skipped.map((s) => h("li", {}, `${s.student}: ${s.why}`))))] : [];
+    const left = skipped.length
+      ? [
+          h(
+            "details",
+            {},
+            h("summary", {}, `${skipped.length} not compared`),
+            h(
+              "ul",
+              {},
+              skipped.map((s) => h("li", {}, `${s.student}: ${s.why}`)),
+            ),
+          ),
+        ]
+      : [];
     this.summary.replaceChildren(h("div", { class: "grade-table-box" }, table), how, ...left);
   }
 
@@ -128,18 +176,47 @@ export class SimilarityPanel {
         const facts = h(
           "table",
           { class: "grade-table similarity-facts" },
-          h("caption", {}, `${p.kind === "scene" ? "Their scenes' facts beyond the starter" : "Their pictures"}, side by side: shared first, then those that differ`),
-          h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "Fact"), h("th", { scope: "col" }, p.a), h("th", { scope: "col" }, p.b), h("th", { scope: "col" }, "Same after rounding"))),
+          h(
+            "caption",
+            {},
+            `${p.kind === "scene" ? "Their scenes' facts beyond the starter" : "Their pictures"}, side by side: shared first, then those that differ`,
+          ),
+          h(
+            "thead",
+            {},
+            h(
+              "tr",
+              {},
+              h("th", { scope: "col" }, "Fact"),
+              h("th", { scope: "col" }, p.a),
+              h("th", { scope: "col" }, p.b),
+              h("th", { scope: "col" }, "Same after rounding"),
+            ),
+          ),
           h(
             "tbody",
             {},
-            p.facts.map((f) => h("tr", { class: f.shared ? "shared" : "differs" }, h("th", { scope: "row" }, h("code", {}, f.path)), h("td", {}, f.a ?? "—"), h("td", {}, f.b ?? "—"), h("td", {}, f.shared ? "yes" : "no"))),
+            p.facts.map((f) =>
+              h(
+                "tr",
+                { class: f.shared ? "shared" : "differs" },
+                h("th", { scope: "row" }, h("code", {}, f.path)),
+                h("td", {}, f.a ?? "—"),
+                h("td", {}, f.b ?? "—"),
+                h("td", {}, f.shared ? "yes" : "no"),
+              ),
+            ),
           ),
         );
         return h(
           "article",
           { class: "similarity-pair", "aria-labelledby": id },
-          h("h3", { id }, `${p.a} and ${p.b}`, h("span", { class: "muted" }, ` · distance ${dist(p.score)}, the class's usual ${dist(p.typical)}`)),
+          h(
+            "h3",
+            { id },
+            `${p.a} and ${p.b}`,
+            h("span", { class: "muted" }, ` · distance ${dist(p.score)}, the class's usual ${dist(p.typical)}`),
+          ),
           h("div", { class: "grade-table-box" }, facts),
           p.facts_more ? h("p", { class: "hint" }, `and ${p.facts_more} more fact(s)`) : null,
         );

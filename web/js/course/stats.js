@@ -42,8 +42,27 @@ function numbers(caption, head, rows) {
         "table",
         { class: "grade-table" },
         h("caption", {}, caption),
-        h("thead", {}, h("tr", {}, head.map((t) => h("th", { scope: "col" }, t)))),
-        h("tbody", {}, rows.map(([first, ...rest]) => h("tr", {}, h("th", { scope: "row" }, first), rest.map((c) => h("td", {}, c))))),
+        h(
+          "thead",
+          {},
+          h(
+            "tr",
+            {},
+            head.map((t) => h("th", { scope: "col" }, t)),
+          ),
+        ),
+        h(
+          "tbody",
+          {},
+          rows.map(([first, ...rest]) =>
+            h(
+              "tr",
+              {},
+              h("th", { scope: "row" }, first),
+              rest.map((c) => h("td", {}, c)),
+            ),
+          ),
+        ),
       ),
     ),
   );
@@ -56,7 +75,12 @@ function figure(id, caption, svg, table) {
 /** Vertical bars: `bars` [{label, n, title}], the count over each; under them each `tickEvery`-th bar's label,
  * or (`edges`: [[share of the axis, text]]) labels at those places of the axis (a histogram's bin edges). */
 function columns(id, label, bars, { tickEvery = 1, edges = null } = {}) {
-  const W = 360, H = 150, L = 22, B = 22, T = 14, R = 6;
+  const W = 360,
+    H = 150,
+    L = 22,
+    B = 22,
+    T = 14,
+    R = 6;
   const top = Math.max(1, ...bars.map((b) => b.n));
   const bw = (W - L - R) / Math.max(1, bars.length);
   const y = (n) => H - B - (n / top) * (H - B - T);
@@ -71,11 +95,26 @@ function columns(id, label, bars, { tickEvery = 1, edges = null } = {}) {
         { class: "bar", dataset: { count: b.n } },
         s("title", {}, b.title),
         s("rect", { x: L + i * bw + 1, y: y(b.n), width: Math.max(1, bw - 2), height: H - B - y(b.n) }),
-        b.n ? s("text", { x: L + (i + 0.5) * bw, y: y(b.n) - 3, "text-anchor": "middle", class: "count" }, String(b.n)) : null,
-        !edges && (i % tickEvery === 0 || i === bars.length - 1) ? s("text", { x: L + (i + 0.5) * bw, y: H - B + 14, "text-anchor": "middle", class: "tick" }, b.label) : null,
+        b.n
+          ? s("text", { x: L + (i + 0.5) * bw, y: y(b.n) - 3, "text-anchor": "middle", class: "count" }, String(b.n))
+          : null,
+        !edges && (i % tickEvery === 0 || i === bars.length - 1)
+          ? s("text", { x: L + (i + 0.5) * bw, y: H - B + 14, "text-anchor": "middle", class: "tick" }, b.label)
+          : null,
       ),
     ),
-    (edges || []).map(([at, text]) => s("text", { x: L + at * (W - L - R), y: H - B + 14, "text-anchor": at === 0 ? "start" : at === 1 ? "end" : "middle", class: "tick" }, text)),
+    (edges || []).map(([at, text]) =>
+      s(
+        "text",
+        {
+          x: L + at * (W - L - R),
+          y: H - B + 14,
+          "text-anchor": at === 0 ? "start" : at === 1 ? "end" : "middle",
+          class: "tick",
+        },
+        text,
+      ),
+    ),
   );
 }
 
@@ -93,7 +132,10 @@ export class StatsPanel {
       {
         type: "button",
         id: "export-stats",
-        onclick: () => downloadFile(`${course.url(this.aid)}/stats.csv`, "stats.csv", AS).catch((e) => say(this.status, "error", `Could not download stats.csv: ${e.message}`)),
+        onclick: () =>
+          downloadFile(`${course.url(this.aid)}/stats.csv`, "stats.csv", AS).catch((e) =>
+            say(this.status, "error", `Could not download stats.csv: ${e.message}`),
+          ),
       },
       "stats.csv",
     );
@@ -104,8 +146,17 @@ export class StatsPanel {
     this.root = h(
       "section",
       { class: "panel board-class-stats", id: "class-stats", "aria-labelledby": "h-class-stats" },
-      h("div", { class: "panel-head" }, h("h2", { id: "h-class-stats" }, "Class statistics"), h("span", { class: "toolbar", role: "group", "aria-label": "Statistics" }, this.refreshButton, this.csvButton)),
-      h("p", { class: "hint" }, "Over each student's counting submission (the one that is their grade, as in grades.csv): the scores, each test's pass rate and the requirement failed most; over all their submissions: attempts (an invalid or ungradable submission costs none) and the time from a student's first submission to full marks (every test passed, a late penalty aside). Refresh to count what came since."),
+      h(
+        "div",
+        { class: "panel-head" },
+        h("h2", { id: "h-class-stats" }, "Class statistics"),
+        h("span", { class: "toolbar", role: "group", "aria-label": "Statistics" }, this.refreshButton, this.csvButton),
+      ),
+      h(
+        "p",
+        { class: "hint" },
+        "Over each student's counting submission (the one that is their grade, as in grades.csv): the scores, each test's pass rate and the requirement failed most; over all their submissions: attempts (an invalid or ungradable submission costs none) and the time from a student's first submission to full marks (every test passed, a late penalty aside). Refresh to count what came since.",
+      ),
       this.status,
       this.summary,
       this.figures,
@@ -143,7 +194,9 @@ export class StatsPanel {
     this.counted = sig(d.per_student);
     this.stale = false;
     say(this.status, "info", `${plural(d.graded, "graded student")} of ${d.students}, counted ${when(d.now)}.`);
-    const worst = d.fails_most.length ? d.fails_most.map((t) => `${t.name} (${t.failed} of ${t.graded} fail it)`).join("; ") : "none";
+    const worst = d.fails_most.length
+      ? d.fails_most.map((t) => `${t.name} (${t.failed} of ${t.graded} fail it)`).join("; ")
+      : "none";
     const fm = d.full_marks;
     const items = [
       ["Mean", pts(d.histogram.mean)],
@@ -153,7 +206,9 @@ export class StatsPanel {
       ["Median time to full marks", duration(fm.median_seconds)],
       ["Requirement failed most", worst],
     ];
-    this.summary.replaceChildren(...items.map(([k, v]) => h("div", {}, h("dt", {}, k), h("dd", { dataset: { stat: k } }, v))));
+    this.summary.replaceChildren(
+      ...items.map(([k, v]) => h("div", {}, h("dt", {}, k), h("dd", { dataset: { stat: k } }, v))),
+    );
     this.figures.replaceChildren(this.histogram(d), this.passRates(d), this.attempts(d));
     this.renderStudents(d);
   }
@@ -168,17 +223,40 @@ export class StatsPanel {
     const svg = columns(
       "stats-histogram-svg",
       label,
-      bins.map((b, i) => ({ label: pts(b.from), n: b.count, title: `${plural(b.count, "student")} with ${range(b, i)} points` })),
-      { edges: [[0, "0"], [0.5, pts(d.max_points / 2)], [1, pts(d.max_points)]] },
+      bins.map((b, i) => ({
+        label: pts(b.from),
+        n: b.count,
+        title: `${plural(b.count, "student")} with ${range(b, i)} points`,
+      })),
+      {
+        edges: [
+          [0, "0"],
+          [0.5, pts(d.max_points / 2)],
+          [1, pts(d.max_points)],
+        ],
+      },
     );
-    const table = numbers("Students by score (the counting submission's points)", ["Points", "Students"], bins.map((b, i) => [range(b, i), String(b.count)]));
-    return figure("stats-histogram", `Score distribution (${pts(d.max_points)} points; mean ${pts(d.histogram.mean)}, median ${pts(d.histogram.median)})`, svg, table);
+    const table = numbers(
+      "Students by score (the counting submission's points)",
+      ["Points", "Students"],
+      bins.map((b, i) => [range(b, i), String(b.count)]),
+    );
+    return figure(
+      "stats-histogram",
+      `Score distribution (${pts(d.max_points)} points; mean ${pts(d.histogram.mean)}, median ${pts(d.histogram.median)})`,
+      svg,
+      table,
+    );
   }
 
   passRates(d) {
     const tests = d.tests;
     const worst = new Set(d.fails_most.map((t) => t.test));
-    const W = 360, row = 22, L = 150, R = 70, T = 4;
+    const W = 360,
+      row = 22,
+      L = 150,
+      R = 70,
+      T = 4;
     const H = T * 2 + row * Math.max(1, tests.length);
     const cut = (t) => (t.length > 24 ? `${t.slice(0, 23)}…` : t);
     const label = tests.length
@@ -186,7 +264,13 @@ export class StatsPanel {
       : "Pass rates: no tests.";
     const svg = s(
       "svg",
-      { viewBox: `0 0 ${W} ${H}`, role: "img", "aria-label": label, class: "stats-svg rates-svg", id: "stats-rates-svg" },
+      {
+        viewBox: `0 0 ${W} ${H}`,
+        role: "img",
+        "aria-label": label,
+        class: "stats-svg rates-svg",
+        id: "stats-rates-svg",
+      },
       tests.map((t, i) => {
         const y = T + i * row;
         const w = (t.rate || 0) * (W - L - R);
@@ -204,7 +288,13 @@ export class StatsPanel {
     const table = numbers(
       "Each test: the counting submissions that passed it (every point of it)",
       ["Test", "Kind", "Passed", "Graded", "Rate"],
-      tests.map((t) => [worst.has(t.test) ? `${t.name} (failed most)` : t.name, KIND[t.kind] || t.kind, String(t.passed), String(t.graded), percent(t.rate)]),
+      tests.map((t) => [
+        worst.has(t.test) ? `${t.name} (failed most)` : t.name,
+        KIND[t.kind] || t.kind,
+        String(t.passed),
+        String(t.graded),
+        percent(t.rate),
+      ]),
     );
     return figure("stats-rates", "Pass rate of each test (▲: the requirement failed most)", svg, table);
   }
@@ -216,11 +306,24 @@ export class StatsPanel {
     const svg = columns(
       "stats-attempts-svg",
       label,
-      a.students.map((b) => ({ label: String(b.attempts), n: b.students, title: `${plural(b.students, "student")} with ${plural(b.attempts, "attempt")}` })),
+      a.students.map((b) => ({
+        label: String(b.attempts),
+        n: b.students,
+        title: `${plural(b.students, "student")} with ${plural(b.attempts, "attempt")}`,
+      })),
       { tickEvery: every },
     );
-    const table = numbers("Students by their number of attempts", ["Attempts", "Students"], a.students.map((b) => [String(b.attempts), String(b.students)]));
-    return figure("stats-attempts", `Attempts per student (median ${pts(a.median)}, mean ${pts(a.mean)}, most ${a.max})`, svg, table);
+    const table = numbers(
+      "Students by their number of attempts",
+      ["Attempts", "Students"],
+      a.students.map((b) => [String(b.attempts), String(b.students)]),
+    );
+    return figure(
+      "stats-attempts",
+      `Attempts per student (median ${pts(a.median)}, mean ${pts(a.mean)}, most ${a.max})`,
+      svg,
+      table,
+    );
   }
 
   renderStudents(d) {
@@ -237,9 +340,37 @@ export class StatsPanel {
       "table",
       { class: "grade-table", id: "stats-student-table" },
       h("caption", {}, "Each student: attempts and the time from their first submission to full marks"),
-      h("thead", {}, h("tr", {}, ["Student", "Points", "Attempts", "Submissions", "First submitted", "Full marks", "Time to full marks"].map((t) => h("th", { scope: "col" }, t)))),
-      h("tbody", {}, rows.map(([first, ...rest]) => h("tr", {}, h("th", { scope: "row" }, first), rest.map((c) => h("td", {}, c))))),
+      h(
+        "thead",
+        {},
+        h(
+          "tr",
+          {},
+          ["Student", "Points", "Attempts", "Submissions", "First submitted", "Full marks", "Time to full marks"].map(
+            (t) => h("th", { scope: "col" }, t),
+          ),
+        ),
+      ),
+      h(
+        "tbody",
+        {},
+        rows.map(([first, ...rest]) =>
+          h(
+            "tr",
+            {},
+            h("th", { scope: "row" }, first),
+            rest.map((c) => h("td", {}, c)),
+          ),
+        ),
+      ),
     );
-    this.people.replaceChildren(h("details", { class: "stats-numbers" }, h("summary", {}, `Each student (${d.per_student.length})`), h("div", { class: "grade-table-box", tabindex: "0", role: "region", "aria-label": "Each student" }, table)));
+    this.people.replaceChildren(
+      h(
+        "details",
+        { class: "stats-numbers" },
+        h("summary", {}, `Each student (${d.per_student.length})`),
+        h("div", { class: "grade-table-box", tabindex: "0", role: "region", "aria-label": "Each student" }, table),
+      ),
+    );
   }
 }

@@ -20,8 +20,13 @@ function say(kind, ...content) {
   status.dataset.kind = kind;
   status.replaceChildren(...content);
 }
-window.addEventListener("error", (e) => benignError(e) || say("error", `Something went wrong on this page: ${e.message}`));
-window.addEventListener("unhandledrejection", (e) => say("error", `Something went wrong on this page: ${e.reason?.message || e.reason}`));
+window.addEventListener(
+  "error",
+  (e) => benignError(e) || say("error", `Something went wrong on this page: ${e.message}`),
+);
+window.addEventListener("unhandledrejection", (e) =>
+  say("error", `Something went wrong on this page: ${e.reason?.message || e.reason}`),
+);
 
 const aid = assignmentId();
 let stopCountdown = () => {};
@@ -52,12 +57,18 @@ async function open(token, { joined = null } = {}) {
       ]);
       return;
     }
-    say("error", `Could not open the assignment: ${err.message}. `, h("button", { type: "button", onclick: () => location.reload() }, "Try again"));
+    say(
+      "error",
+      `Could not open the assignment: ${err.message}. `,
+      h("button", { type: "button", onclick: () => location.reload() }, "Try again"),
+    );
     return;
   }
   if (!brief.student) {
     // everyone is the instructor on a server without an instructor token (loopback): this is not a student's link
-    noAccess(["This is the instructor's view of the assignment, not a student's: a student's link carries their own token (#token=… from the roster)."]);
+    noAccess([
+      "This is the instructor's view of the assignment, not a student's: a student's link carries their own token (#token=… from the roster).",
+    ]);
     return;
   }
   useIdentity(token); // the workspace's "my jobs" are this student's from now on
@@ -68,21 +79,49 @@ async function open(token, { joined = null } = {}) {
   $("#a-work").hidden = false;
   document.body.dataset.access = "student";
   if (joined) {
-    const field = h("input", { type: "text", readonly: true, value: joined.link, class: "share-link", id: "a-own-link", "aria-label": "your personal link" });
-    say("warn", h("span", {}, `You joined as ${joined.name}. Keep your personal link to come back from another browser (it is shown this once): `), field);
+    const field = h("input", {
+      type: "text",
+      readonly: true,
+      value: joined.link,
+      class: "share-link",
+      id: "a-own-link",
+      "aria-label": "your personal link",
+    });
+    say(
+      "warn",
+      h(
+        "span",
+        {},
+        `You joined as ${joined.name}. Keep your personal link to come back from another browser (it is shown this once): `,
+      ),
+      field,
+    );
   }
   stopCountdown();
   stopCountdown = showBrief(briefRoot, brief, token, { onPhase: () => refreshBrief(api) });
   await startLink(brief);
 
-  const ctx = { aid, token, api, compareBox: $("#compare"), scoreWhen: scoreWhen(brief.feedback), onFinal: () => {
-    list.load();
-    refreshBrief(api);
-  } };
-  if (!handin) handin = new HandIn($("#a-handin"), { aid, api, starter: brief.starter, onSubmitted: (view) => {
-    list.add(view);
-    refreshBrief(api);
-  } });
+  const ctx = {
+    aid,
+    token,
+    api,
+    compareBox: $("#compare"),
+    scoreWhen: scoreWhen(brief.feedback),
+    onFinal: () => {
+      list.load();
+      refreshBrief(api);
+    },
+  };
+  if (!handin)
+    handin = new HandIn($("#a-handin"), {
+      aid,
+      api,
+      starter: brief.starter,
+      onSubmitted: (view) => {
+        list.add(view);
+        refreshBrief(api);
+      },
+    });
   list?.close();
   list = new SubmissionList($("#a-sub-list"), $("#a-attempts"), $("#a-subs-status"), ctx);
   await list.load();
@@ -166,7 +205,9 @@ $("#a-join").addEventListener("submit", async (e) => {
     joined = await join(aid, name);
   } catch (err) {
     out.textContent =
-      err instanceof ApiError && err.status === 404 ? "This assignment is not open to join by name: open the personal link your instructor sent you." : `Could not join: ${err.message}`;
+      err instanceof ApiError && err.status === 404
+        ? "This assignment is not open to join by name: open the personal link your instructor sent you."
+        : `Could not join: ${err.message}`;
     return;
   }
   out.textContent = "";
@@ -176,7 +217,9 @@ $("#a-join").addEventListener("submit", async (e) => {
 
 async function start() {
   if (!aid || !/^[0-9a-f]{32}$/.test(aid)) {
-    noAccess(["This address does not name an assignment: an assignment's link is /assignments/<its id>#token=<yours>."]);
+    noAccess([
+      "This address does not name an assignment: an assignment's link is /assignments/<its id>#token=<yours>.",
+    ]);
     return;
   }
   const { token } = linkToken(aid);
@@ -194,8 +237,19 @@ async function start() {
 /** Inside an LMS's frame: the page works there with its token (no cookie needed); where the frame is too small
  * or the browser keeps nothing for framed pages, the same page opens in a window of its own. */
 function framed(token) {
-  const link = h("a", { href: `${location.pathname}#token=${encodeURIComponent(token)}`, target: "_blank", rel: "noopener", id: "a-new-window" }, "Open in a new window");
-  document.querySelector("main")?.prepend(h("p", { class: "hint", id: "a-framed" }, "Opened from your course's LMS. ", link));
+  const link = h(
+    "a",
+    {
+      href: `${location.pathname}#token=${encodeURIComponent(token)}`,
+      target: "_blank",
+      rel: "noopener",
+      id: "a-new-window",
+    },
+    "Open in a new window",
+  );
+  document
+    .querySelector("main")
+    ?.prepend(h("p", { class: "hint", id: "a-framed" }, "Opened from your course's LMS. ", link));
 }
 
 // a link followed while this page is open (only its fragment changes: no new page): start again with its token

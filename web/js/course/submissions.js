@@ -8,7 +8,13 @@ import { localTime, pts } from "./brief.js";
 import { showFeedback } from "./feedback.js";
 
 const FINAL = new Set(["graded", "invalid", "failed"]);
-const STATUS = { queued: "queued", grading: "grading", graded: "graded", invalid: "invalid", failed: "could not be graded" };
+const STATUS = {
+  queued: "queued",
+  grading: "grading",
+  graded: "graded",
+  invalid: "invalid",
+  failed: "could not be graded",
+};
 
 /** Follow one submission until its grade is final: onView(view) for each `submission` event, onEnd() once
  * (at its end, or when the stream is given up: the list read again shows where it stands). A 404 (not this
@@ -69,7 +75,9 @@ export class SubmissionList {
     if (!subs.length) this.status.textContent = "None yet: Check your scene, then Submit it.";
     else if (this.status.textContent.startsWith("None yet")) this.status.textContent = "";
     const used = subs.filter((s) => s.counts_as_attempt).length;
-    this.attempts.textContent = subs.length ? `${subs.length} submitted, ${used} counting as ${used === 1 ? "an attempt" : "attempts"}` : "";
+    this.attempts.textContent = subs.length
+      ? `${subs.length} submitted, ${used} counting as ${used === 1 ? "an attempt" : "attempts"}`
+      : "";
   }
 
   /** A new submission (the 202's answer): at the top, opened, followed. */
@@ -114,17 +122,37 @@ export class SubmissionList {
     row.li.dataset.counts = String(!!v.counts);
     row.head.setAttribute("aria-expanded", String(open));
     const released = v.manual?.released && v.total !== null && v.total !== undefined; // the staff's part added
-    const score = released ? h("span", { class: "a-sub-score" }, `${pts(v.total)} / ${pts(v.total_max)}`) : v.score !== null && v.score !== undefined ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`) : v.status === "graded" ? h("span", { class: "a-sub-score muted" }, this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline") : null;
+    const score = released
+      ? h("span", { class: "a-sub-score" }, `${pts(v.total)} / ${pts(v.total_max)}`)
+      : v.score !== null && v.score !== undefined
+        ? h("span", { class: "a-sub-score" }, `${pts(v.score)} / ${pts(v.max_score)}`)
+        : v.status === "graded"
+          ? h(
+              "span",
+              { class: "a-sub-score muted" },
+              this.ctx.scoreWhen === "never" ? "score not shown" : "score shown after the deadline",
+            )
+          : null;
     const parts = [
       h("span", { class: "a-sub-n" }, `#${row.n}`),
       h("span", { class: "a-sub-time" }, h("time", { datetime: v.accepted_at }, localTime(v.accepted_at))),
       h("span", { class: "muted" }, v.kind === "scene" ? "scene" : `${v.kind.toUpperCase()} image`),
       v.late ? h("span", { class: "badge a-late" }, "late") : null,
-      v.tokens_spent ? h("span", { class: "badge a-tokens" }, `${v.tokens_spent} late ${v.tokens_spent === 1 ? "token" : "tokens"} spent: on time`) : null,
+      v.tokens_spent
+        ? h(
+            "span",
+            { class: "badge a-tokens" },
+            `${v.tokens_spent} late ${v.tokens_spent === 1 ? "token" : "tokens"} spent: on time`,
+          )
+        : null,
       h("span", { class: `badge ${v.status} a-sub-status` }, STATUS[v.status] || v.status),
       score,
       v.counts ? h("span", { class: "badge a-counts", title: "the submission that is your grade" }, "★ counts") : null,
-      h("span", { class: "a-sub-attempt muted" }, v.counts_as_attempt ? (FINAL.has(v.status) ? "an attempt" : "holds an attempt") : "no attempt used"),
+      h(
+        "span",
+        { class: "a-sub-attempt muted" },
+        v.counts_as_attempt ? (FINAL.has(v.status) ? "an attempt" : "holds an attempt") : "no attempt used",
+      ),
       h("span", { class: "a-sub-toggle", "aria-hidden": "true" }, open ? "▾" : "▸"),
     ];
     row.head.replaceChildren(...parts.filter(Boolean));
@@ -158,7 +186,13 @@ export class SubmissionList {
   announce(row) {
     const v = row.view;
     const score = v.score !== null && v.score !== undefined ? `: ${pts(v.score)} / ${pts(v.max_score)}` : "";
-    const what = { queued: "is queued", grading: "is being graded", graded: `is graded${score}`, invalid: "is invalid (no attempt used)", failed: "could not be graded (no attempt used)" }[v.status];
+    const what = {
+      queued: "is queued",
+      grading: "is being graded",
+      graded: `is graded${score}`,
+      invalid: "is invalid (no attempt used)",
+      failed: "could not be graded (no attempt used)",
+    }[v.status];
     this.status.textContent = `Submission #${row.n} ${what || v.status}.`;
   }
 

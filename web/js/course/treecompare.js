@@ -65,12 +65,18 @@ export function studentTree(tree, reference, scene = null) {
     const i = hit.object;
     const obj = Number.isInteger(i) ? scene?.objects?.[i] : null;
     const same = refById.get(n.id)?.hit;
-    const like = same && same.object === i ? same : (reference?.nodes || []).find((r) => r.hit && r.hit.object === i)?.hit;
+    const like =
+      same && same.object === i ? same : (reference?.nodes || []).find((r) => r.hit && r.hit.object === i)?.hit;
     if (!hit.object_name) hit.object_name = obj?.name || like?.object_name || null;
-    if (!hit.material) hit.material = (typeof obj?.material === "string" ? obj.material : null) || like?.material || null;
+    if (!hit.material)
+      hit.material = (typeof obj?.material === "string" ? obj.material : null) || like?.material || null;
     return hit;
   };
-  return { ...tree, color: tree.color ?? null, nodes: tree.nodes.map((n) => ({ ...n, depth: depths.get(n.id), hit: named(n) })) };
+  return {
+    ...tree,
+    color: tree.color ?? null,
+    nodes: tree.nodes.map((n) => ({ ...n, depth: depths.get(n.id), hit: named(n) })),
+  };
 }
 
 const shownPictures = new WeakMap(); // container -> the object URLs of its answer's two pictures
@@ -92,18 +98,39 @@ function side(name, title, tree, markedId, ctx) {
   const n = model.nodes.length;
   const colour = Array.isArray(tree.color) ? colourSwatch(tree.color) : ["not logged"];
   const box = h("div", { class: "compare-tree", tabindex: 0, role: "group", "aria-label": `${title}: ${n} rays` });
-  const section = h("section", { class: "compare-side", dataset: { side: name } }, h("h4", {}, title), h("p", { class: "compare-summary" }, `${n} ray${n === 1 ? "" : "s"}; the pixel's colour `, ...colour), box);
+  const section = h(
+    "section",
+    { class: "compare-side", dataset: { side: name } },
+    h("h4", {}, title),
+    h("p", { class: "compare-summary" }, `${n} ray${n === 1 ? "" : "s"}; the pixel's colour `, ...colour),
+    box,
+  );
   const view = { section, box, model, marked, title, name };
   if (ctx.scene) {
-    const where = name === "student" ? (ctx.as === "instructor" ? "the student's image" : "your image") : "the reference image";
+    const where =
+      name === "student" ? (ctx.as === "instructor" ? "the student's image" : "your image") : "the reference image";
     view.overlayCanvas = h("canvas", { role: "img", "aria-label": `${title}: its ${n} rays drawn over ${where}` });
-    view.canvas3d = h("canvas", { tabindex: 0, role: "img", "aria-label": `${title}: its ${n} rays in 3D in the scene; arrow keys orbit, plus and minus zoom, 0 resets` });
+    view.canvas3d = h("canvas", {
+      tabindex: 0,
+      role: "img",
+      "aria-label": `${title}: its ${n} rays in 3D in the scene; arrow keys orbit, plus and minus zoom, 0 resets`,
+    });
     section.append(
       h(
         "div",
         { class: "tl-views" },
-        h("figure", { class: "rt-fig" }, h("figcaption", {}, `Over ${where}`), h("div", { class: "canvas-box" }, view.overlayCanvas)),
-        h("figure", { class: "rt-fig" }, h("figcaption", {}, "In 3D (drag, wheel; keys: arrows, + −, 0)"), h("div", { class: "canvas-box" }, view.canvas3d)),
+        h(
+          "figure",
+          { class: "rt-fig" },
+          h("figcaption", {}, `Over ${where}`),
+          h("div", { class: "canvas-box" }, view.overlayCanvas),
+        ),
+        h(
+          "figure",
+          { class: "rt-fig" },
+          h("figcaption", {}, "In 3D (drag, wheel; keys: arrows, + −, 0)"),
+          h("div", { class: "canvas-box" }, view.canvas3d),
+        ),
       ),
     );
   }
@@ -118,10 +145,23 @@ function draw(view, ctx, image, d) {
   const { model, marked } = view;
   let diagram = null;
   let list = null;
-  const show = (id) => highlightRay({ diagram, list, overlay: view.overlay, view3d: view.view3d }, id ?? marked?.id ?? null);
-  diagram = renderDiagram(view.box, model, { onHover: show, onSelect: show, open: marked ? [marked.id] : [], label: `${view.title}: ${model.nodes.length} rays (the tree in words, below, names each)` });
-  list = renderRayList(view.words, model, { label: `${view.title}: ${model.nodes.length} rays`, onFocus: show, onSelect: show });
-  if (marked) view.words.querySelector(`[data-id="${marked.id}"] > .rt-li-text`)?.append(` The first difference: ${whatWords(d.what)}.`);
+  const show = (id) =>
+    highlightRay({ diagram, list, overlay: view.overlay, view3d: view.view3d }, id ?? marked?.id ?? null);
+  diagram = renderDiagram(view.box, model, {
+    onHover: show,
+    onSelect: show,
+    open: marked ? [marked.id] : [],
+    label: `${view.title}: ${model.nodes.length} rays (the tree in words, below, names each)`,
+  });
+  list = renderRayList(view.words, model, {
+    label: `${view.title}: ${model.nodes.length} rays`,
+    onFocus: show,
+    onSelect: show,
+  });
+  if (marked)
+    view.words
+      .querySelector(`[data-id="${marked.id}"] > .rt-li-text`)
+      ?.append(` The first difference: ${whatWords(d.what)}.`);
   if (ctx.scene) {
     view.overlay = new Overlay(view.overlayCanvas, { onHover: show, onSelect: show, onPick: () => {} });
     view.view3d = new View3D(view.canvas3d, { onHover: show, onSelect: show });
@@ -165,7 +205,13 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     const d = t.differences[0];
     const b = h(
       "button",
-      { type: "button", class: `small tl-pixel-button ${t.matches ? "same" : "differs"}`, "aria-pressed": "false", dataset: { i, what: d ? d.what : "none" }, onclick: () => select(i) },
+      {
+        type: "button",
+        class: `small tl-pixel-button ${t.matches ? "same" : "differs"}`,
+        "aria-pressed": "false",
+        dataset: { i, what: d ? d.what : "none" },
+        onclick: () => select(i),
+      },
       h("span", { "aria-hidden": "true" }, t.matches ? "✓" : "✗"),
       `(${t.pixel[0]}, ${t.pixel[1]})${t.matches ? " matches" : `: ${whatWords(d.what)}`}`,
     );
@@ -184,21 +230,55 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     const head = h(
       "p",
       { class: "compare-message", dataset: { what: d ? d.what : "none" } },
-      d ? inWordsOf(as, d.message) : `${whose} tree at this pixel matches the reference's: the same rays, hits, directions and terms.`,
+      d
+        ? inWordsOf(as, d.message)
+        : `${whose} tree at this pixel matches the reference's: the same rays, hits, directions and terms.`,
     );
     const more = t.differences.slice(1);
     const views = [
-      side("student", as === "instructor" ? "The student's tree" : "Your tree (from your log)", studentTree(t.student, t.reference, scene), d ? d.student : null, ctx),
+      side(
+        "student",
+        as === "instructor" ? "The student's tree" : "Your tree (from your log)",
+        studentTree(t.student, t.reference, scene),
+        d ? d.student : null,
+        ctx,
+      ),
       side("reference", "The reference's tree", t.reference, d ? d.reference : null, ctx),
     ];
     const moreList = more.length
-      ? h("details", { class: "tl-more" }, h("summary", {}, `${more.length} more difference${more.length === 1 ? "" : "s"} after the first`), h("ul", {}, more.map((m) => h("li", { dataset: { what: m.what } }, h("strong", {}, whatWords(m.what)), ": ", inWordsOf(as, m.message)))))
+      ? h(
+          "details",
+          { class: "tl-more" },
+          h("summary", {}, `${more.length} more difference${more.length === 1 ? "" : "s"} after the first`),
+          h(
+            "ul",
+            {},
+            more.map((m) =>
+              h(
+                "li",
+                { dataset: { what: m.what } },
+                h("strong", {}, whatWords(m.what)),
+                ": ",
+                inWordsOf(as, m.message),
+              ),
+            ),
+          ),
+        )
       : "";
     body.replaceChildren(
-      h("h3", { class: "compare-title", tabindex: -1 }, `Ray trees at pixel (${t.pixel[0]}, ${t.pixel[1]})`, probe?.why ? h("span", { class: "muted tl-why" }, ` · ${probe.why}`) : null),
+      h(
+        "h3",
+        { class: "compare-title", tabindex: -1 },
+        `Ray trees at pixel (${t.pixel[0]}, ${t.pixel[1]})`,
+        probe?.why ? h("span", { class: "muted tl-why" }, ` · ${probe.why}`) : null,
+      ),
       head,
       moreList,
-      h("div", { class: "compare-sides" }, views.map((v) => v.section)),
+      h(
+        "div",
+        { class: "compare-sides" },
+        views.map((v) => v.section),
+      ),
       legend(),
     );
     body.dataset.x = String(t.pixel[0]);
@@ -217,7 +297,7 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     body.dataset.drawn = "true";
   }
   const first = trees.findIndex((t) => !t.matches);
-  if (trees.length) select(Math.max(first , 0));
+  if (trees.length) select(Math.max(first, 0));
   return { select };
 }
 
@@ -228,8 +308,18 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
  */
 export function whatChart(counts) {
   const rows = Object.entries(counts || {}).sort((a, b) => b[1] - a[1] || a[0].localeCompare(b[0]));
-  if (!rows.length) return h("p", { class: "hint", id: "whats-empty" }, "No tree log compared yet: the bars appear as students send their tracers' logs.");
-  const W = 420, L = 170, R = 36, BAR = 18, GAP = 6, T = 4; // prettier-ignore
+  if (!rows.length)
+    return h(
+      "p",
+      { class: "hint", id: "whats-empty" },
+      "No tree log compared yet: the bars appear as students send their tracers' logs.",
+    );
+  const W = 420,
+    L = 170,
+    R = 36,
+    BAR = 18,
+    GAP = 6,
+    T = 4; // prettier-ignore
   const H = T + rows.length * (BAR + GAP);
   const top = Math.max(...rows.map(([, n]) => n));
   const total = rows.reduce((a, [, n]) => a + n, 0);
@@ -254,8 +344,28 @@ export function whatChart(counts) {
     "table",
     { class: "grade-table whats-table", id: "whats-table" },
     h("caption", { class: "sr-only" }, "First differences of the class's tree logs, by what differs"),
-    h("thead", {}, h("tr", {}, h("th", { scope: "col" }, "what differs first"), h("th", { scope: "col", class: "num" }, "trees"))),
-    h("tbody", {}, rows.map(([what, n]) => h("tr", { dataset: { what } }, h("th", { scope: "row" }, whatWords(what), " ", h("code", {}, what)), h("td", { class: "num" }, String(n))))),
+    h(
+      "thead",
+      {},
+      h("tr", {}, h("th", { scope: "col" }, "what differs first"), h("th", { scope: "col", class: "num" }, "trees")),
+    ),
+    h(
+      "tbody",
+      {},
+      rows.map(([what, n]) =>
+        h(
+          "tr",
+          { dataset: { what } },
+          h("th", { scope: "row" }, whatWords(what), " ", h("code", {}, what)),
+          h("td", { class: "num" }, String(n)),
+        ),
+      ),
+    ),
   );
-  return h("div", { class: "whats" }, svg, h("details", { class: "whats-text" }, h("summary", {}, "The counts as a table"), table));
+  return h(
+    "div",
+    { class: "whats" },
+    svg,
+    h("details", { class: "whats-text" }, h("summary", {}, "The counts as a table"), table),
+  );
 }

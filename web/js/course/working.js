@@ -36,7 +36,11 @@ export function showWorkingOn(el) {
     el.hidden = true;
     return;
   }
-  const dismiss = h("button", { type: "button", class: "small", "aria-label": "Dismiss: I am not working on this assignment" }, "×");
+  const dismiss = h(
+    "button",
+    { type: "button", class: "small", "aria-label": "Dismiss: I am not working on this assignment" },
+    "×",
+  );
   dismiss.addEventListener("click", () => {
     store.set(KEY, null);
     el.hidden = true;

@@ -8,16 +8,31 @@ export const SURFACES = [
     scene: "texture",
     text: "A texture replaces a material's diffuse colour kd at each hit: a solid 3D checker computed from the hit's position (the floor and the torus), or an image looked up by the surface's (u, v) coordinates (the ball and the wall). The geometry and the lighting stay the same.",
     more: [reference("textures and bump maps", "textures-and-bump-maps")],
-    controls: [{ key: "size", label: "floor checker size", kind: "select", choices: values(0.25, 0.5, 1, 2), value: 0.5, panels: [1], path: "materials.floor.texture.size" }],
+    controls: [
+      {
+        key: "size",
+        label: "floor checker size",
+        kind: "select",
+        choices: values(0.25, 0.5, 1, 2),
+        value: 0.5,
+        panels: [1],
+        path: "materials.floor.texture.size",
+      },
+    ],
     panels: [
-      { label: "without textures", edit: (s) => eachMaterial(s, (m) => delete m.texture), note: "every texture removed" },
+      {
+        label: "without textures",
+        edit: (s) => eachMaterial(s, (m) => delete m.texture),
+        note: "every texture removed",
+      },
       { label: "with textures" },
     ],
     question: {
       prompt: "What does a texture map replace in the shading of a hit?",
       choices: ["the diffuse colour kd", "the surface normal", "the shape of the object", "the colour of the light"],
       answer: 0,
-      explain: "A texture map gives kd per point (and ka follows it when not set). The normal is what a bump map changes; the shape and the lights are untouched, which is why shading and shadows look the same with and without.",
+      explain:
+        "A texture map gives kd per point (and ka follows it when not set). The normal is what a bump map changes; the shape and the lights are untouched, which is why shading and shadows look the same with and without.",
     },
   },
   {
@@ -44,9 +59,13 @@ export const SURFACES = [
     ],
     question: {
       prompt: "Look at the outline of the hammered ball with its bump map. Is it bumpy?",
-      choices: ["Yes, the outline follows the bumps", "No: a bump map changes the shading normal, not the surface, so the outline stays a perfect circle"],
+      choices: [
+        "Yes, the outline follows the bumps",
+        "No: a bump map changes the shading normal, not the surface, so the outline stays a perfect circle",
+      ],
       answer: 1,
-      explain: "Rays still hit the smooth sphere; only the normal used for shading is tilted. That is why bump maps are cheap, and why they give themselves away at silhouettes and in shadows. Moving the surface itself is displacement mapping.",
+      explain:
+        "Rays still hit the smooth sphere; only the normal used for shading is tilted. That is why bump maps are cheap, and why they give themselves away at silhouettes and in shadows. Moving the surface itself is displacement mapping.",
     },
   },
   {
@@ -55,16 +74,26 @@ export const SURFACES = [
     scene: "fog",
     text: "Fog on every eye, reflection and transmission ray: a ray that travels a distance t keeps e^(−σ t) of what it sees and takes the rest from the fog's colour, so the row of pillars fades into grey with distance. σ is fog.density.",
     more: [reference("fog along a ray", "fog-along-a-ray"), reference("the fog fields", "fog")],
-    controls: [{ key: "density", label: "density σ", kind: "range", min: 0.01, max: 0.3, step: 0.01, value: 0.07, panels: [1], path: "fog.density" }],
-    panels: [
-      { label: "without fog", set: { "fog.density": 0 } },
-      { label: (s) => `fog, density ${s.fog.density}` },
+    controls: [
+      {
+        key: "density",
+        label: "density σ",
+        kind: "range",
+        min: 0.01,
+        max: 0.3,
+        step: 0.01,
+        value: 0.07,
+        panels: [1],
+        path: "fog.density",
+      },
     ],
+    panels: [{ label: "without fog", set: { "fog.density": 0 } }, { label: (s) => `fog, density ${s.fog.density}` }],
     question: {
       prompt: "A pillar twice as far away as another keeps what share of its own colour?",
       choices: ["half the near pillar's share", "the square of the near pillar's share", "the same share"],
       answer: 1,
-      explain: "The share kept is e^(−σ t). At distance 2t it is e^(−2σ t) = (e^(−σ t))²: if the near pillar keeps 70 %, the far one keeps 49 %. Fog thickens exponentially with distance, not linearly.",
+      explain:
+        "The share kept is e^(−σ t). At distance 2t it is e^(−2σ t) = (e^(−σ t))²: if the near pillar keeps 70 %, the far one keeps 49 %. Fog thickens exponentially with distance, not linearly.",
     },
   },
   {
@@ -73,16 +102,36 @@ export const SURFACES = [
     scene: "etched_glass",
     text: "The pane transmits kt of the light behind it (its transmission ray, not bent: ior 1) and adds its own Phong shading, whose kd is an image texture: the etching, lit by the lamp, over what is seen through the glass. Without the texture the same pane is plain tinted glass. kt is the slider.",
     more: [reference("materials: kt and ior", "materials"), reference("textures", "textures-and-bump-maps")],
-    controls: [{ key: "kt", label: "the pane's kt", kind: "range", min: 0, max: 1, step: 0.05, value: 0.65, path: "materials.etched.kt" }],
+    controls: [
+      {
+        key: "kt",
+        label: "the pane's kt",
+        kind: "range",
+        min: 0,
+        max: 1,
+        step: 0.05,
+        value: 0.65,
+        path: "materials.etched.kt",
+      },
+    ],
     panels: [
-      { label: "plain glass (no texture)", edit: (s) => delete s.materials.etched.texture, note: "materials.etched.texture removed" },
+      {
+        label: "plain glass (no texture)",
+        edit: (s) => delete s.materials.etched.texture,
+        note: "materials.etched.texture removed",
+      },
       { label: "etched glass (image texture)" },
     ],
     question: {
       prompt: "Set kt to 0. What is seen of the red ball behind the pane?",
-      choices: ["nothing: no transmission ray is traced, the pane is opaque", "the ball, only dimmer", "only the ball's shadow"],
+      choices: [
+        "nothing: no transmission ray is traced, the pane is opaque",
+        "the ball, only dimmer",
+        "only the ball's shadow",
+      ],
       answer: 0,
-      explain: "Through the pane, the ball is only seen by the transmission ray, whose weight is kt. With kt = 0 it is not traced at all, and the pane shows only its own shading: the etched image on an opaque card.",
+      explain:
+        "Through the pane, the ball is only seen by the transmission ray, whose weight is kt. With kt = 0 it is not traced at all, and the pane shows only its own shading: the etched image on an opaque card.",
     },
   },
 ];
