@@ -56,7 +56,7 @@ class Submissions(CourseBase):
         due, cut = self.deadlines(a, student)
         decide = self.spend_plan(a, student, due, cut, accepted)  # late tokens (tokens.py): decided in the row's tx
         if accepted > cut:
-            decide(self.store.db)  # refused at once when tokens cannot cover it (nothing written yet)
+            decide(self.store.db, dry=True)  # refused at once when tokens cannot cover it (nothing written yet)
         sid = uuid.uuid4().hex
         rel = f"{a['id']}/submissions/{sid}{SUFFIX[kind]}"
         path = self.root / rel

@@ -119,13 +119,14 @@ class Tokens(CourseBase):
         """What `CourseStore.add_submission` calls in its transaction: the tokens this submission spends and its
         late mark, read and written together; a refusal (past the cut-off, too few tokens) raises there."""
 
-        def decide(db: sqlite3.Connection) -> dict:
+        def decide(db: sqlite3.Connection, dry: bool = False) -> dict:
+            """The decision; `dry`: only the refusal, nothing recorded (the check before the file is written)."""
             sid = student["student"]
             spent, left = spent_on(db, a["id"], sid), balance(db, a["course_id"], sid)
             p = plan(accepted, due, cut, spent, left)
             if p is None:
                 raise refused(due, cut, accepted, days_late(accepted, due) - spent, left)
-            if p[0]:  # the student's balance moves: audited as theirs, in the submission's transaction
+            if p[0] and not dry:  # the student's balance moves: audited as theirs, in the submission's transaction
                 after = {"tokens_left": left - p[0], "spent": p[0]}
                 record(self.by(f"student:{sid}", "a late submission"), db, "tokens.spend",
                        Target(a["course_id"], a["id"], student=sid), {"tokens_left": left}, after)  # fmt: skip
