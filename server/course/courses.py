@@ -96,7 +96,7 @@ class Courses(CourseBase):
         if not self.store.add_course(cid, " ".join(name.split())[:200] or cid, self.now()):
             raise Conflict([{"path": "id", "message": f"there is a course '{cid}' already"}])
         log.info("course %s created", cid)
-        return self.store.course(cid)
+        return self.course(cid)
 
     def course_view(self, cid: str, who: Who, base: str) -> dict:
         """A course: its assignments (a student: those they are on the roster of, with links), its staff and the
@@ -106,6 +106,8 @@ class Courses(CourseBase):
                "late_tokens": c["late_tokens"]}  # fmt: skip
         for aid in self.store.assignments(cid):
             a = self.store.assignment(aid)
+            if a is None:  # (none: the course's ids are its assignments')
+                continue
             if who.student is not None and self.store.student(aid, who.student["student"]) is None:
                 continue
             out["assignments"].append(

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import json
 
+from server.core.db import Tables
 
-class ManualTables:
+
+class ManualTables(Tables):
     """The manual grades of CourseStore (its `db`)."""
 
     def set_manual(self, aid: str, sid: str, item: str, row: dict, now: float) -> None:

@@ -458,7 +458,7 @@ class CourseStore(ManualTables, Tables):
         max_attempts: int | None,
         per_hour: int,
         hour_ago: float,
-        also: Callable[[sqlite3.Connection], None] | None = None,
+        also: Callable[[sqlite3.Connection], object] | None = None,
         before: Callable[[sqlite3.Connection], dict] | None = None,
     ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),

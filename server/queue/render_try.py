@@ -340,6 +340,7 @@ class Try:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
         the cache after the first click)."""
         from tracer import radiosity
+        from tracer.radiosity.solver import Solution
         from tracer.rendering.raytree import ray_tree
         from tracer.scene import SceneError
 
@@ -380,7 +381,7 @@ class Try:
             self.channel.finish(JobStatus.failed, error="; ".join(e["message"] for e in exc.errors), errors=exc.errors)
             return TryEnd.failed
         self.channel.save(JobFile.raytree, json.dumps(tree))
-        solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if cs.radiosity is not None else {}
+        solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if isinstance(cs.radiosity, Solution) else {}
         self.channel.finish(JobStatus.done, samples_done=1, samples_total=1, passes_done=1, spp_done=1, **solved)
         return TryEnd.done
 

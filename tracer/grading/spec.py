@@ -299,7 +299,7 @@ class Assignment(_Model):
         """{"scene": ..., "image": ...}: the maximum of each kind of submission (`max_score`)."""
         return {kind: self.max_score(kind) for kind in ("scene", "image")}
 
-    def image_tests(self) -> dict[str, BaseModel]:
+    def image_tests(self) -> dict[str, FlipTest | SsimTest | PsnrTest | PixelTest]:
         ref = self.reference
         if ref is None:
             return {}

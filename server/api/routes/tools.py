@@ -20,7 +20,7 @@ from server.api.deps import (
     get_client,
     still_waiting,
 )
-from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
+from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest, WorkerInfo
 from server.api.scene_route import scene_post
 from server.core.clients import address_owner
 from server.core.errors import Invalid
@@ -42,7 +42,8 @@ async def health(
             for w in workers:
                 if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
                     w["job"] = None
-        return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=workers,
+        infos = [WorkerInfo.model_validate(w) for w in workers]
+        return Health(status="ok", backend=queue.backend, queue=queue.stats, workers=infos,
                       checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
                       grading=runs.health())  # fmt: skip
 
