@@ -22,7 +22,7 @@ import json
 import logging
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from server.core.files import is_disk_full
 from server.jobs.files import JobFile
@@ -30,7 +30,7 @@ from server.jobs.lifecycle import JobKind, JobStatus, Lane, Stop, TryEnd
 from server.jobs.store import JobStore
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping
 
     import numpy as np
 
@@ -79,7 +79,7 @@ class StoreChannel:
     """The embedded backend: a worker process on the API's host writes into the job store, fenced by
     its pid (a worker that lost its job can never write into the job's next life)."""
 
-    def __init__(self, store: JobStore, job: dict, pid: int):
+    def __init__(self, store: JobStore, job: Mapping[str, Any], pid: int):
         self.store, self.job, self.job_id, self.pid = store, job, job["id"], pid
 
     def stop_reason(self) -> Stop | None:
@@ -287,7 +287,7 @@ class Try:
     `limits`: the scene limits; `stopping()`: the host is shutting down; `cache`: radiosity solutions by
     content (a radiosity.SolutionCache); `snapshot_interval`: seconds of rendering between two snapshots of the film."""
 
-    job: dict
+    job: Mapping[str, Any]  # a job's row (embedded), or the try's payload (a Redis worker host)
     channel: Channel
     limits: Limits
     threads: int

@@ -35,7 +35,7 @@ from server.core.security import new_token, share_token, token_hash, unauthorize
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import JobKind, JobStatus
 from server.jobs.service import JobService
-from server.jobs.store import JobStore
+from server.jobs.store import JobRow, JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
@@ -222,7 +222,7 @@ def job_scene(job: JobDep, store: StoreDep) -> dict:
     return json.loads(row["scene"])
 
 
-def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
+def _aov_ready(job: JobRow, store: JobStore) -> dict[str, list[float]]:
     if job["status"] != JobStatus.done:
         raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
     try:
