@@ -25,6 +25,7 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
+from server.course.schema import CourseRow
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -93,7 +94,7 @@ class CourseBase:
             raise not_found("assignment", aid)
         return a
 
-    def course(self, cid: str) -> dict:
+    def course(self, cid: str) -> CourseRow:
         c = self.store.course(cid) if isinstance(cid, str) and len(cid) <= 40 else None
         if c is None:
             raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])

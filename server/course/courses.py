@@ -11,6 +11,7 @@ from server.core.roles import Kind, Role
 from server.core.security import Caller
 from server.course.base import CourseBase, iso, not_found
 from server.course.people import ROLES, Who, check_course_id, refuse_ta
+from server.course.schema import CourseRow
 from tracer.grading import student_name
 
 log = logging.getLogger(__name__)
@@ -91,7 +92,7 @@ class Courses(CourseBase):
             raise refuse_ta(ACTIONS.get(action, action))
         return who
 
-    def create_course(self, cid: str, name: str) -> dict:
+    def create_course(self, cid: str, name: str) -> CourseRow:
         check_course_id(cid)
         if not self.store.add_course(cid, " ".join(name.split())[:200] or cid, self.now()):
             raise Conflict([{"path": "id", "message": f"there is a course '{cid}' already"}])
