@@ -34,7 +34,7 @@ from server.jobs.janitor import Janitor
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
-from server.jobs.store import JobStore
+from server.jobs.store import JobRow, JobStore
 from server.lti.tool import LtiTool
 from server.queue.base import JobQueue
 
@@ -209,7 +209,7 @@ async def get_job(
     return row
 
 
-JobDep = Annotated[dict, Depends(get_job)]
+JobDep = Annotated[JobRow, Depends(get_job)]
 
 
 # -- who asks for work -----------------------------------------------------------------------------

@@ -18,6 +18,10 @@ class ErrorResponse(BaseModel):
     errors: list[ErrorItem]
 
 
+# a route's documented answers (FastAPI's `responses=`): status code -> {"model": ..., "description": ...}
+Responses = dict[int | str, dict[str, Any]]
+
+
 SCENE_DESCRIPTION = "a scene object (the format: /reference/scene-format.md); its JSON Schema is at GET /api/schema"
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncGenerator, AsyncIterator, Callable
 
 from fastapi import Request
 from fastapi.responses import StreamingResponse
@@ -50,14 +50,14 @@ def stream_room(request: Request, caller: Caller) -> Callable[[], None]:
     return request.app.state.streams.open(caller.owner, request.client.host if request.client else None)
 
 
-async def _framed(events: AsyncIterator[str]) -> AsyncIterator[str]:
+async def _framed(events: AsyncGenerator[str, None]) -> AsyncIterator[str]:
     async with contextlib.aclosing(events):  # closed with the stream: its followers end with it, not at collection
         yield RETRY
         async for text in events:
             yield text
 
 
-def event_stream(request: Request, caller: Caller, events: AsyncIterator[str]) -> CappedStream:
+def event_stream(request: Request, caller: Caller, events: AsyncGenerator[str, None]) -> CappedStream:
     """The answer that streams `events` (texts of `sse` and KEEP_ALIVE), under the caller's caps of open streams
     (429 past them, before anything is sent)."""
     release = stream_room(request, caller)

@@ -45,8 +45,9 @@ import ipaddress
 import logging
 import re
 import secrets
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from server.core.errors import Forbidden, Unauthorized
 from server.core.settings import MIN_TOKEN_LENGTH, STRONG_TOKEN, Settings, loopback_address, weak_token
@@ -68,7 +69,7 @@ def token_hash(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
-def share_token(row: dict) -> str | None:
+def share_token(row: Mapping[str, Any]) -> str | None:
     """The job's read-only share token (None for a job with no owner: the instructor's own)."""
     owner = row.get("owner")
     if not owner:
@@ -97,12 +98,12 @@ class Caller:
     owner: str | None
     instructor: bool
 
-    def shares(self, row: dict) -> bool:
+    def shares(self, row: Mapping[str, Any]) -> bool:
         """Does this caller hold the job's read-only share token?"""
         key = share_token(row)
         return bool(key and self.token and hmac.compare_digest(key.encode(), self.token.encode()))
 
-    def owns(self, row: dict) -> bool:
+    def owns(self, row: Mapping[str, Any]) -> bool:
         """May this caller see the job? The instructor sees every job; a student those of their token."""
         if self.instructor:
             return True

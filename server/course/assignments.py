@@ -135,7 +135,7 @@ class Assignments(CourseBase):
             self.runs.close(run_id)
             raise
         log.info("assignment %s published (grading run %s)", aid, run_id)
-        return self.store.assignment(aid)
+        return self.assignment(aid)
 
     def edit(self, aid: str, body: AssignmentIn, regrade: bool, who: Who | None = None, why: str = "") -> dict:
         """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
@@ -153,7 +153,7 @@ class Assignments(CourseBase):
         if regrade:
             for sub in self.store.regrade(aid, version, run_id, by=self.by(who, why or "edited")):
                 self._hand(sub)
-        return self.store.assignment(aid)
+        return self.assignment(aid)
 
     def regrade(self, aid: str, who: Who | None = None, why: str = "") -> dict:
         """Every submission graded again: a new version with the same spec and policy, and its own run (the
@@ -169,7 +169,7 @@ class Assignments(CourseBase):
         for sub in self.store.regrade(aid, version, run_id, by=self.by(who, why)):
             self._hand(sub)
         log.info("assignment %s regraded as version %d (grading run %s)", aid, version, run_id)
-        return self.store.assignment(aid)
+        return self.assignment(aid)
 
     def brief(self, a: dict, who: Who, base: str) -> dict:
         spec, p, now = a["spec"], a["policy"], self.now()
@@ -204,7 +204,7 @@ class Assignments(CourseBase):
             else None,
             "feedback": p["feedback"],
         }
-        if who.instructor:
+        if who.student is None:  # staff (who.instructor)
             out.update(
                 # the caller's role (admin, instructor or ta) and what it may change, so that the page shows a TA
                 # no form the server would refuse (a TA follows the class, grants extensions and regrades)

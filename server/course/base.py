@@ -14,15 +14,18 @@ its body was accepted, and the deadline, the late mark and the feedback shown fo
 
 from __future__ import annotations
 
+import sqlite3
 import threading
 from collections.abc import Callable
 from datetime import datetime
+from typing import TYPE_CHECKING
 
 from server.core.errors import NotFound
 from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
-from server.course.policy import Moment
+from server.course.policy import Feedback, Moment
+from server.course.schema import CourseRow
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -55,6 +58,26 @@ class CourseBase:
     def now(self) -> float:
         return self.clock().timestamp()
 
+    if TYPE_CHECKING:  # what one concept's mixin calls of another's, for the type checker (service.Course has them)
+
+        def course_link(self, base: str, cid: str, token: str, staff: bool = False) -> str: ...  # roster.py
+        def token_of(self, cid: str, kind: str, person: str, gen: int) -> str: ...  # roster.py
+        def submission(self, a: dict, sid: str) -> dict | None: ...  # submissions.py
+        def submissions(self, a: dict, student: str | None = None) -> list[dict]: ...  # submissions.py
+        def _hand(self, sub: dict) -> None: ...  # submissions.py
+        def view(self, a: dict, sub: dict, who: Who, counting: str | None = None) -> dict: ...  # views.py
+        def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str: ...  # views.py
+        def counting(self, a: dict, subs: list[dict]) -> dict | None: ...  # grades.py
+        def total(self, a: dict, sub: dict) -> tuple[float, float]: ...  # grades.py
+        def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]: ...  # grades.py
+        def tokens_brief(self, a: dict, student: dict, now: float) -> dict: ...  # tokens.py
+        def spend_plan(  # tokens.py
+            self, a: dict, student: dict, due: float, cut: float, accepted: float
+        ) -> Callable[[sqlite3.Connection], dict]: ...
+        def released_at(self, a: dict) -> float | None: ...  # manual.py
+        def released_manual(self, a: dict, sub: dict) -> float | None: ...  # manual.py
+        def manual_view(self, a: dict, sub: dict, who: Who) -> dict | None: ...  # manual.py
+
     def by(self, who: Who | str | None, why: str = "") -> audit.By:
         """Who makes a change now, and why: what the store's changing methods record their audit events with
         (server/course/audit.py). `who` a caller, or a name ("lms"); None: "system" (nothing goes unrecorded)."""
@@ -71,7 +94,7 @@ class CourseBase:
             raise not_found("assignment", aid)
         return a
 
-    def course(self, cid: str) -> dict:
+    def course(self, cid: str) -> CourseRow:
         c = self.store.course(cid) if isinstance(cid, str) and len(cid) <= 40 else None
         if c is None:
             raise NotFound([{"path": "course", "message": f"no course with id '{str(cid)[:64]}'"}])

@@ -254,7 +254,7 @@ def parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)  # after the command, as in the module's doc
     common.add_argument("--server", help=f"the server's URL (default: TRACER_SERVER, else {DEFAULT_SERVER})")
     common.add_argument("--token", help="the instructor's token (default: TRACER_INSTRUCTOR_TOKEN)")
-    p = argparse.ArgumentParser(prog="python -m server.course", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m server.course", description=(__doc__ or "").split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
     pub = sub.add_parser(
         "publish", parents=[common], help="publish an assignment from a grading spec (docs/grading.md)"

@@ -11,6 +11,7 @@ from server.core.roles import Kind, Role
 from server.core.security import Caller
 from server.course.base import CourseBase, iso, not_found
 from server.course.people import ROLES, Who, check_course_id, refuse_ta
+from server.course.schema import CourseRow
 from tracer.grading import student_name
 
 log = logging.getLogger(__name__)
@@ -91,12 +92,12 @@ class Courses(CourseBase):
             raise refuse_ta(ACTIONS.get(action, action))
         return who
 
-    def create_course(self, cid: str, name: str) -> dict:
+    def create_course(self, cid: str, name: str) -> CourseRow:
         check_course_id(cid)
         if not self.store.add_course(cid, " ".join(name.split())[:200] or cid, self.now()):
             raise Conflict([{"path": "id", "message": f"there is a course '{cid}' already"}])
         log.info("course %s created", cid)
-        return self.store.course(cid)
+        return self.course(cid)
 
     def course_view(self, cid: str, who: Who, base: str) -> dict:
         """A course: its assignments (a student: those they are on the roster of, with links), its staff and the
@@ -106,6 +107,8 @@ class Courses(CourseBase):
                "late_tokens": c["late_tokens"]}  # fmt: skip
         for aid in self.store.assignments(cid):
             a = self.store.assignment(aid)
+            if a is None:  # (none: the course's ids are its assignments')
+                continue
             if who.student is not None and self.store.student(aid, who.student["student"]) is None:
                 continue
             out["assignments"].append(

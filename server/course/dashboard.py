@@ -70,7 +70,9 @@ def student_rows(course: Course, a: dict) -> list[dict]:
                 "late": bool(counting["late"]) if counting is not None else any(s["late"] for s in mine),
                 "score": None if score is None else round(score, 6),
                 "max_score": counting["max_score"] if counting is not None else None,
-                "points": None if score is None else round(score * points / (counting["max_score"] or points), 6),
+                "points": None
+                if score is None or counting is None
+                else round(score * points / (counting["max_score"] or points), 6),
                 "counting": counting["id"] if counting is not None else None,
                 "last_at": iso(mine[-1]["accepted_at"]) if mine else None,
             }

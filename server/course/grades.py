@@ -92,8 +92,8 @@ class Grades(CourseBase):
         released = spec.manual and self.released_at(a) is not None
         w.writerow(["Points Possible", "", "", "", "", _num(points + (spec.manual_points() if released else 0))])
         for st, c, score, _ in self.final_grades(a):
-            scaled = None if c is None else score * points / (c["max_score"] or points)
-            if scaled is not None and released:
+            scaled = None if c is None or score is None else score * points / (c["max_score"] or points)
+            if scaled is not None and c is not None and released:
                 penalty = a["policy"]["late_penalty"] if c["late"] else 0.0
                 scaled += (self.released_manual(a, c) or 0.0) * (1 - penalty)
             w.writerow([st["name"], "", st["student"], st.get("email") or "", "", _num(scaled)])

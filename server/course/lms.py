@@ -170,7 +170,7 @@ class Lms:
             items = self.services.line_items(platform, lineitems, link_id)
             if items:
                 return items[0]["id"]
-            a = self.course.store.assignment(aid)
+            a = self.course.assignment(aid)
             points = self.course.spec(aid, a["version"]).max_score()
             item = self.services.create_line_item(platform, lineitems, a["spec"]["name"], points, link_id, None, aid)
             return item["id"]
@@ -212,11 +212,14 @@ class Lms:
         if kind == Kind.STAFF:
             row = {"person": pid, "name": name or pid, "email": email, "role": role, "lti_user": who}
             self.course.store.add_staff(cid, row, self.now(), self.course.by("lms", why))
-            gen = self.course.store.staff_member(cid, pid)["gen"]
+            staff = self.course.store.staff_member(cid, pid)
+            assert staff is not None  # added just above
+            gen = staff["gen"]
         else:
             row = {"student": pid, "name": name or pid, "email": email, "every": 1, "lti_user": who}
             self.course.store.add_members(cid, [row], self.now(), [], self.course.by("lms", why))
             member = self.course.store.member(cid, pid)
+            assert member is not None  # added just above
             if member["left_at"] is not None:  # the LMS launched them: they are in its course again
                 self.course.store.set_left(cid, [pid], None, self.course.by("lms", why))
             gen = member["gen"]
@@ -261,9 +264,10 @@ class Lms:
         token = link.split("#token=", 1)[-1].split("&", 1)[0].strip()
         row = self.course.store.token(token_hash(token)) if token else None
         member = self.course.store.member(cid, row["person"]) if row and row["course_id"] == cid else None
-        good = (member is not None and row["kind"] == Kind.STUDENT
+        good = (member is not None and row is not None and row["kind"] == Kind.STUDENT
                 and self.course.token_of(cid, Kind.STUDENT, member["student"], member["gen"]) == token)  # fmt: skip
-        if not good or member["lti_user"] or self.course.store.by_lti(cid, Kind.STUDENT, who) is not None:
+        if (not good or member is None or member["lti_user"]
+                or self.course.store.by_lti(cid, Kind.STUDENT, who) is not None):  # fmt: skip
             return refused("Not a link of this course", "That link is not a current roster link of this course "
                            "for a student who is not linked yet: ask your instructor.", 403)  # fmt: skip
         row = {"student": member["student"], "name": member["name"], "email": member["email"],
@@ -296,6 +300,8 @@ class Lms:
         items = []
         for aid in self.course.store.assignments(cid):
             a = self.course.store.assignment(aid)
+            if a is None:  # (none: the course's ids are its assignments')
+                continue
             items.append(
                 f'<li><button type="submit" name="assignment" value="{aid}">{html.escape(a["spec"]["name"])}</button>'
                 f' <span class="muted">due {html.escape(a["policy"]["deadline"])}</span></li>'
@@ -389,7 +395,7 @@ class Lms:
                 if (m.get("status") or "Active") != "Active":
                     continue
                 role = course_role(m.get("roles") or [])
-                if role in STAFF:
+                if role is not None and role in STAFF:
                     self.person(cid, platform, _Member(m), role)  # made, or their name and role brought up to date
                     staff += 1
                 if role != Role.STUDENT:

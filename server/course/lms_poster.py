@@ -70,7 +70,7 @@ class Poster:
         to them now. True if a new score was kept."""
         a = self.course.store.assignment(aid)
         member = self.course.store.member(a["course_id"], student) if a else None
-        if member is None or not member["lti_user"]:
+        if a is None or member is None or not member["lti_user"]:
             return False
         st = self.course.store.student(aid, student)
         if st is None:

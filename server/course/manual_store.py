@@ -10,11 +10,12 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 
+from server.core.db import Tables
 from server.course.audit import By, Target, record
 from server.course.policy import iso
 
 
-class ManualTables:
+class ManualTables(Tables):
     """The manual grades of CourseStore (its `db`)."""
 
     def set_manual(

@@ -57,13 +57,13 @@ ORDER = {When.now: 0, When.after_deadline: 1, When.never: 2}
 class Feedback(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    default: When = Field(When.now, description="when a test's feedback is shown, unless `tests` names it")
+    default: When = Field(default=When.now, description="when a test's feedback is shown, unless `tests` names it")
     tests: dict[str, When] = Field(
         default_factory=dict,
         description="by test: 'validity', a requirement's name, or an image test: 'flip', 'ssim', 'psnr', 'pixels'",
     )
     score: When | None = Field(
-        None, description="when the score is shown; default: the latest of the tests' (it would tell their sum)"
+        default=None, description="when the score is shown; default: the latest of the tests' (it would tell their sum)"
     )
 
     def score_when(self) -> When:

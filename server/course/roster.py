@@ -60,6 +60,7 @@ class Roster(CourseBase):
 
     def _student_link(self, cid: str, r: dict, base: str, aid: str | None, new: bool) -> dict:
         member = self.store.member(cid, r["student"])
+        assert member is not None  # on the roster: added before its link is made
         token = self.token_of(cid, Kind.STUDENT, member["student"], member["gen"])
         link = self._link(base, aid, token) if aid else self.course_link(base, cid, token)
         out = {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,

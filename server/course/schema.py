@@ -3,6 +3,8 @@ new database; an existing one gets its changes as numbered migrations (server/co
 
 from __future__ import annotations
 
+from typing import TypedDict
+
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS courses (
     id TEXT PRIMARY KEY,                  -- 1 to 40 letters, digits, '-' or '_' (in URLs: /api/courses/{id})
@@ -179,3 +181,25 @@ CREATE TABLE IF NOT EXISTS course_test_overrides (
 );
 CREATE INDEX IF NOT EXISTS course_test_overrides_assignment ON course_test_overrides (assignment_id);
 """
+
+
+class CourseRow(TypedDict):
+    """A row of `courses`, as CourseStore returns it."""
+
+    id: str
+    name: str
+    created_at: float
+    late_tokens: int
+
+
+class StaffRow(TypedDict):
+    """A row of `course_staff`: one of a course's instructors or TAs."""
+
+    course_id: str
+    person: str
+    name: str
+    email: str
+    role: str  # a Role: instructor or ta
+    lti_user: str | None
+    gen: int
+    created_at: float

@@ -30,13 +30,14 @@ import json
 import sqlite3
 from collections.abc import Callable
 from pathlib import Path
+from typing import cast
 
 from server.core.db import Tables
 from server.core.roles import Kind
 from server.course.audit import By, Target, record
 from server.course.manual_store import ManualTables
 from server.course.policy import iso
-from server.course.schema import SCHEMA
+from server.course.schema import SCHEMA, CourseRow, StaffRow
 from server.grading.store import GradingStore
 
 DEFAULT_COURSE = "default"  # the course of the assignments from before courses, and of those published without one
@@ -152,12 +153,12 @@ class CourseStore(ManualTables, Tables):
         cur = self.db.execute("INSERT OR IGNORE INTO courses (id, name, created_at) VALUES (?, ?, ?)", (cid, name, now))
         return cur.rowcount == 1
 
-    def course(self, cid: str) -> dict | None:
+    def course(self, cid: str) -> CourseRow | None:
         row = self.db.execute("SELECT * FROM courses WHERE id = ?", (cid,)).fetchone()
-        return dict(row) if row else None
+        return cast(CourseRow, dict(row)) if row else None
 
-    def courses(self) -> list[dict]:
-        return [dict(r) for r in self.db.execute("SELECT * FROM courses ORDER BY created_at, id")]
+    def courses(self) -> list[CourseRow]:
+        return [cast(CourseRow, dict(r)) for r in self.db.execute("SELECT * FROM courses ORDER BY created_at, id")]
 
     def rename_course(self, cid: str, name: str) -> None:
         self.db.execute("UPDATE courses SET name = ? WHERE id = ?", (name, cid))
@@ -189,13 +190,13 @@ class CourseStore(ManualTables, Tables):
                 action = "staff.add" if before is None else "staff.change"
                 record(by, db, action, Target(cid, staff=row["person"]), before, after)
 
-    def staff(self, cid: str) -> list[dict]:
+    def staff(self, cid: str) -> list[StaffRow]:
         rows = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? ORDER BY person", (cid,))
-        return [dict(r) for r in rows]
+        return [cast(StaffRow, dict(r)) for r in rows]
 
-    def staff_member(self, cid: str, person: str) -> dict | None:
+    def staff_member(self, cid: str, person: str) -> StaffRow | None:
         row = self.db.execute("SELECT * FROM course_staff WHERE course_id = ? AND person = ?", (cid, person)).fetchone()
-        return dict(row) if row else None
+        return cast(StaffRow, dict(row)) if row else None
 
     def remove_staff(self, cid: str, person: str, by: By | None = None) -> bool:
         with self._tx() as db:
@@ -459,7 +460,7 @@ class CourseStore(ManualTables, Tables):
         max_attempts: int | None,
         per_hour: int,
         hour_ago: float,
-        also: Callable[[sqlite3.Connection], None] | None = None,
+        also: Callable[[sqlite3.Connection], object] | None = None,
         before: Callable[[sqlite3.Connection], dict] | None = None,
     ) -> str | None:
         """The submission's row, unless the student is past a cap: then which one ("attempts" or "hour"),

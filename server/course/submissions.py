@@ -37,7 +37,7 @@ class Submissions(CourseBase):
 
     def submit(self, a: dict, who: Who, kind: str, data: bytes, accepted: float) -> dict:
         """Keep the submission (its file, then its row: acknowledged), then hand it to the grading run."""
-        if who.instructor:
+        if who.student is None:  # staff (who.instructor)
             raise Forbidden(
                 [
                     {
@@ -99,7 +99,9 @@ class Submissions(CourseBase):
             )
             raise Forbidden([{"path": "max_submissions", "message": message}])
         self.runs.added(a["run_id"])
-        return self.submission(a, sid)
+        kept = self.submission(a, sid)
+        assert kept is not None  # its row was written just above
+        return kept
 
     def check(self, a: dict, who: Who, kind: str, data: bytes) -> dict:
         """What a submission would get now, without submitting (no attempt, no row): validity and, for a
@@ -145,7 +147,7 @@ class Submissions(CourseBase):
             return {"probes_hidden": self._probes_hidden(a, who, feedback)}
         folder = self.runs.folder(a["run_id"]) if a.get("run_id") else None
         mean = next((r for r in self.runs.gs.renders(a["run_id"]) if r["key"] == "mean"), None) if folder else None
-        if mean is None or mean["status"] != "done" or not mean.get("job_id"):
+        if folder is None or mean is None or mean["status"] != "done" or not mean.get("job_id"):
             return {"probes_pending": "the reference is still being rendered: the probes come with the check once "
                     "it is done, and with your submission's feedback"}  # fmt: skip
         exr = folder / "renders" / f"{mean['job_id']}.exr"

@@ -31,6 +31,7 @@ from server.core.errors import Forbidden, Invalid, NotFound
 from server.course.audit import Target, record
 from server.course.base import DAY, CourseBase, iso
 from server.course.people import Who
+from server.course.schema import CourseRow
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +87,7 @@ def plan(accepted: float, due: float, cut: float, spent: int, left: int) -> tupl
 class Tokens(CourseBase):
     """A course's late tokens, spent and granted (mixed into server/course/service.Course)."""
 
-    def set_late_tokens(self, cid: str, n: int, who: Who) -> dict:
+    def set_late_tokens(self, cid: str, n: int, who: Who) -> CourseRow:
         """The course's tokens per student (an int, 0 to MAX_TOKENS): every student's balance moves by the change."""
         before = self.course(cid)["late_tokens"]
         self.store.set_late_tokens(cid, check_tokens(n), self.by(who))

@@ -78,7 +78,7 @@ def start(runs: GradeRuns, assignment: dict, handed: list[Handed]) -> dict:
                         "message": x["message"]} for x in e.errors]) from None  # fmt: skip
 
 
-def json_part(data: bytes, max_depth: int, where: str = "assignment", what: str = "the assignment") -> dict:
+def json_part(data: bytes | bytearray, max_depth: int, where: str = "assignment", what: str = "the assignment") -> dict:
     """An upload's `assignment` part (or another JSON part) -> its JSON object (422 at `where` when it is not one)."""
     depth = json_depth(bytes(data))
     if depth > max_depth:

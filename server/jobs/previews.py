@@ -26,7 +26,7 @@ from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.service import JobService
-from server.jobs.store import QueueFull
+from server.jobs.store import JobRow, QueueFull
 
 log = logging.getLogger(__name__)
 
@@ -62,7 +62,7 @@ class Previews:
         _, base = self._key(name)
         return self._file(base, None)
 
-    def _file(self, base: Path, row: dict | None) -> Path | None:
+    def _file(self, base: Path, row: JobRow | None) -> Path | None:
         """The PNG at `base`, copied from the job `row` (read here when None) once it is done."""
         png = base.with_suffix(".png")
         if png.is_file():
@@ -75,7 +75,7 @@ class Previews:
                 return png
         return None
 
-    def _job(self, base: Path) -> dict | None:
+    def _job(self, base: Path) -> JobRow | None:
         try:
             job_id = json.loads(base.with_suffix(".job").read_text())["job"]
         except (OSError, ValueError, KeyError, TypeError):

@@ -16,7 +16,7 @@ import threading
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable, Iterable
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import anyio
 
@@ -26,7 +26,7 @@ from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.placing import Placed, place
 from server.jobs.results import DEVICE, link_files, renderer_version, result_key
-from server.jobs.store import JobStore, QueueFull
+from server.jobs.store import JobRow, JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
 
 if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface
@@ -42,10 +42,11 @@ KEEPALIVE = 15.0  # seconds of quiet after which a follower is handed None (an S
 # a submission's stream, server/api/routes/submissions.py, keeps the same)
 VIEWS_KEPT = 4096  # views of followed jobs' rows kept for their other followers (a class's jobs, and more)
 ACTIVE_RETRY = 10  # seconds a client past its share of the workers is told to wait (Retry-After)
+R = TypeVar("R")  # what `wake` hands a follower: a job's row (JobWatch); a course's submission follower, {"id": ...}
 WAKE = 1.0  # seconds a follower waits before it looks again whether its client or the server is going
 
 
-class Follower:
+class Follower(Generic[R]):
     """One follower of one job (an event stream, a waiting request): woken in its event loop when the job's
     row changes; `row` is the latest the watcher read. Plain futures and timer handles of its loop, no cancel
     scope: a class's 500 streams woken five times a second wait 2 500 times a second (anyio's cancel scopes
@@ -56,10 +57,10 @@ class Follower:
         self.loop = asyncio.get_running_loop()
         self.pending = False  # woken, and not yet handed the row (in its loop)
         self._waiter: asyncio.Future | None = None  # what `changed` awaits
-        self.row: dict | None = None
+        self.row: R | None = None
         self.woken = 0.0  # monotonic time of the last wake (a queued job's followers are woken every PLACE_EVERY)
 
-    def wake(self, row: dict | None, now: float | None = None) -> None:
+    def wake(self, row: R | None, now: float | None = None) -> None:
         """From the watcher's thread: its latest `row` (at `now`, monotonic); `wake_all` then sets it going."""
         self.row, self.woken = row, time.monotonic() if now is None else now
 
@@ -68,7 +69,7 @@ class Follower:
         self.pending = True
         _resolve(self._waiter)
 
-    async def changed(self, timeout: float) -> dict | None:
+    async def changed(self, timeout: float) -> R | None:
         """The job's row once it changed, or None after `timeout` seconds without a change."""
         if not self.pending:
             waiter = self._waiter = self.loop.create_future()
@@ -116,15 +117,15 @@ class JobWatch:
     def __init__(self, store: JobStore, stopping: Callable[[], bool], clock: Callable[[], float] = time.monotonic):
         self.store, self.stopping, self.clock = store, stopping, clock
         self._lock = threading.Lock()
-        self._followers: dict[str, set[Follower]] = {}
-        self._sent: dict[str, tuple[dict | None, float]] = {}  # job id -> the row its followers were woken with, when
+        self._followers: dict[str, set[Follower[JobRow]]] = {}
+        self._sent: dict[str, tuple[JobRow | None, float]] = {}  # job id -> the row its followers were woken with, when
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
         self._closed = False
 
     @contextmanager
     def follow(self, job_id: str, urgent: bool = False):
-        follower = Follower(job_id, urgent)
+        follower = Follower[JobRow](job_id, urgent)
         with self._lock:
             self._followers.setdefault(job_id, set()).add(follower)
             if self._thread is None and not self._closed:
@@ -169,7 +170,7 @@ class JobWatch:
             self._wake.wait(URGENT_TICK if urgent else TICK)
             self._wake.clear()
 
-    def _round(self, followers: dict[str, set[Follower]]) -> None:
+    def _round(self, followers: dict[str, set[Follower[JobRow]]]) -> None:
         rows = self.store.rows(followers)
         now, stopping = self.clock(), self.stopping()
         woken = []
@@ -187,7 +188,7 @@ class JobWatch:
         wake_all(woken)
 
 
-def _progress_only(before: dict | None | bool, after: dict | None) -> bool:
+def _progress_only(before: JobRow | None | bool, after: JobRow | None) -> bool:
     """Whether two different rows of a job differ in its progress fields alone."""
     if not isinstance(before, dict) or after is None or before.keys() != after.keys():
         return False
@@ -209,7 +210,7 @@ class JobService:
 
     # -- submit and cancel ----------------------------------------------------------------------
 
-    def submit(self, scene: str, *, name: str | None, width: int, height: int, spp: int, **fields) -> dict:
+    def submit(self, scene: str, *, name: str | None, width: int, height: int, spp: int, **fields) -> JobRow:
         """Record a queued job of `scene` (JSON text) and get it rendered; its row. `fields` as the store's
         `create` takes them; the time limit and the queue's size default to the settings'. Raises QueueFull."""
         fields.setdefault("max_seconds", self.settings.max_job_seconds)
@@ -220,7 +221,7 @@ class JobService:
         self.queue.submitted(row)
         return row
 
-    def submit_checked(self, found: dict, **fields) -> dict:
+    def submit_checked(self, found: dict, **fields) -> JobRow:
         """A client's job of a scene checked in a checking process (its summary: server/checkers/tasks.py);
         a render whose result a done render has is done at once (`answer_again`); 429 when the queue, or the
         owner's share of it, is full."""
@@ -250,7 +251,7 @@ class JobService:
                 message = f"the queue is full ({full.args[0]} jobs waiting, TRACER_MAX_QUEUED_JOBS); try again later"
             raise TooMany(message, retry_after=5) from None
 
-    def answer_again(self, key: str, scene: str, *, name: str | None, **fields) -> dict | None:
+    def answer_again(self, key: str, scene: str, *, name: str | None, **fields) -> JobRow | None:
         """A new job of `scene`, done, with the files of the latest done render of result `key`
         (server/jobs/results.py), for the fields' owner, lane and priority; None when there is none."""
         source = self.store.done_result(key, DEVICE)
@@ -266,7 +267,7 @@ class JobService:
             estimate=fields.get("estimate"), owner=fields.get("owner"),
         )  # fmt: skip
 
-    def cancel(self, job_id: str) -> dict | None:
+    def cancel(self, job_id: str) -> JobRow | None:
         """Cancel a queued job, or ask a running one to stop (the store decides, in one transaction), and
         tell the queue; the row after."""
         row = self.store.cancel(job_id)
@@ -316,7 +317,7 @@ class JobService:
             kept = self._capacity[lane] = (now, self.queue.capacity(lane))
         return kept[1]
 
-    def public(self, row: dict, now: float | None = None) -> JobPublic:
+    def public(self, row: JobRow, now: float | None = None) -> JobPublic:
         """The job as the API shows it; a queued one with its place in the queue and its expected wait."""
         job = JobPublic.from_row(row, now)
         if job.status is JobStatus.queued:
@@ -332,7 +333,7 @@ class JobService:
             )  # fmt: skip
         return job
 
-    async def _view(self, row: dict) -> JobPublic:
+    async def _view(self, row: JobRow) -> JobPublic:
         """The row's public view. The watcher hands one row to all of a job's followers: its view is made once
         for them all (500 streams of a class on two jobs made 500 views, and queries, per change)."""
         made = self._views.get(row["id"])
@@ -371,7 +372,7 @@ class JobService:
                         yield None
                 quiet = time.monotonic()
 
-    async def ended(self, job_id: str, seconds: float, gone: Callable[[], Awaitable[bool]]) -> dict | None:
+    async def ended(self, job_id: str, seconds: float, gone: Callable[[], Awaitable[bool]]) -> JobRow | None:
         """Wait for a short job to end (a ray tree): its finished row; None when `seconds` passed first, the
         server is stopping, or `gone()` says the client left (see `self.stopping()` for which)."""
         deadline = time.monotonic() + seconds
@@ -393,7 +394,7 @@ class JobService:
         owner: str | None,
         name: str,
         gone: Callable[[], Awaitable[bool]],
-        queued: Callable[[dict], None] = lambda row: None,
+        queued: Callable[[JobRow], None] = lambda row: None,
     ) -> dict:
         """One pixel sample's ray tree (`pixel`: x, y, sample) of a scene checked in a checking process: a short
         job of the interactive lane, waited for (`queued` hears of its row first, in the submitting thread). Its
@@ -411,7 +412,7 @@ class JobService:
         if self.capacity(Lane.interactive) == 0:
             raise Unavailable("no render worker takes interactive work: start one (TRACER_WORKERS, or a worker host)")
 
-        def submit() -> dict:
+        def submit() -> JobRow:
             params = {"x": x, "y": y, "sample": sample, "solve_seconds": self.solve_estimate(found)}
             row = self.submit_checked(
                 found, kind=JobKind.raytree, lane=Lane.interactive, priority=priority, params=params,

@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TypedDict, cast
 
 from server.core.db import Transaction, close_all, thread_connection
 from server.core.files import write_atomic
@@ -85,6 +86,64 @@ CREATE TABLE IF NOT EXISTS jobs (
     answered_from TEXT                      -- the done job whose files answered this one at submit (NULL: rendered)
 );
 """
+
+
+class JobRow(TypedDict):
+    """A job's row as the store returns it (SCHEMA's columns, JSON ones as their text), its scene left out
+    (`peek`, `rows`: the scene may be megabytes): what the job service, the queues and `JobPublic.from_row` read,
+    so that the type checker knows its keys. `JobRowWithScene`: the whole row (`get`, `SELECT *`)."""
+
+    id: str
+    status: str  # a JobStatus
+    priority: int
+    created_at: float
+    started_at: float | None
+    finished_at: float | None
+    name: str | None
+    warnings: str  # JSON: [{path, message}]
+    width: int
+    height: int
+    spp: int
+    max_seconds: float
+    samples_done: int
+    samples_total: int
+    passes_done: int
+    spp_done: int
+    rays: str  # JSON: {kind: count}
+    preview: int
+    error: str | None
+    errors: str  # JSON: [{path, message}]
+    cancel_requested: int
+    attempts: int
+    worker: int | None
+    solve: str | None  # JSON
+    host: str | None
+    device: str | None
+    lost: int
+    tries: str  # JSON: [{attempt, host, device, worker, started_at, ended_at, outcome}]
+    kind: str  # a JobKind
+    lane: str  # a Lane
+    params: str  # JSON
+    estimate: float | None
+    snapshot: int
+    owner: str | None
+    result_key: str | None
+    answered_from: str | None
+
+
+class JobRowWithScene(JobRow):
+    scene: str  # the scene JSON, as submitted
+
+
+def job_row(row: sqlite3.Row) -> JobRowWithScene:
+    """A row of `SELECT *` from the jobs table, typed."""
+    return cast(JobRowWithScene, dict(row))
+
+
+def job_row_sceneless(row: sqlite3.Row) -> JobRow:
+    """A row of every column but the scene (`JobStore._sceneless`), typed."""
+    return cast(JobRow, dict(row))
+
 
 QUEUED, RUNNING, FAILED, CANCELLED = JobStatus.queued, JobStatus.running, JobStatus.failed, JobStatus.cancelled
 HOST = socket.gethostname()  # the embedded workers' host: this one
@@ -201,6 +260,11 @@ class JobStore:
         row = self.db.execute(sql, args).fetchone()
         return dict(row) if row is not None else None
 
+    def _job(self, sql: str, args=()) -> JobRowWithScene | None:
+        """One job's whole row (`SELECT *`), or None."""
+        row = self.db.execute(sql, args).fetchone()
+        return job_row(row) if row is not None else None
+
     # -- moves of the life cycle --------------------------------------------------------------
 
     def _move(
@@ -211,7 +275,7 @@ class JobStore:
         where: str = "",
         args: tuple = (),
         **fields,
-    ) -> list[dict]:
+    ) -> list[JobRowWithScene]:
         """Move the jobs in status `source` that match `where` (SQL, with `args`) to `target`, setting
         `fields` too (values bound, or _Sql expressions); a move into a finished status stamps
         `finished_at`. Returns the rows moved, as they are after the move."""
@@ -222,7 +286,7 @@ class JobStore:
         sets = ", ".join(f"{k} = {v.sql}" if isinstance(v, _Sql) else f"{k} = ?" for k, v in fields.items())
         values = [a for v in fields.values() for a in (v.args if isinstance(v, _Sql) else (v,))]
         sql = f"UPDATE jobs SET {sets} WHERE status = ?" + (f" AND ({where})" if where else "") + " RETURNING *"
-        return [dict(r) for r in db.execute(sql, (*values, source.value, *args)).fetchall()]
+        return [job_row(r) for r in db.execute(sql, (*values, source.value, *args)).fetchall()]
 
     # -- files --------------------------------------------------------------------------------
 
@@ -266,7 +330,7 @@ class JobStore:
         max_queued_owner: int | None = None,
         max_active_owner: int | None = None,
         result_key: str | None = None,
-    ) -> dict:
+    ) -> JobRowWithScene:
         """Queue a job (`owner`: its token's hash; None: the instructor's); raises QueueFull when `max_queued`
         jobs already wait, or `max_queued_owner` of the same owner, or (a render) `max_active_owner` renders of
         the same owner wait or run."""
@@ -300,9 +364,9 @@ class JobStore:
         assert made is not None  # inserted just above
         return made
 
-    def done_result(self, key: str, device: str) -> dict | None:
+    def done_result(self, key: str, device: str) -> JobRowWithScene | None:
         """The latest render done on `device` whose result has this key (server/jobs/results.py), or None."""
-        return self._one(
+        return self._job(
             "SELECT * FROM jobs WHERE result_key = ? AND status = ? AND device = ? AND cancel_requested = 0"
             " ORDER BY finished_at DESC LIMIT 1",
             (key, JobStatus.done.value, device),
@@ -316,7 +380,7 @@ class JobStore:
 
     def create_answered(
         self,
-        source: dict,
+        source: JobRow,
         link: Callable[[str], bool],
         *,
         scene_json: str,
@@ -326,7 +390,7 @@ class JobStore:
         lane: Lane,
         estimate: float | None,
         owner: str | None,
-    ) -> dict | None:
+    ) -> JobRowWithScene | None:
         """A job of `scene_json` done at once with the result of the done job `source` (same key): its row, as
         long as the render took (an elapsed time that says what the render cost), once `link(new_id)` has put
         the files in its folder; None when it could not (the source's files have gone)."""
@@ -337,7 +401,8 @@ class JobStore:
         took = max(0.0, (source["finished_at"] or now) - (source["started_at"] or now))
         copied = "width height spp max_seconds samples_done samples_total passes_done spp_done rays preview"
         copied += " errors solve host device kind params result_key"  # what the render made, as it made it
-        fields = {c: source[c] for c in copied.split()}
+        whole: dict[str, object] = dict(source)
+        fields = {c: whole[c] for c in copied.split()}
         fields.update(id=job_id, scene=scene_json, status=JobStatus.done.value, priority=priority, created_at=now,
                       started_at=now - took, finished_at=now, name=name, warnings=json.dumps(warnings),
                       lane=Lane(lane).value, estimate=estimate, owner=owner, answered_from=source["id"])  # fmt: skip
@@ -346,22 +411,22 @@ class JobStore:
                        tuple(fields.values()))  # fmt: skip
         return self.get(job_id)
 
-    def get(self, job_id: str) -> dict | None:
-        return self._one("SELECT * FROM jobs WHERE id = ?", (job_id,))
+    def get(self, job_id: str) -> JobRowWithScene | None:
+        return self._job("SELECT * FROM jobs WHERE id = ?", (job_id,))
 
-    def peek(self, job_id: str, wait: bool = False) -> dict | None:
+    def peek(self, job_id: str, wait: bool = False) -> JobRow | None:
         """The job's row without its scene. Without `wait`, read without waiting: for the event loop's own
         thread, where a trip through the thread pool costs more than the read (one row by its key; in WAL mode
         no writer blocks a reader); raises sqlite3.OperationalError where it would have to wait for a lock
         (the caller then reads with `wait`, in a thread)."""
         conn = self.db if wait else thread_connection(self._quick, self.db_path, busy_ms=0, opened=self._opened)
         row = conn.execute(f"SELECT {self._sceneless()} FROM jobs WHERE id = ?", (job_id,)).fetchone()
-        return dict(row) if row is not None else None
+        return job_row_sceneless(row) if row is not None else None
 
-    def rows(self, ids: Iterable[str]) -> dict[str, dict]:
+    def rows(self, ids: Iterable[str]) -> dict[str, JobRow]:
         """The rows of these jobs (those that exist) without their scenes, in one query per 500 ids: what the
         job service's watcher compares from one look to the next (server/jobs/service.py)."""
-        return self._many(ids, self._sceneless())
+        return {k: cast(JobRow, r) for k, r in self._many(ids, self._sceneless()).items()}
 
     def states(self, ids: Iterable[str]) -> dict[str, dict]:
         """What a grading run needs of its render jobs (status, error, spp_done, started_at, finished_at)."""
@@ -392,7 +457,7 @@ class JobStore:
         offset: int = 0,
         kind: str | None = JobKind.render,
         owner: str | None = None,
-    ) -> tuple[list[dict], int]:
+    ) -> tuple[list[JobRowWithScene], int]:
         """Jobs newest first: of one status if given, of one kind (renders unless said; None: every kind), of
         one owner if given (a token's hash)."""
         conds = [(c, a) for c, a in (("status = ?", status), ("kind = ?", kind), ("owner = ?", owner)) if a is not None]
@@ -403,13 +468,13 @@ class JobStore:
             (*args, limit, offset),
         ).fetchall()
         count = self.db.execute(f"SELECT COUNT(*) FROM jobs {where}", args).fetchone()[0]
-        return [dict(r) for r in rows], count
+        return [job_row(r) for r in rows], count
 
     def give_owner(self, old: str, new: str) -> int:
         """Every job of the token hash `old` now belongs to `new` (a student's replaced link); how many."""
         return self.db.execute("UPDATE jobs SET owner = ? WHERE owner = ?", (new, old)).rowcount
 
-    def place(self, row: dict) -> dict:
+    def place(self, row: JobRow) -> dict:
         """A queued job's place: the queued jobs that a worker takes before it (its lane's order: lane,
         priority, age) and their estimated seconds; the running jobs it waits for (an interactive job:
         the interactive ones) and their estimated seconds left."""
@@ -460,7 +525,7 @@ class JobStore:
             out.setdefault(lane, {"queued": 0, "running": 0})[status] = n
         return out
 
-    def cancel(self, job_id: str) -> dict | None:
+    def cancel(self, job_id: str) -> JobRowWithScene | None:
         """Cancel a queued job now; ask the worker of a running one to stop. The job's row after: cancelled
         (it was queued), running (asked to stop: however its try ends, it ends cancelled, see `finish`),
         or done or failed (it had ended first: nothing changed)."""
@@ -468,7 +533,7 @@ class JobStore:
             self._move(db, QUEUED, CANCELLED, "id = ?", (job_id,), error="cancelled before it started")
             db.execute("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND status = ?", (job_id, RUNNING))
             row = db.execute("SELECT * FROM jobs WHERE id = ?", (job_id,)).fetchone()
-        return dict(row) if row is not None else None
+        return job_row(row) if row is not None else None
 
     def recover(self) -> tuple[int, int]:
         """At start-up: jobs left running by a dead server go back to the queue (or end, if cancelled)."""
@@ -546,7 +611,7 @@ class JobStore:
 
     # -- the worker side ----------------------------------------------------------------------
 
-    def claim(self, pid: int, lanes: tuple = LANES) -> dict | None:
+    def claim(self, pid: int, lanes: tuple = LANES) -> JobRowWithScene | None:
         """Take the next queued job of `lanes` for worker `pid`, atomically: interactive before batch, then
         by priority, then the oldest. A job resumed from a snapshot keeps its progress and image."""
         marks = ", ".join("?" * len(lanes))
@@ -650,7 +715,7 @@ class JobStore:
 
     def start_try(
         self, job_id: str, attempt: int, host: str | None, device: str | None, worker: str | None
-    ) -> dict | None:
+    ) -> JobRowWithScene | None:
         """A worker host took try `attempt` of a queued job: it runs (None if the job moved on: cancelled,
         or a later try). The host, device and worker are as its event named them (None where it did not)."""
         rows = self._move(

@@ -11,6 +11,7 @@ from pydantic import BaseModel, Field
 
 from server.core.errors import ErrorItem
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.store import JobRow
 
 
 class SolveProgress(BaseModel):
@@ -109,13 +110,14 @@ class JobPublic(BaseModel):
     cancel_requested: bool
 
     @classmethod
-    def from_row(cls, row: dict, now: float | None = None) -> JobPublic:
+    def from_row(cls, row: JobRow, now: float | None = None) -> JobPublic:
         now = time.time() if now is None else now
         status = JobStatus(row["status"])
         total = row["samples_total"]
         done = row["samples_done"]
         fraction = done / total if total else 0.0
-        solve = json.loads(row["solve"]) if row.get("solve") else None
+        solve_json = row.get("solve")
+        solve = json.loads(solve_json) if solve_json else None
         solving = status is JobStatus.running and solve is not None and solve.get("fraction", 1.0) < 1.0 and done == 0
         phase = "finished" if status.finished else "queued" if status is JobStatus.queued else "render"
         phase = "radiosity" if solving else phase
@@ -161,8 +163,8 @@ class JobPublic(BaseModel):
             warnings=json.loads(row["warnings"]),
             attempts=row["attempts"],
             tries=json.loads(row.get("tries") or "[]"),
-            kind=row.get("kind") or JobKind.render,
-            lane=row.get("lane") or Lane.interactive,
+            kind=JobKind(row.get("kind") or JobKind.render),
+            lane=Lane(row.get("lane") or Lane.interactive),
             estimate=row.get("estimate"),
             snapshot=row.get("snapshot") or 0,
             host=row.get("host"),

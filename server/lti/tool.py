@@ -47,7 +47,7 @@ class LtiTool:
         self.clock = clock  # Unix time: logins' ages, tokens' times
         self._origins: tuple[float, list[str]] | None = None
         self._lock = threading.Lock()
-        self._held: dict[str, tuple[float, object]] = {}  # launches waiting for the platform storage's check
+        self._held: dict[str, tuple[float, Launch]] = {}  # launches waiting for the platform storage's check
 
     def origins(self) -> list[str]:
         """The origins of the registered platforms' issuers, auth URLs and further service origins, and those
@@ -76,7 +76,7 @@ class LtiTool:
     def close(self) -> None:
         self.services.http.close()
 
-    def hold(self, launch) -> str:
+    def hold(self, launch: Launch) -> str:
         """Keep a checked launch for a moment (HOLD_SECONDS) while its page checks the state in the platform's
         storage; the one-time id that opens it (`take`)."""
         key = secrets.token_urlsafe(24)
@@ -89,7 +89,7 @@ class LtiTool:
             self._held[key] = (now + HOLD_SECONDS, launch)
         return key
 
-    def take(self, key: str):
+    def take(self, key: str) -> Launch | None:
         """The launch held under `key`, once (None if unknown, taken or too old)."""
         with self._lock:
             held = self._held.pop(key, None)

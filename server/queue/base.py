@@ -21,7 +21,7 @@ from typing import Protocol
 
 from server.core.settings import Settings
 from server.jobs.lifecycle import Lane
-from server.jobs.store import JobStore
+from server.jobs.store import JobRowWithScene, JobStore
 
 log = logging.getLogger(__name__)
 
@@ -37,10 +37,10 @@ class JobQueue(Protocol):
     def shutdown(self) -> None:
         """At the API's shutdown: running jobs of this host go back to the queue."""
 
-    def submitted(self, row: dict) -> None:
+    def submitted(self, row: JobRowWithScene) -> None:
         """The store has just queued this job: get it rendered."""
 
-    def cancelled(self, row: dict) -> None:
+    def cancelled(self, row: JobRowWithScene) -> None:
         """The store has just cancelled this job (queued) or asked it to stop (running): reach it."""
 
     def workers(self) -> list[dict]:

@@ -22,7 +22,7 @@ import json
 import logging
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from server.core.files import is_disk_full
 from server.jobs.files import JobFile
@@ -30,7 +30,7 @@ from server.jobs.lifecycle import JobKind, JobStatus, Lane, Stop, TryEnd
 from server.jobs.store import JobStore
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping
 
     import numpy as np
 
@@ -79,7 +79,7 @@ class StoreChannel:
     """The embedded backend: a worker process on the API's host writes into the job store, fenced by
     its pid (a worker that lost its job can never write into the job's next life)."""
 
-    def __init__(self, store: JobStore, job: dict, pid: int):
+    def __init__(self, store: JobStore, job: Mapping[str, Any], pid: int):
         self.store, self.job, self.job_id, self.pid = store, job, job["id"], pid
 
     def stop_reason(self) -> Stop | None:
@@ -287,7 +287,7 @@ class Try:
     `limits`: the scene limits; `stopping()`: the host is shutting down; `cache`: radiosity solutions by
     content (a radiosity.SolutionCache); `snapshot_interval`: seconds of rendering between two snapshots of the film."""
 
-    job: dict
+    job: Mapping[str, Any]  # a job's row (embedded), or the try's payload (a Redis worker host)
     channel: Channel
     limits: Limits
     threads: int
@@ -340,6 +340,7 @@ class Try:
         """A ray tree: one pixel sample traced with its rays recorded (a radiosity scene's solution from
         the cache after the first click)."""
         from tracer import radiosity
+        from tracer.radiosity.solver import Solution
         from tracer.rendering.raytree import ray_tree
         from tracer.scene import SceneError
 
@@ -380,7 +381,7 @@ class Try:
             self.channel.finish(JobStatus.failed, error="; ".join(e["message"] for e in exc.errors), errors=exc.errors)
             return TryEnd.failed
         self.channel.save(JobFile.raytree, json.dumps(tree))
-        solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if cs.radiosity is not None else {}
+        solved = {"solve": {**cs.radiosity.stats(), "fraction": 1.0}} if isinstance(cs.radiosity, Solution) else {}
         self.channel.finish(JobStatus.done, samples_done=1, samples_total=1, passes_done=1, spp_done=1, **solved)
         return TryEnd.done
 

@@ -12,6 +12,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Request, Response
 from pydantic import ValidationError
 from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import UploadFile
 
 from server.api.deps import (
     CallerDep,
@@ -40,7 +41,7 @@ async def _assignment_body(request: Request) -> AssignmentIn:
         form = await request.form()
         data: dict[str, Any] = {}
         for key, value in form.multi_items():
-            text = (await value.read()).decode("utf-8", errors="replace") if hasattr(value, "read") else value
+            text = (await value.read()).decode("utf-8", errors="replace") if isinstance(value, UploadFile) else value
             if key in ("spec", "reference", "starter", "feedback"):
                 try:
                     data[key] = json.loads(text)
@@ -197,12 +198,14 @@ def listing(
     mine = course.store.token(caller.owner) if caller.owner else None
     if mine is not None and mine["kind"] == Kind.STAFF and course_id in (None, mine["course_id"]):
         course_id = mine["course_id"]
-        course.course_staff(course_id, caller, instructor_check(request))
+        course.course_staff(mine["course_id"], caller, instructor_check(request))
     else:
         require_instructor(caller, request)
     out = []
     for aid in course.store.assignments(course_id):
         a = course.store.assignment(aid)
+        if a is None:  # (none: the course's ids are its assignments')
+            continue
         out.append(
             {
                 "id": aid,

@@ -11,12 +11,12 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Request, Response
 
 from server.api.deps import CallerDep, CourseDep, instructor_check
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.api.routes.course_common import csv_response
 from server.course import audit
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
-REFUSED = {
+REFUSED: Responses = {
     403: {"model": ErrorResponse, "description": "a token of no one the server knows (or no admin token)"},
     404: {"model": ErrorResponse, "description": "no such course (or not yours: a student's, another course's)"},
     422: {"model": ErrorResponse, "description": "a query parameter that is wrong, named with what was expected"},

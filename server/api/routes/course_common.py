@@ -12,17 +12,19 @@ from server.api.deps import (
     instructor_check,
 )
 from server.api.errors import ApiError
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.core.security import Caller
 from server.course.people import Who
 from server.course.service import Course
 
-ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
+ERRORS: Responses = {
+    422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}
+}
 
 # why a change is made, for its audit event (server/course/audit.py)
 Why = Annotated[str, Query(max_length=1000, description="why (kept in the course's audit trail)")]
 
-NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such assignment (or not yours)"}}
+NOT_FOUND: Responses = {404: {"model": ErrorResponse, "description": "no such assignment (or not yours)"}}
 
 
 def base_url(request: Request) -> str:

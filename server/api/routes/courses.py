@@ -14,7 +14,7 @@ from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import CallerDep, CourseDep, StoreDep, instructor_check, require_instructor
 from server.api.errors import ApiError
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.api.routes.assignments import ASSIGNMENT_BODY, publish_in
 from server.api.routes.course_common import Why, base_url, roster_text
 from server.core.roles import Kind, Role
@@ -23,8 +23,10 @@ from server.course.roster import links_csv
 from server.course.tokens import MAX_TOKENS, check_tokens
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
-ERRORS = {422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}}
-NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such course (or not yours)"}}
+ERRORS: Responses = {
+    422: {"model": ErrorResponse, "description": "a field that is wrong, named with what was expected"}
+}
+NOT_FOUND: Responses = {404: {"model": ErrorResponse, "description": "no such course (or not yours)"}}
 
 
 class CourseIn(BaseModel):
@@ -84,6 +86,8 @@ def listing(request: Request, course: CourseDep, caller: CallerDep) -> dict:
     out = []
     for cid in cids:
         c = course.store.course(cid)
+        if c is None:  # (none: the ids are the courses')
+            continue
         out.append(
             {"id": cid, "name": c["name"], "assignments": len(course.store.assignments(cid)),
              "students": len(course.store.members(cid)), "url": f"/api/courses/{cid}"}

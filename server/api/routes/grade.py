@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import RunsDep, SettingsDep, require_instructor
-from server.api.models import ErrorResponse, HandedIn
+from server.api.models import ErrorResponse, HandedIn, Responses
 from server.core.paths import ROOT
 from server.grading import handin
 from server.grading.runs import STUDENT_FILES
@@ -24,15 +24,15 @@ from server.grading.uploads import receive
 from tracer.grading import student_for_file
 from tracer.grading.batch import MAX_FILES
 
-INSTRUCTOR = {
+INSTRUCTOR: Responses = {
     401: {"model": ErrorResponse, "description": "no instructor token, or not the instructor's (WWW-Authenticate)"},
     403: {"model": ErrorResponse, "description": "this server has no instructor (not loopback, no instructor token)"},
 }
 router = APIRouter(
     prefix="/api/grade", tags=["grading"], dependencies=[Depends(require_instructor)], responses=INSTRUCTOR
 )
-ERRORS = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
-NOT_FOUND = {404: {"model": ErrorResponse, "description": "no such grading run"}}
+ERRORS: Responses = {422: {"model": ErrorResponse, "description": "invalid assignment or submission, with JSON paths"}}
+NOT_FOUND: Responses = {404: {"model": ErrorResponse, "description": "no such grading run"}}
 EXAMPLE = "scenes/grading"  # the example assignment and class, for the page's "Load the example"
 UPLOAD = "/api/grade/upload"  # streamed (server/grading/uploads.py): the request gate does not buffer it
 UPLOAD_BODY = {  # the multipart body, for /docs (the route parses it as a stream, not through FastAPI's models)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import contextlib
 import json
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncGenerator
 from typing import Annotated, Literal
 
 import anyio
@@ -27,21 +27,22 @@ from server.api.deps import (
     still_waiting,
 )
 from server.api.errors import ApiError
-from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic
+from server.api.models import ErrorResponse, JobCreate, JobCreated, JobList, JobPublic, Responses
 from server.api.scene_route import scene_post
 from server.api.streams import KEEP_ALIVE, event_stream, sse
+from server.core.errors import NotFound
 from server.core.security import new_token, share_token, token_hash, unauthorized
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import JobKind, JobStatus
 from server.jobs.service import JobService
-from server.jobs.store import JobStore
+from server.jobs.store import JobRow, JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 
 MAX_QUERY_INT = 1_000_000_000  # bound of the integer query parameters (offset, pass): SQLite's integers end at 2**63
-ERRORS = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
-UNAUTHORIZED = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
-NOT_FOUND = {
+ERRORS: Responses = {422: {"model": ErrorResponse, "description": "invalid request or scene, with JSON paths"}}
+UNAUTHORIZED: Responses = {401: {"model": ErrorResponse, "description": "a malformed Authorization header"}}
+NOT_FOUND: Responses = {
     404: {"model": ErrorResponse, "description": "no such job, or not this token's job (the same answer)"},
     **UNAUTHORIZED,
 }
@@ -109,7 +110,7 @@ async def submit(
                 warnings=[*found["warnings"], *placed.warnings],
                 estimate=seconds,
                 lane=placed.lane,
-                owner=caller.owner or token_hash(issued),
+                owner=caller.owner or (token_hash(issued) if issued is not None else None),
                 max_active_owner=None if caller.instructor else settings.max_active_jobs_per_token,
             )
             for room in (new, waiting):
@@ -221,7 +222,7 @@ def job_scene(job: JobDep, store: StoreDep) -> dict:
     return json.loads(row["scene"])
 
 
-def _aov_ready(job: dict, store: JobStore) -> dict[str, list[float]]:
+def _aov_ready(job: JobRow, store: JobStore) -> dict[str, list[float]]:
     if job["status"] != JobStatus.done:
         raise ApiError(404, f"no AOVs: they are saved when the job is done, and it is {job['status']}")
     try:
@@ -329,7 +330,7 @@ def _texts(job: JobPublic, job_id: str) -> tuple:
     return texts
 
 
-async def _events(jobs: JobService, job_id: str) -> AsyncIterator[str]:
+async def _events(jobs: JobService, job_id: str) -> AsyncGenerator[str, None]:
     last_progress, last_preview = None, 0
     # no question whether the client left: Starlette's StreamingResponse listens for the disconnect itself and
     # cancels this stream (uvicorn says ASGI 2.3), or its next write fails (2.4: at the latest the keep-alive's);
@@ -370,6 +371,8 @@ def cancel(job: JobDep, jobs: JobsDep, response: Response) -> JobPublic:
     if JobStatus(job["status"]).finished:
         raise ApiError(409, f"the job has already ended ({job['status']})")
     row = jobs.cancel(job["id"])
+    if row is None:  # deleted since it was read (the janitor): as any unknown id
+        raise NotFound.at("id", f"no job with id '{job['id']}'")
     if JobStatus(row["status"]) in (JobStatus.done, JobStatus.failed):  # it ended between the two reads
         raise ApiError(409, f"the job has already ended ({row['status']})")
     if JobStatus(row["status"]) is JobStatus.running:

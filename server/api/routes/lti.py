@@ -122,7 +122,7 @@ async def lti_login(request: Request, lti: LtiDep) -> Response:
         platform, login_hint=login_hint, lti_message_hint=p.get("lti_message_hint"), state=state, nonce=nonce,
         redirect_uri=str(request.url_for("lti_launch")), client_id=platform["client_id"],
     )  # fmt: skip
-    if storage:  # LTI Platform Storage: state and nonce kept in the platform's page too
+    if storage and platform_origin:  # LTI Platform Storage: state and nonce kept in the platform's page too
         response = respond(storage_put_page(storage, platform_origin, state, nonce, url))
     else:
         response = RedirectResponse(url, status_code=302, headers={"Cache-Control": "no-store"})

@@ -10,14 +10,14 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from server.api.deps import CallerDep, CourseDep, instructor_check
 from server.api.errors import ApiError
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.api.routes.course_common import ERRORS, NOT_FOUND
 from server.core.security import Caller
 from server.course.manual import MAX_COMMENT
 from server.course.service import Course
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
-REFUSED = {
+REFUSED: Responses = {
     **NOT_FOUND,
     403: {"model": ErrorResponse, "description": "a token of no staff of the course (or a TA where an instructor is"
           " needed)"},

@@ -18,6 +18,7 @@ from pathlib import Path
 from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 from markdown_it import MarkdownIt
+from markdown_it.renderer import RendererHTML
 
 from server.api.errors import ApiError
 from server.core.paths import DOCS
@@ -58,14 +59,16 @@ def _markdown() -> MarkdownIt:
                 token.attrSet("id", base if n == 0 else f"{base}-{n}")
 
     md.core.ruler.push("heading_ids", heading_ids)
-    default_fence = md.renderer.rules["fence"]
-    default_block = md.renderer.rules["code_block"]
+    renderer = md.renderer
+    assert isinstance(renderer, RendererHTML)  # (MarkdownIt's default renderer)
+    default_fence = renderer.rules["fence"]
+    default_block = renderer.rules["code_block"]
 
     def focusable(default):
         """A code block may scroll sideways: it takes the keyboard's focus (so the arrow keys scroll it, WCAG
         2.1.1) and is named as a group ("code, json"), which a screen reader announces on entering it."""
 
-        def render(tokens, idx, options, env) -> str:
+        def render(_renderer, tokens, idx, options, env) -> str:  # a method of the renderer (add_render_rule)
             lang = tokens[idx].info.strip().split(" ")[0] if tokens[idx].type == "fence" else ""
             label = html.escape(f"code, {lang}" if lang else "code", quote=True)
             out = default(tokens, idx, options, env)
@@ -73,8 +76,8 @@ def _markdown() -> MarkdownIt:
 
         return render
 
-    md.renderer.rules["fence"] = focusable(default_fence)
-    md.renderer.rules["code_block"] = focusable(default_block)
+    md.add_render_rule("fence", focusable(default_fence))
+    md.add_render_rule("code_block", focusable(default_block))
     return md
 
 

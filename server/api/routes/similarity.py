@@ -8,12 +8,12 @@ from fastapi import APIRouter, Request
 from starlette.concurrency import run_in_threadpool
 
 from server.api.deps import CallerDep, SimilarityDep, instructor_check
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.core.security import Caller
 from server.course.similarity import Reports
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
-REFUSED = {
+REFUSED: Responses = {
     403: {"model": ErrorResponse, "description": "a student of the assignment, or a token of no staff"},
     404: {"model": ErrorResponse, "description": "no such assignment"},
 }

@@ -9,13 +9,13 @@ from __future__ import annotations
 from fastapi import APIRouter, Request, Response
 
 from server.api.deps import CallerDep, CourseDep, instructor_check
-from server.api.models import ErrorResponse
+from server.api.models import ErrorResponse, Responses
 from server.core.security import Caller
 from server.course import stats
 from server.course.service import Course
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
-REFUSED = {
+REFUSED: Responses = {
     403: {"model": ErrorResponse, "description": "a token of no staff of the assignment's course"},
     404: {"model": ErrorResponse, "description": "no such assignment (or a student's token)"},
 }

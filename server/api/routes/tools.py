@@ -21,7 +21,7 @@ from server.api.deps import (
     get_client,
     still_waiting,
 )
-from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest
+from server.api.models import ErrorResponse, Health, RayTreeRequest, ValidateRequest, WorkerInfo
 from server.api.scene_route import scene_post
 from server.core.clients import address_owner
 from server.core.errors import Invalid
@@ -47,8 +47,9 @@ async def health(
                 if w.get("job") and not caller.owns(store.get(w["job"]) or {}):
                     w["job"] = None
         starting = not kernels.is_set() or any(w.get("alive") and not w.get("ready") for w in workers)
+        infos = [WorkerInfo.model_validate(w) for w in workers]
         return Health(status="starting" if starting else "ok", backend=queue.backend, queue=queue.stats,
-                      workers=workers, checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
+                      workers=infos, checkers=checks.info(), jobs=store.counts(), followers=jobs.watch.followers(),
                       grading=runs.health())  # fmt: skip
 
     # async, so that FastAPI checks the answer here rather than in a second trip through the thread pool

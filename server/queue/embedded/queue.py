@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 from server.core.settings import Settings
 from server.jobs.lifecycle import Lane
-from server.jobs.store import HOST, JobStore
+from server.jobs.store import HOST, JobRowWithScene, JobStore
 from server.queue.embedded.pool import WorkerPool
 
 log = logging.getLogger(__name__)
@@ -38,11 +38,11 @@ class EmbeddedQueue:
             self.pool.shutdown()
             log.info("render workers stopped")
 
-    def submitted(self, row: dict) -> None:
+    def submitted(self, row: JobRowWithScene) -> None:
         if self.pool is not None:
             self.pool.notify()
 
-    def cancelled(self, row: dict) -> None:
+    def cancelled(self, row: JobRowWithScene) -> None:
         pass  # a worker reads its job's row between bands
 
     def capacity(self, lane: Lane) -> int:

@@ -24,7 +24,7 @@ from server.core.exits import exit_now
 from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.jobs.lifecycle import LANES, Stop, TryEnd
-from server.jobs.store import JobStore
+from server.jobs.store import JobRow, JobStore
 from server.queue.embedded.wakeup import WorkerEnd
 from server.queue.render_try import StoreChannel, Try, disk_full_error
 from tracer.assets import import_mesh_reader
@@ -91,7 +91,7 @@ class Worker:
             self.run(job)
         log.info("render worker %d stopping", self.pid)
 
-    def run(self, job: dict) -> TryEnd | Stop:
+    def run(self, job: JobRow) -> TryEnd | Stop:
         """One try of a claimed job, reported into the store; how it ended (see rendering.Try.run)."""
         log.info("job %s: rendering (try %d)", job["id"], job["attempts"])
         channel = StoreChannel(self.store, job, self.pid)
@@ -107,7 +107,7 @@ class Worker:
             self._fail_when_possible(job, disk_full_error(exc))
             return TryEnd.failed
 
-    def _fail_when_possible(self, job: dict, error: str) -> None:
+    def _fail_when_possible(self, job: JobRow, error: str) -> None:
         """Fail the job with `error` as soon as the store can be written again. The worker waits rather than
         die (its job would be left running); a stopping worker leaves the job running under its pid, and the
         server gives it back to the queue (the supervisor, or the next start's recovery)."""

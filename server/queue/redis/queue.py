@@ -44,7 +44,7 @@ from server.core.paths import ROOT
 from server.core.settings import Settings, masked
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane, TryEnd
-from server.jobs.store import Attempt, JobStore
+from server.jobs.store import Attempt, JobRow, JobRowWithScene, JobStore
 from server.queue.redis import events as ev
 
 log = logging.getLogger(__name__)
@@ -153,7 +153,7 @@ class RedisQueue:
 
     # -- the API's calls ----------------------------------------------------------------------
 
-    def submitted(self, row: dict) -> None:
+    def submitted(self, row: JobRowWithScene) -> None:
         with self.lock:
             try:
                 self._enqueue(row, 1)
@@ -162,7 +162,7 @@ class RedisQueue:
                 log.warning("job %s: Redis unreachable (%s); it is queued here and goes out when Redis is back",
                             row["id"], exc)  # fmt: skip
 
-    def cancelled(self, row: dict) -> None:
+    def cancelled(self, row: JobRowWithScene) -> None:
         with self.lock:
             self.r.set(ev.cancel_key(row["id"]), 1, ex=ev.FLAG_TTL)
             if row["status"] == JobStatus.cancelled:  # it was queued: take its try out of RQ
@@ -216,13 +216,13 @@ class RedisQueue:
 
     # -- out: tries into RQ -------------------------------------------------------------------
 
-    def _row(self, job_id: str) -> dict:
+    def _row(self, job_id: str) -> JobRowWithScene:
         """The row of a job that is there: queued or running (a job's row goes only after it finished)."""
         row = self.store.get(job_id)
         assert row is not None
         return row
 
-    def _enqueue(self, row: dict, attempt: int) -> None:
+    def _enqueue(self, row: JobRowWithScene, attempt: int) -> None:
         """Put try `attempt` of a queued job into RQ (the store records it first)."""
         job_id = row["id"]
         self.store.queue_try(job_id, attempt)
@@ -473,7 +473,7 @@ class RedisQueue:
                 self._start_host(slot)
 
 
-def _state(row: dict | None) -> str:
+def _state(row: JobRow | None) -> str:
     if row is None:
         return "the job is gone"
     return f"the job is {row['status']} on try {row['attempts']}"

@@ -8,8 +8,9 @@ import pytest
 from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.roster import parse_roster
+from server.course.schema import CourseRow, StaffRow
 from server.course.service import Course
-from server.course.store import CourseStore
+from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.store import GradingStore
 
 
@@ -112,3 +113,16 @@ def test_course_data_from_before_courses_moves_into_the_default_course_nothing_l
     migrate(tmp_path)
     CourseStore(tmp_path, now=60.0)  # a second start changes nothing
     assert len(store.members("default")) == 3
+
+
+def test_course_rows_are_typed_with_every_column_of_their_tables(tmp_path):
+    """`CourseRow` and `StaffRow` (server/course/schema.py: what the store's course and staff reads return) name
+    each column of their tables and no other, so that the type checker knows the keys the service reads."""
+    store = CourseStore(tmp_path)
+    for table, row in (("courses", CourseRow), ("course_staff", StaffRow)):
+        columns = {r["name"] for r in store.db.execute(f"PRAGMA table_info({table})")}
+        assert set(row.__required_keys__) == columns, table
+    store.add_staff(DEFAULT_COURSE, {"person": "ta1", "name": "A TA", "role": "ta"}, 1.0)
+    assert set(store.course(DEFAULT_COURSE)) == set(CourseRow.__required_keys__)
+    assert set(store.staff_member(DEFAULT_COURSE, "ta1")) == set(StaffRow.__required_keys__)
+    assert [set(r) for r in store.staff(DEFAULT_COURSE)] == [set(StaffRow.__required_keys__)]

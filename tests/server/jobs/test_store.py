@@ -11,7 +11,7 @@ import pytest
 from server.core.ids import looks_like_job_id
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
-from server.jobs.store import JobStore, QueueFull
+from server.jobs.store import JobRow, JobRowWithScene, JobStore, QueueFull
 from tests.support.store import add
 
 
@@ -267,3 +267,17 @@ def test_store_peek_reads_a_row_without_its_scene_and_never_waits_for_a_lock(tmp
     locker.close()  # the lock goes with the connection
     reader.join(timeout=30)
     assert got and got[0]["priority"] == 5 and "scene" not in got[0]
+
+
+def test_store_rows_are_typed_with_every_column_of_the_table(tmp_path):
+    """`JobRowWithScene` (what `get` and every `SELECT *` return) names each column of the jobs table and no
+    other, `JobRow` each but the scene (what `peek` and the watcher's `rows` return): the type checker then
+    knows the keys that the service, the queues and `JobPublic.from_row` read."""
+    store = JobStore(tmp_path)
+    columns = {r["name"] for r in store.db.execute("PRAGMA table_info(jobs)")}
+    assert set(JobRowWithScene.__required_keys__) == columns
+    assert set(JobRow.__required_keys__) == columns - {"scene"}
+    job_id = add(store)
+    assert set(store.get(job_id)) == columns
+    assert set(store.peek(job_id)) == columns - {"scene"}
+    assert set(store.rows([job_id])[job_id]) == columns - {"scene"}
