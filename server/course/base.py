@@ -18,7 +18,7 @@ import sqlite3
 import threading
 from collections.abc import Callable
 from datetime import datetime
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from server.core.errors import NotFound
 from server.core.settings import Settings
@@ -33,6 +33,12 @@ from tracer.grading import Assignment, load_assignment
 
 DAY = 86400.0  # a late token's worth (server/course/tokens.py)
 REFERENCE = "reference"  # the reference scene's row in a version's grading run (submission ids are hex)
+
+
+class Decide(Protocol):
+    """A late submission's tokens decided in its row's transaction (tokens.py's spend_plan); `dry`: only refused."""
+
+    def __call__(self, db: sqlite3.Connection, dry: bool = False) -> dict: ...
 
 
 def not_found(what: str, key: str) -> NotFound:
@@ -73,10 +79,17 @@ class CourseBase:
         def tokens_brief(self, a: dict, student: dict, now: float) -> dict: ...  # tokens.py
         def spend_plan(  # tokens.py
             self, a: dict, student: dict, due: float, cut: float, accepted: float
-        ) -> Callable[[sqlite3.Connection], dict]: ...
+        ) -> Decide: ...
         def released_at(self, a: dict) -> float | None: ...  # manual.py
         def released_manual(self, a: dict, sub: dict) -> float | None: ...  # manual.py
         def manual_view(self, a: dict, sub: dict, who: Who) -> dict | None: ...  # manual.py
+        def manual_items(self, a: dict) -> list: ...  # manual.py
+        def manual_part(self, a: dict, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
+        def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict, who: Who) -> None: ...  # manual.py
+        def _grade_moved(self, sub: dict) -> None: ...  # manual.py
+        def regrade_deadline(self, a: dict, student: dict | None) -> float: ...  # regrade.py
+        def with_test_overrides(self, a: dict, subs: list[dict]) -> list[dict]: ...  # regrade.py
+        def regraded_feedback(self, a: dict, sub: dict, feedback: dict | None) -> None: ...  # regrade.py
 
     def by(self, who: Who | str | None, why: str = "") -> audit.By:
         """Who makes a change now, and why: what the store's changing methods record their audit events with

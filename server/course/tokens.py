@@ -29,7 +29,7 @@ import sqlite3
 
 from server.core.errors import Forbidden, Invalid, NotFound
 from server.course.audit import Target, record
-from server.course.base import DAY, CourseBase, iso
+from server.course.base import DAY, CourseBase, Decide, iso
 from server.course.people import Who
 from server.course.schema import CourseRow
 
@@ -116,7 +116,7 @@ class Tokens(CourseBase):
             "closed": p is None,  # past the cut-off and tokens cannot cover it (else a submission is taken)
         }
 
-    def spend_plan(self, a: dict, student: dict, due: float, cut: float, accepted: float):
+    def spend_plan(self, a: dict, student: dict, due: float, cut: float, accepted: float) -> Decide:
         """What `CourseStore.add_submission` calls in its transaction: the tokens this submission spends and its
         late mark, read and written together; a refusal (past the cut-off, too few tokens) raises there."""
 
