@@ -17,13 +17,14 @@ import pytest
 from tests.support.scene import ROOT
 
 FAKE = """#!/usr/bin/env bash
-# a stand-in for Python (and ruff, npm, biome): logs its arguments; `-m venv DIR` makes DIR/bin/python and
+# a stand-in for Python (and ruff, pyright, npm, biome): logs its arguments; `-m venv DIR` makes DIR/bin/python and
 # DIR/bin/ruff, `ci` (npm's) node_modules/.bin/biome
 echo "$(basename "$0") $*" >>"$DEV_LOG"
 if [ "${1:-}" = -m ] && [ "${2:-}" = venv ]; then
     mkdir -p "$3/bin"
     cp "$0" "$3/bin/python"
     cp "$0" "$3/bin/ruff"
+    cp "$0" "$3/bin/pyright"
 fi
 if [ "$(basename "$0")" = npm ] && [ "${1:-}" = ci ]; then
     mkdir -p node_modules/.bin
@@ -82,6 +83,7 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
     pytest = "python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -k nothing"
     npm = "npm ci --no-audit --no-fund --loglevel=error"
     assert calls[-4:] == ["ruff check .", npm, "biome ci --reporter=summary", pytest], calls
+    assert "pyright is left to the whole run" in said, said  # a selection: no type check
     for cmd in ("test", "serve"):  # both warm now: the test extras serve too
         _, calls = dev(cmd)
         assert pip_installs(calls) == [], (cmd, calls)
@@ -91,7 +93,7 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
 def test_dev_test_installs_biome_again_when_its_lock_changes(dev):
     said, calls = dev("test")
     assert "installing the page's JS tools" in said, said
-    assert calls[-2] == "biome ci --reporter=summary", calls
+    assert calls[-3:-1] == ["biome ci --reporter=summary", "pyright "], calls  # the whole run: the type checker
     lock: Path = dev.folder / "package-lock.json"
     lock.write_text(lock.read_text() + "\n")  # a new version of biome, say
     said, calls = dev("test")
