@@ -245,7 +245,7 @@ class RedisQueue:
                 self.r.set(key, data, ex=ev.BLOB_TTL)
                 payload["snapshot_key"] = key
         self.queues[row["lane"]].enqueue_call(
-            "server.queue.redis.host.run_try",
+            "server.queue.redis.horse.run_try",
             kwargs={"payload": payload},
             job_id=ev.rq_job_id(job_id, attempt),
             timeout=int(row["max_seconds"] + 2 * HARD_GRACE),
