@@ -29,7 +29,8 @@ from pydantic import ValidationError
 from rq import Queue
 from rq.exceptions import StopRequested
 
-from server.core.settings import explain, load_settings, masked
+from server.core.credentials import masked
+from server.core.settings import explain, load_settings
 from server.queue.redis import events as ev
 from server.queue.redis.horse import HOST, STOP, connect
 from server.queue.redis.workers import DEFAULT_LOST_AFTER, HORSE_STOP_GRACE, HostWorker, InProcessWorker

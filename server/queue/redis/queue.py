@@ -39,9 +39,10 @@ from rq import Queue, Worker
 from rq.job import Job
 from rq.registry import StartedJobRegistry
 
+from server.core.credentials import masked
 from server.core.files import is_disk_full
 from server.core.paths import ROOT
-from server.core.settings import Settings, masked
+from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane, TryEnd
 from server.jobs.store import Attempt, JobStore
