@@ -49,8 +49,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from server.core.credentials import MIN_TOKEN_LENGTH, STRONG_TOKEN, loopback_address, weak_token
 from server.core.errors import Forbidden, Unauthorized
-from server.core.settings import MIN_TOKEN_LENGTH, STRONG_TOKEN, Settings, loopback_address, weak_token
+from server.core.settings import Settings
 
 log = logging.getLogger("server")
 

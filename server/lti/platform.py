@@ -13,99 +13,37 @@ launch that `GET /start/<hint>` begins (the tool's login, then an authentication
 `GET /` lists them, `GET /gradebook` shows the scores received, and `place` puts a deep link's content item in
 the course (a resource link and its gradebook column).
 
-It is a plain ASGI app (no web framework: only server/api speaks HTTP through one); `LoopbackServer` runs any
-ASGI app this way (the tool's app too, in the tests); both stop on leaving, also after a failure.
+It is a plain ASGI app (no web framework: only server/api speaks HTTP through one) served by `LoopbackServer`
+(server/lti/loopback.py); its services (tokens, AGS, NRPS, the deep-linking return) are
+server/lti/platform_services.py's.
 """
 
 from __future__ import annotations
 
-import asyncio
 import html
 import json
-import logging
 import re
 import secrets
-import socket
-import threading
 import time
 from collections.abc import Callable
 from urllib.parse import parse_qs, urlencode, urlsplit
 
 import httpx
-import uvicorn
 from joserfc import jwt
-from joserfc.errors import JoseError
-from joserfc.jwk import KeySet, RSAKey
+from joserfc.jwk import RSAKey
 
-log = logging.getLogger(__name__)
-
-LTI = "https://purl.imsglobal.org/spec/lti/claim/"
-DL = "https://purl.imsglobal.org/spec/lti-dl/claim/"
-AGS = "https://purl.imsglobal.org/spec/lti-ags/scope/"
-AGS_SCOPES = [AGS + "lineitem", AGS + "lineitem.readonly", AGS + "result.readonly", AGS + "score"]
-NRPS_SCOPE = "https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly"
-LINEITEMS_TYPE = "application/vnd.ims.lis.v2.lineitemcontainer+json"
-LINEITEM_TYPE = "application/vnd.ims.lis.v2.lineitem+json"
-MEMBERS_TYPE = "application/vnd.ims.lti-nrps.v2.membershipcontainer+json"
-LEARNER = "http://purl.imsglobal.org/vocab/lis/v2/membership#Learner"
-INSTRUCTOR = "http://purl.imsglobal.org/vocab/lis/v2/membership#Instructor"
-AGS_CLAIM = "https://purl.imsglobal.org/spec/lti-ags/claim/endpoint"
-CONTEXT = {"id": "course-1", "label": "CS-R101", "title": "Rendering 101"}
-PAGE = '<!doctype html><html lang="en"><link rel="icon" href="data:,">'  # the start of a page (no favicon asked)
-START_TIMEOUT = 30  # seconds a server may take to start (the tool's app loads its kernels from the cache)
-
-
-class Request:
-    """One HTTP request, read whole: method, path, query (each name's first value), headers (lower-case names)."""
-
-    def __init__(self, scope: dict, body: bytes):
-        self.method, self.path, self.body = scope["method"], scope["path"], body
-        self.query_string = scope.get("query_string", b"").decode("latin-1")
-        self.query = {k: v[0] for k, v in parse_qs(self.query_string).items()}
-        self.headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope.get("headers", [])}
-        host = self.headers.get("host") or "{}:{}".format(*scope.get("server") or ("127.0.0.1", 80))
-        self.url = f"{scope.get('scheme', 'http')}://{host}{self.path}" + (
-            f"?{self.query_string}" if self.query_string else ""
-        )
-
-    def form(self) -> dict:
-        """An application/x-www-form-urlencoded body (each name's first value)."""
-        return {k: v[0] for k, v in parse_qs(self.body.decode(), keep_blank_values=True).items()}
-
-    def json(self):
-        return json.loads(self.body or b"null")
-
-
-class Answer:
-    """An HTTP answer: status, headers, body."""
-
-    def __init__(self, status: int = 200, body: bytes = b"", media_type: str | None = None, headers=None):
-        self.status, self.body = status, body
-        self.headers = dict(headers or {})
-        if media_type:
-            self.headers["content-type"] = media_type
-
-    def raw_headers(self) -> list[tuple[bytes, bytes]]:
-        out = {"content-length": str(len(self.body)), **self.headers}
-        return [(k.lower().encode("latin-1"), str(v).encode("latin-1")) for k, v in out.items()]
-
-    @classmethod
-    def json(cls, data, status: int = 200, media_type: str = "application/json", headers=None) -> Answer:
-        return cls(status, json.dumps(data, separators=(",", ":")).encode(), media_type, headers)
-
-    @classmethod
-    def html(cls, text: str, status: int = 200) -> Answer:
-        return cls(status, text.encode(), "text/html; charset=utf-8")
-
-    @classmethod
-    def redirect(cls, url: str) -> Answer:
-        return cls(302, b"", None, {"location": url})
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from server.lti.loopback import Answer, LoopbackServer, Request, free_port, routed_app
+from server.lti.platform_services import (
+    AGS_CLAIM,
+    AGS_SCOPES,
+    CONTEXT,
+    DL,
+    LEARNER,
+    LTI,
+    PAGE,
+    PlatformServices,
+    member,
+)
 
 
 def new_key() -> RSAKey:
@@ -114,40 +52,7 @@ def new_key() -> RSAKey:
     return key
 
 
-class LoopbackServer:
-    """An ASGI app served by uvicorn on 127.0.0.1 (a free port) in a daemon thread; `url`; a context manager."""
-
-    def __init__(self, app, port: int | None = None):
-        self.app, self.port = app, port or free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning", lifespan="on")
-        self.server = uvicorn.Server(config)
-        self.thread: threading.Thread | None = None
-
-    def start(self) -> LoopbackServer:
-        self.thread = threading.Thread(target=self.server.run, name=f"uvicorn-{self.port}", daemon=True)
-        self.thread.start()
-        deadline = time.monotonic() + START_TIMEOUT
-        while not self.server.started:
-            assert self.thread.is_alive(), f"the server on {self.url} stopped while starting"
-            assert time.monotonic() < deadline, f"the server on {self.url} did not start in {START_TIMEOUT} s"
-            time.sleep(0.05)
-        return self
-
-    def stop(self) -> None:
-        if self.thread is not None:
-            self.server.should_exit = True
-            self.thread.join(timeout=30)
-            self.thread = None
-
-    def __enter__(self) -> LoopbackServer:
-        return self.start()
-
-    def __exit__(self, *exc) -> None:
-        self.stop()
-
-
-class Platform:
+class Platform(PlatformServices):
     """An LMS on loopback. `tool_jwks_url` (the tool's key set) must be set before tokens are asked for."""
 
     def __init__(self, client_id: str = "tool-client-1", deployment_id: str = "deployment-1", name: str = "Test LMS"):
@@ -173,7 +78,7 @@ class Platform:
         self.auto_launch: dict | None = None  # launch_token's arguments: GET /auth answers a self-posting launch
         self.line_items["li-1"] = {"id": f"{self.url}/lineitems/li-1", "label": "Ray trees", "scoreMaximum": 10,
                                    "resourceLinkId": "link-1", "context": "course-1"}  # fmt: skip
-        self.server = LoopbackServer(self._app(), self.port)
+        self.server = LoopbackServer(routed_app(self._routes()), self.port)
 
     # -- running ------------------------------------------------------------------------------------
 
@@ -198,10 +103,6 @@ class Platform:
     @property
     def auth_url(self) -> str:
         return self.url + "/auth"
-
-    @property
-    def token_url(self) -> str:
-        return self.url + "/token"
 
     @property
     def jwks_url(self) -> str:
@@ -358,46 +259,6 @@ class Platform:
         ]
         return [(method, re.compile(pattern + "$"), handler) for method, pattern, handler in r]
 
-    def _app(self):
-        """The platform as a plain ASGI app (server/ speaks HTTP through a framework in server/api alone): each
-        request read whole, answered by its route's handler in a thread (handlers fetch the tool's key set)."""
-        routes = self._routes()
-
-        async def app(scope, receive, send):
-            if scope["type"] == "lifespan":
-                while True:
-                    message = await receive()
-                    if message["type"] == "lifespan.startup":
-                        await send({"type": "lifespan.startup.complete"})
-                    elif message["type"] == "lifespan.shutdown":
-                        await send({"type": "lifespan.shutdown.complete"})
-                        return
-            if scope["type"] != "http":
-                return
-            body, more = b"", True
-            while more:
-                message = await receive()
-                body += message.get("body", b"")
-                more = message.get("more_body", False)
-            req = Request(scope, body)
-            found = [(m, p.match(req.path), h) for m, p, h in routes]
-            matched = [(m, match, h) for m, match, h in found if match]
-            handler = next(((match, h) for m, match, h in matched if m == req.method), None)
-            if handler is None:
-                answer = Answer.json({"error": "not found" if not matched else "method not allowed"},
-                                     404 if not matched else 405)  # fmt: skip
-            else:
-                match, h = handler
-                try:
-                    answer = await asyncio.to_thread(h, req, **match.groupdict())
-                except Exception as e:  # noqa: BLE001 (a check that failed: the tool sees a 500, the test's log why)
-                    log.warning("test platform: %s %s failed: %r", req.method, req.path, e)
-                    answer = Answer.json({"error": f"{type(e).__name__}: {e}"}, 500)
-            await send({"type": "http.response.start", "status": answer.status, "headers": answer.raw_headers()})
-            await send({"type": "http.response.body", "body": answer.body})
-
-        return app
-
     def _home(self, req: Request) -> Answer:
         """The LMS's course page for a person: the tool's links as each person it knows opens them."""
         items = "".join(f'<li><a href="/start/{html.escape(h)}">{html.escape(h.replace("-", " "))}</a></li>'
@@ -480,141 +341,10 @@ class Platform:
             f"</thead><tbody>{rows}</tbody></table><p>{len(self.scores)} score(s) received.</p></html>"
         )
 
-    def _line_items(self, req: Request) -> Answer:
-        if error := self._refused(req, AGS + "lineitem", AGS + "lineitem.readonly"):
-            return error
-        context, link = req.query.get("context", "course-1"), req.query.get("resource_link_id")
-        items = [i for i in self.line_items.values() if i["context"] == context]
-        items = [i for i in items if link in (None, i.get("resourceLinkId"))]
-        return Answer.json([public(i) for i in items], media_type=LINEITEMS_TYPE)
-
-    def _new_line_item(self, req: Request) -> Answer:
-        if error := self._refused(req, AGS + "lineitem"):
-            return error
-        lid = "li-" + secrets.token_hex(4)
-        item = {**req.json(), "id": f"{self.url}/lineitems/{lid}", "context": req.query.get("context", "course-1")}
-        self.line_items[lid] = item
-        return Answer.json(public(item), 201, media_type=LINEITEM_TYPE)
-
-    def _line_item(self, req: Request, lid: str) -> Answer:
-        if error := self._refused(req, AGS + "lineitem", AGS + "lineitem.readonly"):
-            return error
-        if lid not in self.line_items:
-            return Answer.json({"error": "not found"}, 404)
-        return Answer.json(public(self.line_items[lid]), media_type=LINEITEM_TYPE)
-
-    def _scores(self, req: Request, lid: str) -> Answer:
-        if error := self._refused(req, AGS + "score"):
-            return error
-        if req.headers.get("content-type") != "application/vnd.ims.lis.v1.score+json":
-            return Answer.json({"error": "unsupported content type"}, 415)
-        if self.down:
-            return Answer.json({"error": "down for maintenance"}, 503)
-        if self.refuse is not None:
-            return Answer.json({"error": self.refuse[1]}, self.refuse[0])
-        if lid not in self.line_items:
-            return Answer.json({"error": "not found"}, 404)
-        score = req.json()
-        before = [s for s in self.scores if s["lineitem"] == lid and s["userId"] == score.get("userId")]
-        if before and score.get("timestamp", "") <= before[-1]["timestamp"]:  # same format: text order is time order
-            return Answer.json({"error": "timestamp not later than the last score's"}, 409)
-        self.scores.append({**score, "lineitem": lid})
-        return Answer(204)
-
-    def drop(self, context: str, user_id: str) -> dict:
-        """A member leaves the LMS course (gone from its memberships, as a dropped student is): the member."""
-        (gone,) = [m for m in self.members[context] if m["user_id"] == user_id]
-        self.members[context].remove(gone)
-        return gone
-
-    def _memberships(self, req: Request, context: str) -> Answer:
-        if error := self._refused(req, NRPS_SCOPE):
-            return error
-        limit, page = int(req.query.get("limit", 0)), int(req.query.get("page", 0))
-        everyone = self.members.get(context, [])
-        shown = everyone[page * limit : (page + 1) * limit] if limit else everyone
-        headers = {}
-        if limit and (page + 1) * limit < len(everyone):
-            headers["Link"] = f'<{self.url}/memberships/{context}?limit={limit}&page={page + 1}>; rel="next"'
-        body = {"id": req.url, "context": {"id": context}, "members": shown}
-        return Answer.json(body, headers=headers, media_type=MEMBERS_TYPE)
-
-    def _deep_link_return(self, req: Request) -> Answer:
-        claims = self._tool_jwt(str(req.form().get("JWT", "")))
-        assert claims["iss"] == self.client_id and claims["aud"] == self.issuer, claims
-        assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse", claims
-        assert claims[LTI + "deployment_id"] == self.deployment_id and claims[LTI + "version"] == "1.3.0"
-        self.deep_links.append(claims)
-        titles = "".join(
-            f"<li>{html.escape(str(i.get('title', '')))}</li>" for i in claims.get(DL + "content_items", [])
-        )
-        return Answer.html(f'{PAGE}<title>Added</title><p>content items received</p>'
-                           f'<ul>{titles}</ul><p><a href="/">Back to the course</a></p></html>')  # fmt: skip
-
-    def _tool_jwt(self, token: str) -> dict:
-        """The claims of a JWT the tool signed, verified with the tool's published key set (fetched now)."""
-        assert self.tool_jwks_url is not None, "set tool_jwks_url first"
-        keys = KeySet.import_key_set(httpx.get(self.tool_jwks_url, timeout=5).json())
-        return jwt.decode(token, keys, algorithms=["RS256"]).claims
-
-    def _token(self, form: dict) -> Answer:
-        def refuse(error: str, why: str) -> Answer:
-            return Answer.json({"error": error, "error_description": why}, 401 if error == "invalid_client" else 400)
-
-        if form.get("grant_type") != "client_credentials":
-            return refuse("unsupported_grant_type", "expected client_credentials")
-        if form.get("client_assertion_type") != "urn:ietf:params:oauth:client-assertion-type:jwt-bearer":
-            return refuse("invalid_request", "expected a JWT client assertion")
-        try:
-            claims = self._tool_jwt(str(form.get("client_assertion", "")))
-        except (JoseError, ValueError, httpx.HTTPError) as e:
-            return refuse("invalid_client", f"the client assertion does not verify: {e}")
-        aud = claims.get("aud")
-        if claims.get("iss") != self.client_id or claims.get("sub") != self.client_id:
-            return refuse("invalid_client", "iss and sub must be the client id")
-        if self.token_url not in ([aud] if isinstance(aud, str) else aud or []):
-            return refuse("invalid_client", "aud must be the token URL")
-        if not isinstance(claims.get("exp"), int) or claims["exp"] <= time.time() or not claims.get("jti"):
-            return refuse("invalid_client", "expired, or no jti")
-        scopes = set(str(form.get("scope", "")).split()) & {*AGS_SCOPES, NRPS_SCOPE}
-        token = secrets.token_urlsafe(24)
-        self.tokens[token] = scopes
-        self.token_requests.append({**form, "granted": sorted(scopes)})
-        return Answer.json(
-            {"access_token": token, "token_type": "Bearer", "expires_in": 3600, "scope": " ".join(sorted(scopes))}
-        )
-
-    def _refused(self, request: Request, *scopes: str) -> Answer | None:
-        """401 without a known bearer token, 403 when it has none of `scopes`; None when it may."""
-        scheme, _, token = request.headers.get("authorization", "").partition(" ")
-        if scheme.lower() != "bearer" or token not in self.tokens:
-            return Answer.json({"error": "invalid_token"}, 401)
-        if not self.tokens[token] & set(scopes):
-            return Answer.json({"error": "insufficient_scope"}, 403)
-        return None
-
-
-def member(i: int) -> dict:
-    """The i-th member of the test course: an instructor first, then students."""
-    return {
-        "status": "Active",
-        "name": f"Person {i}",
-        "given_name": "Person",
-        "family_name": str(i),
-        "email": f"person{i}@example.edu",
-        "user_id": f"user-{i}",
-        "lis_person_sourcedid": f"sis-{i}",
-        "roles": [INSTRUCTOR] if i == 0 else [LEARNER],
-    }
-
 
 def cookies_of(r: httpx.Response) -> dict:
     """The cookies a response sets: name -> value ("" for one it ends)."""
     return {c.split("=", 1)[0]: c.split("=", 1)[1].split(";", 1)[0] for c in r.headers.get_list("set-cookie")}
-
-
-def public(item: dict) -> dict:
-    return {k: v for k, v in item.items() if k != "context"}
 
 
 def query_of(url: str) -> dict:

@@ -45,7 +45,9 @@ from typing import TypeVar
 import httpx
 
 from server.core.paths import ROOT, SCENES
-from server.lti.platform import AGS_CLAIM, DL, INSTRUCTOR, LEARNER, Platform, free_port
+from server.lti.loopback import free_port
+from server.lti.platform import Platform
+from server.lti.platform_services import AGS_CLAIM, DL, INSTRUCTOR, LEARNER
 
 T = TypeVar("T")  # what a wait gives back
 

@@ -39,9 +39,10 @@ from rq import Queue, Worker
 from rq.job import Job
 from rq.registry import StartedJobRegistry
 
+from server.core.credentials import masked
 from server.core.files import is_disk_full
 from server.core.paths import ROOT
-from server.core.settings import Settings, masked
+from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane, TryEnd
 from server.jobs.store import Attempt, JobRow, JobRowWithScene, JobStore
@@ -245,7 +246,7 @@ class RedisQueue:
                 self.r.set(key, data, ex=ev.BLOB_TTL)
                 payload["snapshot_key"] = key
         self.queues[row["lane"]].enqueue_call(
-            "server.queue.redis.host.run_try",
+            "server.queue.redis.horse.run_try",
             kwargs={"payload": payload},
             job_id=ev.rq_job_id(job_id, attempt),
             timeout=int(row["max_seconds"] + 2 * HARD_GRACE),

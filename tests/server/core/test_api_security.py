@@ -477,8 +477,8 @@ def test_api_security_a_weak_instructor_token_is_refused_off_loopback_and_warned
     """An instructor token shorter than 24 characters, or worth fewer than about 96 bits, guards every student's
     grade badly: a server listening beyond loopback refuses to start with it (naming the setting, never the
     token), one on loopback warns at start-up."""
+    from server.core.credentials import token_bits
     from server.core.security import start_up_warnings
-    from server.core.settings import token_bits
 
     for weak in ("abcdefghijklmnop", "x" * 40, "ab" * 20, "0123456789" * 2 + "012"):
         with pytest.raises(ValueError, match="instructor token is too weak for a server listening on 10.1.2.3"):

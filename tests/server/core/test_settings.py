@@ -108,7 +108,8 @@ def test_settings_the_start_up_log_says_what_runs():
     ],
 )
 def test_settings_a_url_is_shown_without_its_password(url, shown):
-    from server.core.settings import Settings, masked
+    from server.core.credentials import masked
+    from server.core.settings import Settings
 
     assert masked(url) == shown
     if url and url.startswith("redis"):
