@@ -33,6 +33,7 @@ from server.core.credentials import masked
 from server.core.settings import explain, load_settings
 from server.queue.redis import events as ev
 from server.queue.redis.horse import HOST, STOP, connect
+from server.queue.redis.horse import run_try as run_try  # RQ jobs queued before the split name it here
 from server.queue.redis.workers import DEFAULT_LOST_AFTER, HORSE_STOP_GRACE, HostWorker, InProcessWorker
 
 log = logging.getLogger(__name__)
