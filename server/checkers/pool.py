@@ -4,9 +4,9 @@ processes, never in the API process.
 
 Validating a scene of 25 000 spheres takes a fifth of a second of Python; four of them in the API's
 threads held its interpreter lock long enough to slow every other request (GET /api/jobs/{id} took
-0.7 s). Here each check is a task for one of `validate_processes` spawned processes (plain data in:
-the request's body as bytes, the limits; plain data out: errors, warnings, what the route needs of
-the scene). The route waits for the answer without holding the event loop, and
+0.7 s). Here each check is a task for one of `validate_processes` processes (forked from the server's
+forkserver, server/core/children.py; plain data in: the request's body as bytes, the limits; plain data out:
+errors, warnings, what the route needs of the scene). The route waits for the answer without holding the event loop, and
 - a check that uses more than `max_validate_seconds` of CPU has its process killed (and a new one
   started): the scene is refused as too costly to check;
 - a client that goes away while its scene is checked has the process doing it killed and replaced,
@@ -28,7 +28,6 @@ import asyncio
 import collections
 import logging
 import math
-import multiprocessing as mp
 import os
 import threading
 import time
@@ -41,6 +40,7 @@ from multiprocessing.process import BaseProcess
 import anyio
 
 from server.checkers.tasks import checker_main, loaded
+from server.core import children
 from server.core.errors import ClientGone, Invalid, TooMany, Unavailable
 from server.core.settings import THREAD_FROM, Settings
 from tracer.scene import ASSET_DIR
@@ -99,7 +99,7 @@ class CheckPool:
 
     def __init__(self, settings: Settings):
         self.settings = settings
-        self.ctx = mp.get_context("spawn")
+        self.ctx = children.context()  # forked from the server's forkserver (server/core/children.py)
         self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
         self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
         self._small: collections.deque = collections.deque()  # the same of small bodies' requests, served first

@@ -1,4 +1,4 @@
-"""What a checking process does (spawned by server/checkers/pool.py): each task takes plain data (a request's
+"""What a checking process does (started by server/checkers/pool.py): each task takes plain data (a request's
 body as bytes, the limits) and answers plain data (errors, warnings, what the route needs of the scene)."""
 
 from __future__ import annotations
@@ -101,10 +101,10 @@ TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samp
 
 
 def checker_main(conn, nice: int) -> None:
-    """A checking process (spawned): below the API in priority, deaf to the terminal's Ctrl-C and to a SIGTERM
-    sent to the server's whole process group (the server stops it: closing its line), gone with its server;
-    loads the kernels of the samples from Warp's cache, says it is ready, then answers tasks (name, args)
-    until its line closes."""
+    """A checking process (forked from the server's forkserver, server/core/children.py): below the API in
+    priority, deaf to the terminal's Ctrl-C and to a SIGTERM sent to the server's whole process group (the server
+    stops it: closing its line), gone with its server; loads the kernels of the samples from Warp's cache, says it
+    is ready, then answers tasks (name, args) until its line closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     if nice:
@@ -134,7 +134,7 @@ def checker_main(conn, nice: int) -> None:
 
 def _watch_parent(parent: int) -> None:
     """End this process once its server is gone (killed without a word: SIGKILL, out of memory), even in the
-    middle of a task."""
+    middle of a task: its parent is the server's forkserver, which ends with the server (server/core/children.py)."""
     while True:
         time.sleep(PARENT_CHECK)
         if os.getppid() != parent:

@@ -21,7 +21,6 @@ kernels, not ready) has no job: it is killed at once rather than waited for.
 from __future__ import annotations
 
 import logging
-import multiprocessing as mp
 import os
 import signal
 import threading
@@ -31,6 +30,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import wait
 from multiprocessing.process import BaseProcess
 
+from server.core import children
 from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.jobs.lifecycle import LANES, Lane
@@ -59,7 +59,7 @@ class WorkerPool:
     def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
         self.stopping = stopping  # the server has been asked to stop (a signal): no more workers, no more jobs
-        self.ctx = mp.get_context("spawn")
+        self.ctx = children.context()  # forked from the server's forkserver (server/core/children.py)
         general = [Slot(i) for i in range(settings.workers)]
         extra = [Slot(settings.workers + i, (Lane.interactive,)) for i in range(settings.interactive_workers)]
         self.slots = general + extra if general else []  # no workers at all: no interactive one either

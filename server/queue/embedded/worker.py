@@ -1,10 +1,10 @@
 """The embedded backend's render worker: a process on the API's host that takes jobs from the SQLite
 queue and renders them (server/queue/render_try.py), reporting straight into the job store.
 
-Started by the server (server/queue/embedded/pool.py) with the "spawn" method, it loads the Warp kernels once,
-then loops: claim the next job (priority, then age; an idle worker sleeps until the server signals
-a submission, or `poll_interval` at most) and render it. Only plain data crosses the process
-boundary: the job row in SQLite, the settings as a dict, and the image files.
+Started by the server (server/queue/embedded/pool.py), forked from its forkserver (server/core/children.py: the
+imports done there once), it loads the Warp kernels once, then loops: claim the next job (priority, then age;
+an idle worker sleeps until the server signals a submission, or `poll_interval` at most) and render it. Only plain
+data crosses the process boundary: the job row in SQLite, the settings as a dict, and the image files.
 
 A full disk (the job store or a job's files cannot be written) never ends a worker: the job it renders
 fails with that reason (recorded as soon as the store can be written again), and it takes the next job
@@ -35,8 +35,9 @@ DISK_FULL_PAUSE = 2.0  # seconds between two tries to write the job store while 
 
 
 def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> None:
-    """Entry point of a worker process (spawned: it imports everything itself); `conn` is its end of
-    the server's line (server/queue/embedded/wakeup.py): wakes come in, "ready" goes out, end-of-file means stop."""
+    """Entry point of a worker process (forked from the server's forkserver: nothing of the server's state);
+    `conn` is its end of the server's line (server/queue/embedded/wakeup.py): wakes come in, "ready" goes out,
+    end-of-file means stop."""
     # Ctrl-C, `kill -- -PGID` and a service manager signal the whole group: the server stops us (closing our
     # line: we give our job back), never a signal, which would end the job's try as a crash
     signal.signal(signal.SIGINT, signal.SIG_IGN)

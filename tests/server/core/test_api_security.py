@@ -165,8 +165,10 @@ def test_api_security_the_instructor_sees_every_job_and_a_student_cannot_list_th
     assert [j["id"] for j in client.get("/api/jobs", params={"scope": "mine"}, headers=other).json()["jobs"]] == [b_job]
 
 
-def test_api_security_jobs_without_an_owner_are_the_instructor_s(client):
-    """Grading renders and rows from before owners have no owner: the instructor's, never a student's."""
+def test_api_security_jobs_without_an_owner_are_the_instructor_s(client_without_workers):
+    """Grading renders and rows from before owners have no owner: the instructor's, never a student's (no worker:
+    the row stays queued while it is listed; a worker of its own took it at its next look, half a second)."""
+    client = client_without_workers
     store = client.app.state.store
     row = store.create(
         '{"name": "grading: erin"}', name="grading: erin", width=4, height=4, spp=1, priority=0, warnings=[],

@@ -44,6 +44,9 @@ def test_shutdown_a_signal_to_the_group_gives_the_job_back_and_restarts_no_worke
     try:
         http = server.client
         running = submit(http, long_scene(spp=4096), priority=10)
+        # taken before the small one is queued: the interactive lane's job would go first (the niced worker may not
+        # have claimed the long one yet on a loaded machine)
+        wait_for(lambda: job(http, running["id"])["status"] == "running", 120, "the long job to start")
         queued = submit(http, tiny_scene())
         wait_for(lambda: job(http, running["id"])["preview"] >= 1, 120, "the long job to render a pass")
         assert job(http, queued["id"])["status"] == "queued"

@@ -1,0 +1,34 @@
+"""How the server's pools start their processes (the render workers, the scene checkers, the grading processes):
+from one forkserver per server, which has imported what they all import (numpy, Warp, the tracer, trimesh) once.
+A child is a fork of it: it skips those imports (about a second of CPU each) and only loads its kernels (from
+Warp's cache, per process). Nothing of the server's own state (threads, locks, open databases) crosses: the
+forkserver is a fresh interpreter, never a fork of the server; the children get their plain data as before.
+
+The forkserver ignores SIGTERM (server/core/forkserver.py): a terminal's Ctrl-C or `kill -- -PGID` reaches the
+server's whole process group, and a forkserver ended by it would look like the death of every child (their exit
+codes come through it). It ends with its server: when the server's end of its pipe closes (a stop, a kill)."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from multiprocessing.context import BaseContext
+
+# what the forkserver imports as it starts, in order (names, not imports: the layers above server/core are the
+# children's); a module that cannot be imported there is left out of it (its children import it themselves)
+PRELOAD = [
+    "server.core.forkserver",  # first: deaf to the group's SIGTERM
+    "numpy",
+    "warp",
+    "trimesh",  # the mesh reader (tracer.assets.import_mesh_reader)
+    "tracer.rendering.progressive",  # the render workers' kernels' modules
+    "tracer.tools.pixel_samples",  # the checkers'
+    "server.queue.embedded.worker",
+    "server.checkers.tasks",
+]
+
+
+def context() -> BaseContext:
+    """The start method of every pool's processes: the forkserver, started by the first child, with PRELOAD."""
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(PRELOAD)
+    return ctx
