@@ -16,7 +16,10 @@ PRELOADED = ("numpy", "warp", "trimesh", "tracer.rendering.progressive", "server
 
 def _report(conn) -> None:
     """A child's answer: which of PRELOADED it found imported as it started, and its parent."""
-    conn.send(([m for m in PRELOADED if m in sys.modules], os.getppid()))
+    import warp as wp
+
+    cuda = (os.environ.get("CUDA_VISIBLE_DEVICES"), wp.is_cuda_available())
+    conn.send(([m for m in PRELOADED if m in sys.modules], os.getppid(), cuda))
     conn.close()
 
 
@@ -27,11 +30,13 @@ def _child_answer(ctx) -> tuple[list[str], int, int]:
     theirs.close()
     try:
         assert ours.poll(120), "the child did not answer"
-        found, parent = ours.recv()
+        found, parent, cuda = ours.recv()
     finally:
         ours.close()
     p.join(timeout=30)
     assert p.exitcode == 0
+    # CUDA hidden from the whole tree (server/core/forkserver.py): initialised before a fork, it would be broken
+    assert cuda == ("", False)
     return found, parent, p.pid
 
 
