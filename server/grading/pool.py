@@ -48,7 +48,7 @@ class GradingPool:
     """Worker processes for the runs' per-student work (tracer/grading/tasks.py): `processes` of them,
     spawned (nothing of the API's state crosses: tasks are plain data), niced like the render workers,
     started at the first task and kept. A process that dies breaks Python's pool: the next `submit`
-    starts a new one, and each run submits again what it had lost (server/grading/run.py)."""
+    starts a new one, and each run submits again what it had lost (server/grading/run_tasks.py)."""
 
     def __init__(self, processes: int, nice: int = 0):
         self.processes, self.nice = max(1, processes), nice

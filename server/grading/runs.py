@@ -28,7 +28,8 @@ from pathlib import Path
 from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
-from server.grading.run import GradingRun, RunContext
+from server.grading.run import GradingRun
+from server.grading.run_base import RunContext
 from server.grading.store import GradingStore, Stage
 from server.jobs.lifecycle import JobStatus
 from server.jobs.service import JobService

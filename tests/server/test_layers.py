@@ -91,9 +91,11 @@ def test_layers_type_only_imports_count_for_cycles():
 
 
 def test_layers_a_grading_run_does_not_know_its_runs():
-    """A run reports back through its RunContext (server/grading/run.py); the runs start it."""
+    """A run reports back through its RunContext (server/grading/run_base.py); the runs start it. Nor do its parts
+    (run_base.py, run_renders.py, run_tasks.py) know the runs."""
     assert "server.grading.run" in SERVER["server.grading.runs"]
-    assert "server.grading.runs" not in SERVER["server.grading.run"]
+    for part in ("run", "run_base", "run_renders", "run_tasks"):
+        assert "server.grading.runs" not in SERVER[f"server.grading.{part}"], part
 
 
 # -- HTTP is server/api's ----------------------------------------------------------------------------------------
