@@ -11,7 +11,7 @@ codes come through it). It ends with its server: when the server's end of its pi
 from __future__ import annotations
 
 import multiprocessing as mp
-from multiprocessing.context import BaseContext
+from multiprocessing.context import ForkServerContext
 
 # what the forkserver imports as it starts, in order (names, not imports: the layers above server/core are the
 # children's); a module that cannot be imported there is left out of it (its children import it themselves)
@@ -27,8 +27,9 @@ PRELOAD = [
 ]
 
 
-def context() -> BaseContext:
+def context() -> ForkServerContext:
     """The start method of every pool's processes: the forkserver, started by the first child, with PRELOAD."""
     ctx = mp.get_context("forkserver")
+    assert isinstance(ctx, ForkServerContext)  # for the checker: get_context's type is the base's
     ctx.set_forkserver_preload(PRELOAD)
     return ctx
