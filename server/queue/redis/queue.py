@@ -44,7 +44,9 @@ from server.core.paths import ROOT
 from server.core.settings import Settings, masked
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane, TryEnd
-from server.jobs.store import Attempt, JobRow, JobRowWithScene, JobStore
+from server.jobs.rows import JobRow, JobRowWithScene
+from server.jobs.store import JobStore
+from server.jobs.store_base import Attempt
 from server.queue.redis import events as ev
 
 log = logging.getLogger(__name__)
