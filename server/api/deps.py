@@ -33,8 +33,9 @@ from server.grading.runs import GradeRuns
 from server.jobs.janitor import Janitor
 from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
+from server.jobs.rows import JobRow
 from server.jobs.service import JobService
-from server.jobs.store import JobRow, JobStore
+from server.jobs.store import JobStore
 from server.lti.tool import LtiTool
 from server.queue.base import JobQueue
 

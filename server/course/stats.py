@@ -43,7 +43,7 @@ from tracer.tools import spreadsheet
 
 BINS = 10  # the histogram's bars: tenths of the spec's points (web/js/course/instructor_board.js's BINS)
 MAX_STUDENTS = 5000  # counting submissions whose report.json is read for the tests' pass rates
-NOT_ATTEMPTS = ("invalid", "failed")  # statuses that cost no attempt (store.HOLDS_ATTEMPT)
+NOT_ATTEMPTS = ("invalid", "failed")  # statuses that cost no attempt (submission_store.HOLDS_ATTEMPT)
 
 
 def _round(x: float | None, digits: int = 6) -> float | None:

@@ -11,7 +11,7 @@ class JobFile(StrEnum):
 
     image_png = "image.png"  # the latest image, 8-bit sRGB with the film's exposure (previews, then the final)
     image_exr = "image.exr"  # the same pass as linear float32 radiance
-    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/queue/render_try.py, aov_pictures)
+    aov_rays = "aov_rays.png"  # the AOV pictures of a finished job (server/queue/outputs.py, aov_pictures)
     aov_depth = "aov_depth.png"
     aov_normal = "aov_normal.png"
     aov_albedo = "aov_albedo.png"

@@ -79,7 +79,7 @@ ANONYMOUS_PRIORITY = 0  # one without a token: an anonymous job's default (JobCr
 
 
 class Stop(StrEnum):
-    """Why a try stops before its job is done (a channel's `stop_reason`, server/queue/render_try.py)."""
+    """Why a try stops before its job is done (a channel's `stop_reason`, server/queue/channel.py)."""
 
     cancel = "cancel"  # the job was cancelled (DELETE /api/jobs/{id}, a client that gave up)
     lost = "lost"  # the job is no longer this try's (its worker was taken for dead; another try has it)

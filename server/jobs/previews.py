@@ -25,8 +25,9 @@ from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
+from server.jobs.rows import JobRow
 from server.jobs.service import JobService
-from server.jobs.store import JobRow, QueueFull
+from server.jobs.store import QueueFull
 
 log = logging.getLogger(__name__)
 

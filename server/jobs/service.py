@@ -26,7 +26,8 @@ from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
 from server.jobs.placing import Placed, place
 from server.jobs.results import DEVICE, link_files, renderer_version, result_key
-from server.jobs.store import JobRow, JobStore, QueueFull
+from server.jobs.rows import JobRow
+from server.jobs.store import JobStore, QueueFull
 from server.jobs.views import JobPublic, QueuePlace
 
 if TYPE_CHECKING:  # the queue's backends import the jobs package; the service only calls the interface

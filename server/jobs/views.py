@@ -11,7 +11,7 @@ from pydantic import BaseModel, Field
 
 from server.core.errors import ErrorItem
 from server.jobs.lifecycle import JobKind, JobStatus, Lane
-from server.jobs.store import JobRow
+from server.jobs.rows import JobRow
 
 
 class SolveProgress(BaseModel):

@@ -21,7 +21,8 @@ from typing import Protocol
 
 from server.core.settings import Settings
 from server.jobs.lifecycle import Lane
-from server.jobs.store import JobRowWithScene, JobStore
+from server.jobs.rows import JobRowWithScene
+from server.jobs.store import JobStore
 
 log = logging.getLogger(__name__)
 

@@ -22,261 +22,27 @@ import json
 import logging
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 from server.core.files import is_disk_full
 from server.jobs.files import JobFile
-from server.jobs.lifecycle import JobKind, JobStatus, Lane, Stop, TryEnd
-from server.jobs.store import JobStore
+from server.jobs.lifecycle import JobKind, JobStatus, Stop, TryEnd
+from server.queue.channel import Channel
+from server.queue.outputs import aov_pictures, exr_bytes
+from server.queue.watch import CHECK_INTERVAL, Pass, Stopped, Watch
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Mapping
-
-    import numpy as np
 
     from tracer.radiosity.cache import SolutionCache
     from tracer.scene import Limits
 
 log = logging.getLogger(__name__)
 
-CHECK_INTERVAL = 0.2  # seconds between two looks at the channel (cancel? still ours?) during a pass
-PROGRESS_INTERVAL = 0.2  # seconds between two progress reports during a pass
-
-
-class Channel(Protocol):
-    """Where a try reports (the job store here, or a worker host's Redis events)."""
-
-    def stop_reason(self) -> Stop | None:
-        """Stop.cancel (the job was cancelled), Stop.lost (it is no longer this try's), Stop.shutdown (the
-        host asks for the job back), or None: go on."""
-        ...
-
-    def should_yield(self) -> bool:
-        """Is interactive work waiting for this worker? (asked of a batch render at each pass)"""
-        ...
-
-    def snapshot(self) -> bytes | None:
-        """The film this try continues from (a snapshot of an earlier try of the job), or None."""
-        ...
-
-    def progress(self, **fields) -> None:
-        """Progress fields: samples_done, samples_total, passes_done, spp_done, rays, preview, solve,
-        snapshot (the pass of the film just saved)."""
-
-    def save(self, kind: JobFile, data: bytes | str) -> None:
-        """One of the job's files, whole (it reaches the job's folder on the API host before the next
-        progress or finish that follows it)."""
-
-    def finish(self, status: JobStatus, **fields) -> None:
-        """The try ended the job: done, failed or cancelled, with its last progress fields."""
-
-    def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
-        """The job goes back to the queue: the host is shutting down (given back), or the render gives
-        way to interactive work (gave way, its film saved just before)."""
-
-
-class StoreChannel:
-    """The embedded backend: a worker process on the API's host writes into the job store, fenced by
-    its pid (a worker that lost its job can never write into the job's next life)."""
-
-    def __init__(self, store: JobStore, job: Mapping[str, Any], pid: int):
-        self.store, self.job, self.job_id, self.pid = store, job, job["id"], pid
-
-    def stop_reason(self) -> Stop | None:
-        row = self.store.control(self.job_id, self.pid)
-        if row is None:
-            return Stop.lost  # the job is no longer ours (the server gave it to another worker)
-        return Stop.cancel if row["cancel_requested"] else None
-
-    def should_yield(self) -> bool:
-        return self.store.interactive_waiting()
-
-    def snapshot(self) -> bytes | None:
-        if not self.job.get("snapshot"):
-            return None
-        try:
-            return self.store.job_file(self.job_id, JobFile.snapshot).read_bytes()
-        except OSError:
-            return None
-
-    def progress(self, **fields) -> None:
-        self.store.progress(self.job_id, self.pid, **fields)
-
-    def save(self, kind: JobFile, data: bytes | str) -> None:
-        self.store.save_file(self.job_id, kind, data)
-
-    def finish(self, status: JobStatus, **fields) -> None:
-        self.store.finish(self.job_id, self.pid, status, **fields)
-
-    def give_back(self, outcome: TryEnd = TryEnd.given_back, **fields) -> None:
-        if fields:
-            self.store.progress(self.job_id, self.pid, **fields)
-        self.store.requeue(self.job_id, self.pid, outcome)
-
 
 def disk_full_error(exc: BaseException) -> str:
     """A job's error when its try met a full disk."""
     return f"stopped: the disk is full, so the job's images could not be kept ({exc}); submit it again later"
-
-
-class Stopped(Exception):
-    """Raised from the band callback to end a render mid-pass; `reason` (a Stop) says why."""
-
-    def __init__(self, reason: Stop):
-        super().__init__(reason)
-        self.reason = reason
-
-
-@dataclass
-class _Pass:
-    image: np.ndarray  # (H, W, 3) float32
-    number: int
-    spp: int
-    rays: dict
-    samples: int  # progress units done when it was taken
-
-
-class _Watch:
-    """A render try's state between the renderer's callbacks: when to stop (`reason_to_stop`, looked at by
-    `cancel` before each pass and by `on_band` after each band), progress reports, the previews published
-    (`publish`), snapshots of the film, and giving way to interactive work (a batch render, `on_pass`)."""
-
-    def __init__(self, try_: Try, scene, cs, deadline: float):
-        self.job, self.channel, self.stopping = try_.job, try_.channel, try_.stopping
-        self.preview_interval, self.snapshot_interval = try_.preview_interval, try_.snapshot_interval
-        self.scene, self.cs, self.deadline = scene, cs, deadline
-        self.exposure = scene.film.exposure
-        self.last: _Pass | None = None  # the latest finished pass
-        self.published = 0  # number of the pass whose image is on disk
-        self.clock = {"check": 0.0, "progress": 0.0, "preview": 0.0, "snapshot": time.monotonic()}
-        self.done = {"samples": 0, "total": self.job["samples_total"]}  # the renderer's latest progress
-        self.batch = self.job.get("lane") == Lane.batch
-        params = self.job.get("params") or {}
-        params = json.loads(params) if isinstance(params, str) else params
-        self.lean = params.get("outputs") == "floats"  # grading: only the final image and its floats
-        self.stop_reason: Stop | None = None
-
-    def reason_to_stop(self) -> Stop | None:
-        if self.stopping():
-            return Stop.shutdown
-        if time.time() > self.deadline:
-            return Stop.timeout
-        return self.channel.stop_reason()
-
-    def publish(self, p: _Pass) -> None:
-        """The pass's image on disk: PNG (with the scene's exposure) and EXR."""
-        from tracer.rendering.film import png_bytes
-
-        self.channel.save(JobFile.image_png, png_bytes(p.image, self.exposure))
-        self.channel.save(JobFile.image_exr, exr_bytes(p.image))
-        self.published = p.number
-        self.clock["preview"] = time.monotonic()
-
-    def on_band(self, pr) -> None:
-        """After each band of a pass, and after each shot of a radiosity solve: progress, and the stop check."""
-        clock = self.clock
-        self.done.update(samples=pr.samples_done, total=pr.samples_total)
-        now = time.monotonic()
-        if pr.phase == "radiosity" and (now - clock["progress"] >= PROGRESS_INTERVAL or pr.solve["fraction"] >= 1):
-            clock["progress"] = now
-            self.channel.progress(solve=pr.solve)
-        elif pr.phase != "radiosity" and now - clock["progress"] >= PROGRESS_INTERVAL:
-            clock["progress"] = now
-            self.channel.progress(samples_done=pr.samples_done, samples_total=pr.samples_total)
-        if now - clock["check"] >= CHECK_INTERVAL:
-            clock["check"] = now
-            reason = self.reason_to_stop()
-            if reason:
-                raise Stopped(reason)
-
-    def on_pass(self, pr) -> None:
-        """After each pass: a preview when one is due, progress, a snapshot now and then; a batch render gives
-        way here when the channel asks it to."""
-        from tracer.rendering.progressive import snapshot_bytes
-
-        channel, clock, done = self.channel, self.clock, self.done
-        self.last = last = _Pass(pr.image, pr.passes_done, pr.spp_done, pr.rays, done["samples"])
-        due = pr.passes_done == 1 or time.monotonic() - clock["preview"] >= self.preview_interval
-        final = done["samples"] >= done["total"]
-        if due and not final and not self.lean:  # the final image is published by Try._done
-            self.publish(last)
-        fields = dict(samples_done=done["samples"], samples_total=done["total"], passes_done=pr.passes_done)
-        fields.update(spp_done=pr.spp_done, rays=pr.rays, preview=self.published)
-        if not final and time.monotonic() - clock["snapshot"] >= self.snapshot_interval:
-            channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))  # a later try continues from here
-            fields["snapshot"] = pr.passes_done
-            clock["snapshot"] = time.monotonic()
-        channel.progress(**fields)
-        if self.batch and not final and channel.should_yield():
-            if self.published != last.number:
-                self.publish(last)
-            channel.save(JobFile.snapshot, snapshot_bytes(pr.snapshot()))
-            raise Stopped(Stop.give_way)
-
-    def cancel(self) -> bool:
-        """Before each pass, and before each shot of a radiosity solve: whether to stop (the reason kept)."""
-        solving = self.scene.render.integrator_info.prepass == "radiosity" and self.cs.radiosity is None
-        if solving and time.monotonic() - self.clock["check"] < CHECK_INTERVAL:
-            return False  # a solve's shots come every few ms: look at the channel every CHECK_INTERVAL
-        self.clock["check"] = time.monotonic()
-        self.stop_reason = self.reason_to_stop()
-        return self.stop_reason is not None
-
-
-def aov_pictures(aovs: dict) -> tuple[dict[str, bytes], dict[str, list[float]]]:
-    """The renderer's AOVs as PNGs for the page, and each one's [min, max] (the legend of its colours).
-
-    rays: rays traced per pixel as a heat map (black 0 ... red ... yellow ... white the maximum);
-    depth: distance to the eye ray's hit as grey, near white to far dark grey, black where nothing was hit;
-    normal: the shading normal as 0.5 + 0.5 n (no sRGB curve: the bytes are the vector);
-    albedo: kd after texturing (sRGB like the image); variance: the mean of the RGB variance as a heat map."""
-    import numpy as np
-
-    from tracer.rendering.film import heat_map, png_bytes
-
-    out: dict[str, bytes] = {}
-    ranges: dict[str, list[float]] = {}
-
-    def span(name: str, values: np.ndarray) -> None:
-        finite = values[np.isfinite(values)]
-        ranges[name] = [float(finite.min()), float(finite.max())] if finite.size else [0.0, 0.0]
-
-    if "rays" in aovs:
-        rays = np.nan_to_num(aovs["rays"])
-        span("rays", rays)
-        out["rays"] = png_bytes(heat_map(rays))
-    if "depth" in aovs:
-        depth = np.nan_to_num(aovs["depth"], posinf=0.0)
-        hit = depth > 0
-        far = float(depth.max()) if hit.any() else 1.0
-        span("depth", depth[hit] if hit.any() else depth)
-        out["depth"] = png_bytes(np.where(hit, 1.0 - 0.85 * depth / far, 0.0), srgb=False)
-    if "normal" in aovs:
-        normal = np.nan_to_num(aovs["normal"])
-        span("normal", normal)
-        out["normal"] = png_bytes(0.5 + 0.5 * normal, srgb=False)
-    if "albedo" in aovs:
-        albedo = np.nan_to_num(aovs["albedo"])
-        span("albedo", albedo)
-        out["albedo"] = png_bytes(albedo)
-    if "variance" in aovs:
-        variance = np.nan_to_num(aovs["variance"]).mean(axis=-1)
-        span("variance", variance)
-        out["variance"] = png_bytes(heat_map(variance))
-    return out, ranges
-
-
-def exr_bytes(image, layers: dict | None = None) -> bytes:
-    """An EXR file's bytes (tracer.rendering.film.write_exr writes files: through a temporary one)."""
-    import tempfile
-    from pathlib import Path
-
-    from tracer.rendering.film import write_exr
-
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "image.exr"
-        write_exr(path, image, layers)
-        return path.read_bytes()
 
 
 @dataclass
@@ -418,7 +184,7 @@ class Try:
 
     def _render(self) -> TryEnd | Stop:
         """A render: the scene compiled, then the renderer's passes (continuing from an earlier try's film
-        when there is one) with a _Watch over them; the try ends done, giving way, or stopped."""
+        when there is one) with a Watch over them; the try ends done, giving way, or stopped."""
         from tracer.rendering.progressive import render
 
         deadline = time.time() + self.job["max_seconds"]  # the compile counts too
@@ -426,7 +192,7 @@ class Try:
         if compiled is None:
             return TryEnd.failed
         scene, cs = compiled
-        watch = _Watch(self, scene, cs, deadline)
+        watch = Watch(self, scene, cs, deadline)
         resume = self._resume_from()
         if resume is not None:
             watch.published = int(self.job.get("preview") or 0)
@@ -444,10 +210,10 @@ class Try:
             return self._gave_way(watch)
         return self._stopped(watch.stop_reason, watch.last, watch.published, watch.publish)
 
-    def _done(self, watch: _Watch, cs, result) -> TryEnd:
+    def _done(self, watch: Watch, cs, result) -> TryEnd:
         """A finished render: its final image, AOVs and radiosity solution saved, then the job done."""
         done = watch.done
-        final = _Pass(result.image, watch.last.number if watch.last else 1, result.spp, result.rays, done["total"])
+        final = Pass(result.image, watch.last.number if watch.last else 1, result.spp, result.rays, done["total"])
         watch.publish(final)
         self._save_aovs(result.aovs, pictures=not watch.lean)
         if cs.radiosity is not None:
@@ -460,7 +226,7 @@ class Try:
         log.info("job %s: done, %s", self.job["id"], result.stats_line())
         return TryEnd.done
 
-    def _gave_way(self, watch: _Watch) -> TryEnd:
+    def _gave_way(self, watch: Watch) -> TryEnd:
         """A batch render that gave way to interactive work: back in the queue, to continue from its snapshot."""
         assert watch.last is not None  # it gives way only at the end of a pass (on_pass)
         self.channel.give_back(TryEnd.gave_way, snapshot=watch.last.number, preview=watch.published)
@@ -491,7 +257,7 @@ class Try:
         except Exception:  # the image is what matters
             log.exception("job %s: could not save the radiosity solution", self.job["id"])
 
-    def _stopped(self, reason: Stop | None, last: _Pass | None, published: int, publish) -> Stop:
+    def _stopped(self, reason: Stop | None, last: Pass | None, published: int, publish) -> Stop:
         """End a render that stopped early: keep the last pass's image, then record why."""
         job, channel = self.job, self.channel
         if reason is Stop.lost:

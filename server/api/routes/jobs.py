@@ -34,8 +34,9 @@ from server.core.errors import NotFound
 from server.core.security import new_token, share_token, token_hash, unauthorized
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import JobKind, JobStatus
+from server.jobs.rows import JobRow
 from server.jobs.service import JobService
-from server.jobs.store import JobRow, JobStore
+from server.jobs.store import JobStore
 
 router = APIRouter(prefix="/api/jobs", tags=["jobs"])
 

@@ -8,7 +8,9 @@ from collections.abc import Callable
 
 from server.core.settings import Settings
 from server.jobs.lifecycle import Lane
-from server.jobs.store import HOST, JobRowWithScene, JobStore
+from server.jobs.rows import JobRowWithScene
+from server.jobs.store import JobStore
+from server.jobs.store_base import HOST
 from server.queue.embedded.pool import WorkerPool
 
 log = logging.getLogger(__name__)

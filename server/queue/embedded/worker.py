@@ -24,9 +24,11 @@ from server.core.exits import exit_now
 from server.core.files import is_disk_full
 from server.core.settings import Settings
 from server.jobs.lifecycle import LANES, Stop, TryEnd
-from server.jobs.store import JobRow, JobStore
+from server.jobs.rows import JobRow
+from server.jobs.store import JobStore
+from server.queue.channel import StoreChannel
 from server.queue.embedded.wakeup import WorkerEnd
-from server.queue.render_try import StoreChannel, Try, disk_full_error
+from server.queue.render_try import Try, disk_full_error
 from tracer.assets import import_mesh_reader
 
 log = logging.getLogger(__name__)

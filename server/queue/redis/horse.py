@@ -66,7 +66,7 @@ def connect(url: str) -> redis.Redis:
 
 
 class RedisChannel:
-    """A try's reports to the API through Redis (server/queue/render_try.py's Channel)."""
+    """A try's reports to the API through Redis (server/queue/channel.py's Channel)."""
 
     def __init__(self, r: redis.Redis, job_id: str, attempt: int, snapshot_key: str | None = None):
         self.r, self.job_id, self.attempt, self.snapshot_key = r, job_id, attempt, snapshot_key

@@ -135,7 +135,7 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
 def test_api_aov_data_pictures_keep_their_values():
     """depth and normal are data, not radiance: written through png_bytes(srgb=False), each byte round(255 v)
     (depth as grey); albedo goes through the sRGB curve like the image."""
-    from server.queue.render_try import aov_pictures
+    from server.queue.outputs import aov_pictures
     from tracer.rendering.film import to_srgb8
 
     normal = np.array([[[1.0, 0.0, -1.0], [0.2, -0.6, 0.5]]], dtype=np.float32)  # (1, 2, 3)

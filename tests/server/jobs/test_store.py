@@ -11,7 +11,8 @@ import pytest
 from server.core.ids import looks_like_job_id
 from server.jobs.files import AOV_NAMES, JobFile
 from server.jobs.lifecycle import FINISHED, TRANSITIONS, BadTransition, JobStatus, Lane, check_transition
-from server.jobs.store import JobRow, JobRowWithScene, JobStore, QueueFull
+from server.jobs.rows import JobRow, JobRowWithScene
+from server.jobs.store import JobStore, QueueFull
 from tests.support.store import add
 
 

@@ -14,7 +14,8 @@ from server.core.settings import load_settings
 from server.jobs.lifecycle import JobStatus
 from server.jobs.store import JobStore
 from server.queue.redis import events as ev
-from server.queue.redis.queue import FINISHED_GRACE, RedisQueue
+from server.queue.redis.monitor import FINISHED_GRACE
+from server.queue.redis.queue import RedisQueue
 from tests.support.api import Clock
 from tests.support.queue import RedisServer
 from tests.support.scene import scene_dict, small
