@@ -230,7 +230,8 @@ def test_deploy_the_backup_unit_backs_up_and_keeps_the_last_14(tmp_path):
     summary = json.loads(done.stdout.splitlines()[0])
     dest = Path(summary["backup"])
     assert dest.parent == m.backups and re.fullmatch(r"\d{4}-\d{2}-\d{2}", dest.name), dest  # %%F: the UTC date
-    assert (dest / "manifest.json").is_file() and (dest / "jobs.sqlite3").is_file()
+    assert (dest / "manifest.json").is_file()
+    assert (dest / "jobs.sqlite3").is_file()
     kept = sorted(p.name for p in m.backups.iterdir())
     assert len(kept) == 14 and kept[-1] == dest.name and kept[0] == "2026-11-03", kept
 
@@ -299,7 +300,8 @@ http {{
 
 def test_deploy_the_nginx_site_passes_nginx_t(tmp_path):
     site = SITE.read_text()
-    assert "ssl_certificate " in site and "ssl_certificate_key " in site
+    assert "ssl_certificate " in site
+    assert "ssl_certificate_key " in site
     done = nginx_check(tmp_path, site)
     assert done.returncode == 0, done.stderr
     assert "[emerg]" not in done.stderr and "[warn]" not in done.stderr, done.stderr

@@ -62,18 +62,23 @@ def check_two_node_log(obj: dict) -> None:
     """The two trees as logged, and valid."""
     assert validate(obj) == []
     first, second = obj["trees"]
-    assert first["pixel"] == [3, 4] and second["pixel"] == [5, 6]
+    assert first["pixel"] == [3, 4]
+    assert second["pixel"] == [5, 6]
     eye, shadow = first["nodes"]
     assert (eye["id"], eye["parent"], eye["kind"]) == (0, None, "eye")
     assert (shadow["id"], shadow["parent"], shadow["kind"]) == (1, 0, "shadow")
-    assert eye["direction"] == EYE_DIR and eye["t"] == HIT_T
+    assert eye["direction"] == EYE_DIR
+    assert eye["t"] == HIT_T
     assert eye["hit"] == {"point": HIT_POINT, "normal": NORMAL, "object": 0}
     assert (shadow["light"], shadow["occluded"], shadow["t"], shadow["hit"]) == (0, False, None, None)
-    assert shadow["radiance"] == CARRIED and shadow["weight"] == [1, 1, 1]
-    assert eye["terms"]["diffuse"] == CARRIED and eye["terms"]["ambient"] == [0.05] * 3
+    assert shadow["radiance"] == CARRIED
+    assert shadow["weight"] == [1, 1, 1]
+    assert eye["terms"]["diffuse"] == CARRIED
+    assert eye["terms"]["ambient"] == [0.05] * 3
     assert first["color"] == [0.3, 0.55, 0.175]
     (miss,) = second["nodes"]
-    assert miss["t"] is None and miss["hit"] is None
+    assert miss["t"] is None
+    assert miss["hit"] is None
 
 
 def test_zoo_loggers_python_writes_a_valid_log(tmp_path):
@@ -99,7 +104,8 @@ def test_zoo_loggers_python_writes_null_for_a_number_that_is_not_finite():
     tree.hit(tree.eye([0, 0, 0], [0, 0, -1]), math.nan, [0, 0, math.inf], [0, 0, 1], 2)
     obj = json.loads(log.dumps())  # still JSON
     node = obj["trees"][0]["nodes"][0]
-    assert node["t"] is None and node["hit"]["point"] == [0, 0, None]
+    assert node["t"] is None
+    assert node["hit"]["point"] == [0, 0, None]
     assert validate(obj) != [], "the service's check names the field that is not a number"
 
 

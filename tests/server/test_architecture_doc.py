@@ -93,7 +93,8 @@ def test_architecture_doc_names_every_module():
 def test_architecture_doc_names_every_web_module():
     """web/'s pages and modules (the course's pages, the Build panel, LTI's pages, ...): one line each."""
     modules = package_modules(("web",))
-    assert "web/index.html" in modules and "web/js/course/student.js" in modules
+    assert "web/index.html" in modules
+    assert "web/js/course/student.js" in modules
     assert unnamed(modules, named(DOC.read_text())) == []
 
 
@@ -121,8 +122,10 @@ A route asks `jobs/service.py`; see server/core/ids.py.
                  "server/core/ids.py", "tracer/grading/spec.py", "tracer/film.py",
                  "server/queue/embedded/"):  # fmt: skip
         assert path in names, path
-    assert "server/store.py" not in names and "server/queue/store.py" not in names  # a name stays in its folder
-    assert "tracer/store.py" not in names and "tracer/spec.py" not in names
+    assert "server/store.py" not in names
+    assert "server/queue/store.py" not in names  # a name stays in its folder
+    assert "tracer/store.py" not in names
+    assert "tracer/spec.py" not in names
     modules = {"server/jobs/store.py", "server/lti/store.py", "server/jobs/__init__.py", "server/lti/__init__.py"}
     assert unnamed(modules, names) == ["server/lti/__init__.py", "server/lti/store.py"]
     web = named(
@@ -132,4 +135,5 @@ A route asks `jobs/service.py`; see server/core/ids.py.
     for path in ("web/index.html", "web/js/main.js", "web/js/course/student.js", "web/js/course/session.js",
                  "web/js/build.js"):  # fmt: skip
         assert path in web, path
-    assert "web/js/student.js" not in web and "web/main.js" not in web
+    assert "web/js/student.js" not in web
+    assert "web/main.js" not in web

@@ -141,7 +141,8 @@ def test_layers_the_routes_take_their_dependencies_from_deps():
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and node.attr == "state" and ast.unparse(node.value).endswith("app"):
                 state.append(f"{m}:{node.lineno}")
-    assert aliases == [] and state == []
+    assert aliases == []
+    assert state == []
 
 
 def test_layers_every_service_module_imports_in_a_fresh_interpreter():

@@ -147,7 +147,8 @@ def exr_of(client, job_id: str) -> np.ndarray:
     from tracer.rendering.film import read_exr
 
     r = client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
-    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+    assert r.status_code == 200
+    assert r.headers["content-type"] == "image/x-exr"
     path = client.app.state.settings.data_dir / f"check-{job_id}.exr"
     path.write_bytes(r.content)
     return read_exr(path)

@@ -121,7 +121,8 @@ def test_analytic_glass_slab_refraction():
     assert_allclose(out["direction"], d_in, atol=1e-6)  # leaves parallel to the eye ray
     # the spawned ray starts 1e-4 behind the surface it crossed
     assert_allclose(inside["origin"][2], 0.5 - 1e-4, atol=1e-6)
-    assert eye["hit"]["front_face"] and not inside["hit"]["front_face"]
+    assert eye["hit"]["front_face"]
+    assert not inside["hit"]["front_face"]
 
 
 def test_analytic_fresnel_weights_at_normal_incidence():
@@ -205,7 +206,8 @@ def test_analytic_shadow_and_spot_cone():
     assert occluded, "expected a pixel of the plane in the sphere's shadow"
     t = occluded[0]
     assert_allclose(t["color"], [0.05] * 3, rtol=1e-5)  # ka = kd = 0.5 times ambient 0.1
-    assert t["nodes"][1]["end"] == "absorbed" and t["nodes"][1]["hit"]["object"] == 1
+    assert t["nodes"][1]["end"] == "absorbed"
+    assert t["nodes"][1]["hit"]["object"] == 1
     # a spot light pointing away casts no shadow ray at all
     spot = base(
         [plane],

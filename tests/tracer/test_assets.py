@@ -73,7 +73,8 @@ def test_image_pixels_are_linear_rgb_top_row_first():
     buf = io.BytesIO()
     img.save(buf, format="PNG")
     pixels = read_image(uri("image/png", buf.getvalue()))
-    assert pixels.shape == (2, 2, 3) and pixels.dtype == np.float32
+    assert pixels.shape == (2, 2, 3)
+    assert pixels.dtype == np.float32
     np.testing.assert_allclose(pixels[0, 1], [1.0, 0.5029, 0.0], atol=1e-4)  # sRGB decoding, to 4 digits
     assert not pixels[1].any()
 
@@ -171,7 +172,9 @@ def test_missing_file_names_the_folder_and_how_to_supply_it(tmp_path, monkeypatc
 
 def test_mesh_data_uri_counts_its_triangles():
     verts, faces, uv = read_mesh(obj_uri(3, 2))
-    assert faces.shape == (12, 3) and verts.shape == (12, 3) and uv is None
+    assert faces.shape == (12, 3)
+    assert verts.shape == (12, 3)
+    assert uv is None
     assert faces.max() == 11  # 0-based
 
 
@@ -274,7 +277,8 @@ def test_mesh_gltf_images_are_not_decoded(monkeypatch):
                           materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}])  # fmt: skip
     tree["meshes"][0]["primitives"][0]["material"] = 0
     _, faces, _ = read_mesh(gltf_uri(tree))
-    assert len(faces) == 200 and opened == []
+    assert len(faces) == 200
+    assert opened == []
 
 
 def test_mesh_cache_is_bounded_in_bytes(tmp_path, monkeypatch):

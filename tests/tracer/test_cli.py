@@ -40,11 +40,14 @@ def test_cli_render_png_exr_and_statistics(tmp_path):
         2,
     )
     line = p.stdout.strip().splitlines()[-1]
-    assert "Mrays/s" in line and "eye=4800" in line and "shadow=" in line
+    assert "Mrays/s" in line
+    assert "eye=4800" in line
+    assert "shadow=" in line
     png = np.asarray(Image.open(out))
     assert png.shape == (30, 40, 3) and png.std() > 5
     lin = read_exr(exr)
-    assert lin.shape == (30, 40, 3) and lin.dtype == np.float32
+    assert lin.shape == (30, 40, 3)
+    assert lin.dtype == np.float32
     # the PNG is the sRGB encoding of the EXR (exposure 0)
     from tracer.rendering.film import to_srgb8
 
@@ -77,7 +80,8 @@ def test_cli_raytree_prints_the_tree(tmp_path):
     f = tmp_path / "s.json"
     f.write_text(json.dumps(small(scene_dict("whitted"), 32, 24)))
     tree = json.loads(run("raytree", f, 22, 14).stdout)
-    assert tree["pixel"] == [22, 14] and tree["nodes"][0]["kind"] == "eye"
+    assert tree["pixel"] == [22, 14]
+    assert tree["nodes"][0]["kind"] == "eye"
     assert len(tree["color"]) == 3
 
 
@@ -93,10 +97,13 @@ def test_cli_raytree_text_one_ray_per_line_indented_by_depth(tmp_path):
     assert len(lines) == 1 + len(tree["nodes"])  # one line per ray
     eye, shadow, reflection = lines[1], lines[2], lines[3]
     assert eye.startswith("#0 eye ray, depth 1: hit 'mirror ball' (material mirror) at (")
-    assert "weight (1, 1, 1)" in eye and "; carries (" in eye and eye.endswith("went on: reflection")
+    assert "weight (1, 1, 1)" in eye
+    assert "; carries (" in eye
+    assert eye.endswith("went on: reflection")
     assert shadow.startswith("  #1 shadow ray to light 0: reached the light; weight (1, 1, 1); carries (")
     assert reflection.startswith("  #2 reflection ray, depth 2: hit 'floor' (material floor)")
-    assert "weight (0.85, 0.85, 0.85)" in reflection and "ended: absorbed" in reflection
+    assert "weight (0.85, 0.85, 0.85)" in reflection
+    assert "ended: absorbed" in reflection
     assert lines[4].startswith("    #3 shadow ray to light 0: ")  # the floor's shadow ray, one level further in
     # what each line says it carries is the JSON's radiance
     r = tree["nodes"][2]["radiance"]
@@ -113,15 +120,19 @@ def test_cli_validate_good_and_bad(tmp_path):
     f.write_text(json.dumps(bad))
     p = run("validate", f, check=False)
     assert p.returncode == 1
-    assert "objects[1].radus" in p.stderr and "radius" in p.stderr
+    assert "objects[1].radus" in p.stderr
+    assert "radius" in p.stderr
     assert "objects[2].radius" in p.stderr
     assert "objects[3].material" in p.stderr
     # rendering an invalid scene fails the same way, without a traceback
     p = run("render", f, "-o", tmp_path / "x.png", check=False)
-    assert p.returncode == 1 and "objects[2].radius" in p.stderr and "Traceback" not in p.stderr
+    assert p.returncode == 1
+    assert "objects[2].radius" in p.stderr
+    assert "Traceback" not in p.stderr
     f.write_text('{"camera": {"lookfrom": [0, 0, 1],}')
     p = run("validate", f, check=False)
-    assert p.returncode == 1 and "line 1" in p.stderr
+    assert p.returncode == 1
+    assert "line 1" in p.stderr
 
 
 def test_cli_errors_name_the_file_line_and_column_of_their_path(tmp_path):
@@ -266,14 +277,17 @@ def test_cli_a_command_imports_and_loads_only_its_integrators_kernels(tmp_path):
     loads its kernels; a path-traced render makes only the path kernels."""
     whitted = command_modules("render", SCENES / "whitted.json", "-o", tmp_path / "w.png", "--width", 8,
                               "--height", 8, "--spp", 1, "-q")  # fmt: skip
-    assert whitted["code"] == 0 and whitted["kernels"] == ["whitted"]
+    assert whitted["code"] == 0
+    assert whitted["kernels"] == ["whitted"]
     assert "tracer.integrators.path" not in whitted["modules"]
     tree = command_modules("raytree", SCENES / "whitted.json", 100, 100)
-    assert tree["code"] == 0 and tree["kernels"] == ["whitted"]
+    assert tree["code"] == 0
+    assert tree["kernels"] == ["whitted"]
     assert "tracer.integrators.path" not in tree["modules"]
     path = command_modules("render", SCENES / "cornell_path.json", "-o", tmp_path / "p.png", "--width", 8,
                            "--height", 8, "--spp", 1, "-q")  # fmt: skip
-    assert path["code"] == 0 and path["kernels"] == ["path"]
+    assert path["code"] == 0
+    assert path["kernels"] == ["path"]
 
 
 RUN_AS_PROGRAM = """
@@ -299,5 +313,8 @@ def test_cli_starts_without_garbage_collection_then_collects_again(tmp_path):
     )  # fmt: skip
     assert p.returncode == 0, p.stderr
     state = json.loads(p.stdout.strip().splitlines()[-1])
-    assert state["code"] == 0 and (tmp_path / "w.png").exists()
-    assert state["full"] == 0 and state["on"] and state["frozen"] > 100_000
+    assert state["code"] == 0
+    assert (tmp_path / "w.png").exists()
+    assert state["full"] == 0
+    assert state["on"]
+    assert state["frozen"] > 100_000

@@ -50,7 +50,8 @@ def test_compile_mesh_file_and_data_uri_hit_the_same():
     s2 = scene_with({"type": "triangle", "vertices": [[-1, -1, 0], [1, -1, 0], [0, 1, 0]], "material": "m"})
     t1, t2 = ray_tree(s1, 4, 4), ray_tree(s2, 4, 4)
     assert t1["nodes"][0]["t"] == pytest.approx(5.0103, rel=1e-4)  # pixel centre (4.5, 4.5), just off axis
-    assert t1["nodes"][0]["t"] == t2["nodes"][0]["t"] and t1["color"] == t2["color"]
+    assert t1["nodes"][0]["t"] == t2["nodes"][0]["t"]
+    assert t1["color"] == t2["color"]
     # the torus asset loads with its transform
     s3 = scene_with(
         {"type": "mesh", "file": "torus.obj", "material": "m", "smooth": True, "transform": {"rotate": [90, 0, 0]}}

@@ -43,7 +43,8 @@ SCENES = {
 def assert_same(a, b) -> None:
     """Two renders agree bit for bit: the image, the rays by kind and every AOV."""
     assert np.array_equal(a.image, b.image)
-    assert a.rays == b.rays and a.spp == b.spp
+    assert a.rays == b.rays
+    assert a.spp == b.spp
     assert a.aovs.keys() == b.aovs.keys()
     for name in a.aovs:
         assert np.array_equal(a.aovs[name], b.aovs[name]), name
@@ -105,14 +106,16 @@ def test_devices_whole_images_are_cut_only_when_their_scratch_would_not_fit(monk
     assert band_size("cpu", 2048 * 2048, 10, 0, band=None) == 2048 * 2048 // 2  # deeper: two launches
     per_pixel = 65 * render_module.STACK_BYTES_PER_LEVEL + 513**2 * render_module.CACHE_BYTES_PER_POINT
     band = band_size("cpu", 2048 * 2048, 64, 513**2, band=None)  # the deepest adaptive render
-    assert band * per_pixel <= budget and (band + 1) * per_pixel > budget // 2
+    assert band * per_pixel <= budget
+    assert (band + 1) * per_pixel > budget // 2
     scene, _ = load_scene(SCENES["whitted"])
     banded = render(compile_scene(scene), threads=2)
     per_pixel = (scene.render.max_depth + 1) * render_module.STACK_BYTES_PER_LEVEL
     monkeypatch.setattr(render_module, "WHOLE_IMAGE_SCRATCH_BYTES", 130 * per_pixel)
     cs = compile_scene(scene)
     r = Renderer(cs, band=None)
-    assert r.band == 120 and r.threads == 1  # 1200 pixels: 10 bands of 120 (not 9 of 130 and one of 30)
+    assert r.band == 120
+    assert r.threads == 1  # 1200 pixels: 10 bands of 120 (not 9 of 130 and one of 30)
     assert_same(render(cs, band=None), banded)
 
 
@@ -159,7 +162,8 @@ def test_devices_the_cli_renders_on_the_cpu_and_refuses_an_unknown_device(tmp_pa
     assert np.array_equal(read_exr(exr), render(scene).image)
     p = subprocess.run([*cmd, "--device", "cuda:99"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert p.returncode == 2 and NO_DEVICE in p.stderr, p.stderr
-    assert "Warp" not in p.stderr and p.stdout == ""  # no driver noise, no greeting
+    assert "Warp" not in p.stderr
+    assert p.stdout == ""  # no driver noise, no greeting
 
 
 def test_devices_a_worker_host_refuses_an_unknown_device_before_it_connects():
@@ -174,10 +178,12 @@ def test_devices_a_worker_host_refuses_an_unknown_device_before_it_connects():
 def test_devices_the_embedded_backend_records_the_cpu(client):
     created = submit(client, tiny_scene(8, spp=1))
     done = wait_finished(client, created["id"])
-    assert done["status"] == "done" and done["device"] == "cpu"
+    assert done["status"] == "done"
+    assert done["device"] == "cpu"
     assert [t["device"] for t in done["tries"]] == ["cpu"]
     workers = client.get("/api/health").json()["workers"]
-    assert workers and {w["device"] for w in workers} == {"cpu"}
+    assert workers
+    assert {w["device"] for w in workers} == {"cpu"}
     assert job(client, created["id"])["device"] == "cpu"
 
 
@@ -228,7 +234,8 @@ def test_devices_a_gpu_hosts_worker_class_on_the_cpu(tmp_path):
                 pytest.fail(f"the host did not exit within 180 s of its SIGTERM; its log:\n{host.log()}")
             assert code == 0, host.log()
             back = api.wait(long["id"], lambda j: j["status"] == "queued", "the try given back")
-            assert back["tries"][0]["outcome"] == "given back" and back["tries"][0]["device"] == "cpu"
+            assert back["tries"][0]["outcome"] == "given back"
+            assert back["tries"][0]["device"] == "cpu"
             assert api.client.delete(f"/api/jobs/{long['id']}").status_code == 200
         finally:
             host.stop()

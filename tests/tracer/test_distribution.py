@@ -323,7 +323,8 @@ def test_motion_blur_streak_length_matches_velocity_times_shutter():
     start, end = col(x0 - r), col(x0 + v * 0.5 + r)  # the bar's extent over the open shutter [0, 0.5]
     assert end - start > 40  # a long streak: 0.8 units over 200 columns of 0.0175
     # the ends are covered only a sliver of the time, so allow 2.5 of the ~46 columns
-    assert abs(lit[0] - start) <= 2.5 and abs(lit[-1] + 1 - end) <= 2.5
+    assert abs(lit[0] - start) <= 2.5
+    assert abs(lit[-1] + 1 - end) <= 2.5
     # the middle of the streak is covered 2r / (v dt) of the time: average 20 x 20 pixels there
     c = int((start + end) / 2)
     mid = img[40:60, c - 10 : c + 10].mean()

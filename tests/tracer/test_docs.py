@@ -38,9 +38,11 @@ def test_docs_tables_show_types_defaults_and_units():
     assert "| `lookfrom` | `[x, y, z]` | required |" in camera
     assert "\\|lookat - lookfrom\\|" in camera  # a | inside a cell is escaped
     sampler = docs.table("Sampler", {"Sampler": "sampler"})
-    assert '`"jittered"`' in sampler and "integer from 0 to 8" in sampler
+    assert '`"jittered"`' in sampler
+    assert "integer from 0 to 8" in sampler
     sphere = docs.table("Sphere", {})
-    assert "`velocity`" not in sphere and "`radius`" in sphere  # common fields are in the Object table
+    assert "`velocity`" not in sphere
+    assert "`radius`" in sphere  # common fields are in the Object table
     assert "`velocity`" in docs.table("Object", {})
 
 
@@ -57,7 +59,8 @@ def test_docs_the_complete_example_is_a_valid_scene_without_warnings():
 
     example = re.search(r"## A complete scene\n.*?```json\n(.*?)```", reference(), re.S)[1]
     scene, warnings = load_scene(json.loads(example))
-    assert warnings == [] and scene.name == "Two balls"
+    assert warnings == []
+    assert scene.name == "Two balls"
 
 
 def test_docs_ray_tree_tables_name_every_field_and_end(compiled_kernels):
@@ -135,14 +138,19 @@ def test_docs_the_readme_speaks_to_its_users_before_its_implementers():
 def test_docs_the_service_serves_the_reference_as_a_page(client_without_workers):
     client = client_without_workers
     page = client.get("/reference/scene-format.md")
-    assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+    assert page.status_code == 200
+    assert page.headers["content-type"].startswith("text/html")
     html = page.text
-    assert '<h2 id="how-a-pixel-is-computed">' in html and '<h3 id="camera-rays">' in html
-    assert "<table>" in html and "<code>lookfrom</code>" in html and "&lt;!--" not in html
+    assert '<h2 id="how-a-pixel-is-computed">' in html
+    assert '<h3 id="camera-rays">' in html
+    assert "<table>" in html
+    assert "<code>lookfrom</code>" in html
+    assert "&lt;!--" not in html
     assert not re.search(r"(src|href)=\"(https?:)?//", html), "the page loads nothing from other hosts"
     # the page names the server it came from, not the default address the repository's text writes
     base = str(client.base_url).rstrip("/")
-    assert f"{base}/reference/scene-format.md" in html and "127.0.0.1:8000" not in html
+    assert f"{base}/reference/scene-format.md" in html
+    assert "127.0.0.1:8000" not in html
     other = client.get("/reference/scene-format.md", headers={"host": "localhost:9123"}).text
     assert "http://localhost:9123/reference/scene-format.md" in other
     assert client.get("/css/reference.css").status_code == 200

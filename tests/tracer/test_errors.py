@@ -106,4 +106,5 @@ def test_errors_paths_values_and_scene_errors():
     assert json_path(()) == ""
     assert show_value(float("nan")) == "NaN" and show_value("x" * 100) == '"' + "x" * 36 + "..."
     e = SceneError([{"path": "a.b", "message": "bad"}, {"path": "", "message": "worse"}])
-    assert str(e) == "a.b: bad\nworse" and e.errors[1]["message"] == "worse"
+    assert str(e) == "a.b: bad\nworse"
+    assert e.errors[1]["message"] == "worse"

@@ -25,7 +25,8 @@ def test_film_filters_vanish_at_their_radius(kind, radius):
 @pytest.mark.parametrize("kind, radius", FILTERS)
 def test_film_filter_tables_invert_the_cdf_of_abs_f(kind, radius):
     icdf, sign, norm = filter_tables(kind, radius)
-    assert icdf.shape == sign.shape == (FILTER_TABLE,) and icdf.dtype == sign.dtype == np.float32
+    assert icdf.shape == sign.shape == (FILTER_TABLE,)
+    assert icdf.dtype == sign.dtype == np.float32
     assert icdf[0] == pytest.approx(-radius, abs=1e-3) and icdf[-1] == pytest.approx(radius, abs=1e-3)
     assert (np.diff(icdf) >= 0).all()
     # the share of table entries below x is the share of integral |f| below x (1e-3: the table's resolution)

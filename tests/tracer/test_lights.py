@@ -36,7 +36,8 @@ def test_lights_kinds_follow_the_scene_format():
 @pytest.mark.parametrize("kind", list(LIGHTS))
 def test_lights_data_of_each_type(kind):
     d = light_data(scene_with(LIGHTS[kind]).lights[0])
-    assert d.kind == LightKind[kind.upper()] and d.shape == -1  # compile_scene sets an area light's shape
+    assert d.kind == LightKind[kind.upper()]
+    assert d.shape == -1  # compile_scene sets an area light's shape
     if kind in ("directional", "spot", "disk"):  # unit directions, whatever length the scene gave
         assert np.linalg.norm(np.array(d.direction)) == pytest.approx(1.0, abs=1e-6)
     area = {"quad": 4.0, "disk": math.pi * 0.25, "sphere": 4 * math.pi * 0.0625}

@@ -301,7 +301,8 @@ def test_radiosity_solve_is_the_same_on_any_number_of_threads():
     rays = 2 * ITEMS_PER_BAND
     one = solve(scene, patch_size=0.34, rays=rays, threshold=0.05, max_steps=60, threads=1)
     two = solve(scene, patch_size=0.34, rays=rays, threshold=0.05, max_steps=60, threads=2)
-    assert len(one.history) > 10 and one.rays == two.rays
+    assert len(one.history) > 10
+    assert one.rays == two.rays
     assert np.array_equal(one.radiosity, two.radiosity) and np.array_equal(one.unshot, two.unshot)
 
 
@@ -326,14 +327,17 @@ def test_radiosity_solve_is_a_phase_of_the_render_with_progress_cancel_and_stats
         return len(calls) > 3
 
     stopped = render(load_scene(data)[0], cancel=cancel)
-    assert stopped.cancelled and stopped.spp == 0 and len(calls) == 4
+    assert stopped.cancelled
+    assert stopped.spp == 0
+    assert len(calls) == 4
 
 
 def test_radiosity_warns_that_moving_objects_are_solved_at_time_zero():
     data = small(scene_dict("cornell_spheres_radiosity"), 8, 8)
     data["objects"][5]["velocity"] = [0.1, 0, 0]
     _, warnings = load_scene(data)
-    assert [w["path"] for w in warnings] == ["objects[5].velocity"] and "time 0" in warnings[0]["message"]
+    assert [w["path"] for w in warnings] == ["objects[5].velocity"]
+    assert "time 0" in warnings[0]["message"]
 
 
 def test_radiosity_needs_surfaces_to_mesh():

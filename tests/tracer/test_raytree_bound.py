@@ -37,7 +37,8 @@ def test_raytree_bound_cuts_the_mirror_box_tree_and_says_so(compiled_kernels):
     assert tree["max_tree_rays"] == Limits().max_tree_rays == 1024
     assert tree_rays(tree) == 1024 and not tree["truncated"]
     cut = [n for n in tree["nodes"] if n["end"] == "max_tree_rays"]
-    assert cut and all(n["kind"] != "shadow" and n["hit"] for n in cut)
+    assert cut
+    assert all(n["kind"] != "shadow" and n["hit"] for n in cut)
     assert all(n["depth"] < 64 for n in cut)  # cut by the bound, long before max_depth
     # the image's sample obeys the same bound: the same rays, the same colour
     r = render(cs, threads=1)

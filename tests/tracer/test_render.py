@@ -22,7 +22,8 @@ def test_render_every_example_scene(path):
     scene, _ = load_scene(small(scene_dict(path.stem), 40, 30, sampler={"type": "jittered", "spp": 4}))
     r = render(scene, threads=2)
     img = r.image
-    assert img.shape == (30, 40, 3) and img.dtype == np.float32
+    assert img.shape == (30, 40, 3)
+    assert img.dtype == np.float32
     assert np.isfinite(img).all() and (img >= 0).all()
     assert img.mean() > 0.02, "the example renders (almost) black"
     assert img.std() > 0.01, "the example renders a flat colour"
@@ -55,7 +56,8 @@ def test_render_bit_identical_for_any_thread_count_and_pass_split(name):
 def test_render_pass_schedule_covers_samples_once():
     for spp in (1, 2, 16, 17, 100):
         passes = pass_schedule(spp)
-        assert passes[0] == (0, 1) and passes[-1][1] == spp
+        assert passes[0] == (0, 1)
+        assert passes[-1][1] == spp
         assert all(a[1] == b[0] for a, b in zip(passes, passes[1:], strict=False))
 
 
@@ -86,12 +88,17 @@ def test_raytree_nodes_follow_the_format():
     scene, _ = load_scene(small(scene_dict("whitted"), 64, 48, sampler={"type": "center", "spp": 1}))
     tree = ray_tree(scene, 44, 28)  # the glass ball
     nodes = tree["nodes"]
-    assert tree["pixel"] == [44, 28] and tree["sample"] == 0 and not tree["truncated"]
+    assert tree["pixel"] == [44, 28]
+    assert tree["sample"] == 0
+    assert not tree["truncated"]
     ids = {n["id"] for n in nodes}
     kinds = {n["kind"] for n in nodes}
     assert {"eye", "shadow", "reflection", "transmission"} <= kinds
-    assert nodes[0]["kind"] == "eye" and nodes[0]["parent"] is None and nodes[0]["depth"] == 1
-    assert nodes[0]["hit"]["object_name"] == "glass ball" and nodes[0]["hit"]["material"] == "glass"
+    assert nodes[0]["kind"] == "eye"
+    assert nodes[0]["parent"] is None
+    assert nodes[0]["depth"] == 1
+    assert nodes[0]["hit"]["object_name"] == "glass ball"
+    assert nodes[0]["hit"]["material"] == "glass"
     for n in nodes:
         assert set(n) >= {
             "id",
@@ -111,10 +118,12 @@ def test_raytree_nodes_follow_the_format():
         }
         if n["parent"] is None:
             continue
-        assert n["parent"] in ids and n["parent"] < n["id"]
+        assert n["parent"] in ids
+        assert n["parent"] < n["id"]
         parent = nodes[n["parent"]]
         if n["kind"] == "shadow":
-            assert n["weight"] == parent["weight"] and n["light"] == 0
+            assert n["weight"] == parent["weight"]
+            assert n["light"] == 0
             assert n["end"] == ("absorbed" if n["occluded"] else "light")
             assert (n["hit"] is None) == (not n["occluded"])
         else:
@@ -150,7 +159,8 @@ def test_render_passes_refine_and_cancel_keeps_finished_samples():
     # cancel after the second pass: the image is exactly the 2-sample image
     passes = []
     part = render(cs, threads=2, on_pass=passes.append, cancel=lambda: len(passes) >= 2)
-    assert part.cancelled and part.spp == 2
+    assert part.cancelled
+    assert part.spp == 2
     assert np.array_equal(part.image, seen[1][1])
 
 

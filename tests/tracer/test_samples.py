@@ -42,7 +42,8 @@ def test_samples_positions_are_the_ray_tree_s_eye_rays(sampler, film):
     cs = compiled(sampler, film={"width": 37, "height": 23, **film}, render={"seed": 5})
     x, y = 21, 9
     listed = pixel_samples(cs, x, y)
-    assert listed["pixel"] == [x, y] and listed["sampler"] == sampler["type"]
+    assert listed["pixel"] == [x, y]
+    assert listed["sampler"] == sampler["type"]
     for item in listed["samples"]:
         tree = ray_tree(cs, x, y, item["sample"])
         eye = tree["nodes"][0]
@@ -58,7 +59,8 @@ def test_samples_strata_hold_one_sample_each():
     for kind in ("grid", "jittered"):
         listed = pixel_samples(compiled({"type": kind, "spp": 16}), 3, 4)
         n = listed["strata"]
-        assert n == 4 and len(listed["samples"]) == 16
+        assert n == 4
+        assert len(listed["samples"]) == 16
         for item in listed["samples"]:
             u, v = item["position"]
             k = item["sample"]
@@ -74,7 +76,8 @@ def test_samples_adaptive_grid_levels():
     levels = adaptive_levels(2)
     assert [k for k, lv in levels.items() if lv == 0] == [0, g, (g // 2) * (g + 1) + g // 2, g * (g + 1), g * (g + 2)]
     assert len(levels) == adaptive_count(2) == 41
-    assert max(levels.values()) == 2 and 1 * (g + 1) + 2 not in levels  # (2, 1): no cell's corner or centre
+    assert max(levels.values()) == 2
+    assert 1 * (g + 1) + 2 not in levels  # (2, 1): no cell's corner or centre
 
 
 def test_samples_adaptive_traces_what_the_renderer_traces():
@@ -90,9 +93,12 @@ def test_samples_adaptive_traces_what_the_renderer_traces():
             listed = pixel_samples(cs, x, y)
             traced = [s for s in listed["samples"] if s["traced"]]
             assert len(traced) == eye[y, x], (x, y)
-            assert all(s["srgb"] for s in traced) and not any(s["srgb"] for s in listed["samples"] if not s["traced"])
+            assert all(s["srgb"] for s in traced)
+            assert not any(s["srgb"] for s in listed["samples"] if not s["traced"])
             cells = listed["cells"]
-            assert cells[0]["corner"] == [0.0, 0.0] and cells[0]["size"] == 1.0 and cells[0]["level"] == 0
+            assert cells[0]["corner"] == [0.0, 0.0]
+            assert cells[0]["size"] == 1.0
+            assert cells[0]["level"] == 0
             split += sum(c["split"] for c in cells)
     assert split > 20, "the scene has edges: some pixels are subdivided"
     # a uniform pixel: five rays, one cell

@@ -166,7 +166,8 @@ def test_bad_scenes_exact_paths_and_messages(name):
     for want, error in zip(EXPECTED[name], got, strict=True):
         assert want["message"] in error["message"], error
     report = validate_scene((BAD_DIR / name).read_text())  # the same through JSON text
-    assert not report["valid"] and report["errors"] == got
+    assert not report["valid"]
+    assert report["errors"] == got
 
 
 def test_error_str_lists_one_error_per_line():
@@ -185,7 +186,8 @@ def test_error_unknown_key_suggests_field_of_its_own_model():
     )
     (error,) = validate_scene(data)["errors"]
     assert error["path"] == "objects[0].radus"
-    assert "did you mean" not in error["message"] and "allowed: type, material, name" in error["message"]
+    assert "did you mean" not in error["message"]
+    assert "allowed: type, material, name" in error["message"]
 
 
 SYNONYMS_SUGGESTED = [
@@ -251,7 +253,8 @@ def test_error_inputs_that_are_not_scenes_never_raise():
 def test_error_numbers_too_large_for_a_float():
     data = _scene(background=10**400, camera={**MINIMAL["camera"], "vfov": 10**400})
     errors = {e["path"]: e["message"] for e in validate_scene(data)["errors"]}
-    assert errors["background"].startswith("must be a finite number") and "camera.vfov" in errors
+    assert errors["background"].startswith("must be a finite number")
+    assert "camera.vfov" in errors
 
 
 def test_error_type_tag_that_is_not_a_string():
@@ -422,31 +425,49 @@ def test_error_numbers_outside_float32_at_their_path():
 
 def test_example_every_documented_field_accepted():
     scene, _ = load_scene(EXAMPLE)
-    assert scene.version == 1 and scene.name == "Cornell box"
-    assert scene.camera.lookfrom == (0.0, 0.0, 3.9) and scene.camera.vfov == 39.3
-    assert scene.camera.focus_distance is None and scene.camera.shutter == (0.0, 1.0)
-    assert scene.film.filter.type == "box" and scene.film.filter.radius == 0.5
+    assert scene.version == 1
+    assert scene.name == "Cornell box"
+    assert scene.camera.lookfrom == (0.0, 0.0, 3.9)
+    assert scene.camera.vfov == 39.3
+    assert scene.camera.focus_distance is None
+    assert scene.camera.shutter == (0.0, 1.0)
+    assert scene.film.filter.type == "box"
+    assert scene.film.filter.radius == 0.5
     assert (scene.sampler.type, scene.sampler.spp, scene.sampler.max_level) == ("jittered", 16, 3)
-    assert scene.render.integrator == "whitted" and scene.render.min_weight == 0.001
-    assert scene.ambient == (0.05, 0.05, 0.05) and scene.fog.color == (0.5, 0.5, 0.5)
+    assert scene.render.integrator == "whitted"
+    assert scene.render.min_weight == 0.001
+    assert scene.ambient == (0.05, 0.05, 0.05)
+    assert scene.fog.color == (0.5, 0.5, 0.5)
     glass = scene.materials["glass"]
-    assert glass.kd == (0.0, 0.0, 0.0) and glass.kt == (1.0, 1.0, 1.0) and glass.fresnel is True
+    assert glass.kd == (0.0, 0.0, 0.0)
+    assert glass.kt == (1.0, 1.0, 1.0)
+    assert glass.fresnel is True
     assert scene.materials["brushed"].gloss == 200.0
     floor = scene.materials["floor"]
-    assert floor.ka == (0.1, 0.1, 0.1) and floor.texture.color1 == (0.8, 0.8, 0.8)
-    assert isinstance(floor.bump, NoiseBump) and floor.bump.strength == 0.2
+    assert floor.ka == (0.1, 0.1, 0.1)
+    assert floor.texture.color1 == (0.8, 0.8, 0.8)
+    assert isinstance(floor.bump, NoiseBump)
+    assert floor.bump.strength == 0.2
     poster = scene.materials["poster"]
-    assert isinstance(poster.texture, ImageTexture) and poster.texture.scale == (2.0, 1.0)
-    assert isinstance(poster.bump, ImageBump) and poster.bump.file == "textures/height.png"
+    assert isinstance(poster.texture, ImageTexture)
+    assert poster.texture.scale == (2.0, 1.0)
+    assert isinstance(poster.bump, ImageBump)
+    assert poster.bump.file == "textures/height.png"
     light_types = [PointLight, DirectionalLight, SpotLight, QuadLight, DiskLight, SphereLight]
     assert [type(light) for light in scene.lights] == light_types
-    assert scene.lights[0].intensity == (10.0, 10.0, 10.0) and scene.lights[2].cutoff == 30.0
+    assert scene.lights[0].intensity == (10.0, 10.0, 10.0)
+    assert scene.lights[2].cutoff == 30.0
     assert [type(o) for o in scene.objects] == [Sphere, Plane, Quad, Disk, Box, Triangle, Mesh, Mesh]
     box, mesh = scene.objects[4], scene.objects[6]
-    assert isinstance(box.material, Material) and box.velocity == (0.0, 0.1, 0.0)
-    assert box.transform.scale == (1.0, 1.0, 1.0) and box.transform.rotate == (0.0, 20.0, 0.0)
-    assert mesh.faces == [(0, 1, 2), (1, 3, 2)] and mesh.smooth and mesh.transform.scale == (1.0, 2.0, 1.0)
-    assert scene.objects[7].file == "models/bunny.obj" and scene.objects[7].vertices is None
+    assert isinstance(box.material, Material)
+    assert box.velocity == (0.0, 0.1, 0.0)
+    assert box.transform.scale == (1.0, 1.0, 1.0)
+    assert box.transform.rotate == (0.0, 20.0, 0.0)
+    assert mesh.faces == [(0, 1, 2), (1, 3, 2)]
+    assert mesh.smooth
+    assert mesh.transform.scale == (1.0, 2.0, 1.0)
+    assert scene.objects[7].file == "models/bunny.obj"
+    assert scene.objects[7].vertices is None
     assert scene.objects[0].name == "glass ball"
     assert scene.material_for(scene.objects[0]) is glass and scene.material_for(box) is box.material
 
@@ -459,8 +480,11 @@ def test_example_values_are_float_tuples():
         scene.objects[0].center,
         scene.background,
     ):
-        assert isinstance(value, tuple) and len(value) == 3 and all(type(c) is float for c in value)
-    assert type(scene.objects[0].radius) is float and type(scene.film.width) is int
+        assert isinstance(value, tuple)
+        assert len(value) == 3
+        assert all(type(c) is float for c in value)
+    assert type(scene.objects[0].radius) is float
+    assert type(scene.film.width) is int
 
 
 def test_example_round_trip_through_json():
@@ -472,7 +496,9 @@ def test_example_round_trip_through_json():
 def test_defaults_of_a_minimal_scene():
     scene, warnings = load_scene(MINIMAL)
     assert warnings == []
-    assert scene.camera.vup == (0.0, 1.0, 0.0) and scene.camera.vfov == 40.0 and scene.camera.lens_radius == 0
+    assert scene.camera.vup == (0.0, 1.0, 0.0)
+    assert scene.camera.vfov == 40.0
+    assert scene.camera.lens_radius == 0
     assert scene.camera.shutter == (0.0, 1.0)
     assert (scene.film.width, scene.film.height, scene.film.exposure) == (256, 256, 0.0)
     assert (scene.film.filter.type, scene.film.filter.radius) == ("box", 0.5)
@@ -480,11 +506,19 @@ def test_defaults_of_a_minimal_scene():
     assert (scene.sampler.max_level, scene.sampler.jitter) == (3, False)
     r = scene.render
     assert (r.integrator, r.max_depth, r.min_weight, r.light_samples, r.seed) == ("whitted", 5, 0.001, 1, 0)
-    assert scene.background == (0.0, 0.0, 0.0) and scene.ambient == (0.0, 0.0, 0.0)
-    assert scene.fog.density == 0.0 and scene.fog.color == (0.5, 0.5, 0.5)
-    assert scene.materials == {} and scene.lights == [] and scene.objects == []
+    assert scene.background == (0.0, 0.0, 0.0)
+    assert scene.ambient == (0.0, 0.0, 0.0)
+    assert scene.fog.density == 0.0
+    assert scene.fog.color == (0.5, 0.5, 0.5)
+    assert scene.materials == {}
+    assert scene.lights == []
+    assert scene.objects == []
     m = Material()
-    assert m.kd == (0.5, 0.5, 0.5) and m.ka is None and m.shininess == 32 and m.ior == 1.5 and m.gloss is None
+    assert m.kd == (0.5, 0.5, 0.5)
+    assert m.ka is None
+    assert m.shininess == 32
+    assert m.ior == 1.5
+    assert m.gloss is None
 
 
 @pytest.mark.parametrize(("kind", "radius"), [("box", 0.5), ("tent", 1.0), ("gaussian", 1.5), ("mitchell", 2.0)])
@@ -509,7 +543,8 @@ def test_accepts_single_number_for_rgb_and_scale_and_data_uri_files():
         objects=[{"type": "mesh", "file": "data:model/obj;base64,AAAA", "material": "m"}],
     )
     scene, _ = load_scene(data)
-    assert scene.background == (0.25, 0.25, 0.25) and scene.materials["m"].kd == (1.0, 1.0, 1.0)
+    assert scene.background == (0.25, 0.25, 0.25)
+    assert scene.materials["m"].kd == (1.0, 1.0, 1.0)
 
 
 def test_accepts_dict_text_bytes_and_path(tmp_path):
@@ -555,7 +590,8 @@ def test_load_scene_text_neither_path_nor_json_says_so(tmp_path, monkeypatch, te
 
 def test_validate_scene_report_of_a_good_scene():
     report = validate_scene(EXAMPLE)
-    assert report["valid"] is True and report["errors"] == []
+    assert report["valid"] is True
+    assert report["errors"] == []
     assert all(set(w) == {"path", "message"} for w in report["warnings"])
 
 
@@ -691,9 +727,14 @@ PRESETS = json.loads((ROOT / "web" / "templates" / "materials.json").read_text()
 def test_material_presets_are_the_sensible_ones():
     assert set(PRESETS) >= {"diffuse", "plastic", "mirror", "metal", "glass"}
     glass = PRESETS["glass"]["material"]
-    assert glass["kd"] == 0 and glass["kr"] == glass["kt"] == 1 and glass["fresnel"] is True and glass["ior"] > 1
-    assert PRESETS["mirror"]["material"].get("kt", 0) == 0 and PRESETS["mirror"]["material"]["kr"] >= 0.8
-    assert PRESETS["plastic"]["material"]["ks"] > 0 and PRESETS["plastic"]["material"].get("kr", 0) == 0
+    assert glass["kd"] == 0
+    assert glass["kr"] == glass["kt"] == 1
+    assert glass["fresnel"] is True
+    assert glass["ior"] > 1
+    assert PRESETS["mirror"]["material"].get("kt", 0) == 0
+    assert PRESETS["mirror"]["material"]["kr"] >= 0.8
+    assert PRESETS["plastic"]["material"]["ks"] > 0
+    assert PRESETS["plastic"]["material"].get("kr", 0) == 0
 
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
@@ -767,7 +808,8 @@ def _nodes(node):
 def test_schema_is_json_and_names_every_type():
     schema = json.loads(json.dumps(scene_json_schema(), allow_nan=False))
     assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
-    assert schema["type"] == "object" and schema["additionalProperties"] is False
+    assert schema["type"] == "object"
+    assert schema["additionalProperties"] is False
     objects = schema["properties"]["objects"]["items"]["discriminator"]["mapping"]
     lights = schema["properties"]["lights"]["items"]["discriminator"]["mapping"]
     assert set(objects) == {"sphere", "plane", "quad", "disk", "box", "triangle", "mesh"}
@@ -836,7 +878,8 @@ def test_assets_missing_mesh_file_is_an_error_when_assets_are_resolved(tmp_path)
     (error,) = report["errors"]
     assert error["path"] == "objects[0].file"
     assert error["message"].startswith(f"asset file 'models/teapot.obj' not found in the asset folder {tmp_path};")
-    assert "--assets DIR" in error["message"] and "data: URI" in error["message"]
+    assert "--assets DIR" in error["message"]
+    assert "data: URI" in error["message"]
     (tmp_path / "models").mkdir()
     (tmp_path / "models" / "teapot.obj").write_text(obj_grid(2))
     assert validate_scene(data, assets=tmp_path)["valid"]
@@ -921,7 +964,8 @@ def test_assets_texture_pixels_total_counts_each_distinct_image_once():
         f"together must be at most {total - 1} (limit max_texture_pixels_total)",
     }
     (error,) = validate_scene(data, Limits(max_texture_pixels_total=68_000), assets=ASSET_DIR)["errors"]
-    assert error["path"] == "materials.p.texture.file" and "come to 68536 pixels" in error["message"]
+    assert error["path"] == "materials.p.texture.file"
+    assert "come to 68536 pixels" in error["message"]
     # an image past the limit of one image is reported at its own field, once
     errors = validate_scene(data, Limits(max_texture_pixels=3000, max_texture_pixels_total=4000), assets=ASSET_DIR)
     assert [e["path"] for e in errors["errors"]] == ["materials.p.texture.file"]

@@ -184,7 +184,8 @@ def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief
     s = hw["students"]["brief"]
     me = student()
     page = me.open(s["link"])
-    assert "#token" not in page.url and s["token"] not in page.url
+    assert "#token" not in page.url
+    assert s["token"] not in page.url
     kept = page.evaluate(f"() => JSON.parse(localStorage.getItem('rt.course.{hw['id']}.token'))")
     assert kept == s["token"]
     assert page.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))") == s["token"]  # the workspace's too
@@ -234,7 +235,8 @@ def test_student_link_keeps_the_token_out_of_the_address_bar_and_shows_the_brief
     # a later visit without the fragment uses the kept token
     page = me.open(f"{server.url}/assignments/{hw['id']}")
     assert page.text_content("#a-name") == "HW 4: glass, mirrors and soft shadows"
-    assert page.is_visible("#a-brief") and not page.is_visible("#a-access")
+    assert page.is_visible("#a-brief")
+    assert not page.is_visible("#a-access")
 
 
 def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student, server, hw, tmp_path):
@@ -247,7 +249,8 @@ def test_start_opens_the_workspace_with_the_starter_scene_and_a_way_back(student
     page.wait_for_selector("body[data-ready=true]", state="attached")
     assert json.loads(page.input_value("#scene-text")) == starter()
     back = page.locator("#working-on")
-    assert back.is_visible() and "HW 4: glass, mirrors and soft shadows" in back.text_content()
+    assert back.is_visible()
+    assert "HW 4: glass, mirrors and soft shadows" in back.text_content()
     assert page.get_attribute("#working-back", "href") == f"/assignments/{hw['id']}"
     me.shot("workspace-working-on", full_page=False)
 
@@ -328,7 +331,8 @@ def test_a_link_keeps_the_earlier_jobs_and_start_asks_before_replacing_a_built_s
     assert page.evaluate("() => document.activeElement.id") == "a-start-cancel"
     me.shot("start-asks")
     page.click("#a-start-cancel")
-    assert page.is_hidden("#a-start-ask") and page.url == f"{server.url}/assignments/{hw['id']}"
+    assert page.is_hidden("#a-start-ask")
+    assert page.url == f"{server.url}/assignments/{hw['id']}"
     assert kept_scene(page) == mine
     # Replace: the workspace opens with the starter in the editor
     page.click("#a-start")
@@ -444,15 +448,14 @@ def test_an_invalid_then_a_valid_submission_graded_live(student, server, hw):
     )
     head = row.locator(".a-sub-head").text_content()
     assert "13 / 13" in head or "12 / 13" in head or "11 / 13" in head, head  # the image tests within noise
-    assert "an attempt" in head and "counts" in head
+    assert "an attempt" in head
+    assert "counts" in head
     statuses = dict(
         row.locator(".a-tests li").evaluate_all("lis => lis.map(li => [li.dataset.test, li.dataset.status])")
     )
-    assert (
-        statuses["validity"] == "passed"
-        and statuses["a glass object"] == "passed"
-        and statuses["a small scene"] == "hidden"
-    )
+    assert statuses["validity"] == "passed"
+    assert statuses["a glass object"] == "passed"
+    assert statuses["a small scene"] == "hidden"
     figs = row.locator("figure.a-fig").evaluate_all("fs => fs.map(f => f.dataset.picture)")
     assert figs == ["render.png", "error_map.png", "rejected.png", "reference.png"]
     page.wait_for_function(
@@ -480,7 +483,8 @@ def test_an_image_from_the_students_own_ray_tracer(student, server, hw, tmp_path
     me = student()
     page = me.open(s["link"])
     page.check("#a-kind-image")
-    assert page.is_visible("#a-image") and not page.is_visible("#a-scene")
+    assert page.is_visible("#a-image")
+    assert not page.is_visible("#a-scene")
     page.set_input_files("#a-image", str(tmp_path / "mine.png"))
     page.wait_for_function("() => document.querySelector('#a-image-note').textContent.includes('PNG')")
     page.click("#a-submit")
@@ -508,7 +512,9 @@ def test_a_browser_without_the_link_gets_no_data_and_a_bad_token_a_clear_message
     asked = []
     me.page.on("request", lambda r: "/api/assignments" in r.url and asked.append(r.url))
     page = me.open(f"{server.url}/assignments/{hw['id']}")
-    assert page.is_visible("#a-access") and not page.is_visible("#a-brief") and not page.is_visible("#a-work")
+    assert page.is_visible("#a-access")
+    assert not page.is_visible("#a-brief")
+    assert not page.is_visible("#a-work")
     assert "personal link" in page.text_content("#a-access-why")
     assert "HW 4" not in page.text_content("body")
     assert asked == []  # without a token, nothing is asked
@@ -536,7 +542,8 @@ def test_an_open_assignment_is_joined_by_a_name(student, server):
     page.fill("#a-join-name", "Zoë O'Brien")
     page.click("#a-join-go")
     page.wait_for_selector("#a-brief:not([hidden])")
-    assert "Zoë O'Brien" in page.text_content("#a-who") and "self-declared" in page.text_content("#a-who")
+    assert "Zoë O'Brien" in page.text_content("#a-who")
+    assert "self-declared" in page.text_content("#a-who")
     link = page.input_value("#a-own-link")
     assert link.startswith(f"{server.url}/assignments/{aid}#token=")
     assert page.evaluate(f"() => JSON.parse(localStorage.getItem('rt.course.{aid}.token'))") == link.split("#token=")[1]
@@ -608,9 +615,12 @@ def test_a_late_submission_is_marked_and_its_penalty_said(student, server, hw):
     sid = sub_rows(page)[0]["id"]
     wait_status(page, sid, "graded")
     row = sub_rows(page)[0]
-    assert row["late"] == "true" and "late" in row["head"]
+    assert row["late"] == "true"
+    assert "late" in row["head"]
     view = httpx.get(f"{server.url}/api/assignments/{hw['id']}/submissions/{sid}", headers=bearer(s["token"])).json()
-    assert view["late"] and view["penalty"] == 0.2 and view["score"] == round(0.8 * view["raw_score"], 6)
+    assert view["late"]
+    assert view["penalty"] == 0.2
+    assert view["score"] == round(0.8 * view["raw_score"], 6)
     assert f"{view['score']:g} / 13" in row["head"]
     note = page.text_content(f"#a-sub-list li[data-id='{sid}'] .a-score-note")
     assert note == f"Late: 20 % of the points taken off ({view['raw_score']:g} before the penalty)."

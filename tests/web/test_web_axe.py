@@ -129,7 +129,8 @@ def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):
     text = first.locator(":scope > .rt-li-text").inner_text()
     assert text.startswith("Ray 0: eye ray, depth 1"), text
     assert eye["hit"]["object_name"] in text and "weight" in text and "carried back" in text, text
-    assert first.get_attribute("aria-level") == "1" and first.get_attribute("aria-expanded") == "true"
+    assert first.get_attribute("aria-level") == "1"
+    assert first.get_attribute("aria-expanded") == "true"
     shadow = next(n for n in nodes if n["kind"] == "shadow")
     said = page.locator(f"#rt-list [role=treeitem][data-id='{shadow['id']}'] > .rt-li-text").inner_text()
     assert said.startswith(f"Ray {shadow['id']}: shadow ray"), said
@@ -138,7 +139,8 @@ def test_axe_the_ray_tree_s_text_form_names_each_ray(desktop, server):
     page.focus(f"#rt-list [role=treeitem][data-id='{eye['id']}']")
     page.keyboard.press("ArrowDown")
     second = page.evaluate("() => document.activeElement.dataset.id")
-    assert second == str(nodes[1]["id"]) and page.inner_text("#rt-details h3") == f"Ray #{nodes[1]['id']}"
+    assert second == str(nodes[1]["id"])
+    assert page.inner_text("#rt-details h3") == f"Ray #{nodes[1]['id']}"
     page.keyboard.press("ArrowLeft")  # to the parent
     assert page.evaluate("() => document.activeElement.dataset.id") == str(eye["id"])
     page.keyboard.press("ArrowLeft")  # collapses the eye ray

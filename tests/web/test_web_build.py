@@ -71,7 +71,8 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):
     page = desktop.open().page
     new_scene(page, "empty_room")
     s = scene(page)
-    assert s["objects"] == [] and s["name"] == "Empty room"
+    assert s["objects"] == []
+    assert s["name"] == "Empty room"
     assert settled(page) == "ok"
 
     page.select_option("#build-material", "white")
@@ -79,7 +80,9 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):
     s = scene(page)
     assert len(s["objects"]) == 1
     floor = s["objects"][0]
-    assert floor["type"] == "plane" and floor["point"][1] == 0 and floor["normal"] == [0, 1, 0]
+    assert floor["type"] == "plane"
+    assert floor["point"][1] == 0
+    assert floor["normal"] == [0, 1, 0]
     assert floor["material"] == "white"
 
     page.click("#build-add-sphere")
@@ -87,7 +90,9 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):
     page.click("#build-add-sphere")
     s = scene(page)
     a, b = s["objects"][1], s["objects"][2]
-    assert a["type"] == b["type"] == "sphere" and a["material"] == "white" and b["material"] == "red"
+    assert a["type"] == b["type"] == "sphere"
+    assert a["material"] == "white"
+    assert b["material"] == "red"
     assert a["center"][1] == a["radius"]  # resting on the floor
     gap = sum((p - q) ** 2 for p, q in zip(a["center"], b["center"], strict=True)) ** 0.5
     assert gap >= a["radius"] + b["radius"]  # side by side, not inside each other
@@ -102,7 +107,8 @@ def test_web_build_a_scene_in_a_few_clicks(desktop):
     page.click("#build-light-quad")
     s = scene(page)
     light = s["lights"][1]
-    assert light["type"] == "quad" and light["radiance"] == 16
+    assert light["type"] == "quad"
+    assert light["radiance"] == 16
     assert light["corner"][1] > 2  # above the balls
     e1, e2 = light["edge1"], light["edge2"]
     assert e1[2] * e2[0] - e1[0] * e2[2] < 0  # (edge1 x edge2).y: it shines down
@@ -148,8 +154,11 @@ def test_web_build_warns_on_a_grey_half_opaque_glass_and_not_on_the_preset(deskt
     page.fill("#scene-text", text)
     assert settled(page) == "warn"
     found = "\n".join(problems(page))
-    assert "materials.white.kd" in found and "half-opaque" in found and "0.5 (the default)" in found
-    assert "materials.white.kt" in found and "without Fresnel" in found
+    assert "materials.white.kd" in found
+    assert "half-opaque" in found
+    assert "0.5 (the default)" in found
+    assert "materials.white.kt" in found
+    assert "without Fresnel" in found
     desktop.shot("build-warning")
     # the glass preset for the picked sphere: the warnings go (the grey material is no longer used, but it is
     # still in the scene: removed too)
@@ -235,7 +244,8 @@ def test_web_build_pick_a_mesh_file_by_clicking_the_picture(desktop):
     page.select_option("#example-select", "meshes")
     page.wait_for_function("() => document.querySelector('#scene-text').value.includes('torus.obj')")
     s = scene(page)
-    assert s["objects"][3]["file"] == "torus.obj" and s["film"] == {"width": 320, "height": 240}
+    assert s["objects"][3]["file"] == "torus.obj"
+    assert s["film"] == {"width": 320, "height": 240}
     render(page)
     page.wait_for_function("() => document.querySelector('#render-img').naturalWidth > 0")
 
@@ -316,7 +326,8 @@ def test_web_build_scale_knob_and_the_square_s_move_on_the_floor(desktop):
     at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
     drag(page, at, (at[0] - 40, at[1] + 20))
     moved = scene(page)["objects"][2]
-    assert moved["center"][1] == before["center"][1] and moved["radius"] == after["radius"]
+    assert moved["center"][1] == before["center"][1]
+    assert moved["radius"] == after["radius"]
     assert moved["center"] != before["center"]
     page.keyboard.press("Control+z")
     assert scene(page)["objects"][2] == after
@@ -336,16 +347,15 @@ def test_web_build_move_and_scale_an_area_light_with_its_handles(desktop):
     drag(page, (x0, y0), (x0 + (x0 - at[0]), y0 + (y0 - at[1])))  # as far again along x
     moved = scene(page)["lights"][0]
     assert moved["corner"][0] > before["corner"][0] + 0.05 and moved["corner"][1:] == before["corner"][1:], moved
-    assert moved["edge1"] == before["edge1"] and moved["edge2"] == before["edge2"]
+    assert moved["edge1"] == before["edge1"]
+    assert moved["edge2"] == before["edge2"]
     desktop.shot("build-area-light-moved")
     at = [float(v) for v in page.get_attribute("#build-3d", "data-handle-at").split(",")]
     knob = [float(v) for v in page.get_attribute("#build-3d", "data-knob").split(",")]
     drag(page, knob, (at[0] + (knob[0] - at[0]) * 0.5, at[1] + (knob[1] - at[1]) * 0.5))  # half the size
     small = scene(page)["lights"][0]
-    assert (
-        abs(small["edge1"][0] - before["edge1"][0] / 2) < 0.02
-        and abs(small["edge2"][2] - before["edge2"][2] / 2) < 0.02
-    )
+    assert abs(small["edge1"][0] - before["edge1"][0] / 2) < 0.02
+    assert abs(small["edge2"][2] - before["edge2"][2] / 2) < 0.02
     centre = [c + (a + b) / 2 for c, a, b in zip(small["corner"], small["edge1"], small["edge2"], strict=True)]
     was = [c + (a + b) / 2 for c, a, b in zip(moved["corner"], moved["edge1"], moved["edge2"], strict=True)]
     assert all(abs(p - q) < 0.002 for p, q in zip(centre, was, strict=True))  # about its centre
@@ -393,7 +403,9 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):
     s = scene(page)
     spot = s["lights"][-1]
     assert page.get_attribute("#build", "data-picked") == f"lights.{len(s['lights']) - 1}"
-    assert spot["type"] == "spot" and spot["cutoff"] == 30 and "light_samples" not in s.get("render", {})
+    assert spot["type"] == "spot"
+    assert spot["cutoff"] == 30
+    assert "light_samples" not in s.get("render", {})
     at, pos = s["camera"]["lookat"], spot["position"]
     to_at = [a - p for a, p in zip(at, pos, strict=True)]
     n = sum(c * c for c in to_at) ** 0.5
@@ -404,7 +416,8 @@ def test_web_build_a_spot_light_aimed_with_its_knob(desktop):
     aim = [float(v) for v in page.get_attribute("#build-3d", "data-aim").split(",")]
     drag(page, aim, (aim[0] + 70, aim[1]))  # to the right on the screen: the beam turns towards +x
     turned = scene(page)["lights"][-1]
-    assert turned["position"] == spot["position"] and turned["cutoff"] == spot["cutoff"]
+    assert turned["position"] == spot["position"]
+    assert turned["cutoff"] == spot["cutoff"]
     assert turned["direction"][0] > spot["direction"][0] + 0.1, (spot, turned)
     assert abs(sum(c * c for c in turned["direction"]) - 1) < 0.01  # a unit vector, as a student writes one
     assert "Aimed light" in page.text_content("#build-status")
@@ -511,7 +524,8 @@ def test_web_build_an_area_light_shadows_no_other_light(desktop):
     s = scene(page)
     ceiling, added = s["lights"]
     centre = [c + (a + b) / 2 for c, a, b in zip(added["corner"], added["edge1"], added["edge2"], strict=True)]
-    assert centre[1] < 1 and all(-1 < centre[k] < 1 for k in (0, 2))  # inside the box, under its ceiling
+    assert centre[1] < 1
+    assert all(-1 < centre[k] < 1 for k in (0, 2))  # inside the box, under its ceiling
     corners = [[ceiling["corner"][0] + i * 0.5, 0.999, ceiling["corner"][2] + j * 0.5] for i in (0, 1) for j in (0, 1)]
     assert not any(blocks(added, q, [x / 4, -1, z / 4]) for q in corners for x in range(-3, 4) for z in range(-3, 4))
     assert "beside the light under the ceiling" in page.text_content("#build-status")

@@ -126,9 +126,12 @@ def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, ph
     page.evaluate("(t) => localStorage.setItem('rt.token', JSON.stringify(t))", sub["token"])  # the student's link
     args = {"aid": sub["aid"], "sid": sub["sid"], "x": W // 2, "y": H // 2 - 2}
     d = page.evaluate(SHOW, [args, True])
-    assert d["what"] == "material" and d["student"] == [] and d["reference"] == []
+    assert d["what"] == "material"
+    assert d["student"] == []
+    assert d["reference"] == []
     dom = page.evaluate(DOM)
-    assert dom["message"] == d["message"] and dom["message"].startswith("Where your eye ray hits red ball")
+    assert dom["message"] == d["message"]
+    assert dom["message"].startswith("Where your eye ray hits red ball")
     titles = [(s["side"], s["title"]) for s in dom["sides"]]
     assert titles == [("student", "Your ray tree"), ("reference", "The reference's")]
     assert all(s["boxes"] >= 2 and s["differs"] == [0] for s in dom["sides"]), dom
@@ -151,7 +154,8 @@ def test_web_compare_shows_both_trees_and_marks_the_first_difference(desktop, ph
 
     x, y = reflected_pixel(server, sub)
     d = page.evaluate(SHOW, [{**args, "x": x, "y": y}, False])
-    assert d["what"] == "material" and len(d["student"]) == 1
+    assert d["what"] == "material"
+    assert len(d["student"]) == 1
     dom = page.evaluate(DOM)
     assert all(s["differs"] == [d["nodes"][s["side"]]] and s["differs"] != [0] for s in dom["sides"]), (d, dom)
     assert "reflection ray (depth 2)" in dom["message"]

@@ -64,11 +64,9 @@ def test_web_course_audit_panel_lists_filters_pages_and_exports(browser, server,
         assert actions == ["link.renew", "extension", "student.add", "student.add", "publish"], actions
         first = page.eval_on_selector_all("#audit-table tbody tr:nth-child(2) td", "ts => ts.map(t => t.innerText)")
         assert first[1:3] == ["admin", "extension"] and first[3].endswith(", student ann"), first
-        assert (
-            first[4] == "deadline: none"
-            and first[5].startswith("deadline: 2100-01-03")
-            and first[6] == "a doctor's note"
-        )
+        assert first[4] == "deadline: none"
+        assert first[5].startswith("deadline: 2100-01-03")
+        assert first[6] == "a doctor's note"
         assert page.text_content("#audit-status") == "5 changes shown."
         assert_accessible(page, "course audit trail", "#audit")
 

@@ -89,7 +89,9 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     with httpx.Client(base_url=server.url, timeout=30, headers=TEACHER) as api:
         a = api.get(f"/api/assignments/{aid}").json()
         assert a["deadline"] == "2099-12-09T04:59:00Z"  # 23:59 in New York, sent with its offset (-05:00)
-        assert a["policy"]["max_submissions"] == 3 and a["policy"]["counts"] == "best" and a["policy"]["show_reference"]
+        assert a["policy"]["max_submissions"] == 3
+        assert a["policy"]["counts"] == "best"
+        assert a["policy"]["show_reference"]
         assert a["policy"]["feedback"]["tests"] == {"pixels": "after_deadline"}
         assert (a["policy"]["late_until"], a["policy"]["late_penalty"]) == ("2099-12-10T04:59:00Z", 0.25)
         assert a["policy"]["starter"] == good_scene()
@@ -135,7 +137,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     rows = roster_rows(page)
     assert {k: (v["score"], v["subs"]) for k, v in rows.items()} == {
         "s1": ("6 / 6", "1"), "s2": ("–", "1"), "s3": ("4 / 4", "1"), "s4": ("–", "0")}  # fmt: skip
-    assert rows["s2"]["badges"] == ["invalid only"] and rows["s4"]["badges"] == ["not submitted"]
+    assert rows["s2"]["badges"] == ["invalid only"]
+    assert rows["s4"]["badges"] == ["not submitted"]
     assert stats(page) == {"students": "4", "submitted": "3", "graded": "2", "waiting": "0", "not_submitted": "1",
                            "invalid": "1", "late": "0", "mean": "6 / 6", "median": "6 / 6"}  # fmt: skip
     bars = page.eval_on_selector_all("#histogram-svg .bar", "gs => gs.map(g => Number(g.dataset.count))")
@@ -186,7 +189,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     page.click("#btn-new-link")
     page.wait_for_selector("#new-link .course-link button.copy")
     new = urlparse(page.text_content("#new-link code")).fragment.removeprefix("token=")
-    assert new and new != tok["s2"]
+    assert new
+    assert new != tok["s2"]
     assert httpx.get(f"{server.url}/api/assignments/{aid}", headers=bearer(tok["s2"]), timeout=30).status_code == 404
     assert httpx.get(f"{server.url}/api/assignments/{aid}", headers=bearer(new), timeout=30).status_code == 200
 
@@ -199,7 +203,8 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
     assert got == [("s1", "6", "6", "false", "1"), ("s2", "", "", "", "1"), ("s3", "4", "4", "false", "1"),
                    ("s4", "", "", "", "0")]  # fmt: skip
     name, text = download(page, "#export-gradebook")
-    assert name == "gradebook.csv" and text.splitlines()[1].startswith("Points Possible")
+    assert name == "gradebook.csv"
+    assert text.splitlines()[1].startswith("Points Possible")
 
     # -- regrade: an edited spec published as version 2 with ?regrade=true; s1's grade follows it
     edited = small_spec(inline=True)
@@ -217,7 +222,9 @@ def test_web_course_the_instructor_publishes_rosters_follows_extends_and_exports
         timeout=GRADE_TIMEOUT,
     )
     a = httpx.get(f"{server.url}/api/assignments/{aid}", headers=TEACHER, timeout=30).json()
-    assert a["version"] == 2 and a["policy"]["max_submissions"] == 3 and a["policy"]["late_penalty"] == 0.25
+    assert a["version"] == 2
+    assert a["policy"]["max_submissions"] == 3
+    assert a["policy"]["late_penalty"] == 0.25
     assert a["policy"]["starter"] == good_scene() and a["policy"]["feedback"]["tests"] == {"pixels": "after_deadline"}
     p.context.close()
     assert p.unexpected_errors() == []
@@ -238,7 +245,8 @@ def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, ser
     page.click("#publish button[type=submit]")
     page.wait_for_selector("#publish-spec-err li")
     err = page.text_content("#publish-spec-err")
-    assert "spec.requirements[1].check" in err and "did you mean 'area_light'" in err
+    assert "spec.requirements[1].check" in err
+    assert "did you mean 'area_light'" in err
     assert page.get_attribute("#publish-spec", "aria-invalid") == "true"
     assert page.text_content("#publish-deadline-err") == ""
     assert "see the fields marked" in page.text_content("#publish .af-status")
@@ -252,7 +260,8 @@ def test_web_course_a_bad_spec_shows_the_servers_error_at_its_field(browser, ser
     page.set_input_files("#roster-file", write(tmp_path, "roster.csv", "name,id,email\nAda,s1,\n"))
     page.wait_for_selector("#roster-errors li")
     assert "expected the header 'id,name,email'" in page.text_content("#roster-errors")
-    assert page.get_attribute("#roster-file", "aria-invalid") == "true" and page.is_hidden("#links-box")
+    assert page.get_attribute("#roster-file", "aria-invalid") == "true"
+    assert page.is_hidden("#links-box")
     assert "No students yet" in page.text_content("#roster-rows")
     p.context.close()
     assert p.unexpected_errors() == []
@@ -357,7 +366,8 @@ def test_web_course_links_again_and_re_issued(browser, server, tmp_path):
 
     name, text = download(page, "#links-again")
     again = {row["id"]: row["link"] for row in csv.DictReader(io.StringIO(text))}
-    assert name == "links-again.csv" and again == sent
+    assert name == "links-again.csv"
+    assert again == sent
     assert "They still work" in page.text_content("#links-box")
     p.shot("course-links-again")
 
@@ -379,7 +389,8 @@ def test_web_course_links_again_and_re_issued(browser, server, tmp_path):
     fresh = {
         row["id"]: urlparse(row["link"]).fragment.removeprefix("token=") for row in csv.DictReader(io.StringIO(text))
     }
-    assert name == "links-reissued.csv" and set(fresh) == {"r1", "r2"}
+    assert name == "links-reissued.csv"
+    assert set(fresh) == {"r1", "r2"}
     assert all(brief(t).status_code == 404 for t in token.values())
     assert all(brief(t).status_code == 200 for t in fresh.values())
     assert "no longer work" in page.text_content("#links-box")

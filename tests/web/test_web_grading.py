@@ -46,7 +46,8 @@ def open_grading(p: Page, token: str | None = INSTRUCTOR):
     page = p.open().page
     page.click("#tab-grading")
     assert page.get_attribute("#tab-grading", "aria-selected") == "true"
-    assert page.is_visible("#page-grading") and not page.is_visible("#page-work")
+    assert page.is_visible("#page-grading")
+    assert not page.is_visible("#page-work")
     assert page.evaluate("() => location.hash") == "#grading"
     if token is not None:
         enter_token(page, token)
@@ -146,7 +147,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
         "failed": "0",
     }
     headers = page.eval_on_selector_all("#grade-table thead th.test", "ths => ths.map(th => th.dataset.test)")
-    assert headers[:2] == ["valid scene", "readable image"] and "FLIP against the reference" in headers
+    assert headers[:2] == ["valid scene", "readable image"]
+    assert "FLIP against the reference" in headers
     assert len(headers) == 11
     flip = page.locator('#grade-table tr[data-student=erin] td[data-test="FLIP against the reference"]')
     assert flip.get_attribute("data-status") == "failed"
@@ -154,9 +156,11 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
     assert title.startswith("Differs from the reference more than noise can explain: FLIP 0.07")
     assert "✗" in flip.text_content()
     glass = page.locator('#grade-table tr[data-student=erin] td[data-test="a glass object"]')
-    assert glass.get_attribute("data-status") == "passed" and "✓" in glass.text_content()
+    assert glass.get_attribute("data-status") == "passed"
+    assert "✓" in glass.text_content()
     grace = page.locator("#grade-table tr[data-student=grace] td.test").first  # scenes' tests: not for an image
-    assert grace.get_attribute("class") == "test na" and grace.text_content().startswith("·")
+    assert grace.get_attribute("class") == "test na"
+    assert grace.text_content().startswith("·")
     assert page.text_content("#grade-table tr[data-student=erin] td[data-metric=rejected]").strip() == "12.72 %"
 
     # the summary links
@@ -168,7 +172,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
     assert caught.value.suggested_filename == "summary.csv"
     csv = Path(caught.value.path()).read_text()
     assert csv == httpx.get(server.url + csv_href, headers=TEACHER).text
-    assert csv.startswith("student,kind,status,score,max_score") and "\nerin,scene,graded,7.0,13.0," in csv
+    assert csv.startswith("student,kind,status,score,max_score")
+    assert "\nerin,scene,graded,7.0,13.0," in csv
     assert httpx.get(server.url + csv_href).status_code == 401  # not without the token
     with page.context.expect_page() as opened:  # summary.json opens in a new tab
         page.click("#grade-json")
@@ -182,7 +187,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
     # sorting: by score (best first, as a fraction of the maximum), then back by name
     page.click("#grade-table th[data-col=score] button")
     order = row_order(page)
-    assert set(order[:3]) == {"alice", "dave", "grace"} and set(order[-3:]) == {"carol", "frank", "ivan"}
+    assert set(order[:3]) == {"alice", "dave", "grace"}
+    assert set(order[-3:]) == {"carol", "frank", "ivan"}
     assert page.get_attribute("#grade-table th[data-col=score]", "aria-sort") == "descending"
     page.click("#grade-table th[data-col=student] button")
     assert row_order(page) == sorted(EXPECTED)
@@ -215,12 +221,14 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
         assert natural == 96 and shown >= 2 * natural and rendering == "pixelated", sizes
     flip_test = page.locator('#grade-detail-tests li[data-test="FLIP against the reference"]')
     assert flip_test.get_attribute("data-status") == "failed"
-    assert "failed" in flip_test.text_content() and "0 / 2" in flip_test.text_content()
+    assert "failed" in flip_test.text_content()
+    assert "0 / 2" in flip_test.text_content()
     assert "the noise baseline" in flip_test.text_content()
     caption = page.text_content("#grade-detail .grade-fig[data-picture=rejected] figcaption")
     assert caption.startswith("rejected pixels: red where they differ beyond noise")  # the grader's caption
     glass_out = page.text_content('#grade-detail-tests li[data-test="a glass object"] pre')  # multi-line: <pre>
-    assert glass_out.startswith("passed: found 1 materials") and "\n" in glass_out
+    assert glass_out.startswith("passed: found 1 materials")
+    assert "\n" in glass_out
     assert page.locator("#grade-detail-tests li").count() == 10
     links = page.eval_on_selector_all("#grade-detail a.button", "as => as.map(a => a.getAttribute('href'))")
     assert f"/api/grade/{run_id}/students/erin/results.json" in links
@@ -235,7 +243,8 @@ def test_web_grading_example_class_table_and_erins_detail(desktop, server):
     page.click("#grade-table tr[data-student=frank]")
     page.wait_for_function("() => document.querySelector('#h-grade-detail').textContent === 'frank'")
     errors = page.text_content("#grade-detail-errors")
-    assert "objects[1].radius" in errors and "did you mean 'red'?" in errors
+    assert "objects[1].radius" in errors
+    assert "did you mean 'red'?" in errors
     assert page.locator("#grade-detail .grade-fig img").count() == 0
     page.click("#grade-detail-close")
     assert page.is_hidden("#grade-detail")

@@ -155,7 +155,9 @@ def test_web_inspect_whole_description_and_the_tree_fitted(desktop):
             return {w: +s.getAttribute('width'), h: +s.getAttribute('height'), cw: c.clientWidth,
                     ch: parseFloat(getComputedStyle(c).maxHeight), sw: c.scrollWidth, scale: +c.dataset.scale} }"""
     )
-    assert fit["w"] <= fit["cw"] and fit["h"] <= fit["ch"] and fit["sw"] <= fit["cw"]
+    assert fit["w"] <= fit["cw"]
+    assert fit["h"] <= fit["ch"]
+    assert fit["sw"] <= fit["cw"]
     page.click("#rt-fit")  # off: the boxes at their own size
     assert page.evaluate("() => +document.querySelector('#rt-diagram svg').getAttribute('width')") >= fit["w"]
 
@@ -167,7 +169,8 @@ def test_web_inspect_links_open_a_scene_in_the_editor(desktop, browser):
     set_scene(page, scene)
     page.click("#btn-share-scene")
     link = page.input_value("#load-note input.share-link")
-    assert "#scene/" in link and len(link) < 2000
+    assert "#scene/" in link
+    assert len(link) < 2000
     other = Page(browser, desktop.server, DESKTOP)  # another student, another browser
     try:
         other.page.goto(link)
@@ -210,8 +213,10 @@ def test_web_inspect_read_only_link_to_a_job(desktop, browser):
         g.wait_for_function(
             "() => { const i = document.querySelector('#render-img'); return !i.hidden && i.naturalWidth === 96 }"
         )
-        assert g.get_attribute("#stage", "data-shared") == "true" and g.is_disabled("#btn-cancel")
-        assert g.is_disabled("#btn-share") and "read-only" in g.inner_text("#share-note")
+        assert g.get_attribute("#stage", "data-shared") == "true"
+        assert g.is_disabled("#btn-cancel")
+        assert g.is_disabled("#btn-share")
+        assert "read-only" in g.inner_text("#share-note")
         box = g.locator("#render-img").bounding_box()
         g.mouse.click(box["x"] + box["width"] * 0.7, box["y"] + box["height"] * 0.6)
         g.wait_for_selector("#rt-diagram svg")

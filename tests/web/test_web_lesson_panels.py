@@ -19,7 +19,8 @@ def test_web_lesson_panels_the_server_s_list_is_the_page_s(browser, server):
     finally:
         page.context.close()
     assert page.unexpected_errors() == []
-    assert {p["lesson"] for p in panels} and all(p["scene"]["film"]["width"] <= 160 for p in panels)
+    assert {p["lesson"] for p in panels}
+    assert all(p["scene"]["film"]["width"] <= 160 for p in panels)
     written = lesson_panels()
     assert [(p["lesson"], p["index"]) for p in written] == [(p["lesson"], p["index"]) for p in panels]
     for mine, theirs in zip(written, panels, strict=True):

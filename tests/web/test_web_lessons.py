@@ -121,7 +121,8 @@ def answer_question(page) -> None:
     page.wait_for_selector(".lesson-question .choice", timeout=60_000)
     answer = page.evaluate("() => document.querySelector('.lesson-question').question.answer")
     n = page.locator(".lesson-question .choice").count()
-    assert n >= 2 and 0 <= answer < n
+    assert n >= 2
+    assert 0 <= answer < n
     wrong = (answer + 1) % n
     page.click(f".lesson-question .choice[data-choice='{wrong}']")
     assert page.get_attribute(".lesson-question .feedback", "data-verdict") == "wrong"
@@ -452,13 +453,15 @@ def test_lesson_shadows_one_box_only_the_light_changes(desktop, server):
     lights = [s.pop("lights") for s in scenes]
     samples = [s["render"].pop("light_samples", None) for s in scenes]
     assert scenes[0] == scenes[1] == scenes[2], "the pictures are of different scenes"
-    assert lights[1] == lights[2] and [light["type"] for light in lights[1]] == ["quad"]
+    assert lights[1] == lights[2]
+    assert [light["type"] for light in lights[1]] == ["quad"]
     (quad,), (point,) = lights[1], lights[0]
     centre = np.add(quad["corner"], np.add(quad["edge1"], quad["edge2"]) / 2)
     assert point["type"] == "point" and np.allclose(point["position"], centre - [0, 0.01, 0])
     area = np.linalg.norm(np.cross(quad["edge1"], quad["edge2"]))
     assert np.allclose(point["intensity"], np.multiply(quad["radiance"], area))  # radiance * area, straight down
-    assert samples[1] == 1 and samples[2] == 16
+    assert samples[1] == 1
+    assert samples[2] == 16
     floor = [job_png(server, page.get_attribute(f".lesson-panel >> nth={i}", "data-job"))[-12:, 50:70].mean()
              for i in range(3)]  # fmt: skip
     assert abs(floor[0] - floor[2]) < 0.15 * floor[2], floor  # the floor under the light: lit alike
@@ -559,7 +562,8 @@ def test_lesson_answer_in_view_marked_done_and_next(desktop):
     answer = page.evaluate("() => document.querySelector('.lesson-question').question.answer")
     wrong = f".lesson-question .choice[data-choice='{(answer + 1) % page.locator('.lesson-question .choice').count()}']"
     feedback = ".lesson-question .feedback"
-    assert page.get_attribute(feedback, "aria-live") == "polite" and page.get_attribute(feedback, "role") == "status"
+    assert page.get_attribute(feedback, "aria-live") == "polite"
+    assert page.get_attribute(feedback, "role") == "status"
     page.eval_on_selector(wrong, "b => b.scrollIntoView({ block: 'end' })")  # the answers at the foot of the window
     page.click(wrong)
     assert page.get_attribute(feedback, "data-verdict") == "wrong" and in_view(page, feedback)

@@ -110,7 +110,8 @@ def test_web_lti_a_framed_launch_checks_its_state_in_the_platform_s_storage_and_
     assert "Ada Lovelace" in frame.inner_text("main")  # the brief, as the launch's student
     log = page.evaluate("window.storageLog")
     assert [x.split(" ")[0] for x in log] == ["lti.put_data", "lti.put_data", "lti.get_data"], log
-    assert log[2].startswith("lti.get_data state_") and log[0] == log[2].replace("get", "put")
+    assert log[2].startswith("lti.get_data state_")
+    assert log[0] == log[2].replace("get", "put")
     page.screenshot(path=str(Path(SHOTS) / "lti-framed-assignment.png"))
     context.close()
 
@@ -125,6 +126,7 @@ def test_web_lti_a_state_the_platform_s_storage_does_not_hold_is_refused(setup, 
     without_cookies(page)
     wait_for(lambda: shows(page, "main[data-check=state]"), 60, "the refusal")
     frame = tool_frame(page)
-    assert "/lti/launch" in frame.url and "state:" in frame.inner_text("#lti-storage-status")
+    assert "/lti/launch" in frame.url
+    assert "state:" in frame.inner_text("#lti-storage-status")
     page.screenshot(path=str(Path(SHOTS) / "lti-framed-refused.png"))
     context.close()

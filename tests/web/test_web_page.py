@@ -210,8 +210,10 @@ def test_web_page_form_controls_write_into_the_json(desktop):
     page.wait_for_selector("#fs-sampler [data-path='sampler.max_level']")
     page.wait_for_selector("#validation-status[data-kind=warn], #validation-status[data-kind=ok]")
     scene = json.loads(editor_text(page))
-    assert scene["camera"]["vfov"] == 55 and scene["render"]["light_samples"] == 4
-    assert scene["materials"]["glass"]["kd"] == [0.1, 0.2, 0.3] and scene["lights"][0]["position"] == [4, 9, 5]
+    assert scene["camera"]["vfov"] == 55
+    assert scene["render"]["light_samples"] == 4
+    assert scene["materials"]["glass"]["kd"] == [0.1, 0.2, 0.3]
+    assert scene["lights"][0]["position"] == [4, 9, 5]
     assert scene["sampler"]["type"] == "adaptive"
     # the rest of the text kept its layout: only the edited values changed
     original = json.dumps(whitted(), indent=2)
@@ -239,7 +241,8 @@ def test_web_page_form_rules_come_from_the_schema(desktop, server):
     # bounds: max_level allows what the scene format allows (8), no copy of its own
     level = field_input(page, "sampler.max_level")
     assert (level["min"], level["max"], level["step"]) == ("0", str(sampler["max_level"]["maximum"]), "1")
-    assert level["value"] == str(sampler["max_level"]["default"]) and level["isDefault"]
+    assert level["value"] == str(sampler["max_level"]["default"])
+    assert level["isDefault"]
     assert level["title"] == sampler["max_level"]["description"]
     # choices, exclusive bounds (0 < vfov < 180, a spinner step of 1), defaults, the kind of a field
     assert field_input(page, "sampler.type")["options"] == sampler["type"]["enum"]
@@ -247,7 +250,8 @@ def test_web_page_form_rules_come_from_the_schema(desktop, server):
     assert (vfov["min"], vfov["max"]) == ("1", "179")
     assert field_input(page, "render.integrator")["options"] == ["whitted", "path", "radiosity"]
     point = field_input(page, "lights.0.intensity")  # a number or r, g, b: a text field
-    assert point["tag"] == "input" and point["type"] == "text"
+    assert point["tag"] == "input"
+    assert point["type"] == "text"
     # spp's default depends on the sampler type, as the schema says (x-default-by-type)
     for kind, want in sampler["spp"]["x-default-by-type"].items():
         set_scene(page, {**whitted(), "sampler": {"type": kind}})
@@ -303,7 +307,8 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
         "() => { const i = document.querySelector('#render-img'); return i.complete && i.naturalWidth > 0; }"
     )
     legend = page.inner_text("#aov-legend")  # the job's own sampler, not another's
-    assert "The jittered sampler gives every pixel the same 256 eye rays" in legend and "adaptive" not in legend
+    assert "The jittered sampler gives every pixel the same 256 eye rays" in legend
+    assert "adaptive" not in legend
     desktop.shot("viewer-aov-rays")
     page.click("[data-aov=image]")
 
@@ -316,7 +321,8 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
         f"{server.url}/api/raytree", json={"scene": scene, "x": x, "y": y, "sample": 0}, timeout=30
     ).json()
     n = len(tree["nodes"])
-    assert n >= 5 and {"reflection", "transmission", "shadow"} <= {node["kind"] for node in tree["nodes"]}
+    assert n >= 5
+    assert {"reflection", "transmission", "shadow"} <= {node["kind"] for node in tree["nodes"]}
     assert page.locator("#rt-diagram .rt-node").count() == n
     assert page.inner_text("#rt-pixel") == f"pixel ({x}, {y})"
     # the status counts the rays by kind, singular and plural as English has them
@@ -336,7 +342,8 @@ def test_web_page_progressive_render_ray_tree_three_views(desktop, server):
     assert page.get_attribute("#rt-overlay", "data-rays") == str(n)
     assert canvas_pixels(page, "#rt-overlay", "#44a8ff") > 20  # reflection rays, in their colour
     assert canvas_pixels(page, "#rt-overlay", "#2ee6a6") > 20  # transmission rays
-    assert int(page.get_attribute("#rt-3d", "data-lines")) > 10 and page.get_attribute("#rt-3d", "data-rays") == str(n)
+    assert int(page.get_attribute("#rt-3d", "data-lines")) > 10
+    assert page.get_attribute("#rt-3d", "data-rays") == str(n)
     assert canvas_pixels(page, "#rt-3d") > 2000
     page.locator("#raytree").scroll_into_view_if_needed()
     desktop.shot("raytree", full_page=True)
@@ -474,7 +481,8 @@ def test_web_page_each_student_sees_only_their_own_jobs(browser, server):
         render(a)
         assert a.evaluate("() => JSON.parse(localStorage.getItem('rt.token'))") == a_token  # one token, kept
         a_jobs = job_ids(a)
-        assert len(a_jobs) == 2 and a_job in a_jobs
+        assert len(a_jobs) == 2
+        assert a_job in a_jobs
 
         b = bob.open().page
         set_scene(b, whitted(24, 18, spp=4))
@@ -574,7 +582,8 @@ def test_web_page_lessons(desktop, server):
         traced = [s["position"] for s in listed["samples"] if s.get("traced", True)]
         assert json.loads(canvas.get_attribute("data-positions")) == traced
         words = canvas.locator("xpath=..").inner_text()
-        assert words.startswith("pixel (44, 37): ") and (kind == "center" or f": {len(traced)} rays" in words)
+        assert words.startswith("pixel (44, 37): ")
+        assert kind == "center" or f": {len(traced)} rays" in words
     desktop.shot("lesson-sampling", full_page=True)
 
     # radiosity: an image where the server has it, else the server's own message
@@ -781,7 +790,8 @@ def test_web_page_broken_server_and_failed_job_show_messages(desktop):
     page.click("#tab-lessons")
     assert run_lesson(page, "integrators", 3) == ["done", "done", "refused"]
     refused = page.inner_text(".lesson-panel[data-status=refused]")
-    assert "The server refused this scene" in refused and "integrator is not implemented yet" in refused
+    assert "The server refused this scene" in refused
+    assert "integrator is not implemented yet" in refused
     assert page.locator(".lesson-panel[data-status=refused] img").is_hidden()
     desktop.shot("lesson-refused")
 
@@ -797,7 +807,9 @@ def test_web_page_radiosity_panel_steps_through_the_solution(desktop, server):
     sol = httpx.get(f"{server.url}/api/jobs/{job_id}/radiosity", headers=TEACHER, timeout=30).json()
     history, sides = sol["history"], len(sol["radiosity"])
     steps, n = len(history), sides // 2
-    assert steps > 20 and isinstance(history[0]["shooter"], str) and isinstance(history[1]["shooter"], int)
+    assert steps > 20
+    assert isinstance(history[0]["shooter"], str)
+    assert isinstance(history[1]["shooter"], int)
     assert page.get_attribute("#radiosity", "data-steps") == str(steps)
     assert f"{n} patches ({sides} sides) · {steps} shots" in page.inner_text("#rad-summary")
 
@@ -807,7 +819,8 @@ def test_web_page_radiosity_panel_steps_through_the_solution(desktop, server):
 
     # it opens on the final solution: the whole mesh drawn, lit, with the last shooter outlined
     mesh = page.locator("#rad-mesh")
-    assert mesh.get_attribute("data-step") == str(steps) and mesh.get_attribute("data-snapshot") == str(steps)
+    assert mesh.get_attribute("data-step") == str(steps)
+    assert mesh.get_attribute("data-snapshot") == str(steps)
     assert int(mesh.get_attribute("data-patches")) > n // 3
     assert canvas_pixels(page, "#rad-mesh") > 20_000
     last = history[-1]["shooter"]

@@ -46,7 +46,8 @@ def test_api_aov_unknown_names_and_unfinished_jobs_are_404(client):
     job_id = submit(client, long_scene())["id"]
     wait_status(client, job_id, {"running"})
     r = client.get(f"/api/jobs/{job_id}/aov/rays")
-    assert r.status_code == 404 and "saved when the job is done" in r.json()["errors"][0]["message"]
+    assert r.status_code == 404
+    assert "saved when the job is done" in r.json()["errors"][0]["message"]
     assert client.get(f"/api/jobs/{job_id}/aov").status_code == 404
     client.delete(f"/api/jobs/{job_id}")
     wait_status(client, job_id, {"cancelled"})
@@ -54,7 +55,8 @@ def test_api_aov_unknown_names_and_unfinished_jobs_are_404(client):
     done = submit(client, tiny_scene())["id"]
     wait_status(client, done, {"done"})
     r = client.get(f"/api/jobs/{done}/aov/colour")
-    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "name"
+    assert r.status_code == 404
+    assert r.json()["errors"][0]["path"] == "name"
     assert "one of: rays, depth" in r.json()["errors"][0]["message"]
     assert client.get("/api/jobs/AAAAAAAAAAAAAAAAAAAAAA/aov/rays").status_code == 404
 
@@ -67,7 +69,8 @@ def test_api_aov_job_scene_and_rays_in_progress_events(client):
     with client.stream("GET", f"/api/jobs/{job_id}/events") as r:
         events = list(parse_sse(r.iter_lines()))
     progress = [d for e, d in events if e == "progress"]
-    assert progress and progress[-1]["rays"]["eye"] == 16 * 16 * 4
+    assert progress
+    assert progress[-1]["rays"]["eye"] == 16 * 16 * 4
     assert client.get("/api/jobs/AAAAAAAAAAAAAAAAAAAAAA/scene").status_code == 404
 
 
@@ -83,17 +86,22 @@ def test_api_radiosity_solution_of_a_finished_job(client):
     wait_status(client, job_id, {"done"}, timeout=120)
     sol = client.get(f"/api/jobs/{job_id}/radiosity").json()
     n = len(sol["patches"]["area"])
-    assert n > 0 and len(sol["radiosity"]) == n and len(sol["patches"]["corner"]) == n
+    assert n > 0
+    assert len(sol["radiosity"]) == n
+    assert len(sol["patches"]["corner"]) == n
     e = sol["energy"]
     balance = np.array(e["emitted"]) - np.array(e["absorbed"]) - np.array(e["unshot"]) - np.array(e["escaped"])
     np.testing.assert_allclose(balance, 0, atol=1e-4 * max(e["emitted"]))
-    assert sol["history"][0]["shooter"] == "lights[0]" and isinstance(sol["history"][1]["shooter"], int)
-    assert "1" in sol["snapshots"] and len(sol["snapshots"]["1"]) == n
+    assert sol["history"][0]["shooter"] == "lights[0]"
+    assert isinstance(sol["history"][1]["shooter"], int)
+    assert "1" in sol["snapshots"]
+    assert len(sol["snapshots"]["1"]) == n
     # a job of another integrator has none
     other = submit(client, tiny_scene(8, spp=1, seed=1))["id"]
     wait_status(client, other, {"done"})
     r = client.get(f"/api/jobs/{other}/radiosity")
-    assert r.status_code == 404 and "not radiosity" in r.json()["errors"][0]["message"]
+    assert r.status_code == 404
+    assert "not radiosity" in r.json()["errors"][0]["message"]
 
 
 def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
@@ -118,9 +126,12 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     assert all(d["solve"]["shots"] > 0 and 0 <= d["solve"]["fraction"] < 1 and d["samples_done"] == 0 for d in solving)
     assert [d["solve"]["shots"] for d in solving] == sorted(d["solve"]["shots"] for d in solving)
     done = events[-1][1]
-    assert done["status"] == "done" and done["progress"]["phase"] == "finished"
+    assert done["status"] == "done"
+    assert done["progress"]["phase"] == "finished"
     solve = done["progress"]["solve"]
-    assert solve["fraction"] == 1 and solve["shots"] > len(solving) and solve["patches"] > 0
+    assert solve["fraction"] == 1
+    assert solve["shots"] > len(solving)
+    assert solve["patches"] > 0
     assert done["rays"]["radiosity"] == solve["rays"] > 0
     assert done["rays"]["total"] == sum(v for k, v in done["rays"].items() if k != "total")
     # cancelled while it solves (a solve of minutes): the job ends long before the solve would, with no pass
@@ -129,7 +140,8 @@ def test_api_radiosity_solve_is_a_phase_with_progress_stats_and_cancel(client):
     wait_for(lambda: client.get(f"/api/jobs/{job_id}").json()["progress"]["phase"] == "radiosity", 60, "the solve")
     assert client.delete(f"/api/jobs/{job_id}").status_code in (200, 202)
     ended = wait_status(client, job_id, {"cancelled"}, timeout=10)
-    assert ended["progress"]["passes_done"] == 0 and ended["preview"] == 0
+    assert ended["progress"]["passes_done"] == 0
+    assert ended["preview"] == 0
 
 
 def test_api_aov_data_pictures_keep_their_values():
@@ -145,4 +157,5 @@ def test_api_aov_data_pictures_keep_their_values():
     np.testing.assert_array_equal(read["normal"], np.round((0.5 + 0.5 * normal) * 255).astype(np.uint8))
     assert read["depth"].tolist() == [[round(0.15 * 255), 0]]  # near white to far grey; black: no hit
     np.testing.assert_array_equal(read["albedo"], to_srgb8(np.full((1, 2, 3), 0.5)))
-    assert ranges["depth"] == [2.0, 2.0] and ranges["normal"] == [-1.0, 1.0]
+    assert ranges["depth"] == [2.0, 2.0]
+    assert ranges["normal"] == [-1.0, 1.0]

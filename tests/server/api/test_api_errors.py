@@ -175,7 +175,8 @@ def test_api_errors_corpus_gets_4xx_with_a_message(client, method, url, body, ct
 
 def test_api_errors_brackets_inside_strings_do_not_count_as_nesting(client):
     r = post_raw(client, "/api/validate", with_scene(json.dumps({**tiny_scene(), "name": "[" * 99})))
-    assert r.status_code == 200 and r.json()["valid"] is True
+    assert r.status_code == 200
+    assert r.json()["valid"] is True
 
 
 def test_api_errors_json_depth_read_by_arrays_is_the_regex_s():
@@ -271,7 +272,8 @@ def test_api_errors_bad_scene_corpus_points_at_the_field(library_limits, name):
         assert want["message"] in error["message"]
     # the same errors from /api/validate, as a 200 report
     report = post_raw(client, "/api/validate", with_scene(text)).json()
-    assert report["valid"] is False and report["errors"] == got
+    assert report["valid"] is False
+    assert report["errors"] == got
 
 
 def test_api_errors_too_many_primitives_points_at_objects(client):
@@ -294,7 +296,8 @@ def test_api_errors_streamed_body_over_the_limit_is_413(client):
 
 def test_api_errors_accepted_jobs_wait_without_a_worker(client):
     r = client.post("/api/jobs", json={"scene": tiny_scene()})
-    assert r.status_code == 202 and r.json()["status"] == "queued"
+    assert r.status_code == 202
+    assert r.json()["status"] == "queued"
     image = f"/api/jobs/{r.json()['id']}/image"
     assert paths(client.get(image, params={"format": "gif"})) == ["format"]
     assert paths(client.get(image, params={"pass": -1})) == ["pass"]
@@ -373,9 +376,11 @@ def test_api_errors_missing_mesh_names_the_asset_folder_and_data_uris(client):
     scene["objects"].append({"type": "mesh", "file": "teapot.obj", "material": {"kd": 0.5}})
     report = client.post("/api/validate", json={"scene": scene}).json()
     (error,) = report["errors"]
-    assert report["valid"] is False and error["path"] == f"objects[{len(scene['objects']) - 1}].file"
+    assert report["valid"] is False
+    assert error["path"] == f"objects[{len(scene['objects']) - 1}].file"
     assert error["message"].startswith("asset file 'teapot.obj' not found in the asset folder ")
-    assert "scenes/assets;" in error["message"] and "as a data: URI" in error["message"]
+    assert "scenes/assets;" in error["message"]
+    assert "as a data: URI" in error["message"]
 
 
 @pytest.mark.parametrize(

@@ -45,35 +45,47 @@ def test_api_jobs_life_events_previews_and_the_same_pixels_as_the_library(client
 
     scene = tiny_scene(32, spp=16, seed=7)
     created = submit(client, scene)
-    assert created["status"] in ("queued", "running") and created["progress"]["samples_total"] == 32 * 32 * 16
+    assert created["status"] in ("queued", "running")
+    assert created["progress"]["samples_total"] == 32 * 32 * 16
     assert created["finished"] is False
     with client.stream("GET", created["events_url"]) as r:
-        assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
+        assert r.status_code == 200
+        assert r.headers["content-type"].startswith("text/event-stream")
         events = list(parse_sse(r.iter_lines()))
     kinds = [e for e, _ in events]
     assert kinds[-1] == "end" and kinds.count("end") == 1, kinds
-    assert "progress" in kinds and "preview" in kinds
+    assert "progress" in kinds
+    assert "preview" in kinds
     end = events[-1][1]
-    assert end["status"] == "done" and end["finished"] is True
-    assert end["progress"]["fraction"] == 1.0 and end["eta"] is None
-    assert end["rays"]["eye"] == 32 * 32 * 16 and end["rays"]["total"] >= end["rays"]["eye"]
-    assert end["elapsed"] > 0 and end["attempts"] == 1 and end["error"] is None
+    assert end["status"] == "done"
+    assert end["finished"] is True
+    assert end["progress"]["fraction"] == 1.0
+    assert end["eta"] is None
+    assert end["rays"]["eye"] == 32 * 32 * 16
+    assert end["rays"]["total"] >= end["rays"]["eye"]
+    assert end["elapsed"] > 0
+    assert end["attempts"] == 1
+    assert end["error"] is None
     previews = [d for e, d in events if e == "preview"]
-    assert previews[-1]["pass"] == end["preview"] and f"pass={end['preview']}" in previews[-1]["url"]
+    assert previews[-1]["pass"] == end["preview"]
+    assert f"pass={end['preview']}" in previews[-1]["url"]
     fractions = [d["fraction"] for e, d in events if e == "progress"]
-    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert fractions == sorted(fractions)
+    assert fractions[-1] == 1.0
 
     # the final image: the same floats as the library's render of the same scene and seed
     expected = render(compile_scene(load_scene(scene)[0]))
     np.testing.assert_array_equal(exr_of(client, created["id"]), expected.image)  # bit for bit
     png = client.get(previews[-1]["url"])
-    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    assert png.status_code == 200
+    assert png.headers["content-type"] == "image/png"
     assert png.headers["cache-control"] == "no-store"
     np.testing.assert_array_equal(
         np.asarray(Image.open(io.BytesIO(png.content))), np.asarray(Image.open(io.BytesIO(png_bytes(expected.image))))
     )
     listed = client.get("/api/jobs").json()
-    assert created["id"] in [j["id"] for j in listed["jobs"]] and listed["count"] >= 1
+    assert created["id"] in [j["id"] for j in listed["jobs"]]
+    assert listed["count"] >= 1
     done = client.get("/api/jobs", params={"status": "done"}).json()["jobs"]
     assert all(j["status"] == "done" for j in done)
 
@@ -91,31 +103,42 @@ def test_api_jobs_previews_arrive_while_a_long_job_runs_and_cancel_keeps_the_las
     first = wait_for(lambda: job(client, created["id"])["preview"] >= 1, 60, "a first preview")
     assert first
     running = job(client, created["id"])
-    assert running["status"] == "running" and 0 < running["progress"]["fraction"] < 1
-    assert running["eta"] is not None and running["eta"] > 0 and running["elapsed"] > 0
+    assert running["status"] == "running"
+    assert 0 < running["progress"]["fraction"] < 1
+    assert running["eta"] is not None
+    assert running["eta"] > 0
+    assert running["elapsed"] > 0
     png = client.get(running["image_url"])
-    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.status_code == 200
+    assert png.content[:8] == b"\x89PNG\r\n\x1a\n"
     assert Image.open(io.BytesIO(png.content)).size == (192, 144)
 
     asked = time.monotonic()
     r = client.delete(f"/api/jobs/{created['id']}")
-    assert r.status_code == 202 and r.json()["cancel_requested"] is True and r.json()["finished"] is False
+    assert r.status_code == 202
+    assert r.json()["cancel_requested"] is True
+    assert r.json()["finished"] is False
     ended = wait_status(client, created["id"], {"cancelled"}, timeout=10)
     assert time.monotonic() - asked < 3  # the worker looks at the job between bands of rows, not only passes
-    assert ended["preview"] >= 1 and ended["progress"]["spp_done"] < 1024
+    assert ended["preview"] >= 1
+    assert ended["progress"]["spp_done"] < 1024
     image = exr_of(client, created["id"])
     assert image.shape == (144, 192, 3) and np.isfinite(image).all() and image.max() > 0
     again = client.delete(f"/api/jobs/{created['id']}")
-    assert again.status_code == 409 and "already ended" in again.json()["errors"][0]["message"]
+    assert again.status_code == 409
+    assert "already ended" in again.json()["errors"][0]["message"]
 
 
 def test_api_jobs_cancel_a_queued_job(client, busy):
     waiting = submit(client, tiny_scene())
     assert job(client, waiting["id"])["status"] == "queued"
     r = client.delete(f"/api/jobs/{waiting['id']}")
-    assert r.status_code == 200 and r.json()["status"] == "cancelled" and r.json()["finished"] is True
+    assert r.status_code == 200
+    assert r.json()["status"] == "cancelled"
+    assert r.json()["finished"] is True
     nothing = client.get(f"/api/jobs/{waiting['id']}/image")
-    assert nothing.status_code == 404 and "no image yet" in nothing.json()["errors"][0]["message"]
+    assert nothing.status_code == 404
+    assert "no image yet" in nothing.json()["errors"][0]["message"]
     assert job(client, waiting["id"])["started_at"] is None
 
 
@@ -133,7 +156,8 @@ def test_api_jobs_queue_limit_answers_429(client, settings, busy):
     settings.max_queued_jobs = 2
     queued = [submit(client, tiny_scene()) for _ in range(2)]
     r = client.post("/api/jobs", json={"scene": tiny_scene()})
-    assert r.status_code == 429 and r.headers["retry-after"]
+    assert r.status_code == 429
+    assert r.headers["retry-after"]
     assert "queue is full" in r.json()["errors"][0]["message"]
     for j in queued:
         client.delete(f"/api/jobs/{j['id']}")
@@ -143,7 +167,8 @@ def test_api_jobs_queue_limit_per_token_answers_429(client, settings, busy):
     settings.max_queued_per_token = 2
     queued = [submit(client, tiny_scene()) for _ in range(2)]
     r = client.post("/api/jobs", json={"scene": tiny_scene()})
-    assert r.status_code == 429 and r.headers["retry-after"]
+    assert r.status_code == 429
+    assert r.headers["retry-after"]
     assert "TRACER_MAX_QUEUED_PER_TOKEN" in r.json()["errors"][0]["message"]
     someone = bearer(student_token())
     other = client.post("/api/jobs", json={"scene": tiny_scene()}, headers=someone)
@@ -178,7 +203,8 @@ def test_api_jobs_refused_when_its_estimate_is_past_the_limit(client, settings):
     r = client.post("/api/jobs", json={"scene": long_scene()})
     assert r.status_code == 422
     (error,) = r.json()["errors"]
-    assert error["path"] == "sampler.spp" and "192 x 144 pixels x 1024 samples" in error["message"]
+    assert error["path"] == "sampler.spp"
+    assert "192 x 144 pixels x 1024 samples" in error["message"]
     assert "past the limit of 1 s per job (TRACER_MAX_JOB_SECONDS)" in error["message"]
 
 
@@ -203,7 +229,8 @@ def test_api_jobs_radiosity_past_its_patches_or_rays_is_refused_at_submit(client
     )
     assert error["message"].endswith("must be at most 100000 (limit max_patches): use a larger patch_size")
     r = client.post("/api/jobs", json={"scene": radiosity_scene(1, rays=1_000_000, max_steps=100_000)})
-    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["render.radiosity.rays"]
+    assert r.status_code == 422
+    assert [e["path"] for e in r.json()["errors"]] == ["render.radiosity.rays"]
 
 
 def test_api_jobs_radiosity_solve_past_the_job_limit_is_refused_at_submit(client, settings):
@@ -213,7 +240,8 @@ def test_api_jobs_radiosity_solve_past_the_job_limit_is_refused_at_submit(client
     r = client.post("/api/jobs", json={"scene": radiosity_scene(2)})
     assert r.status_code == 422
     (error,) = r.json()["errors"]
-    assert error["path"] == "render.radiosity" and error["message"].startswith("its radiosity solve would take about")
+    assert error["path"] == "render.radiosity"
+    assert error["message"].startswith("its radiosity solve would take about")
     assert "past the limit of 0.001 s per job (TRACER_MAX_JOB_SECONDS)" in error["message"]
 
 
@@ -248,7 +276,8 @@ def test_api_jobs_over_its_time_limit_is_stopped_and_failed(client, settings, fa
     settings.max_job_seconds = 1.0
     created = submit(client, long_scene())
     ended = wait_status(client, created["id"], {"failed"}, timeout=20)
-    assert "time limit of 1 s" in ended["error"] and "TRACER_MAX_JOB_SECONDS" in ended["error"]
+    assert "time limit of 1 s" in ended["error"]
+    assert "TRACER_MAX_JOB_SECONDS" in ended["error"]
     assert ended["finished"] is True
     assert ended["elapsed"] < 5
     assert ended["preview"] >= 1  # the last pass's image is kept
@@ -261,7 +290,8 @@ def test_api_jobs_missing_asset_is_refused_at_submit(client):
     r = client.post("/api/jobs", json={"scene": scene})
     assert r.status_code == 422
     path = f"objects[{len(scene['objects']) - 1}].file"
-    assert [e["path"] for e in r.json()["errors"]] == [path] and "not found" in r.json()["errors"][0]["message"]
+    assert [e["path"] for e in r.json()["errors"]] == [path]
+    assert "not found" in r.json()["errors"][0]["message"]
 
 
 def test_api_jobs_events_of_a_finished_job_end_at_once(client):
@@ -302,6 +332,8 @@ def test_api_jobs_raytree_is_a_worker_job_that_matches_the_library(client):
     assert r.status_code == 200, r.text
     assert r.json() == json.loads(json.dumps(ray_tree(load_scene(scene)[0], 21, 13, 2)))
     bad = client.post("/api/raytree", json={"scene": scene, "x": 99, "y": 0})
-    assert bad.status_code == 422 and bad.json()["errors"][0]["path"] == "x"
+    assert bad.status_code == 422
+    assert bad.json()["errors"][0]["path"] == "x"
     missing = client.post("/api/raytree", json={"scene": scene})
-    assert missing.status_code == 422 and {e["path"] for e in missing.json()["errors"]} == {"x", "y"}
+    assert missing.status_code == 422
+    assert {e["path"] for e in missing.json()["errors"]} == {"x", "y"}

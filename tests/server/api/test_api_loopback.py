@@ -68,9 +68,12 @@ def test_api_loopback_job_life_gives_the_cli_pixels(server, tmp_path):
             events.append(event)
             if event[0] == "preview":  # fetch each new preview while the job runs
                 png = http.get(event[1]["url"])
-                assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
-    assert events[-1][0] == "end" and events[-1][1]["status"] == "done"
-    assert any(e == "progress" for e, _ in events) and any(e == "preview" for e, _ in events)
+                assert png.status_code == 200
+                assert png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    assert events[-1][0] == "end"
+    assert events[-1][1]["status"] == "done"
+    assert any(e == "progress" for e, _ in events)
+    assert any(e == "preview" for e, _ in events)
 
     src = tmp_path / "scene.json"
     src.write_text(json.dumps(scene))
@@ -103,9 +106,11 @@ def test_api_loopback_nan_reaches_the_validator_which_names_its_field(server):
     r = server.client.post("/api/validate", content=body, headers={"content-type": "application/json"})
     assert r.status_code == 200
     report = r.json()
-    assert report["valid"] is False and "camera.lookfrom[2]" in [e["path"] for e in report["errors"]]
+    assert report["valid"] is False
+    assert "camera.lookfrom[2]" in [e["path"] for e in report["errors"]]
     r = server.client.post("/api/jobs", content=body, headers={"content-type": "application/json"})
-    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["camera.lookfrom[2]"]
+    assert r.status_code == 422
+    assert [e["path"] for e in r.json()["errors"]] == ["camera.lookfrom[2]"]
 
 
 def test_api_loopback_a_killed_worker_is_replaced_and_its_job_retried_then_failed(server):
@@ -126,7 +131,8 @@ def test_api_loopback_a_killed_worker_is_replaced_and_its_job_retried_then_faile
     wait_for(lambda: job(http, created["id"])["preview"] >= 1, 120, "the retry to render")
     os.kill(second, signal.SIGKILL)  # killed again: out of tries
     failed = wait_finished(http, created["id"], timeout=120)
-    assert failed["status"] == "failed" and "render worker killed by signal SIGKILL" in failed["error"]
+    assert failed["status"] == "failed"
+    assert "render worker killed by signal SIGKILL" in failed["error"]
     assert "tried 2 time(s)" in failed["error"]
     wait_for(lambda: [p for p in server.worker_pids() if p not in (pid, second)], 120, "a third worker")
     # and the service goes on
@@ -141,11 +147,14 @@ def test_api_loopback_cancel_running_then_queued(server):
     wait_for(lambda: job(http, running["id"])["preview"] >= 1, 120, "the long job to render")
     assert job(http, waiting["id"])["status"] == "queued"
     r = http.delete(f"/api/jobs/{waiting['id']}")
-    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    assert r.status_code == 200
+    assert r.json()["status"] == "cancelled"
     with http.stream("GET", running["events_url"], timeout=120) as events:
         assert http.delete(f"/api/jobs/{running['id']}").status_code == 202
         last = list(parse_sse(events.iter_lines()))[-1]
-    assert last[0] == "end" and last[1]["status"] == "cancelled" and last[1]["preview"] >= 1
+    assert last[0] == "end"
+    assert last[1]["status"] == "cancelled"
+    assert last[1]["preview"] >= 1
     assert http.get(last[1]["image_url"]).status_code == 200  # the last image is kept
 
 
@@ -225,7 +234,8 @@ def test_api_loopback_a_stopped_server_s_worker_gives_its_job_back(tmp_path, sig
         wait_for(lambda: not pid_alive(worker), 60, "the worker to exit")
     with Server(data, workers=0) as second:
         back = job(second.client, running["id"])
-        assert back["status"] == "queued" and back["attempts"] == 0  # a stop is not the job's fault
+        assert back["status"] == "queued"
+        assert back["attempts"] == 0  # a stop is not the job's fault
 
 
 def stopped_server_log(tmp_path, sig, work) -> str:
@@ -260,7 +270,8 @@ def stopped_server_log(tmp_path, sig, work) -> str:
     reader.join(timeout=60)
     assert not reader.is_alive(), "a process of the server still holds its output pipe"
     log = "".join(lines)
-    assert "Application shutdown complete" in log and "render workers stopped" in log
+    assert "Application shutdown complete" in log
+    assert "render workers stopped" in log
     return log
 
 

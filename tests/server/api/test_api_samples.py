@@ -29,26 +29,32 @@ def test_api_samples_positions_are_the_ray_tree_s(client, sampler):
     body = client.post("/api/samples", json={"scene": scene, "x": 70, "y": 64})
     assert body.status_code == 200, body.text
     listed = body.json()
-    assert listed["sampler"] == sampler["type"] and listed["filter"] == {"type": "box", "radius": 0.5}
+    assert listed["sampler"] == sampler["type"]
+    assert listed["filter"] == {"type": "box", "radius": 0.5}
     assert len(listed["samples"]) == sampler.get("spp", 1)
     cs = compile_scene(load_scene(scene)[0])
     for item in listed["samples"]:
         tree = client.post("/api/raytree", json={"scene": scene, "x": 70, "y": 64, "sample": item["sample"]}).json()
         assert_allclose(film_point(cs, tree["nodes"][0]), np.add([70, 64], item["position"]), atol=FILM_TOL)
-        assert 0 <= min(item["position"]) and max(item["position"]) < 1
+        assert 0 <= min(item["position"])
+        assert max(item["position"]) < 1
 
 
 def test_api_samples_adaptive_lists_its_grid_levels_and_the_cells_it_split(client):
     scene = small(scene_dict("antialias_adaptive"), 160, 120)
     listed = client.post("/api/samples", json={"scene": scene, "x": 3, "y": 100}).json()
-    assert listed["sampler"] == "adaptive" and listed["max_level"] == 3 and listed["strata"] is None
+    assert listed["sampler"] == "adaptive"
+    assert listed["max_level"] == 3
+    assert listed["strata"] is None
     assert len(listed["samples"]) == 145  # (2^3 + 1)^2 corners and 4^3 centres
     assert {s["level"] for s in listed["samples"]} == {0, 1, 2, 3}
     traced = [s for s in listed["samples"] if s["traced"]]
-    assert len(traced) >= 5 and all(s["srgb"].startswith("#") for s in traced)
+    assert len(traced) >= 5
+    assert all(s["srgb"].startswith("#") for s in traced)
     for item in traced[:3]:
         tree = client.post("/api/raytree", json={"scene": scene, "x": 3, "y": 100, "sample": item["sample"]}).json()
-        assert tree["sample"] == item["sample"] and tree["nodes"][0]["kind"] == "eye"
+        assert tree["sample"] == item["sample"]
+        assert tree["nodes"][0]["kind"] == "eye"
     assert listed["cells"][0] == {**listed["cells"][0], "corner": [0.0, 0.0], "size": 1.0, "level": 0}
 
 
@@ -73,7 +79,8 @@ def test_api_samples_refuses_what_the_scene_and_the_route_refuse(client):
     }
     # x and y are integers
     r = client.post("/api/samples", json={"scene": lesson_scene({"type": "center"}), "x": "1", "y": 0})
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "x"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "x"
 
 
 def test_api_samples_is_documented(client):

@@ -36,7 +36,9 @@ def test_api_status_is_the_admin_s(app_client):
     assert app_client.get("/api/status").status_code == 401  # a student's token
     assert app_client.get("/api/status", headers={"Authorization": ""}).status_code == 401
     r = app_client.get("/status")  # the page itself is a shell: it asks for the token and reads the JSON
-    assert r.status_code == 200 and "text/html" in r.headers["content-type"] and "/js/status.js" in r.text
+    assert r.status_code == 200
+    assert "text/html" in r.headers["content-type"]
+    assert "/js/status.js" in r.text
 
 
 def test_api_status_shows_workers_lanes_release_schema_and_disk(app_client):
@@ -46,11 +48,15 @@ def test_api_status_shows_workers_lanes_release_schema_and_disk(app_client):
     assert s["schema"] == {"version": LATEST, "latest": LATEST}
     assert s["backend"] == "embedded"
     ((worker),) = s["workers"]
-    assert worker["alive"] and worker["ready"] and worker["host"]
+    assert worker["alive"]
+    assert worker["ready"]
+    assert worker["host"]
     assert s["hosts"] == [{"host": worker["host"], "workers": 1, "alive": 1, "ready": 1, "busy": 0, "devices": ["cpu"]}]
     assert s["queue"] == {"interactive": {"queued": 0, "running": 0}, "batch": {"queued": 0, "running": 0}}
     disk = s["disk"]  # the janitor's round at start-up measured it
-    assert disk["limit_bytes"] == LIMIT and 0 < disk["used_bytes"] < LIMIT and disk["free_bytes"] > 0
+    assert disk["limit_bytes"] == LIMIT
+    assert 0 < disk["used_bytes"] < LIMIT
+    assert disk["free_bytes"] > 0
     assert disk["share"] == pytest.approx(disk["used_bytes"] / LIMIT) and disk["near"] is False
     assert disk["measured_at"] is not None
 
@@ -62,7 +68,8 @@ def test_api_status_shows_workers_lanes_release_schema_and_disk(app_client):
         lanes = s["queue"]
         assert lanes["interactive"]["running"] + lanes["batch"]["running"] == 1
         assert lanes["interactive"]["queued"] + lanes["batch"]["queued"] == 1
-        assert s["hosts"][0]["busy"] == 1 and s["workers"][0]["job"] == first["id"]
+        assert s["hosts"][0]["busy"] == 1
+        assert s["workers"][0]["job"] == first["id"]
     finally:
         for j in (second, first):
             app_client.delete(f"/api/jobs/{j['id']}")
@@ -84,7 +91,8 @@ def test_api_status_shows_the_last_backup_and_its_age(app_client, tmp_path):
     app_client.app.state.clock.now = T0 + timedelta(days=2)  # the nightly backup stopped two days ago
     try:
         b = app_client.get("/api/status", headers=ADMIN).json()["backup"]
-        assert b["old"] is True and b["age_seconds"] == 2 * 86400 + 3 * 3600
+        assert b["old"] is True
+        assert b["age_seconds"] == 2 * 86400 + 3 * 3600
     finally:
         app_client.app.state.clock.now = T0
 
@@ -102,6 +110,7 @@ def test_api_status_counts_the_grades_going_back_to_the_lms(app_client):
     store.refused(rows[3]["id"], 404, "the score: the platform answered HTTP 404 (Not Found)", now)
     lms = app_client.get("/api/status", headers=ADMIN).json()["lms"]
     assert (lms["pending"], lms["failed"], lms["sent"], lms["refused"]) == (2, 1, 1, 1)
-    assert lms["last_error"]["message"] == "the platform answered 503" and lms["last_error"]["platform_id"] == "p1"
+    assert lms["last_error"]["message"] == "the platform answered 503"
+    assert lms["last_error"]["platform_id"] == "p1"
     assert lms["last_error"]["next_try"] == datetime.fromtimestamp(now + 60, UTC).isoformat()
     assert lms["oldest_pending_seconds"] == pytest.approx(600)

@@ -14,17 +14,22 @@ def client(client_without_workers):
 
 def test_api_tools_health_schema_and_scenes(client):
     health = client.get("/api/health").json()
-    assert health["status"] == "ok" and health["workers"] == [] and health["jobs"]["queued"] == 0
+    assert health["status"] == "ok"
+    assert health["workers"] == []
+    assert health["jobs"]["queued"] == 0
     schema = client.get("/api/schema").json()
-    assert "properties" in schema and "camera" in schema["properties"]
+    assert "properties" in schema
+    assert "camera" in schema["properties"]
     names = [s["name"] for s in client.get("/api/scenes").json()]
-    assert "whitted" in names and "whitted_depth1" in names
+    assert "whitted" in names
+    assert "whitted_depth1" in names
     assert client.get("/api/scenes/whitted").json() == scene_dict("whitted")
     assert client.get("/api/scenes/nope").status_code == 404
     assert client.get("/api/scenes/..%2Fpyproject").status_code == 404
     # previews are rendered by workers, never in the API process: without one, a preview waits, and says so
     png = client.get("/api/scenes/phong/preview.png")
-    assert png.status_code == 503 and png.headers["retry-after"] == "2"
+    assert png.status_code == 503
+    assert png.headers["retry-after"] == "2"
     assert png.json()["errors"] == [
         {"path": "name", "message": "the preview of 'phong' waits for a render worker; try again in a moment"}
     ]
@@ -33,7 +38,8 @@ def test_api_tools_health_schema_and_scenes(client):
     assert [j["name"] for j in jobs] == ["preview of phong"]
     assert client.delete(f"/api/jobs/{jobs[0]['id']}", headers=bearer(INSTRUCTOR)).status_code == 200
     page = client.get("/")
-    assert page.status_code == 200 and "/api/scenes" in page.text
+    assert page.status_code == 200
+    assert "/api/scenes" in page.text
 
 
 def test_api_tools_validate_reports_paths(client):
@@ -42,7 +48,8 @@ def test_api_tools_validate_reports_paths(client):
     r = client.post("/api/validate", json={"scene": bad})
     assert r.status_code == 200
     body = r.json()
-    assert body["valid"] is False and body["errors"][0]["path"] == "objects[2].radius"
+    assert body["valid"] is False
+    assert body["errors"][0]["path"] == "objects[2].radius"
     assert client.post("/api/validate", json={"scene": scene_dict("whitted")}).json()["valid"] is True
 
 
@@ -50,9 +57,11 @@ def test_api_tools_raytree_needs_a_worker(client):
     """Ray trees are traced by workers, never in the API process: without one, a clear 503 at once."""
     scene = small(scene_dict("whitted"), 32, 24)
     r = client.post("/api/raytree", json={"scene": scene, "x": 21, "y": 13})
-    assert r.status_code == 503 and "no render worker takes interactive work" in r.json()["errors"][0]["message"]
+    assert r.status_code == 503
+    assert "no render worker takes interactive work" in r.json()["errors"][0]["message"]
     bad = client.post("/api/raytree", json={"scene": scene, "x": 99, "y": 0})  # checked before any worker
-    assert bad.status_code == 422 and bad.json()["errors"][0]["path"] == "x"
+    assert bad.status_code == 422
+    assert bad.json()["errors"][0]["path"] == "x"
 
 
 def test_api_tools_raytree_sample_out_of_range_is_refused_before_any_job(client):
@@ -79,9 +88,11 @@ def test_api_tools_api_docs_load_nothing_from_other_hosts(client):
     assert html.status_code == 200
     assert not re.search(r"(https?:)?//[a-z0-9.-]+\.[a-z]{2,}", html.text, re.I), "an external host in " + page
     assets = re.findall(r'(?:src|href)="([^"]+)"', html.text)
-    assert assets and all(a.startswith("/") for a in assets)
+    assert assets
+    assert all(a.startswith("/") for a in assets)
     assert any(a.endswith(".js") for a in assets)
     for url in assets:
         assert client.get(url).status_code == 200, url
     assert any(a.endswith(".css") for a in assets)
-    assert "'/openapi.json'" in html.text and client.get("/openapi.json").status_code == 200
+    assert "'/openapi.json'" in html.text
+    assert client.get("/openapi.json").status_code == 200

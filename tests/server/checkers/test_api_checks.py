@@ -100,7 +100,8 @@ def test_api_checks_a_6000_x_6000_data_image_is_refused_by_every_scene_route_wit
         "message": "the image is 6000x6000 = 36000000 pixels; must be at most 16777216 (limit max_texture_pixels)",
     }
     r = client.post("/api/validate", json={"scene": scene})
-    assert r.status_code == 200 and r.json() == {"valid": False, "errors": [error], "warnings": []}
+    assert r.status_code == 200
+    assert r.json() == {"valid": False, "errors": [error], "warnings": []}
     for url, extra in (("/api/jobs", {}), ("/api/raytree", {"x": 1, "y": 1}), ("/api/samples", {"x": 1, "y": 1})):
         r = client.post(url, json={"scene": scene, **extra})
         assert r.status_code == 422 and r.json() == {"errors": [error]}, (url, r.text)
@@ -129,7 +130,8 @@ def test_api_checks_instanced_gltf_meshes_are_refused_from_their_node_tree_holdi
             "must be at most 2000000 (limit max_primitives)",
         }
         r = client.post("/api/validate", json={"scene": scene})
-        assert r.status_code == 200 and r.json() == {"valid": False, "errors": [error], "warnings": []}
+        assert r.status_code == 200
+        assert r.json() == {"valid": False, "errors": [error], "warnings": []}
         r = client.post("/api/jobs", json={"scene": scene})
         assert r.status_code == 422 and r.json() == {"errors": [error]}, r.text
     grown = {pid: peak_rss(pid) - before[pid] for pid in before}
@@ -147,10 +149,12 @@ def test_api_checks_a_check_past_its_time_limit_is_stopped_and_its_process_repla
         "to check; make it smaller"
     )
     r = post(client, "/api/validate", body)
-    assert r.status_code == 200 and r.json() == {"valid": False, "errors": [{"path": "", "message": message}],
-                                                 "warnings": []}  # fmt: skip
+    assert r.status_code == 200
+    assert (r.json() == {"valid": False, "errors": [{"path": "", "message": message}],
+                                                 "warnings": []})  # fmt: skip
     r = post(client, "/api/jobs", body)
-    assert r.status_code == 422 and r.json() == {"errors": [{"path": "", "message": message}]}
+    assert r.status_code == 422
+    assert r.json() == {"errors": [{"path": "", "message": message}]}
     settings.max_validate_seconds = 10
     after = ready(client)
     assert sum(c["restarts"] for c in after) == sum(c["restarts"] for c in pool) + 2
@@ -171,9 +175,11 @@ def test_api_checks_large_bodies_read_in_a_checking_process_get_the_parser_s_ans
     except json.JSONDecodeError as e:
         where = f"line {e.lineno}, column {e.colno}: {e.msg}"
     r = post(client, "/api/validate", cut.encode())
-    assert r.status_code == 422 and r.json() == {"errors": [{"path": "", "message": f"invalid JSON at {where}"}]}
+    assert r.status_code == 422
+    assert r.json() == {"errors": [{"path": "", "message": f"invalid JSON at {where}"}]}
     r = post(client, "/api/validate", compact(scene))
-    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith(
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["message"].startswith(
         'the scene must be sent inside the request as {"scene": {...}}; this body has the scene\'s own fields '
         "(camera, objects, materials, ...)"
     )
@@ -201,7 +207,8 @@ def test_api_checks_a_client_that_goes_away_stops_its_check_and_the_waiting_line
             gone.sendall(head.encode() + body)
             wait_for(lambda: checkers(server.client)[0]["task"] == "validate", 60, "the scene being validated")
             r = server.client.post("/api/validate", json={"scene": scene_dict("whitted")})
-            assert r.status_code == 429 and r.headers["retry-after"] == "2"
+            assert r.status_code == 429
+            assert r.headers["retry-after"] == "2"
             assert "TRACER_MAX_VALIDATE_WAITING" in r.json()["errors"][0]["message"]
         # the client has gone: its check is stopped, by killing the process (it had seconds of work left)
         (after,) = wait_for(lambda: (c := checkers(server.client))[0]["restarts"] == 1 and c, 30, "the checker killed")
@@ -252,14 +259,16 @@ def test_checks_waiting_requests_are_served_first_come_first_served(tmp_path):
             for name in "abc":
                 tg.start_soon(take, name)
                 await anyio.sleep(0.05)  # in line in this order
-            assert len(pool._waiters) == 3 and served == []
+            assert len(pool._waiters) == 3
+            assert served == []
             free()
             tg.start_soon(take, "newcomer")  # comes while the freed checker is handed to the first in line
             await anyio.sleep(0.05)
             for _ in range(3):
                 free()
                 await anyio.sleep(0.05)
-            assert served == ["a", "b", "c", "newcomer"] and not pool._waiters
+            assert served == ["a", "b", "c", "newcomer"]
+            assert not pool._waiters
 
     anyio.run(main)
 
@@ -278,7 +287,9 @@ def test_checks_a_small_body_s_request_passes_the_line_of_large_ones(tmp_path):
             for name in ["large 1", "large 2", "small 1", "large 3", "small 2"]:
                 tg.start_soon(take, name)
                 await anyio.sleep(0.05)  # in line in this order
-            assert len(pool._waiters) == 3 and len(pool._small) == 2 and served == []
+            assert len(pool._waiters) == 3
+            assert len(pool._small) == 2
+            assert served == []
             for _ in range(2):
                 free()
                 await anyio.sleep(0.05)
@@ -290,7 +301,8 @@ def test_checks_a_small_body_s_request_passes_the_line_of_large_ones(tmp_path):
                 free()
                 await anyio.sleep(0.05)
             assert served == ["small 1", "small 2", "small 3", "large 1", "large 2", "large 3"]
-            assert not pool._waiters and not pool._small
+            assert not pool._waiters
+            assert not pool._small
 
     anyio.run(main)
 
@@ -313,13 +325,15 @@ def test_checks_the_bodies_held_by_waiting_requests_are_bounded_in_bytes(tmp_pat
             await anyio.sleep(0.05)
             with pytest.raises(TooMany) as refused:
                 await take("large 2")  # 200 000 > 150 000
-            assert refused.value.retry_after == 2 and "TRACER_MAX_VALIDATE_WAITING_BYTES" in str(refused.value.errors)
+            assert refused.value.retry_after == 2
+            assert "TRACER_MAX_VALIDATE_WAITING_BYTES" in str(refused.value.errors)
             tg.start_soon(take, "small 1")  # 100 100 bytes: it fits
             await anyio.sleep(0.05)
             assert pool._waiting_bytes == 100_100
             for _ in range(2):
                 free()
                 await anyio.sleep(0.05)
-            assert served == ["small 1", "large 1"] and pool._waiting_bytes == 0
+            assert served == ["small 1", "large 1"]
+            assert pool._waiting_bytes == 0
 
     anyio.run(main)

@@ -43,8 +43,10 @@ def test_identity_no_token_is_told_to_open_the_assignments_link(app, path, body)
     r = app.post(path, json=body)
     assert r.status_code == 401, r.text
     [error] = r.json()["errors"]
-    assert error["path"] == "Authorization" and "open your assignment's link first" in error["message"]
-    assert "TRACER_REQUIRE_IDENTITY" in error["message"] and r.headers["www-authenticate"].startswith("Bearer")
+    assert error["path"] == "Authorization"
+    assert "open your assignment's link first" in error["message"]
+    assert "TRACER_REQUIRE_IDENTITY" in error["message"]
+    assert r.headers["www-authenticate"].startswith("Bearer")
 
 
 @pytest.mark.parametrize(("path", "body"), WORK)
@@ -68,7 +70,8 @@ def test_identity_a_roster_student_and_the_instructor_work(app):
         samples = app.post("/api/samples", json={"scene": tiny_scene(), "x": 1, "y": 2}, headers=who)
         assert samples.status_code == 200, samples.text
         tree = app.post("/api/raytree", json={"scene": tiny_scene(), "x": 1, "y": 2}, headers=who)
-        assert tree.status_code == 503 and "no render worker" in tree.text  # past the identity check
+        assert tree.status_code == 503
+        assert "no render worker" in tree.text  # past the identity check
     assert app.get("/api/jobs", headers=ada).json()["count"] == 1  # the student's own job
 
 
@@ -81,7 +84,8 @@ def test_identity_joining_an_open_assignment_gives_one_and_counts_as_a_new_token
         tokens.append(r.json()["token"])
     assert app.post("/api/jobs", json={"scene": tiny_scene()}, headers=bearer(tokens[0])).status_code == 202
     refused = app.post(f"/api/assignments/{aid}/join", json={"name": "Xavier"})
-    assert refused.status_code == 429 and int(refused.headers["retry-after"]) > 0
+    assert refused.status_code == 429
+    assert int(refused.headers["retry-after"]) > 0
     assert "TRACER_MAX_NEW_TOKENS_PER_ADDRESS" in refused.json()["errors"][0]["message"]
     assert app.post(f"/api/assignments/{'0' * 32}/join", json={"name": "Wu"}).status_code == 429  # (the cap first)
 

@@ -84,10 +84,12 @@ def test_api_security_a_submission_without_a_token_gets_one_that_owns_the_job(cl
     assert wait_status_as(client, job_id, owner)["status"] == "done"
     assert client.get(f"/api/jobs/{job_id}/image", headers=owner).headers["content-type"] == "image/png"
     listed = client.get("/api/jobs", headers=owner).json()
-    assert [j["id"] for j in listed["jobs"]] == [job_id] and listed["count"] == 1
+    assert [j["id"] for j in listed["jobs"]] == [job_id]
+    assert listed["count"] == 1
     # a submission with the token keeps to it: no new token
     second = client.post("/api/jobs", json={"scene": tiny_scene()}, headers=owner)
-    assert second.status_code == 202 and second.json()["token"] is None
+    assert second.status_code == 202
+    assert second.json()["token"] is None
     wait_status_as(client, second.json()["id"], owner)
     assert client.get("/api/jobs", headers=owner).json()["count"] == 2
     # the store keeps the token's hash, never the token
@@ -160,8 +162,10 @@ def test_api_security_the_instructor_sees_every_job_and_a_student_cannot_list_th
         assert client.get(f"/api/jobs/{job_id}", headers=TEACHER).status_code == 200
         assert client.get(f"/api/jobs/{job_id}/image", headers=TEACHER).status_code == 200
     r = client.get("/api/jobs", params={"scope": "all"})  # a student asking for every job
-    assert r.status_code == 401 and r.headers["www-authenticate"].startswith("Bearer")
-    assert r.json()["errors"][0]["path"] == "Authorization" and "instructor" in r.json()["errors"][0]["message"]
+    assert r.status_code == 401
+    assert r.headers["www-authenticate"].startswith("Bearer")
+    assert r.json()["errors"][0]["path"] == "Authorization"
+    assert "instructor" in r.json()["errors"][0]["message"]
     assert [j["id"] for j in client.get("/api/jobs", params={"scope": "mine"}, headers=other).json()["jobs"]] == [b_job]
 
 
@@ -292,7 +296,8 @@ def test_api_security_a_server_open_to_others_without_an_instructor_token_refuse
     with api_client(tmp_path / "data", workers=0, host="10.1.2.3") as c:
         assert any("without TRACER_INSTRUCTOR_TOKEN" in r.getMessage() for r in caplog.records)
         r = c.get("/api/grade/schema")
-        assert r.status_code == 403 and "TRACER_INSTRUCTOR_TOKEN" in r.json()["errors"][0]["message"]
+        assert r.status_code == 403
+        assert "TRACER_INSTRUCTOR_TOKEN" in r.json()["errors"][0]["message"]
         assert c.get("/api/jobs", params={"scope": "all"}).status_code == 401
         job_id = c.post("/api/jobs", json={"scene": tiny_scene()}).json()["id"]
         assert c.get(f"/api/jobs/{job_id}").status_code == 200
@@ -383,11 +388,13 @@ def test_api_security_the_api_docs_allow_their_one_inline_script_by_hash(client)
     r = client.get("/docs")
     assert r.status_code == 200
     scripts = re.findall(r"<script>(.*?)</script>", r.text, re.S)
-    assert len(scripts) == 1 and "SwaggerUIBundle" in scripts[0]
+    assert len(scripts) == 1
+    assert "SwaggerUIBundle" in scripts[0]
     digest = base64.b64encode(hashlib.sha256(scripts[0].encode()).digest()).decode()
     policy = dict(p.strip().split(" ", 1) for p in r.headers["content-security-policy"].split(";"))
     assert policy["script-src"] == f"'self' 'sha256-{digest}'"
-    assert "unsafe-inline" not in policy["script-src"] and policy["frame-ancestors"] == "'none'"
+    assert "unsafe-inline" not in policy["script-src"]
+    assert policy["frame-ancestors"] == "'none'"
     assert r.headers["x-content-type-options"] == "nosniff"
     assert "token" in client.get("/openapi.json").json()["components"]["securitySchemes"]
 

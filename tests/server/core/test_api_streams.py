@@ -62,7 +62,8 @@ def test_streams_a_token_and_an_address_have_so_many_open(server):
                 r.read()
                 assert int(r.headers["retry-after"]) > 0
                 [error] = r.json()["errors"]
-                assert "TRACER_MAX_STREAMS_PER_TOKEN" in error["message"] and "3 event streams" in error["message"]
+                assert "TRACER_MAX_STREAMS_PER_TOKEN" in error["message"]
+                assert "3 event streams" in error["message"]
             theirs = f"/api/jobs/{job_of(http, other)}/events"
             for _ in range(2):  # another token of the same address: the address's 5 in all
                 assert held.enter_context(opened(http, theirs, other)).status_code == 200

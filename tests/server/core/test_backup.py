@@ -82,7 +82,8 @@ def test_backup_of_a_live_server_restored_and_served(tmp_path):
         assert out.returncode == 0, out.stderr
 
         refused = command("restore", str(dest), "--data-dir", str(data), "--force")  # the server holds it
-        assert refused.returncode == 1 and "another server is using the data directory" in refused.stderr
+        assert refused.returncode == 1
+        assert "another server is using the data directory" in refused.stderr
 
     manifest = json.loads((dest / "manifest.json").read_text())
     summary = json.loads(out.stdout)
@@ -94,7 +95,9 @@ def test_backup_of_a_live_server_restored_and_served(tmp_path):
 
     (again / "something").mkdir(parents=True)
     refused = command("restore", str(dest), "--data-dir", str(again))
-    assert refused.returncode == 1 and "is not empty" in refused.stderr and (again / "something").is_dir()
+    assert refused.returncode == 1
+    assert "is not empty" in refused.stderr
+    assert (again / "something").is_dir()
     (again / "something").rmdir()
     out = command("restore", str(dest), "--data-dir", str(again))
     assert out.returncode == 0, out.stderr
@@ -133,7 +136,8 @@ def test_backup_a_damaged_or_unfinished_backup_is_not_restored(tmp_path):
     assert out.returncode == 0, out.stderr
     assert json.loads((tmp_path / "b" / "manifest.json").read_text())["rows"] == {"jobs": 1}
     again = command("backup", str(tmp_path / "b"), "--data-dir", str(data))
-    assert again.returncode == 1 and "is not an empty folder" in again.stderr
+    assert again.returncode == 1
+    assert "is not an empty folder" in again.stderr
 
     (tmp_path / "b" / "files" / "jobs" / "x" / "image.png").write_bytes(b"pixelz")
     out = command("restore", str(tmp_path / "b"), "--data-dir", str(tmp_path / "r"))
@@ -141,4 +145,5 @@ def test_backup_a_damaged_or_unfinished_backup_is_not_restored(tmp_path):
     assert not (tmp_path / "r" / "jobs.sqlite3").exists()
     (tmp_path / "b" / "manifest.json").unlink()
     out = command("restore", str(tmp_path / "b"), "--data-dir", str(tmp_path / "r"))
-    assert out.returncode == 1 and "did not finish" in out.stderr
+    assert out.returncode == 1
+    assert "did not finish" in out.stderr

@@ -81,10 +81,12 @@ def test_migrate_dry_run_says_what_it_would_do_and_changes_nothing(tmp_path):
     assert (plan["version"], plan["latest"]) == (0, LATEST), plan
     assert [m["number"] for m in plan["migrations"]] == list(range(1, LATEST + 1))
     assert plan["migrations"][1]["rows"] == rosters and plan["backup"]["bytes"] > 0, plan
-    assert isinstance(plan["estimate_s"], float) and plan["estimate_s"] >= 0
+    assert isinstance(plan["estimate_s"], float)
+    assert plan["estimate_s"] >= 0
     assert "copy the database" in plan["steps"][0] and "migration 2 (courses" in plan["steps"][2], plan["steps"]
     assert "about" in out.stderr and "nothing was changed" in out.stderr, out.stderr
-    assert (data / "jobs.sqlite3").read_bytes() == before and not (data / "backups").exists()
+    assert (data / "jobs.sqlite3").read_bytes() == before
+    assert not (data / "backups").exists()
     assert query(data / "jobs.sqlite3", "PRAGMA user_version") == [(0,)]
 
 
@@ -102,7 +104,8 @@ def test_copies_before_upgrades_are_pruned_and_partials_removed(tmp_path):
     report = migrate(data, Clock(T0))
     kept = sorted(p.name for p in backups.iterdir())
     assert kept == sorted([report.backup.name, old[2].name, old[3].name]) and len(kept) == KEEP_COPIES, kept
-    assert not partial.exists() and not restoring.exists()
+    assert not partial.exists()
+    assert not restoring.exists()
     partial.write_bytes(b"a copy killed at the next upgrade")
     assert migrate(data, Clock(T0 + timedelta(days=1))).applied == []  # a start with nothing to migrate
     assert not partial.exists()
@@ -114,7 +117,8 @@ def test_a_copy_before_the_upgrade_onto_a_full_disk_leaves_nothing(tmp_path):
         with filled(disk):
             with pytest.raises(MigrationError, match="no room for the copy") as e:
                 migrate(data, Clock(T0))
-            assert "\n" not in str(e.value) and "Nothing was changed or left behind" in str(e.value)
+            assert "\n" not in str(e.value)
+            assert "Nothing was changed or left behind" in str(e.value)
             assert list((data / "backups").iterdir()) == []
             assert query(data / "jobs.sqlite3", "PRAGMA user_version") == [(0,)]
         assert migrate(data, Clock(T0)).after == LATEST  # space again: the same start works
@@ -143,4 +147,5 @@ def test_a_killed_backups_partial_file_does_not_block_the_same_command(tmp_path)
     (dest / ".jobs.sqlite3.partial").write_bytes(b"half a snapshot")
     out = server("backup", str(dest), "--data-dir", str(data))
     assert out.returncode == 0, out.stderr
-    assert not (dest / ".jobs.sqlite3.partial").exists() and (dest / "manifest.json").is_file()
+    assert not (dest / ".jobs.sqlite3.partial").exists()
+    assert (dest / "manifest.json").is_file()

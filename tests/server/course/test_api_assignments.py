@@ -75,10 +75,13 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     b = app.get(f"/api/assignments/{aid}", headers=bearer(tok["s1"])).json()
     assert b["name"] == spec()["name"] and b["deadline"] == DEADLINE.isoformat().replace("+00:00", "Z")
     assert [(r["name"], r["points"]) for r in b["requirements"]][:2] == [("a glass object", 2), ("an area light", 1)]
-    assert b["submissions_left"] == 3 and b["time_left"] == 2 * 86400 and "spec" not in b
+    assert b["submissions_left"] == 3
+    assert b["time_left"] == 2 * 86400
+    assert "spec" not in b
 
     alice = submit(app, aid, tok["s1"], {"scene": json.loads(scene_text("alice"))})
-    assert alice["status"] in ("queued", "grading") and alice["score"] is None
+    assert alice["status"] in ("queued", "grading")
+    assert alice["score"] is None
     carol = submit(app, aid, tok["s2"], {"scene": scene_text("carol")})
     grace = submit(app, aid, tok["s3"], image("grace"))
 
@@ -90,7 +93,8 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     }
     assert [g["counts_as_attempt"] for g in got.values()] == [True, False, True]
     pixels = [t for t in got["s1"]["feedback"]["tests"] if t["test"] == "pixels"][0]
-    assert "score" not in pixels and pixels["hidden"] == "shown after the deadline"
+    assert "score" not in pixels
+    assert pixels["hidden"] == "shown after the deadline"
     assert "metrics" not in got["s1"]["feedback"]  # they would tell the hidden test's result
     assert got["s2"]["feedback"]["errors"][0]["message"].startswith("invalid JSON")
     left = {k: app.get(f"/api/assignments/{aid}", headers=bearer(t)).json()["submissions_left"] for k, t in tok.items()}
@@ -99,10 +103,12 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     everyone = app.get(f"/api/assignments/{aid}/submissions", headers=TEACHER).json()["submissions"]
     assert sorted(s["student"] for s in everyone) == ["s1", "s2", "s3"]
     mine = app.get(f"/api/assignments/{aid}/submissions", headers=bearer(tok["s1"])).json()["submissions"]
-    assert [s["id"] for s in mine] == [alice["id"]] and mine[0]["counts"] is True
+    assert [s["id"] for s in mine] == [alice["id"]]
+    assert mine[0]["counts"] is True
     assert sorted(got["s1"]["files"]) == ["render.png"]  # the error map would show the hidden test
     r = app.get(got["s1"]["files"]["render.png"], headers=bearer(tok["s1"]))
-    assert r.status_code == 200 and r.content[:4] == b"\x89PNG"
+    assert r.status_code == 200
+    assert r.content[:4] == b"\x89PNG"
     assert app.get(f"{got['s1']['url']}/error_map.png", headers=bearer(tok["s1"])).status_code == 404
     assert app.get(got["s1"]["files"]["render.png"], headers=bearer(tok["s3"])).status_code == 404
     teacher_view = app.get(f"/api/assignments/{aid}/submissions/{alice['id']}", headers=TEACHER).json()
@@ -118,7 +124,8 @@ def test_assignments_publish_roster_submit_and_grade_the_example(app, clock):
     clock.now = DEADLINE + timedelta(seconds=1)  # the deadline passed (no late cut-off): the pixels test shown
     after = app.get(f"/api/assignments/{aid}/submissions/{alice['id']}", headers=bearer(tok["s1"])).json()
     assert [t for t in after["feedback"]["tests"] if t["test"] == "pixels"][0]["score"] == 2
-    assert "metrics" in after["feedback"] and sorted(after["files"]) == ["error_map.png", "rejected.png", "render.png"]
+    assert "metrics" in after["feedback"]
+    assert sorted(after["files"]) == ["error_map.png", "rejected.png", "render.png"]
 
 
 # ------------------------------------------------------------------------- deadlines and caps
@@ -141,7 +148,8 @@ def test_assignments_late_window_penalty_extension_and_cut_off(app, clock):
 
     clock.now = late_until + timedelta(seconds=1)
     r = app.post(f"/api/assignments/{aid}/submissions", json=image("grace"), headers=bearer(tok["ext"]))
-    assert r.status_code == 403 and r.json()["errors"][0]["path"] == "deadline"
+    assert r.status_code == 403
+    assert r.json()["errors"][0]["path"] == "deadline"
     assert "late submissions were taken until 2026-12-04T12:00:00Z" in r.json()["errors"][0]["message"]
 
     r = app.post(f"/api/assignments/{aid}/extensions", json={"student": "ext", "deadline": "2026-12-05T12:00:00+01:00"})
@@ -163,7 +171,8 @@ def test_assignments_late_window_penalty_extension_and_cut_off(app, clock):
     assert {r["id"]: (r["score"], r["late"]) for r in grades(app, aid)}["late"] == ("7", "false")
 
     r = app.post(f"/api/assignments/{aid}/extensions", json={"student": "nobody", "deadline": None})
-    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "student"
+    assert r.status_code == 404
+    assert r.json()["errors"][0]["path"] == "student"
 
 
 def test_assignments_attempts_and_the_hourly_cap(app, clock):
@@ -185,7 +194,8 @@ def test_assignments_attempts_and_the_hourly_cap(app, clock):
     for _ in range(6):
         submit(app, aid, b, {"scene": "{not json"})
     r = app.post(f"/api/assignments/{aid}/submissions", json={"scene": "{"}, headers=bearer(b))
-    assert r.status_code == 429 and "TRACER_MAX_SUBMISSIONS_PER_HOUR" in r.json()["errors"][0]["message"]
+    assert r.status_code == 429
+    assert "TRACER_MAX_SUBMISSIONS_PER_HOUR" in r.json()["errors"][0]["message"]
     assert r.headers["retry-after"]
     clock.now = T0 + timedelta(hours=1, seconds=1)
     submit(app, aid, b, {"scene": "{not json"})
@@ -244,7 +254,8 @@ def test_assignments_a_students_token_owns_their_workspace_jobs_and_a_new_link_m
     r = app.post(f"/api/assignments/{aid}/students/a/link")
     assert r.status_code == 200, r.text
     new = r.json()["token"]
-    assert new != old and r.json()["link"].endswith(f"#token={new}")
+    assert new != old
+    assert r.json()["link"].endswith(f"#token={new}")
     assert app.get(f"/api/assignments/{aid}", headers=bearer(old)).status_code == 404
     assert app.get(f"/api/assignments/{aid}", headers=bearer(new)).json()["student"]["id"] == "a"
     assert app.get(f"/api/jobs/{job_id}", headers=bearer(new)).status_code == 200
@@ -259,7 +270,9 @@ def test_assignments_an_open_assignment_takes_anyone_by_name(app, clock):
     r = app.post(f"/api/assignments/{aid}/join", json={"name": "  Zoë   O'Brien "}, headers={"Authorization": ""})
     assert r.status_code == 200, r.text
     me = r.json()
-    assert me["name"] == "Zoë O'Brien" and me["id"].startswith("Zoë_O_Brien-") and me["self_declared"] is True
+    assert me["name"] == "Zoë O'Brien"
+    assert me["id"].startswith("Zoë_O_Brien-")
+    assert me["self_declared"] is True
     b = app.get(f"/api/assignments/{aid}", headers=bearer(me["token"])).json()
     assert b["student"] == {"id": me["id"], "name": "Zoë O'Brien", "self_declared": True}
     assert app.get(f"/api/assignments/{aid}/roster", headers=TEACHER).json()["students"][0]["self_declared"] is True
@@ -322,15 +335,19 @@ def test_assignments_bad_submissions_and_sizes(app, spare, clock):
     tok = roster(app, aid, [("bad", "Bad Input", "")])["bad"]["token"]
     url = f"/api/assignments/{aid}/submissions"
     r = app.post(url, json={"image": "not base64!", "format": "png"}, headers=bearer(tok))
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "image"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "image"
     r = app.post(url, json={"scene": {}, "image": "AAAA"}, headers=bearer(tok))
-    assert r.status_code == 422 and "exactly one of 'scene' and 'image'" in r.text
+    assert r.status_code == 422
+    assert "exactly one of 'scene' and 'image'" in r.text
     r = app.post(url, json={"image": "AAAA", "format": "jpg"}, headers=bearer(tok))
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "format"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "format"
     assert r.json()["errors"][0]["message"].startswith("expected one of: png, exr; got"), r.json()  # not an empty list
     big = {"image": "A" * 2_100_000, "format": "png"}
     r = app.post(url, json=big, headers=bearer(tok))
-    assert r.status_code == 413 and "TRACER_MAX_BODY_BYTES" in r.text
+    assert r.status_code == 413
+    assert "TRACER_MAX_BODY_BYTES" in r.text
     assert app.get(f"/api/assignments/{aid}/submissions/{'0' * 32}", headers=bearer(tok)).status_code == 404
     assert app.get(f"/api/assignments/{'0' * 32}").status_code == 404
 
@@ -393,7 +410,8 @@ def test_assignments_an_edit_keeps_every_version_and_regrades(app, clock):
     assert len({v["run_id"] for v in r.json()["versions"]}) == 2
     v1 = f"/api/grade/{r.json()['versions'][0]['run_id']}"  # v1's run, kept: its reference and the submission
     old_run = wait_for(lambda: (s := app.get(v1).json())["graded"] == 2 and s, 240, "v1's run to grade both")
-    assert old_run["students"] == ["reference", first["id"]] and old_run["status"] == "running"
+    assert old_run["students"] == ["reference", first["id"]]
+    assert old_run["status"] == "running"
     again = finished(app, aid, first["id"])
     assert (again["version"], again["score"], again["max_score"]) == (2, 9.0, 9.0)
     assert app.get(f"/api/assignments/{aid}", headers=bearer(tok)).json()["image_tests"][0] == {
@@ -412,11 +430,13 @@ def test_assignments_a_submissions_grade_streams_as_it_moves(app, spare, clock):
     url = f"/api/assignments/{spare}/submissions/{sub['id']}/events"
     assert app.get(url, headers=bearer(tok["other"]["token"])).status_code == 404
     with app.stream("GET", url, headers=bearer(tok["sse"]["token"])) as r:
-        assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
+        assert r.status_code == 200
+        assert r.headers["content-type"].startswith("text/event-stream")
         events = list(parse_sse(r.iter_lines()))
     assert events[-1] == ("end", {})
     views = [data for kind, data in events if kind == "submission"]
-    assert views[0]["status"] in ("queued", "grading") and views[-1]["status"] == "graded"
+    assert views[0]["status"] in ("queued", "grading")
+    assert views[-1]["status"] == "graded"
     assert (views[-1]["score"], views[-1]["max_score"]) == (7.0, 7.0)
     assert views[-1]["counts"] is True  # its one graded submission is the grade, as GET .../{sid} says too
 
@@ -429,7 +449,8 @@ def test_assignments_a_check_shows_what_the_policy_shows_now_and_keeps_nothing(a
     r = app.post(f"/api/assignments/{aid}/check", json={"scene": json.loads(scene_text("alice"))}, headers=bearer(tok))
     assert r.status_code == 200, r.text
     got = r.json()
-    assert got["valid"] is True and got["image_tests"] == ["flip", "ssim", "psnr", "pixels"]
+    assert got["valid"] is True
+    assert got["image_tests"] == ["flip", "ssim", "psnr", "pixels"]
     assert [(t["test"], t.get("score")) for t in got["tests"]] == [
         ("validity", 1),
         ("a glass object", None),
@@ -439,9 +460,11 @@ def test_assignments_a_check_shows_what_the_policy_shows_now_and_keeps_nothing(a
         ("a render budget", 1),
     ]
     bad = app.post(f"/api/assignments/{aid}/check", json={"scene": scene_text("carol")}, headers=bearer(tok)).json()
-    assert bad["valid"] is False and bad["errors"][0]["message"].startswith("invalid JSON")
+    assert bad["valid"] is False
+    assert bad["errors"][0]["message"].startswith("invalid JSON")
     img = app.post(f"/api/assignments/{aid}/check", json=image("grace"), headers=bearer(tok)).json()
-    assert img["valid"] is True and [t["test"] for t in img["tests"]] == ["validity"]
+    assert img["valid"] is True
+    assert [t["test"] for t in img["tests"]] == ["validity"]
     b = app.get(f"/api/assignments/{aid}", headers=bearer(tok)).json()
     assert b["submissions_left"] == 1 and app.get(
         f"/api/assignments/{aid}/submissions", headers=bearer(tok)
@@ -473,7 +496,8 @@ def test_assignments_exports_an_lms_gradebook_and_gradescope_results(app, clock)
     assert rows[2:] == [["Grace G", "", "g1", "g@x.edu", "", "6.5"], ["None N", "", "n1", "", "", ""]]  # 3.5 of 7
 
     results = app.get(f"/api/assignments/{aid}/submissions/{sub['id']}/results.json", headers=TEACHER).json()
-    assert results["score"] == 3.5 and "late: 0.5 of the points taken off" in results["output"]
+    assert results["score"] == 3.5
+    assert "late: 0.5 of the points taken off" in results["output"]
     assert results["visibility"] == "after_due_date"
     shown = {t["name"]: t["visibility"] for t in results["tests"]}
     assert shown == {
@@ -506,7 +530,8 @@ def test_assignments_exports_never_carry_a_formula_a_student_typed(app, clock):
     names = {row["name"] for row in grades(app, aid)}
     assert names == {"'" + evil, "'+cmd|' /C calc'!A0", "'@SUM(A1)"}
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv", headers=TEACHER).text)))
-    assert {row[0] for row in book[2:]} == names and book[1][-1] == "13"  # Points Possible: still a number
+    assert {row[0] for row in book[2:]} == names
+    assert book[1][-1] == "13"  # Points Possible: still a number
 
 
 def test_assignments_a_students_checks_are_so_many_a_minute(app, spare, clock):
@@ -523,7 +548,8 @@ def test_assignments_a_students_checks_are_so_many_a_minute(app, spare, clock):
             assert app.post(url, json=body, headers=bearer(tok["c1"]["token"])).status_code == 200
         r = app.post(url, json=body, headers=bearer(tok["c1"]["token"]))
         assert r.status_code == 429, r.text
-        assert "TRACER_MAX_CHECKS_PER_MINUTE" in r.json()["errors"][0]["message"] and r.headers["retry-after"] == "60"
+        assert "TRACER_MAX_CHECKS_PER_MINUTE" in r.json()["errors"][0]["message"]
+        assert r.headers["retry-after"] == "60"
         assert app.post(url, json=body, headers=bearer(tok["c2"]["token"])).status_code == 200
         assert app.post(url, json=body).status_code == 200  # the instructor
         caps.clock.now += 60

@@ -50,22 +50,24 @@ def two(app):
             f"/api/courses/{cid}/staff", json={"id": person, "name": person.title(), "role": role}, headers=ADMIN
         )
         assert r.status_code == 201, r.text
-        assert r.headers["cache-control"] == "no-store" and r.json()["link"].endswith(
-            f"/course#token={r.json()['token']}"
-        )
+        assert r.headers["cache-control"] == "no-store"
+        assert r.json()["link"].endswith(f"/course#token={r.json()['token']}")
         people[person] = bearer(r.json()["token"])
     return people
 
 
 def test_courses_the_admin_creates_courses_and_staff_and_no_one_else_does(app, two):
     r = app.post("/api/courses", json={"id": "cs101", "name": "again"}, headers=ADMIN)
-    assert r.status_code == 409 and r.json()["errors"][0]["path"] == "id"
+    assert r.status_code == 409
+    assert r.json()["errors"][0]["path"] == "id"
     r = app.post("/api/courses", json={"id": "no spaces", "name": "x"}, headers=ADMIN)
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "id"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "id"
     r = app.post("/api/courses", json={"id": "cs303", "name": "x"}, headers=two["prof-a"])
     assert r.status_code == 401
     r = app.post("/api/courses/cs101/staff", json={"id": "x", "role": "dean"}, headers=ADMIN)
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "role"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "role"
     assert {c["id"] for c in app.get("/api/courses", headers=ADMIN).json()["courses"]} >= {"default", "cs101", "cs202"}
     assert [c["id"] for c in app.get("/api/courses", headers=two["ta-1"]).json()["courses"]] == ["cs101"]
 
@@ -76,16 +78,19 @@ def test_courses_an_instructor_publishes_into_their_course_and_a_ta_is_refused(a
     aid = r.json()["id"]
     assert app.get("/api/assignments", headers=two["prof-a"]).json()["assignments"][0]["course"] == "cs101"
     r = app.post("/api/courses/cs101/assignments", json=body(), headers=two["ta-1"])
-    assert r.status_code == 403 and "TA may not publish" in r.json()["errors"][0]["message"]
+    assert r.status_code == 403
+    assert "TA may not publish" in r.json()["errors"][0]["message"]
     r = app.put(f"/api/assignments/{aid}", json=body(), headers=two["ta-1"])
     assert r.status_code == 403
     r = app.post(f"/api/assignments/{aid}/roster", content="id,name,email\nz,Z,\n", headers=two["ta-1"])
-    assert r.status_code == 403 and "roster" in r.json()["errors"][0]["message"]
+    assert r.status_code == 403
+    assert "roster" in r.json()["errors"][0]["message"]
     # what a TA may do: follow the class, extend, regrade
     assert app.get(f"/api/assignments/{aid}/dashboard", headers=two["ta-1"]).status_code == 200
     assert app.get(f"/api/assignments/{aid}/grades.csv", headers=two["ta-1"]).status_code == 200
     r = app.post(f"/api/assignments/{aid}/regrade", headers=two["ta-1"])
-    assert r.status_code == 200 and r.json()["version"] == 2
+    assert r.status_code == 200
+    assert r.json()["version"] == 2
     # the other course's instructor cannot publish here, nor read it
     r = app.post("/api/courses/cs101/assignments", json=body(), headers=two["prof-b"])
     assert r.status_code == 404  # as an unknown course (test_courses_another_course_answers_as_an_unknown_one)
@@ -98,23 +103,27 @@ def test_courses_a_roster_enrolled_once_holds_across_assignments_with_one_token(
     )
     assert r.status_code == 200, r.text
     links = {s["id"]: s for s in r.json()["students"]}
-    assert links["ada"]["link"].endswith(f"/courses/cs202#token={links['ada']['token']}") and links["ada"]["new"]
+    assert links["ada"]["link"].endswith(f"/courses/cs202#token={links['ada']['token']}")
+    assert links["ada"]["new"]
     first = app.post("/api/assignments?course=cs202", json=body(), headers=two["prof-b"]).json()["id"]
     second = app.post("/api/courses/cs202/assignments", json=body(), headers=two["prof-b"]).json()["id"]
     ada = bearer(links["ada"]["token"])
     for aid in (first, second):  # on the roster of each, the assignment published after the roster too
         r = app.get(f"/api/assignments/{aid}", headers=ada)
-        assert r.status_code == 200 and r.json()["student"]["id"] == "ada"
+        assert r.status_code == 200
+        assert r.json()["student"]["id"] == "ada"
         roster = app.get(f"/api/assignments/{aid}/roster", headers=two["prof-b"]).json()["students"]
         assert [s["id"] for s in roster] == ["ada", "bob"]
     mine = app.get("/api/courses/cs202", headers=ada).json()
-    assert mine["you"] == {"id": "ada", "name": "Ada", "role": "student"} and len(mine["assignments"]) == 2
+    assert mine["you"] == {"id": "ada", "name": "Ada", "role": "student"}
+    assert len(mine["assignments"]) == 2
     assert "staff" not in mine
     # the links again: the same tokens (derived), until one is replaced
     again = {s["id"]: s["token"] for s in app.get("/api/courses/cs202/links", headers=two["prof-b"]).json()["students"]}
     assert again == {k: v["token"] for k, v in links.items()}
     r = app.post(f"/api/assignments/{first}/students/ada/link", headers=two["prof-b"])
-    assert r.status_code == 200 and r.json()["token"] != links["ada"]["token"]
+    assert r.status_code == 200
+    assert r.json()["token"] != links["ada"]["token"]
     assert app.get(f"/api/assignments/{second}", headers=ada).status_code == 404  # the old token: nowhere
     assert app.get(f"/api/assignments/{second}", headers=bearer(r.json()["token"])).status_code == 200
 
@@ -158,17 +167,18 @@ def test_courses_re_issue_all_links_at_once(app, two):
     theirs = app.post("/api/courses/cs202/assignments", json=body(), headers=two["prof-b"]).json()["id"]
     assert app.post("/api/courses/cs101/links/renew", headers=two["ta-1"]).status_code == 403
     r = app.post(f"/api/courses/cs101/links/renew?assignment={theirs}", headers=two["prof-a"])
-    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "assignment"
+    assert r.status_code == 404
+    assert r.json()["errors"][0]["path"] == "assignment"
     assert all(app.get(f"/api/assignments/{aid}", headers=bearer(t)).status_code == 200 for t in old.values())
 
     r = app.post(f"/api/courses/cs101/links/renew?assignment={aid}", headers=two["prof-a"])
     assert r.status_code == 200 and r.headers["cache-control"] == "no-store", r.text
     fresh = {s["id"]: s for s in r.json()["students"]}
-    assert {"re1", "re2"} <= set(fresh) and all(s["new"] for s in fresh.values())
+    assert {"re1", "re2"} <= set(fresh)
+    assert all(s["new"] for s in fresh.values())
     for sid, token in old.items():
-        assert fresh[sid]["token"] != token and fresh[sid]["link"].endswith(
-            f"/assignments/{aid}#token={fresh[sid]['token']}"
-        )
+        assert fresh[sid]["token"] != token
+        assert fresh[sid]["link"].endswith(f"/assignments/{aid}#token={fresh[sid]['token']}")
         assert app.get(f"/api/assignments/{aid}", headers=bearer(token)).status_code == 404
         assert app.get("/api/courses/cs101", headers=bearer(token)).status_code == 404
         assert app.get(f"/api/assignments/{aid}", headers=bearer(fresh[sid]["token"])).status_code == 200
@@ -176,8 +186,10 @@ def test_courses_re_issue_all_links_at_once(app, two):
     again = app.get(f"/api/courses/cs101/links?assignment={aid}", headers=two["prof-a"]).json()["students"]
     assert {s["id"]: s["token"] for s in again} == {k: v["token"] for k, v in fresh.items()}
     r = app.post("/api/courses/cs101/links/renew", headers={**two["prof-a"], "Accept": "text/csv"})
-    assert r.status_code == 200 and r.text.startswith("id,name,email,link\n")
-    assert "re1,Rae,," in r.text and f"#token={fresh['re1']['token']}" not in r.text
+    assert r.status_code == 200
+    assert r.text.startswith("id,name,email,link\n")
+    assert "re1,Rae,," in r.text
+    assert f"#token={fresh['re1']['token']}" not in r.text
     other = app.get("/api/courses/cs202/links", headers=two["prof-b"]).json()["students"]
     assert all(app.get("/api/courses/cs202", headers=bearer(s["token"])).status_code == 200 for s in other)
 
@@ -188,9 +200,12 @@ def test_courses_a_roster_name_loses_control_and_bidi_override_characters_with_a
                  **two["prof-a"]})  # fmt: skip
     assert r.status_code == 200, r.text
     got = {s["id"]: s for s in r.json()["students"]}
-    assert got["fay"]["name"] == "Faygnp.exe" and got["fay"]["warning"].startswith("line 2.name: 1 control")
-    assert got["gus"]["name"] == "Gus Grey" and got["gus"]["warning"].startswith("line 3.name: ")
-    assert got["hal"]["name"] == "Hal" and "warning" not in got["hal"]
+    assert got["fay"]["name"] == "Faygnp.exe"
+    assert got["fay"]["warning"].startswith("line 2.name: 1 control")
+    assert got["gus"]["name"] == "Gus Grey"
+    assert got["gus"]["warning"].startswith("line 3.name: ")
+    assert got["hal"]["name"] == "Hal"
+    assert "warning" not in got["hal"]
     names = [s["name"] for s in app.get("/api/courses/cs101/roster", headers=two["prof-a"]).json()["students"]]
     assert not any(c in n for n in names for c in "\u202e\t")
 

@@ -73,11 +73,14 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
     assert r.status_code == 200, r.text
     nxt = r.json()
     assert (nxt["submission"], nxt["student"], nxt["label"], nxt["remaining"]) == (sids["ann"], None, "Student 1", 2)
-    assert nxt["render"].endswith(f"/submissions/{sids['ann']}/render.png") and nxt["reference"].endswith(".png")
+    assert nxt["render"].endswith(f"/submissions/{sids['ann']}/render.png")
+    assert nxt["reference"].endswith(".png")
     assert app.get(nxt["render"], headers=ta1).status_code == 200
     assert app.get(nxt["scene"], headers=ta1).json()["objects"] == reference()["objects"]
-    assert (nxt["auto"]["score"], nxt["auto"]["max_score"]) == (6.0, 6.0) and nxt["auto"]["feedback"]["tests"]
-    assert [i["name"] for i in nxt["items"]] == ["creativity", "lighting"] and nxt["manual"]["points"] is None
+    assert (nxt["auto"]["score"], nxt["auto"]["max_score"]) == (6.0, 6.0)
+    assert nxt["auto"]["feedback"]["tests"]
+    assert [i["name"] for i in nxt["items"]] == ["creativity", "lighting"]
+    assert nxt["manual"]["points"] is None
     after = app.get(f"/api/assignments/{aid}/grading/next?after={sids['ann']}", headers=ta1).json()
     assert after["submission"] == sids["bea"]  # n: the next one
 
@@ -112,10 +115,12 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
 
     # before the release: the auto part only, to the student and in the exports
     view = app.get(f"/api/assignments/{aid}/submissions/{sids['ann']}", headers=tok["ann"]).json()
-    assert view["manual"] == {"released": False} and (view["score"], view["total"], view["total_max"]) == (6, 6, 6)
+    assert view["manual"] == {"released": False}
+    assert (view["score"], view["total"], view["total_max"]) == (6, 6, 6)
     assert grades_csv(app, aid) == {"ann": ["6", "6"], "bea": ["2", "6"], "cid": ["", ""]}
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv").text)))
-    assert book[1][5] == "6" and book[2][5] == "6"
+    assert book[1][5] == "6"
+    assert book[2][5] == "6"
     assert app.post(f"/api/assignments/{aid}/release", headers=ta1).status_code == 403
     anonymous_to_tas(app, cls)
     board = app.get(f"/api/assignments/{aid}/dashboard", headers=prof).json()
@@ -124,21 +129,24 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
             for r in board["students"]] == [(6, 4.5, 10.5, 11, 10.5, False), (2, 1, 3, 11, 3, False),
                                             (None, None, None, None, None, False)]  # fmt: skip
     stats = app.get(f"/api/assignments/{aid}/stats", headers=prof).json()
-    assert stats["max_points"] == 11 and [b["count"] for b in stats["histogram"]["bins"]][2::7] == [1, 1]
+    assert stats["max_points"] == 11
+    assert [b["count"] for b in stats["histogram"]["bins"]][2::7] == [1, 1]
 
     app.app.state.clock.now = T0 + timedelta(hours=1)
     r = app.post(f"/api/assignments/{aid}/release", headers=prof)
     assert r.status_code == 200 and r.json()["released_at"] == "2026-12-01T13:00:00Z", r.text
     view = app.get(f"/api/assignments/{aid}/submissions/{sids['ann']}", headers=tok["ann"]).json()
     assert (view["score"], view["total"], view["total_max"]) == (6, 10.5, 11)
-    assert view["manual"]["released"] and view["manual"]["points"] == 4.5
+    assert view["manual"]["released"]
+    assert view["manual"]["points"] == 4.5
     assert [(i["points"], i["comment"]) for i in view["manual"]["items"]] == [(2.5, "a nice story"), (2, "")]
     assert "grader" not in view["manual"]["items"][0]  # the student is not told who graded
     assert grades_csv(app, aid) == {"ann": ["10.5", "11"], "bea": ["3", "11"], "cid": ["", ""]}
     book = list(csv.reader(io.StringIO(app.get(f"/api/assignments/{aid}/gradebook.csv").text)))
     assert (book[1][5], book[2][5], book[3][5]) == ("11", "10.5", "3")
     board = app.get(f"/api/assignments/{aid}/dashboard", headers=ta1).json()  # the grades.csv's totals, released
-    assert board["released"] and [(r["name"], r["total"], r["total_max"]) for r in board["students"]] == [
+    assert board["released"]
+    assert [(r["name"], r["total"], r["total_max"]) for r in board["students"]] == [
         ("Ann A", 10.5, 11),
         ("Bea B", 3, 11),
         ("Cid C", None, None),
@@ -153,7 +161,8 @@ def test_manual_queue_grades_release_and_an_edit(app, cls):
     assert r.status_code == 200, r.text
     assert grades_csv(app, aid)["ann"] == ["11", "11"]
     view = app.get(f"/api/assignments/{aid}/submissions/{sids['ann']}", headers=tok["ann"]).json()
-    assert view["manual"]["items"][0]["points"] == 3 and view["total"] == 11
+    assert view["manual"]["items"][0]["points"] == 3
+    assert view["total"] == 11
 
 
 def anonymous_to_tas(app, cls) -> None:
@@ -203,9 +212,8 @@ def test_manual_graders_dealt_evenly_see_their_own(app, cls):
     assert app.post(f"/api/assignments/{aid}/grading/assign", json={"graders": ["ta-1"]},
                     headers=staff["ta-1"]).status_code == 403  # fmt: skip
     r = app.post(f"/api/assignments/{aid}/grading/assign", json={"graders": ["ta-1", "ta-2"]}, headers=staff["prof"])
-    assert r.status_code == 200 and r.json() == {
-        "graders": [{"id": "ta-1", "students": 2}, {"id": "ta-2", "students": 1}]
-    }
+    assert r.status_code == 200
+    assert r.json() == {"graders": [{"id": "ta-1", "students": 2}, {"id": "ta-2", "students": 1}]}
     # cid hands in now
     sub = app.post(f"/api/assignments/{aid}/submissions", json={"scene": reference()}, headers=cls["tok"]["cid"])
     assert sub.status_code == 202, sub.text
@@ -260,10 +268,11 @@ def test_manual_each_change_is_in_the_audit_trail(app, cls):
     assert (anonymous["before"], anonymous["after"]) == ({"anonymous": False}, {"anonymous": True})
     assert anonymous["target"] == {"course": "cs-m", "assignment": aid}
     assert first["target"] == {"course": "cs-m", "assignment": aid, "student": "ann", "submission": sids["ann"]}
-    assert first["before"] is None and first["after"] == {
+    assert first["before"] is None
+    assert (first["after"] == {
         "item": "creativity", "points": 2.5, "rubric": ["new objects", "a story"], "override": None,
         "comment": "a nice story", "grader": "ta-1",
-    }  # fmt: skip
+    })  # fmt: skip
     assert (override["after"]["points"], override["after"]["override"]) == (1, 1)
     assert (release["at"], release["before"], release["after"]) == (
         "2026-12-01T13:00:00Z",
@@ -276,7 +285,8 @@ def test_manual_each_change_is_in_the_audit_trail(app, cls):
     )
     assert graders["before"] == {"graders": None}
     assert graders["after"] == {"graders": {"ann": "ta-1", "bea": "ta-2", "cid": "ta-1"}}
-    assert changed["at"] == "2026-12-01T14:00:00Z" and changed["target"]["student"] == "ann"
+    assert changed["at"] == "2026-12-01T14:00:00Z"
+    assert changed["target"]["student"] == "ann"
     assert changed["before"] == {
         "item": "lighting", "points": 2, "rubric": ["area light", "mood"], "override": None, "comment": "",
         "grader": "ta-2",
@@ -286,4 +296,5 @@ def test_manual_each_change_is_in_the_audit_trail(app, cls):
         "grader": "ta-1",
     }  # fmt: skip
     mine = app.get("/api/courses/cs-m/audit?student=bea", headers=staff["prof"]).json()["events"]
-    assert {e["action"] for e in mine} >= {"manual.grade"} and all(e["target"].get("student") == "bea" for e in mine)
+    assert {e["action"] for e in mine} >= {"manual.grade"}
+    assert all(e["target"].get("student") == "bea" for e in mine)

@@ -121,7 +121,8 @@ def test_regrade_a_ta_accepts_a_test_then_declines_it_each_change_kept(app, cls)
     ]
     assert app.get(f"/api/assignments/{aid}/regrade-requests", headers=tok["ann"]).json()["requests"] == []
     mine = app.get(f"/api/assignments/{aid}/regrade-requests", headers=tok["bea"]).json()
-    assert [x["id"] for x in mine["requests"]] == [req["id"]] and "student" not in mine["requests"][0]
+    assert [x["id"] for x in mine["requests"]] == [req["id"]]
+    assert "student" not in mine["requests"][0]
     assert mine["regrade_deadline"] == "2026-12-10T12:00:00Z"  # a week after the deadline (no late cut-off)
     assert mine["regrade_open"] is True
     url = f"/api/assignments/{aid}/submissions/{sids['bea']}/regrade-requests/{req['id']}"
@@ -159,7 +160,8 @@ def test_regrade_a_ta_accepts_a_test_then_declines_it_each_change_kept(app, cls)
         ("answer", "declined", "2026-12-01T16:00:00Z", None),
     ]
     asked, answers = audit(app, "regrade.request"), audit(app, "regrade.answer")
-    assert [e["who"] for e in asked] == ["student:bea"] and asked[0]["target"]["submission"] == sids["bea"]
+    assert [e["who"] for e in asked] == ["student:bea"]
+    assert asked[0]["target"]["submission"] == sids["bea"]
     assert [(e["who"], e["after"]["status"]) for e in answers] == [("ta:ta-1", "declined"), ("ta:ta-1", "accepted")]
     assert (answers[1]["before"]["item_points"], answers[1]["after"]["item_points"]) == (0, 1)
     assert answers[1]["why"] == "Right: the kt counts."
@@ -176,14 +178,16 @@ def test_regrade_a_manual_item_after_the_release_moves_the_total(app, cls):
     r = ask(app, cls, "bea", "creativity", reason="I added three new objects")
     assert r.status_code == 201 and r.json()["kind"] == "manual", r.text
     q = app.get(f"/api/assignments/{aid}/regrade-requests", headers=prof).json()["requests"]
-    assert q[0]["item"] == "creativity" and q[0]["status"] == "open"  # open first
+    assert q[0]["item"] == "creativity"
+    assert q[0]["status"] == "open"  # open first
     assert q[0]["student"] == {"id": "bea", "name": "Bea B"}  # released: names shown
     url = q[0]["url"]
     r = app.put(url, json={"status": "accepted", "reply": "Yes, they are new.", "points": 2}, headers=prof)
     assert r.status_code == 200 and r.json()["points"] == 2, r.text
     assert grades_csv(app, aid)["bea"] == ["5", "9"]
     view = app.get(f"/api/assignments/{aid}/submissions/{sids['bea']}", headers=cls["tok"]["bea"]).json()
-    assert view["manual"]["items"][0]["points"] == 2 and view["total"] is None  # the score: after the deadline
+    assert view["manual"]["items"][0]["points"] == 2
+    assert view["total"] is None  # the score: after the deadline
 
 
 def test_regrade_after_the_deadline_a_hidden_test_opens_then_the_regrade_deadline_closes(app, cls):
@@ -196,4 +200,5 @@ def test_regrade_after_the_deadline_a_hidden_test_opens_then_the_regrade_deadlin
     message = refusal(ask(app, cls, "bea", "psnr"), 403, "regrade_deadline")
     assert "2026-12-10T12:00:00Z" in message
     mine = app.get(f"/api/assignments/{cls['aid']}/regrade-requests", headers=cls["tok"]["bea"]).json()
-    assert mine["regrade_open"] is False and len(mine["requests"]) == 3  # her requests and answers stay readable
+    assert mine["regrade_open"] is False
+    assert len(mine["requests"]) == 3  # her requests and answers stay readable

@@ -83,23 +83,30 @@ def test_similarity_the_copied_scene_is_flagged_first_and_no_honest_pair(server,
     aid, prof = course["aid"], course["people"]["prof"]
     url = f"/api/assignments/{aid}/similarity"
     before = server.client.get(url, headers=prof).json()
-    assert before["status"] == "none" and before["pairs"] == [] and "for a person to look at" in before["note"]
+    assert before["status"] == "none"
+    assert before["pairs"] == []
+    assert "for a person to look at" in before["note"]
     r = server.client.post(url, headers=prof)
     assert r.status_code == 202, r.text
-    assert r.json()["status"] == "computing" and r.json()["students"] == 8
+    assert r.json()["status"] == "computing"
+    assert r.json()["students"] == 8
     out = report(server, aid, prof)
     assert out["status"] == "done", out
     first = out["pairs"][0]
     assert {first["a"], first["b"]} == {"h3", "cp"}, out["pairs"]
     assert len(out["pairs"]) == 1, out["pairs"]  # no pair of the honest students
     assert all(p["score"] > out["groups"]["scene"]["threshold"] for p in out["closest"])
-    assert first["score"] < first["typical"] / 2 and first["typical"] == out["groups"]["scene"]["typical"]
+    assert first["score"] < first["typical"] / 2
+    assert first["typical"] == out["groups"]["scene"]["typical"]
     shared = [f for f in first["facts"] if f["shared"]]
     assert len(shared) >= 5, first["facts"]
     assert not any(f["path"].startswith("plane@") for f in first["facts"])  # the starter's floor: no evidence
     assert {"path", "a", "b", "shared"} <= set(first["facts"][0])
-    assert out["since"] == 0 and out["computed_at"] and out["skipped"] == []
-    assert "median" in out["how"] and "not a finding of misconduct" in out["note"]
+    assert out["since"] == 0
+    assert out["computed_at"]
+    assert out["skipped"] == []
+    assert "median" in out["how"]
+    assert "not a finding of misconduct" in out["note"]
 
 
 def test_similarity_a_ta_may_ask_a_student_may_not(server, course):
@@ -114,7 +121,8 @@ def test_similarity_a_ta_may_ask_a_student_may_not(server, course):
         assert "staff" in r.json()["errors"][0]["message"]
     assert server.client.get(url, headers=course["people"]["other"]).status_code in (401, 404)
     r = server.client.get("/api/assignments/" + "0" * 32 + "/similarity", headers=ADMIN)
-    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "id"
+    assert r.status_code == 404
+    assert r.json()["errors"][0]["path"] == "id"
 
 
 def test_similarity_a_submission_after_the_report_is_counted_as_since(server, course):
@@ -123,4 +131,5 @@ def test_similarity_a_submission_after_the_report_is_counted_as_since(server, co
                            headers=course["tokens"]["h5"])  # fmt: skip
     assert r.status_code == 202, r.text
     out = server.client.get(f"/api/assignments/{aid}/similarity", headers=prof).json()
-    assert out["status"] == "done" and out["since"] == 1
+    assert out["status"] == "done"
+    assert out["since"] == 1

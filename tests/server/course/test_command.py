@@ -67,13 +67,15 @@ def test_command_publish_sends_the_spec_with_its_reference_file_and_the_policy(s
     assert "submissions: at most 3, the best counts; reference image shown: yes; open: no" in text
     assert lines[-1] == f"  the brief's page: {server.url}/assignments/{aid}"  # the page a student opens
     page = server.client.get(f"/assignments/{aid}")
-    assert page.status_code == 200 and "text/html" in page.headers["content-type"]
+    assert page.status_code == 200
+    assert "text/html" in page.headers["content-type"]
 
     a = server.client.get(f"/api/assignments/{aid}", headers=bearer(INSTRUCTOR)).json()
     assert a["spec"]["reference"]["scene"] == json.loads((EXAMPLE / "reference.json").read_text())  # the file, inline
     p = a["policy"]
     assert (p["max_submissions"], p["counts"], p["show_reference"], p["late_penalty"]) == (3, "best", True, 0.25)
-    assert p["feedback"]["tests"] == {"pixels": "after_deadline"} and p["open"] is False
+    assert p["feedback"]["tests"] == {"pixels": "after_deadline"}
+    assert p["open"] is False
 
 
 def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_path):
@@ -85,7 +87,8 @@ def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_
     links = tmp_path / "links.csv"
     code, out, err = cli(server, capsys, "roster", aid, str(tmp_path / "roster.csv"), "--out", str(links))
     assert code == 0, err
-    assert out == "" and "2 student(s) on the roster: their links in" in err
+    assert out == ""
+    assert "2 student(s) on the roster: their links in" in err
     rows = list(csv.DictReader(io.StringIO(links.read_text())))
     assert [(r["id"], r["name"], r["email"]) for r in rows] == [
         ("g1", "Grace Hopper", "grace@x.edu"),
@@ -94,7 +97,8 @@ def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_
     token = rows[0]["link"].split("#token=")[1]
     assert rows[0]["link"].startswith(f"{server.url}/assignments/{aid}#token=")
     brief = server.client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
-    assert brief["student"]["name"] == "Grace Hopper" and brief["starter"]["name"] == "Alice's glass ball"
+    assert brief["student"]["name"] == "Grace Hopper"
+    assert brief["starter"]["name"] == "Alice's glass ball"
 
     png = base64.b64encode((EXAMPLE / "class" / "grace.png").read_bytes()).decode()
     r = server.client.post(f"/api/assignments/{aid}/submissions", json={"image": png, "format": "png"},
@@ -110,10 +114,12 @@ def test_command_roster_writes_the_links_and_grades_the_csv(server, capsys, tmp_
     header = "id,name,score,max_score,late,submissions"
     assert out_csv.read_text().splitlines() == [header, "g1,Grace Hopper,7,7,false,1", "h2,Heidi,,,,0"]
     code, out, err = cli(server, capsys, "grades", aid)  # to standard output
-    assert code == 0 and out == out_csv.read_text()
+    assert code == 0
+    assert out == out_csv.read_text()
 
     code, out, err = cli(server, capsys, "roster", aid, str(tmp_path / "roster.csv"))  # again, to standard output
-    assert code == 0 and "2 student(s) on the roster: their links above" in err
+    assert code == 0
+    assert "2 student(s) on the roster: their links above" in err
     assert [r["link"] for r in csv.DictReader(io.StringIO(out))] == [r["link"] for r in rows]
 
 
@@ -123,7 +129,8 @@ def test_command_prints_the_server_s_errors_at_their_paths(server, capsys, tmp_p
     (tmp_path / "reference.json").write_text((EXAMPLE / "reference.json").read_text())
     (tmp_path / "bad.json").write_text(json.dumps(spec))
     code, out, err = cli(server, capsys, "publish", str(tmp_path / "bad.json"), "--deadline", DEADLINE)
-    assert code == 1 and out == ""
+    assert code == 1
+    assert out == ""
     assert err.startswith("spec.requirements[1].check: unknown preset 'area_ligth'; did you mean 'area_light'?"), err
 
     good = str(EXAMPLE / "assignment.json")
@@ -139,10 +146,12 @@ def test_command_prints_the_server_s_errors_at_their_paths(server, capsys, tmp_p
     (tmp_path / "roster.csv").write_text("name,id,email\nAda,a1,\n")
     aid = published(server, capsys)
     code, _, err = cli(server, capsys, "roster", aid, str(tmp_path / "roster.csv"), "--out", str(tmp_path / "l.csv"))
-    assert code == 1 and err == "line 1: expected the header 'id,name,email'; got 'name,id,email'\n"
+    assert code == 1
+    assert err == "line 1: expected the header 'id,name,email'; got 'name,id,email'\n"
     assert not (tmp_path / "l.csv").exists()
     code, _, err = cli(server, capsys, "grades", "f" * 32)
-    assert code == 1 and err == f"id: no assignment with id '{'f' * 32}'\n"
+    assert code == 1
+    assert err == f"id: no assignment with id '{'f' * 32}'\n"
 
 
 def test_command_names_a_missing_file_and_a_server_that_is_not_there(server, capsys, tmp_path):
@@ -155,9 +164,11 @@ def test_command_names_a_missing_file_and_a_server_that_is_not_there(server, cap
         err == f"{tmp_path / 'missing.json'}: no such file (the spec's reference.scene, looked for next to spec.json)\n"
     )
     code, _, err = cli(server, capsys, "publish", str(tmp_path / "nope.json"), "--deadline", DEADLINE)
-    assert code == 2 and err == f"{tmp_path / 'nope.json'}: no such file (the grading spec)\n"
+    assert code == 2
+    assert err == f"{tmp_path / 'nope.json'}: no such file (the grading spec)\n"
     code, _, err = cli(server, capsys, "roster", "f" * 32, str(tmp_path / "roster.csv"))
-    assert code == 2 and err.startswith(f"{tmp_path / 'roster.csv'}: no such file (the roster")
+    assert code == 2
+    assert err.startswith(f"{tmp_path / 'roster.csv'}: no such file (the roster")
 
     nobody = f"http://127.0.0.1:{free_port()}"
     code = main(["grades", "f" * 32, "--server", nobody])
@@ -190,4 +201,5 @@ def test_command_courses_staff_and_a_course_roster(server, capsys, tmp_path):
         "courses/gfx", f"assignments/{aid}"
     )
     code, out, _ = cli(server, capsys, "courses")
-    assert code == 0 and "gfx\tComputer Graphics\t1 assignment(s)\t1 student(s)" in out
+    assert code == 0
+    assert "gfx\tComputer Graphics\t1 assignment(s)\t1 student(s)" in out

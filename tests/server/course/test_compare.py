@@ -117,27 +117,33 @@ def graded(app):
 def test_compare_a_pixel_on_the_recoloured_ball_differs_in_material(app, graded):
     aid, sid = graded["aid"], graded["scene"]
     view = app.get(f"/api/assignments/{aid}/submissions/{sid}", headers=bearer(graded["tok"]["s1"])).json()
-    assert view["status"] == "graded" and "error_map.png" in view["files"]
+    assert view["status"] == "graded"
+    assert "error_map.png" in view["files"]
     r = trees(app, aid, sid, graded["tok"]["s1"], x=RED_BALL[0], y=RED_BALL[1])
     assert r.status_code == 200, r.text
     body = r.json()
     assert (body["x"], body["y"], body["sample"]) == (*RED_BALL, 0)
     for side in ("student", "reference"):
         tree = body[side]
-        assert tree["pixel"] == list(RED_BALL) and tree["nodes"][0]["kind"] == "eye"
+        assert tree["pixel"] == list(RED_BALL)
+        assert tree["nodes"][0]["kind"] == "eye"
         assert tree["nodes"][0]["hit"]["object_name"] == "red ball"
     # the same eye ray (same seed, sampler and settings): only the scenes differ
     assert body["student"]["nodes"][0]["direction"] == body["reference"]["nodes"][0]["direction"]
     d = body["difference"]
-    assert d["what"] == "material" and d["student"] == [] and d["reference"] == []
+    assert d["what"] == "material"
+    assert d["student"] == []
+    assert d["reference"] == []
     assert d["nodes"] == {"student": 0, "reference": 0}
     assert d["message"].startswith("Where your eye ray hits red ball (material 'red'), as the reference's does, ")
-    assert "(yours against the reference's): diffuse " in d["message"] and "; ambient " in d["message"]
+    assert "(yours against the reference's): diffuse " in d["message"]
+    assert "; ambient " in d["message"]
     assert d["message"].endswith("The material differs (kd: its colour, ka, which is kd unless set, or the scene's "
                                  "ambient), or a light's intensity.")  # fmt: skip
     s_diffuse = body["student"]["nodes"][0]["terms"]["diffuse"]
     r_diffuse = body["reference"]["nodes"][0]["terms"]["diffuse"]
-    assert s_diffuse[2] > s_diffuse[0] and r_diffuse[0] > r_diffuse[2]  # blue against red
+    assert s_diffuse[2] > s_diffuse[0]
+    assert r_diffuse[0] > r_diffuse[2]  # blue against red
 
 
 def test_compare_a_pixel_where_they_agree_has_no_difference(app, graded):
@@ -193,7 +199,8 @@ def test_compare_x_and_y_out_of_the_graded_image(app, graded):
 def test_compare_other_students_work_is_a_404(app, graded):
     aid = graded["aid"]
     r = trees(app, aid, graded["scene"], graded["tok"]["s2"], x=1, y=1)  # s1's submission, asked by s2
-    assert r.status_code == 404 and r.json()["errors"][0]["path"] == "sid"
+    assert r.status_code == 404
+    assert r.json()["errors"][0]["path"] == "sid"
     assert trees(app, aid, "0" * 32, graded["tok"]["s1"], x=1, y=1).status_code == 404
     assert trees(app, "f" * 32, graded["scene"], graded["tok"]["s1"], x=1, y=1).status_code == 404
 
@@ -227,7 +234,8 @@ def test_compare_follows_the_feedback_policy(app):
     tok = roster(app, never, "s1")["s1"]
     sid = submit(app, never, tok, {"scene": blue()})
     r = trees(app, never, sid, tok, x=1, y=1)
-    assert r.status_code == 403 and r.json()["errors"][0]["message"].endswith("(flip) to students: they are not shown")
+    assert r.status_code == 403
+    assert r.json()["errors"][0]["message"].endswith("(flip) to students: they are not shown")
     finished(app, never, sid)  # graded before the server stops (the run's rows are kept either way)
 
 

@@ -75,8 +75,10 @@ def test_a_hidden_image_test_leaves_no_text_pointing_at_a_missing_picture(server
     assert missed, f"the dimmed scene passed every image test: {tests}"
 
     # until the deadline: pixels hidden, and with it the error map and the rejected pixels
-    assert tests["pixels"]["hidden"] == "shown after the deadline" and "output" not in tests["pixels"]
-    assert sorted(now["files"]) == ["render.png"] and now["feedback"]["pictures"] == []
+    assert tests["pixels"]["hidden"] == "shown after the deadline"
+    assert "output" not in tests["pixels"]
+    assert sorted(now["files"]) == ["render.png"]
+    assert now["feedback"]["pictures"] == []
     for k in missed:
         out = tests[k]["output"]
         where = [line for line in out.split("\n") if line.startswith("Where to look: ")]
@@ -85,14 +87,18 @@ def test_a_hidden_image_test_leaves_no_text_pointing_at_a_missing_picture(server
         assert f"shown after the deadline, from {deadline:%Y-%m-%d %H:%M} UTC." in out, out  # and when they come
     cut = deadline.isoformat().replace("+00:00", "Z")
     [notice] = now["feedback"]["withheld"]
-    assert notice["when"] == "after_deadline" and notice["at"] == cut
-    assert notice["tests"] == ["pixels"] and notice["pictures"] == ["error_map.png", "rejected.png"]
-    assert "the error map" in notice["parts"] and "the rejected pixels" in notice["parts"]
+    assert notice["when"] == "after_deadline"
+    assert notice["at"] == cut
+    assert notice["tests"] == ["pixels"]
+    assert notice["pictures"] == ["error_map.png", "rejected.png"]
+    assert "the error map" in notice["parts"]
+    assert "the rejected pixels" in notice["parts"]
     assert notice["message"].endswith(f"shown after the deadline, from {cut}."), notice["message"]
 
     # after their deadline: everything shown, and the pictures named again where they are
     atests = {t["test"]: t for t in after["feedback"]["tests"]}
-    assert atests["pixels"]["status"] in ("passed", "failed") and after["feedback"]["withheld"] == []
+    assert atests["pixels"]["status"] in ("passed", "failed")
+    assert after["feedback"]["withheld"] == []
     assert sorted(after["files"]) == ["error_map.png", "rejected.png", "render.png"]
     assert any("the FLIP error map" in atests[k]["output"] for k in missed)
 
@@ -109,18 +115,24 @@ def test_the_preview_shows_what_a_student_sees_now_and_after_the_deadline(server
     assert (before["moment"], after["moment"]) == ("now", "after_deadline")
     b = {t["test"]: t for t in before["feedback"]["tests"]}
     # the requirements are the reference's own results (it meets them); the image tests an example miss
-    assert b["validity"]["status"] == "passed" and b["a glass object"]["status"] == "passed"
-    assert b["pixels"]["hidden"] == "shown after the deadline" and b["pixels"]["shown_at"] == "2026-12-09T17:00:00Z"
+    assert b["validity"]["status"] == "passed"
+    assert b["a glass object"]["status"] == "passed"
+    assert b["pixels"]["hidden"] == "shown after the deadline"
+    assert b["pixels"]["shown_at"] == "2026-12-09T17:00:00Z"
     for k in ("flip", "ssim", "psnr"):
         assert b[k]["status"] == "failed"
         where = next(line for line in b[k]["output"].split("\n") if line.startswith("Where to look: "))
         assert mentions_pictures(where) == [], where
-    assert before["feedback"]["pictures"] == [] and "metrics" not in before["feedback"]
+    assert before["feedback"]["pictures"] == []
+    assert "metrics" not in before["feedback"]
     assert before["feedback"]["withheld"][0]["at"] == "2026-12-09T17:00:00Z"
-    assert before["score_shown"] is True and before["score"] is not None  # the policy shows the score now
+    assert before["score_shown"] is True
+    assert before["score"] is not None  # the policy shows the score now
     a = {t["test"]: t for t in after["feedback"]["tests"]}
-    assert a["pixels"]["status"] == "failed" and after["feedback"]["withheld"] == []
-    assert after["feedback"]["pictures"] == ["error_map.png", "rejected.png"] and "metrics" in after["feedback"]
+    assert a["pixels"]["status"] == "failed"
+    assert after["feedback"]["withheld"] == []
+    assert after["feedback"]["pictures"] == ["error_map.png", "rejected.png"]
+    assert "metrics" in after["feedback"]
     assert "the FLIP error map" in a["flip"]["output"]
     assert listed() == published  # nothing published
 
@@ -151,13 +163,20 @@ def test_an_image_test_never_shown_says_so_and_the_instructor_sees_everything():
     feedback = Feedback.model_validate({"tests": {"flip": "never"}})
     student = feedback_view(report, ["flip", "ssim"], ["flip", "ssim"], feedback, Moment(10.0, 5.0), "scene")
     flip, ssim = student["tests"]
-    assert flip["hidden"] == "shown never" and "shown_at" not in flip
-    assert "error map" not in ssim["output"].split("\n")[2] and ssim["output"].split("\n")[2].startswith("Where")
+    assert flip["hidden"] == "shown never"
+    assert "shown_at" not in flip
+    assert "error map" not in ssim["output"].split("\n")[2]
+    assert ssim["output"].split("\n")[2].startswith("Where")
     assert ssim["output"].endswith("The error map and the rejected pixels are never shown to students for this "
                                    "assignment (your instructor sees them).")  # fmt: skip
     [group] = student["withheld"]
-    assert group["when"] == "never" and group["at"] is None and group["tests"] == ["flip"]
-    assert student["pictures"] == [] and "metrics" not in student
+    assert group["when"] == "never"
+    assert group["at"] is None
+    assert group["tests"] == ["flip"]
+    assert student["pictures"] == []
+    assert "metrics" not in student
     teacher = feedback_view(report, ["flip", "ssim"], ["flip", "ssim"], feedback, Moment(0.0, 5.0, True), "scene")
-    assert teacher["withheld"] == [] and teacher["tests"][1]["output"] == output and teacher["metrics"]
+    assert teacher["withheld"] == []
+    assert teacher["tests"][1]["output"] == output
+    assert teacher["metrics"]
     assert where_without_pictures("no such line", "note") == "no such line"

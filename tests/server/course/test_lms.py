@@ -32,13 +32,15 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     pick = re.search(r'name="pick" value="([^"]+)"', r.text)[1]
     r = client.post("/lti/pick", data={"pick": pick, "assignment": aid})
     assert r.status_code == 200, r.text
-    assert f'action="{p.url}/deep_link_return"' in r.text and "form-action" in r.headers["content-security-policy"]
+    assert f'action="{p.url}/deep_link_return"' in r.text
+    assert "form-action" in r.headers["content-security-policy"]
     csp = r.headers["content-security-policy"]  # the return page is framed by the LMS's own pages only
     assert f"frame-ancestors {p.url};" in csp and "frame-ancestors *" not in csp, csp
     jwt = re.search(r'name="JWT" value="([^"]+)"', r.text)[1]
     assert httpx.post(p.url + "/deep_link_return", data={"JWT": jwt}).status_code == 200  # verified by the LMS
     item = p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"][0]
-    assert item["custom"] == {"assignment": aid} and item["lineItem"]["scoreMaximum"] == 13
+    assert item["custom"] == {"assignment": aid}
+    assert item["lineItem"]["scoreMaximum"] == 13
     assert p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/data"] == "opaque-data-1"
     assert client.post("/lti/pick", data={"pick": pick, "assignment": aid}).status_code == 400  # used once
 
@@ -73,7 +75,8 @@ def test_lms_deep_link_launch_submit_and_the_grade_goes_back_even_after_the_lms_
     wait_for(lambda: p.scores, 60, "the score at the LMS", 0.2)
     (score,) = p.scores
     assert score["userId"] == "student-7" and score["scoreGiven"] == pytest.approx(graded["score"])
-    assert score["scoreMaximum"] == 13 and score["lineitem"] == "li-1"
+    assert score["scoreMaximum"] == 13
+    assert score["lineitem"] == "li-1"
     assert (score["activityProgress"], score["gradingProgress"]) == ("Completed", "FullyGraded")
     board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
     assert (board["lms"]["grades"]["pending"], board["lms"]["grades"]["sent"]) == (0, 1)
@@ -99,12 +102,14 @@ def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who
     members = {"context_memberships_url": f"{p.url}/memberships/course-1?limit=2", "service_versions": ["2.0"]}
     r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], custom={"assignment": aid},
                     overrides={NRPS: members})  # fmt: skip
-    assert r.status_code == 303 and r.headers["location"].startswith("/course#token=")
+    assert r.status_code == 303
+    assert r.headers["location"].startswith("/course#token=")
     r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
     assert r.status_code == 200 and r.json()["members"] == 4, r.text  # 5 members on 3 pages, one the instructor
     board = client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()
     states = {s["id"]: s["state"] for s in board["students"]}
-    assert {f"sis-{i}" for i in range(1, 5)} <= set(states) and all(states[f"sis-{i}"] == "none" for i in range(1, 5))
+    assert {f"sis-{i}" for i in range(1, 5)} <= set(states)
+    assert all(states[f"sis-{i}"] == "none" for i in range(1, 5))
     assert board["lms"]["roster_synced_at"] is not None
     # the instructor's own launch made them the course's instructor; the sync, the LMS's instructor (sis-0) too
     staff = client.get("/api/courses/gfx/staff", headers=ADMIN).json()["staff"]
@@ -112,9 +117,8 @@ def test_lms_the_roster_comes_from_nrps_page_by_page_and_the_dashboard_shows_who
     # each in the course's audit trail as the LMS's doing (server/course/audit.py)
     events = client.get("/api/courses/gfx/audit", params={"limit": 500}, headers=ADMIN).json()["events"]
     synced = {e["target"]["student"] for e in events if (e["action"], e["why"]) == ("student.add", "LMS roster sync")}
-    assert {f"sis-{i}" for i in range(1, 5)} <= synced and all(
-        e["who"] == "lms" for e in events if e["why"].startswith("LMS")
-    )
+    assert {f"sis-{i}" for i in range(1, 5)} <= synced
+    assert all(e["who"] == "lms" for e in events if e["why"].startswith("LMS"))
     assert any(e["action"] == "staff.add" and e["after"]["role"] == "instructor" and e["who"] == "lms" for e in events)
 
 
@@ -122,7 +126,8 @@ def test_lms_a_student_of_a_course_no_instructor_opened_is_told_so(tool, lms):
     url, app, client = tool
     p, _ = lms
     r = p.do_launch(client, url, sub="student-9", roles=[LEARNER], context={"id": "course-2", "title": "Other"})
-    assert r.status_code == 403 and "not set up yet" in r.text
+    assert r.status_code == 403
+    assert "not set up yet" in r.text
     assert all("Max-Age=0" in c for c in r.headers.get_list("set-cookie"))
 
 
@@ -147,7 +152,8 @@ def test_lms_a_link_with_no_assignment_opens_a_student_s_course_page_and_an_inst
     token = r.headers["location"].split("#token=")[1]
     assert [a["id"] for a in client.get("/api/courses/gfx", headers=bearer(token)).json()["assignments"]] == [aid]
     r = p.do_launch(client, url, sub="teacher-1", roles=[LMS_INSTRUCTOR], resource_link=nav)
-    assert r.status_code == 200 and "Pick an assignment for this link" in r.text
+    assert r.status_code == 200
+    assert "Pick an assignment for this link" in r.text
     pick = re.search(r'name="pick" value="([^"]+)"', r.text)[1]
     assert client.post("/lti/pick", data={"pick": pick, "assignment": aid}).status_code == 200
     r = p.do_launch(client, url, sub="student-7", roles=[LEARNER], resource_link=nav)  # bound now
@@ -170,8 +176,10 @@ def test_lms_a_link_without_a_line_item_gets_a_gradebook_column_once(tool, lms):
                         custom={"assignment": aid}, overrides=ags)  # fmt: skip
         assert r.status_code == 303, r.text
     made = [i for i in p.line_items.values() if i.get("resourceLinkId") == "link-2"]
-    assert len(p.line_items) == before + 1 and len(made) == 1  # made once, found again at the second launch
-    assert made[0]["scoreMaximum"] == 13 and made[0]["resourceId"] == aid
+    assert len(p.line_items) == before + 1
+    assert len(made) == 1  # made once, found again at the second launch
+    assert made[0]["scoreMaximum"] == 13
+    assert made[0]["resourceId"] == aid
     assert LmsStore(app.state.settings.data_dir).link(p.registered_id, "link-2")["lineitem"] == made[0]["id"]
 
 
@@ -200,8 +208,9 @@ def test_lms_an_email_is_no_identity_unless_the_platform_is_trusted_with_emails(
     assert r.status_code == 200 and "Linked: Zed Z" in r.text, r.text
     r = p.do_launch(client, url, sub="student-z", roles=[LEARNER], custom={"assignment": aid},
                     overrides={"email": "zed@example.edu"})  # fmt: skip
-    assert r.status_code == 303 and r.headers["location"] == f"/assignments/{aid}#token=" + links["zed"].split(
-        "#token=")[1]  # fmt: skip
+    assert r.status_code == 303
+    assert (r.headers["location"] == f"/assignments/{aid}#token=" + links["zed"].split(
+        "#token=")[1])  # fmt: skip
     # the roster read from the LMS leaves a member of a roster student's email to their own launch
     p.members["course-1"].append({"status": "Active", "name": "Xia from the LMS", "email": "xia@example.edu",
                                   "user_id": "user-xia", "roles": [LEARNER]})  # fmt: skip
@@ -218,7 +227,8 @@ def test_lms_an_email_is_no_identity_unless_the_platform_is_trusted_with_emails(
     try:
         r = p.do_launch(client, url, sub="student-y", roles=[LEARNER], custom={"assignment": aid},
                         overrides={"email": "yan@example.edu"})  # fmt: skip
-        assert r.status_code == 303 and r.headers["location"].split("#token=")[1] == links["yan"].split("#token=")[1]
+        assert r.status_code == 303
+        assert r.headers["location"].split("#token=")[1] == links["yan"].split("#token=")[1]
     finally:
         body["trust_emails"] = False
         assert client.post("/api/lti/platforms", json=body, headers=ADMIN).json()["trust_emails"] is False
@@ -258,7 +268,8 @@ def test_lms_a_score_the_lms_refuses_for_good_is_failed_shown_with_why_and_sent_
     assert r.status_code == 200 and r.json()["queued"] == 1 and r.json()["grades"]["refused"] == [], r.text
     wait_for(lambda: [s for s in p.scores if s["userId"] == "refused-1"], 60, "the score sent again", 0.2)
     (sent,) = [s for s in p.scores if s["userId"] == "refused-1"]
-    assert sent["scoreGiven"] == 9.0 and sent["comment"] == "Good shadows; the glass is too dark."
+    assert sent["scoreGiven"] == 9.0
+    assert sent["comment"] == "Good shadows; the glass is too dark."
     assert lms_.store.scores(aid)["failed"] == 0
     # a student may not ask for it; a 503 or a 429 stays pending (tried again later)
     r = client.post(f"/api/assignments/{aid}/lms/send-again", headers=bearer("x" * 43))
@@ -295,12 +306,14 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
             r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
             assert r.status_code == 200 and r.json()["left"] >= 1, r.text
             roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
-            assert roster["sis-3"]["active"] is False and roster["sis-3"]["left_at"] is not None  # kept, inactive
+            assert roster["sis-3"]["active"] is False
+            assert roster["sis-3"]["left_at"] is not None  # kept, inactive
             assert roster["sis-1"]["active"] is True
             board = {
                 s["id"]: s for s in client.get(f"/api/assignments/{aid}/dashboard", headers=ADMIN).json()["students"]
             }
-            assert board["sis-3"]["active"] is False and board["sis-1"]["active"] is True
+            assert board["sis-3"]["active"] is False
+            assert board["sis-1"]["active"] is True
             # they may read their assignment still, not submit
             m = app.state.course.store.member("gfx", "sis-3")
             token = app.state.course.token_of("gfx", "student", "sis-3", m["gen"])
@@ -315,7 +328,8 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
         r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)
         assert r.status_code == 200 and r.json()["back"] >= 1, r.text
         roster = {s["id"]: s for s in client.get("/api/courses/gfx/roster", headers=ADMIN).json()["students"]}
-        assert roster["sis-3"]["active"] is True and roster["sis-3"]["left_at"] is None
+        assert roster["sis-3"]["active"] is True
+        assert roster["sis-3"]["left_at"] is None
         assert "inactive" not in client.get(f"/api/assignments/{aid}", headers=bearer(token)).json()
         trail = client.get("/api/courses/gfx/audit", params={"student": "sis-3"}, headers=ADMIN).json()["events"]
         moves = [
@@ -350,4 +364,6 @@ def test_lms_deep_linking_honours_accept_types_and_accept_lineitem(tool, lms):
     jwt = re.search(r'name="JWT" value="([^"]+)"', r.text)[1]
     assert httpx.post(back, data={"JWT": jwt}).status_code == 200
     (item,) = p.deep_links[-1]["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"]
-    assert item["type"] == "ltiResourceLink" and item["custom"] == {"assignment": aid} and "lineItem" not in item
+    assert item["type"] == "ltiResourceLink"
+    assert item["custom"] == {"assignment": aid}
+    assert "lineItem" not in item

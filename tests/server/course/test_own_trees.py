@@ -156,7 +156,9 @@ def test_own_trees_a_right_log_matches_and_a_half_pixel_eye_ray_is_named(app, gr
     t = r.json()["trees"][1]
     assert t["matches"] is False
     first = t["differences"][0]
-    assert first["what"] == "eye_ray" and first["student"] == 0 and first["reference"] == 0
+    assert first["what"] == "eye_ray"
+    assert first["student"] == 0
+    assert first["reference"] == 0
     assert "corner" in first["message"] and "(x + 0.5, y + 0.5)" in first["message"], first["message"]
     # the latest comparison is kept: the student and the staff read it again, and the dashboard counts it
     url = f"/api/assignments/{graded['aid']}/submissions/{graded['right']}/trees"
@@ -177,9 +179,11 @@ def test_own_trees_a_bad_log_is_a_422_with_every_error_at_its_path(app, graded, 
     r = post_trees(app, graded, graded["right"], log)
     assert r.status_code == 422, r.text
     paths = {e["path"]: e["message"] for e in r.json()["errors"]}
-    assert "trees[0].nodes[0].kind" in paths and "eye" in paths["trees[0].nodes[0].kind"]
+    assert "trees[0].nodes[0].kind" in paths
+    assert "eye" in paths["trees[0].nodes[0].kind"]
     assert "trees[0].nodes[1].direction[2]" in paths
-    assert "trees[1].pixel" in paths and f"x in 0..{W - 1}" in paths["trees[1].pixel"]
+    assert "trees[1].pixel" in paths
+    assert f"x in 0..{W - 1}" in paths["trees[1].pixel"]
     r = post_trees(app, graded, graded["right"], b"{not json")
     assert r.status_code == 422 and "JSON" in r.json()["errors"][0]["message"], r.text
     r = post_trees(app, graded, graded["right"], {"trees": [{"pixel": [0, 0], "nodes": []}] * 65})
@@ -222,7 +226,8 @@ def test_own_trees_the_check_compares_a_log_and_keeps_nothing(app, graded, ex):
     assert r.json()["probes"] == [{"x": 3, "y": 20, "why": "floor"}], r.json()  # the spec's own: nothing differs
     trees = r.json()["trees"]
     assert trees[0]["matches"] is True
-    assert trees[1]["differences"][0]["what"] == "eye_ray" and "lookfrom" in trees[1]["differences"][0]["message"]
+    assert trees[1]["differences"][0]["what"] == "eye_ray"
+    assert "lookfrom" in trees[1]["differences"][0]["message"]
     dark = rendered()
     dark[10:20, 20:30] *= 0.2
     r = app.post(f"/api/assignments/{graded['aid']}/check", json={"image": png_of(dark), "format": "png"},

@@ -212,7 +212,8 @@ def test_grading_run_resumes_after_a_restart_keeping_its_renders(tmp_path):
         check_resumed(before, after, state)
         # the second server rendered none of the jobs that were done: its workers' log never took them
         log = server.log_path.read_text()
-        assert first_log != server.log_path and f"grading run {run['id']}: resumed" in log
+        assert first_log != server.log_path
+        assert f"grading run {run['id']}: resumed" in log
         done_before = [j for j, row in before["jobs"].items() if row["status"] == "done"]
         assert not [j for j in done_before if f"job {j}: rendering" in log]
         assert sum(f"job {j}: rendering" in log for j in after["jobs"]) >= 1  # what was left was rendered here
@@ -260,7 +261,8 @@ def test_grading_runs_from_before_the_tables_are_imported(tmp_path):
         assert (state["status"], state["students"], state["summary"]["students"]) == ("done", ["alice"], [row])
         assert state["reports"] == [{"student": "alice", "score": 13}]
         cut_state = client.get(f"/api/grade/{cut}").json()
-        assert cut_state["status"] == "failed" and "submit it again" in cut_state["error"]
+        assert cut_state["status"] == "failed"
+        assert "submit it again" in cut_state["error"]
 
 
 # ------------------------------------------------------------------------------ the Redis backend

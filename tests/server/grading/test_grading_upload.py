@@ -220,7 +220,8 @@ def test_upload_a_zip_grades_the_example_class(app):
     r = post(app, files={"class": ("hw4.zip", class_zip(), "application/zip")})
     assert r.status_code == 202, r.text
     run = r.json()
-    assert r.headers["location"] == run["url"] and run["students"] == sorted(EXPECTED)
+    assert r.headers["location"] == run["url"]
+    assert run["students"] == sorted(EXPECTED)
     state = finished(app, run["url"])
     assert state["status"] == "done", state
     assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == EXPECTED
@@ -230,7 +231,8 @@ def test_upload_a_zip_grades_the_example_class(app):
     assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
     folder = app.app.state.settings.data_dir / "grades" / run["id"]
     kept = sorted(p.name for p in (folder / "submissions").iterdir())
-    assert len(kept) == 9 and kept[0] == "00000.json"  # the students' files, as the run keeps them
+    assert len(kept) == 9
+    assert kept[0] == "00000.json"  # the students' files, as the run keeps them
     assert not list((folder.parent / ".uploads").iterdir())  # the upload's staging folder is gone
     # its renders wrote only what grading reads: the final image and the AOVs' floats, no previews or pictures
     store = app.app.state.store
@@ -320,25 +322,34 @@ def _many_bytes() -> bytes:
 def test_upload_refuses_bad_requests(app):
     zip_part = {"class": ("hw4.zip", class_zip())}
     r = post(app, parts={}, files=zip_part)
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "assignment"
     r = post(app, parts={"assignment": '{\n  "name": 1,,\n}'}, files=zip_part)
-    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith("invalid JSON at line 2, column")
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["message"].startswith("invalid JSON at line 2, column")
     a = json.loads(assignment_text())
     a["requirements"][0]["check"] = "glas"
     r = post(app, parts={"assignment": json.dumps(a)}, files=zip_part)
-    assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment.requirements[0].check"
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["path"] == "assignment.requirements[0].check"
     r = post(app, parts={"assignment": "[" * 100 + "]" * 100}, files=zip_part)
-    assert r.status_code == 422 and "nested 100 levels deep" in r.json()["errors"][0]["message"]
+    assert r.status_code == 422
+    assert "nested 100 levels deep" in r.json()["errors"][0]["message"]
     r = post(app, parts={}, files={"assignment": (None, assignment_text())})  # multipart, without a class
-    assert r.status_code == 422 and "the class is missing" in r.json()["errors"][0]["message"]
+    assert r.status_code == 422
+    assert "the class is missing" in r.json()["errors"][0]["message"]
     r = post(app, files=[*zip_part.items(), ("files", ("a.json", b"{}"))])
-    assert r.status_code == 422 and "not both" in r.json()["errors"][0]["message"]
+    assert r.status_code == 422
+    assert "not both" in r.json()["errors"][0]["message"]
     r = post(app, files={"homework": ("a.json", b"{}")})
-    assert r.status_code == 422 and r.json()["errors"][0]["message"].startswith("unknown part 'homework'")
+    assert r.status_code == 422
+    assert r.json()["errors"][0]["message"].startswith("unknown part 'homework'")
     r = app.post("/api/grade/upload", json={"assignment": {}})
-    assert r.status_code == 415 and "multipart/form-data" in r.json()["errors"][0]["message"]
+    assert r.status_code == 415
+    assert "multipart/form-data" in r.json()["errors"][0]["message"]
     r = post(app, files=[("files", (f"s{i}.json", b"{}")) for i in range(41)])
-    assert r.status_code == 422 and "more than 40 files" in r.json()["errors"][0]["message"]
+    assert r.status_code == 422
+    assert "more than 40 files" in r.json()["errors"][0]["message"]
     r = post(app, files=[("files", ("big.json", b" " * 2_100_000))])
     assert r.status_code == 422
     assert r.json()["errors"][0] == {"path": "files", "message": "big.json: the files are more than 2000000 bytes "
@@ -351,7 +362,8 @@ def test_upload_past_its_size_is_refused_by_content_length_and_by_bytes_streamed
     limit = 2_000_000 + 2_000_000
     r = app.post("/api/grade/upload", content=b"x" * 10, headers={"content-type": "multipart/form-data; boundary=b",
                                                                   "content-length": str(limit + 1)})  # fmt: skip
-    assert r.status_code == 413 and f"larger than {limit} bytes (TRACER_MAX_CLASS_BYTES" in r.text
+    assert r.status_code == 413
+    assert f"larger than {limit} bytes (TRACER_MAX_CLASS_BYTES" in r.text
 
     def chunks():  # no Content-Length: chunked, counted as it comes
         yield b'--b\r\nContent-Disposition: form-data; name="class"; filename="x.zip"\r\n\r\n'
@@ -359,7 +371,8 @@ def test_upload_past_its_size_is_refused_by_content_length_and_by_bytes_streamed
             yield b"\0" * 65536
 
     r = app.post("/api/grade/upload", content=chunks(), headers={"content-type": "multipart/form-data; boundary=b"})
-    assert r.status_code == 413 and f"larger than {limit} bytes" in r.text
+    assert r.status_code == 413
+    assert f"larger than {limit} bytes" in r.text
 
 
 def test_upload_the_json_route_reads_its_zip_with_the_same_bounds(app, bomb):
@@ -436,7 +449,8 @@ def test_upload_the_json_route_unpacks_to_disk_never_holding_the_class(app):
 def test_upload_openapi_documents_the_multipart_body(app):
     op = app.get("/openapi.json").json()["paths"]["/api/grade/upload"]["post"]
     schema = op["requestBody"]["content"]["multipart/form-data"]["schema"]
-    assert {"assignment", "class", "files"} <= set(schema["properties"]) and schema["required"] == ["assignment"]
+    assert {"assignment", "class", "files"} <= set(schema["properties"])
+    assert schema["required"] == ["assignment"]
 
 
 def test_upload_path_in_a_zip_stays_inside(tmp_path):
@@ -447,7 +461,8 @@ def test_upload_path_in_a_zip_stays_inside(tmp_path):
         z.writestr("ok/../../evil2.json", "{}")
         z.writestr("fine.json", "{}")
     files = unpack_zip(io.BytesIO(buf.getvalue()), tmp_path / "out")
-    assert list(files) == ["fine.json"] and files["fine.json"].parent == tmp_path / "out"
+    assert list(files) == ["fine.json"]
+    assert files["fine.json"].parent == tmp_path / "out"
     assert not (tmp_path / "evil.json").exists() and not Path("/etc/evil.json").exists()
 
 
@@ -464,11 +479,13 @@ def test_upload_the_repositorys_assignment_with_its_reference_file_beside_it(app
     state = finished(app, r.json()["url"])
     assert {x["student"]: (x["score"], x["status"]) for x in state["reports"]} == {"grace": EXPECTED["grace"]}
     # an image can earn its readability's and the image tests' points, 7 of the scene's 13
-    assert state["max_scores"] == {"scene": 13.0, "image": 7.0} and state["max_score"] == 13.0
+    assert state["max_scores"] == {"scene": 13.0, "image": 7.0}
+    assert state["max_score"] == 13.0
     assert state["summary"]["statistics"]["max_scores"] == {"image": 7.0}
     del parts["reference"]
     r = app.post("/api/grade/upload", files=parts)
     assert r.status_code == 422 and r.json()["errors"][0]["path"] == "assignment.reference.scene", r.text
     r = app.post("/api/grade/upload", files={**parts, "reference": ("r.json", b"[1]", "application/json")})
-    assert r.status_code == 422 and r.json()["errors"] == [
-        {"path": "reference", "message": "the reference scene must be a JSON object {...}"}]  # fmt: skip
+    assert r.status_code == 422
+    assert (r.json()["errors"] == [
+        {"path": "reference", "message": "the reference scene must be a JSON object {...}"}])  # fmt: skip

@@ -36,7 +36,8 @@ def test_janitor_removes_finished_jobs_past_their_time_only(tmp_path):
     queued, running = job_in(store, "queued"), job_in(store, "running")
     store.db.execute("UPDATE jobs SET created_at = ? WHERE id IN (?, ?)", (NOW - 30 * DAY, queued, running))
     done = jan.clean(now=NOW)
-    assert done.expired == 3 and done.for_size == 0
+    assert done.expired == 3
+    assert done.for_size == 0
     for job_id in old.values():
         assert store.get(job_id) is None and not (store.job_dir(job_id)).exists()  # row and folder together
     for job_id in (recent, queued, running):  # a queued or running job is never removed, however old
@@ -68,7 +69,8 @@ def test_janitor_caps_the_data_directory_oldest_finished_first(tmp_path, caplog)
     jan.settings.max_data_bytes = base + 100_000
     with caplog.at_level("WARNING", logger="server.jobs.janitor"):
         assert jan.clean(now=NOW).for_size == 1 and store.get(third) is None
-        assert store.get(running) is not None and store.get(just_done) is not None
+        assert store.get(running) is not None
+        assert store.get(just_done) is not None
         jan.clean(now=NOW)
     assert caplog.text.count("no finished job is left to remove") == 1
 

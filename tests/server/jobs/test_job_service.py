@@ -54,9 +54,11 @@ def test_job_service_submits_to_the_store_then_the_queue(tmp_path):
     jobs, queue = service(tmp_path)
     row = submit(jobs, lane=Lane.batch)
     assert [r["id"] for r in queue.submitted_rows] == [row["id"]]
-    assert jobs.store.get(row["id"])["status"] == JobStatus.queued and row["max_seconds"] == 600.0
+    assert jobs.store.get(row["id"])["status"] == JobStatus.queued
+    assert row["max_seconds"] == 600.0
     cancelled = jobs.cancel(row["id"])
-    assert cancelled["status"] == JobStatus.cancelled and [r["id"] for r in queue.cancelled_rows] == [row["id"]]
+    assert cancelled["status"] == JobStatus.cancelled
+    assert [r["id"] for r in queue.cancelled_rows] == [row["id"]]
 
 
 def test_job_service_keeps_the_queue_s_worker_count_a_second(tmp_path):
@@ -65,7 +67,8 @@ def test_job_service_keeps_the_queue_s_worker_count_a_second(tmp_path):
     jobs, queue = service(tmp_path, workers=2)
     row = submit(jobs)
     views = [jobs.public(jobs.store.get(row["id"])) for _ in range(100)]
-    assert queue.asked == 1 and {v.queue.workers for v in views} == {2}
+    assert queue.asked == 1
+    assert {v.queue.workers for v in views} == {2}
 
 
 def test_job_service_watch_reads_every_followed_job_in_one_query_and_wakes_only_the_changed(tmp_path):
@@ -160,10 +163,14 @@ def test_job_service_a_view_s_event_texts_are_made_once_for_all_its_streams(tmp_
     view = jobs.public(jobs.store.get(row["id"]))
     first = _texts(view, row["id"])
     assert _texts(view, row["id"]) is first
-    assert first[1].startswith("event: progress\ndata: {") and first[2] is None and first[3] is None
+    assert first[1].startswith("event: progress\ndata: {")
+    assert first[2] is None
+    assert first[3] is None
     jobs.store.cancel(row["id"])
     ended = _texts(jobs.public(jobs.store.get(row["id"])), row["id"])
-    assert ended is not first and ended[3].startswith("event: end\ndata: {") and '"cancelled"' in ended[3]
+    assert ended is not first
+    assert ended[3].startswith("event: end\ndata: {")
+    assert '"cancelled"' in ended[3]
 
 
 def test_job_service_a_follower_is_handed_a_running_render_s_changes_to_its_end(tmp_path):

@@ -22,6 +22,7 @@ def test_placing_only_staff_move_a_job_up_or_ahead_and_a_student_is_told_what_wa
     assert (student.lane, student.priority) == (Lane.batch, 0)
     assert [w["path"] for w in student.warnings] == ["priority", "lane"]
     assert "3 was lowered to 0" in student.warnings[0]["message"]
-    assert "(5 s)" in student.warnings[1]["message"] and "estimated at 9 s" in student.warnings[1]["message"]
+    assert "(5 s)" in student.warnings[1]["message"]
+    assert "estimated at 9 s" in student.warnings[1]["message"]
     short = place(2.0, 5.0, Lane.interactive, 0, staff=False)  # asked for the lane it gets: no warning
     assert (short.lane, short.warnings) == (Lane.interactive, [])

@@ -28,12 +28,14 @@ def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(
             time.sleep(0.5)
         assert states == dict.fromkeys(names, "ready")
         jobs = client.get("/api/jobs?kind=preview&limit=1000", headers=bearer(INSTRUCTOR)).json()["jobs"]
-        assert len(jobs) == len(names) and {j["status"] for j in jobs} == {"done"}
+        assert len(jobs) == len(names)
+        assert {j["status"] for j in jobs} == {"done"}
         assert all(j["lane"] == "batch" and j["name"].startswith("preview of ") for j in jobs)
         # a student sees none of them among their jobs, but every picture
         assert client.get("/api/jobs?kind=preview").json()["jobs"] == []
         png = client.get("/api/scenes/whitted/preview.png")
-        assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+        assert png.status_code == 200
+        assert png.headers["content-type"] == "image/png"
         job = next(j for j in jobs if j["name"] == "preview of whitted")
         image = client.get(f"/api/jobs/{job['id']}/image", headers=bearer(INSTRUCTOR))
         assert png.content == image.content  # the worker's render, as it made it

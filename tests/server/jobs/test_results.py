@@ -45,7 +45,8 @@ def test_results_a_done_render_answers_the_same_scene_of_another_token_at_once(a
     assert r.status_code == 202, r.text
     again = r.json()
     assert again["id"] != first["id"] and again["status"] == "done" and again["finished"], again
-    assert again["rays"] == done["rays"] and again["progress"] == done["progress"]
+    assert again["rays"] == done["rays"]
+    assert again["progress"] == done["progress"]
     assert again["elapsed"] == pytest.approx(done["elapsed"], abs=1e-3)  # what the render cost, not 0
     assert answering.get(again["image_url"], headers=other).content == image
     assert answering.get(f"/api/jobs/{again['id']}/aov/rays.png", headers=other).content == rays
@@ -77,7 +78,8 @@ def test_results_an_answer_keeps_its_pictures_when_its_source_is_removed(answeri
     assert store.remove(first["id"])  # the janitor's removal of the older job
     assert answering.get(again["image_url"]).content == image
     third = submit(answering, scene)  # answered from the one left
-    assert third["status"] == "done" and answering.get(third["image_url"]).content == image
+    assert third["status"] == "done"
+    assert answering.get(third["image_url"]).content == image
     shutil.rmtree(store.job_dir(third["id"]))
     store.remove(again["id"])
     assert submit(answering, scene)["status"] == "queued"  # the latest done one lost its files: never an empty answer
@@ -112,4 +114,5 @@ def test_results_lesson_panels_rendered_ahead_answer_a_student_s_panel(answering
     store = answering.app.state.store  # (the instructor's jobs: the test's client is not their owner)
     wait_for(lambda: all(store.get(j["id"])["status"] == "done" for j in ahead), 60, "the panels rendered ahead")
     student = submit(answering, scenes[1])
-    assert student["status"] == "done" and student["name"] == scenes[1].get("name")
+    assert student["status"] == "done"
+    assert student["name"] == scenes[1].get("name")

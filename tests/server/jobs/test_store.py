@@ -101,7 +101,8 @@ def test_store_a_dead_worker_s_job_is_retried_then_failed(tmp_path):
     assert not store.progress(job_id, 11, samples_done=5)  # the old worker no longer owns it
     assert store.worker_died(12, max_tries=2, reason="render worker killed") == [(job_id, "failed")]
     row = store.get(job_id)
-    assert row["status"] == JobStatus.failed and row["error"] == "render worker killed; tried 2 time(s)"
+    assert row["status"] == JobStatus.failed
+    assert row["error"] == "render worker killed; tried 2 time(s)"
 
 
 def test_store_a_try_put_back_by_a_restart_is_not_a_lost_one(tmp_path):
@@ -159,7 +160,8 @@ def test_store_moves_follow_the_life_cycle(tmp_path):
     assert store.fail(job_id, None, "over the time limit")  # the supervisor ends it first ...
     assert not store.finish(job_id, 7, JobStatus.cancelled, error="cancelled while rendering")  # ... so this is late
     row = store.get(job_id)
-    assert (row["status"], row["error"]) == ("failed", "over the time limit") and row["finished_at"] is not None
+    assert (row["status"], row["error"]) == ("failed", "over the time limit")
+    assert row["finished_at"] is not None
     assert not store.requeue(job_id, 7) and store.get(job_id)["status"] == "failed"
     assert store.cancel(job_id)["status"] == "failed"  # an ended job: the cancel changes nothing
 
@@ -183,7 +185,9 @@ def test_store_an_accepted_cancel_wins_over_the_try_s_end(tmp_path, end, error):
     assert store.cancel(job_id)["status"] == "running"  # a running job is asked to stop, not ended
     assert end(store, job_id)
     row = store.get(job_id)
-    assert row["status"] == "cancelled" and row["error"].startswith(error) and row["finished_at"] is not None
+    assert row["status"] == "cancelled"
+    assert row["error"].startswith(error)
+    assert row["finished_at"] is not None
     assert json.loads(row["tries"])[-1]["outcome"] in ("cancelled", "lost")
     assert store.cancel(job_id)["status"] == "cancelled" and not store.finish(job_id, 7, JobStatus.done)
 
@@ -247,7 +251,9 @@ def test_store_peek_reads_a_row_without_its_scene_and_never_waits_for_a_lock(tmp
     store = JobStore(tmp_path)
     job_id = add(store)
     row = store.peek(job_id)
-    assert row["id"] == job_id and "scene" not in row and row["status"] == JobStatus.queued
+    assert row["id"] == job_id
+    assert "scene" not in row
+    assert row["status"] == JobStatus.queued
     assert store.peek("j" * len(job_id)) is None
 
     for local in (store._local, store._quick):  # this thread's connections closed: the locker's is the only one
@@ -267,7 +273,9 @@ def test_store_peek_reads_a_row_without_its_scene_and_never_waits_for_a_lock(tmp
     reader.start()
     locker.close()  # the lock goes with the connection
     reader.join(timeout=30)
-    assert got and got[0]["priority"] == 5 and "scene" not in got[0]
+    assert got
+    assert got[0]["priority"] == 5
+    assert "scene" not in got[0]
 
 
 def test_store_rows_are_typed_with_every_column_of_the_table(tmp_path):

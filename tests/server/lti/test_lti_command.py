@@ -22,7 +22,9 @@ def test_lti_command_register_list_remove(tmp_path, capsys):
     data = ["--data-dir", str(tmp_path)]
     assert main(["register", *PLATFORM, "--deployment", "1", "--deployment", "2", "--name", "Moodle", *data]) == 0
     pid, line = capsys.readouterr().out.splitlines()
-    assert len(pid) == 12 and "https://moodle.example.edu (Moodle)" in line and "deployments: 1, 2" in line
+    assert len(pid) == 12
+    assert "https://moodle.example.edu (Moodle)" in line
+    assert "deployments: 1, 2" in line
     assert main(["list", *data]) == 0
     assert capsys.readouterr().out.startswith(pid + "  https://moodle.example.edu")
     assert main(["remove", pid, *data]) == 0 and main(["remove", pid, *data]) == 1
@@ -41,7 +43,8 @@ def test_lti_command_show_tool_prints_canvas_json():
                        cwd=ROOT, capture_output=True, text=True, timeout=120)  # fmt: skip
     assert r.returncode == 0, r.stderr
     text, _, canvas = r.stdout.partition(CANVAS_HEADER)
-    assert "https://tool.example.edu/lti/login" in text and "https://tool.example.edu/lti/jwks" in text
+    assert "https://tool.example.edu/lti/login" in text
+    assert "https://tool.example.edu/lti/jwks" in text
     key = json.loads(canvas)
     assert key["oidc_initiation_url"] == "https://tool.example.edu/lti/login"
     assert key["target_link_uri"] == "https://tool.example.edu/lti/launch"
@@ -49,7 +52,8 @@ def test_lti_command_show_tool_prints_canvas_json():
     assert "https://purl.imsglobal.org/spec/lti-ags/scope/score" in key["scopes"]
     assert "https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly" in key["scopes"]
     (ext,) = key["extensions"]
-    assert ext["privacy_level"] == "public" and ext["domain"] == "tool.example.edu"
+    assert ext["privacy_level"] == "public"
+    assert ext["domain"] == "tool.example.edu"
     kinds = {p["placement"]: p["message_type"] for p in ext["settings"]["placements"]}
     assert kinds == {"course_navigation": "LtiResourceLinkRequest", "assignment_selection": "LtiDeepLinkingRequest",
                      "link_selection": "LtiDeepLinkingRequest"}  # fmt: skip
@@ -82,10 +86,12 @@ def test_lti_api_register_names_a_bad_field(tool):
     r = tool.client.post("/api/lti/platforms", json=body, headers=tool.admin())
     assert r.status_code == 422
     (error,) = r.json()["errors"]
-    assert error["path"] == "auth_url" and "https://" in error["message"]
+    assert error["path"] == "auth_url"
+    assert "https://" in error["message"]
     r = tool.client.post("/api/lti/platforms", json={**body, "auth_url": body["token_url"], "jwks_url": 3},
                          headers=tool.admin())  # fmt: skip
-    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["jwks_url"]
+    assert r.status_code == 422
+    assert [e["path"] for e in r.json()["errors"]] == ["jwks_url"]
 
 
 def test_lti_command_private_addresses_need_allow_private_and_the_options_are_kept(tmp_path, capsys):
@@ -96,9 +102,8 @@ def test_lti_command_private_addresses_need_allow_private_and_the_options_are_ke
     ]  # fmt: skip
     assert main(["register", *local, *data]) == 1
     err = capsys.readouterr().err
-    assert err.startswith("issuer: 'https://10.0.0.5' is on a loopback, link-local or private address") and (
-        "--allow-private" in err
-    )
+    assert err.startswith("issuer: 'https://10.0.0.5' is on a loopback, link-local or private address")
+    assert "--allow-private" in err
     assert main(["register", *local, "--allow-private", "--trust-emails", *data]) == 0
     assert "trusts emails" in capsys.readouterr().out
     argv = ["register", *PLATFORM, "--deployment", "1", "--service-origin", "https://school.example.edu", *data]
@@ -109,7 +114,9 @@ def test_lti_api_register_refuses_a_private_address_unless_allowed(tool):
     body = {"issuer": "https://169.254.169.254", "client_id": "c", "auth_url": "https://lms.example.edu/auth",
             "token_url": "https://lms.example.edu/token", "jwks_url": "https://lms.example.edu/jwks"}  # fmt: skip
     r = tool.client.post("/api/lti/platforms", json=body, headers=tool.admin())
-    assert r.status_code == 422 and [e["path"] for e in r.json()["errors"]] == ["issuer"]
+    assert r.status_code == 422
+    assert [e["path"] for e in r.json()["errors"]] == ["issuer"]
     r = tool.client.post("/api/lti/platforms", json={**body, "allow_private": True}, headers=tool.admin())
-    assert r.status_code == 201 and r.json()["trust_emails"] is False
+    assert r.status_code == 201
+    assert r.json()["trust_emails"] is False
     assert tool.client.delete(f"/api/lti/platforms/{r.json()['id']}", headers=tool.admin()).status_code == 204

@@ -43,7 +43,8 @@ def test_lti_jwks_unknown_kid_refetched_once_per_interval():
     clock.now += 61
     with pytest.raises(LaunchError) as e:
         cache.key_set("u", "forged")
-    assert e.value.check == "kid" and len(fetch.calls) == 2  # fetched again, once
+    assert e.value.check == "kid"
+    assert len(fetch.calls) == 2  # fetched again, once
     for _ in range(5):  # forged kids within the interval: no more fetches
         with pytest.raises(LaunchError):
             cache.key_set("u", "forged-again")
@@ -64,7 +65,8 @@ def test_lti_jwks_bad_answers_are_jwks_errors():
 def test_lti_jwks_default_fetch_says_why_it_failed():
     with pytest.raises(LaunchError) as e:
         fetch_jwks("http://127.0.0.1:9/jwks")  # nothing listens on the discard port
-    assert e.value.check == "jwks" and "could not be fetched" in e.value.message
+    assert e.value.check == "jwks"
+    assert "could not be fetched" in e.value.message
 
 
 def test_lti_jwks_default_fetch_is_bounded_and_checks_the_answer():

@@ -30,7 +30,8 @@ def test_lti_keys_jwks_has_no_private_part_and_verifies_what_it_signs(tmp_path):
     assert len(entry["n"]) >= 342  # 2048 bits in base64url
     token = keys.sign({"hello": "world"})
     decoded = jwt.decode(token, KeySet.import_key_set(keys.jwks()), algorithms=["RS256"])
-    assert decoded.header["kid"] == keys.kid and decoded.claims == {"hello": "world"}
+    assert decoded.header["kid"] == keys.kid
+    assert decoded.claims == {"hello": "world"}
 
 
 def test_lti_keys_made_by_two_threads_at_once_are_one_key(tmp_path):
@@ -56,7 +57,8 @@ def test_lti_keys_rotation_publishes_both_for_the_grace_period_then_drops_the_ol
     signed_before = server.sign({"n": 1})
     assert main(["rotate-key", "--grace-hours", "2", "--data-dir", str(tmp_path / "data")]) == 0
     new = capsys.readouterr().out.splitlines()[0]
-    assert new != old and server.kid == new  # the server sees the new file
+    assert new != old
+    assert server.kid == new  # the server sees the new file
     assert [k["kid"] for k in server.jwks()["keys"]] == [new, old]
     keys = KeySet.import_key_set(server.jwks())
     assert jwt.decode(signed_before, keys, algorithms=["RS256"]).claims == {"n": 1}  # signed before: still checks

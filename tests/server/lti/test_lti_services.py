@@ -34,7 +34,8 @@ def test_lti_services_access_token_is_cached_until_a_minute_before_expiry(servic
     token = services.access_token(p, [SCORE_SCOPE])
     assert services.access_token(p, [SCORE_SCOPE]) == token and len(platform.token_requests) == 1
     (request,) = platform.token_requests
-    assert request["grant_type"] == "client_credentials" and request["scope"] == SCORE_SCOPE
+    assert request["grant_type"] == "client_credentials"
+    assert request["scope"] == SCORE_SCOPE
     assert services.access_token(p, [NRPS_SCOPE]) != token  # other scopes, another token
     services.test_clock.now += 3600 - 59  # within a minute of its expiry: a new one
     assert services.access_token(p, [SCORE_SCOPE]) != token and len(platform.token_requests) == 3
@@ -44,7 +45,8 @@ def test_lti_services_a_bad_assertion_is_refused_by_the_platform(services, platf
     p = {**platform.registered, "client_id": "not-the-client"}
     with pytest.raises(ServiceError) as e:
         services.access_token(p, [SCORE_SCOPE])
-    assert e.value.status == 401 and "invalid_client" in e.value.message
+    assert e.value.status == 401
+    assert "invalid_client" in e.value.message
 
 
 def test_lti_services_score_posted_with_increasing_timestamps(services, platform):
@@ -52,7 +54,8 @@ def test_lti_services_score_posted_with_increasing_timestamps(services, platform
     lineitem = f"{platform.url}/lineitems/li-1?context=course-1"
     assert scores_url(lineitem) == f"{platform.url}/lineitems/li-1/scores?context=course-1"
     first = score("student-1", 7, 10, services.test_clock.now, comment="two reflections missing")
-    assert first["timestamp"].endswith("Z") and len(first["timestamp"]) == len("2026-12-05T09:15:00.000Z")
+    assert first["timestamp"].endswith("Z")
+    assert len(first["timestamp"]) == len("2026-12-05T09:15:00.000Z")
     services.post_score(p, lineitem, first)
     services.post_score(p, lineitem, score("student-1", 9, 10, services.test_clock.now + 1))
     assert [(s["userId"], s["scoreGiven"], s["lineitem"]) for s in platform.scores] == [
@@ -68,18 +71,21 @@ def test_lti_services_score_fails_with_the_platform_down(services, platform):
     platform.down = True
     with pytest.raises(ServiceError) as e:
         services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 0.0))
-    assert e.value.status == 503 and "503" in e.value.message
+    assert e.value.status == 503
+    assert "503" in e.value.message
     platform.stop()
     with pytest.raises(ServiceError) as e:
         services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 1.0))
-    assert e.value.status == 0 and "no answer" in e.value.message
+    assert e.value.status == 0
+    assert "no answer" in e.value.message
 
 
 def test_lti_services_line_items_read_and_made(services, platform):
     p, url = platform.registered, f"{platform.url}/lineitems?context=course-1"
     assert [i["label"] for i in services.line_items(p, url)] == ["Ray trees"]
     made = services.create_line_item(p, url, "Radiosity", 20, resource_link_id="link-2", tag="hw2")
-    assert made["id"].startswith(platform.url + "/lineitems/li-") and made["scoreMaximum"] == 20
+    assert made["id"].startswith(platform.url + "/lineitems/li-")
+    assert made["scoreMaximum"] == 20
     assert [i["label"] for i in services.line_items(p, url, resource_link_id="link-2")] == ["Radiosity"]
     services.post_score(p, made["id"], score("student-2", 15, 20, 1.0))
     assert platform.scores[-1]["lineitem"] == made["id"].rsplit("/", 1)[1]
@@ -104,8 +110,10 @@ def test_lti_services_deep_link_response_verified_by_the_platform(tool, platform
     r = httpx.post(settings["deep_link_return_url"], data={"JWT": jwt}, timeout=10)
     assert r.status_code == 200, r.text
     (claims,) = platform.deep_links
-    assert claims[DL + "content_items"] == items and claims[DL + "data"] == "opaque-data-1"
-    assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse" and claims["exp"] - claims["iat"] == 600
+    assert claims[DL + "content_items"] == items
+    assert claims[DL + "data"] == "opaque-data-1"
+    assert claims[LTI + "message_type"] == "LtiDeepLinkingResponse"
+    assert claims["exp"] - claims["iat"] == 600
 
 
 def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, platform):
@@ -116,7 +124,8 @@ def test_lti_services_deep_link_form_posts_the_answer_to_the_platform(tool, plat
     return_url = platform.url + "/deep_link_return"
     jwt = deep_link_response(tool.lti.keys, platform.registered, platform.deployment_id, {}, [], 1e9)
     html = deep_link_form(return_url, jwt, "Ray trees <1>").html
-    assert "Ray trees &lt;1&gt;" in html and "<script" not in html
+    assert "Ray trees &lt;1&gt;" in html
+    assert "<script" not in html
     action = re.search(r'<form method="post" action="([^"]+)">', html)[1]
     value = re.search(r'name="JWT" value="([^"]+)"', html)[1]
     assert (action, value) == (return_url, jwt)
@@ -129,7 +138,8 @@ def test_lti_services_a_revoked_token_is_replaced_once(services, platform):
     services.post_score(p, lineitem, score("student-1", 1, 10, 1.0))
     platform.tokens.clear()  # the platform forgets every token it gave
     services.post_score(p, lineitem, score("student-1", 2, 10, 2.0))
-    assert len(platform.token_requests) == 2 and len(platform.scores) == 2
+    assert len(platform.token_requests) == 2
+    assert len(platform.scores) == 2
 
 
 def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s_body(services, platform):
@@ -137,7 +147,8 @@ def test_lti_services_staff_see_the_status_and_a_short_reason_not_the_platform_s
     with pytest.raises(ServiceError) as e:
         services.post_score(platform.registered, f"{platform.url}/lineitems/li-1", score("s", 1, 2, 0.0))
     assert e.value.status == 503 and "HTTP 503 (Service Unavailable" in e.value.message, e.value.message
-    assert "maintenance" not in e.value.message and "{" not in e.value.message
+    assert "maintenance" not in e.value.message
+    assert "{" not in e.value.message
 
 
 def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services, platform):
@@ -163,5 +174,7 @@ def test_lti_services_send_the_platform_s_token_to_its_own_origins_only(services
         for call in calls:
             with pytest.raises(ServiceError) as e:
                 call()
-            assert "not at the platform's registered addresses" in e.value.message and platform.url in e.value.message
-    assert seen == [] and platform.token_requests == []
+            assert "not at the platform's registered addresses" in e.value.message
+            assert platform.url in e.value.message
+    assert seen == []
+    assert platform.token_requests == []

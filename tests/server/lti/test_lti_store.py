@@ -17,9 +17,12 @@ CANVAS = dict(
 def test_lti_store_register_upserts_by_issuer_and_client_id(tmp_path):
     store = LtiStore(tmp_path)
     p = store.register(**CANVAS, deployment_ids=["1:abc"], name="Canvas", now=1.0)
-    assert len(p["id"]) == 12 and p["deployment_ids"] == ["1:abc"] and p["name"] == "Canvas"
+    assert len(p["id"]) == 12
+    assert p["deployment_ids"] == ["1:abc"]
+    assert p["name"] == "Canvas"
     again = store.register(**CANVAS, deployment_ids=["1:abc", "2:def"], now=2.0)
-    assert again["id"] == p["id"] and again["deployment_ids"] == ["1:abc", "2:def"]
+    assert again["id"] == p["id"]
+    assert again["deployment_ids"] == ["1:abc", "2:def"]
     assert store.find(CANVAS["issuer"], CANVAS["client_id"])["id"] == p["id"]
     assert store.find(CANVAS["issuer"])["id"] == p["id"]  # the only one of that issuer
     store.register(**{**CANVAS, "client_id": "other"}, deployment_ids=[], now=3.0)
@@ -37,7 +40,8 @@ def test_lti_store_register_upserts_by_issuer_and_client_id(tmp_path):
 def test_lti_store_register_refuses_a_bad_url_naming_its_field(tmp_path, field, value):
     with pytest.raises(Invalid) as e:
         LtiStore(tmp_path).register(**{**CANVAS, field: value}, deployment_ids=["1"])
-    assert isinstance(e.value, Invalid) and [x["path"] for x in e.value.errors] == [field]
+    assert isinstance(e.value, Invalid)
+    assert [x["path"] for x in e.value.errors] == [field]
     assert "https://" in e.value.errors[0]["message"] or "URL" in e.value.errors[0]["message"]
 
 
@@ -55,7 +59,8 @@ def test_lti_store_a_login_is_taken_once_and_only_while_fresh(tmp_path):
     store = LtiStore(tmp_path)
     pid = store.register(**CANVAS, deployment_ids=["1"])["id"]
     state, nonce = store.new_login(pid, "https://tool/lti/launch", now=100.0)
-    assert len(state) == len(nonce) == 43 and state != nonce  # 256 bits each, base64url
+    assert len(state) == len(nonce) == 43
+    assert state != nonce  # 256 bits each, base64url
     row = store.take_login(state, now=150.0)
     assert (row["platform_id"], row["nonce"], row["target_link_uri"]) == (pid, nonce, "https://tool/lti/launch")
     assert store.take_login(state, now=150.0) is None  # used
@@ -119,7 +124,8 @@ def test_lti_store_logins_are_capped_per_address_and_in_all_and_kept_ten_minutes
     states = [store.new_login(pid, "t", now=100.0 + i, address="192.0.2.1")[0] for i in range(3)]
     with pytest.raises(lti_store.TooManyLogins) as e:
         store.new_login(pid, "t", now=110.0, address="192.0.2.1")
-    assert e.value.retry_after == 591 and "192.0.2.1" not in e.value.message  # the oldest goes at 100 + 600
+    assert e.value.retry_after == 591
+    assert "192.0.2.1" not in e.value.message  # the oldest goes at 100 + 600
     store.new_login(pid, "t", now=110.0, address="192.0.2.2")
     store.new_login(pid, "t", now=111.0, address="192.0.2.3")
     with pytest.raises(lti_store.TooManyLogins):  # five in all

@@ -50,10 +50,15 @@ def test_api_lanes_an_interactive_worker_takes_the_page_s_jobs_while_a_batch_ren
         wait_for(lambda: job(client, long["id"])["status"] == "running", 30, "the batch render to start")
         waiting = batch(client, long_job(4096, seed=1, size=(256, 192)))  # the only batch worker is busy
         place = job(client, waiting["id"])["queue"]
-        assert place["lane"] == "batch" and place["position"] == 1 and place["ahead"] == 0
-        assert place["running"] >= 1 and place["workers"] == 1 and place["expected_wait"] > 0
+        assert place["lane"] == "batch"
+        assert place["position"] == 1
+        assert place["ahead"] == 0
+        assert place["running"] >= 1
+        assert place["workers"] == 1
+        assert place["expected_wait"] > 0
         quick = submit(client, quick_job())
-        assert quick["lane"] == "interactive" and quick["estimate"] < 1
+        assert quick["lane"] == "interactive"
+        assert quick["estimate"] < 1
         done = wait_status(client, quick["id"], {"done"}, timeout=30)
         assert job(client, long["id"])["status"] == "running"  # it never had to give way
         assert len(job(client, long["id"])["tries"]) == 1 and done["tries"][0]["outcome"] == "done"
@@ -73,12 +78,15 @@ def test_api_lanes_a_batch_render_gives_way_and_resumes_with_the_same_image(tmp_
         quick = submit(client, quick_job())
         wait_status(client, quick["id"], {"done"}, timeout=60)
         gave_way = job(client, long["id"])
-        assert gave_way["tries"][0]["outcome"] == "gave way" and gave_way["snapshot"] >= 3
+        assert gave_way["tries"][0]["outcome"] == "gave way"
+        assert gave_way["snapshot"] >= 3
         done = wait_status(client, long["id"], {"done"}, timeout=120)
         first, second = done["tries"]
-        assert second["resumed_from"] == gave_way["snapshot"] and second["outcome"] == "done"
+        assert second["resumed_from"] == gave_way["snapshot"]
+        assert second["outcome"] == "done"
         assert done["attempts"] == 1  # giving way costs no try
-        assert done["progress"]["spp_done"] == 2304 and done["rays"]["eye"] == 128 * 96 * 2304
+        assert done["progress"]["spp_done"] == 2304
+        assert done["rays"]["eye"] == 128 * 96 * 2304
         assert np.array_equal(exr_of(client, long["id"]), library_image(scene))
 
 
@@ -90,7 +98,8 @@ def test_api_lanes_a_render_continues_from_its_snapshot_after_its_worker_died(tm
         pid = client.get("/api/health").json()["workers"][0]["pid"]
         os.kill(pid, signal.SIGKILL)
         done = wait_status(client, j["id"], {"done"}, timeout=120)
-        assert done["attempts"] == 2 and [t["outcome"] for t in done["tries"]] == ["lost", "done"]
+        assert done["attempts"] == 2
+        assert [t["outcome"] for t in done["tries"]] == ["lost", "done"]
         assert done["tries"][1]["resumed_from"] >= running["snapshot"]
         assert np.array_equal(exr_of(client, j["id"]), library_image(scene))
 
@@ -99,7 +108,9 @@ def test_api_lanes_a_render_continues_from_its_snapshot_after_its_worker_died(tm
 def test_api_lanes_a_long_render_goes_to_the_batch_lane_by_its_estimate(client, settings, spp):
     settings.interactive_seconds = 1.0
     r = client.post("/api/jobs", json={"scene": long_job(spp)})
-    assert r.status_code == 202 and r.json()["lane"] == "batch" and r.json()["estimate"] > 1.0
+    assert r.status_code == 202
+    assert r.json()["lane"] == "batch"
+    assert r.json()["estimate"] > 1.0
     client.delete(f"/api/jobs/{r.json()['id']}")
     wait_for(lambda: job(client, r.json()["id"])["finished"], 30, "the cancel")
 
@@ -110,6 +121,8 @@ def test_api_lanes_a_render_of_an_exploding_ray_tree_goes_to_the_batch_lane(clie
     box = json.loads((ROOT / "tests" / "tracer" / "mirror_box.json").read_text())
     settings.interactive_seconds = 20.0
     r = client.post("/api/jobs", json={"scene": small(box, 256, 256, sampler={"type": "jittered", "spp": 16})})
-    assert r.status_code == 202 and r.json()["lane"] == "batch" and r.json()["estimate"] > 20.0
+    assert r.status_code == 202
+    assert r.json()["lane"] == "batch"
+    assert r.json()["estimate"] > 20.0
     client.delete(f"/api/jobs/{r.json()['id']}")
     wait_for(lambda: job(client, r.json()["id"])["finished"], 30, "the cancel")

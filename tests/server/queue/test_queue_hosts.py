@@ -191,7 +191,8 @@ def test_queue_hosts_cancel_reaches_a_job_on_another_host(hosts):
     )
     assert status == 202
     ended = h.wait(job["id"], lambda j: j["finished"], "the cancel to reach the host", timeout=30)
-    assert ended["status"] == "cancelled" and ended["tries"][-1]["outcome"] == "cancelled"
+    assert ended["status"] == "cancelled"
+    assert ended["tries"][-1]["outcome"] == "cancelled"
     assert ended["preview"] >= 1  # the last full pass is kept
     wait_for(lambda: all(w["job"] is None for w in h.health()["workers"]), 30, "the host to be free again")
 
@@ -207,13 +208,16 @@ def test_queue_hosts_jobs_are_their_token_s_and_the_host_is_checked(hosts):
     other = h.c.workers[0]
     url = f"{h.api}/api/jobs/{job['id']}"
     status, body = h.c.http(other, "GET", url)
-    assert status == 404 and body == {"errors": [{"path": "id", "message": f"no job with id '{job['id']}'"}]}
+    assert status == 404
+    assert body == {"errors": [{"path": "id", "message": f"no job with id '{job['id']}'"}]}
     status, body = h.c.http(other, "GET", url, headers=bearer(student_token()))
     assert status == 404
     assert h.c.http(other, "GET", f"{h.api}/api/jobs")[1] == {"jobs": [], "count": 0}
     assert h.call("GET", "/api/jobs", ns=other)[1]["count"] >= 1  # the job's own token, from any host
     status, body = h.c.http(other, "GET", f"{h.api}/api/grade/schema")
-    assert status == 403 and "TRACER_INSTRUCTOR_TOKEN" in body["errors"][0]["message"]
+    assert status == 403
+    assert "TRACER_INSTRUCTOR_TOKEN" in body["errors"][0]["message"]
     status, body = h.c.http(other, "GET", f"{h.api}/api/health", headers={"Host": "attacker.example"})
-    assert status == 400 and body["errors"][0]["path"] == "Host"
+    assert status == 400
+    assert body["errors"][0]["path"] == "Host"
     assert "without TRACER_INSTRUCTOR_TOKEN" in (h.root / "api.log").read_text()  # warned at start-up

@@ -38,7 +38,8 @@ def cluster(redis_server, tmp_path_factory):
 
 def exr(api: Api, job_id: str, path) -> np.ndarray:
     r = api.client.get(f"/api/jobs/{job_id}/image", params={"format": "exr"})
-    assert r.status_code == 200 and r.headers["content-type"] == "image/x-exr"
+    assert r.status_code == 200
+    assert r.headers["content-type"] == "image/x-exr"
     path.write_bytes(r.content)
     return read_exr(path)
 
@@ -59,7 +60,10 @@ def test_queue_redis_job_life_previews_and_the_cli_s_pixels(cluster, tmp_path):
     health = api.health()
     assert health["backend"] == "redis"
     (worker,) = health["workers"]
-    assert worker["name"] == "host-a" and worker["device"] == "cpu" and worker["threads"] == 1 and worker["host"]
+    assert worker["name"] == "host-a"
+    assert worker["device"] == "cpu"
+    assert worker["threads"] == 1
+    assert worker["host"]
     scene = small(scene_dict("whitted"), 96, 72, sampler={"type": "jittered", "spp": 64}, render={"seed": 3})
     job = api.submit(scene)
     events = []
@@ -71,11 +75,15 @@ def test_queue_redis_job_life_previews_and_the_cli_s_pixels(cluster, tmp_path):
     kinds = [e for e, _ in events]
     assert kinds.count("preview") >= 2 and "progress" in kinds, kinds
     done = events[-1][1]
-    assert done["status"] == "done" and done["attempts"] == 1 and done["finished"]
-    assert done["host"] and done["device"] == "cpu"
+    assert done["status"] == "done"
+    assert done["attempts"] == 1
+    assert done["finished"]
+    assert done["host"]
+    assert done["device"] == "cpu"
     (one,) = done["tries"]
     assert (one["attempt"], one["worker"], one["outcome"]) == (1, "host-a", "done")
-    assert done["rays"]["eye"] == 96 * 72 * 64 and done["progress"]["spp_done"] == 64
+    assert done["rays"]["eye"] == 96 * 72 * 64
+    assert done["progress"]["spp_done"] == 64
     # the same pixels as the command line, bit for bit, and the AOVs came along
     assert np.array_equal(exr(api, job["id"], tmp_path / "api.exr"), cli_exr(scene, tmp_path))
     assert api.client.get(f"/api/jobs/{job['id']}/aov/rays").status_code == 200
@@ -89,11 +97,13 @@ def test_queue_redis_cancel_a_running_and_a_queued_job(cluster):
     queued = api.submit(long_scene())  # the only host is busy: it waits in RQ
     assert api.job(queued["id"])["status"] == "queued"
     r = api.client.delete(f"/api/jobs/{queued['id']}")
-    assert r.status_code == 200 and r.json()["status"] == "cancelled"
+    assert r.status_code == 200
+    assert r.json()["status"] == "cancelled"
     r = api.client.delete(f"/api/jobs/{running['id']}")
     assert r.status_code == 202
     ended = api.wait(running["id"], lambda j: j["finished"], "the running job to stop", timeout=30)
-    assert ended["status"] == "cancelled" and ended["preview"] >= 1  # it keeps its last full pass
+    assert ended["status"] == "cancelled"
+    assert ended["preview"] >= 1  # it keeps its last full pass
     assert ended["tries"][-1]["outcome"] == "cancelled"
     # the host is free again, and the cancelled queued job never ran
     after = api.submit(small(scene_dict("whitted"), 16, 16, sampler={"type": "jittered", "spp": 4}))
@@ -122,7 +132,8 @@ def test_queue_redis_api_restart_loses_nothing(redis_server, tmp_path):
         wait_for(lambda: redis.hget(key, "status") == b"finished", 120, "the host to finish while the API is down")
         api = Api(tmp_path / "data", url, port=api.port).start()
         done = api.wait(job["id"], lambda j: j["finished"], "the job to be done after the restart", timeout=30)
-        assert done["status"] == "done" and done["attempts"] == 1
+        assert done["status"] == "done"
+        assert done["attempts"] == 1
         assert np.array_equal(exr(api, job["id"], tmp_path / "after.exr"), cli_exr(scene, tmp_path))
     finally:
         host.stop()
@@ -210,13 +221,15 @@ def test_queue_redis_a_batch_render_gives_way_on_its_host_and_resumes(cluster, t
     api, _, _ = cluster
     scene = small(scene_dict("whitted"), 128, 96, sampler={"type": "jittered", "spp": 2304}, render={"seed": 11})
     r = api.client.post("/api/jobs", json={"scene": scene, "lane": "batch"})
-    assert r.status_code == 202 and r.json()["lane"] == "batch"
+    assert r.status_code == 202
+    assert r.json()["lane"] == "batch"
     long = r.json()
     api.wait(long["id"], lambda j: j["progress"]["passes_done"] >= 3, "three passes")
     quick = api.submit(small(scene_dict("whitted"), 16, 12, sampler={"type": "jittered", "spp": 4}))
     assert api.wait(quick["id"], lambda j: j["finished"], "the interactive job")["status"] == "done"
     done = api.wait(long["id"], lambda j: j["finished"], "the batch job", timeout=180)
-    assert done["status"] == "done" and [t["outcome"] for t in done["tries"]] == ["gave way", "done"]
+    assert done["status"] == "done"
+    assert [t["outcome"] for t in done["tries"]] == ["gave way", "done"]
     assert done["tries"][1]["resumed_from"] >= 3
     assert np.array_equal(exr(api, long["id"], tmp_path / "api.exr"), cli_exr(scene, tmp_path))
 
@@ -233,6 +246,8 @@ def test_queue_redis_ray_trees_run_on_hosts_and_a_radiosity_solution_is_solved_o
     assert [t["pixel"] for t in trees] == [[10, 12], [20, 25]]
     jobs = api.client.get("/api/jobs", params={"kind": "raytree", "limit": 2}).json()["jobs"]
     second, first = jobs  # newest first
-    assert first["progress"]["solve"]["cached"] is False and second["progress"]["solve"]["cached"] is True
-    assert first["host"] and second["device"] == "cpu"
+    assert first["progress"]["solve"]["cached"] is False
+    assert second["progress"]["solve"]["cached"] is True
+    assert first["host"]
+    assert second["device"] == "cpu"
     assert all(j["id"] not in {x["id"] for x in api.client.get("/api/jobs").json()["jobs"]} for j in jobs)

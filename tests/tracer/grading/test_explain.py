@@ -312,13 +312,14 @@ def test_probes_one_per_region_ranked_by_summed_error():
     found = probes.find(error, [{"x": 1, "y": 1, "why": "the corner"}], n=2)
     assert [(p.x, p.y) for p in found] == [(1, 1), (9, 8), (41, 31)]
     assert found[0].why == "the corner"
-    assert "largest region (100 pixels)" in found[1].why and "0.90" in found[1].why
-    assert "region 2 of 2" in found[2].why and found[2].region == 9
+    assert "largest region (100 pixels)" in found[1].why
+    assert "0.90" in found[1].why
+    assert "region 2 of 2" in found[2].why
+    assert found[2].region == 9
     assert probes.find(np.full((8, 8), 0.05, np.float32)) == []
     spread = probes.find(np.pad(np.full((40, 40), 0.5, np.float32), 4), n=4)  # one big region: 4 places, apart
-    assert len(spread) == 4 and all(
-        max(abs(a.x - b.x), abs(a.y - b.y)) >= 6 for i, a in enumerate(spread) for b in spread[i + 1 :]
-    )
+    assert len(spread) == 4
+    assert all(max(abs(a.x - b.x), abs(a.y - b.y)) >= 6 for i, a in enumerate(spread) for b in spread[i + 1 :])
 
 
 def test_explain_the_command_line_prints_probes_and_the_diagnosis(ex, tmp_path, capsys):
@@ -358,7 +359,8 @@ def test_explain_the_command_line_prints_probes_and_the_diagnosis(ex, tmp_path, 
     (tmp_path / "bad.json").write_text(json.dumps(bad))
     assert main(["explain", *args, "--trees", str(tmp_path / "bad.json"), "--json"]) == 2
     result = json.loads(capsys.readouterr().out)
-    assert result["trees"][0]["matches"] and not result["trees"][1]["matches"]
+    assert result["trees"][0]["matches"]
+    assert not result["trees"][1]["matches"]
     assert result["trees"][1]["differences"][0]["what"] == "eye_ray"
     (tmp_path / "broken.json").write_text('{"trees": [\n  {"pixel": [1, 2], "nodes": [{"id": 0}]}]}')
     assert main(["explain", *args, "--trees", str(tmp_path / "broken.json")]) == 1

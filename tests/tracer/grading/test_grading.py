@@ -84,7 +84,8 @@ def test_grading_the_example_class_gives_the_exact_grades(graded):
         assert [t.score for t in r.tests] == points, (student, [(t.name, t.output) for t in r.tests])
         assert r.status == status, student
         assert r.score == sum(points)
-    assert graded["alice"].max_score == 13 and graded["grace"].max_score == 7
+    assert graded["alice"].max_score == 13
+    assert graded["grace"].max_score == 7
 
 
 def test_grading_an_image_is_out_of_its_own_points_and_its_errors_are_the_image_s(graded):
@@ -96,7 +97,9 @@ def test_grading_an_image_is_out_of_its_own_points_and_its_errors_are_the_image_
     assert summary(list(graded.values()))["statistics"]["max_scores"] == {"scene": 13.0, "image": 7.0}
     assert {r.kind: r.max_score for r in graded.values()} == {"scene": 13.0, "image": 7.0}
     ivan = graded["ivan"]  # an image that cannot be read
-    assert ivan.kind == "image" and ivan.errors and not ivan.errors[0]["path"]
+    assert ivan.kind == "image"
+    assert ivan.errors
+    assert not ivan.errors[0]["path"]
     assert ivan.gradescope()["output"].splitlines()[1] == f"(image): {ivan.errors[0]['message']}"
 
 
@@ -120,8 +123,10 @@ def test_grading_is_fair_to_noise(graded):
     """dave's 1-spp render is far from the reference by absolute measures, yet as close as a correct
     1-spp render (the baseline); erin's 16-spp render is closer in PSNR than dave's but fails."""
     dave, erin = graded["dave"].metrics, graded["erin"].metrics
-    assert dave["psnr"] < erin["psnr"] and dave["ssim"] < erin["ssim"]
-    assert dave["spp"] == 1 and erin["spp"] == 16
+    assert dave["psnr"] < erin["psnr"]
+    assert dave["ssim"] < erin["ssim"]
+    assert dave["spp"] == 1
+    assert erin["spp"] == 16
     assert abs(dave["psnr"] - dave["baseline"]["psnr"]) < 2.0
     assert dave["rejected"] <= dave["baseline"]["rejected"] + 0.01
 
@@ -157,7 +162,9 @@ def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
         verdict, numbers, where = t.output.split("\n")
         assert verdict.startswith("Differs from the reference more than noise can explain: ")
         assert "a correct render at 16 samples per pixel (the noise baseline)" in numbers
-        assert where.startswith("Where to look: ") and "rejected pixels" in where and "your scene" in where
+        assert where.startswith("Where to look: ")
+        assert "rejected pixels" in where
+        assert "your scene" in where
     assert erin.tests[9].output.startswith(
         "Differs from the reference more than noise can explain: 12.72% of your pixels are off, where a correct "
         "render at 16 samples per pixel has 0.06%.\n"
@@ -166,7 +173,8 @@ def test_grading_words_a_wrong_render_says_it_differs_and_where_to_look(graded):
                                            "is above the 0.03662 allowed")  # fmt: skip
     assert "the FLIP error map (bright where the pictures differ most)" in erin.tests[6].output
     heidi = graded["heidi"].tests[4].output
-    assert heidi.startswith("Differs from the reference") and "what your ray tracer computes there" in heidi
+    assert heidi.startswith("Differs from the reference")
+    assert "what your ray tracer computes there" in heidi
 
 
 RED = (255, 40, 40)
@@ -248,7 +256,9 @@ def test_grading_writes_reports_gradescope_and_the_summary(graded, tmp_path):
     assert stats["by_status"] == {"graded": 6, "invalid": 3, "failed": 0}
     # scenes are out of 13 points, images out of 7: the class is summed up in percent, never in points
     shares = {row["student"]: row["percent"] for row in table["students"]}
-    assert shares["heidi"] == 14.29 and shares["grace"] == 100.0 and shares["erin"] == 53.85
+    assert shares["heidi"] == 14.29
+    assert shares["grace"] == 100.0
+    assert shares["erin"] == 53.85
     assert stats["mean_percent"] == pytest.approx(sum(shares.values()) / 9, abs=0.01)  # 46.03, not 5.2 points
     assert (stats["min_percent"], stats["max_percent"]) == (0.0, 100.0)
     assert "mean" not in stats
@@ -613,8 +623,10 @@ def test_metrics_ssim_psnr_bounds():
 
 def test_batch_collects_folders_and_zips(tmp_path):
     subs = {s.student: s for s in collect(CLASS)}
-    assert subs["frank"].kind == "scene" and subs["frank"].filename == "frank/scene.json"
-    assert subs["heidi"].kind == "exr" and subs["grace"].kind == "png"
+    assert subs["frank"].kind == "scene"
+    assert subs["frank"].filename == "frank/scene.json"
+    assert subs["heidi"].kind == "exr"
+    assert subs["grace"].kind == "png"
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
         z.writestr("hw4/zed.json", "{}")
@@ -707,7 +719,8 @@ def test_cli_grades_a_class_through_the_job_queue(tmp_path):
     log = tmp_path / "out" / ".queue" / "workers.log"
     assert f"the render workers log to {log}" in p.stderr
     assert [line for line in p.stderr.splitlines() if not line.startswith(("renders done", "the render workers"))] == []
-    assert "INFO tracer.grading.local" in log.read_text() and "render worker" in log.read_text()
+    assert "INFO tracer.grading.local" in log.read_text()
+    assert "render worker" in log.read_text()
 
 
 def test_cli_reports_a_bad_assignment(tmp_path):
@@ -755,21 +768,25 @@ def test_api_grades_a_class_with_a_time_limit_per_student(server):
     r = httpx.post(f"{server.url}/api/grade", json=body, timeout=30)
     assert r.status_code == 202, r.text
     run = r.json()
-    assert r.headers["location"] == run["url"] and run["status"] == "running"
+    assert r.headers["location"] == run["url"]
+    assert run["status"] == "running"
     state = wait_for(lambda: (s := httpx.get(server.url + run["url"]).json())["status"] != "running" and s,
                      timeout=300, what="the grading run", interval=0.5)  # fmt: skip
     assert state["status"] == "done", state
     scores = {x["student"]: (x["score"], x["status"]) for x in state["reports"]}
-    assert scores["alice"] == (13.0, "graded") and scores["carol"] == (0.0, "invalid")
+    assert scores["alice"] == (13.0, "graded")
+    assert scores["carol"] == (0.0, "invalid")
     assert scores["grace"] == (7.0, "graded")
     sam = next(x for x in state["reports"] if x["student"] == "sam")
     assert scores["sam"] == (7.0, "failed")  # its requirements pass, its picture was never finished
     limit = "over the time limit of 6 s per render (set by the assignment's limits.max_seconds)"
-    assert limit in sam["tests"][6]["output"] and "TRACER_MAX_JOB_SECONDS" not in sam["tests"][6]["output"]
+    assert limit in sam["tests"][6]["output"]
+    assert "TRACER_MAX_JOB_SECONDS" not in sam["tests"][6]["output"]
     csv = httpx.get(f"{server.url}{run['url']}/summary.csv").text
     assert csv.splitlines()[1].startswith("alice,scene,graded,13.0,13.0")
     png = httpx.get(f"{server.url}{run['url']}/students/alice/error_map.png")
-    assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
+    assert png.status_code == 200
+    assert png.content[:4] == b"\x89PNG"
     results = httpx.get(f"{server.url}{run['url']}/students/grace/results.json").json()
     assert results["score"] == 7.0
     assert httpx.get(f"{server.url}{run['url']}/students/alice/secret.txt").status_code == 404
@@ -784,15 +801,19 @@ def test_api_grade_rejects_bad_requests(server):
     assert r.json()["errors"][0]["path"] == "assignment.requirements[0].check"
     a = assignment_dict()  # the reference as a file name: only the CLI can read it
     r = httpx.post(f"{server.url}/api/grade", json={"assignment": a, "scene": {}})
-    assert r.status_code == 422 and "give the scene inline" in r.json()["errors"][0]["message"]
+    assert r.status_code == 422
+    assert "give the scene inline" in r.json()["errors"][0]["message"]
     r = httpx.post(f"{server.url}/api/grade", json={"assignment": inline_assignment()})
-    assert r.status_code == 422 and "exactly one of" in r.text
+    assert r.status_code == 422
+    assert "exactly one of" in r.text
     r = httpx.post(f"{server.url}/api/grade", json={"assignment": inline_assignment(), "zip": "***"})
-    assert r.status_code == 422 and r.json()["errors"][0] == {"path": "zip", "message": "expected base64 data"}
+    assert r.status_code == 422
+    assert r.json()["errors"][0] == {"path": "zip", "message": "expected base64 data"}
     assert httpx.get(f"{server.url}/api/grade/{'0' * 32}").status_code == 404
     schema = httpx.get(f"{server.url}/api/grade/schema").json()
     assert {"name", "requirements", "reference", "limits"} <= set(schema["properties"])
-    assert "Check" in schema["$defs"] and "at_least" in schema["$defs"]["Check"]["properties"]
+    assert "Check" in schema["$defs"]
+    assert "at_least" in schema["$defs"]["Check"]["properties"]
 
 
 def test_api_grade_example_is_the_example_class(server):
@@ -818,7 +839,8 @@ def test_queue_and_inline_give_the_same_grade(server, graded):
 def test_api_names_students_as_the_grader_does(server):
     """The page asks the server to name picked files (it keeps no copy of the rule)."""
     r = httpx.post(f"{server.url}/api/grade/students", json={"files": ["Zoë O'Brien.json", "bob.png", "x y.exr"]})
-    assert r.status_code == 200 and r.json() == {"students": ["Zoë_O_Brien", "bob", "x_y"]}
+    assert r.status_code == 200
+    assert r.json() == {"students": ["Zoë_O_Brien", "bob", "x_y"]}
     assert httpx.post(f"{server.url}/api/grade/students", json={"names": []}).status_code == 422
 
 

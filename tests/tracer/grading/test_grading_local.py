@@ -42,16 +42,20 @@ def test_grading_local_same_images_as_in_process_and_a_stuck_render_killed(tmp_p
         again = r(quick[:1])  # the killed worker was replaced
     inline = InlineRenderer(threads=1)(quick)
     for g, i in zip([*got[:2], *again], [*inline, inline[0]], strict=True):
-        assert g.error is None and g.spp == i.spp == 4
+        assert g.error is None
+        assert g.spp == i.spp == 4
         assert np.array_equal(g.image, i.image) and np.array_equal(g.variance, i.variance)
     assert got[2].image is None
     assert got[2].error == (
         "stopped: over the time limit of 0.2 s per render (set by the assignment's limits.max_seconds); "
         "its worker was killed"
     )
-    assert seen[0] == (0, 3) and seen[3] == (3, 3) and seen[-1] == (1, 1)
+    assert seen[0] == (0, 3)
+    assert seen[3] == (3, 3)
+    assert seen[-1] == (1, 1)
     text = log.read_text()
-    assert "render worker" in text and "job whitted: done, 4 spp" in text
+    assert "render worker" in text
+    assert "job whitted: done, 4 spp" in text
 
 
 def test_grading_local_a_crashed_worker_fails_its_job_alone(tmp_path):
@@ -66,7 +70,8 @@ def test_grading_local_a_crashed_worker_fails_its_job_alone(tmp_path):
         threading.Thread(target=kill_when_busy, daemon=True).start()
         crashed, after = r([job("doomed", long_pass()), job("next", small(scene_dict("whitted"), 8, 8))])
     assert crashed.error == "the render process killed by signal SIGKILL"
-    assert after.error is None and after.image.shape == (8, 8, 3)
+    assert after.error is None
+    assert after.image.shape == (8, 8, 3)
 
 
 def test_grading_local_renders_only_inside_its_with_block():

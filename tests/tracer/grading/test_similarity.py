@@ -92,7 +92,8 @@ def test_canonical_the_starter_discounted_leaves_nothing_of_the_starter():
     assert canon.canonical(starter()).own(given).facts == set()
     s = honest(random.Random(9))
     own = canon.canonical(s).own(given)
-    assert own.facts and not own.facts & given.facts
+    assert own.facts
+    assert not own.facts & given.facts
     assert all(fact.split("=")[0] == shown[0] for fact, shown in own.shown.items())
     assert any(shown[1].startswith("sphere@(") and shown[1] != shown[0] for shown in own.shown.values())
 
@@ -115,7 +116,8 @@ def test_similarity_minhash_candidates_find_a_close_pair_and_estimate_jaccard():
 
 def test_similarity_usual_threshold_is_below_the_class_and_at_most_half():
     u = similarity.usual([1.0] * 20)
-    assert u["typical"] == 1.0 and u["threshold"] == 0.5
+    assert u["typical"] == 1.0
+    assert u["threshold"] == 0.5
     spread_out = similarity.usual([0.2, 0.4, 0.5, 0.6, 0.8, 0.9, 1.0])
     assert spread_out["threshold"] < 0.6 * 0.5
     assert similarity.usual([0.1, 0.9])["threshold"] is None  # too few to know what is usual
@@ -135,9 +137,11 @@ def test_similarity_report_flags_the_copied_scene_first_and_no_honest_pair():
     assert all(frozenset((p["a"], p["b"])) in copied for p in out["pairs"])
     # most of the copy's facts match (one of its numbers, 1.82, sits 0.0004 below a line of the first grid: the
     # nudge moves its object's first-grid facts, and the second grid's still match)
-    assert first["score"] < 0.3 and first["typical"] == out["groups"]["scene"]["typical"]
+    assert first["score"] < 0.3
+    assert first["typical"] == out["groups"]["scene"]["typical"]
     shared = [f for f in first["facts"] if f["shared"]]
-    assert shared and all(f["a"] is not None and f["b"] is not None for f in shared)
+    assert shared
+    assert all(f["a"] is not None and f["b"] is not None for f in shared)
     assert not any(f["path"].startswith("plane@") for f in first["facts"])  # the starter's floor: discounted
 
 
@@ -160,7 +164,8 @@ def test_similarity_report_skips_the_starter_handed_in_and_what_is_no_scene():
 def test_similarity_report_a_small_class_flags_nothing():
     works, _ = scene_works(4, 1)
     out = similarity.report(works, starter())
-    assert out["pairs"] == [] and out["groups"]["scene"]["threshold"] is None
+    assert out["pairs"] == []
+    assert out["groups"]["scene"]["threshold"] is None
 
 
 def test_similarity_report_images_a_copied_picture_with_noise_is_flagged():
@@ -169,7 +174,8 @@ def test_similarity_report_images_a_copied_picture_with_noise_is_flagged():
     works.append(Work("bad", "png", b"not a png"))
     out = similarity.report(works)
     assert {frozenset((p["a"], p["b"])) for p in out["pairs"]} == copied
-    assert out["pairs"][0]["kind"] == "image" and out["skipped"][0]["student"] == "bad"
+    assert out["pairs"][0]["kind"] == "image"
+    assert out["skipped"][0]["student"] == "bad"
     assert png(picture(np.random.default_rng(0)))[:4] == b"\x89PNG"
 
 

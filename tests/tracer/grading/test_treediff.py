@@ -106,7 +106,9 @@ def test_treediff_another_colour_is_the_material_of_the_eye_rays_hit():
     student = tree()
     student["nodes"][0]["terms"]["diffuse"] = [0.1, 0.1, 0.5]  # a blue ball
     d = first_difference(student, tree())
-    assert d["what"] == "material" and d["student"] == [] and d["reference"] == []
+    assert d["what"] == "material"
+    assert d["student"] == []
+    assert d["reference"] == []
     assert d["nodes"] == {"student": 0, "reference": 0}
     assert d["message"] == (
         "Where your eye ray hits red ball (material 'red'), as the reference's does, the light it reflects there "
@@ -121,7 +123,8 @@ def test_treediff_another_object_hit_comes_before_its_material():
     student["nodes"][0]["hit"].update(point=[0.0, 0.0, -6.0], object=0, object_name="floor")
     student["nodes"][0]["terms"]["diffuse"] = [0.3] * 3
     d = first_difference(student, tree())
-    assert d["what"] == "object" and d["student"] == d["reference"] == []
+    assert d["what"] == "object"
+    assert d["student"] == d["reference"] == []
     assert d["message"] == (
         "Your eye ray hits 'floor' (object 0) at t = 6; the reference's hits 'red ball' (object 3) "
         "at t = 4: another object is there (check the objects' places and sizes)."
@@ -129,7 +132,8 @@ def test_treediff_another_object_hit_comes_before_its_material():
     missed = tree()
     missed["nodes"][3].update(hit=None, t=None, terms=None, end="miss")
     d = first_difference(tree(), missed)
-    assert d["what"] == "object" and d["student"] == d["reference"] == [2]
+    assert d["what"] == "object"
+    assert d["student"] == d["reference"] == [2]
     assert "the reference's leaves the scene" in d["message"]
 
 
@@ -145,7 +149,8 @@ def test_treediff_another_weight_is_the_reflection_rays():
     student["nodes"][3]["weight"] = [0.6] * 3
     student["nodes"][4]["weight"] = [0.6] * 3
     d = first_difference(student, tree())
-    assert d["what"] == "weight" and d["student"] == d["reference"] == [2]
+    assert d["what"] == "weight"
+    assert d["student"] == d["reference"] == [2]
     assert d["message"] == (
         "Your reflection ray (depth 2) carries weight 0.6; the reference's 0.3: the material at "
         "red ball (material 'red') reflects or transmits another share (its kr, or fresnel)."
@@ -158,11 +163,15 @@ def test_treediff_a_ray_only_one_has_is_missing_marked_on_the_others_parent():
     del student["nodes"][3:]  # no reflection ray (kr = 0)
     student["nodes"][0]["radiance"] = [0.1] * 3
     d = first_difference(student, reference)
-    assert d["what"] == "missing" and d["reference"] == [2] and d["student"] == []
+    assert d["what"] == "missing"
+    assert d["reference"] == [2]
+    assert d["student"] == []
     assert d["nodes"] == {"student": 0, "reference": 3}
     assert "casts a reflection ray (depth 2); yours, at red ball (material 'red'), does not (check kr" in d["message"]
     d = first_difference(reference, student)  # the other way round: the student's extra ray
-    assert d["what"] == "missing" and d["student"] == [2] and d["reference"] == []
+    assert d["what"] == "missing"
+    assert d["student"] == [2]
+    assert d["reference"] == []
     assert d["message"].startswith("Your red ball (material 'red') casts a reflection ray (depth 2); the reference's")
 
 
@@ -171,7 +180,9 @@ def test_treediff_shadow_rays_pair_by_their_light():
     student = tree()
     del student["nodes"][1]
     d = first_difference(student, tree())
-    assert d["what"] == "missing" and d["reference"] == [0] and d["student"] == []
+    assert d["what"] == "missing"
+    assert d["reference"] == [0]
+    assert d["student"] == []
     assert "shadow ray towards light 0" in d["message"]
 
 
@@ -186,7 +197,8 @@ def test_treediff_a_blocked_shadow_ray_comes_before_the_terms_it_changes():
     )
     student["nodes"][0]["terms"]["diffuse"] = [0.2, 0.04, 0.03]
     d = first_difference(student, tree())
-    assert d["what"] == "shadow" and d["student"] == d["reference"] == [0]
+    assert d["what"] == "shadow"
+    assert d["student"] == d["reference"] == [0]
     assert d["message"] == (
         "Your shadow ray towards light 0 from red ball (material 'red') is blocked by 'roof'; the "
         "reference's reaches it: an object casts another shadow here."
@@ -197,11 +209,15 @@ def test_treediff_a_light_elsewhere_or_brighter():
     moved = tree()
     moved["nodes"][2]["direction"] = [0.0, 0.7, 0.7]
     d = first_difference(moved, tree())
-    assert d["what"] == "light" and d["student"] == [1] and "the light is elsewhere" in d["message"]
+    assert d["what"] == "light"
+    assert d["student"] == [1]
+    assert "the light is elsewhere" in d["message"]
     brighter = tree()
     brighter["nodes"][2]["radiance"] = [0.8] * 3
     d = first_difference(brighter, tree())
-    assert d["what"] == "light" and d["student"] == [1] and "intensity" in d["message"]
+    assert d["what"] == "light"
+    assert d["student"] == [1]
+    assert "intensity" in d["message"]
 
 
 def test_treediff_the_first_difference_is_depth_first():
@@ -211,7 +227,9 @@ def test_treediff_the_first_difference_is_depth_first():
     student["nodes"][4]["occluded"] = True
     student["nodes"][4]["hit"] = {"point": [0, 0, 0], "normal": [0, 1, 0], "object": 2, "object_name": None}
     d = first_difference(student, tree())
-    assert d["what"] == "shadow" and d["student"] == [2, 0] and "is blocked by object 2" in d["message"]
+    assert d["what"] == "shadow"
+    assert d["student"] == [2, 0]
+    assert "is blocked by object 2" in d["message"]
     student["nodes"][0]["direction"] = [0.1, 0.0, -0.995]
     assert first_difference(student, tree())["what"] == "camera"
 
@@ -223,7 +241,8 @@ def test_treediff_a_miss_with_another_background():
     student = copy.deepcopy(reference)
     student["nodes"][3]["radiance"] = [0.0] * 3
     d = first_difference(student, reference)
-    assert d["what"] == "background" and d["student"] == [2]
+    assert d["what"] == "background"
+    assert d["student"] == [2]
     assert "the background (or the fog) differs" in d["message"]
 
 

@@ -18,7 +18,8 @@ def test_the_page_answers_while_the_kernels_load_and_a_render_waits_for_them(tmp
     try:
         http = server.client
         page = http.get("/")
-        assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
+        assert page.status_code == 200
+        assert page.headers["content-type"].startswith("text/html")
         health = http.get("/api/health").json()
         assert health["status"] == "starting", health
         assert [(w["alive"], w["ready"]) for w in health["workers"]] == [(False, False)]  # not started yet
