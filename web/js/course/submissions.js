@@ -44,13 +44,16 @@ export class SubmissionList {
   }
 
   async load() {
+    // loads overlap (a submit's, a grade's event): only the latest asked is drawn, never an older answer after it
+    const asked = (this.asked = (this.asked || 0) + 1);
     let data;
     try {
       data = await this.ctx.api.submissions();
     } catch (err) {
-      this.status.textContent = `Could not read your submissions: ${err.message}.`;
+      if (asked === this.asked) this.status.textContent = `Could not read your submissions: ${err.message}.`;
       return;
     }
+    if (asked !== this.asked) return;
     const subs = data.submissions || [];
     if (!this.rows.size && subs.length) this.open.add(subs[subs.length - 1].id); // the latest, opened
     this.render(subs);
