@@ -25,7 +25,7 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
-from server.course.schema import CourseRow
+from server.course.schema import CourseRow, MemberRow, StudentRow
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -75,10 +75,12 @@ class CourseBase:
         def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str: ...  # views.py
         def counting(self, a: dict, subs: list[dict]) -> dict | None: ...  # grades.py
         def total(self, a: dict, sub: dict) -> tuple[float, float]: ...  # grades.py
-        def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]: ...  # grades.py
-        def tokens_brief(self, a: dict, student: dict, now: float) -> dict: ...  # tokens.py
+        def class_grades(
+            self, a: dict
+        ) -> list[tuple[StudentRow, list[dict], dict | None, float | None]]: ...  # grades.py
+        def tokens_brief(self, a: dict, student: StudentRow | MemberRow, now: float) -> dict: ...  # tokens.py
         def spend_plan(  # tokens.py
-            self, a: dict, student: dict, due: float, cut: float, accepted: float
+            self, a: dict, student: StudentRow | MemberRow, due: float, cut: float, accepted: float
         ) -> Decide: ...
         def released_at(self, a: dict) -> float | None: ...  # manual.py
         def released_manual(self, a: dict, sub: dict) -> float | None: ...  # manual.py
@@ -87,7 +89,7 @@ class CourseBase:
         def manual_part(self, a: dict, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
         def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict, who: Who) -> None: ...  # manual.py
         def _grade_moved(self, sub: dict) -> None: ...  # manual.py
-        def regrade_deadline(self, a: dict, student: dict | None) -> float: ...  # regrade.py
+        def regrade_deadline(self, a: dict, student: StudentRow | MemberRow | None) -> float: ...  # regrade.py
         def with_test_overrides(self, a: dict, subs: list[dict]) -> list[dict]: ...  # regrade.py
         def regraded_feedback(self, a: dict, sub: dict, feedback: dict | None) -> None: ...  # regrade.py
 
@@ -122,14 +124,16 @@ class CourseBase:
         return self._specs[key]
 
     @staticmethod
-    def deadlines(a: dict, student: dict | None) -> tuple[float, float]:
-        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much."""
+    def deadlines(a: dict, student: StudentRow | MemberRow | None) -> tuple[float, float]:
+        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much. (A
+        member row, a course's Who, has no extension: assignments' callers hold their roster row.)"""
         p = a["policy"]
         due = datetime.fromisoformat(p["deadline"]).timestamp()
         cut = datetime.fromisoformat(p["late_until"]).timestamp() if p["late_until"] else due
-        if student is not None and student["deadline"] is not None:
-            shift = student["deadline"] - due
-            due, cut = student["deadline"], max(student["deadline"], cut + shift)
+        extension = student.get("deadline") if student is not None else None
+        if extension is not None:
+            shift = extension - due
+            due, cut = extension, max(extension, cut + shift)
         return due, cut
 
     def moment(self, a: dict, who: Who, now: float) -> Moment:

@@ -8,6 +8,7 @@ import json
 
 from server.course.base import CourseBase, report_keys, status_of
 from server.course.policy import Feedback, When
+from server.course.schema import StudentRow
 from tracer.tools import spreadsheet
 
 VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
@@ -31,7 +32,7 @@ class Grades(CourseBase):
 
         return max(reversed(graded), key=share)
 
-    def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]:
+    def class_grades(self, a: dict) -> list[tuple[StudentRow, list[dict], dict | None, float | None]]:
         """Each roster student: (their row, their submissions in order, the counting submission or None, its
         score after the late penalty or None), in the roster's order."""
         subs: dict[str, list[dict]] = {}
@@ -56,7 +57,7 @@ class Grades(CourseBase):
             a["id"], a["version"]
         ).manual_points()
 
-    def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
+    def final_grades(self, a: dict) -> list[tuple[StudentRow, dict | None, float | None, int]]:
         """Each roster student: (their row, the counting submission or None, its score after the late
         penalty or None, how many submissions they made), in the roster's order."""
         return [(st, c, score, len(mine)) for st, mine, c, score in self.class_grades(a)]

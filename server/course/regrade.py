@@ -31,6 +31,7 @@ from server.course.audit import Target
 from server.course.base import DAY, CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import Feedback, when_of
+from server.course.schema import MemberRow, StudentRow
 
 log = logging.getLogger(__name__)
 
@@ -43,7 +44,7 @@ STATUSES = (rs.OPEN, rs.ACCEPTED, rs.DECLINED)
 class Regrade(CourseBase):
     """Regrade requests: asked, answered, listed; tests' points set by them (mixed into service.Course)."""
 
-    def regrade_deadline(self, a: dict, student: dict | None) -> float:
+    def regrade_deadline(self, a: dict, student: StudentRow | MemberRow | None) -> float:
         """Until when (Unix time) a student may ask: the policy's `regrade_deadline`, else a week after their late
         cut-off (their deadline without one; an extension moves it)."""
         when = a["policy"].get("regrade_deadline")

@@ -203,3 +203,34 @@ class StaffRow(TypedDict):
     lti_user: str | None
     gen: int
     created_at: float
+
+
+class MemberRow(TypedDict):
+    """A row of `course_members`: a student of a course's roster (RosterTables.members, .member)."""
+
+    course_id: str
+    student: str
+    name: str
+    email: str
+    self_declared: int  # 0 or 1
+    every: int  # 0 or 1
+    lti_user: str | None
+    gen: int
+    created_at: float
+    left_at: float | None
+
+
+class StudentRow(TypedDict):
+    """A student of an assignment's roster, as RosterTables.students, .student and .by_token return one: their
+    enrolment (`course_enrolments`) joined with their member row (server/course/roster_store.py's STUDENT)."""
+
+    assignment_id: str
+    student: str
+    name: str
+    email: str
+    self_declared: int
+    deadline: float | None  # their extension (Unix time); None: the assignment's
+    created_at: float  # when they were enrolled in it
+    course_id: str
+    lti_user: str | None
+    left_at: float | None

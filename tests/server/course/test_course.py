@@ -8,7 +8,7 @@ import pytest
 from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.roster import parse_roster
-from server.course.schema import CourseRow, StaffRow
+from server.course.schema import CourseRow, MemberRow, StaffRow, StudentRow
 from server.course.service import Course
 from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.store import GradingStore
@@ -126,3 +126,20 @@ def test_course_rows_are_typed_with_every_column_of_their_tables(tmp_path):
     assert set(store.course(DEFAULT_COURSE)) == set(CourseRow.__required_keys__)
     assert set(store.staff_member(DEFAULT_COURSE, "ta1")) == set(StaffRow.__required_keys__)
     assert [set(r) for r in store.staff(DEFAULT_COURSE)] == [set(StaffRow.__required_keys__)]
+
+
+def test_course_member_and_roster_student_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`MemberRow` names each column of `course_members`; `StudentRow` each column of the roster's join (an
+    enrolment with its member: RosterTables' STUDENT), what members/member and students/student/by_token return."""
+    store = CourseStore(tmp_path)
+    columns = {r["name"] for r in store.db.execute("PRAGMA table_info(course_members)")}
+    assert set(MemberRow.__required_keys__) == columns
+    aid = "a" * 32
+    store.create(aid, '{"name": "hw"}', {}, "r" * 32, 1.0)
+    store.add_members(DEFAULT_COURSE, [{"student": "ann", "name": "Ann", "email": "a@x"}], 2.0, [aid])
+    store.keep_token(DEFAULT_COURSE, "student", "ann", "h-ann", 2.0)
+    assert set(store.member(DEFAULT_COURSE, "ann")) == set(MemberRow.__required_keys__)
+    assert [set(m) for m in store.members(DEFAULT_COURSE)] == [set(MemberRow.__required_keys__)]
+    assert set(store.student(aid, "ann")) == set(StudentRow.__required_keys__)
+    assert [set(s) for s in store.students(aid)] == [set(StudentRow.__required_keys__)]
+    assert set(store.by_token(aid, "h-ann")) == set(StudentRow.__required_keys__)
