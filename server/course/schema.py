@@ -234,3 +234,23 @@ class StudentRow(TypedDict):
     course_id: str
     lti_user: str | None
     left_at: float | None
+
+
+class VersionRow(TypedDict):
+    """A version of an assignment (`course_versions`), as CourseStore.versions returns it: its spec and policy
+    parsed from their JSON, `id` the assignment's, `version_at` when the version was published."""
+
+    id: str
+    version: int
+    spec: dict  # the grading spec (server/grading/), its reference scene inline
+    policy: dict  # the Policy's fields (server/course/policy.py), as stored
+    run_id: str
+    version_at: float
+
+
+class AssignmentRow(VersionRow):
+    """An assignment (`course_assignments`) with its current version (CourseStore.assignment): what the course's
+    mixins and views take as `a`."""
+
+    created_at: float
+    course_id: str

@@ -8,7 +8,7 @@ import pytest
 from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.roster import parse_roster
-from server.course.schema import CourseRow, MemberRow, StaffRow, StudentRow
+from server.course.schema import AssignmentRow, CourseRow, MemberRow, StaffRow, StudentRow, VersionRow
 from server.course.service import Course
 from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.store import GradingStore
@@ -143,3 +143,24 @@ def test_course_member_and_roster_student_rows_are_typed_with_the_columns_the_st
     assert set(store.student(aid, "ann")) == set(StudentRow.__required_keys__)
     assert [set(s) for s in store.students(aid)] == [set(StudentRow.__required_keys__)]
     assert set(store.by_token(aid, "h-ann")) == set(StudentRow.__required_keys__)
+
+
+def test_course_assignment_and_version_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`AssignmentRow` names each column of `course_assignments` and of its current `course_versions` row (the
+    version's `assignment_id` as `id`, its `created_at` as `version_at`), `VersionRow` a version's: what
+    assignment and versions return, spec and policy parsed."""
+    store = CourseStore(tmp_path)
+
+    def columns(table: str) -> set[str]:
+        return {r["name"] for r in store.db.execute(f"PRAGMA table_info({table})")}
+
+    version = {"id", "version_at"} | columns("course_versions") - {"assignment_id", "created_at"}
+    assert set(VersionRow.__required_keys__) == version
+    assert set(AssignmentRow.__required_keys__) == version | columns("course_assignments")
+    aid = "a" * 32
+    store.create(aid, '{"name": "hw"}', {"deadline": "2026-01-01T00:00:00+00:00"}, "r" * 32, 1.0)
+    store.add_version(aid, '{"name": "hw"}', {}, "q" * 32, 2.0)
+    a = store.assignment(aid)
+    assert set(a) == set(AssignmentRow.__required_keys__)
+    assert (a["spec"], a["policy"], a["version"], a["version_at"]) == ({"name": "hw"}, {}, 2, 2.0)
+    assert [set(v) for v in store.versions(aid)] == [set(VersionRow.__required_keys__)] * 2
