@@ -25,7 +25,7 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
-from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow
+from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow, SubmissionRow, SubmissionWithGrade
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -68,32 +68,44 @@ class CourseBase:
 
         def course_link(self, base: str, cid: str, token: str, staff: bool = False) -> str: ...  # roster.py
         def token_of(self, cid: str, kind: str, person: str, gen: int) -> str: ...  # roster.py
-        def submission(self, a: AssignmentRow, sid: str) -> dict | None: ...  # submissions.py
-        def submissions(self, a: AssignmentRow, student: str | None = None) -> list[dict]: ...  # submissions.py
-        def _hand(self, sub: dict) -> None: ...  # submissions.py
-        def view(self, a: AssignmentRow, sub: dict, who: Who, counting: str | None = None) -> dict: ...  # views.py
+        def submission(self, a: AssignmentRow, sid: str) -> SubmissionWithGrade | None: ...  # submissions.py
+        def submissions(
+            self, a: AssignmentRow, student: str | None = None
+        ) -> list[SubmissionWithGrade]: ...  # submissions.py
+        def _hand(self, sub: SubmissionRow) -> None: ...  # submissions.py
+        def view(
+            self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who, counting: str | None = None
+        ) -> dict: ...  # views.py
         def _probes_hidden(self, a: AssignmentRow, who: Who, feedback: Feedback) -> str: ...  # views.py
-        def counting(self, a: AssignmentRow, subs: list[dict]) -> dict | None: ...  # grades.py
-        def total(self, a: AssignmentRow, sub: dict) -> tuple[float, float]: ...  # grades.py
+        def counting(
+            self, a: AssignmentRow, subs: list[SubmissionWithGrade]
+        ) -> SubmissionWithGrade | None: ...  # grades.py
+        def total(self, a: AssignmentRow, sub: SubmissionWithGrade) -> tuple[float, float]: ...  # grades.py
         def class_grades(
             self, a: AssignmentRow
-        ) -> list[tuple[StudentRow, list[dict], dict | None, float | None]]: ...  # grades.py
+        ) -> list[
+            tuple[StudentRow, list[SubmissionWithGrade], SubmissionWithGrade | None, float | None]
+        ]: ...  # grades.py
         def tokens_brief(self, a: AssignmentRow, student: StudentRow | MemberRow, now: float) -> dict: ...  # tokens.py
         def spend_plan(  # tokens.py
             self, a: AssignmentRow, student: StudentRow | MemberRow, due: float, cut: float, accepted: float
         ) -> Decide: ...
         def released_at(self, a: AssignmentRow) -> float | None: ...  # manual.py
-        def released_manual(self, a: AssignmentRow, sub: dict) -> float | None: ...  # manual.py
-        def manual_view(self, a: AssignmentRow, sub: dict, who: Who) -> dict | None: ...  # manual.py
+        def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None: ...  # manual.py
+        def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None: ...  # manual.py
         def manual_items(self, a: AssignmentRow) -> list: ...  # manual.py
         def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
         def _set_manual_grade(
-            self, a: AssignmentRow, sub: dict, item: str, row: dict, who: Who
+            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who
         ) -> None: ...  # manual.py
-        def _grade_moved(self, sub: dict) -> None: ...  # manual.py
+        def _grade_moved(self, sub: SubmissionWithGrade) -> None: ...  # manual.py
         def regrade_deadline(self, a: AssignmentRow, student: StudentRow | MemberRow | None) -> float: ...  # regrade.py
-        def with_test_overrides(self, a: AssignmentRow, subs: list[dict]) -> list[dict]: ...  # regrade.py
-        def regraded_feedback(self, a: AssignmentRow, sub: dict, feedback: dict | None) -> None: ...  # regrade.py
+        def with_test_overrides(
+            self, a: AssignmentRow, subs: list[SubmissionWithGrade]
+        ) -> list[SubmissionWithGrade]: ...  # regrade.py
+        def regraded_feedback(
+            self, a: AssignmentRow, sub: SubmissionWithGrade, feedback: dict | None
+        ) -> None: ...  # regrade.py
 
     def by(self, who: Who | str | None, why: str = "") -> audit.By:
         """Who makes a change now, and why: what the store's changing methods record their audit events with
@@ -147,7 +159,7 @@ class CourseBase:
         return self.moment(a, who, now).shows(when)
 
 
-def status_of(sub: dict) -> str:
+def status_of(sub: SubmissionWithGrade | dict) -> str:
     """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
     stage = sub.get("stage")
     if stage is None or stage == "submitted":

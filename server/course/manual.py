@@ -36,7 +36,7 @@ from server.core.roles import Role
 from server.course.audit import Target
 from server.course.base import CourseBase, iso, status_of
 from server.course.people import Who
-from server.course.schema import AssignmentRow
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 
 log = logging.getLogger(__name__)
 
@@ -81,14 +81,14 @@ class Manual(CourseBase):
         return {"points": round(total, 6) if graded else None, "max_points": sum(i["max_points"] for i in items),
                 "complete": len(graded) == len(items), "items": items}  # fmt: skip
 
-    def released_manual(self, a: AssignmentRow, sub: dict) -> float | None:
+    def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None:
         """The manual part of a submission that reaches students, exports and the LMS: its points once released
         (0 for an item not graded), None before the release or when the spec has no manual items."""
         if not self.manual_items(a) or self.released_at(a) is None:
             return None
         return self.manual_part(a, sub["id"])["points"] or 0.0
 
-    def manual_view(self, a: AssignmentRow, sub: dict, who: Who) -> dict | None:
+    def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None:
         """The manual part as the caller sees it: staff always; a student after the release ({released: false}
         before it); None when the spec has no manual items."""
         if not self.manual_items(a):
@@ -131,7 +131,7 @@ class Manual(CourseBase):
         self._set_manual_grade(a, sub, item, row, who)
         return self.grading_view(a, sub, who)
 
-    def _set_manual_grade(self, a: AssignmentRow, sub: dict, item: str, row: dict, who: Who) -> None:
+    def _set_manual_grade(self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who) -> None:
         """The one write of a manual grade, audited (`manual.grade`) in its transaction."""
         target = Target(a["course_id"], a["id"], student=sub["student"], submission=sub["id"])
         self.store.set_manual(
@@ -141,7 +141,7 @@ class Manual(CourseBase):
         if self.released_at(a) is not None:
             self._grade_moved(sub)
 
-    def _grade_moved(self, sub: dict) -> None:
+    def _grade_moved(self, sub: SubmissionWithGrade) -> None:
         """A student's grade moved without its grading run: the run's listeners told (the LMS poster, followers)."""
         for listener in list(self.runs.listeners):
             listener(sub["run_id"], sub["id"])
@@ -218,7 +218,9 @@ class Manual(CourseBase):
                 "anonymous": bool(state["anonymous"]), "max_points": most, "staff": staff, "graders": graders,
                 "you": who.person}  # fmt: skip
 
-    def queue(self, a: AssignmentRow, who: Who, grader: str | None = None, everyone: bool = False) -> list[dict]:
+    def queue(
+        self, a: AssignmentRow, who: Who, grader: str | None = None, everyone: bool = False
+    ) -> list[SubmissionWithGrade]:
         """The counting submissions still to grade (some item without a grade), in the roster's order: the
         grader's own when graders are assigned (`grader`, else the caller's; the admin, an unassigned caller and
         `everyone`: everyone's)."""
@@ -252,7 +254,7 @@ class Manual(CourseBase):
         view["remaining"] = len(todo)
         return view
 
-    def grading_view(self, a: AssignmentRow, sub: dict, who: Who) -> dict:
+    def grading_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict:
         """What the grading queue shows of a submission: who (or an anonymous label), the pictures, the scene,
         the auto part, the rubric and the grades so far."""
         state = self.store.manual_state(a["id"])
@@ -278,7 +280,7 @@ class Manual(CourseBase):
             "url": f"{base}/grading/submissions/{sub['id']}",
         }  # fmt: skip
 
-    def scene_text(self, a: AssignmentRow, sub: dict) -> bytes | None:
+    def scene_text(self, a: AssignmentRow, sub: SubmissionWithGrade) -> bytes | None:
         """A scene submission's file as the student sent it (None for an image)."""
         if sub["kind"] != "scene":
             return None

@@ -31,7 +31,7 @@ from server.course.audit import Target
 from server.course.base import DAY, CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import Feedback, when_of
-from server.course.schema import AssignmentRow, MemberRow, StudentRow
+from server.course.schema import AssignmentRow, MemberRow, StudentRow, SubmissionWithGrade
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +54,7 @@ class Regrade(CourseBase):
 
     # -- the tests' points ---------------------------------------------------------------------------------
 
-    def _report_tests(self, a: AssignmentRow, sub: dict) -> dict[str, dict]:
+    def _report_tests(self, a: AssignmentRow, sub: SubmissionWithGrade) -> dict[str, dict]:
         """{policy name: the report's test (name, score, max_score)} of a graded submission."""
         if status_of(sub) != "graded":
             return {}
@@ -63,22 +63,23 @@ class Regrade(CourseBase):
         keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
         return dict(zip(keys, tests, strict=False))
 
-    def with_test_overrides(self, a: AssignmentRow, subs: list[dict]) -> list[dict]:
+    def with_test_overrides(self, a: AssignmentRow, subs: list[SubmissionWithGrade]) -> list[SubmissionWithGrade]:
         """Each submission's score with the tests' points accepted regrade requests set (under the version they
         were set for), clamped to 0..its maximum; `auto_score`: the grading's own."""
         found = rs.overrides(self.store, a["id"], subs[0]["id"] if len(subs) == 1 else None) if subs else {}
         for sub in subs:
             mine = found.get(sub["id"])
-            if not mine or sub.get("score") is None:
+            score, most = sub.get("score"), sub.get("max_score")
+            if not mine or score is None:
                 continue
             delta = sum(o["points"] - o["original"] for o in mine.values() if o["version"] == sub["version"])
             if delta:
-                most = sub["max_score"] if sub.get("max_score") is not None else float("inf")
-                sub["auto_score"] = sub["score"]
-                sub["score"] = round(min(most, max(0.0, sub["score"] + delta)), 6)
+                most = most if most is not None else float("inf")
+                sub["auto_score"] = score
+                sub["score"] = round(min(most, max(0.0, score + delta)), 6)
         return subs
 
-    def regraded_feedback(self, a: AssignmentRow, sub: dict, feedback: dict | None) -> None:
+    def regraded_feedback(self, a: AssignmentRow, sub: SubmissionWithGrade, feedback: dict | None) -> None:
         """A view's tests with the points regrade requests set (`regraded_from`: the grading's)."""
         mine = rs.overrides(self.store, a["id"], sub["id"]).get(sub["id"], {}) if feedback else {}
         for t in (feedback or {}).get("tests", []):
@@ -86,7 +87,7 @@ class Regrade(CourseBase):
             if o is not None and o["version"] == sub["version"] and "score" in t:
                 t["regraded_from"], t["score"] = t["score"], o["points"]
 
-    def _item(self, a: AssignmentRow, sub: dict, item: str) -> tuple[str, float, float | None]:
+    def _item(self, a: AssignmentRow, sub: SubmissionWithGrade, item: str) -> tuple[str, float, float | None]:
         """(kind, the most it is worth, its points now) of a submission's item; 422 naming `item` when the spec
         has no such test or manual item."""
         tests = self._report_tests(a, sub)

@@ -254,3 +254,35 @@ class AssignmentRow(VersionRow):
 
     created_at: float
     course_id: str
+
+
+class SubmissionRow(TypedDict):
+    """A row of `course_submissions`, as SubmissionTables.unhanded and .regrade return it (a submission before
+    it is inserted is a plain dict: `handed` and `tokens_spent` are set by add_submission)."""
+
+    id: str
+    assignment_id: str
+    student: str
+    version: int
+    run_id: str
+    kind: str  # scene, png or exr
+    file: str  # relative to DATA/course/
+    accepted_at: float
+    late: int  # 0 or 1 (the service's submissions() set it by the deadline as it is now)
+    handed: int  # 0 or 1
+    tokens_spent: int
+
+
+class _Graded(SubmissionRow):
+    stage: str | None
+    status: str | None
+    score: float | None
+    max_score: float | None
+
+
+class SubmissionWithGrade(_Graded, total=False):
+    """A submission with its grading row's stage, status and exact score (None until graded), as
+    SubmissionTables.submissions and .submission return it: the `sub` the course's mixins and views read.
+    (`total=False` for `auto_score` alone: NotRequired is not seen at run time under postponed annotations.)"""
+
+    auto_score: float  # the grading's own score, where accepted regrade requests moved `score`

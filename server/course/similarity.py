@@ -31,7 +31,7 @@ from server.core.files import write_atomic
 from server.core.security import Caller
 from server.course.base import iso
 from server.course.courses import Check
-from server.course.schema import AssignmentRow
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 from tracer.grading import similarity
 
@@ -78,7 +78,7 @@ class Reports:
 
     def _latest(self, a: AssignmentRow) -> list[tuple[str, str, str]]:
         """Each roster student's latest submission as (student, kind, its file's path)."""
-        latest: dict[str, dict] = {}
+        latest: dict[str, SubmissionWithGrade] = {}
         for sub in self.course.store.submissions(a["id"]):  # in the order they came
             latest[sub["student"]] = sub
         roster = {s["student"] for s in self.course.store.students(a["id"])}

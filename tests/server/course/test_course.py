@@ -8,7 +8,16 @@ import pytest
 from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.roster import parse_roster
-from server.course.schema import AssignmentRow, CourseRow, MemberRow, StaffRow, StudentRow, VersionRow
+from server.course.schema import (
+    AssignmentRow,
+    CourseRow,
+    MemberRow,
+    StaffRow,
+    StudentRow,
+    SubmissionRow,
+    SubmissionWithGrade,
+    VersionRow,
+)
 from server.course.service import Course
 from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.store import GradingStore
@@ -164,3 +173,20 @@ def test_course_assignment_and_version_rows_are_typed_with_the_columns_the_store
     assert set(a) == set(AssignmentRow.__required_keys__)
     assert (a["spec"], a["policy"], a["version"], a["version_at"]) == ({"name": "hw"}, {}, 2, 2.0)
     assert [set(v) for v in store.versions(aid)] == [set(VersionRow.__required_keys__)] * 2
+
+
+def test_course_submission_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`SubmissionRow` names each column of `course_submissions` (what unhanded and regrade return);
+    `SubmissionWithGrade` those and its grading row's stage, status, score and max_score (submissions,
+    submission), `auto_score` only where a regrade request moved the score."""
+    store = CourseStore(tmp_path)
+    columns = {r["name"] for r in store.db.execute("PRAGMA table_info(course_submissions)")}
+    assert set(SubmissionRow.__required_keys__) == columns
+    graded = columns | {"stage", "status", "score", "max_score"}
+    assert set(SubmissionWithGrade.__required_keys__) == graded
+    assert SubmissionWithGrade.__optional_keys__ == {"auto_score"}
+    assert store.add_submission(sub("x1", 100.0), None, per_hour=10, hour_ago=0) is None
+    assert [set(s) for s in store.unhanded()] == [columns]
+    assert [set(s) for s in store.submissions("a" * 32)] == [graded]
+    assert set(store.submission("a" * 32, "x1")) == graded
+    assert [set(s) for s in store.regrade("a" * 32, 2, "q" * 32)] == [columns]
