@@ -20,6 +20,7 @@ from server.core.errors import Invalid
 from server.course.base import REFERENCE, CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import AssignmentIn, Feedback, Moment, Policy, feedback_view
+from server.course.schema import AssignmentRow
 from server.course.store import DEFAULT_COURSE
 from server.grading.runs import Handed
 from tracer.grading import AssignmentError, Grader, load_assignment
@@ -122,7 +123,7 @@ class Assignments(CourseBase):
             handed.append(Handed(REFERENCE, "scene", "reference.json", scene))
         return self.runs.start(spec, handed, open_=True)["id"]
 
-    def publish(self, body: AssignmentIn, cid: str = DEFAULT_COURSE, who: Who | None = None) -> dict:
+    def publish(self, body: AssignmentIn, cid: str = DEFAULT_COURSE, who: Who | None = None) -> AssignmentRow:
         """A new assignment of course `cid` (its roster: the course's members enrolled in every assignment); a
         `publish` audit event."""
         self.course(cid)
@@ -137,7 +138,7 @@ class Assignments(CourseBase):
         log.info("assignment %s published (grading run %s)", aid, run_id)
         return self.assignment(aid)
 
-    def edit(self, aid: str, body: AssignmentIn, regrade: bool, who: Who | None = None, why: str = "") -> dict:
+    def edit(self, aid: str, body: AssignmentIn, regrade: bool, who: Who | None = None, why: str = "") -> AssignmentRow:
         """A new version (the earlier ones are kept); `regrade`: every submission graded again under it, as
         rows of its grading run (durable as any). Audit events: `edit`, and `regrade` with `regrade`."""
         self.assignment(aid)  # 404 for an unknown one
@@ -155,7 +156,7 @@ class Assignments(CourseBase):
                 self._hand(sub)
         return self.assignment(aid)
 
-    def regrade(self, aid: str, who: Who | None = None, why: str = "") -> dict:
+    def regrade(self, aid: str, who: Who | None = None, why: str = "") -> AssignmentRow:
         """Every submission graded again: a new version with the same spec and policy, and its own run (the
         earlier grades stay in their version's run); a `regrade` audit event."""
         a = self.assignment(aid)
@@ -171,7 +172,7 @@ class Assignments(CourseBase):
         log.info("assignment %s regraded as version %d (grading run %s)", aid, version, run_id)
         return self.assignment(aid)
 
-    def brief(self, a: dict, who: Who, base: str) -> dict:
+    def brief(self, a: AssignmentRow, who: Who, base: str) -> dict:
         spec, p, now = a["spec"], a["policy"], self.now()
         due, cut = self.deadlines(a, who.student)
         assignment = self.spec(a["id"], a["version"])
@@ -236,7 +237,7 @@ class Assignments(CourseBase):
                 out["inactive"] = True
         return out
 
-    def reference_png(self, a: dict) -> Path | None:
+    def reference_png(self, a: AssignmentRow) -> Path | None:
         """The reference image, once the version's reference is graded (its pictures are written whole by then)."""
         ref = self.runs.gs.item(a["run_id"], REFERENCE)
         path = self.runs.root / a["run_id"] / "out" / REFERENCE / "reference.png"

@@ -25,7 +25,7 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
-from server.course.schema import CourseRow
+from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow, SubmissionRow, SubmissionWithGrade
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -68,28 +68,44 @@ class CourseBase:
 
         def course_link(self, base: str, cid: str, token: str, staff: bool = False) -> str: ...  # roster.py
         def token_of(self, cid: str, kind: str, person: str, gen: int) -> str: ...  # roster.py
-        def submission(self, a: dict, sid: str) -> dict | None: ...  # submissions.py
-        def submissions(self, a: dict, student: str | None = None) -> list[dict]: ...  # submissions.py
-        def _hand(self, sub: dict) -> None: ...  # submissions.py
-        def view(self, a: dict, sub: dict, who: Who, counting: str | None = None) -> dict: ...  # views.py
-        def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str: ...  # views.py
-        def counting(self, a: dict, subs: list[dict]) -> dict | None: ...  # grades.py
-        def total(self, a: dict, sub: dict) -> tuple[float, float]: ...  # grades.py
-        def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]: ...  # grades.py
-        def tokens_brief(self, a: dict, student: dict, now: float) -> dict: ...  # tokens.py
+        def submission(self, a: AssignmentRow, sid: str) -> SubmissionWithGrade | None: ...  # submissions.py
+        def submissions(
+            self, a: AssignmentRow, student: str | None = None
+        ) -> list[SubmissionWithGrade]: ...  # submissions.py
+        def _hand(self, sub: SubmissionRow) -> None: ...  # submissions.py
+        def view(
+            self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who, counting: str | None = None
+        ) -> dict: ...  # views.py
+        def _probes_hidden(self, a: AssignmentRow, who: Who, feedback: Feedback) -> str: ...  # views.py
+        def counting(
+            self, a: AssignmentRow, subs: list[SubmissionWithGrade]
+        ) -> SubmissionWithGrade | None: ...  # grades.py
+        def total(self, a: AssignmentRow, sub: SubmissionWithGrade) -> tuple[float, float]: ...  # grades.py
+        def class_grades(
+            self, a: AssignmentRow
+        ) -> list[
+            tuple[StudentRow, list[SubmissionWithGrade], SubmissionWithGrade | None, float | None]
+        ]: ...  # grades.py
+        def tokens_brief(self, a: AssignmentRow, student: StudentRow | MemberRow, now: float) -> dict: ...  # tokens.py
         def spend_plan(  # tokens.py
-            self, a: dict, student: dict, due: float, cut: float, accepted: float
+            self, a: AssignmentRow, student: StudentRow | MemberRow, due: float, cut: float, accepted: float
         ) -> Decide: ...
-        def released_at(self, a: dict) -> float | None: ...  # manual.py
-        def released_manual(self, a: dict, sub: dict) -> float | None: ...  # manual.py
-        def manual_view(self, a: dict, sub: dict, who: Who) -> dict | None: ...  # manual.py
-        def manual_items(self, a: dict) -> list: ...  # manual.py
-        def manual_part(self, a: dict, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
-        def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict, who: Who) -> None: ...  # manual.py
-        def _grade_moved(self, sub: dict) -> None: ...  # manual.py
-        def regrade_deadline(self, a: dict, student: dict | None) -> float: ...  # regrade.py
-        def with_test_overrides(self, a: dict, subs: list[dict]) -> list[dict]: ...  # regrade.py
-        def regraded_feedback(self, a: dict, sub: dict, feedback: dict | None) -> None: ...  # regrade.py
+        def released_at(self, a: AssignmentRow) -> float | None: ...  # manual.py
+        def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None: ...  # manual.py
+        def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None: ...  # manual.py
+        def manual_items(self, a: AssignmentRow) -> list: ...  # manual.py
+        def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
+        def _set_manual_grade(
+            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who
+        ) -> None: ...  # manual.py
+        def _grade_moved(self, sub: SubmissionWithGrade) -> None: ...  # manual.py
+        def regrade_deadline(self, a: AssignmentRow, student: StudentRow | MemberRow | None) -> float: ...  # regrade.py
+        def with_test_overrides(
+            self, a: AssignmentRow, subs: list[SubmissionWithGrade]
+        ) -> list[SubmissionWithGrade]: ...  # regrade.py
+        def regraded_feedback(
+            self, a: AssignmentRow, sub: SubmissionWithGrade, feedback: dict | None
+        ) -> None: ...  # regrade.py
 
     def by(self, who: Who | str | None, why: str = "") -> audit.By:
         """Who makes a change now, and why: what the store's changing methods record their audit events with
@@ -101,7 +117,7 @@ class CourseBase:
         """The course's audit events, newest first (audit.events: student, assignment, limit, before)."""
         return audit.events(self.store.db, cid, **filters)
 
-    def assignment(self, aid: str) -> dict:
+    def assignment(self, aid: str) -> AssignmentRow:
         a = self.store.assignment(aid) if len(aid) == 32 else None
         if a is None:
             raise not_found("assignment", aid)
@@ -122,25 +138,28 @@ class CourseBase:
         return self._specs[key]
 
     @staticmethod
-    def deadlines(a: dict, student: dict | None) -> tuple[float, float]:
-        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much."""
+    def deadlines(a: AssignmentRow | dict, student: StudentRow | MemberRow | None) -> tuple[float, float]:
+        """(the student's deadline, their late cut-off) as Unix times: an extension moves both by as much. (A
+        member row, a course's Who, has no extension: assignments' callers hold their roster row. `a` a dict: a
+        preview's, its policy alone, before there is an assignment.)"""
         p = a["policy"]
         due = datetime.fromisoformat(p["deadline"]).timestamp()
         cut = datetime.fromisoformat(p["late_until"]).timestamp() if p["late_until"] else due
-        if student is not None and student["deadline"] is not None:
-            shift = student["deadline"] - due
-            due, cut = student["deadline"], max(student["deadline"], cut + shift)
+        extension = student.get("deadline") if student is not None else None
+        if extension is not None:
+            shift = extension - due
+            due, cut = extension, max(extension, cut + shift)
         return due, cut
 
-    def moment(self, a: dict, who: Who, now: float) -> Moment:
+    def moment(self, a: AssignmentRow, who: Who, now: float) -> Moment:
         """The caller at `now`, as the feedback policy sees them (server/course/policy.py)."""
         return Moment(now, self.deadlines(a, who.student)[1], who.instructor)
 
-    def shown(self, when: str, a: dict, who: Who, now: float) -> bool:
+    def shown(self, when: str, a: AssignmentRow, who: Who, now: float) -> bool:
         return self.moment(a, who, now).shows(when)
 
 
-def status_of(sub: dict) -> str:
+def status_of(sub: SubmissionWithGrade | dict) -> str:
     """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
     stage = sub.get("stage")
     if stage is None or stage == "submitted":

@@ -29,6 +29,7 @@ from server.core.security import Caller
 from server.course.base import iso
 from server.course.people import Who
 from server.course.policy import Feedback, When
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 from server.jobs.lifecycle import RAYTREE_PRIORITY
 from server.jobs.service import JobService
@@ -38,9 +39,10 @@ from tracer.grading.treediff import first_difference
 Check = Callable[[bytes], Awaitable[dict]]  # a scene request's body -> its summary (the checking processes'), or 422
 
 
-def allowed(course: Course, a: dict, sub: dict, who: Who) -> None:
+def allowed(course: Course, a: AssignmentRow, sub: SubmissionWithGrade | dict, who: Who) -> None:
     """403 unless the caller may see the reference's structure now: the instructor, or a student who may see
-    the image tests' pictures (every image test's feedback shown), with when they will be shown."""
+    the image tests' pictures (every image test's feedback shown), with when they will be shown. (`sub` a dict:
+    a check's {version} alone, no submission yet.)"""
     if who.instructor:
         return
     feedback = Feedback.model_validate(a["policy"]["feedback"])
@@ -67,7 +69,7 @@ def allowed(course: Course, a: dict, sub: dict, who: Who) -> None:
     raise Forbidden.at("sid", message)
 
 
-def as_graded(course: Course, a: dict, sub: dict) -> tuple[dict, dict, tuple[int, int]]:
+def as_graded(course: Course, a: AssignmentRow, sub: SubmissionWithGrade) -> tuple[dict, dict, tuple[int, int]]:
     """(the student's scene, the reference's, (width, height) of the graded image) of a graded scene submission;
     409 for an image, or a submission not graded (yet)."""
     sid = sub["id"]

@@ -11,7 +11,7 @@ from server.core.roles import Kind, Role
 from server.core.security import Caller
 from server.course.base import CourseBase, iso, not_found
 from server.course.people import ROLES, Who, check_course_id, refuse_ta
-from server.course.schema import CourseRow
+from server.course.schema import AssignmentRow, CourseRow
 from tracer.grading import student_name
 
 log = logging.getLogger(__name__)
@@ -44,7 +44,7 @@ class Courses(CourseBase):
             return Who(None, Role.ADMIN)
         return None
 
-    def who(self, aid: str, caller: Caller) -> tuple[dict, Who]:
+    def who(self, aid: str, caller: Caller) -> tuple[AssignmentRow, Who]:
         """The assignment and the caller: one of its students (by their token), its course's staff, or the
         admin; anyone else gets the 404 of an unknown assignment."""
         a = self.assignment(aid)
@@ -58,7 +58,7 @@ class Courses(CourseBase):
             raise not_found("assignment", aid)
         return a, who
 
-    def staff(self, aid: str, caller: Caller, instructor: Check, action: str = "follow") -> tuple[dict, Who]:
+    def staff(self, aid: str, caller: Caller, instructor: Check, action: str = "follow") -> tuple[AssignmentRow, Who]:
         """The assignment for its course's staff (a TA only for what a TA may do: 403 otherwise); its students
         get the 404 of an unknown id, anyone else what `instructor` says (401 or 403: check_instructor)."""
         a = self.assignment(aid)

@@ -28,12 +28,13 @@ import statistics
 
 from server.course.base import iso, status_of
 from server.course.people import Who
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 
 PENDING = ("queued", "grading")
 
 
-def student_rows(course: Course, a: dict) -> list[dict]:
+def student_rows(course: Course, a: AssignmentRow) -> list[dict]:
     """Each roster student with their deadline, state, counting score and submissions, in roster order."""
     spec = course.spec(a["id"], a["version"])
     points = spec.max_score()
@@ -82,7 +83,9 @@ def student_rows(course: Course, a: dict) -> list[dict]:
     return rows
 
 
-def _with_manual(course: Course, a: dict, row: dict, counting: dict | None, grades: dict, released: bool) -> None:
+def _with_manual(
+    course: Course, a: AssignmentRow, row: dict, counting: SubmissionWithGrade | None, grades: dict, released: bool
+) -> None:
     """A row's manual part (see the module's docstring): `manual`, `released`, `total`, `total_max`, `points`."""
     spec = course.spec(a["id"], a["version"])
     part = None if counting is None else course.manual_part(a, counting["id"], grades.get(counting["id"], {}))
@@ -97,13 +100,13 @@ def _with_manual(course: Course, a: dict, row: dict, counting: dict | None, grad
         row["points"] = round(row["points"] + extra, 6)
 
 
-def max_points(course: Course, a: dict) -> float:
+def max_points(course: Course, a: AssignmentRow) -> float:
     """The rows' `points` out of: the spec's points, plus its manual items' (counted as graded)."""
     spec = course.spec(a["id"], a["version"])
     return spec.max_score() + (spec.manual_points() if spec.manual else 0)
 
 
-def dashboard(course: Course, a: dict) -> dict:
+def dashboard(course: Course, a: AssignmentRow) -> dict:
     """The assignment's dashboard: its students (student_rows) and the counts, mean and median of the class
     (in the spec's points, over the students with a graded submission). `submitted`: students who submitted
     anything; `waiting`: those with a submission not graded yet; `graded`, `invalid`, `failed`: by state."""
@@ -144,7 +147,7 @@ def masked(row: dict, label: str) -> dict:
     return out
 
 
-def student_detail(course: Course, a: dict, student: str) -> dict | None:
+def student_detail(course: Course, a: AssignmentRow, student: str) -> dict | None:
     """One student's row (as student_rows) and every submission of theirs, as the instructor sees it
     (feedback whole, pictures listed), oldest first, their extensions' history and their late tokens. None for a
     student not on the roster."""

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import io
 import json
+from typing import cast
 
 from server.course.base import CourseBase, report_keys, status_of
 from server.course.policy import Feedback, When
+from server.course.schema import AssignmentRow, StudentRow, SubmissionWithGrade
 from tracer.tools import spreadsheet
 
 VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.never: "hidden"}  # Gradescope's
@@ -16,7 +18,7 @@ VISIBILITY = {When.now: "visible", When.after_deadline: "after_due_date", When.n
 class Grades(CourseBase):
     """The counting submission, the class's grades, the exports (mixed into server/course/service.Course)."""
 
-    def counting(self, a: dict, subs: list[dict]) -> dict | None:
+    def counting(self, a: AssignmentRow, subs: list[SubmissionWithGrade]) -> SubmissionWithGrade | None:
         """The submission that is the grade: the last graded one, or the best (by the share of its points
         after the late penalty; the later of two equal ones)."""
         graded = [s for s in subs if status_of(s) == "graded" and s["score"] is not None]
@@ -26,15 +28,17 @@ class Grades(CourseBase):
             return graded[-1]
         penalty = a["policy"]["late_penalty"]
 
-        def share(s: dict) -> float:
-            return s["score"] * (1 - (penalty if s["late"] else 0)) / (s["max_score"] or 1)
+        def share(s: SubmissionWithGrade) -> float:
+            return cast(float, s["score"]) * (1 - (penalty if s["late"] else 0)) / (s["max_score"] or 1)  # graded
 
         return max(reversed(graded), key=share)
 
-    def class_grades(self, a: dict) -> list[tuple[dict, list[dict], dict | None, float | None]]:
+    def class_grades(
+        self, a: AssignmentRow
+    ) -> list[tuple[StudentRow, list[SubmissionWithGrade], SubmissionWithGrade | None, float | None]]:
         """Each roster student: (their row, their submissions in order, the counting submission or None, its
         score after the late penalty or None), in the roster's order."""
-        subs: dict[str, list[dict]] = {}
+        subs: dict[str, list[SubmissionWithGrade]] = {}
         for s in self.submissions(a):
             subs.setdefault(s["student"], []).append(s)
         out = []
@@ -42,26 +46,25 @@ class Grades(CourseBase):
             mine = subs.get(st["student"], [])
             c = self.counting(a, mine)
             penalty = a["policy"]["late_penalty"] if c is not None and c["late"] else 0.0
-            out.append((st, mine, c, None if c is None else c["score"] * (1 - penalty)))
+            out.append((st, mine, c, None if c is None else cast(float, c["score"]) * (1 - penalty)))
         return out
 
-    def total(self, a: dict, sub: dict) -> tuple[float, float]:
+    def total(self, a: AssignmentRow, sub: SubmissionWithGrade) -> tuple[float, float]:
         """(the grade, its maximum) of a graded submission as students, exports and the LMS see it: the auto part
         plus the manual part once released (server/course/manual.py), the late penalty taken off the whole."""
         penalty = a["policy"]["late_penalty"] if sub["late"] else 0.0
+        score, most = cast(float, sub["score"]), cast(float, sub["max_score"])  # graded: neither is None
         manual = self.released_manual(a, sub)
         if manual is None:
-            return sub["score"] * (1 - penalty), sub["max_score"]
-        return (sub["score"] + manual) * (1 - penalty), (sub["max_score"] or 0) + self.spec(
-            a["id"], a["version"]
-        ).manual_points()
+            return score * (1 - penalty), most
+        return (score + manual) * (1 - penalty), (most or 0) + self.spec(a["id"], a["version"]).manual_points()
 
-    def final_grades(self, a: dict) -> list[tuple[dict, dict | None, float | None, int]]:
+    def final_grades(self, a: AssignmentRow) -> list[tuple[StudentRow, SubmissionWithGrade | None, float | None, int]]:
         """Each roster student: (their row, the counting submission or None, its score after the late
         penalty or None, how many submissions they made), in the roster's order."""
         return [(st, c, score, len(mine)) for st, mine, c, score in self.class_grades(a)]
 
-    def grades_csv(self, a: dict) -> str:
+    def grades_csv(self, a: AssignmentRow) -> str:
         """One row per roster student: id, name, score (the counting submission's, late penalty applied; empty
         when none was graded; with the manual part once released: `total`), max_score, late, submissions (all
         they made)."""
@@ -77,7 +80,7 @@ class Grades(CourseBase):
                 w.writerow([st["student"], st["name"], _num(score), _num(most), late, n])
         return buf.getvalue()
 
-    def gradebook_csv(self, a: dict) -> str:
+    def gradebook_csv(self, a: AssignmentRow) -> str:
         """The grades as a learning management system imports them (Canvas's gradebook columns: Student, ID,
         SIS User ID, SIS Login ID, Section, then one column for this assignment, and a Points Possible row):
         the roster's id as the SIS User ID, its email as the SIS Login ID; a student with nothing graded has
@@ -99,7 +102,7 @@ class Grades(CourseBase):
             w.writerow([st["name"], "", st["student"], st.get("email") or "", "", _num(scaled)])
         return buf.getvalue()
 
-    def gradescope(self, a: dict, sub: dict) -> dict | None:
+    def gradescope(self, a: AssignmentRow, sub: SubmissionWithGrade) -> dict | None:
         """A graded submission as Gradescope's autograder results.json (for an autograder that hands a
         student's work to this service and reports what it says): each test's visibility from the feedback
         policy (now: visible, after the deadline: after_due_date, never: hidden), the score after the late

@@ -37,6 +37,7 @@ from server.core.security import token_hash
 from server.course.lms_poster import Poster
 from server.course.lms_store import LmsStore
 from server.course.people import COURSE_ID
+from server.course.schema import MemberRow
 from server.course.service import Course
 from server.lti.pages import page as lti_page
 from server.lti.roles import course_role
@@ -225,7 +226,7 @@ class Lms:
             gen = member["gen"]
         return pid, self.course.token_of(cid, kind, pid, gen)
 
-    def email_match(self, cid: str, email: str) -> dict | None:
+    def email_match(self, cid: str, email: str) -> MemberRow | None:
         """The course's roster student of `email` whom no LMS user is linked to yet."""
         return next((m for m in self.course.store.members(cid) if m["email"].lower() == email.lower()
                      and not m["lti_user"]), None)  # fmt: skip

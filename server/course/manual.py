@@ -36,6 +36,7 @@ from server.core.roles import Role
 from server.course.audit import Target
 from server.course.base import CourseBase, iso, status_of
 from server.course.people import Who
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 
 log = logging.getLogger(__name__)
 
@@ -45,13 +46,13 @@ MAX_COMMENT = 4000
 class Manual(CourseBase):
     """Manual grades, the grading queue, graders, the release (mixed into server/course/service.Course)."""
 
-    def manual_items(self, a: dict) -> list:
+    def manual_items(self, a: AssignmentRow) -> list:
         return self.spec(a["id"], a["version"]).manual
 
-    def released_at(self, a: dict) -> float | None:
+    def released_at(self, a: AssignmentRow) -> float | None:
         return self.store.manual_state(a["id"])["released_at"]
 
-    def manual_points(self, a: dict, item: str, row: dict) -> float:
+    def manual_points(self, a: AssignmentRow, item: str, row: dict) -> float:
         """One grade's points by the current spec: the override, or the chosen levels' sum, clamped to 0..the
         item's points (0 for an item the spec no longer has)."""
         m = self.spec(a["id"], a["version"]).manual_item(item)
@@ -59,7 +60,7 @@ class Manual(CourseBase):
             return 0.0
         return m.score(row["rubric"]) if row["points"] is None else min(m.points, max(0.0, row["points"]))
 
-    def manual_part(self, a: dict, sid: str, rows: dict | None = None) -> dict:
+    def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict:
         """A submission's manual grades by the current spec: {points, max_points, complete, items: [...]}."""
         if rows is None:
             rows = self.store.manual_grades(a["id"], sid).get(sid, {})
@@ -80,14 +81,14 @@ class Manual(CourseBase):
         return {"points": round(total, 6) if graded else None, "max_points": sum(i["max_points"] for i in items),
                 "complete": len(graded) == len(items), "items": items}  # fmt: skip
 
-    def released_manual(self, a: dict, sub: dict) -> float | None:
+    def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None:
         """The manual part of a submission that reaches students, exports and the LMS: its points once released
         (0 for an item not graded), None before the release or when the spec has no manual items."""
         if not self.manual_items(a) or self.released_at(a) is None:
             return None
         return self.manual_part(a, sub["id"])["points"] or 0.0
 
-    def manual_view(self, a: dict, sub: dict, who: Who) -> dict | None:
+    def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None:
         """The manual part as the caller sees it: staff always; a student after the release ({released: false}
         before it); None when the spec has no manual items."""
         if not self.manual_items(a):
@@ -103,7 +104,7 @@ class Manual(CourseBase):
 
     # -- grading -------------------------------------------------------------------------------------------
 
-    def set_manual_grade(self, a: dict, sid: str, item: str, body: dict, who: Who) -> dict:
+    def set_manual_grade(self, a: AssignmentRow, sid: str, item: str, body: dict, who: Who) -> dict:
         """Grade one item of a submission (body: rubric [level names], points (an override or None), comment);
         422 naming the field for an unknown item or level, an override out of range."""
         sub = self.submission(a, sid)
@@ -130,7 +131,7 @@ class Manual(CourseBase):
         self._set_manual_grade(a, sub, item, row, who)
         return self.grading_view(a, sub, who)
 
-    def _set_manual_grade(self, a: dict, sub: dict, item: str, row: dict, who: Who) -> None:
+    def _set_manual_grade(self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who) -> None:
         """The one write of a manual grade, audited (`manual.grade`) in its transaction."""
         target = Target(a["course_id"], a["id"], student=sub["student"], submission=sub["id"])
         self.store.set_manual(
@@ -140,12 +141,12 @@ class Manual(CourseBase):
         if self.released_at(a) is not None:
             self._grade_moved(sub)
 
-    def _grade_moved(self, sub: dict) -> None:
+    def _grade_moved(self, sub: SubmissionWithGrade) -> None:
         """A student's grade moved without its grading run: the run's listeners told (the LMS poster, followers)."""
         for listener in list(self.runs.listeners):
             listener(sub["run_id"], sub["id"])
 
-    def release(self, a: dict, who: Who) -> dict:
+    def release(self, a: AssignmentRow, who: Who) -> dict:
         """The manual part released to the students, the exports and the LMS (again: the time moves)."""
         self._release(a, who)
         for _, _, c, _ in self.class_grades(a):
@@ -153,20 +154,20 @@ class Manual(CourseBase):
                 self._grade_moved(c)
         return self.grading_state(a, who)
 
-    def _release(self, a: dict, who: Who) -> None:
+    def _release(self, a: AssignmentRow, who: Who) -> None:
         """The one write of a release, audited (`assignment.release`) in its transaction."""
         self.store.release_manual(a["id"], who.person, self.now(), self.by(who), Target(a["course_id"], a["id"]))
         log.info("manual grades of assignment %s released by %s", a["id"], who.person or "the admin")
 
-    def set_anonymous(self, a: dict, anonymous: bool, who: Who) -> dict:
+    def set_anonymous(self, a: AssignmentRow, anonymous: bool, who: Who) -> dict:
         self._set_anonymous(a, anonymous, who)
         return self.store.manual_state(a["id"])
 
-    def _set_anonymous(self, a: dict, anonymous: bool, who: Who) -> None:
+    def _set_anonymous(self, a: AssignmentRow, anonymous: bool, who: Who) -> None:
         """The one write of anonymity, audited (`manual.anonymous`, when it changes) in its transaction."""
         self.store.set_anonymous(a["id"], anonymous, self.by(who), Target(a["course_id"], a["id"]))
 
-    def assign_graders(self, a: dict, graders: list[str], who: Who) -> dict:
+    def assign_graders(self, a: AssignmentRow, graders: list[str], who: Who) -> dict:
         """The roster's students dealt to `graders` (staff ids of the course) in turn: as many each, within one."""
         staff = {s["person"] for s in self.store.staff(a["course_id"])}
         if not graders:
@@ -182,30 +183,30 @@ class Manual(CourseBase):
         counts = {g: sum(1 for _, x in pairs if x == g) for g in graders}
         return {"graders": [{"id": g, "students": n} for g, n in counts.items()]}
 
-    def _set_graders(self, a: dict, pairs: list[tuple[str, str]], who: Who) -> None:
+    def _set_graders(self, a: AssignmentRow, pairs: list[tuple[str, str]], who: Who) -> None:
         """The one write of the graders' assignment, audited (`manual.graders`) in its transaction."""
         self.store.set_graders(a["id"], pairs, self.by(who), Target(a["course_id"], a["id"]))
 
     # -- anonymity -------------------------------------------------------------------------------------------
 
-    def hides_names(self, a: dict, who: Who) -> bool:
+    def hides_names(self, a: AssignmentRow, who: Who) -> bool:
         """Are students' names hidden from this caller now: anonymous grading on, not released, and a TA?"""
         if who.student is not None or who.role != Role.TA:
             return False
         state = self.store.manual_state(a["id"])
         return bool(state["anonymous"]) and state["released_at"] is None
 
-    def anonymous_labels(self, a: dict) -> dict[str, str]:
+    def anonymous_labels(self, a: AssignmentRow) -> dict[str, str]:
         """{student id: "Student N"} by the roster's order (the grading queue's labels)."""
         return {st["student"]: f"Student {i}" for i, st in enumerate(self.store.students(a["id"]), 1)}
 
-    def anonymous_student(self, a: dict, label: str) -> str | None:
+    def anonymous_student(self, a: AssignmentRow, label: str) -> str | None:
         """The student a label stands for (None: no such label)."""
         return next((s for s, x in self.anonymous_labels(a).items() if x == label), None)
 
     # -- the queue -------------------------------------------------------------------------------------------
 
-    def grading_state(self, a: dict, who: Who) -> dict:
+    def grading_state(self, a: AssignmentRow, who: Who) -> dict:
         """The release, anonymity and points; the course's staff (who may be assigned), the graders assigned
         (each with their number of students) and the caller's id (`you`)."""
         state = self.store.manual_state(a["id"])
@@ -217,7 +218,9 @@ class Manual(CourseBase):
                 "anonymous": bool(state["anonymous"]), "max_points": most, "staff": staff, "graders": graders,
                 "you": who.person}  # fmt: skip
 
-    def queue(self, a: dict, who: Who, grader: str | None = None, everyone: bool = False) -> list[dict]:
+    def queue(
+        self, a: AssignmentRow, who: Who, grader: str | None = None, everyone: bool = False
+    ) -> list[SubmissionWithGrade]:
         """The counting submissions still to grade (some item without a grade), in the roster's order: the
         grader's own when graders are assigned (`grader`, else the caller's; the admin, an unassigned caller and
         `everyone`: everyone's)."""
@@ -235,7 +238,7 @@ class Manual(CourseBase):
         return out
 
     def next_to_grade(
-        self, a: dict, who: Who, grader: str | None = None, after: str | None = None, everyone: bool = False
+        self, a: AssignmentRow, who: Who, grader: str | None = None, after: str | None = None, everyone: bool = False
     ) -> dict | None:
         """The next submission to grade (after `after` in the queue's order, wrapping; `everyone`'s), or None."""
         todo = self.queue(a, who, grader, everyone)
@@ -251,7 +254,7 @@ class Manual(CourseBase):
         view["remaining"] = len(todo)
         return view
 
-    def grading_view(self, a: dict, sub: dict, who: Who) -> dict:
+    def grading_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict:
         """What the grading queue shows of a submission: who (or an anonymous label), the pictures, the scene,
         the auto part, the rubric and the grades so far."""
         state = self.store.manual_state(a["id"])
@@ -277,7 +280,7 @@ class Manual(CourseBase):
             "url": f"{base}/grading/submissions/{sub['id']}",
         }  # fmt: skip
 
-    def scene_text(self, a: dict, sub: dict) -> bytes | None:
+    def scene_text(self, a: AssignmentRow, sub: SubmissionWithGrade) -> bytes | None:
         """A scene submission's file as the student sent it (None for an image)."""
         if sub["kind"] != "scene":
             return None

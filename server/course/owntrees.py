@@ -31,6 +31,7 @@ from server.core.errors import Conflict, Invalid, NotFound, Unavailable
 from server.core.files import write_atomic
 from server.core.security import Caller
 from server.course import compare
+from server.course.schema import AssignmentRow
 from server.course.service import Course
 from server.jobs.service import JobService
 from tracer.errors import SceneError
@@ -63,7 +64,7 @@ class TreeCache:
                 self._trees.popitem(last=False)
 
 
-def reference_scene(course: Course, a: dict, version: int) -> dict:
+def reference_scene(course: Course, a: AssignmentRow, version: int) -> dict:
     """The version's reference scene with the assignment's settings (as the grader renders it); 409 without one."""
     spec = next(v for v in course.store.versions(a["id"]) if v["version"] == version)["spec"]
     grader = tasks.grader(json.dumps(spec))
@@ -87,7 +88,7 @@ def read_log(body: bytes, scene: dict, max_trees: int) -> TreeLog:
 
 
 async def reference_trees(
-    jobs: JobService, check: compare.Check, cache: TreeCache, a: dict, version: int, scene: dict,
+    jobs: JobService, check: compare.Check, cache: TreeCache, a: AssignmentRow, version: int, scene: dict,
     pixels: list[tuple[int, int]], gone: Callable[[], Awaitable[bool]],
 ) -> dict[tuple[int, int], dict]:  # fmt: skip
     """The reference's tree at each pixel: from the cache, or traced by workers (all at once) and kept."""
@@ -163,7 +164,7 @@ async def compare_log(
 
 
 async def check_log(
-    course: Course, jobs: JobService, check: compare.Check, cache: TreeCache, a: dict, who, trees: object,
+    course: Course, jobs: JobService, check: compare.Check, cache: TreeCache, a: AssignmentRow, who, trees: object,
     max_trees: int, gone: Callable[[], Awaitable[bool]],
 ) -> list[dict]:  # fmt: skip
     """`trees` of the check: the log compared with the current version's reference (no image: no `encoding`)."""
@@ -190,7 +191,7 @@ async def latest(course: Course, caller: Caller, aid: str, sid: str) -> dict:
         raise NotFound.at("sid", f"no tree log was compared for submission '{sid[:64]}' yet") from None
 
 
-def whats(course: Course, a: dict) -> dict[str, int]:
+def whats(course: Course, a: AssignmentRow) -> dict[str, int]:
     """The class's first differences by `what`: each submission's latest comparison, each tree's first one."""
     counts: Counter[str] = Counter()
     for sub in course.submissions(a):

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from server.core.errors import Forbidden, Invalid
 from server.core.roles import STAFF, Role
+from server.course.schema import MemberRow, StudentRow
 
 ROLES = STAFF  # a course's staff (server/core/roles.py)
 COURSE_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,39}")
@@ -35,9 +36,10 @@ COURSE_ID_WORDS = "1 to 40 letters, digits, '-' or '_', starting with a letter o
 @dataclass(frozen=True)
 class Who:
     """The caller as an assignment sees them: a student of its roster (`student`, their roster row), or staff:
-    the server's admin, or one of the course's instructors or TAs (`role`)."""
+    the server's admin, or one of the course's instructors or TAs (`role`). As a course sees them (Courses.role),
+    a student is their member row."""
 
-    student: dict | None = None
+    student: StudentRow | MemberRow | None = None
     role: Role = Role.INSTRUCTOR  # admin, instructor, ta, or student
     person: str | None = None  # a staff member's id in the course (None: the admin)
 

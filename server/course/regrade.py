@@ -31,6 +31,7 @@ from server.course.audit import Target
 from server.course.base import DAY, CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import Feedback, when_of
+from server.course.schema import AssignmentRow, MemberRow, StudentRow, SubmissionWithGrade
 
 log = logging.getLogger(__name__)
 
@@ -43,7 +44,7 @@ STATUSES = (rs.OPEN, rs.ACCEPTED, rs.DECLINED)
 class Regrade(CourseBase):
     """Regrade requests: asked, answered, listed; tests' points set by them (mixed into service.Course)."""
 
-    def regrade_deadline(self, a: dict, student: dict | None) -> float:
+    def regrade_deadline(self, a: AssignmentRow, student: StudentRow | MemberRow | None) -> float:
         """Until when (Unix time) a student may ask: the policy's `regrade_deadline`, else a week after their late
         cut-off (their deadline without one; an extension moves it)."""
         when = a["policy"].get("regrade_deadline")
@@ -53,7 +54,7 @@ class Regrade(CourseBase):
 
     # -- the tests' points ---------------------------------------------------------------------------------
 
-    def _report_tests(self, a: dict, sub: dict) -> dict[str, dict]:
+    def _report_tests(self, a: AssignmentRow, sub: SubmissionWithGrade) -> dict[str, dict]:
         """{policy name: the report's test (name, score, max_score)} of a graded submission."""
         if status_of(sub) != "graded":
             return {}
@@ -62,22 +63,23 @@ class Regrade(CourseBase):
         keys = report_keys(self.spec(a["id"], sub["version"]), sub["kind"])
         return dict(zip(keys, tests, strict=False))
 
-    def with_test_overrides(self, a: dict, subs: list[dict]) -> list[dict]:
+    def with_test_overrides(self, a: AssignmentRow, subs: list[SubmissionWithGrade]) -> list[SubmissionWithGrade]:
         """Each submission's score with the tests' points accepted regrade requests set (under the version they
         were set for), clamped to 0..its maximum; `auto_score`: the grading's own."""
         found = rs.overrides(self.store, a["id"], subs[0]["id"] if len(subs) == 1 else None) if subs else {}
         for sub in subs:
             mine = found.get(sub["id"])
-            if not mine or sub.get("score") is None:
+            score, most = sub.get("score"), sub.get("max_score")
+            if not mine or score is None:
                 continue
             delta = sum(o["points"] - o["original"] for o in mine.values() if o["version"] == sub["version"])
             if delta:
-                most = sub["max_score"] if sub.get("max_score") is not None else float("inf")
-                sub["auto_score"] = sub["score"]
-                sub["score"] = round(min(most, max(0.0, sub["score"] + delta)), 6)
+                most = most if most is not None else float("inf")
+                sub["auto_score"] = score
+                sub["score"] = round(min(most, max(0.0, score + delta)), 6)
         return subs
 
-    def regraded_feedback(self, a: dict, sub: dict, feedback: dict | None) -> None:
+    def regraded_feedback(self, a: AssignmentRow, sub: SubmissionWithGrade, feedback: dict | None) -> None:
         """A view's tests with the points regrade requests set (`regraded_from`: the grading's)."""
         mine = rs.overrides(self.store, a["id"], sub["id"]).get(sub["id"], {}) if feedback else {}
         for t in (feedback or {}).get("tests", []):
@@ -85,7 +87,7 @@ class Regrade(CourseBase):
             if o is not None and o["version"] == sub["version"] and "score" in t:
                 t["regraded_from"], t["score"] = t["score"], o["points"]
 
-    def _item(self, a: dict, sub: dict, item: str) -> tuple[str, float, float | None]:
+    def _item(self, a: AssignmentRow, sub: SubmissionWithGrade, item: str) -> tuple[str, float, float | None]:
         """(kind, the most it is worth, its points now) of a submission's item; 422 naming `item` when the spec
         has no such test or manual item."""
         tests = self._report_tests(a, sub)
@@ -105,7 +107,7 @@ class Regrade(CourseBase):
 
     # -- asking ----------------------------------------------------------------------------------------------
 
-    def request_regrade(self, a: dict, sid: str, body: dict, who: Who) -> dict:
+    def request_regrade(self, a: AssignmentRow, sid: str, body: dict, who: Who) -> dict:
         """A student's request on one item of their counting submission (see the module's docstring for the
         refusals); the request as they see it."""
         sub = self.submission(a, sid)
@@ -150,7 +152,7 @@ class Regrade(CourseBase):
 
     # -- answering ---------------------------------------------------------------------------------------------
 
-    def answer_regrade(self, a: dict, sid: str, rid: str, body: dict, who: Who) -> dict:
+    def answer_regrade(self, a: AssignmentRow, sid: str, rid: str, body: dict, who: Who) -> dict:
         """Staff's answer (again, maybe): accepted (with `points`: that item's points for that submission) or
         declined, with a reply."""
         row = rs.one(self.store, rid) if len(rid) <= 64 else None
@@ -201,7 +203,7 @@ class Regrade(CourseBase):
 
     # -- reading -------------------------------------------------------------------------------------------------
 
-    def regrade_requests(self, a: dict, who: Who, status: str | None = None, sid: str | None = None) -> dict:
+    def regrade_requests(self, a: AssignmentRow, who: Who, status: str | None = None, sid: str | None = None) -> dict:
         """The queue (staff: everyone's; a student: their own), open first, then oldest first; `status` one of
         open, accepted, declined; `sid` one submission's."""
         if status is not None and status not in STATUSES:
@@ -218,7 +220,7 @@ class Regrade(CourseBase):
                 "regrade_deadline": iso(until) if until is not None else None,
                 "regrade_open": None if until is None else self.now() <= until}  # fmt: skip
 
-    def _staff_context(self, a: dict) -> dict:
+    def _staff_context(self, a: AssignmentRow) -> dict:
         """What staff's view of every request reads once: anonymity, the roster's order and names."""
         state = self.store.manual_state(a["id"])
         roster = self.store.students(a["id"])
@@ -226,7 +228,9 @@ class Regrade(CourseBase):
                 "number": {st["student"]: i + 1 for i, st in enumerate(roster)},
                 "name": {st["student"]: st["name"] for st in roster}}  # fmt: skip
 
-    def _request_view(self, a: dict, row: dict, who: Who, history: list[dict], staff: dict | None = None) -> dict:
+    def _request_view(
+        self, a: AssignmentRow, row: dict, who: Who, history: list[dict], staff: dict | None = None
+    ) -> dict:
         sub = self.submission(a, row["submission_id"])
         current = most = None
         if sub is not None:

@@ -18,6 +18,7 @@ from server.core.roles import Kind
 from server.core.security import token_hash
 from server.course.base import CourseBase, iso, not_found
 from server.course.people import Who
+from server.course.schema import MemberRow, StudentRow
 from server.jobs.store import JobStore
 from tracer.grading import student_name
 from tracer.tools import spreadsheet
@@ -58,15 +59,15 @@ class Roster(CourseBase):
         added = set(self.store.add_members(cid, rows, self.now(), [], self.by(who, "the course's roster CSV")))
         return [self._student_link(cid, r, base, None, r["student"] in added) for r in rows]
 
-    def _student_link(self, cid: str, r: dict, base: str, aid: str | None, new: bool) -> dict:
+    def _student_link(self, cid: str, r: dict | StudentRow | MemberRow, base: str, aid: str | None, new: bool) -> dict:
         member = self.store.member(cid, r["student"])
         assert member is not None  # on the roster: added before its link is made
         token = self.token_of(cid, Kind.STUDENT, member["student"], member["gen"])
         link = self._link(base, aid, token) if aid else self.course_link(base, cid, token)
         out = {"id": member["student"], "name": member["name"], "email": member["email"], "token": token,
                "link": link, "new": new}  # fmt: skip
-        if r.get("warning"):  # the roster's row lost characters of its name (parse_roster)
-            out["warning"] = r["warning"]
+        if warning := r.get("warning"):  # the roster's row lost characters of its name (parse_roster)
+            out["warning"] = warning
         return out
 
     def links(self, cid: str, base: str, aid: str | None = None) -> list[dict]:
@@ -83,7 +84,7 @@ class Roster(CourseBase):
             self.renew(cid, Kind.STUDENT, r["student"], jobs, who, "every link re-issued")
         return [self._student_link(cid, r, base, aid, True) for r in rows]
 
-    def _roster(self, cid: str, aid: str | None) -> list[dict]:
+    def _roster(self, cid: str, aid: str | None) -> list[StudentRow] | list[MemberRow]:
         """One assignment's students, or the course's."""
         return self.store.students(aid) if aid else self.store.members(cid)
 

@@ -6,11 +6,13 @@ audit event in its own transaction when given a `By` (server/course/audit.py).""
 from __future__ import annotations
 
 import sqlite3
+from typing import cast
 
 from server.core.db import Tables
 from server.core.roles import Kind
 from server.course.audit import By, Target, record
 from server.course.policy import iso
+from server.course.schema import MemberRow, StudentRow
 
 # A roster student as the service reads one (an enrolment joined with its member): the columns of the
 # per-assignment roster of before courses, so that every rule reads a student as it did.
@@ -26,15 +28,15 @@ class RosterTables(Tables):
 
     # -- the course's members ------------------------------------------------------------------
 
-    def members(self, cid: str) -> list[dict]:
+    def members(self, cid: str) -> list[MemberRow]:
         rows = self.db.execute("SELECT * FROM course_members WHERE course_id = ? ORDER BY student", (cid,))
-        return [dict(r) for r in rows]
+        return [cast(MemberRow, dict(r)) for r in rows]
 
-    def member(self, cid: str, student: str) -> dict | None:
+    def member(self, cid: str, student: str) -> MemberRow | None:
         row = self.db.execute(
             "SELECT * FROM course_members WHERE course_id = ? AND student = ?", (cid, student)
         ).fetchone()
-        return dict(row) if row else None
+        return cast(MemberRow, dict(row)) if row else None
 
     def roster_kind(self, token_hash: str) -> str | None:
         """How this token's hash is known to a course: "roster" (a member an instructor or an LMS put there, or
@@ -155,21 +157,22 @@ class RosterTables(Tables):
 
     # -- an assignment's roster (its enrolments) -----------------------------------------------
 
-    def students(self, aid: str) -> list[dict]:
-        return [dict(r) for r in self.db.execute(STUDENT + " WHERE e.assignment_id = ? ORDER BY e.student", (aid,))]
+    def students(self, aid: str) -> list[StudentRow]:
+        rows = self.db.execute(STUDENT + " WHERE e.assignment_id = ? ORDER BY e.student", (aid,))
+        return [cast(StudentRow, dict(r)) for r in rows]
 
-    def student(self, aid: str, student: str) -> dict | None:
+    def student(self, aid: str, student: str) -> StudentRow | None:
         row = self.db.execute(STUDENT + " WHERE e.assignment_id = ? AND e.student = ?", (aid, student)).fetchone()
-        return dict(row) if row else None
+        return cast(StudentRow, dict(row)) if row else None
 
-    def by_token(self, aid: str, token_hash: str) -> dict | None:
+    def by_token(self, aid: str, token_hash: str) -> StudentRow | None:
         """The student of this assignment's roster whose token this is (a member of its course enrolled in it)."""
         row = self.db.execute(
             STUDENT + " JOIN course_tokens t ON t.course_id = m.course_id AND t.kind = 'student'"
             " AND t.person = m.student WHERE e.assignment_id = ? AND t.token_hash = ?",
             (aid, token_hash),
         ).fetchone()
-        return dict(row) if row else None
+        return cast(StudentRow, dict(row)) if row else None
 
     def enrol(self, aid: str, student: str, now: float, by: By | None = None) -> None:
         """A member of the assignment's course on its roster (if not already: then a `student.enrol` event)."""

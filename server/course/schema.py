@@ -203,3 +203,86 @@ class StaffRow(TypedDict):
     lti_user: str | None
     gen: int
     created_at: float
+
+
+class MemberRow(TypedDict):
+    """A row of `course_members`: a student of a course's roster (RosterTables.members, .member)."""
+
+    course_id: str
+    student: str
+    name: str
+    email: str
+    self_declared: int  # 0 or 1
+    every: int  # 0 or 1
+    lti_user: str | None
+    gen: int
+    created_at: float
+    left_at: float | None
+
+
+class StudentRow(TypedDict):
+    """A student of an assignment's roster, as RosterTables.students, .student and .by_token return one: their
+    enrolment (`course_enrolments`) joined with their member row (server/course/roster_store.py's STUDENT)."""
+
+    assignment_id: str
+    student: str
+    name: str
+    email: str
+    self_declared: int
+    deadline: float | None  # their extension (Unix time); None: the assignment's
+    created_at: float  # when they were enrolled in it
+    course_id: str
+    lti_user: str | None
+    left_at: float | None
+
+
+class VersionRow(TypedDict):
+    """A version of an assignment (`course_versions`), as CourseStore.versions returns it: its spec and policy
+    parsed from their JSON, `id` the assignment's, `version_at` when the version was published."""
+
+    id: str
+    version: int
+    spec: dict  # the grading spec (server/grading/), its reference scene inline
+    policy: dict  # the Policy's fields (server/course/policy.py), as stored
+    run_id: str
+    version_at: float
+
+
+class AssignmentRow(VersionRow):
+    """An assignment (`course_assignments`) with its current version (CourseStore.assignment): what the course's
+    mixins and views take as `a`."""
+
+    created_at: float
+    course_id: str
+
+
+class SubmissionRow(TypedDict):
+    """A row of `course_submissions`, as SubmissionTables.unhanded and .regrade return it (a submission before
+    it is inserted is a plain dict: `handed` and `tokens_spent` are set by add_submission)."""
+
+    id: str
+    assignment_id: str
+    student: str
+    version: int
+    run_id: str
+    kind: str  # scene, png or exr
+    file: str  # relative to DATA/course/
+    accepted_at: float
+    late: int  # 0 or 1 (the service's submissions() set it by the deadline as it is now)
+    handed: int  # 0 or 1
+    tokens_spent: int
+
+
+class _Graded(SubmissionRow):
+    stage: str | None
+    status: str | None
+    score: float | None
+    max_score: float | None
+
+
+class SubmissionWithGrade(_Graded, total=False):
+    """A submission with its grading row's stage, status and exact score (None until graded), as
+    SubmissionTables.submissions and .submission return it: the `sub` the course's mixins and views read.
+    (`total=False` for `auto_score` alone: NotRequired is not seen at run time under postponed annotations.)"""
+
+    auto_score: float  # the grading's own score, where accepted regrade requests moved `score`

@@ -31,6 +31,7 @@ from server.core.files import write_atomic
 from server.core.security import Caller
 from server.course.base import iso
 from server.course.courses import Check
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 from tracer.grading import similarity
 
@@ -69,15 +70,15 @@ class Reports:
     def path(self, aid: str) -> Path:
         return self.course.root / aid / REPORT
 
-    def _staff(self, aid: str, caller: Caller, instructor: Check) -> dict:
+    def _staff(self, aid: str, caller: Caller, instructor: Check) -> AssignmentRow:
         self.course.assignment(aid)  # 404 for an unknown one first
         if caller.owner and self.course.store.by_token(aid, caller.owner) is not None:
             raise Forbidden.at("Authorization", "similarity reports are for the course's staff")
         return self.course.staff(aid, caller, instructor, "follow")[0]
 
-    def _latest(self, a: dict) -> list[tuple[str, str, str]]:
+    def _latest(self, a: AssignmentRow) -> list[tuple[str, str, str]]:
         """Each roster student's latest submission as (student, kind, its file's path)."""
-        latest: dict[str, dict] = {}
+        latest: dict[str, SubmissionWithGrade] = {}
         for sub in self.course.store.submissions(a["id"]):  # in the order they came
             latest[sub["student"]] = sub
         roster = {s["student"] for s in self.course.store.students(a["id"])}

@@ -38,6 +38,7 @@ from server.course import dashboard
 from server.course.assignments import test_keys
 from server.course.base import iso, report_keys, status_of
 from server.course.dashboard import student_rows
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 from tracer.tools import spreadsheet
 
@@ -69,7 +70,7 @@ def histogram(points: list[float], max_points: float) -> list[dict]:
     ]
 
 
-def _tests_of(course: Course, a: dict, sub: dict) -> dict[str, dict]:
+def _tests_of(course: Course, a: AssignmentRow, sub: SubmissionWithGrade) -> dict[str, dict]:
     """The counting submission's tests by the policy's key: {name, kind, passed}."""
     item = course.runs.item(sub["run_id"], sub["id"]) or {}
     report = item.get("report") or {}
@@ -86,10 +87,10 @@ def _kind(spec, key: str) -> str:
     return "requirement" if key in {r.name for r in spec.requirements} else "image"
 
 
-def student_stats(course: Course, a: dict) -> tuple[list[dict], dict[str, dict[str, dict]]]:
+def student_stats(course: Course, a: AssignmentRow) -> tuple[list[dict], dict[str, dict[str, dict]]]:
     """Each roster student's statistics (in roster order) and their counting submission's tests by key."""
     rows = student_rows(course, a)  # the dashboard's rows: state, points and the counting submission's id
-    subs: dict[str, list[dict]] = {}
+    subs: dict[str, list[SubmissionWithGrade]] = {}
     for s in course.submissions(a):  # in the order they came (a student who joined since: none yet)
         subs.setdefault(s["student"], []).append(s)
     out, tests = [], {}
@@ -116,7 +117,7 @@ def student_stats(course: Course, a: dict) -> tuple[list[dict], dict[str, dict[s
                 "attempts": attempts,
                 "first_at": iso(first),
                 "full_marks_at": iso(full["accepted_at"]) if full else None,
-                "to_full_marks": _round(full["accepted_at"] - first, 3) if full else None,
+                "to_full_marks": _round(full["accepted_at"] - first, 3) if full and first is not None else None,
             }
         )
         if counting is not None and len(tests) < MAX_STUDENTS:
@@ -124,7 +125,7 @@ def student_stats(course: Course, a: dict) -> tuple[list[dict], dict[str, dict[s
     return out, tests
 
 
-def stats(course: Course, a: dict) -> dict:
+def stats(course: Course, a: AssignmentRow) -> dict:
     """The assignment's class statistics (see the module's docstring)."""
     spec = course.spec(a["id"], a["version"])
     max_points = dashboard.max_points(course, a)  # the spec's points and its manual items' (dashboard.max_points)
@@ -197,7 +198,7 @@ def _num(x: float | None) -> str:
     return "" if x is None else f"{round(x, 6):g}"
 
 
-def stats_csv(course: Course, a: dict) -> str:
+def stats_csv(course: Course, a: AssignmentRow) -> str:
     """One row per roster student: id, name (its control and bidirectional characters out), state, points,
     max_points, submissions, attempts, first_submitted, full_marks_at, hours_to_full_marks, then each test of
     the spec: passed or failed in their counting submission (empty: no counting submission, or not graded

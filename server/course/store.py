@@ -39,7 +39,7 @@ from server.core.roles import Kind
 from server.course.audit import By, Target, record
 from server.course.manual_store import ManualTables
 from server.course.roster_store import RosterTables
-from server.course.schema import SCHEMA, CourseRow, StaffRow
+from server.course.schema import SCHEMA, AssignmentRow, CourseRow, StaffRow, VersionRow
 from server.course.submission_store import SubmissionTables
 from server.grading.store import GradingStore
 
@@ -113,7 +113,7 @@ class CourseStore(ManualTables, RosterTables, SubmissionTables, Tables):
             db.execute("UPDATE course_assignments SET version = ? WHERE id = ?", (version, aid))
         return version
 
-    def assignment(self, aid: str) -> dict | None:
+    def assignment(self, aid: str) -> AssignmentRow | None:
         """The assignment with its current version's spec, policy and run (None if there is none)."""
         row = self.db.execute(
             "SELECT a.id, a.version, a.created_at, a.course_id, v.spec, v.policy, v.run_id, v.created_at AS version_at"
@@ -121,15 +121,15 @@ class CourseStore(ManualTables, RosterTables, SubmissionTables, Tables):
             " WHERE a.id = ?",
             (aid,),
         ).fetchone()
-        return _version(row) if row else None
+        return cast(AssignmentRow, _version(row)) if row else None
 
-    def versions(self, aid: str) -> list[dict]:
+    def versions(self, aid: str) -> list[VersionRow]:
         rows = self.db.execute(
             "SELECT assignment_id AS id, version, spec, policy, run_id, created_at AS version_at"
             " FROM course_versions WHERE assignment_id = ? ORDER BY version",
             (aid,),
         )
-        return [_version(r) for r in rows]
+        return [cast(VersionRow, _version(r)) for r in rows]
 
     def assignments(self, cid: str | None = None) -> list[str]:
         """The ids of every assignment (or those of course `cid`), oldest first."""

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import sqlite3
 from collections.abc import Callable
+from typing import cast
 
 from server.core.db import Tables
 from server.course.audit import By, Target, record
+from server.course.schema import SubmissionRow, SubmissionWithGrade
 
 # a submission that holds an attempt: not (yet) found invalid or ungradable by its grading
 HOLDS_ATTEMPT = "NOT (g.stage IS 'graded' AND g.status IN ('invalid', 'failed'))"
@@ -71,12 +73,12 @@ class SubmissionTables(Tables):
         """Its row is in `run_id` (unless a regrade moved it to another run meanwhile: then it is handed again)."""
         self.db.execute("UPDATE course_submissions SET handed = 1 WHERE id = ? AND run_id = ?", (sid, run_id))
 
-    def unhanded(self) -> list[dict]:
+    def unhanded(self) -> list[SubmissionRow]:
         """Submissions accepted but not yet in their grading run (a server stopped in between)."""
         rows = self.db.execute("SELECT * FROM course_submissions WHERE handed = 0 ORDER BY accepted_at")
-        return [dict(r) for r in rows]
+        return [cast(SubmissionRow, dict(r)) for r in rows]
 
-    def regrade(self, aid: str, version: int, run_id: str, by: By | None = None) -> list[dict]:
+    def regrade(self, aid: str, version: int, run_id: str, by: By | None = None) -> list[SubmissionRow]:
         """Every submission of the assignment moved to a new version's run, to be handed to it again. With `by`:
         a `regrade` event, the versions the submissions were graded under before (and how many) and the new one."""
         with self._tx() as db:
@@ -96,7 +98,7 @@ class SubmissionTables(Tables):
             )
         return [s for s in self.unhanded() if s["assignment_id"] == aid]
 
-    def submissions(self, aid: str, student: str | None = None) -> list[dict]:
+    def submissions(self, aid: str, student: str | None = None) -> list[SubmissionWithGrade]:
         """Submissions (one student's, or all) in the order they came, each with its grading row's stage,
         status and exact score (None until graded)."""
         sql = (
@@ -106,17 +108,18 @@ class SubmissionTables(Tables):
         args: tuple = (aid,)
         if student is not None:
             sql, args = sql + " AND s.student = ?", (aid, student)
-        return [dict(r) for r in self.db.execute(sql + " ORDER BY s.accepted_at, s.rowid", args)]
+        rows = self.db.execute(sql + " ORDER BY s.accepted_at, s.rowid", args)
+        return [cast(SubmissionWithGrade, dict(r)) for r in rows]
 
     def submission_of(self, sid: str) -> tuple[str, str] | None:
         """(assignment, student) of a submission, by its id alone."""
         row = self.db.execute("SELECT assignment_id, student FROM course_submissions WHERE id = ?", (sid,)).fetchone()
         return (row[0], row[1]) if row else None
 
-    def submission(self, aid: str, sid: str) -> dict | None:
+    def submission(self, aid: str, sid: str) -> SubmissionWithGrade | None:
         row = self.db.execute(
             "SELECT s.*, g.stage, g.status, g.score, g.max_score FROM course_submissions s LEFT JOIN grading_items g"
             " ON g.run_id = s.run_id AND g.student = s.id WHERE s.assignment_id = ? AND s.id = ?",
             (aid, sid),
         ).fetchone()
-        return dict(row) if row else None
+        return cast(SubmissionWithGrade, dict(row)) if row else None

@@ -22,6 +22,7 @@ from server.core.files import write_atomic
 from server.course.base import DAY, CourseBase, report_keys
 from server.course.people import Who
 from server.course.policy import Feedback, feedback_view, map_shown
+from server.course.schema import AssignmentRow, SubmissionRow, SubmissionWithGrade
 from server.grading.runs import Handed
 from server.jobs.service import Follower, wake_all
 from tracer.grading import tasks
@@ -35,7 +36,7 @@ CHECK_SECONDS = 30  # a check waits this long for a grading process (they are bu
 class Submissions(CourseBase):
     """Submitting, checking, the submissions, following one (mixed into server/course/service.Course)."""
 
-    def submit(self, a: dict, who: Who, kind: str, data: bytes, accepted: float) -> dict:
+    def submit(self, a: AssignmentRow, who: Who, kind: str, data: bytes, accepted: float) -> SubmissionWithGrade:
         """Keep the submission (its file, then its row: acknowledged), then hand it to the grading run."""
         if who.student is None:  # staff (who.instructor)
             raise Forbidden(
@@ -103,7 +104,7 @@ class Submissions(CourseBase):
         assert kept is not None  # its row was written just above
         return kept
 
-    def check(self, a: dict, who: Who, kind: str, data: bytes) -> dict:
+    def check(self, a: AssignmentRow, who: Who, kind: str, data: bytes) -> dict:
         """What a submission would get now, without submitting (no attempt, no row): validity and, for a
         scene, the requirements, in a grading process (seconds: no render), shown as the policy shows them
         now; the image tests are only named (they need the render a submission gets)."""
@@ -140,7 +141,7 @@ class Submissions(CourseBase):
             **probes,
         }
 
-    def _check_probes(self, a: dict, who: Who, feedback: Feedback, now: float, path: Path, kind: str) -> dict:
+    def _check_probes(self, a: AssignmentRow, who: Who, feedback: Feedback, now: float, path: Path, kind: str) -> dict:
         """An image's probes in the check (docs/own-tracer.md), as the policy shows the error map now: {"probes"},
         {"probes_hidden": when}, or {"probes_pending": why} while the reference is not rendered yet."""
         if not map_shown(feedback, self.spec(a["id"], a["version"]).image_tests(), self.moment(a, who, now)):
@@ -155,7 +156,7 @@ class Submissions(CourseBase):
         found = found.result(timeout=CHECK_SECONDS)
         return {"probes": found["probes"]} if "probes" in found else {"probes_pending": found["error"]}
 
-    def submissions(self, a: dict, student: str | None = None) -> list[dict]:
+    def submissions(self, a: AssignmentRow, student: str | None = None) -> list[SubmissionWithGrade]:
         """Submissions (one student's, or all), each `late` by the student's deadline as it is now: an
         extension granted afterwards, or an edit that moves the deadline, takes a late mark (and its penalty)
         away or gives it (the row keeps what was true when the body came)."""
@@ -164,7 +165,7 @@ class Submissions(CourseBase):
         marked = _marked(subs, lambda sub: due.get(sub["student"], sub["accepted_at"]))
         return self.with_test_overrides(a, marked)  # tests' points set by regrade requests (regrade.py)
 
-    def submission(self, a: dict, sid: str) -> dict | None:
+    def submission(self, a: AssignmentRow, sid: str) -> SubmissionWithGrade | None:
         sub = self.store.submission(a["id"], sid) if len(sid) == 32 else None
         if sub is not None:
             due = self.deadlines(a, self.store.student(a["id"], sub["student"]))[0]
@@ -173,10 +174,10 @@ class Submissions(CourseBase):
             self.with_test_overrides(a, [sub])  # tests' points set by regrade requests (regrade.py)
         return sub
 
-    def _handed(self, sub: dict) -> Handed:
+    def _handed(self, sub: SubmissionRow | dict) -> Handed:
         return Handed(sub["id"], sub["kind"], f"submission{SUFFIX[sub['kind']]}", path=self.root / sub["file"])
 
-    def _hand(self, sub: dict) -> None:
+    def _hand(self, sub: SubmissionRow) -> None:
         self.runs.add(sub["run_id"], self._handed(sub))
         self.store.handed(sub["id"], sub["run_id"])
 
@@ -212,7 +213,7 @@ class Submissions(CourseBase):
         wake_all(followers)
 
 
-def _marked(subs: list[dict], due_of) -> list[dict]:
+def _marked(subs: list[SubmissionWithGrade], due_of) -> list[SubmissionWithGrade]:
     """Each submission (in the order they came) `late` after its student's deadline plus the days of late tokens
     they spent on the assignment up to it, itself included (server/course/tokens.py)."""
     covered: dict[str, int] = {}

@@ -31,7 +31,7 @@ from server.core.errors import Forbidden, Invalid, NotFound
 from server.course.audit import Target, record
 from server.course.base import DAY, CourseBase, Decide, iso
 from server.course.people import Who
-from server.course.schema import CourseRow
+from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow
 
 log = logging.getLogger(__name__)
 
@@ -97,7 +97,7 @@ class Tokens(CourseBase):
     def tokens_left(self, cid: str, student: str) -> int:
         return balance(self.store.db, cid, student)
 
-    def tokens_brief(self, a: dict, student: dict, now: float) -> dict:
+    def tokens_brief(self, a: AssignmentRow, student: StudentRow | MemberRow, now: float) -> dict:
         """The brief's part: the course's tokens, what is left, what a submission now would spend, and whether
         they would cover it (the assignment's deadline then moves for them)."""
         due, cut = self.deadlines(a, student)
@@ -116,7 +116,9 @@ class Tokens(CourseBase):
             "closed": p is None,  # past the cut-off and tokens cannot cover it (else a submission is taken)
         }
 
-    def spend_plan(self, a: dict, student: dict, due: float, cut: float, accepted: float) -> Decide:
+    def spend_plan(
+        self, a: AssignmentRow, student: StudentRow | MemberRow, due: float, cut: float, accepted: float
+    ) -> Decide:
         """What `CourseStore.add_submission` calls in its transaction: the tokens this submission spends and its
         late mark, read and written together; a refusal (past the cut-off, too few tokens) raises there."""
 

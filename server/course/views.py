@@ -10,12 +10,13 @@ from server.course import policy
 from server.course.base import CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import Feedback, When, feedback_view, map_shown
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 
 
 class Views(CourseBase):
     """A submission as the caller may see it (mixed into server/course/service.Course)."""
 
-    def view(self, a: dict, sub: dict, who: Who, counting: str | None = None) -> dict:
+    def view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who, counting: str | None = None) -> dict:
         """A submission as the caller may see it: the score when the policy shows it, each test's feedback by
         its own rule; everything to the instructor."""
         p, now = a["policy"], self.now()
@@ -55,12 +56,12 @@ class Views(CourseBase):
             out["total_max"] = None if total is None else total[1]
         return out
 
-    def view_one(self, a: dict, sub: dict, who: Who) -> dict:
+    def view_one(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict:
         """`view` of one submission, with whether it is the one that counts among its student's."""
         c = self.counting(a, self.submissions(a, sub["student"]))
         return self.view(a, sub, who, c["id"] if c else None)
 
-    def files(self, a: dict, sub: dict, who: Who) -> list[str]:
+    def files(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> list[str]:
         """The pictures of a graded submission the caller may fetch: its render (their own work); the error
         map and the rejected pixels when no image test is hidden (they show the reference's structure); the
         reference when the policy shows it. The instructor: all of them."""
@@ -76,12 +77,14 @@ class Views(CourseBase):
         folder = self.runs.root / sub["run_id"] / "out" / sub["id"]
         return [n for n in names if (folder / n).is_file()]
 
-    def file(self, a: dict, sub: dict, who: Who, name: str) -> Path | None:
+    def file(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who, name: str) -> Path | None:
         if name not in self.files(a, sub, who):
             return None
         return self.runs.root / sub["run_id"] / "out" / sub["id"] / name
 
-    def _feedback(self, a: dict, sub: dict, report: dict, feedback: Feedback, who: Who, now: float) -> dict:
+    def _feedback(
+        self, a: AssignmentRow, sub: SubmissionWithGrade, report: dict, feedback: Feedback, who: Who, now: float
+    ) -> dict:
         """The report as the policy shows it to the caller now (policy.feedback_view: the one rule, shared with the
         publish form's preview), with the probes of an image from the student's own tracer."""
         spec = self.spec(a["id"], sub["version"])
@@ -94,7 +97,7 @@ class Views(CourseBase):
             out["probes_hidden"] = self._probes_hidden(a, who, feedback)
         return out
 
-    def _probes_hidden(self, a: dict, who: Who, feedback: Feedback) -> str:
+    def _probes_hidden(self, a: AssignmentRow, who: Who, feedback: Feedback) -> str:
         """When the probe pixels appear, for a student to whom the error map is hidden now."""
         tests = self.spec(a["id"], a["version"]).image_tests()
         if any(feedback.tests.get(k, feedback.default) == When.never for k in tests):

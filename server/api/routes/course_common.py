@@ -15,6 +15,7 @@ from server.api.errors import ApiError
 from server.api.models import ErrorResponse, Responses
 from server.core.security import Caller
 from server.course.people import Who
+from server.course.schema import AssignmentRow
 from server.course.service import Course
 
 ERRORS: Responses = {
@@ -31,7 +32,9 @@ def base_url(request: Request) -> str:
     return str(request.base_url)
 
 
-def staff_assignment(course: Course, aid: str, caller: Caller, request: Request, action: str = "follow") -> dict:
+def staff_assignment(
+    course: Course, aid: str, caller: Caller, request: Request, action: str = "follow"
+) -> AssignmentRow:
     """The assignment, for its course's staff only (a TA for what a TA may do, else 403): its students' tokens
     get the 404 of an unknown id (on a server where everyone is the instructor too), anyone else 401 or 403."""
     return course.staff(aid, caller, instructor_check(request), action)[0]

@@ -14,6 +14,7 @@ from server.api.models import ErrorResponse, Responses
 from server.api.routes.course_common import ERRORS, NOT_FOUND
 from server.core.security import Caller
 from server.course.manual import MAX_COMMENT
+from server.course.schema import AssignmentRow, SubmissionWithGrade
 from server.course.service import Course
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
@@ -47,7 +48,7 @@ def _staff(course: Course, aid: str, caller: Caller, request: Request, action: s
     return course.staff(aid, caller, instructor_check(request), action)
 
 
-def _sub(course: Course, a: dict, sid: str) -> dict:
+def _sub(course: Course, a: AssignmentRow, sid: str) -> SubmissionWithGrade:
     sub = course.submission(a, sid)
     if sub is None:
         raise ApiError(404, [{"path": "sid", "message": f"no submission with id '{sid[:64]}'"}])

@@ -12,6 +12,7 @@ from server.api.deps import CallerDep, CourseDep, instructor_check
 from server.api.models import ErrorResponse, Responses
 from server.core.security import Caller
 from server.course import stats
+from server.course.schema import AssignmentRow
 from server.course.service import Course
 
 router = APIRouter(prefix="/api/assignments", tags=["assignments"])
@@ -21,7 +22,7 @@ REFUSED: Responses = {
 }
 
 
-def _staff(course: Course, aid: str, caller: Caller, request: Request) -> dict:
+def _staff(course: Course, aid: str, caller: Caller, request: Request) -> AssignmentRow:
     return course.staff(aid, caller, instructor_check(request), "follow")[0]
 
 

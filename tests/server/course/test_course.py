@@ -8,7 +8,16 @@ import pytest
 from server.core.errors import Invalid
 from server.core.migrations import migrate
 from server.course.roster import parse_roster
-from server.course.schema import CourseRow, StaffRow
+from server.course.schema import (
+    AssignmentRow,
+    CourseRow,
+    MemberRow,
+    StaffRow,
+    StudentRow,
+    SubmissionRow,
+    SubmissionWithGrade,
+    VersionRow,
+)
 from server.course.service import Course
 from server.course.store import DEFAULT_COURSE, CourseStore
 from server.grading.store import GradingStore
@@ -126,3 +135,58 @@ def test_course_rows_are_typed_with_every_column_of_their_tables(tmp_path):
     assert set(store.course(DEFAULT_COURSE)) == set(CourseRow.__required_keys__)
     assert set(store.staff_member(DEFAULT_COURSE, "ta1")) == set(StaffRow.__required_keys__)
     assert [set(r) for r in store.staff(DEFAULT_COURSE)] == [set(StaffRow.__required_keys__)]
+
+
+def test_course_member_and_roster_student_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`MemberRow` names each column of `course_members`; `StudentRow` each column of the roster's join (an
+    enrolment with its member: RosterTables' STUDENT), what members/member and students/student/by_token return."""
+    store = CourseStore(tmp_path)
+    columns = {r["name"] for r in store.db.execute("PRAGMA table_info(course_members)")}
+    assert set(MemberRow.__required_keys__) == columns
+    aid = "a" * 32
+    store.create(aid, '{"name": "hw"}', {}, "r" * 32, 1.0)
+    store.add_members(DEFAULT_COURSE, [{"student": "ann", "name": "Ann", "email": "a@x"}], 2.0, [aid])
+    store.keep_token(DEFAULT_COURSE, "student", "ann", "h-ann", 2.0)
+    assert set(store.member(DEFAULT_COURSE, "ann")) == set(MemberRow.__required_keys__)
+    assert [set(m) for m in store.members(DEFAULT_COURSE)] == [set(MemberRow.__required_keys__)]
+    assert set(store.student(aid, "ann")) == set(StudentRow.__required_keys__)
+    assert [set(s) for s in store.students(aid)] == [set(StudentRow.__required_keys__)]
+    assert set(store.by_token(aid, "h-ann")) == set(StudentRow.__required_keys__)
+
+
+def test_course_assignment_and_version_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`AssignmentRow` names each column of `course_assignments` and of its current `course_versions` row (the
+    version's `assignment_id` as `id`, its `created_at` as `version_at`), `VersionRow` a version's: what
+    assignment and versions return, spec and policy parsed."""
+    store = CourseStore(tmp_path)
+
+    def columns(table: str) -> set[str]:
+        return {r["name"] for r in store.db.execute(f"PRAGMA table_info({table})")}
+
+    version = {"id", "version_at"} | columns("course_versions") - {"assignment_id", "created_at"}
+    assert set(VersionRow.__required_keys__) == version
+    assert set(AssignmentRow.__required_keys__) == version | columns("course_assignments")
+    aid = "a" * 32
+    store.create(aid, '{"name": "hw"}', {"deadline": "2026-01-01T00:00:00+00:00"}, "r" * 32, 1.0)
+    store.add_version(aid, '{"name": "hw"}', {}, "q" * 32, 2.0)
+    a = store.assignment(aid)
+    assert set(a) == set(AssignmentRow.__required_keys__)
+    assert (a["spec"], a["policy"], a["version"], a["version_at"]) == ({"name": "hw"}, {}, 2, 2.0)
+    assert [set(v) for v in store.versions(aid)] == [set(VersionRow.__required_keys__)] * 2
+
+
+def test_course_submission_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`SubmissionRow` names each column of `course_submissions` (what unhanded and regrade return);
+    `SubmissionWithGrade` those and its grading row's stage, status, score and max_score (submissions,
+    submission), `auto_score` only where a regrade request moved the score."""
+    store = CourseStore(tmp_path)
+    columns = {r["name"] for r in store.db.execute("PRAGMA table_info(course_submissions)")}
+    assert set(SubmissionRow.__required_keys__) == columns
+    graded = columns | {"stage", "status", "score", "max_score"}
+    assert set(SubmissionWithGrade.__required_keys__) == graded
+    assert SubmissionWithGrade.__optional_keys__ == {"auto_score"}
+    assert store.add_submission(sub("x1", 100.0), None, per_hour=10, hour_ago=0) is None
+    assert [set(s) for s in store.unhanded()] == [columns]
+    assert [set(s) for s in store.submissions("a" * 32)] == [graded]
+    assert set(store.submission("a" * 32, "x1")) == graded
+    assert [set(s) for s in store.regrade("a" * 32, 2, "q" * 32)] == [columns]
