@@ -300,8 +300,19 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def token_joined(argv: list[str]) -> list[str]:
+    """`--token T` as `--token=T`: a token is URL-safe base64, and one in 64 starts with "-", which argparse would
+    read as an option ("expected one argument")."""
+    out: list[str] = []
+    it = iter(argv)
+    for arg in it:
+        value = next(it, None) if arg == "--token" else None
+        out.append(arg if value is None else f"--token={value}")  # a bare last --token: argparse says so
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    args = parser().parse_args(token_joined(sys.argv[1:] if argv is None else argv))
     server = args.server or os.environ.get("TRACER_SERVER") or DEFAULT_SERVER
     client = Client(server, args.token or os.environ.get("TRACER_INSTRUCTOR_TOKEN") or None)
     run = {"publish": publish, "roster": roster, "grades": grades, "courses": courses, "course-create": course_create,

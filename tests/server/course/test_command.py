@@ -17,7 +17,7 @@ import sys
 
 import pytest
 
-from server.course.command import main
+from server.course.command import main, token_joined
 from tests.support.api import INSTRUCTOR, Server, bearer, free_port, wait_for
 from tests.support.scene import ROOT
 
@@ -203,3 +203,16 @@ def test_command_courses_staff_and_a_course_roster(server, capsys, tmp_path):
     code, out, _ = cli(server, capsys, "courses")
     assert code == 0
     assert "gfx\tComputer Graphics\t1 assignment(s)\t1 student(s)" in out
+
+
+
+def test_command_takes_a_token_that_starts_with_a_dash(server, capsys):
+    """One token in 64 starts with "-" (URL-safe base64): `--token -...` is still the token, not an option (argparse
+    said "expected one argument" for such a TA's link; a whole CI run met one). This one is no token of the server's:
+    its refusal (not argparse's usage line) shows that the token was sent."""
+    code, out, err = cli(server, capsys, "courses", token="-x" + "A" * 41)
+    assert code == 1, err
+    assert "expected one argument" not in err, err
+    assert err.startswith("Authorization: this token is not the instructor's"), err
+    assert token_joined(["a", "--token", "-b", "c"]) == ["a", "--token=-b", "c"]
+    assert token_joined(["--token"]) == ["--token"]  # a bare one is argparse's to refuse
