@@ -59,6 +59,7 @@ from server.api.routes import (
 from server.checkers.pool import CheckPool
 from server.core.clients import AddressCaps, StreamCaps
 from server.core.db import Tables
+from server.core.exits import Stopping
 from server.core.migrations import migrate
 from server.core.paths import SCENES, WEB
 from server.core.security import served_hosts, start_up_warnings
@@ -183,22 +184,6 @@ def load_in_background(loaded: threading.Event, settings: Settings, start_checke
         loaded.set()
 
 
-class Stopping:
-    """Whether the server has been asked to stop: set by `python -m server`'s signal handler the moment
-    SIGTERM or Ctrl-C arrives (before uvicorn waits for the open connections), else at the lifespan's end.
-    Then the workers give their jobs back and no new one starts, and event streams end. A plain flag,
-    read by calling it: a signal handler may set it at any moment, so it takes no lock."""
-
-    def __init__(self) -> None:
-        self.asked = False
-
-    def set(self) -> None:
-        self.asked = True
-
-    def __call__(self) -> bool:
-        return self.asked
-
-
 def utc_now() -> datetime:
     return datetime.now(UTC)
 
@@ -224,6 +209,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.caps = AddressCaps(settings)  # what one address may do without a known identity (in memory)
     app.state.streams = StreamCaps(settings, app.state.caps)  # event streams open per token and per address
     app.state.data_lock = None  # the data directory's lock, when the command line took it (server/__main__.py)
+    # set by `python -m server`'s signal handler the moment SIGTERM or Ctrl-C arrives (before uvicorn waits for the
+    # open connections), else at the lifespan's end: the workers give their jobs back, event streams end
     app.state.stopping = Stopping()
     app.state.kernels = threading.Event()  # set once the render kernels are loaded (the lifespan)
     install_error_handlers(app)

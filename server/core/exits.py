@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+import time
 from typing import NoReturn
 
 
@@ -20,3 +21,25 @@ def exit_now(status: int = 0) -> NoReturn:
         except (OSError, ValueError):  # a closed or broken pipe: nothing more can be said
             pass
     os._exit(status)
+
+
+class Stopping:
+    """Whether a process has been asked to stop, read by calling it; set by a signal handler. A plain flag, not an
+    Event: a handler may set it at any moment, even inside another handler's run, and an Event's lock taken again
+    there would hang the process for good (the server's stop, a worker host's and its work horse's)."""
+
+    def __init__(self) -> None:
+        self.asked = False
+
+    def set(self) -> None:
+        self.asked = True
+
+    def __call__(self) -> bool:
+        return self.asked
+
+    def wait(self, seconds: float) -> bool:
+        """Sleep `seconds`, or less if asked to stop meanwhile; whether it was."""
+        deadline = time.monotonic() + seconds
+        while not self.asked and time.monotonic() < deadline:
+            time.sleep(min(0.1, max(0.0, deadline - time.monotonic())))
+        return self.asked

@@ -23,6 +23,7 @@ import redis
 from redis.typing import EncodableT, FieldT
 from rq import Queue
 
+from server.core.exits import Stopping
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Stop, TryEnd
 from server.queue.redis import events as ev
@@ -36,29 +37,7 @@ SEND_RETRY_SECONDS = 60.0  # how long a try keeps sending its final event while 
 HOST_CHECK = 0.5  # s between a work horse's looks at whether its host is still there
 
 
-class Stopping:
-    """Whether this host is stopping (in a work horse: whether its try is to give its job back), read by calling
-    it. A plain flag, set by signal handlers: an Event's lock, taken again by a second signal's handler
-    running inside the first one's, would hang the process for good."""
-
-    def __init__(self) -> None:
-        self.asked = False
-
-    def set(self) -> None:
-        self.asked = True
-
-    def __call__(self) -> bool:
-        return self.asked
-
-    def wait(self, seconds: float) -> bool:
-        """Sleep `seconds`, or less if asked to stop meanwhile; whether it was."""
-        deadline = time.monotonic() + seconds
-        while not self.asked and time.monotonic() < deadline:
-            time.sleep(min(0.1, max(0.0, deadline - time.monotonic())))
-        return self.asked
-
-
-STOP = Stopping()
+STOP = Stopping()  # whether this host is stopping (in a work horse: whether its try gives its job back)
 
 
 def connect(url: str) -> redis.Redis:

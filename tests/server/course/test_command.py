@@ -205,7 +205,6 @@ def test_command_courses_staff_and_a_course_roster(server, capsys, tmp_path):
     assert "gfx\tComputer Graphics\t1 assignment(s)\t1 student(s)" in out
 
 
-
 def test_command_takes_a_token_that_starts_with_a_dash(server, capsys):
     """One token in 64 starts with "-" (URL-safe base64): `--token -...` is still the token, not an option (argparse
     said "expected one argument" for such a TA's link; a whole CI run met one). This one is no token of the server's:
