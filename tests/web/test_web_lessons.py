@@ -47,6 +47,11 @@ def desktop(browser, server):
 
 def open_lesson(page, lesson: str) -> None:
     page.click(f".lesson-button[data-lesson={lesson}]")
+    panels_ended(page, lesson)
+
+
+def panels_ended(page, lesson: str) -> None:
+    """The lesson on the stage, with every panel's job ended."""
     page.wait_for_function(
         f"""() => document.querySelector('#lesson-stage').dataset.lesson === '{lesson}'
             && document.querySelectorAll('.lesson-panel').length > 0
@@ -558,6 +563,9 @@ def test_lesson_answer_in_view_marked_done_and_next(desktop):
     first, second = LESSON_IDS[0], LESSON_IDS[1]
     page = desktop.open(f"#lessons/{first}").page
     page.wait_for_selector(".lesson-question .choice", timeout=90_000)
+    # the panels' pictures done first: a panel that ends moves what is under it by a line (its progress bar gives way
+    # to what the render cost, a comparison's error), which could take the button out of view after the scroll
+    panels_ended(page, first)
     assert page.locator(".lesson-done:visible").count() == 0  # nothing done yet
     answer = page.evaluate("() => document.querySelector('.lesson-question').question.answer")
     wrong = f".lesson-question .choice[data-choice='{(answer + 1) % page.locator('.lesson-question .choice').count()}']"

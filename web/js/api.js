@@ -133,16 +133,30 @@ export async function blob(url, { as = "student", signal, token } = {}) {
   return res.blob();
 }
 
+/** The load under way in each img (its URL and the promise showImage gave for it). */
+const showing = new WeakMap();
+
 /** Show `url` (an image that needs the token) in `img`, as a blob: URL; the one it showed before is
- * released. `img.dataset.src` is the API's URL shown. Resolves to false when it could not be loaded. */
-export async function showImage(img, url, { as = "student", token } = {}) {
-  if (img.dataset.src === url) return true;
+ * released. `img.dataset.src` is the API's URL shown (or being fetched). Resolves to true once `url` is the img's
+ * source, false when it could not be loaded or another image was asked for meanwhile; a second call for the URL
+ * being fetched gets the first call's promise (it does not answer before the picture is there). */
+export function showImage(img, url, { as = "student", token } = {}) {
+  const now = showing.get(img);
+  if (img.dataset.src === url && now?.url === url) return now.promise;
+  if (img.dataset.src === url) return Promise.resolve(true);
   img.dataset.src = url;
+  const promise = fetchInto(img, url, { as, token });
+  showing.set(img, { url, promise });
+  return promise;
+}
+
+async function fetchInto(img, url, { as, token }) {
   let data;
   try {
     data = await blob(url, { as, token });
   } catch {
     if (img.dataset.src === url) delete img.dataset.src;
+    if (showing.get(img)?.url === url) showing.delete(img);
     return false;
   }
   if (img.dataset.src !== url) return false; // another image was asked for meanwhile
