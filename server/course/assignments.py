@@ -23,6 +23,7 @@ from server.course.policy import AssignmentIn, Feedback, Moment, Policy, feedbac
 from server.course.schema import AssignmentRow
 from server.course.store import DEFAULT_COURSE
 from server.grading.runs import Handed
+from server.grading.store import GradingItemRow
 from tracer.grading import AssignmentError, Grader, load_assignment
 from tracer.grading.imagetests import example_misses
 from tracer.grading.submission import Submission
@@ -244,7 +245,7 @@ class Assignments(CourseBase):
         return path if ref is not None and ref["stage"] == "graded" and path.is_file() else None
 
 
-def _grade(item: dict) -> dict:
+def _grade(item: GradingItemRow) -> dict:
     return {
         "status": item["status"] if item["stage"] == "graded" else status_of(item),
         "score": item["score"],

@@ -28,6 +28,7 @@ from server.course.policy import Feedback, Moment
 from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow, SubmissionRow, SubmissionWithGrade
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
+from server.grading.store import GradingItemRow
 from server.jobs.service import Follower
 from tracer.grading import Assignment, load_assignment
 
@@ -159,7 +160,7 @@ class CourseBase:
         return self.moment(a, who, now).shows(when)
 
 
-def status_of(sub: SubmissionWithGrade | dict) -> str:
+def status_of(sub: SubmissionWithGrade | GradingItemRow | dict) -> str:
     """queued (not yet taken up), grading, or the report's: graded, invalid, failed."""
     stage = sub.get("stage")
     if stage is None or stage == "submitted":

@@ -42,7 +42,7 @@ from server.course.service import Course
 from server.lti.pages import page as lti_page
 from server.lti.roles import course_role
 from server.lti.services import deep_link_response
-from server.lti.store import on_platform, platform_origins, url_origin
+from server.lti.store import PlatformRow, on_platform, platform_origins, url_origin
 from tracer.grading import student_name
 from tracer.tools.spreadsheet import clean_name
 
@@ -52,7 +52,7 @@ PICK_SECONDS = 600  # a picker's form (and a claim form) is good this long
 MAX_CLAIMS = 10000  # claim forms held at once (the oldest dropped past it)
 
 
-def lti_user(platform: dict, sub: str) -> str:
+def lti_user(platform: PlatformRow, sub: str) -> str:
     return f"{platform['id']}:{sub}"
 
 
@@ -87,7 +87,7 @@ class Lms:
     """The course's side of LTI: `launched` (the launch handler of server/lti), the picker, grades back and
     the roster from the LMS. `services`: server/lti's ServiceClient (tokens, scores, memberships)."""
 
-    def __init__(self, course: Course, services, keys, platforms: Callable[[str], dict | None], clock=None):
+    def __init__(self, course: Course, services, keys, platforms: Callable[[str], PlatformRow | None], clock=None):
         self.course, self.services, self.keys, self.platforms = course, services, keys, platforms
         self.store = LmsStore(course.settings.data_dir)
         self.now = clock or course.now
@@ -163,7 +163,7 @@ class Lms:
         self._enrol(aid, person)  # a member enrolled on every assignment is on it already
         return Redirect(f"/assignments/{aid}#token={token}")
 
-    def line_item(self, platform: dict, lineitems: str, link_id: str, aid: str) -> str | None:
+    def line_item(self, platform: PlatformRow, lineitems: str, link_id: str, aid: str) -> str | None:
         """The gradebook column of a link whose launch names none (a link made without deep linking): the
         platform's column of that link, else a new one of the assignment's points; None if the platform says
         no (its grades then stay here, in grades.csv and the gradebook export)."""
@@ -182,7 +182,7 @@ class Lms:
     def _enrol(self, aid: str, student: str) -> None:
         self.course.store.enrol(aid, student, self.now(), self.course.by("lms", "LMS launch"))
 
-    def course_of(self, platform: dict, context: dict, role: str) -> str | None:
+    def course_of(self, platform: PlatformRow, context: dict, role: str) -> str | None:
         """The course linked to the LMS course; made at an instructor's first launch."""
         known = self.store.context(platform["id"], context["id"])
         if known is not None:
@@ -198,7 +198,7 @@ class Lms:
         log.info("course %s made for LMS course %r of platform %s", cid, title, platform["id"])
         return cid
 
-    def person(self, cid: str, platform: dict, launch, role: str, why: str = "LMS launch") -> tuple[str, str]:
+    def person(self, cid: str, platform: PlatformRow, launch, role: str, why: str = "LMS launch") -> tuple[str, str]:
         """The launch's user as staff or a member of the course (made or updated): (their id, their token); the
         change audited as the LMS's (`why`: a launch, or the roster's sync)."""
         who = lti_user(platform, launch.sub)
@@ -231,7 +231,7 @@ class Lms:
         return next((m for m in self.course.store.members(cid) if m["email"].lower() == email.lower()
                      and not m["lti_user"]), None)  # fmt: skip
 
-    def claim_page(self, cid: str, platform: dict, launch) -> Page:
+    def claim_page(self, cid: str, platform: PlatformRow, launch) -> Page:
         """A learner's first launch whose email is a roster student's, from a platform whose emails do not
         identify people (no --trust-emails): their roster link, given once while launched, links the two."""
         claim = secrets.token_urlsafe(24)

@@ -14,11 +14,12 @@ import threading
 from collections.abc import Callable
 from datetime import UTC, datetime
 
-from server.course.lms_store import LmsStore
+from server.course.lms_store import LmsStore, LtiScoreRow
 from server.course.policy import Feedback, When
 from server.course.service import Course
 from server.lti.services import ServiceError
 from server.lti.services import score as score_json
+from server.lti.store import PlatformRow
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +39,7 @@ class Poster:
     """The poster thread of the course's LMS side (server/course/lms.Lms holds one): scores kept when a grade moves
     or a deadline releases it, and posted. `services`: server/lti's ServiceClient; `platforms`: a platform by id."""
 
-    def __init__(self, course: Course, store: LmsStore, services, platforms: Callable[[str], dict | None], now):
+    def __init__(self, course: Course, store: LmsStore, services, platforms: Callable[[str], PlatformRow | None], now):
         self.course, self.store, self.services, self.platforms, self.now = course, store, services, platforms, now
         self._wake = threading.Event()
         self._changed: set[tuple[str, str]] = set()
@@ -126,7 +127,7 @@ class Poster:
             posted += 1
         return posted
 
-    def _refused(self, row: dict, status: int, e: Exception) -> None:
+    def _refused(self, row: LtiScoreRow, status: int, e: Exception) -> None:
         """The LMS refused the score for good: failed, with its status and message (the one place a score is
         marked so: an audit call goes here)."""
         message = getattr(e, "message", None) or str(e) or type(e).__name__

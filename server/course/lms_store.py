@@ -5,6 +5,7 @@ resource links and their assignments and AGS line items, the picker's one-time f
 from __future__ import annotations
 
 import secrets
+from typing import TypedDict, cast
 
 from server.core.db import Tables
 
@@ -62,19 +63,90 @@ CREATE INDEX IF NOT EXISTS course_lti_scores_user ON course_lti_scores (lineitem
 """
 
 
+class LtiContextRow(TypedDict):
+    """A row of `course_lti_contexts`: an LMS course linked to a course (LmsStore.context, .contexts)."""
+
+    platform_id: str
+    context_id: str
+    course_id: str
+    title: str
+    memberships_url: str | None
+    synced_at: float | None
+    created_at: float
+
+
+class LtiLinkRow(TypedDict):
+    """A row of `course_lti_links`: a resource link, its assignment and its AGS line item (LmsStore.link, .links)."""
+
+    platform_id: str
+    resource_link_id: str
+    assignment_id: str | None  # None until an instructor picks one
+    lineitem: str | None
+    course_id: str
+    created_at: float
+
+
+class LtiPickRow(TypedDict):
+    """A row of `course_lti_picks`: a picker's one-time form, as LmsStore.take_pick returns it."""
+
+    id: str
+    platform_id: str
+    deployment_id: str
+    course_id: str
+    settings: str  # the deep_linking_settings claim (JSON); '' for a link to bind
+    resource_link_id: str | None
+    expires: float
+
+
+class LtiScoreRow(TypedDict):
+    """A row of `course_lti_scores`: a score to send back (LmsStore.last_score, .due): what the poster posts."""
+
+    id: int
+    platform_id: str
+    lineitem: str
+    user_id: str  # the LMS's sub
+    assignment_id: str
+    student: str
+    score_given: float
+    score_max: float
+    timestamp: float
+    state: str  # pending, sent, superseded, failed
+    tries: int
+    next_try: float
+    error: str | None
+    created_at: float
+    sent_at: float | None
+    status: int | None  # the LMS's HTTP status when it refused the score for good
+    comment: str | None
+
+
+class RefusedScore(TypedDict):
+    """A score the LMS refused for good, as LmsStore.refusals returns it (the dashboard's `refused`): some of its
+    row's columns, `next_try` as `at` (when it was refused)."""
+
+    id: int
+    student: str
+    user_id: str
+    score_given: float
+    score_max: float
+    status: int | None
+    error: str | None
+    at: float
+
+
 class LmsStore(Tables):
     def __init__(self, data_dir):
         super().__init__(data_dir, SCHEMA)
 
-    def context(self, platform_id: str, context_id: str) -> dict | None:
+    def context(self, platform_id: str, context_id: str) -> LtiContextRow | None:
         row = self.db.execute(
             "SELECT * FROM course_lti_contexts WHERE platform_id = ? AND context_id = ?", (platform_id, context_id)
         ).fetchone()
-        return dict(row) if row else None
+        return cast(LtiContextRow, dict(row)) if row else None
 
-    def contexts(self, course_id: str) -> list[dict]:
+    def contexts(self, course_id: str) -> list[LtiContextRow]:
         rows = self.db.execute("SELECT * FROM course_lti_contexts WHERE course_id = ?", (course_id,))
-        return [dict(r) for r in rows]
+        return [cast(LtiContextRow, dict(r)) for r in rows]
 
     def link_context(self, platform_id: str, context_id: str, course_id: str, title: str, now: float) -> None:
         self.db.execute(
@@ -96,11 +168,11 @@ class LmsStore(Tables):
                 (synced_at, platform_id, context_id),
             )
 
-    def link(self, platform_id: str, link_id: str) -> dict | None:
+    def link(self, platform_id: str, link_id: str) -> LtiLinkRow | None:
         row = self.db.execute(
             "SELECT * FROM course_lti_links WHERE platform_id = ? AND resource_link_id = ?", (platform_id, link_id)
         ).fetchone()
-        return dict(row) if row else None
+        return cast(LtiLinkRow, dict(row)) if row else None
 
     def keep_link(self, platform_id, link_id, course_id, aid, lineitem, now) -> None:
         self.db.execute(
@@ -111,9 +183,9 @@ class LmsStore(Tables):
             (platform_id, link_id, aid, lineitem, course_id, now),
         )
 
-    def links(self, aid: str) -> list[dict]:
+    def links(self, aid: str) -> list[LtiLinkRow]:
         rows = self.db.execute("SELECT * FROM course_lti_links WHERE assignment_id = ?", (aid,))
-        return [dict(r) for r in rows]
+        return [cast(LtiLinkRow, dict(r)) for r in rows]
 
     def linked_assignments(self) -> list[str]:
         rows = self.db.execute(
@@ -132,21 +204,21 @@ class LmsStore(Tables):
         )  # fmt: skip
         return pid
 
-    def take_pick(self, pid: str, now: float) -> dict | None:
+    def take_pick(self, pid: str, now: float) -> LtiPickRow | None:
         with self._tx() as db:
             row = db.execute("SELECT * FROM course_lti_picks WHERE id = ?", (pid,)).fetchone()
             db.execute("DELETE FROM course_lti_picks WHERE id = ? OR expires < ?", (pid, now))
-        return dict(row) if row and row["expires"] >= now else None
+        return cast(LtiPickRow, dict(row)) if row and row["expires"] >= now else None
 
     # -- scores --------------------------------------------------------------------------------
 
-    def last_score(self, lineitem: str, user_id: str) -> dict | None:
+    def last_score(self, lineitem: str, user_id: str) -> LtiScoreRow | None:
         row = self.db.execute(
             "SELECT * FROM course_lti_scores WHERE lineitem = ? AND user_id = ? AND state != 'superseded'"
             " ORDER BY id DESC LIMIT 1",
             (lineitem, user_id),
         ).fetchone()
-        return dict(row) if row else None
+        return cast(LtiScoreRow, dict(row)) if row else None
 
     def add_score(self, row: dict, now: float) -> bool:
         """Keep a score to post (`comment`: optional, sent as AGS's comment), unless the latest one for its line
@@ -179,12 +251,12 @@ class LmsStore(Tables):
             )  # fmt: skip
         return True
 
-    def due(self, now: float, limit: int) -> list[dict]:
+    def due(self, now: float, limit: int) -> list[LtiScoreRow]:
         rows = self.db.execute(
             "SELECT * FROM course_lti_scores WHERE state = 'pending' AND next_try <= ? ORDER BY id LIMIT ?",
             (now, limit),
         )
-        return [dict(r) for r in rows]
+        return [cast(LtiScoreRow, dict(r)) for r in rows]
 
     def sent(self, sid: int, now: float) -> None:
         self.db.execute(
@@ -220,14 +292,14 @@ class LmsStore(Tables):
         )
         return cur.rowcount
 
-    def refusals(self, aid: str, limit: int = 50) -> list[dict]:
+    def refusals(self, aid: str, limit: int = 50) -> list[RefusedScore]:
         """The assignment's scores the LMS refused for good, newest first: who, the score, the status and why."""
         rows = self.db.execute(
             "SELECT id, student, user_id, score_given, score_max, status, error, next_try AS at FROM"
             " course_lti_scores WHERE assignment_id = ? AND state = 'failed' ORDER BY id DESC LIMIT ?",
             (aid, limit),
         )
-        return [dict(r) for r in rows]
+        return [cast(RefusedScore, dict(r)) for r in rows]
 
     def scores(self, aid: str) -> dict:
         """What the dashboard says of the grades sent back: counts by state, the latest error of a score that

@@ -31,9 +31,10 @@ from __future__ import annotations
 
 import logging
 from concurrent.futures import FIRST_COMPLETED, wait
+from typing import cast
 
 from server.core.files import is_disk_full
-from server.grading.run_base import MEAN
+from server.grading.run_base import MEAN, RunItem
 from server.grading.run_tasks import RunTasks
 from server.grading.store import Stage
 from server.jobs.lifecycle import JobStatus
@@ -95,7 +96,7 @@ class GradingRun(RunTasks):
         spec, _ = load_assignment(self.text)
         self.grader = Grader(spec, None)
         self.tests = spec.image_tests()
-        self.items = {it["student"]: it for it in self.gs.items(self.id)}
+        self.items = {it["student"]: cast(RunItem, it) for it in self.gs.items(self.id)}
         self.renders = {r["key"]: r for r in self.gs.renders(self.id)}
         self.renders_total = row["renders_total"]
         self.open = self.gs.is_open(self.id)
@@ -133,14 +134,14 @@ class GradingRun(RunTasks):
         last = max((it["position"] for it in self.items.values()), default=-1)
         new = self.gs.items(self.id, after=last)
         if new:
-            self.items.update({it["student"]: it for it in new})
+            self.items.update({it["student"]: cast(RunItem, it) for it in new})
             self.renders_total = None  # counted again once they are prepared
 
     def _finish(self) -> None:
         items = sorted(self.items.values(), key=lambda it: it["position"])
         rows = [it["row"] for it in items]
-        table = class_summary(self.grader.assignment.name if rows else None, rows,
-                              [(it["score"], it["max_score"]) for it in items])  # fmt: skip
+        scores = cast(list[tuple[float, float]], [(it["score"], it["max_score"]) for it in items])  # all graded
+        table = class_summary(self.grader.assignment.name if rows else None, rows, scores)
         (self.folder / "out").mkdir(parents=True, exist_ok=True)
         write_summary(self.folder / "out", table)
         self.gs.end_run(self.id, JobStatus.done, summary=table)

@@ -14,11 +14,19 @@ from typing import Any
 
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
-from server.grading.store import GradingStore
+from server.grading.store import GradingItemRow, GradingRenderRow, GradingStore
 from server.jobs.service import JobService
 from tracer.grading import Grader, RenderJob
 
 MEAN = "mean"  # the key of the reference mean's row (a baseline's is its [sampler, spp, light_samples])
+
+
+class RunItem(GradingItemRow, total=False):
+    """A student's row as a run keeps it in memory: with its baseline's key and its image's encoding once looked
+    up (run_tasks.py's `_key`: cached, dropped when it is prepared again)."""
+
+    _key: str | None
+    _enc: str | None
 
 
 @dataclass(frozen=True)
@@ -43,8 +51,9 @@ class RunBase:
     text: str  # the assignment, as handed in (the rows from here on: `GradingRun._load`)
     grader: Grader
     tests: dict  # the assignment's image tests
-    items: dict[str, dict]  # the students' rows, by student
-    renders: dict[Any, dict]  # the class's renders' rows, by key (MEAN, or a baseline's; looked up by a _key: None)
+    items: dict[str, RunItem]  # the students' rows, by student
+    # the class's renders' rows, by key (MEAN, or a baseline's; looked up by a _key: None)
+    renders: dict[Any, GradingRenderRow]
     renders_total: int | None  # None: counted once every student is prepared
     open: bool  # an open run takes students as they come
 

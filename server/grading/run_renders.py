@@ -16,7 +16,7 @@ import shutil
 
 from server.core.files import is_disk_full
 from server.grading.renders import capped, job_outcome
-from server.grading.run_base import MEAN, RunBase
+from server.grading.run_base import MEAN, RunBase, RunItem
 from server.grading.store import RenderStatus, Stage
 from server.jobs.files import JobFile
 from server.jobs.lifecycle import JobStatus, Lane
@@ -58,8 +58,8 @@ class RunRenders(RunBase):
             return
         if r is None:
             self.gs.add_render(self.id, key)
-            r = self.renders[key] = {"key": key, "job_id": None, "status": RenderStatus.waiting, "spp": None,
-                                     "seconds": None, "error": None, "measured": {}}  # fmt: skip
+            r = self.renders[key] = {"run_id": self.id, "key": key, "job_id": None, "status": RenderStatus.waiting,
+                                     "spp": None, "seconds": None, "error": None, "measured": {}}  # fmt: skip
         job = self._reference_job(key)
         limits, seconds, _ = capped(job, self.settings)
         try:
@@ -73,7 +73,7 @@ class RunRenders(RunBase):
         r["job_id"] = self._create(job, size, warnings, seconds)
         self.gs.update_render(self.id, key, job_id=r["job_id"])
 
-    def _queue_item(self, it: dict) -> None:
+    def _queue_item(self, it: RunItem) -> None:
         """A student's render queued, once."""
         p = it["prepared"]
         job = _render_job(p["job"])

@@ -15,11 +15,12 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from functools import partial
+from typing import Any, cast
 
 from server.core.files import is_disk_full
-from server.grading.run_base import MEAN
+from server.grading.run_base import MEAN, RunItem
 from server.grading.run_renders import RunRenders
-from server.grading.store import RenderStatus, Stage
+from server.grading.store import GradingRenderRow, RenderStatus, Stage
 from tracer.grading import Prepared, Report, Submission, tasks
 from tracer.grading.batch import summary_row, write_report
 from tracer.grading.imagetests import finish_report
@@ -29,7 +30,7 @@ log = logging.getLogger(__name__)
 FLIGHT_PER_PROCESS = 2  # tasks of one run in the grading pool at once, per process
 
 
-def _key(it: dict) -> str | None:
+def _key(it: RunItem) -> str | None:
     """A prepared student's baseline: its row's key ([sampler, spp, light_samples] as JSON), kept in the item."""
     if "_key" not in it:
         p = it["prepared"]
@@ -38,10 +39,10 @@ def _key(it: dict) -> str | None:
     return it["_key"]
 
 
-def _encoding(it: dict) -> str:
+def _encoding(it: RunItem) -> str:
     """How a prepared student's image is stored ("png/8", "render/32"): a baseline is measured once per one."""
     _key(it)
-    return it["_enc"]
+    return cast(str, it.get("_enc"))  # (set by `_key`: a str once prepared, and only prepared students are asked)
 
 
 class RunTasks(RunRenders):
@@ -96,17 +97,17 @@ class RunTasks(RunRenders):
             if it["stage"] == Stage.rendered and ("metrics", s) not in busy and self._inputs_ready(it):
                 yield ("metrics", s), tasks.grade_metrics, partial(self._metrics_args, it)
 
-    def _prepare_args(self, it: dict) -> dict:
+    def _prepare_args(self, it: RunItem) -> dict:
         return dict(assignment=self.text, student=it["student"], kind=it["kind"], path=str(self.folder / it["file"]),
                     filename=it["filename"])  # fmt: skip
 
-    def _baseline_args(self, r: dict, enc: str) -> dict:
+    def _baseline_args(self, r: GradingRenderRow, enc: str) -> dict:
         fmt, bits = enc.split("/")
         baseline = {"image": str(self.folder / "renders" / f"{r['job_id']}.exr"), "spp": r["spp"]}
         return dict(assignment=self.text, reference=self._reference(), baseline=baseline, key=json.loads(r["key"]),
                     encoding=[fmt, int(bits)])  # fmt: skip
 
-    def _inputs_ready(self, it: dict) -> bool:
+    def _inputs_ready(self, it: RunItem) -> bool:
         """Whether everything a student's image tests may need has ended (tracer.grading.finish_report's
         order: no tests or a problem found while preparing, then the reference, their render, the baseline)."""
         p = it["prepared"]
@@ -126,10 +127,10 @@ class RunTasks(RunRenders):
             return {}
         if mean["status"] == RenderStatus.failed:
             return {"error": mean["error"]}
-        name = self.folder / "renders" / mean["job_id"]
+        name = self.folder / "renders" / cast(str, mean["job_id"])  # (done: its job's image taken)
         return {"mean": f"{name}.exr", "variance": f"{name}.variance.exr", "spp": mean["spp"]}
 
-    def _metrics_args(self, it: dict) -> dict:
+    def _metrics_args(self, it: RunItem) -> dict:
         p, render = it["prepared"], it["render"]
         if render and render.get("image"):
             render = {**render, "image": str(self.folder / render["image"])}
@@ -187,9 +188,10 @@ class RunTasks(RunRenders):
 
     def _graded(self, student: str, result: dict) -> None:
         row = result["row"]
-        fields = dict(stage=Stage.graded, status=row["status"], score=result["score"], max_score=result["max_score"],
-                      row=row, metrics_seconds=result["seconds"])  # fmt: skip
-        self.items[student].update(fields)
+        fields: dict[str, Any] = dict(stage=Stage.graded, status=row["status"], score=result["score"],
+                                      max_score=result["max_score"], row=row,
+                                      metrics_seconds=result["seconds"])  # fmt: skip
+        self.items[student].update(**fields)
         self.gs.update_item(self.id, student, **fields)
         self.context.item_changed(self.id, student)
 

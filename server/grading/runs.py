@@ -24,13 +24,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache, partial
 from pathlib import Path
+from typing import cast
 
 from server.core.files import write_atomic
 from server.core.settings import Settings
 from server.grading.pool import GradingPool
 from server.grading.run import GradingRun
 from server.grading.run_base import RunContext
-from server.grading.store import GradingStore, Stage
+from server.grading.store import GradingStore, ItemWithReport, Stage
 from server.jobs.lifecycle import JobStatus
 from server.jobs.service import JobService
 from tracer.grading import AssignmentError, Grader, load_assignment
@@ -222,9 +223,9 @@ class GradeRuns:
         with self._wakes_lock:
             return self._wakes.setdefault(run_id, threading.Event())
 
-    def item(self, run_id: str, student: str) -> dict | None:
+    def item(self, run_id: str, student: str) -> ItemWithReport | None:
         """One student's row (stage, status, exact score) and their report.json once graded."""
-        it = self.gs.item(run_id, student)
+        it = cast("ItemWithReport | None", self.gs.item(run_id, student))
         if it is not None and it["stage"] == Stage.graded:
             path = self.root / run_id / "out" / student / "report.json"
             it["report"] = json.loads(path.read_text()) if path.is_file() else None

@@ -25,6 +25,7 @@ import sqlite3
 import time
 from enum import StrEnum
 from pathlib import Path
+from typing import Any, TypedDict, cast
 
 from server.core.db import Tables
 from server.jobs.lifecycle import JobStatus
@@ -95,6 +96,66 @@ class RenderStatus(StrEnum):
     failed = "failed"  # no image: `error` says why
 
 
+class GradingRunRow(TypedDict):
+    """A row of `grading_runs`, as GradingStore.run returns it (the assignment and summary as their JSON text)."""
+
+    id: str
+    status: str  # a JobStatus: running, done or failed
+    name: str | None
+    assignment: str  # JSON: the assignment as posted, its reference scene inline
+    max_score: float | None
+    created_at: float
+    finished_at: float | None
+    error: str | None
+    renders_total: int | None
+    summary: str | None  # JSON: the class summary, once done
+    starts: int
+
+
+class GradingItemRow(TypedDict):
+    """A row of `grading_items`: one student's grade (their score), as GradingStore.item and .items return it,
+    `prepared`, `render` and `row` parsed from their JSON (`Any`: a dict once their stage has them, None before;
+    the run reads them where the stage says they are there)."""
+
+    run_id: str
+    student: str
+    position: int
+    kind: str  # scene, png or exr
+    filename: str
+    file: str  # relative to the run's folder
+    stage: str  # a Stage
+    prepared: Any  # tracer.grading.Prepared as JSON; None until prepared
+    job_id: str | None
+    render: Any  # its render's outcome (image, spp, seconds, or error); None until rendered
+    status: str | None  # graded, invalid, failed: the report's
+    score: float | None
+    max_score: float | None
+    row: Any  # its row of the summary; None until graded
+    prepare_seconds: float | None
+    metrics_seconds: float | None
+
+
+class GradingRenderRow(TypedDict):
+    """A row of `grading_renders`: one of the class's renders, as GradingStore.renders returns it, `measured`
+    parsed from its JSON."""
+
+    run_id: str
+    key: str  # MEAN, or a baseline's [sampler, spp, light_samples] as JSON
+    job_id: str | None
+    status: str  # a RenderStatus
+    spp: int | None
+    seconds: float | None
+    error: str | None
+    measured: dict  # a baseline's metrics by encoding ("png/8": {...})
+
+
+class ItemWithReport(GradingItemRow, total=False):
+    """A student's row with their report (report.json, parsed; None where it is missing) once graded, as
+    GradeRuns.item (server/grading/runs.py) returns it: what the course's views read of a submission's grade."""
+
+    report: dict | None
+
+
 class GradingStore(Tables):
     """The grading tables, in the database file of the job store `data_dir/jobs.sqlite3`."""
 
@@ -141,14 +202,14 @@ class GradingStore(Tables):
         """No more students: the run ends once those it has are graded."""
         self.db.execute("DELETE FROM grading_open WHERE run_id = ?", (run_id,))
 
-    def item(self, run_id: str, student: str) -> dict | None:
+    def item(self, run_id: str, student: str) -> GradingItemRow | None:
         row = self.db.execute("SELECT * FROM grading_items WHERE run_id = ? AND student = ?", (run_id, student))
         row = row.fetchone()
-        return _decoded(dict(row), ("prepared", "render", "row")) if row else None
+        return cast(GradingItemRow, _decoded(dict(row), ("prepared", "render", "row"))) if row else None
 
-    def run(self, run_id: str) -> dict | None:
+    def run(self, run_id: str) -> GradingRunRow | None:
         row = self.db.execute("SELECT * FROM grading_runs WHERE id = ?", (run_id,)).fetchone()
-        return dict(row) if row else None
+        return cast(GradingRunRow, dict(row)) if row else None
 
     def running(self) -> list[str]:
         """Runs that a server left unfinished, oldest first."""
@@ -183,12 +244,12 @@ class GradingStore(Tables):
 
     # -- students -----------------------------------------------------------------------------
 
-    def items(self, run_id: str, after: int = -1) -> list[dict]:
+    def items(self, run_id: str, after: int = -1) -> list[GradingItemRow]:
         """The run's students (those past position `after` only: an open run's newcomers)."""
         rows = self.db.execute(
             "SELECT * FROM grading_items WHERE run_id = ? AND position > ? ORDER BY position", (run_id, after)
         )
-        return [_decoded(dict(r), ("prepared", "render", "row")) for r in rows]
+        return [cast(GradingItemRow, _decoded(dict(r), ("prepared", "render", "row"))) for r in rows]
 
     def students(self, run_id: str) -> list[str]:
         rows = self.db.execute("SELECT student FROM grading_items WHERE run_id = ? ORDER BY position", (run_id,))
@@ -205,9 +266,9 @@ class GradingStore(Tables):
 
     # -- the class's renders ------------------------------------------------------------------
 
-    def renders(self, run_id: str) -> list[dict]:
+    def renders(self, run_id: str) -> list[GradingRenderRow]:
         rows = self.db.execute("SELECT * FROM grading_renders WHERE run_id = ? ORDER BY rowid", (run_id,))
-        return [_decoded(dict(r), ("measured",)) for r in rows]
+        return [cast(GradingRenderRow, _decoded(dict(r), ("measured",))) for r in rows]
 
     def add_render(self, run_id: str, key: str) -> None:
         self.db.execute("INSERT OR IGNORE INTO grading_renders (run_id, key) VALUES (?, ?)", (run_id, key))

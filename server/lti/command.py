@@ -30,7 +30,7 @@ from server.core.errors import DomainError
 from server.lti import trial
 from server.lti.keys import DEFAULT_GRACE_HOURS, ToolKeys
 from server.lti.services import LINEITEM_READ_SCOPE, LINEITEM_SCOPE, NRPS_SCOPE, RESULT_READ_SCOPE, SCORE_SCOPE
-from server.lti.store import LtiStore, url_problem
+from server.lti.store import LtiStore, PlatformRow, url_problem
 
 TITLE = "Ray tracing for teaching"
 DESCRIPTION = "Write scenes, watch them render, inspect ray trees; assignments graded and sent back to the course."
@@ -92,7 +92,7 @@ def show_tool(base: str) -> str:
     return "\n".join(lines)
 
 
-def describe(p: dict) -> str:
+def describe(p: PlatformRow) -> str:
     deployments = ", ".join(p["deployment_ids"]) or "none"
     name = f" ({p['name']})" if p["name"] else ""
     extra = f"  service origins: {p['service_origins']}" if p.get("service_origins") else ""

@@ -27,7 +27,7 @@ from joserfc.jwk import KeySet
 
 from server.lti.http import TooLarge, get_json
 from server.lti.roles import course_role
-from server.lti.store import LtiStore, on_platform, platform_origins
+from server.lti.store import LoginRow, LtiStore, PlatformRow, on_platform, platform_origins
 
 log = logging.getLogger("server.lti")
 
@@ -64,7 +64,7 @@ class LaunchError(Exception):
 
 
 def auth_request_url(
-    platform: dict, *, login_hint: str, lti_message_hint: str | None, state: str, nonce: str, redirect_uri: str,
+    platform: PlatformRow, *, login_hint: str, lti_message_hint: str | None, state: str, nonce: str, redirect_uri: str,
     client_id: str,
 ) -> str:  # fmt: skip
     """The platform's auth URL with the OIDC authentication request's parameters (LTI Core 1.3 §5.1.1.2)."""
@@ -165,7 +165,7 @@ class Launch:
     """A verified launch: who (sub, names, email, roles), where (context, resource link, deployment), and what
     the platform offers back (AGS for grades, NRPS for members, deep-linking settings); `claims`: all of it."""
 
-    platform: dict
+    platform: PlatformRow
     deployment_id: str
     message_type: str  # LtiResourceLinkRequest or LtiDeepLinkingRequest
     sub: str  # the user's id at the platform (may be "" for an anonymous deep-linking launch)
@@ -188,7 +188,7 @@ class Launch:
         return course_role(self.roles)
 
     @classmethod
-    def from_claims(cls, platform: dict, claims: dict) -> Launch:
+    def from_claims(cls, platform: PlatformRow, claims: dict) -> Launch:
         context = _dict(claims.get(LTI + "context"))
         link = _dict(claims.get(RESOURCE_LINK))
         ags = _dict(claims.get(AGS_CLAIM))
@@ -246,7 +246,7 @@ def _peek(id_token: str) -> tuple[dict, dict]:
 
 
 def verify_launch(
-    id_token: str, *, store: LtiStore, jwks: JwksCache, state_row: dict, now: float, leeway: float
+    id_token: str, *, store: LtiStore, jwks: JwksCache, state_row: LoginRow, now: float, leeway: float
 ) -> Launch:
     """The launch that `id_token` carries, each check passed, for the login `state_row` (LtiStore.take_login),
     its nonce used up; LaunchError for the first check that fails. `leeway`: seconds of clock difference allowed."""
@@ -283,7 +283,7 @@ def verify_launch(
     return Launch.from_claims(platform, claims)
 
 
-def _check_issuer(claims: dict, platform: dict, store: LtiStore) -> None:
+def _check_issuer(claims: dict, platform: PlatformRow, store: LtiStore) -> None:
     iss = claims.get("iss")
     if iss == platform["issuer"]:
         return
@@ -292,7 +292,7 @@ def _check_issuer(claims: dict, platform: dict, store: LtiStore) -> None:
     raise LaunchError("iss", f"this login was started for {platform['issuer']}, but the token comes from {iss}")
 
 
-def _verified(id_token: str, header: dict, platform: dict, jwks: JwksCache) -> dict:
+def _verified(id_token: str, header: dict, platform: PlatformRow, jwks: JwksCache) -> dict:
     """The token's claims, its RS256 signature checked with the platform's key of its `kid`."""
     alg = header.get("alg")
     if alg != ALG:

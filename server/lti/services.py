@@ -29,7 +29,7 @@ import httpx
 from server.lti.http import TooLarge, get_json, read_bounded
 from server.lti.keys import ToolKeys
 from server.lti.launch import DEPLOYMENT_ID, DL, MESSAGE_TYPE, VERSION
-from server.lti.store import on_platform, platform_origins
+from server.lti.store import PlatformRow, on_platform, platform_origins
 
 log = logging.getLogger("server.lti")
 
@@ -69,7 +69,7 @@ class ServiceClient:
 
     # -- access tokens ---------------------------------------------------------------------------------
 
-    def access_token(self, platform: dict, scopes: list[str]) -> str:
+    def access_token(self, platform: PlatformRow, scopes: list[str]) -> str:
         """A bearer token of `platform` for `scopes`: cached, or asked for with a signed client assertion."""
         key = (platform["id"], tuple(sorted(scopes)))
         now = self.clock()
@@ -123,10 +123,12 @@ class ServiceClient:
         except ValueError:
             raise ServiceError(502, f"{what}: the answer of {url} is not JSON") from None
 
-    def _authorized(self, platform: dict, scope: str, headers: dict) -> dict:
+    def _authorized(self, platform: PlatformRow, scope: str, headers: dict) -> dict:
         return {**headers, "Authorization": f"Bearer {self.access_token(platform, [scope])}"}
 
-    def _send(self, platform: dict, scope: str, method: str, url: str, what: str, headers: dict, **kwargs) -> object:
+    def _send(
+        self, platform: PlatformRow, scope: str, method: str, url: str, what: str, headers: dict, **kwargs
+    ) -> object:
         """`_call` with a bearer token for `scope`, only to the platform's own origins (ServiceError otherwise);
         a 401 (a token the platform no longer honours) drops the cached token and tries once more with a new one."""
         _on_platform(platform, url, what)
@@ -142,12 +144,12 @@ class ServiceClient:
 
     # -- Assignment and Grade Services ------------------------------------------------------------------
 
-    def post_score(self, platform: dict, lineitem_url: str, score: dict) -> None:
+    def post_score(self, platform: PlatformRow, lineitem_url: str, score: dict) -> None:
         """POST `score` (see `score()`) to the line item's scores (AGS 2.0 §3.4)."""
         headers = {"Content-Type": SCORE_TYPE}
         self._send(platform, SCORE_SCOPE, "POST", scores_url(lineitem_url), "the score", headers, content=_json(score))
 
-    def line_items(self, platform: dict, lineitems_url: str, resource_link_id: str | None = None) -> list[dict]:
+    def line_items(self, platform: PlatformRow, lineitems_url: str, resource_link_id: str | None = None) -> list[dict]:
         """The line items of a context (those of one resource link when given)."""
         params = {"resource_link_id": resource_link_id} if resource_link_id else None
         headers = {"Accept": LINEITEMS_TYPE}
@@ -157,7 +159,7 @@ class ServiceClient:
         return [item for item in data if isinstance(item, dict)]
 
     def create_line_item(
-        self, platform: dict, lineitems_url: str, label: str, score_maximum: float,
+        self, platform: PlatformRow, lineitems_url: str, label: str, score_maximum: float,
         resource_link_id: str | None = None, tag: str | None = None, resource_id: str | None = None,
     ) -> dict:  # fmt: skip
         """A new line item in the context (for a launch that has `lineitems` but no `lineitem`): the platform's
@@ -175,7 +177,7 @@ class ServiceClient:
 
     # -- Names and Role Provisioning Services --------------------------------------------------------------
 
-    def members(self, platform: dict, memberships_url: str, max_pages: int = 50) -> list[dict]:
+    def members(self, platform: PlatformRow, memberships_url: str, max_pages: int = 50) -> list[dict]:
         """The context's members (NRPS 2.0), following `Link: <...>; rel="next"` for at most `max_pages` pages,
         each of at most MAX_BYTES bytes, on the memberships URL's own host only (the token goes nowhere else)."""
         origin = urlsplit(memberships_url)[:2]
@@ -203,7 +205,7 @@ class ServiceClient:
         return out
 
 
-def _on_platform(platform: dict, url: str, what: str) -> None:
+def _on_platform(platform: PlatformRow, url: str, what: str) -> None:
     """ServiceError unless `url` is at one of the platform's registered origins (its token goes nowhere else)."""
     if not on_platform(platform, url):
         raise ServiceError(0, f"{what}: {url[:200]} is not at the platform's registered addresses "
@@ -264,7 +266,7 @@ def score(user_id: str, given: float, maximum: float, timestamp_iso: str | float
 
 
 def deep_link_response(
-    keys: ToolKeys, platform: dict, deployment_id: str, settings: dict, items: list[dict], now: float
+    keys: ToolKeys, platform: PlatformRow, deployment_id: str, settings: dict, items: list[dict], now: float
 ) -> str:
     """The LtiDeepLinkingResponse JWT (Deep Linking 2.0 §4.2) carrying `items` back to the platform."""
     claims = {

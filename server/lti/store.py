@@ -22,7 +22,9 @@ from __future__ import annotations
 import ipaddress
 import re
 import secrets
+import sqlite3
 from pathlib import Path
+from typing import TypedDict, cast
 from urllib.parse import urlsplit
 
 from server.core.db import Tables
@@ -69,6 +71,37 @@ CREATE TABLE IF NOT EXISTS lti_nonces (
     PRIMARY KEY (platform_id, nonce)
 );
 """
+
+
+class PlatformRow(TypedDict):
+    """A registered platform as LtiStore.platform, .find, .platforms and .register return it: its row of
+    `lti_platforms` (`trust_emails` as a bool) with its deployment ids (`lti_deployments`, in the order added):
+    what the launch, the services and the course's LMS side read as `platform`."""
+
+    id: str  # 12 hex digits
+    issuer: str
+    client_id: str
+    name: str
+    auth_url: str
+    token_url: str
+    jwks_url: str
+    created_at: float
+    trust_emails: bool
+    service_origins: str  # space-separated origins
+    deployment_ids: list[str]
+
+
+class LoginRow(TypedDict):
+    """A row of `lti_logins`: a login in flight, as LtiStore.take_login returns it (the launch's `state_row`)."""
+
+    state: str
+    nonce: str
+    platform_id: str
+    target_link_uri: str
+    created_at: float
+    storage_target: str | None
+    address: str
+
 
 URL_FIELDS = ("issuer", "auth_url", "token_url", "jwks_url")
 HOST = re.compile(r"[a-z0-9_-]+(?:\.[a-z0-9_-]+)*\.?|[0-9a-f:.]+")  # a DNS name, IPv4, or IPv6 (unbracketed)
@@ -153,14 +186,14 @@ def url_origin(url: str) -> str | None:
     return f"{parts.scheme}://{host}" + (f":{port}" if port and port != default else "")
 
 
-def platform_origins(platform: dict) -> list[str]:
+def platform_origins(platform: PlatformRow) -> list[str]:
     """The origins a platform's services and pages may be at: those of its registered URLs, and its further
     service origins (a hosted Canvas at the school's address)."""
     urls = [platform[f] for f in URL_FIELDS] + (platform.get("service_origins") or "").split()
     return sorted({o for u in urls if (o := url_origin(u))})
 
 
-def on_platform(platform: dict, url: object) -> bool:
+def on_platform(platform: PlatformRow, url: object) -> bool:
     """Whether `url` is an http(s) URL at one of the platform's origins (its access token may go there)."""
     return isinstance(url, str) and url_origin(url) in platform_origins(platform)
 
@@ -214,7 +247,7 @@ class LtiStore(Tables):
         self, issuer: str, client_id: str, auth_url: str, token_url: str, jwks_url: str,
         deployment_ids: list[str], name: str = "", now: float = 0.0, *, allow_private: bool = False,
         trust_emails: bool = False, service_origins: list[str] | None = None,
-    ) -> dict:  # fmt: skip
+    ) -> PlatformRow:  # fmt: skip
         """The platform of (issuer, client_id), made or updated: its URLs, name, further service origins and
         whether its emails identify people, and its deployment ids replaced by `deployment_ids` (Invalid, 422,
         naming the field of a wrong value; a loopback, link-local or private address is one unless
@@ -251,7 +284,7 @@ class LtiStore(Tables):
         assert made is not None  # written just above
         return made
 
-    def add_deployment(self, platform_id: str, deployment_id: str) -> dict | None:
+    def add_deployment(self, platform_id: str, deployment_id: str) -> PlatformRow | None:
         """The platform with one more deployment id (None: no such platform)."""
         if m := text_problem(deployment_id, "a deployment id"):
             raise Invalid([{"path": "deployment_id", "message": m}])
@@ -264,11 +297,11 @@ class LtiStore(Tables):
             )
         return self.platform(platform_id)
 
-    def platform(self, platform_id: str) -> dict | None:
+    def platform(self, platform_id: str) -> PlatformRow | None:
         row = self.db.execute("SELECT * FROM lti_platforms WHERE id = ?", (platform_id,)).fetchone()
         return self._with_deployments(row) if row else None
 
-    def find(self, issuer: str, client_id: str | None = None) -> dict | None:
+    def find(self, issuer: str, client_id: str | None = None) -> PlatformRow | None:
         """The platform of `issuer` and `client_id`; without a client id, the only one of that issuer (None when
         there are none or several)."""
         if client_id is not None:
@@ -278,7 +311,7 @@ class LtiStore(Tables):
         rows = self.db.execute(sql, args).fetchall()
         return self._with_deployments(rows[0]) if len(rows) == 1 else None
 
-    def platforms(self) -> list[dict]:
+    def platforms(self) -> list[PlatformRow]:
         rows = self.db.execute("SELECT * FROM lti_platforms ORDER BY created_at, id").fetchall()
         return [self._with_deployments(r) for r in rows]
 
@@ -289,14 +322,14 @@ class LtiStore(Tables):
                 db.execute(f"DELETE FROM {table} WHERE platform_id = ?", (platform_id,))
         return bool(gone)
 
-    def _with_deployments(self, row) -> dict:
+    def _with_deployments(self, row: sqlite3.Row) -> PlatformRow:
         out = dict(row)
         out["trust_emails"] = bool(out.get("trust_emails"))
         rows = self.db.execute(
             "SELECT deployment_id FROM lti_deployments WHERE platform_id = ? ORDER BY rowid", (out["id"],)
         ).fetchall()
         out["deployment_ids"] = [r["deployment_id"] for r in rows]
-        return out
+        return cast(PlatformRow, out)
 
     # -- logins in flight --------------------------------------------------------------------------
 
@@ -333,14 +366,14 @@ class LtiStore(Tables):
             )
         return state, nonce
 
-    def take_login(self, state: str, now: float, max_age: float = LOGIN_KEEP) -> dict | None:
+    def take_login(self, state: str, now: float, max_age: float = LOGIN_KEEP) -> LoginRow | None:
         """The login of `state`, deleted (a state is used once); None if unknown, used or older than `max_age` s."""
         with self._tx() as db:
             row = db.execute("SELECT * FROM lti_logins WHERE state = ?", (state,)).fetchone()
             if row is None:
                 return None
             db.execute("DELETE FROM lti_logins WHERE state = ?", (state,))
-        return dict(row) if now - row["created_at"] <= max_age else None
+        return cast(LoginRow, dict(row)) if now - row["created_at"] <= max_age else None
 
     # -- nonces seen -------------------------------------------------------------------------------
 

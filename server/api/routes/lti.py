@@ -206,12 +206,12 @@ async def register_platform(body: PlatformIn, lti: LtiDep) -> dict:
     """Register (or update) an LTI 1.3 platform: 422 naming the field of a wrong value."""
     platform = await run_in_threadpool(lambda: lti.store.register(**body.model_dump(), now=lti.clock()))
     lti.refresh()
-    return platform
+    return dict(platform)  # a plain dict: FastAPI makes the return annotation the response model
 
 
 @router.get("/api/lti/platforms", tags=["lti"], dependencies=[Depends(require_instructor)])
 async def list_platforms(lti: LtiDep) -> list[dict]:
-    return await run_in_threadpool(lti.store.platforms)
+    return [dict(p) for p in await run_in_threadpool(lti.store.platforms)]
 
 
 @router.delete("/api/lti/platforms/{pid}", status_code=204, tags=["lti"], dependencies=[Depends(require_instructor)])

@@ -14,7 +14,14 @@ from datetime import timedelta
 import httpx
 import pytest
 
-from server.course.lms_store import LmsStore
+from server.course.lms_store import (
+    LmsStore,
+    LtiContextRow,
+    LtiLinkRow,
+    LtiPickRow,
+    LtiScoreRow,
+    RefusedScore,
+)
 from tests.support.api import bearer, wait_for
 from tests.support.lms import ADMIN, EXAMPLE, NRPS, T0
 from tests.support.lti_platform import INSTRUCTOR as LMS_INSTRUCTOR
@@ -139,6 +146,37 @@ def test_lms_scores_keep_strictly_increasing_timestamps_and_a_newer_one_supersed
     assert store.add_score({**row, "score_given": 7.0}, 100.0)  # the same second: 1 ms later
     due = store.due(100.0, 10)
     assert [(d["score_given"], d["timestamp"]) for d in due] == [(7.0, 100.001)]
+
+
+def test_lms_rows_are_typed_with_every_column_of_their_tables(tmp_path):
+    """`LtiContextRow`, `LtiLinkRow`, `LtiPickRow` and `LtiScoreRow` (server/course/lms_store.py) name each column
+    of their tables and no other, and the store's reads return exactly those keys; `RefusedScore` those of a
+    refusal (`next_try` as `at`), so that the type checker knows the keys the LMS side and the poster read."""
+    store = LmsStore(tmp_path)
+    tables = (("course_lti_contexts", LtiContextRow), ("course_lti_links", LtiLinkRow),
+              ("course_lti_picks", LtiPickRow), ("course_lti_scores", LtiScoreRow))  # fmt: skip
+    for table, row in tables:
+        columns = {r["name"] for r in store.db.execute(f"PRAGMA table_info({table})")}
+        assert set(row.__required_keys__) == columns, table
+    store.link_context("p", "ctx", "gfx", "Graphics", 1.0)
+    assert set(store.context("p", "ctx")) == set(LtiContextRow.__required_keys__)
+    assert [set(c) for c in store.contexts("gfx")] == [set(LtiContextRow.__required_keys__)]
+    store.keep_link("p", "link-1", "gfx", "a" * 32, "L", 1.0)
+    assert set(store.link("p", "link-1")) == set(LtiLinkRow.__required_keys__)
+    assert [set(x) for x in store.links("a" * 32)] == [set(LtiLinkRow.__required_keys__)]
+    pick = store.new_pick({"platform_id": "p", "deployment_id": "d", "course_id": "gfx", "settings": "",
+                           "resource_link_id": "link-1", "expires": 100.0})  # fmt: skip
+    assert set(store.take_pick(pick, 1.0)) == set(LtiPickRow.__required_keys__)
+    row = {"platform_id": "p", "lineitem": "L", "user_id": "u", "assignment_id": "a" * 32, "student": "s",
+           "score_given": 5.0, "score_max": 13.0}  # fmt: skip
+    assert store.add_score(row, 1.0)
+    assert set(store.last_score("L", "u")) == set(LtiScoreRow.__required_keys__)
+    due = store.due(1.0, 10)
+    assert [set(d) for d in due] == [set(LtiScoreRow.__required_keys__)]
+    store.refused(due[0]["id"], 422, "no such user", 2.0)
+    refusals = store.refusals("a" * 32)
+    assert [set(r) for r in refusals] == [set(RefusedScore.__required_keys__)]
+    assert (refusals[0]["status"], refusals[0]["at"]) == (422, 2.0)
 
 
 def test_lms_a_link_with_no_assignment_opens_a_student_s_course_page_and_an_instructor_s_picker(tool, lms):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from server.core.errors import Invalid
-from server.lti.store import LtiStore
+from server.lti.store import LoginRow, LtiStore, PlatformRow
 
 CANVAS = dict(
     issuer="https://canvas.instructure.com", client_id="10000000000001",
@@ -68,6 +68,28 @@ def test_lti_store_a_login_is_taken_once_and_only_while_fresh(tmp_path):
     assert store.take_login(old, now=100.0 + 601) is None  # too old
     assert store.take_login(old, now=100.0) is None  # and gone
     assert store.take_login("unknown", now=100.0) is None
+
+
+def test_lti_store_rows_are_typed_with_every_column_of_their_tables(tmp_path):
+    """`PlatformRow` (server/lti/store.py) names each column of `lti_platforms` and the platform's deployment ids,
+    `LoginRow` each column of `lti_logins`; the store's reads return exactly those keys, so that the type checker
+    knows the keys the launch, the services and the course's LMS side read."""
+    store = LtiStore(tmp_path)
+
+    def columns(table: str) -> set[str]:
+        return {r["name"] for r in store.db.execute(f"PRAGMA table_info({table})")}
+
+    assert set(PlatformRow.__required_keys__) == columns("lti_platforms") | {"deployment_ids"}
+    assert set(LoginRow.__required_keys__) == columns("lti_logins")
+    p = store.register(**CANVAS, deployment_ids=["1"], trust_emails=True)
+    assert set(p) == set(PlatformRow.__required_keys__)
+    assert p["trust_emails"] is True  # a bool, not the column's 1
+    assert set(store.add_deployment(p["id"], "2")) == set(PlatformRow.__required_keys__)
+    assert set(store.platform(p["id"])) == set(PlatformRow.__required_keys__)
+    assert set(store.find(CANVAS["issuer"])) == set(PlatformRow.__required_keys__)
+    assert [set(x) for x in store.platforms()] == [set(PlatformRow.__required_keys__)]
+    state, _ = store.new_login(p["id"], "https://tool/lti/launch", now=100.0)
+    assert set(store.take_login(state, now=100.0)) == set(LoginRow.__required_keys__)
 
 
 def test_lti_store_a_nonce_is_used_once_and_pruned_after_its_expiry(tmp_path):
