@@ -286,3 +286,49 @@ class SubmissionWithGrade(_Graded, total=False):
     (`total=False` for `auto_score` alone: NotRequired is not seen at run time under postponed annotations.)"""
 
     auto_score: float  # the grading's own score, where accepted regrade requests moved `score`
+
+
+class RegradeRequestRow(TypedDict):
+    """A row of `course_regrade_requests`: a student's request on one item of a submission, as
+    server/course/regrade_store.py's create, one and of_assignment return it (the `row` of the Regrade mixin)."""
+
+    id: str
+    assignment_id: str
+    submission_id: str
+    student: str
+    item: str  # a test's policy name or a manual item's
+    kind: str  # test or manual
+    reason: str
+    status: str  # open, accepted or declined
+    reply: str
+    points: float | None
+    created_at: float
+    answered_at: float | None
+    answered_by: str | None
+
+
+class _RegradeEvent(TypedDict):
+    at: float
+    who: str
+    kind: str  # request or answer
+    status: str
+
+
+class RegradeEvent(_RegradeEvent, total=False):
+    """A row of `course_regrade_events` as regrade_store.events returns it (a request's history): at, who and
+    kind, its `change` (JSON) spread in: the status, and the reason and points of a request, the reply of an
+    answer, with points_before and points when it moved them."""
+
+    reason: str
+    reply: str
+    points: float | None
+    points_before: float | None
+
+
+class OverrideRow(TypedDict):
+    """A row of `course_test_overrides` as regrade_store.overrides returns it, by submission and test: the version
+    whose grading gave `original` (another version's grading: not applied) and the points the answer set."""
+
+    version: int
+    original: float
+    points: float
