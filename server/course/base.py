@@ -25,7 +25,16 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
-from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow, SubmissionRow, SubmissionWithGrade
+from server.course.schema import (
+    AssignmentRow,
+    CourseRow,
+    ManualGrade,
+    ManualGradeRow,
+    MemberRow,
+    StudentRow,
+    SubmissionRow,
+    SubmissionWithGrade,
+)
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.jobs.service import Follower
@@ -94,9 +103,11 @@ class CourseBase:
         def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None: ...  # manual.py
         def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None: ...  # manual.py
         def manual_items(self, a: AssignmentRow) -> list: ...  # manual.py
-        def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
+        def manual_part(
+            self, a: AssignmentRow, sid: str, rows: dict[str, ManualGradeRow] | None = None
+        ) -> dict: ...  # manual.py
         def _set_manual_grade(
-            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who
+            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: ManualGrade, who: Who
         ) -> None: ...  # manual.py
         def _grade_moved(self, sub: SubmissionWithGrade) -> None: ...  # manual.py
         def regrade_deadline(self, a: AssignmentRow, student: StudentRow | MemberRow | None) -> float: ...  # regrade.py

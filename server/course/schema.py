@@ -332,3 +332,33 @@ class OverrideRow(TypedDict):
     version: int
     original: float
     points: float
+
+
+class ManualGrade(TypedDict):
+    """A grade of a staff-graded item as a grader gives it (ManualTables.set_manual's `row`; the mixin's
+    manual_points scores one by the current spec)."""
+
+    rubric: list[str]  # the chosen levels' names
+    points: float | None  # the grader's override; None: the chosen levels' sum
+    comment: str
+    grader: str | None  # course_staff.person; None: the admin
+
+
+class ManualGradeRow(ManualGrade):
+    """A row of `course_manual_grades`, as ManualTables.manual_grades returns it (by submission and item), its
+    rubric parsed from its JSON."""
+
+    submission_id: str
+    item: str
+    assignment_id: str
+    graded_at: float
+
+
+class ManualRow(TypedDict):
+    """A row of `course_manual`: an assignment's release and anonymity, as ManualTables.manual_state returns it
+    (not released, not anonymous when it has no row yet)."""
+
+    assignment_id: str
+    released_at: float | None
+    released_by: str | None
+    anonymous: int  # 0 or 1

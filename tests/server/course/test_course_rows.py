@@ -7,7 +7,14 @@ from __future__ import annotations
 
 from server.course import regrade_store as rs
 from server.course.audit import By, Target
-from server.course.schema import OverrideRow, RegradeEvent, RegradeRequestRow
+from server.course.schema import (
+    ManualGrade,
+    ManualGradeRow,
+    ManualRow,
+    OverrideRow,
+    RegradeEvent,
+    RegradeRequestRow,
+)
 from server.course.store import DEFAULT_COURSE, CourseStore
 
 AID, SID = "a" * 32, "s" * 32
@@ -49,3 +56,23 @@ def test_course_regrade_rows_are_typed_with_the_columns_the_store_returns(tmp_pa
     found = rs.overrides(store, AID)
     assert set(found[SID]["validity"]) == set(OverrideRow.__required_keys__)
     assert set(rs.overrides(store, AID, SID)[SID]["validity"]) == set(OverrideRow.__required_keys__)
+
+
+def test_course_manual_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`ManualGradeRow` names each column of `course_manual_grades` (manual_grades, its rubric parsed), of which
+    `ManualGrade` is what a grader gives (set_manual's row); `ManualRow` each column of `course_manual`
+    (manual_state, before the assignment has a row and after)."""
+    store = CourseStore(tmp_path)
+    assert set(ManualGradeRow.__required_keys__) == columns(store, "course_manual_grades")
+    assert set(ManualGrade.__required_keys__) == {"rubric", "points", "comment", "grader"}
+    assert set(ManualRow.__required_keys__) == columns(store, "course_manual")
+    assert set(store.manual_state(AID)) == set(ManualRow.__required_keys__)  # no row yet
+    grade: ManualGrade = {"rubric": ["good"], "points": None, "comment": "", "grader": "bo"}
+    store.set_manual(AID, SID, "style", grade, 1.0)
+    found = store.manual_grades(AID)
+    assert set(found[SID]["style"]) == set(ManualGradeRow.__required_keys__)
+    assert found[SID]["style"]["rubric"] == ["good"]
+    assert set(store.manual_grades(AID, SID)[SID]["style"]) == set(ManualGradeRow.__required_keys__)
+    store.release_manual(AID, "bo", 2.0)
+    store.set_anonymous(AID, True)
+    assert set(store.manual_state(AID)) == set(ManualRow.__required_keys__)
