@@ -27,6 +27,7 @@ from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
 from server.course.schema import (
     AssignmentRow,
+    AuditEvent,
     CourseRow,
     ManualGrade,
     ManualGradeRow,
@@ -124,7 +125,7 @@ class CourseBase:
         name = who if isinstance(who, str) else "system" if who is None else audit.who_of(who)
         return audit.By(name, self.now(), " ".join((why or "").split()))
 
-    def audit_trail(self, cid: str, **filters) -> list[dict]:
+    def audit_trail(self, cid: str, **filters) -> list[AuditEvent]:
         """The course's audit events, newest first (audit.events: student, assignment, limit, before)."""
         return audit.events(self.store.db, cid, **filters)
 

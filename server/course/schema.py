@@ -3,7 +3,7 @@ new database; an existing one gets its changes as numbered migrations (server/co
 
 from __future__ import annotations
 
-from typing import TypedDict
+from typing import Any, TypedDict
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS courses (
@@ -362,3 +362,54 @@ class ManualRow(TypedDict):
     released_at: float | None
     released_by: str | None
     anonymous: int  # 0 or 1
+
+
+class TokenRow(TypedDict):
+    """A row of `course_tokens`: whose a token is (CourseStore.token), its hash also the owner of its workspace
+    jobs."""
+
+    token_hash: str
+    course_id: str
+    kind: str  # a Kind: student or staff
+    person: str  # course_members.student or course_staff.person
+    created_at: float
+
+
+class TokenGrantRow(TypedDict):
+    """A row of `course_token_grants`: late tokens granted to a student (CourseStore.token_grants)."""
+
+    course_id: str
+    student: str
+    added: int  # tokens (days) granted
+    before: int  # the student's tokens left before, and after
+    after: int
+    who: str  # the staff member's id (or 'admin')
+    why: str
+    at: float
+
+
+class ExtensionRow(TypedDict):
+    """A row of `course_extensions`: a student's deadline moved on an assignment (RosterTables.extensions)."""
+
+    assignment_id: str
+    student: str
+    before: float | None  # their own deadline before (None: the assignment's), and after
+    after: float | None
+    who: str  # the staff member's id (or 'admin')
+    why: str
+    at: float
+
+
+class AuditEvent(TypedDict):
+    """A row of `course_audit` as server/course/audit.py's events returns it (the trail's API and CSV): its id,
+    when (ISO 8601), who, the action, the target, before and after (parsed from their JSON) and why; the
+    course, assignment and student columns are the target's."""
+
+    id: int
+    at: str  # ISO 8601
+    who: str  # instructor:<id>, ta:<id>, admin, student:<id>, lms
+    action: str
+    target: dict[str, str]  # audit.Target's json(): course, assignment?, student?, submission?, staff?
+    before: Any  # JSON; None: nothing before
+    after: Any  # JSON; None: nothing after
+    why: str

@@ -5,15 +5,20 @@ versions and submissions: tests/server/course/test_course.py.)"""
 
 from __future__ import annotations
 
+from server.course import audit
 from server.course import regrade_store as rs
 from server.course.audit import By, Target
 from server.course.schema import (
+    AuditEvent,
+    ExtensionRow,
     ManualGrade,
     ManualGradeRow,
     ManualRow,
     OverrideRow,
     RegradeEvent,
     RegradeRequestRow,
+    TokenGrantRow,
+    TokenRow,
 )
 from server.course.store import DEFAULT_COURSE, CourseStore
 
@@ -76,3 +81,39 @@ def test_course_manual_rows_are_typed_with_the_columns_the_store_returns(tmp_pat
     store.release_manual(AID, "bo", 2.0)
     store.set_anonymous(AID, True)
     assert set(store.manual_state(AID)) == set(ManualRow.__required_keys__)
+
+
+def test_course_token_and_extension_rows_are_typed_with_the_columns_the_store_returns(tmp_path):
+    """`TokenRow` names each column of `course_tokens` (token), `TokenGrantRow` of `course_token_grants`
+    (token_grants), `ExtensionRow` of `course_extensions` (extensions)."""
+    store = CourseStore(tmp_path)
+    assert set(TokenRow.__required_keys__) == columns(store, "course_tokens")
+    assert set(TokenGrantRow.__required_keys__) == columns(store, "course_token_grants")
+    assert set(ExtensionRow.__required_keys__) == columns(store, "course_extensions")
+    store.create(AID, '{"name": "hw"}', {}, "r" * 32, 1.0)
+    store.add_members(DEFAULT_COURSE, [{"student": "ann", "name": "Ann", "email": "a@x"}], 2.0, [AID])
+    store.keep_token(DEFAULT_COURSE, "student", "ann", "h-ann", 2.0)
+    token = store.token("h-ann")
+    assert token is not None
+    assert set(token) == set(TokenRow.__required_keys__)
+    store.db.execute(  # a grant as Tokens.grant_tokens writes it (server/course/tokens.py)
+        "INSERT INTO course_token_grants (course_id, student, added, before, after, who, why, at)"
+        " VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+        (DEFAULT_COURSE, "ann", 2, 0, 2, "bo", "ill", 3.0),
+    )
+    assert [set(g) for g in store.token_grants(DEFAULT_COURSE, "ann")] == [set(TokenGrantRow.__required_keys__)]
+    assert store.extend(AID, "ann", 99.0, "bo", "ill", 4.0)
+    assert [set(e) for e in store.extensions(AID, "ann")] == [set(ExtensionRow.__required_keys__)]
+
+
+def test_course_audit_events_are_typed_with_the_keys_the_trail_returns(tmp_path):
+    """`AuditEvent` names what audit.events makes of a `course_audit` row: its columns but the course,
+    assignment and student (the target's), `at` in ISO 8601, before, after and the target parsed."""
+    store = CourseStore(tmp_path)
+    table = columns(store, "course_audit")
+    assert set(AuditEvent.__required_keys__) == table - {"course_id", "assignment_id", "student"}
+    store.set_late_tokens(DEFAULT_COURSE, 3, By("admin", 1.0, "a week"))
+    (event,) = audit.events(store.db, DEFAULT_COURSE)
+    assert set(event) == set(AuditEvent.__required_keys__)
+    assert (event["at"], event["target"], event["after"]) == ("1970-01-01T00:00:01Z", {"course": "default"},
+                                                             {"late_tokens": 3})  # fmt: skip
