@@ -24,11 +24,12 @@ import io
 import json
 import sqlite3
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 from server.core.roles import Role
 from server.course.people import Who
 from server.course.policy import iso
+from server.course.schema import AuditEvent
 from tracer.tools import spreadsheet
 
 MAX_LIMIT = 500  # events in one page at most (the API's `limit`)
@@ -90,7 +91,7 @@ def events(
     assignment: str | None = None,
     limit: int = DEFAULT_LIMIT,
     before: int | None = None,
-) -> list[dict]:
+) -> list[AuditEvent]:
     """The course's events, newest first: only a student's or an assignment's when named; at most `limit` (bounded:
     MAX_LIMIT and one more, which tells a page that there is another), those written before event id `before`
     (the last one of the page before)."""
@@ -105,10 +106,10 @@ def events(
     return [_event(r) for r in rows]
 
 
-def _event(row: sqlite3.Row) -> dict:
+def _event(row: sqlite3.Row) -> AuditEvent:
     return {
         "id": row["id"],
-        "at": iso(row["at"]),
+        "at": cast(str, iso(row["at"])),  # NOT NULL
         "who": row["who"],
         "action": row["action"],
         "target": json.loads(row["target"]),
@@ -121,7 +122,7 @@ def _event(row: sqlite3.Row) -> dict:
 CSV_COLUMNS = ["id", "at", "who", "action", "course", "assignment", "student", "target", "before", "after", "why"]
 
 
-def events_csv(rows: list[dict]) -> str:
+def events_csv(rows: list[AuditEvent]) -> str:
     """One row per event: the target's parts in columns of their own, before and after as JSON text; every cell
     formula-safe (spreadsheet.writer)."""
     buf = io.StringIO()

@@ -25,7 +25,17 @@ from server.core.settings import Settings
 from server.course import audit, policy
 from server.course.people import TokenMaker, Who
 from server.course.policy import Feedback, Moment
-from server.course.schema import AssignmentRow, CourseRow, MemberRow, StudentRow, SubmissionRow, SubmissionWithGrade
+from server.course.schema import (
+    AssignmentRow,
+    AuditEvent,
+    CourseRow,
+    ManualGrade,
+    ManualGradeRow,
+    MemberRow,
+    StudentRow,
+    SubmissionRow,
+    SubmissionWithGrade,
+)
 from server.course.store import CourseStore
 from server.grading.runs import GradeRuns
 from server.grading.store import GradingItemRow
@@ -95,9 +105,11 @@ class CourseBase:
         def released_manual(self, a: AssignmentRow, sub: SubmissionWithGrade) -> float | None: ...  # manual.py
         def manual_view(self, a: AssignmentRow, sub: SubmissionWithGrade, who: Who) -> dict | None: ...  # manual.py
         def manual_items(self, a: AssignmentRow) -> list: ...  # manual.py
-        def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict: ...  # manual.py
+        def manual_part(
+            self, a: AssignmentRow, sid: str, rows: dict[str, ManualGradeRow] | None = None
+        ) -> dict: ...  # manual.py
         def _set_manual_grade(
-            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who
+            self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: ManualGrade, who: Who
         ) -> None: ...  # manual.py
         def _grade_moved(self, sub: SubmissionWithGrade) -> None: ...  # manual.py
         def regrade_deadline(self, a: AssignmentRow, student: StudentRow | MemberRow | None) -> float: ...  # regrade.py
@@ -114,7 +126,7 @@ class CourseBase:
         name = who if isinstance(who, str) else "system" if who is None else audit.who_of(who)
         return audit.By(name, self.now(), " ".join((why or "").split()))
 
-    def audit_trail(self, cid: str, **filters) -> list[dict]:
+    def audit_trail(self, cid: str, **filters) -> list[AuditEvent]:
         """The course's audit events, newest first (audit.events: student, assignment, limit, before)."""
         return audit.events(self.store.db, cid, **filters)
 

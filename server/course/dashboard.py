@@ -28,7 +28,7 @@ import statistics
 
 from server.course.base import iso, status_of
 from server.course.people import Who
-from server.course.schema import AssignmentRow, SubmissionWithGrade
+from server.course.schema import AssignmentRow, ManualGradeRow, SubmissionWithGrade
 from server.course.service import Course
 
 PENDING = ("queued", "grading")
@@ -84,7 +84,12 @@ def student_rows(course: Course, a: AssignmentRow) -> list[dict]:
 
 
 def _with_manual(
-    course: Course, a: AssignmentRow, row: dict, counting: SubmissionWithGrade | None, grades: dict, released: bool
+    course: Course,
+    a: AssignmentRow,
+    row: dict,
+    counting: SubmissionWithGrade | None,
+    grades: dict[str, dict[str, ManualGradeRow]],
+    released: bool,
 ) -> None:
     """A row's manual part (see the module's docstring): `manual`, `released`, `total`, `total_max`, `points`."""
     spec = course.spec(a["id"], a["version"])

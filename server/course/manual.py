@@ -36,7 +36,7 @@ from server.core.roles import Role
 from server.course.audit import Target
 from server.course.base import CourseBase, iso, status_of
 from server.course.people import Who
-from server.course.schema import AssignmentRow, SubmissionWithGrade
+from server.course.schema import AssignmentRow, ManualGrade, ManualGradeRow, ManualRow, SubmissionWithGrade
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +52,7 @@ class Manual(CourseBase):
     def released_at(self, a: AssignmentRow) -> float | None:
         return self.store.manual_state(a["id"])["released_at"]
 
-    def manual_points(self, a: AssignmentRow, item: str, row: dict) -> float:
+    def manual_points(self, a: AssignmentRow, item: str, row: ManualGrade) -> float:
         """One grade's points by the current spec: the override, or the chosen levels' sum, clamped to 0..the
         item's points (0 for an item the spec no longer has)."""
         m = self.spec(a["id"], a["version"]).manual_item(item)
@@ -60,7 +60,7 @@ class Manual(CourseBase):
             return 0.0
         return m.score(row["rubric"]) if row["points"] is None else min(m.points, max(0.0, row["points"]))
 
-    def manual_part(self, a: AssignmentRow, sid: str, rows: dict | None = None) -> dict:
+    def manual_part(self, a: AssignmentRow, sid: str, rows: dict[str, ManualGradeRow] | None = None) -> dict:
         """A submission's manual grades by the current spec: {points, max_points, complete, items: [...]}."""
         if rows is None:
             rows = self.store.manual_grades(a["id"], sid).get(sid, {})
@@ -127,11 +127,13 @@ class Manual(CourseBase):
         comment = body.get("comment") or ""
         if len(comment) > MAX_COMMENT:
             raise Invalid([{"path": "comment", "message": f"at most {MAX_COMMENT} characters; got {len(comment)}"}])
-        row = {"rubric": chosen, "points": points, "comment": comment, "grader": who.person}
+        row: ManualGrade = {"rubric": chosen, "points": points, "comment": comment, "grader": who.person}
         self._set_manual_grade(a, sub, item, row, who)
         return self.grading_view(a, sub, who)
 
-    def _set_manual_grade(self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: dict, who: Who) -> None:
+    def _set_manual_grade(
+        self, a: AssignmentRow, sub: SubmissionWithGrade, item: str, row: ManualGrade, who: Who
+    ) -> None:
         """The one write of a manual grade, audited (`manual.grade`) in its transaction."""
         target = Target(a["course_id"], a["id"], student=sub["student"], submission=sub["id"])
         self.store.set_manual(
@@ -159,7 +161,7 @@ class Manual(CourseBase):
         self.store.release_manual(a["id"], who.person, self.now(), self.by(who), Target(a["course_id"], a["id"]))
         log.info("manual grades of assignment %s released by %s", a["id"], who.person or "the admin")
 
-    def set_anonymous(self, a: AssignmentRow, anonymous: bool, who: Who) -> dict:
+    def set_anonymous(self, a: AssignmentRow, anonymous: bool, who: Who) -> ManualRow:
         self._set_anonymous(a, anonymous, who)
         return self.store.manual_state(a["id"])
 

@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from typing import cast
 
 from server.core.db import Tables
 from server.course.audit import By, Target, record
 from server.course.policy import iso
+from server.course.schema import ManualGrade, ManualGradeRow, ManualRow
 
 
 class ManualTables(Tables):
@@ -23,11 +25,11 @@ class ManualTables(Tables):
         aid: str,
         sid: str,
         item: str,
-        row: dict,
+        row: ManualGrade,
         now: float,
         by: By | None = None,
         target: Target | None = None,
-        points: Callable[[dict], float] | None = None,
+        points: Callable[[ManualGrade], float] | None = None,
     ) -> None:
         """A submission's grade of `item` (row: rubric [names], points (an override or None), comment, grader).
         With `by`: a `manual.grade` event on `target`, the grade before (None: the first) and after, each with its
@@ -38,7 +40,7 @@ class ManualTables(Tables):
                 (sid, item),
             ).fetchone()
             if by is not None and target is not None:
-                old = None if was is None else {**dict(was), "rubric": json.loads(was["rubric"])}
+                old = None if was is None else cast(ManualGrade, {**dict(was), "rubric": json.loads(was["rubric"])})
                 record(by, db, "manual.grade", target, _grade(item, old, points), _grade(item, row, points))
             db.execute(
                 "INSERT INTO course_manual_grades (submission_id, item, assignment_id, rubric, points, comment,"
@@ -48,22 +50,23 @@ class ManualTables(Tables):
                 (sid, item, aid, json.dumps(row["rubric"]), row["points"], row["comment"], row["grader"], now),
             )
 
-    def manual_grades(self, aid: str, sid: str | None = None) -> dict[str, dict[str, dict]]:
+    def manual_grades(self, aid: str, sid: str | None = None) -> dict[str, dict[str, ManualGradeRow]]:
         """{submission id: {item: its grade}} of an assignment (or of one submission)."""
         sql, args = "SELECT * FROM course_manual_grades WHERE assignment_id = ?", (aid,)
         if sid is not None:
             sql, args = sql + " AND submission_id = ?", (aid, sid)
-        out: dict[str, dict[str, dict]] = {}
+        out: dict[str, dict[str, ManualGradeRow]] = {}
         for r in self.db.execute(sql, args):
-            row = dict(r)
-            row["rubric"] = json.loads(row["rubric"])
+            row = cast(ManualGradeRow, {**dict(r), "rubric": json.loads(r["rubric"])})
             out.setdefault(row["submission_id"], {})[row["item"]] = row
         return out
 
-    def manual_state(self, aid: str) -> dict:
+    def manual_state(self, aid: str) -> ManualRow:
         """{released_at, released_by, anonymous} of an assignment (not released, not anonymous: no row yet)."""
         row = self.db.execute("SELECT * FROM course_manual WHERE assignment_id = ?", (aid,)).fetchone()
-        return dict(row) if row else {"assignment_id": aid, "released_at": None, "released_by": None, "anonymous": 0}
+        if row is None:
+            return {"assignment_id": aid, "released_at": None, "released_by": None, "anonymous": 0}
+        return cast(ManualRow, dict(row))
 
     def release_manual(self, aid: str, who: str | None, now: float, by: By | None = None,
                        target: Target | None = None) -> None:  # fmt: skip
@@ -125,7 +128,7 @@ class ManualTables(Tables):
         return {r[0]: r[1] for r in rows}
 
 
-def _grade(item: str, row: dict | None, points: Callable[[dict], float] | None) -> dict | None:
+def _grade(item: str, row: ManualGrade | None, points: Callable[[ManualGrade], float] | None) -> dict | None:
     """A grade as the audit trail keeps it: the item, its points, the levels chosen, the override, the comment."""
     if row is None:
         return None

@@ -31,7 +31,14 @@ from server.course.audit import Target
 from server.course.base import DAY, CourseBase, iso, report_keys, status_of
 from server.course.people import Who
 from server.course.policy import Feedback, when_of
-from server.course.schema import AssignmentRow, MemberRow, StudentRow, SubmissionWithGrade
+from server.course.schema import (
+    AssignmentRow,
+    MemberRow,
+    RegradeEvent,
+    RegradeRequestRow,
+    StudentRow,
+    SubmissionWithGrade,
+)
 
 log = logging.getLogger(__name__)
 
@@ -144,7 +151,7 @@ class Regrade(CourseBase):
                "kind": kind, "reason": reason, "points": points}  # fmt: skip
         target = Target(a["course_id"], a["id"], student=sub["student"], submission=sub["id"])
         row = rs.create(self.store, req, target, self.by(who))
-        if not row:
+        if row is None:
             raise Conflict([{"path": "item", "message": f"a request about {item!r} of this submission is open "
                              "already: wait for its answer"}])  # fmt: skip
         log.info("regrade request %s: %s of submission %s by %s", row["id"], item, sub["id"], sub["student"])
@@ -229,7 +236,7 @@ class Regrade(CourseBase):
                 "name": {st["student"]: st["name"] for st in roster}}  # fmt: skip
 
     def _request_view(
-        self, a: AssignmentRow, row: dict, who: Who, history: list[dict], staff: dict | None = None
+        self, a: AssignmentRow, row: RegradeRequestRow, who: Who, history: list[RegradeEvent], staff: dict | None = None
     ) -> dict:
         sub = self.submission(a, row["submission_id"])
         current = most = None

@@ -9,17 +9,19 @@ from __future__ import annotations
 import json
 import sqlite3
 import uuid
+from typing import cast
 
 from server.course.audit import By, Target, record
+from server.course.schema import OverrideRow, RegradeEvent, RegradeRequestRow
 
 OPEN, ACCEPTED, DECLINED = "open", "accepted", "declined"
 
 
-def _request(row: sqlite3.Row) -> dict:
-    return dict(row)
+def _request(row: sqlite3.Row) -> RegradeRequestRow:
+    return cast(RegradeRequestRow, dict(row))
 
 
-def create(store, req: dict, target: Target, by: By) -> dict:
+def create(store, req: dict, target: Target, by: By) -> RegradeRequestRow | None:
     """A new open request (req: assignment_id, submission_id, student, item, kind, reason, points), its first event
     and its `regrade.request` audit event, together; None when an open one for that item of that submission exists
     (checked in the same transaction: two at once make one)."""
@@ -29,7 +31,7 @@ def create(store, req: dict, target: Target, by: By) -> dict:
             "SELECT 1 FROM course_regrade_requests WHERE submission_id = ? AND item = ? AND status = ?",
             (req["submission_id"], req["item"], OPEN),
         ).fetchone():  # fmt: skip
-            return {}
+            return None
         db.execute(
             "INSERT INTO course_regrade_requests (id, assignment_id, submission_id, student, item, kind, reason,"
             " status, reply, points, created_at, answered_at, answered_by) VALUES (?, ?, ?, ?, ?, ?, ?, ?, '', NULL,"
@@ -40,7 +42,7 @@ def create(store, req: dict, target: Target, by: By) -> dict:
         after = {"request": rid, "item": req["item"], "status": OPEN, "reason": req["reason"], "points": req["points"]}
         _event(db, rid, by, "request", {"status": OPEN, "reason": req["reason"], "points": req["points"]})
         record(by, db, "regrade.request", target, None, after)
-    return one(store, rid) or {}
+    return one(store, rid)
 
 
 def answer(store, rid: str, status: str, reply: str, points: dict | None, target: Target, by: By) -> None:
@@ -83,12 +85,12 @@ def _event(db: sqlite3.Connection, rid: str, by: By, kind: str, change: dict) ->
     )
 
 
-def one(store, rid: str) -> dict | None:
+def one(store, rid: str) -> RegradeRequestRow | None:
     row = store.db.execute("SELECT * FROM course_regrade_requests WHERE id = ?", (rid,)).fetchone()
     return _request(row) if row else None
 
 
-def of_assignment(store, aid: str, student: str | None = None, status: str | None = None) -> list[dict]:
+def of_assignment(store, aid: str, student: str | None = None, status: str | None = None) -> list[RegradeRequestRow]:
     """An assignment's requests (a student's only, one status only), open first, then oldest first."""
     sql, args = "SELECT * FROM course_regrade_requests WHERE assignment_id = ?", [aid]
     if student is not None:
@@ -99,9 +101,9 @@ def of_assignment(store, aid: str, student: str | None = None, status: str | Non
     return [_request(r) for r in store.db.execute(sql, args)]
 
 
-def events(store, rids: list[str]) -> dict[str, list[dict]]:
+def events(store, rids: list[str]) -> dict[str, list[RegradeEvent]]:
     """{request id: its events, oldest first}."""
-    out: dict[str, list[dict]] = {rid: [] for rid in rids}
+    out: dict[str, list[RegradeEvent]] = {rid: [] for rid in rids}
     if not rids:
         return out
     marks = ", ".join("?" * len(rids))
@@ -109,16 +111,17 @@ def events(store, rids: list[str]) -> dict[str, list[dict]]:
         f"SELECT * FROM course_regrade_events WHERE request_id IN ({marks}) ORDER BY id", rids
     ).fetchall()
     for r in rows:
-        out[r["request_id"]].append({"at": r["at"], "who": r["who"], "kind": r["kind"], **json.loads(r["change"])})
+        event = {"at": r["at"], "who": r["who"], "kind": r["kind"], **json.loads(r["change"])}
+        out[r["request_id"]].append(cast(RegradeEvent, event))
     return out
 
 
-def overrides(store, aid: str, sid: str | None = None) -> dict[str, dict[str, dict]]:
+def overrides(store, aid: str, sid: str | None = None) -> dict[str, dict[str, OverrideRow]]:
     """{submission id: {test: {version, original, points}}} of an assignment (or one submission)."""
     sql, args = "SELECT * FROM course_test_overrides WHERE assignment_id = ?", (aid,)
     if sid is not None:
         sql, args = sql + " AND submission_id = ?", (aid, sid)
-    out: dict[str, dict[str, dict]] = {}
+    out: dict[str, dict[str, OverrideRow]] = {}
     for r in store.db.execute(sql, args):
         out.setdefault(r["submission_id"], {})[r["test"]] = {
             "version": r["version"], "original": r["original"], "points": r["points"]

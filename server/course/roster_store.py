@@ -12,7 +12,7 @@ from server.core.db import Tables
 from server.core.roles import Kind
 from server.course.audit import By, Target, record
 from server.course.policy import iso
-from server.course.schema import MemberRow, StudentRow
+from server.course.schema import ExtensionRow, MemberRow, StudentRow
 
 # A roster student as the service reads one (an enrolment joined with its member): the columns of the
 # per-assignment roster of before courses, so that every rule reads a student as it did.
@@ -219,12 +219,12 @@ class RosterTables(Tables):
             record(by, db, "extension", target, {"deadline": iso(row[0])}, {"deadline": iso(deadline)})
         return True
 
-    def extensions(self, aid: str, student: str) -> list[dict]:
+    def extensions(self, aid: str, student: str) -> list[ExtensionRow]:
         """A student's extensions of an assignment, oldest first."""
         rows = self.db.execute(
             "SELECT * FROM course_extensions WHERE assignment_id = ? AND student = ? ORDER BY at, rowid", (aid, student)
         )
-        return [dict(r) for r in rows]
+        return [cast(ExtensionRow, dict(r)) for r in rows]
 
 
 def _member_event(db: sqlite3.Connection, by: By, cid: str, r: dict, was: sqlite3.Row | None, enrol: list) -> None:

@@ -3,7 +3,7 @@ new database; an existing one gets its changes as numbered migrations (server/co
 
 from __future__ import annotations
 
-from typing import TypedDict
+from typing import Any, TypedDict
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS courses (
@@ -286,3 +286,130 @@ class SubmissionWithGrade(_Graded, total=False):
     (`total=False` for `auto_score` alone: NotRequired is not seen at run time under postponed annotations.)"""
 
     auto_score: float  # the grading's own score, where accepted regrade requests moved `score`
+
+
+class RegradeRequestRow(TypedDict):
+    """A row of `course_regrade_requests`: a student's request on one item of a submission, as
+    server/course/regrade_store.py's create, one and of_assignment return it (the `row` of the Regrade mixin)."""
+
+    id: str
+    assignment_id: str
+    submission_id: str
+    student: str
+    item: str  # a test's policy name or a manual item's
+    kind: str  # test or manual
+    reason: str
+    status: str  # open, accepted or declined
+    reply: str
+    points: float | None
+    created_at: float
+    answered_at: float | None
+    answered_by: str | None
+
+
+class _RegradeEvent(TypedDict):
+    at: float
+    who: str
+    kind: str  # request or answer
+    status: str
+
+
+class RegradeEvent(_RegradeEvent, total=False):
+    """A row of `course_regrade_events` as regrade_store.events returns it (a request's history): at, who and
+    kind, its `change` (JSON) spread in: the status, and the reason and points of a request, the reply of an
+    answer, with points_before and points when it moved them."""
+
+    reason: str
+    reply: str
+    points: float | None
+    points_before: float | None
+
+
+class OverrideRow(TypedDict):
+    """A row of `course_test_overrides` as regrade_store.overrides returns it, by submission and test: the version
+    whose grading gave `original` (another version's grading: not applied) and the points the answer set."""
+
+    version: int
+    original: float
+    points: float
+
+
+class ManualGrade(TypedDict):
+    """A grade of a staff-graded item as a grader gives it (ManualTables.set_manual's `row`; the mixin's
+    manual_points scores one by the current spec)."""
+
+    rubric: list[str]  # the chosen levels' names
+    points: float | None  # the grader's override; None: the chosen levels' sum
+    comment: str
+    grader: str | None  # course_staff.person; None: the admin
+
+
+class ManualGradeRow(ManualGrade):
+    """A row of `course_manual_grades`, as ManualTables.manual_grades returns it (by submission and item), its
+    rubric parsed from its JSON."""
+
+    submission_id: str
+    item: str
+    assignment_id: str
+    graded_at: float
+
+
+class ManualRow(TypedDict):
+    """A row of `course_manual`: an assignment's release and anonymity, as ManualTables.manual_state returns it
+    (not released, not anonymous when it has no row yet)."""
+
+    assignment_id: str
+    released_at: float | None
+    released_by: str | None
+    anonymous: int  # 0 or 1
+
+
+class TokenRow(TypedDict):
+    """A row of `course_tokens`: whose a token is (CourseStore.token), its hash also the owner of its workspace
+    jobs."""
+
+    token_hash: str
+    course_id: str
+    kind: str  # a Kind: student or staff
+    person: str  # course_members.student or course_staff.person
+    created_at: float
+
+
+class TokenGrantRow(TypedDict):
+    """A row of `course_token_grants`: late tokens granted to a student (CourseStore.token_grants)."""
+
+    course_id: str
+    student: str
+    added: int  # tokens (days) granted
+    before: int  # the student's tokens left before, and after
+    after: int
+    who: str  # the staff member's id (or 'admin')
+    why: str
+    at: float
+
+
+class ExtensionRow(TypedDict):
+    """A row of `course_extensions`: a student's deadline moved on an assignment (RosterTables.extensions)."""
+
+    assignment_id: str
+    student: str
+    before: float | None  # their own deadline before (None: the assignment's), and after
+    after: float | None
+    who: str  # the staff member's id (or 'admin')
+    why: str
+    at: float
+
+
+class AuditEvent(TypedDict):
+    """A row of `course_audit` as server/course/audit.py's events returns it (the trail's API and CSV): its id,
+    when (ISO 8601), who, the action, the target, before and after (parsed from their JSON) and why; the
+    course, assignment and student columns are the target's."""
+
+    id: int
+    at: str  # ISO 8601
+    who: str  # instructor:<id>, ta:<id>, admin, student:<id>, lms
+    action: str
+    target: dict[str, str]  # audit.Target's json(): course, assignment?, student?, submission?, staff?
+    before: Any  # JSON; None: nothing before
+    after: Any  # JSON; None: nothing after
+    why: str

@@ -39,7 +39,7 @@ from server.core.roles import Kind
 from server.course.audit import By, Target, record
 from server.course.manual_store import ManualTables
 from server.course.roster_store import RosterTables
-from server.course.schema import SCHEMA, AssignmentRow, CourseRow, StaffRow, VersionRow
+from server.course.schema import SCHEMA, AssignmentRow, CourseRow, StaffRow, TokenGrantRow, TokenRow, VersionRow
 from server.course.submission_store import SubmissionTables
 from server.grading.store import GradingStore
 
@@ -163,6 +163,13 @@ class CourseStore(ManualTables, RosterTables, SubmissionTables, Tables):
             if was is not None and was[0] != n:
                 record(by, db, "tokens.course", Target(cid), {"late_tokens": was[0]}, {"late_tokens": n})
 
+    def token_grants(self, cid: str, student: str) -> list[TokenGrantRow]:
+        """A student's grants of late tokens in a course, oldest first (server/course/tokens.py)."""
+        rows = self.db.execute(
+            "SELECT * FROM course_token_grants WHERE course_id = ? AND student = ? ORDER BY at, rowid", (cid, student)
+        )
+        return [cast(TokenGrantRow, dict(r)) for r in rows]
+
     def add_staff(self, cid: str, row: dict, now: float, by: By | None = None) -> None:
         """A staff member (dict: person, name, email, role, lti_user), or their name, email and role updated (with
         `by`: a `staff.add` event, or `staff.change` when something changed)."""
@@ -211,10 +218,10 @@ class CourseStore(ManualTables, RosterTables, SubmissionTables, Tables):
 
     # -- tokens --------------------------------------------------------------------------------
 
-    def token(self, token_hash: str) -> dict | None:
-        """Whose token this is: {token_hash, course_id, kind, person}, or None."""
+    def token(self, token_hash: str) -> TokenRow | None:
+        """Whose token this is: {token_hash, course_id, kind, person, created_at}, or None."""
         row = self.db.execute("SELECT * FROM course_tokens WHERE token_hash = ?", (token_hash,)).fetchone()
-        return dict(row) if row else None
+        return cast(TokenRow, dict(row)) if row else None
 
     def keep_token(self, cid: str, kind: str, person: str, token_hash: str, now: float) -> None:
         self.db.execute(

@@ -163,9 +163,7 @@ class Tokens(CourseBase):
     def tokens_of(self, cid: str, student: str) -> dict:
         """A student's tokens: left, the course's, granted, spent, and each grant (oldest first)."""
         db = self.store.db
-        rows = db.execute(
-            "SELECT * FROM course_token_grants WHERE course_id = ? AND student = ? ORDER BY at, rowid", (cid, student)
-        ).fetchall()
+        rows = self.store.token_grants(cid, student)
         grants = [
             {"at": iso(r["at"]), "who": r["who"], "add": r["added"], "before": r["before"], "after": r["after"],
              "why": r["why"]}

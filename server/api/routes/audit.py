@@ -14,6 +14,7 @@ from server.api.deps import CallerDep, CourseDep, instructor_check
 from server.api.models import ErrorResponse, Responses
 from server.api.routes.course_common import csv_response
 from server.course import audit
+from server.course.schema import AuditEvent
 
 router = APIRouter(prefix="/api/courses", tags=["courses"])
 REFUSED: Responses = {
@@ -68,7 +69,7 @@ def trail_csv(
     target as JSON text); newest first; every cell formula-safe. The newest 10 000 events that match (`before`
     for older ones)."""
     course.course_staff(cid, caller, instructor_check(request))
-    rows: list[dict] = []
+    rows: list[AuditEvent] = []
     for _ in range(CSV_PAGES):
         page = course.audit_trail(cid, student=student, assignment=assignment, limit=audit.MAX_LIMIT, before=before)
         rows += page
