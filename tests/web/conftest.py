@@ -29,6 +29,9 @@ def server(tmp_path_factory):
     """The page's server, started once per session (each of a render worker's starts costs seconds of CPU)."""
     # previews every 0.1 s: a render of a second or two shows several passes
     env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
+    # every page of the session is a new student on 127.0.0.1, within the caps' hour: the whole session's tokens
+    # and joins would pass one address's caps (60 and 20), which tests/server/core/test_api_clients.py tests
+    env |= {"TRACER_MAX_NEW_TOKENS_PER_ADDRESS": "100000", "TRACER_MAX_JOINS_PER_ADDRESS": "100000"}
     with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
         SHARED.append(s)
         yield s
