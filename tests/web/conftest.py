@@ -1,28 +1,59 @@
 """The browser tests' fixtures, shared by every module of tests/web/ without an import: Chromium (`browser`),
-started once per session; the page's server (`server`, `python -m server` on loopback, one per module, as the
-tests of a module build on each other's jobs and lists); a desktop and a phone page on them (`desktop`, `phone`),
-a fresh browser context per test, each failing its test on a console error the test did not expect. A module
-that needs a server of its own settings defines its own `server`, which its `desktop`/`phone` then use. The
-service with a test LMS linked (`tool` and `lms`, one per module) is tests/support/lms.py's, as for the course's tests.
-The helpers (Page, render, set_scene, ...) are tests/support/page.py's."""
+started once per session; the page's server (`server`, `python -m server` on loopback with one render worker),
+also once per session (one per xdist process), shared by the modules that do not define their own, each of which
+leaves its queue idle (`shared_server_left_idle`); a desktop and a phone page on them (`desktop`, `phone`), a fresh
+browser context per test, each failing its test on a console error the test did not expect. A module on the shared
+server asserts only about what it made itself (its jobs, assignments, courses and students, by their ids), never
+about the server's totals; a module that needs a fresh server, or a server of its own settings, defines its own
+`server`, which its `desktop`/`phone` then use. The service with a test LMS linked (`tool` and `lms`, one per
+module) is tests/support/lms.py's, as for the course's tests. The helpers (Page, render, set_scene, ...) are
+tests/support/page.py's."""
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import pytest
 
-from tests.support.api import INSTRUCTOR, Server
+from tests.support.api import INSTRUCTOR, Server, bearer
 from tests.support.lms import lms, tool  # noqa: F401  (the fixtures, registered here for the folder)
 from tests.support.page import CHROMIUM, CHROMIUM_ARGS, DESKTOP, PHONE, SHOTS, Page
 
+SHARED: list[Server] = []  # the session's shared server, once started (in this process)
+IDLE_TIMEOUT = 120  # s: the work a module left queued or running (a grading's last renders) to end
 
-@pytest.fixture(scope="module")
+
+@pytest.fixture(scope="session")
 def server(tmp_path_factory):
+    """The page's server, started once per session (each of a render worker's starts costs seconds of CPU)."""
     # previews every 0.1 s: a render of a second or two shows several passes
     env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
+    # every page of the session is a new student on 127.0.0.1, within the caps' hour: the whole session's tokens
+    # and joins would pass one address's caps (60 and 20), which tests/server/core/test_api_clients.py tests
+    env |= {"TRACER_MAX_NEW_TOKENS_PER_ADDRESS": "100000", "TRACER_MAX_JOINS_PER_ADDRESS": "100000"}
     with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
+        SHARED.append(s)
         yield s
+        SHARED.remove(s)
+
+
+def busy_lanes(s: Server) -> dict[str, dict[str, int]]:
+    """The lanes of `s`'s queue that hold a queued or running job (GET /api/status, the admin's)."""
+    lanes = s.client.get("/api/status", headers=bearer(INSTRUCTOR)).raise_for_status().json()["queue"]
+    return {lane: n for lane, n in lanes.items() if n["queued"] or n["running"]}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def shared_server_left_idle():
+    """After each module, the shared server's queue is idle again (as a fresh server's is), so the next module's
+    tests find its only worker free: a queued job's place in line, a long job that must start at once."""
+    yield
+    for s in SHARED:
+        deadline = time.monotonic() + IDLE_TIMEOUT
+        while left := busy_lanes(s):
+            assert time.monotonic() < deadline, f"the module left work queued past {IDLE_TIMEOUT} s: {left}"
+            time.sleep(0.2)
 
 
 @pytest.fixture(scope="session")
