@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from tests.support.api import INSTRUCTOR
-from tests.support.page import CSP_WATCH, DESKTOP, Page
+from tests.support.page import DESKTOP, Page
 
 ZONE = "America/New_York"  # the browser's zone: UTC-05:00 in December, so the deadline's offset is seen
 
@@ -16,14 +16,7 @@ class CoursePage(Page):
     """test_web_page's Page (its console watched) in a browser context whose time zone is ZONE."""
 
     def __init__(self, browser, server, viewport):
-        super().__init__(browser, server, viewport)
-        self.context.close()
-        self.context = browser.new_context(viewport=viewport, timezone_id=ZONE, accept_downloads=True)
-        self.page = self.context.new_page()
-        self.page.set_default_timeout(60_000)
-        self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
-        self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
-        self.context.add_init_script(CSP_WATCH)
+        super().__init__(browser, server, viewport, timezone_id=ZONE, accept_downloads=True)
 
 
 def write(tmp: Path, name: str, data) -> str:
