@@ -1,7 +1,7 @@
 """The browser tests' fixtures, shared by every module of tests/web/ without an import: Chromium (`browser`),
 started once per session; the page's server (`server`, `python -m server` on loopback with one render worker),
 also once per session (one per xdist process), shared by the modules that do not define their own, each of which
-leaves its queue idle (`shared_server_left_idle`); a desktop and a phone page on them (`desktop`, `phone`), a fresh
+leaves its queue idle (`shared_server_left_idle`); a desktop and a phone page on them (`desktop`, `phone`), a
 browser context and page lent per test (tests/support/page.py: given back cleaned, so no cookies, storage,
 listeners or routes carry over), each failing its test on a console error the test did not expect. A module on the shared
 server asserts only about what it made itself (its jobs, assignments, courses and students, by their ids), never
