@@ -1,13 +1,13 @@
-"""The browser tests' fixtures, shared by every module of tests/web/ without an import: Chromium (`browser`),
-started once per session; the page's server (`server`, `python -m server` on loopback with one render worker),
-also once per session (one per xdist process), shared by the modules that do not define their own, each of which
-leaves its queue idle (`shared_server_left_idle`); a desktop and a phone page on them (`desktop`, `phone`), a
-browser context and page lent per test (tests/support/page.py: given back cleaned, so no cookies, storage,
-listeners or routes carry over), each failing its test on a console error the test did not expect. A module on the shared
-server asserts only about what it made itself (its jobs, assignments, courses and students, by their ids), never
-about the server's totals; a module that needs a fresh server, or a server of its own settings, defines its own
-`server`, which its `desktop`/`phone` then use. The service with a test LMS linked (`tool` and `lms`, one per
-module) is tests/support/lms.py's, as for the course's tests. The helpers (Page, render, set_scene, ...) are
+"""The browser tests' fixtures, shared by every module of tests/web/ without an import: Chromium (`browser`), started
+once per session; the page's server (`server`, `python -m server` on loopback with one render worker), also once per
+session (one per xdist process), shared by the modules that do not define their own, each of which leaves its queue
+idle (`shared_server_left_idle`); a desktop and a phone page on them (`desktop`, `phone`), a browser context and
+page lent per test (tests/support/page.py: given back cleaned, so no cookies, storage, listeners or routes carry
+over), each failing its test on a console error the test did not expect. A module on the shared server asserts only
+about what it made itself (its jobs, assignments, courses and students, by their ids), never about the server's
+totals; a module that needs a fresh server, or a server of its own settings, defines its own `server`, which its
+`desktop`/`phone` then use. The service with a test LMS linked (`tool` and `lms`, one per module) is
+tests/support/lms.py's, as for the course's tests. The helpers (Page, render, set_scene, ...) are
 tests/support/page.py's."""
 
 from __future__ import annotations
@@ -59,10 +59,9 @@ def shared_server_left_idle():
 
 @pytest.fixture(scope="session")
 def browser():
-    """Chromium, once per session (each test is lent a context and page of its own, given back cleaned: no cookies or storage carry
-    over). The
-    browser's tests run after all others (tests/conftest.py orders them): while it is open, Playwright's event loop
-    is the thread's, and a test of another folder could not asyncio.run()."""
+    """Chromium, once per session (each test is lent a context and page of its own, given back cleaned: no cookies or
+    storage carry over). The browser's tests run after all others (tests/conftest.py orders them): while it is open,
+    Playwright's event loop is the thread's, and a test of another folder could not asyncio.run()."""
     try:
         from playwright.sync_api import sync_playwright
     except ImportError as exc:
