@@ -82,7 +82,7 @@ def test_dev_test_installs_the_test_extras_which_serve_then_keeps(dev):
     # two processes, each test file whole in one, in the collection's order (the browser's files last)
     pytest = "python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -k nothing"
     npm = "npm ci --no-audit --no-fund --loglevel=error"
-    assert calls[-4:] == ["ruff check .", npm, "biome ci --reporter=summary", pytest], calls
+    assert calls[-5:] == ["ruff check .", "ruff format --check .", npm, "biome ci --reporter=summary", pytest], calls
     assert "pyright is left to the whole run" in said, said  # a selection: no type check
     for cmd in ("test", "serve"):  # both warm now: the test extras serve too
         _, calls = dev(cmd)
