@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import contextlib
+import functools
+import json
 
 import anyio
-from fastapi import APIRouter, Depends, Request
+from fastapi import APIRouter, Depends, Request, Response
 
 from server.api.deps import (
     CallerDep,
@@ -56,9 +58,21 @@ async def health(
     return await anyio.to_thread.run_sync(answer)
 
 
-@router.get("/schema", summary="The scene format's JSON Schema (for editors)")
-def schema() -> dict:
-    return scene_json_schema()
+@functools.cache
+def _schema_body() -> bytes:
+    """The schema as the answer's bytes, made once: generating and encoding it took 25 ms of the API's CPU at each of
+    the page's loads (every page asks for it)."""
+    return json.dumps(scene_json_schema(), ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode()
+
+
+@router.get(
+    "/schema",
+    summary="The scene format's JSON Schema (for editors)",
+    response_class=Response,
+    responses={200: {"content": {"application/json": {"schema": {"type": "object"}}}}},
+)
+def schema() -> Response:
+    return Response(_schema_body(), media_type="application/json")
 
 
 @scene_post(
