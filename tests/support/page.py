@@ -154,8 +154,12 @@ class Page:
         self.server = server
         self.errors: list[str] = []
         self.allow: list[str] = []
-        self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text}"))
+        self.page.on("console", lambda m: m.type == "error" and self.errors.append(self.console_error(m)))
         self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+
+    def console_error(self, message) -> str:
+        """How a console error is listed in `errors`."""
+        return f"console: {message.text}"
 
     def _give_back(self) -> None:
         if not self._closed:

@@ -20,7 +20,7 @@ import httpx
 import pytest
 
 from tests.support.api import INSTRUCTOR, Server, bearer, long_scene, wait_for
-from tests.support.page import CSP_WATCH, DESKTOP, PHONE, SHOTS, TEACHER
+from tests.support.page import DESKTOP, PHONE, SHOTS, TEACHER, Page
 from tests.support.page import render as render_in_workspace
 from tests.support.scene import ROOT
 
@@ -108,19 +108,15 @@ def hw(server):
     return {"id": aid, "students": students}
 
 
-class Student:
-    """A fresh browser context (a student's own browser) with its console watched."""
+class Student(Page):
+    """A student's own browser (a lent context in TIMEZONE) with its console watched, its errors with their place."""
 
     def __init__(self, browser, server, allow=()):
-        self.context = browser.new_context(viewport=DESKTOP, timezone_id=TIMEZONE)
-        self.context.add_init_script(CSP_WATCH)
-        self.page = self.context.new_page()
-        self.page.set_default_timeout(60_000)
-        self.server = server
-        self.errors: list[str] = []
+        super().__init__(browser, server, DESKTOP, timezone_id=TIMEZONE)
         self.allow = list(allow)
-        self.page.on("console", lambda m: m.type == "error" and self.errors.append(f"console: {m.text} {m.location}"))
-        self.page.on("pageerror", lambda e: self.errors.append(f"uncaught: {e}"))
+
+    def console_error(self, message) -> str:
+        return f"console: {message.text} {message.location}"
 
     def open(self, url: str):
         self.page.goto(url)
@@ -129,9 +125,6 @@ class Student:
 
     def shot(self, name: str, full_page: bool = True) -> None:
         self.page.screenshot(path=str(SHOTS / f"assignment-{name}.png"), full_page=full_page)
-
-    def unexpected_errors(self) -> list[str]:
-        return [e for e in self.errors if not any(re.search(a, e) for a in self.allow)]
 
 
 @pytest.fixture
