@@ -28,16 +28,24 @@ def test_render_on_a_phone_shows_the_progress_at_the_button_and_brings_the_pictu
     assert not stage["inView"], f"the picture was already in view before Render: {stage}"
 
     page.click("#btn-render")
-    page.wait_for_function("() => document.querySelector('#stage').dataset.job")
-    # the progress where the button is, in view beside it
-    page.wait_for_selector("#render-progress", state="visible")
-    near = page.evaluate(IN_VIEW, "#render-progress")
-    button = page.evaluate(IN_VIEW, "#btn-render")
-    assert near["inView"] and button["inView"], (near, button)
-    assert 0 <= near["top"] - button["bottom"] < 80, f"the progress is not beside the button: {near} {button}"
-    assert page.text_content("#render-progress-text").strip() != ""
-    stage = page.evaluate(IN_VIEW, "#stage")
-    assert stage["inView"], f"the picture is not in view after Render: {stage}"
+    # measured in the first frame with the job on the stage (one evaluation, not three): the progress where the button
+    # is, both in view, and the picture's place in view. Its first image, a pass later, makes the stage taller and
+    # takes it to the top of the screen (the button above it then): measured after, the button was out of view.
+    start = page.wait_for_function(
+        f"""() => {{
+            if (!document.querySelector('#stage').dataset.job) return null;
+            const inView = {IN_VIEW};
+            return {{near: inView('#render-progress'), button: inView('#btn-render'), stage: inView('#stage'),
+                     text: document.querySelector('#render-progress-text').textContent.trim(),
+                     image: !document.querySelector('#render-img').hidden}};
+        }}"""
+    ).json_value()
+    near, button = start["near"], start["button"]
+    assert near["inView"], start
+    assert button["inView"], start
+    assert 0 <= near["top"] - button["bottom"] < 80, f"the progress is not beside the button: {start}"
+    assert start["text"] != "", start
+    assert start["stage"]["inView"], f"the picture is not in view after Render: {start}"
     phone.shot("phone-render-started")
 
     page.wait_for_selector("#stage[data-status=done]", timeout=120_000)
