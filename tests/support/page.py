@@ -49,10 +49,11 @@ class _Lease:
     """One browser context with its one page, lent to a test by Page and given back by its `close()`: cleaned (the
     page back at about:blank, the storage and cookies of every origin it visited cleared, the listeners, routes and
     viewport a test gave it taken away) and kept for the next test of the same browser and options. A fresh
-    context's first page costs about 1.4 s more CPU than a page lent again (Chromium's new renderer, then the page's
-    44 files fetched and compiled again): over the suite's ~380 pages, about 8 minutes of CPU. A context a test
-    changed in a way that cannot be taken back (an init script, a context route, permissions, a closed page) is
-    closed for good instead."""
+    context's first page cost 1.9 s of CPU, a page lent again 0.7 s (Chromium's new renderer, then the page's 44
+    files fetched and compiled again), over the suite's hundreds of pages. A context a test changed in a way that
+    cannot be taken back (an init script, a context route, permissions, a closed page) is closed for good instead.
+    What is seen is what goes through `Page.context`: the page's own init scripts, exposed functions, extra headers
+    and media emulation are not (no test uses them; a test that does should close the real context itself)."""
 
     free: dict[tuple, list[_Lease]] = {}
     TAINTING = frozenset(
@@ -62,7 +63,7 @@ class _Lease:
     )  # fmt: skip
 
     def __init__(self, browser, options: dict):
-        self.key = (id(browser), json.dumps(options, sort_keys=True))
+        self.key = self._key(browser, options)
         self.options = options
         self.context = browser.new_context(**options)
         self.context.add_init_script(CSP_WATCH)
@@ -72,9 +73,13 @@ class _Lease:
         self.listeners = self._listeners()  # those of its own: any other is a test's
         self.tainted = False
 
+    @staticmethod
+    def _key(browser, options: dict) -> tuple:
+        return id(browser), json.dumps(options, sort_keys=True)
+
     @classmethod
     def take(cls, browser, options: dict) -> _Lease:
-        free = cls.free.get((id(browser), json.dumps(options, sort_keys=True)), [])
+        free = cls.free.get(cls._key(browser, options), [])
         while free:
             lease = free.pop()
             if not lease.page.is_closed():

@@ -143,7 +143,6 @@ const showing = new WeakMap();
 export function showImage(img, url, { as = "student", token } = {}) {
   const now = showing.get(img);
   if (img.dataset.src === url && now?.url === url) return now.promise;
-  if (img.dataset.src === url) return Promise.resolve(true);
   img.dataset.src = url;
   const promise = fetchInto(img, url, { as, token });
   showing.set(img, { url, promise });
