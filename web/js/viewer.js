@@ -253,7 +253,8 @@ export class Viewer {
     this.update(job);
     if (!job.preview) this.el.empty.textContent = `No image: the job ${job.status} before its first pass.`;
     this.updateAovButtons(job);
-    if (job.image_url && live) await this.loadImage(job.image_url);
+    // said at once, with the stage's status (a test or a screen reader reading "done" reads the words that go
+    // with it); the last picture follows, and a failure to load it says so over these words
     if (job.status === "failed")
       this.message(
         "error",
@@ -272,6 +273,7 @@ export class Viewer {
         "ok",
         `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`,
       );
+    if (job.image_url && live) await this.loadImage(job.image_url);
     if (job.status === "done") this.loadAovRanges(job.id);
     this.view.ended = true;
     this.describe();

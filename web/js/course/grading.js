@@ -366,10 +366,18 @@ export class GradingPanel {
     }
   }
 
-  async save(i) {
+  /** Saves go one after another, in the order they were made: two at once could land out of order (a box's
+   * older state over its newer one) and the status would name whichever answered last. Each sends the item as it
+   * was when it was made, so moving on to the next submission loses nothing. */
+  save(i) {
     const x = this.items[i];
     const sid = this.sub.submission;
     const body = { rubric: x.boxes.filter((b) => b.checked).map((b) => b.dataset.level), comment: x.comment.value };
+    this.saving = (this.saving || Promise.resolve()).then(() => this.send(i, x, sid, body));
+    return this.saving;
+  }
+
+  async send(i, x, sid, body) {
     try {
       const r = await grading.put(this.aid, sid, x.item.name, body);
       if (this.sub?.submission !== sid) return;
