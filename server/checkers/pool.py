@@ -125,8 +125,8 @@ class CheckPool:
             process.join(timeout=10)
             conn.close()
         ours, theirs = self.ctx.Pipe()
-        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice), daemon=True,
-                                   name=f"scene-checker-{checker.index}")  # fmt: skip
+        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice, os.getpid()),
+                                   daemon=True, name=f"scene-checker-{checker.index}")  # fmt: skip
         with self._lock:
             if self._closed:
                 return

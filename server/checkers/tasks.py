@@ -7,16 +7,13 @@ import json
 import logging
 import os
 import signal
-import threading
-import time
 from pathlib import Path
 
+from server.core import children
 from server.core.exits import exit_now
 from tracer.scene import Limits, SceneError, load_scene
 
 log = logging.getLogger(__name__)
-
-PARENT_CHECK = 1.0  # seconds between a checking process's looks at whether the server is still there
 
 
 def _scene_of(body: bytes, limits: Limits, assets: Path) -> tuple:
@@ -100,7 +97,7 @@ def loaded(answer: tuple, body: bytes):
 TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samples}
 
 
-def checker_main(conn, nice: int) -> None:
+def checker_main(conn, nice: int, server: int) -> None:
     """A checking process (forked from the server's forkserver, server/core/children.py): below the API in
     priority, deaf to the terminal's Ctrl-C and to a SIGTERM sent to the server's whole process group (the server
     stops it: closing its line), gone with its server; loads the kernels of the samples from Warp's cache, says it
@@ -112,7 +109,7 @@ def checker_main(conn, nice: int) -> None:
             os.nice(nice)
         except OSError:
             pass
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    children.watch_server(server)
     from tracer.assets import import_mesh_reader
     from tracer.tools.pixel_samples import load_kernels
 
@@ -130,12 +127,3 @@ def checker_main(conn, nice: int) -> None:
             log.exception("scene check %s failed", name)
             answer = ("crash", f"{type(exc).__name__}: {exc}")
         conn.send(answer)
-
-
-def _watch_parent(parent: int) -> None:
-    """End this process once its server is gone (killed without a word: SIGKILL, out of memory), even in the
-    middle of a task: its parent is the server's forkserver, which ends with the server (server/core/children.py)."""
-    while True:
-        time.sleep(PARENT_CHECK)
-        if os.getppid() != parent:
-            os._exit(0)

@@ -5,48 +5,41 @@ from __future__ import annotations
 
 import gc
 import logging
-import multiprocessing as mp
 import os
 import signal
 import threading
-import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import cast
 
+from server.core import children
+
 log = logging.getLogger(__name__)
 
-PARENT_CHECK = 1.0  # seconds between a grading process's looks at whether the server is still there
 STOP_GRACE = 2.0  # seconds a grading process has at shutdown to finish its task before it is killed
 
 
-def _pool_process(nice: int) -> None:
+def _pool_process(nice: int, server: int) -> None:
     """A grading process starts: below the API (like the render workers), deaf to the terminal's Ctrl-C and
-    the group's SIGTERM (the server stops the pool), watching that the server lives, the grading modules
-    loaded before the first task."""
+    the group's SIGTERM (the server stops the pool), watching that its server lives, the grading modules loaded
+    before the first task."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the group's stop signal too: the server ends the pool
     if nice:
         os.nice(nice)
-    # one thread per process, before FLIP loads its OpenMP runtime: the pool is the parallelism, and OpenMP's
-    # threads spinning on cores the renders use made a 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
+    # one thread per process, before FLIP loads its OpenMP runtime (here, never in the forkserver: it is not in
+    # children.PRELOAD): the pool is the parallelism, and OpenMP's threads spinning on cores the renders use made a
+    # 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
     os.environ["OMP_NUM_THREADS"] = "1"
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), name="parent-watch", daemon=True).start()
+    children.watch_server(server)
     import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
-
-
-def _watch_parent(parent: int) -> None:
-    """End this process once its server is gone (killed without a word: SIGKILL, out of memory). Python's
-    pool cannot tell: each process holds both ends of the pipe it waits on, so it would wait forever."""
-    while True:
-        time.sleep(PARENT_CHECK)
-        if os.getppid() != parent:
-            os._exit(0)
 
 
 class GradingPool:
     """Worker processes for the runs' per-student work (tracer/grading/tasks.py): `processes` of them,
-    spawned (nothing of the API's state crosses: tasks are plain data), niced like the render workers,
+    forked from the server's forkserver (server/core/children.py: nothing of the API's state crosses, tasks are
+    plain data; numpy, Warp and the tracer already imported: 0.05 s of CPU to start one against 0.35-0.6 s
+    spawned), niced like the render workers,
     started at the first task and kept. A process that dies breaks Python's pool: the next `submit`
     starts a new one, and each run submits again what it had lost (server/grading/run_tasks.py)."""
 
@@ -57,8 +50,9 @@ class GradingPool:
         self.closed = False
 
     def _new(self) -> ProcessPoolExecutor:
-        ctx = mp.get_context("spawn")
-        return ProcessPoolExecutor(self.processes, mp_context=ctx, initializer=_pool_process, initargs=(self.nice,))
+        return ProcessPoolExecutor(
+            self.processes, mp_context=children.context(), initializer=_pool_process, initargs=(self.nice, os.getpid())
+        )
 
     def submit(self, fn, /, *args, **kwargs) -> Future:
         with self._lock:

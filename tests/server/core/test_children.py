@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import sys
+import time
 
 from server.core import children
 from server.core.settings import Settings
@@ -21,6 +23,14 @@ def _report(conn) -> None:
     cuda = (os.environ.get("CUDA_VISIBLE_DEVICES"), wp.is_cuda_available())
     conn.send(([m for m in PRELOADED if m in sys.modules], os.getppid(), cuda))
     conn.close()
+
+
+def _grading_process_answer() -> tuple[int, tuple[str | None, bool]]:
+    """A grading process's parent, its OMP_NUM_THREADS, and whether an OpenMP runtime is loaded yet (FLIP's comes
+    at its first image test: after the setting, so it honours it)."""
+    with open("/proc/self/maps") as maps:
+        gomp = "libgomp" in maps.read()
+    return os.getppid(), (os.environ.get("OMP_NUM_THREADS"), gomp)
 
 
 def _child_answer(ctx) -> tuple[list[str], int, int]:
@@ -61,9 +71,41 @@ def test_children_the_forkserver_outlives_a_sigterm_of_the_group():
 
 def test_children_the_pools_use_the_forkserver(tmp_path):
     from server.checkers.pool import CheckPool
+    from server.grading.pool import GradingPool
     from server.jobs.store import JobStore
     from server.queue.embedded.pool import WorkerPool
 
     settings = Settings(data_dir=tmp_path, workers=1, validate_processes=1)
     assert WorkerPool(settings, JobStore(tmp_path)).ctx.get_start_method() == "forkserver"
     assert CheckPool(settings).ctx.get_start_method() == "forkserver"
+    grading = GradingPool(1)
+    try:  # a grading process: the forkserver's child, FLIP's OpenMP told one thread before it loads
+        parent, omp = grading.submit(_grading_process_answer).result(timeout=120)
+        assert parent == _child_answer(children.context())[1]
+        assert omp == ("1", False)
+    finally:
+        grading.shutdown()
+
+
+def _busy_until_its_server_ends(server: int) -> None:
+    children.watch_server(server)
+    time.sleep(120)  # a long task: only the watch ends it
+
+
+def test_children_a_busy_child_ends_with_its_server_not_its_parent():
+    """A child in the middle of a task ends when its server is killed, though its parent, the forkserver, lives on
+    (it waits for every child it forked: watching the parent, the two would wait for each other)."""
+    server = subprocess.Popen(["sleep", "300"])  # stands in for the server: a process that can be SIGKILLed
+    try:
+        ctx = children.context()
+        child = ctx.Process(target=_busy_until_its_server_ends, args=(server.pid,), daemon=True)
+        child.start()
+        forkserver = _child_answer(ctx)[1]
+        assert child.is_alive()
+        server.kill()
+        server.wait(timeout=30)
+        child.join(timeout=30)
+        assert child.exitcode == 0, child.exitcode
+        os.kill(forkserver, 0)  # the forkserver is still there: the child did not wait for it
+    finally:
+        server.kill()
