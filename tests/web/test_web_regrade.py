@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 
 import httpx
 import pytest
@@ -15,6 +16,7 @@ import pytest
 from tests.support.api import bearer, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.course_page import CoursePage, open_course
+from tests.support.dashboard import good_scene
 from tests.support.page import DESKTOP, TEACHER
 from tests.support.stats import red, small_spec
 
@@ -70,6 +72,7 @@ def test_web_regrade_a_student_asks_the_instructor_answers_the_student_sees_it(b
         page.evaluate("(id) => { location.hash = id; }", aid)
         item = page.locator("#regrade li.regrade-req[data-status='open']")
         item.wait_for()
+        assert page.text_content("#regrade-count") == "1 open, 1 in all."
         assert item.locator("h3").text_content().startswith(f"Bea B: {GLASS}")
         assert "My ball has kt 0.9" in item.locator(".regrade-reason").text_content()
         item.locator("textarea").fill("Right: a kt of 0.9 is glass.")
@@ -78,6 +81,7 @@ def test_web_regrade_a_student_asks_the_instructor_answers_the_student_sees_it(b
         page.keyboard.press("Enter")
         page.wait_for_function("() => document.querySelector('#regrade-status').textContent.startsWith('Answered')")
         page.locator("#regrade li.regrade-req[data-status='accepted']").wait_for()
+        assert page.text_content("#regrade-count") == "0 open, 1 in all."  # counted again after the answer
         page.locator("#regrade").scroll_into_view_if_needed()
         p.shot("course-regrade-requests")
         assert_accessible(page, "the regrade requests panel", "#regrade")
@@ -92,6 +96,25 @@ def test_web_regrade_a_student_asks_the_instructor_answers_the_student_sees_it(b
         assert answered.locator(".a-regrade-reply").text_content() == "Answer: Right: a kt of 0.9 is glass."
         assert row.locator(".a-sub-score").text_content() == "3 / 6"
         assert_accessible(bea, "a student's answered regrade request", ".a-regrade")
+
+        # a better scene (full marks) from her page becomes the grade: its results get the regrade buttons, without
+        # a reload; the first submission (no longer the grade) loses its buttons and keeps its answered request
+        bea.fill("#a-scene", json.dumps(good_scene()))
+        bea.click("#a-submit")
+        new = bea.locator(f"#a-sub-list li[data-counts=true]:not([data-id='{sid}'])")
+        new.wait_for(timeout=240_000)
+        new.locator("button.a-regrade-ask").first.wait_for()
+        bea.wait_for_selector(f"#a-sub-list li[data-id='{sid}'][data-counts=false]", state="attached")
+        if row.locator(".a-sub-head").get_attribute("aria-expanded") != "true":
+            row.locator(".a-sub-head").click()
+        row.locator(".a-sub-detail").wait_for()  # drawn as it opens
+        row.locator(".a-regrade .a-regrade-req[data-status='accepted']").wait_for()
+        assert row.locator("button.a-regrade-ask").count() == 0
+        assert "no longer your grade" in row.locator(".a-regrade").text_content()
+        assert new.locator(".a-regrade .a-regrade-deadline").text_content().startswith("You can ask until")
+        row.locator(".a-regrade").scroll_into_view_if_needed()
+        me.shot("assignment-regrade-no-longer-the-grade")
+        assert_accessible(bea, "a submission's requests once another is the grade", f"li[data-id='{sid}'] .a-regrade")
     finally:
         me.context.close()
         if p is not None:

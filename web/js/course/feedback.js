@@ -265,8 +265,9 @@ export function showFeedback(root, sub, ctx) {
   }
   if (sub.manual && ["graded", "invalid", "failed"].includes(sub.status)) parts.push(manualSection(sub));
   root.replaceChildren(...parts);
-  // the submission that is the grade: "Request a regrade" beside each result, the requests and answers (regrade.js)
-  if (sub.counts && sub.status === "graded" && ctx.aid) root.append(regradeControls(root, sub, ctx));
+  // the submission that is the grade: "Request a regrade" beside each result, the requests and answers; another
+  // graded one: the requests asked while it was the grade, if any (regrade.js)
+  if (sub.status === "graded" && ctx.aid) root.append(regradeControls(root, sub, ctx));
 }
 
 /** The staff-graded items of a submission (docs/assignments.md, "Staff-graded items"): each item's points and

@@ -16,9 +16,11 @@ const STATUS = { open: "waiting for an answer", accepted: "accepted", declined: 
 const A = (aid) => `/api/assignments/${encodeURIComponent(aid)}`;
 let forms = 0; // ids of the forms on the page
 
-/** The student's requests about submission `sub` (its feedback in `root`) and a button beside each item they
- * may ask about. ctx: {aid, token}. */
+/** The student's requests about submission `sub` (its feedback in `root`) and, when it is the one that counts, a
+ * button beside each item they may ask about. Another submission's requests (it was the grade when they asked)
+ * stay readable under it, without buttons; a submission with none shows nothing. ctx: {aid, token}. */
 export function regradeControls(root, sub, ctx) {
+  const asking = !!sub.counts;
   const url = `${A(ctx.aid)}/submissions/${encodeURIComponent(sub.id)}/regrade-requests`;
   const opts = { token: ctx.token, cache: "no-store" };
   const status = h("p", { class: "message a-regrade-status", role: "status", "aria-live": "polite" });
@@ -28,14 +30,16 @@ export function regradeControls(root, sub, ctx) {
     "section",
     { class: "a-regrade", "aria-labelledby": `rg-h-${sub.id}` },
     h("h4", { id: `rg-h-${sub.id}` }, "Regrade requests"),
-    deadline,
+    asking ? deadline : h("p", { class: "hint" }, "This submission is no longer your grade: asked while it was."),
     list,
     status,
   );
+  section.hidden = !asking; // until its requests are known: none, and it stays hidden
   let open = new Set(); // items with an open request
 
   const show = (data) => {
     const reqs = data.requests || [];
+    if (!asking) section.hidden = !reqs.length;
     open = new Set(reqs.filter((r) => r.status === "open").map((r) => r.item));
     const closed = data.regrade_open === false; // the server's clock says
     deadline.textContent = data.regrade_deadline
@@ -134,7 +138,7 @@ export function regradeControls(root, sub, ctx) {
       .map((li) => [li, li.dataset.test, li.querySelector("strong")?.textContent || li.dataset.test]),
     ...[...root.querySelectorAll("li.a-manual-item[data-item]")].map((li) => [li, li.dataset.item, li.dataset.item]),
   ];
-  for (const [li, item, name] of items) {
+  for (const [li, item, name] of asking ? items : []) {
     const button = h(
       "button",
       { type: "button", class: "small a-regrade-ask", dataset: { item }, "aria-label": `Request a regrade of ${name}` },
@@ -161,6 +165,7 @@ export class RegradePanel {
       h("option", { value: "declined" }, "declined"),
     );
     this.status = h("p", { id: "regrade-status", class: "message", role: "status", "aria-live": "polite" });
+    this.count = h("p", { id: "regrade-count", class: "hint" }); // how many, after every load (an answer's words stay)
     this.list = h("ol", { id: "regrade-list", class: "regrade-list" });
     this.root = h(
       "section",
@@ -176,6 +181,7 @@ export class RegradePanel {
         { class: "hint" },
         "Students ask about one result of the submission that is their grade, until the regrade deadline. Accept with new points to change that item's points (the total, the exports and the LMS follow); decline to change nothing but the request. Each answer is kept.",
       ),
+      this.count,
       this.status,
       this.list,
     );
@@ -195,8 +201,12 @@ export class RegradePanel {
 
   show(reqs) {
     const open = reqs.filter((r) => r.status === "open").length;
-    if (!this.status.dataset.kind || this.status.dataset.kind === "info")
-      say(this.status, "info", reqs.length ? `${open} open, ${reqs.length} in all.` : "No regrade requests.");
+    const shown = this.filter.value ? ` ${this.filter.value}` : "";
+    this.count.textContent = !reqs.length
+      ? `No${shown} regrade requests.`
+      : shown
+        ? `${reqs.length}${shown}.`
+        : `${open} open, ${reqs.length} in all.`;
     this.list.replaceChildren(...reqs.map((r, i) => this.item(r, i)));
   }
 

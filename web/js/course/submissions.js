@@ -160,7 +160,9 @@ export class SubmissionList {
     ];
     row.head.replaceChildren(...parts.filter(Boolean));
     row.detail.hidden = !open;
-    const key = JSON.stringify({ ...v, counts: null }); // drawn again only when it changed (an open comparison stays)
+    // drawn again only when it changed (an open comparison stays); "counts" only where it changes what is drawn: the
+    // regrade controls of the graded submission that is the grade (feedback.js)
+    const key = JSON.stringify({ ...v, counts: v.status === "graded" && !!v.counts });
     if (open && row.drawn !== key) {
       row.drawn = key;
       showFeedback(row.detail, v, this.ctx);
