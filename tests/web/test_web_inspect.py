@@ -238,8 +238,10 @@ def test_web_inspect_read_only_link_to_a_job(desktop, browser):
 
 @pytest.fixture(scope="module")
 def fresh_server(tmp_path_factory):
-    """A server that renders the examples' previews ahead, as `python -m server` does."""
-    env = {"TRACER_PREVIEWS_AHEAD": "1"}
+    """A server that renders the examples' previews ahead, as `python -m server` does; at 64 pixels, not the
+    default 160 (what the page is asked here is the cards' states and pictures, whatever their size: 16 % of the
+    pixels, about 7 s of CPU against 45; tests/server/jobs/test_previews.py renders them at the default size)."""
+    env = {"TRACER_PREVIEWS_AHEAD": "1", "TRACER_PREVIEW_SIZE": "64"}
     with Server(tmp_path_factory.mktemp("web-previews"), workers=1, env=env) as s:
         yield s
 
