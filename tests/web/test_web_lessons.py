@@ -610,3 +610,36 @@ def test_lesson_on_a_phone_switches_without_scrolling_past_the_lesson(phone):
     assert page.evaluate("() => location.hash") == f"#lessons/{LESSON_IDS[2]}"
     assert in_view(page, "#lesson-stage h2") and page.input_value("#lesson-switch") == LESSON_IDS[2]
     page.wait_for_selector(".lesson-question .choice", timeout=90_000)
+
+
+# each panel's height whenever its status changes, kept on the panel (set before the lesson opens)
+WATCH_HEIGHTS = """() => new MutationObserver((changes) => {
+    for (const c of changes) {
+        const p = c.target;
+        if (!p.classList?.contains('lesson-panel')) continue;
+        (p.heights ||= []).push([p.dataset.status, p.querySelector('.panel-info').textContent,
+                                 p.getBoundingClientRect().height]);
+    }
+}).observe(document.querySelector('#lesson-stage'),
+            {subtree: true, attributes: true, attributeFilter: ['data-status']})"""
+
+
+def test_lesson_a_panel_keeps_its_height_when_its_render_ends(desktop):
+    """A panel's render ending moves nothing under it (the question, "Next lesson"): its progress bar lies along the
+    picture's foot, and the line of what the render cost is there while it runs, its numbers counting up."""
+    lesson = "raytree-stop"
+    assert lesson in LESSON_IDS
+    page = desktop.open("#lessons").page
+    page.evaluate(WATCH_HEIGHTS)
+    open_lesson(page, lesson)
+    seen = page.eval_on_selector_all(".lesson-panel", "ps => ps.map(p => p.heights || [])")
+    measured = 0
+    for heights in seen:
+        running = [h for h in heights if h[0] == "running"]
+        done = [h for h in heights if h[0] == "done"]
+        if not running or not done:
+            continue  # answered at once (a render the server had): nothing ran
+        measured += 1
+        assert running[-1][1].endswith(" s"), f"no cost line while it ran: {heights}"
+        assert abs(done[-1][2] - running[-1][2]) <= 1, heights
+    assert measured >= 1, seen

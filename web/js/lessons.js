@@ -455,7 +455,8 @@ export class Lessons {
       map = h("div", { class: "lesson-image rays-box", title: "rays per pixel: black few, white many" }, el.map);
     }
     if (lesson.panels[panel.index].against != null) el.error = h("p", { class: "panel-error" });
-    const image = h("div", { class: "lesson-image" }, img, state);
+    // the progress bar lies along the picture's foot: gone when the render ends, it moves nothing under it
+    const image = h("div", { class: "lesson-image" }, img, state, bar);
     if (lesson.coc) {
       el.overlay = h("canvas", { class: "lesson-overlay", "aria-hidden": "true" });
       image.append(el.overlay);
@@ -467,7 +468,6 @@ export class Lessons {
       "figure",
       { class: "lesson-panel", dataset: { status: panel.status, index: panel.index } },
       image,
-      bar,
       h("figcaption", {}, title, notes, info, el.error),
       map,
       samples,
@@ -581,6 +581,10 @@ export class Lessons {
     el.img.hidden = false;
     const solving = job?.progress?.phase === "radiosity" && job.progress.solve; // the radiosity solve comes first
     el.bar.value = solving ? job.progress.solve.fraction : (job?.progress?.fraction ?? 0);
+    // what the render has cost so far, in the words its end will say (the line is there while it runs: its end
+    // changes numbers, not the panel's height)
+    if (job?.progress?.rays && panel.status === "running")
+      el.info.textContent = `${rayWords(job.progress.rays)} · ${seconds(job.progress.elapsed)}`;
     if (job?.image_url && el.rays.getAttribute("aria-pressed") !== "true") {
       const url = job.image_url;
       showImage(el.img, url).then((ok) => ok && el.img.dataset.src === url && (el.img.dataset.shown = url)); // fetched with the token (once per pass)
