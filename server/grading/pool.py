@@ -31,7 +31,7 @@ def _pool_process(nice: int, server: int) -> None:
     # children.PRELOAD): the pool is the parallelism, and OpenMP's threads spinning on cores the renders use made a
     # 96x72 FLIP take 100 ms instead of 7 (bench/grading.py)
     os.environ["OMP_NUM_THREADS"] = "1"
-    children.watch_server(server)
+    children.watch_server(server)  # Python's pool cannot tell: each process holds both ends of the pipe it waits on
     import tracer.grading.tasks  # noqa: F401  (numpy, FLIP, scikit-image: once per process)
 
 

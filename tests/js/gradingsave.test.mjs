@@ -106,3 +106,21 @@ test("a refused save says so and does not stop the ones after it", async () => {
   await second;
   assert.equal(p.status.textContent, "Saved lighting: 1 points.");
 });
+
+test("a save whose answer throws on the way does not stop the ones after it", async () => {
+  const calls = heldFetch();
+  const p = panel();
+  p.access = () => {
+    throw new Error("the page's own handler failed");
+  };
+  const first = p.save(0);
+  const second = p.save(1);
+  await ticks();
+  calls[0].refuse(403, "not staff");
+  await assert.rejects(first);
+  await ticks();
+  assert.equal(calls.length, 2, "the second save was never sent");
+  calls[1].answer(1);
+  await second;
+  assert.equal(p.status.textContent, "Saved lighting: 1 points.");
+});

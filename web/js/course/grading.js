@@ -373,7 +373,8 @@ export class GradingPanel {
     const x = this.items[i];
     const sid = this.sub.submission;
     const body = { rubric: x.boxes.filter((b) => b.checked).map((b) => b.dataset.level), comment: x.comment.value };
-    this.saving = (this.saving || Promise.resolve()).then(() => this.send(i, x, sid, body));
+    const send = () => this.send(i, x, sid, body);
+    this.saving = (this.saving || Promise.resolve()).then(send, send); // one that threw does not stop the next
     return this.saving;
   }
 
