@@ -626,7 +626,8 @@ WATCH_HEIGHTS = """() => new MutationObserver((changes) => {
 
 def test_lesson_a_panel_keeps_its_height_when_its_render_ends(desktop):
     """A panel's render ending moves nothing under it (the question, "Next lesson"): its progress bar lies along the
-    picture's foot, and the line of what the render cost is there while it runs, its numbers counting up."""
+    picture's foot, and the line of what the render cost is there while it runs, its numbers counting up. (A lesson
+    without a comparison: a comparison's error line changes its words when both pictures are known.)"""
     lesson = "raytree-stop"
     assert lesson in LESSON_IDS
     page = desktop.open("#lessons").page
