@@ -83,7 +83,8 @@ export class SubmissionList {
       : "";
   }
 
-  /** A new submission (the 202's answer): at the top, opened, followed. */
+  /** A new submission (the 202's answer): at the top, opened, followed. A load asked before it (the last
+   * one's grade, ended) may answer after it without it, and would take its row away: the list is read again. */
   add(view) {
     const n = this.rows.size + 1;
     for (const id of this.open) {
@@ -95,6 +96,7 @@ export class SubmissionList {
     this.update(view, n);
     this.list.prepend(this.rows.get(view.id).li);
     this.status.textContent = "";
+    this.load();
   }
 
   update(view, n) {
