@@ -65,6 +65,24 @@ def students_image(srv, token: str, path) -> None:
     path.write_bytes(httpx.get(f"{srv.url}/api/jobs/{job}/image?format=png", headers=bearer(token), timeout=30).content)
 
 
+def compared(page, srv, sid: str) -> None:
+    """Wait for the comparison of the log sent to be drawn, or for the page to say why not: a failure names what
+    the page said and what the server's checking processes and queue were doing (CI once waited 120 s here)."""
+    try:
+        page.wait_for_function(
+            """(id) => document.querySelector(`#${id}-result .tl-body[data-drawn=true]`)
+                || document.querySelector(`#${id}-status`).dataset.kind === 'error'""",
+            arg=f"tl-{sid}",
+            timeout=120_000,
+        )
+    except Exception as exc:
+        health = httpx.get(f"{srv.url}/api/health", timeout=30).text
+        said = page.text_content(f"#tl-{sid}-status")
+        raise AssertionError(f"no comparison drawn; the page says {said!r}; /api/health: {health}") from exc
+    said = page.text_content(f"#tl-{sid}-status")
+    assert page.locator(f"#tl-{sid}-result .tl-body[data-drawn=true]").count() == 1, f"the page says {said!r}"
+
+
 def tree_log(srv) -> dict:
     """The reference's centre-ray trees at the probes (POST /api/raytree on the scene as the grader traces them)
     with only the log's fields, the eye ray of tree SHIFTED through its pixel's top-left corner."""
@@ -163,7 +181,7 @@ def test_web_own_tracer_probes_a_tree_log_and_the_instructor_s_view(browser, ser
         # a log with one wrong node: the verdict, the differing pixel chosen, both trees with the eye ray marked
         page.fill(f"#tl-{sid}-log", json.dumps(log, indent=1))
         page.click(f"#tl-{sid}-send")
-        page.wait_for_selector(f"#tl-{sid}-result .tl-body[data-drawn=true]", timeout=120_000)
+        compared(page, server, sid)
         seen = page.evaluate(SIDES, f"#tl-{sid}-result")
         x, y = PROBES[SHIFTED]["x"], PROBES[SHIFTED]["y"]
         assert seen["verdict"] == "3 trees compared: 1 differs from the reference's (first differences: eye ray).", seen
