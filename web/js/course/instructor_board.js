@@ -386,9 +386,14 @@ export class Board {
   async refresh() {
     clearTimeout(this.timer);
     if (this.closed) return;
+    // refreshes overlap (the poll's, an extension's, "Send again"'s): only the latest asked is drawn. A poll asked
+    // before an extension and answered after it would put the row back as it was (CI reads the row once it shows
+    // the extension), and each would start a poll of its own.
+    const asked = (this.asked = (this.asked || 0) + 1);
+    const latest = () => asked === this.asked && !this.closed;
     try {
       const data = await course.board(this.aid);
-      if (this.closed) return;
+      if (!latest()) return;
       const before = this.data;
       this.data = data;
       this.renderSummary();
@@ -400,13 +405,16 @@ export class Board {
         if (now && JSON.stringify(was) !== JSON.stringify(now)) this.showStudent(this.open_, false);
       }
       if (this.brief.reference_grade?.status !== "graded") {
-        this.brief = await course.brief(this.aid).catch(() => this.brief); // the reference is still being graded
+        const brief = await course.brief(this.aid).catch(() => this.brief); // the reference is still being graded
+        if (!latest()) return;
+        this.brief = brief;
         this.renderHead();
       }
     } catch (err) {
+      if (!latest()) return;
       if (!this.access(err) && err.status) say(this.status, "error", `Could not read the class: ${err.message}`);
     } finally {
-      if (!this.closed) this.timer = setTimeout(() => this.poll(), POLL_MS);
+      if (latest()) this.timer = setTimeout(() => this.poll(), POLL_MS); // one poll: the latest refresh's
     }
   }
 
@@ -900,6 +908,9 @@ export class Board {
 
   async renderStudent(sid, focus) {
     this.open_ = sid;
+    // the same student's detail can be asked again before it answers (a refresh that saw their row change, a
+    // grant of tokens): only the latest asked is drawn, never an older answer after it
+    const asked = (this.studentAsked = (this.studentAsked || 0) + 1);
     window.history.replaceState(null, "", `#${this.aid}/${encodeURIComponent(sid)}`); // a link to this student's detail
     for (const { tr } of this.rows.values()) {
       if (tr.dataset.student === sid) tr.setAttribute("aria-current", "true");
@@ -909,10 +920,10 @@ export class Board {
     try {
       d = await course.student(this.aid, sid);
     } catch (err) {
-      say(this.status, "error", `Could not read ${sid}: ${err.message}`);
+      if (asked === this.studentAsked) say(this.status, "error", `Could not read ${sid}: ${err.message}`);
       return;
     }
-    if (this.open_ !== sid || this.closed) return;
+    if (this.open_ !== sid || this.closed || asked !== this.studentAsked) return;
     const ext = h("input", {
       type: "datetime-local",
       id: "ext-deadline",
