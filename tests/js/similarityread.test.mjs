@@ -9,7 +9,7 @@ import { SimilarityPanel } from "../../web/js/course/similarity.js";
 /** fetch stood in for: each call is kept until the test answers it, in any order. */
 function heldFetch() {
   const calls = [];
-  globalThis.fetch = (url, init) =>
+  globalThis.fetch = (_url, init) =>
     new Promise((resolve) =>
       calls.push({
         method: init.method,
