@@ -1073,7 +1073,9 @@ export class Board {
       { type: "button", class: "small tl-open", "aria-expanded": "false", dataset: { sid: sub.id } },
       "Their tree log comparison",
     );
+    let asked = 0; // closed (or closed and opened again) before the answer came: only the latest open is drawn
     button.addEventListener("click", async () => {
+      const mine = ++asked;
       if (button.getAttribute("aria-expanded") === "true") {
         button.setAttribute("aria-expanded", "false");
         return box.replaceChildren();
@@ -1085,6 +1087,7 @@ export class Board {
           course.trees(this.aid, sub.id),
           import("./treecompare.js"),
         ]);
+        if (mine !== asked) return;
         box.replaceChildren(h("h4", {}, `Their tree log against the reference's (submission ${n})`));
         const view = h("div", {});
         box.append(view);
@@ -1096,6 +1099,7 @@ export class Board {
           probes: sub.feedback?.probes || [],
         });
       } catch (err) {
+        if (mine !== asked) return;
         const none = err.status === 404;
         box.replaceChildren(
           h(
