@@ -1,10 +1,12 @@
 // web/js/viewer.js's job view without a browser (the API, the elements and the drawing stood in for): a pass's
 // picture may answer after a later one (or after the end's), and a job's show() may resume after another job was
 // shown meanwhile (a click in "my jobs" while the reload's restore was still loading the last job's picture).
-// Neither older answer may take the screen: the last picture stays the end's, the stage the job clicked.
+// Neither older answer may take the screen: the last picture stays the end's, the stage the job clicked. And
+// Ctrl+Enter in the editor, pressed while a submission is on its way, does not submit a second job.
 import assert from "node:assert/strict";
 import { test } from "node:test";
 
+import { api } from "../../web/js/api.js";
 import { Viewer } from "../../web/js/viewer.js";
 
 const ticks = async (n = 20) => {
@@ -78,5 +80,30 @@ test("a job shown while the one before was still loading its picture keeps the s
   assert.equal(v.view.id, "new");
   assert.equal(v.view.job.id, "new", "the older job's end was said over the one clicked");
   assert.deepEqual(v.said, ["status old cancelled", "status new running", "follow new"]);
+  delete globalThis.document;
+});
+
+test("a second Render (Ctrl+Enter) while a submission is on its way sends no second job", async () => {
+  const v = viewer();
+  const sent = [];
+  let accept;
+  api.submit = (text) => {
+    sent.push(text);
+    return new Promise((r) => {
+      accept = r;
+    });
+  };
+  v.getScene = () => ({ text: '{"version": 1}', value: { version: 1 } });
+  v.el.render = { disabled: false };
+  v.near = () => {};
+  v.reveal = () => {};
+  v.remember = () => {};
+  v.show = async () => {};
+  const first = v.submit(); // the button...
+  const second = v.submit(); // ...and Ctrl+Enter at once
+  accept({ id: "j1", status: "queued" });
+  await Promise.all([first, second]);
+  assert.equal(sent.length, 1, "two jobs were submitted");
+  assert.equal(v.el.render.disabled, false);
   delete globalThis.document;
 });

@@ -126,6 +126,8 @@ export class Viewer {
   // -- submitting and following ---------------------------------------------------------------
 
   async submit() {
+    // Ctrl+Enter in the editor asks too, even while the button is disabled: one submission at a time, not two jobs
+    if (this.submitting) return;
     let scene;
     try {
       scene = this.getScene();
@@ -133,6 +135,7 @@ export class Viewer {
       this.message("error", err.message);
       return;
     }
+    this.submitting = true;
     this.el.render.disabled = true;
     this.message("info", "Submitting…");
     this.near("info", "submitting…");
@@ -149,6 +152,7 @@ export class Viewer {
         this.onRefused?.(err.errors);
       } else this.message("error", `Could not submit the scene: ${err.message}.`);
     } finally {
+      this.submitting = false;
       this.el.render.disabled = false;
     }
   }
