@@ -265,20 +265,25 @@ export class Lessons {
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
     run.extra = extra;
-    if (fresh) {
-      try {
+    if (fresh)
+      run.built = (async () => {
         for (let i = 0; i < lesson.panels.length; i++) run.panels.push(await this.build(lesson, i, run.values));
-      } catch (err) {
-        this.runs.delete(id);
-        grid.replaceChildren(
-          h(
-            "p",
-            { class: "message", dataset: { kind: "error" } },
-            `Could not load the lesson's scenes: ${err.message}.`,
-          ),
-        );
-        return;
-      }
+      })();
+    try {
+      await run.built;
+    } catch (err) {
+      if (this.runs.get(id) === run) this.runs.delete(id);
+      grid.replaceChildren(
+        h("p", { class: "message", dataset: { kind: "error" } }, `Could not load the lesson's scenes: ${err.message}.`),
+      );
+      return;
+    }
+    // left (another lesson chosen, or this one chosen again) while its scenes loaded: its panels are drawn where
+    // it is shown now, by that run(), once they are built; this one only starts them. Before, a lesson chosen
+    // again before its first run() had built them showed none (or some) of its panels, drawn out of sight.
+    if (!grid.isConnected) {
+      if (fresh) await this.start(run.panels);
+      return;
     }
     for (const panel of run.panels) {
       panel.el = this.panelElement(lesson, run, panel);
