@@ -57,7 +57,6 @@ export class SimilarityPanel {
     clearTimeout(this.timer);
   }
 
-  /** The last report, if there is one (the dashboard opens). */
   /** Each read or ask, counted: only the latest asked is shown. The dashboard's first read ("no report yet"),
    * answered after a report was asked for, would enable the button again and stop following the report. */
   ticket() {
@@ -65,6 +64,7 @@ export class SimilarityPanel {
     return () => asked === this.asked;
   }
 
+  /** The last report, if there is one (the dashboard opens). */
   async load() {
     const latest = this.ticket();
     try {
