@@ -778,15 +778,19 @@ export class Lessons {
     delete pinhole.camera.focus_distance;
     pinhole.sampler = { type: "center" };
     run.cocText.textContent = `Tracing pixel (${x}, ${y})…`;
+    // two clicks in a row may answer out of order: only the latest click's circle is drawn and said
+    const asked = (run.cocAsked = (run.cocAsked || 0) + 1);
     let tree;
     try {
       tree = await api.raytree(JSON.stringify(pinhole), x, y, 0);
     } catch (err) {
-      run.cocText.textContent = `Could not trace that pixel: ${err.message}.`;
+      if (asked === run.cocAsked) run.cocText.textContent = `Could not trace that pixel: ${err.message}.`;
       return;
     }
+    if (asked !== run.cocAsked) return;
     const eye = tree.nodes[0];
     if (!eye?.hit) {
+      delete run.cocText.dataset.diameter; // no circle: not the last one's diameter under these words
       run.cocText.textContent = `Pixel (${x}, ${y}) sees the background: it has no depth, and no circle of confusion.`;
       run.coc = null;
       for (const p of run.panels) this.drawCoc(p, null);
