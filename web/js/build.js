@@ -405,13 +405,16 @@ export class BuildPanel {
   /** Start over from a template: the editor's whole text, one step (Undo brings the old scene back). */
   async newScene(file) {
     if (!file) return;
+    // two templates chosen in a row may answer out of order: the editor gets the one chosen last
+    const asked = (this.templateAsked = (this.templateAsked || 0) + 1);
     try {
       const scene = await request("GET", `templates/${file}.json`); // a static file of web/templates/
+      if (asked !== this.templateAsked) return;
       this.picked = null;
       this.onLoad(formatJSON(scene), TEMPLATES.find((t) => t.file === file).label);
       this.say(`New scene: ${TEMPLATES.find((t) => t.file === file).label}. Undo brings the previous scene back.`);
     } catch (err) {
-      this.notify(`Could not load the template ${file}: ${err.message}.`);
+      if (asked === this.templateAsked) this.notify(`Could not load the template ${file}: ${err.message}.`);
     }
     this.template.value = "";
   }

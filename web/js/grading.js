@@ -349,7 +349,7 @@ export class GradingPanel {
   /** Files picked: a .zip is the whole class (it replaces the list); other files add or replace students. */
   async addFiles(files) {
     const problems = [];
-    let subs = this.subs.filter((s) => s.kind !== "zip");
+    let subs;
     const zips = files.filter((f) => /\.zip$/i.test(f.name));
     if (zips.length) {
       if (zips.length > 1 || files.length > 1)
@@ -358,6 +358,7 @@ export class GradingPanel {
         subs = [
           { student: zips[0].name, kind: "zip", file: zips[0], name: zips[0].name, bytes: zips[0].size, from: "file" },
         ];
+      subs ??= this.subs.filter((s) => s.kind !== "zip");
     }
     if (!zips.length) {
       let picked = [];
@@ -386,6 +387,9 @@ export class GradingPanel {
           picked = [];
         }
       }
+      // the list as it is now, after the server named the students: files added meanwhile (a drop, then a pick
+      // before the first answered) or the example loaded stay; taken before the await, they were lost
+      subs = this.subs.filter((s) => s.kind !== "zip");
       for (const [i, { f, kind }] of picked.entries()) {
         const student = ids[i];
         subs = subs.filter((s) => s.student !== student);

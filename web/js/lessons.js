@@ -265,20 +265,25 @@ export class Lessons {
     this.stage.querySelector("h2").focus();
     this.stage.dataset.lesson = id;
     run.extra = extra;
-    if (fresh) {
-      try {
+    if (fresh)
+      run.built = (async () => {
         for (let i = 0; i < lesson.panels.length; i++) run.panels.push(await this.build(lesson, i, run.values));
-      } catch (err) {
-        this.runs.delete(id);
-        grid.replaceChildren(
-          h(
-            "p",
-            { class: "message", dataset: { kind: "error" } },
-            `Could not load the lesson's scenes: ${err.message}.`,
-          ),
-        );
-        return;
-      }
+      })();
+    try {
+      await run.built;
+    } catch (err) {
+      if (this.runs.get(id) === run) this.runs.delete(id);
+      grid.replaceChildren(
+        h("p", { class: "message", dataset: { kind: "error" } }, `Could not load the lesson's scenes: ${err.message}.`),
+      );
+      return;
+    }
+    // left (another lesson chosen, or this one chosen again) while its scenes loaded: its panels are drawn where
+    // it is shown now, by that run(), once they are built; this one only starts them. Before, a lesson chosen
+    // again before its first run() had built them showed none (or some) of its panels, drawn out of sight.
+    if (!grid.isConnected) {
+      if (fresh) await this.start(run.panels);
+      return;
     }
     for (const panel of run.panels) {
       panel.el = this.panelElement(lesson, run, panel);
@@ -773,15 +778,19 @@ export class Lessons {
     delete pinhole.camera.focus_distance;
     pinhole.sampler = { type: "center" };
     run.cocText.textContent = `Tracing pixel (${x}, ${y})…`;
+    // two clicks in a row may answer out of order: only the latest click's circle is drawn and said
+    const asked = (run.cocAsked = (run.cocAsked || 0) + 1);
     let tree;
     try {
       tree = await api.raytree(JSON.stringify(pinhole), x, y, 0);
     } catch (err) {
-      run.cocText.textContent = `Could not trace that pixel: ${err.message}.`;
+      if (asked === run.cocAsked) run.cocText.textContent = `Could not trace that pixel: ${err.message}.`;
       return;
     }
+    if (asked !== run.cocAsked) return;
     const eye = tree.nodes[0];
     if (!eye?.hit) {
+      delete run.cocText.dataset.diameter; // no circle: not the last one's diameter under these words
       run.cocText.textContent = `Pixel (${x}, ${y}) sees the background: it has no depth, and no circle of confusion.`;
       run.coc = null;
       for (const p of run.panels) this.drawCoc(p, null);

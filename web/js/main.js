@@ -241,11 +241,16 @@ function loadText(text, name, show = true) {
   $("#load-note").replaceChildren(h("span", {}, `Loaded ${name}. `), undo);
 }
 
+let exampleAsked = 0;
+
 async function loadExample(name, show = true) {
+  // two examples chosen in a row may answer out of order: the editor gets the one chosen last (the menu names it)
+  const asked = ++exampleAsked;
   try {
-    loadText(formatJSON(await api.scene(name)), name, show);
+    const text = formatJSON(await api.scene(name));
+    if (asked === exampleAsked) loadText(text, name, show);
   } catch (err) {
-    notify(`Could not load the example ${name}: ${err.message}.`);
+    if (asked === exampleAsked) notify(`Could not load the example ${name}: ${err.message}.`);
   }
 }
 
@@ -423,10 +428,17 @@ function paintCards() {
   if (waiting) polling = setTimeout(refreshPreviews, 1000);
 }
 
+let previewsAsked = 0;
+
 async function refreshPreviews() {
   if ($("#page-examples").hidden) return; // looked at again when the tab is shown
+  // a look asked before the tab was shown again may answer after the one asked then: only the latest is painted
+  // (an older answer would put a ready card back to "rendering" with its picture still shown)
+  const asked = ++previewsAsked;
   try {
-    examples = await api.scenes();
+    const answer = await api.scenes();
+    if (asked !== previewsAsked) return;
+    examples = answer;
   } catch {
     // the next look tries again
   }

@@ -253,14 +253,21 @@ function releasePanel(s) {
   );
 }
 
+let asked = 0;
+
 async function load() {
+  // reads overlap (a token typed while the last read, with the old token, is in flight; the timer's; Refresh):
+  // only the latest asked is shown, never the old token's refusal after the new token's status
+  const mine = ++asked;
   say("busy", "Reading the server's status…");
   try {
     const s = await request("GET", "/api/status", undefined, { as: "instructor", cache: "no-store" });
+    if (mine !== asked) return;
     view.replaceChildren(workersPanel(s), queuePanel(s), lmsPanel(s), backupPanel(s), diskPanel(s), releasePanel(s));
     tokenInput.removeAttribute("aria-invalid");
     say("ok", `Read at ${new Date().toLocaleTimeString()}; read again every ${REFRESH_MS / 1000} s.`);
   } catch (err) {
+    if (mine !== asked) return;
     const problem = tokenProblem(err, !!tokens.instructor());
     if (problem) tokenInput.setAttribute("aria-invalid", "true");
     view.replaceChildren();

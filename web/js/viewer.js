@@ -126,6 +126,8 @@ export class Viewer {
   // -- submitting and following ---------------------------------------------------------------
 
   async submit() {
+    // Ctrl+Enter in the editor asks too, even while the button is disabled: one submission at a time, not two jobs
+    if (this.submitting) return;
     let scene;
     try {
       scene = this.getScene();
@@ -133,6 +135,7 @@ export class Viewer {
       this.message("error", err.message);
       return;
     }
+    this.submitting = true;
     this.el.render.disabled = true;
     this.message("info", "Submitting…");
     this.near("info", "submitting…");
@@ -149,6 +152,7 @@ export class Viewer {
         this.onRefused?.(err.errors);
       } else this.message("error", `Could not submit the scene: ${err.message}.`);
     } finally {
+      this.submitting = false;
       this.el.render.disabled = false;
     }
   }
@@ -180,8 +184,12 @@ export class Viewer {
     this.update(job);
     this.updateAovButtons(job);
     this.drawMarker();
+    const view = this.view;
     if (job.image_url) await this.loadImage(job.image_url);
     else this.clearImage();
+    // another job shown while this one's picture loaded (a click in "my jobs" while the reload's restore() was
+    // still loading the last one): that job is followed now, and this one's end must not be said over it
+    if (this.view !== view) return;
     if (job.finished) this.ended(job, false);
     else this.follow(job.id);
     this.renderList();
@@ -244,6 +252,7 @@ export class Viewer {
   }
 
   async ended(job, live) {
+    const view = this.view;
     this.view.job = job;
     if (this.revealing)
       requestAnimationFrame(() => {
@@ -274,6 +283,7 @@ export class Viewer {
         `Done: ${job.width} × ${job.height}, ${job.progress.spp_done} samples per pixel, ${seconds(job.elapsed)}. Click a pixel to see its ray tree.`,
       );
     if (job.image_url && live) await this.loadImage(job.image_url);
+    if (this.view !== view) return; // another job was shown meanwhile: its own view
     if (job.status === "done") this.loadAovRanges(job.id);
     this.view.ended = true;
     this.describe();
@@ -323,14 +333,21 @@ export class Viewer {
 
   async loadImage(url) {
     const id = this.view.id;
+    // passes come every 0.1 s and their pictures may answer out of order: only the latest asked is shown (an
+    // older pass answered after the end's picture would stay on screen as the job's last). The image and an AOV
+    // are counted apart: a pass arriving while an AOV loads does not cancel the AOV.
+    const kind = url.includes("/aov/") ? "aov" : "image";
+    this.imageAsked ??= { image: 0, aov: 0 };
+    const asked = ++this.imageAsked[kind];
+    const latest = () => this.view?.id === id && asked === this.imageAsked[kind];
     let data;
     try {
       data = await blob(url);
     } catch (err) {
-      if (this.view && this.view.id === id) this.message("warn", `Could not load the image: ${err.message}.`);
+      if (latest()) this.message("warn", `Could not load the image: ${err.message}.`);
       return false;
     }
-    if (!this.view || this.view.id !== id) return false;
+    if (!latest()) return false;
     if (this.aov !== "image" && !url.includes("/aov/")) {
       this.latestImage = data; // keep the AOV on screen; the image comes back with the "Image" button
       return true;

@@ -139,8 +139,12 @@ export class AuditPanel {
   async load(older = false) {
     const params = { ...this.filters(), limit: PAGE, before: older ? this.next : null };
     say(this.status, "busy", "Reading the audit trail…");
+    // reads overlap (Show pressed again, Older then Show): only the latest asked is drawn, never an older
+    // filter's rows (or older rows appended) after it
+    const asked = (this.asked = (this.asked || 0) + 1);
     try {
       const r = await request("GET", A(this.cid.value) + query(params), undefined, { ...AS, cache: "no-store" });
+      if (asked !== this.asked) return;
       const rows = r.events.map((e) => this.row(e));
       if (older) this.body.append(...rows);
       else this.body.replaceChildren(...rows);
@@ -155,7 +159,8 @@ export class AuditPanel {
           : "No changes match.",
       );
     } catch (err) {
-      if (!this.access(err)) say(this.status, "error", `Could not read the audit trail: ${err.message}`);
+      if (asked === this.asked && !this.access(err))
+        say(this.status, "error", `Could not read the audit trail: ${err.message}`);
     }
   }
 

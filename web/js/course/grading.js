@@ -194,10 +194,21 @@ export class GradingPanel {
     }
   }
 
+  /** Before reading another submission ("n", "b"): the saves made so far land first (a level pressed just before
+   * "b" then "n" would come back without it: the card read before its PUT landed), and only the latest asked is
+   * drawn (a quick "n" then "b" answered out of order would show the wrong card). The ticket's `latest()`. */
+  async moving() {
+    const asked = (this.moved = (this.moved || 0) + 1);
+    await Promise.resolve(this.saving).catch(() => {}); // one that failed has said so
+    return () => asked === this.moved;
+  }
+
   async next() {
     const after = this.sub?.submission;
     try {
+      const latest = await this.moving();
       const r = await grading.next(this.aid, after, this.scope.value === "all");
+      if (!latest()) return;
       if (!r) {
         if (this.sub) this.history.push(this.sub.submission);
         this.sub = null;
@@ -220,7 +231,9 @@ export class GradingPanel {
       return;
     }
     try {
-      this.show(await grading.one(this.aid, sid));
+      const latest = await this.moving();
+      const r = await grading.one(this.aid, sid);
+      if (latest()) this.show(r);
     } catch (err) {
       if (!this.access(err)) say(this.status, "error", `Could not read that submission: ${err.message}`);
     }

@@ -84,12 +84,17 @@ export class HandIn {
     const file = input.files[0];
     input.value = "";
     if (!file) return;
-    this.setText(await file.text(), `Opened ${file.name}.`);
+    const opened = (this.opened = (this.opened || 0) + 1); // the latest file opened wins, as in pickImage
+    const text = await file.text();
+    if (opened === this.opened) this.setText(text, `Opened ${file.name}.`);
   }
 
   async pickImage(input) {
     const file = input.files[0];
     const note = $("#a-image-note", this.root);
+    // a file picked while the last one's bytes are still being read replaces it: the older read, ending after,
+    // must not put its image (and its note) back
+    const picked = (this.picked = (this.picked || 0) + 1);
     this.image = null;
     if (!file) return (note.textContent = "");
     if (file.size > MAX_IMAGE) {
@@ -97,7 +102,9 @@ export class HandIn {
       return;
     }
     const format = /\.exr$/i.test(file.name) ? "exr" : "png";
-    this.image = { name: file.name, format, data: base64(await file.arrayBuffer()) };
+    const data = base64(await file.arrayBuffer());
+    if (picked !== this.picked) return;
+    this.image = { name: file.name, format, data };
     note.textContent = `${file.name}: ${format.toUpperCase()}, ${(file.size / 1024).toFixed(1)} KB.`;
   }
 

@@ -114,6 +114,7 @@ async function showList() {
   showCourses(courses).catch(() => courses.remove());
   try {
     const { assignments } = await course.list();
+    if (!list.isConnected) return; // the list was shown again meanwhile (a token typed): the newer one says
     accessOk(null);
     say(
       note,
@@ -136,8 +137,9 @@ async function showList() {
         ),
       ),
     );
-    showAudit(assignments).catch(() => {});
+    showAudit(assignments, list.closest(".course-home")).catch(() => {});
   } catch (err) {
+    if (!list.isConnected) return;
     accessOk(err);
     say(
       note,
@@ -150,11 +152,11 @@ async function showList() {
 }
 
 /** The courses' audit trail (audit.js), below the home's panels, once the token is known to be staff's. */
-async function showAudit(assignments) {
+async function showAudit(assignments, home) {
   const { courses } = await course.courses();
-  if (!courses.length || board) return;
+  if (!courses.length || board || !home.isConnected) return; // another view (or list) was shown meanwhile
   const panel = new AuditPanel(courses, assignments, { access: accessOk });
-  view.querySelector(".course-home")?.append(panel.root);
+  home.append(panel.root);
   await panel.load();
 }
 
@@ -163,6 +165,9 @@ async function showAudit(assignments) {
 async function showCourses(panel) {
   const { courses } = await course.courses();
   const mine = courses.length === 1 ? await course.courseView(courses[0].id) : null;
+  // the list shown again meanwhile (a token typed while the last one's courses were read): that one's courses
+  // say who is signed in and which course to publish into, not this older answer
+  if (!panel.isConnected) return;
   const role = mine?.you?.role;
   // a course just created is the one to publish into (it stayed on the first course)
   const into = courses.some((c) => c.id === madeCourse) ? madeCourse : course.into;

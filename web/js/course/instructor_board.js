@@ -386,9 +386,14 @@ export class Board {
   async refresh() {
     clearTimeout(this.timer);
     if (this.closed) return;
+    // refreshes overlap (the poll's, an extension's, "Send again"'s): only the latest asked is drawn. A poll asked
+    // before an extension and answered after it would put the row back as it was (CI reads the row once it shows
+    // the extension), and each would start a poll of its own.
+    const asked = (this.asked = (this.asked || 0) + 1);
+    const latest = () => asked === this.asked && !this.closed;
     try {
       const data = await course.board(this.aid);
-      if (this.closed) return;
+      if (!latest()) return;
       const before = this.data;
       this.data = data;
       this.renderSummary();
@@ -400,13 +405,16 @@ export class Board {
         if (now && JSON.stringify(was) !== JSON.stringify(now)) this.showStudent(this.open_, false);
       }
       if (this.brief.reference_grade?.status !== "graded") {
-        this.brief = await course.brief(this.aid).catch(() => this.brief); // the reference is still being graded
+        const brief = await course.brief(this.aid).catch(() => this.brief); // the reference is still being graded
+        if (!latest()) return;
+        this.brief = brief;
         this.renderHead();
       }
     } catch (err) {
+      if (!latest()) return;
       if (!this.access(err) && err.status) say(this.status, "error", `Could not read the class: ${err.message}`);
     } finally {
-      if (!this.closed) this.timer = setTimeout(() => this.poll(), POLL_MS);
+      if (latest()) this.timer = setTimeout(() => this.poll(), POLL_MS); // one poll: the latest refresh's
     }
   }
 
@@ -900,6 +908,9 @@ export class Board {
 
   async renderStudent(sid, focus) {
     this.open_ = sid;
+    // the same student's detail can be asked again before it answers (a refresh that saw their row change, a
+    // grant of tokens): only the latest asked is drawn, never an older answer after it
+    const asked = (this.studentAsked = (this.studentAsked || 0) + 1);
     window.history.replaceState(null, "", `#${this.aid}/${encodeURIComponent(sid)}`); // a link to this student's detail
     for (const { tr } of this.rows.values()) {
       if (tr.dataset.student === sid) tr.setAttribute("aria-current", "true");
@@ -909,10 +920,10 @@ export class Board {
     try {
       d = await course.student(this.aid, sid);
     } catch (err) {
-      say(this.status, "error", `Could not read ${sid}: ${err.message}`);
+      if (asked === this.studentAsked) say(this.status, "error", `Could not read ${sid}: ${err.message}`);
       return;
     }
-    if (this.open_ !== sid || this.closed) return;
+    if (this.open_ !== sid || this.closed || asked !== this.studentAsked) return;
     const ext = h("input", {
       type: "datetime-local",
       id: "ext-deadline",
@@ -1062,7 +1073,9 @@ export class Board {
       { type: "button", class: "small tl-open", "aria-expanded": "false", dataset: { sid: sub.id } },
       "Their tree log comparison",
     );
+    let asked = 0; // closed (or closed and opened again) before the answer came: only the latest open is drawn
     button.addEventListener("click", async () => {
+      const mine = ++asked;
       if (button.getAttribute("aria-expanded") === "true") {
         button.setAttribute("aria-expanded", "false");
         return box.replaceChildren();
@@ -1074,6 +1087,7 @@ export class Board {
           course.trees(this.aid, sub.id),
           import("./treecompare.js"),
         ]);
+        if (mine !== asked) return;
         box.replaceChildren(h("h4", {}, `Their tree log against the reference's (submission ${n})`));
         const view = h("div", {});
         box.append(view);
@@ -1085,6 +1099,7 @@ export class Board {
           probes: sub.feedback?.probes || [],
         });
       } catch (err) {
+        if (mine !== asked) return;
         const none = err.status === 404;
         box.replaceChildren(
           h(

@@ -60,7 +60,7 @@ export class AssignmentForm {
     const id = this.id;
     this.fields = {};
     this.specInput = h("input", { type: "file", accept: ".json,application/json", name: "spec", required: !this.edit });
-    this.specInput.addEventListener("change", () => this.readSpec());
+    this.specInput.addEventListener("change", () => (this.specRead = this.readSpec()));
     this.refInput = h("input", { type: "file", accept: ".json,application/json", name: "reference" });
     this.refBox = this.field(
       "reference",
@@ -263,7 +263,11 @@ export class AssignmentForm {
     return sel;
   }
 
+  /** The spec file picked, read (it names the reference file the form then asks for, and the tests the feedback
+   * table lists): Preview and Publish wait for it (`specRead`), and a file picked while the last one is still
+   * being read wins over it. */
   async readSpec() {
+    const asked = (this.specAsked = (this.specAsked || 0) + 1);
     const f = this.specInput.files?.[0];
     this.fields.spec.list.replaceChildren();
     this.specInput.removeAttribute("aria-invalid");
@@ -272,8 +276,11 @@ export class AssignmentForm {
       this.afterSpec();
       return;
     }
+    const read = f.text();
+    await read.catch(() => {});
+    if (asked !== this.specAsked) return;
     try {
-      this.spec = JSON.parse(await f.text());
+      this.spec = JSON.parse(await read);
     } catch (err) {
       this.spec = null;
       this.fields.spec.list.append(
@@ -366,6 +373,7 @@ export class AssignmentForm {
   /** The feedback of an example submission until the deadline and after it under the form's policy, as the
    * server applies it to every submission (nothing is published). */
   async preview() {
+    await this.specRead; // a spec just picked, read first (else the form is checked against the last one)
     if (!this.precheck()) {
       say(this.previewStatus, "error", "Fix the fields marked above to preview.");
       return;
@@ -445,6 +453,9 @@ export class AssignmentForm {
   }
 
   async send() {
+    // a spec just picked, read first: before, the form was checked (and sent) as for the last one, without the
+    // reference file this one names
+    await this.specRead;
     if (!this.precheck()) {
       say(this.status, "error", "Fix the fields marked above.");
       return;

@@ -81,11 +81,14 @@ export function regradeControls(root, sub, ctx) {
       b.hidden = closed && !open.has(b.dataset.item);
     }
   };
+  let asked = 0; // the first read and a request's read may overlap: only the latest asked is shown
   const load = async () => {
+    const mine = ++asked;
     try {
-      show(await request("GET", url, undefined, opts));
+      const data = await request("GET", url, undefined, opts);
+      if (mine === asked) show(data);
     } catch (err) {
-      say(status, "error", `Could not read your regrade requests: ${err.message}`);
+      if (mine === asked) say(status, "error", `Could not read your regrade requests: ${err.message}`);
     }
   };
 
@@ -191,11 +194,15 @@ export class RegradePanel {
 
   async load() {
     const q = this.filter.value ? `?status=${encodeURIComponent(this.filter.value)}` : "";
+    // reads overlap (the filter changed twice, an answer's read): only the latest asked is shown, never the list
+    // of another filter, or of before the answer, after it
+    const asked = (this.asked = (this.asked || 0) + 1);
     try {
       const data = await request("GET", `${A(this.aid)}/regrade-requests${q}`, undefined, { ...AS, cache: "no-store" });
-      this.show(data.requests || []);
+      if (asked === this.asked) this.show(data.requests || []);
     } catch (err) {
-      if (!this.access?.(err)) say(this.status, "error", `Could not read the regrade requests: ${err.message}`);
+      if (asked === this.asked && !this.access?.(err))
+        say(this.status, "error", `Could not read the regrade requests: ${err.message}`);
     }
   }
 

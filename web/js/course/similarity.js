@@ -57,24 +57,36 @@ export class SimilarityPanel {
     clearTimeout(this.timer);
   }
 
+  /** Each read or ask, counted: only the latest asked is shown. The dashboard's first read ("no report yet"),
+   * answered after a report was asked for, would enable the button again and stop following the report. */
+  ticket() {
+    const asked = (this.asked = (this.asked || 0) + 1);
+    return () => asked === this.asked;
+  }
+
   /** The last report, if there is one (the dashboard opens). */
   async load() {
+    const latest = this.ticket();
     try {
-      this.show(await similarity.get(this.aid));
+      const r = await similarity.get(this.aid);
+      if (latest()) this.show(r);
     } catch (err) {
-      if (!this.access(err) && err.status)
+      if (latest() && !this.access(err) && err.status)
         say(this.status, "error", `Could not read the similarity report: ${err.message}`);
     }
   }
 
   async ask() {
+    const latest = this.ticket();
     this.button.disabled = true;
     say(this.status, "info", "Asking for a report…");
     try {
       const r = await similarity.ask(this.aid);
+      if (!latest()) return;
       this.polls = 0;
       this.show({ ...r, pairs: null });
     } catch (err) {
+      if (!latest()) return;
       this.button.disabled = false;
       if (!this.access(err)) say(this.status, "error", `Could not make a report: ${err.message}`);
     }

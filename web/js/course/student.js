@@ -128,9 +128,16 @@ async function open(token, { joined = null } = {}) {
   document.body.dataset.ready = "true";
 }
 
+let briefAsked = 0;
+
 async function refreshBrief(api) {
+  // reads overlap (a submission's, then its grade's, a countdown's): only the latest asked is shown. The
+  // submission's read answered after its grade's would show the attempt it held as used ("2 left" after an
+  // invalid one), until the next read.
+  const asked = ++briefAsked;
   try {
     const brief = await api.brief();
+    if (asked !== briefAsked) return;
     stopCountdown();
     stopCountdown = showBrief($("#a-brief"), brief, api.token, { onPhase: () => refreshBrief(api) });
   } catch {

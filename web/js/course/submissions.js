@@ -43,9 +43,16 @@ export class SubmissionList {
     this.open = new Set(); // the ids whose feedback is shown
   }
 
+  /** A count of what happened here (a read of the list asked, a row's news from its stream), in order. */
+  tick() {
+    this.clock = (this.clock || 0) + 1;
+    return this.clock;
+  }
+
   async load() {
     // loads overlap (a submit's, a grade's event): only the latest asked is drawn, never an older answer after it
     const asked = (this.asked = (this.asked || 0) + 1);
+    const at = this.tick();
     let data;
     try {
       data = await this.ctx.api.submissions();
@@ -56,14 +63,21 @@ export class SubmissionList {
     if (asked !== this.asked) return;
     const subs = data.submissions || [];
     if (!this.rows.size && subs.length) this.open.add(subs[subs.length - 1].id); // the latest, opened
-    this.render(subs);
+    this.render(subs, at);
   }
 
-  render(subs) {
+  /** The list as read (`at`: when it was asked, tick()). A row whose stream brought news after the list was asked
+   * keeps that news: the list's older view would take it back (a row seen graded shown grading again, without
+   * its score, until the stream's end read the list once more). */
+  render(subs, at = Number.POSITIVE_INFINITY) {
     const seen = new Set();
     subs.forEach((view, i) => {
       seen.add(view.id);
-      this.update(view, i + 1);
+      const row = this.rows.get(view.id);
+      if (row && row.news > at) {
+        row.n = i + 1;
+        this.paint(row);
+      } else this.update(view, i + 1);
     });
     for (const [id, row] of this.rows) {
       if (!seen.has(id)) {
@@ -174,19 +188,23 @@ export class SubmissionList {
   follow(row) {
     const id = row.view.id;
     row.follow = followSubmission(this.ctx.api.eventsUrl(id), this.ctx.token, {
-      onView: (view) => {
-        const r = this.rows.get(id);
-        if (!r) return;
-        const moved = view.status !== r.view.status;
-        this.update(view);
-        if (moved) this.announce(r);
-      },
+      onView: (view) => this.news(id, view),
       onEnd: () => {
         const r = this.rows.get(id);
         if (r) r.follow = null;
         this.ctx.onFinal?.(this.rows.get(id)?.view);
       },
     });
+  }
+
+  /** A followed submission's news (its stream's `submission` event): drawn, and said when its status moved. */
+  news(id, view) {
+    const r = this.rows.get(id);
+    if (!r) return;
+    r.news = this.tick();
+    const moved = view.status !== r.view.status;
+    this.update(view);
+    if (moved) this.announce(r);
   }
 
   /** Say (to a screen reader too: the status line is a live region) where a followed submission now is. */

@@ -224,6 +224,9 @@ export function showTreeAnswers(container, answer, { as = "student", images = {}
     const t = trees[i];
     if (!t) return;
     const mine = ++seq;
+    // not drawn until this pixel's trees are (the pictures may still be loading): a test or a reader that waits
+    // for data-drawn must not take the last pixel's drawing for this one's
+    delete body.dataset.drawn;
     for (const [j, b] of buttons.entries()) b.setAttribute("aria-pressed", String(j === i));
     const d = t.differences[0] || null;
     const probe = probes.find((p) => p.x === t.pixel[0] && p.y === t.pixel[1]);
