@@ -99,7 +99,9 @@ class CheckPool:
 
     def __init__(self, settings: Settings):
         self.settings = settings
-        self.ctx = children.context()  # forked from the server's forkserver (server/core/children.py)
+        self.ctx = children.context(
+            settings.preload_mesh_reader
+        )  # forked from the server's forkserver (server/core/children.py)
         self.checkers = [_Checker(i) for i in range(settings.validate_processes)]
         self._waiters: collections.deque = collections.deque()  # (loop, event) of the requests waiting, oldest first
         self._small: collections.deque = collections.deque()  # the same of small bodies' requests, served first
@@ -125,7 +127,8 @@ class CheckPool:
             process.join(timeout=10)
             conn.close()
         ours, theirs = self.ctx.Pipe()
-        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice, os.getpid()),
+        process = self.ctx.Process(target=checker_main, args=(theirs, self.settings.worker_nice, os.getpid(),
+                                   self.settings.preload_mesh_reader),
                                    daemon=True, name=f"scene-checker-{checker.index}")  # fmt: skip
         with self._lock:
             if self._closed:

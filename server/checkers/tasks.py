@@ -97,7 +97,7 @@ def loaded(answer: tuple, body: bytes):
 TASKS = {"read": read, "validate": validate, "summary": summary, "samples": samples}
 
 
-def checker_main(conn, nice: int, server: int) -> None:
+def checker_main(conn, nice: int, server: int, mesh_reader: bool = True) -> None:
     """A checking process (forked from the server's forkserver, server/core/children.py): below the API in
     priority, deaf to the terminal's Ctrl-C and to a SIGTERM sent to the server's whole process group (the server
     stops it: closing its line), gone with its server; loads the kernels of the samples from Warp's cache, says it
@@ -114,7 +114,8 @@ def checker_main(conn, nice: int, server: int) -> None:
     from tracer.tools.pixel_samples import load_kernels
 
     load_kernels()
-    import_mesh_reader()  # a scene's mesh files are read here first (their triangles counted)
+    if mesh_reader:
+        import_mesh_reader()  # a scene's mesh files are read here first (their triangles counted)
     conn.send("ready")
     while True:
         try:

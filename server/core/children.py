@@ -34,11 +34,12 @@ PRELOAD = [
 ]
 
 
-def context() -> ForkServerContext:
-    """The start method of every pool's processes: the forkserver, started by the first child, with PRELOAD."""
+def context(mesh_reader: bool = True) -> ForkServerContext:
+    """The start method of every pool's processes: the forkserver, started by the first child, with PRELOAD
+    (without the mesh reader when `mesh_reader` is off: TRACER_PRELOAD_MESH_READER)."""
     ctx = mp.get_context("forkserver")
     assert isinstance(ctx, ForkServerContext)  # for the checker: get_context's type is the base's
-    ctx.set_forkserver_preload(PRELOAD)
+    ctx.set_forkserver_preload(PRELOAD if mesh_reader else [m for m in PRELOAD if m != "trimesh"])
     return ctx
 
 

@@ -93,6 +93,12 @@ class Settings(SceneLimits):
         description="render the lessons' panels at their first controls at start-up, in the batch lane behind the "
         "previews (server/jobs/lesson_panels.py); needs answer_again",
     )
+    preload_mesh_reader: bool = Field(
+        True,
+        description="import the mesh reader (trimesh, about 0.6 s of CPU and 60 MB) as the render workers, the "
+        "scene checkers and the worker hosts start, so that a first scene with a mesh file does not wait for it "
+        "(off: each process imports it with its first mesh file; the tests' servers, started by the hundred)",
+    )
     preview_interval: float = Field(0.5, ge=0, description="seconds between two published previews of a job")
     poll_interval: float = Field(0.5, gt=0, le=5, description="longest sleep of an idle worker (seconds)")
     job_attempts: int = Field(2, ge=1, le=10, description="tries of a job whose worker died (crash or kill)")

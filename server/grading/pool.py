@@ -43,15 +43,18 @@ class GradingPool:
     started at the first task and kept. A process that dies breaks Python's pool: the next `submit`
     starts a new one, and each run submits again what it had lost (server/grading/run_tasks.py)."""
 
-    def __init__(self, processes: int, nice: int = 0):
-        self.processes, self.nice = max(1, processes), nice
+    def __init__(self, processes: int, nice: int = 0, mesh_reader: bool = True):
+        self.processes, self.nice, self.mesh_reader = max(1, processes), nice, mesh_reader
         self._executor: ProcessPoolExecutor | None = None
         self._lock = threading.Lock()
         self.closed = False
 
     def _new(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
-            self.processes, mp_context=children.context(), initializer=_pool_process, initargs=(self.nice, os.getpid())
+            self.processes,
+            mp_context=children.context(self.mesh_reader),
+            initializer=_pool_process,
+            initargs=(self.nice, os.getpid()),
         )
 
     def submit(self, fn, /, *args, **kwargs) -> Future:

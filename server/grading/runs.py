@@ -96,7 +96,9 @@ class GradeRuns:
         self.uploads = self.root / ".uploads"  # uploads being unpacked (a crash leaves them: removed here)
         shutil.rmtree(self.uploads, ignore_errors=True)
         self.gs = GradingStore(settings.data_dir)
-        self.pool = GradingPool(settings.grading_processes or os.cpu_count() or 1, settings.worker_nice)
+        self.pool = GradingPool(
+            settings.grading_processes or os.cpu_count() or 1, settings.worker_nice, settings.preload_mesh_reader
+        )
         self.stopping = threading.Event()
         self.threads: dict[str, threading.Thread] = {}
         self._wakes: dict[str, threading.Event] = {}  # an open run's: set when a student is added

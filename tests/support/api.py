@@ -113,9 +113,11 @@ def course_client(data_dir: Path, now: datetime, workers: int = 1, **settings) -
         yield client
 
 
-def submit(client, scene: dict, priority: int = 0) -> dict:
-    """POST the scene as a job (202 expected); the job."""
-    r = client.post("/api/jobs", json={"scene": scene, "priority": priority})
+def submit(client, scene: dict, priority: int = 0, lane: str | None = None) -> dict:
+    """POST the scene as a job (202 expected); the job. `lane="batch"` moves it down to the batch lane (anyone
+    may): a small job there never makes a running batch render give way to it."""
+    body = {"scene": scene, "priority": priority} | ({"lane": lane} if lane else {})
+    r = client.post("/api/jobs", json=body)
     assert r.status_code == 202, r.text
     assert r.headers["location"] == f"/api/jobs/{r.json()['id']}"
     return r.json()
@@ -199,6 +201,9 @@ class Server:
         quiet = {"TRACER_INTERACTIVE_WORKERS": "0", "TRACER_PREVIEWS_AHEAD": "0"}  # as api_client
         quiet |= {"TRACER_ANSWER_AGAIN": "0", "TRACER_LESSONS_AHEAD": "0"}
         quiet |= {"TRACER_MAX_AUTH_FAILURES": "100000"}  # the tests' refused tokens come from one address
+        # the mesh reader imported with a first mesh file, not by each of the suite's hundred servers' forkservers
+        # (0.6 s of CPU each); tests/server/queue/embedded/test_worker_warm.py tests the preload, on by default
+        quiet |= {"TRACER_PRELOAD_MESH_READER": "0"}
         self.env = {**os.environ, **quiet, **(env or {})}
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
         self.proc: subprocess.Popen | None = None

@@ -98,6 +98,7 @@ def proc_env(**extra) -> dict:
     env["TRACER_PREVIEWS_AHEAD"] = "0"  # no example previews queued behind the test's own jobs
     env["TRACER_ANSWER_AGAIN"] = env["TRACER_LESSONS_AHEAD"] = "0"  # each job rendered, none of the lessons' ahead
     env["TRACER_MAX_AUTH_FAILURES"] = "100000"  # the tests' refused tokens all come from loopback
+    env["TRACER_PRELOAD_MESH_READER"] = "0"  # imported with a first mesh file (as Server's: tests/support/api.py)
     env.update({k: str(v) for k, v in extra.items()})
     return env
 

@@ -59,7 +59,9 @@ class WorkerPool:
     def __init__(self, settings: Settings, store: JobStore, stopping: Callable[[], bool] = lambda: False):
         self.settings, self.store = settings, store
         self.stopping = stopping  # the server has been asked to stop (a signal): no more workers, no more jobs
-        self.ctx = children.context()  # forked from the server's forkserver (server/core/children.py)
+        self.ctx = children.context(
+            settings.preload_mesh_reader
+        )  # forked from the server's forkserver (server/core/children.py)
         general = [Slot(i) for i in range(settings.workers)]
         extra = [Slot(settings.workers + i, (Lane.interactive,)) for i in range(settings.interactive_workers)]
         self.slots = general + extra if general else []  # no workers at all: no interactive one either

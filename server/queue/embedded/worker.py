@@ -52,7 +52,8 @@ def worker_main(settings_data: dict, conn, lanes: list[str] | None = None) -> No
     except OSError:
         pass
     load_kernels()
-    import_mesh_reader()  # else a student's first job with a mesh file waits for it
+    if settings.preload_mesh_reader:
+        import_mesh_reader()  # else a student's first job with a mesh file waits for it
     line.ready()
     Worker(settings, JobStore(settings.data_dir), line.stopping, lanes=tuple(lanes or LANES)).loop(line.wait)
     exit_now()  # its job is back in the queue: seconds of the interpreter's teardown would only delay the server

@@ -137,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     HOST["name"] = args.name or f"{HOST['host']}.{os.getpid()}"
     HOST["pid"] = os.getpid()  # a try run in another process runs in a forked work horse
     load_kernels(device)  # once: a forked work horse inherits them, an in-process try finds them (and CUDA) warm
-    import_mesh_reader()  # inherited too: a try's first mesh file does not wait for it
+    if settings.preload_mesh_reader:
+        import_mesh_reader()  # inherited too: a try's first mesh file does not wait for it
     how = "in this process" if worker_class is InProcessWorker else "in forked work horses"
     log.info("worker host %s: kernels ready on %s, %d thread(s), tries %s", HOST["name"], device, HOST["threads"], how)
     pause, worker, stale = 1.0, None, None

@@ -143,7 +143,7 @@ def test_api_loopback_a_killed_worker_is_replaced_and_its_job_retried_then_faile
 def test_api_loopback_cancel_running_then_queued(server):
     http = server.client
     running = submit(http, long_scene(), priority=50)
-    waiting = submit(http, tiny_scene())
+    waiting = submit(http, tiny_scene(), lane="batch")  # queued behind it (an interactive one: it would give way)
     wait_for(lambda: job(http, running["id"])["preview"] >= 1, 120, "the long job to render")
     assert job(http, waiting["id"])["status"] == "queued"
     r = http.delete(f"/api/jobs/{waiting['id']}")

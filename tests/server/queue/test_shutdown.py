@@ -43,11 +43,14 @@ def test_shutdown_a_signal_to_the_group_gives_the_job_back_and_restarts_no_worke
     server = Server(data, workers=1, group=True).start()
     try:
         http = server.client
-        running = submit(http, long_scene(spp=4096), priority=10)
+        # below the small one (priority -1, anyone's to ask): started again, its server renders that one first
+        running = submit(http, long_scene(spp=4096), priority=-1)
         # taken before the small one is queued: the interactive lane's job would go first (the niced worker may not
         # have claimed the long one yet on a loaded machine)
         wait_for(lambda: job(http, running["id"])["status"] == "running", 120, "the long job to start")
-        queued = submit(http, tiny_scene())
+        # in the batch lane: an interactive job waiting over a second would make the long one give way at its next
+        # pass (server/jobs/worker_store.py), and its last try would be that, not the shutdown's
+        queued = submit(http, tiny_scene(), lane="batch")
         wait_for(lambda: job(http, running["id"])["preview"] >= 1, 120, "the long job to render a pass")
         assert job(http, queued["id"])["status"] == "queued"
         (worker,) = server.worker_pids()

@@ -29,3 +29,26 @@ def test_worker_warm_workers_and_checkers_hold_the_mesh_reader_once_ready(tmp_pa
         assert len(pids) >= 2, health
         for pid in pids:
             assert MARK in mapped(pid), f"process {pid} has not imported the mesh reader"
+
+
+def test_worker_warm_without_the_preload_a_mesh_scene_imports_the_reader_when_it_comes(tmp_path):
+    """TRACER_PRELOAD_MESH_READER=0 (the tests' servers: tests/support/api.py): no process of the server maps the mesh
+    reader once ready, and a scene with mesh files is checked and rendered all the same, its worker importing the
+    reader then."""
+    from tests.support.api import Server, small, submit, wait_finished
+    from tests.support.scene import scene_dict
+
+    with Server(tmp_path / "data", workers=1, env={"TRACER_PRELOAD_MESH_READER": "0"}) as server:
+        (worker,) = server.worker_pids()
+
+        def checkers() -> list[int] | None:
+            found = server.client.get("/api/health").json()["checkers"]
+            return [c["pid"] for c in found] if found and all(c["pid"] for c in found) else None
+
+        for pid in [worker, *wait_for(checkers, 120, "the checking processes ready")]:
+            assert MARK not in mapped(pid), f"process {pid} imported the mesh reader at its start"
+        meshes = small(scene_dict("meshes"), 24, 18, sampler={"type": "jittered", "spp": 1})
+        done = wait_finished(server.client, submit(server.client, meshes)["id"], timeout=120)
+        assert done["status"] == "done", done
+        assert server.client.get(done["image_url"]).status_code == 200
+        assert MARK in mapped(worker), "the worker rendered meshes without the mesh reader?"
