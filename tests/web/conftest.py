@@ -21,6 +21,30 @@ from tests.support.api import INSTRUCTOR, Server, bearer
 from tests.support.lms import lms, tool  # noqa: F401  (the fixtures, registered here for the folder)
 from tests.support.page import CHROMIUM, CHROMIUM_ARGS, DESKTOP, PHONE, SHOTS, Page
 
+POLL_MS = 40  # how often a page's wait_for_function looks again, unless a test says (see below)
+
+# Playwright's wait_for_function polls on every animation frame by default: a frame forced 60 times a second for the
+# whole wait, 9 % of a core in the renderer while a test waits (0.6 % at 100 ms; measured on the lessons' page). The
+# suite waits that way in about 180 places, so every page's (and frame's) default is a poll each POLL_MS instead: a
+# condition met is seen at most POLL_MS later. test_web_lessons and test_web_page: 167-184 s of CPU with frames, 150
+# s with the poll (BENCHMARKS.md, session 48).
+
+
+def _poll_by_default() -> None:
+    try:
+        from playwright.sync_api import Frame, Page
+    except ImportError:  # the browser fixture fails each test with the reason
+        return
+    for cls in (Page, Frame):
+
+        def polled(self, expression, *, arg=None, polling=None, timeout=None, _wait=cls.wait_for_function):
+            return _wait(self, expression, arg=arg, polling=POLL_MS if polling is None else polling, timeout=timeout)
+
+        cls.wait_for_function = polled
+
+
+_poll_by_default()
+
 SHARED: list[Server] = []  # the session's shared server, once started (in this process)
 IDLE_TIMEOUT = 120  # s: the work a module left queued or running (a grading's last renders) to end
 
