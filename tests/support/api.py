@@ -20,6 +20,7 @@ from pathlib import Path
 import httpx
 import numpy as np
 
+from tests.support import zygote
 from tests.support.scene import ROOT, scene_dict, small
 
 SERVER_START_TIMEOUT = 120  # seconds: the first start may compile the kernels
@@ -192,10 +193,17 @@ class Server:
     student's token (`token`) on every request, as api_client's does."""
 
     def __init__(
-        self, data_dir: Path, workers: int = 1, env: dict | None = None, port: int | None = None, group: bool = False
+        self,
+        data_dir: Path,
+        workers: int = 1,
+        env: dict | None = None,
+        port: int | None = None,
+        group: bool = False,
+        fork: bool = True,
     ):
         self.data_dir, self.workers = Path(data_dir), workers
         self.group = group  # in a process group of its own (its pid is the group's id), as a service manager starts it
+        self.fork = fork  # from the zygote (tests/support/zygote.py: the imports done once), else exec'd
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         quiet = {"TRACER_INTERACTIVE_WORKERS": "0", "TRACER_PREVIEWS_AHEAD": "0"}  # as api_client
@@ -206,7 +214,7 @@ class Server:
         quiet |= {"TRACER_PRELOAD_MESH_READER": "0"}
         self.env = {**os.environ, **quiet, **(env or {})}
         self.log_path = self.data_dir.parent / f"{self.data_dir.name}-server-{self.port}.log"
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen | zygote.Forked | None = None
         self.token = student_token()
         self.client = httpx.Client(base_url=self.url, timeout=30, headers=bearer(self.token))
 
@@ -217,8 +225,8 @@ class Server:
         self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
         cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
         cmd += ["--workers", str(self.workers)]
-        self.proc = subprocess.Popen(
-            cmd, cwd=ROOT, env=self.env, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=self.group
+        self.proc = zygote.start(
+            cmd, env=self.env, cwd=ROOT, log=self.log, new_session=self.group, fork=self.fork, root=ROOT
         )
         wait_for(self._ready, SERVER_START_TIMEOUT, f"the server to start (log: {self.log_path})", interval=0.2)
         return self

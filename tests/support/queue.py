@@ -19,6 +19,7 @@ from pathlib import Path
 
 import httpx
 
+from tests.support import zygote
 from tests.support.api import free_port, wait_for
 from tests.support.scene import ROOT
 
@@ -106,14 +107,15 @@ def proc_env(**extra) -> dict:
 class Process:
     """A program started here (loopback tests), in a process group of its own, its output in a log."""
 
-    def __init__(self, argv: list[str], log: Path, env: dict | None = None):
+    def __init__(self, argv: list[str], log: Path, env: dict | None = None, fork: bool = True):
         self.argv, self.log_path, self.env = argv, log, env or proc_env()
-        self.proc: subprocess.Popen | None = None
+        self.fork = fork  # `python -m server` and `-m server.worker` from their zygote (tests/support/zygote.py)
+        self.proc: subprocess.Popen | zygote.Forked | None = None
 
     def start(self) -> Process:
         self.out = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
-        self.proc = subprocess.Popen(
-            self.argv, cwd=ROOT, env=self.env, stdout=self.out, stderr=subprocess.STDOUT, start_new_session=True
+        self.proc = zygote.start(
+            self.argv, env=self.env, cwd=ROOT, log=self.out, new_session=True, fork=self.fork, root=ROOT
         )
         return self
 
@@ -146,11 +148,14 @@ class Process:
 class Api(Process):
     """The API with the Redis backend on a loopback port, and an HTTP client to it."""
 
-    def __init__(self, data_dir: Path, redis_url: str, port: int | None = None, env: dict | None = None):
+    def __init__(
+        self, data_dir: Path, redis_url: str, port: int | None = None, env: dict | None = None, fork: bool = True
+    ):
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         data_dir.mkdir(parents=True, exist_ok=True)
-        super().__init__(api_argv(data_dir, self.port, redis_url), data_dir.parent / f"api-{self.port}.log", env)
+        argv = api_argv(data_dir, self.port, redis_url)
+        super().__init__(argv, data_dir.parent / f"api-{self.port}.log", env, fork)
         self.client = httpx.Client(base_url=self.url, timeout=30)
 
     def start(self) -> Api:

@@ -56,7 +56,7 @@ def test_queue_redis_secret_the_password_is_in_no_log_and_on_no_command_line(tmp
         api_port = free_port()
         argv = [sys.executable, "-m", "server", "--port", str(api_port), "--data-dir", str(tmp_path / "data")]
         argv += ["--workers", "1", "--redis-url-file", str(tmp_path / "redis-url")]
-        api = Process(argv, tmp_path / "api.log", proc_env()).start()
+        api = Process(argv, tmp_path / "api.log", proc_env(), fork=False).start()  # exec'd: ps shows its own argv
         http = httpx.Client(
             base_url=f"http://127.0.0.1:{api_port}", timeout=30, headers={"Authorization": f"Bearer {student_token()}"}
         )
