@@ -12,7 +12,8 @@ reads TRACER_* when it starts, never at import).
 A start falls back to a plain `subprocess.Popen` (exec) where a fork could differ from it:
 - the caller asks (`fork=False`): a test that reads the process's command line (/proc/PID/cmdline shows the
   zygote's), or one that tests the interpreter's start itself;
-- the environment differs from the one the zygote imported in by more than TRACER_* settings, or the command
+- the environment differs from the one the zygote imported in by more than TRACER_* settings (and pytest's
+  PYTEST_CURRENT_TEST), or the command
   is not `python -m` one of ZYGOTES in the repository's root;
 - TRACER_TEST_ZYGOTE=0 in the tests' environment (every start an exec, as before).
 
@@ -42,7 +43,11 @@ ZYGOTES = {
         "server/worker.py",
         ["tracer.assets", "tracer.kernels.parallel", "tracer.rendering.progressive"],  # host.main's own imports
     ),
+    "tests.support.zygote_probe": ("tests/support/zygote_probe.py", []),  # tests/test_support_zygote.py's
 }
+# variables besides TRACER_* that may differ from the zygote's: nothing reads them at import (pytest names the
+# test running in PYTEST_CURRENT_TEST, so it differs at every start); the child gets the caller's, as exec would
+RUNTIME_ONLY = {"PYTEST_CURRENT_TEST"}
 POLL_SECONDS = 0.02  # a wait's look at whether the process has ended (Popen.wait sleeps up to 0.05 s between)
 
 
@@ -239,15 +244,13 @@ def close_all() -> None:
 
 def forkable(argv: list[str], env: dict, cwd: str, root: str) -> str | None:
     """The module of a `python -m MODULE` command a zygote can start as exec would, else None."""
-    if os.environ.get("TRACER_TEST_ZYGOTE", "1") == "0":
-        return None
     if len(argv) < 3 or argv[0] != sys.executable or argv[1] != "-m" or argv[2] not in ZYGOTES:
         return None
     if os.path.realpath(cwd) != os.path.realpath(root):
         return None
     base = _zygotes[argv[2]].env if argv[2] in _zygotes else os.environ
     differ = {k for k in set(env) | set(base) if env.get(k) != base.get(k)}
-    return argv[2] if all(k.startswith("TRACER_") for k in differ) else None
+    return argv[2] if all(k.startswith("TRACER_") or k in RUNTIME_ONLY for k in differ) else None
 
 
 def _umask() -> int:
@@ -259,6 +262,7 @@ def _umask() -> int:
 def start(argv: list[str], *, env: dict, cwd, log, new_session: bool = False, fork: bool = True, root):
     """`subprocess.Popen(argv, cwd=cwd, env=env, stdout=log, stderr=STDOUT, start_new_session=...)`, forked
     from the command's zygote where it can be (`forkable`); `log` an open file (binary, append) with a name."""
+    fork = fork and os.environ.get("TRACER_TEST_ZYGOTE", "1") != "0"
     module = forkable(argv, env, str(cwd), str(root)) if fork else None
     if module is None:
         return subprocess.Popen(
