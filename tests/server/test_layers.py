@@ -8,11 +8,11 @@ import ast
 import subprocess
 import sys
 
-from tests.support.layering import cycles, graph, imports_of, modules
+from tests.support.layering import LazyGraph, cycles, imports_of, modules
 from tests.support.scene import ROOT
 
-SERVER = graph("server")  # every import, those made only for type checkers too
-AT_RUN_TIME = graph("server", typing=False)
+SERVER = LazyGraph("server")  # every import, those made only for type checkers too
+AT_RUN_TIME = LazyGraph("server", typing=False)
 # imports across the layers that type checkers alone see: the job service names the queue's interface (whose
 # backends import jobs) for them, and calls the queue handed to it
 TYPE_ONLY = {("server.jobs.service", "server.queue.base")}

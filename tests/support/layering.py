@@ -7,6 +7,8 @@ cycles in it (Tarjan)."""
 from __future__ import annotations
 
 import ast
+import functools
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from tests.support.scene import ROOT
@@ -55,13 +57,35 @@ def imports_of(name: str, known: dict[str, Path], typing: bool = True) -> set[st
     return out
 
 
+@functools.cache
 def graph(package: str, typing: bool = True) -> dict[str, set[str]]:
-    """Edges between the package's own modules (`typing=False`: those of run-time imports only)."""
+    """Edges between the package's own modules (`typing=False`: those of run-time imports only), read once per
+    process (the same dict each time: a caller must not change it)."""
     known = modules(package)
     return {m: {i for i in imports_of(m, known, typing) if i in known and i != m} for m in known}
 
 
-def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+class LazyGraph(Mapping):
+    """`graph(package, typing)`, read at its first use: a test module's constant that costs nothing at collection
+    (every pytest process imports every test module; only the one that runs its tests reads the sources)."""
+
+    def __init__(self, package: str, typing: bool = True):
+        self.package, self.typing = package, typing
+
+    def _edges(self) -> dict[str, set[str]]:
+        return graph(self.package, self.typing)
+
+    def __getitem__(self, module: str) -> set[str]:
+        return self._edges()[module]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._edges())
+
+    def __len__(self) -> int:
+        return len(self._edges())
+
+
+def cycles(edges: Mapping[str, set[str]]) -> list[list[str]]:
     """The strongly connected components of more than one module (Tarjan)."""
     index, low, stack, on, out = {}, {}, [], set(), []
 

@@ -6,9 +6,9 @@ radiosity solution), a render run, the tools around the renderer, grading; the c
 
 from __future__ import annotations
 
-from tests.support.layering import graph
+from tests.support.layering import LazyGraph
 
-TRACER = graph("tracer")  # every import, those made only for type checkers too
+TRACER = LazyGraph("tracer")  # every import, those made only for type checkers too
 TOP = {"tracer", "tracer.__main__"}  # the package and the command line: anything
 LAYERS = (  # lowest first: a module may import its own layer's and those listed before it
     "tracer.errors",  # SceneError, pydantic's errors as {path, message}
