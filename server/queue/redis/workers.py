@@ -95,6 +95,19 @@ class HostWorker(Worker):
         else:
             raise StopRequested()  # out of RQ's wait for work
 
+    def unsubscribe(self) -> None:
+        """RQ's, told to its listening thread first. That thread reads the host's channel in blocks of 60 s, and
+        RQ tells it to end only after sending UNSUBSCRIBE: where the reply to that came first (a loaded machine;
+        the GIL to the reading thread), the thread read on, and the stop waited out its block (a host asked to
+        stop took 30 s and more, until its supervisor killed it). Told first, it ends at that reply."""
+        thread = self.pubsub_thread
+        if thread is not None:
+            thread.stop(timeout=0)  # its loop ends at the next message it reads (no wait here)
+        try:
+            super().unsubscribe()
+        except redis.ConnectionError:  # the thread, between two reads when told, closed the connection first
+            pass
+
     def maintain_heartbeats(self, job, execution) -> None:
         """RQ's heartbeats while a try runs; once the host is stopping, the try's `giveback` key too (for a
         horse that missed its signal), and a horse not ended HORSE_STOP_GRACE s after the signal is killed."""
