@@ -124,36 +124,41 @@ def test_worker_stop_sigterm_to_a_host_whose_redis_is_gone(tmp_path):
             host.stop(signal.SIGKILL)
 
 
-def test_worker_stop_the_channel_s_thread_is_told_before_unsubscribe_s_reply_comes(api):
+def test_worker_stop_the_channel_s_thread_is_told_before_unsubscribe_s_reply_comes(api, monkeypatch):
     """RQ's thread that listens on the host's channel reads it in blocks of 60 s, and RQ told it to end only after
     sending UNSUBSCRIBE: where the thread read the reply first (the order a loaded machine gives; forced here),
     it read on, and the host's stop waited out that block (stops of 30 s and more, killed by the tests' bound).
     HostWorker tells it first: the reply ends it, and the stop does not wait."""
     import time
 
+    from redis.client import PubSub
     from rq import Queue
 
     from server.queue.redis.horse import connect
     from server.queue.redis.workers import HostWorker
 
+    reads, read = [], PubSub.get_message
+
+    def counted(self, *args, **kwargs):  # each read a thread starts, from the listening thread's first
+        reads.append(time.monotonic())
+        return read(self, *args, **kwargs)
+
+    monkeypatch.setattr(PubSub, "get_message", counted)
     _, redis_server, _ = api
     conn = connect(redis_server.url.replace("/0", "/7"))
     worker = HostWorker([Queue("interactive", connection=conn)], connection=conn, name="stop-probe")
     worker.subscribe()
     thread, pubsub = worker.pubsub_thread, worker.pubsub
-    reads, read, unsubscribe = [], pubsub.get_message, pubsub.unsubscribe
-
-    def counted(*args, **kwargs):  # each read the thread starts
-        reads.append(time.monotonic())
-        return read(*args, **kwargs)
+    unsubscribe = pubsub.unsubscribe
 
     def reply_read_first(*args, **kwargs):  # UNSUBSCRIBE sent, then its reply read before anything else runs
         before = len(reads)
         unsubscribe(*args, **kwargs)
         wait_for(lambda: len(reads) > before or not thread.is_alive(), 20, "the thread to read the reply")
 
-    pubsub.get_message, pubsub.unsubscribe = counted, reply_read_first
-    wait_for(lambda: reads, 20, "the thread's next read")  # it reads (the patched method) before it is told
+    pubsub.unsubscribe = reply_read_first
+    # the first read returns SUBSCRIBE's reply; the second waits for the channel's next message
+    wait_for(lambda: len(reads) >= 2, 20, "the thread's second read")
     started = time.monotonic()
     worker.unsubscribe()
     took = time.monotonic() - started
