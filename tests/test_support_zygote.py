@@ -17,7 +17,7 @@ def start(tmp_path, argv: list[str], name: str, fork: bool, env: dict | None = N
     """Start `argv` as the tests' servers are, wait for its end: (the process, its exit status, its log)."""
     with open(tmp_path / name, "ab") as log:
         env = dict(os.environ) if env is None else env
-        proc = zygote.start(argv, env=env, cwd=ROOT, log=log, new_session=new_session, fork=fork, root=ROOT)
+        proc = zygote.start(argv, env=env, cwd=ROOT, log=log, new_session=new_session, fork=fork)
         status = proc.wait(timeout=60)
     return proc, status, (tmp_path / name).read_text()
 
@@ -65,9 +65,9 @@ def test_zygote_a_forked_process_is_given_what_an_execd_one_is(tmp_path, monkeyp
 def test_zygote_forks_only_what_a_fork_starts_as_exec_would(tmp_path):
     argv = [sys.executable, "-m", "server", "--port", "1"]
     tracer_only = {**os.environ, "TRACER_WORKERS": "3"}
-    assert zygote.forkable(argv, tracer_only, str(ROOT), str(ROOT)) == "server"
+    assert zygote.forkable(argv, tracer_only, ROOT) == "server"
     other = {**os.environ, "PYTHONSTARTUP": "/nowhere"}  # read by the interpreter as it starts: exec'd
-    assert zygote.forkable(argv, other, str(ROOT), str(ROOT)) is None
-    assert zygote.forkable(argv, tracer_only, str(tmp_path), str(ROOT)) is None  # elsewhere: sys.path[0] differs
-    assert zygote.forkable([sys.executable, "-m", "tracer", "render"], tracer_only, str(ROOT), str(ROOT)) is None
-    assert zygote.forkable(["python3", "-m", "server"], tracer_only, str(ROOT), str(ROOT)) is None
+    assert zygote.forkable(argv, other, ROOT) is None
+    assert zygote.forkable(argv, tracer_only, tmp_path) is None  # elsewhere: sys.path[0] differs
+    assert zygote.forkable([sys.executable, "-m", "tracer", "render"], tracer_only, ROOT) is None
+    assert zygote.forkable(["python3", "-m", "server"], tracer_only, ROOT) is None

@@ -225,9 +225,7 @@ class Server:
         self.log = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
         cmd = [sys.executable, "-m", "server", "--port", str(self.port), "--data-dir", str(self.data_dir)]
         cmd += ["--workers", str(self.workers)]
-        self.proc = zygote.start(
-            cmd, env=self.env, cwd=ROOT, log=self.log, new_session=self.group, fork=self.fork, root=ROOT
-        )
+        self.proc = zygote.start(cmd, env=self.env, cwd=ROOT, log=self.log, new_session=self.group, fork=self.fork)
         wait_for(self._ready, SERVER_START_TIMEOUT, f"the server to start (log: {self.log_path})", interval=0.2)
         return self
 

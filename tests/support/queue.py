@@ -114,9 +114,7 @@ class Process:
 
     def start(self) -> Process:
         self.out = open(self.log_path, "ab")  # noqa: SIM115 (closed in stop)
-        self.proc = zygote.start(
-            self.argv, env=self.env, cwd=ROOT, log=self.out, new_session=True, fork=self.fork, root=ROOT
-        )
+        self.proc = zygote.start(self.argv, env=self.env, cwd=ROOT, log=self.out, new_session=True, fork=self.fork)
         return self
 
     @property
@@ -148,14 +146,11 @@ class Process:
 class Api(Process):
     """The API with the Redis backend on a loopback port, and an HTTP client to it."""
 
-    def __init__(
-        self, data_dir: Path, redis_url: str, port: int | None = None, env: dict | None = None, fork: bool = True
-    ):
+    def __init__(self, data_dir: Path, redis_url: str, port: int | None = None, env: dict | None = None):
         self.port = port or free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         data_dir.mkdir(parents=True, exist_ok=True)
-        argv = api_argv(data_dir, self.port, redis_url)
-        super().__init__(argv, data_dir.parent / f"api-{self.port}.log", env, fork)
+        super().__init__(api_argv(data_dir, self.port, redis_url), data_dir.parent / f"api-{self.port}.log", env)
         self.client = httpx.Client(base_url=self.url, timeout=30)
 
     def start(self) -> Api:

@@ -35,7 +35,9 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[2]  # the repository's: where the commands run (sys.path[0] is theirs)
 ZYGOTES = {
     # the command's module, and what its start imports after its own top-level imports (also imported)
     "server": ("server/__main__.py", ["server.main"]),
@@ -156,10 +158,10 @@ def _zygote(module: str) -> None:
 class Zygote:
     """One zygote process (for one module), started here; `ask` sends a request and reads its answer."""
 
-    def __init__(self, module: str, root: str):
+    def __init__(self, module: str):
         self.module, self.env = module, dict(os.environ)
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "tests.support.zygote", module], cwd=root, env=self.env,
+            [sys.executable, "-m", "tests.support.zygote", module], cwd=ROOT, env=self.env,
             stdin=subprocess.PIPE, stdout=subprocess.PIPE,
         )  # fmt: skip
         self.lock = threading.Lock()
@@ -224,29 +226,29 @@ _zygotes: dict[str, Zygote] = {}
 _zygotes_lock = threading.Lock()
 
 
-def _zygote_for(module: str, root: str) -> Zygote:
+def _zygote_for(module: str) -> Zygote:
     with _zygotes_lock:
         z = _zygotes.get(module)
         if z is None or not z.alive():
             if not _zygotes:
                 atexit.register(close_all)
-            z = _zygotes[module] = Zygote(module, root)
+            z = _zygotes[module] = Zygote(module)
         return z
 
 
 def close_all() -> None:
-    """End the zygotes (the session's end: tests/conftest.py)."""
+    """End the zygotes (at this process's exit: registered with atexit at the first one's start)."""
     with _zygotes_lock:
         for z in _zygotes.values():
             z.close()
         _zygotes.clear()
 
 
-def forkable(argv: list[str], env: dict, cwd: str, root: str) -> str | None:
+def forkable(argv: list[str], env: dict, cwd) -> str | None:
     """The module of a `python -m MODULE` command a zygote can start as exec would, else None."""
     if len(argv) < 3 or argv[0] != sys.executable or argv[1] != "-m" or argv[2] not in ZYGOTES:
         return None
-    if os.path.realpath(cwd) != os.path.realpath(root):
+    if os.path.realpath(cwd) != str(ROOT):
         return None
     base = _zygotes[argv[2]].env if argv[2] in _zygotes else os.environ
     differ = {k for k in set(env) | set(base) if env.get(k) != base.get(k)}
@@ -259,11 +261,11 @@ def _umask() -> int:
         return int(next(line for line in f if line.startswith("Umask:")).split()[1], 8)
 
 
-def start(argv: list[str], *, env: dict, cwd, log, new_session: bool = False, fork: bool = True, root):
+def start(argv: list[str], *, env: dict, cwd, log, new_session: bool = False, fork: bool = True):
     """`subprocess.Popen(argv, cwd=cwd, env=env, stdout=log, stderr=STDOUT, start_new_session=...)`, forked
     from the command's zygote where it can be (`forkable`); `log` an open file (binary, append) with a name."""
     fork = fork and os.environ.get("TRACER_TEST_ZYGOTE", "1") != "0"
-    module = forkable(argv, env, str(cwd), str(root)) if fork else None
+    module = forkable(argv, env, cwd) if fork else None
     if module is None:
         return subprocess.Popen(
             argv, cwd=cwd, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=new_session
@@ -274,7 +276,7 @@ def start(argv: list[str], *, env: dict, cwd, log, new_session: bool = False, fo
         "op": "start", "args": argv[3:], "env": env, "cwd": str(cwd), "log": log.name, "new_session": new_session,
         "umask": umask, "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)),
     }  # fmt: skip
-    zygote = _zygote_for(module, str(root))
+    zygote = _zygote_for(module)
     answer = zygote.ask(req)
     if "error" in answer:
         raise RuntimeError(f"the zygote could not start {' '.join(argv[1:])}: {answer['error']}")
