@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import resource
+import signal
 import subprocess
 import sys
 
@@ -60,6 +61,7 @@ def test_zygote_a_forked_process_is_given_what_an_execd_one_is(tmp_path, monkeyp
     assert lines[1] == f"env seen cwd {ROOT} own session True"
     assert lines[2] == f"umask 0o27 open files ({min(soft, 512)}, {hard})"
     assert lines[3] == f"fds [0, 1, 2, 3] path0 {ROOT}"  # stdin, the log twice, and the listing
+    assert "ZYGOTES" not in lines[4]  # its own module's names, not the zygote's
 
 
 def test_zygote_forks_only_what_a_fork_starts_as_exec_would(tmp_path):
@@ -71,3 +73,39 @@ def test_zygote_forks_only_what_a_fork_starts_as_exec_would(tmp_path):
     assert zygote.forkable(argv, tracer_only, tmp_path) is None  # elsewhere: sys.path[0] differs
     assert zygote.forkable([sys.executable, "-m", "tracer", "render"], tracer_only, ROOT) is None
     assert zygote.forkable(["python3", "-m", "server"], tracer_only, ROOT) is None
+
+
+def test_zygote_a_forked_server_s_forkserver_and_its_child_are_given_what_an_execd_one_s_are(tmp_path, monkeypatch):
+    """The probe, in a session of its own, changes a variable, its directory and its open-files limit after its
+    start (as a server does before its pools start), then starts a child from the server's forkserver: forked from
+    the zygote (its forkserver the process forked ahead, its imports made) and exec'd (a fresh forkserver), the
+    forkserver is the probe's child in its group and session, deaf to SIGTERM and SIGINT, and the child is given
+    the same (the same lines)."""
+    monkeypatch.delenv("TRACER_TEST_ZYGOTE", raising=False)
+    argv = [sys.executable, "-m", "tests.support.zygote_probe"]
+    env = {**os.environ, "TRACER_PROBE_FORKSERVER": str(tmp_path)}
+    forked, forked_status, forked_log = start(tmp_path, argv, "forked.log", True, env, new_session=True)
+    execd, execd_status, execd_log = start(tmp_path, argv, "execd.log", False, env, new_session=True)
+    assert isinstance(forked, zygote.Forked)
+    assert forked_status == 0, forked_log
+    assert execd_status == 0, execd_log
+    lines, execd_lines = forked_log.splitlines(), execd_log.splitlines()
+    commands = [line for line in lines if line.startswith("forkserver: command")]
+    assert commands[0].endswith("-m tests.support.zygote tests.support.zygote_probe"), commands  # the one ahead
+    assert "from multiprocessing.forkserver import main" in execd_log, execd_log  # a fresh interpreter
+    assert [line for line in lines if line not in commands] == [
+        line for line in execd_lines if not line.startswith("forkserver: command")
+    ]
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    assert lines[5] == "forkserver: the probe's child True its group True", forked_log
+    assert lines[6].startswith("forkserver: its session True ignored "), forked_log
+    ignored = int(lines[6].split()[5], 16)
+    assert ignored & (1 << (signal.SIGTERM - 1)), lines[6]  # server/core/forkserver.py
+    assert ignored & (1 << (signal.SIGINT - 1)), lines[6]  # multiprocessing's forkserver main()
+    assert lines[7].startswith("child: its session True"), forked_log
+    assert lines[8] == "child: env set after the start cuda ''", forked_log
+    umask = os.umask(0)
+    os.umask(umask)
+    assert lines[9] == f"child: cwd {tmp_path} umask {oct(umask)} open files ({soft - 1}, {hard})"
+    assert lines[10] == "child: imported True", forked_log
+    assert lines[-1] == "child: exit status 0", forked_log

@@ -21,6 +21,10 @@ A forked process is not the caller's child: `Forked` is what the tests use of `P
 send_signal, terminate, kill, returncode), its exit status read from the zygote, which reaps a child only when
 asked, as Popen does (its pid is never reused while a test may still signal it). A zygote ends when its stdin
 closes: at the test process's exit, or when the test process dies.
+
+A forked server's pools start their processes from a multiprocessing forkserver, a fresh interpreter that makes
+its imports first (another second of CPU): its zygote has made those too, and the forkserver is a process forked
+with the server, ready to become it (`_forkserver_ahead`, below).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ import subprocess
 import sys
 import threading
 import time
+import types
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository's: where the commands run (sys.path[0] is theirs)
@@ -50,6 +55,14 @@ ZYGOTES = {
 # variables besides TRACER_* that may differ from the zygote's: nothing reads them at import (pytest names the
 # test running in PYTEST_CURRENT_TEST, so it differs at every start); the child gets the caller's, as exec would
 RUNTIME_ONLY = {"PYTEST_CURRENT_TEST"}
+# the commands whose children start from a multiprocessing forkserver (server/core/children.py): their zygote has
+# made the forkserver's imports too, and each start comes with one ready to become its forkserver (below)
+FORKSERVER_USERS = {"server", "tests.support.zygote_probe"}
+# what a forkserver started here imports itself: its first module's work is its own process's (SIGTERM ignored,
+# CUDA hidden), and the tests' servers preload no mesh reader (tests/support/api.py)
+FORKSERVER_OWN = {"server.core.forkserver", "trimesh"}
+FORKSERVER_MAIN = "from multiprocessing.forkserver import main; "  # how multiprocessing starts one: -c and this
+FORKSERVER_ADDRESS = "tests-zygote-forkserver-"  # and the command's pid: where the one ahead of it listens
 POLL_SECONDS = 0.02  # a wait's look at whether the process has ended (Popen.wait sleeps up to 0.05 s between)
 
 
@@ -146,10 +159,124 @@ def _zygote(module: str) -> None:
     path, later = ZYGOTES[module]
     for name in _imports_of(path) + later:
         importlib.import_module(name)
+    if module in FORKSERVER_USERS:
+        _import_forkserver_preload()
     _answer({"ready": os.getpid()})
     req = _serve()
     if req is not None:  # a child: the command, as `python -m MODULE ARGS` runs it
+        if module in FORKSERVER_USERS:
+            _forkserver_ahead()
+        main = sys.modules["__main__"] = types.ModuleType("__main__")  # the command's own namespace, not this one's
+        main.__annotations__ = {}  # as the interpreter makes it
         runpy._run_module_as_main(module)  # noqa: SLF001 (what -m calls)
+
+
+# -- a forkserver without its imports: multiprocessing starts one per server (the first child of a pool starts it),
+# a fresh interpreter that imports numpy, Warp and the tracer first (about 1.1 s of CPU; server/core/children.py).
+# A forked start comes with a process, forked before the command runs (no thread yet, nothing open), that waits to
+# become that forkserver: the command's own multiprocessing asks it instead of exec'ing an interpreter, hands it the
+# same descriptors and the command's state at that moment (environment, directory, umask, open-files limit), and
+# it runs multiprocessing's own forkserver main(), its preloads already imported but FORKSERVER_OWN. It is the
+# command's child, in its session and process group, as the exec'd one would be; unasked, it ends with the command.
+
+
+def _import_forkserver_preload() -> None:
+    """In the zygote: what the server's forkserver imports, as it imports it (CUDA hidden from Warp)."""
+    from server.core.children import PRELOAD
+
+    before = os.environ.get("CUDA_VISIBLE_DEVICES")
+    os.environ["CUDA_VISIBLE_DEVICES"] = ""  # as server.core.forkserver sets it for its process tree
+    try:
+        for name in PRELOAD:
+            if name not in FORKSERVER_OWN:
+                importlib.import_module(name)
+    finally:
+        if before is None:
+            del os.environ["CUDA_VISIBLE_DEVICES"]
+        else:
+            os.environ["CUDA_VISIBLE_DEVICES"] = before
+
+
+def _forkserver_ahead() -> None:
+    """In a forked child, before its command runs: fork the process that becomes its forkserver when asked. It
+    listens on a socket of the abstract namespace named by this process's pid; this process keeps nothing open."""
+    import multiprocessing.util
+    import signal
+    import socket
+
+    command = os.getpid()
+    address = f"\0{FORKSERVER_ADDRESS}{command}"
+    listener = socket.socket(socket.AF_UNIX)
+    listener.bind(address)
+    listener.listen(1)
+    pid = os.fork()
+    if pid == 0:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C to the group: no traceback from a waiting helper
+        _become_forkserver(listener, command)
+        sys.exit(0)  # (main never returns: it ends with SystemExit at its clients' end)
+    listener.close()
+    spawn, lock, asked = multiprocessing.util.spawnv_passfds, threading.Lock(), []
+
+    def spawnv_passfds(path, args, passfds):
+        with lock:
+            if asked or not args or not str(args[-1]).startswith(FORKSERVER_MAIN):
+                return spawn(path, args, passfds)  # another helper (the resource tracker), or a second forkserver
+            asked.append(pid)
+        called = []  # main(listener_fd, alive_r, preload, **data), as multiprocessing wrote the call
+        exec(args[-1][len(FORKSERVER_MAIN) :], {"main": lambda *a, **kw: called.append((a, kw))})  # noqa: S102
+        (fd, alive, preload), data = called[0]
+        state = {
+            "preload": preload, "data": data, "env": dict(os.environ), "cwd": os.getcwd(), "umask": _umask(),
+            "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)),
+        }  # fmt: skip
+        with socket.socket(socket.AF_UNIX) as conn:
+            conn.connect(address)
+            socket.send_fds(conn, [json.dumps(state).encode()], [fd, alive])
+            if conn.recv(16) != b"ok":
+                raise OSError(f"the forkserver {pid} ahead of this process did not start")
+        return pid
+
+    multiprocessing.util.spawnv_passfds = spawnv_passfds
+
+
+def _become_forkserver(listener, command: int) -> None:
+    """In the helper: wait for the command's request, then be its forkserver (or end, unasked, with it)."""
+    import multiprocessing.forkserver
+    import select
+    import signal
+    import socket
+    import struct
+
+    try:
+        gone = os.pidfd_open(command)  # readable once the command has ended
+    except OSError:  # no pidfd (a kernel before 5.3): look every second
+        gone = None
+    while True:
+        ready, _, _ = select.select([listener] + ([gone] if gone is not None else []), [], [], None if gone else 1.0)
+        if (gone is not None and gone in ready) or os.getppid() != command:
+            os._exit(0)  # the command has ended without a forkserver
+        if listener not in ready:
+            continue
+        conn, _ = listener.accept()
+        peer = struct.unpack("3i", conn.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, 12))[0]
+        if peer == command:
+            break
+        conn.close()  # not its command's: another process of the network namespace
+    message, fds, _, _ = socket.recv_fds(conn, 1 << 20, 2)
+    listener.close()
+    if gone is not None:
+        os.close(gone)
+    state = json.loads(message)
+    os.environ.clear()
+    os.environ.update(state["env"])
+    os.chdir(state["cwd"])
+    os.umask(state["umask"])
+    resource.setrlimit(resource.RLIMIT_NOFILE, tuple(state["nofile"]))
+    sys.argv = ["-c"]  # as `python -c` leaves it
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # the interpreter's, which main() records for children
+    conn.send(b"ok")
+    conn.close()
+    multiprocessing.forkserver.main(fds[0], fds[1], state["preload"], **state["data"])
 
 
 # -- the test process's side -------------------------------------------------------------------------------

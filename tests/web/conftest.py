@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.api import INSTRUCTOR, Server, bearer
+from tests.support.api import INSTRUCTOR, Server, bearer, run_solutions
 from tests.support.lms import lms, tool  # noqa: F401  (the fixtures, registered here for the folder)
 from tests.support.page import CHROMIUM, CHROMIUM_ARGS, DESKTOP, PHONE, SHOTS, Page
 
@@ -57,6 +57,7 @@ def server(tmp_path_factory):
     # every page of the session is a new student on 127.0.0.1, within the caps' hour: the whole session's tokens
     # and joins would pass one address's caps (60 and 20), which tests/server/core/test_api_clients.py tests
     env |= {"TRACER_MAX_NEW_TOKENS_PER_ADDRESS": "100000", "TRACER_MAX_JOINS_PER_ADDRESS": "100000"}
+    env |= run_solutions(tmp_path_factory)  # the examples' radiosity previews solved once in a run
     with Server(tmp_path_factory.mktemp("web-data"), workers=1, env=env) as s:
         SHARED.append(s)
         yield s

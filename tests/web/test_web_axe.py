@@ -27,7 +27,7 @@ from datetime import UTC, datetime, timedelta
 import httpx
 import pytest
 
-from tests.support.api import INSTRUCTOR, Server, bearer, wait_for
+from tests.support.api import INSTRUCTOR, Server, bearer, run_solutions, wait_for
 from tests.support.axe import assert_accessible
 from tests.support.dashboard import good_scene, small_spec
 from tests.support.grading_page import enter_token, load_example
@@ -38,7 +38,7 @@ SIZE = (64, 48)  # the workspace's render: its ray tree in well under a second
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
-    env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR}
+    env = {"TRACER_PREVIEW_INTERVAL": "0.1", "TRACER_INSTRUCTOR_TOKEN": INSTRUCTOR, **run_solutions(tmp_path_factory)}
     with Server(tmp_path_factory.mktemp("web-axe-data"), workers=1, env=env) as s:
         yield s
 

@@ -13,7 +13,7 @@ import string
 
 import pytest
 
-from tests.support.api import Server
+from tests.support.api import Server, run_solutions
 from tests.support.page import DESKTOP, Page, render, set_scene, whitted
 from tests.support.scene import scene_dict
 
@@ -240,8 +240,9 @@ def test_web_inspect_read_only_link_to_a_job(desktop, browser):
 def fresh_server(tmp_path_factory):
     """A server that renders the examples' previews ahead, as `python -m server` does; at 64 pixels, not the
     default 160 (what the page is asked here is the cards' states and pictures, whatever their size: 16 % of the
-    pixels, about 7 s of CPU against 45; tests/server/jobs/test_previews.py renders them at the default size)."""
-    env = {"TRACER_PREVIEWS_AHEAD": "1", "TRACER_PREVIEW_SIZE": "64"}
+    pixels, about 7 s of CPU against 45; tests/server/jobs/test_previews.py renders them at the default size), the
+    radiosity examples' solutions from the run's shared cache (`run_solutions`) where another server solved them."""
+    env = {"TRACER_PREVIEWS_AHEAD": "1", "TRACER_PREVIEW_SIZE": "64", **run_solutions(tmp_path_factory)}
     with Server(tmp_path_factory.mktemp("web-previews"), workers=1, env=env) as s:
         yield s
 
