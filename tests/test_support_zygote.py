@@ -77,10 +77,11 @@ def test_zygote_forks_only_what_a_fork_starts_as_exec_would(tmp_path):
 
 def test_zygote_a_forked_server_s_forkserver_and_its_child_are_given_what_an_execd_one_s_are(tmp_path, monkeypatch):
     """The probe, in a session of its own, changes a variable, its directory and its open-files limit after its
-    start (as a server does before its pools start), then starts a child from the server's forkserver: forked from
-    the zygote (its forkserver the process forked ahead, its imports made) and exec'd (a fresh forkserver), the
-    forkserver is the probe's child in its group and session, deaf to SIGTERM and SIGINT, and the child is given
-    the same (the same lines)."""
+    start (as a server does before its pools start) and ignores SIGUSR1, then starts a child from the server's
+    forkserver: forked from the zygote (its forkserver the process forked ahead, its imports made) and exec'd (a
+    fresh forkserver), the forkserver is the probe's child in its group and session, deaf to SIGTERM and SIGINT,
+    and the child is given the same (the same lines; the signals as the environment has them: CI's background run
+    ignores SIGINT from its start)."""
     monkeypatch.delenv("TRACER_TEST_ZYGOTE", raising=False)
     argv = [sys.executable, "-m", "tests.support.zygote_probe"]
     env = {**os.environ, "TRACER_PROBE_FORKSERVER": str(tmp_path)}
@@ -102,6 +103,7 @@ def test_zygote_a_forked_server_s_forkserver_and_its_child_are_given_what_an_exe
     ignored = int(lines[6].split()[5], 16)
     assert ignored & (1 << (signal.SIGTERM - 1)), lines[6]  # server/core/forkserver.py
     assert ignored & (1 << (signal.SIGINT - 1)), lines[6]  # multiprocessing's forkserver main()
+    assert ignored & (1 << (signal.SIGUSR1 - 1)), lines[6]  # as the probe had it when it started the forkserver
     assert lines[7].startswith("child: its session True"), forked_log
     assert lines[8] == "child: env set after the start cuda ''", forked_log
     umask = os.umask(0)

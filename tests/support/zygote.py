@@ -227,7 +227,7 @@ def _forkserver_ahead() -> None:
         (fd, alive, preload), data = called[0]
         state = {
             "preload": preload, "data": data, "env": dict(os.environ), "cwd": os.getcwd(), "umask": _umask(),
-            "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)),
+            "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)), "ignored": _ignored_signals(),
         }  # fmt: skip
         with socket.socket(socket.AF_UNIX) as conn:
             conn.connect(address)
@@ -239,11 +239,35 @@ def _forkserver_ahead() -> None:
     multiprocessing.util.spawnv_passfds = spawnv_passfds
 
 
+def _ignored_signals() -> int:
+    """This process's ignored signals, as the kernel has them (bit N-1: signal N)."""
+    with open("/proc/self/status") as f:
+        return int(next(line for line in f if line.startswith("SigIgn:")).split()[1], 16)
+
+
+def _signals_as_execd(ignored: int) -> None:
+    """The signal dispositions an interpreter exec'd by a process that ignores `ignored` starts with: exec keeps
+    what is ignored and sets the rest to the default, and Python ignores SIGPIPE and SIGXFSZ itself and raises
+    KeyboardInterrupt on SIGINT where it is not ignored."""
+    import signal
+
+    for sig in signal.valid_signals():
+        if sig in (signal.SIGKILL, signal.SIGSTOP):
+            continue
+        if sig in (signal.SIGPIPE, signal.SIGXFSZ) or ignored & (1 << (sig - 1)):
+            handler = signal.SIG_IGN
+        else:
+            handler = signal.default_int_handler if sig == signal.SIGINT else signal.SIG_DFL
+        try:
+            signal.signal(sig, handler)
+        except (OSError, ValueError):  # one the interpreter may not set (the C library's own)
+            pass
+
+
 def _become_forkserver(listener, command: int) -> None:
     """In the helper: wait for the command's request, then be its forkserver (or end, unasked, with it)."""
     import multiprocessing.forkserver
     import select
-    import signal
     import socket
     import struct
 
@@ -273,7 +297,7 @@ def _become_forkserver(listener, command: int) -> None:
     os.umask(state["umask"])
     resource.setrlimit(resource.RLIMIT_NOFILE, tuple(state["nofile"]))
     sys.argv = ["-c"]  # as `python -c` leaves it
-    signal.signal(signal.SIGINT, signal.default_int_handler)  # the interpreter's, which main() records for children
+    _signals_as_execd(state["ignored"])  # which main() records for its children
     conn.send(b"ok")
     conn.close()
     multiprocessing.forkserver.main(fds[0], fds[1], state["preload"], **state["data"])

@@ -1,10 +1,12 @@
 """python -m tests.support.zygote_probe ARGS: prints what a started process was given (tests/test_support_zygote.py
 starts it forked from a zygote and exec'd, and compares). With TRACER_PROBE_FORKSERVER set, it then changes its own
-state as a server does before its pools start (a variable, its directory, its open-files limit), starts a child
-from the server's forkserver (server/core/children.py) and prints what the forkserver and the child were given."""
+state as a server does before its pools start (a variable, its directory, its open-files limit, a signal), starts
+a child from the server's forkserver (server/core/children.py) and prints what the forkserver and the child were
+given."""
 
 import os
 import resource
+import signal
 import sys
 
 
@@ -53,6 +55,7 @@ def main() -> None:
         from server.core.children import context
 
         os.environ["TRACER_PROBE_LATER"] = "set after the start"
+        signal.signal(signal.SIGUSR1, signal.SIG_IGN)  # ignored after the start: so in an exec'd forkserver too
         os.chdir(os.environ["TRACER_PROBE_FORKSERVER"])
         soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
         resource.setrlimit(resource.RLIMIT_NOFILE, (soft - 1, hard))

@@ -93,7 +93,11 @@ def test_migrations_todays_release_starts_with_every_job_and_grade(upgraded):
         assert c.get(f"/api/assignments/{aid}/roster", headers=TEACHER).json()["students"] == want["roster"]
         subs = c.get(f"/api/assignments/{aid}/submissions", headers=TEACHER).json()["submissions"]
         keys = ("id", "student", "status", "score", "max_score", "late")
-        assert [{k: s[k] for k in keys} for s in subs] == want["submissions"], f"{name}'s submissions"
+        got = [{k: s[k] for k in keys} for s in subs]
+        for s in got:  # the release left it queued; this server may have taken it up since it started (its
+            if s["id"] == EXPECTED["ungraded"] and s["status"] == "grading":  # render waits: it has no worker)
+                s["status"] = "queued"
+        assert got == want["submissions"], f"{name}'s submissions"
         assert c.get(f"/api/assignments/{aid}/grades.csv", headers=TEACHER).text == want["grades_csv"]
         for student, token in want["tokens"].items():  # each student's link still works, and is theirs
             r = c.get(f"/api/assignments/{aid}", headers=bearer(token))
