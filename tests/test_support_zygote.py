@@ -111,3 +111,18 @@ def test_zygote_a_forked_server_s_forkserver_and_its_child_are_given_what_an_exe
     assert lines[9] == f"child: cwd {tmp_path} umask {oct(umask)} open files ({soft - 1}, {hard})"
     assert lines[10] == "child: imported True", forked_log
     assert lines[-1] == "child: exit status 0", forked_log
+
+
+def test_zygote_a_forked_server_whose_forkserver_ahead_was_killed_execs_one(tmp_path, monkeypatch):
+    """The process forked ahead to become the forkserver killed before it is asked: the pool's start execs a
+    forkserver, as without the zygote, and the child starts from it."""
+    monkeypatch.delenv("TRACER_TEST_ZYGOTE", raising=False)
+    argv = [sys.executable, "-m", "tests.support.zygote_probe"]
+    env = {**os.environ, "TRACER_PROBE_FORKSERVER": str(tmp_path), "TRACER_PROBE_KILL_AHEAD": "1"}
+    forked, status, log = start(tmp_path, argv, "forked.log", True, env, new_session=True)
+    assert isinstance(forked, zygote.Forked)
+    assert status == 0, log
+    assert "forkserver: command " in log, log
+    assert "from multiprocessing.forkserver import main" in log, log  # exec'd
+    assert "child: imported True" in log, log
+    assert log.splitlines()[-1] == "child: exit status 0", log

@@ -211,7 +211,9 @@ def _forkserver_ahead() -> None:
     listener.listen(1)
     pid = os.fork()
     if pid == 0:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C to the group: no traceback from a waiting helper
+        # the group's Ctrl-C or SIGTERM: no traceback from a waiting helper, which ends with its command anyway
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         _become_forkserver(listener, command)
         sys.exit(0)  # (main never returns: it ends with SystemExit at its clients' end)
     listener.close()
@@ -229,12 +231,15 @@ def _forkserver_ahead() -> None:
             "preload": preload, "data": data, "env": dict(os.environ), "cwd": os.getcwd(), "umask": _umask(),
             "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)), "ignored": _ignored_signals(),
         }  # fmt: skip
-        with socket.socket(socket.AF_UNIX) as conn:
-            conn.connect(address)
-            socket.send_fds(conn, [json.dumps(state).encode()], [fd, alive])
-            if conn.recv(16) != b"ok":
-                raise OSError(f"the forkserver {pid} ahead of this process did not start")
-        return pid
+        try:
+            with socket.socket(socket.AF_UNIX) as conn:
+                conn.connect(address)
+                socket.send_fds(conn, [json.dumps(state).encode()], [fd, alive])
+                if conn.recv(16) == b"ok":
+                    return pid
+        except OSError:
+            pass
+        return spawn(path, args, passfds)  # the helper is gone (killed): a forkserver exec'd, as without it
 
     multiprocessing.util.spawnv_passfds = spawnv_passfds
 
