@@ -183,10 +183,11 @@ def parse_sse(lines: Iterable[str]) -> Iterator[tuple[str, dict]]:
 
 
 def run_solutions(tmp_path_factory) -> dict[str, str]:
-    """TRACER_CACHE_DIR for a server of the page's tests: a radiosity solution cache shared by the run's servers
-    that ask for it (each pytest process's base folder is under the run's one). The examples' two radiosity
-    scenes are solved once in a run instead of once by each such server (about 10 s of CPU each time, their
-    previews); the solutions are the same bits (a cache's key is all the solve depends on, tracer/radiosity/cache.py).
+    """TRACER_CACHE_DIR for a server of the page's tests (and the previews' test): a radiosity solution cache shared
+    by the run's servers that ask for it (each pytest process's base folder is under the run's one). The examples'
+    two radiosity scenes are solved once in a run instead of once by each such server (about 10 s of CPU each time,
+    their previews); the solutions are the same bits (a cache's key is all the solve depends on,
+    tracer/radiosity/cache.py).
     Only for servers whose tests ask nothing of a solve itself: where a solve is fresh, what it reports, is tested
     with a server's own cache (tests/server/api/test_api_aov.py, test_queue_redis.py)."""
     base = tmp_path_factory.getbasetemp()

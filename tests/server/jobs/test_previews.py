@@ -12,12 +12,15 @@ from server.jobs.lifecycle import JobStatus
 from server.jobs.previews import Previews
 from server.jobs.service import JobService
 from server.jobs.store import JobStore
-from tests.support.api import INSTRUCTOR, api_client, bearer
+from tests.support.api import INSTRUCTOR, api_client, bearer, run_solutions
 from tests.support.scene import SCENES
 
 
-def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(tmp_path):
-    with api_client(tmp_path / "data", workers=1, previews_ahead=True, instructor_token=INSTRUCTOR) as client:
+def test_previews_are_rendered_ahead_by_a_worker_and_served_by_the_scenes_route(tmp_path, tmp_path_factory):
+    solutions = run_solutions(tmp_path_factory)["TRACER_CACHE_DIR"]  # the radiosity examples solved once in a run
+    with api_client(
+        tmp_path / "data", workers=1, previews_ahead=True, instructor_token=INSTRUCTOR, cache_dir=solutions
+    ) as client:
         names = [s["name"] for s in client.get("/api/scenes").json()]
         deadline = time.monotonic() + 240
         while time.monotonic() < deadline:  # nobody asks for a picture: the worker renders them all
