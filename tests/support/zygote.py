@@ -175,9 +175,10 @@ def _zygote(module: str) -> None:
 # a fresh interpreter that imports numpy, Warp and the tracer first (about 1.1 s of CPU; server/core/children.py).
 # A forked start comes with a process, forked before the command runs (no thread yet, nothing open), that waits to
 # become that forkserver: the command's own multiprocessing asks it instead of exec'ing an interpreter, hands it the
-# same descriptors and the command's state at that moment (environment, directory, umask, open-files limit), and
-# it runs multiprocessing's own forkserver main(), its preloads already imported but FORKSERVER_OWN. It is the
-# command's child, in its session and process group, as the exec'd one would be; unasked, it ends with the command.
+# same descriptors and the command's state at that moment (environment, directory, umask, open-files limit, ignored
+# signals), and it runs multiprocessing's own forkserver main(), its preloads already imported but FORKSERVER_OWN.
+# It is the command's child, in its session and process group, as the exec'd one would be; unasked, it ends with
+# the command.
 
 
 def _import_forkserver_preload() -> None:
@@ -229,7 +230,8 @@ def _forkserver_ahead() -> None:
         (fd, alive, preload), data = called[0]
         state = {
             "preload": preload, "data": data, "env": dict(os.environ), "cwd": os.getcwd(), "umask": _umask(),
-            "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)), "ignored": _ignored_signals(),
+            "nofile": list(resource.getrlimit(resource.RLIMIT_NOFILE)),
+            "ignored": _status("SigIgn", 16),  # bit N-1: signal N
         }  # fmt: skip
         try:
             with socket.socket(socket.AF_UNIX) as conn:
@@ -242,12 +244,6 @@ def _forkserver_ahead() -> None:
         return spawn(path, args, passfds)  # the helper is gone (killed): a forkserver exec'd, as without it
 
     multiprocessing.util.spawnv_passfds = spawnv_passfds
-
-
-def _ignored_signals() -> int:
-    """This process's ignored signals, as the kernel has them (bit N-1: signal N)."""
-    with open("/proc/self/status") as f:
-        return int(next(line for line in f if line.startswith("SigIgn:")).split()[1], 16)
 
 
 def _signals_as_execd(ignored: int) -> None:
@@ -411,10 +407,15 @@ def forkable(argv: list[str], env: dict, cwd) -> str | None:
     return argv[2] if all(k.startswith("TRACER_") or k in RUNTIME_ONLY for k in differ) else None
 
 
+def _status(field: str, base: int) -> int:
+    """A number of this process's /proc status (`Umask`: octal, `SigIgn`: hex)."""
+    with open("/proc/self/status") as f:
+        return int(next(line for line in f if line.startswith(f"{field}:")).split()[1], base)
+
+
 def _umask() -> int:
     """This process's umask, read without setting it (os.umask would change it for a moment, for every thread)."""
-    with open("/proc/self/status") as f:
-        return int(next(line for line in f if line.startswith("Umask:")).split()[1], 8)
+    return _status("Umask", 8)
 
 
 def start(argv: list[str], *, env: dict, cwd, log, new_session: bool = False, fork: bool = True):
