@@ -12,7 +12,8 @@ worker, a random admin token), or a running one given by `--url` (on this machin
 3. the instructor publishes the example assignment (scenes/grading) in that course with their own token;
 4. deep linking: the instructor's deep-linking launch, the pick, the tool's signed answer verified by the LMS,
    which places the link and its gradebook column;
-5. a student's launch of that link: their assignment page, with their token;
+5. a student's launch of that link: their assignment page, with their token; the course's roster read from the LMS
+   (NRPS, as the instructor's launches also do) lists her, active;
 6. the student hands in an example submission, and it is graded;
 7. the grade is received by the LMS (Assignment and Grade Services) and shown in its gradebook, and the tool's
    dashboard counts it sent.
@@ -58,6 +59,11 @@ TEACHER = {"sub": "teacher-1", "roles": [INSTRUCTOR], "context": CONTEXT,
            "overrides": {"name": "Grace Hopper", "given_name": "Grace", "family_name": "Hopper",
                          "email": "grace@example.edu"}}  # fmt: skip
 STUDENT = {"sub": "student-1", "roles": [LEARNER], "context": CONTEXT}  # Ada Lovelace, the platform's default
+ROSTER = [  # the LMS course's members as its roster (NRPS) lists them: the two who launch (a sync keeps Ada active)
+    {"status": "Active", "user_id": TEACHER["sub"], "roles": [INSTRUCTOR], **TEACHER["overrides"]},
+    {"status": "Active", "user_id": STUDENT["sub"], "roles": [LEARNER], "name": "Ada Lovelace", "given_name": "Ada",
+     "family_name": "Lovelace", "email": "ada@example.edu"},
+]  # fmt: skip
 NAV_LINK = {"id": "nav-1", "title": "Ray tracing (course navigation)"}
 START_SECONDS = 300.0  # the tool started here: a first start compiles the render kernels (minutes)
 TIMEOUT = 900.0  # the whole try, at most (the grading renders the reference and the submission on CPU)
@@ -125,6 +131,7 @@ class Trial:
     def run(self) -> dict:
         p = self.platform
         assert p is not None
+        p.members[CONTEXT["id"]] = [dict(m) for m in ROSTER]
         with self.step("Registration"):
             body = p.registration(name="Pretend LMS (python -m server.lti try)")
             r = self.http.post("/api/lti/platforms", json=body, headers=self.admin)
@@ -189,9 +196,14 @@ class Trial:
             assert where == f"/assignments/{aid}" and student, f"the launch went to {r.headers['location']}"
             self.found["student"] = student
             brief = self.http.get(f"/api/assignments/{aid}", headers=bearer(student)).json()
+            r = self.http.post(f"/api/courses/{cid}/lms/sync", headers=bearer(teacher))
+            self.answered(r, 200)
+            synced = r.json()
+            assert synced["members"] == 1 and synced["left"] == 0, f"the roster read from the LMS: {synced}"
             self.done(
                 f"Ada Lovelace (an LMS learner) launched the link: the tool enrolled her as "
-                f"{brief['student']['id']!r} and opened her assignment page, her token in the address"
+                f"{brief['student']['id']!r} and opened her assignment page, her token in the address; the roster "
+                f"read from the LMS (NRPS) lists her, active"
             )
 
         with self.step("A submission graded"):

@@ -37,6 +37,7 @@ def test_lti_try_plays_the_whole_flow_against_a_tool_it_starts_and_exits_0():
         assert f"{i}. {step} ...\n   ok: " in out, f"step {i} ({step}) not done:\n{out}"
     assert "FAILED" not in out
     assert re.search(r"made course LTI-TRY for the LMS course 'LTI try'", out), out
+    assert "the roster read from the LMS (NRPS) lists her, active" in out, out  # a sync then keeps her a student
     assert re.search(r"the LMS received [\d.]+ / 13 for student-1 \(Completed, FullyGraded\)", out), out
     assert "The whole flow works." in out
     for link in ("/start/student", "/start/instructor", "/gradebook", "/assignments/", "/course#token=", "/status"):
