@@ -387,6 +387,7 @@ class Lms:
         submissions and grades; they can no longer submit); one who is back is active again (`back`)."""
         added, seen, unlinked, staff = 0, 0, 0, 0
         active: dict[str, set[str]] = {}  # platform id -> the subs of its active students, over its contexts
+        known = {m["student"] for m in self.course.store.members(cid)}  # a launch during the read is not judged by it
         for ctx in self.store.contexts(cid):
             platform = self.platforms(ctx["platform_id"])
             if platform is None or not ctx["memberships_url"]:
@@ -413,18 +414,19 @@ class Lms:
                 self.person(cid, platform, _Member(m), Role.STUDENT, "LMS roster sync")
                 added += 1
             self.store.set_memberships(ctx["platform_id"], ctx["context_id"], None, self.now())
-        left, back = self._leavers(cid, active)
+        left, back = self._leavers(cid, active, known)
         return {"course": cid, "members": seen, "added": added, "unlinked": unlinked, "staff": staff,
                 "left": left, "back": back}  # fmt: skip
 
-    def _leavers(self, cid: str, active: dict[str, set[str]]) -> tuple[int, int]:
+    def _leavers(self, cid: str, active: dict[str, set[str]], known: set[str]) -> tuple[int, int]:
         """The course's LMS students of the platforms read (`active`: their active students' subs) marked inactive
         when gone, active when back (the one place a sync changes that: an audit call goes here). A platform that
-        listed no student at all is left alone (an LMS's empty answer does not empty a course)."""
+        listed no student at all is left alone (an LMS's empty answer does not empty a course), and so is a student
+        who was not a member when the read began (`known`): their launch may be newer than the roster read."""
         gone, returned = [], []
         for m in self.course.store.members(cid):
             platform_id, _, sub = (m["lti_user"] or "").partition(":")
-            if not active.get(platform_id):
+            if not active.get(platform_id) or m["student"] not in known:
                 continue
             if sub not in active[platform_id] and m["left_at"] is None:
                 gone.append(m["student"])

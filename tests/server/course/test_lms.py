@@ -383,6 +383,35 @@ def test_lms_roster_sync_marks_students_who_left_inactive_adds_staff_and_a_retur
         p.members["course-1"].remove(ta)
 
 
+def test_lms_a_student_who_launches_while_the_roster_is_read_stays_active(tool, lms):
+    """The roster a sync reads may predate a launch made meanwhile (an instructor's launch syncs in the background
+    while a student launches): a student who was not a member when the read began is not judged by it."""
+    url, app, client = tool
+    p, aid = lms
+    lms_side = app.state.lms
+    lms_side.store.set_memberships(p.registered_id, "course-1", f"{p.url}/memberships/course-1", None)
+    read = lms_side.services.members
+
+    def read_then_a_launch(platform, memberships_url, *args):
+        roster = read(platform, memberships_url, *args)  # the LMS's answer, before the student is in it
+        r = p.do_launch(client, url, sub="student-late", roles=[LEARNER], custom={"assignment": aid})
+        assert r.status_code == 303, r.text
+        return roster
+
+    lms_side.services.members = read_then_a_launch
+    try:
+        synced = lms_side.sync("gfx")
+    finally:
+        del lms_side.services.members  # the instance's own again
+
+    def late() -> list:
+        return [m for m in app.state.course.store.members("gfx") if (m["lti_user"] or "").endswith(":student-late")]
+
+    assert synced["members"] >= 1 and len(late()) == 1 and late()[0]["left_at"] is None, (synced, late())
+    r = client.post("/api/courses/gfx/lms/sync", headers=ADMIN)  # the next read, with her not in it: inactive
+    assert r.status_code == 200 and r.json()["left"] >= 1 and late()[0]["left_at"] is not None, (r.text, late())
+
+
 def test_lms_deep_linking_honours_accept_types_and_accept_lineitem(tool, lms):
     """A deep-linking request whose accept_types has no ltiResourceLink gets a page that says why (no picker);
     one with accept_lineitem false gets its link without a lineItem."""
