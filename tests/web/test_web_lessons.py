@@ -172,14 +172,15 @@ def panels_state(page) -> tuple[list[str], list[str], list[str]]:
     return fingerprints(page), jobs, panel_texts(page, ".panel-notes")
 
 
-@pytest.mark.parametrize("lesson", LESSON_IDS)
-def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop, lesson):
-    page = desktop.open("#lessons").page
-    assert page.locator(".lesson-button").count() == len(LESSON_IDS)
-    open_lesson(page, lesson)
+def control_change_checked(page, lesson: str, at_first=None) -> None:
+    """The open lesson's panels done, each saying what it cost; (`at_first()`, a lesson's own checks of these
+    pictures;) its first control changed: the panels it touches render again into different pictures saying what
+    changed, the others stay as they were."""
     before, jobs, notes = panels_state(page)
     costs = panel_texts(page, ".panel-info")
     assert all(re.match(r"[\d,]+ rays: .*[\d,]+ eye", c) and c.endswith(" s") for c in costs), costs
+    if at_first is not None:
+        at_first()
 
     touched = change_control(page, lesson)
     page.wait_for_function(
@@ -197,6 +198,16 @@ def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop
             assert new_notes[i] != notes[i], "the panel does not say what changed"
         else:
             assert (after[i], new_jobs[i]) == (before[i], jobs[i]), f"panel {i} was rendered again"
+
+
+# the noise lesson's control change is checked by test_lesson_noise_errors_against_the_references, around its own
+# checks of the first pictures: its eight panels (two path-traced references) rendered once for both
+@pytest.mark.parametrize("lesson", [lesson for lesson in LESSON_IDS if lesson != "noise"])
+def test_lesson_control_changes_the_pictures_and_the_question_is_checked(desktop, lesson):
+    page = desktop.open("#lessons").page
+    assert page.locator(".lesson-button").count() == len(LESSON_IDS)
+    open_lesson(page, lesson)
+    control_change_checked(page, lesson)
     answer_question(page)
     desktop.shot(f"lesson-{lesson}", full_page=True)
 
@@ -402,32 +413,41 @@ def test_lesson_noise_errors_against_the_references(desktop, server):
     (top row) and on the path-traced Cornell box (bottom row), each with its RMS difference from its row's
     reference. On the floor the film position is all that is sampled: low-discrepancy < jittered < random. In
     the box the noise comes from the bounces, which the sampler does not choose: the three are within 10 %.
-    The page's numbers are checked against the PNGs themselves; the drawings say how evenly the points lie."""
+    The page's numbers are checked against the PNGs themselves; the drawings say how evenly the points lie. Its
+    control's change (to 4 rays) and its question are checked as every lesson's are, around the first pictures'
+    checks; then 64 rays."""
     page = desktop.open("#lessons").page
+    assert page.locator(".lesson-button").count() == len(LESSON_IDS)
     open_lesson(page, "noise")
-    pictures_loaded(page)
-    wait_for_errors(page, 6)
-    errors = panel_errors(page)
-    assert errors[3] is None and errors[7] is None, errors  # the references
-    floor, box = errors[0:3], errors[4:7]
-    assert floor[2] < floor[1] < floor[0] and floor[2] < 0.7 * floor[0], floor
-    assert max(box) < 1.1 * min(box), box
+    errors: list[float | None] = []
 
-    # the numbers are the RMS difference of the pictures' own PNGs (0-255, over the three channels)
-    jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
-    for i, ref in ((0, 3), (2, 3), (5, 7)):
-        rms = float(np.sqrt(((job_png(server, jobs[i]) - job_png(server, jobs[ref])) ** 2).mean()))
-        assert abs(rms - errors[i]) < 0.01, (i, rms, errors[i])
+    def first_pictures() -> None:
+        wait_for_errors(page, 6)
+        errors[:] = panel_errors(page)
+        assert errors[3] is None and errors[7] is None, errors  # the references
+        floor, box = errors[0:3], errors[4:7]
+        assert floor[2] < floor[1] < floor[0] and floor[2] < 0.7 * floor[0], floor
+        assert max(box) < 1.1 * min(box), box
 
-    # one pixel's points: the low-discrepancy ones fill every cell, column and row; random ones leave gaps
-    page.wait_for_function("() => [...document.querySelectorAll('canvas.samples')].every(c => c.dataset.positions)")
-    words = panel_texts(page, ".samples-box small")
-    assert len(words) == 6, words
-    assert "One in each of the 4 × 4 cells, 16 columns and 16 rows" in words[2], words[2]
-    assert "Empty: 0 of the 4 × 4 cells" in words[1], words[1]
-    assert re.search(r"Empty: [1-9]\d* of the 4 × 4 cells", words[0]), words[0]
+        # the numbers are the RMS difference of the pictures' own PNGs (0-255, over the three channels)
+        jobs = [p.get_attribute("data-job") for p in page.locator(".lesson-panel").all()]
+        for i, ref in ((0, 3), (2, 3), (5, 7)):
+            rms = float(np.sqrt(((job_png(server, jobs[i]) - job_png(server, jobs[ref])) ** 2).mean()))
+            assert abs(rms - errors[i]) < 0.01, (i, rms, errors[i])
 
-    # more rays: every error falls
+        # one pixel's points: the low-discrepancy ones fill every cell, column and row; random ones leave gaps
+        page.wait_for_function("() => [...document.querySelectorAll('canvas.samples')].every(c => c.dataset.positions)")
+        words = panel_texts(page, ".samples-box small")
+        assert len(words) == 6, words
+        assert "One in each of the 4 × 4 cells, 16 columns and 16 rows" in words[2], words[2]
+        assert "Empty: 0 of the 4 × 4 cells" in words[1], words[1]
+        assert re.search(r"Empty: [1-9]\d* of the 4 × 4 cells", words[0]), words[0]
+
+    control_change_checked(page, "noise", first_pictures)
+    answer_question(page)
+    desktop.shot("lesson-noise", full_page=True)
+
+    # more rays: every error falls (against the first pictures' 16)
     page.locator(".lesson-controls [data-key=spp]").select_option("64")
     page.wait_for_function(
         """() => [...document.querySelectorAll('.lesson-panel')].every(p => p.dataset.status === 'done')
