@@ -58,12 +58,13 @@ CONTEXT = {"id": "course-1", "label": "LTI-TRY", "title": "LTI try"}
 TEACHER = {"sub": "teacher-1", "roles": [INSTRUCTOR], "context": CONTEXT,
            "overrides": {"name": "Grace Hopper", "given_name": "Grace", "family_name": "Hopper",
                          "email": "grace@example.edu"}}  # fmt: skip
-STUDENT = {"sub": "student-1", "roles": [LEARNER], "context": CONTEXT}  # Ada Lovelace, the platform's default
-ROSTER = [  # the LMS course's members as its roster (NRPS) lists them: the two who launch (a sync keeps Ada active)
-    {"status": "Active", "user_id": TEACHER["sub"], "roles": [INSTRUCTOR], **TEACHER["overrides"]},
-    {"status": "Active", "user_id": STUDENT["sub"], "roles": [LEARNER], "name": "Ada Lovelace", "given_name": "Ada",
-     "family_name": "Lovelace", "email": "ada@example.edu"},
-]  # fmt: skip
+STUDENT = {"sub": "student-1", "roles": [LEARNER], "context": CONTEXT,
+           "overrides": {"name": "Ada Lovelace", "given_name": "Ada", "family_name": "Lovelace",
+                         "email": "ada@example.edu"}}  # fmt: skip
+# the LMS course's members as its roster (NRPS) lists them: the two who launch (a sync keeps Ada active)
+ROSTER = [
+    {"status": "Active", "user_id": who["sub"], "roles": who["roles"], **who["overrides"]} for who in (TEACHER, STUDENT)
+]
 NAV_LINK = {"id": "nav-1", "title": "Ray tracing (course navigation)"}
 START_SECONDS = 300.0  # the tool started here: a first start compiles the render kernels (minutes)
 TIMEOUT = 900.0  # the whole try, at most (the grading renders the reference and the submission on CPU)
